@@ -1,0 +1,233 @@
+//! Typed, validated messages on a Zenoh session.
+//!
+//! A [`Bus`] is a Zenoh session bound to one site. Publishing encodes a [`Message`] in its
+//! wire encoding; an [`Inbox`] decodes and validates what arrives and drops whatever fails,
+//! with a logged reason and a count in [`RejectCounts`], so one bad peer cannot crash or
+//! confuse a process.
+//!
+//! [`Connect`] turns the usual command-line choices (a zenoh JSON5 config file, or
+//! `--mode/--connect/--listen`) into a Zenoh configuration. Multicast scouting is off unless
+//! a config file turns it on: fleets find each other through configured endpoints, so two
+//! fleets on one machine (parallel CI jobs) never cross-talk.
+
+use std::marker::PhantomData;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use zenoh::Session;
+use zenoh::handlers::FifoChannelHandler;
+use zenoh::pubsub::Subscriber;
+use zenoh::sample::{Sample, SampleKind};
+
+use crate::codec::{self, CodecError};
+use crate::ids::SiteId;
+use crate::keys::Keys;
+use crate::msg::Message;
+
+/// A bus error: Zenoh refused something.
+#[derive(Debug, thiserror::Error)]
+#[error("zenoh: {0}")]
+pub struct BusError(String);
+
+impl BusError {
+    fn from_zenoh(e: impl std::fmt::Display) -> Self {
+        Self(e.to_string())
+    }
+}
+
+/// How to join the Zenoh network.
+#[derive(Debug, Clone, Default)]
+pub struct Connect {
+    /// A zenoh configuration file (JSON5); the other fields then override it.
+    pub config_file: Option<PathBuf>,
+    /// `peer`, `client` or `router`; default `peer`.
+    pub mode: Option<String>,
+    /// Endpoints to connect to, e.g. `tcp/127.0.0.1:7447`.
+    pub connect: Vec<String>,
+    /// Endpoints to listen on.
+    pub listen: Vec<String>,
+}
+
+impl Connect {
+    /// Build the Zenoh configuration.
+    pub fn to_config(&self) -> Result<zenoh::Config, BusError> {
+        let mut config = match &self.config_file {
+            Some(path) => zenoh::Config::from_file(path)
+                .map_err(|e| BusError(format!("config file {}: {e}", path.display())))?,
+            None => {
+                let mut c = zenoh::Config::default();
+                c.insert_json5("scouting/multicast/enabled", "false").map_err(BusError::from_zenoh)?;
+                c
+            }
+        };
+        if let Some(mode) = &self.mode {
+            if !matches!(mode.as_str(), "peer" | "client" | "router") {
+                return Err(BusError(format!("mode '{mode}': expected peer, client or router")));
+            }
+            config.insert_json5("mode", &json_string(mode)).map_err(BusError::from_zenoh)?;
+        }
+        let list = |v: &[String]| format!("[{}]", v.iter().map(|s| json_string(s)).collect::<Vec<_>>().join(","));
+        if !self.connect.is_empty() {
+            config.insert_json5("connect/endpoints", &list(&self.connect)).map_err(|e| BusError(format!("--connect: {e}")))?;
+        }
+        if !self.listen.is_empty() {
+            config.insert_json5("listen/endpoints", &list(&self.listen)).map_err(|e| BusError(format!("--listen: {e}")))?;
+        }
+        Ok(config)
+    }
+}
+
+fn json_string(s: &str) -> String {
+    serde_json::Value::String(s.to_owned()).to_string()
+}
+
+/// Counts of messages dropped on receipt, by failure class.
+#[derive(Debug, Default)]
+pub struct RejectCounts {
+    undecodable: AtomicU64,
+    version: AtomicU64,
+    invalid: AtomicU64,
+}
+
+impl RejectCounts {
+    fn count(&self, e: &CodecError) {
+        let c = match e.class() {
+            "version" => &self.version,
+            "invalid" => &self.invalid,
+            _ => &self.undecodable,
+        };
+        c.fetch_add(1, Ordering::Relaxed);
+    }
+    /// Count a message that decoded but was refused by its receiver (unknown unit, outside
+    /// the tunnel, ...).
+    pub fn count_invalid(&self) {
+        self.invalid.fetch_add(1, Ordering::Relaxed);
+    }
+    pub fn total(&self) -> u64 {
+        self.undecodable.load(Ordering::Relaxed) + self.version.load(Ordering::Relaxed) + self.invalid.load(Ordering::Relaxed)
+    }
+    /// `(class, count)` pairs, for status reports.
+    pub fn snapshot(&self) -> [(&'static str, u64); 3] {
+        [
+            ("undecodable", self.undecodable.load(Ordering::Relaxed)),
+            ("version", self.version.load(Ordering::Relaxed)),
+            ("invalid", self.invalid.load(Ordering::Relaxed)),
+        ]
+    }
+}
+
+/// A Zenoh session serving one site.
+#[derive(Clone)]
+pub struct Bus {
+    session: Session,
+    keys: Keys,
+    rejects: Arc<RejectCounts>,
+}
+
+impl Bus {
+    pub async fn open(connect: &Connect, site: SiteId) -> Result<Self, BusError> {
+        let session = zenoh::open(connect.to_config()?).await.map_err(BusError::from_zenoh)?;
+        Ok(Self { session, keys: Keys::new(site), rejects: Arc::default() })
+    }
+
+    pub fn keys(&self) -> &Keys {
+        &self.keys
+    }
+    /// The underlying session, for liveliness and queryables.
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+    pub fn rejects(&self) -> &Arc<RejectCounts> {
+        &self.rejects
+    }
+
+    /// Publish `m` on `key`.
+    pub async fn put<M: Message>(&self, key: &str, m: &M) -> Result<(), BusError> {
+        self.session.put(key, codec::encode(m)).await.map_err(BusError::from_zenoh)
+    }
+
+    /// Subscribe to `key` (may contain wildcards), decoding `M`.
+    pub async fn subscribe<M: Message>(&self, key: &str) -> Result<Inbox<M>, BusError> {
+        let sub = self.session.declare_subscriber(key.to_owned()).await.map_err(BusError::from_zenoh)?;
+        Ok(Inbox { sub, rejects: self.rejects.clone(), _m: PhantomData })
+    }
+
+    pub async fn close(self) {
+        if let Err(e) = self.session.close().await {
+            tracing::debug!("closing zenoh session: {e}");
+        }
+    }
+}
+
+/// Validated messages of one type arriving on a subscription.
+pub struct Inbox<M> {
+    sub: Subscriber<FifoChannelHandler<Sample>>,
+    rejects: Arc<RejectCounts>,
+    _m: PhantomData<fn() -> M>,
+}
+
+impl<M: Message> Inbox<M> {
+    /// The next valid message and its key; `None` once the session is closed.
+    pub async fn recv(&self) -> Option<(String, M)> {
+        loop {
+            let sample = self.sub.recv_async().await.ok()?;
+            if let Some(m) = self.accept(&sample) {
+                return Some(m);
+            }
+        }
+    }
+
+    /// A message already waiting, without blocking.
+    pub fn try_recv(&self) -> Option<(String, M)> {
+        while let Ok(Some(sample)) = self.sub.try_recv() {
+            if let Some(m) = self.accept(&sample) {
+                return Some(m);
+            }
+        }
+        None
+    }
+
+    fn accept(&self, sample: &Sample) -> Option<(String, M)> {
+        if sample.kind() == SampleKind::Delete {
+            return None;
+        }
+        let key = sample.key_expr().as_str();
+        match codec::decode::<M>(&sample.payload().to_bytes()) {
+            Ok(m) => Some((key.to_owned(), m)),
+            Err(e) => {
+                self.rejects.count(&e);
+                tracing::warn!(key, "dropped message: {e}");
+                None
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn connect_options_become_zenoh_config() {
+        let c = Connect {
+            mode: Some("client".into()),
+            connect: vec!["tcp/127.0.0.1:7447".into()],
+            ..Default::default()
+        };
+        let cfg = c.to_config().unwrap();
+        assert_eq!(cfg.get_json("mode").unwrap(), "\"client\"");
+        assert!(cfg.get_json("connect/endpoints").unwrap().contains("127.0.0.1:7447"));
+        assert_eq!(cfg.get_json("scouting/multicast/enabled").unwrap(), "false");
+    }
+
+    #[test]
+    fn bad_connect_options_are_named() {
+        let bad_mode = Connect { mode: Some("satellite".into()), ..Default::default() };
+        assert!(bad_mode.to_config().unwrap_err().to_string().contains("satellite"));
+        let bad_ep = Connect { connect: vec!["nonsense".into()], ..Default::default() };
+        assert!(bad_ep.to_config().unwrap_err().to_string().contains("--connect"));
+        let missing = Connect { config_file: Some("/nonexistent.json5".into()), ..Default::default() };
+        assert!(missing.to_config().unwrap_err().to_string().contains("/nonexistent.json5"));
+    }
+}

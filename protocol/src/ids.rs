@@ -1,0 +1,145 @@
+//! Identifiers as newtypes, so a unit id can never be passed where a site id is meant.
+//!
+//! Site and unit ids become chunks of Zenoh key expressions, so they are restricted to a
+//! small alphabet that can never contain the key-expression specials (`/ * $ # ?`).
+
+use std::fmt;
+use std::str::FromStr;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// Why a string is not a valid identifier.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("invalid {what} '{value}': {reason}")]
+pub struct IdError {
+    pub what: &'static str,
+    pub value: String,
+    pub reason: &'static str,
+}
+
+const MAX_ID_LEN: usize = 48;
+
+fn check_chunk(what: &'static str, s: &str) -> Result<(), IdError> {
+    let err = |reason| IdError { what, value: s.to_owned(), reason };
+    if s.is_empty() {
+        return Err(err("must not be empty"));
+    }
+    if s.len() > MAX_ID_LEN {
+        return Err(err("longer than 48 characters"));
+    }
+    if !s.bytes().all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-' || b == b'_') {
+        return Err(err("only lowercase letters, digits, '-' and '_' are allowed"));
+    }
+    if !s.as_bytes()[0].is_ascii_alphanumeric() {
+        return Err(err("must start with a letter or a digit"));
+    }
+    Ok(())
+}
+
+macro_rules! chunk_id {
+    ($(#[$doc:meta])* $name:ident, $what:literal) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, JsonSchema)]
+        #[serde(transparent)]
+        pub struct $name(String);
+
+        impl $name {
+            pub fn new(s: impl Into<String>) -> Result<Self, IdError> {
+                let s = s.into();
+                check_chunk($what, &s)?;
+                Ok(Self(s))
+            }
+            pub fn as_str(&self) -> &str {
+                &self.0
+            }
+        }
+
+        impl fmt::Display for $name {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str(&self.0)
+            }
+        }
+
+        impl FromStr for $name {
+            type Err = IdError;
+            fn from_str(s: &str) -> Result<Self, IdError> {
+                Self::new(s)
+            }
+        }
+
+        // Deserialization goes through `new` so that no invalid id can enter from a
+        // message or a file.
+        impl<'de> Deserialize<'de> for $name {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                let s = String::deserialize(d)?;
+                Self::new(s).map_err(serde::de::Error::custom)
+            }
+        }
+    };
+}
+
+chunk_id!(
+    /// A site (one tunnel incident installation); the first chunk after `ff/`.
+    SiteId,
+    "site id"
+);
+chunk_id!(
+    /// A robot of the fleet, ground or monorail.
+    UnitId,
+    "unit id"
+);
+chunk_id!(
+    /// A zone of the tunnel (a chainage range named in the site file).
+    ZoneId,
+    "zone id"
+);
+
+/// A fused fire track, numbered by the coordinator that created it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize, JsonSchema)]
+#[serde(transparent)]
+pub struct FireId(pub u32);
+
+impl fmt::Display for FireId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "f{}", self.0)
+    }
+}
+
+impl FromStr for FireId {
+    type Err = IdError;
+    fn from_str(s: &str) -> Result<Self, IdError> {
+        s.strip_prefix('f')
+            .and_then(|n| n.parse().ok())
+            .map(FireId)
+            .ok_or_else(|| IdError { what: "fire id", value: s.to_owned(), reason: "expected 'f' followed by a number" })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_reject_key_expression_specials() {
+        for bad in ["", "a/b", "*", "a*", "$x", "A", "-a", "a b", "é"] {
+            assert!(UnitId::new(bad).is_err(), "{bad:?} accepted");
+        }
+        assert!(UnitId::new("ugv-1").is_ok());
+        assert!(SiteId::new(&"a".repeat(49)).is_err());
+    }
+
+    #[test]
+    fn ids_deserialize_through_validation() {
+        assert!(serde_json::from_str::<UnitId>("\"ugv_2\"").is_ok());
+        let err = serde_json::from_str::<UnitId>("\"ugv/2\"").unwrap_err();
+        assert!(err.to_string().contains("unit id"), "{err}");
+    }
+
+    #[test]
+    fn fire_id_round_trips_through_text() {
+        assert_eq!("f12".parse::<FireId>().unwrap(), FireId(12));
+        assert_eq!(FireId(7).to_string(), "f7");
+        assert!("12".parse::<FireId>().is_err());
+    }
+}

@@ -1,0 +1,211 @@
+//! The key expressions of the fleet, built and parsed in this one module.
+//!
+//! ```text
+//! ff/<site>/unit/<id>/state       unit -> all        UnitState (postcard)
+//! ff/<site>/unit/<id>/alive       liveliness token of a unit
+//! ff/<site>/unit/<id>/report      unit -> coord      FlameReport (postcard)
+//! ff/<site>/unit/<id>/task        coord -> unit      Task (postcard)
+//! ff/<site>/fire/<fire_id>        coord -> all       FireTrack (postcard)
+//! ff/<site>/zone/<zone>/goal      commander -> coord ZoneGoal (JSON)
+//! ff/<site>/zone/<zone>/ack       coord -> commander GoalAck (JSON)
+//! ff/<site>/coord/alive           liveliness token of the coordinator
+//! ff/<site>/coord/status          queryable, JSON snapshot of the incident
+//! ff/<site>/sim/clock             SimClock (postcard)
+//! ff/<site>/sim/truth             SimTruth (postcard)
+//! ff/<site>/sim/unit/<id>/sensors UnitSensors (postcard)
+//! ff/<site>/sim/unit/<id>/cmd     UnitCommand (postcard)
+//! ```
+//!
+//! [`Topic`] is the typed form of a key; [`Keys`] turns topics into keys for one site and
+//! [`parse`] turns keys back into topics, so the two directions cannot drift apart.
+
+use std::fmt;
+
+use crate::ids::{FireId, SiteId, UnitId, ZoneId};
+
+const ROOT: &str = "ff";
+
+/// One concrete key, without the `ff/<site>/` prefix.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub enum Topic {
+    UnitState(UnitId),
+    UnitAlive(UnitId),
+    UnitReport(UnitId),
+    UnitTask(UnitId),
+    Fire(FireId),
+    ZoneGoal(ZoneId),
+    ZoneAck(ZoneId),
+    CoordAlive,
+    CoordStatus,
+    SimClock,
+    SimTruth,
+    SimSensors(UnitId),
+    SimCmd(UnitId),
+}
+
+impl fmt::Display for Topic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Topic::UnitState(u) => write!(f, "unit/{u}/state"),
+            Topic::UnitAlive(u) => write!(f, "unit/{u}/alive"),
+            Topic::UnitReport(u) => write!(f, "unit/{u}/report"),
+            Topic::UnitTask(u) => write!(f, "unit/{u}/task"),
+            Topic::Fire(id) => write!(f, "fire/{id}"),
+            Topic::ZoneGoal(z) => write!(f, "zone/{z}/goal"),
+            Topic::ZoneAck(z) => write!(f, "zone/{z}/ack"),
+            Topic::CoordAlive => f.write_str("coord/alive"),
+            Topic::CoordStatus => f.write_str("coord/status"),
+            Topic::SimClock => f.write_str("sim/clock"),
+            Topic::SimTruth => f.write_str("sim/truth"),
+            Topic::SimSensors(u) => write!(f, "sim/unit/{u}/sensors"),
+            Topic::SimCmd(u) => write!(f, "sim/unit/{u}/cmd"),
+        }
+    }
+}
+
+/// Key builder for one site.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Keys {
+    site: SiteId,
+}
+
+impl Keys {
+    pub fn new(site: SiteId) -> Self {
+        Self { site }
+    }
+    pub fn site(&self) -> &SiteId {
+        &self.site
+    }
+    /// The concrete key of `topic` on this site.
+    pub fn key(&self, topic: &Topic) -> String {
+        format!("{ROOT}/{}/{topic}", self.site)
+    }
+    /// Everything on this site, for recorders.
+    pub fn all(&self) -> String {
+        format!("{ROOT}/{}/**", self.site)
+    }
+    /// `ff/<site>/unit/*/<leaf>`: the same leaf of every unit.
+    pub fn every_unit(&self, leaf: UnitLeaf) -> String {
+        format!("{ROOT}/{}/unit/*/{}", self.site, leaf.as_str())
+    }
+    /// `ff/<site>/sim/unit/*/cmd`: actuator commands of every simulated unit.
+    pub fn every_sim_cmd(&self) -> String {
+        format!("{ROOT}/{}/sim/unit/*/cmd", self.site)
+    }
+    /// `ff/<site>/fire/*`.
+    pub fn every_fire(&self) -> String {
+        format!("{ROOT}/{}/fire/*", self.site)
+    }
+    /// `ff/<site>/zone/*/goal`.
+    pub fn every_zone_goal(&self) -> String {
+        format!("{ROOT}/{}/zone/*/goal", self.site)
+    }
+}
+
+/// The per-unit leaves that are subscribed to with a wildcard.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UnitLeaf {
+    State,
+    Alive,
+    Report,
+    Task,
+}
+
+impl UnitLeaf {
+    fn as_str(self) -> &'static str {
+        match self {
+            UnitLeaf::State => "state",
+            UnitLeaf::Alive => "alive",
+            UnitLeaf::Report => "report",
+            UnitLeaf::Task => "task",
+        }
+    }
+}
+
+/// Why a key is not one of ours.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("key '{key}' is not a firefleet key: {reason}")]
+pub struct KeyError {
+    pub key: String,
+    pub reason: String,
+}
+
+/// Parse a concrete key into its site and topic.
+pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
+    let err = |reason: String| KeyError { key: key.to_owned(), reason };
+    let parts: Vec<&str> = key.split('/').collect();
+    if parts.len() < 3 || parts[0] != ROOT {
+        return Err(err(format!("expected '{ROOT}/<site>/...'")));
+    }
+    let site = SiteId::new(parts[1]).map_err(|e| err(e.to_string()))?;
+    let unit = |s: &str| UnitId::new(s).map_err(|e| err(e.to_string()));
+    let zone = |s: &str| ZoneId::new(s).map_err(|e| err(e.to_string()));
+    let topic = match &parts[2..] {
+        ["unit", u, "state"] => Topic::UnitState(unit(u)?),
+        ["unit", u, "alive"] => Topic::UnitAlive(unit(u)?),
+        ["unit", u, "report"] => Topic::UnitReport(unit(u)?),
+        ["unit", u, "task"] => Topic::UnitTask(unit(u)?),
+        ["fire", id] => Topic::Fire(id.parse().map_err(|e: crate::ids::IdError| err(e.to_string()))?),
+        ["zone", z, "goal"] => Topic::ZoneGoal(zone(z)?),
+        ["zone", z, "ack"] => Topic::ZoneAck(zone(z)?),
+        ["coord", "alive"] => Topic::CoordAlive,
+        ["coord", "status"] => Topic::CoordStatus,
+        ["sim", "clock"] => Topic::SimClock,
+        ["sim", "truth"] => Topic::SimTruth,
+        ["sim", "unit", u, "sensors"] => Topic::SimSensors(unit(u)?),
+        ["sim", "unit", u, "cmd"] => Topic::SimCmd(unit(u)?),
+        _ => return Err(err("unknown topic".into())),
+    };
+    Ok((site, topic))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn u(s: &str) -> UnitId {
+        UnitId::new(s).unwrap()
+    }
+
+    #[test]
+    fn every_topic_round_trips() {
+        let keys = Keys::new(SiteId::new("t1").unwrap());
+        let z = ZoneId::new("z3").unwrap();
+        let topics = [
+            Topic::UnitState(u("a")),
+            Topic::UnitAlive(u("a")),
+            Topic::UnitReport(u("a")),
+            Topic::UnitTask(u("a")),
+            Topic::Fire(FireId(4)),
+            Topic::ZoneGoal(z.clone()),
+            Topic::ZoneAck(z),
+            Topic::CoordAlive,
+            Topic::CoordStatus,
+            Topic::SimClock,
+            Topic::SimTruth,
+            Topic::SimSensors(u("b")),
+            Topic::SimCmd(u("b")),
+        ];
+        for t in topics {
+            let k = keys.key(&t);
+            let (site, back) = parse(&k).unwrap();
+            assert_eq!(site.as_str(), "t1");
+            assert_eq!(back, t, "{k}");
+        }
+    }
+
+    #[test]
+    fn wildcards_match_concrete_keys() {
+        let keys = Keys::new(SiteId::new("t1").unwrap());
+        assert_eq!(keys.every_unit(UnitLeaf::State), "ff/t1/unit/*/state");
+        assert_eq!(keys.key(&Topic::UnitState(u("x"))), "ff/t1/unit/x/state");
+    }
+
+    #[test]
+    fn foreign_keys_are_rejected_with_a_reason() {
+        for k in ["ff", "xx/t1/sim/clock", "ff/t1/unit/a/nope", "ff/T1/sim/clock", "ff/t1/fire/12"] {
+            let e = parse(k).unwrap_err();
+            assert_eq!(e.key, k);
+        }
+    }
+}

@@ -1,0 +1,29 @@
+//! The contract between firefleet processes.
+//!
+//! Everything two processes must agree on lives here and nowhere else: identifiers,
+//! message types, the key expressions they travel on, how they are encoded, what makes a
+//! message valid, the scenario (site) file format, and how time is read.
+//!
+//! What this crate does not do: decide anything. It has no fleet logic; the simulator,
+//! the agents and the coordinator are built on top of it. The only I/O it owns is the thin
+//! [`bus`] wrapper that puts typed, validated messages on a Zenoh session.
+//!
+//! Encoding: robot-to-robot traffic is postcard behind a one-byte protocol version
+//! ([`codec`]); commander-facing messages (zone goals, the incident status) are JSON so any
+//! Zenoh client can speak them.
+
+pub mod bus;
+pub mod clock;
+pub mod codec;
+pub mod geometry;
+pub mod ids;
+pub mod keys;
+pub mod msg;
+pub mod scenario;
+pub mod spec;
+pub mod validate;
+
+pub use codec::{CodecError, PROTOCOL_VERSION};
+pub use geometry::{Point2, Pose2};
+pub use ids::{FireId, SiteId, UnitId, ZoneId};
+pub use validate::{Invalid, Validate};

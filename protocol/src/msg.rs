@@ -1,0 +1,457 @@
+//! Every message the fleet exchanges.
+//!
+//! Fleet messages (unit state, flame reports, tasks, fire tracks) and simulator messages
+//! travel as postcard; commander-facing ones (zone goals and their acknowledgements, the
+//! incident status) as JSON. [`Message::ENCODING`] says which, so a sender cannot pick the
+//! wrong one.
+//!
+//! Times `t` are site time in seconds: simulator time in the simulator, system time on real
+//! hardware (see [`crate::clock`]).
+
+use schemars::JsonSchema;
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+use crate::geometry::{Point2, Pose2};
+use crate::ids::{FireId, UnitId, ZoneId};
+use crate::validate::{Invalid, Validate, each, finite, in_range, max_len};
+
+/// How a message type is put on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Encoding {
+    /// One protocol-version byte, then postcard.
+    Postcard,
+    /// Plain UTF-8 JSON, for humans and any Zenoh client.
+    Json,
+}
+
+/// A type that travels on the bus.
+pub trait Message: Serialize + DeserializeOwned + Validate + JsonSchema + Send + Sync + 'static {
+    const ENCODING: Encoding;
+}
+
+macro_rules! message {
+    ($enc:ident: $($t:ty),*) => { $(impl Message for $t { const ENCODING: Encoding = Encoding::$enc; })* };
+}
+message!(Postcard: UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, SimTruth);
+message!(Json: ZoneGoal, GoalAck);
+
+/// Longest list any fleet message may carry; bounds the work one message can cause.
+pub const MAX_LIST: usize = 64;
+
+/// Ground vehicle or ceiling-rail carriage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum UnitKind {
+    Ground,
+    Monorail,
+}
+
+/// What a unit is doing, as it reports it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum UnitMode {
+    /// Holding still with nothing to do.
+    Idle,
+    /// Patrolling the tunnel looking for fire.
+    Cruising,
+    /// Driving to a firing position.
+    Navigating,
+    /// Aiming and spraying.
+    Extinguishing,
+    /// Cannot act (no water, damaged, stuck).
+    Fault,
+}
+
+/// Where a unit is in carrying out its task.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum TaskPhase {
+    Travelling,
+    Spraying,
+    /// The unit no longer sees the flame it was sent to.
+    Extinguished,
+    /// The unit gave up: no path, no firing solution, no water.
+    Failed,
+}
+
+/// The task a unit is working on, echoed in its state so the coordinator can follow it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct TaskProgress {
+    pub seq: u64,
+    pub fire: FireId,
+    pub phase: TaskPhase,
+}
+
+/// `ff/<site>/unit/<id>/state`: a unit's self-report, a few times a second.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct UnitState {
+    pub unit: UnitId,
+    pub kind: UnitKind,
+    pub t: f64,
+    pub pose: Pose2,
+    /// Forward speed, m/s (negative when reversing).
+    pub speed: f64,
+    pub mode: UnitMode,
+    pub water_l: f64,
+    /// 1 is intact, 0 destroyed.
+    pub health: f64,
+    /// Radiant heat flux at the unit, kW/m^2.
+    pub heat_flux_kw_m2: f64,
+    pub task: Option<TaskProgress>,
+    /// True when the unit acts on its own because it has no coordinator.
+    pub autonomous: bool,
+}
+
+impl Validate for UnitState {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        self.pose.validate().map_err(|e| e.within("pose"))?;
+        in_range("speed", self.speed, -20.0, 20.0)?;
+        in_range("water_l", self.water_l, 0.0, 1e6)?;
+        in_range("health", self.health, 0.0, 1.0)?;
+        in_range("heat_flux_kw_m2", self.heat_flux_kw_m2, 0.0, 1e4)
+    }
+}
+
+/// One flame a unit has placed in the site frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FlameObservation {
+    pub position: Point2,
+    /// Position covariance, m^2: [xx, xy, yy].
+    pub cov: [f64; 3],
+    /// Detector confidence in [0, 1].
+    pub confidence: f64,
+}
+
+impl Validate for FlameObservation {
+    fn validate(&self) -> Result<(), Invalid> {
+        self.position.validate().map_err(|e| e.within("position"))?;
+        let [xx, xy, yy] = self.cov;
+        for (name, v) in [("cov[0]", xx), ("cov[1]", xy), ("cov[2]", yy)] {
+            finite(name, v)?;
+        }
+        if xx <= 0.0 || yy <= 0.0 || xx * yy - xy * xy <= 0.0 {
+            return Err(Invalid::new("cov", "not positive definite"));
+        }
+        in_range("confidence", self.confidence, 0.0, 1.0)
+    }
+}
+
+/// `ff/<site>/unit/<id>/report`: flames a unit currently sees, in the site frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FlameReport {
+    pub unit: UnitId,
+    pub t: f64,
+    pub observer: Pose2,
+    pub observations: Vec<FlameObservation>,
+}
+
+impl Validate for FlameReport {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        self.observer.validate().map_err(|e| e.within("observer"))?;
+        max_len("observations", &self.observations, MAX_LIST)?;
+        each("observations", &self.observations)
+    }
+}
+
+/// What the coordinator asks of a unit.
+// Externally tagged: postcard cannot decode internally tagged enums.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum TaskKind {
+    /// Nothing assigned: the unit cruises or holds on its own.
+    Standby,
+    /// Put out the fire believed to be at `target`.
+    Extinguish { fire: FireId, target: Point2 },
+}
+
+/// `ff/<site>/unit/<id>/task`: a unit's current assignment. `seq` grows with every new
+/// decision, so a unit can ignore a stale or repeated one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Task {
+    pub unit: UnitId,
+    pub seq: u64,
+    pub t: f64,
+    pub kind: TaskKind,
+}
+
+impl Validate for Task {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        match self.kind {
+            TaskKind::Standby => Ok(()),
+            TaskKind::Extinguish { target, .. } => target.validate().map_err(|e| e.within("kind.target")),
+        }
+    }
+}
+
+/// Lifecycle of a fused fire track.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum FireState {
+    /// Seen, not yet confirmed.
+    Tentative,
+    Confirmed,
+    Assigned,
+    Suppressing,
+    Out,
+    /// Not seen for too long while nobody was working on it.
+    Lost,
+}
+
+/// `ff/<site>/fire/<fire_id>`: a fused fire track.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FireTrack {
+    pub id: FireId,
+    pub t: f64,
+    pub position: Point2,
+    pub cov: [f64; 3],
+    pub confidence: f64,
+    pub state: FireState,
+    pub assigned: Vec<UnitId>,
+    /// Units whose reports made this track, for "seen by n units".
+    pub seen_by: Vec<UnitId>,
+}
+
+impl Validate for FireTrack {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        self.position.validate().map_err(|e| e.within("position"))?;
+        in_range("confidence", self.confidence, 0.0, 1.0)?;
+        max_len("assigned", &self.assigned, MAX_LIST)?;
+        max_len("seen_by", &self.seen_by, MAX_LIST)
+    }
+}
+
+/// A commander's instruction for a zone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum GoalKind {
+    Extinguish,
+    /// Hold the fire front before `before_m` (chainage).
+    Contain,
+    Monitor,
+    KeepOut,
+    Evacuate,
+}
+
+/// `ff/<site>/zone/<zone>/goal` (JSON): an incident commander's zone goal.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ZoneGoal {
+    /// Commander-chosen id, echoed in the acknowledgement.
+    pub id: String,
+    pub zone: ZoneId,
+    pub goal: GoalKind,
+    #[serde(default)]
+    pub priority: u8,
+    /// For `contain`: chainage the fire front must not pass, metres.
+    #[serde(default)]
+    pub before_m: Option<f64>,
+    /// Seconds of site time after which the goal lapses.
+    #[serde(default)]
+    pub expires_s: Option<f64>,
+    #[serde(default)]
+    pub issued_by: String,
+}
+
+impl Validate for ZoneGoal {
+    fn validate(&self) -> Result<(), Invalid> {
+        if self.id.is_empty() || self.id.len() > 64 {
+            return Err(Invalid::new("id", "must have 1 to 64 characters"));
+        }
+        if self.issued_by.len() > 64 {
+            return Err(Invalid::new("issued_by", "longer than 64 characters"));
+        }
+        if let Some(b) = self.before_m {
+            finite("before_m", b)?;
+        }
+        match (self.goal, self.before_m) {
+            (GoalKind::Contain, None) => return Err(Invalid::new("before_m", "required for a contain goal")),
+            (GoalKind::Contain, _) | (_, None) => {}
+            (_, Some(_)) => return Err(Invalid::new("before_m", "only a contain goal takes before_m")),
+        }
+        if let Some(e) = self.expires_s {
+            in_range("expires_s", e, 0.0, 1e9)?;
+        }
+        Ok(())
+    }
+}
+
+/// `ff/<site>/zone/<zone>/ack` (JSON): the coordinator's answer to a zone goal.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct GoalAck {
+    pub id: String,
+    pub zone: ZoneId,
+    pub accepted: bool,
+    pub reason: String,
+}
+
+impl Validate for GoalAck {
+    fn validate(&self) -> Result<(), Invalid> {
+        Ok(())
+    }
+}
+
+/// `ff/<site>/sim/clock`: simulator time, the ROS `/clock` convention.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SimClock {
+    pub t: f64,
+    pub time_scale: f64,
+}
+
+impl Validate for SimClock {
+    fn validate(&self) -> Result<(), Invalid> {
+        in_range("t", self.t, 0.0, 1e9)?;
+        in_range("time_scale", self.time_scale, 0.0, 1e4)
+    }
+}
+
+/// A flame as an on-board detector reports it, relative to the camera.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FlameDetection {
+    /// Bearing in the body frame, radians, left positive.
+    pub bearing: f64,
+    /// Range from the camera, metres (from the depth image).
+    pub range: f64,
+    pub confidence: f64,
+}
+
+impl Validate for FlameDetection {
+    fn validate(&self) -> Result<(), Invalid> {
+        in_range("bearing", self.bearing, -std::f64::consts::PI, std::f64::consts::PI)?;
+        in_range("range", self.range, 0.0, 1e3)?;
+        in_range("confidence", self.confidence, 0.0, 1.0)
+    }
+}
+
+/// State of a unit's water cannon.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+pub struct CannonState {
+    /// Pan relative to the body, radians.
+    pub pan: f64,
+    /// Elevation above horizontal, radians.
+    pub tilt: f64,
+    pub valve_open: bool,
+    /// Current flow, litres per second.
+    pub flow_l_s: f64,
+}
+
+/// `ff/<site>/sim/unit/<id>/sensors`: what a unit's hardware drivers would publish.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct UnitSensors {
+    pub unit: UnitId,
+    pub t: f64,
+    pub pose: Pose2,
+    pub speed: f64,
+    pub steer: f64,
+    pub heat_flux_kw_m2: f64,
+    pub water_l: f64,
+    pub cannon: CannonState,
+    pub detections: Vec<FlameDetection>,
+    /// The body touched an obstacle or a wall in the last step.
+    pub collided: bool,
+}
+
+impl Validate for UnitSensors {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        self.pose.validate().map_err(|e| e.within("pose"))?;
+        finite("speed", self.speed)?;
+        finite("steer", self.steer)?;
+        in_range("heat_flux_kw_m2", self.heat_flux_kw_m2, 0.0, 1e4)?;
+        in_range("water_l", self.water_l, 0.0, 1e6)?;
+        finite("cannon.pan", self.cannon.pan)?;
+        finite("cannon.tilt", self.cannon.tilt)?;
+        max_len("detections", &self.detections, MAX_LIST)?;
+        each("detections", &self.detections)
+    }
+}
+
+/// `ff/<site>/sim/unit/<id>/cmd`: set-points for a unit's drivers. The platform applies
+/// its own limits (acceleration, steering rate, slew rates); these are targets.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct UnitCommand {
+    pub speed: f64,
+    pub steer: f64,
+    pub pan: f64,
+    pub tilt: f64,
+    pub valve_open: bool,
+}
+
+impl UnitCommand {
+    /// Stand still with the valve shut, cannon where it is.
+    pub fn halt(cannon: &CannonState) -> Self {
+        Self { speed: 0.0, steer: 0.0, pan: cannon.pan, tilt: cannon.tilt, valve_open: false }
+    }
+}
+
+impl Validate for UnitCommand {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("speed", self.speed)?;
+        finite("steer", self.steer)?;
+        finite("pan", self.pan)?;
+        finite("tilt", self.tilt)
+    }
+}
+
+/// Whether a simulated fire still burns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum TruthFireState {
+    /// Not ignited yet.
+    Dormant,
+    Burning,
+    Out,
+}
+
+/// Ground truth about one simulated fire.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct TruthFire {
+    pub name: String,
+    pub position: Point2,
+    pub hrr_kw: f64,
+    pub state: TruthFireState,
+    pub water_received_l: f64,
+}
+
+/// Ground truth about one simulated unit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct TruthUnit {
+    pub id: UnitId,
+    pub pose: Pose2,
+    /// Radiant heat dose taken so far, kJ/m^2.
+    pub heat_dose_kj_m2: f64,
+    pub water_used_l: f64,
+    pub collisions: u32,
+}
+
+/// `ff/<site>/sim/truth`: the simulator's ground truth, for progress displays, tests and
+/// recordings. Units never read it: they know only what their sensors say.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SimTruth {
+    pub t: f64,
+    pub time_limit_s: f64,
+    pub fires: Vec<TruthFire>,
+    pub units: Vec<TruthUnit>,
+}
+
+impl SimTruth {
+    pub fn fires_out(&self) -> usize {
+        self.fires.iter().filter(|f| f.state == TruthFireState::Out).count()
+    }
+    pub fn all_out(&self) -> bool {
+        self.fires.iter().all(|f| f.state == TruthFireState::Out)
+    }
+}
+
+impl Validate for SimTruth {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        finite("time_limit_s", self.time_limit_s)?;
+        max_len("fires", &self.fires, 4096)?;
+        max_len("units", &self.units, 4096)
+    }
+}

@@ -1,0 +1,398 @@
+//! The scenario (site) file: a tunnel, what stands in it, what burns, who responds.
+//!
+//! Scenarios are TOML, SI units with the unit in the field name (`length_m`, `yaw_rad`).
+//! The same file configures every process: the simulator builds its world from it, agents
+//! their maps, the coordinator its zones and bounds. A real deployment ships the same file
+//! without `[[fires]]`.
+//!
+//! ```toml
+//! name = "vehicle-collision"
+//! site = "tunnel-a"          # optional, default "tunnel"
+//! seed = 7                   # optional, default 0
+//! time_limit_s = 240
+//!
+//! [tunnel]
+//! length_m = 200.0
+//! width_m = 10.0
+//! height_m = 6.3
+//! lanes = 2
+//!
+//! [[obstacles]]              # parked vehicles: boxes on the road
+//! name = "car-1"
+//! x_m = 70.0
+//! y_m = -1.75
+//! length_m = 4.5
+//! width_m = 1.8
+//! height_m = 1.5
+//! yaw_rad = 0.0              # optional
+//!
+//! [[fires]]
+//! name = "car-fire"
+//! x_m = 90.0
+//! y_m = 1.75
+//! growth = "fast"            # NFPA t-squared class: slow, medium, fast, ultrafast
+//! peak_kw = 5000.0
+//! ignition_s = -60.0         # negative: already burning when the run starts
+//! radius_m = 1.0
+//!
+//! [[units]]
+//! id = "ugv-1"
+//! kind = "ground"
+//! x_m = 5.0
+//! y_m = -1.75
+//! yaw_rad = 0.0
+//!
+//! [[zones]]
+//! id = "z1"
+//! start_m = 0.0
+//! end_m = 100.0
+//! ```
+//!
+//! Loading validates everything; an error names the file, the field and the reason.
+
+use std::collections::HashSet;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::geometry::{Point2, Pose2};
+use crate::ids::{SiteId, UnitId, ZoneId};
+use crate::msg::UnitKind;
+use crate::validate::{Invalid, in_range};
+
+/// Why a scenario was rejected.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    #[error("{origin}: cannot read: {source}")]
+    Io { origin: String, source: std::io::Error },
+    #[error("{origin}: {source}")]
+    Syntax { origin: String, source: Box<toml::de::Error> },
+    #[error("{origin}: {invalid}")]
+    Invalid { origin: String, invalid: Invalid },
+}
+
+/// A whole scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    #[serde(default = "default_site")]
+    pub site: SiteId,
+    #[serde(default)]
+    pub seed: u64,
+    pub time_limit_s: f64,
+    pub tunnel: Tunnel,
+    #[serde(default)]
+    pub obstacles: Vec<Obstacle>,
+    #[serde(default)]
+    pub fires: Vec<FireSpec>,
+    #[serde(default)]
+    pub units: Vec<UnitSpec>,
+    #[serde(default)]
+    pub zones: Vec<Zone>,
+}
+
+fn default_site() -> SiteId {
+    SiteId::new("tunnel").expect("valid literal")
+}
+
+/// A straight tunnel: x from 0 (the portal) to `length_m`, y from `-width_m/2` to
+/// `width_m/2`, z from the road to `height_m`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tunnel {
+    pub length_m: f64,
+    pub width_m: f64,
+    pub height_m: f64,
+    pub lanes: u8,
+}
+
+impl Tunnel {
+    /// Whether `p` is inside the tunnel with at least `margin` metres to every wall.
+    pub fn contains(&self, p: Point2, margin: f64) -> bool {
+        p.x >= margin && p.x <= self.length_m - margin && p.y.abs() <= self.width_m / 2.0 - margin
+    }
+
+    /// Like [`Tunnel::contains`] with no margin, as a validation result naming `field`.
+    pub fn check_inside(&self, field: &str, p: Point2) -> Result<(), Invalid> {
+        if self.contains(p, 0.0) {
+            Ok(())
+        } else {
+            Err(Invalid::new(
+                field,
+                format!(
+                    "({:.2}, {:.2}) is outside the tunnel (x in [0, {}], |y| <= {})",
+                    p.x,
+                    p.y,
+                    self.length_m,
+                    self.width_m / 2.0
+                ),
+            ))
+        }
+    }
+
+    /// Lateral centre of lane `i` (0 is the rightmost lane, driving in +x).
+    pub fn lane_center_y(&self, i: u8) -> f64 {
+        let lane_w = self.width_m / f64::from(self.lanes);
+        -self.width_m / 2.0 + lane_w * (f64::from(i) + 0.5)
+    }
+}
+
+/// A box standing on the road (a parked vehicle).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Obstacle {
+    pub name: String,
+    pub x_m: f64,
+    pub y_m: f64,
+    pub length_m: f64,
+    pub width_m: f64,
+    pub height_m: f64,
+    #[serde(default)]
+    pub yaw_rad: f64,
+}
+
+impl Obstacle {
+    pub fn pose(&self) -> Pose2 {
+        Pose2::new(self.x_m, self.y_m, self.yaw_rad)
+    }
+    /// Whether a point of the road plane is inside the box's footprint grown by `margin`.
+    pub fn footprint_contains(&self, p: Point2, margin: f64) -> bool {
+        let b = self.pose().to_body(p);
+        b.x.abs() <= self.length_m / 2.0 + margin && b.y.abs() <= self.width_m / 2.0 + margin
+    }
+    /// The four footprint corners in the site frame.
+    pub fn corners(&self) -> [Point2; 4] {
+        let (hl, hw) = (self.length_m / 2.0, self.width_m / 2.0);
+        let pose = self.pose();
+        [(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)].map(|(x, y)| pose.to_site(Point2::new(x, y)))
+    }
+}
+
+/// NFPA t-squared growth classes (NFPA 72, Annex B; NFPA 92).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Growth {
+    Slow,
+    Medium,
+    Fast,
+    Ultrafast,
+}
+
+/// A fire of the simulated world.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FireSpec {
+    pub name: String,
+    pub x_m: f64,
+    pub y_m: f64,
+    pub growth: Growth,
+    pub peak_kw: f64,
+    /// Site time of ignition, s; negative for a fire already burning at the start.
+    #[serde(default)]
+    pub ignition_s: f64,
+    /// Radius of the burning area on the road, m.
+    #[serde(default = "default_fire_radius")]
+    pub radius_m: f64,
+}
+
+fn default_fire_radius() -> f64 {
+    1.0
+}
+
+impl FireSpec {
+    pub fn position(&self) -> Point2 {
+        Point2::new(self.x_m, self.y_m)
+    }
+}
+
+/// A unit of the fleet and where it starts.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UnitSpec {
+    pub id: UnitId,
+    pub kind: UnitKind,
+    pub x_m: f64,
+    pub y_m: f64,
+    #[serde(default)]
+    pub yaw_rad: f64,
+}
+
+impl UnitSpec {
+    pub fn pose(&self) -> Pose2 {
+        Pose2::new(self.x_m, self.y_m, self.yaw_rad)
+    }
+}
+
+/// A named chainage range of the tunnel that commanders give goals for.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Zone {
+    pub id: ZoneId,
+    pub start_m: f64,
+    pub end_m: f64,
+}
+
+impl Scenario {
+    /// Parse and validate scenario text; `origin` (a file name) prefixes every error.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Self, ScenarioError> {
+        let s: Scenario =
+            toml::from_str(text).map_err(|e| ScenarioError::Syntax { origin: origin.to_owned(), source: Box::new(e) })?;
+        s.validate().map_err(|invalid| ScenarioError::Invalid { origin: origin.to_owned(), invalid })?;
+        Ok(s)
+    }
+
+    /// Read, parse and validate a scenario file.
+    pub fn load(path: &Path) -> Result<Self, ScenarioError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { origin: origin.clone(), source })?;
+        Self::from_toml(&text, &origin)
+    }
+
+    pub fn unit(&self, id: &UnitId) -> Option<&UnitSpec> {
+        self.units.iter().find(|u| &u.id == id)
+    }
+
+    /// Every semantic check a TOML parser cannot make.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        if self.name.trim().is_empty() {
+            return Err(Invalid::new("name", "must not be empty"));
+        }
+        in_range("time_limit_s", self.time_limit_s, 1.0, 7.0 * 86400.0)?;
+        let t = &self.tunnel;
+        in_range("tunnel.length_m", t.length_m, 10.0, 100_000.0)?;
+        in_range("tunnel.width_m", t.width_m, 2.0, 50.0)?;
+        in_range("tunnel.height_m", t.height_m, 2.0, 30.0)?;
+        if !(1..=8).contains(&t.lanes) {
+            return Err(Invalid::new("tunnel.lanes", format!("{} is outside [1, 8]", t.lanes)));
+        }
+
+        let mut names = HashSet::new();
+        for (i, o) in self.obstacles.iter().enumerate() {
+            let f = |n: &str| format!("obstacles[{i}].{n}");
+            if !names.insert(o.name.as_str()) {
+                return Err(Invalid::new(f("name"), format!("'{}' is used twice", o.name)));
+            }
+            in_range(&f("length_m"), o.length_m, 0.1, 50.0)?;
+            in_range(&f("width_m"), o.width_m, 0.1, t.width_m)?;
+            in_range(&f("height_m"), o.height_m, 0.1, t.height_m)?;
+            in_range(&f("yaw_rad"), o.yaw_rad, -std::f64::consts::TAU, std::f64::consts::TAU)?;
+            for c in o.corners() {
+                t.check_inside(&f("x_m/y_m"), c).map_err(|e| Invalid::new(e.field, format!("a corner {}", e.reason)))?;
+            }
+        }
+
+        let mut names = HashSet::new();
+        for (i, fire) in self.fires.iter().enumerate() {
+            let f = |n: &str| format!("fires[{i}].{n}");
+            if !names.insert(fire.name.as_str()) {
+                return Err(Invalid::new(f("name"), format!("'{}' is used twice", fire.name)));
+            }
+            in_range(&f("x_m"), fire.x_m, 0.0, t.length_m)?;
+            in_range(&f("y_m"), fire.y_m, -t.width_m / 2.0, t.width_m / 2.0)?;
+            in_range(&f("peak_kw"), fire.peak_kw, 1.0, 300_000.0)?;
+            in_range(&f("ignition_s"), fire.ignition_s, -3600.0, self.time_limit_s)?;
+            in_range(&f("radius_m"), fire.radius_m, 0.1, t.width_m / 2.0)?;
+        }
+
+        let mut ids = HashSet::new();
+        for (i, u) in self.units.iter().enumerate() {
+            let f = |n: &str| format!("units[{i}].{n}");
+            if !ids.insert(&u.id) {
+                return Err(Invalid::new(f("id"), format!("'{}' is used twice", u.id)));
+            }
+            if u.kind == UnitKind::Monorail {
+                return Err(Invalid::new(f("kind"), "monorail units need a rail, which scenarios cannot declare yet"));
+            }
+            in_range(&f("yaw_rad"), u.yaw_rad, -std::f64::consts::TAU, std::f64::consts::TAU)?;
+            let p = Point2::new(u.x_m, u.y_m);
+            t.check_inside(&f("x_m/y_m"), p)?;
+            if let Some(o) = self.obstacles.iter().find(|o| o.footprint_contains(p, 0.5)) {
+                return Err(Invalid::new(f("x_m/y_m"), format!("starts inside obstacle '{}'", o.name)));
+            }
+        }
+
+        let mut ids = HashSet::new();
+        for (i, z) in self.zones.iter().enumerate() {
+            let f = |n: &str| format!("zones[{i}].{n}");
+            if !ids.insert(&z.id) {
+                return Err(Invalid::new(f("id"), format!("'{}' is used twice", z.id)));
+            }
+            in_range(&f("start_m"), z.start_m, 0.0, t.length_m)?;
+            in_range(&f("end_m"), z.end_m, 0.0, t.length_m)?;
+            if z.end_m <= z.start_m {
+                return Err(Invalid::new(f("end_m"), "must be greater than start_m"));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const OK: &str = r#"
+        name = "t"
+        time_limit_s = 100
+        [tunnel]
+        length_m = 100.0
+        width_m = 10.0
+        height_m = 6.0
+        lanes = 2
+        [[obstacles]]
+        name = "car"
+        x_m = 40.0
+        y_m = -2.0
+        length_m = 4.0
+        width_m = 1.8
+        height_m = 1.5
+        [[fires]]
+        name = "f"
+        x_m = 60.0
+        y_m = 1.0
+        growth = "fast"
+        peak_kw = 3000.0
+        [[units]]
+        id = "u1"
+        kind = "ground"
+        x_m = 5.0
+        y_m = -2.0
+        [[zones]]
+        id = "z1"
+        start_m = 0.0
+        end_m = 50.0
+    "#;
+
+    fn err(text: &str) -> String {
+        Scenario::from_toml(text, "s.toml").unwrap_err().to_string()
+    }
+
+    #[test]
+    fn a_good_scenario_loads() {
+        let s = Scenario::from_toml(OK, "s.toml").unwrap();
+        assert_eq!(s.site.as_str(), "tunnel");
+        assert_eq!(s.fires[0].radius_m, 1.0);
+        assert!((s.tunnel.lane_center_y(0) + 2.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn errors_name_file_field_and_reason() {
+        let e = err(&OK.replace("x_m = 60.0", "x_m = 160.0"));
+        assert!(e.starts_with("s.toml: fires[0].x_m: 160 is outside"), "{e}");
+        let e = err(&OK.replace("growth = \"fast\"", "growth = \"quick\""));
+        assert!(e.contains("s.toml") && e.contains("quick"), "{e}");
+        let e = err(&OK.replace("id = \"u1\"", "id = \"U 1\""));
+        assert!(e.contains("unit id"), "{e}");
+        let e = err(&OK.replace("x_m = 5.0", "x_m = 40.0"));
+        assert!(e.contains("units[0].x_m/y_m: starts inside obstacle 'car'"), "{e}");
+        let e = err(&OK.replace("end_m = 50.0", "end_m = 0.0"));
+        assert!(e.contains("zones[0].end_m"), "{e}");
+        let e = err(&OK.replace("lanes = 2", "lanes = 2\ncolour = 3"));
+        assert!(e.contains("colour"), "{e}");
+        let e = err(&OK.replace("kind = \"ground\"", "kind = \"monorail\""));
+        assert!(e.contains("units[0].kind"), "{e}");
+    }
+}

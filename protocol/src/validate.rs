@@ -1,0 +1,79 @@
+//! Validation of decoded messages.
+//!
+//! Decoding proves a message is well formed; validation proves it is sensible: every number
+//! finite and in range, every list bounded. Checks that need the site (is a point inside
+//! the tunnel?) are done by the receiver with [`crate::scenario::Tunnel::check_inside`],
+//! because only it knows which site it serves.
+
+use std::fmt;
+
+/// What was wrong with a message, and where in it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub struct Invalid {
+    /// Dotted path of the offending field, e.g. `observations[2].position.x`.
+    pub field: String,
+    pub reason: String,
+}
+
+impl fmt::Display for Invalid {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.field, self.reason)
+    }
+}
+
+impl Invalid {
+    pub fn new(field: impl Into<String>, reason: impl Into<String>) -> Self {
+        Self { field: field.into(), reason: reason.into() }
+    }
+
+    /// Prefix the field path, for nested structures.
+    pub fn within(mut self, parent: &str) -> Self {
+        self.field = if self.field.is_empty() { parent.to_owned() } else { format!("{parent}.{}", self.field) };
+        self
+    }
+}
+
+/// A message (or part of one) that can check itself.
+pub trait Validate {
+    fn validate(&self) -> Result<(), Invalid>;
+}
+
+/// `v` must be a finite number.
+pub fn finite(field: &str, v: f64) -> Result<(), Invalid> {
+    if v.is_finite() { Ok(()) } else { Err(Invalid::new(field, format!("{v} is not a finite number"))) }
+}
+
+/// `v` must be finite and within `[lo, hi]`.
+pub fn in_range(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), Invalid> {
+    finite(field, v)?;
+    if (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(Invalid::new(field, format!("{v} is outside [{lo}, {hi}]")))
+    }
+}
+
+/// A list must not exceed `max` entries (bounds the work a single message can cause).
+pub fn max_len<T>(field: &str, v: &[T], max: usize) -> Result<(), Invalid> {
+    if v.len() <= max { Ok(()) } else { Err(Invalid::new(field, format!("{} entries, at most {max} allowed", v.len()))) }
+}
+
+/// Validate every element, naming the index of the first bad one.
+pub fn each<T: Validate>(field: &str, v: &[T]) -> Result<(), Invalid> {
+    v.iter().enumerate().try_for_each(|(i, x)| x.validate().map_err(|e| e.within(&format!("{field}[{i}]"))))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn range_checks_name_the_field() {
+        assert!(in_range("a", 1.0, 0.0, 2.0).is_ok());
+        let e = in_range("a.b", f64::NAN, 0.0, 2.0).unwrap_err();
+        assert_eq!(e.field, "a.b");
+        assert!(e.to_string().contains("not a finite"));
+        assert!(in_range("a", 3.0, 0.0, 2.0).unwrap_err().reason.contains("outside"));
+        assert_eq!(Invalid::new("x", "r").within("p").field, "p.x");
+    }
+}

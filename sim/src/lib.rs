@@ -1,0 +1,24 @@
+//! A burning tunnel that stands in for the real one.
+//!
+//! [`world`] is the physics, pure and deterministic for a given seed and command sequence:
+//! fires that grow as t-squared fires and shrink under water, the radiant heat they give
+//! off, ground vehicles on a kinematic bicycle model, water cannons with slew limits and a
+//! ballistic jet, and a flame detector with field of view, range, occlusion and noise.
+//! [`physics`] holds every physical constant with its source or stated assumption.
+//!
+//! [`node`] puts the world on the bus exactly as real hardware drivers would be: each unit
+//! gets sensor frames and sends actuator set-points on `ff/<site>/sim/unit/<id>/...`, and
+//! the simulator publishes its clock and ground truth. Agents cannot tell it from hardware
+//! except by the clock it keeps.
+//!
+//! Not modelled (yet): smoke transport and visibility, ventilation, fire spread between
+//! vehicles, collisions between units, false-positive detections.
+
+pub mod camera;
+pub mod jet;
+pub mod node;
+pub mod physics;
+pub mod world;
+
+pub use node::{SimOptions, run};
+pub use world::World;

@@ -1,0 +1,136 @@
+//! The simulator as a process on the bus.
+//!
+//! Fixed-step loop: take the latest actuator commands, step the world, publish the clock,
+//! every unit's sensor frame and the ground truth. `time_scale` paces the loop against the
+//! wall clock (10 runs ten times faster than real time). A unit whose commands stop for
+//! [`physics::COMMAND_WATCHDOG`] of wall time is halted with its valve shut, as real drive
+//! controllers do when their computer dies.
+
+use std::collections::HashMap;
+use std::future::Future;
+use std::time::{Duration, Instant};
+
+use firefleet_protocol::UnitId;
+use firefleet_protocol::bus::{Bus, BusError};
+use firefleet_protocol::keys::{self, Topic};
+use firefleet_protocol::msg::{SimClock, SimTruth, UnitCommand};
+use firefleet_protocol::scenario::Scenario;
+use tokio::time::MissedTickBehavior;
+
+use crate::physics;
+use crate::world::World;
+
+/// How to run the simulator.
+#[derive(Debug, Clone)]
+pub struct SimOptions {
+    pub seed: u64,
+    /// Simulated seconds per wall second.
+    pub time_scale: f64,
+    /// Physics step, simulated seconds.
+    pub step_s: f64,
+    /// Before starting the clock, wait up to this long for every unit of the scenario (and
+    /// a coordinator, if `wait_for_coordinator`) to be alive on the bus.
+    pub wait_for_fleet: Option<Duration>,
+    pub wait_for_coordinator: bool,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        Self { seed: 0, time_scale: 1.0, step_s: 0.05, wait_for_fleet: None, wait_for_coordinator: false }
+    }
+}
+
+/// Run until `shutdown` completes; returns the last ground truth.
+pub async fn run(bus: &Bus, scenario: &Scenario, opts: &SimOptions, shutdown: impl Future<Output = ()>) -> Result<SimTruth, BusError> {
+    let keys = bus.keys().clone();
+    let mut world = World::new(scenario, opts.seed);
+    let commands = bus.subscribe::<UnitCommand>(&keys.every_sim_cmd()).await?;
+    tokio::pin!(shutdown);
+
+    if let Some(limit) = opts.wait_for_fleet {
+        tokio::select! {
+            _ = wait_for_fleet(bus, scenario, opts.wait_for_coordinator, limit) => {}
+            _ = &mut shutdown => return Ok(world.truth()),
+        }
+    }
+
+    let period = Duration::from_secs_f64(opts.step_s / opts.time_scale);
+    let mut ticker = tokio::time::interval(period);
+    ticker.set_missed_tick_behavior(MissedTickBehavior::Delay);
+    let mut last_command: HashMap<UnitId, Instant> = HashMap::new();
+    let ids: Vec<UnitId> = world.unit_ids().cloned().collect();
+    let mut step = 0u64;
+    tracing::info!(units = ids.len(), fires = scenario.fires.len(), time_scale = opts.time_scale, "simulation started");
+    loop {
+        tokio::select! {
+            _ = ticker.tick() => {}
+            _ = &mut shutdown => break,
+        }
+        while let Some((key, cmd)) = commands.try_recv() {
+            match keys::parse(&key) {
+                Ok((_, Topic::SimCmd(unit))) if world.command(&unit, cmd) => {
+                    last_command.insert(unit, Instant::now());
+                }
+                _ => {
+                    bus.rejects().count_invalid();
+                    tracing::warn!(key, "dropped command for a unit this simulation does not have");
+                }
+            }
+        }
+        let now = Instant::now();
+        for id in &ids {
+            if last_command.get(id).is_none_or(|t| now.duration_since(*t) > physics::COMMAND_WATCHDOG) {
+                world.halt(id);
+            }
+        }
+        if world.time() < scenario.time_limit_s {
+            world.step(opts.step_s);
+        }
+        bus.put(&keys.key(&Topic::SimClock), &SimClock { t: world.time(), time_scale: opts.time_scale }).await?;
+        for id in &ids {
+            if let Some(s) = world.sensors(id) {
+                bus.put(&keys.key(&Topic::SimSensors(id.clone())), &s).await?;
+            }
+        }
+        if step % 2 == 0 {
+            bus.put(&keys.key(&Topic::SimTruth), &world.truth()).await?;
+        }
+        step += 1;
+    }
+    let truth = world.truth();
+    bus.put(&keys.key(&Topic::SimTruth), &truth).await?;
+    Ok(truth)
+}
+
+async fn wait_for_fleet(bus: &Bus, scenario: &Scenario, coordinator: bool, limit: Duration) {
+    let keys = bus.keys();
+    let deadline = Instant::now() + limit;
+    loop {
+        let mut alive = std::collections::HashSet::new();
+        if let Ok(replies) = bus.session().liveliness().get(keys.all()).await {
+            while let Ok(reply) = replies.recv_async().await {
+                if let Ok(sample) = reply.result()
+                    && let Ok((_, topic)) = keys::parse(sample.key_expr().as_str())
+                {
+                    alive.insert(topic);
+                }
+            }
+        }
+        let missing: Vec<String> = scenario
+            .units
+            .iter()
+            .filter(|u| !alive.contains(&Topic::UnitAlive(u.id.clone())))
+            .map(|u| u.id.to_string())
+            .chain((coordinator && !alive.contains(&Topic::CoordAlive)).then(|| "coordinator".to_owned()))
+            .collect();
+        if missing.is_empty() {
+            return;
+        }
+        if Instant::now() >= deadline {
+            tracing::warn!(?missing, "starting without every member of the fleet");
+            return;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+

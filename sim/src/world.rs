@@ -1,0 +1,458 @@
+//! The simulated tunnel: state and one fixed time step.
+//!
+//! Deterministic: the same scenario, seed and sequence of commands give the same world.
+//! The world knows nothing of Zenoh; [`crate::node`] drives it.
+
+use firefleet_protocol::geometry::{Point2, Pose2, wrap_angle};
+use firefleet_protocol::msg::{
+    CannonState, SimTruth, TruthFire, TruthFireState, TruthUnit, UnitCommand, UnitSensors,
+};
+use firefleet_protocol::scenario::{FireSpec, Obstacle, Scenario, Tunnel};
+use firefleet_protocol::spec::{GROUND, GroundSpec};
+use firefleet_protocol::UnitId;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::camera::{self, FlameTarget};
+use crate::jet::{self, Landing};
+use crate::physics;
+
+/// A fire of the world.
+#[derive(Debug, Clone)]
+struct Fire {
+    spec: FireSpec,
+    alpha: f64,
+    hrr_kw: f64,
+    state: TruthFireState,
+    wetted: bool,
+    water_received_l: f64,
+}
+
+impl Fire {
+    fn flame_centre(&self) -> camera::P3 {
+        let h = physics::flame_height_m(self.hrr_kw, 2.0 * self.spec.radius_m);
+        [self.spec.x_m, self.spec.y_m, h / 2.0]
+    }
+
+    /// Advance by `dt` with `density` mm/s of water on the burning area.
+    fn step(&mut self, t: f64, dt: f64, density: f64, litres: f64) {
+        match self.state {
+            TruthFireState::Out => return,
+            TruthFireState::Dormant if t + dt < self.spec.ignition_s => return,
+            TruthFireState::Dormant => {
+                self.state = TruthFireState::Burning;
+                self.hrr_kw = self.alpha * (t + dt - self.spec.ignition_s).powi(2);
+            }
+            TruthFireState::Burning => {}
+        }
+        self.water_received_l += litres;
+        if density > 0.0 {
+            self.wetted = true;
+            self.hrr_kw *= (-dt / physics::suppression_time_constant_s(density)).exp();
+        } else {
+            // Regrowth continues along the t-squared curve from the current size.
+            let t_eq = (self.hrr_kw / self.alpha).sqrt();
+            self.hrr_kw = self.alpha * (t_eq + dt).powi(2);
+        }
+        self.hrr_kw = self.hrr_kw.min(self.spec.peak_kw);
+        if self.wetted && self.hrr_kw < physics::Q_OUT_KW {
+            self.state = TruthFireState::Out;
+            self.hrr_kw = 0.0;
+        }
+    }
+}
+
+/// A simulated ground vehicle with its cannon.
+#[derive(Debug, Clone)]
+struct Body {
+    id: UnitId,
+    spec: GroundSpec,
+    pose: Pose2,
+    speed: f64,
+    steer: f64,
+    cannon: CannonState,
+    water_l: f64,
+    cmd: UnitCommand,
+    heat_flux: f64,
+    heat_dose: f64,
+    water_used: f64,
+    collisions: u32,
+    collided: bool,
+}
+
+impl Body {
+    fn footprint_clear(&self, pose: &Pose2, tunnel: &Tunnel, obstacles: &[Obstacle]) -> bool {
+        let (hl, hw) = (self.spec.length_m / 2.0, self.spec.width_m / 2.0);
+        let corners = [(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)].map(|(x, y)| pose.to_site(Point2::new(x, y)));
+        if !corners.iter().all(|c| tunnel.contains(*c, 0.0)) {
+            return false;
+        }
+        // Sample the footprint's edges and centre against every box; boxes are larger than
+        // the 0.5 m sampling pitch, so no overlap slips between samples.
+        obstacles.iter().all(|o| {
+            let mut pts = vec![pose.position()];
+            for k in 0..4 {
+                let (a, b) = (corners[k], corners[(k + 1) % 4]);
+                let n = (a.dist(b) / 0.5).ceil() as usize;
+                pts.extend((0..n).map(|i| {
+                    let s = i as f64 / n as f64;
+                    Point2::new(a.x + s * (b.x - a.x), a.y + s * (b.y - a.y))
+                }));
+            }
+            !pts.iter().any(|p| o.footprint_contains(*p, 0.0)) && !o.corners().iter().any(|c| inside(pose, &self.spec, *c))
+        })
+    }
+
+    fn drive(&mut self, dt: f64, tunnel: &Tunnel, obstacles: &[Obstacle]) {
+        let s = &self.spec;
+        let target_v = self.cmd.speed.clamp(-s.max_speed_m_s, s.max_speed_m_s);
+        let dv = (target_v - self.speed).clamp(-s.max_accel_m_s2 * dt, s.max_accel_m_s2 * dt);
+        self.speed += dv;
+        let target_steer = self.cmd.steer.clamp(-s.max_steer_rad, s.max_steer_rad);
+        self.steer += (target_steer - self.steer).clamp(-s.max_steer_rate_rad_s * dt, s.max_steer_rate_rad_s * dt);
+        // Kinematic bicycle about the rear axle.
+        let yaw = self.pose.yaw + self.speed / s.wheelbase_m * self.steer.tan() * dt;
+        let next = Pose2::new(
+            self.pose.x + self.speed * yaw.cos() * dt,
+            self.pose.y + self.speed * yaw.sin() * dt,
+            wrap_angle(yaw),
+        );
+        self.collided = false;
+        if self.speed.abs() > 0.0 {
+            if self.footprint_clear(&next, tunnel, obstacles) {
+                self.pose = next;
+            } else {
+                self.collided = true;
+                self.collisions += 1;
+                self.speed = 0.0;
+            }
+        }
+    }
+
+    fn slew_cannon(&mut self, dt: f64) {
+        let s = &self.spec;
+        let pan = self.cmd.pan.clamp(-s.cannon_pan_limit_rad, s.cannon_pan_limit_rad);
+        let tilt = self.cmd.tilt.clamp(s.cannon_tilt_min_rad, s.cannon_tilt_max_rad);
+        self.cannon.pan += (pan - self.cannon.pan).clamp(-s.cannon_pan_rate_rad_s * dt, s.cannon_pan_rate_rad_s * dt);
+        self.cannon.tilt += (tilt - self.cannon.tilt).clamp(-s.cannon_tilt_rate_rad_s * dt, s.cannon_tilt_rate_rad_s * dt);
+        self.cannon.valve_open = self.cmd.valve_open && self.water_l > 0.0;
+        self.cannon.flow_l_s = if self.cannon.valve_open { s.cannon_flow_l_s } else { 0.0 };
+    }
+}
+
+fn inside(pose: &Pose2, spec: &GroundSpec, p: Point2) -> bool {
+    let b = pose.to_body(p);
+    b.x.abs() <= spec.length_m / 2.0 && b.y.abs() <= spec.width_m / 2.0
+}
+
+/// The whole simulated world.
+pub struct World {
+    tunnel: Tunnel,
+    obstacles: Vec<Obstacle>,
+    t: f64,
+    time_limit_s: f64,
+    fires: Vec<Fire>,
+    bodies: Vec<Body>,
+    rng: ChaCha8Rng,
+}
+
+impl World {
+    pub fn new(scenario: &Scenario, seed: u64) -> Self {
+        let fires = scenario
+            .fires
+            .iter()
+            .map(|f| Fire {
+                spec: f.clone(),
+                alpha: physics::growth_alpha_kw_s2(f.growth),
+                hrr_kw: 0.0,
+                state: TruthFireState::Dormant,
+                wetted: false,
+                water_received_l: 0.0,
+            })
+            .collect();
+        let bodies = scenario
+            .units
+            .iter()
+            .map(|u| Body {
+                id: u.id.clone(),
+                spec: GROUND,
+                pose: u.pose(),
+                speed: 0.0,
+                steer: 0.0,
+                cannon: CannonState::default(),
+                water_l: GROUND.tank_l,
+                cmd: UnitCommand::halt(&CannonState::default()),
+                heat_flux: 0.0,
+                heat_dose: 0.0,
+                water_used: 0.0,
+                collisions: 0,
+                collided: false,
+            })
+            .collect();
+        let mut w = Self {
+            tunnel: scenario.tunnel,
+            obstacles: scenario.obstacles.clone(),
+            t: 0.0,
+            time_limit_s: scenario.time_limit_s,
+            fires,
+            bodies,
+            rng: ChaCha8Rng::seed_from_u64(seed),
+        };
+        // Fires that ignited before the start are already at their t-squared size.
+        w.step_fires(0.0, &[]);
+        w
+    }
+
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+
+    pub fn unit_ids(&self) -> impl Iterator<Item = &UnitId> {
+        self.bodies.iter().map(|b| &b.id)
+    }
+
+    /// Set a unit's actuator set-points; `false` if there is no such unit.
+    pub fn command(&mut self, id: &UnitId, cmd: UnitCommand) -> bool {
+        match self.bodies.iter_mut().find(|b| &b.id == id) {
+            Some(b) => {
+                b.cmd = cmd;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Stop a unit and shut its valve (its controller went silent).
+    pub fn halt(&mut self, id: &UnitId) {
+        if let Some(b) = self.bodies.iter_mut().find(|b| &b.id == id) {
+            b.cmd = UnitCommand::halt(&b.cannon);
+        }
+    }
+
+    /// Advance the world by `dt` seconds.
+    pub fn step(&mut self, dt: f64) {
+        for b in &mut self.bodies {
+            b.drive(dt, &self.tunnel, &self.obstacles);
+            b.slew_cannon(dt);
+        }
+        // Where each open cannon's water lands this step.
+        let mut sprays = Vec::new();
+        for b in &mut self.bodies {
+            if !b.cannon.valve_open {
+                continue;
+            }
+            let litres = (b.cannon.flow_l_s * dt).min(b.water_l);
+            b.water_l -= litres;
+            b.water_used += litres;
+            let nozzle = [b.pose.x, b.pose.y, b.spec.cannon_height_m];
+            let landing = jet::trace(
+                &self.tunnel,
+                &self.obstacles,
+                nozzle,
+                b.pose.yaw + b.cannon.pan,
+                b.cannon.tilt,
+                b.spec.cannon_muzzle_speed_m_s,
+            );
+            if let Landing::Road { at, travel_m } = landing {
+                sprays.push((at, physics::jet_spread_radius_m(travel_m), litres / dt));
+            }
+        }
+        self.step_fires(dt, &sprays);
+        for b in &mut self.bodies {
+            let body = [b.pose.x, b.pose.y, physics::UNIT_BODY_HEIGHT_M];
+            b.heat_flux = self
+                .fires
+                .iter()
+                .filter(|f| f.state == TruthFireState::Burning)
+                .map(|f| {
+                    let c = f.flame_centre();
+                    let r = ((c[0] - body[0]).powi(2) + (c[1] - body[1]).powi(2) + (c[2] - body[2]).powi(2)).sqrt();
+                    physics::radiant_flux_kw_m2(f.hrr_kw, r.max(f.spec.radius_m))
+                })
+                .sum();
+            b.heat_dose += b.heat_flux * dt;
+        }
+        self.t += dt;
+    }
+
+    /// `sprays`: (landing point, wetted radius, flow L/s) of every jet reaching the road.
+    fn step_fires(&mut self, dt: f64, sprays: &[(Point2, f64, f64)]) {
+        for f in &mut self.fires {
+            let fire_area = physics::disk_area(f.spec.radius_m);
+            let flow_on_fire: f64 = sprays
+                .iter()
+                .map(|(at, r, flow)| {
+                    flow * physics::disk_overlap_area(*r, f.spec.radius_m, at.dist(f.spec.position())) / physics::disk_area(*r)
+                })
+                .sum();
+            f.step(self.t, dt, flow_on_fire / fire_area, flow_on_fire * dt);
+        }
+    }
+
+    /// What unit `id`'s sensors read now; `None` for an unknown unit.
+    pub fn sensors(&mut self, id: &UnitId) -> Option<UnitSensors> {
+        let flames: Vec<FlameTarget> = self
+            .fires
+            .iter()
+            .filter(|f| f.state == TruthFireState::Burning && f.hrr_kw >= physics::Q_VISIBLE_KW)
+            .map(|f| FlameTarget { centre: f.flame_centre() })
+            .collect();
+        let b = self.bodies.iter().find(|b| &b.id == id)?;
+        let detections = camera::detect(&b.spec, &b.pose, &flames, &self.obstacles, &mut self.rng);
+        Some(UnitSensors {
+            unit: b.id.clone(),
+            t: self.t,
+            pose: b.pose,
+            speed: b.speed,
+            steer: b.steer,
+            heat_flux_kw_m2: b.heat_flux,
+            water_l: b.water_l,
+            cannon: b.cannon,
+            detections,
+            collided: b.collided,
+        })
+    }
+
+    pub fn truth(&self) -> SimTruth {
+        SimTruth {
+            t: self.t,
+            time_limit_s: self.time_limit_s,
+            fires: self
+                .fires
+                .iter()
+                .map(|f| TruthFire {
+                    name: f.spec.name.clone(),
+                    position: f.spec.position(),
+                    hrr_kw: f.hrr_kw,
+                    state: f.state,
+                    water_received_l: f.water_received_l,
+                })
+                .collect(),
+            units: self
+                .bodies
+                .iter()
+                .map(|b| TruthUnit {
+                    id: b.id.clone(),
+                    pose: b.pose,
+                    heat_dose_kj_m2: b.heat_dose,
+                    water_used_l: b.water_used,
+                    collisions: b.collisions,
+                })
+                .collect(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SCEN: &str = r#"
+        name = "w"
+        time_limit_s = 200
+        [tunnel]
+        length_m = 100.0
+        width_m = 10.0
+        height_m = 6.0
+        lanes = 2
+        [[obstacles]]
+        name = "car"
+        x_m = 20.0
+        y_m = -2.5
+        length_m = 4.0
+        width_m = 1.8
+        height_m = 1.5
+        [[fires]]
+        name = "f"
+        x_m = 30.0
+        y_m = 0.0
+        growth = "fast"
+        peak_kw = 3000.0
+        ignition_s = -100.0
+        [[units]]
+        id = "u1"
+        kind = "ground"
+        x_m = 5.0
+        y_m = -2.5
+    "#;
+
+    fn world() -> World {
+        World::new(&Scenario::from_toml(SCEN, "w.toml").unwrap(), 1)
+    }
+
+    fn u1() -> UnitId {
+        UnitId::new("u1").unwrap()
+    }
+
+    #[test]
+    fn fire_grows_as_t_squared_to_its_peak() {
+        let mut w = world();
+        // Burning for 100 s at the fast rate: 0.0469 * 100^2 = 469 kW.
+        assert!((w.truth().fires[0].hrr_kw - 469.0).abs() < 1.0);
+        // 253 s after ignition it would pass 3000 kW; it stays capped there.
+        for _ in 0..4000 {
+            w.step(0.05);
+        }
+        assert_eq!(w.truth().fires[0].hrr_kw, 3000.0);
+    }
+
+    #[test]
+    fn driving_into_a_vehicle_stops_the_unit() {
+        let mut w = world();
+        w.command(&u1(), UnitCommand { speed: 1.5, steer: 0.0, pan: 0.0, tilt: 0.0, valve_open: false });
+        for _ in 0..400 {
+            w.step(0.05);
+        }
+        let t = w.truth();
+        assert!(t.units[0].collisions > 0);
+        assert!(t.units[0].pose.x < 20.0 - 2.0 - 0.8 + 0.1, "stopped before the car: {}", t.units[0].pose.x);
+    }
+
+    #[test]
+    fn water_on_the_fire_puts_it_out_and_water_beside_it_does_not() {
+        let aim = |w: &mut World, pan: f64| {
+            // Unit at x=5 faces +x; the fire is 25 m ahead and 2.5 m left. Elevation for a
+            // 25.1 m shot from 1.2 m at 20 m/s (low arc).
+            let d = 25.0f64.hypot(2.5);
+            let v = 20.0f64;
+            let (g, h) = (physics::G, 1.2);
+            let tilt = ((v * v - (v.powi(4) - g * (g * d * d - 2.0 * h * v * v)).sqrt()) / (g * d)).atan();
+            w.command(&u1(), UnitCommand { speed: 0.0, steer: 0.0, pan, tilt, valve_open: true });
+        };
+        let mut off = world();
+        aim(&mut off, 0.3);
+        let mut on = world();
+        aim(&mut on, (2.5f64).atan2(25.0));
+        for _ in 0..400 {
+            off.step(0.05);
+            on.step(0.05);
+        }
+        assert_eq!(on.truth().fires[0].state, TruthFireState::Out);
+        assert_eq!(off.truth().fires[0].state, TruthFireState::Burning);
+        assert!(on.truth().units[0].water_used_l > 0.0);
+    }
+
+    #[test]
+    fn same_seed_same_world() {
+        let run = |seed| {
+            let mut w = World::new(&Scenario::from_toml(SCEN, "w.toml").unwrap(), seed);
+            w.command(&u1(), UnitCommand { speed: 1.0, steer: 0.1, pan: 0.0, tilt: 0.0, valve_open: false });
+            (0..100)
+                .map(|_| {
+                    w.step(0.05);
+                    w.sensors(&u1()).unwrap()
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(run(3), run(3));
+        assert_ne!(run(3), run(4));
+    }
+
+    #[test]
+    fn heat_flux_rises_near_the_fire() {
+        let mut w = world();
+        w.step(0.05);
+        let far = w.sensors(&u1()).unwrap().heat_flux_kw_m2;
+        assert!(far > 0.0 && far < 1.0, "{far}");
+    }
+}
