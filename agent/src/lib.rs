@@ -1,1 +1,17 @@
-//! placeholder
+//! What runs on a robot.
+//!
+//! The pure parts ([`nav`], [`aim`], [`tracker`], [`ground`]) know nothing of Zenoh: they
+//! take sensor frames and tasks and return actuator set-points, so they are tested and
+//! benchmarked without a network. The edges are [`platform`], the interface a robot's
+//! hardware drivers implement (implemented here for the simulator), and [`node`], which
+//! connects a controller to its platform and to the coordinator.
+
+pub mod aim;
+pub mod ground;
+pub mod nav;
+pub mod node;
+pub mod platform;
+pub mod tracker;
+
+pub use node::{AgentOptions, run};
+pub use platform::{Platform, SimPlatform};

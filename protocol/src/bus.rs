@@ -36,6 +36,12 @@ impl BusError {
     }
 }
 
+impl From<zenoh::Error> for BusError {
+    fn from(e: zenoh::Error) -> Self {
+        Self::from_zenoh(e)
+    }
+}
+
 /// How to join the Zenoh network.
 #[derive(Debug, Clone, Default)]
 pub struct Connect {

@@ -73,6 +73,57 @@ impl Validate for Pose2 {
     }
 }
 
+/// A position estimate: mean and covariance `[xx, xy, yy]`, m and m^2.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Gaussian2 {
+    pub mean: Point2,
+    pub cov: [f64; 3],
+}
+
+impl Gaussian2 {
+    /// A range-and-bearing measurement from `from`: `r` m at site-frame bearing `theta`,
+    /// with one-sigma errors `sigma_r` (m) and `sigma_theta` (rad), linearised.
+    pub fn from_range_bearing(from: Point2, r: f64, theta: f64, sigma_r: f64, sigma_theta: f64) -> Self {
+        let (s, c) = theta.sin_cos();
+        let (vr, vt) = (sigma_r * sigma_r, (r * sigma_theta).powi(2));
+        Self { mean: from.offset(theta, r), cov: [vr * c * c + vt * s * s, (vr - vt) * s * c, vr * s * s + vt * c * c] }
+    }
+
+    fn det(&self) -> f64 {
+        self.cov[0] * self.cov[2] - self.cov[1] * self.cov[1]
+    }
+
+    /// Squared Mahalanobis distance of `p` from this estimate.
+    pub fn mahalanobis2(&self, p: Point2) -> f64 {
+        let [a, b, d] = self.cov;
+        let (dx, dy) = (p.x - self.mean.x, p.y - self.mean.y);
+        (d * dx * dx - 2.0 * b * dx * dy + a * dy * dy) / self.det()
+    }
+
+    /// Product of two independent estimates of the same static point (information form).
+    pub fn fuse(&self, o: &Gaussian2) -> Gaussian2 {
+        let inv = |g: &Gaussian2| {
+            let d = g.det();
+            [g.cov[2] / d, -g.cov[1] / d, g.cov[0] / d]
+        };
+        let (i1, i2) = (inv(self), inv(o));
+        let info = [i1[0] + i2[0], i1[1] + i2[1], i1[2] + i2[2]];
+        let det = info[0] * info[2] - info[1] * info[1];
+        let cov = [info[2] / det, -info[1] / det, info[0] / det];
+        // Information-weighted means.
+        let wx = |i: &[f64; 3], m: Point2| (i[0] * m.x + i[1] * m.y, i[1] * m.x + i[2] * m.y);
+        let (a, b) = (wx(&i1, self.mean), wx(&i2, o.mean));
+        let (ix, iy) = (a.0 + b.0, a.1 + b.1);
+        Gaussian2 { mean: Point2::new(cov[0] * ix + cov[1] * iy, cov[1] * ix + cov[2] * iy), cov }
+    }
+
+    /// Grow the covariance by `q` m^2 on each axis (uncertainty added by time passing).
+    pub fn inflate(&mut self, q: f64) {
+        self.cov[0] += q;
+        self.cov[2] += q;
+    }
+}
+
 /// Wrap an angle to (-pi, pi].
 pub fn wrap_angle(a: f64) -> f64 {
     let t = std::f64::consts::TAU;
@@ -102,6 +153,24 @@ mod tests {
             prop_assert!(w > -std::f64::consts::PI - 1e-12 && w <= std::f64::consts::PI + 1e-12);
             prop_assert!((w.sin() - a.sin()).abs() < 1e-9 && (w.cos() - a.cos()).abs() < 1e-9);
         }
+    }
+
+    #[test]
+    fn fusing_two_estimates_shrinks_and_weights_them() {
+        let a = Gaussian2 { mean: Point2::new(0.0, 0.0), cov: [1.0, 0.0, 1.0] };
+        let b = Gaussian2 { mean: Point2::new(2.0, 0.0), cov: [1.0, 0.0, 1.0] };
+        let f = a.fuse(&b);
+        assert!((f.mean.x - 1.0).abs() < 1e-12 && (f.cov[0] - 0.5).abs() < 1e-12);
+        let sharp = Gaussian2 { mean: Point2::new(2.0, 0.0), cov: [0.01, 0.0, 0.01] };
+        assert!((a.fuse(&sharp).mean.x - 2.0).abs() < 0.05);
+        assert!((a.mahalanobis2(Point2::new(3.0, 4.0)) - 25.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn range_bearing_covariance_is_elongated_along_the_ray() {
+        let g = Gaussian2::from_range_bearing(Point2::new(0.0, 0.0), 10.0, 0.0, 0.5, 0.01);
+        assert!((g.mean.x - 10.0).abs() < 1e-12);
+        assert!((g.cov[0] - 0.25).abs() < 1e-12 && (g.cov[2] - 0.01).abs() < 1e-12);
     }
 
     #[test]

@@ -24,6 +24,6 @@ pub mod spec;
 pub mod validate;
 
 pub use codec::{CodecError, PROTOCOL_VERSION};
-pub use geometry::{Point2, Pose2};
+pub use geometry::{Gaussian2, Point2, Pose2};
 pub use ids::{FireId, SiteId, UnitId, ZoneId};
 pub use validate::{Invalid, Validate};

@@ -40,12 +40,21 @@ pub struct GroundSpec {
     pub camera_height_m: f64,
     pub camera_hfov_rad: f64,
     pub camera_range_m: f64,
+    /// Detector noise: bearing (one sigma, rad) and depth `a + b r^2` (one sigma, m): stereo
+    /// depth error grows with the square of range (Intel RealSense D400 depth RMS model).
+    pub camera_bearing_sigma_rad: f64,
+    pub camera_depth_sigma_a_m: f64,
+    pub camera_depth_sigma_b_per_m: f64,
 }
 
 impl GroundSpec {
     /// Minimum turning radius of the bicycle model, m.
     pub fn min_turn_radius_m(&self) -> f64 {
         self.wheelbase_m / self.max_steer_rad.tan()
+    }
+    /// Depth noise (one sigma) of the camera at range `r`, m.
+    pub fn depth_sigma_m(&self, r: f64) -> f64 {
+        self.camera_depth_sigma_a_m + self.camera_depth_sigma_b_per_m * r * r
     }
     /// Radius of the circle that encloses the footprint, m.
     pub fn circumradius_m(&self) -> f64 {
@@ -74,6 +83,9 @@ pub const GROUND: GroundSpec = GroundSpec {
     camera_height_m: 1.0,
     camera_hfov_rad: 69.0 * std::f64::consts::PI / 180.0,
     camera_range_m: 30.0,
+    camera_bearing_sigma_rad: 0.01,
+    camera_depth_sigma_a_m: 0.02,
+    camera_depth_sigma_b_per_m: 0.002,
 };
 
 #[cfg(test)]

@@ -68,7 +68,7 @@ pub fn detect(
     rng: &mut impl Rng,
 ) -> Vec<FlameDetection> {
     let cam = [pose.x, pose.y, spec.camera_height_m];
-    let bearing_noise = Normal::new(0.0, physics::DETECT_BEARING_SIGMA_RAD).expect("positive sigma");
+    let bearing_noise = Normal::new(0.0, spec.camera_bearing_sigma_rad).expect("positive sigma");
     let mut out = Vec::new();
     for f in flames {
         let body = pose.to_body(firefleet_protocol::Point2::new(f.centre[0], f.centre[1]));
@@ -81,7 +81,7 @@ pub fn detect(
         // does not shift the noise of every later detection.
         let missed = rng.random::<f64>() < physics::DETECT_MISS_PROB;
         let db = bearing_noise.sample(rng);
-        let dr = Normal::new(0.0, physics::depth_sigma_m(range)).expect("positive sigma").sample(rng);
+        let dr = Normal::new(0.0, spec.depth_sigma_m(range)).expect("positive sigma").sample(rng);
         let dc: f64 = rng.random_range(-0.05..0.05);
         if missed {
             continue;

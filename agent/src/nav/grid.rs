@@ -1,0 +1,155 @@
+//! Occupancy grid of the tunnel road.
+
+use firefleet_protocol::Point2;
+use firefleet_protocol::scenario::Scenario;
+
+/// A cell index (column along x, row along y).
+pub type Cell = (usize, usize);
+
+/// A boolean occupancy grid over the tunnel, origin at (0, -width/2).
+#[derive(Debug, Clone)]
+pub struct Grid {
+    res: f64,
+    y0: f64,
+    w: usize,
+    h: usize,
+    occ: Vec<bool>,
+}
+
+impl Grid {
+    /// Road cells blocked by walls and obstacle footprints grown by `inflate` metres.
+    pub fn from_scenario(s: &Scenario, res: f64, inflate: f64) -> Self {
+        let t = &s.tunnel;
+        let w = (t.length_m / res).ceil() as usize;
+        let h = (t.width_m / res).ceil() as usize;
+        let mut g = Self { res, y0: -t.width_m / 2.0, w, h, occ: vec![false; w * h] };
+        for r in 0..h {
+            for c in 0..w {
+                let p = g.center((c, r));
+                let blocked = !t.contains(p, inflate) || s.obstacles.iter().any(|o| o.footprint_contains(p, inflate));
+                g.occ[r * w + c] = blocked;
+            }
+        }
+        g
+    }
+
+    pub fn resolution(&self) -> f64 {
+        self.res
+    }
+    pub fn size(&self) -> (usize, usize) {
+        (self.w, self.h)
+    }
+
+    pub fn cell(&self, p: Point2) -> Option<Cell> {
+        let c = (p.x / self.res).floor();
+        let r = ((p.y - self.y0) / self.res).floor();
+        (c >= 0.0 && r >= 0.0 && (c as usize) < self.w && (r as usize) < self.h).then(|| (c as usize, r as usize))
+    }
+
+    pub fn center(&self, (c, r): Cell) -> Point2 {
+        Point2::new((c as f64 + 0.5) * self.res, self.y0 + (r as f64 + 0.5) * self.res)
+    }
+
+    pub fn blocked(&self, (c, r): Cell) -> bool {
+        self.occ[r * self.w + c]
+    }
+
+    /// Whether `p` lies on a free cell.
+    pub fn free(&self, p: Point2) -> bool {
+        self.cell(p).is_some_and(|c| !self.blocked(c))
+    }
+
+    /// Whether the segment `a`-`b` crosses only free cells. Uses a supercover traversal
+    /// (every cell the segment touches, Amanatides-Woo), not Bresenham: Bresenham skips
+    /// cells the segment clips at a corner, which would let a path graze an obstacle.
+    pub fn segment_free(&self, a: Point2, b: Point2) -> bool {
+        let Some(mut cur) = self.cell(a) else { return false };
+        if self.cell(b).is_none() {
+            return false;
+        }
+        let (dx, dy) = (b.x - a.x, b.y - a.y);
+        let step_x: isize = if dx > 0.0 { 1 } else { -1 };
+        let step_y: isize = if dy > 0.0 { 1 } else { -1 };
+        // Segment parameter (0 at a, 1 at b) at which the next x / y cell boundary is crossed.
+        let first = |pos: f64, origin: f64, cell: usize, step: isize, d: f64| {
+            if d == 0.0 {
+                return f64::INFINITY;
+            }
+            let k = if step > 0 { cell as f64 + 1.0 } else { cell as f64 };
+            (origin + k * self.res - pos) / d
+        };
+        let mut t_x = first(a.x, 0.0, cur.0, step_x, dx);
+        let mut t_y = first(a.y, self.y0, cur.1, step_y, dy);
+        let t_dx = if dx != 0.0 { self.res / dx.abs() } else { f64::INFINITY };
+        let t_dy = if dy != 0.0 { self.res / dy.abs() } else { f64::INFINITY };
+        loop {
+            if self.blocked(cur) {
+                return false;
+            }
+            // The segment ends inside this cell. Ending on the parameter rather than on b's
+            // cell is robust to b lying exactly on a cell corner.
+            if t_x.min(t_y) > 1.0 {
+                return true;
+            }
+            if t_x < t_y {
+                t_x += t_dx;
+                cur.0 = cur.0.wrapping_add_signed(step_x);
+            } else {
+                t_y += t_dy;
+                cur.1 = cur.1.wrapping_add_signed(step_y);
+            }
+            if cur.0 >= self.w || cur.1 >= self.h {
+                return false;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    pub(crate) fn scenario() -> Scenario {
+        Scenario::from_toml(
+            r#"
+            name = "g"
+            time_limit_s = 10
+            [tunnel]
+            length_m = 50.0
+            width_m = 10.0
+            height_m = 6.0
+            lanes = 2
+            [[obstacles]]
+            name = "car"
+            x_m = 20.0
+            y_m = 0.0
+            length_m = 4.0
+            width_m = 2.0
+            height_m = 1.5
+            "#,
+            "g.toml",
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn walls_and_obstacles_are_blocked_with_inflation() {
+        let g = Grid::from_scenario(&scenario(), 0.25, 1.0);
+        assert!(g.free(Point2::new(5.0, 0.0)));
+        assert!(!g.free(Point2::new(20.0, 0.0)));
+        assert!(!g.free(Point2::new(20.0, 1.8)), "inflated");
+        assert!(g.free(Point2::new(20.0, 2.6)));
+        assert!(!g.free(Point2::new(5.0, 4.5)), "wall margin");
+        assert!(!g.free(Point2::new(-1.0, 0.0)));
+    }
+
+    #[test]
+    fn segments_through_obstacles_are_not_free() {
+        let g = Grid::from_scenario(&scenario(), 0.25, 0.0);
+        assert!(!g.segment_free(Point2::new(5.0, 0.0), Point2::new(35.0, 0.0)));
+        assert!(g.segment_free(Point2::new(5.0, 3.0), Point2::new(35.0, 3.0)));
+        assert!(g.segment_free(Point2::new(35.0, 3.0), Point2::new(5.0, 2.5)));
+        // A diagonal that clips the car's corner.
+        assert!(!g.segment_free(Point2::new(17.0, 2.0), Point2::new(19.0, 0.0)));
+    }
+}

@@ -1,0 +1,14 @@
+//! Ground navigation: a map of the tunnel, a grid planner and a path follower.
+//!
+//! This is the first planner: 8-connected A* on an occupancy grid inflated by the robot's
+//! footprint, string-pulled into straight segments and followed by pure pursuit. It keeps
+//! clear of parked vehicles and the walls. It is not yet kinematically aware (that is the
+//! Hybrid A* planner's job) and does not weigh heat.
+
+pub mod astar;
+pub mod grid;
+pub mod pursuit;
+
+pub use astar::plan;
+pub use grid::Grid;
+pub use pursuit::{Follow, PurePursuit};

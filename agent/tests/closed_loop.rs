@@ -1,0 +1,96 @@
+//! The ground controller driving the simulated world directly (no bus): it must find,
+//! reach and put out fires, around parked vehicles, with and without a coordinator's task.
+
+use std::sync::Arc;
+
+use firefleet_agent::ground::GroundController;
+use firefleet_protocol::geometry::Point2;
+use firefleet_protocol::msg::{TaskKind, TaskPhase, TruthFireState};
+use firefleet_protocol::FireId;
+use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::spec::GROUND;
+use firefleet_protocol::UnitId;
+use firefleet_sim::World;
+
+const SCENARIO: &str = r#"
+    name = "closed-loop"
+    time_limit_s = 300
+    [tunnel]
+    length_m = 120.0
+    width_m = 10.0
+    height_m = 6.3
+    lanes = 2
+    [[obstacles]]
+    name = "car"
+    x_m = 40.0
+    y_m = -2.5
+    length_m = 4.5
+    width_m = 1.8
+    height_m = 1.5
+    [[fires]]
+    name = "fire"
+    x_m = 60.0
+    y_m = -2.0
+    growth = "fast"
+    peak_kw = 5000.0
+    ignition_s = -120.0
+    [[units]]
+    id = "u1"
+    kind = "ground"
+    x_m = 5.0
+    y_m = -2.5
+"#;
+
+/// Step world and controller together; returns (time the fire went out, the controller).
+fn run(coordinator_task: Option<Point2>) -> (Option<f64>, GroundController, World) {
+    let scenario = Arc::new(Scenario::from_toml(SCENARIO, "closed-loop.toml").unwrap());
+    let mut world = World::new(&scenario, 11);
+    let id = UnitId::new("u1").unwrap();
+    let mut ctl = GroundController::new(id.clone(), GROUND, scenario.clone());
+    if let Some(target) = coordinator_task {
+        ctl.set_coordinator_present(true);
+        ctl.on_task(1, TaskKind::Extinguish { fire: FireId(1), target });
+    }
+    let dt = 0.05;
+    while world.time() < scenario.time_limit_s {
+        let s = world.sensors(&id).unwrap();
+        let cmd = ctl.step(&s);
+        world.command(&id, cmd);
+        world.step(dt);
+        if world.truth().fires[0].state == TruthFireState::Out {
+            // Let the controller notice.
+            for _ in 0..100 {
+                let s = world.sensors(&id).unwrap();
+                let cmd = ctl.step(&s);
+                world.command(&id, cmd);
+                world.step(dt);
+            }
+            let t = world.time();
+            return (Some(t), ctl, world);
+        }
+    }
+    (None, ctl, world)
+}
+
+#[test]
+fn alone_the_unit_cruises_finds_and_puts_out_the_fire() {
+    let (out, _, world) = run(None);
+    let t = out.expect("fire never went out");
+    assert!(t < 120.0, "took {t} s");
+    let truth = world.truth();
+    assert_eq!(truth.units[0].collisions, 0, "touched the parked car or a wall");
+    assert!(truth.units[0].pose.position().dist(Point2::new(60.0, -2.0)) > 3.0, "drove into the fire");
+}
+
+#[test]
+fn with_a_task_the_unit_reports_the_fire_extinguished() {
+    let (out, ctl, world) = run(Some(Point2::new(60.3, -1.8)));
+    assert!(out.is_some(), "fire never went out");
+    let s = world.truth();
+    assert_eq!(s.units[0].collisions, 0);
+    let mut w = world;
+    let id = UnitId::new("u1").unwrap();
+    let state = ctl.state(&w.sensors(&id).unwrap());
+    let task = state.task.expect("task progress echoed");
+    assert_eq!((task.seq, task.fire, task.phase), (1, FireId(1), TaskPhase::Extinguished));
+}
