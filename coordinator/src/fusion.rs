@@ -1,0 +1,234 @@
+//! Fire fusion: flame observations from all units become fire tracks.
+//!
+//! Each observation is gated against every live track (Mahalanobis distance with the
+//! track's and the observation's covariance, plus a floor for the flame's own size) and
+//! fused into the nearest; otherwise it starts a new track. A unit's tracker already
+//! averages many frames, so its reports are not independent of each other: a track keeps
+//! one estimate per unit (the latest) and fuses across units, which is where independent
+//! information comes from. Confidence combines the units' confidences as independent
+//! witnesses: `1 - prod(1 - c_u)`.
+
+use std::collections::BTreeMap;
+
+use firefleet_protocol::geometry::{Gaussian2, Point2};
+use firefleet_protocol::msg::{FireState, FireTrack, FlameObservation};
+use firefleet_protocol::{FireId, UnitId};
+
+/// Association gate, squared Mahalanobis distance (chi-square 2 dof, 99.9 %).
+const GATE2: f64 = 13.8;
+/// Variance floor of a fused estimate and a per-observation floor, m^2: a flame is not a
+/// point.
+const MIN_VAR_M2: f64 = 0.05;
+/// Confidence at which a tentative track is confirmed.
+const CONFIRM_CONFIDENCE: f64 = 0.8;
+/// A track nobody works on and nobody has seen for this long is lost, s.
+const LOSE_AFTER_S: f64 = 60.0;
+/// Flames seen again at an extinguished fire after this long mean it reignited, s.
+const REIGNITE_AFTER_S: f64 = 5.0;
+
+/// One fused fire.
+#[derive(Debug, Clone)]
+pub struct Fire {
+    pub id: FireId,
+    pub state: FireState,
+    /// Latest estimate from each unit that has seen it.
+    per_unit: BTreeMap<UnitId, (Gaussian2, f64)>,
+    pub estimate: Gaussian2,
+    pub confidence: f64,
+    pub first_seen: f64,
+    pub last_seen: f64,
+    /// When it went out, for reignition.
+    pub out_at: Option<f64>,
+}
+
+impl Fire {
+    fn refuse(&mut self) {
+        let mut it = self.per_unit.values();
+        let Some((first, _)) = it.next() else { return };
+        self.estimate = it.fold(*first, |acc, (g, _)| acc.fuse(g));
+        self.estimate.cov[0] = self.estimate.cov[0].max(MIN_VAR_M2);
+        self.estimate.cov[2] = self.estimate.cov[2].max(MIN_VAR_M2);
+        self.confidence = 1.0 - self.per_unit.values().map(|(_, c)| 1.0 - c).product::<f64>();
+    }
+
+    pub fn position(&self) -> Point2 {
+        self.estimate.mean
+    }
+
+    /// Still burning as far as the coordinator knows.
+    pub fn active(&self) -> bool {
+        !matches!(self.state, FireState::Out | FireState::Lost)
+    }
+
+    pub fn seen_by(&self) -> impl Iterator<Item = &UnitId> {
+        self.per_unit.keys()
+    }
+
+    pub fn to_track(&self, t: f64, assigned: Vec<UnitId>) -> FireTrack {
+        FireTrack {
+            id: self.id,
+            t,
+            position: self.position(),
+            cov: self.estimate.cov,
+            confidence: self.confidence.clamp(0.0, 1.0),
+            state: self.state,
+            assigned,
+            seen_by: self.per_unit.keys().cloned().collect(),
+        }
+    }
+}
+
+/// What one observation did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fused {
+    New(FireId),
+    Updated(FireId),
+    Confirmed(FireId),
+    Reignited(FireId),
+}
+
+/// All fire tracks of an incident.
+#[derive(Debug, Clone, Default)]
+pub struct Fusion {
+    fires: Vec<Fire>,
+    next_id: u32,
+}
+
+impl Fusion {
+    pub fn fires(&self) -> &[Fire] {
+        &self.fires
+    }
+
+    pub fn get(&self, id: FireId) -> Option<&Fire> {
+        self.fires.iter().find(|f| f.id == id)
+    }
+
+    pub fn get_mut(&mut self, id: FireId) -> Option<&mut Fire> {
+        self.fires.iter_mut().find(|f| f.id == id)
+    }
+
+    /// Fold in one observation by `unit` at time `t`.
+    pub fn observe(&mut self, unit: &UnitId, obs: &FlameObservation, t: f64) -> Fused {
+        let mut z = Gaussian2 { mean: obs.position, cov: obs.cov };
+        z.cov[0] = z.cov[0].max(MIN_VAR_M2);
+        z.cov[2] = z.cov[2].max(MIN_VAR_M2);
+        let best = self
+            .fires
+            .iter_mut()
+            .filter(|f| f.state != FireState::Lost)
+            .map(|f| {
+                let mut g = f.estimate;
+                g.cov = [g.cov[0] + z.cov[0], g.cov[1] + z.cov[1], g.cov[2] + z.cov[2]];
+                (g.mahalanobis2(z.mean), f)
+            })
+            .filter(|(m2, _)| *m2 < GATE2)
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let Some((_, fire)) = best else {
+            self.next_id += 1;
+            let id = FireId(self.next_id);
+            let mut f = Fire {
+                id,
+                state: FireState::Tentative,
+                per_unit: BTreeMap::from([(unit.clone(), (z, obs.confidence))]),
+                estimate: z,
+                confidence: 0.0,
+                first_seen: t,
+                last_seen: t,
+                out_at: None,
+            };
+            f.refuse();
+            let confirmed = f.confidence >= CONFIRM_CONFIDENCE;
+            if confirmed {
+                f.state = FireState::Confirmed;
+            }
+            self.fires.push(f);
+            return if confirmed { Fused::Confirmed(id) } else { Fused::New(id) };
+        };
+        fire.last_seen = t;
+        fire.per_unit.insert(unit.clone(), (z, obs.confidence));
+        fire.refuse();
+        match fire.state {
+            FireState::Out if fire.out_at.is_some_and(|o| t - o > REIGNITE_AFTER_S) => {
+                fire.state = FireState::Confirmed;
+                fire.out_at = None;
+                Fused::Reignited(fire.id)
+            }
+            FireState::Tentative if fire.confidence >= CONFIRM_CONFIDENCE || fire.per_unit.len() >= 2 => {
+                fire.state = FireState::Confirmed;
+                Fused::Confirmed(fire.id)
+            }
+            _ => Fused::Updated(fire.id),
+        }
+    }
+
+    /// Mark tracks nobody works on and nobody sees as lost; returns their ids.
+    pub fn expire(&mut self, t: f64) -> Vec<FireId> {
+        let mut lost = Vec::new();
+        for f in &mut self.fires {
+            if matches!(f.state, FireState::Tentative | FireState::Confirmed) && t - f.last_seen > LOSE_AFTER_S {
+                f.state = FireState::Lost;
+                lost.push(f.id);
+            }
+        }
+        lost
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn u(s: &str) -> UnitId {
+        UnitId::new(s).unwrap()
+    }
+    fn obs(x: f64, y: f64, var: f64, c: f64) -> FlameObservation {
+        FlameObservation { position: Point2::new(x, y), cov: [var, 0.0, var], confidence: c }
+    }
+
+    #[test]
+    fn the_same_flame_seen_by_three_units_is_one_fire() {
+        let mut f = Fusion::default();
+        assert!(matches!(f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.6), 0.0), Fused::New(_)));
+        assert!(matches!(f.observe(&u("b"), &obs(50.6, 1.3, 0.4, 0.6), 0.1), Fused::Confirmed(_)));
+        f.observe(&u("c"), &obs(49.7, 0.8, 0.2, 0.7), 0.2);
+        assert_eq!(f.fires().len(), 1);
+        let fire = &f.fires()[0];
+        assert_eq!(fire.seen_by().count(), 3);
+        assert!(fire.position().dist(Point2::new(50.0, 1.0)) < 0.4);
+        assert!(fire.confidence > 0.9);
+    }
+
+    #[test]
+    fn close_but_distinct_fires_stay_apart() {
+        let mut f = Fusion::default();
+        f.observe(&u("a"), &obs(50.0, 2.5, 0.05, 0.9), 0.0);
+        f.observe(&u("a"), &obs(50.0, -2.5, 0.05, 0.9), 0.0);
+        assert_eq!(f.fires().len(), 2);
+    }
+
+    #[test]
+    fn repeated_reports_of_one_unit_do_not_inflate_confidence() {
+        let mut f = Fusion::default();
+        for k in 0..20 {
+            f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.5), k as f64);
+        }
+        assert!((f.fires()[0].confidence - 0.5).abs() < 1e-9);
+        assert_eq!(f.fires()[0].state, FireState::Tentative);
+    }
+
+    #[test]
+    fn unworked_unseen_tracks_are_lost_and_out_fires_can_reignite() {
+        let mut f = Fusion::default();
+        f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 0.0);
+        assert!(f.expire(30.0).is_empty());
+        assert_eq!(f.expire(61.0).len(), 1);
+
+        let mut f = Fusion::default();
+        let Fused::Confirmed(id) = f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 0.0) else { panic!() };
+        let fire = f.get_mut(id).unwrap();
+        fire.state = FireState::Out;
+        fire.out_at = Some(10.0);
+        assert_eq!(f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 12.0), Fused::Updated(id), "stale report");
+        assert_eq!(f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 20.0), Fused::Reignited(id));
+    }
+}

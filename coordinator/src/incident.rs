@@ -1,0 +1,439 @@
+//! The coordinator's picture of the incident, and how it reacts to events.
+//!
+//! Every event (a unit's state, a flame report, a unit appearing or vanishing, time
+//! passing) updates the picture and returns the messages to publish: new tasks and changed
+//! fire tracks. Every decision is logged with its reason and kept in [`Incident::decisions`].
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+
+use firefleet_protocol::msg::{
+    FireState, FireTrack, FlameReport, Task, TaskKind, TaskPhase, UnitMode, UnitState,
+};
+use firefleet_protocol::scenario::Tunnel;
+use firefleet_protocol::spec::GROUND;
+use firefleet_protocol::validate::Invalid;
+use firefleet_protocol::{FireId, UnitId};
+use serde::Serialize;
+
+use crate::assign::{self, Candidate, Need};
+use crate::fusion::{Fused, Fusion};
+
+/// How many decisions the incident remembers for status queries.
+const DECISION_LOG: usize = 200;
+/// After a unit fails a fire, it is not sent to that fire again for this long, s.
+const RETRY_AFTER_S: f64 = 60.0;
+
+/// What to publish after an event.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Output {
+    Task(Task),
+    Fire(FireTrack),
+}
+
+/// One logged decision.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Decision {
+    pub t: f64,
+    pub text: String,
+}
+
+/// What the coordinator knows of one unit.
+#[derive(Debug, Clone, Default)]
+struct UnitView {
+    state: Option<UnitState>,
+    alive: bool,
+    last_heard: f64,
+    task: Option<Task>,
+}
+
+impl UnitView {
+    fn working_on(&self) -> Option<FireId> {
+        match self.task.as_ref()?.kind {
+            TaskKind::Extinguish { fire, .. } => Some(fire),
+            TaskKind::Standby => None,
+        }
+    }
+}
+
+/// The incident.
+pub struct Incident {
+    tunnel: Tunnel,
+    units: BTreeMap<UnitId, UnitView>,
+    fusion: Fusion,
+    seq: u64,
+    lease_s: f64,
+    /// (unit, fire) pairs that failed, and until when not to retry them.
+    failed: BTreeMap<(UnitId, FireId), f64>,
+    decisions: VecDeque<Decision>,
+}
+
+impl Incident {
+    /// An incident in `tunnel` with the units the site file declares. Reports from any
+    /// other unit are refused. A unit silent for `lease_s` is treated as lost.
+    pub fn new(tunnel: Tunnel, units: impl IntoIterator<Item = UnitId>, lease_s: f64) -> Self {
+        Self {
+            tunnel,
+            units: units.into_iter().map(|u| (u, UnitView::default())).collect(),
+            fusion: Fusion::default(),
+            seq: 0,
+            lease_s,
+            failed: BTreeMap::new(),
+            decisions: VecDeque::new(),
+        }
+    }
+
+    fn log(&mut self, t: f64, text: String) {
+        tracing::info!(t, "{text}");
+        if self.decisions.len() == DECISION_LOG {
+            self.decisions.pop_front();
+        }
+        self.decisions.push_back(Decision { t, text });
+    }
+
+    fn view(&mut self, unit: &UnitId, field: &str) -> Result<&mut UnitView, Invalid> {
+        self.units.get_mut(unit).ok_or_else(|| Invalid::new(field, format!("unknown unit '{unit}'")))
+    }
+
+    /// A unit's liveliness token appeared or vanished.
+    pub fn on_alive(&mut self, unit: &UnitId, alive: bool, t: f64) -> Result<Vec<Output>, Invalid> {
+        let v = self.view(unit, "unit")?;
+        let was = v.alive;
+        v.alive = alive;
+        if alive {
+            v.last_heard = t;
+            if !was {
+                self.log(t, format!("unit {unit} joined"));
+            }
+            return Ok(self.solve(t));
+        }
+        if !was {
+            return Ok(Vec::new());
+        }
+        Ok(self.lose(unit, t, "its liveliness token vanished"))
+    }
+
+    fn lose(&mut self, unit: &UnitId, t: f64, why: &str) -> Vec<Output> {
+        let v = self.units.get_mut(unit).expect("known unit");
+        v.alive = false;
+        let fire = v.working_on();
+        v.task = None;
+        let mut out = Vec::new();
+        match fire {
+            Some(f) => {
+                self.log(t, format!("unit {unit} lost ({why}); fire {f} needs a new unit"));
+                out.extend(self.release(f, t));
+            }
+            None => self.log(t, format!("unit {unit} lost ({why})")),
+        }
+        out.extend(self.solve(t));
+        out
+    }
+
+    /// Put a fire back among those needing a unit, if it still burns.
+    fn release(&mut self, fire: FireId, t: f64) -> Option<Output> {
+        let f = self.fusion.get_mut(fire)?;
+        if !f.active() {
+            return None;
+        }
+        f.state = FireState::Confirmed;
+        Some(Output::Fire(self.track(fire, t)))
+    }
+
+    /// A unit's state message.
+    pub fn on_state(&mut self, st: UnitState, t: f64) -> Result<Vec<Output>, Invalid> {
+        let unit = st.unit.clone();
+        self.tunnel.check_inside("pose", st.pose.position())?;
+        let v = self.view(&unit, "unit")?;
+        v.last_heard = t;
+        let current = v.task.clone();
+        let progress = st.task;
+        v.state = Some(st);
+        let mut out = Vec::new();
+        if let (Some(task), Some(p)) = (current, progress)
+            && task.seq == p.seq
+            && let TaskKind::Extinguish { fire, .. } = task.kind
+        {
+            match p.phase {
+                TaskPhase::Extinguished => {
+                    if let Some(f) = self.fusion.get_mut(fire) {
+                        f.state = FireState::Out;
+                        f.out_at = Some(t);
+                    }
+                    self.log(t, format!("fire {fire} out, reported by {unit}"));
+                    out.push(Output::Fire(self.track(fire, t)));
+                    out.push(self.standby(&unit, t));
+                }
+                TaskPhase::Failed => {
+                    self.failed.insert((unit.clone(), fire), t + RETRY_AFTER_S);
+                    self.log(t, format!("unit {unit} gave up fire {fire}"));
+                    out.extend(self.release(fire, t));
+                    out.push(self.standby(&unit, t));
+                }
+                TaskPhase::Spraying => {
+                    if let Some(f) = self.fusion.get_mut(fire)
+                        && f.state == FireState::Assigned
+                    {
+                        f.state = FireState::Suppressing;
+                        out.push(Output::Fire(self.track(fire, t)));
+                    }
+                }
+                TaskPhase::Travelling => {}
+            }
+        }
+        out.extend(self.solve(t));
+        Ok(out)
+    }
+
+    fn standby(&mut self, unit: &UnitId, t: f64) -> Output {
+        self.seq += 1;
+        let task = Task { unit: unit.clone(), seq: self.seq, t, kind: TaskKind::Standby };
+        self.units.get_mut(unit).expect("known unit").task = Some(task.clone());
+        Output::Task(task)
+    }
+
+    /// A unit's flame report.
+    pub fn on_report(&mut self, r: &FlameReport, t: f64) -> Result<Vec<Output>, Invalid> {
+        self.view(&r.unit, "unit")?.last_heard = t;
+        for (i, o) in r.observations.iter().enumerate() {
+            self.tunnel.check_inside(&format!("observations[{i}].position"), o.position)?;
+        }
+        let mut out = Vec::new();
+        for o in &r.observations {
+            match self.fusion.observe(&r.unit, o, t) {
+                Fused::New(_) | Fused::Updated(_) => {}
+                Fused::Confirmed(id) => {
+                    self.log(t, format!("fire {id} confirmed at ({:.1}, {:.1})", o.position.x, o.position.y));
+                    out.push(Output::Fire(self.track(id, t)));
+                }
+                Fused::Reignited(id) => {
+                    self.log(t, format!("fire {id} reignited"));
+                    out.push(Output::Fire(self.track(id, t)));
+                }
+            }
+        }
+        out.extend(self.solve(t));
+        Ok(out)
+    }
+
+    /// Time passed: expire silent units and unseen fires, then re-solve.
+    pub fn tick(&mut self, t: f64) -> Vec<Output> {
+        let silent: Vec<UnitId> = self
+            .units
+            .iter()
+            .filter(|(_, v)| v.alive && t - v.last_heard > self.lease_s)
+            .map(|(u, _)| u.clone())
+            .collect();
+        let mut out = Vec::new();
+        for u in silent {
+            out.extend(self.lose(&u, t, "silent beyond its lease"));
+        }
+        for id in self.fusion.expire(t) {
+            self.log(t, format!("fire {id} lost: unseen for a minute and unattended"));
+            out.push(Output::Fire(self.track(id, t)));
+        }
+        self.failed.retain(|_, until| *until > t);
+        out.extend(self.solve(t));
+        out
+    }
+
+    /// Assign free units to fires that need one.
+    fn solve(&mut self, t: f64) -> Vec<Output> {
+        let needs: Vec<Need> = self
+            .fusion
+            .fires()
+            .iter()
+            .filter(|f| f.state == FireState::Confirmed)
+            .map(|f| Need { fire: f.id, position: f.position() })
+            .collect();
+        if needs.is_empty() {
+            return Vec::new();
+        }
+        let candidates: Vec<Candidate> = self
+            .units
+            .iter()
+            .filter(|(_, v)| v.alive && v.working_on().is_none())
+            .filter_map(|(u, v)| {
+                let st = v.state.as_ref()?;
+                (st.mode != UnitMode::Fault && st.water_l > 0.0).then(|| Candidate {
+                    unit: u.clone(),
+                    position: st.pose.position(),
+                    speed_m_s: GROUND.max_speed_m_s,
+                })
+            })
+            .collect();
+        let picks = assign::greedy(&candidates, &needs);
+        let mut out = Vec::new();
+        for p in picks {
+            if self.failed.contains_key(&(p.unit.clone(), p.fire)) {
+                continue;
+            }
+            let Some(fire) = self.fusion.get_mut(p.fire) else { continue };
+            fire.state = FireState::Assigned;
+            let target = fire.position();
+            self.seq += 1;
+            let task = Task { unit: p.unit.clone(), seq: self.seq, t, kind: TaskKind::Extinguish { fire: p.fire, target } };
+            self.units.get_mut(&p.unit).expect("candidate is known").task = Some(task.clone());
+            let runner_up = match &p.runner_up {
+                Some((u, c)) => format!("runner-up {u} at {c:.1} s"),
+                None => "no other free unit".to_owned(),
+            };
+            self.log(t, format!("assign {} to fire {}: travel {:.1} s; {runner_up}", p.unit, p.fire, p.cost_s));
+            out.push(Output::Task(task));
+            out.push(Output::Fire(self.track(p.fire, t)));
+        }
+        out
+    }
+
+    fn assigned_to(&self, fire: FireId) -> Vec<UnitId> {
+        self.units.iter().filter(|(_, v)| v.alive && v.working_on() == Some(fire)).map(|(u, _)| u.clone()).collect()
+    }
+
+    fn track(&self, fire: FireId, t: f64) -> FireTrack {
+        self.fusion.get(fire).expect("track exists").to_track(t, self.assigned_to(fire))
+    }
+
+    /// Every current task, for periodic re-publication (late joiners, lost messages).
+    pub fn tasks(&self) -> impl Iterator<Item = &Task> {
+        self.units.values().filter(|v| v.alive).filter_map(|v| v.task.as_ref())
+    }
+
+    /// Every fire track.
+    pub fn fire_tracks(&self, t: f64) -> Vec<FireTrack> {
+        self.fusion.fires().iter().map(|f| f.to_track(t, self.assigned_to(f.id))).collect()
+    }
+
+    pub fn decisions(&self) -> impl Iterator<Item = &Decision> {
+        self.decisions.iter()
+    }
+
+    /// A JSON snapshot of the incident, for `firefleet status` and any Zenoh client.
+    pub fn status(&self, t: f64) -> serde_json::Value {
+        let units: Vec<serde_json::Value> = self
+            .units
+            .iter()
+            .map(|(u, v)| {
+                serde_json::json!({
+                    "unit": u,
+                    "alive": v.alive,
+                    "state": v.state,
+                    "task": v.task,
+                })
+            })
+            .collect();
+        serde_json::json!({
+            "t": t,
+            "units": units,
+            "fires": self.fire_tracks(t),
+            "decisions": self.decisions.iter().rev().take(20).collect::<Vec<_>>(),
+        })
+    }
+
+    /// Units that have seen each fire (for tests and status).
+    pub fn seen_by(&self, fire: FireId) -> BTreeSet<UnitId> {
+        self.fusion.get(fire).map(|f| f.seen_by().cloned().collect()).unwrap_or_default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firefleet_protocol::geometry::{Point2, Pose2};
+    use firefleet_protocol::msg::{FlameObservation, TaskProgress, UnitKind};
+
+    const TUNNEL: Tunnel = Tunnel { length_m: 200.0, width_m: 10.0, height_m: 6.0, lanes: 2 };
+
+    fn u(s: &str) -> UnitId {
+        UnitId::new(s).unwrap()
+    }
+
+    fn state(unit: &str, x: f64, task: Option<TaskProgress>) -> UnitState {
+        UnitState {
+            unit: u(unit),
+            kind: UnitKind::Ground,
+            t: 0.0,
+            pose: Pose2::new(x, -2.0, 0.0),
+            speed: 0.0,
+            mode: UnitMode::Idle,
+            water_l: 1000.0,
+            health: 1.0,
+            heat_flux_kw_m2: 0.0,
+            task,
+            autonomous: false,
+        }
+    }
+
+    fn report(unit: &str, x: f64) -> FlameReport {
+        FlameReport {
+            unit: u(unit),
+            t: 0.0,
+            observer: Pose2::new(x - 15.0, -2.0, 0.0),
+            observations: vec![FlameObservation { position: Point2::new(x, 1.0), cov: [0.2, 0.0, 0.2], confidence: 0.9 }],
+        }
+    }
+
+    fn tasks(out: &[Output]) -> Vec<&Task> {
+        out.iter().filter_map(|o| if let Output::Task(t) = o { Some(t) } else { None }).collect()
+    }
+
+    fn incident() -> Incident {
+        let mut i = Incident::new(TUNNEL, [u("a"), u("b")], 5.0);
+        for (n, x) in [("a", 10.0), ("b", 40.0)] {
+            i.on_alive(&u(n), true, 0.0).unwrap();
+            i.on_state(state(n, x, None), 0.0).unwrap();
+        }
+        i
+    }
+
+    #[test]
+    fn a_confirmed_fire_goes_to_the_nearest_free_unit() {
+        let mut i = incident();
+        let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+        let t = tasks(&out);
+        assert_eq!(t.len(), 1);
+        assert_eq!(t[0].unit.as_str(), "b");
+        assert!(matches!(t[0].kind, TaskKind::Extinguish { .. }));
+        assert!(i.decisions().last().unwrap().text.contains("runner-up a"));
+    }
+
+    #[test]
+    fn a_lost_unit_s_fire_is_reassigned_at_once() {
+        let mut i = incident();
+        i.on_report(&report("a", 60.0), 1.0).unwrap();
+        let out = i.on_alive(&u("b"), false, 2.0).unwrap();
+        let t = tasks(&out);
+        assert_eq!(t.len(), 1, "{out:?}");
+        assert_eq!(t[0].unit.as_str(), "a");
+    }
+
+    #[test]
+    fn a_silent_unit_is_lost_after_its_lease() {
+        let mut i = incident();
+        i.on_report(&report("a", 60.0), 1.0).unwrap();
+        i.on_state(state("a", 10.0, None), 5.5).unwrap();
+        assert!(tasks(&i.tick(4.0)).is_empty());
+        let out = i.tick(6.0);
+        assert_eq!(tasks(&out)[0].unit.as_str(), "a");
+    }
+
+    #[test]
+    fn extinguished_fire_is_out_and_the_unit_stands_by() {
+        let mut i = incident();
+        let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+        let task = tasks(&out)[0].clone();
+        let TaskKind::Extinguish { fire, .. } = task.kind else { panic!() };
+        let done = TaskProgress { seq: task.seq, fire, phase: TaskPhase::Extinguished };
+        let out = i.on_state(state("b", 55.0, Some(done)), 20.0).unwrap();
+        assert!(out.iter().any(|o| matches!(o, Output::Fire(f) if f.id == fire && f.state == FireState::Out)));
+        assert!(matches!(tasks(&out)[0].kind, TaskKind::Standby));
+    }
+
+    #[test]
+    fn bad_input_is_refused_and_changes_nothing() {
+        let mut i = incident();
+        assert!(i.on_report(&report("zz", 60.0), 1.0).unwrap_err().reason.contains("unknown unit"));
+        let e = i.on_report(&report("a", 260.0), 1.0).unwrap_err();
+        assert_eq!(e.field, "observations[0].position");
+        assert!(i.fire_tracks(1.0).is_empty());
+        assert!(i.on_state(state("a", -30.0, None), 1.0).is_err());
+    }
+}

@@ -1,0 +1,107 @@
+//! The coordinator as a process on the bus.
+//!
+//! Follows every unit's liveliness token, state and flame reports, feeds them to the
+//! [`Incident`], and publishes what it decides: tasks on `unit/<id>/task`, fire tracks on
+//! `fire/<id>`. Tasks and tracks are re-published every second so that a unit that missed a
+//! message or joined late converges. `coord/status` answers queries with a JSON snapshot.
+//! A message the incident refuses (unknown unit, outside the tunnel) is logged and counted;
+//! nothing else changes.
+
+use std::future::Future;
+use std::sync::Arc;
+use std::time::Duration;
+
+use firefleet_protocol::bus::{Bus, BusError};
+use firefleet_protocol::clock::{Clock, ExternalClock, SystemClock};
+use firefleet_protocol::keys::{self, Topic, UnitLeaf};
+use firefleet_protocol::msg::{FlameReport, SimClock, UnitState};
+use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::validate::Invalid;
+use zenoh::sample::SampleKind;
+
+use crate::incident::{Incident, Output};
+
+/// How the coordinator runs.
+#[derive(Debug, Clone)]
+pub struct CoordinatorOptions {
+    /// A unit silent this long (site time) is lost, s.
+    pub lease_s: f64,
+    /// Follow the simulator's clock instead of the system clock.
+    pub sim_clock: bool,
+}
+
+/// Run the coordinator until `shutdown` completes.
+pub async fn run(bus: &Bus, scenario: &Scenario, opts: &CoordinatorOptions, shutdown: impl Future<Output = ()>) -> Result<(), BusError> {
+    let keys = bus.keys().clone();
+    let session = bus.session();
+    let sim_time = ExternalClock::new(0.0);
+    let clock: Arc<dyn Clock> = if opts.sim_clock { Arc::new(sim_time.clone()) } else { Arc::new(SystemClock) };
+    let mut incident = Incident::new(scenario.tunnel, scenario.units.iter().map(|u| u.id.clone()), opts.lease_s);
+
+    let _token = session.liveliness().declare_token(keys.key(&Topic::CoordAlive)).await?;
+    let alive = session.liveliness().declare_subscriber(keys.every_unit(UnitLeaf::Alive)).history(true).await?;
+    let states = bus.subscribe::<UnitState>(&keys.every_unit(UnitLeaf::State)).await?;
+    let reports = bus.subscribe::<FlameReport>(&keys.every_unit(UnitLeaf::Report)).await?;
+    let clock_msgs = bus.subscribe::<SimClock>(&keys.key(&Topic::SimClock)).await?;
+    let status = session.declare_queryable(keys.key(&Topic::CoordStatus)).await?;
+
+    let mut tick = tokio::time::interval(Duration::from_millis(200));
+    let mut republish = tokio::time::interval(Duration::from_secs(1));
+    tokio::pin!(shutdown);
+    tracing::info!(units = scenario.units.len(), "coordinator started");
+    loop {
+        let outputs: Result<Vec<Output>, Invalid> = tokio::select! {
+            _ = &mut shutdown => break,
+            Some((_, c)) = clock_msgs.recv() => { sim_time.set(c.t); Ok(Vec::new()) }
+            Ok(sample) = alive.recv_async() => match keys::parse(sample.key_expr().as_str()) {
+                Ok((_, Topic::UnitAlive(unit))) => incident.on_alive(&unit, sample.kind() == SampleKind::Put, clock.now()),
+                _ => Err(Invalid::new("key", format!("'{}' is not a unit token", sample.key_expr()))),
+            },
+            Some((key, st)) = states.recv() => {
+                if keys::parse(&key).ok().map(|(_, t)| t) == Some(Topic::UnitState(st.unit.clone())) {
+                    incident.on_state(st, clock.now())
+                } else {
+                    Err(Invalid::new("unit", format!("state on '{key}' names unit '{}'", st.unit)))
+                }
+            }
+            Some((key, r)) = reports.recv() => {
+                if keys::parse(&key).ok().map(|(_, t)| t) == Some(Topic::UnitReport(r.unit.clone())) {
+                    incident.on_report(&r, clock.now())
+                } else {
+                    Err(Invalid::new("unit", format!("report on '{key}' names unit '{}'", r.unit)))
+                }
+            }
+            Ok(query) = status.recv_async() => {
+                let body = incident.status(clock.now()).to_string();
+                if let Err(e) = query.reply(keys.key(&Topic::CoordStatus), body).await {
+                    tracing::warn!("status reply failed: {e}");
+                }
+                Ok(Vec::new())
+            }
+            _ = tick.tick() => Ok(incident.tick(clock.now())),
+            _ = republish.tick() => {
+                let t = clock.now();
+                Ok(incident.tasks().cloned().map(Output::Task).chain(incident.fire_tracks(t).into_iter().map(Output::Fire)).collect())
+            }
+        };
+        match outputs {
+            Ok(outputs) => publish(bus, outputs).await?,
+            Err(e) => {
+                bus.rejects().count_invalid();
+                tracing::warn!("refused message: {e}");
+            }
+        }
+    }
+    Ok(())
+}
+
+async fn publish(bus: &Bus, outputs: Vec<Output>) -> Result<(), BusError> {
+    let keys = bus.keys();
+    for o in outputs {
+        match o {
+            Output::Task(t) => bus.put(&keys.key(&Topic::UnitTask(t.unit.clone())), &t).await?,
+            Output::Fire(f) => bus.put(&keys.key(&Topic::Fire(f.id)), &f).await?,
+        }
+    }
+    Ok(())
+}

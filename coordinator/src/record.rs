@@ -1,0 +1,193 @@
+//! Recording the whole fleet's traffic to MCAP.
+//!
+//! Every message on `ff/<site>/**` is decoded by its key's type and written as JSON on a
+//! channel named after its key, with a JSON Schema per message type, so any MCAP reader
+//! (Foxglove, Lichtblick, the `mcap` CLI and libraries) can open and decode the file.
+//! Liveliness changes go to `<site>/liveliness`. A Foxglove scene (`/scene`) shows the
+//! tunnel, the parked vehicles, the units and the fires. Undecodable messages are counted
+//! and skipped, never written as garbage.
+//!
+//! Chunks are not compressed: compression would pull C libraries into the build, and
+//! uncompressed MCAP is readable everywhere.
+
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::future::Future;
+use std::io::BufWriter;
+use std::path::Path;
+use std::time::{SystemTime, UNIX_EPOCH};
+
+use firefleet_protocol::bus::{Bus, BusError};
+use firefleet_protocol::codec::{self, CodecError};
+use firefleet_protocol::keys::{self, Topic};
+use firefleet_protocol::msg::{
+    FireTrack, FlameReport, GoalAck, Message, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState, ZoneGoal,
+};
+use firefleet_protocol::scenario::Scenario;
+use serde::Serialize;
+use zenoh::sample::SampleKind;
+
+use crate::scene;
+
+/// Why recording failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    #[error("cannot create {path}: {source}")]
+    Create { path: String, source: std::io::Error },
+    #[error("writing MCAP: {0}")]
+    Mcap(#[from] mcap::McapError),
+    #[error(transparent)]
+    Bus(#[from] BusError),
+}
+
+/// What a recording holds.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct RecordSummary {
+    pub messages: u64,
+    pub channels: usize,
+    pub skipped: u64,
+}
+
+/// Simulated seconds between two scene updates.
+const SCENE_PERIOD_S: f64 = 0.5;
+
+/// The JSON form of a message with its type's schema name and JSON Schema.
+struct Decoded {
+    schema_name: &'static str,
+    schema: fn() -> schemars::Schema,
+    json: Vec<u8>,
+}
+
+fn decoded<M: Message>(bytes: &[u8], schema_name: &'static str) -> Result<(Decoded, M), CodecError> {
+    let m: M = codec::decode(bytes)?;
+    let json = serde_json::to_vec(&m)?;
+    Ok((Decoded { schema_name, schema: || schemars::schema_for!(M), json }, m))
+}
+
+/// An MCAP file being written.
+struct McapSink {
+    writer: mcap::Writer<BufWriter<File>>,
+    schemas: HashMap<&'static str, u16>,
+    channels: HashMap<String, (u16, u32)>,
+    summary: RecordSummary,
+}
+
+impl McapSink {
+    fn create(path: &Path) -> Result<Self, RecordError> {
+        let file = File::create(path).map_err(|source| RecordError::Create { path: path.display().to_string(), source })?;
+        let writer = mcap::WriteOptions::new().compression(None).profile("firefleet").create(BufWriter::new(file))?;
+        Ok(Self { writer, schemas: HashMap::new(), channels: HashMap::new(), summary: RecordSummary::default() })
+    }
+
+    fn write(&mut self, topic: &str, schema_name: &'static str, schema: fn() -> schemars::Schema, json: &[u8], t_ns: u64) -> Result<(), RecordError> {
+        let schema_id = match self.schemas.get(schema_name) {
+            Some(id) => *id,
+            None => {
+                let data = serde_json::to_vec(&schema()).expect("a schema serialises");
+                let id = self.writer.add_schema(schema_name, "jsonschema", &data)?;
+                self.schemas.insert(schema_name, id);
+                id
+            }
+        };
+        let (channel_id, seq) = match self.channels.get_mut(topic) {
+            Some(c) => c,
+            None => {
+                let id = self.writer.add_channel(schema_id, topic, "json", &BTreeMap::new())?;
+                self.channels.entry(topic.to_owned()).or_insert((id, 0))
+            }
+        };
+        *seq += 1;
+        let header = mcap::records::MessageHeader { channel_id: *channel_id, sequence: *seq, log_time: t_ns, publish_time: t_ns };
+        self.writer.write_to_known_channel(&header, json)?;
+        self.summary.messages += 1;
+        Ok(())
+    }
+
+    fn finish(mut self) -> Result<RecordSummary, RecordError> {
+        self.writer.finish()?;
+        self.summary.channels = self.channels.len();
+        Ok(self.summary)
+    }
+}
+
+fn now_ns() -> u64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_nanos() as u64).unwrap_or(0)
+}
+
+fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Option<SimTruth>), CodecError> {
+    fn plain<M: Message>(bytes: &[u8], name: &'static str) -> Result<(Decoded, Option<SimTruth>), CodecError> {
+        decoded::<M>(bytes, name).map(|(d, _)| (d, None))
+    }
+    match topic {
+        Topic::UnitState(_) => plain::<UnitState>(bytes, "firefleet.UnitState"),
+        Topic::UnitReport(_) => plain::<FlameReport>(bytes, "firefleet.FlameReport"),
+        Topic::UnitTask(_) => plain::<Task>(bytes, "firefleet.Task"),
+        Topic::Fire(_) => plain::<FireTrack>(bytes, "firefleet.FireTrack"),
+        Topic::ZoneGoal(_) => plain::<ZoneGoal>(bytes, "firefleet.ZoneGoal"),
+        Topic::ZoneAck(_) => plain::<GoalAck>(bytes, "firefleet.GoalAck"),
+        Topic::SimClock => plain::<SimClock>(bytes, "firefleet.SimClock"),
+        Topic::SimSensors(_) => plain::<UnitSensors>(bytes, "firefleet.UnitSensors"),
+        Topic::SimCmd(_) => plain::<UnitCommand>(bytes, "firefleet.UnitCommand"),
+        Topic::SimTruth => decoded::<SimTruth>(bytes, "firefleet.SimTruth").map(|(d, m)| (d, Some(m))),
+        Topic::UnitAlive(_) | Topic::CoordAlive | Topic::CoordStatus => Err(CodecError::Empty),
+    }
+}
+
+#[derive(Serialize, schemars::JsonSchema)]
+struct Liveliness {
+    key: String,
+    alive: bool,
+}
+
+/// Record everything on the site until `shutdown` completes; the file is finished (summary
+/// and index written) however the recording ends.
+pub async fn record(bus: &Bus, scenario: &Scenario, path: &Path, shutdown: impl Future<Output = ()>) -> Result<RecordSummary, RecordError> {
+    let keys = bus.keys().clone();
+    let session = bus.session();
+    let mut sink = McapSink::create(path)?;
+    let result = async {
+        let samples = session.declare_subscriber(keys.all()).await.map_err(BusError::from)?;
+        let tokens = session.liveliness().declare_subscriber(keys.all()).history(true).await.map_err(BusError::from)?;
+        let scene_schema = || schemars::schema_for!(scene::SceneUpdate);
+        let statics = serde_json::to_vec(&scene::static_scene(scenario, scene::Time::from_nanos(now_ns()))).expect("serialises");
+        sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &statics, now_ns())?;
+        let liveliness_topic = format!("{}/liveliness", keys.site());
+        let mut next_scene = 0.0;
+        tokio::pin!(shutdown);
+        loop {
+            tokio::select! {
+                _ = &mut shutdown => break,
+                Ok(s) = tokens.recv_async() => {
+                    let l = Liveliness { key: s.key_expr().to_string(), alive: s.kind() == SampleKind::Put };
+                    let json = serde_json::to_vec(&l).expect("serialises");
+                    sink.write(&liveliness_topic, "firefleet.Liveliness", || schemars::schema_for!(Liveliness), &json, now_ns())?;
+                }
+                Ok(s) = samples.recv_async() => {
+                    let key = s.key_expr().as_str();
+                    let parsed = keys::parse(key).map_err(|e| e.to_string())
+                        .and_then(|(_, topic)| decode(&topic, &s.payload().to_bytes()).map_err(|e| e.to_string()));
+                    match parsed {
+                        Ok((d, truth)) => {
+                            let t = now_ns();
+                            sink.write(key, d.schema_name, d.schema, &d.json, t)?;
+                            if let Some(truth) = truth.filter(|tr| tr.t >= next_scene) {
+                                next_scene = truth.t + SCENE_PERIOD_S;
+                                let update = scene::truth_scene(scenario, &truth, scene::Time::from_nanos(t));
+                                sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &serde_json::to_vec(&update).expect("serialises"), t)?;
+                            }
+                        }
+                        Err(reason) => {
+                            sink.summary.skipped += 1;
+                            tracing::warn!(key, "not recorded: {reason}");
+                        }
+                    }
+                }
+            }
+        }
+        Ok::<(), RecordError>(())
+    }
+    .await;
+    // Finish the file whatever happened above, so that what was recorded stays readable.
+    let summary = sink.finish()?;
+    result.map(|_| summary)
+}

@@ -1,0 +1,193 @@
+//! A Foxglove 3D scene of the tunnel, built from the site file and the simulator's truth.
+//!
+//! The types mirror the fields of Foxglove's well-known `foxglove.SceneUpdate` message that
+//! we use, serialised as JSON (Foxglove decodes JSON messages by schema name). Their JSON
+//! Schemas are derived from these types.
+
+use firefleet_protocol::msg::{SimTruth, TruthFireState};
+use firefleet_protocol::scenario::Scenario;
+use schemars::JsonSchema;
+use serde::Serialize;
+
+/// Schema name Foxglove recognises.
+pub const SCHEMA_NAME: &str = "foxglove.SceneUpdate";
+/// The frame every entity is drawn in.
+pub const FRAME: &str = "site";
+
+#[derive(Debug, Clone, Copy, Serialize, JsonSchema)]
+pub struct Time {
+    pub sec: u32,
+    pub nsec: u32,
+}
+
+impl Time {
+    pub fn from_nanos(ns: u64) -> Self {
+        Self { sec: (ns / 1_000_000_000) as u32, nsec: (ns % 1_000_000_000) as u32 }
+    }
+}
+
+#[derive(Debug, Clone, Copy, Serialize, JsonSchema)]
+pub struct Vector3 {
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+}
+
+#[derive(Debug, Clone, Copy, Serialize, JsonSchema)]
+pub struct Quaternion {
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub w: f64,
+}
+
+#[derive(Debug, Clone, Copy, Serialize, JsonSchema)]
+pub struct Pose {
+    pub position: Vector3,
+    pub orientation: Quaternion,
+}
+
+impl Pose {
+    fn at(x: f64, y: f64, z: f64, yaw: f64) -> Self {
+        let (s, c) = (yaw / 2.0).sin_cos();
+        Self { position: Vector3 { x, y, z }, orientation: Quaternion { x: 0.0, y: 0.0, z: s, w: c } }
+    }
+}
+
+#[derive(Debug, Clone, Copy, Serialize, JsonSchema)]
+pub struct Color {
+    pub r: f64,
+    pub g: f64,
+    pub b: f64,
+    pub a: f64,
+}
+
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+pub struct CubePrimitive {
+    pub pose: Pose,
+    pub size: Vector3,
+    pub color: Color,
+}
+
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+pub struct CylinderPrimitive {
+    pub pose: Pose,
+    pub size: Vector3,
+    pub bottom_scale: f64,
+    pub top_scale: f64,
+    pub color: Color,
+}
+
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+pub struct TextPrimitive {
+    pub pose: Pose,
+    pub billboard: bool,
+    pub font_size: f64,
+    pub scale_invariant: bool,
+    pub color: Color,
+    pub text: String,
+}
+
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+pub struct SceneEntity {
+    pub timestamp: Time,
+    pub frame_id: String,
+    pub id: String,
+    /// Zero: the entity stays until replaced.
+    pub lifetime: Time,
+    pub frame_locked: bool,
+    pub cubes: Vec<CubePrimitive>,
+    pub cylinders: Vec<CylinderPrimitive>,
+    pub texts: Vec<TextPrimitive>,
+}
+
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+pub struct SceneUpdate {
+    pub deletions: Vec<serde_json::Value>,
+    pub entities: Vec<SceneEntity>,
+}
+
+fn entity(id: String, ts: Time) -> SceneEntity {
+    SceneEntity {
+        timestamp: ts,
+        frame_id: FRAME.into(),
+        id,
+        lifetime: Time { sec: 0, nsec: 0 },
+        frame_locked: false,
+        cubes: Vec::new(),
+        cylinders: Vec::new(),
+        texts: Vec::new(),
+    }
+}
+
+fn label(x: f64, y: f64, z: f64, text: String) -> TextPrimitive {
+    TextPrimitive {
+        pose: Pose::at(x, y, z, 0.0),
+        billboard: true,
+        font_size: 14.0,
+        scale_invariant: true,
+        color: Color { r: 1.0, g: 1.0, b: 1.0, a: 1.0 },
+        text,
+    }
+}
+
+/// Road, walls and parked vehicles: drawn once.
+pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
+    let t = &s.tunnel;
+    let mut tunnel = entity("tunnel".into(), ts);
+    let grey = |a| Color { r: 0.5, g: 0.5, b: 0.55, a };
+    tunnel.cubes.push(CubePrimitive {
+        pose: Pose::at(t.length_m / 2.0, 0.0, -0.05, 0.0),
+        size: Vector3 { x: t.length_m, y: t.width_m, z: 0.1 },
+        color: grey(1.0),
+    });
+    for side in [-1.0, 1.0] {
+        tunnel.cubes.push(CubePrimitive {
+            pose: Pose::at(t.length_m / 2.0, side * (t.width_m / 2.0 + 0.1), t.height_m / 2.0, 0.0),
+            size: Vector3 { x: t.length_m, y: 0.2, z: t.height_m },
+            color: grey(0.25),
+        });
+    }
+    let mut entities = vec![tunnel];
+    for o in &s.obstacles {
+        let mut e = entity(format!("obstacle/{}", o.name), ts);
+        e.cubes.push(CubePrimitive {
+            pose: Pose::at(o.x_m, o.y_m, o.height_m / 2.0, o.yaw_rad),
+            size: Vector3 { x: o.length_m, y: o.width_m, z: o.height_m },
+            color: Color { r: 0.3, g: 0.35, b: 0.4, a: 1.0 },
+        });
+        entities.push(e);
+    }
+    SceneUpdate { deletions: Vec::new(), entities }
+}
+
+/// Units and fires as the simulator sees them now.
+pub fn truth_scene(s: &Scenario, truth: &SimTruth, ts: Time) -> SceneUpdate {
+    let mut entities = Vec::new();
+    for u in &truth.units {
+        let mut e = entity(format!("unit/{}", u.id), ts);
+        e.cubes.push(CubePrimitive {
+            pose: Pose::at(u.pose.x, u.pose.y, 0.5, u.pose.yaw),
+            size: Vector3 { x: 1.6, y: 1.0, z: 1.0 },
+            color: Color { r: 0.1, g: 0.4, b: 0.9, a: 1.0 },
+        });
+        e.texts.push(label(u.pose.x, u.pose.y, 1.6, u.id.to_string()));
+        entities.push(e);
+    }
+    for (f, spec) in truth.fires.iter().zip(&s.fires) {
+        let mut e = entity(format!("fire/{}", f.name), ts);
+        let burning = f.state == TruthFireState::Burning;
+        let h = if burning { 0.5 + 3.0 * (f.hrr_kw / spec.peak_kw).min(1.0) } else { 0.05 };
+        let color = if burning { Color { r: 1.0, g: 0.35, b: 0.0, a: 0.8 } } else { Color { r: 0.2, g: 0.2, b: 0.2, a: 0.8 } };
+        e.cylinders.push(CylinderPrimitive {
+            pose: Pose::at(f.position.x, f.position.y, h / 2.0, 0.0),
+            size: Vector3 { x: 2.0 * spec.radius_m, y: 2.0 * spec.radius_m, z: h },
+            bottom_scale: 1.0,
+            top_scale: if burning { 0.3 } else { 1.0 },
+            color,
+        });
+        e.texts.push(label(f.position.x, f.position.y, h + 0.5, format!("{} {:.0} kW", f.name, f.hrr_kw)));
+        entities.push(e);
+    }
+    SceneUpdate { deletions: Vec::new(), entities }
+}

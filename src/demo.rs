@@ -1,0 +1,249 @@
+//! `firefleet demo`: a whole fleet on loopback, each role its own process.
+//!
+//! The demo process is the Zenoh router (a free loopback port); the simulator, the
+//! coordinator, one agent per unit and (with `--record`) a recorder are its children,
+//! started from the same binary in client mode. Children are told to stop by closing their
+//! standard input (`--die-with-parent`), which also ends them if the demo itself dies, so
+//! none outlives it. The demo follows the simulator's ground truth, prints progress, and
+//! exits 0 exactly when every fire is out before the scenario's time limit.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::process::{ExitCode, Stdio};
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use clap::Args;
+use firefleet_protocol::bus::{Bus, Connect};
+use firefleet_protocol::keys::{Topic, UnitLeaf};
+use firefleet_protocol::msg::{SimTruth, TruthFireState, UnitState};
+use serde::Serialize;
+use tokio::process::{Child, Command};
+
+use crate::roles::shutdown_signal;
+use crate::{positive_f64, scenarios};
+
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// A built-in scenario name (see `firefleet scenarios`) or a scenario file.
+    #[arg(long, default_value = "vehicle-collision")]
+    scenario: String,
+    /// Seed of the simulator (default: the scenario's).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Simulated seconds per wall-clock second.
+    #[arg(long, default_value_t = 4.0, value_parser = positive_f64)]
+    time_scale: f64,
+    /// Record all fleet traffic to this MCAP file.
+    #[arg(long, value_name = "FILE.mcap")]
+    record: Option<PathBuf>,
+    /// Write a JSON summary of the run to this file.
+    #[arg(long, value_name = "FILE")]
+    summary_json: Option<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct ProcessInfo {
+    role: String,
+    pid: Option<u32>,
+}
+
+#[derive(Serialize)]
+struct UnitSummary {
+    id: String,
+    heat_dose_kj_m2: f64,
+    water_used_l: f64,
+    collisions: u32,
+}
+
+#[derive(Serialize)]
+struct Summary {
+    scenario: String,
+    seed: u64,
+    success: bool,
+    outcome: String,
+    fires_total: usize,
+    fires_out: usize,
+    sim_time_s: f64,
+    wall_time_s: f64,
+    time_scale: f64,
+    processes: Vec<ProcessInfo>,
+    units: Vec<UnitSummary>,
+    recording: Option<PathBuf>,
+}
+
+/// How the run ended.
+enum Outcome {
+    AllOut,
+    TimeLimit,
+    ChildDied(String),
+    Interrupted,
+    WallTimeout,
+}
+
+pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
+    let scenario = scenarios::resolve(&a.scenario)?;
+    let seed = a.seed.unwrap_or(scenario.seed);
+    let port = free_port().context("finding a free loopback port")?;
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let router = Connect { mode: Some("router".into()), listen: vec![endpoint.clone()], ..Connect::default() };
+    let bus = Bus::open(&router, scenario.site.clone()).await.context("starting the demo's Zenoh router")?;
+    let keys = bus.keys().clone();
+    let truths = bus.subscribe::<SimTruth>(&keys.key(&Topic::SimTruth)).await?;
+    let states = bus.subscribe::<UnitState>(&keys.every_unit(UnitLeaf::State)).await?;
+
+    let exe = std::env::current_exe().context("locating the firefleet binary")?;
+    let common = ["--scenario", a.scenario.as_str(), "--mode", "client", "--connect", endpoint.as_str(), "--die-with-parent"];
+    let mut roles: Vec<(String, Vec<String>)> = Vec::new();
+    if let Some(path) = &a.record {
+        roles.push(("recorder".into(), vec!["record".into(), "--out".into(), path.display().to_string()]));
+    }
+    let wait = "30".to_string();
+    roles.push((
+        "sim".into(),
+        vec![
+            "sim".into(),
+            "--seed".into(),
+            seed.to_string(),
+            "--time-scale".into(),
+            a.time_scale.to_string(),
+            "--wait-for-fleet".into(),
+            wait,
+            "--wait-for-coordinator".into(),
+        ],
+    ));
+    roles.push(("coordinator".into(), vec!["coordinator".into(), "--sim-clock".into()]));
+    for u in &scenario.units {
+        roles.push((format!("agent:{}", u.id), vec!["agent".into(), "--unit".into(), u.id.to_string()]));
+    }
+    let mut children: Vec<(String, Child)> = Vec::new();
+    for (role, args) in roles {
+        let mut cmd = Command::new(&exe);
+        cmd.args(&args).args(common).stdin(Stdio::piped()).stdout(Stdio::null()).stderr(Stdio::inherit()).kill_on_drop(true);
+        if std::env::var_os("RUST_LOG").is_none() {
+            cmd.env("RUST_LOG", "warn,zenoh=error");
+        }
+        let child = cmd.spawn().with_context(|| format!("starting the {role} process"))?;
+        children.push((role, child));
+    }
+    println!(
+        "firefleet demo: scenario '{}' (seed {seed}), {} fires, {} units, {} processes on {endpoint}, time x{}",
+        scenario.name,
+        scenario.fires.len(),
+        scenario.units.len(),
+        children.len(),
+        a.time_scale
+    );
+
+    let started = Instant::now();
+    let wall_limit = Duration::from_secs_f64(scenario.time_limit_s / a.time_scale + 90.0);
+    let mut last_truth: Option<SimTruth> = None;
+    let mut modes: BTreeMap<String, String> = BTreeMap::new();
+    let mut next_print = 0.0;
+    let mut last_out = 0;
+    let mut watchdog = tokio::time::interval(Duration::from_millis(250));
+    let shutdown = shutdown_signal(false);
+    tokio::pin!(shutdown);
+    let outcome = loop {
+        tokio::select! {
+            _ = &mut shutdown => break Outcome::Interrupted,
+            Some((_, st)) = states.recv() => {
+                modes.insert(st.unit.to_string(), serde_json::to_value(st.mode)?.as_str().unwrap_or("?").to_owned());
+            }
+            Some((_, truth)) = truths.recv() => {
+                let out = truth.fires_out();
+                if truth.t >= next_print || out != last_out {
+                    next_print = truth.t + 10.0;
+                    last_out = out;
+                    print_progress(&truth, &modes);
+                }
+                let done = if truth.all_out() { Some(Outcome::AllOut) } else if truth.t >= truth.time_limit_s { Some(Outcome::TimeLimit) } else { None };
+                last_truth = Some(truth);
+                if let Some(o) = done { break o; }
+            }
+            _ = watchdog.tick() => {
+                if started.elapsed() > wall_limit {
+                    break Outcome::WallTimeout;
+                }
+                if let Some(role) = exited(&mut children) {
+                    break Outcome::ChildDied(role);
+                }
+            }
+        }
+    };
+    let wall = started.elapsed().as_secs_f64();
+    let processes: Vec<ProcessInfo> = children.iter().map(|(role, c)| ProcessInfo { role: role.clone(), pid: c.id() }).collect();
+    stop_children(children).await;
+    bus.close().await;
+
+    let truth = last_truth.unwrap_or(SimTruth { t: 0.0, time_limit_s: scenario.time_limit_s, fires: Vec::new(), units: Vec::new() });
+    let success = matches!(outcome, Outcome::AllOut);
+    let outcome_text = match &outcome {
+        Outcome::AllOut => format!("all {} fires out at t = {:.1} s", truth.fires.len(), truth.t),
+        Outcome::TimeLimit => format!("time limit {:.0} s reached with {} of {} fires out", truth.time_limit_s, truth.fires_out(), truth.fires.len()),
+        Outcome::ChildDied(role) => format!("the {role} process exited unexpectedly"),
+        Outcome::Interrupted => "interrupted".to_owned(),
+        Outcome::WallTimeout => format!("no result after {wall:.0} s of wall time"),
+    };
+    println!("{outcome_text} (wall {wall:.1} s)");
+    for u in &truth.units {
+        println!("  {:8} heat dose {:7.1} kJ/m2  water {:6.1} L  collisions {}", u.id, u.heat_dose_kj_m2, u.water_used_l, u.collisions);
+    }
+    let summary = Summary {
+        scenario: scenario.name.clone(),
+        seed,
+        success,
+        outcome: outcome_text,
+        fires_total: scenario.fires.len(),
+        fires_out: truth.fires_out(),
+        sim_time_s: truth.t,
+        wall_time_s: wall,
+        time_scale: a.time_scale,
+        processes,
+        units: truth
+            .units
+            .iter()
+            .map(|u| UnitSummary { id: u.id.to_string(), heat_dose_kj_m2: u.heat_dose_kj_m2, water_used_l: u.water_used_l, collisions: u.collisions })
+            .collect(),
+        recording: a.record.clone(),
+    };
+    if let Some(path) = &a.summary_json {
+        std::fs::write(path, serde_json::to_vec_pretty(&summary)?).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(match outcome {
+        Outcome::AllOut => ExitCode::SUCCESS,
+        Outcome::Interrupted => ExitCode::from(130),
+        _ => ExitCode::FAILURE,
+    })
+}
+
+fn print_progress(truth: &SimTruth, modes: &BTreeMap<String, String>) {
+    let burning = truth.fires.iter().filter(|f| f.state == TruthFireState::Burning).count();
+    let units: Vec<String> = modes.iter().map(|(u, m)| format!("{u} {m}")).collect();
+    println!("t={:6.1} s  fires burning {burning}, out {}/{}  | {}", truth.t, truth.fires_out(), truth.fires.len(), units.join(", "));
+}
+
+/// The role of the first child that has exited, if any.
+fn exited(children: &mut [(String, Child)]) -> Option<String> {
+    children.iter_mut().find_map(|(role, c)| matches!(c.try_wait(), Ok(Some(_))).then(|| role.clone()))
+}
+
+/// Close every child's stdin (their signal to stop), wait a little, then kill stragglers.
+async fn stop_children(mut children: Vec<(String, Child)>) {
+    for (_, c) in &mut children {
+        drop(c.stdin.take());
+    }
+    for (role, c) in &mut children {
+        match tokio::time::timeout(Duration::from_secs(5), c.wait()).await {
+            Ok(_) => {}
+            Err(_) => {
+                tracing::warn!(role, "did not stop in 5 s; killing it");
+                let _ = c.kill().await;
+            }
+        }
+    }
+}
+
+fn free_port() -> std::io::Result<u16> {
+    Ok(std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port())
+}

@@ -1,0 +1,151 @@
+//! Running one role per process, and how every role is told to stop.
+
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Context;
+use firefleet_agent::{AgentOptions, SimPlatform};
+use firefleet_coordinator::CoordinatorOptions;
+use firefleet_protocol::bus::Bus;
+use firefleet_protocol::keys::Topic;
+use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::spec::GROUND;
+use firefleet_sim::SimOptions;
+use tokio::io::AsyncReadExt;
+
+use crate::{AgentArgs, CoordinatorArgs, RecordArgs, SimArgs, StatusArgs, ZenohArgs, scenarios};
+
+/// Completes on Ctrl-C, SIGTERM, or (with `--die-with-parent`) when stdin closes.
+pub async fn shutdown_signal(die_with_parent: bool) {
+    let stdin_closed = async {
+        if die_with_parent {
+            let mut buf = [0u8; 64];
+            let mut stdin = tokio::io::stdin();
+            while matches!(stdin.read(&mut buf).await, Ok(n) if n > 0) {}
+        } else {
+            std::future::pending::<()>().await;
+        }
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = tokio::signal::ctrl_c() => {}
+        _ = term => {}
+        _ = stdin_closed => {}
+    }
+}
+
+async fn open(zenoh: &ZenohArgs, scenario: &Scenario) -> anyhow::Result<Bus> {
+    Bus::open(&zenoh.connect(), scenario.site.clone()).await.context("joining the Zenoh network")
+}
+
+pub async fn sim(a: SimArgs) -> anyhow::Result<ExitCode> {
+    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let bus = open(&a.zenoh, &scenario).await?;
+    let opts = SimOptions {
+        seed: a.seed.unwrap_or(scenario.seed),
+        time_scale: a.time_scale,
+        wait_for_fleet: a.wait_for_fleet.map(Duration::from_secs_f64),
+        wait_for_coordinator: a.wait_for_coordinator,
+        ..SimOptions::default()
+    };
+    let truth = firefleet_sim::run(&bus, &scenario, &opts, shutdown_signal(a.zenoh.die_with_parent)).await?;
+    tracing::info!(t = truth.t, fires_out = truth.fires_out(), fires = truth.fires.len(), "simulation stopped");
+    bus.close().await;
+    Ok(ExitCode::SUCCESS)
+}
+
+pub async fn coordinator(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
+    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let bus = open(&a.zenoh, &scenario).await?;
+    let opts = CoordinatorOptions { lease_s: a.lease_s, sim_clock: a.sim_clock };
+    firefleet_coordinator::run(&bus, &scenario, &opts, shutdown_signal(a.zenoh.die_with_parent)).await?;
+    bus.close().await;
+    Ok(ExitCode::SUCCESS)
+}
+
+pub async fn agent(a: AgentArgs) -> anyhow::Result<ExitCode> {
+    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    if scenario.unit(&a.unit).is_none() {
+        anyhow::bail!("--unit {}: the scenario '{}' has no such unit", a.unit, scenario.name);
+    }
+    let bus = open(&a.zenoh, &scenario).await?;
+    let platform = SimPlatform::connect(&bus, &a.unit, GROUND).await?;
+    let opts = AgentOptions { unit: a.unit, report_period_s: 0.25 };
+    firefleet_agent::run(&bus, platform, Arc::new(scenario), &opts, shutdown_signal(a.zenoh.die_with_parent)).await?;
+    bus.close().await;
+    Ok(ExitCode::SUCCESS)
+}
+
+pub async fn record(a: RecordArgs) -> anyhow::Result<ExitCode> {
+    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let bus = open(&a.zenoh, &scenario).await?;
+    let summary = firefleet_coordinator::record::record(&bus, &scenario, &a.out, shutdown_signal(a.zenoh.die_with_parent)).await?;
+    tracing::info!(messages = summary.messages, channels = summary.channels, skipped = summary.skipped, out = %a.out.display(), "recording finished");
+    bus.close().await;
+    Ok(ExitCode::SUCCESS)
+}
+
+pub async fn status(a: StatusArgs) -> anyhow::Result<ExitCode> {
+    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let bus = open(&a.zenoh, &scenario).await?;
+    let key = bus.keys().key(&Topic::CoordStatus);
+    let replies = bus
+        .session()
+        .get(&key)
+        .timeout(Duration::from_secs(3))
+        .await
+        .map_err(|e| anyhow::anyhow!("querying {key}: {e}"))?;
+    let reply = replies.recv_async().await.map_err(|_| anyhow::anyhow!("no coordinator answered on {key}"))?;
+    let sample = reply.result().map_err(|e| anyhow::anyhow!("the coordinator answered with an error: {e:?}"))?;
+    let status: serde_json::Value = serde_json::from_slice(&sample.payload().to_bytes()).context("status is not JSON")?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&status)?);
+    } else {
+        print_status(&status);
+    }
+    bus.close().await;
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_status(s: &serde_json::Value) {
+    println!("site time {:.1} s", s["t"].as_f64().unwrap_or(0.0));
+    println!("fires:");
+    for f in s["fires"].as_array().into_iter().flatten() {
+        println!(
+            "  {:5} {:11} at ({:6.1}, {:5.1})  confidence {:.2}  assigned {}",
+            f["id"].to_string(),
+            f["state"].as_str().unwrap_or("?"),
+            f["position"]["x"].as_f64().unwrap_or(f64::NAN),
+            f["position"]["y"].as_f64().unwrap_or(f64::NAN),
+            f["confidence"].as_f64().unwrap_or(0.0),
+            f["assigned"]
+        );
+    }
+    println!("units:");
+    for u in s["units"].as_array().into_iter().flatten() {
+        let st = &u["state"];
+        println!(
+            "  {:10} {:6} {:13} water {:6.0} L  task {}",
+            u["unit"].as_str().unwrap_or("?"),
+            if u["alive"].as_bool() == Some(true) { "alive" } else { "lost" },
+            st["mode"].as_str().unwrap_or("-"),
+            st["water_l"].as_f64().unwrap_or(0.0),
+            u["task"]["kind"]
+        );
+    }
+    println!("recent decisions:");
+    for d in s["decisions"].as_array().into_iter().flatten() {
+        println!("  t={:7.1}  {}", d["t"].as_f64().unwrap_or(0.0), d["text"].as_str().unwrap_or(""));
+    }
+}
