@@ -86,17 +86,38 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let seed = a.seed.unwrap_or(scenario.seed);
     let port = free_port().context("finding a free loopback port")?;
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let router = Connect { mode: Some("router".into()), listen: vec![endpoint.clone()], ..Connect::default() };
-    let bus = Bus::open(&router, scenario.site.clone()).await.context("starting the demo's Zenoh router")?;
+    let router = Connect {
+        mode: Some("router".into()),
+        listen: vec![endpoint.clone()],
+        ..Connect::default()
+    };
+    let bus = Bus::open(&router, scenario.site.clone())
+        .await
+        .context("starting the demo's Zenoh router")?;
     let keys = bus.keys().clone();
-    let truths = bus.subscribe::<SimTruth>(&keys.key(&Topic::SimTruth)).await?;
-    let states = bus.subscribe::<UnitState>(&keys.every_unit(UnitLeaf::State)).await?;
+    let truths = bus
+        .subscribe::<SimTruth>(&keys.key(&Topic::SimTruth))
+        .await?;
+    let states = bus
+        .subscribe::<UnitState>(&keys.every_unit(UnitLeaf::State))
+        .await?;
 
     let exe = std::env::current_exe().context("locating the firefleet binary")?;
-    let common = ["--scenario", a.scenario.as_str(), "--mode", "client", "--connect", endpoint.as_str(), "--die-with-parent"];
+    let common = [
+        "--scenario",
+        a.scenario.as_str(),
+        "--mode",
+        "client",
+        "--connect",
+        endpoint.as_str(),
+        "--die-with-parent",
+    ];
     let mut roles: Vec<(String, Vec<String>)> = Vec::new();
     if let Some(path) = &a.record {
-        roles.push(("recorder".into(), vec!["record".into(), "--out".into(), path.display().to_string()]));
+        roles.push((
+            "recorder".into(),
+            vec!["record".into(), "--out".into(), path.display().to_string()],
+        ));
     }
     let wait = "30".to_string();
     roles.push((
@@ -112,18 +133,31 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             "--wait-for-coordinator".into(),
         ],
     ));
-    roles.push(("coordinator".into(), vec!["coordinator".into(), "--sim-clock".into()]));
+    roles.push((
+        "coordinator".into(),
+        vec!["coordinator".into(), "--sim-clock".into()],
+    ));
     for u in &scenario.units {
-        roles.push((format!("agent:{}", u.id), vec!["agent".into(), "--unit".into(), u.id.to_string()]));
+        roles.push((
+            format!("agent:{}", u.id),
+            vec!["agent".into(), "--unit".into(), u.id.to_string()],
+        ));
     }
     let mut children: Vec<(String, Child)> = Vec::new();
     for (role, args) in roles {
         let mut cmd = Command::new(&exe);
-        cmd.args(&args).args(common).stdin(Stdio::piped()).stdout(Stdio::null()).stderr(Stdio::inherit()).kill_on_drop(true);
+        cmd.args(&args)
+            .args(common)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::null())
+            .stderr(Stdio::inherit())
+            .kill_on_drop(true);
         if std::env::var_os("RUST_LOG").is_none() {
             cmd.env("RUST_LOG", "warn,zenoh=error");
         }
-        let child = cmd.spawn().with_context(|| format!("starting the {role} process"))?;
+        let child = cmd
+            .spawn()
+            .with_context(|| format!("starting the {role} process"))?;
         children.push((role, child));
     }
     println!(
@@ -172,22 +206,45 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         }
     };
     let wall = started.elapsed().as_secs_f64();
-    let processes: Vec<ProcessInfo> = children.iter().map(|(role, c)| ProcessInfo { role: role.clone(), pid: c.id() }).collect();
+    let processes: Vec<ProcessInfo> = children
+        .iter()
+        .map(|(role, c)| ProcessInfo {
+            role: role.clone(),
+            pid: c.id(),
+        })
+        .collect();
     stop_children(children).await;
     bus.close().await;
 
-    let truth = last_truth.unwrap_or(SimTruth { t: 0.0, time_limit_s: scenario.time_limit_s, fires: Vec::new(), units: Vec::new() });
+    let truth = last_truth.unwrap_or(SimTruth {
+        t: 0.0,
+        time_limit_s: scenario.time_limit_s,
+        fires: Vec::new(),
+        units: Vec::new(),
+    });
     let success = matches!(outcome, Outcome::AllOut);
     let outcome_text = match &outcome {
-        Outcome::AllOut => format!("all {} fires out at t = {:.1} s", truth.fires.len(), truth.t),
-        Outcome::TimeLimit => format!("time limit {:.0} s reached with {} of {} fires out", truth.time_limit_s, truth.fires_out(), truth.fires.len()),
+        Outcome::AllOut => format!(
+            "all {} fires out at t = {:.1} s",
+            truth.fires.len(),
+            truth.t
+        ),
+        Outcome::TimeLimit => format!(
+            "time limit {:.0} s reached with {} of {} fires out",
+            truth.time_limit_s,
+            truth.fires_out(),
+            truth.fires.len()
+        ),
         Outcome::ChildDied(role) => format!("the {role} process exited unexpectedly"),
         Outcome::Interrupted => "interrupted".to_owned(),
         Outcome::WallTimeout => format!("no result after {wall:.0} s of wall time"),
     };
     println!("{outcome_text} (wall {wall:.1} s)");
     for u in &truth.units {
-        println!("  {:8} heat dose {:7.1} kJ/m2  water {:6.1} L  collisions {}", u.id, u.heat_dose_kj_m2, u.water_used_l, u.collisions);
+        println!(
+            "  {:8} heat dose {:7.1} kJ/m2  water {:6.1} L  collisions {}",
+            u.id, u.heat_dose_kj_m2, u.water_used_l, u.collisions
+        );
     }
     let summary = Summary {
         scenario: scenario.name.clone(),
@@ -203,12 +260,18 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         units: truth
             .units
             .iter()
-            .map(|u| UnitSummary { id: u.id.to_string(), heat_dose_kj_m2: u.heat_dose_kj_m2, water_used_l: u.water_used_l, collisions: u.collisions })
+            .map(|u| UnitSummary {
+                id: u.id.to_string(),
+                heat_dose_kj_m2: u.heat_dose_kj_m2,
+                water_used_l: u.water_used_l,
+                collisions: u.collisions,
+            })
             .collect(),
         recording: a.record.clone(),
     };
     if let Some(path) = &a.summary_json {
-        std::fs::write(path, serde_json::to_vec_pretty(&summary)?).with_context(|| format!("writing {}", path.display()))?;
+        std::fs::write(path, serde_json::to_vec_pretty(&summary)?)
+            .with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(match outcome {
         Outcome::AllOut => ExitCode::SUCCESS,
@@ -218,14 +281,26 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn print_progress(truth: &SimTruth, modes: &BTreeMap<String, String>) {
-    let burning = truth.fires.iter().filter(|f| f.state == TruthFireState::Burning).count();
+    let burning = truth
+        .fires
+        .iter()
+        .filter(|f| f.state == TruthFireState::Burning)
+        .count();
     let units: Vec<String> = modes.iter().map(|(u, m)| format!("{u} {m}")).collect();
-    println!("t={:6.1} s  fires burning {burning}, out {}/{}  | {}", truth.t, truth.fires_out(), truth.fires.len(), units.join(", "));
+    println!(
+        "t={:6.1} s  fires burning {burning}, out {}/{}  | {}",
+        truth.t,
+        truth.fires_out(),
+        truth.fires.len(),
+        units.join(", ")
+    );
 }
 
 /// The role of the first child that has exited, if any.
 fn exited(children: &mut [(String, Child)]) -> Option<String> {
-    children.iter_mut().find_map(|(role, c)| matches!(c.try_wait(), Ok(Some(_))).then(|| role.clone()))
+    children
+        .iter_mut()
+        .find_map(|(role, c)| matches!(c.try_wait(), Ok(Some(_))).then(|| role.clone()))
 }
 
 /// Close every child's stdin (their signal to stop), wait a little, then kill stragglers.
@@ -245,5 +320,7 @@ async fn stop_children(mut children: Vec<(String, Child)>) {
 }
 
 fn free_port() -> std::io::Result<u16> {
-    Ok(std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port())
+    Ok(std::net::TcpListener::bind("127.0.0.1:0")?
+        .local_addr()?
+        .port())
 }

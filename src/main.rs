@@ -16,7 +16,11 @@ use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::Connect;
 
 #[derive(Parser)]
-#[command(name = "firefleet", version, about = "Coordinate firefighting robots in road and rail tunnels")]
+#[command(
+    name = "firefleet",
+    version,
+    about = "Coordinate firefighting robots in road and rail tunnels"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -155,14 +159,21 @@ fn positive_f64(s: &str) -> Result<f64, String> {
 }
 
 fn init_logging() {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info,zenoh=warn".into());
-    tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| "info,zenoh=warn".into());
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
 }
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     init_logging();
-    let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build().expect("tokio runtime");
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .expect("tokio runtime");
     let result = runtime.block_on(async move {
         match cli.command {
             Command::Demo(a) => demo::run(a).await,

@@ -46,7 +46,9 @@ pub async fn shutdown_signal(die_with_parent: bool) {
 }
 
 async fn open(zenoh: &ZenohArgs, scenario: &Scenario) -> anyhow::Result<Bus> {
-    Bus::open(&zenoh.connect(), scenario.site.clone()).await.context("joining the Zenoh network")
+    Bus::open(&zenoh.connect(), scenario.site.clone())
+        .await
+        .context("joining the Zenoh network")
 }
 
 pub async fn sim(a: SimArgs) -> anyhow::Result<ExitCode> {
@@ -59,8 +61,19 @@ pub async fn sim(a: SimArgs) -> anyhow::Result<ExitCode> {
         wait_for_coordinator: a.wait_for_coordinator,
         ..SimOptions::default()
     };
-    let truth = firefleet_sim::run(&bus, &scenario, &opts, shutdown_signal(a.zenoh.die_with_parent)).await?;
-    tracing::info!(t = truth.t, fires_out = truth.fires_out(), fires = truth.fires.len(), "simulation stopped");
+    let truth = firefleet_sim::run(
+        &bus,
+        &scenario,
+        &opts,
+        shutdown_signal(a.zenoh.die_with_parent),
+    )
+    .await?;
+    tracing::info!(
+        t = truth.t,
+        fires_out = truth.fires_out(),
+        fires = truth.fires.len(),
+        "simulation stopped"
+    );
     bus.close().await;
     Ok(ExitCode::SUCCESS)
 }
@@ -68,8 +81,17 @@ pub async fn sim(a: SimArgs) -> anyhow::Result<ExitCode> {
 pub async fn coordinator(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
     let bus = open(&a.zenoh, &scenario).await?;
-    let opts = CoordinatorOptions { lease_s: a.lease_s, sim_clock: a.sim_clock };
-    firefleet_coordinator::run(&bus, &scenario, &opts, shutdown_signal(a.zenoh.die_with_parent)).await?;
+    let opts = CoordinatorOptions {
+        lease_s: a.lease_s,
+        sim_clock: a.sim_clock,
+    };
+    firefleet_coordinator::run(
+        &bus,
+        &scenario,
+        &opts,
+        shutdown_signal(a.zenoh.die_with_parent),
+    )
+    .await?;
     bus.close().await;
     Ok(ExitCode::SUCCESS)
 }
@@ -77,12 +99,26 @@ pub async fn coordinator(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
 pub async fn agent(a: AgentArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
     if scenario.unit(&a.unit).is_none() {
-        anyhow::bail!("--unit {}: the scenario '{}' has no such unit", a.unit, scenario.name);
+        anyhow::bail!(
+            "--unit {}: the scenario '{}' has no such unit",
+            a.unit,
+            scenario.name
+        );
     }
     let bus = open(&a.zenoh, &scenario).await?;
     let platform = SimPlatform::connect(&bus, &a.unit, GROUND).await?;
-    let opts = AgentOptions { unit: a.unit, report_period_s: 0.25 };
-    firefleet_agent::run(&bus, platform, Arc::new(scenario), &opts, shutdown_signal(a.zenoh.die_with_parent)).await?;
+    let opts = AgentOptions {
+        unit: a.unit,
+        report_period_s: 0.25,
+    };
+    firefleet_agent::run(
+        &bus,
+        platform,
+        Arc::new(scenario),
+        &opts,
+        shutdown_signal(a.zenoh.die_with_parent),
+    )
+    .await?;
     bus.close().await;
     Ok(ExitCode::SUCCESS)
 }
@@ -90,7 +126,13 @@ pub async fn agent(a: AgentArgs) -> anyhow::Result<ExitCode> {
 pub async fn record(a: RecordArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
     let bus = open(&a.zenoh, &scenario).await?;
-    let summary = firefleet_coordinator::record::record(&bus, &scenario, &a.out, shutdown_signal(a.zenoh.die_with_parent)).await?;
+    let summary = firefleet_coordinator::record::record(
+        &bus,
+        &scenario,
+        &a.out,
+        shutdown_signal(a.zenoh.die_with_parent),
+    )
+    .await?;
     tracing::info!(messages = summary.messages, channels = summary.channels, skipped = summary.skipped, out = %a.out.display(), "recording finished");
     bus.close().await;
     Ok(ExitCode::SUCCESS)
@@ -106,9 +148,15 @@ pub async fn status(a: StatusArgs) -> anyhow::Result<ExitCode> {
         .timeout(Duration::from_secs(3))
         .await
         .map_err(|e| anyhow::anyhow!("querying {key}: {e}"))?;
-    let reply = replies.recv_async().await.map_err(|_| anyhow::anyhow!("no coordinator answered on {key}"))?;
-    let sample = reply.result().map_err(|e| anyhow::anyhow!("the coordinator answered with an error: {e:?}"))?;
-    let status: serde_json::Value = serde_json::from_slice(&sample.payload().to_bytes()).context("status is not JSON")?;
+    let reply = replies
+        .recv_async()
+        .await
+        .map_err(|_| anyhow::anyhow!("no coordinator answered on {key}"))?;
+    let sample = reply
+        .result()
+        .map_err(|e| anyhow::anyhow!("the coordinator answered with an error: {e:?}"))?;
+    let status: serde_json::Value =
+        serde_json::from_slice(&sample.payload().to_bytes()).context("status is not JSON")?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&status)?);
     } else {
@@ -138,7 +186,11 @@ fn print_status(s: &serde_json::Value) {
         println!(
             "  {:10} {:6} {:13} water {:6.0} L  task {}",
             u["unit"].as_str().unwrap_or("?"),
-            if u["alive"].as_bool() == Some(true) { "alive" } else { "lost" },
+            if u["alive"].as_bool() == Some(true) {
+                "alive"
+            } else {
+                "lost"
+            },
             st["mode"].as_str().unwrap_or("-"),
             st["water_l"].as_f64().unwrap_or(0.0),
             u["task"]["kind"]
@@ -146,6 +198,10 @@ fn print_status(s: &serde_json::Value) {
     }
     println!("recent decisions:");
     for d in s["decisions"].as_array().into_iter().flatten() {
-        println!("  t={:7.1}  {}", d["t"].as_f64().unwrap_or(0.0), d["text"].as_str().unwrap_or(""));
+        println!(
+            "  t={:7.1}  {}",
+            d["t"].as_f64().unwrap_or(0.0),
+            d["text"].as_str().unwrap_or("")
+        );
     }
 }

@@ -8,9 +8,18 @@ use firefleet_protocol::scenario::Scenario;
 
 /// The shipped scenarios, modelled on the BT paper's three virtual experiments.
 pub const BUILT_IN: [(&str, &str); 3] = [
-    ("vehicle-collision", include_str!("../examples/scenarios/vehicle-collision.toml")),
-    ("self-ignition", include_str!("../examples/scenarios/self-ignition.toml")),
-    ("cargo-truck", include_str!("../examples/scenarios/cargo-truck.toml")),
+    (
+        "vehicle-collision",
+        include_str!("../examples/scenarios/vehicle-collision.toml"),
+    ),
+    (
+        "self-ignition",
+        include_str!("../examples/scenarios/self-ignition.toml"),
+    ),
+    (
+        "cargo-truck",
+        include_str!("../examples/scenarios/cargo-truck.toml"),
+    ),
 ];
 
 /// A scenario file if `arg` names an existing file, else a built-in scenario of that name.
@@ -20,10 +29,14 @@ pub fn resolve(arg: &str) -> anyhow::Result<Scenario> {
         return Scenario::load(path).map_err(Into::into);
     }
     match BUILT_IN.iter().find(|(name, _)| *name == arg) {
-        Some((name, text)) => Scenario::from_toml(text, &format!("built-in scenario {name}")).context("a shipped scenario is invalid"),
+        Some((name, text)) => Scenario::from_toml(text, &format!("built-in scenario {name}"))
+            .context("a shipped scenario is invalid"),
         None => {
             let names: Vec<&str> = BUILT_IN.iter().map(|(n, _)| *n).collect();
-            bail!("scenario '{arg}' is neither a file nor a built-in scenario ({})", names.join(", "))
+            bail!(
+                "scenario '{arg}' is neither a file nor a built-in scenario ({})",
+                names.join(", ")
+            )
         }
     }
 }
@@ -31,7 +44,13 @@ pub fn resolve(arg: &str) -> anyhow::Result<Scenario> {
 pub fn list() -> anyhow::Result<ExitCode> {
     for (name, text) in BUILT_IN {
         let s = Scenario::from_toml(text, name)?;
-        println!("{name:20} {} fires, {} units, limit {:.0} s  {}", s.fires.len(), s.units.len(), s.time_limit_s, s.description);
+        println!(
+            "{name:20} {} fires, {} units, limit {:.0} s  {}",
+            s.fires.len(),
+            s.units.len(),
+            s.time_limit_s,
+            s.description
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

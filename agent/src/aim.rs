@@ -35,7 +35,10 @@ pub fn elevations(d: f64, dz: f64, v: f64) -> Result<Elevations, NoSolution> {
         return Err(NoSolution::OutOfRange);
     }
     let r = disc.sqrt();
-    Ok(Elevations { low: ((v * v - r) / (G * d)).atan(), high: ((v * v + r) / (G * d)).atan() })
+    Ok(Elevations {
+        low: ((v * v - r) / (G * d)).atan(),
+        high: ((v * v + r) / (G * d)).atan(),
+    })
 }
 
 /// Apex height above the nozzle of a jet at elevation `th`, m.

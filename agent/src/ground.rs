@@ -48,7 +48,10 @@ enum Activity {
     Cruise(PurePursuit),
     Attack(Attack),
     /// Backing away after touching something, until `until`, then resuming.
-    Recover { until: f64, then: Box<Activity> },
+    Recover {
+        until: f64,
+        then: Box<Activity>,
+    },
     Fault,
 }
 
@@ -121,7 +124,10 @@ impl GroundController {
         }
         if s.collided && !matches!(self.activity, Activity::Recover { .. } | Activity::Fault) {
             let then = std::mem::replace(&mut self.activity, Activity::Hold);
-            self.activity = Activity::Recover { until: s.t + 1.5, then: Box::new(then) };
+            self.activity = Activity::Recover {
+                until: s.t + 1.5,
+                then: Box::new(then),
+            };
         }
         self.decide(s);
         self.act(s)
@@ -137,8 +143,11 @@ impl GroundController {
             _ => None,
         };
         match self.task {
-            Some((seq, TaskKind::Extinguish { fire, target })) if self.coordinator_present || current.is_some() => {
-                if current.map(|(s, _)| s) != Some(seq) && self.outcome.is_none_or(|o| o.seq != seq) {
+            Some((seq, TaskKind::Extinguish { fire, target }))
+                if self.coordinator_present || current.is_some() =>
+            {
+                if current.map(|(s, _)| s) != Some(seq) && self.outcome.is_none_or(|o| o.seq != seq)
+                {
                     self.activity = Activity::Attack(Attack::new(Some((seq, fire)), target, s.t));
                 }
                 return;
@@ -150,7 +159,10 @@ impl GroundController {
             return;
         }
         let pose = s.pose.position();
-        let nearest = self.tracker.confirmed().min_by(|a, b| a.position().dist(pose).total_cmp(&b.position().dist(pose)));
+        let nearest = self
+            .tracker
+            .confirmed()
+            .min_by(|a, b| a.position().dist(pose).total_cmp(&b.position().dist(pose)));
         match nearest {
             Some(t) if !self.coordinator_present => {
                 self.activity = Activity::Attack(Attack::new(None, t.position(), s.t));
@@ -186,7 +198,11 @@ impl GroundController {
         match &mut self.activity {
             Activity::Hold | Activity::Fault => halt,
             Activity::Cruise(pp) => match pp.follow(&s.pose, &self.spec) {
-                Follow::Drive { speed, steer } => UnitCommand { speed, steer, ..halt },
+                Follow::Drive { speed, steer } => UnitCommand {
+                    speed,
+                    steer,
+                    ..halt
+                },
                 Follow::Arrived => {
                     self.activity = Activity::Hold;
                     halt
@@ -194,9 +210,15 @@ impl GroundController {
             },
             Activity::Recover { until, .. } => {
                 if s.t < *until {
-                    UnitCommand { speed: -0.4, steer: 0.0, ..halt }
+                    UnitCommand {
+                        speed: -0.4,
+                        steer: 0.0,
+                        ..halt
+                    }
                 } else {
-                    let Activity::Recover { then, .. } = std::mem::replace(&mut self.activity, Activity::Hold) else {
+                    let Activity::Recover { then, .. } =
+                        std::mem::replace(&mut self.activity, Activity::Hold)
+                    else {
                         unreachable!()
                     };
                     self.activity = match *then {
@@ -216,7 +238,9 @@ impl GroundController {
 
     fn attack(&mut self, s: &UnitSensors) -> UnitCommand {
         let halt = UnitCommand::halt(&s.cannon);
-        let Activity::Attack(a) = &mut self.activity else { return halt };
+        let Activity::Attack(a) = &mut self.activity else {
+            return halt;
+        };
         // Follow the flame as the camera sees it.
         if let Some(t) = self.tracker.nearest_confirmed(a.target, 3.0) {
             a.target = t.position();
@@ -224,7 +248,14 @@ impl GroundController {
         }
         if a.spray_since.is_none() {
             if a.travel.is_none() {
-                match firing_path(&self.nav_grid, &self.sight_grid, &self.spec, &self.scenario, s.pose.position(), a.target) {
+                match firing_path(
+                    &self.nav_grid,
+                    &self.sight_grid,
+                    &self.spec,
+                    &self.scenario,
+                    s.pose.position(),
+                    a.target,
+                ) {
                     Some(path) => a.travel = Some(PurePursuit::new(path)),
                     None => {
                         tracing::warn!(unit = %self.unit, target = ?a.target, "no firing position reachable");
@@ -236,11 +267,19 @@ impl GroundController {
             }
             let pp = a.travel.as_mut().expect("planned above");
             match pp.follow(&s.pose, &self.spec) {
-                Follow::Drive { speed, steer } => return UnitCommand { speed, steer, ..self.aim_command(s, false) },
+                Follow::Drive { speed, steer } => {
+                    return UnitCommand {
+                        speed,
+                        steer,
+                        ..self.aim_command(s, false)
+                    };
+                }
                 Follow::Arrived => a.spray_since = Some(s.t),
             }
         }
-        let Activity::Attack(a) = &self.activity else { return halt };
+        let Activity::Attack(a) = &self.activity else {
+            return halt;
+        };
         let since = a.spray_since.unwrap_or(s.t);
         let looking = self.in_view(&s.pose, a.target);
         if looking && s.t - a.last_seen >= OUT_CONFIRM_S && s.t - since >= 1.0 {
@@ -259,15 +298,30 @@ impl GroundController {
 
     /// Cannon set-points towards the current target; the valve opens only when on target.
     fn aim_command(&self, s: &UnitSensors, spray: bool) -> UnitCommand {
-        let Activity::Attack(a) = &self.activity else { return UnitCommand::halt(&s.cannon) };
+        let Activity::Attack(a) = &self.activity else {
+            return UnitCommand::halt(&s.cannon);
+        };
         let nozzle = s.pose.position();
-        let pan = wrap_angle(nozzle.bearing_to(a.target) - s.pose.yaw)
-            .clamp(-self.spec.cannon_pan_limit_rad, self.spec.cannon_pan_limit_rad);
-        let tilt = aim::elevations(nozzle.dist(a.target), -self.spec.cannon_height_m, self.spec.cannon_muzzle_speed_m_s)
-            .map(|e| e.low)
-            .unwrap_or(s.cannon.tilt);
-        let on_target = (s.cannon.pan - pan).abs() < AIM_TOLERANCE_RAD && (s.cannon.tilt - tilt).abs() < AIM_TOLERANCE_RAD;
-        UnitCommand { speed: 0.0, steer: 0.0, pan, tilt, valve_open: spray && (on_target || s.cannon.valve_open) }
+        let pan = wrap_angle(nozzle.bearing_to(a.target) - s.pose.yaw).clamp(
+            -self.spec.cannon_pan_limit_rad,
+            self.spec.cannon_pan_limit_rad,
+        );
+        let tilt = aim::elevations(
+            nozzle.dist(a.target),
+            -self.spec.cannon_height_m,
+            self.spec.cannon_muzzle_speed_m_s,
+        )
+        .map(|e| e.low)
+        .unwrap_or(s.cannon.tilt);
+        let on_target = (s.cannon.pan - pan).abs() < AIM_TOLERANCE_RAD
+            && (s.cannon.tilt - tilt).abs() < AIM_TOLERANCE_RAD;
+        UnitCommand {
+            speed: 0.0,
+            steer: 0.0,
+            pan,
+            tilt,
+            valve_open: spray && (on_target || s.cannon.valve_open),
+        }
     }
 
     fn in_view(&self, pose: &Pose2, p: Point2) -> bool {
@@ -279,8 +333,16 @@ impl GroundController {
 
     /// Record how the current coordinator task ended.
     fn finish(&mut self, phase: TaskPhase) {
-        if let Activity::Attack(Attack { task: Some((seq, fire)), .. }) = &self.activity {
-            self.outcome = Some(TaskProgress { seq: *seq, fire: *fire, phase });
+        if let Activity::Attack(Attack {
+            task: Some((seq, fire)),
+            ..
+        }) = &self.activity
+        {
+            self.outcome = Some(TaskProgress {
+                seq: *seq,
+                fire: *fire,
+                phase,
+            });
         }
     }
 
@@ -294,7 +356,9 @@ impl GroundController {
                 Activity::Attack(a) => (UnitMode::Navigating, a.progress()),
                 _ => (UnitMode::Cruising, None),
             },
-            Activity::Attack(a) if a.spray_since.is_some() => (UnitMode::Extinguishing, a.progress()),
+            Activity::Attack(a) if a.spray_since.is_some() => {
+                (UnitMode::Extinguishing, a.progress())
+            }
             Activity::Attack(a) => (UnitMode::Navigating, a.progress()),
         };
         UnitState {
@@ -316,18 +380,33 @@ impl GroundController {
     pub fn report(&mut self, s: &UnitSensors) -> Option<FlameReport> {
         let observations = self.tracker.observations(self.last_report_t);
         self.last_report_t = s.t;
-        (!observations.is_empty()).then(|| FlameReport { unit: self.unit.clone(), t: s.t, observer: s.pose, observations })
+        (!observations.is_empty()).then(|| FlameReport {
+            unit: self.unit.clone(),
+            t: s.t,
+            observer: s.pose,
+            observations,
+        })
     }
 }
 
 impl Attack {
     fn new(task: Option<(u64, FireId)>, target: Point2, t: f64) -> Self {
-        Self { task, target, travel: None, spray_since: None, last_seen: t }
+        Self {
+            task,
+            target,
+            travel: None,
+            spray_since: None,
+            last_seen: t,
+        }
     }
 
     fn progress(&self) -> Option<TaskProgress> {
         let (seq, fire) = self.task?;
-        let phase = if self.spray_since.is_some() { TaskPhase::Spraying } else { TaskPhase::Travelling };
+        let phase = if self.spray_since.is_some() {
+            TaskPhase::Spraying
+        } else {
+            TaskPhase::Travelling
+        };
         Some(TaskProgress { seq, fire, phase })
     }
 }
@@ -354,8 +433,13 @@ fn firing_path(
             if !nav.free(spot) || !sight.segment_free(spot, target) {
                 continue;
             }
-            let Ok(e) = aim::elevations(r, -spec.cannon_height_m, spec.cannon_muzzle_speed_m_s) else { continue };
-            if spec.cannon_height_m + aim::apex_height(e.low, spec.cannon_muzzle_speed_m_s) >= scenario.tunnel.height_m {
+            let Ok(e) = aim::elevations(r, -spec.cannon_height_m, spec.cannon_muzzle_speed_m_s)
+            else {
+                continue;
+            };
+            if spec.cannon_height_m + aim::apex_height(e.low, spec.cannon_muzzle_speed_m_s)
+                >= scenario.tunnel.height_m
+            {
                 continue;
             }
             // Arrive along the ray from the fire so the camera faces it.

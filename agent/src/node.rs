@@ -8,11 +8,11 @@
 use std::future::Future;
 use std::sync::Arc;
 
+use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{Task, UnitCommand};
 use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::UnitId;
 use zenoh::sample::SampleKind;
 
 use crate::ground::GroundController;
@@ -37,7 +37,12 @@ pub async fn run<P: Platform>(
     let keys = bus.keys().clone();
     let unit = &opts.unit;
     let zerr = |e: zenoh::Error| BusError::from(e);
-    let _token = bus.session().liveliness().declare_token(keys.key(&Topic::UnitAlive(unit.clone()))).await.map_err(zerr)?;
+    let _token = bus
+        .session()
+        .liveliness()
+        .declare_token(keys.key(&Topic::UnitAlive(unit.clone())))
+        .await
+        .map_err(zerr)?;
     let coord = bus
         .session()
         .liveliness()
@@ -45,7 +50,9 @@ pub async fn run<P: Platform>(
         .history(true)
         .await
         .map_err(zerr)?;
-    let tasks = bus.subscribe::<Task>(&keys.key(&Topic::UnitTask(unit.clone()))).await?;
+    let tasks = bus
+        .subscribe::<Task>(&keys.key(&Topic::UnitTask(unit.clone())))
+        .await?;
     let mut ctl = GroundController::new(unit.clone(), *platform.spec(), scenario);
     let state_key = keys.key(&Topic::UnitState(unit.clone()));
     let report_key = keys.key(&Topic::UnitReport(unit.clone()));

@@ -7,11 +7,11 @@
 
 use std::future::Future;
 
+use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, BusError, Inbox};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{UnitCommand, UnitSensors};
 use firefleet_protocol::spec::GroundSpec;
-use firefleet_protocol::UnitId;
 
 /// A robot body: sensors in, set-points out.
 pub trait Platform {
@@ -34,8 +34,15 @@ pub struct SimPlatform {
 impl SimPlatform {
     pub async fn connect(bus: &Bus, unit: &UnitId, spec: GroundSpec) -> Result<Self, BusError> {
         let keys = bus.keys();
-        let sensors = bus.subscribe(&keys.key(&Topic::SimSensors(unit.clone()))).await?;
-        Ok(Self { spec, bus: bus.clone(), sensors, cmd_key: keys.key(&Topic::SimCmd(unit.clone())) })
+        let sensors = bus
+            .subscribe(&keys.key(&Topic::SimSensors(unit.clone())))
+            .await?;
+        Ok(Self {
+            spec,
+            bus: bus.clone(),
+            sensors,
+            cmd_key: keys.key(&Topic::SimCmd(unit.clone())),
+        })
     }
 }
 

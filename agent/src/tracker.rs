@@ -68,7 +68,11 @@ impl FlameTracker {
                 .iter_mut()
                 .map(|tr| {
                     let mut gate = tr.estimate;
-                    gate.cov = [gate.cov[0] + z.cov[0], gate.cov[1] + z.cov[1], gate.cov[2] + z.cov[2]];
+                    gate.cov = [
+                        gate.cov[0] + z.cov[0],
+                        gate.cov[1] + z.cov[1],
+                        gate.cov[2] + z.cov[2],
+                    ];
                     (gate.mahalanobis2(z.mean), tr)
                 })
                 .filter(|(m2, _)| *m2 < GATE2)
@@ -82,7 +86,12 @@ impl FlameTracker {
                     tr.confidence = 0.7 * tr.confidence + 0.3 * d.confidence;
                     tr.last_seen = s.t;
                 }
-                None => self.tracks.push(Track { estimate: z, confidence: d.confidence, hits: 1, last_seen: s.t }),
+                None => self.tracks.push(Track {
+                    estimate: z,
+                    confidence: d.confidence,
+                    hits: 1,
+                    last_seen: s.t,
+                }),
             }
         }
         self.tracks.retain(|tr| s.t - tr.last_seen <= STALE_S);
@@ -99,14 +108,20 @@ impl FlameTracker {
 
     /// The confirmed track nearest `p`, if within `within` metres.
     pub fn nearest_confirmed(&self, p: Point2, within: f64) -> Option<&Track> {
-        self.confirmed().filter(|t| t.position().dist(p) <= within).min_by(|a, b| a.position().dist(p).total_cmp(&b.position().dist(p)))
+        self.confirmed()
+            .filter(|t| t.position().dist(p) <= within)
+            .min_by(|a, b| a.position().dist(p).total_cmp(&b.position().dist(p)))
     }
 
     /// Confirmed tracks seen since `since`, as observations for the coordinator.
     pub fn observations(&self, since: f64) -> Vec<FlameObservation> {
         self.confirmed()
             .filter(|t| t.last_seen >= since)
-            .map(|t| FlameObservation { position: t.position(), cov: t.estimate.cov, confidence: t.confidence.clamp(0.0, 1.0) })
+            .map(|t| FlameObservation {
+                position: t.position(),
+                cov: t.estimate.cov,
+                confidence: t.confidence.clamp(0.0, 1.0),
+            })
             .collect()
     }
 }
@@ -137,7 +152,11 @@ mod tests {
     /// Detection of a flame at site point `f` from `pose`, with a small deterministic error.
     fn det(pose: &Pose2, f: Point2, err: f64) -> FlameDetection {
         let b = pose.to_body(f);
-        FlameDetection { bearing: b.y.atan2(b.x) + 0.2 * err * 0.01, range: b.x.hypot(b.y) + err, confidence: 0.9 }
+        FlameDetection {
+            bearing: b.y.atan2(b.x) + 0.2 * err * 0.01,
+            range: b.x.hypot(b.y) + err,
+            confidence: 0.9,
+        }
     }
 
     #[test]
@@ -147,7 +166,10 @@ mod tests {
         for k in 0..40 {
             let pose = Pose2::new(5.0 + 0.3 * k as f64, -2.0, 0.05);
             let err = if k % 2 == 0 { 0.3 } else { -0.3 };
-            tr.update(&GROUND, &frame(0.1 * k as f64, pose, vec![det(&pose, flame, err)]));
+            tr.update(
+                &GROUND,
+                &frame(0.1 * k as f64, pose, vec![det(&pose, flame, err)]),
+            );
         }
         assert_eq!(tr.tracks().len(), 1);
         let t = &tr.tracks()[0];
@@ -161,7 +183,14 @@ mod tests {
         let pose = Pose2::new(0.0, 0.0, 0.0);
         let (a, b) = (Point2::new(10.0, 1.5), Point2::new(10.0, -1.5));
         for k in 0..5 {
-            tr.update(&GROUND, &frame(0.1 * k as f64, pose, vec![det(&pose, a, 0.0), det(&pose, b, 0.0)]));
+            tr.update(
+                &GROUND,
+                &frame(
+                    0.1 * k as f64,
+                    pose,
+                    vec![det(&pose, a, 0.0), det(&pose, b, 0.0)],
+                ),
+            );
         }
         assert_eq!(tr.confirmed().count(), 2);
         assert_eq!(tr.observations(0.3).len(), 2);

@@ -4,12 +4,12 @@
 use std::sync::Arc;
 
 use firefleet_agent::ground::GroundController;
+use firefleet_protocol::FireId;
+use firefleet_protocol::UnitId;
 use firefleet_protocol::geometry::Point2;
 use firefleet_protocol::msg::{TaskKind, TaskPhase, TruthFireState};
-use firefleet_protocol::FireId;
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::GROUND;
-use firefleet_protocol::UnitId;
 use firefleet_sim::World;
 
 const SCENARIO: &str = r#"
@@ -49,7 +49,13 @@ fn run(coordinator_task: Option<Point2>) -> (Option<f64>, GroundController, Worl
     let mut ctl = GroundController::new(id.clone(), GROUND, scenario.clone());
     if let Some(target) = coordinator_task {
         ctl.set_coordinator_present(true);
-        ctl.on_task(1, TaskKind::Extinguish { fire: FireId(1), target });
+        ctl.on_task(
+            1,
+            TaskKind::Extinguish {
+                fire: FireId(1),
+                target,
+            },
+        );
     }
     let dt = 0.05;
     while world.time() < scenario.time_limit_s {
@@ -78,8 +84,14 @@ fn alone_the_unit_cruises_finds_and_puts_out_the_fire() {
     let t = out.expect("fire never went out");
     assert!(t < 120.0, "took {t} s");
     let truth = world.truth();
-    assert_eq!(truth.units[0].collisions, 0, "touched the parked car or a wall");
-    assert!(truth.units[0].pose.position().dist(Point2::new(60.0, -2.0)) > 3.0, "drove into the fire");
+    assert_eq!(
+        truth.units[0].collisions, 0,
+        "touched the parked car or a wall"
+    );
+    assert!(
+        truth.units[0].pose.position().dist(Point2::new(60.0, -2.0)) > 3.0,
+        "drove into the fire"
+    );
 }
 
 #[test]
@@ -92,5 +104,8 @@ fn with_a_task_the_unit_reports_the_fire_extinguished() {
     let id = UnitId::new("u1").unwrap();
     let state = ctl.state(&w.sensors(&id).unwrap());
     let task = state.task.expect("task progress echoed");
-    assert_eq!((task.seq, task.fire, task.phase), (1, FireId(1), TaskPhase::Extinguished));
+    assert_eq!(
+        (task.seq, task.fire, task.phase),
+        (1, FireId(1), TaskPhase::Extinguished)
+    );
 }

@@ -44,7 +44,9 @@ pub fn greedy(units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
             for (j, n) in open.iter().enumerate() {
                 let c = cost(u, n);
                 // Ties break on unit id, so the outcome does not depend on input order.
-                if best.is_none_or(|(bi, _, bc)| c < bc || (c == bc && u.unit < free_units[bi].unit)) {
+                if best
+                    .is_none_or(|(bi, _, bc)| c < bc || (c == bc && u.unit < free_units[bi].unit))
+                {
                     best = Some((i, j, c));
                 }
             }
@@ -56,7 +58,12 @@ pub fn greedy(units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
             .iter()
             .map(|o| (o.unit.clone(), cost(o, n)))
             .min_by(|a, b| a.1.total_cmp(&b.1));
-        picks.push(Pick { unit: u.unit.clone(), fire: n.fire, cost_s: c, runner_up });
+        picks.push(Pick {
+            unit: u.unit.clone(),
+            fire: n.fire,
+            cost_s: c,
+            runner_up,
+        });
     }
     picks
 }
@@ -66,13 +73,26 @@ mod tests {
     use super::*;
 
     fn cand(id: &str, x: f64) -> Candidate {
-        Candidate { unit: UnitId::new(id).unwrap(), position: Point2::new(x, 0.0), speed_m_s: 1.0 }
+        Candidate {
+            unit: UnitId::new(id).unwrap(),
+            position: Point2::new(x, 0.0),
+            speed_m_s: 1.0,
+        }
     }
 
     #[test]
     fn nearest_free_unit_gets_each_fire() {
         let units = [cand("a", 0.0), cand("b", 40.0), cand("c", 100.0)];
-        let needs = [Need { fire: FireId(1), position: Point2::new(50.0, 0.0) }, Need { fire: FireId(2), position: Point2::new(5.0, 0.0) }];
+        let needs = [
+            Need {
+                fire: FireId(1),
+                position: Point2::new(50.0, 0.0),
+            },
+            Need {
+                fire: FireId(2),
+                position: Point2::new(5.0, 0.0),
+            },
+        ];
         let picks = greedy(&units, &needs);
         assert_eq!(picks.len(), 2);
         let of = |f: u32| picks.iter().find(|p| p.fire == FireId(f)).unwrap();
@@ -83,7 +103,19 @@ mod tests {
 
     #[test]
     fn more_fires_than_units_leaves_the_farthest_unattended() {
-        let picks = greedy(&[cand("a", 0.0)], &[Need { fire: FireId(1), position: Point2::new(90.0, 0.0) }, Need { fire: FireId(2), position: Point2::new(10.0, 0.0) }]);
+        let picks = greedy(
+            &[cand("a", 0.0)],
+            &[
+                Need {
+                    fire: FireId(1),
+                    position: Point2::new(90.0, 0.0),
+                },
+                Need {
+                    fire: FireId(2),
+                    position: Point2::new(10.0, 0.0),
+                },
+            ],
+        );
         assert_eq!(picks.len(), 1);
         assert_eq!(picks[0].fire, FireId(2));
     }

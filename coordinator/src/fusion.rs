@@ -48,7 +48,12 @@ impl Fire {
         self.estimate = it.fold(*first, |acc, (g, _)| acc.fuse(g));
         self.estimate.cov[0] = self.estimate.cov[0].max(MIN_VAR_M2);
         self.estimate.cov[2] = self.estimate.cov[2].max(MIN_VAR_M2);
-        self.confidence = 1.0 - self.per_unit.values().map(|(_, c)| 1.0 - c).product::<f64>();
+        self.confidence = 1.0
+            - self
+                .per_unit
+                .values()
+                .map(|(_, c)| 1.0 - c)
+                .product::<f64>();
     }
 
     pub fn position(&self) -> Point2 {
@@ -109,7 +114,10 @@ impl Fusion {
 
     /// Fold in one observation by `unit` at time `t`.
     pub fn observe(&mut self, unit: &UnitId, obs: &FlameObservation, t: f64) -> Fused {
-        let mut z = Gaussian2 { mean: obs.position, cov: obs.cov };
+        let mut z = Gaussian2 {
+            mean: obs.position,
+            cov: obs.cov,
+        };
         z.cov[0] = z.cov[0].max(MIN_VAR_M2);
         z.cov[2] = z.cov[2].max(MIN_VAR_M2);
         let best = self
@@ -118,7 +126,11 @@ impl Fusion {
             .filter(|f| f.state != FireState::Lost)
             .map(|f| {
                 let mut g = f.estimate;
-                g.cov = [g.cov[0] + z.cov[0], g.cov[1] + z.cov[1], g.cov[2] + z.cov[2]];
+                g.cov = [
+                    g.cov[0] + z.cov[0],
+                    g.cov[1] + z.cov[1],
+                    g.cov[2] + z.cov[2],
+                ];
                 (g.mahalanobis2(z.mean), f)
             })
             .filter(|(m2, _)| *m2 < GATE2)
@@ -142,7 +154,11 @@ impl Fusion {
                 f.state = FireState::Confirmed;
             }
             self.fires.push(f);
-            return if confirmed { Fused::Confirmed(id) } else { Fused::New(id) };
+            return if confirmed {
+                Fused::Confirmed(id)
+            } else {
+                Fused::New(id)
+            };
         };
         fire.last_seen = t;
         fire.per_unit.insert(unit.clone(), (z, obs.confidence));
@@ -153,7 +169,9 @@ impl Fusion {
                 fire.out_at = None;
                 Fused::Reignited(fire.id)
             }
-            FireState::Tentative if fire.confidence >= CONFIRM_CONFIDENCE || fire.per_unit.len() >= 2 => {
+            FireState::Tentative
+                if fire.confidence >= CONFIRM_CONFIDENCE || fire.per_unit.len() >= 2 =>
+            {
                 fire.state = FireState::Confirmed;
                 Fused::Confirmed(fire.id)
             }
@@ -165,7 +183,9 @@ impl Fusion {
     pub fn expire(&mut self, t: f64) -> Vec<FireId> {
         let mut lost = Vec::new();
         for f in &mut self.fires {
-            if matches!(f.state, FireState::Tentative | FireState::Confirmed) && t - f.last_seen > LOSE_AFTER_S {
+            if matches!(f.state, FireState::Tentative | FireState::Confirmed)
+                && t - f.last_seen > LOSE_AFTER_S
+            {
                 f.state = FireState::Lost;
                 lost.push(f.id);
             }
@@ -182,14 +202,24 @@ mod tests {
         UnitId::new(s).unwrap()
     }
     fn obs(x: f64, y: f64, var: f64, c: f64) -> FlameObservation {
-        FlameObservation { position: Point2::new(x, y), cov: [var, 0.0, var], confidence: c }
+        FlameObservation {
+            position: Point2::new(x, y),
+            cov: [var, 0.0, var],
+            confidence: c,
+        }
     }
 
     #[test]
     fn the_same_flame_seen_by_three_units_is_one_fire() {
         let mut f = Fusion::default();
-        assert!(matches!(f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.6), 0.0), Fused::New(_)));
-        assert!(matches!(f.observe(&u("b"), &obs(50.6, 1.3, 0.4, 0.6), 0.1), Fused::Confirmed(_)));
+        assert!(matches!(
+            f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.6), 0.0),
+            Fused::New(_)
+        ));
+        assert!(matches!(
+            f.observe(&u("b"), &obs(50.6, 1.3, 0.4, 0.6), 0.1),
+            Fused::Confirmed(_)
+        ));
         f.observe(&u("c"), &obs(49.7, 0.8, 0.2, 0.7), 0.2);
         assert_eq!(f.fires().len(), 1);
         let fire = &f.fires()[0];
@@ -224,11 +254,20 @@ mod tests {
         assert_eq!(f.expire(61.0).len(), 1);
 
         let mut f = Fusion::default();
-        let Fused::Confirmed(id) = f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 0.0) else { panic!() };
+        let Fused::Confirmed(id) = f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 0.0) else {
+            panic!()
+        };
         let fire = f.get_mut(id).unwrap();
         fire.state = FireState::Out;
         fire.out_at = Some(10.0);
-        assert_eq!(f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 12.0), Fused::Updated(id), "stale report");
-        assert_eq!(f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 20.0), Fused::Reignited(id));
+        assert_eq!(
+            f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 12.0),
+            Fused::Updated(id),
+            "stale report"
+        );
+        assert_eq!(
+            f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 20.0),
+            Fused::Reignited(id)
+        );
     }
 }

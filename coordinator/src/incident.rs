@@ -73,7 +73,10 @@ impl Incident {
     pub fn new(tunnel: Tunnel, units: impl IntoIterator<Item = UnitId>, lease_s: f64) -> Self {
         Self {
             tunnel,
-            units: units.into_iter().map(|u| (u, UnitView::default())).collect(),
+            units: units
+                .into_iter()
+                .map(|u| (u, UnitView::default()))
+                .collect(),
             fusion: Fusion::default(),
             seq: 0,
             lease_s,
@@ -91,7 +94,9 @@ impl Incident {
     }
 
     fn view(&mut self, unit: &UnitId, field: &str) -> Result<&mut UnitView, Invalid> {
-        self.units.get_mut(unit).ok_or_else(|| Invalid::new(field, format!("unknown unit '{unit}'")))
+        self.units
+            .get_mut(unit)
+            .ok_or_else(|| Invalid::new(field, format!("unknown unit '{unit}'")))
     }
 
     /// A unit's liveliness token appeared or vanished.
@@ -120,7 +125,10 @@ impl Incident {
         let mut out = Vec::new();
         match fire {
             Some(f) => {
-                self.log(t, format!("unit {unit} lost ({why}); fire {f} needs a new unit"));
+                self.log(
+                    t,
+                    format!("unit {unit} lost ({why}); fire {f} needs a new unit"),
+                );
                 out.extend(self.release(f, t));
             }
             None => self.log(t, format!("unit {unit} lost ({why})")),
@@ -186,7 +194,12 @@ impl Incident {
 
     fn standby(&mut self, unit: &UnitId, t: f64) -> Output {
         self.seq += 1;
-        let task = Task { unit: unit.clone(), seq: self.seq, t, kind: TaskKind::Standby };
+        let task = Task {
+            unit: unit.clone(),
+            seq: self.seq,
+            t,
+            kind: TaskKind::Standby,
+        };
         self.units.get_mut(unit).expect("known unit").task = Some(task.clone());
         Output::Task(task)
     }
@@ -195,14 +208,21 @@ impl Incident {
     pub fn on_report(&mut self, r: &FlameReport, t: f64) -> Result<Vec<Output>, Invalid> {
         self.view(&r.unit, "unit")?.last_heard = t;
         for (i, o) in r.observations.iter().enumerate() {
-            self.tunnel.check_inside(&format!("observations[{i}].position"), o.position)?;
+            self.tunnel
+                .check_inside(&format!("observations[{i}].position"), o.position)?;
         }
         let mut out = Vec::new();
         for o in &r.observations {
             match self.fusion.observe(&r.unit, o, t) {
                 Fused::New(_) | Fused::Updated(_) => {}
                 Fused::Confirmed(id) => {
-                    self.log(t, format!("fire {id} confirmed at ({:.1}, {:.1})", o.position.x, o.position.y));
+                    self.log(
+                        t,
+                        format!(
+                            "fire {id} confirmed at ({:.1}, {:.1})",
+                            o.position.x, o.position.y
+                        ),
+                    );
                     out.push(Output::Fire(self.track(id, t)));
                 }
                 Fused::Reignited(id) => {
@@ -228,7 +248,10 @@ impl Incident {
             out.extend(self.lose(&u, t, "silent beyond its lease"));
         }
         for id in self.fusion.expire(t) {
-            self.log(t, format!("fire {id} lost: unseen for a minute and unattended"));
+            self.log(
+                t,
+                format!("fire {id} lost: unseen for a minute and unattended"),
+            );
             out.push(Output::Fire(self.track(id, t)));
         }
         self.failed.retain(|_, until| *until > t);
@@ -243,7 +266,10 @@ impl Incident {
             .fires()
             .iter()
             .filter(|f| f.state == FireState::Confirmed)
-            .map(|f| Need { fire: f.id, position: f.position() })
+            .map(|f| Need {
+                fire: f.id,
+                position: f.position(),
+            })
             .collect();
         if needs.is_empty() {
             return Vec::new();
@@ -267,17 +293,36 @@ impl Incident {
             if self.failed.contains_key(&(p.unit.clone(), p.fire)) {
                 continue;
             }
-            let Some(fire) = self.fusion.get_mut(p.fire) else { continue };
+            let Some(fire) = self.fusion.get_mut(p.fire) else {
+                continue;
+            };
             fire.state = FireState::Assigned;
             let target = fire.position();
             self.seq += 1;
-            let task = Task { unit: p.unit.clone(), seq: self.seq, t, kind: TaskKind::Extinguish { fire: p.fire, target } };
-            self.units.get_mut(&p.unit).expect("candidate is known").task = Some(task.clone());
+            let task = Task {
+                unit: p.unit.clone(),
+                seq: self.seq,
+                t,
+                kind: TaskKind::Extinguish {
+                    fire: p.fire,
+                    target,
+                },
+            };
+            self.units
+                .get_mut(&p.unit)
+                .expect("candidate is known")
+                .task = Some(task.clone());
             let runner_up = match &p.runner_up {
                 Some((u, c)) => format!("runner-up {u} at {c:.1} s"),
                 None => "no other free unit".to_owned(),
             };
-            self.log(t, format!("assign {} to fire {}: travel {:.1} s; {runner_up}", p.unit, p.fire, p.cost_s));
+            self.log(
+                t,
+                format!(
+                    "assign {} to fire {}: travel {:.1} s; {runner_up}",
+                    p.unit, p.fire, p.cost_s
+                ),
+            );
             out.push(Output::Task(task));
             out.push(Output::Fire(self.track(p.fire, t)));
         }
@@ -285,21 +330,35 @@ impl Incident {
     }
 
     fn assigned_to(&self, fire: FireId) -> Vec<UnitId> {
-        self.units.iter().filter(|(_, v)| v.alive && v.working_on() == Some(fire)).map(|(u, _)| u.clone()).collect()
+        self.units
+            .iter()
+            .filter(|(_, v)| v.alive && v.working_on() == Some(fire))
+            .map(|(u, _)| u.clone())
+            .collect()
     }
 
     fn track(&self, fire: FireId, t: f64) -> FireTrack {
-        self.fusion.get(fire).expect("track exists").to_track(t, self.assigned_to(fire))
+        self.fusion
+            .get(fire)
+            .expect("track exists")
+            .to_track(t, self.assigned_to(fire))
     }
 
     /// Every current task, for periodic re-publication (late joiners, lost messages).
     pub fn tasks(&self) -> impl Iterator<Item = &Task> {
-        self.units.values().filter(|v| v.alive).filter_map(|v| v.task.as_ref())
+        self.units
+            .values()
+            .filter(|v| v.alive)
+            .filter_map(|v| v.task.as_ref())
     }
 
     /// Every fire track.
     pub fn fire_tracks(&self, t: f64) -> Vec<FireTrack> {
-        self.fusion.fires().iter().map(|f| f.to_track(t, self.assigned_to(f.id))).collect()
+        self.fusion
+            .fires()
+            .iter()
+            .map(|f| f.to_track(t, self.assigned_to(f.id)))
+            .collect()
     }
 
     pub fn decisions(&self) -> impl Iterator<Item = &Decision> {
@@ -330,7 +389,10 @@ impl Incident {
 
     /// Units that have seen each fire (for tests and status).
     pub fn seen_by(&self, fire: FireId) -> BTreeSet<UnitId> {
-        self.fusion.get(fire).map(|f| f.seen_by().cloned().collect()).unwrap_or_default()
+        self.fusion
+            .get(fire)
+            .map(|f| f.seen_by().cloned().collect())
+            .unwrap_or_default()
     }
 }
 
@@ -340,7 +402,12 @@ mod tests {
     use firefleet_protocol::geometry::{Point2, Pose2};
     use firefleet_protocol::msg::{FlameObservation, TaskProgress, UnitKind};
 
-    const TUNNEL: Tunnel = Tunnel { length_m: 200.0, width_m: 10.0, height_m: 6.0, lanes: 2 };
+    const TUNNEL: Tunnel = Tunnel {
+        length_m: 200.0,
+        width_m: 10.0,
+        height_m: 6.0,
+        lanes: 2,
+    };
 
     fn u(s: &str) -> UnitId {
         UnitId::new(s).unwrap()
@@ -367,12 +434,24 @@ mod tests {
             unit: u(unit),
             t: 0.0,
             observer: Pose2::new(x - 15.0, -2.0, 0.0),
-            observations: vec![FlameObservation { position: Point2::new(x, 1.0), cov: [0.2, 0.0, 0.2], confidence: 0.9 }],
+            observations: vec![FlameObservation {
+                position: Point2::new(x, 1.0),
+                cov: [0.2, 0.0, 0.2],
+                confidence: 0.9,
+            }],
         }
     }
 
     fn tasks(out: &[Output]) -> Vec<&Task> {
-        out.iter().filter_map(|o| if let Output::Task(t) = o { Some(t) } else { None }).collect()
+        out.iter()
+            .filter_map(|o| {
+                if let Output::Task(t) = o {
+                    Some(t)
+                } else {
+                    None
+                }
+            })
+            .collect()
     }
 
     fn incident() -> Incident {
@@ -420,17 +499,31 @@ mod tests {
         let mut i = incident();
         let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
         let task = tasks(&out)[0].clone();
-        let TaskKind::Extinguish { fire, .. } = task.kind else { panic!() };
-        let done = TaskProgress { seq: task.seq, fire, phase: TaskPhase::Extinguished };
+        let TaskKind::Extinguish { fire, .. } = task.kind else {
+            panic!()
+        };
+        let done = TaskProgress {
+            seq: task.seq,
+            fire,
+            phase: TaskPhase::Extinguished,
+        };
         let out = i.on_state(state("b", 55.0, Some(done)), 20.0).unwrap();
-        assert!(out.iter().any(|o| matches!(o, Output::Fire(f) if f.id == fire && f.state == FireState::Out)));
+        assert!(
+            out.iter()
+                .any(|o| matches!(o, Output::Fire(f) if f.id == fire && f.state == FireState::Out))
+        );
         assert!(matches!(tasks(&out)[0].kind, TaskKind::Standby));
     }
 
     #[test]
     fn bad_input_is_refused_and_changes_nothing() {
         let mut i = incident();
-        assert!(i.on_report(&report("zz", 60.0), 1.0).unwrap_err().reason.contains("unknown unit"));
+        assert!(
+            i.on_report(&report("zz", 60.0), 1.0)
+                .unwrap_err()
+                .reason
+                .contains("unknown unit")
+        );
         let e = i.on_report(&report("a", 260.0), 1.0).unwrap_err();
         assert_eq!(e.field, "observations[0].position");
         assert!(i.fire_tracks(1.0).is_empty());

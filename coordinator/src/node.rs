@@ -31,19 +31,47 @@ pub struct CoordinatorOptions {
 }
 
 /// Run the coordinator until `shutdown` completes.
-pub async fn run(bus: &Bus, scenario: &Scenario, opts: &CoordinatorOptions, shutdown: impl Future<Output = ()>) -> Result<(), BusError> {
+pub async fn run(
+    bus: &Bus,
+    scenario: &Scenario,
+    opts: &CoordinatorOptions,
+    shutdown: impl Future<Output = ()>,
+) -> Result<(), BusError> {
     let keys = bus.keys().clone();
     let session = bus.session();
     let sim_time = ExternalClock::new(0.0);
-    let clock: Arc<dyn Clock> = if opts.sim_clock { Arc::new(sim_time.clone()) } else { Arc::new(SystemClock) };
-    let mut incident = Incident::new(scenario.tunnel, scenario.units.iter().map(|u| u.id.clone()), opts.lease_s);
+    let clock: Arc<dyn Clock> = if opts.sim_clock {
+        Arc::new(sim_time.clone())
+    } else {
+        Arc::new(SystemClock)
+    };
+    let mut incident = Incident::new(
+        scenario.tunnel,
+        scenario.units.iter().map(|u| u.id.clone()),
+        opts.lease_s,
+    );
 
-    let _token = session.liveliness().declare_token(keys.key(&Topic::CoordAlive)).await?;
-    let alive = session.liveliness().declare_subscriber(keys.every_unit(UnitLeaf::Alive)).history(true).await?;
-    let states = bus.subscribe::<UnitState>(&keys.every_unit(UnitLeaf::State)).await?;
-    let reports = bus.subscribe::<FlameReport>(&keys.every_unit(UnitLeaf::Report)).await?;
-    let clock_msgs = bus.subscribe::<SimClock>(&keys.key(&Topic::SimClock)).await?;
-    let status = session.declare_queryable(keys.key(&Topic::CoordStatus)).await?;
+    let _token = session
+        .liveliness()
+        .declare_token(keys.key(&Topic::CoordAlive))
+        .await?;
+    let alive = session
+        .liveliness()
+        .declare_subscriber(keys.every_unit(UnitLeaf::Alive))
+        .history(true)
+        .await?;
+    let states = bus
+        .subscribe::<UnitState>(&keys.every_unit(UnitLeaf::State))
+        .await?;
+    let reports = bus
+        .subscribe::<FlameReport>(&keys.every_unit(UnitLeaf::Report))
+        .await?;
+    let clock_msgs = bus
+        .subscribe::<SimClock>(&keys.key(&Topic::SimClock))
+        .await?;
+    let status = session
+        .declare_queryable(keys.key(&Topic::CoordStatus))
+        .await?;
 
     let mut tick = tokio::time::interval(Duration::from_millis(200));
     let mut republish = tokio::time::interval(Duration::from_secs(1));
@@ -99,7 +127,10 @@ async fn publish(bus: &Bus, outputs: Vec<Output>) -> Result<(), BusError> {
     let keys = bus.keys();
     for o in outputs {
         match o {
-            Output::Task(t) => bus.put(&keys.key(&Topic::UnitTask(t.unit.clone())), &t).await?,
+            Output::Task(t) => {
+                bus.put(&keys.key(&Topic::UnitTask(t.unit.clone())), &t)
+                    .await?
+            }
             Output::Fire(f) => bus.put(&keys.key(&Topic::Fire(f.id)), &f).await?,
         }
     }

@@ -21,7 +21,8 @@ use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{
-    FireTrack, FlameReport, GoalAck, Message, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState, ZoneGoal,
+    FireTrack, FlameReport, GoalAck, Message, SimClock, SimTruth, Task, UnitCommand, UnitSensors,
+    UnitState, ZoneGoal,
 };
 use firefleet_protocol::scenario::Scenario;
 use serde::Serialize;
@@ -33,7 +34,10 @@ use crate::scene;
 #[derive(Debug, thiserror::Error)]
 pub enum RecordError {
     #[error("cannot create {path}: {source}")]
-    Create { path: String, source: std::io::Error },
+    Create {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("writing MCAP: {0}")]
     Mcap(#[from] mcap::McapError),
     #[error(transparent)]
@@ -58,10 +62,20 @@ struct Decoded {
     json: Vec<u8>,
 }
 
-fn decoded<M: Message>(bytes: &[u8], schema_name: &'static str) -> Result<(Decoded, M), CodecError> {
+fn decoded<M: Message>(
+    bytes: &[u8],
+    schema_name: &'static str,
+) -> Result<(Decoded, M), CodecError> {
     let m: M = codec::decode(bytes)?;
     let json = serde_json::to_vec(&m)?;
-    Ok((Decoded { schema_name, schema: || schemars::schema_for!(M), json }, m))
+    Ok((
+        Decoded {
+            schema_name,
+            schema: || schemars::schema_for!(M),
+            json,
+        },
+        m,
+    ))
 }
 
 /// An MCAP file being written.
@@ -74,12 +88,30 @@ struct McapSink {
 
 impl McapSink {
     fn create(path: &Path) -> Result<Self, RecordError> {
-        let file = File::create(path).map_err(|source| RecordError::Create { path: path.display().to_string(), source })?;
-        let writer = mcap::WriteOptions::new().compression(None).profile("firefleet").create(BufWriter::new(file))?;
-        Ok(Self { writer, schemas: HashMap::new(), channels: HashMap::new(), summary: RecordSummary::default() })
+        let file = File::create(path).map_err(|source| RecordError::Create {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let writer = mcap::WriteOptions::new()
+            .compression(None)
+            .profile("firefleet")
+            .create(BufWriter::new(file))?;
+        Ok(Self {
+            writer,
+            schemas: HashMap::new(),
+            channels: HashMap::new(),
+            summary: RecordSummary::default(),
+        })
     }
 
-    fn write(&mut self, topic: &str, schema_name: &'static str, schema: fn() -> schemars::Schema, json: &[u8], t_ns: u64) -> Result<(), RecordError> {
+    fn write(
+        &mut self,
+        topic: &str,
+        schema_name: &'static str,
+        schema: fn() -> schemars::Schema,
+        json: &[u8],
+        t_ns: u64,
+    ) -> Result<(), RecordError> {
         let schema_id = match self.schemas.get(schema_name) {
             Some(id) => *id,
             None => {
@@ -92,12 +124,19 @@ impl McapSink {
         let (channel_id, seq) = match self.channels.get_mut(topic) {
             Some(c) => c,
             None => {
-                let id = self.writer.add_channel(schema_id, topic, "json", &BTreeMap::new())?;
+                let id = self
+                    .writer
+                    .add_channel(schema_id, topic, "json", &BTreeMap::new())?;
                 self.channels.entry(topic.to_owned()).or_insert((id, 0))
             }
         };
         *seq += 1;
-        let header = mcap::records::MessageHeader { channel_id: *channel_id, sequence: *seq, log_time: t_ns, publish_time: t_ns };
+        let header = mcap::records::MessageHeader {
+            channel_id: *channel_id,
+            sequence: *seq,
+            log_time: t_ns,
+            publish_time: t_ns,
+        };
         self.writer.write_to_known_channel(&header, json)?;
         self.summary.messages += 1;
         Ok(())
@@ -111,11 +150,17 @@ impl McapSink {
 }
 
 fn now_ns() -> u64 {
-    SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_nanos() as u64).unwrap_or(0)
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0)
 }
 
 fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Option<SimTruth>), CodecError> {
-    fn plain<M: Message>(bytes: &[u8], name: &'static str) -> Result<(Decoded, Option<SimTruth>), CodecError> {
+    fn plain<M: Message>(
+        bytes: &[u8],
+        name: &'static str,
+    ) -> Result<(Decoded, Option<SimTruth>), CodecError> {
         decoded::<M>(bytes, name).map(|(d, _)| (d, None))
     }
     match topic {
@@ -128,7 +173,9 @@ fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Option<SimTruth>), Co
         Topic::SimClock => plain::<SimClock>(bytes, "firefleet.SimClock"),
         Topic::SimSensors(_) => plain::<UnitSensors>(bytes, "firefleet.UnitSensors"),
         Topic::SimCmd(_) => plain::<UnitCommand>(bytes, "firefleet.UnitCommand"),
-        Topic::SimTruth => decoded::<SimTruth>(bytes, "firefleet.SimTruth").map(|(d, m)| (d, Some(m))),
+        Topic::SimTruth => {
+            decoded::<SimTruth>(bytes, "firefleet.SimTruth").map(|(d, m)| (d, Some(m)))
+        }
         Topic::UnitAlive(_) | Topic::CoordAlive | Topic::CoordStatus => Err(CodecError::Empty),
     }
 }
@@ -141,7 +188,12 @@ struct Liveliness {
 
 /// Record everything on the site until `shutdown` completes; the file is finished (summary
 /// and index written) however the recording ends.
-pub async fn record(bus: &Bus, scenario: &Scenario, path: &Path, shutdown: impl Future<Output = ()>) -> Result<RecordSummary, RecordError> {
+pub async fn record(
+    bus: &Bus,
+    scenario: &Scenario,
+    path: &Path,
+    shutdown: impl Future<Output = ()>,
+) -> Result<RecordSummary, RecordError> {
     let keys = bus.keys().clone();
     let session = bus.session();
     let mut sink = McapSink::create(path)?;

@@ -22,7 +22,10 @@ pub struct Time {
 
 impl Time {
     pub fn from_nanos(ns: u64) -> Self {
-        Self { sec: (ns / 1_000_000_000) as u32, nsec: (ns % 1_000_000_000) as u32 }
+        Self {
+            sec: (ns / 1_000_000_000) as u32,
+            nsec: (ns % 1_000_000_000) as u32,
+        }
     }
 }
 
@@ -50,7 +53,15 @@ pub struct Pose {
 impl Pose {
     fn at(x: f64, y: f64, z: f64, yaw: f64) -> Self {
         let (s, c) = (yaw / 2.0).sin_cos();
-        Self { position: Vector3 { x, y, z }, orientation: Quaternion { x: 0.0, y: 0.0, z: s, w: c } }
+        Self {
+            position: Vector3 { x, y, z },
+            orientation: Quaternion {
+                x: 0.0,
+                y: 0.0,
+                z: s,
+                w: c,
+            },
+        }
     }
 }
 
@@ -126,7 +137,12 @@ fn label(x: f64, y: f64, z: f64, text: String) -> TextPrimitive {
         billboard: true,
         font_size: 14.0,
         scale_invariant: true,
-        color: Color { r: 1.0, g: 1.0, b: 1.0, a: 1.0 },
+        color: Color {
+            r: 1.0,
+            g: 1.0,
+            b: 1.0,
+            a: 1.0,
+        },
         text,
     }
 }
@@ -135,16 +151,34 @@ fn label(x: f64, y: f64, z: f64, text: String) -> TextPrimitive {
 pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
     let t = &s.tunnel;
     let mut tunnel = entity("tunnel".into(), ts);
-    let grey = |a| Color { r: 0.5, g: 0.5, b: 0.55, a };
+    let grey = |a| Color {
+        r: 0.5,
+        g: 0.5,
+        b: 0.55,
+        a,
+    };
     tunnel.cubes.push(CubePrimitive {
         pose: Pose::at(t.length_m / 2.0, 0.0, -0.05, 0.0),
-        size: Vector3 { x: t.length_m, y: t.width_m, z: 0.1 },
+        size: Vector3 {
+            x: t.length_m,
+            y: t.width_m,
+            z: 0.1,
+        },
         color: grey(1.0),
     });
     for side in [-1.0, 1.0] {
         tunnel.cubes.push(CubePrimitive {
-            pose: Pose::at(t.length_m / 2.0, side * (t.width_m / 2.0 + 0.1), t.height_m / 2.0, 0.0),
-            size: Vector3 { x: t.length_m, y: 0.2, z: t.height_m },
+            pose: Pose::at(
+                t.length_m / 2.0,
+                side * (t.width_m / 2.0 + 0.1),
+                t.height_m / 2.0,
+                0.0,
+            ),
+            size: Vector3 {
+                x: t.length_m,
+                y: 0.2,
+                z: t.height_m,
+            },
             color: grey(0.25),
         });
     }
@@ -153,12 +187,24 @@ pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
         let mut e = entity(format!("obstacle/{}", o.name), ts);
         e.cubes.push(CubePrimitive {
             pose: Pose::at(o.x_m, o.y_m, o.height_m / 2.0, o.yaw_rad),
-            size: Vector3 { x: o.length_m, y: o.width_m, z: o.height_m },
-            color: Color { r: 0.3, g: 0.35, b: 0.4, a: 1.0 },
+            size: Vector3 {
+                x: o.length_m,
+                y: o.width_m,
+                z: o.height_m,
+            },
+            color: Color {
+                r: 0.3,
+                g: 0.35,
+                b: 0.4,
+                a: 1.0,
+            },
         });
         entities.push(e);
     }
-    SceneUpdate { deletions: Vec::new(), entities }
+    SceneUpdate {
+        deletions: Vec::new(),
+        entities,
+    }
 }
 
 /// Units and fires as the simulator sees them now.
@@ -168,26 +214,66 @@ pub fn truth_scene(s: &Scenario, truth: &SimTruth, ts: Time) -> SceneUpdate {
         let mut e = entity(format!("unit/{}", u.id), ts);
         e.cubes.push(CubePrimitive {
             pose: Pose::at(u.pose.x, u.pose.y, 0.5, u.pose.yaw),
-            size: Vector3 { x: 1.6, y: 1.0, z: 1.0 },
-            color: Color { r: 0.1, g: 0.4, b: 0.9, a: 1.0 },
+            size: Vector3 {
+                x: 1.6,
+                y: 1.0,
+                z: 1.0,
+            },
+            color: Color {
+                r: 0.1,
+                g: 0.4,
+                b: 0.9,
+                a: 1.0,
+            },
         });
-        e.texts.push(label(u.pose.x, u.pose.y, 1.6, u.id.to_string()));
+        e.texts
+            .push(label(u.pose.x, u.pose.y, 1.6, u.id.to_string()));
         entities.push(e);
     }
     for (f, spec) in truth.fires.iter().zip(&s.fires) {
         let mut e = entity(format!("fire/{}", f.name), ts);
         let burning = f.state == TruthFireState::Burning;
-        let h = if burning { 0.5 + 3.0 * (f.hrr_kw / spec.peak_kw).min(1.0) } else { 0.05 };
-        let color = if burning { Color { r: 1.0, g: 0.35, b: 0.0, a: 0.8 } } else { Color { r: 0.2, g: 0.2, b: 0.2, a: 0.8 } };
+        let h = if burning {
+            0.5 + 3.0 * (f.hrr_kw / spec.peak_kw).min(1.0)
+        } else {
+            0.05
+        };
+        let color = if burning {
+            Color {
+                r: 1.0,
+                g: 0.35,
+                b: 0.0,
+                a: 0.8,
+            }
+        } else {
+            Color {
+                r: 0.2,
+                g: 0.2,
+                b: 0.2,
+                a: 0.8,
+            }
+        };
         e.cylinders.push(CylinderPrimitive {
             pose: Pose::at(f.position.x, f.position.y, h / 2.0, 0.0),
-            size: Vector3 { x: 2.0 * spec.radius_m, y: 2.0 * spec.radius_m, z: h },
+            size: Vector3 {
+                x: 2.0 * spec.radius_m,
+                y: 2.0 * spec.radius_m,
+                z: h,
+            },
             bottom_scale: 1.0,
             top_scale: if burning { 0.3 } else { 1.0 },
             color,
         });
-        e.texts.push(label(f.position.x, f.position.y, h + 0.5, format!("{} {:.0} kW", f.name, f.hrr_kw)));
+        e.texts.push(label(
+            f.position.x,
+            f.position.y,
+            h + 0.5,
+            format!("{} {:.0} kW", f.name, f.hrr_kw),
+        ));
         entities.push(e);
     }
-    SceneUpdate { deletions: Vec::new(), entities }
+    SceneUpdate {
+        deletions: Vec::new(),
+        entities,
+    }
 }

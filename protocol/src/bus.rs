@@ -63,22 +63,39 @@ impl Connect {
                 .map_err(|e| BusError(format!("config file {}: {e}", path.display())))?,
             None => {
                 let mut c = zenoh::Config::default();
-                c.insert_json5("scouting/multicast/enabled", "false").map_err(BusError::from_zenoh)?;
+                c.insert_json5("scouting/multicast/enabled", "false")
+                    .map_err(BusError::from_zenoh)?;
                 c
             }
         };
         if let Some(mode) = &self.mode {
             if !matches!(mode.as_str(), "peer" | "client" | "router") {
-                return Err(BusError(format!("mode '{mode}': expected peer, client or router")));
+                return Err(BusError(format!(
+                    "mode '{mode}': expected peer, client or router"
+                )));
             }
-            config.insert_json5("mode", &json_string(mode)).map_err(BusError::from_zenoh)?;
+            config
+                .insert_json5("mode", &json_string(mode))
+                .map_err(BusError::from_zenoh)?;
         }
-        let list = |v: &[String]| format!("[{}]", v.iter().map(|s| json_string(s)).collect::<Vec<_>>().join(","));
+        let list = |v: &[String]| {
+            format!(
+                "[{}]",
+                v.iter()
+                    .map(|s| json_string(s))
+                    .collect::<Vec<_>>()
+                    .join(",")
+            )
+        };
         if !self.connect.is_empty() {
-            config.insert_json5("connect/endpoints", &list(&self.connect)).map_err(|e| BusError(format!("--connect: {e}")))?;
+            config
+                .insert_json5("connect/endpoints", &list(&self.connect))
+                .map_err(|e| BusError(format!("--connect: {e}")))?;
         }
         if !self.listen.is_empty() {
-            config.insert_json5("listen/endpoints", &list(&self.listen)).map_err(|e| BusError(format!("--listen: {e}")))?;
+            config
+                .insert_json5("listen/endpoints", &list(&self.listen))
+                .map_err(|e| BusError(format!("--listen: {e}")))?;
         }
         Ok(config)
     }
@@ -111,7 +128,9 @@ impl RejectCounts {
         self.invalid.fetch_add(1, Ordering::Relaxed);
     }
     pub fn total(&self) -> u64 {
-        self.undecodable.load(Ordering::Relaxed) + self.version.load(Ordering::Relaxed) + self.invalid.load(Ordering::Relaxed)
+        self.undecodable.load(Ordering::Relaxed)
+            + self.version.load(Ordering::Relaxed)
+            + self.invalid.load(Ordering::Relaxed)
     }
     /// `(class, count)` pairs, for status reports.
     pub fn snapshot(&self) -> [(&'static str, u64); 3] {
@@ -133,8 +152,14 @@ pub struct Bus {
 
 impl Bus {
     pub async fn open(connect: &Connect, site: SiteId) -> Result<Self, BusError> {
-        let session = zenoh::open(connect.to_config()?).await.map_err(BusError::from_zenoh)?;
-        Ok(Self { session, keys: Keys::new(site), rejects: Arc::default() })
+        let session = zenoh::open(connect.to_config()?)
+            .await
+            .map_err(BusError::from_zenoh)?;
+        Ok(Self {
+            session,
+            keys: Keys::new(site),
+            rejects: Arc::default(),
+        })
     }
 
     pub fn keys(&self) -> &Keys {
@@ -150,13 +175,24 @@ impl Bus {
 
     /// Publish `m` on `key`.
     pub async fn put<M: Message>(&self, key: &str, m: &M) -> Result<(), BusError> {
-        self.session.put(key, codec::encode(m)).await.map_err(BusError::from_zenoh)
+        self.session
+            .put(key, codec::encode(m))
+            .await
+            .map_err(BusError::from_zenoh)
     }
 
     /// Subscribe to `key` (may contain wildcards), decoding `M`.
     pub async fn subscribe<M: Message>(&self, key: &str) -> Result<Inbox<M>, BusError> {
-        let sub = self.session.declare_subscriber(key.to_owned()).await.map_err(BusError::from_zenoh)?;
-        Ok(Inbox { sub, rejects: self.rejects.clone(), _m: PhantomData })
+        let sub = self
+            .session
+            .declare_subscriber(key.to_owned())
+            .await
+            .map_err(BusError::from_zenoh)?;
+        Ok(Inbox {
+            sub,
+            rejects: self.rejects.clone(),
+            _m: PhantomData,
+        })
     }
 
     pub async fn close(self) {
@@ -223,17 +259,48 @@ mod tests {
         };
         let cfg = c.to_config().unwrap();
         assert_eq!(cfg.get_json("mode").unwrap(), "\"client\"");
-        assert!(cfg.get_json("connect/endpoints").unwrap().contains("127.0.0.1:7447"));
+        assert!(
+            cfg.get_json("connect/endpoints")
+                .unwrap()
+                .contains("127.0.0.1:7447")
+        );
         assert_eq!(cfg.get_json("scouting/multicast/enabled").unwrap(), "false");
     }
 
     #[test]
     fn bad_connect_options_are_named() {
-        let bad_mode = Connect { mode: Some("satellite".into()), ..Default::default() };
-        assert!(bad_mode.to_config().unwrap_err().to_string().contains("satellite"));
-        let bad_ep = Connect { connect: vec!["nonsense".into()], ..Default::default() };
-        assert!(bad_ep.to_config().unwrap_err().to_string().contains("--connect"));
-        let missing = Connect { config_file: Some("/nonexistent.json5".into()), ..Default::default() };
-        assert!(missing.to_config().unwrap_err().to_string().contains("/nonexistent.json5"));
+        let bad_mode = Connect {
+            mode: Some("satellite".into()),
+            ..Default::default()
+        };
+        assert!(
+            bad_mode
+                .to_config()
+                .unwrap_err()
+                .to_string()
+                .contains("satellite")
+        );
+        let bad_ep = Connect {
+            connect: vec!["nonsense".into()],
+            ..Default::default()
+        };
+        assert!(
+            bad_ep
+                .to_config()
+                .unwrap_err()
+                .to_string()
+                .contains("--connect")
+        );
+        let missing = Connect {
+            config_file: Some("/nonexistent.json5".into()),
+            ..Default::default()
+        };
+        assert!(
+            missing
+                .to_config()
+                .unwrap_err()
+                .to_string()
+                .contains("/nonexistent.json5")
+        );
     }
 }

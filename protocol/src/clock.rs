@@ -20,7 +20,10 @@ pub struct SystemClock;
 
 impl Clock for SystemClock {
     fn now(&self) -> f64 {
-        SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_secs_f64()).unwrap_or(0.0)
+        SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map(|d| d.as_secs_f64())
+            .unwrap_or(0.0)
     }
 }
 
@@ -39,7 +42,11 @@ impl ExternalClock {
         if !t.is_finite() {
             return;
         }
-        let _ = self.0.fetch_update(Ordering::AcqRel, Ordering::Acquire, |old| (t > f64::from_bits(old)).then_some(t.to_bits()));
+        let _ = self
+            .0
+            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |old| {
+                (t > f64::from_bits(old)).then_some(t.to_bits())
+            });
     }
 }
 

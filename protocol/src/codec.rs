@@ -80,7 +80,11 @@ mod tests {
             unit: UnitId::new("u1").unwrap(),
             t: 1.5,
             observer: Pose2::new(0.0, 0.0, 0.0),
-            observations: vec![FlameObservation { position: Point2::new(x, 1.0), cov: [0.2, 0.0, 0.2], confidence: conf }],
+            observations: vec![FlameObservation {
+                position: Point2::new(x, 1.0),
+                cov: [0.2, 0.0, 0.2],
+                confidence: conf,
+            }],
         }
     }
 
@@ -92,7 +96,10 @@ mod tests {
         assert_eq!(decode::<FlameReport>(&bytes).unwrap(), r);
         let mut old = bytes.clone();
         old[0] = PROTOCOL_VERSION + 1;
-        assert!(matches!(decode::<FlameReport>(&old), Err(CodecError::Version { .. })));
+        assert!(matches!(
+            decode::<FlameReport>(&old),
+            Err(CodecError::Version { .. })
+        ));
         assert!(matches!(decode::<FlameReport>(&[]), Err(CodecError::Empty)));
     }
 
@@ -111,7 +118,9 @@ mod tests {
     fn json_goal_rejects_unknown_fields_and_missing_contain_line() {
         let ok = br#"{"id":"g1","zone":"z1","goal":"keep-out","priority":2}"#;
         assert_eq!(decode::<ZoneGoal>(ok).unwrap().goal, GoalKind::KeepOut);
-        assert!(decode::<ZoneGoal>(br#"{"id":"g1","zone":"z1","goal":"keep-out","colour":1}"#).is_err());
+        assert!(
+            decode::<ZoneGoal>(br#"{"id":"g1","zone":"z1","goal":"keep-out","colour":1}"#).is_err()
+        );
         let e = decode::<ZoneGoal>(br#"{"id":"g1","zone":"z1","goal":"contain"}"#).unwrap_err();
         assert!(e.to_string().contains("before_m"), "{e}");
         assert!(decode::<ZoneGoal>(br#"{"id":"g1","zone":"Z/1","goal":"monitor"}"#).is_err());
@@ -123,7 +132,10 @@ mod tests {
             unit: UnitId::new("u1").unwrap(),
             seq: 9,
             t: 3.0,
-            kind: TaskKind::Extinguish { fire: FireId(2), target: Point2::new(50.0, -1.0) },
+            kind: TaskKind::Extinguish {
+                fire: FireId(2),
+                target: Point2::new(50.0, -1.0),
+            },
         };
         assert_eq!(decode::<Task>(&encode(&t)).unwrap(), t);
     }

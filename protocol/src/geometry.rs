@@ -83,10 +83,23 @@ pub struct Gaussian2 {
 impl Gaussian2 {
     /// A range-and-bearing measurement from `from`: `r` m at site-frame bearing `theta`,
     /// with one-sigma errors `sigma_r` (m) and `sigma_theta` (rad), linearised.
-    pub fn from_range_bearing(from: Point2, r: f64, theta: f64, sigma_r: f64, sigma_theta: f64) -> Self {
+    pub fn from_range_bearing(
+        from: Point2,
+        r: f64,
+        theta: f64,
+        sigma_r: f64,
+        sigma_theta: f64,
+    ) -> Self {
         let (s, c) = theta.sin_cos();
         let (vr, vt) = (sigma_r * sigma_r, (r * sigma_theta).powi(2));
-        Self { mean: from.offset(theta, r), cov: [vr * c * c + vt * s * s, (vr - vt) * s * c, vr * s * s + vt * c * c] }
+        Self {
+            mean: from.offset(theta, r),
+            cov: [
+                vr * c * c + vt * s * s,
+                (vr - vt) * s * c,
+                vr * s * s + vt * c * c,
+            ],
+        }
     }
 
     fn det(&self) -> f64 {
@@ -114,7 +127,10 @@ impl Gaussian2 {
         let wx = |i: &[f64; 3], m: Point2| (i[0] * m.x + i[1] * m.y, i[1] * m.x + i[2] * m.y);
         let (a, b) = (wx(&i1, self.mean), wx(&i2, o.mean));
         let (ix, iy) = (a.0 + b.0, a.1 + b.1);
-        Gaussian2 { mean: Point2::new(cov[0] * ix + cov[1] * iy, cov[1] * ix + cov[2] * iy), cov }
+        Gaussian2 {
+            mean: Point2::new(cov[0] * ix + cov[1] * iy, cov[1] * ix + cov[2] * iy),
+            cov,
+        }
     }
 
     /// Grow the covariance by `q` m^2 on each axis (uncertainty added by time passing).
@@ -157,11 +173,20 @@ mod tests {
 
     #[test]
     fn fusing_two_estimates_shrinks_and_weights_them() {
-        let a = Gaussian2 { mean: Point2::new(0.0, 0.0), cov: [1.0, 0.0, 1.0] };
-        let b = Gaussian2 { mean: Point2::new(2.0, 0.0), cov: [1.0, 0.0, 1.0] };
+        let a = Gaussian2 {
+            mean: Point2::new(0.0, 0.0),
+            cov: [1.0, 0.0, 1.0],
+        };
+        let b = Gaussian2 {
+            mean: Point2::new(2.0, 0.0),
+            cov: [1.0, 0.0, 1.0],
+        };
         let f = a.fuse(&b);
         assert!((f.mean.x - 1.0).abs() < 1e-12 && (f.cov[0] - 0.5).abs() < 1e-12);
-        let sharp = Gaussian2 { mean: Point2::new(2.0, 0.0), cov: [0.01, 0.0, 0.01] };
+        let sharp = Gaussian2 {
+            mean: Point2::new(2.0, 0.0),
+            cov: [0.01, 0.0, 0.01],
+        };
         assert!((a.fuse(&sharp).mean.x - 2.0).abs() < 0.05);
         assert!((a.mahalanobis2(Point2::new(3.0, 4.0)) - 25.0).abs() < 1e-12);
     }

@@ -21,15 +21,24 @@ pub struct IdError {
 const MAX_ID_LEN: usize = 48;
 
 fn check_chunk(what: &'static str, s: &str) -> Result<(), IdError> {
-    let err = |reason| IdError { what, value: s.to_owned(), reason };
+    let err = |reason| IdError {
+        what,
+        value: s.to_owned(),
+        reason,
+    };
     if s.is_empty() {
         return Err(err("must not be empty"));
     }
     if s.len() > MAX_ID_LEN {
         return Err(err("longer than 48 characters"));
     }
-    if !s.bytes().all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-' || b == b'_') {
-        return Err(err("only lowercase letters, digits, '-' and '_' are allowed"));
+    if !s
+        .bytes()
+        .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-' || b == b'_')
+    {
+        return Err(err(
+            "only lowercase letters, digits, '-' and '_' are allowed",
+        ));
     }
     if !s.as_bytes()[0].is_ascii_alphanumeric() {
         return Err(err("must start with a letter or a digit"));
@@ -96,7 +105,9 @@ chunk_id!(
 );
 
 /// A fused fire track, numbered by the coordinator that created it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize, JsonSchema)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize, JsonSchema,
+)]
 #[serde(transparent)]
 pub struct FireId(pub u32);
 
@@ -112,7 +123,11 @@ impl FromStr for FireId {
         s.strip_prefix('f')
             .and_then(|n| n.parse().ok())
             .map(FireId)
-            .ok_or_else(|| IdError { what: "fire id", value: s.to_owned(), reason: "expected 'f' followed by a number" })
+            .ok_or_else(|| IdError {
+                what: "fire id",
+                value: s.to_owned(),
+                reason: "expected 'f' followed by a number",
+            })
     }
 }
 

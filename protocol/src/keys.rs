@@ -132,7 +132,10 @@ pub struct KeyError {
 
 /// Parse a concrete key into its site and topic.
 pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
-    let err = |reason: String| KeyError { key: key.to_owned(), reason };
+    let err = |reason: String| KeyError {
+        key: key.to_owned(),
+        reason,
+    };
     let parts: Vec<&str> = key.split('/').collect();
     if parts.len() < 3 || parts[0] != ROOT {
         return Err(err(format!("expected '{ROOT}/<site>/...'")));
@@ -145,7 +148,10 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
         ["unit", u, "alive"] => Topic::UnitAlive(unit(u)?),
         ["unit", u, "report"] => Topic::UnitReport(unit(u)?),
         ["unit", u, "task"] => Topic::UnitTask(unit(u)?),
-        ["fire", id] => Topic::Fire(id.parse().map_err(|e: crate::ids::IdError| err(e.to_string()))?),
+        ["fire", id] => Topic::Fire(
+            id.parse()
+                .map_err(|e: crate::ids::IdError| err(e.to_string()))?,
+        ),
         ["zone", z, "goal"] => Topic::ZoneGoal(zone(z)?),
         ["zone", z, "ack"] => Topic::ZoneAck(zone(z)?),
         ["coord", "alive"] => Topic::CoordAlive,
@@ -203,7 +209,13 @@ mod tests {
 
     #[test]
     fn foreign_keys_are_rejected_with_a_reason() {
-        for k in ["ff", "xx/t1/sim/clock", "ff/t1/unit/a/nope", "ff/T1/sim/clock", "ff/t1/fire/12"] {
+        for k in [
+            "ff",
+            "xx/t1/sim/clock",
+            "ff/t1/unit/a/nope",
+            "ff/T1/sim/clock",
+            "ff/t1/fire/12",
+        ] {
             let e = parse(k).unwrap_err();
             assert_eq!(e.key, k);
         }

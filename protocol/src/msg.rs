@@ -26,7 +26,9 @@ pub enum Encoding {
 }
 
 /// A type that travels on the bus.
-pub trait Message: Serialize + DeserializeOwned + Validate + JsonSchema + Send + Sync + 'static {
+pub trait Message:
+    Serialize + DeserializeOwned + Validate + JsonSchema + Send + Sync + 'static
+{
     const ENCODING: Encoding;
 }
 
@@ -182,7 +184,9 @@ impl Validate for Task {
         finite("t", self.t)?;
         match self.kind {
             TaskKind::Standby => Ok(()),
-            TaskKind::Extinguish { target, .. } => target.validate().map_err(|e| e.within("kind.target")),
+            TaskKind::Extinguish { target, .. } => {
+                target.validate().map_err(|e| e.within("kind.target"))
+            }
         }
     }
 }
@@ -269,9 +273,16 @@ impl Validate for ZoneGoal {
             finite("before_m", b)?;
         }
         match (self.goal, self.before_m) {
-            (GoalKind::Contain, None) => return Err(Invalid::new("before_m", "required for a contain goal")),
+            (GoalKind::Contain, None) => {
+                return Err(Invalid::new("before_m", "required for a contain goal"));
+            }
             (GoalKind::Contain, _) | (_, None) => {}
-            (_, Some(_)) => return Err(Invalid::new("before_m", "only a contain goal takes before_m")),
+            (_, Some(_)) => {
+                return Err(Invalid::new(
+                    "before_m",
+                    "only a contain goal takes before_m",
+                ));
+            }
         }
         if let Some(e) = self.expires_s {
             in_range("expires_s", e, 0.0, 1e9)?;
@@ -321,7 +332,12 @@ pub struct FlameDetection {
 
 impl Validate for FlameDetection {
     fn validate(&self) -> Result<(), Invalid> {
-        in_range("bearing", self.bearing, -std::f64::consts::PI, std::f64::consts::PI)?;
+        in_range(
+            "bearing",
+            self.bearing,
+            -std::f64::consts::PI,
+            std::f64::consts::PI,
+        )?;
         in_range("range", self.range, 0.0, 1e3)?;
         in_range("confidence", self.confidence, 0.0, 1.0)
     }
@@ -384,7 +400,13 @@ pub struct UnitCommand {
 impl UnitCommand {
     /// Stand still with the valve shut, cannon where it is.
     pub fn halt(cannon: &CannonState) -> Self {
-        Self { speed: 0.0, steer: 0.0, pan: cannon.pan, tilt: cannon.tilt, valve_open: false }
+        Self {
+            speed: 0.0,
+            steer: 0.0,
+            pan: cannon.pan,
+            tilt: cannon.tilt,
+            valve_open: false,
+        }
     }
 }
 
@@ -440,7 +462,10 @@ pub struct SimTruth {
 
 impl SimTruth {
     pub fn fires_out(&self) -> usize {
-        self.fires.iter().filter(|f| f.state == TruthFireState::Out).count()
+        self.fires
+            .iter()
+            .filter(|f| f.state == TruthFireState::Out)
+            .count()
     }
     pub fn all_out(&self) -> bool {
         self.fires.iter().all(|f| f.state == TruthFireState::Out)

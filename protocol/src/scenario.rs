@@ -64,9 +64,15 @@ use crate::validate::{Invalid, in_range};
 #[derive(Debug, thiserror::Error)]
 pub enum ScenarioError {
     #[error("{origin}: cannot read: {source}")]
-    Io { origin: String, source: std::io::Error },
+    Io {
+        origin: String,
+        source: std::io::Error,
+    },
     #[error("{origin}: {source}")]
-    Syntax { origin: String, source: Box<toml::de::Error> },
+    Syntax {
+        origin: String,
+        source: Box<toml::de::Error>,
+    },
     #[error("{origin}: {invalid}")]
     Invalid { origin: String, invalid: Invalid },
 }
@@ -238,16 +244,24 @@ pub struct Zone {
 impl Scenario {
     /// Parse and validate scenario text; `origin` (a file name) prefixes every error.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ScenarioError> {
-        let s: Scenario =
-            toml::from_str(text).map_err(|e| ScenarioError::Syntax { origin: origin.to_owned(), source: Box::new(e) })?;
-        s.validate().map_err(|invalid| ScenarioError::Invalid { origin: origin.to_owned(), invalid })?;
+        let s: Scenario = toml::from_str(text).map_err(|e| ScenarioError::Syntax {
+            origin: origin.to_owned(),
+            source: Box::new(e),
+        })?;
+        s.validate().map_err(|invalid| ScenarioError::Invalid {
+            origin: origin.to_owned(),
+            invalid,
+        })?;
         Ok(s)
     }
 
     /// Read, parse and validate a scenario file.
     pub fn load(path: &Path) -> Result<Self, ScenarioError> {
         let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { origin: origin.clone(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+            origin: origin.clone(),
+            source,
+        })?;
         Self::from_toml(&text, &origin)
     }
 
@@ -266,21 +280,33 @@ impl Scenario {
         in_range("tunnel.width_m", t.width_m, 2.0, 50.0)?;
         in_range("tunnel.height_m", t.height_m, 2.0, 30.0)?;
         if !(1..=8).contains(&t.lanes) {
-            return Err(Invalid::new("tunnel.lanes", format!("{} is outside [1, 8]", t.lanes)));
+            return Err(Invalid::new(
+                "tunnel.lanes",
+                format!("{} is outside [1, 8]", t.lanes),
+            ));
         }
 
         let mut names = HashSet::new();
         for (i, o) in self.obstacles.iter().enumerate() {
             let f = |n: &str| format!("obstacles[{i}].{n}");
             if !names.insert(o.name.as_str()) {
-                return Err(Invalid::new(f("name"), format!("'{}' is used twice", o.name)));
+                return Err(Invalid::new(
+                    f("name"),
+                    format!("'{}' is used twice", o.name),
+                ));
             }
             in_range(&f("length_m"), o.length_m, 0.1, 50.0)?;
             in_range(&f("width_m"), o.width_m, 0.1, t.width_m)?;
             in_range(&f("height_m"), o.height_m, 0.1, t.height_m)?;
-            in_range(&f("yaw_rad"), o.yaw_rad, -std::f64::consts::TAU, std::f64::consts::TAU)?;
+            in_range(
+                &f("yaw_rad"),
+                o.yaw_rad,
+                -std::f64::consts::TAU,
+                std::f64::consts::TAU,
+            )?;
             for c in o.corners() {
-                t.check_inside(&f("x_m/y_m"), c).map_err(|e| Invalid::new(e.field, format!("a corner {}", e.reason)))?;
+                t.check_inside(&f("x_m/y_m"), c)
+                    .map_err(|e| Invalid::new(e.field, format!("a corner {}", e.reason)))?;
             }
         }
 
@@ -288,12 +314,20 @@ impl Scenario {
         for (i, fire) in self.fires.iter().enumerate() {
             let f = |n: &str| format!("fires[{i}].{n}");
             if !names.insert(fire.name.as_str()) {
-                return Err(Invalid::new(f("name"), format!("'{}' is used twice", fire.name)));
+                return Err(Invalid::new(
+                    f("name"),
+                    format!("'{}' is used twice", fire.name),
+                ));
             }
             in_range(&f("x_m"), fire.x_m, 0.0, t.length_m)?;
             in_range(&f("y_m"), fire.y_m, -t.width_m / 2.0, t.width_m / 2.0)?;
             in_range(&f("peak_kw"), fire.peak_kw, 1.0, 300_000.0)?;
-            in_range(&f("ignition_s"), fire.ignition_s, -3600.0, self.time_limit_s)?;
+            in_range(
+                &f("ignition_s"),
+                fire.ignition_s,
+                -3600.0,
+                self.time_limit_s,
+            )?;
             in_range(&f("radius_m"), fire.radius_m, 0.1, t.width_m / 2.0)?;
         }
 
@@ -304,13 +338,24 @@ impl Scenario {
                 return Err(Invalid::new(f("id"), format!("'{}' is used twice", u.id)));
             }
             if u.kind == UnitKind::Monorail {
-                return Err(Invalid::new(f("kind"), "monorail units need a rail, which scenarios cannot declare yet"));
+                return Err(Invalid::new(
+                    f("kind"),
+                    "monorail units need a rail, which scenarios cannot declare yet",
+                ));
             }
-            in_range(&f("yaw_rad"), u.yaw_rad, -std::f64::consts::TAU, std::f64::consts::TAU)?;
+            in_range(
+                &f("yaw_rad"),
+                u.yaw_rad,
+                -std::f64::consts::TAU,
+                std::f64::consts::TAU,
+            )?;
             let p = Point2::new(u.x_m, u.y_m);
             t.check_inside(&f("x_m/y_m"), p)?;
             if let Some(o) = self.obstacles.iter().find(|o| o.footprint_contains(p, 0.5)) {
-                return Err(Invalid::new(f("x_m/y_m"), format!("starts inside obstacle '{}'", o.name)));
+                return Err(Invalid::new(
+                    f("x_m/y_m"),
+                    format!("starts inside obstacle '{}'", o.name),
+                ));
             }
         }
 
@@ -387,7 +432,10 @@ mod tests {
         let e = err(&OK.replace("id = \"u1\"", "id = \"U 1\""));
         assert!(e.contains("unit id"), "{e}");
         let e = err(&OK.replace("x_m = 5.0", "x_m = 40.0"));
-        assert!(e.contains("units[0].x_m/y_m: starts inside obstacle 'car'"), "{e}");
+        assert!(
+            e.contains("units[0].x_m/y_m: starts inside obstacle 'car'"),
+            "{e}"
+        );
         let e = err(&OK.replace("end_m = 50.0", "end_m = 0.0"));
         assert!(e.contains("zones[0].end_m"), "{e}");
         let e = err(&OK.replace("lanes = 2", "lanes = 2\ncolour = 3"));

@@ -23,12 +23,19 @@ impl fmt::Display for Invalid {
 
 impl Invalid {
     pub fn new(field: impl Into<String>, reason: impl Into<String>) -> Self {
-        Self { field: field.into(), reason: reason.into() }
+        Self {
+            field: field.into(),
+            reason: reason.into(),
+        }
     }
 
     /// Prefix the field path, for nested structures.
     pub fn within(mut self, parent: &str) -> Self {
-        self.field = if self.field.is_empty() { parent.to_owned() } else { format!("{parent}.{}", self.field) };
+        self.field = if self.field.is_empty() {
+            parent.to_owned()
+        } else {
+            format!("{parent}.{}", self.field)
+        };
         self
     }
 }
@@ -40,7 +47,11 @@ pub trait Validate {
 
 /// `v` must be a finite number.
 pub fn finite(field: &str, v: f64) -> Result<(), Invalid> {
-    if v.is_finite() { Ok(()) } else { Err(Invalid::new(field, format!("{v} is not a finite number"))) }
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(Invalid::new(field, format!("{v} is not a finite number")))
+    }
 }
 
 /// `v` must be finite and within `[lo, hi]`.
@@ -55,12 +66,21 @@ pub fn in_range(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), Invalid> {
 
 /// A list must not exceed `max` entries (bounds the work a single message can cause).
 pub fn max_len<T>(field: &str, v: &[T], max: usize) -> Result<(), Invalid> {
-    if v.len() <= max { Ok(()) } else { Err(Invalid::new(field, format!("{} entries, at most {max} allowed", v.len()))) }
+    if v.len() <= max {
+        Ok(())
+    } else {
+        Err(Invalid::new(
+            field,
+            format!("{} entries, at most {max} allowed", v.len()),
+        ))
+    }
 }
 
 /// Validate every element, naming the index of the first bad one.
 pub fn each<T: Validate>(field: &str, v: &[T]) -> Result<(), Invalid> {
-    v.iter().enumerate().try_for_each(|(i, x)| x.validate().map_err(|e| e.within(&format!("{field}[{i}]"))))
+    v.iter()
+        .enumerate()
+        .try_for_each(|(i, x)| x.validate().map_err(|e| e.within(&format!("{field}[{i}]"))))
 }
 
 #[cfg(test)]
@@ -73,7 +93,12 @@ mod tests {
         let e = in_range("a.b", f64::NAN, 0.0, 2.0).unwrap_err();
         assert_eq!(e.field, "a.b");
         assert!(e.to_string().contains("not a finite"));
-        assert!(in_range("a", 3.0, 0.0, 2.0).unwrap_err().reason.contains("outside"));
+        assert!(
+            in_range("a", 3.0, 0.0, 2.0)
+                .unwrap_err()
+                .reason
+                .contains("outside")
+        );
         assert_eq!(Invalid::new("x", "r").within("p").field, "p.x");
     }
 }

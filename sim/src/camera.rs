@@ -74,14 +74,19 @@ pub fn detect(
         let body = pose.to_body(firefleet_protocol::Point2::new(f.centre[0], f.centre[1]));
         let bearing = body.y.atan2(body.x);
         let range = (body.x.powi(2) + body.y.powi(2) + (f.centre[2] - cam[2]).powi(2)).sqrt();
-        if bearing.abs() > spec.camera_hfov_rad / 2.0 || range > spec.camera_range_m || line_blocked(obstacles, cam, f.centre) {
+        if bearing.abs() > spec.camera_hfov_rad / 2.0
+            || range > spec.camera_range_m
+            || line_blocked(obstacles, cam, f.centre)
+        {
             continue;
         }
         // Draw every random number whether or not the flame is missed, so that one miss
         // does not shift the noise of every later detection.
         let missed = rng.random::<f64>() < physics::DETECT_MISS_PROB;
         let db = bearing_noise.sample(rng);
-        let dr = Normal::new(0.0, spec.depth_sigma_m(range)).expect("positive sigma").sample(rng);
+        let dr = Normal::new(0.0, spec.depth_sigma_m(range))
+            .expect("positive sigma")
+            .sample(rng);
         let dc: f64 = rng.random_range(-0.05..0.05);
         if missed {
             continue;
@@ -103,38 +108,77 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     fn car(x: f64, y: f64) -> Obstacle {
-        Obstacle { name: "car".into(), x_m: x, y_m: y, length_m: 4.0, width_m: 2.0, height_m: 1.5, yaw_rad: 0.0 }
+        Obstacle {
+            name: "car".into(),
+            x_m: x,
+            y_m: y,
+            length_m: 4.0,
+            width_m: 2.0,
+            height_m: 1.5,
+            yaw_rad: 0.0,
+        }
     }
 
     #[test]
     fn segment_box_intersection() {
         let c = car(10.0, 0.0);
         assert!(segment_hits(&c, [0.0, 0.0, 1.0], [20.0, 0.0, 1.0]));
-        assert!(!segment_hits(&c, [0.0, 0.0, 2.0], [20.0, 0.0, 2.0]), "passes over the roof");
-        assert!(!segment_hits(&c, [0.0, 3.0, 1.0], [20.0, 3.0, 1.0]), "passes beside");
-        assert!(!segment_hits(&c, [0.0, 0.0, 1.0], [5.0, 0.0, 1.0]), "stops short");
+        assert!(
+            !segment_hits(&c, [0.0, 0.0, 2.0], [20.0, 0.0, 2.0]),
+            "passes over the roof"
+        );
+        assert!(
+            !segment_hits(&c, [0.0, 3.0, 1.0], [20.0, 3.0, 1.0]),
+            "passes beside"
+        );
+        assert!(
+            !segment_hits(&c, [0.0, 0.0, 1.0], [5.0, 0.0, 1.0]),
+            "stops short"
+        );
     }
 
     #[test]
     fn detector_sees_only_what_is_in_view_and_unoccluded() {
         let pose = Pose2::new(0.0, 0.0, 0.0);
-        let flame = FlameTarget { centre: [15.0, 0.0, 0.8] };
+        let flame = FlameTarget {
+            centre: [15.0, 0.0, 0.8],
+        };
         let mut rng = ChaCha8Rng::seed_from_u64(1);
-        let seen = (0..200).filter(|_| !detect(&GROUND, &pose, &[flame], &[], &mut rng).is_empty()).count();
-        assert!(seen > 170 && seen < 200, "misses at the documented rate: {seen}");
-        assert!(detect(&GROUND, &pose, &[flame], &[car(8.0, 0.0)], &mut rng).is_empty(), "occluded");
+        let seen = (0..200)
+            .filter(|_| !detect(&GROUND, &pose, &[flame], &[], &mut rng).is_empty())
+            .count();
+        assert!(
+            seen > 170 && seen < 200,
+            "misses at the documented rate: {seen}"
+        );
+        assert!(
+            detect(&GROUND, &pose, &[flame], &[car(8.0, 0.0)], &mut rng).is_empty(),
+            "occluded"
+        );
         let behind = Pose2::new(0.0, 0.0, std::f64::consts::PI);
-        assert!(detect(&GROUND, &behind, &[flame], &[], &mut rng).is_empty(), "outside the field of view");
-        let far = FlameTarget { centre: [45.0, 0.0, 0.8] };
-        assert!(detect(&GROUND, &pose, &[far], &[], &mut rng).is_empty(), "beyond range");
+        assert!(
+            detect(&GROUND, &behind, &[flame], &[], &mut rng).is_empty(),
+            "outside the field of view"
+        );
+        let far = FlameTarget {
+            centre: [45.0, 0.0, 0.8],
+        };
+        assert!(
+            detect(&GROUND, &pose, &[far], &[], &mut rng).is_empty(),
+            "beyond range"
+        );
     }
 
     #[test]
     fn detections_are_close_to_truth() {
         let pose = Pose2::new(2.0, 1.0, 0.3);
-        let flame = FlameTarget { centre: [12.0, 3.0, 0.8] };
+        let flame = FlameTarget {
+            centre: [12.0, 3.0, 0.8],
+        };
         let mut rng = ChaCha8Rng::seed_from_u64(2);
-        let d = (0..20).find_map(|_| detect(&GROUND, &pose, &[flame], &[], &mut rng).pop()).unwrap();
+        let d = (0..20)
+            .find_map(|_| detect(&GROUND, &pose, &[flame], &[], &mut rng).pop())
+            .unwrap();
         let truth_bearing = (2.0f64).atan2(10.0) - 0.3;
         assert!((d.bearing - truth_bearing).abs() < 0.05);
         assert!((d.range - (104.0f64 + 0.04).sqrt()).abs() < 1.0);

@@ -22,7 +22,14 @@ pub enum Landing {
 
 /// Trace a jet leaving `nozzle` at heading `azimuth` (site frame), elevation `elevation`,
 /// speed `v` m/s.
-pub fn trace(tunnel: &Tunnel, obstacles: &[Obstacle], nozzle: P3, azimuth: f64, elevation: f64, v: f64) -> Landing {
+pub fn trace(
+    tunnel: &Tunnel,
+    obstacles: &[Obstacle],
+    nozzle: P3,
+    azimuth: f64,
+    elevation: f64,
+    v: f64,
+) -> Landing {
     let (vz, vh) = (v * elevation.sin(), v * elevation.cos());
     let h = nozzle[2];
     if h + vz.max(0.0).powi(2) / (2.0 * G) >= tunnel.height_m {
@@ -31,7 +38,13 @@ pub fn trace(tunnel: &Tunnel, obstacles: &[Obstacle], nozzle: P3, azimuth: f64, 
     let t_land = (vz + (vz * vz + 2.0 * G * h).sqrt()) / G;
     let travel = vh * t_land;
     let (s, c) = azimuth.sin_cos();
-    let at = |t: f64| -> P3 { [nozzle[0] + c * vh * t, nozzle[1] + s * vh * t, h + vz * t - 0.5 * G * t * t] };
+    let at = |t: f64| -> P3 {
+        [
+            nozzle[0] + c * vh * t,
+            nozzle[1] + s * vh * t,
+            h + vz * t - 0.5 * G * t * t,
+        ]
+    };
     // Chords every 0.25 m of travel follow the arc closely enough for vehicle-sized boxes.
     let steps = ((travel / 0.25).ceil() as usize).clamp(4, 400);
     let mut prev = nozzle;
@@ -42,14 +55,22 @@ pub fn trace(tunnel: &Tunnel, obstacles: &[Obstacle], nozzle: P3, azimuth: f64, 
         }
         prev = p;
     }
-    Landing::Road { at: Point2::new(prev[0], prev[1]), travel_m: travel }
+    Landing::Road {
+        at: Point2::new(prev[0], prev[1]),
+        travel_m: travel,
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    const TUNNEL: Tunnel = Tunnel { length_m: 200.0, width_m: 10.0, height_m: 6.0, lanes: 2 };
+    const TUNNEL: Tunnel = Tunnel {
+        length_m: 200.0,
+        width_m: 10.0,
+        height_m: 6.0,
+        lanes: 2,
+    };
 
     #[test]
     fn level_ground_range_matches_closed_form() {
@@ -59,7 +80,11 @@ mod tests {
         match trace(&TUNNEL, &[], [0.0, 0.0, 0.0], 0.0, th, v) {
             Landing::Road { at, travel_m } => {
                 let expect = v * v * (2.0 * th).sin() / G;
-                assert!((travel_m - expect).abs() < 1e-6 && (at.x - expect).abs() < 1e-6 && at.y.abs() < 1e-9);
+                assert!(
+                    (travel_m - expect).abs() < 1e-6
+                        && (at.x - expect).abs() < 1e-6
+                        && at.y.abs() < 1e-9
+                );
             }
             Landing::Blocked => panic!("blocked"),
         }
@@ -67,9 +92,29 @@ mod tests {
 
     #[test]
     fn ceiling_walls_and_vehicles_stop_the_jet() {
-        assert_eq!(trace(&TUNNEL, &[], [0.0, 0.0, 1.0], 0.0, 1.2, 20.0), Landing::Blocked, "ceiling");
-        assert_eq!(trace(&TUNNEL, &[], [0.0, 0.0, 1.0], 1.5, 0.3, 20.0), Landing::Blocked, "wall");
-        let car = Obstacle { name: "c".into(), x_m: 5.0, y_m: 0.0, length_m: 4.0, width_m: 2.0, height_m: 1.5, yaw_rad: 0.0 };
-        assert_eq!(trace(&TUNNEL, &[car], [0.0, 0.0, 1.0], 0.0, 0.0, 10.0), Landing::Blocked, "vehicle");
+        assert_eq!(
+            trace(&TUNNEL, &[], [0.0, 0.0, 1.0], 0.0, 1.2, 20.0),
+            Landing::Blocked,
+            "ceiling"
+        );
+        assert_eq!(
+            trace(&TUNNEL, &[], [0.0, 0.0, 1.0], 1.5, 0.3, 20.0),
+            Landing::Blocked,
+            "wall"
+        );
+        let car = Obstacle {
+            name: "c".into(),
+            x_m: 5.0,
+            y_m: 0.0,
+            length_m: 4.0,
+            width_m: 2.0,
+            height_m: 1.5,
+            yaw_rad: 0.0,
+        };
+        assert_eq!(
+            trace(&TUNNEL, &[car], [0.0, 0.0, 1.0], 0.0, 0.0, 10.0),
+            Landing::Blocked,
+            "vehicle"
+        );
     }
 }

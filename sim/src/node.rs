@@ -36,12 +36,23 @@ pub struct SimOptions {
 
 impl Default for SimOptions {
     fn default() -> Self {
-        Self { seed: 0, time_scale: 1.0, step_s: 0.05, wait_for_fleet: None, wait_for_coordinator: false }
+        Self {
+            seed: 0,
+            time_scale: 1.0,
+            step_s: 0.05,
+            wait_for_fleet: None,
+            wait_for_coordinator: false,
+        }
     }
 }
 
 /// Run until `shutdown` completes; returns the last ground truth.
-pub async fn run(bus: &Bus, scenario: &Scenario, opts: &SimOptions, shutdown: impl Future<Output = ()>) -> Result<SimTruth, BusError> {
+pub async fn run(
+    bus: &Bus,
+    scenario: &Scenario,
+    opts: &SimOptions,
+    shutdown: impl Future<Output = ()>,
+) -> Result<SimTruth, BusError> {
     let keys = bus.keys().clone();
     let mut world = World::new(scenario, opts.seed);
     let commands = bus.subscribe::<UnitCommand>(&keys.every_sim_cmd()).await?;
@@ -60,7 +71,12 @@ pub async fn run(bus: &Bus, scenario: &Scenario, opts: &SimOptions, shutdown: im
     let mut last_command: HashMap<UnitId, Instant> = HashMap::new();
     let ids: Vec<UnitId> = world.unit_ids().cloned().collect();
     let mut step = 0u64;
-    tracing::info!(units = ids.len(), fires = scenario.fires.len(), time_scale = opts.time_scale, "simulation started");
+    tracing::info!(
+        units = ids.len(),
+        fires = scenario.fires.len(),
+        time_scale = opts.time_scale,
+        "simulation started"
+    );
     loop {
         tokio::select! {
             _ = ticker.tick() => {}
@@ -73,23 +89,37 @@ pub async fn run(bus: &Bus, scenario: &Scenario, opts: &SimOptions, shutdown: im
                 }
                 _ => {
                     bus.rejects().count_invalid();
-                    tracing::warn!(key, "dropped command for a unit this simulation does not have");
+                    tracing::warn!(
+                        key,
+                        "dropped command for a unit this simulation does not have"
+                    );
                 }
             }
         }
         let now = Instant::now();
         for id in &ids {
-            if last_command.get(id).is_none_or(|t| now.duration_since(*t) > physics::COMMAND_WATCHDOG) {
+            if last_command
+                .get(id)
+                .is_none_or(|t| now.duration_since(*t) > physics::COMMAND_WATCHDOG)
+            {
                 world.halt(id);
             }
         }
         if world.time() < scenario.time_limit_s {
             world.step(opts.step_s);
         }
-        bus.put(&keys.key(&Topic::SimClock), &SimClock { t: world.time(), time_scale: opts.time_scale }).await?;
+        bus.put(
+            &keys.key(&Topic::SimClock),
+            &SimClock {
+                t: world.time(),
+                time_scale: opts.time_scale,
+            },
+        )
+        .await?;
         for id in &ids {
             if let Some(s) = world.sensors(id) {
-                bus.put(&keys.key(&Topic::SimSensors(id.clone())), &s).await?;
+                bus.put(&keys.key(&Topic::SimSensors(id.clone())), &s)
+                    .await?;
             }
         }
         if step % 2 == 0 {
@@ -121,7 +151,10 @@ async fn wait_for_fleet(bus: &Bus, scenario: &Scenario, coordinator: bool, limit
             .iter()
             .filter(|u| !alive.contains(&Topic::UnitAlive(u.id.clone())))
             .map(|u| u.id.to_string())
-            .chain((coordinator && !alive.contains(&Topic::CoordAlive)).then(|| "coordinator".to_owned()))
+            .chain(
+                (coordinator && !alive.contains(&Topic::CoordAlive))
+                    .then(|| "coordinator".to_owned()),
+            )
             .collect();
         if missing.is_empty() {
             return;
@@ -133,4 +166,3 @@ async fn wait_for_fleet(bus: &Bus, scenario: &Scenario, coordinator: bool, limit
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
 }
-

@@ -80,8 +80,12 @@ pub fn disk_overlap_area(r1: f64, r2: f64, d: f64) -> f64 {
     if d <= (r1 - r2).abs() {
         return disk_area(r1.min(r2));
     }
-    let a1 = ((d * d + r1 * r1 - r2 * r2) / (2.0 * d * r1)).clamp(-1.0, 1.0).acos();
-    let a2 = ((d * d + r2 * r2 - r1 * r1) / (2.0 * d * r2)).clamp(-1.0, 1.0).acos();
+    let a1 = ((d * d + r1 * r1 - r2 * r2) / (2.0 * d * r1))
+        .clamp(-1.0, 1.0)
+        .acos();
+    let a2 = ((d * d + r2 * r2 - r1 * r1) / (2.0 * d * r2))
+        .clamp(-1.0, 1.0)
+        .acos();
     let k = (-d + r1 + r2) * (d + r1 - r2) * (d - r1 + r2) * (d + r1 + r2);
     r1 * r1 * a1 + r2 * r2 * a2 - 0.5 * k.max(0.0).sqrt()
 }
@@ -93,7 +97,12 @@ mod tests {
 
     #[test]
     fn growth_classes_reach_1055_kw_at_their_nominal_times() {
-        for (g, t) in [(Growth::Slow, 600.0), (Growth::Medium, 300.0), (Growth::Fast, 150.0), (Growth::Ultrafast, 75.0)] {
+        for (g, t) in [
+            (Growth::Slow, 600.0),
+            (Growth::Medium, 300.0),
+            (Growth::Fast, 150.0),
+            (Growth::Ultrafast, 75.0),
+        ] {
             let q = growth_alpha_kw_s2(g) * t * t;
             assert!((q - 1055.0).abs() / 1055.0 < 0.01, "{g:?}: {q}");
         }

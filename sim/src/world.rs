@@ -3,13 +3,13 @@
 //! Deterministic: the same scenario, seed and sequence of commands give the same world.
 //! The world knows nothing of Zenoh; [`crate::node`] drives it.
 
+use firefleet_protocol::UnitId;
 use firefleet_protocol::geometry::{Point2, Pose2, wrap_angle};
 use firefleet_protocol::msg::{
     CannonState, SimTruth, TruthFire, TruthFireState, TruthUnit, UnitCommand, UnitSensors,
 };
 use firefleet_protocol::scenario::{FireSpec, Obstacle, Scenario, Tunnel};
 use firefleet_protocol::spec::{GROUND, GroundSpec};
-use firefleet_protocol::UnitId;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -83,7 +83,8 @@ struct Body {
 impl Body {
     fn footprint_clear(&self, pose: &Pose2, tunnel: &Tunnel, obstacles: &[Obstacle]) -> bool {
         let (hl, hw) = (self.spec.length_m / 2.0, self.spec.width_m / 2.0);
-        let corners = [(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)].map(|(x, y)| pose.to_site(Point2::new(x, y)));
+        let corners = [(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)]
+            .map(|(x, y)| pose.to_site(Point2::new(x, y)));
         if !corners.iter().all(|c| tunnel.contains(*c, 0.0)) {
             return false;
         }
@@ -99,7 +100,8 @@ impl Body {
                     Point2::new(a.x + s * (b.x - a.x), a.y + s * (b.y - a.y))
                 }));
             }
-            !pts.iter().any(|p| o.footprint_contains(*p, 0.0)) && !o.corners().iter().any(|c| inside(pose, &self.spec, *c))
+            !pts.iter().any(|p| o.footprint_contains(*p, 0.0))
+                && !o.corners().iter().any(|c| inside(pose, &self.spec, *c))
         })
     }
 
@@ -109,7 +111,8 @@ impl Body {
         let dv = (target_v - self.speed).clamp(-s.max_accel_m_s2 * dt, s.max_accel_m_s2 * dt);
         self.speed += dv;
         let target_steer = self.cmd.steer.clamp(-s.max_steer_rad, s.max_steer_rad);
-        self.steer += (target_steer - self.steer).clamp(-s.max_steer_rate_rad_s * dt, s.max_steer_rate_rad_s * dt);
+        self.steer += (target_steer - self.steer)
+            .clamp(-s.max_steer_rate_rad_s * dt, s.max_steer_rate_rad_s * dt);
         // Kinematic bicycle about the rear axle.
         let yaw = self.pose.yaw + self.speed / s.wheelbase_m * self.steer.tan() * dt;
         let next = Pose2::new(
@@ -131,12 +134,26 @@ impl Body {
 
     fn slew_cannon(&mut self, dt: f64) {
         let s = &self.spec;
-        let pan = self.cmd.pan.clamp(-s.cannon_pan_limit_rad, s.cannon_pan_limit_rad);
-        let tilt = self.cmd.tilt.clamp(s.cannon_tilt_min_rad, s.cannon_tilt_max_rad);
-        self.cannon.pan += (pan - self.cannon.pan).clamp(-s.cannon_pan_rate_rad_s * dt, s.cannon_pan_rate_rad_s * dt);
-        self.cannon.tilt += (tilt - self.cannon.tilt).clamp(-s.cannon_tilt_rate_rad_s * dt, s.cannon_tilt_rate_rad_s * dt);
+        let pan = self
+            .cmd
+            .pan
+            .clamp(-s.cannon_pan_limit_rad, s.cannon_pan_limit_rad);
+        let tilt = self
+            .cmd
+            .tilt
+            .clamp(s.cannon_tilt_min_rad, s.cannon_tilt_max_rad);
+        self.cannon.pan += (pan - self.cannon.pan)
+            .clamp(-s.cannon_pan_rate_rad_s * dt, s.cannon_pan_rate_rad_s * dt);
+        self.cannon.tilt += (tilt - self.cannon.tilt).clamp(
+            -s.cannon_tilt_rate_rad_s * dt,
+            s.cannon_tilt_rate_rad_s * dt,
+        );
         self.cannon.valve_open = self.cmd.valve_open && self.water_l > 0.0;
-        self.cannon.flow_l_s = if self.cannon.valve_open { s.cannon_flow_l_s } else { 0.0 };
+        self.cannon.flow_l_s = if self.cannon.valve_open {
+            s.cannon_flow_l_s
+        } else {
+            0.0
+        };
     }
 }
 
@@ -266,7 +283,10 @@ impl World {
                 .filter(|f| f.state == TruthFireState::Burning)
                 .map(|f| {
                     let c = f.flame_centre();
-                    let r = ((c[0] - body[0]).powi(2) + (c[1] - body[1]).powi(2) + (c[2] - body[2]).powi(2)).sqrt();
+                    let r = ((c[0] - body[0]).powi(2)
+                        + (c[1] - body[1]).powi(2)
+                        + (c[2] - body[2]).powi(2))
+                    .sqrt();
                     physics::radiant_flux_kw_m2(f.hrr_kw, r.max(f.spec.radius_m))
                 })
                 .sum();
@@ -282,7 +302,11 @@ impl World {
             let flow_on_fire: f64 = sprays
                 .iter()
                 .map(|(at, r, flow)| {
-                    flow * physics::disk_overlap_area(*r, f.spec.radius_m, at.dist(f.spec.position())) / physics::disk_area(*r)
+                    flow * physics::disk_overlap_area(
+                        *r,
+                        f.spec.radius_m,
+                        at.dist(f.spec.position()),
+                    ) / physics::disk_area(*r)
                 })
                 .sum();
             f.step(self.t, dt, flow_on_fire / fire_area, flow_on_fire * dt);
@@ -295,7 +319,9 @@ impl World {
             .fires
             .iter()
             .filter(|f| f.state == TruthFireState::Burning && f.hrr_kw >= physics::Q_VISIBLE_KW)
-            .map(|f| FlameTarget { centre: f.flame_centre() })
+            .map(|f| FlameTarget {
+                centre: f.flame_centre(),
+            })
             .collect();
         let b = self.bodies.iter().find(|b| &b.id == id)?;
         let detections = camera::detect(&b.spec, &b.pose, &flames, &self.obstacles, &mut self.rng);
@@ -399,13 +425,26 @@ mod tests {
     #[test]
     fn driving_into_a_vehicle_stops_the_unit() {
         let mut w = world();
-        w.command(&u1(), UnitCommand { speed: 1.5, steer: 0.0, pan: 0.0, tilt: 0.0, valve_open: false });
+        w.command(
+            &u1(),
+            UnitCommand {
+                speed: 1.5,
+                steer: 0.0,
+                pan: 0.0,
+                tilt: 0.0,
+                valve_open: false,
+            },
+        );
         for _ in 0..400 {
             w.step(0.05);
         }
         let t = w.truth();
         assert!(t.units[0].collisions > 0);
-        assert!(t.units[0].pose.x < 20.0 - 2.0 - 0.8 + 0.1, "stopped before the car: {}", t.units[0].pose.x);
+        assert!(
+            t.units[0].pose.x < 20.0 - 2.0 - 0.8 + 0.1,
+            "stopped before the car: {}",
+            t.units[0].pose.x
+        );
     }
 
     #[test]
@@ -416,8 +455,18 @@ mod tests {
             let d = 25.0f64.hypot(2.5);
             let v = 20.0f64;
             let (g, h) = (physics::G, 1.2);
-            let tilt = ((v * v - (v.powi(4) - g * (g * d * d - 2.0 * h * v * v)).sqrt()) / (g * d)).atan();
-            w.command(&u1(), UnitCommand { speed: 0.0, steer: 0.0, pan, tilt, valve_open: true });
+            let tilt =
+                ((v * v - (v.powi(4) - g * (g * d * d - 2.0 * h * v * v)).sqrt()) / (g * d)).atan();
+            w.command(
+                &u1(),
+                UnitCommand {
+                    speed: 0.0,
+                    steer: 0.0,
+                    pan,
+                    tilt,
+                    valve_open: true,
+                },
+            );
         };
         let mut off = world();
         aim(&mut off, 0.3);
@@ -436,7 +485,16 @@ mod tests {
     fn same_seed_same_world() {
         let run = |seed| {
             let mut w = World::new(&Scenario::from_toml(SCEN, "w.toml").unwrap(), seed);
-            w.command(&u1(), UnitCommand { speed: 1.0, steer: 0.1, pan: 0.0, tilt: 0.0, valve_open: false });
+            w.command(
+                &u1(),
+                UnitCommand {
+                    speed: 1.0,
+                    steer: 0.1,
+                    pan: 0.0,
+                    tilt: 0.0,
+                    valve_open: false,
+                },
+            );
             (0..100)
                 .map(|_| {
                     w.step(0.05);

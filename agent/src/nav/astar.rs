@@ -35,14 +35,28 @@ pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
     // The start may sit in inflated space (a robot that stopped close to a wall or a
     // vehicle): cells within ESCAPE_M of it are passable so that it can get out.
     let escape = (ESCAPE_M / grid.resolution()).ceil() as usize;
-    let passable = |c: (usize, usize)| !grid.blocked(c) || (c.0.abs_diff(s.0) <= escape && c.1.abs_diff(s.1) <= escape);
+    let passable = |c: (usize, usize)| {
+        !grid.blocked(c) || (c.0.abs_diff(s.0) <= escape && c.1.abs_diff(s.1) <= escape)
+    };
     while let Some((_, i)) = open.pop() {
         let cur = (i % w, i / w);
         if cur == g {
             break;
         }
-        for (dc, dr) in [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)] {
-            let (Some(c), Some(r)) = (cur.0.checked_add_signed(dc), cur.1.checked_add_signed(dr)) else { continue };
+        for (dc, dr) in [
+            (1, 0),
+            (-1, 0),
+            (0, 1),
+            (0, -1),
+            (1, 1),
+            (1, -1),
+            (-1, 1),
+            (-1, -1),
+        ] {
+            let (Some(c), Some(r)) = (cur.0.checked_add_signed(dc), cur.1.checked_add_signed(dr))
+            else {
+                continue;
+            };
             if c >= w || r >= h || !passable((c, r)) {
                 continue;
             }
@@ -50,7 +64,11 @@ pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
             if dc != 0 && dr != 0 && (!passable((cur.0, r)) || !passable((c, cur.1))) {
                 continue;
             }
-            let step = if dc != 0 && dr != 0 { std::f64::consts::SQRT_2 } else { 1.0 };
+            let step = if dc != 0 && dr != 0 {
+                std::f64::consts::SQRT_2
+            } else {
+                1.0
+            };
             let n = r * w + c;
             let nc = cost[i] + step;
             if nc < cost[n] {
@@ -114,7 +132,10 @@ mod tests {
         assert_eq!(*p.last().unwrap(), b);
         assert!(p.len() >= 3, "must bend around the car: {p:?}");
         for w in p.windows(2) {
-            assert!(g.segment_free(w[0], w[1]), "segment {w:?} crosses an obstacle");
+            assert!(
+                g.segment_free(w[0], w[1]),
+                "segment {w:?} crosses an obstacle"
+            );
         }
         let l = length(&p);
         assert!(l > 30.0 && l < 34.0, "{l}");
@@ -123,7 +144,13 @@ mod tests {
     #[test]
     fn unreachable_goals_give_none() {
         let g = Grid::from_scenario(&scenario(), 0.25, 1.0);
-        assert!(plan(&g, Point2::new(5.0, 0.0), Point2::new(20.0, 0.0)).is_none(), "goal inside the car");
-        assert!(plan(&g, Point2::new(5.0, 0.0), Point2::new(80.0, 0.0)).is_none(), "goal outside the map");
+        assert!(
+            plan(&g, Point2::new(5.0, 0.0), Point2::new(20.0, 0.0)).is_none(),
+            "goal inside the car"
+        );
+        assert!(
+            plan(&g, Point2::new(5.0, 0.0), Point2::new(80.0, 0.0)).is_none(),
+            "goal outside the map"
+        );
     }
 }

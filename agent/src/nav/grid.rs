@@ -22,11 +22,18 @@ impl Grid {
         let t = &s.tunnel;
         let w = (t.length_m / res).ceil() as usize;
         let h = (t.width_m / res).ceil() as usize;
-        let mut g = Self { res, y0: -t.width_m / 2.0, w, h, occ: vec![false; w * h] };
+        let mut g = Self {
+            res,
+            y0: -t.width_m / 2.0,
+            w,
+            h,
+            occ: vec![false; w * h],
+        };
         for r in 0..h {
             for c in 0..w {
                 let p = g.center((c, r));
-                let blocked = !t.contains(p, inflate) || s.obstacles.iter().any(|o| o.footprint_contains(p, inflate));
+                let blocked = !t.contains(p, inflate)
+                    || s.obstacles.iter().any(|o| o.footprint_contains(p, inflate));
                 g.occ[r * w + c] = blocked;
             }
         }
@@ -43,11 +50,15 @@ impl Grid {
     pub fn cell(&self, p: Point2) -> Option<Cell> {
         let c = (p.x / self.res).floor();
         let r = ((p.y - self.y0) / self.res).floor();
-        (c >= 0.0 && r >= 0.0 && (c as usize) < self.w && (r as usize) < self.h).then(|| (c as usize, r as usize))
+        (c >= 0.0 && r >= 0.0 && (c as usize) < self.w && (r as usize) < self.h)
+            .then_some((c as usize, r as usize))
     }
 
     pub fn center(&self, (c, r): Cell) -> Point2 {
-        Point2::new((c as f64 + 0.5) * self.res, self.y0 + (r as f64 + 0.5) * self.res)
+        Point2::new(
+            (c as f64 + 0.5) * self.res,
+            self.y0 + (r as f64 + 0.5) * self.res,
+        )
     }
 
     pub fn blocked(&self, (c, r): Cell) -> bool {
@@ -63,7 +74,9 @@ impl Grid {
     /// (every cell the segment touches, Amanatides-Woo), not Bresenham: Bresenham skips
     /// cells the segment clips at a corner, which would let a path graze an obstacle.
     pub fn segment_free(&self, a: Point2, b: Point2) -> bool {
-        let Some(mut cur) = self.cell(a) else { return false };
+        let Some(mut cur) = self.cell(a) else {
+            return false;
+        };
         if self.cell(b).is_none() {
             return false;
         }
@@ -75,13 +88,25 @@ impl Grid {
             if d == 0.0 {
                 return f64::INFINITY;
             }
-            let k = if step > 0 { cell as f64 + 1.0 } else { cell as f64 };
+            let k = if step > 0 {
+                cell as f64 + 1.0
+            } else {
+                cell as f64
+            };
             (origin + k * self.res - pos) / d
         };
         let mut t_x = first(a.x, 0.0, cur.0, step_x, dx);
         let mut t_y = first(a.y, self.y0, cur.1, step_y, dy);
-        let t_dx = if dx != 0.0 { self.res / dx.abs() } else { f64::INFINITY };
-        let t_dy = if dy != 0.0 { self.res / dy.abs() } else { f64::INFINITY };
+        let t_dx = if dx != 0.0 {
+            self.res / dx.abs()
+        } else {
+            f64::INFINITY
+        };
+        let t_dy = if dy != 0.0 {
+            self.res / dy.abs()
+        } else {
+            f64::INFINITY
+        };
         loop {
             if self.blocked(cur) {
                 return false;

@@ -26,7 +26,12 @@ pub struct PurePursuit {
 
 impl PurePursuit {
     pub fn new(path: Vec<Point2>) -> Self {
-        Self { path, seg: 0, lookahead_m: 1.8, goal_tolerance_m: 0.5 }
+        Self {
+            path,
+            seg: 0,
+            lookahead_m: 1.8,
+            goal_tolerance_m: 0.5,
+        }
     }
 
     pub fn path(&self) -> &[Point2] {
@@ -48,22 +53,36 @@ impl PurePursuit {
         let local = pose.to_body(target);
         let ld = local.x.hypot(local.y).max(0.1);
         let alpha = local.y.atan2(local.x);
-        let steer = (2.0 * spec.wheelbase_m * alpha.sin() / ld).atan().clamp(-spec.max_steer_rad, spec.max_steer_rad);
+        let steer = (2.0 * spec.wheelbase_m * alpha.sin() / ld)
+            .atan()
+            .clamp(-spec.max_steer_rad, spec.max_steer_rad);
         // Braking distance at max deceleration, with margin; slower when steering hard or
         // when the target is behind.
         let v_goal = (2.0 * spec.max_accel_m_s2 * 0.5 * remaining).sqrt();
         let v_turn = spec.max_speed_m_s * (1.0 - 0.6 * steer.abs() / spec.max_steer_rad);
-        let v_behind = if local.x < 0.0 { 0.4 } else { spec.max_speed_m_s };
-        let speed = v_goal.min(v_turn).min(v_behind).clamp(0.2, spec.max_speed_m_s);
+        let v_behind = if local.x < 0.0 {
+            0.4
+        } else {
+            spec.max_speed_m_s
+        };
+        let speed = v_goal
+            .min(v_turn)
+            .min(v_behind)
+            .clamp(0.2, spec.max_speed_m_s);
         Follow::Drive { speed, steer }
     }
 
     /// Advance along the path to the segment nearest `p`, then walk forward `lookahead_m`.
     fn lookahead_point(&mut self, p: Point2) -> Point2 {
-        while self.seg + 2 < self.path.len() && closest_t(self.path[self.seg], self.path[self.seg + 1], p) >= 1.0 {
+        while self.seg + 2 < self.path.len()
+            && closest_t(self.path[self.seg], self.path[self.seg + 1], p) >= 1.0
+        {
             self.seg += 1;
         }
-        let (a, b) = (self.path[self.seg], self.path[(self.seg + 1).min(self.path.len() - 1)]);
+        let (a, b) = (
+            self.path[self.seg],
+            self.path[(self.seg + 1).min(self.path.len() - 1)],
+        );
         let t = closest_t(a, b, p);
         let mut left = self.lookahead_m;
         let mut from = lerp(a, b, t);
@@ -86,14 +105,22 @@ impl PurePursuit {
         }
         let (a, b) = (self.path[self.seg], self.path[self.seg + 1]);
         let c = lerp(a, b, closest_t(a, b, p));
-        c.dist(b) + self.path[self.seg + 1..].windows(2).map(|w| w[0].dist(w[1])).sum::<f64>()
+        c.dist(b)
+            + self.path[self.seg + 1..]
+                .windows(2)
+                .map(|w| w[0].dist(w[1]))
+                .sum::<f64>()
     }
 }
 
 fn closest_t(a: Point2, b: Point2, p: Point2) -> f64 {
     let (dx, dy) = (b.x - a.x, b.y - a.y);
     let l2 = dx * dx + dy * dy;
-    if l2 < 1e-12 { 1.0 } else { (((p.x - a.x) * dx + (p.y - a.y) * dy) / l2).clamp(0.0, 1.0) }
+    if l2 < 1e-12 {
+        1.0
+    } else {
+        (((p.x - a.x) * dx + (p.y - a.y) * dy) / l2).clamp(0.0, 1.0)
+    }
 }
 
 fn lerp(a: Point2, b: Point2, t: f64) -> Point2 {
@@ -120,7 +147,10 @@ mod tests {
                     pose.y += speed * pose.yaw.sin() * dt;
                     let dev = path
                         .windows(2)
-                        .map(|w| lerp(w[0], w[1], closest_t(w[0], w[1], pose.position())).dist(pose.position()))
+                        .map(|w| {
+                            lerp(w[0], w[1], closest_t(w[0], w[1], pose.position()))
+                                .dist(pose.position())
+                        })
                         .fold(f64::INFINITY, f64::min);
                     max_dev = max_dev.max(dev);
                 }
@@ -131,10 +161,18 @@ mod tests {
 
     #[test]
     fn follows_a_dogleg_and_stops_at_the_goal() {
-        let path = vec![Point2::new(0.0, 0.0), Point2::new(10.0, 0.0), Point2::new(14.0, 3.0), Point2::new(25.0, 3.0)];
+        let path = vec![
+            Point2::new(0.0, 0.0),
+            Point2::new(10.0, 0.0),
+            Point2::new(14.0, 3.0),
+            Point2::new(25.0, 3.0),
+        ];
         let (end, _, max_dev) = drive(path, Pose2::new(0.0, 0.0, 0.0));
         assert!(end.position().dist(Point2::new(25.0, 3.0)) < 0.6, "{end:?}");
-        assert!(end.yaw.abs() < 0.2, "arrives along the last segment: {end:?}");
+        assert!(
+            end.yaw.abs() < 0.2,
+            "arrives along the last segment: {end:?}"
+        );
         assert!(max_dev < 0.8, "stays near the path: {max_dev}");
     }
 }

@@ -1,0 +1,233 @@
+//! End-to-end: the real `firefleet` binary as separate processes over loopback Zenoh.
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use firefleet_protocol::bus::{Bus, Connect};
+use firefleet_protocol::keys::Topic;
+use firefleet_protocol::msg::{SimTruth, Task, TaskKind, TaskPhase, UnitState};
+use firefleet_protocol::{SiteId, UnitId};
+
+const BIN: &str = env!("CARGO_BIN_EXE_firefleet");
+
+/// Children are killed when the test ends, pass or fail.
+struct Fleet(Vec<Child>);
+
+impl Drop for Fleet {
+    fn drop(&mut self) {
+        for c in &mut self.0 {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+#[test]
+fn demo_fleet_puts_out_every_fire_and_records_the_incident() {
+    let dir = tempfile::tempdir().unwrap();
+    let summary = dir.path().join("summary.json");
+    let recording = dir.path().join("run.mcap");
+    let status = Command::new(BIN)
+        .args([
+            "demo",
+            "--scenario",
+            "cargo-truck",
+            "--time-scale",
+            "8",
+            "--summary-json",
+        ])
+        .arg(&summary)
+        .arg("--record")
+        .arg(&recording)
+        .stdout(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success(), "demo exited with {status}");
+
+    let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&summary).unwrap()).unwrap();
+    assert_eq!(s["fires_total"], 3);
+    assert_eq!(s["fires_out"], 3);
+    assert!(s["sim_time_s"].as_f64().unwrap() < 360.0);
+    let procs = s["processes"].as_array().unwrap();
+    assert!(
+        procs.len() >= 5,
+        "sim, coordinator, three agents (and a recorder): {procs:?}"
+    );
+    for role in [
+        "sim",
+        "coordinator",
+        "agent:ugv-1",
+        "agent:ugv-2",
+        "agent:ugv-3",
+        "recorder",
+    ] {
+        assert!(procs.iter().any(|p| p["role"] == role), "no {role} process");
+    }
+    for u in s["units"].as_array().unwrap() {
+        assert_eq!(u["collisions"], 0, "{u}");
+    }
+    check_recording(&recording);
+}
+
+/// Every channel has a JSON schema, every message is JSON, and the scene is there.
+fn check_recording(path: &Path) {
+    let bytes = std::fs::read(path).unwrap();
+    let summary = mcap::Summary::read(&bytes)
+        .unwrap()
+        .expect("the file has a summary section");
+    assert!(summary.channels.len() >= 8);
+    for c in summary.channels.values() {
+        let schema = c
+            .schema
+            .as_ref()
+            .unwrap_or_else(|| panic!("channel {} has no schema", c.topic));
+        assert_eq!(schema.encoding, "jsonschema");
+        assert_eq!(c.message_encoding, "json");
+    }
+    let mut scene = 0;
+    let mut tasks = 0;
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        serde_json::from_slice::<serde_json::Value>(&m.data).unwrap();
+        let name = m.channel.schema.as_ref().unwrap().name.as_str();
+        scene += usize::from(name == "foxglove.SceneUpdate");
+        tasks += usize::from(name == "firefleet.Task");
+    }
+    assert!(
+        scene > 10 && tasks >= 3,
+        "scene updates {scene}, tasks {tasks}"
+    );
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
+    let scenario = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/handover.toml");
+    let port = free_port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let router = Connect {
+        mode: Some("router".into()),
+        listen: vec![endpoint.clone()],
+        ..Connect::default()
+    };
+    let bus = Bus::open(&router, SiteId::new("handover").unwrap())
+        .await
+        .unwrap();
+    let keys = bus.keys().clone();
+    let near = UnitId::new("ugv-near").unwrap();
+    let far = UnitId::new("ugv-far").unwrap();
+    let near_state = bus
+        .subscribe::<UnitState>(&keys.key(&Topic::UnitState(near.clone())))
+        .await
+        .unwrap();
+    let far_tasks = bus
+        .subscribe::<Task>(&keys.key(&Topic::UnitTask(far.clone())))
+        .await
+        .unwrap();
+    let truths = bus
+        .subscribe::<SimTruth>(&keys.key(&Topic::SimTruth))
+        .await
+        .unwrap();
+
+    let spawn = |args: &[&str]| {
+        Command::new(BIN)
+            .args(args)
+            .args([
+                "--scenario",
+                scenario,
+                "--mode",
+                "client",
+                "--connect",
+                &endpoint,
+            ])
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .env("RUST_LOG", "warn,zenoh=error")
+            .spawn()
+            .unwrap()
+    };
+    let mut fleet = Fleet(vec![
+        spawn(&[
+            "sim",
+            "--time-scale",
+            "6",
+            "--wait-for-fleet",
+            "30",
+            "--wait-for-coordinator",
+        ]),
+        spawn(&["coordinator", "--sim-clock", "--lease-s", "3"]),
+        spawn(&["agent", "--unit", "ugv-near"]),
+        spawn(&["agent", "--unit", "ugv-far"]),
+    ]);
+
+    let deadline = Instant::now() + Duration::from_secs(120);
+
+    // The near unit takes the fire and sets off: kill it on its way.
+    let fire = tokio::time::timeout(Duration::from_secs(90), async {
+        loop {
+            let (_, st) = near_state.recv().await.expect("bus open");
+            if let Some(p) = st.task
+                && p.phase == TaskPhase::Travelling
+            {
+                return p.fire;
+            }
+        }
+    })
+    .await
+    .map_err(|_| "near unit never set off")
+    .unwrap();
+    fleet.0[2].kill().unwrap();
+    fleet.0[2].wait().unwrap();
+    let killed_at = Instant::now();
+
+    // The far unit is sent to the same fire.
+    let reassigned = tokio::time::timeout(Duration::from_secs(30), async {
+        loop {
+            let (_, task) = far_tasks.recv().await.expect("bus open");
+            if let TaskKind::Extinguish { fire: f, .. } = task.kind {
+                return f;
+            }
+        }
+    })
+    .await
+    .map_err(|_| "the fire was never reassigned")
+    .unwrap();
+    assert_eq!(reassigned, fire);
+    let reaction = killed_at.elapsed();
+    assert!(
+        reaction < Duration::from_secs(5),
+        "reassignment took {reaction:?}"
+    );
+
+    // And the fire goes out before the time limit.
+    let truth = tokio::time::timeout(deadline.saturating_duration_since(Instant::now()), async {
+        loop {
+            let (_, t) = truths.recv().await.expect("bus open");
+            if t.all_out() || t.t >= t.time_limit_s {
+                return t;
+            }
+        }
+    })
+    .await
+    .map_err(|_| "no outcome before the wall-clock deadline")
+    .unwrap();
+    assert!(
+        truth.all_out(),
+        "fire still burning at the time limit: {truth:?}"
+    );
+    let near_truth = truth.units.iter().find(|u| u.id == near).unwrap();
+    assert_eq!(
+        near_truth.water_used_l, 0.0,
+        "the killed unit never sprayed"
+    );
+    drop(fleet);
+    bus.close().await;
+}
