@@ -5,9 +5,12 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use firefleet_protocol::bus::{Bus, Connect};
+use firefleet_protocol::codec::{self, PROTOCOL_VERSION};
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{SimTruth, Task, TaskKind, TaskPhase, UnitState};
-use firefleet_protocol::{SiteId, UnitId};
+use firefleet_protocol::msg::{
+    FlameObservation, FlameReport, SimTruth, Task, TaskKind, TaskPhase, UnitState,
+};
+use firefleet_protocol::{Point2, Pose2, SiteId, UnitId};
 
 const BIN: &str = env!("CARGO_BIN_EXE_firefleet");
 
@@ -184,6 +187,48 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
     .await
     .map_err(|_| "near unit never set off")
     .unwrap();
+    // The coordinator is up (it assigned the fire). Garbage on the bus changes nothing
+    // and is counted.
+    let report_key = keys.key(&Topic::UnitReport(far.clone()));
+    let bad_report = FlameReport {
+        unit: far.clone(),
+        t: 0.0,
+        observer: Pose2::new(0.0, 0.0, 0.0),
+        observations: vec![FlameObservation {
+            position: Point2::new(f64::NAN, 0.0),
+            cov: [0.1, 0.0, 0.1],
+            confidence: 0.9,
+        }],
+    };
+    let mut stale_version = codec::encode(&bad_report);
+    stale_version[0] = PROTOCOL_VERSION + 1;
+    let ghost = FlameReport {
+        unit: UnitId::new("ghost").unwrap(),
+        observations: vec![FlameObservation {
+            position: Point2::new(30.0, 0.0),
+            cov: [0.1, 0.0, 0.1],
+            confidence: 0.9,
+        }],
+        ..bad_report.clone()
+    };
+    let session = bus.session();
+    session
+        .put(&report_key, vec![PROTOCOL_VERSION, 0xff, 0xff, 0xff])
+        .await
+        .unwrap();
+    session
+        .put(&report_key, codec::encode(&bad_report))
+        .await
+        .unwrap();
+    session.put(&report_key, stale_version).await.unwrap();
+    session
+        .put(
+            keys.key(&Topic::UnitReport(UnitId::new("ghost").unwrap())),
+            codec::encode(&ghost),
+        )
+        .await
+        .unwrap();
+
     fleet.0[2].kill().unwrap();
     fleet.0[2].wait().unwrap();
     let killed_at = Instant::now();

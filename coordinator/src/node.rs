@@ -100,7 +100,9 @@ pub async fn run(
                 }
             }
             Ok(query) = status.recv_async() => {
-                let body = incident.status(clock.now()).to_string();
+                let mut body = incident.status(clock.now());
+                body["rejected"] = bus.rejects().snapshot().into_iter().map(|(k, v)| (k.to_owned(), serde_json::Value::from(v))).collect();
+                let body = body.to_string();
                 if let Err(e) = query.reply(keys.key(&Topic::CoordStatus), body).await {
                     tracing::warn!("status reply failed: {e}");
                 }

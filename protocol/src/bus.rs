@@ -268,6 +268,27 @@ mod tests {
     }
 
     #[test]
+    fn shipped_deploy_configs_load() {
+        for name in ["router.json5", "unit.json5"] {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../deploy")
+                .join(name);
+            let c = Connect {
+                config_file: Some(path.clone()),
+                ..Default::default()
+            };
+            let cfg = c
+                .to_config()
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            assert_eq!(
+                cfg.get_json("scouting/multicast/enabled").unwrap(),
+                "false",
+                "{name}"
+            );
+        }
+    }
+
+    #[test]
     fn bad_connect_options_are_named() {
         let bad_mode = Connect {
             mode: Some("satellite".into()),

@@ -1,0 +1,23 @@
+"""Open a firefleet recording with the Python mcap reader: every channel has a schema,
+every message is JSON, and the Foxglove scene is there."""
+import json
+import sys
+from collections import Counter
+
+from mcap.reader import make_reader
+
+with open(sys.argv[1], "rb") as f:
+    reader = make_reader(f)
+    summary = reader.get_summary()
+    assert summary is not None, "no summary section: the file was not finished"
+    missing = [c.topic for c in summary.channels.values() if c.schema_id not in summary.schemas]
+    assert not missing, f"channels without a schema: {missing}"
+    counts = Counter()
+    for schema, channel, message in reader.iter_messages():
+        json.loads(message.data)
+        counts[schema.name] += 1
+for name in ("foxglove.SceneUpdate", "firefleet.UnitState", "firefleet.Task", "firefleet.SimTruth"):
+    assert counts[name] > 0, f"no {name} messages"
+print(f"mcap ok: {len(summary.channels)} channels, {sum(counts.values())} messages")
+for name, n in sorted(counts.items()):
+    print(f"  {name:28} {n}")
