@@ -141,7 +141,7 @@ mod tests {
             assert!(UnitId::new(bad).is_err(), "{bad:?} accepted");
         }
         assert!(UnitId::new("ugv-1").is_ok());
-        assert!(SiteId::new(&"a".repeat(49)).is_err());
+        assert!(SiteId::new("a".repeat(49)).is_err());
     }
 
     #[test]
