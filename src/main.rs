@@ -5,6 +5,7 @@
 //! subcommands run one role each and join a Zenoh network given on the command line, so
 //! the same binary deploys onto several machines.
 
+mod bt_cli;
 mod demo;
 mod roles;
 mod scenarios;
@@ -40,6 +41,9 @@ enum Command {
     Record(RecordArgs),
     /// Print the incident as the coordinator sees it.
     Status(StatusArgs),
+    /// Validate, show or dry-run behavior-tree XML files.
+    #[command(subcommand)]
+    Bt(bt_cli::BtCommand),
     /// List the built-in scenarios.
     Scenarios,
 }
@@ -126,6 +130,15 @@ pub struct AgentArgs {
     /// The unit this agent drives (an id from the scenario's [[units]]).
     #[arg(long)]
     unit: UnitId,
+    /// Behavior tree (BehaviorTree.CPP v4 XML) to run instead of the shipped one.
+    #[arg(long, value_name = "FILE.xml")]
+    tree: Option<PathBuf>,
+    /// How often the tree is ticked, per second of site time.
+    #[arg(long, default_value_t = 20.0, value_parser = positive_f64)]
+    tick_hz: f64,
+    /// Print the tree with live statuses to stderr about once a second of site time.
+    #[arg(long)]
+    print_tree: bool,
 }
 
 #[derive(Args, Debug)]
@@ -183,6 +196,7 @@ fn main() -> std::process::ExitCode {
             Command::Record(a) => roles::record(a).await,
             Command::Status(a) => roles::status(a).await,
             Command::Scenarios => scenarios::list(),
+            Command::Bt(c) => bt_cli::run(c),
         }
     });
     match result {

@@ -5,6 +5,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::Context;
+use firefleet_agent::ground::GroundController;
 use firefleet_agent::{AgentOptions, SimPlatform};
 use firefleet_coordinator::CoordinatorOptions;
 use firefleet_protocol::bus::Bus;
@@ -105,16 +106,28 @@ pub async fn agent(a: AgentArgs) -> anyhow::Result<ExitCode> {
             scenario.name
         );
     }
+    let doc = match &a.tree {
+        Some(path) => firefleet_bt::xml::load_file(path)?,
+        None => firefleet_agent::ground::default_tree(),
+    };
+    let ctl = GroundController::with_tree(
+        a.unit.clone(),
+        GROUND,
+        Arc::new(scenario.clone()),
+        &doc,
+        1.0 / a.tick_hz,
+    )?;
     let bus = open(&a.zenoh, &scenario).await?;
     let platform = SimPlatform::connect(&bus, &a.unit, GROUND).await?;
     let opts = AgentOptions {
         unit: a.unit,
         report_period_s: 0.25,
+        print_tree: a.print_tree,
     };
     firefleet_agent::run(
         &bus,
         platform,
-        Arc::new(scenario),
+        ctl,
         &opts,
         shutdown_signal(a.zenoh.die_with_parent),
     )

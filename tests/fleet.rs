@@ -90,17 +90,20 @@ fn check_recording(path: &Path) {
     }
     let mut scene = 0;
     let mut tasks = 0;
+    let mut bt = 0;
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
         serde_json::from_slice::<serde_json::Value>(&m.data).unwrap();
         let name = m.channel.schema.as_ref().unwrap().name.as_str();
         scene += usize::from(name == "foxglove.SceneUpdate");
         tasks += usize::from(name == "firefleet.Task");
+        bt += usize::from(name == "firefleet.BtTransitions");
     }
     assert!(
         scene > 10 && tasks >= 3,
         "scene updates {scene}, tasks {tasks}"
     );
+    assert!(bt > 10, "behavior-tree transitions recorded: {bt}");
 }
 
 fn free_port() -> u16 {

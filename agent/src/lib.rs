@@ -1,6 +1,7 @@
 //! What runs on a robot.
 //!
-//! The pure parts ([`nav`], [`aim`], [`tracker`], [`ground`]) know nothing of Zenoh: they
+//! The pure parts ([`nav`], [`aim`], [`tracker`], [`unit`], [`leaves`], [`ground`]) know
+//! nothing of Zenoh: they
 //! take sensor frames and tasks and return actuator set-points, so they are tested and
 //! benchmarked without a network. The edges are [`platform`], the interface a robot's
 //! hardware drivers implement (implemented here for the simulator), and [`node`], which
@@ -8,10 +9,12 @@
 
 pub mod aim;
 pub mod ground;
+pub mod leaves;
 pub mod nav;
 pub mod node;
 pub mod platform;
 pub mod tracker;
+pub mod unit;
 
 pub use node::{AgentOptions, run};
 pub use platform::{Platform, SimPlatform};

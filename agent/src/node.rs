@@ -3,16 +3,18 @@
 //! Declares the unit's liveliness token (the coordinator learns of a lost unit the moment
 //! its session drops), follows the coordinator's own token to know whether to act alone,
 //! takes tasks, steps the controller on every sensor frame, and publishes the unit's state
-//! and flame reports a few times a second of site time.
+//! and flame reports a few times a second of site time, and its behavior tree's
+//! transitions every step (for recordings).
 
+use std::cell::RefCell;
 use std::future::Future;
-use std::sync::Arc;
+use std::rc::Rc;
 
+use firefleet_bt::{Status, Transition};
 use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{Task, UnitCommand};
-use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::msg::{BtTransition, BtTransitions, NodeStatus, Task, UnitCommand};
 use zenoh::sample::SampleKind;
 
 use crate::ground::GroundController;
@@ -24,40 +26,66 @@ pub struct AgentOptions {
     pub unit: UnitId,
     /// Site-time period of state and report messages, s.
     pub report_period_s: f64,
+    /// Print the tree with live statuses to stderr about once a second of site time.
+    pub print_tree: bool,
 }
 
-/// Run the agent until `shutdown` completes or the platform goes away.
+fn status(s: Status) -> NodeStatus {
+    match s {
+        Status::Idle => NodeStatus::Idle,
+        Status::Running => NodeStatus::Running,
+        Status::Success => NodeStatus::Success,
+        Status::Failure => NodeStatus::Failure,
+        Status::Skipped => NodeStatus::Skipped,
+    }
+}
+
+/// Run the agent with controller `ctl` until `shutdown` completes or the platform goes
+/// away.
 pub async fn run<P: Platform>(
     bus: &Bus,
     mut platform: P,
-    scenario: Arc<Scenario>,
+    mut ctl: GroundController,
     opts: &AgentOptions,
     shutdown: impl Future<Output = ()>,
 ) -> Result<(), BusError> {
     let keys = bus.keys().clone();
     let unit = &opts.unit;
-    let zerr = |e: zenoh::Error| BusError::from(e);
+    let transitions: Rc<RefCell<Vec<Transition>>> = Rc::default();
+    let sink = transitions.clone();
+    ctl.tree_mut()
+        .set_observer(move |t| sink.borrow_mut().push(*t));
+    let labels: Vec<String> = (0..ctl.tree().len() as u32)
+        .map(|i| {
+            let (n, t) = (ctl.tree().name(i), ctl.tree().type_name(i));
+            if n == t {
+                t.to_owned()
+            } else {
+                format!("{t} \"{n}\"")
+            }
+        })
+        .collect();
+
     let _token = bus
         .session()
         .liveliness()
         .declare_token(keys.key(&Topic::UnitAlive(unit.clone())))
-        .await
-        .map_err(zerr)?;
+        .await?;
     let coord = bus
         .session()
         .liveliness()
         .declare_subscriber(keys.key(&Topic::CoordAlive))
         .history(true)
-        .await
-        .map_err(zerr)?;
+        .await?;
     let tasks = bus
         .subscribe::<Task>(&keys.key(&Topic::UnitTask(unit.clone())))
         .await?;
-    let mut ctl = GroundController::new(unit.clone(), *platform.spec(), scenario);
     let state_key = keys.key(&Topic::UnitState(unit.clone()));
     let report_key = keys.key(&Topic::UnitReport(unit.clone()));
+    let bt_key = keys.key(&Topic::UnitBt(unit.clone()));
     let mut next_report = f64::NEG_INFINITY;
-    tracing::info!(%unit, "agent started");
+    let mut next_print = f64::NEG_INFINITY;
+    tracing::info!(%unit, nodes = ctl.tree().len(), "agent started");
     tokio::pin!(shutdown);
     let mut last_cannon = None;
     loop {
@@ -67,10 +95,22 @@ pub async fn run<P: Platform>(
                 let cmd = ctl.step(&s);
                 platform.actuate(cmd).await?;
                 last_cannon = Some(s.cannon);
+                let batch: Vec<BtTransition> = transitions
+                    .borrow_mut()
+                    .drain(..)
+                    .map(|t| BtTransition { node: t.node, name: labels[t.node as usize].clone(), t: t.t, from: status(t.from), to: status(t.to) })
+                    .collect();
+                if !batch.is_empty() {
+                    bus.put(&bt_key, &BtTransitions { unit: unit.clone(), transitions: batch }).await?;
+                }
+                if opts.print_tree && s.t >= next_print {
+                    next_print = s.t + 1.0;
+                    eprintln!("{unit} t={:.1}\n{}", s.t, ctl.tree().render());
+                }
                 if s.t >= next_report {
                     next_report = s.t + opts.report_period_s;
-                    bus.put(&state_key, &ctl.state(&s)).await?;
-                    if let Some(r) = ctl.report(&s) {
+                    bus.put(&state_key, &ctl.state()).await?;
+                    if let Some(r) = ctl.report() {
                         bus.put(&report_key, &r).await?;
                     }
                 }

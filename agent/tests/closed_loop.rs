@@ -98,11 +98,8 @@ fn alone_the_unit_cruises_finds_and_puts_out_the_fire() {
 fn with_a_task_the_unit_reports_the_fire_extinguished() {
     let (out, ctl, world) = run(Some(Point2::new(60.3, -1.8)));
     assert!(out.is_some(), "fire never went out");
-    let s = world.truth();
-    assert_eq!(s.units[0].collisions, 0);
-    let mut w = world;
-    let id = UnitId::new("u1").unwrap();
-    let state = ctl.state(&w.sensors(&id).unwrap());
+    assert_eq!(world.truth().units[0].collisions, 0);
+    let state = ctl.state();
     let task = state.task.expect("task progress echoed");
     assert_eq!(
         (task.seq, task.fire, task.phase),

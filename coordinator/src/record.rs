@@ -21,8 +21,8 @@ use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{
-    FireTrack, FlameReport, GoalAck, Message, SimClock, SimTruth, Task, UnitCommand, UnitSensors,
-    UnitState, ZoneGoal,
+    BtTransitions, FireTrack, FlameReport, GoalAck, Message, SimClock, SimTruth, Task, UnitCommand,
+    UnitSensors, UnitState, ZoneGoal,
 };
 use firefleet_protocol::scenario::Scenario;
 use serde::Serialize;
@@ -167,6 +167,7 @@ fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Option<SimTruth>), Co
         Topic::UnitState(_) => plain::<UnitState>(bytes, "firefleet.UnitState"),
         Topic::UnitReport(_) => plain::<FlameReport>(bytes, "firefleet.FlameReport"),
         Topic::UnitTask(_) => plain::<Task>(bytes, "firefleet.Task"),
+        Topic::UnitBt(_) => plain::<BtTransitions>(bytes, "firefleet.BtTransitions"),
         Topic::Fire(_) => plain::<FireTrack>(bytes, "firefleet.FireTrack"),
         Topic::ZoneGoal(_) => plain::<ZoneGoal>(bytes, "firefleet.ZoneGoal"),
         Topic::ZoneAck(_) => plain::<GoalAck>(bytes, "firefleet.GoalAck"),

@@ -5,6 +5,7 @@
 //! ff/<site>/unit/<id>/alive       liveliness token of a unit
 //! ff/<site>/unit/<id>/report      unit -> coord      FlameReport (postcard)
 //! ff/<site>/unit/<id>/task        coord -> unit      Task (postcard)
+//! ff/<site>/unit/<id>/bt          unit -> recorders  BtTransitions (postcard)
 //! ff/<site>/fire/<fire_id>        coord -> all       FireTrack (postcard)
 //! ff/<site>/zone/<zone>/goal      commander -> coord ZoneGoal (JSON)
 //! ff/<site>/zone/<zone>/ack       coord -> commander GoalAck (JSON)
@@ -32,6 +33,7 @@ pub enum Topic {
     UnitAlive(UnitId),
     UnitReport(UnitId),
     UnitTask(UnitId),
+    UnitBt(UnitId),
     Fire(FireId),
     ZoneGoal(ZoneId),
     ZoneAck(ZoneId),
@@ -50,6 +52,7 @@ impl fmt::Display for Topic {
             Topic::UnitAlive(u) => write!(f, "unit/{u}/alive"),
             Topic::UnitReport(u) => write!(f, "unit/{u}/report"),
             Topic::UnitTask(u) => write!(f, "unit/{u}/task"),
+            Topic::UnitBt(u) => write!(f, "unit/{u}/bt"),
             Topic::Fire(id) => write!(f, "fire/{id}"),
             Topic::ZoneGoal(z) => write!(f, "zone/{z}/goal"),
             Topic::ZoneAck(z) => write!(f, "zone/{z}/ack"),
@@ -148,6 +151,7 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
         ["unit", u, "alive"] => Topic::UnitAlive(unit(u)?),
         ["unit", u, "report"] => Topic::UnitReport(unit(u)?),
         ["unit", u, "task"] => Topic::UnitTask(unit(u)?),
+        ["unit", u, "bt"] => Topic::UnitBt(unit(u)?),
         ["fire", id] => Topic::Fire(
             id.parse()
                 .map_err(|e: crate::ids::IdError| err(e.to_string()))?,
@@ -182,6 +186,7 @@ mod tests {
             Topic::UnitAlive(u("a")),
             Topic::UnitReport(u("a")),
             Topic::UnitTask(u("a")),
+            Topic::UnitBt(u("a")),
             Topic::Fire(FireId(4)),
             Topic::ZoneGoal(z.clone()),
             Topic::ZoneAck(z),

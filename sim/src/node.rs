@@ -122,7 +122,7 @@ pub async fn run(
                     .await?;
             }
         }
-        if step % 2 == 0 {
+        if step.is_multiple_of(2) {
             bus.put(&keys.key(&Topic::SimTruth), &world.truth()).await?;
         }
         step += 1;

@@ -1,0 +1,136 @@
+//! The blackboard: typed slots, named at build time, indexed at tick time.
+//!
+//! Each `{key}` a tree mentions becomes a slot when the tree is built. A `SubTree` gets its
+//! own scope: its keys are separate slots unless the SubTree remaps them onto the parent's
+//! keys (explicitly, or all of them with `_autoremap`), in which case they are the very
+//! same slot. Remapping is therefore free at tick time.
+
+use std::collections::HashMap;
+
+use crate::value::{PortType, Value};
+
+/// Index of a blackboard entry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Slot(pub(crate) u32);
+
+/// Typed entries of one tree (all scopes).
+#[derive(Debug, Clone, Default)]
+pub struct Blackboard {
+    names: Vec<String>,
+    types: Vec<PortType>,
+    values: Vec<Option<Value>>,
+    by_name: HashMap<String, Slot>,
+}
+
+impl Blackboard {
+    /// The slot named `name` (a root-scope key, or `scope/key` inside a subtree), creating
+    /// it with type `ty`; an existing slot of type Any takes the more precise type.
+    pub(crate) fn entry(&mut self, name: &str, ty: PortType) -> Result<Slot, String> {
+        if let Some(&slot) = self.by_name.get(name) {
+            let have = &mut self.types[slot.0 as usize];
+            if *have == PortType::Any {
+                *have = ty;
+            } else if ty != PortType::Any
+                && *have != ty
+                && !(ty == PortType::Int && *have == PortType::Double)
+                && !(ty == PortType::Double && *have == PortType::Int)
+            {
+                return Err(format!("entry '{name}' is used as {have} and as {ty}"));
+            } else if ty == PortType::Double {
+                // An entry read as a double and written as an int holds doubles.
+                *have = PortType::Double;
+            }
+            return Ok(slot);
+        }
+        let slot = Slot(self.names.len() as u32);
+        self.names.push(name.to_owned());
+        self.types.push(ty);
+        self.values.push(None);
+        self.by_name.insert(name.to_owned(), slot);
+        Ok(slot)
+    }
+
+    /// Alias `name` to an existing slot (subtree remapping).
+    pub(crate) fn alias(&mut self, name: &str, slot: Slot) {
+        self.by_name.insert(name.to_owned(), slot);
+    }
+
+    pub fn slot(&self, name: &str) -> Option<Slot> {
+        self.by_name.get(name).copied()
+    }
+
+    pub fn get(&self, slot: Slot) -> Option<&Value> {
+        self.values[slot.0 as usize].as_ref()
+    }
+
+    pub fn get_by_name(&self, name: &str) -> Option<&Value> {
+        self.slot(name).and_then(|s| self.get(s))
+    }
+
+    pub fn entry_type(&self, slot: Slot) -> PortType {
+        self.types[slot.0 as usize]
+    }
+
+    /// Write `v`, converting an int into a double entry; a type mismatch is an error.
+    pub fn set(&mut self, slot: Slot, v: Value) -> Result<(), String> {
+        let ty = self.types[slot.0 as usize];
+        let v = match (ty, v) {
+            (PortType::Double, Value::Int(i)) => Value::Double(i as f64),
+            (PortType::Any, v) => v,
+            (ty, v) if v.port_type() == ty => v,
+            (ty, v) => {
+                return Err(format!(
+                    "entry '{}' holds {ty}, not {}",
+                    self.names[slot.0 as usize],
+                    v.port_type()
+                ));
+            }
+        };
+        self.values[slot.0 as usize] = Some(v);
+        Ok(())
+    }
+
+    /// Write a value by key name (for the application seeding a tree's inputs).
+    pub fn set_by_name(&mut self, name: &str, v: Value) -> Result<(), String> {
+        let slot = self
+            .slot(name)
+            .ok_or_else(|| format!("the tree has no blackboard entry '{name}'"))?;
+        self.set(slot, v)
+    }
+
+    /// `(name, type, value)` of every entry, in creation order.
+    pub fn entries(&self) -> impl Iterator<Item = (&str, PortType, Option<&Value>)> {
+        self.names
+            .iter()
+            .zip(&self.types)
+            .zip(&self.values)
+            .map(|((n, t), v)| (n.as_str(), *t, v.as_ref()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn entries_are_typed_and_aliases_share_a_slot() {
+        let mut bb = Blackboard::default();
+        let a = bb.entry("goal", PortType::Point).unwrap();
+        assert_eq!(bb.entry("goal", PortType::Any).unwrap(), a);
+        assert!(
+            bb.entry("goal", PortType::Bool)
+                .unwrap_err()
+                .contains("point")
+        );
+        bb.alias("sub/target", a);
+        bb.set(a, Value::Point([1.0, 2.0])).unwrap();
+        assert_eq!(
+            bb.get_by_name("sub/target"),
+            Some(&Value::Point([1.0, 2.0]))
+        );
+        assert!(bb.set(a, Value::Int(3)).is_err());
+        let d = bb.entry("dist", PortType::Double).unwrap();
+        bb.set(d, Value::Int(3)).unwrap();
+        assert_eq!(bb.get(d), Some(&Value::Double(3.0)));
+    }
+}

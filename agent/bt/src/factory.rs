@@ -1,0 +1,731 @@
+//! Node types and building trees from them.
+//!
+//! A [`Registry`] knows every node type a tree may use: the built-in ones of
+//! BehaviorTree.CPP v4 and those the application registers, each with its category, its
+//! ports and how many children it takes. A [`Builder`] creates node instances from a type
+//! name and string attributes (what XML gives) and checks everything BehaviorTree.CPP
+//! checks at load time: unknown type, wrong child count, undeclared port, missing required
+//! port, literal of the wrong type, blackboard entry used with two types.
+//!
+//! The paper's node names map onto BehaviorTree.CPP's as follows (the shipped XML uses the
+//! BehaviorTree.CPP names, so Groot2 opens it):
+//!
+//! | paper (Algorithm 1)            | here                                                     |
+//! |--------------------------------|----------------------------------------------------------|
+//! | Selector                       | `Fallback`                                               |
+//! | RepeatUntilSuccess             | `RetryUntilSuccessful num_attempts="-1"`                 |
+//! | Until Fail                     | `KeepRunningUntilFailure`                                |
+//! | Always Succeed                 | `ForceSuccess`                                           |
+//! | SucceedImmediately             | `AlwaysSuccess`                                          |
+//! | RepeatUntilSuccessWithTimeout  | `Timeout msec=".."` around `RetryUntilSuccessful num_attempts="-1"` |
+//! | Root (Parallel)                | `Parallel`                                               |
+
+use std::collections::{BTreeMap, HashMap};
+
+use crate::blackboard::{Blackboard, Slot};
+use crate::node::{Action, Binding, PortDir, PortSpec, StatefulAction};
+use crate::script;
+use crate::status::Status;
+use crate::tree::{Kind, NodeData, Tree};
+use crate::value::{PortType, Value};
+
+/// What kind of node a type is (the XML element of its model).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Category {
+    Control,
+    Decorator,
+    Action,
+    Condition,
+    SubTree,
+}
+
+impl Category {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Category::Control => "Control",
+            Category::Decorator => "Decorator",
+            Category::Action => "Action",
+            Category::Condition => "Condition",
+            Category::SubTree => "SubTree",
+        }
+    }
+    /// How many children a node of this category takes: (min, max).
+    fn arity(self, builtin: Option<Builtin>) -> (u32, u32) {
+        match (self, builtin) {
+            (Category::Control, Some(Builtin::IfThenElse | Builtin::WhileDoElse)) => (2, 3),
+            (Category::Control, _) => (1, u32::MAX),
+            (Category::Decorator | Category::SubTree, _) => (1, 1),
+            (Category::Action | Category::Condition, _) => (0, 0),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Builtin {
+    Sequence,
+    SequenceWithMemory,
+    ReactiveSequence,
+    Fallback,
+    ReactiveFallback,
+    Parallel,
+    ParallelAll,
+    IfThenElse,
+    WhileDoElse,
+    Inverter,
+    ForceSuccess,
+    ForceFailure,
+    Repeat,
+    RetryUntilSuccessful,
+    KeepRunningUntilFailure,
+    Timeout,
+    Delay,
+    RunOnce,
+    Precondition,
+    AlwaysSuccess,
+    AlwaysFailure,
+    SetBlackboard,
+    Sleep,
+}
+
+type Make<T> = Box<dyn Fn() -> Box<T>>;
+
+enum Maker<C> {
+    Builtin(Builtin),
+    Condition(Make<dyn Action<C>>),
+    Action(Make<dyn Action<C>>),
+    Stateful(Make<dyn StatefulAction<C>>),
+}
+
+/// A node type.
+pub struct NodeType<C> {
+    pub name: String,
+    pub category: Category,
+    pub ports: Vec<PortSpec>,
+    maker: Maker<C>,
+}
+
+impl<C> NodeType<C> {
+    pub fn is_builtin(&self) -> bool {
+        matches!(self.maker, Maker::Builtin(_))
+    }
+}
+
+/// Every node type a tree may use.
+pub struct Registry<C> {
+    types: BTreeMap<String, NodeType<C>>,
+}
+
+impl<C> Default for Registry<C> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<C> Registry<C> {
+    /// A registry with the built-in node types.
+    pub fn new() -> Self {
+        use Builtin as B;
+        use Category::*;
+        use PortType::*;
+        let mut r = Self {
+            types: BTreeMap::new(),
+        };
+        let mut add = |name: &str, category, b, ports: Vec<PortSpec>| {
+            r.types.insert(
+                name.to_owned(),
+                NodeType {
+                    name: name.to_owned(),
+                    category,
+                    ports,
+                    maker: Maker::Builtin(b),
+                },
+            );
+        };
+        for (name, b) in [
+            ("Sequence", B::Sequence),
+            ("SequenceWithMemory", B::SequenceWithMemory),
+            ("ReactiveSequence", B::ReactiveSequence),
+            ("Fallback", B::Fallback),
+            ("ReactiveFallback", B::ReactiveFallback),
+            ("IfThenElse", B::IfThenElse),
+            ("WhileDoElse", B::WhileDoElse),
+        ] {
+            add(name, Control, b, vec![]);
+        }
+        add(
+            "Parallel",
+            Control,
+            B::Parallel,
+            vec![
+                PortSpec::input(
+                    "success_count",
+                    Int,
+                    "successes needed; negative: all but |n|-1",
+                )
+                .with_default("-1"),
+                PortSpec::input(
+                    "failure_count",
+                    Int,
+                    "failures that fail the node; negative: all but |n|-1",
+                )
+                .with_default("1"),
+            ],
+        );
+        add(
+            "ParallelAll",
+            Control,
+            B::ParallelAll,
+            vec![
+                PortSpec::input("max_failures", Int, "failures tolerated before failing")
+                    .with_default("1"),
+            ],
+        );
+        for (name, b) in [
+            ("Inverter", B::Inverter),
+            ("ForceSuccess", B::ForceSuccess),
+            ("ForceFailure", B::ForceFailure),
+            ("KeepRunningUntilFailure", B::KeepRunningUntilFailure),
+        ] {
+            add(name, Decorator, b, vec![]);
+        }
+        add(
+            "Repeat",
+            Decorator,
+            B::Repeat,
+            vec![PortSpec::input(
+                "num_cycles",
+                Int,
+                "repetitions; -1 forever",
+            )],
+        );
+        add(
+            "RetryUntilSuccessful",
+            Decorator,
+            B::RetryUntilSuccessful,
+            vec![PortSpec::input("num_attempts", Int, "attempts; -1 forever")],
+        );
+        add(
+            "Timeout",
+            Decorator,
+            B::Timeout,
+            vec![PortSpec::input("msec", Int, "time limit, ms of tree time")],
+        );
+        add(
+            "Delay",
+            Decorator,
+            B::Delay,
+            vec![PortSpec::input(
+                "delay_msec",
+                Int,
+                "delay before the child, ms of tree time",
+            )],
+        );
+        add(
+            "RunOnce",
+            Decorator,
+            B::RunOnce,
+            vec![
+                PortSpec::input(
+                    "then_skip",
+                    Bool,
+                    "after the first run: skip, or repeat its result",
+                )
+                .with_default("true"),
+            ],
+        );
+        add(
+            "Precondition",
+            Decorator,
+            B::Precondition,
+            vec![
+                PortSpec::input("if", String, "guard expression"),
+                PortSpec::input("else", String, "status when the guard is false")
+                    .with_default("FAILURE"),
+            ],
+        );
+        add("AlwaysSuccess", Action, B::AlwaysSuccess, vec![]);
+        add("AlwaysFailure", Action, B::AlwaysFailure, vec![]);
+        add(
+            "SetBlackboard",
+            Action,
+            B::SetBlackboard,
+            vec![
+                PortSpec::input("value", Any, "value or {key} to copy"),
+                PortSpec::input("output_key", String, "name of the entry to write"),
+            ],
+        );
+        add(
+            "Sleep",
+            Action,
+            B::Sleep,
+            vec![PortSpec::input("msec", Int, "duration, ms of tree time")],
+        );
+        r
+    }
+
+    fn insert(&mut self, name: &str, category: Category, ports: Vec<PortSpec>, maker: Maker<C>) {
+        self.types.insert(
+            name.to_owned(),
+            NodeType {
+                name: name.to_owned(),
+                category,
+                ports,
+                maker,
+            },
+        );
+    }
+
+    /// A condition: Success or Failure, never Running.
+    pub fn register_condition<A: Action<C> + 'static>(
+        &mut self,
+        name: &str,
+        ports: Vec<PortSpec>,
+        make: impl Fn() -> A + 'static,
+    ) {
+        self.insert(
+            name,
+            Category::Condition,
+            ports,
+            Maker::Condition(Box::new(move || Box::new(make()))),
+        );
+    }
+
+    /// A synchronous action.
+    pub fn register_action<A: Action<C> + 'static>(
+        &mut self,
+        name: &str,
+        ports: Vec<PortSpec>,
+        make: impl Fn() -> A + 'static,
+    ) {
+        self.insert(
+            name,
+            Category::Action,
+            ports,
+            Maker::Action(Box::new(move || Box::new(make()))),
+        );
+    }
+
+    /// A stateful asynchronous action.
+    pub fn register_stateful<A: StatefulAction<C> + 'static>(
+        &mut self,
+        name: &str,
+        ports: Vec<PortSpec>,
+        make: impl Fn() -> A + 'static,
+    ) {
+        self.insert(
+            name,
+            Category::Action,
+            ports,
+            Maker::Stateful(Box::new(move || Box::new(make()))),
+        );
+    }
+
+    pub fn get(&self, name: &str) -> Option<&NodeType<C>> {
+        self.types.get(name)
+    }
+
+    pub fn types(&self) -> impl Iterator<Item = &NodeType<C>> {
+        self.types.values()
+    }
+}
+
+/// A node instance being built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NodeId(pub(crate) u32);
+
+/// A blackboard scope: the root tree's, or one per SubTree instance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScopeId(usize);
+
+struct Scope {
+    prefix: String,
+    parent: Option<usize>,
+    autoremap: bool,
+    /// Subtree port -> parent key.
+    remap: HashMap<String, String>,
+}
+
+/// Builds one tree from node types, checking as it goes.
+pub struct Builder<'r, C> {
+    registry: &'r Registry<C>,
+    nodes: Vec<NodeData<C>>,
+    children: Vec<u32>,
+    bindings: Vec<Binding>,
+    done: Vec<bool>,
+    bb: Blackboard,
+    scopes: Vec<Scope>,
+    /// Literal values given to subtree ports, typed once the whole tree is known.
+    literal_inits: Vec<(String, String)>,
+    /// SetBlackboard nodes whose literal is re-typed to the target entry's type.
+    set_literals: Vec<u32>,
+}
+
+impl<'r, C> Builder<'r, C> {
+    pub fn new(registry: &'r Registry<C>) -> Self {
+        Self {
+            registry,
+            nodes: Vec::new(),
+            children: Vec::new(),
+            bindings: Vec::new(),
+            done: Vec::new(),
+            bb: Blackboard::default(),
+            scopes: vec![Scope {
+                prefix: String::new(),
+                parent: None,
+                autoremap: false,
+                remap: HashMap::new(),
+            }],
+            literal_inits: Vec::new(),
+            set_literals: Vec::new(),
+        }
+    }
+
+    /// The root tree's scope.
+    pub fn root_scope(&self) -> ScopeId {
+        ScopeId(0)
+    }
+
+    /// A new scope for a SubTree instance of tree `id` inside `parent`, from the SubTree
+    /// element's attributes: `port="{parent_key}"` remaps, `port="literal"` initialises,
+    /// `_autoremap="true"` maps every other key to the parent's key of the same name.
+    pub fn subtree_scope(
+        &mut self,
+        parent: ScopeId,
+        id: &str,
+        attrs: &[(&str, &str)],
+    ) -> Result<ScopeId, String> {
+        let n = self.scopes.len();
+        let prefix = format!("{}{id}#{n}/", self.scopes[parent.0].prefix);
+        let mut scope = Scope {
+            prefix,
+            parent: Some(parent.0),
+            autoremap: false,
+            remap: HashMap::new(),
+        };
+        for (k, v) in attrs {
+            match *k {
+                "name" | "ID" | "_description" | "_uid" | "_fullpath" => {}
+                "_autoremap" => {
+                    scope.autoremap = PortType::Bool
+                        .parse(v)
+                        .map_err(|e| format!("_autoremap: {e}"))?
+                        == Value::Bool(true);
+                }
+                k if k.starts_with('_') => return Err(format!("attribute '{k}' is not supported")),
+                k => match key_ref(v, k) {
+                    Some(parent_key) => {
+                        scope.remap.insert(k.to_owned(), parent_key.to_owned());
+                    }
+                    None => self
+                        .literal_inits
+                        .push((format!("{}{k}", scope.prefix), (*v).to_owned())),
+                },
+            }
+        }
+        self.scopes.push(scope);
+        Ok(ScopeId(n))
+    }
+
+    /// The slot `key` names in `scope`, typed `ty`.
+    fn resolve(&mut self, scope: usize, key: &str, ty: PortType) -> Result<Slot, String> {
+        let s = &self.scopes[scope];
+        if let Some(parent_key) = s.remap.get(key) {
+            let (p, pk) = (
+                s.parent.expect("a remapping scope has a parent"),
+                parent_key.clone(),
+            );
+            let slot = self.resolve(p, &pk, ty)?;
+            let full = format!("{}{key}", self.scopes[scope].prefix);
+            self.bb.alias(&full, slot);
+            return Ok(slot);
+        }
+        if s.autoremap
+            && let Some(p) = s.parent
+        {
+            return self.resolve(p, key, ty);
+        }
+        let full = format!("{}{key}", s.prefix);
+        self.bb.entry(&full, ty)
+    }
+
+    /// Create a node of type `type_name` with XML-style attributes and `children`.
+    pub fn node(
+        &mut self,
+        scope: ScopeId,
+        type_name: &str,
+        attrs: &[(&str, &str)],
+        children: &[NodeId],
+    ) -> Result<NodeId, String> {
+        let registry = self.registry;
+        let t = registry
+            .get(type_name)
+            .ok_or_else(|| format!("unknown node type '{type_name}'"))?;
+        let builtin = match t.maker {
+            Maker::Builtin(b) => Some(b),
+            _ => None,
+        };
+        let (lo, hi) = t.category.arity(builtin);
+        let n = children.len() as u32;
+        if n < lo || n > hi {
+            let want = match (lo, hi) {
+                (0, 0) => "no children".to_owned(),
+                (a, b) if a == b => format!("exactly {a} child{}", if a == 1 { "" } else { "ren" }),
+                (a, u32::MAX) => format!("at least {a} child{}", if a == 1 { "" } else { "ren" }),
+                (a, b) => format!("{a} to {b} children"),
+            };
+            return Err(format!("{type_name} takes {want}, found {n}"));
+        }
+        let mut name = type_name.to_owned();
+        for (k, _) in attrs {
+            if *k == "name" || *k == "ID" || *k == "_description" || *k == "_uid" {
+                continue;
+            }
+            if k.starts_with('_') {
+                return Err(format!("attribute '{k}' is not supported by this engine"));
+            }
+            if !t.ports.iter().any(|p| p.name == *k) {
+                let declared: Vec<&str> = t.ports.iter().map(|p| p.name).collect();
+                return Err(format!(
+                    "'{k}' is not a port of {type_name} (ports: {})",
+                    if declared.is_empty() {
+                        "none".to_owned()
+                    } else {
+                        declared.join(", ")
+                    }
+                ));
+            }
+        }
+        if let Some((_, v)) = attrs.iter().find(|(k, _)| *k == "name") {
+            name = (*v).to_owned();
+        }
+        let first_port = self.bindings.len() as u32;
+        let mut raw: Vec<Option<&str>> = Vec::with_capacity(t.ports.len());
+        for p in &t.ports {
+            let given = attrs.iter().find(|(k, _)| *k == p.name).map(|(_, v)| *v);
+            let value = given.or(p.default);
+            raw.push(value);
+            let binding = match value {
+                None if p.optional => Binding::Unbound,
+                None => return Err(format!("missing required port '{}'", p.name)),
+                Some(v) => match key_ref(v, p.name) {
+                    Some(key) => Binding::Entry(
+                        self.resolve(scope.0, key, p.ty)
+                            .map_err(|e| format!("port '{}': {e}", p.name))?,
+                    ),
+                    None if p.dir != PortDir::In => {
+                        return Err(format!(
+                            "output port '{}' must name a blackboard entry like {{key}}, not '{v}'",
+                            p.name
+                        ));
+                    }
+                    None => Binding::Literal(
+                        p.ty.parse(v)
+                            .map_err(|e| format!("port '{}': {e}", p.name))?,
+                    ),
+                },
+            };
+            self.bindings.push(binding);
+        }
+        let n_ports = t.ports.len() as u32;
+        let literal_int = |i: usize| -> Option<i64> {
+            match &self.bindings[first_port as usize + i] {
+                Binding::Literal(Value::Int(x)) => Some(*x),
+                _ => None,
+            }
+        };
+        let kind = match &t.maker {
+            Maker::Condition(make) => Kind::Condition(make()),
+            Maker::Action(make) => Kind::Action(make()),
+            Maker::Stateful(make) => Kind::Stateful(make()),
+            Maker::Builtin(b) => match b {
+                Builtin::Sequence => Kind::Sequence {
+                    idx: 0,
+                    all_skipped: true,
+                    memory: false,
+                },
+                Builtin::SequenceWithMemory => Kind::Sequence {
+                    idx: 0,
+                    all_skipped: true,
+                    memory: true,
+                },
+                Builtin::Fallback => Kind::Fallback {
+                    idx: 0,
+                    all_skipped: true,
+                },
+                Builtin::ReactiveSequence => Kind::ReactiveSequence,
+                Builtin::ReactiveFallback => Kind::ReactiveFallback,
+                Builtin::Parallel | Builtin::ParallelAll => {
+                    let threshold = |t: i64| if t < 0 { i64::from(n) + t + 1 } else { t };
+                    for (i, what) in (0..n_ports as usize).zip(["success_count", "failure_count"]) {
+                        if let Some(v) = literal_int(i)
+                            && (threshold(v) > i64::from(n) || threshold(v) < 0)
+                        {
+                            return Err(format!("{what}={v} cannot be met with {n} children"));
+                        }
+                    }
+                    let done = self.done.len() as u32;
+                    self.done.extend(std::iter::repeat_n(false, n as usize));
+                    if *b == Builtin::Parallel {
+                        Kind::Parallel {
+                            succ: 0,
+                            fail: 0,
+                            done,
+                        }
+                    } else {
+                        Kind::ParallelAll { fail: 0, done }
+                    }
+                }
+                Builtin::IfThenElse => Kind::IfThenElse { branch: 0 },
+                Builtin::WhileDoElse => Kind::WhileDoElse,
+                Builtin::Inverter => Kind::Inverter,
+                Builtin::ForceSuccess => Kind::ForceSuccess,
+                Builtin::ForceFailure => Kind::ForceFailure,
+                Builtin::KeepRunningUntilFailure => Kind::KeepRunningUntilFailure,
+                Builtin::Repeat | Builtin::RetryUntilSuccessful => {
+                    if let Some(v) = literal_int(0)
+                        && v < -1
+                    {
+                        return Err(format!("{}={v}: use -1 for forever", t.ports[0].name));
+                    }
+                    if *b == Builtin::Repeat {
+                        Kind::Repeat { count: 0 }
+                    } else {
+                        Kind::Retry { count: 0 }
+                    }
+                }
+                Builtin::Timeout | Builtin::Delay | Builtin::Sleep => {
+                    if let Some(v) = literal_int(0)
+                        && v < 0
+                    {
+                        return Err(format!("{}={v} is negative", t.ports[0].name));
+                    }
+                    match b {
+                        Builtin::Timeout => Kind::Timeout { since: None },
+                        Builtin::Delay => Kind::Delay { since: None },
+                        _ => Kind::Sleep { until: None },
+                    }
+                }
+                Builtin::RunOnce => Kind::RunOnce { result: None },
+                Builtin::Precondition => {
+                    let src = raw[0]
+                        .filter(|v| key_ref(v, "if").is_none())
+                        .ok_or("port 'if' must be a literal expression")?;
+                    let else_status: Status = raw[1]
+                        .unwrap_or("FAILURE")
+                        .parse()
+                        .map_err(|e| format!("port 'else': {e}"))?;
+                    let scope_i = scope.0;
+                    let guard =
+                        script::parse(src, &mut |k| self.resolve(scope_i, k, PortType::Any))
+                            .map_err(|e| format!("port 'if': {e}"))?;
+                    Kind::Precondition {
+                        guard,
+                        else_status,
+                        running: false,
+                    }
+                }
+                Builtin::AlwaysSuccess => Kind::AlwaysSuccess,
+                Builtin::AlwaysFailure => Kind::AlwaysFailure,
+                Builtin::SetBlackboard => {
+                    let key = raw[1]
+                        .filter(|v| key_ref(v, "output_key").is_none())
+                        .ok_or("port 'output_key' must be a key name")?;
+                    let target = self.resolve(scope.0, key, PortType::Any)?;
+                    if matches!(self.bindings[first_port as usize], Binding::Literal(_)) {
+                        self.set_literals.push(self.nodes.len() as u32);
+                    }
+                    Kind::SetBlackboard { target }
+                }
+            },
+        };
+        Ok(self.push(
+            name,
+            type_name.to_owned(),
+            kind,
+            first_port,
+            n_ports,
+            children,
+        ))
+    }
+
+    /// A SubTree node: `child` is the root of the subtree's instance, built in the scope
+    /// [`Builder::subtree_scope`] returned.
+    pub fn subtree(&mut self, name: &str, child: NodeId) -> NodeId {
+        let first_port = self.bindings.len() as u32;
+        self.push(
+            name.to_owned(),
+            "SubTree".to_owned(),
+            Kind::SubTree,
+            first_port,
+            0,
+            &[child],
+        )
+    }
+
+    fn push(
+        &mut self,
+        name: String,
+        type_name: String,
+        kind: Kind<C>,
+        first_port: u32,
+        n_ports: u32,
+        children: &[NodeId],
+    ) -> NodeId {
+        let first_child = self.children.len() as u32;
+        self.children.extend(children.iter().map(|c| c.0));
+        self.nodes.push(NodeData {
+            name,
+            type_name,
+            status: Status::Idle,
+            first_child,
+            n_children: children.len() as u32,
+            first_port,
+            n_ports,
+            kind,
+        });
+        NodeId(self.nodes.len() as u32 - 1)
+    }
+
+    /// Finish the tree with `root` at the top.
+    pub fn build(mut self, root: NodeId) -> Result<Tree<C>, String> {
+        for (full, text) in std::mem::take(&mut self.literal_inits) {
+            let slot = self.bb.entry(&full, PortType::Any)?;
+            let v = self
+                .bb
+                .entry_type(slot)
+                .parse(&text)
+                .map_err(|e| format!("subtree port '{full}': {e}"))?;
+            self.bb.set(slot, v)?;
+        }
+        for i in std::mem::take(&mut self.set_literals) {
+            let n = &self.nodes[i as usize];
+            let Kind::SetBlackboard { target } = n.kind else {
+                continue;
+            };
+            let ty = self.bb.entry_type(target);
+            let b = &mut self.bindings[n.first_port as usize];
+            if let Binding::Literal(Value::String(s)) = b
+                && !matches!(ty, PortType::String | PortType::Any)
+            {
+                *b = Binding::Literal(
+                    ty.parse(s)
+                        .map_err(|e| format!("SetBlackboard \"{}\": value: {e}", n.name))?,
+                );
+            }
+        }
+        Ok(Tree::from_parts(
+            self.nodes,
+            self.children,
+            self.bindings,
+            self.done,
+            self.bb,
+            root.0,
+        ))
+    }
+}
+
+/// `Some(key)` if `v` is a blackboard reference `{key}` (`{=}` means the port's own name).
+pub fn key_ref<'a>(v: &'a str, port: &'a str) -> Option<&'a str> {
+    let inner = v.trim().strip_prefix('{')?.strip_suffix('}')?;
+    Some(if inner == "=" { port } else { inner })
+}

@@ -1,0 +1,917 @@
+//! The tree: a flat arena of nodes, ticked and halted with BehaviorTree.CPP v4 semantics.
+//!
+//! Semantics follow BehaviorTree.CPP 4.x node by node (see each `tick_*`). One deliberate
+//! difference: `Repeat` and `RetryUntilSuccessful` with an infinite count (-1) run one
+//! cycle per tick, where BehaviorTree.CPP would loop forever inside a single tick on a
+//! child that completes synchronously.
+
+use std::fmt::Write as _;
+
+use crate::blackboard::{Blackboard, Slot};
+use crate::node::{Action, Binding, Io, StatefulAction};
+use crate::script::{self, Expr};
+use crate::status::Status;
+use crate::value::Value;
+
+/// One status change, as an observer sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transition {
+    pub node: u32,
+    pub t: f64,
+    pub from: Status,
+    pub to: Status,
+}
+
+/// The behaviour of a node, with its per-instance state.
+pub(crate) enum Kind<C> {
+    Sequence {
+        idx: u32,
+        all_skipped: bool,
+        memory: bool,
+    },
+    Fallback {
+        idx: u32,
+        all_skipped: bool,
+    },
+    ReactiveSequence,
+    ReactiveFallback,
+    Parallel {
+        succ: u32,
+        fail: u32,
+        done: u32,
+    },
+    ParallelAll {
+        fail: u32,
+        done: u32,
+    },
+    IfThenElse {
+        branch: u32,
+    },
+    WhileDoElse,
+    Inverter,
+    ForceSuccess,
+    ForceFailure,
+    Repeat {
+        count: i64,
+    },
+    Retry {
+        count: i64,
+    },
+    KeepRunningUntilFailure,
+    Timeout {
+        since: Option<f64>,
+    },
+    Delay {
+        since: Option<f64>,
+    },
+    RunOnce {
+        result: Option<Status>,
+    },
+    Precondition {
+        guard: Expr,
+        else_status: Status,
+        running: bool,
+    },
+    SubTree,
+    AlwaysSuccess,
+    AlwaysFailure,
+    SetBlackboard {
+        target: Slot,
+    },
+    Sleep {
+        until: Option<f64>,
+    },
+    Condition(Box<dyn Action<C>>),
+    Action(Box<dyn Action<C>>),
+    Stateful(Box<dyn StatefulAction<C>>),
+}
+
+pub(crate) struct NodeData<C> {
+    pub(crate) name: String,
+    pub(crate) type_name: String,
+    pub(crate) status: Status,
+    pub(crate) first_child: u32,
+    pub(crate) n_children: u32,
+    pub(crate) first_port: u32,
+    pub(crate) n_ports: u32,
+    pub(crate) kind: Kind<C>,
+}
+
+/// A built tree, ready to tick. `C` is the context every leaf receives.
+pub struct Tree<C> {
+    pub(crate) nodes: Vec<NodeData<C>>,
+    pub(crate) children: Vec<u32>,
+    pub(crate) bindings: Vec<Binding>,
+    /// Completion flags of Parallel children (one per child, preallocated).
+    pub(crate) done: Vec<bool>,
+    pub(crate) bb: Blackboard,
+    pub(crate) root: u32,
+    now: f64,
+    observer: Option<Observer>,
+}
+
+/// Sees every status change.
+type Observer = Box<dyn FnMut(&Transition)>;
+
+impl<C> Tree<C> {
+    pub(crate) fn from_parts(
+        nodes: Vec<NodeData<C>>,
+        children: Vec<u32>,
+        bindings: Vec<Binding>,
+        done: Vec<bool>,
+        bb: Blackboard,
+        root: u32,
+    ) -> Self {
+        Self {
+            nodes,
+            children,
+            bindings,
+            done,
+            bb,
+            root,
+            now: 0.0,
+            observer: None,
+        }
+    }
+
+    /// Tick the root once at time `now` (seconds).
+    pub fn tick(&mut self, now: f64, ctx: &mut C) -> Status {
+        self.now = now;
+        self.tick_node(self.root, ctx)
+    }
+
+    /// Halt the whole tree: running nodes are halted, every node ends Idle.
+    pub fn halt(&mut self, ctx: &mut C) {
+        self.halt_node(self.root, ctx);
+    }
+
+    /// See every status change from now on.
+    pub fn set_observer(&mut self, f: impl FnMut(&Transition) + 'static) {
+        self.observer = Some(Box::new(f));
+    }
+
+    pub fn blackboard(&self) -> &Blackboard {
+        &self.bb
+    }
+    pub fn blackboard_mut(&mut self) -> &mut Blackboard {
+        &mut self.bb
+    }
+    pub fn root(&self) -> u32 {
+        self.root
+    }
+    pub fn root_status(&self) -> Status {
+        self.nodes[self.root as usize].status
+    }
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+    pub fn status(&self, node: u32) -> Status {
+        self.nodes[node as usize].status
+    }
+    pub fn name(&self, node: u32) -> &str {
+        &self.nodes[node as usize].name
+    }
+    pub fn type_name(&self, node: u32) -> &str {
+        &self.nodes[node as usize].type_name
+    }
+    pub fn children_of(&self, node: u32) -> &[u32] {
+        let n = &self.nodes[node as usize];
+        &self.children[n.first_child as usize..(n.first_child + n.n_children) as usize]
+    }
+
+    /// The tree as indented text with each node's live status.
+    pub fn render(&self) -> String {
+        let mut out = String::new();
+        self.render_node(self.root, 0, &mut out);
+        out
+    }
+
+    fn render_node(&self, i: u32, depth: usize, out: &mut String) {
+        let n = &self.nodes[i as usize];
+        let label = if n.name != n.type_name {
+            format!("{} \"{}\"", n.type_name, n.name)
+        } else {
+            n.type_name.clone()
+        };
+        let _ = writeln!(
+            out,
+            "{:indent$}{label} [{}]",
+            "",
+            n.status,
+            indent = depth * 2
+        );
+        for &c in self.children_of(i) {
+            self.render_node(c, depth + 1, out);
+        }
+    }
+
+    fn child(&self, i: u32, k: u32) -> u32 {
+        self.children[(self.nodes[i as usize].first_child + k) as usize]
+    }
+
+    fn n_children(&self, i: u32) -> u32 {
+        self.nodes[i as usize].n_children
+    }
+
+    fn set_status(&mut self, i: u32, to: Status) {
+        let n = &mut self.nodes[i as usize];
+        if n.status != to {
+            let from = n.status;
+            n.status = to;
+            if let Some(obs) = &mut self.observer {
+                obs(&Transition {
+                    node: i,
+                    t: self.now,
+                    from,
+                    to,
+                });
+            }
+        }
+    }
+
+    fn port_i64(&self, i: u32, port: u32) -> Option<i64> {
+        let n = &self.nodes[i as usize];
+        let io_binding = &self.bindings[(n.first_port + port) as usize];
+        let v = match io_binding {
+            Binding::Literal(v) => v,
+            Binding::Entry(s) => self.bb.get(*s)?,
+            Binding::Unbound => return None,
+        };
+        match v {
+            Value::Int(x) => Some(*x),
+            Value::Double(d) if d.fract() == 0.0 => Some(*d as i64),
+            _ => None,
+        }
+    }
+
+    fn port_seconds(&self, i: u32, port: u32) -> Option<f64> {
+        self.port_i64(i, port).map(|ms| ms as f64 / 1000.0)
+    }
+
+    fn tick_node(&mut self, i: u32, ctx: &mut C) -> Status {
+        let s = self.tick_kind(i, ctx);
+        self.set_status(i, s);
+        s
+    }
+
+    /// Reset a child to Idle, halting it first if it is running (BT.CPP `resetChild`).
+    /// Unlike BT.CPP the reset is deep: a completed child's own children go back to Idle
+    /// too, so that no stale status survives (a SequenceWithMemory that failed keeps its
+    /// earlier children's Success otherwise).
+    fn reset_child(&mut self, c: u32, ctx: &mut C) {
+        if self.nodes[c as usize].status == Status::Running {
+            self.halt_node(c, ctx);
+            return;
+        }
+        for k in 0..self.n_children(c) {
+            let g = self.child(c, k);
+            if self.nodes[g as usize].status != Status::Idle {
+                self.reset_child(g, ctx);
+            }
+        }
+        self.set_status(c, Status::Idle);
+    }
+
+    fn reset_children_from(&mut self, i: u32, from: u32, ctx: &mut C) {
+        for k in from..self.n_children(i) {
+            let c = self.child(i, k);
+            self.reset_child(c, ctx);
+        }
+    }
+
+    fn reset_children(&mut self, i: u32, ctx: &mut C) {
+        self.reset_children_from(i, 0, ctx);
+    }
+
+    fn halt_node(&mut self, i: u32, ctx: &mut C) {
+        self.reset_children(i, ctx);
+        let was_running = self.nodes[i as usize].status == Status::Running;
+        let n = &mut self.nodes[i as usize];
+        match &mut n.kind {
+            Kind::Stateful(a) if was_running => {
+                let mut io = Io {
+                    bindings: &self.bindings
+                        [n.first_port as usize..(n.first_port + n.n_ports) as usize],
+                    bb: &mut self.bb,
+                    now: self.now,
+                };
+                a.on_halted(&mut io, ctx);
+            }
+            Kind::Sequence { idx, .. } | Kind::Fallback { idx, .. } => *idx = 0,
+            Kind::Parallel { succ, fail, done } => {
+                (*succ, *fail) = (0, 0);
+                self.done[*done as usize..(*done + n.n_children) as usize].fill(false);
+            }
+            Kind::ParallelAll { fail, done } => {
+                *fail = 0;
+                self.done[*done as usize..(*done + n.n_children) as usize].fill(false);
+            }
+            Kind::IfThenElse { branch } => *branch = 0,
+            Kind::Repeat { count } | Kind::Retry { count } => *count = 0,
+            Kind::Timeout { since } | Kind::Delay { since } => *since = None,
+            Kind::Precondition { running, .. } => *running = false,
+            Kind::Sleep { until } => *until = None,
+            _ => {}
+        }
+        self.set_status(i, Status::Idle);
+    }
+
+    fn tick_kind(&mut self, i: u32, ctx: &mut C) -> Status {
+        let now = self.now;
+        let n = &mut self.nodes[i as usize];
+        let ports = n.first_port as usize..(n.first_port + n.n_ports) as usize;
+        // Leaves first: they borrow their own state and the blackboard, nothing else.
+        match &mut n.kind {
+            Kind::AlwaysSuccess => return Status::Success,
+            Kind::AlwaysFailure => return Status::Failure,
+            Kind::Condition(a) => {
+                let mut io = Io {
+                    bindings: &self.bindings[ports],
+                    bb: &mut self.bb,
+                    now,
+                };
+                return match a.tick(&mut io, ctx) {
+                    Status::Success => Status::Success,
+                    // A condition never runs; anything else is a failure.
+                    _ => Status::Failure,
+                };
+            }
+            Kind::Action(a) => {
+                let mut io = Io {
+                    bindings: &self.bindings[ports],
+                    bb: &mut self.bb,
+                    now,
+                };
+                let s = a.tick(&mut io, ctx);
+                return if s == Status::Idle {
+                    Status::Failure
+                } else {
+                    s
+                };
+            }
+            Kind::Stateful(a) => {
+                let mut io = Io {
+                    bindings: &self.bindings[ports],
+                    bb: &mut self.bb,
+                    now,
+                };
+                let s = if n.status == Status::Running {
+                    a.on_running(&mut io, ctx)
+                } else {
+                    a.on_start(&mut io, ctx)
+                };
+                return if s == Status::Idle {
+                    Status::Failure
+                } else {
+                    s
+                };
+            }
+            Kind::SetBlackboard { target } => {
+                let v = match &self.bindings[ports.start] {
+                    Binding::Literal(v) => Some(v),
+                    Binding::Entry(s) => self.bb.get(*s),
+                    Binding::Unbound => None,
+                };
+                let Some(v) = v else { return Status::Failure };
+                // Rewriting an unchanged value would only clone it: skip, so that a steady
+                // tree allocates nothing.
+                if self.bb.get(*target) == Some(v) {
+                    return Status::Success;
+                }
+                let v = v.clone();
+                return if self.bb.set(*target, v).is_ok() {
+                    Status::Success
+                } else {
+                    Status::Failure
+                };
+            }
+            Kind::Sleep { until } => {
+                let deadline = match *until {
+                    Some(d) => d,
+                    None => {
+                        let secs = match &self.bindings[ports.start] {
+                            Binding::Literal(Value::Int(ms)) => *ms as f64 / 1000.0,
+                            _ => 0.0,
+                        };
+                        if secs <= 0.0 {
+                            return Status::Success;
+                        }
+                        *until = Some(now + secs);
+                        return Status::Running;
+                    }
+                };
+                return if now >= deadline {
+                    *until = None;
+                    Status::Success
+                } else {
+                    Status::Running
+                };
+            }
+            _ => {}
+        }
+        match self.nodes[i as usize].kind {
+            Kind::Sequence { .. } => self.tick_sequence(i, ctx),
+            Kind::Fallback { .. } => self.tick_fallback(i, ctx),
+            Kind::ReactiveSequence | Kind::ReactiveFallback => self.tick_reactive(i, ctx),
+            Kind::Parallel { .. } => self.tick_parallel(i, ctx),
+            Kind::ParallelAll { .. } => self.tick_parallel_all(i, ctx),
+            Kind::IfThenElse { .. } => self.tick_if_then_else(i, ctx),
+            Kind::WhileDoElse => self.tick_while_do_else(i, ctx),
+            _ => self.tick_decorator(i, ctx),
+        }
+    }
+
+    /// Sequence and SequenceWithMemory.
+    fn tick_sequence(&mut self, i: u32, ctx: &mut C) -> Status {
+        let Kind::Sequence {
+            mut idx,
+            mut all_skipped,
+            memory,
+        } = self.nodes[i as usize].kind
+        else {
+            unreachable!()
+        };
+        if self.nodes[i as usize].status == Status::Idle {
+            all_skipped = true;
+        }
+        self.set_status(i, Status::Running);
+        let n = self.n_children(i);
+        let result = loop {
+            if idx >= n {
+                self.reset_children(i, ctx);
+                idx = 0;
+                break if all_skipped {
+                    Status::Skipped
+                } else {
+                    Status::Success
+                };
+            }
+            let c = self.child(i, idx);
+            let s = self.tick_node(c, ctx);
+            all_skipped &= s == Status::Skipped;
+            match s {
+                Status::Running => break Status::Running,
+                Status::Failure => {
+                    if memory {
+                        // Keep the position: the next tick resumes at the failed child.
+                        self.reset_children_from(i, idx, ctx);
+                    } else {
+                        self.reset_children(i, ctx);
+                        idx = 0;
+                    }
+                    break Status::Failure;
+                }
+                _ => idx += 1,
+            }
+        };
+        if let Kind::Sequence {
+            idx: a,
+            all_skipped: b,
+            ..
+        } = &mut self.nodes[i as usize].kind
+        {
+            (*a, *b) = (idx, all_skipped);
+        }
+        result
+    }
+
+    fn tick_fallback(&mut self, i: u32, ctx: &mut C) -> Status {
+        let Kind::Fallback {
+            mut idx,
+            mut all_skipped,
+        } = self.nodes[i as usize].kind
+        else {
+            unreachable!()
+        };
+        if self.nodes[i as usize].status == Status::Idle {
+            all_skipped = true;
+        }
+        self.set_status(i, Status::Running);
+        let n = self.n_children(i);
+        let result = loop {
+            if idx >= n {
+                self.reset_children(i, ctx);
+                idx = 0;
+                break if all_skipped {
+                    Status::Skipped
+                } else {
+                    Status::Failure
+                };
+            }
+            let c = self.child(i, idx);
+            let s = self.tick_node(c, ctx);
+            all_skipped &= s == Status::Skipped;
+            match s {
+                Status::Running => break Status::Running,
+                Status::Success => {
+                    self.reset_children(i, ctx);
+                    idx = 0;
+                    break Status::Success;
+                }
+                _ => idx += 1,
+            }
+        };
+        if let Kind::Fallback {
+            idx: a,
+            all_skipped: b,
+        } = &mut self.nodes[i as usize].kind
+        {
+            (*a, *b) = (idx, all_skipped);
+        }
+        result
+    }
+
+    /// ReactiveSequence (`pass` = Success) and ReactiveFallback (`pass` = Failure): every
+    /// tick starts from the first child; a running child halts all the others.
+    fn tick_reactive(&mut self, i: u32, ctx: &mut C) -> Status {
+        let pass = if matches!(self.nodes[i as usize].kind, Kind::ReactiveSequence) {
+            Status::Success
+        } else {
+            Status::Failure
+        };
+        let stop = if pass == Status::Success {
+            Status::Failure
+        } else {
+            Status::Success
+        };
+        self.set_status(i, Status::Running);
+        let n = self.n_children(i);
+        let mut all_skipped = true;
+        for k in 0..n {
+            let c = self.child(i, k);
+            let s = self.tick_node(c, ctx);
+            all_skipped &= s == Status::Skipped;
+            if s == Status::Running {
+                for o in (0..n).filter(|&o| o != k) {
+                    let oc = self.child(i, o);
+                    self.reset_child(oc, ctx);
+                }
+                return Status::Running;
+            }
+            if s == stop {
+                self.reset_children(i, ctx);
+                return stop;
+            }
+        }
+        self.reset_children(i, ctx);
+        if all_skipped { Status::Skipped } else { pass }
+    }
+
+    fn tick_parallel(&mut self, i: u32, ctx: &mut C) -> Status {
+        let Kind::Parallel {
+            mut succ,
+            mut fail,
+            done,
+        } = self.nodes[i as usize].kind
+        else {
+            unreachable!()
+        };
+        let n = self.n_children(i);
+        let raw_s = self.port_i64(i, 0).unwrap_or(-1);
+        let raw_f = self.port_i64(i, 1).unwrap_or(1);
+        let threshold = |t: i64| {
+            if t < 0 {
+                (i64::from(n) + t + 1).max(0) as u32
+            } else {
+                t as u32
+            }
+        };
+        let (need_s, need_f) = (threshold(raw_s), threshold(raw_f));
+        if n < need_s || n < need_f {
+            return Status::Failure;
+        }
+        self.set_status(i, Status::Running);
+        let mut skipped = 0;
+        let mut result = None;
+        for k in 0..n {
+            if !self.done[(done + k) as usize] {
+                let c = self.child(i, k);
+                match self.tick_node(c, ctx) {
+                    Status::Skipped => skipped += 1,
+                    Status::Success => {
+                        self.done[(done + k) as usize] = true;
+                        succ += 1;
+                    }
+                    Status::Failure => {
+                        self.done[(done + k) as usize] = true;
+                        fail += 1;
+                    }
+                    _ => {}
+                }
+            }
+            if succ >= need_s || (raw_s < 0 && succ + skipped >= need_s) {
+                result = Some(Status::Success);
+            } else if n - fail < need_s || fail == need_f {
+                // Failed outright, or success has become impossible.
+                result = Some(Status::Failure);
+            }
+            if result.is_some() {
+                break;
+            }
+        }
+        match result {
+            Some(r) => {
+                self.done[done as usize..(done + n) as usize].fill(false);
+                if let Kind::Parallel { succ, fail, .. } = &mut self.nodes[i as usize].kind {
+                    (*succ, *fail) = (0, 0);
+                }
+                self.reset_children(i, ctx);
+                r
+            }
+            None => {
+                if let Kind::Parallel {
+                    succ: a, fail: b, ..
+                } = &mut self.nodes[i as usize].kind
+                {
+                    (*a, *b) = (succ, fail);
+                }
+                if skipped == n {
+                    Status::Skipped
+                } else {
+                    Status::Running
+                }
+            }
+        }
+    }
+
+    fn tick_parallel_all(&mut self, i: u32, ctx: &mut C) -> Status {
+        let Kind::ParallelAll { mut fail, done } = self.nodes[i as usize].kind else {
+            unreachable!()
+        };
+        let n = self.n_children(i);
+        let raw = self.port_i64(i, 0).unwrap_or(1);
+        let max_failures = if raw < 0 {
+            (i64::from(n) + raw + 1).max(0) as u32
+        } else {
+            raw as u32
+        };
+        self.set_status(i, Status::Running);
+        let mut skipped = 0;
+        for k in 0..n {
+            if self.done[(done + k) as usize] {
+                continue;
+            }
+            let c = self.child(i, k);
+            match self.tick_node(c, ctx) {
+                Status::Success => self.done[(done + k) as usize] = true,
+                Status::Failure => {
+                    self.done[(done + k) as usize] = true;
+                    fail += 1;
+                }
+                Status::Skipped => {
+                    self.done[(done + k) as usize] = true;
+                    skipped += 1;
+                }
+                _ => {}
+            }
+        }
+        let completed = self.done[done as usize..(done + n) as usize]
+            .iter()
+            .filter(|d| **d)
+            .count() as u32;
+        if completed < n {
+            if let Kind::ParallelAll { fail: f, .. } = &mut self.nodes[i as usize].kind {
+                *f = fail;
+            }
+            return Status::Running;
+        }
+        self.done[done as usize..(done + n) as usize].fill(false);
+        if let Kind::ParallelAll { fail: f, .. } = &mut self.nodes[i as usize].kind {
+            *f = 0;
+        }
+        self.reset_children(i, ctx);
+        if skipped == n {
+            Status::Skipped
+        } else if fail >= max_failures {
+            Status::Failure
+        } else {
+            Status::Success
+        }
+    }
+
+    fn tick_if_then_else(&mut self, i: u32, ctx: &mut C) -> Status {
+        let Kind::IfThenElse { mut branch } = self.nodes[i as usize].kind else {
+            unreachable!()
+        };
+        let n = self.n_children(i);
+        self.set_status(i, Status::Running);
+        if branch == 0 {
+            let c = self.child(i, 0);
+            match self.tick_node(c, ctx) {
+                Status::Success => branch = 1,
+                Status::Failure if n == 3 => branch = 2,
+                Status::Failure => {
+                    self.reset_children(i, ctx);
+                    return Status::Failure;
+                }
+                other => return other,
+            }
+        }
+        let c = self.child(i, branch);
+        let s = self.tick_node(c, ctx);
+        if s == Status::Running {
+            if let Kind::IfThenElse { branch: b } = &mut self.nodes[i as usize].kind {
+                *b = branch;
+            }
+            return s;
+        }
+        self.reset_children(i, ctx);
+        if let Kind::IfThenElse { branch: b } = &mut self.nodes[i as usize].kind {
+            *b = 0;
+        }
+        s
+    }
+
+    fn tick_while_do_else(&mut self, i: u32, ctx: &mut C) -> Status {
+        let n = self.n_children(i);
+        self.set_status(i, Status::Running);
+        let cond = self.child(i, 0);
+        let s = match self.tick_node(cond, ctx) {
+            Status::Running => return Status::Running,
+            Status::Success => {
+                if n == 3 {
+                    let e = self.child(i, 2);
+                    self.reset_child(e, ctx);
+                }
+                let d = self.child(i, 1);
+                self.tick_node(d, ctx)
+            }
+            Status::Failure if n == 3 => {
+                let d = self.child(i, 1);
+                self.reset_child(d, ctx);
+                let e = self.child(i, 2);
+                self.tick_node(e, ctx)
+            }
+            _ => Status::Failure,
+        };
+        if s != Status::Running {
+            self.reset_children(i, ctx);
+        }
+        s
+    }
+
+    fn tick_decorator(&mut self, i: u32, ctx: &mut C) -> Status {
+        let c = self.child(i, 0);
+        let now = self.now;
+        match self.nodes[i as usize].kind {
+            Kind::SubTree => {
+                self.set_status(i, Status::Running);
+                self.tick_node(c, ctx)
+            }
+            Kind::Inverter | Kind::ForceSuccess | Kind::ForceFailure => {
+                self.set_status(i, Status::Running);
+                let s = self.tick_node(c, ctx);
+                if !s.is_completed() {
+                    return s;
+                }
+                self.reset_child(c, ctx);
+                match self.nodes[i as usize].kind {
+                    Kind::Inverter if s == Status::Success => Status::Failure,
+                    Kind::Inverter => Status::Success,
+                    Kind::ForceSuccess => Status::Success,
+                    _ => Status::Failure,
+                }
+            }
+            Kind::KeepRunningUntilFailure => {
+                self.set_status(i, Status::Running);
+                match self.tick_node(c, ctx) {
+                    Status::Success => {
+                        self.reset_child(c, ctx);
+                        Status::Running
+                    }
+                    Status::Failure => {
+                        self.reset_child(c, ctx);
+                        Status::Failure
+                    }
+                    other => other,
+                }
+            }
+            Kind::Repeat { count } | Kind::Retry { count } => self.tick_loop(i, c, count, ctx),
+            Kind::Timeout { since } => {
+                let limit = self.port_seconds(i, 0).unwrap_or(0.0);
+                let start = since.unwrap_or(now);
+                if now - start >= limit {
+                    self.reset_child(c, ctx);
+                    self.set_timer(i, None);
+                    return Status::Failure;
+                }
+                self.set_timer(i, Some(start));
+                self.set_status(i, Status::Running);
+                let s = self.tick_node(c, ctx);
+                if s != Status::Running {
+                    self.set_timer(i, None);
+                }
+                s
+            }
+            Kind::Delay { since } => {
+                let delay = self.port_seconds(i, 0).unwrap_or(0.0);
+                let start = since.unwrap_or(now);
+                self.set_timer(i, Some(start));
+                if now - start < delay {
+                    return Status::Running;
+                }
+                self.set_status(i, Status::Running);
+                let s = self.tick_node(c, ctx);
+                if s.is_completed() {
+                    self.set_timer(i, None);
+                }
+                s
+            }
+            Kind::RunOnce { result } => {
+                let then_skip = match &self.bindings[self.nodes[i as usize].first_port as usize] {
+                    Binding::Literal(Value::Bool(b)) => *b,
+                    _ => true,
+                };
+                if let Some(r) = result {
+                    return if then_skip { Status::Skipped } else { r };
+                }
+                self.set_status(i, Status::Running);
+                let s = self.tick_node(c, ctx);
+                if s.is_completed() {
+                    if let Kind::RunOnce { result } = &mut self.nodes[i as usize].kind {
+                        *result = Some(s);
+                    }
+                    self.reset_child(c, ctx);
+                }
+                s
+            }
+            Kind::Precondition {
+                running,
+                else_status,
+                ..
+            } => {
+                let pass = running || {
+                    let Kind::Precondition { guard, .. } = &self.nodes[i as usize].kind else {
+                        unreachable!()
+                    };
+                    script::eval(guard, &self.bb)
+                };
+                if !pass {
+                    return else_status;
+                }
+                self.set_status(i, Status::Running);
+                let s = self.tick_node(c, ctx);
+                let still = s == Status::Running;
+                if s.is_completed() {
+                    self.reset_child(c, ctx);
+                }
+                if let Kind::Precondition { running, .. } = &mut self.nodes[i as usize].kind {
+                    *running = still;
+                }
+                s
+            }
+            _ => unreachable!("every kind is handled"),
+        }
+    }
+
+    fn set_timer(&mut self, i: u32, v: Option<f64>) {
+        if let Kind::Timeout { since } | Kind::Delay { since } = &mut self.nodes[i as usize].kind {
+            *since = v;
+        }
+    }
+
+    /// Repeat (loops on success) and RetryUntilSuccessful (loops on failure).
+    fn tick_loop(&mut self, i: u32, c: u32, mut count: i64, ctx: &mut C) -> Status {
+        let repeat = matches!(self.nodes[i as usize].kind, Kind::Repeat { .. });
+        let limit = self.port_i64(i, 0).unwrap_or(1);
+        let (again_on, done_on) = if repeat {
+            (Status::Success, Status::Failure)
+        } else {
+            (Status::Failure, Status::Success)
+        };
+        self.set_status(i, Status::Running);
+        let result = loop {
+            if limit >= 0 && count >= limit {
+                count = 0;
+                break again_on;
+            }
+            let s = self.tick_node(c, ctx);
+            if s == again_on {
+                count += 1;
+                self.reset_child(c, ctx);
+                if limit < 0 {
+                    // Infinite: one cycle per tick, so that the tree keeps control.
+                    break Status::Running;
+                }
+            } else if s == done_on {
+                count = 0;
+                self.reset_child(c, ctx);
+                break done_on;
+            } else if s == Status::Skipped {
+                self.reset_child(c, ctx);
+                break Status::Skipped;
+            } else {
+                break s;
+            }
+        };
+        if let Kind::Repeat { count: k } | Kind::Retry { count: k } =
+            &mut self.nodes[i as usize].kind
+        {
+            *k = count;
+        }
+        result
+    }
+}

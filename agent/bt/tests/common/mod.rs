@@ -1,0 +1,131 @@
+#![allow(dead_code)] // each test file uses its own subset
+
+//! Test leaves shared by the engine's test files.
+
+use firefleet_bt::node::Io;
+use firefleet_bt::xml;
+use firefleet_bt::{PortSpec, PortType, Registry, StatefulAction, Status, Tree};
+
+/// What the leaves did, in order.
+#[derive(Default)]
+pub struct Ctx {
+    pub log: Vec<String>,
+}
+
+fn status_of(c: char) -> Status {
+    match c {
+        'S' => Status::Success,
+        'F' => Status::Failure,
+        'R' => Status::Running,
+        'K' => Status::Skipped,
+        other => panic!("bad script letter {other}"),
+    }
+}
+
+/// Plays `seq` (letters S F R K), one letter per tick, then repeats the last.
+struct Scripted {
+    k: usize,
+}
+
+/// Runs for `ticks` on_running calls, then succeeds; logs its lifecycle.
+struct Work {
+    left: i64,
+}
+
+impl StatefulAction<Ctx> for Work {
+    fn on_start(&mut self, io: &mut Io<'_>, ctx: &mut Ctx) -> Status {
+        let id: String = io.get(0).unwrap();
+        self.left = io.get(1).unwrap();
+        ctx.log.push(format!("{id}:start"));
+        if self.left <= 0 {
+            Status::Success
+        } else {
+            Status::Running
+        }
+    }
+    fn on_running(&mut self, io: &mut Io<'_>, ctx: &mut Ctx) -> Status {
+        let id: String = io.get(0).unwrap();
+        ctx.log.push(format!("{id}:run"));
+        self.left -= 1;
+        if self.left <= 0 {
+            Status::Success
+        } else {
+            Status::Running
+        }
+    }
+    fn on_halted(&mut self, io: &mut Io<'_>, ctx: &mut Ctx) {
+        let id: String = io.get(0).unwrap();
+        ctx.log.push(format!("{id}:halt"));
+    }
+}
+
+pub fn registry() -> Registry<Ctx> {
+    let mut r = Registry::new();
+    r.register_action(
+        "Scripted",
+        vec![
+            PortSpec::input("id", PortType::String, "log name"),
+            PortSpec::input("seq", PortType::String, "statuses to play"),
+        ],
+        || {
+            let mut s = Scripted { k: 0 };
+            move |io: &mut Io<'_>, ctx: &mut Ctx| {
+                let id: String = io.get(0).unwrap();
+                let seq: String = io.get(1).unwrap();
+                let c = seq.chars().nth(s.k).or_else(|| seq.chars().last()).unwrap();
+                s.k += 1;
+                ctx.log.push(id);
+                status_of(c)
+            }
+        },
+    );
+    r.register_stateful(
+        "Work",
+        vec![
+            PortSpec::input("id", PortType::String, "log name"),
+            PortSpec::input("ticks", PortType::Int, "running ticks").with_default("1000"),
+        ],
+        || Work { left: 0 },
+    );
+    r.register_condition(
+        "Flag",
+        vec![PortSpec::input("value", PortType::Bool, "the flag")],
+        || {
+            |io: &mut Io<'_>, _: &mut Ctx| {
+                if io.get::<bool>(0).unwrap_or(false) {
+                    Status::Success
+                } else {
+                    Status::Failure
+                }
+            }
+        },
+    );
+    r
+}
+
+/// Build the main tree of `body` (the inside of one BehaviorTree).
+pub fn tree(body: &str) -> Tree<Ctx> {
+    let text =
+        format!(r#"<root BTCPP_format="4"><BehaviorTree ID="T">{body}</BehaviorTree></root>"#);
+    let doc = xml::parse_str(&text, "test.xml").unwrap_or_else(|e| panic!("{e}"));
+    xml::build(&doc, &registry()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Leaf script shorthand.
+pub fn s(id: &str, seq: &str) -> String {
+    format!(r#"<Scripted id="{id}" seq="{seq}"/>"#)
+}
+
+pub fn w(id: &str, ticks: i64) -> String {
+    format!(r#"<Work id="{id}" ticks="{ticks}"/>"#)
+}
+
+/// Tick at times 0, 1, 2, ... and collect root statuses.
+pub fn run(t: &mut Tree<Ctx>, ctx: &mut Ctx, n: usize) -> Vec<Status> {
+    (0..n).map(|k| t.tick(k as f64, ctx)).collect()
+}
+
+/// Every node is Idle.
+pub fn all_idle(t: &Tree<Ctx>) -> bool {
+    (0..t.len() as u32).all(|i| t.status(i) == Status::Idle)
+}

@@ -1,0 +1,292 @@
+//! The ground unit's behavior-tree leaves: the paper's Algorithm 1 nodes and the fleet
+//! conditions, registered for the [`Unit`] context.
+//!
+//! Leaves are thin: they read and set the unit's services (navigation, cannon, tracker,
+//! coordinator link) and the blackboard. They never block; anything that takes time runs
+//! in a service and is polled (`IsArrival`, `StartWaterCannon`), as the paper's leaves poll
+//! Autoware and the cannon driver.
+
+use firefleet_bt::node::Io;
+use firefleet_bt::{PortSpec, PortType, Registry, StatefulAction, Status};
+use firefleet_protocol::Point2;
+use firefleet_protocol::msg::TaskPhase;
+
+use crate::unit::{NavPurpose, Unit};
+
+fn p(v: [f64; 2]) -> Point2 {
+    Point2::new(v[0], v[1])
+}
+
+fn ok(b: bool) -> Status {
+    if b { Status::Success } else { Status::Failure }
+}
+
+/// Opens the valve once the cannon is on its set-point (Running while it slews).
+struct StartWaterCannon;
+
+impl StatefulAction<Unit> for StartWaterCannon {
+    fn on_start(&mut self, io: &mut Io<'_>, u: &mut Unit) -> Status {
+        self.on_running(io, u)
+    }
+    fn on_running(&mut self, _: &mut Io<'_>, u: &mut Unit) -> Status {
+        if u.aim.is_none() {
+            return Status::Failure;
+        }
+        if u.on_target() {
+            u.valve = true;
+            Status::Success
+        } else {
+            Status::Running
+        }
+    }
+    fn on_halted(&mut self, _: &mut Io<'_>, _: &mut Unit) {}
+}
+
+/// Every leaf the ground unit's trees may use.
+pub fn registry() -> Registry<Unit> {
+    use PortType::{Double, Int, Point};
+    let mut r = Registry::new();
+
+    r.register_action(
+        "SetGoal",
+        vec![PortSpec::output(
+            "goal",
+            Point,
+            "cruise goal: the far end of the current lane",
+        )],
+        || {
+            |io: &mut Io<'_>, u: &mut Unit| {
+                let g = u.cruise_goal();
+                ok(io.set(0, [g.x, g.y]).is_ok())
+            }
+        },
+    );
+    r.register_action(
+        "StartCruise",
+        vec![PortSpec::input("goal", Point, "where to cruise to")],
+        || {
+            |io: &mut Io<'_>, u: &mut Unit| match io.get::<[f64; 2]>(0) {
+                Ok(g) => ok(u.navigate(p(g), NavPurpose::Cruise)),
+                Err(_) => Status::Failure,
+            }
+        },
+    );
+    r.register_condition("IsArrival", vec![], || {
+        |_: &mut Io<'_>, u: &mut Unit| ok(u.arrived())
+    });
+    r.register_action("StopCruise", vec![], || {
+        |_: &mut Io<'_>, u: &mut Unit| {
+            u.stop_navigation(NavPurpose::Cruise);
+            Status::Success
+        }
+    });
+    r.register_condition(
+        "FireDetection",
+        vec![
+            PortSpec::input(
+                "within_m",
+                Double,
+                "how far from the unit (or from `near`) a flame counts",
+            )
+            .with_default("30"),
+            PortSpec::input(
+                "near",
+                Point,
+                "look for a flame near this point instead of near the unit",
+            )
+            .optional(),
+        ],
+        || {
+            |io: &mut Io<'_>, u: &mut Unit| {
+                let within: f64 = io.get(0).unwrap_or(30.0);
+                let of = io.get::<[f64; 2]>(1).map(p).unwrap_or(u.pose().position());
+                ok(u.flame_near(of, within).is_some())
+            }
+        },
+    );
+    r.register_condition("HasAssignedFire", vec![], || {
+        |_: &mut Io<'_>, u: &mut Unit| ok(u.assigned_fire().is_some())
+    });
+    r.register_condition("IsAutonomous", vec![], || {
+        |_: &mut Io<'_>, u: &mut Unit| ok(!u.coordinator_present)
+    });
+    r.register_action(
+        "LocateFire",
+        vec![
+            PortSpec::output("fire", Point, "where the fire is"),
+            PortSpec::output("task", Int, "coordinator task seq, -1 when acting alone"),
+        ],
+        || {
+            |io: &mut Io<'_>, u: &mut Unit| {
+                let (fire, task) = match u.assigned_fire() {
+                    Some((seq, id, target)) => {
+                        u.job = Some(Some((seq, id)));
+                        (u.flame_near(target, 3.0).unwrap_or(target), seq as i64)
+                    }
+                    None => match u.flame_near(u.pose().position(), f64::INFINITY) {
+                        Some(f) => {
+                            u.job = Some(None);
+                            (f, -1)
+                        }
+                        None => return Status::Failure,
+                    },
+                };
+                ok(io.set(0, [fire.x, fire.y]).is_ok() && io.set(1, task).is_ok())
+            }
+        },
+    );
+    r.register_condition(
+        "IsTaskCurrent",
+        vec![PortSpec::input("task", Int, "the task being worked on")],
+        || {
+            |io: &mut Io<'_>, u: &mut Unit| {
+                let Ok(task) = io.get::<i64>(0) else {
+                    return Status::Failure;
+                };
+                ok(match u.assigned_fire() {
+                    Some((seq, _, _)) => seq as i64 == task,
+                    // Acting alone is current until a coordinator assigns something.
+                    None => task < 0 || u.task.is_some_and(|(s, _)| s as i64 == task),
+                })
+            }
+        },
+    );
+    r.register_action(
+        "SetTargetToFire",
+        vec![
+            PortSpec::input("fire", Point, "the fire"),
+            PortSpec::output("target", Point, "the firing position"),
+        ],
+        || {
+            |io: &mut Io<'_>, u: &mut Unit| {
+                let Ok(f) = io.get::<[f64; 2]>(0) else {
+                    return Status::Failure;
+                };
+                match u.firing_position(p(f)) {
+                    Some(t) => ok(io.set(1, [t.x, t.y]).is_ok()),
+                    None => {
+                        tracing::warn!(unit = %u.id, fire = ?f, "no reachable firing position");
+                        Status::Failure
+                    }
+                }
+            }
+        },
+    );
+    r.register_action(
+        "StartNavigation",
+        vec![PortSpec::input("goal", Point, "where to drive")],
+        || {
+            |io: &mut Io<'_>, u: &mut Unit| match io.get::<[f64; 2]>(0) {
+                Ok(g) => ok(u.navigate(p(g), NavPurpose::Fire)),
+                Err(_) => Status::Failure,
+            }
+        },
+    );
+    r.register_action(
+        "ComputeRelativePosition",
+        vec![
+            PortSpec::input("fire", Point, "the fire"),
+            PortSpec::output("pan", Double, "cannon pan to the fire, rad"),
+            PortSpec::output(
+                "tilt",
+                Double,
+                "cannon elevation landing the jet on the fire, rad",
+            ),
+        ],
+        || {
+            |io: &mut Io<'_>, u: &mut Unit| {
+                let Ok(f) = io.get::<[f64; 2]>(0) else {
+                    return Status::Failure;
+                };
+                // Re-aim at the flame as the camera sees it now.
+                let target = u.flame_near(p(f), 3.0).unwrap_or(p(f));
+                match u.aim_at(target) {
+                    Some((pan, tilt)) => ok(io.set(1, pan).is_ok() && io.set(2, tilt).is_ok()),
+                    None => Status::Failure,
+                }
+            }
+        },
+    );
+    r.register_condition(
+        "RelativePosAboveThreshold",
+        vec![
+            PortSpec::input("pan", Double, "wanted pan, rad"),
+            PortSpec::input("tilt", Double, "wanted tilt, rad"),
+            PortSpec::input(
+                "threshold_rad",
+                Double,
+                "re-aim when the set-point is off by more",
+            )
+            .with_default("0.02"),
+        ],
+        || {
+            |io: &mut Io<'_>, u: &mut Unit| {
+                let (Ok(pan), Ok(tilt), Ok(th)) =
+                    (io.get::<f64>(0), io.get::<f64>(1), io.get::<f64>(2))
+                else {
+                    return Status::Failure;
+                };
+                ok(u.aim
+                    .is_none_or(|(p0, t0)| (p0 - pan).abs() > th || (t0 - tilt).abs() > th))
+            }
+        },
+    );
+    r.register_action(
+        "AimWaterCannon",
+        vec![
+            PortSpec::input("pan", Double, "pan, rad"),
+            PortSpec::input("tilt", Double, "elevation, rad"),
+        ],
+        || {
+            |io: &mut Io<'_>, u: &mut Unit| match (io.get::<f64>(0), io.get::<f64>(1)) {
+                (Ok(pan), Ok(tilt)) => {
+                    u.aim = Some((pan, tilt));
+                    Status::Success
+                }
+                _ => Status::Failure,
+            }
+        },
+    );
+    r.register_condition("IsCannonNotStarted", vec![], || {
+        |_: &mut Io<'_>, u: &mut Unit| ok(!u.valve)
+    });
+    r.register_stateful("StartWaterCannon", vec![], || StartWaterCannon);
+    r.register_action("StopWaterCannon", vec![], || {
+        |_: &mut Io<'_>, u: &mut Unit| {
+            u.valve = false;
+            u.aim = None;
+            Status::Success
+        }
+    });
+    r.register_action(
+        "ReportExtinguished",
+        vec![PortSpec::input("task", Int, "the task that is done")],
+        || {
+            |io: &mut Io<'_>, u: &mut Unit| {
+                let task = io.get::<i64>(0).unwrap_or(-1);
+                tracing::info!(unit = %u.id, task, "flame out");
+                u.stop_navigation(NavPurpose::Fire);
+                u.finish(task, TaskPhase::Extinguished);
+                Status::Success
+            }
+        },
+    );
+    r.register_action(
+        "ErrorHandling",
+        vec![PortSpec::input("task", Int, "the task that failed").with_default("-1")],
+        || {
+            |io: &mut Io<'_>, u: &mut Unit| {
+                let task = io.get::<i64>(0).unwrap_or(-1);
+                u.valve = false;
+                u.aim = None;
+                u.stop_navigation(NavPurpose::Fire);
+                if u.job.is_some() {
+                    tracing::warn!(unit = %u.id, task, "attack abandoned");
+                    u.finish(task, TaskPhase::Failed);
+                }
+                Status::Failure
+            }
+        },
+    );
+    r
+}

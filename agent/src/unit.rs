@@ -1,0 +1,389 @@
+//! The ground unit as its behavior tree sees it: state and the services leaves drive.
+//!
+//! In the paper the tree sits on top of Autoware (navigation) and a cannon driver; the
+//! tree sets goals and polls for arrival while those services do the continuous work.
+//! [`Unit`] plays that role here: a navigation service that plans (grid A*), follows the
+//! path (pure pursuit) and recovers from touching an obstacle; a cannon service that
+//! slews to the aim set-point and opens the valve on request; the flame tracker; and the
+//! link state to the coordinator. Leaves ([`crate::leaves`]) only read and set these.
+
+use std::sync::Arc;
+
+use firefleet_protocol::geometry::{Point2, Pose2, wrap_angle};
+use firefleet_protocol::msg::{
+    FlameReport, TaskKind, TaskPhase, TaskProgress, UnitCommand, UnitKind, UnitMode, UnitSensors,
+    UnitState,
+};
+use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::spec::GroundSpec;
+use firefleet_protocol::{FireId, UnitId};
+
+use crate::aim;
+use crate::nav::{self, Follow, Grid, PurePursuit};
+use crate::tracker::FlameTracker;
+
+/// Preferred distances from a fire to fire from, m, in order of preference. 5 to 6 m keeps
+/// radiant heat from a 5 MW fire under about 5 kW/m^2 and the jet short and accurate.
+const STANDOFF_M: [f64; 5] = [5.5, 6.5, 4.5, 8.0, 10.0];
+/// Cannon pointing error below which the valve may open, rad.
+pub const AIM_TOLERANCE_RAD: f64 = 0.05;
+/// Grid resolution of the navigation map, m.
+const GRID_RES_M: f64 = 0.25;
+/// How long after the last detection a flame still counts as seen, s.
+pub const RECENTLY_SEEN_S: f64 = 2.0;
+/// Backing off after touching something, s.
+const RECOVER_S: f64 = 1.5;
+
+/// What the navigation service is driving to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NavPurpose {
+    Cruise,
+    Fire,
+}
+
+#[derive(Debug)]
+struct Navigation {
+    purpose: NavPurpose,
+    goal: Point2,
+    follow: PurePursuit,
+    arrived: bool,
+    /// Backing off until this time, then replanning.
+    recover_until: Option<f64>,
+    failed: bool,
+}
+
+/// The unit, its world model and its services.
+pub struct Unit {
+    pub id: UnitId,
+    pub spec: GroundSpec,
+    pub scenario: Arc<Scenario>,
+    nav_grid: Grid,
+    sight_grid: Grid,
+    pub tracker: FlameTracker,
+    /// The latest sensor frame.
+    pub frame: UnitSensors,
+    nav: Option<Navigation>,
+    /// A firing path prepared for a goal (from `SetTargetToFire`), used by the next
+    /// `StartNavigation` to that goal.
+    prepared: Option<(Point2, Vec<Point2>)>,
+    /// Cannon set-point (pan, tilt) and whether the valve is wanted open.
+    pub aim: Option<(f64, f64)>,
+    pub valve: bool,
+    pub coordinator_present: bool,
+    /// The coordinator's latest task.
+    pub task: Option<(u64, TaskKind)>,
+    /// The attack under way: coordinator task (seq, fire), or `None` when acting alone.
+    pub job: Option<Option<(u64, FireId)>>,
+    /// How the last coordinator task ended.
+    pub outcome: Option<TaskProgress>,
+    last_report_t: f64,
+}
+
+impl Unit {
+    /// A unit at its start pose in the scenario, until the first frame arrives.
+    pub fn new(id: UnitId, spec: GroundSpec, scenario: Arc<Scenario>) -> Self {
+        let frame = UnitSensors {
+            unit: id.clone(),
+            t: 0.0,
+            pose: scenario.unit(&id).map(|u| u.pose()).unwrap_or_default(),
+            speed: 0.0,
+            steer: 0.0,
+            heat_flux_kw_m2: 0.0,
+            water_l: spec.tank_l,
+            cannon: Default::default(),
+            detections: Vec::new(),
+            collided: false,
+        };
+        let nav_grid = Grid::from_scenario(&scenario, GRID_RES_M, spec.circumradius_m() + 0.25);
+        let sight_grid = Grid::from_scenario(&scenario, GRID_RES_M, 0.0);
+        Self {
+            id,
+            spec,
+            scenario,
+            nav_grid,
+            sight_grid,
+            tracker: FlameTracker::default(),
+            frame,
+            nav: None,
+            prepared: None,
+            aim: None,
+            valve: false,
+            coordinator_present: false,
+            task: None,
+            job: None,
+            outcome: None,
+            last_report_t: f64::NEG_INFINITY,
+        }
+    }
+
+    /// Take in a new sensor frame.
+    pub fn sense(&mut self, frame: UnitSensors) {
+        self.tracker.update(&self.spec, &frame);
+        if frame.collided
+            && let Some(n) = &mut self.nav
+            && n.recover_until.is_none()
+        {
+            n.recover_until = Some(frame.t + RECOVER_S);
+        }
+        self.frame = frame;
+    }
+
+    pub fn pose(&self) -> Pose2 {
+        self.frame.pose
+    }
+    pub fn now(&self) -> f64 {
+        self.frame.t
+    }
+
+    /// The coordinator's Extinguish task not yet finished, if any.
+    pub fn assigned_fire(&self) -> Option<(u64, FireId, Point2)> {
+        match self.task {
+            Some((seq, TaskKind::Extinguish { fire, target }))
+                if self.outcome.is_none_or(|o| o.seq != seq) =>
+            {
+                Some((seq, fire, target))
+            }
+            _ => None,
+        }
+    }
+
+    /// A confirmed flame seen within [`RECENTLY_SEEN_S`] and within `within` metres of `of`.
+    pub fn flame_near(&self, of: Point2, within: f64) -> Option<Point2> {
+        self.tracker
+            .confirmed()
+            .filter(|t| {
+                self.now() - t.last_seen <= RECENTLY_SEEN_S && t.position().dist(of) <= within
+            })
+            .min_by(|a, b| a.position().dist(of).total_cmp(&b.position().dist(of)))
+            .map(|t| t.position())
+    }
+
+    /// Cruise goal: the far end of the lane the unit is in.
+    pub fn cruise_goal(&self) -> Point2 {
+        let t = &self.scenario.tunnel;
+        let y = self.pose().y;
+        let lane = (0..t.lanes)
+            .map(|i| t.lane_center_y(i))
+            .min_by(|a, b| (a - y).abs().total_cmp(&(b - y).abs()))
+            .unwrap_or(0.0);
+        Point2::new(t.length_m - 10.0, lane)
+    }
+
+    /// Start driving to `goal`; false if no path exists.
+    pub fn navigate(&mut self, goal: Point2, purpose: NavPurpose) -> bool {
+        let path = match self.prepared.take() {
+            Some((g, p)) if g.dist(goal) < 1e-9 => Some(p),
+            _ => nav::plan(&self.nav_grid, self.pose().position(), goal),
+        };
+        match path {
+            Some(p) => {
+                self.nav = Some(Navigation {
+                    purpose,
+                    goal,
+                    follow: PurePursuit::new(p),
+                    arrived: false,
+                    recover_until: None,
+                    failed: false,
+                });
+                true
+            }
+            None => false,
+        }
+    }
+
+    pub fn stop_navigation(&mut self, purpose: NavPurpose) {
+        if self.nav.as_ref().is_some_and(|n| n.purpose == purpose) {
+            self.nav = None;
+        }
+    }
+
+    pub fn nav_purpose(&self) -> Option<NavPurpose> {
+        self.nav.as_ref().map(|n| n.purpose)
+    }
+
+    /// Arrived at the current navigation goal.
+    pub fn arrived(&self) -> bool {
+        self.nav.as_ref().is_some_and(|n| n.arrived)
+    }
+
+    /// Choose a firing position for a fire at `target` and prepare the path to it: free for
+    /// the vehicle, with line of sight and a jet solution under the ceiling, arriving along
+    /// the line towards the fire so that the camera faces it.
+    pub fn firing_position(&mut self, target: Point2) -> Option<Point2> {
+        let (nav, sight, spec) = (&self.nav_grid, &self.sight_grid, &self.spec);
+        let from = self.pose().position();
+        let home = target.bearing_to(from);
+        let offsets = (0..=8).flat_map(|k| {
+            let a = k as f64 * 0.35;
+            if k == 0 { vec![0.0] } else { vec![a, -a] }
+        });
+        for off in offsets {
+            for r in STANDOFF_M {
+                let spot = target.offset(home + off, r);
+                if !nav.free(spot) || !sight.segment_free(spot, target) {
+                    continue;
+                }
+                let Ok(e) = aim::elevations(r, -spec.cannon_height_m, spec.cannon_muzzle_speed_m_s)
+                else {
+                    continue;
+                };
+                if spec.cannon_height_m + aim::apex_height(e.low, spec.cannon_muzzle_speed_m_s)
+                    >= self.scenario.tunnel.height_m
+                {
+                    continue;
+                }
+                let lead_in = target.offset(home + off, r + 2.5);
+                let path = if nav.free(lead_in) && nav.segment_free(lead_in, spot) {
+                    nav::plan(nav, from, lead_in).map(|mut p| {
+                        p.push(spot);
+                        p
+                    })
+                } else {
+                    nav::plan(nav, from, spot)
+                };
+                if let Some(p) = path {
+                    self.prepared = Some((spot, p));
+                    return Some(spot);
+                }
+            }
+        }
+        None
+    }
+
+    /// Cannon set-points that land the jet on `target`, or `None` out of reach.
+    pub fn aim_at(&self, target: Point2) -> Option<(f64, f64)> {
+        let nozzle = self.pose().position();
+        let pan = wrap_angle(nozzle.bearing_to(target) - self.pose().yaw).clamp(
+            -self.spec.cannon_pan_limit_rad,
+            self.spec.cannon_pan_limit_rad,
+        );
+        let e = aim::elevations(
+            nozzle.dist(target),
+            -self.spec.cannon_height_m,
+            self.spec.cannon_muzzle_speed_m_s,
+        )
+        .ok()?;
+        Some((pan, e.low))
+    }
+
+    /// The cannon is at its set-point.
+    pub fn on_target(&self) -> bool {
+        self.aim.is_some_and(|(p, t)| {
+            (self.frame.cannon.pan - p).abs() < AIM_TOLERANCE_RAD
+                && (self.frame.cannon.tilt - t).abs() < AIM_TOLERANCE_RAD
+        })
+    }
+
+    /// Record how the coordinator task `task` ended.
+    pub fn finish(&mut self, task: i64, phase: TaskPhase) {
+        if let Some(Some((seq, fire))) = self.job
+            && seq as i64 == task
+        {
+            self.outcome = Some(TaskProgress { seq, fire, phase });
+        }
+        self.job = None;
+    }
+
+    /// Actuator set-points for this step: the navigation service drives, the cannon holds
+    /// its aim, the valve follows the request.
+    pub fn command(&mut self) -> UnitCommand {
+        let f = &self.frame;
+        let (pan, tilt) = self.aim.unwrap_or((f.cannon.pan, f.cannon.tilt));
+        let mut cmd = UnitCommand {
+            speed: 0.0,
+            steer: 0.0,
+            pan,
+            tilt,
+            valve_open: self.valve && f.water_l > 0.0,
+        };
+        let (pose, now, spec) = (f.pose, f.t, self.spec);
+        let Some(n) = &mut self.nav else { return cmd };
+        if n.arrived || n.failed {
+            return cmd;
+        }
+        if let Some(until) = n.recover_until {
+            if now < until {
+                cmd.speed = -0.4;
+                return cmd;
+            }
+            n.recover_until = None;
+            match nav::plan(&self.nav_grid, pose.position(), n.goal) {
+                Some(p) => n.follow = PurePursuit::new(p),
+                None => {
+                    tracing::warn!(unit = %self.id, goal = ?n.goal, "no path after recovering; navigation failed");
+                    n.failed = true;
+                    return cmd;
+                }
+            }
+        }
+        match n.follow.follow(&pose, &spec) {
+            Follow::Drive { speed, steer } => {
+                cmd.speed = speed;
+                cmd.steer = steer;
+            }
+            Follow::Arrived => n.arrived = true,
+        }
+        cmd
+    }
+
+    /// The unit's state for the bus.
+    pub fn state(&self) -> UnitState {
+        let f = &self.frame;
+        let mode = if f.water_l <= 0.0 {
+            UnitMode::Fault
+        } else if self.valve || self.aim.is_some() {
+            UnitMode::Extinguishing
+        } else {
+            match self.nav_purpose() {
+                Some(NavPurpose::Fire) => UnitMode::Navigating,
+                Some(NavPurpose::Cruise) if !self.arrived() => UnitMode::Cruising,
+                _ => UnitMode::Idle,
+            }
+        };
+        let task = match self.job {
+            Some(Some((seq, fire))) => {
+                let phase = if mode == UnitMode::Extinguishing {
+                    TaskPhase::Spraying
+                } else {
+                    TaskPhase::Travelling
+                };
+                Some(TaskProgress { seq, fire, phase })
+            }
+            _ => self.outcome,
+        };
+        UnitState {
+            unit: self.id.clone(),
+            kind: UnitKind::Ground,
+            t: f.t,
+            pose: f.pose,
+            speed: f.speed,
+            mode,
+            water_l: f.water_l.max(0.0),
+            health: 1.0,
+            heat_flux_kw_m2: f.heat_flux_kw_m2,
+            task,
+            autonomous: !self.coordinator_present,
+        }
+    }
+
+    /// Flames seen since the last report, if any.
+    pub fn report(&mut self) -> Option<FlameReport> {
+        let observations = self.tracker.observations(self.last_report_t);
+        self.last_report_t = self.frame.t;
+        (!observations.is_empty()).then(|| FlameReport {
+            unit: self.id.clone(),
+            t: self.frame.t,
+            observer: self.frame.pose,
+            observations,
+        })
+    }
+
+    /// Whether `p` is where the camera looks and could see a flame.
+    pub fn in_view(&self, p: Point2) -> bool {
+        let pose = self.pose();
+        let b = pose.to_body(p);
+        b.y.atan2(b.x).abs() < 0.45 * self.spec.camera_hfov_rad
+            && b.x.hypot(b.y) < self.spec.camera_range_m * 0.8
+            && self.sight_grid.segment_free(pose.position(), p)
+    }
+}
