@@ -74,6 +74,12 @@ pub fn registry() -> Registry<Unit> {
     r.register_condition("IsArrival", vec![], || {
         |_: &mut Io<'_>, u: &mut Unit| ok(u.arrived())
     });
+    r.register_condition("CruiseGoalUnchanged", vec![], || {
+        |_: &mut Io<'_>, u: &mut Unit| {
+            ok(u.cruising_to()
+                .is_none_or(|g| g.dist(u.cruise_goal()) < 0.5))
+        }
+    });
     r.register_action("StopCruise", vec![], || {
         |_: &mut Io<'_>, u: &mut Unit| {
             u.stop_navigation(NavPurpose::Cruise);

@@ -72,6 +72,8 @@ pub struct Unit {
     pub coordinator_present: bool,
     /// The coordinator's latest task.
     pub task: Option<(u64, TaskKind)>,
+    /// Goal of the latest cruise, kept after arrival.
+    cruising_to: Option<Point2>,
     /// The attack under way: coordinator task (seq, fire), or `None` when acting alone.
     pub job: Option<Option<(u64, FireId)>>,
     /// How the last coordinator task ended.
@@ -105,6 +107,7 @@ impl Unit {
             tracker: FlameTracker::default(),
             frame,
             nav: None,
+            cruising_to: None,
             prepared: None,
             aim: None,
             valve: false,
@@ -158,8 +161,11 @@ impl Unit {
             .map(|t| t.position())
     }
 
-    /// Cruise goal: the far end of the lane the unit is in.
+    /// Cruise goal: the coordinator's, or else the far end of the lane the unit is in.
     pub fn cruise_goal(&self) -> Point2 {
+        if let Some((_, TaskKind::Cruise { goal })) = self.task {
+            return goal;
+        }
         let t = &self.scenario.tunnel;
         let y = self.pose().y;
         let lane = (0..t.lanes)
@@ -185,6 +191,9 @@ impl Unit {
                     recover_until: None,
                     failed: false,
                 });
+                if purpose == NavPurpose::Cruise {
+                    self.cruising_to = Some(goal);
+                }
                 true
             }
             None => false,
@@ -195,6 +204,11 @@ impl Unit {
         if self.nav.as_ref().is_some_and(|n| n.purpose == purpose) {
             self.nav = None;
         }
+    }
+
+    /// The goal of the cruise under way (kept after arrival), if any.
+    pub fn cruising_to(&self) -> Option<Point2> {
+        self.cruising_to
     }
 
     pub fn nav_purpose(&self) -> Option<NavPurpose> {

@@ -106,3 +106,44 @@ fn with_a_task_the_unit_reports_the_fire_extinguished() {
         (1, FireId(1), TaskPhase::Extinguished)
     );
 }
+
+#[test]
+fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
+    let scenario = Arc::new(Scenario::from_toml(SCENARIO, "closed-loop.toml").unwrap());
+    let mut world = World::new(&scenario, 3);
+    let id = UnitId::new("u1").unwrap();
+    let mut ctl = GroundController::new(id.clone(), GROUND, scenario);
+    ctl.set_coordinator_present(true);
+    let drive = |ctl: &mut GroundController, world: &mut World, seconds: f64| {
+        let end = world.time() + seconds;
+        while world.time() < end {
+            let cmd = ctl.step(&world.sensors(&id).unwrap());
+            world.command(&id, cmd);
+            world.step(0.05);
+        }
+        world.truth().units[0].pose.position()
+    };
+    ctl.on_task(
+        1,
+        TaskKind::Cruise {
+            goal: Point2::new(25.0, -2.5),
+        },
+    );
+    let at = drive(&mut ctl, &mut world, 40.0);
+    assert!(
+        at.dist(Point2::new(25.0, -2.5)) < 1.0,
+        "held at the staging point: {at:?}"
+    );
+    ctl.on_task(
+        2,
+        TaskKind::Cruise {
+            goal: Point2::new(15.0, 2.5),
+        },
+    );
+    let at = drive(&mut ctl, &mut world, 60.0);
+    assert!(
+        at.dist(Point2::new(15.0, 2.5)) < 1.0,
+        "moved to the new goal: {at:?}"
+    );
+    assert_eq!(world.truth().units[0].collisions, 0);
+}

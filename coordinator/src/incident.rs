@@ -12,7 +12,7 @@ use firefleet_protocol::msg::{
 use firefleet_protocol::scenario::Tunnel;
 use firefleet_protocol::spec::GROUND;
 use firefleet_protocol::validate::Invalid;
-use firefleet_protocol::{FireId, UnitId};
+use firefleet_protocol::{FireId, Point2, UnitId};
 use serde::Serialize;
 
 use crate::assign::{self, Candidate, Need};
@@ -20,6 +20,10 @@ use crate::fusion::{Fused, Fusion};
 
 /// How many decisions the incident remembers for status queries.
 const DECISION_LOG: usize = 200;
+/// Free units are staged this far short of the nearest active fire, m: beyond the 20 m at
+/// which a cruising unit stops for a flame, and where the radiant flux of a 5 MW fire is
+/// under 0.2 kW/m^2.
+const STAGE_OFFSET_M: f64 = 25.0;
 /// After a unit fails a fire, it is not sent to that fire again for this long, s.
 const RETRY_AFTER_S: f64 = 60.0;
 
@@ -50,7 +54,7 @@ impl UnitView {
     fn working_on(&self) -> Option<FireId> {
         match self.task.as_ref()?.kind {
             TaskKind::Extinguish { fire, .. } => Some(fire),
-            TaskKind::Standby => None,
+            TaskKind::Standby | TaskKind::Cruise { .. } => None,
         }
     }
 }
@@ -259,8 +263,87 @@ impl Incident {
         out
     }
 
-    /// Assign free units to fires that need one.
+    /// Re-decide: assign free units to fires that need one, then stage the rest.
     fn solve(&mut self, t: f64) -> Vec<Output> {
+        let mut out = self.assign(t);
+        out.extend(self.stage(t));
+        out
+    }
+
+    /// Free units wait [`STAGE_OFFSET_M`] short of the nearest active fire, on their own
+    /// side and in their lane, or patrol on their own when nothing burns.
+    fn stage(&mut self, t: f64) -> Vec<Output> {
+        let active: Vec<(FireId, Point2)> = self
+            .fusion
+            .fires()
+            .iter()
+            .filter(|f| {
+                matches!(
+                    f.state,
+                    FireState::Confirmed | FireState::Assigned | FireState::Suppressing
+                )
+            })
+            .map(|f| (f.id, f.position()))
+            .collect();
+        let free: Vec<(UnitId, Point2, Option<TaskKind>)> = self
+            .units
+            .iter()
+            .filter(|(_, v)| v.alive && v.working_on().is_none())
+            .filter_map(|(u, v)| {
+                Some((
+                    u.clone(),
+                    v.state.as_ref()?.pose.position(),
+                    v.task.as_ref().map(|t| t.kind),
+                ))
+            })
+            .collect();
+        let mut out = Vec::new();
+        for (unit, at, current) in free {
+            let nearest = active
+                .iter()
+                .min_by(|a, b| a.1.dist(at).total_cmp(&b.1.dist(at)));
+            let goal = nearest.map(|&(fire, f)| {
+                let side = if at.x <= f.x { -1.0 } else { 1.0 };
+                let x = (f.x + side * STAGE_OFFSET_M).clamp(5.0, self.tunnel.length_m - 5.0);
+                let lane = (0..self.tunnel.lanes)
+                    .map(|i| self.tunnel.lane_center_y(i))
+                    .min_by(|a, b| (a - at.y).abs().total_cmp(&(b - at.y).abs()))
+                    .unwrap_or(0.0);
+                (fire, Point2::new(x, lane))
+            });
+            match (goal, current) {
+                (Some((_, g)), Some(TaskKind::Cruise { goal })) if goal.dist(g) < 3.0 => {}
+                (Some((fire, g)), _) => {
+                    self.seq += 1;
+                    let task = Task {
+                        unit: unit.clone(),
+                        seq: self.seq,
+                        t,
+                        kind: TaskKind::Cruise { goal: g },
+                    };
+                    self.units.get_mut(&unit).expect("free unit is known").task =
+                        Some(task.clone());
+                    self.log(
+                        t,
+                        format!(
+                            "stage {unit} at ({:.1}, {:.1}), in reserve for fire {fire}",
+                            g.x, g.y
+                        ),
+                    );
+                    out.push(Output::Task(task));
+                }
+                (None, Some(TaskKind::Cruise { .. })) => {
+                    self.log(t, format!("release {unit} to patrol: no active fire"));
+                    out.push(self.standby(&unit, t));
+                }
+                (None, _) => {}
+            }
+        }
+        out
+    }
+
+    /// Assign free units to fires that need one.
+    fn assign(&mut self, t: f64) -> Vec<Output> {
         let needs: Vec<Need> = self
             .fusion
             .fires()
@@ -442,7 +525,15 @@ mod tests {
         }
     }
 
+    /// Extinguish tasks only.
     fn tasks(out: &[Output]) -> Vec<&Task> {
+        all_tasks(out)
+            .into_iter()
+            .filter(|t| matches!(t.kind, TaskKind::Extinguish { .. }))
+            .collect()
+    }
+
+    fn all_tasks(out: &[Output]) -> Vec<&Task> {
         out.iter()
             .filter_map(|o| {
                 if let Output::Task(t) = o {
@@ -471,7 +562,11 @@ mod tests {
         assert_eq!(t.len(), 1);
         assert_eq!(t[0].unit.as_str(), "b");
         assert!(matches!(t[0].kind, TaskKind::Extinguish { .. }));
-        assert!(i.decisions().last().unwrap().text.contains("runner-up a"));
+        assert!(
+            i.decisions().any(
+                |d| d.text.starts_with("assign b to fire f1") && d.text.contains("runner-up a")
+            )
+        );
     }
 
     #[test]
@@ -512,7 +607,54 @@ mod tests {
             out.iter()
                 .any(|o| matches!(o, Output::Fire(f) if f.id == fire && f.state == FireState::Out))
         );
-        assert!(matches!(tasks(&out)[0].kind, TaskKind::Standby));
+        let b = all_tasks(&out)
+            .into_iter()
+            .filter(|t| t.unit.as_str() == "b")
+            .map(|t| t.kind)
+            .collect::<Vec<_>>();
+        assert_eq!(
+            b,
+            [TaskKind::Standby],
+            "b stands by, nothing left to stage for"
+        );
+    }
+
+    #[test]
+    fn free_units_are_staged_short_of_the_fire_and_released_when_it_is_out() {
+        let mut i = incident();
+        let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+        let staged: Vec<&Task> = all_tasks(&out)
+            .into_iter()
+            .filter(|t| t.unit.as_str() == "a")
+            .collect();
+        assert_eq!(staged.len(), 1);
+        assert_eq!(
+            staged[0].kind,
+            TaskKind::Cruise {
+                goal: Point2::new(35.0, -2.5)
+            },
+            "25 m short, in a's lane"
+        );
+        assert!(
+            all_tasks(&i.tick(2.0)).is_empty(),
+            "no churn while nothing changes"
+        );
+        let task = tasks(&out)[0].clone();
+        let TaskKind::Extinguish { fire, .. } = task.kind else {
+            panic!()
+        };
+        let done = TaskProgress {
+            seq: task.seq,
+            fire,
+            phase: TaskPhase::Extinguished,
+        };
+        let out = i.on_state(state("b", 55.0, Some(done)), 20.0).unwrap();
+        let a: Vec<TaskKind> = all_tasks(&out)
+            .into_iter()
+            .filter(|t| t.unit.as_str() == "a")
+            .map(|t| t.kind)
+            .collect();
+        assert_eq!(a, [TaskKind::Standby]);
     }
 
     #[test]

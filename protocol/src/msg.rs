@@ -165,6 +165,8 @@ impl Validate for FlameReport {
 pub enum TaskKind {
     /// Nothing assigned: the unit cruises or holds on its own.
     Standby,
+    /// Drive to `goal` and hold there, looking for fire (staged as a reserve).
+    Cruise { goal: Point2 },
     /// Put out the fire believed to be at `target`.
     Extinguish { fire: FireId, target: Point2 },
 }
@@ -184,6 +186,7 @@ impl Validate for Task {
         finite("t", self.t)?;
         match self.kind {
             TaskKind::Standby => Ok(()),
+            TaskKind::Cruise { goal } => goal.validate().map_err(|e| e.within("kind.goal")),
             TaskKind::Extinguish { target, .. } => {
                 target.validate().map_err(|e| e.within("kind.target"))
             }

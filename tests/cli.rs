@@ -1,0 +1,114 @@
+//! The command line: exit codes and messages a user relies on.
+
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_firefleet");
+
+fn firefleet(args: &[&str]) -> Output {
+    Command::new(BIN)
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap()
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+#[test]
+fn bt_validate_accepts_the_shipped_trees_and_names_every_error() {
+    let ok = firefleet(&[
+        "bt",
+        "validate",
+        "agent/trees/ground_unit.xml",
+        "examples/trees/patrol.xml",
+    ]);
+    assert!(ok.status.success(), "{}", text(&ok.stderr));
+    assert!(
+        text(&ok.stdout).contains("ground_unit.xml: valid (5 trees)"),
+        "{}",
+        text(&ok.stdout)
+    );
+
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.xml");
+    std::fs::write(&bad, "<root BTCPP_format=\"4\">\n<BehaviorTree ID=\"T\">\n<Sequence>\n<Fly/>\n<Timeout><AlwaysSuccess/></Timeout>\n</Sequence>\n</BehaviorTree>\n</root>\n").unwrap();
+    let out = firefleet(&["bt", "validate", bad.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("bad.xml:4: Fly: unknown node type 'Fly'"),
+        "{err}"
+    );
+    assert!(
+        err.contains("bad.xml:5: Timeout: missing required port 'msec'"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bt_run_dry_runs_built_in_trees_on_a_simulated_clock() {
+    let out = firefleet(&[
+        "bt",
+        "run",
+        "examples/trees/patrol.xml",
+        "--ticks",
+        "8",
+        "--period-ms",
+        "100",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(
+        stdout.contains("tick   8  t=   0.700 s  root SUCCESS"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("Sleep \"drive\"") && stdout.contains("RUNNING -> SUCCESS"),
+        "{stdout}"
+    );
+
+    let out = firefleet(&["bt", "run", "agent/trees/ground_unit.xml"]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("knows only the built-in nodes"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+#[test]
+fn bad_scenarios_and_arguments_are_refused_with_the_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "name = \"x\"\ntime_limit_s = 10\n[tunnel]\nlength_m = 50.0\nwidth_m = 10.0\nheight_m = 6.0\nlanes = 2\n[[fires]]\nname = \"f\"\nx_m = 80.0\ny_m = 0.0\ngrowth = \"fast\"\npeak_kw = 100.0\n").unwrap();
+    let out = firefleet(&["demo", "--scenario", bad.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("fires[0].x_m: 80 is outside [0, 50]"),
+        "{}",
+        text(&out.stderr)
+    );
+
+    let out = firefleet(&[
+        "agent",
+        "--scenario",
+        "vehicle-collision",
+        "--unit",
+        "ugv-9",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr)
+            .contains("--unit ugv-9: the scenario 'vehicle-collision' has no such unit")
+    );
+
+    let out = firefleet(&["sim", "--time-scale", "0"]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("0 is not a positive number"),
+        "{}",
+        text(&out.stderr)
+    );
+}
