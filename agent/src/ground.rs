@@ -105,8 +105,4 @@ impl GroundController {
     pub fn tree_mut(&mut self) -> &mut Tree<Unit> {
         &mut self.tree
     }
-
-    pub fn unit(&self) -> &Unit {
-        &self.unit
-    }
 }

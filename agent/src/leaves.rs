@@ -110,6 +110,9 @@ pub fn registry() -> Registry<Unit> {
             }
         },
     );
+    r.register_condition("IsAttacking", vec![], || {
+        |_: &mut Io<'_>, u: &mut Unit| ok(u.job.is_some())
+    });
     r.register_condition("HasAssignedFire", vec![], || {
         |_: &mut Io<'_>, u: &mut Unit| ok(u.assigned_fire().is_some())
     });

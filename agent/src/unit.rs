@@ -26,11 +26,11 @@ use crate::tracker::FlameTracker;
 /// radiant heat from a 5 MW fire under about 5 kW/m^2 and the jet short and accurate.
 const STANDOFF_M: [f64; 5] = [5.5, 6.5, 4.5, 8.0, 10.0];
 /// Cannon pointing error below which the valve may open, rad.
-pub const AIM_TOLERANCE_RAD: f64 = 0.05;
+const AIM_TOLERANCE_RAD: f64 = 0.05;
 /// Grid resolution of the navigation map, m.
 const GRID_RES_M: f64 = 0.25;
 /// How long after the last detection a flame still counts as seen, s.
-pub const RECENTLY_SEEN_S: f64 = 2.0;
+const RECENTLY_SEEN_S: f64 = 2.0;
 /// Backing off after touching something, s.
 const RECOVER_S: f64 = 1.5;
 
@@ -54,30 +54,30 @@ struct Navigation {
 
 /// The unit, its world model and its services.
 pub struct Unit {
-    pub id: UnitId,
-    pub spec: GroundSpec,
-    pub scenario: Arc<Scenario>,
+    pub(crate) id: UnitId,
+    pub(crate) spec: GroundSpec,
+    pub(crate) scenario: Arc<Scenario>,
     nav_grid: Grid,
     sight_grid: Grid,
-    pub tracker: FlameTracker,
+    pub(crate) tracker: FlameTracker,
     /// The latest sensor frame.
-    pub frame: UnitSensors,
+    pub(crate) frame: UnitSensors,
     nav: Option<Navigation>,
     /// A firing path prepared for a goal (from `SetTargetToFire`), used by the next
     /// `StartNavigation` to that goal.
     prepared: Option<(Point2, Vec<Point2>)>,
     /// Cannon set-point (pan, tilt) and whether the valve is wanted open.
-    pub aim: Option<(f64, f64)>,
-    pub valve: bool,
-    pub coordinator_present: bool,
+    pub(crate) aim: Option<(f64, f64)>,
+    pub(crate) valve: bool,
+    pub(crate) coordinator_present: bool,
     /// The coordinator's latest task.
-    pub task: Option<(u64, TaskKind)>,
+    pub(crate) task: Option<(u64, TaskKind)>,
     /// Goal of the latest cruise, kept after arrival.
     cruising_to: Option<Point2>,
     /// The attack under way: coordinator task (seq, fire), or `None` when acting alone.
-    pub job: Option<Option<(u64, FireId)>>,
+    pub(crate) job: Option<Option<(u64, FireId)>>,
     /// How the last coordinator task ended.
-    pub outcome: Option<TaskProgress>,
+    pub(crate) outcome: Option<TaskProgress>,
     last_report_t: f64,
 }
 
@@ -390,14 +390,5 @@ impl Unit {
             observer: self.frame.pose,
             observations,
         })
-    }
-
-    /// Whether `p` is where the camera looks and could see a flame.
-    pub fn in_view(&self, p: Point2) -> bool {
-        let pose = self.pose();
-        let b = pose.to_body(p);
-        b.y.atan2(b.x).abs() < 0.45 * self.spec.camera_hfov_rad
-            && b.x.hypot(b.y) < self.spec.camera_range_m * 0.8
-            && self.sight_grid.segment_free(pose.position(), p)
     }
 }

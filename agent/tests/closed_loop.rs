@@ -147,3 +147,42 @@ fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
     );
     assert_eq!(world.truth().units[0].collisions, 0);
 }
+
+#[test]
+fn a_staged_unit_assigned_the_fire_puts_it_out() {
+    let scenario = Arc::new(Scenario::from_toml(SCENARIO, "closed-loop.toml").unwrap());
+    let mut world = World::new(&scenario, 5);
+    let id = UnitId::new("u1").unwrap();
+    let mut ctl = GroundController::new(id.clone(), GROUND, scenario.clone());
+    ctl.set_coordinator_present(true);
+    ctl.on_task(
+        1,
+        TaskKind::Cruise {
+            goal: Point2::new(30.0, 2.5),
+        },
+    );
+    let mut assigned = false;
+    while world.time() < scenario.time_limit_s
+        && world.truth().fires[0].state != TruthFireState::Out
+    {
+        if !assigned && world.time() > 30.0 {
+            ctl.on_task(
+                2,
+                TaskKind::Extinguish {
+                    fire: FireId(1),
+                    target: Point2::new(60.0, -2.0),
+                },
+            );
+            assigned = true;
+        }
+        let cmd = ctl.step(&world.sensors(&id).unwrap());
+        world.command(&id, cmd);
+        world.step(0.05);
+    }
+    assert_eq!(
+        world.truth().fires[0].state,
+        TruthFireState::Out,
+        "the staged unit never put the fire out"
+    );
+    assert_eq!(world.truth().units[0].collisions, 0);
+}
