@@ -16,9 +16,12 @@ use firefleet_protocol::{FireId, UnitId};
 
 /// Association gate, squared Mahalanobis distance (chi-square 2 dof, 99.9 %).
 const GATE2: f64 = 13.8;
-/// Variance floor of a fused estimate and a per-observation floor, m^2: a flame is not a
-/// point.
-const MIN_VAR_M2: f64 = 0.05;
+/// Variance floor of every estimate, m^2 (one sigma 0.5 m): a fire is a metre-scale object,
+/// and units see it from different sides with different biases, so no report places it
+/// more tightly than its own size. With a tighter floor two units' reports of one car fire
+/// (1 to 1.5 m apart, each overconfident after its own tracker's averaging) fall outside
+/// the gate and the fire is counted twice.
+const MIN_VAR_M2: f64 = 0.25;
 /// Confidence at which a tentative track is confirmed.
 const CONFIRM_CONFIDENCE: f64 = 0.8;
 /// A track nobody works on and nobody has seen for this long is lost, s.
@@ -226,6 +229,14 @@ mod tests {
         assert_eq!(fire.seen_by().count(), 3);
         assert!(fire.position().dist(Point2::new(50.0, 1.0)) < 0.4);
         assert!(fire.confidence > 0.9);
+    }
+
+    #[test]
+    fn overconfident_reports_of_one_fire_from_two_sides_are_one_fire() {
+        let mut f = Fusion::default();
+        f.observe(&u("a"), &obs(87.6, -2.5, 0.02, 0.9), 0.0);
+        f.observe(&u("b"), &obs(86.4, -2.4, 0.02, 0.9), 0.5);
+        assert_eq!(f.fires().len(), 1);
     }
 
     #[test]
