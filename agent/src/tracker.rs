@@ -66,15 +66,7 @@ impl FlameTracker {
             let nearest = self
                 .tracks
                 .iter_mut()
-                .map(|tr| {
-                    let mut gate = tr.estimate;
-                    gate.cov = [
-                        gate.cov[0] + z.cov[0],
-                        gate.cov[1] + z.cov[1],
-                        gate.cov[2] + z.cov[2],
-                    ];
-                    (gate.mahalanobis2(z.mean), tr)
-                })
+                .map(|tr| (tr.estimate.gate2(&z), tr))
                 .filter(|(m2, _)| *m2 < GATE2)
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             match nearest {

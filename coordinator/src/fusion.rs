@@ -127,15 +127,7 @@ impl Fusion {
             .fires
             .iter_mut()
             .filter(|f| f.state != FireState::Lost)
-            .map(|f| {
-                let mut g = f.estimate;
-                g.cov = [
-                    g.cov[0] + z.cov[0],
-                    g.cov[1] + z.cov[1],
-                    g.cov[2] + z.cov[2],
-                ];
-                (g.mahalanobis2(z.mean), f)
-            })
+            .map(|f| (f.estimate.gate2(&z), f))
             .filter(|(m2, _)| *m2 < GATE2)
             .min_by(|a, b| a.0.total_cmp(&b.0));
         let Some((_, fire)) = best else {

@@ -113,6 +113,20 @@ impl Gaussian2 {
         (d * dx * dx - 2.0 * b * dx * dy + a * dy * dy) / self.det()
     }
 
+    /// Squared Mahalanobis distance between two independent estimates (of the difference
+    /// of their means, under the sum of their covariances): the association gate.
+    pub fn gate2(&self, o: &Gaussian2) -> f64 {
+        let sum = Gaussian2 {
+            mean: self.mean,
+            cov: [
+                self.cov[0] + o.cov[0],
+                self.cov[1] + o.cov[1],
+                self.cov[2] + o.cov[2],
+            ],
+        };
+        sum.mahalanobis2(o.mean)
+    }
+
     /// Product of two independent estimates of the same static point (information form).
     pub fn fuse(&self, o: &Gaussian2) -> Gaussian2 {
         let inv = |g: &Gaussian2| {
@@ -189,6 +203,8 @@ mod tests {
         };
         assert!((a.fuse(&sharp).mean.x - 2.0).abs() < 0.05);
         assert!((a.mahalanobis2(Point2::new(3.0, 4.0)) - 25.0).abs() < 1e-12);
+        // Two unit-variance estimates 2 m apart: the difference has variance 2.
+        assert!((a.gate2(&b) - 2.0).abs() < 1e-12);
     }
 
     #[test]

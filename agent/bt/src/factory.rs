@@ -538,20 +538,18 @@ impl<'r, C> Builder<'r, C> {
             Maker::Action(make) => Kind::Action(make()),
             Maker::Stateful(make) => Kind::Stateful(make()),
             Maker::Builtin(b) => match b {
-                Builtin::Sequence => Kind::Sequence {
-                    idx: 0,
-                    all_skipped: true,
-                    memory: false,
-                },
-                Builtin::SequenceWithMemory => Kind::Sequence {
-                    idx: 0,
-                    all_skipped: true,
-                    memory: true,
-                },
-                Builtin::Fallback => Kind::Fallback {
-                    idx: 0,
-                    all_skipped: true,
-                },
+                Builtin::Sequence | Builtin::SequenceWithMemory | Builtin::Fallback => {
+                    Kind::Ordered {
+                        idx: 0,
+                        all_skipped: true,
+                        stop: if *b == Builtin::Fallback {
+                            Status::Success
+                        } else {
+                            Status::Failure
+                        },
+                        memory: *b == Builtin::SequenceWithMemory,
+                    }
+                }
                 Builtin::ReactiveSequence => Kind::ReactiveSequence,
                 Builtin::ReactiveFallback => Kind::ReactiveFallback,
                 Builtin::Parallel | Builtin::ParallelAll => {

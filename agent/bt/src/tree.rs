@@ -24,14 +24,13 @@ pub struct Transition {
 
 /// The behaviour of a node, with its per-instance state.
 pub(crate) enum Kind<C> {
-    Sequence {
+    /// Sequence, SequenceWithMemory and Fallback: children in order, stopping at the first
+    /// one that returns `stop` (Failure for sequences, Success for a fallback).
+    Ordered {
         idx: u32,
         all_skipped: bool,
+        stop: Status,
         memory: bool,
-    },
-    Fallback {
-        idx: u32,
-        all_skipped: bool,
     },
     ReactiveSequence,
     ReactiveFallback,
@@ -300,7 +299,7 @@ impl<C> Tree<C> {
                 };
                 a.on_halted(&mut io, ctx);
             }
-            Kind::Sequence { idx, .. } | Kind::Fallback { idx, .. } => *idx = 0,
+            Kind::Ordered { idx, .. } => *idx = 0,
             Kind::Parallel { succ, fail, done } => {
                 (*succ, *fail) = (0, 0);
                 self.done[*done as usize..(*done + n.n_children) as usize].fill(false);
@@ -413,8 +412,7 @@ impl<C> Tree<C> {
             _ => {}
         }
         match self.nodes[i as usize].kind {
-            Kind::Sequence { .. } => self.tick_sequence(i, ctx),
-            Kind::Fallback { .. } => self.tick_fallback(i, ctx),
+            Kind::Ordered { .. } => self.tick_ordered(i, ctx),
             Kind::ReactiveSequence | Kind::ReactiveFallback => self.tick_reactive(i, ctx),
             Kind::Parallel { .. } => self.tick_parallel(i, ctx),
             Kind::ParallelAll { .. } => self.tick_parallel_all(i, ctx),
@@ -424,16 +422,23 @@ impl<C> Tree<C> {
         }
     }
 
-    /// Sequence and SequenceWithMemory.
-    fn tick_sequence(&mut self, i: u32, ctx: &mut C) -> Status {
-        let Kind::Sequence {
+    /// Sequence, SequenceWithMemory and Fallback.
+    fn tick_ordered(&mut self, i: u32, ctx: &mut C) -> Status {
+        let Kind::Ordered {
             mut idx,
             mut all_skipped,
+            stop,
             memory,
         } = self.nodes[i as usize].kind
         else {
             unreachable!()
         };
+        // What the node returns when every child got past: the opposite of `stop`.
+        let done = if stop == Status::Failure {
+            Status::Success
+        } else {
+            Status::Failure
+        };
         if self.nodes[i as usize].status == Status::Idle {
             all_skipped = true;
         }
@@ -443,80 +448,30 @@ impl<C> Tree<C> {
             if idx >= n {
                 self.reset_children(i, ctx);
                 idx = 0;
-                break if all_skipped {
-                    Status::Skipped
-                } else {
-                    Status::Success
-                };
+                break if all_skipped { Status::Skipped } else { done };
             }
             let c = self.child(i, idx);
             let s = self.tick_node(c, ctx);
             all_skipped &= s == Status::Skipped;
-            match s {
-                Status::Running => break Status::Running,
-                Status::Failure => {
-                    if memory {
-                        // Keep the position: the next tick resumes at the failed child.
-                        self.reset_children_from(i, idx, ctx);
-                    } else {
-                        self.reset_children(i, ctx);
-                        idx = 0;
-                    }
-                    break Status::Failure;
-                }
-                _ => idx += 1,
+            if s == Status::Running {
+                break Status::Running;
             }
+            if s == stop {
+                if memory {
+                    // Keep the position: the next tick resumes at the failed child.
+                    self.reset_children_from(i, idx, ctx);
+                } else {
+                    self.reset_children(i, ctx);
+                    idx = 0;
+                }
+                break stop;
+            }
+            idx += 1;
         };
-        if let Kind::Sequence {
+        if let Kind::Ordered {
             idx: a,
             all_skipped: b,
             ..
-        } = &mut self.nodes[i as usize].kind
-        {
-            (*a, *b) = (idx, all_skipped);
-        }
-        result
-    }
-
-    fn tick_fallback(&mut self, i: u32, ctx: &mut C) -> Status {
-        let Kind::Fallback {
-            mut idx,
-            mut all_skipped,
-        } = self.nodes[i as usize].kind
-        else {
-            unreachable!()
-        };
-        if self.nodes[i as usize].status == Status::Idle {
-            all_skipped = true;
-        }
-        self.set_status(i, Status::Running);
-        let n = self.n_children(i);
-        let result = loop {
-            if idx >= n {
-                self.reset_children(i, ctx);
-                idx = 0;
-                break if all_skipped {
-                    Status::Skipped
-                } else {
-                    Status::Failure
-                };
-            }
-            let c = self.child(i, idx);
-            let s = self.tick_node(c, ctx);
-            all_skipped &= s == Status::Skipped;
-            match s {
-                Status::Running => break Status::Running,
-                Status::Success => {
-                    self.reset_children(i, ctx);
-                    idx = 0;
-                    break Status::Success;
-                }
-                _ => idx += 1,
-            }
-        };
-        if let Kind::Fallback {
-            idx: a,
-            all_skipped: b,
         } = &mut self.nodes[i as usize].kind
         {
             (*a, *b) = (idx, all_skipped);

@@ -1,36 +1,10 @@
 //! Ticking a tree in steady state allocates nothing. One test per file: the counting
 //! allocator is process-wide, and counts only on the thread that asks it to.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use firefleet_bt::node::Io;
 use firefleet_bt::{Registry, StatefulAction, Status, xml};
 
-struct Counting;
-
-static ALLOCS: AtomicUsize = AtomicUsize::new(0);
-thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if COUNTING.with(Cell::get) {
-            ALLOCS.fetch_add(1, Ordering::Relaxed);
-        }
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
+include!("support/counting_alloc.rs");
 
 struct Busy;
 
@@ -66,14 +40,14 @@ fn steady_state_ticks_allocate_nothing() {
     for k in 0..10 {
         assert_eq!(tree.tick(f64::from(k), &mut ()), Status::Running);
     }
-    COUNTING.with(|c| c.set(true));
-    for k in 10..1010 {
-        tree.tick(f64::from(k) * 0.01, &mut ());
-    }
-    COUNTING.with(|c| c.set(false));
-    assert_eq!(
-        ALLOCS.load(Ordering::Relaxed),
-        0,
-        "allocations during 1000 steady-state ticks"
+    assert!(
+        allocations_during(|| drop(std::hint::black_box(vec![1u8; 16]))) >= 1,
+        "the counter counts"
     );
+    let n = allocations_during(|| {
+        for k in 10..1010 {
+            tree.tick(f64::from(k) * 0.01, &mut ());
+        }
+    });
+    assert_eq!(n, 0, "allocations during 1000 steady-state ticks");
 }
