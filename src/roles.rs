@@ -9,7 +9,9 @@ use firefleet_agent::ground::GroundController;
 use firefleet_agent::{AgentOptions, SimPlatform};
 use firefleet_coordinator::CoordinatorOptions;
 use firefleet_protocol::bus::Bus;
+use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
+use firefleet_protocol::msg::IncidentStatus;
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::GROUND;
 use firefleet_sim::SimOptions;
@@ -168,10 +170,10 @@ pub async fn status(a: StatusArgs) -> anyhow::Result<ExitCode> {
     let sample = reply
         .result()
         .map_err(|e| anyhow::anyhow!("the coordinator answered with an error: {e:?}"))?;
-    let status: serde_json::Value =
-        serde_json::from_slice(&sample.payload().to_bytes()).context("status is not JSON")?;
+    let bytes = sample.payload().to_bytes();
+    let status: IncidentStatus = codec::decode(&bytes).context("the coordinator's status")?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&status)?);
+        println!("{}", String::from_utf8_lossy(&bytes));
     } else {
         print_status(&status);
     }
@@ -179,42 +181,49 @@ pub async fn status(a: StatusArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn print_status(s: &serde_json::Value) {
-    println!("site time {:.1} s", s["t"].as_f64().unwrap_or(0.0));
+fn print_status(s: &IncidentStatus) {
+    println!("site time {:.1} s", s.t);
     println!("fires:");
-    for f in s["fires"].as_array().into_iter().flatten() {
+    for f in &s.fires {
+        let assigned: Vec<String> = f.assigned.iter().map(ToString::to_string).collect();
+        let state = serde_json::to_value(f.state)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_owned))
+            .unwrap_or_default();
         println!(
-            "  {:5} {:11} at ({:6.1}, {:5.1})  confidence {:.2}  assigned {}",
-            f["id"].to_string(),
-            f["state"].as_str().unwrap_or("?"),
-            f["position"]["x"].as_f64().unwrap_or(f64::NAN),
-            f["position"]["y"].as_f64().unwrap_or(f64::NAN),
-            f["confidence"].as_f64().unwrap_or(0.0),
-            f["assigned"]
+            "  {:5} {:11} at ({:6.1}, {:5.1})  confidence {:.2}  assigned [{}]",
+            f.id.to_string(),
+            state,
+            f.position.x,
+            f.position.y,
+            f.confidence,
+            assigned.join(", ")
         );
     }
     println!("units:");
-    for u in s["units"].as_array().into_iter().flatten() {
-        let st = &u["state"];
+    for u in &s.units {
+        let mode = u
+            .state
+            .as_ref()
+            .and_then(|st| serde_json::to_value(st.mode).ok())
+            .and_then(|v| v.as_str().map(str::to_owned));
+        let task = u
+            .task
+            .as_ref()
+            .map_or("-".to_owned(), |t| t.kind.to_string());
         println!(
-            "  {:10} {:6} {:13} water {:6.0} L  task {}",
-            u["unit"].as_str().unwrap_or("?"),
-            if u["alive"].as_bool() == Some(true) {
-                "alive"
-            } else {
-                "lost"
-            },
-            st["mode"].as_str().unwrap_or("-"),
-            st["water_l"].as_f64().unwrap_or(0.0),
-            u["task"]["kind"]
+            "  {:10} {:6} {:13} water {:6.0} L  task {task}",
+            u.unit.as_str(),
+            if u.alive { "alive" } else { "lost" },
+            mode.as_deref().unwrap_or("-"),
+            u.state.as_ref().map_or(0.0, |st| st.water_l),
         );
     }
+    if s.rejected.values().any(|n| *n > 0) {
+        println!("rejected messages: {:?}", s.rejected);
+    }
     println!("recent decisions:");
-    for d in s["decisions"].as_array().into_iter().flatten() {
-        println!(
-            "  t={:7.1}  {}",
-            d["t"].as_f64().unwrap_or(0.0),
-            d["text"].as_str().unwrap_or("")
-        );
+    for d in &s.decisions {
+        println!("  t={:7.1}  {}", d.t, d.text);
     }
 }

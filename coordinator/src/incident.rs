@@ -4,16 +4,16 @@
 //! passing) updates the picture and returns the messages to publish: new tasks and changed
 //! fire tracks. Every decision is logged with its reason and kept in [`Incident::decisions`].
 
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::collections::{BTreeMap, VecDeque};
 
 use firefleet_protocol::msg::{
-    FireState, FireTrack, FlameReport, Task, TaskKind, TaskPhase, UnitMode, UnitState,
+    Decision, FireState, FireTrack, FlameReport, IncidentStatus, Task, TaskKind, TaskPhase,
+    UnitMode, UnitState, UnitStatus,
 };
 use firefleet_protocol::scenario::Tunnel;
 use firefleet_protocol::spec::GROUND;
 use firefleet_protocol::validate::Invalid;
 use firefleet_protocol::{FireId, Point2, UnitId};
-use serde::Serialize;
 
 use crate::assign::{self, Candidate, Need};
 use crate::fusion::{Fused, Fusion};
@@ -32,13 +32,6 @@ const RETRY_AFTER_S: f64 = 60.0;
 pub enum Output {
     Task(Task),
     Fire(FireTrack),
-}
-
-/// One logged decision.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Decision {
-    pub t: f64,
-    pub text: String,
 }
 
 /// What the coordinator knows of one unit.
@@ -448,34 +441,25 @@ impl Incident {
         self.decisions.iter()
     }
 
-    /// A JSON snapshot of the incident, for `firefleet status` and any Zenoh client.
-    pub fn status(&self, t: f64) -> serde_json::Value {
-        let units: Vec<serde_json::Value> = self
-            .units
-            .iter()
-            .map(|(u, v)| {
-                serde_json::json!({
-                    "unit": u,
-                    "alive": v.alive,
-                    "state": v.state,
-                    "task": v.task,
+    /// A snapshot of the incident, for `firefleet status` and any Zenoh client. The
+    /// caller fills in `rejected`, which it counts.
+    pub fn status(&self, t: f64) -> IncidentStatus {
+        IncidentStatus {
+            t,
+            units: self
+                .units
+                .iter()
+                .map(|(u, v)| UnitStatus {
+                    unit: u.clone(),
+                    alive: v.alive,
+                    state: v.state.clone(),
+                    task: v.task.clone(),
                 })
-            })
-            .collect();
-        serde_json::json!({
-            "t": t,
-            "units": units,
-            "fires": self.fire_tracks(t),
-            "decisions": self.decisions.iter().rev().take(20).collect::<Vec<_>>(),
-        })
-    }
-
-    /// Units that have seen each fire (for tests and status).
-    pub fn seen_by(&self, fire: FireId) -> BTreeSet<UnitId> {
-        self.fusion
-            .get(fire)
-            .map(|f| f.seen_by().cloned().collect())
-            .unwrap_or_default()
+                .collect(),
+            fires: self.fire_tracks(t),
+            decisions: self.decisions.iter().rev().take(20).cloned().collect(),
+            rejected: Default::default(),
+        }
     }
 }
 

@@ -13,6 +13,7 @@ use std::time::Duration;
 
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::clock::{Clock, ExternalClock, SystemClock};
+use firefleet_protocol::codec;
 use firefleet_protocol::keys::{self, Topic, UnitLeaf};
 use firefleet_protocol::msg::{FlameReport, SimClock, UnitState};
 use firefleet_protocol::scenario::Scenario;
@@ -101,8 +102,8 @@ pub async fn run(
             }
             Ok(query) = status.recv_async() => {
                 let mut body = incident.status(clock.now());
-                body["rejected"] = bus.rejects().snapshot().into_iter().map(|(k, v)| (k.to_owned(), serde_json::Value::from(v))).collect();
-                let body = body.to_string();
+                body.rejected = bus.rejects().snapshot().into_iter().map(|(k, v)| (k.to_owned(), v)).collect();
+                let body = codec::encode(&body);
                 if let Err(e) = query.reply(keys.key(&Topic::CoordStatus), body).await {
                     tracing::warn!("status reply failed: {e}");
                 }

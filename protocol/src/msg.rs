@@ -8,6 +8,9 @@
 //! Times `t` are site time in seconds: simulator time in the simulator, system time on real
 //! hardware (see [`crate::clock`]).
 
+use std::collections::BTreeMap;
+use std::fmt;
+
 use schemars::JsonSchema;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
@@ -36,7 +39,7 @@ macro_rules! message {
     ($enc:ident: $($t:ty),*) => { $(impl Message for $t { const ENCODING: Encoding = Encoding::$enc; })* };
 }
 message!(Postcard: UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, SimTruth, BtTransitions);
-message!(Json: ZoneGoal, GoalAck);
+message!(Json: ZoneGoal, GoalAck, IncidentStatus);
 
 /// Longest list any fleet message may carry; bounds the work one message can cause.
 pub const MAX_LIST: usize = 64;
@@ -181,6 +184,18 @@ pub struct Task {
     pub kind: TaskKind,
 }
 
+impl fmt::Display for TaskKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TaskKind::Standby => f.write_str("standby"),
+            TaskKind::Cruise { goal } => write!(f, "cruise to ({:.1}, {:.1})", goal.x, goal.y),
+            TaskKind::Extinguish { fire, target } => {
+                write!(f, "extinguish {fire} at ({:.1}, {:.1})", target.x, target.y)
+            }
+        }
+    }
+}
+
 impl Validate for Task {
     fn validate(&self) -> Result<(), Invalid> {
         finite("t", self.t)?;
@@ -269,6 +284,40 @@ impl Validate for FireTrack {
         in_range("confidence", self.confidence, 0.0, 1.0)?;
         max_len("assigned", &self.assigned, MAX_LIST)?;
         max_len("seen_by", &self.seen_by, MAX_LIST)
+    }
+}
+
+/// One logged decision of the coordinator, with its reason in the text.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Decision {
+    pub t: f64,
+    pub text: String,
+}
+
+/// What the coordinator knows of one unit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct UnitStatus {
+    pub unit: UnitId,
+    pub alive: bool,
+    pub state: Option<UnitState>,
+    pub task: Option<Task>,
+}
+
+/// `ff/<site>/coord/status` (JSON, answered to queries): a snapshot of the incident.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct IncidentStatus {
+    pub t: f64,
+    pub units: Vec<UnitStatus>,
+    pub fires: Vec<FireTrack>,
+    /// Newest first.
+    pub decisions: Vec<Decision>,
+    /// Messages the coordinator dropped, by class (undecodable, version, invalid).
+    pub rejected: BTreeMap<String, u64>,
+}
+
+impl Validate for IncidentStatus {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)
     }
 }
 
