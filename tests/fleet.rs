@@ -31,7 +31,7 @@ fn demo_fleet_puts_out_every_fire_and_records_the_incident() {
     let dir = tempfile::tempdir().unwrap();
     let summary = dir.path().join("summary.json");
     let recording = dir.path().join("run.mcap");
-    let status = Command::new(BIN)
+    let out = Command::new(BIN)
         .args([
             "demo",
             "--scenario",
@@ -43,10 +43,17 @@ fn demo_fleet_puts_out_every_fire_and_records_the_incident() {
         .arg(&summary)
         .arg("--record")
         .arg(&recording)
-        .stdout(Stdio::null())
-        .status()
+        .env_remove("RUST_LOG")
+        .output()
         .unwrap();
-    assert!(status.success(), "demo exited with {status}");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "demo exited with {}: {stderr}",
+        out.status
+    );
+    // In a clean run no process drops a message: a dropped one is a producer's bug.
+    assert!(!stderr.contains("dropped"), "{stderr}");
 
     let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&summary).unwrap()).unwrap();
     assert_eq!(s["fires_total"], 3);

@@ -1,6 +1,7 @@
 //! What runs on a robot.
 //!
-//! The pure parts ([`nav`], [`aim`], [`tracker`], [`unit`], [`leaves`], [`ground`]) know
+//! The pure parts ([`perception`], [`nav`], [`aim`], [`tracker`], [`unit`], [`leaves`],
+//! [`ground`]) know
 //! nothing of Zenoh: they
 //! take sensor frames and tasks and return actuator set-points, so they are tested and
 //! benchmarked without a network. The edges are [`platform`], the interface a robot's
@@ -12,6 +13,7 @@ pub mod ground;
 pub mod leaves;
 pub mod nav;
 pub mod node;
+pub mod perception;
 pub mod platform;
 pub mod tracker;
 pub mod unit;

@@ -1,13 +1,15 @@
 //! Per-unit flame tracker: detections become site-frame flame estimates.
 //!
-//! Each detection (bearing, depth) is placed in the site frame with a covariance from the
-//! camera's noise model, associated with the nearest track within a Mahalanobis gate, and
+//! Each detection is placed in the site frame with a covariance from the camera's noise
+//! model ([`crate::perception`]), associated with the nearest track within a Mahalanobis gate, and
 //! fused into it. Tracks not seen for [`STALE_S`] are dropped. A track is confirmed after
 //! [`CONFIRM_HITS`] hits, which suppresses one-frame false alarms.
 
 use firefleet_protocol::geometry::{Gaussian2, Point2};
 use firefleet_protocol::msg::{FlameObservation, UnitSensors};
 use firefleet_protocol::spec::GroundSpec;
+
+use crate::perception;
 
 /// Seconds without a detection after which a track is dropped.
 pub const STALE_S: f64 = 3.0;
@@ -54,15 +56,10 @@ impl FlameTracker {
             tr.estimate.inflate(PROCESS_NOISE_M2_S * dt);
         }
         for d in &s.detections {
-            // Depth is measured to the flame's middle, roughly at camera height: use it as the
-            // horizontal range.
-            let z = Gaussian2::from_range_bearing(
-                s.pose.position(),
-                d.range,
-                s.pose.yaw + d.bearing,
-                spec.depth_sigma_m(d.range),
-                spec.camera_bearing_sigma_rad,
-            );
+            let Some(located) = perception::locate(d, &spec.camera, &s.pose) else {
+                continue;
+            };
+            let z = located.estimate;
             let nearest = self
                 .tracks
                 .iter_mut()
@@ -123,7 +120,7 @@ mod tests {
     use super::*;
     use firefleet_protocol::UnitId;
     use firefleet_protocol::geometry::Pose2;
-    use firefleet_protocol::msg::{CannonState, FlameDetection};
+    use firefleet_protocol::msg::{CannonState, FlameDetection, ObjectClass};
     use firefleet_protocol::spec::GROUND;
 
     fn frame(t: f64, pose: Pose2, dets: Vec<FlameDetection>) -> UnitSensors {
@@ -141,13 +138,17 @@ mod tests {
         }
     }
 
-    /// Detection of a flame at site point `f` from `pose`, with a small deterministic error.
+    /// Detection of a flame at site point `f` (1 m up) from `pose`, its depth off by `err`.
     fn det(pose: &Pose2, f: Point2, err: f64) -> FlameDetection {
+        let cam = GROUND.camera;
         let b = pose.to_body(f);
+        let c = cam.body_to_camera([b.x, b.y, 1.0]);
+        let [u, v] = cam.project(c).unwrap();
         FlameDetection {
-            bearing: b.y.atan2(b.x) + 0.2 * err * 0.01,
-            range: b.x.hypot(b.y) + err,
+            class: ObjectClass::Fire,
             confidence: 0.9,
+            bbox: [u - 10.0, v - 20.0, u + 10.0, v + 20.0],
+            depth: [(c[2] + err) as f32; 25],
         }
     }
 

@@ -41,8 +41,19 @@ const SCENARIO: &str = r#"
     y_m = -2.5
 "#;
 
-/// Step world and controller together; returns (time the fire went out, the controller).
-fn run(coordinator_task: Option<Point2>) -> (Option<f64>, GroundController, World) {
+/// What a closed-loop run did.
+struct Run {
+    /// When the fire went out.
+    out_at: Option<f64>,
+    /// Closest the unit came to the fire while it burned, m.
+    closest_while_burning: f64,
+    ctl: GroundController,
+    world: World,
+}
+
+/// Step world and controller together until the fire is out (and 5 s more, for the
+/// controller to notice) or the time limit.
+fn run(coordinator_task: Option<Point2>) -> Run {
     let scenario = Arc::new(Scenario::from_toml(SCENARIO, "closed-loop.toml").unwrap());
     let mut world = World::new(&scenario, 11);
     let id = UnitId::new("u1").unwrap();
@@ -58,49 +69,68 @@ fn run(coordinator_task: Option<Point2>) -> (Option<f64>, GroundController, Worl
         );
     }
     let dt = 0.05;
+    let mut closest_while_burning = f64::INFINITY;
     while world.time() < scenario.time_limit_s {
         let s = world.sensors(&id).unwrap();
         let cmd = ctl.step(&s);
         world.command(&id, cmd);
         world.step(dt);
-        if world.truth().fires[0].state == TruthFireState::Out {
-            // Let the controller notice.
-            for _ in 0..100 {
-                let s = world.sensors(&id).unwrap();
-                let cmd = ctl.step(&s);
-                world.command(&id, cmd);
-                world.step(dt);
-            }
-            let t = world.time();
-            return (Some(t), ctl, world);
+        let truth = world.truth();
+        if truth.fires[0].state != TruthFireState::Out {
+            closest_while_burning = closest_while_burning
+                .min(truth.units[0].pose.position().dist(truth.fires[0].position));
+            continue;
         }
+        let out_at = Some(world.time());
+        for _ in 0..100 {
+            let s = world.sensors(&id).unwrap();
+            let cmd = ctl.step(&s);
+            world.command(&id, cmd);
+            world.step(dt);
+        }
+        return Run {
+            out_at,
+            closest_while_burning,
+            ctl,
+            world,
+        };
     }
-    (None, ctl, world)
+    Run {
+        out_at: None,
+        closest_while_burning,
+        ctl,
+        world,
+    }
 }
 
 #[test]
 fn alone_the_unit_cruises_finds_and_puts_out_the_fire() {
-    let (out, _, world) = run(None);
-    let t = out.expect("fire never went out");
+    let r = run(None);
+    let t = r.out_at.expect("fire never went out");
     assert!(t < 120.0, "took {t} s");
-    let truth = world.truth();
     assert_eq!(
-        truth.units[0].collisions, 0,
+        r.world.truth().units[0].collisions,
+        0,
         "touched the parked car or a wall"
     );
     assert!(
-        truth.units[0].pose.position().dist(Point2::new(60.0, -2.0)) > 3.0,
-        "drove into the fire"
+        r.closest_while_burning > 4.0,
+        "came within {:.1} m of the burning fire",
+        r.closest_while_burning
     );
 }
 
 #[test]
 fn with_a_task_the_unit_reports_the_fire_extinguished() {
-    let (out, ctl, world) = run(Some(Point2::new(60.3, -1.8)));
-    assert!(out.is_some(), "fire never went out");
-    assert_eq!(world.truth().units[0].collisions, 0);
-    let state = ctl.state();
-    let task = state.task.expect("task progress echoed");
+    let r = run(Some(Point2::new(60.3, -1.8)));
+    assert!(r.out_at.is_some(), "fire never went out");
+    assert_eq!(r.world.truth().units[0].collisions, 0);
+    assert!(
+        r.closest_while_burning > 4.0,
+        "came within {:.1} m of the burning fire",
+        r.closest_while_burning
+    );
+    let task = r.ctl.state().task.expect("task progress echoed");
     assert_eq!(
         (task.seq, task.fire, task.phase),
         (1, FireId(1), TaskPhase::Extinguished)

@@ -81,23 +81,18 @@ pub struct Gaussian2 {
 }
 
 impl Gaussian2 {
-    /// A range-and-bearing measurement from `from`: `r` m at site-frame bearing `theta`,
-    /// with one-sigma errors `sigma_r` (m) and `sigma_theta` (rad), linearised.
-    pub fn from_range_bearing(
-        from: Point2,
-        r: f64,
-        theta: f64,
-        sigma_r: f64,
-        sigma_theta: f64,
-    ) -> Self {
-        let (s, c) = theta.sin_cos();
-        let (vr, vt) = (sigma_r * sigma_r, (r * sigma_theta).powi(2));
+    /// An estimate at `mean` whose one-sigma error is `along` in direction `heading` and
+    /// `across` perpendicular to it (e.g. depth error along a camera's axis, pixel error
+    /// across it).
+    pub fn oriented(mean: Point2, heading: f64, along: f64, across: f64) -> Self {
+        let (s, c) = heading.sin_cos();
+        let (va, vc) = (along * along, across * across);
         Self {
-            mean: from.offset(theta, r),
+            mean,
             cov: [
-                vr * c * c + vt * s * s,
-                (vr - vt) * s * c,
-                vr * s * s + vt * c * c,
+                va * c * c + vc * s * s,
+                (va - vc) * s * c,
+                va * s * s + vc * c * c,
             ],
         }
     }
@@ -208,10 +203,15 @@ mod tests {
     }
 
     #[test]
-    fn range_bearing_covariance_is_elongated_along_the_ray() {
-        let g = Gaussian2::from_range_bearing(Point2::new(0.0, 0.0), 10.0, 0.0, 0.5, 0.01);
-        assert!((g.mean.x - 10.0).abs() < 1e-12);
-        assert!((g.cov[0] - 0.25).abs() < 1e-12 && (g.cov[2] - 0.01).abs() < 1e-12);
+    fn oriented_covariance_is_elongated_along_its_heading() {
+        let g = Gaussian2::oriented(Point2::new(10.0, 0.0), 0.0, 0.5, 0.1);
+        assert!(
+            (g.cov[0] - 0.25).abs() < 1e-12
+                && (g.cov[2] - 0.01).abs() < 1e-12
+                && g.cov[1].abs() < 1e-12
+        );
+        let r = Gaussian2::oriented(Point2::new(0.0, 0.0), std::f64::consts::FRAC_PI_2, 0.5, 0.1);
+        assert!((r.cov[0] - 0.01).abs() < 1e-12 && (r.cov[2] - 0.25).abs() < 1e-12);
     }
 
     #[test]

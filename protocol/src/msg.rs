@@ -412,26 +412,42 @@ impl Validate for SimClock {
     }
 }
 
-/// A flame as an on-board detector reports it, relative to the camera.
+/// What a detector found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum ObjectClass {
+    Fire,
+}
+
+/// Side of the square depth window a detection carries, pixels.
+pub const DEPTH_WINDOW: usize = 5;
+
+/// A detection as a YOLO-style detector node publishes it, with the aligned depth image's
+/// pixels around the box centre (what the localization node reads from the depth image).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct FlameDetection {
-    /// Bearing in the body frame, radians, left positive.
-    pub bearing: f64,
-    /// Range from the camera, metres (from the depth image).
-    pub range: f64,
+    pub class: ObjectClass,
     pub confidence: f64,
+    /// Bounding box, pixels: `[u_min, v_min, u_max, v_max]`.
+    pub bbox: [f64; 4],
+    /// Depth, m, of the `DEPTH_WINDOW` x `DEPTH_WINDOW` pixels centred on the box centre,
+    /// row by row; 0 where the depth camera has no value.
+    pub depth: [f32; DEPTH_WINDOW * DEPTH_WINDOW],
 }
 
 impl Validate for FlameDetection {
     fn validate(&self) -> Result<(), Invalid> {
-        in_range(
-            "bearing",
-            self.bearing,
-            -std::f64::consts::PI,
-            std::f64::consts::PI,
-        )?;
-        in_range("range", self.range, 0.0, 1e3)?;
-        in_range("confidence", self.confidence, 0.0, 1.0)
+        in_range("confidence", self.confidence, 0.0, 1.0)?;
+        for (i, v) in self.bbox.iter().enumerate() {
+            in_range(&format!("bbox[{i}]"), *v, -1e4, 1e4)?;
+        }
+        if self.bbox[0] > self.bbox[2] || self.bbox[1] > self.bbox[3] {
+            return Err(Invalid::new("bbox", "min corner beyond max corner"));
+        }
+        for (i, z) in self.depth.iter().enumerate() {
+            in_range(&format!("depth[{i}]"), f64::from(*z), 0.0, 1e3)?;
+        }
+        Ok(())
     }
 }
 

@@ -35,26 +35,91 @@ pub struct GroundSpec {
     /// Slew rates of remote-controlled monitors, rad/s (about 30 and 20 deg/s).
     pub cannon_pan_rate_rad_s: f64,
     pub cannon_tilt_rate_rad_s: f64,
-    /// Camera: height above the road, horizontal field of view (RealSense D435 colour,
-    /// 69 deg), and the range to which a flame is detected reliably.
-    pub camera_height_m: f64,
-    pub camera_hfov_rad: f64,
-    pub camera_range_m: f64,
-    /// Detector noise: bearing (one sigma, rad) and depth `a + b r^2` (one sigma, m): stereo
-    /// depth error grows with the square of range (Intel RealSense D400 depth RMS model).
-    pub camera_bearing_sigma_rad: f64,
-    pub camera_depth_sigma_a_m: f64,
-    pub camera_depth_sigma_b_per_m: f64,
+    /// The RGB-D camera the flame detector looks through.
+    pub camera: CameraSpec,
+}
+
+/// A forward-looking pinhole RGB-D camera on the body, optical axis horizontal.
+///
+/// Frames: the camera frame has x right, y down, z forward along the optical axis (the
+/// OpenCV / RealSense convention); the body frame has x forward, y left, z up. Depth is
+/// z-depth (along the optical axis), as depth cameras report it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraSpec {
+    pub width_px: f64,
+    pub height_px: f64,
+    /// Focal lengths and principal point, pixels.
+    pub fx: f64,
+    pub fy: f64,
+    pub cx: f64,
+    pub cy: f64,
+    /// Optical centre in the body frame: ahead of the pose origin, and above the road, m.
+    pub mount_forward_m: f64,
+    pub mount_height_m: f64,
+    /// Range to which the detector finds flames, m.
+    pub range_m: f64,
+    /// Depth noise `a + b z^2` (one sigma, m): stereo depth error grows with the square of
+    /// depth (Intel RealSense D400 RMS error model; a long-baseline pair is assumed so that
+    /// depth is usable to 30 m).
+    pub depth_sigma_a_m: f64,
+    pub depth_sigma_b_per_m: f64,
+    /// Fraction of depth pixels with no value on a flame (bright, textureless, flickering:
+    /// stereo matching fails on a part of it).
+    pub depth_dropout: f64,
+    /// Jitter of a detector's box edges, pixels (one sigma).
+    pub box_sigma_px: f64,
+}
+
+impl CameraSpec {
+    /// Depth noise (one sigma) at depth `z`, m.
+    pub fn depth_sigma_m(&self, z: f64) -> f64 {
+        self.depth_sigma_a_m + self.depth_sigma_b_per_m * z * z
+    }
+
+    /// Horizontal field of view, rad.
+    pub fn hfov_rad(&self) -> f64 {
+        2.0 * (self.width_px / 2.0 / self.fx).atan()
+    }
+
+    /// Camera-frame coordinates of a body-frame point `[forward, left, up]`.
+    pub fn body_to_camera(&self, b: [f64; 3]) -> [f64; 3] {
+        [
+            -b[1],
+            self.mount_height_m - b[2],
+            b[0] - self.mount_forward_m,
+        ]
+    }
+
+    /// Body-frame coordinates `[forward, left, up]` of a camera-frame point.
+    pub fn camera_to_body(&self, c: [f64; 3]) -> [f64; 3] {
+        [
+            c[2] + self.mount_forward_m,
+            -c[0],
+            self.mount_height_m - c[1],
+        ]
+    }
+
+    /// Pixel of a camera-frame point in front of the camera.
+    pub fn project(&self, c: [f64; 3]) -> Option<[f64; 2]> {
+        (c[2] > 0.05).then(|| {
+            [
+                self.cx + self.fx * c[0] / c[2],
+                self.cy + self.fy * c[1] / c[2],
+            ]
+        })
+    }
+
+    /// The camera-frame point at pixel `(u, v)` and depth `z`: the BT paper's equation 7,
+    /// with its typo fixed (the paper writes `y = (v - c_x) z / f_x`; y uses `c_y` and `f_y`).
+    pub fn back_project(&self, u: f64, v: f64, z: f64) -> [f64; 3] {
+        [(u - self.cx) * z / self.fx, (v - self.cy) * z / self.fy, z]
+    }
 }
 
 impl GroundSpec {
     /// Minimum turning radius of the bicycle model, m.
     pub fn min_turn_radius_m(&self) -> f64 {
         self.wheelbase_m / self.max_steer_rad.tan()
-    }
-    /// Depth noise (one sigma) of the camera at range `r`, m.
-    pub fn depth_sigma_m(&self, r: f64) -> f64 {
-        self.camera_depth_sigma_a_m + self.camera_depth_sigma_b_per_m * r * r
     }
     /// Radius of the circle that encloses the footprint, m.
     pub fn circumradius_m(&self) -> f64 {
@@ -80,17 +145,46 @@ pub const GROUND: GroundSpec = GroundSpec {
     cannon_tilt_max_rad: 60.0 * std::f64::consts::PI / 180.0,
     cannon_pan_rate_rad_s: 0.52,
     cannon_tilt_rate_rad_s: 0.35,
-    camera_height_m: 1.0,
-    camera_hfov_rad: 69.0 * std::f64::consts::PI / 180.0,
-    camera_range_m: 30.0,
-    camera_bearing_sigma_rad: 0.01,
-    camera_depth_sigma_a_m: 0.02,
-    camera_depth_sigma_b_per_m: 0.002,
+    camera: CameraSpec {
+        // 640 x 480 with a 69 deg horizontal field of view (RealSense D435 colour): fx =
+        // 320 / tan(34.5 deg).
+        width_px: 640.0,
+        height_px: 480.0,
+        fx: 465.6,
+        fy: 465.6,
+        cx: 320.0,
+        cy: 240.0,
+        mount_forward_m: 0.6,
+        mount_height_m: 1.0,
+        range_m: 30.0,
+        depth_sigma_a_m: 0.02,
+        depth_sigma_b_per_m: 0.002,
+        depth_dropout: 0.1,
+        box_sigma_px: 2.0,
+    },
 };
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn camera_projection_and_equation_7_are_inverse() {
+        let cam = GROUND.camera;
+        assert!((cam.hfov_rad().to_degrees() - 69.0).abs() < 0.05);
+        for b in [[10.0, 2.0, 0.3], [5.0, -1.0, 2.5], [25.0, 0.0, 1.0]] {
+            let c = cam.body_to_camera(b);
+            let [u, v] = cam.project(c).unwrap();
+            let back = cam.camera_to_body(cam.back_project(u, v, c[2]));
+            for k in 0..3 {
+                assert!((back[k] - b[k]).abs() < 1e-9, "{b:?} -> {back:?}");
+            }
+        }
+        assert!(
+            cam.project(cam.body_to_camera([-3.0, 0.0, 1.0])).is_none(),
+            "behind the camera"
+        );
+    }
 
     #[test]
     fn ground_unit_turns_in_a_tunnel_lane() {

@@ -1,13 +1,16 @@
 //! Line of sight in the tunnel and the simulated flame detector.
 //!
-//! The detector stands in for a YOLO-style detector on an RGB-D camera: it reports each
-//! visible flame as a bearing, a depth and a confidence, misses some, and is blind beyond
-//! its range, outside its field of view and behind parked vehicles.
+//! The detector stands in for a YOLO-style detector on an RGB-D camera: each visible flame
+//! becomes a bounding box in the image (pinhole projection of the flame's width and
+//! height) with a class, a confidence and the aligned depth image's pixels around the box
+//! centre. It misses flames, reports false alarms, and sees nothing beyond its range,
+//! outside the image, or behind parked vehicles. A real detector replaces this stream and
+//! the agent cannot tell the difference.
 
 use firefleet_protocol::geometry::Pose2;
-use firefleet_protocol::msg::FlameDetection;
+use firefleet_protocol::msg::{DEPTH_WINDOW, FlameDetection, ObjectClass};
 use firefleet_protocol::scenario::Obstacle;
-use firefleet_protocol::spec::GroundSpec;
+use firefleet_protocol::spec::CameraSpec;
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
 
@@ -52,49 +55,103 @@ pub fn line_blocked(obstacles: &[Obstacle], a: P3, b: P3) -> bool {
     obstacles.iter().any(|o| segment_hits(o, a, b))
 }
 
-/// One flame as the detector could see it.
+/// One flame as the camera could see it.
 #[derive(Debug, Clone, Copy)]
 pub struct FlameTarget {
     /// Middle of the flame, site frame.
     pub centre: P3,
+    pub radius_m: f64,
+    pub height_m: f64,
 }
 
-/// Detect flames from a unit at `pose`; `rng` draws misses and noise.
+fn depth_window(
+    z: f64,
+    cam: &CameraSpec,
+    rng: &mut impl Rng,
+) -> [f32; DEPTH_WINDOW * DEPTH_WINDOW] {
+    let noise = Normal::new(0.0, cam.depth_sigma_m(z)).expect("positive sigma");
+    std::array::from_fn(|_| {
+        let drop = rng.random::<f64>() < cam.depth_dropout;
+        let v = (z + noise.sample(rng)).max(0.1);
+        if drop { 0.0 } else { v as f32 }
+    })
+}
+
+/// Detect flames from a unit at `pose`; `rng` draws misses, false alarms and noise.
 pub fn detect(
-    spec: &GroundSpec,
+    cam: &CameraSpec,
     pose: &Pose2,
     flames: &[FlameTarget],
     obstacles: &[Obstacle],
     rng: &mut impl Rng,
 ) -> Vec<FlameDetection> {
-    let cam = [pose.x, pose.y, spec.camera_height_m];
-    let bearing_noise = Normal::new(0.0, spec.camera_bearing_sigma_rad).expect("positive sigma");
+    let optical_centre = pose.to_site(firefleet_protocol::Point2::new(cam.mount_forward_m, 0.0));
+    let eye = [optical_centre.x, optical_centre.y, cam.mount_height_m];
+    let edge = Normal::new(0.0, cam.box_sigma_px).expect("positive sigma");
     let mut out = Vec::new();
     for f in flames {
-        let body = pose.to_body(firefleet_protocol::Point2::new(f.centre[0], f.centre[1]));
-        let bearing = body.y.atan2(body.x);
-        let range = (body.x.powi(2) + body.y.powi(2) + (f.centre[2] - cam[2]).powi(2)).sqrt();
-        if bearing.abs() > spec.camera_hfov_rad / 2.0
-            || range > spec.camera_range_m
-            || line_blocked(obstacles, cam, f.centre)
-        {
+        let b = pose.to_body(firefleet_protocol::Point2::new(f.centre[0], f.centre[1]));
+        let c = cam.body_to_camera([b.x, b.y, f.centre[2]]);
+        let range = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        let (Some([u0, v0]), Some([u1, v1])) = (
+            cam.project([c[0] - f.radius_m, c[1] - f.height_m / 2.0, c[2]]),
+            cam.project([c[0] + f.radius_m, c[1] + f.height_m / 2.0, c[2]]),
+        ) else {
+            continue;
+        };
+        let (uc, vc) = ((u0 + u1) / 2.0, (v0 + v1) / 2.0);
+        let in_image = (0.0..cam.width_px).contains(&uc) && (0.0..cam.height_px).contains(&vc);
+        if !in_image || range > cam.range_m || line_blocked(obstacles, eye, f.centre) {
             continue;
         }
         // Draw every random number whether or not the flame is missed, so that one miss
         // does not shift the noise of every later detection.
         let missed = rng.random::<f64>() < physics::DETECT_MISS_PROB;
-        let db = bearing_noise.sample(rng);
-        let dr = Normal::new(0.0, spec.depth_sigma_m(range))
-            .expect("positive sigma")
-            .sample(rng);
+        let jitter: [f64; 4] = std::array::from_fn(|_| edge.sample(rng));
+        let depth = depth_window(c[2], cam, rng);
         let dc: f64 = rng.random_range(-0.05..0.05);
         if missed {
             continue;
         }
+        let clip = |v: f64, max: f64| v.clamp(0.0, max);
+        // Jitter can cross the edges of a box a few pixels wide (a small, distant flame):
+        // keep each pair ordered, as a detector's boxes are.
+        let (ua, ub) = (
+            clip(u0 + jitter[0], cam.width_px),
+            clip(u1 + jitter[2], cam.width_px),
+        );
+        let (va, vb) = (
+            clip(v0 + jitter[1], cam.height_px),
+            clip(v1 + jitter[3], cam.height_px),
+        );
+        let confidence = ((0.95 - 0.3 * range / cam.range_m)
+            * (-physics::SMOKE_EXTINCTION_PER_M * range).exp()
+            + dc)
+            .clamp(0.05, 0.99);
         out.push(FlameDetection {
-            bearing: (bearing + db).clamp(-std::f64::consts::PI, std::f64::consts::PI),
-            range: (range + dr).max(0.1),
-            confidence: (0.95 - 0.3 * range / spec.camera_range_m + dc).clamp(0.05, 0.99),
+            class: ObjectClass::Fire,
+            confidence,
+            bbox: [ua.min(ub), va.min(vb), ua.max(ub), va.max(vb)],
+            depth,
+        });
+    }
+    if rng.random::<f64>() < physics::FALSE_ALARM_PROB {
+        let (u, v) = (
+            rng.random_range(0.0..cam.width_px),
+            rng.random_range(cam.cy..cam.height_px),
+        );
+        let (w, h) = (rng.random_range(8.0..40.0), rng.random_range(8.0..40.0));
+        let z = rng.random_range(3.0..cam.range_m);
+        out.push(FlameDetection {
+            class: ObjectClass::Fire,
+            confidence: rng.random_range(0.3..0.6),
+            bbox: [
+                (u - w / 2.0).max(0.0),
+                (v - h / 2.0).max(0.0),
+                (u + w / 2.0).min(cam.width_px),
+                (v + h / 2.0).min(cam.height_px),
+            ],
+            depth: depth_window(z, cam, rng),
         });
     }
     out
@@ -119,6 +176,27 @@ mod tests {
         }
     }
 
+    fn flame(x: f64, y: f64) -> FlameTarget {
+        FlameTarget {
+            centre: [x, y, 0.8],
+            radius_m: 0.8,
+            height_m: 1.6,
+        }
+    }
+
+    /// Detections of true flames only (false alarms have confidence below 0.6).
+    fn seen(
+        pose: &Pose2,
+        f: FlameTarget,
+        obstacles: &[Obstacle],
+        rng: &mut ChaCha8Rng,
+    ) -> Vec<FlameDetection> {
+        detect(&GROUND.camera, pose, &[f], obstacles, rng)
+            .into_iter()
+            .filter(|d| d.confidence > 0.6)
+            .collect()
+    }
+
     #[test]
     fn segment_box_intersection() {
         let c = car(10.0, 0.0);
@@ -140,47 +218,94 @@ mod tests {
     #[test]
     fn detector_sees_only_what_is_in_view_and_unoccluded() {
         let pose = Pose2::new(0.0, 0.0, 0.0);
-        let flame = FlameTarget {
-            centre: [15.0, 0.0, 0.8],
-        };
         let mut rng = ChaCha8Rng::seed_from_u64(1);
-        let seen = (0..200)
-            .filter(|_| !detect(&GROUND, &pose, &[flame], &[], &mut rng).is_empty())
+        let hits = (0..400)
+            .filter(|_| !seen(&pose, flame(15.0, 0.0), &[], &mut rng).is_empty())
             .count();
         assert!(
-            seen > 170 && seen < 200,
-            "misses at the documented rate: {seen}"
+            hits > 360 && hits < 400,
+            "misses at the documented rate: {hits}"
         );
         assert!(
-            detect(&GROUND, &pose, &[flame], &[car(8.0, 0.0)], &mut rng).is_empty(),
+            seen(&pose, flame(15.0, 0.0), &[car(8.0, 0.0)], &mut rng).is_empty(),
             "occluded"
         );
-        let behind = Pose2::new(0.0, 0.0, std::f64::consts::PI);
         assert!(
-            detect(&GROUND, &behind, &[flame], &[], &mut rng).is_empty(),
-            "outside the field of view"
+            seen(
+                &Pose2::new(0.0, 0.0, std::f64::consts::PI),
+                flame(15.0, 0.0),
+                &[],
+                &mut rng
+            )
+            .is_empty(),
+            "behind"
         );
-        let far = FlameTarget {
-            centre: [45.0, 0.0, 0.8],
-        };
         assert!(
-            detect(&GROUND, &pose, &[far], &[], &mut rng).is_empty(),
+            seen(&pose, flame(10.0, 9.0), &[], &mut rng).is_empty(),
+            "outside the image (42 deg off axis)"
+        );
+        assert!(
+            seen(&pose, flame(45.0, 0.0), &[], &mut rng).is_empty(),
             "beyond range"
         );
     }
 
     #[test]
-    fn detections_are_close_to_truth() {
-        let pose = Pose2::new(2.0, 1.0, 0.3);
-        let flame = FlameTarget {
-            centre: [12.0, 3.0, 0.8],
-        };
+    fn boxes_are_where_the_pinhole_model_puts_the_flame() {
+        let cam = GROUND.camera;
+        let pose = Pose2::new(0.0, 0.0, 0.0);
         let mut rng = ChaCha8Rng::seed_from_u64(2);
         let d = (0..20)
-            .find_map(|_| detect(&GROUND, &pose, &[flame], &[], &mut rng).pop())
+            .find_map(|_| seen(&pose, flame(10.6, 1.0), &[], &mut rng).pop())
             .unwrap();
-        let truth_bearing = (2.0f64).atan2(10.0) - 0.3;
-        assert!((d.bearing - truth_bearing).abs() < 0.05);
-        assert!((d.range - (104.0f64 + 0.04).sqrt()).abs() < 1.0);
+        // Flame centre 10 m ahead of the camera, 1 m to the left, 0.2 m below it.
+        let (uc, vc) = ((d.bbox[0] + d.bbox[2]) / 2.0, (d.bbox[1] + d.bbox[3]) / 2.0);
+        assert!((uc - (cam.cx - cam.fx * 1.0 / 10.0)).abs() < 6.0, "{uc}");
+        assert!((vc - (cam.cy + cam.fy * 0.2 / 10.0)).abs() < 6.0, "{vc}");
+        assert!(
+            ((d.bbox[2] - d.bbox[0]) - cam.fx * 1.6 / 10.0).abs() < 8.0,
+            "box width is the flame's"
+        );
+        let valid: Vec<f32> = d.depth.iter().copied().filter(|z| *z > 0.0).collect();
+        assert!(valid.len() >= 15);
+        assert!(
+            valid.iter().all(|z| (f64::from(*z) - 10.0).abs() < 1.5),
+            "{valid:?}"
+        );
+    }
+
+    #[test]
+    fn every_detection_is_a_valid_message() {
+        use firefleet_protocol::Validate;
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        // Small flames far away (boxes a few pixels high) and close ones.
+        let flames = [
+            FlameTarget {
+                centre: [29.0, 0.0, 0.1],
+                radius_m: 0.1,
+                height_m: 0.2,
+            },
+            FlameTarget {
+                centre: [4.0, 1.0, 1.0],
+                radius_m: 1.0,
+                height_m: 2.0,
+            },
+        ];
+        for _ in 0..5000 {
+            for d in detect(&GROUND.camera, &Pose2::default(), &flames, &[], &mut rng) {
+                d.validate().unwrap();
+            }
+        }
+    }
+
+    #[test]
+    fn false_alarms_appear_at_their_documented_rate() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let frames = 20_000;
+        let alarms: usize = (0..frames)
+            .map(|_| detect(&GROUND.camera, &Pose2::default(), &[], &[], &mut rng).len())
+            .sum();
+        let rate = alarms as f64 / frames as f64;
+        assert!((rate - physics::FALSE_ALARM_PROB).abs() < 0.004, "{rate}");
     }
 }

@@ -60,6 +60,16 @@ pub fn jet_spread_radius_m(travel_m: f64) -> f64 {
 /// accuracy). Bearing and depth noise are the camera's, in [`GroundSpec`](firefleet_protocol::spec::GroundSpec).
 pub const DETECT_MISS_PROB: f64 = 0.05;
 
+/// Probability of a false alarm per frame (hot surfaces, headlights and reflections that a
+/// flame detector mistakes for fire), with a low confidence (0.3 to 0.6). Assumption, of
+/// the order reported for YOLO flame detectors in tunnel imagery; per-unit tracking (three
+/// hits to confirm) and fusion are there to reject them.
+pub const FALSE_ALARM_PROB: f64 = 0.01;
+
+/// Smoke lowers a detector's confidence with distance: confidence is scaled by
+/// `exp(-k r)`. Assumption: light smoke (visibility of the order of 100 m).
+pub const SMOKE_EXTINCTION_PER_M: f64 = 0.01;
+
 /// A simulated unit stops and shuts its valve when no command has arrived for this long
 /// (wall time), as a real drive controller's watchdog would.
 pub const COMMAND_WATCHDOG: std::time::Duration = std::time::Duration::from_millis(500);

@@ -30,8 +30,11 @@ struct Fire {
 
 impl Fire {
     fn flame_centre(&self) -> camera::P3 {
-        let h = physics::flame_height_m(self.hrr_kw, 2.0 * self.spec.radius_m);
-        [self.spec.x_m, self.spec.y_m, h / 2.0]
+        [self.spec.x_m, self.spec.y_m, self.flame_height() / 2.0]
+    }
+
+    fn flame_height(&self) -> f64 {
+        physics::flame_height_m(self.hrr_kw, 2.0 * self.spec.radius_m)
     }
 
     /// Advance by `dt` with `density` mm/s of water on the burning area.
@@ -321,10 +324,18 @@ impl World {
             .filter(|f| f.state == TruthFireState::Burning && f.hrr_kw >= physics::Q_VISIBLE_KW)
             .map(|f| FlameTarget {
                 centre: f.flame_centre(),
+                radius_m: f.spec.radius_m,
+                height_m: f.flame_height(),
             })
             .collect();
         let b = self.bodies.iter().find(|b| &b.id == id)?;
-        let detections = camera::detect(&b.spec, &b.pose, &flames, &self.obstacles, &mut self.rng);
+        let detections = camera::detect(
+            &b.spec.camera,
+            &b.pose,
+            &flames,
+            &self.obstacles,
+            &mut self.rng,
+        );
         Some(UnitSensors {
             unit: b.id.clone(),
             t: self.t,

@@ -1,0 +1,126 @@
+//! Placing a detected flame in the site frame.
+//!
+//! The localization node of the BT paper (section 3.3.2): the box centre `(u, v)` and the
+//! depth there give the flame's position in the camera frame by equation 7 (with the
+//! paper's typo fixed: y uses c_y and f_y), then the camera's mount and the unit's pose
+//! take it to the site frame. Depth is taken robustly: the median of the valid pixels of
+//! the window around the box centre, with too few valid pixels meaning no position.
+
+use firefleet_protocol::geometry::{Gaussian2, Point2, Pose2};
+use firefleet_protocol::msg::{DEPTH_WINDOW, FlameDetection};
+use firefleet_protocol::spec::CameraSpec;
+
+/// Fewest valid depth pixels for a position (a third of the window).
+const MIN_VALID_DEPTH: usize = DEPTH_WINDOW * DEPTH_WINDOW / 3;
+
+/// A detection placed in the site frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Located {
+    /// Position on the road plane with its uncertainty.
+    pub estimate: Gaussian2,
+    /// Height of the box centre above the road, m.
+    pub height_m: f64,
+}
+
+/// Median of the valid (non-zero, finite) depths, or `None` with too few of them.
+pub fn robust_depth(window: &[f32]) -> Option<f64> {
+    let mut valid = [0.0f32; DEPTH_WINDOW * DEPTH_WINDOW];
+    let mut n = 0;
+    for z in window.iter().copied().filter(|z| z.is_finite() && *z > 0.0) {
+        valid[n] = z;
+        n += 1;
+    }
+    if n < MIN_VALID_DEPTH {
+        return None;
+    }
+    let v = &mut valid[..n];
+    v.sort_unstable_by(f32::total_cmp);
+    Some(f64::from(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    }))
+}
+
+/// Place detection `d` seen by a camera `cam` on a unit at `pose`.
+pub fn locate(d: &FlameDetection, cam: &CameraSpec, pose: &Pose2) -> Option<Located> {
+    let z = robust_depth(&d.depth)?;
+    let (u, v) = ((d.bbox[0] + d.bbox[2]) / 2.0, (d.bbox[1] + d.bbox[3]) / 2.0);
+    let [forward, left, up] = cam.camera_to_body(cam.back_project(u, v, z));
+    let mean = pose.to_site(Point2::new(forward, left));
+    // Depth error lies along the optical axis (the unit's heading); the box centre's pixel
+    // error, scaled by depth, across it. The median of n pixels is about sqrt(pi / 2n)
+    // sigma; we keep the single-pixel sigma, since neighbouring depth pixels correlate.
+    let along = cam.depth_sigma_m(z);
+    let across = z * cam.box_sigma_px / cam.fx;
+    Some(Located {
+        estimate: Gaussian2::oriented(mean, pose.yaw, along, across),
+        height_m: up,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firefleet_protocol::msg::ObjectClass;
+    use firefleet_protocol::spec::GROUND;
+    use proptest::prelude::*;
+
+    /// An ideal detection of a flame centred at body point `b`.
+    fn detection(cam: &CameraSpec, b: [f64; 3], depth: f32) -> FlameDetection {
+        let c = cam.body_to_camera(b);
+        let [u, v] = cam.project(c).unwrap();
+        FlameDetection {
+            class: ObjectClass::Fire,
+            confidence: 0.9,
+            bbox: [u - 20.0, v - 30.0, u + 20.0, v + 30.0],
+            depth: [depth; 25],
+        }
+    }
+
+    #[test]
+    fn robust_depth_ignores_dropouts_and_outliers() {
+        let mut w = [0.0f32; 25];
+        for (i, z) in w.iter_mut().enumerate().take(12) {
+            *z = 8.0 + 0.01 * i as f32;
+        }
+        w[12] = 80.0;
+        let z = robust_depth(&w).unwrap();
+        assert!((z - 8.065).abs() < 0.01, "{z}");
+        assert_eq!(robust_depth(&[0.0; 25]), None);
+        let mut sparse = [0.0f32; 25];
+        sparse[..7].fill(5.0);
+        assert_eq!(robust_depth(&sparse), None, "fewer than a third valid");
+    }
+
+    proptest! {
+        #[test]
+        fn pixels_and_depth_go_back_to_the_flame(
+            x in -50.0..50.0f64, y in -4.0..4.0f64, yaw in -3.0..3.0f64,
+            fwd in 2.0..25.0f64, side in -0.6..0.6f64, up in 0.2..3.0f64,
+        ) {
+            let cam = GROUND.camera;
+            let pose = Pose2::new(x, y, yaw);
+            let b = [fwd, side * (fwd - cam.mount_forward_m), up];
+            let z = cam.body_to_camera(b)[2];
+            let l = locate(&detection(&cam, b, z as f32), &cam, &pose).unwrap();
+            let truth = pose.to_site(Point2::new(b[0], b[1]));
+            prop_assert!(l.estimate.mean.dist(truth) < 1e-3 * fwd, "{:?} vs {truth:?}", l.estimate.mean);
+            prop_assert!((l.height_m - up).abs() < 1e-3);
+        }
+    }
+
+    #[test]
+    fn uncertainty_is_depth_along_the_axis_and_pixels_across_it() {
+        let cam = GROUND.camera;
+        let l = locate(
+            &detection(&cam, [20.6, 0.0, 1.0], 20.0),
+            &cam,
+            &Pose2::default(),
+        )
+        .unwrap();
+        let [xx, xy, yy] = l.estimate.cov;
+        assert!((xx.sqrt() - cam.depth_sigma_m(20.0)).abs() < 1e-9 && xy.abs() < 1e-12);
+        assert!((yy.sqrt() - 20.0 * cam.box_sigma_px / cam.fx).abs() < 1e-9);
+    }
+}
