@@ -31,6 +31,8 @@ const AIM_TOLERANCE_RAD: f64 = 0.05;
 const GRID_RES_M: f64 = 0.25;
 /// How long after the last detection a flame still counts as seen, s.
 const RECENTLY_SEEN_S: f64 = 2.0;
+/// Clearance a planned jet keeps from the ceiling, m.
+const JET_CEILING_MARGIN_M: f64 = 0.3;
 /// Backing off after touching something, s.
 const RECOVER_S: f64 = 1.5;
 
@@ -224,7 +226,6 @@ impl Unit {
     /// the vehicle, with line of sight and a jet solution under the ceiling, arriving along
     /// the line towards the fire so that the camera faces it.
     pub fn firing_position(&mut self, target: Point2) -> Option<Point2> {
-        let (nav, sight, spec) = (&self.nav_grid, &self.sight_grid, &self.spec);
         let from = self.pose().position();
         let home = target.bearing_to(from);
         let offsets = (0..=8).flat_map(|k| {
@@ -234,15 +235,10 @@ impl Unit {
         for off in offsets {
             for r in STANDOFF_M {
                 let spot = target.offset(home + off, r);
-                if !nav.free(spot) || !sight.segment_free(spot, target) {
-                    continue;
-                }
-                let Ok(e) = aim::elevations(r, -spec.cannon_height_m, spec.cannon_muzzle_speed_m_s)
-                else {
-                    continue;
-                };
-                if spec.cannon_height_m + aim::apex_height(e.low, spec.cannon_muzzle_speed_m_s)
-                    >= self.scenario.tunnel.height_m
+                let nav = &self.nav_grid;
+                if !nav.free(spot)
+                    || !self.sight_grid.segment_free(spot, target)
+                    || self.firing_solution(spot, target).is_err()
                 {
                     continue;
                 }
@@ -264,20 +260,52 @@ impl Unit {
         None
     }
 
-    /// Cannon set-points that land the jet on `target`, or `None` out of reach.
+    /// The shot from a nozzle above `from` onto the road at `target`: the low arc if it is
+    /// within the cannon's elevation limits and clears the ceiling and the parked vehicles,
+    /// else the high arc, else none.
+    pub fn firing_solution(
+        &self,
+        from: Point2,
+        target: Point2,
+    ) -> Result<aim::Shot, aim::NoSolution> {
+        let (d, h, az) = (
+            from.dist(target),
+            self.spec.cannon_height_m,
+            from.bearing_to(target),
+        );
+        let t = &self.scenario.tunnel;
+        let (lo, hi) = (self.spec.cannon_tilt_min_rad, self.spec.cannon_tilt_max_rad);
+        aim::solve(&self.spec.nozzle, d, -h, |th, v| {
+            if !(lo..=hi).contains(&th) {
+                return false;
+            }
+            // Sample the arc every 0.25 m up to half a metre short of the target (which is
+            // on the road, beside whatever burns).
+            let n = ((d - 0.5) / 0.25).ceil().max(1.0) as usize;
+            (1..=n).all(|k| {
+                let x = (d - 0.5) * k as f64 / n as f64;
+                let z = h + aim::height_at(x, th, v);
+                let p = from.offset(az, x);
+                z < t.height_m - JET_CEILING_MARGIN_M
+                    && p.y.abs() < t.width_m / 2.0
+                    && !self
+                        .scenario
+                        .obstacles
+                        .iter()
+                        .any(|o| z <= o.height_m && o.footprint_contains(p, 0.0))
+            })
+        })
+    }
+
+    /// Cannon set-points that land the jet on `target`, or `None` with no firing solution.
     pub fn aim_at(&self, target: Point2) -> Option<(f64, f64)> {
         let nozzle = self.pose().position();
         let pan = wrap_angle(nozzle.bearing_to(target) - self.pose().yaw).clamp(
             -self.spec.cannon_pan_limit_rad,
             self.spec.cannon_pan_limit_rad,
         );
-        let e = aim::elevations(
-            nozzle.dist(target),
-            -self.spec.cannon_height_m,
-            self.spec.cannon_muzzle_speed_m_s,
-        )
-        .ok()?;
-        Some((pan, e.low))
+        let shot = self.firing_solution(nozzle, target).ok()?;
+        Some((pan, shot.elevation))
     }
 
     /// The cannon is at its set-point.

@@ -271,7 +271,7 @@ impl World {
                 nozzle,
                 b.pose.yaw + b.cannon.pan,
                 b.cannon.tilt,
-                b.spec.cannon_muzzle_speed_m_s,
+                &b.spec.nozzle,
             );
             if let Landing::Road { at, travel_m } = landing {
                 sprays.push((at, physics::jet_spread_radius_m(travel_m), litres / dt));
@@ -401,7 +401,7 @@ mod tests {
         height_m = 1.5
         [[fires]]
         name = "f"
-        x_m = 30.0
+        x_m = 15.0
         y_m = 0.0
         growth = "fast"
         peak_kw = 3000.0
@@ -461,10 +461,10 @@ mod tests {
     #[test]
     fn water_on_the_fire_puts_it_out_and_water_beside_it_does_not() {
         let aim = |w: &mut World, pan: f64| {
-            // Unit at x=5 faces +x; the fire is 25 m ahead and 2.5 m left. Elevation for a
-            // 25.1 m shot from 1.2 m at 20 m/s (low arc).
-            let d = 25.0f64.hypot(2.5);
-            let v = 20.0f64;
+            // Unit at x=5 faces +x; the fire is 10 m ahead and 2.5 m left. Low-arc elevation
+            // for that shot from 1.2 m at the nozzle's equation-9 speed for its reach.
+            let d = 10.0f64.hypot(2.5);
+            let v = GROUND.nozzle.exit_speed_m_s(d);
             let (g, h) = (physics::G, 1.2);
             let tilt =
                 ((v * v - (v.powi(4) - g * (g * d * d - 2.0 * h * v * v)).sqrt()) / (g * d)).atan();
@@ -480,9 +480,9 @@ mod tests {
             );
         };
         let mut off = world();
-        aim(&mut off, 0.3);
+        aim(&mut off, 0.6);
         let mut on = world();
-        aim(&mut on, (2.5f64).atan2(25.0));
+        aim(&mut on, (2.5f64).atan2(10.0));
         for _ in 0..400 {
             off.step(0.05);
             on.step(0.05);
