@@ -132,7 +132,7 @@ pub fn registry() -> Registry<Unit> {
                         u.job = Some(Some((seq, id)));
                         (u.flame_near(target, 3.0).unwrap_or(target), seq as i64)
                     }
-                    None => match u.flame_near(u.pose().position(), f64::INFINITY) {
+                    None => match u.most_confident_flame(f64::INFINITY) {
                         Some(f) => {
                             u.job = Some(None);
                             (f, -1)

@@ -163,6 +163,23 @@ impl Unit {
             .map(|t| t.position())
     }
 
+    /// The confirmed flame seen within [`RECENTLY_SEEN_S`] and `within` metres that the
+    /// detector is most confident of (ties: the nearest).
+    pub fn most_confident_flame(&self, within: f64) -> Option<Point2> {
+        let at = self.pose().position();
+        self.tracker
+            .confirmed()
+            .filter(|t| {
+                self.now() - t.last_seen <= RECENTLY_SEEN_S && t.position().dist(at) <= within
+            })
+            .max_by(|a, b| {
+                a.confidence
+                    .total_cmp(&b.confidence)
+                    .then(b.position().dist(at).total_cmp(&a.position().dist(at)))
+            })
+            .map(|t| t.position())
+    }
+
     /// Cruise goal: the coordinator's, or else the far end of the lane the unit is in.
     pub fn cruise_goal(&self) -> Point2 {
         if let Some((_, TaskKind::Cruise { goal })) = self.task {

@@ -534,6 +534,8 @@ pub enum TruthFireState {
     /// Not ignited yet.
     Dormant,
     Burning,
+    /// Flames knocked down, fuel bed still hot: re-ignites if left without water.
+    Smouldering,
     Out,
 }
 

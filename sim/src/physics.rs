@@ -31,6 +31,14 @@ pub fn radiant_flux_kw_m2(q_kw: f64, r_m: f64) -> f64 {
 /// a waste-paper basket; below it, no visible flame is left for a detector.
 pub const Q_OUT_KW: f64 = 20.0;
 
+/// A knocked-down fire (flames gone, heat release under [`Q_OUT_KW`]) is out only after its
+/// fuel bed has taken this much more water per square metre of burning area; left without
+/// water for [`REIGNITE_AFTER_S`] before that, it flares up again. Assumption: hot fuel beds
+/// re-ignite within seconds to tens of seconds, and cooling them takes a few litres per
+/// square metre (minutes of a sprinkler's 2 to 5 mm/min design density).
+pub const COOLING_WATER_L_PER_M2: f64 = 5.0;
+pub const REIGNITE_AFTER_S: f64 = 10.0;
+
 /// A flame is visible to a detector above this heat release rate, kW.
 pub const Q_VISIBLE_KW: f64 = Q_OUT_KW;
 

@@ -26,6 +26,10 @@ struct Fire {
     state: TruthFireState,
     wetted: bool,
     water_received_l: f64,
+    /// While smouldering: water still needed to cool the fuel bed, L, and how long the
+    /// fire has gone without water, s.
+    cooling_left_l: f64,
+    dry_s: f64,
 }
 
 impl Fire {
@@ -47,6 +51,26 @@ impl Fire {
                 self.hrr_kw = self.alpha * (t + dt - self.spec.ignition_s).powi(2);
             }
             TruthFireState::Burning => {}
+            TruthFireState::Smouldering => {
+                self.water_received_l += litres;
+                if litres > 0.0 {
+                    self.dry_s = 0.0;
+                    self.cooling_left_l -= litres;
+                    if self.cooling_left_l <= 0.0 {
+                        self.state = TruthFireState::Out;
+                        self.hrr_kw = 0.0;
+                    }
+                } else {
+                    self.dry_s += dt;
+                    if self.dry_s >= physics::REIGNITE_AFTER_S {
+                        // Abandoned too early: the hot fuel bed flares up again.
+                        self.state = TruthFireState::Burning;
+                        self.hrr_kw = physics::Q_OUT_KW;
+                        self.wetted = false;
+                    }
+                }
+                return;
+            }
         }
         self.water_received_l += litres;
         if density > 0.0 {
@@ -59,8 +83,11 @@ impl Fire {
         }
         self.hrr_kw = self.hrr_kw.min(self.spec.peak_kw);
         if self.wetted && self.hrr_kw < physics::Q_OUT_KW {
-            self.state = TruthFireState::Out;
-            self.hrr_kw = 0.0;
+            // Flames knocked down; the fuel bed still has to be cooled.
+            self.state = TruthFireState::Smouldering;
+            self.cooling_left_l =
+                physics::COOLING_WATER_L_PER_M2 * physics::disk_area(self.spec.radius_m);
+            self.dry_s = 0.0;
         }
     }
 }
@@ -188,6 +215,8 @@ impl World {
                 state: TruthFireState::Dormant,
                 wetted: false,
                 water_received_l: 0.0,
+                cooling_left_l: 0.0,
+                dry_s: 0.0,
             })
             .collect();
         let bodies = scenario
@@ -431,6 +460,51 @@ mod tests {
             w.step(0.05);
         }
         assert_eq!(w.truth().fires[0].hrr_kw, 3000.0);
+    }
+
+    /// Knock the fire down, then either keep the water on for `soak_s` or walk away.
+    fn knock_down_then(soak_s: f64) -> World {
+        let mut w = world();
+        let d = 10.0f64.hypot(2.5);
+        let v = GROUND.nozzle.exit_speed_m_s(d);
+        let (g, h) = (physics::G, 1.2);
+        let tilt =
+            ((v * v - (v.powi(4) - g * (g * d * d - 2.0 * h * v * v)).sqrt()) / (g * d)).atan();
+        let mut cmd = UnitCommand {
+            speed: 0.0,
+            steer: 0.0,
+            pan: (2.5f64).atan2(10.0),
+            tilt,
+            valve_open: true,
+        };
+        w.command(&u1(), cmd);
+        while w.truth().fires[0].state == TruthFireState::Burning {
+            w.step(0.05);
+        }
+        assert_eq!(w.truth().fires[0].state, TruthFireState::Smouldering);
+        for _ in 0..(soak_s / 0.05) as usize {
+            w.step(0.05);
+        }
+        cmd.valve_open = false;
+        w.command(&u1(), cmd);
+        for _ in 0..300 {
+            w.step(0.05);
+        }
+        w
+    }
+
+    #[test]
+    fn a_knocked_down_fire_reignites_unless_it_is_cooled() {
+        assert_eq!(
+            knock_down_then(0.0).truth().fires[0].state,
+            TruthFireState::Burning,
+            "abandoned at knock-down"
+        );
+        // 5 L/m^2 over the 3.14 m^2 bed at about 10 L/s: under 2 s of cooling.
+        assert_eq!(
+            knock_down_then(3.0).truth().fires[0].state,
+            TruthFireState::Out
+        );
     }
 
     #[test]
