@@ -7,6 +7,7 @@
 
 mod bt_cli;
 mod demo;
+mod experiment;
 mod roles;
 mod scenarios;
 
@@ -44,6 +45,9 @@ enum Command {
     /// Validate, show or dry-run behavior-tree XML files.
     #[command(subcommand)]
     Bt(bt_cli::BtCommand),
+    /// Reproduce an experiment of the papers in the simulator.
+    #[command(subcommand)]
+    Experiment(experiment::ExperimentCommand),
     /// List the built-in scenarios.
     Scenarios,
 }
@@ -171,9 +175,10 @@ fn positive_f64(s: &str) -> Result<f64, String> {
     }
 }
 
-fn init_logging() {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| "info,zenoh=warn".into());
+/// Log to stderr; `RUST_LOG` overrides `default`.
+fn init_logging(default: &str) {
+    let filter =
+        tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| default.into());
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
@@ -182,7 +187,9 @@ fn init_logging() {
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    init_logging();
+    // Experiments and tree tools print tables; per-event logs are noise there.
+    let quiet = matches!(cli.command, Command::Experiment(_) | Command::Bt(_));
+    init_logging(if quiet { "warn" } else { "info,zenoh=warn" });
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
@@ -197,6 +204,7 @@ fn main() -> std::process::ExitCode {
             Command::Status(a) => roles::status(a).await,
             Command::Scenarios => scenarios::list(),
             Command::Bt(c) => bt_cli::run(c),
+            Command::Experiment(c) => experiment::run(c),
         }
     });
     match result {

@@ -112,3 +112,44 @@ fn bad_scenarios_and_arguments_are_refused_with_the_reason() {
         text(&out.stderr)
     );
 }
+
+#[test]
+fn the_cannon_experiment_reports_every_angle_and_is_reproducible() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.json"), dir.path().join("b.json"));
+    for path in [&a, &b] {
+        let out = firefleet(&[
+            "experiment",
+            "cannon",
+            "--seed",
+            "3",
+            "--trials",
+            "4",
+            "--json",
+            path.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+    }
+    let (ja, jb) = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    assert_eq!(ja, jb, "the same seed gives the same results");
+    let v: serde_json::Value = serde_json::from_slice(&ja).unwrap();
+    let angles = v["angles"].as_array().unwrap();
+    assert_eq!(
+        angles
+            .iter()
+            .map(|x| x["angle_deg"].as_f64().unwrap())
+            .collect::<Vec<_>>(),
+        [0.0, 30.0, 60.0]
+    );
+    for x in angles {
+        for key in [
+            "trials",
+            "mean_s_per_flame",
+            "std_s_per_flame",
+            "completion_rate",
+        ] {
+            assert!(x[key].is_number(), "{key} in {x}");
+        }
+        assert!(x["completion_rate"].as_f64().unwrap() > 0.9, "{x}");
+    }
+}

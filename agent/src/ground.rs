@@ -23,9 +23,19 @@ use crate::unit::Unit;
 /// The shipped ground-unit tree (Algorithm 1, adapted to the fleet).
 pub const GROUND_TREE: &str = include_str!("../trees/ground_unit.xml");
 
+/// The BT paper's water-cannon experiment: scan, locate, extinguish, repeat.
+pub const CANNON_EXPERIMENT_TREE: &str = include_str!("../trees/cannon_experiment.xml");
+
 /// The shipped tree as a document.
 pub fn default_tree() -> Document {
     xml::parse_str(GROUND_TREE, "ground_unit.xml").expect("the shipped tree parses")
+}
+
+/// The cannon-experiment tree, with the ground tree it includes.
+pub fn cannon_experiment_tree() -> Document {
+    let resolve = |path: &str| (path == "ground_unit.xml").then(|| GROUND_TREE.to_owned());
+    xml::parse_with_includes(CANNON_EXPERIMENT_TREE, "cannon_experiment.xml", &resolve)
+        .expect("the shipped tree parses")
 }
 
 /// The control loop of one ground unit.

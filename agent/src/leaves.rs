@@ -42,6 +42,39 @@ impl StatefulAction<Unit> for StartWaterCannon {
     fn on_halted(&mut self, _: &mut Io<'_>, _: &mut Unit) {}
 }
 
+/// Sweeps the cannon, and the camera riding on it, left and right to look for fire: a
+/// triangle wave of +-`amplitude_rad` at just under the pan slew rate. Runs until halted
+/// (put it behind a FireDetection in a ReactiveFallback).
+struct ScanForFire {
+    since: f64,
+}
+
+impl StatefulAction<Unit> for ScanForFire {
+    fn on_start(&mut self, io: &mut Io<'_>, u: &mut Unit) -> Status {
+        self.since = u.now();
+        self.on_running(io, u)
+    }
+    fn on_running(&mut self, io: &mut Io<'_>, u: &mut Unit) -> Status {
+        let amplitude = io
+            .get::<f64>(0)
+            .unwrap_or(1.5)
+            .clamp(0.0, u.spec.cannon_pan_limit_rad);
+        let period = 4.0 * amplitude / (0.9 * u.spec.cannon_pan_rate_rad_s);
+        // Phase 0 at the centre, heading left first.
+        let phase = ((u.now() - self.since) / period + 0.25).fract();
+        let tri = if phase < 0.5 {
+            4.0 * phase - 1.0
+        } else {
+            3.0 - 4.0 * phase
+        };
+        u.scan = Some(amplitude * tri);
+        Status::Running
+    }
+    fn on_halted(&mut self, _: &mut Io<'_>, u: &mut Unit) {
+        u.scan = None;
+    }
+}
+
 /// Every leaf the ground unit's trees may use.
 pub fn registry() -> Registry<Unit> {
     use PortType::{Double, Int, Point};
@@ -209,6 +242,7 @@ pub fn registry() -> Registry<Unit> {
                 };
                 // Re-aim at the flame as the camera sees it now.
                 let target = u.flame_near(p(f), 3.0).unwrap_or(p(f));
+                u.sweep_over(target);
                 match u.aim_at(target) {
                     Some((pan, tilt)) => ok(io.set(1, pan).is_ok() && io.set(2, tilt).is_ok()),
                     None => Status::Failure,
@@ -255,6 +289,18 @@ pub fn registry() -> Registry<Unit> {
                 _ => Status::Failure,
             }
         },
+    );
+    r.register_stateful(
+        "ScanForFire",
+        vec![
+            PortSpec::input(
+                "amplitude_rad",
+                Double,
+                "sweep either side of straight ahead",
+            )
+            .with_default("1.5"),
+        ],
+        || ScanForFire { since: 0.0 },
     );
     r.register_condition("IsCannonNotStarted", vec![], || {
         |_: &mut Io<'_>, u: &mut Unit| ok(!u.valve)

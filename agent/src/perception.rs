@@ -20,6 +20,8 @@ pub struct Located {
     pub estimate: Gaussian2,
     /// Height of the box centre above the road, m.
     pub height_m: f64,
+    /// Half the box's width at the flame's depth, m.
+    pub radius_m: f64,
 }
 
 /// Median of the valid (non-zero, finite) depths, or `None` with too few of them.
@@ -56,6 +58,7 @@ pub fn locate(d: &FlameDetection, cam: &CameraSpec, pose: &Pose2) -> Option<Loca
     Some(Located {
         estimate: Gaussian2::oriented(mean, pose.yaw, along, across),
         height_m: up,
+        radius_m: (d.bbox[2] - d.bbox[0]) / 2.0 * z / cam.fx,
     })
 }
 
@@ -107,6 +110,8 @@ mod tests {
             let truth = pose.to_site(Point2::new(b[0], b[1]));
             prop_assert!(l.estimate.mean.dist(truth) < 1e-3 * fwd, "{:?} vs {truth:?}", l.estimate.mean);
             prop_assert!((l.height_m - up).abs() < 1e-3);
+            // The test box is 40 px wide.
+            prop_assert!((l.radius_m - 20.0 * z / cam.fx).abs() < 1e-6);
         }
     }
 

@@ -27,6 +27,8 @@ const MIN_VAR_M2: f64 = 0.01;
 pub struct Track {
     pub estimate: Gaussian2,
     pub confidence: f64,
+    /// Half the flame's width, from its box and depth, m (smoothed).
+    pub radius_m: f64,
     pub hits: u32,
     pub last_seen: f64,
 }
@@ -56,7 +58,11 @@ impl FlameTracker {
             tr.estimate.inflate(PROCESS_NOISE_M2_S * dt);
         }
         for d in &s.detections {
-            let Some(located) = perception::locate(d, &spec.camera, &s.pose) else {
+            let Some(located) = perception::locate(
+                d,
+                &spec.camera,
+                &spec.camera.looking_from(&s.pose, s.cannon.pan),
+            ) else {
                 continue;
             };
             let z = located.estimate;
@@ -73,11 +79,13 @@ impl FlameTracker {
                     tr.estimate.cov[2] = tr.estimate.cov[2].max(MIN_VAR_M2);
                     tr.hits += 1;
                     tr.confidence = 0.7 * tr.confidence + 0.3 * d.confidence;
+                    tr.radius_m = 0.7 * tr.radius_m + 0.3 * located.radius_m;
                     tr.last_seen = s.t;
                 }
                 None => self.tracks.push(Track {
                     estimate: z,
                     confidence: d.confidence,
+                    radius_m: located.radius_m,
                     hits: 1,
                     last_seen: s.t,
                 }),

@@ -31,6 +31,9 @@ const AIM_TOLERANCE_RAD: f64 = 0.05;
 const GRID_RES_M: f64 = 0.25;
 /// How long after the last detection a flame still counts as seen, s.
 const RECENTLY_SEEN_S: f64 = 2.0;
+/// Period of the sweep across a flame's base while spraying, s. With the sweep's half-width
+/// at half the flame's radius, the pan rate stays far under the slew rate.
+const SWEEP_PERIOD_S: f64 = 2.0;
 /// Clearance a planned jet keeps from the ceiling, m.
 const JET_CEILING_MARGIN_M: f64 = 0.3;
 /// Backing off after touching something, s.
@@ -70,6 +73,10 @@ pub struct Unit {
     prepared: Option<(Point2, Vec<Point2>)>,
     /// Cannon set-point (pan, tilt) and whether the valve is wanted open.
     pub(crate) aim: Option<(f64, f64)>,
+    /// Pan set-point while sweeping the cannon (and its camera) to look for fire.
+    pub(crate) scan: Option<f64>,
+    /// Half-angle of the sweep across the flame base while spraying, rad.
+    pub(crate) sweep_rad: f64,
     pub(crate) valve: bool,
     pub(crate) coordinator_present: bool,
     /// The coordinator's latest task.
@@ -112,6 +119,8 @@ impl Unit {
             cruising_to: None,
             prepared: None,
             aim: None,
+            scan: None,
+            sweep_rad: 0.0,
             valve: false,
             coordinator_present: false,
             task: None,
@@ -150,6 +159,19 @@ impl Unit {
             }
             _ => None,
         }
+    }
+
+    /// Set the sweep across the flame at `target`: half its estimated radius either side of
+    /// the aim point, so that the jet's own spread covers the rest of the base.
+    pub fn sweep_over(&mut self, target: Point2) {
+        let radius = self
+            .tracker
+            .confirmed()
+            .filter(|t| t.position().dist(target) < 1.0)
+            .map(|t| t.radius_m)
+            .next()
+            .unwrap_or(0.0);
+        self.sweep_rad = (0.5 * radius / self.pose().position().dist(target).max(1.0)).atan();
     }
 
     /// A confirmed flame seen within [`RECENTLY_SEEN_S`] and within `within` metres of `of`.
@@ -347,7 +369,14 @@ impl Unit {
     /// its aim, the valve follows the request.
     pub fn command(&mut self) -> UnitCommand {
         let f = &self.frame;
-        let (pan, tilt) = self.aim.unwrap_or((f.cannon.pan, f.cannon.tilt));
+        // Aiming, scanning, or parked straight ahead (the camera rides on the cannon).
+        let (mut pan, tilt) = self
+            .aim
+            .or(self.scan.map(|p| (p, 0.0)))
+            .unwrap_or((0.0, 0.0));
+        if self.valve {
+            pan += self.sweep_rad * (std::f64::consts::TAU * f.t / SWEEP_PERIOD_S).sin();
+        }
         let mut cmd = UnitCommand {
             speed: 0.0,
             steer: 0.0,

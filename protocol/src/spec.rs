@@ -5,6 +5,8 @@
 //! assumptions for a mid-size tunnel firefighting robot (LUF 60 / Thermite class), not
 //! tuned to any experiment.
 
+use crate::geometry::Pose2;
+
 /// Limits and geometry of a ground unit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GroundSpec {
@@ -86,7 +88,10 @@ pub struct CameraSpec {
     pub fy: f64,
     pub cx: f64,
     pub cy: f64,
-    /// Optical centre in the body frame: ahead of the pose origin, and above the road, m.
+    /// The camera sits on the cannon and pans with it (as on many robot monitors), so it
+    /// sees what the cannon aims at; otherwise it looks along the body.
+    pub pans_with_cannon: bool,
+    /// Optical centre ahead of the pan axis (the pose origin), and above the road, m.
     pub mount_forward_m: f64,
     pub mount_height_m: f64,
     /// Range to which the detector finds flames, m.
@@ -104,6 +109,16 @@ pub struct CameraSpec {
 }
 
 impl CameraSpec {
+    /// The pose the camera looks from: the body's, turned by the cannon's pan if the camera
+    /// rides on the cannon. Camera and body frames above are relative to this pose.
+    pub fn looking_from(&self, body: &Pose2, cannon_pan: f64) -> Pose2 {
+        if self.pans_with_cannon {
+            Pose2::new(body.x, body.y, body.yaw + cannon_pan)
+        } else {
+            *body
+        }
+    }
+
     /// Depth noise (one sigma) at depth `z`, m.
     pub fn depth_sigma_m(&self, z: f64) -> f64 {
         self.depth_sigma_a_m + self.depth_sigma_b_per_m * z * z
@@ -194,6 +209,7 @@ pub const GROUND: GroundSpec = GroundSpec {
         fy: 465.6,
         cx: 320.0,
         cy: 240.0,
+        pans_with_cannon: true,
         mount_forward_m: 0.6,
         mount_height_m: 1.0,
         range_m: 30.0,

@@ -360,7 +360,7 @@ impl World {
         let b = self.bodies.iter().find(|b| &b.id == id)?;
         let detections = camera::detect(
             &b.spec.camera,
-            &b.pose,
+            &b.spec.camera.looking_from(&b.pose, b.cannon.pan),
             &flames,
             &self.obstacles,
             &mut self.rng,

@@ -187,6 +187,36 @@ pub fn parse_str(text: &str, origin: &str) -> Result<Document, XmlErrors> {
     Ok(doc)
 }
 
+/// Parse XML text whose `<include path>`s `resolve` supplies (for trees embedded in a
+/// binary rather than read from files). An include `resolve` does not know is an error.
+pub fn parse_with_includes(
+    text: &str,
+    origin: &str,
+    resolve: &dyn Fn(&str) -> Option<String>,
+) -> Result<Document, XmlErrors> {
+    let mut doc = Document::default();
+    let mut pending = vec![(text.to_owned(), origin.to_owned(), true)];
+    let mut seen = vec![origin.to_owned()];
+    while let Some((text, origin, top)) = pending.pop() {
+        for (path, line) in parse_into(&text, &origin, &mut doc, top)? {
+            if seen.contains(&path) {
+                continue;
+            }
+            let inc = resolve(&path).ok_or_else(|| {
+                err(
+                    &origin,
+                    line,
+                    "include",
+                    format!("unknown include '{path}'"),
+                )
+            })?;
+            seen.push(path.clone());
+            pending.push((inc, path, false));
+        }
+    }
+    Ok(doc)
+}
+
 /// Parse one file's trees into `doc`; returns its includes (path, line).
 fn parse_into(
     text: &str,
