@@ -16,21 +16,29 @@ const TUNNEL: Tunnel = Tunnel {
     lanes: 2,
 };
 
-/// Solve within the cannon's limits and under the ceiling, then fly the jet.
-fn shoot(d: f64, bearing: f64) -> Result<Landing, NoSolution> {
+/// Solve within the cannon's limits and under a ceiling `ceiling_m` high, then fly the jet.
+fn shoot_under(ceiling_m: f64, d: f64, bearing: f64) -> Result<Landing, NoSolution> {
     let (h, spec) = (GROUND.cannon_height_m, GROUND);
     let shot = aim::solve(&spec.nozzle, d, -h, |th, v| {
         (spec.cannon_tilt_min_rad..=spec.cannon_tilt_max_rad).contains(&th)
-            && h + (v * th.sin()).max(0.0).powi(2) / (2.0 * 9.81) < TUNNEL.height_m - 0.3
+            && h + (v * th.sin()).max(0.0).powi(2) / (2.0 * 9.81) < ceiling_m - 0.3
     })?;
+    let tunnel = Tunnel {
+        height_m: ceiling_m,
+        ..TUNNEL
+    };
     Ok(jet::trace(
-        &TUNNEL,
+        &tunnel,
         &[],
         [100.0, 0.0, h],
         bearing,
         shot.elevation,
         &spec.nozzle,
     ))
+}
+
+fn shoot(d: f64, bearing: f64) -> Result<Landing, NoSolution> {
+    shoot_under(TUNNEL.height_m, d, bearing)
 }
 
 proptest! {
@@ -52,4 +60,11 @@ fn out_of_reach_and_too_close_targets_are_refused_explicitly() {
     assert_eq!(shoot(40.0, 0.0), Err(NoSolution::OutOfRange));
     // 2 m away the jet would have to point 30 deg down; the cannon stops at -15.
     assert_eq!(shoot(2.0, 0.0), Err(NoSolution::Blocked));
+    // 20 m away the low arc peaks 2.5 m above the road: under a 2.6 m ceiling (with its
+    // 0.3 m margin) it is blocked, and the high arc is steeper than the cannon's 60 deg.
+    assert!(matches!(
+        shoot_under(6.3, 20.0, 0.0),
+        Ok(Landing::Road { .. })
+    ));
+    assert_eq!(shoot_under(2.6, 20.0, 0.0), Err(NoSolution::Blocked));
 }

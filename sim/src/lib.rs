@@ -1,9 +1,10 @@
 //! A burning tunnel that stands in for the real one.
 //!
 //! [`world`] is the physics, pure and deterministic for a given seed and command sequence:
-//! fires that grow as t-squared fires and shrink under water, the radiant heat they give
-//! off, ground vehicles on a kinematic bicycle model, water cannons with slew limits and a
-//! ballistic jet, and a flame detector with field of view, range, occlusion and noise.
+//! fires that grow as t-squared fires, are knocked down by water and re-ignite if left hot,
+//! the radiant heat they give off, ground vehicles on a kinematic bicycle model, water
+//! cannons with slew limits and a ballistic jet, and an RGB-D flame detector (boxes with a
+//! depth window, field of view, range, occlusion, misses, false alarms, noise).
 //! [`physics`] holds every physical constant with its source or stated assumption.
 //!
 //! [`node`] puts the world on the bus exactly as real hardware drivers would be: each unit
@@ -11,8 +12,9 @@
 //! the simulator publishes its clock and ground truth. Agents cannot tell it from hardware
 //! except by the clock it keeps.
 //!
-//! Not modelled (yet): smoke transport and visibility, ventilation, fire spread between
-//! vehicles, collisions between units, false-positive detections.
+//! Not modelled (yet): smoke transport and visibility (smoke only lowers detector
+//! confidence with distance), ventilation, fire spread between vehicles, collisions between
+//! units.
 
 pub mod camera;
 pub mod jet;
