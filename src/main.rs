@@ -123,6 +123,10 @@ pub struct CoordinatorArgs {
     /// Follow the simulator's clock (ff/<site>/sim/clock) instead of the system clock.
     #[arg(long)]
     sim_clock: bool,
+    /// How units are paired with fires: optimal (least total travel time) or greedy
+    /// (nearest free unit first).
+    #[arg(long, default_value = "optimal")]
+    assignment: firefleet_coordinator::assign::Strategy,
 }
 
 #[derive(Args, Debug)]

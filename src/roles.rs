@@ -87,6 +87,7 @@ pub async fn coordinator(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
     let opts = CoordinatorOptions {
         lease_s: a.lease_s,
         sim_clock: a.sim_clock,
+        strategy: a.assignment,
     };
     firefleet_coordinator::run(
         &bus,

@@ -104,6 +104,10 @@ fn bad_scenarios_and_arguments_are_refused_with_the_reason() {
             .contains("--unit ugv-9: the scenario 'vehicle-collision' has no such unit")
     );
 
+    let out = firefleet(&["coordinator", "--assignment", "auction"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("'auction' is not an assignment strategy"), "{}", text(&out.stderr));
+
     let out = firefleet(&["sim", "--time-scale", "0"]);
     assert!(!out.status.success());
     assert!(

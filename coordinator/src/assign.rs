@@ -1,11 +1,49 @@
 //! Which free unit attacks which fire.
 //!
-//! Greedy on cost: repeatedly take the cheapest (unit, fire) pair among free units and
-//! unattended fires. Cost is the straight-line travel time at the unit's top speed, a
-//! lower bound of the real travel time. A unit that already works on a fire keeps it (the
-//! caller passes only free units), so nobody is pulled off a fire it is spraying.
+//! Two strategies, both over the same costs (straight-line travel time at the unit's top
+//! speed, a lower bound of the real travel time):
+//!
+//! - [`greedy`]: repeatedly take the cheapest (unit, fire) pair: what a nearest-free-unit
+//!   dispatcher does.
+//! - [`optimal`]: the minimum total cost over all pairings ([`hungarian`]), so that one
+//!   unit's nearest fire does not leave another fire with only a far unit.
+//!
+//! Either way only free units and unattended fires take part: a unit already working on a
+//! fire keeps it, so nobody is pulled off a fire it is spraying.
 
 use firefleet_protocol::{FireId, Point2, UnitId};
+
+/// How the coordinator pairs units with fires.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Strategy {
+    /// Nearest free unit first ([`greedy`]).
+    Greedy,
+    /// Minimum total travel time ([`optimal`]).
+    #[default]
+    Optimal,
+}
+
+impl Strategy {
+    pub fn solve(self, units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
+        match self {
+            Strategy::Greedy => greedy(units, needs),
+            Strategy::Optimal => optimal(units, needs),
+        }
+    }
+}
+
+impl std::str::FromStr for Strategy {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "greedy" => Ok(Strategy::Greedy),
+            "optimal" => Ok(Strategy::Optimal),
+            other => Err(format!(
+                "'{other}' is not an assignment strategy (greedy, optimal)"
+            )),
+        }
+    }
+}
 
 /// A unit that could take a fire.
 #[derive(Debug, Clone)]
@@ -32,9 +70,126 @@ pub struct Pick {
     pub runner_up: Option<(UnitId, f64)>,
 }
 
+/// Travel time of `u` to `n`, s.
+fn cost(u: &Candidate, n: &Need) -> f64 {
+    u.position.dist(n.position) / u.speed_m_s.max(0.1)
+}
+
+/// The cheapest unit for fire `n` other than `chosen`, for the decision log.
+fn runner_up(units: &[Candidate], n: &Need, chosen: &UnitId) -> Option<(UnitId, f64)> {
+    units
+        .iter()
+        .filter(|u| &u.unit != chosen)
+        .map(|u| (u.unit.clone(), cost(u, n)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// Minimum total travel time: every fire gets a unit while units last, and the sum of the
+/// chosen travel times is the least possible.
+pub fn optimal(units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
+    let costs: Vec<f64> = needs
+        .iter()
+        .flat_map(|n| units.iter().map(move |u| cost(u, n)))
+        .collect();
+    hungarian(&costs, needs.len(), units.len())
+        .into_iter()
+        .enumerate()
+        .filter_map(|(f, u)| {
+            let (n, u) = (&needs[f], &units[u?]);
+            Some(Pick {
+                unit: u.unit.clone(),
+                fire: n.fire,
+                cost_s: cost(u, n),
+                runner_up: runner_up(units, n, &u.unit),
+            })
+        })
+        .collect()
+}
+
+/// Minimum-cost assignment of `rows` to distinct `cols` for a row-major cost matrix: for
+/// each row, its column, or `None` when there are fewer columns than rows and the row is
+/// left out. Shortest augmenting paths with potentials (the Hungarian method in
+/// Jonker-Volgenant form), O(r^2 c) for r <= c; a wider-than-tall problem is transposed.
+pub fn hungarian(costs: &[f64], rows: usize, cols: usize) -> Vec<Option<usize>> {
+    assert_eq!(costs.len(), rows * cols, "cost matrix size");
+    if rows > cols {
+        let t: Vec<f64> = (0..cols)
+            .flat_map(|c| (0..rows).map(move |r| costs[r * cols + c]))
+            .collect();
+        let by_col = hungarian(&t, cols, rows);
+        let mut out = vec![None; rows];
+        for (c, r) in by_col.into_iter().enumerate() {
+            if let Some(r) = r {
+                out[r] = Some(c);
+            }
+        }
+        return out;
+    }
+    // 1-based as in the classic formulation: row 0 and column 0 are the virtual start.
+    let (n, m) = (rows, cols);
+    let mut u = vec![0.0; n + 1];
+    let mut v = vec![0.0; m + 1];
+    let mut p = vec![0usize; m + 1];
+    let mut way = vec![0usize; m + 1];
+    let mut minv = vec![0.0; m + 1];
+    let mut used = vec![false; m + 1];
+    for i in 1..=n {
+        p[0] = i;
+        let mut j0 = 0;
+        minv.fill(f64::INFINITY);
+        used.fill(false);
+        loop {
+            used[j0] = true;
+            let i0 = p[j0];
+            let row = &costs[(i0 - 1) * m..i0 * m];
+            let mut delta = f64::INFINITY;
+            let mut j1 = 0;
+            for j in 1..=m {
+                if !used[j] {
+                    let cur = row[j - 1] - u[i0] - v[j];
+                    if cur < minv[j] {
+                        minv[j] = cur;
+                        way[j] = j0;
+                    }
+                    if minv[j] < delta {
+                        delta = minv[j];
+                        j1 = j;
+                    }
+                }
+            }
+            for j in 0..=m {
+                if used[j] {
+                    u[p[j]] += delta;
+                    v[j] -= delta;
+                } else {
+                    minv[j] -= delta;
+                }
+            }
+            j0 = j1;
+            if p[j0] == 0 {
+                break;
+            }
+        }
+        loop {
+            let j1 = way[j0];
+            p[j0] = p[j1];
+            j0 = j1;
+            if j0 == 0 {
+                break;
+            }
+        }
+    }
+    let mut out = vec![None; n];
+    for j in 1..=m {
+        if p[j] != 0 {
+            out[p[j] - 1] = Some(j - 1);
+        }
+    }
+    out
+}
+
 /// Greedy minimum-cost pairing.
 pub fn greedy(units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
-    let cost = |u: &Candidate, n: &Need| u.position.dist(n.position) / u.speed_m_s.max(0.1);
     let mut free_units: Vec<&Candidate> = units.iter().collect();
     let mut open: Vec<&Need> = needs.iter().collect();
     let mut picks = Vec::new();
@@ -54,15 +209,11 @@ pub fn greedy(units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
         let (i, j, c) = best.expect("both lists non-empty");
         let n = open.swap_remove(j);
         let u = free_units.swap_remove(i);
-        let runner_up = free_units
-            .iter()
-            .map(|o| (o.unit.clone(), cost(o, n)))
-            .min_by(|a, b| a.1.total_cmp(&b.1));
         picks.push(Pick {
             unit: u.unit.clone(),
             fire: n.fire,
             cost_s: c,
-            runner_up,
+            runner_up: runner_up(units, n, &u.unit),
         });
     }
     picks
@@ -98,7 +249,11 @@ mod tests {
         let of = |f: u32| picks.iter().find(|p| p.fire == FireId(f)).unwrap();
         assert_eq!(of(1).unit.as_str(), "b");
         assert_eq!(of(2).unit.as_str(), "a");
-        assert_eq!(of(1).runner_up.as_ref().unwrap().0.as_str(), "c");
+        assert_eq!(
+            of(1).runner_up.as_ref().unwrap().1,
+            50.0,
+            "a and c are both 50 s away"
+        );
     }
 
     #[test]
@@ -118,5 +273,86 @@ mod tests {
         );
         assert_eq!(picks.len(), 1);
         assert_eq!(picks[0].fire, FireId(2));
+    }
+
+    fn at(id: &str, x: f64, y: f64) -> Candidate {
+        Candidate {
+            unit: UnitId::new(id).unwrap(),
+            position: Point2::new(x, y),
+            speed_m_s: 1.0,
+        }
+    }
+
+    fn total(p: &[Pick]) -> f64 {
+        p.iter().map(|p| p.cost_s).sum()
+    }
+
+    #[test]
+    fn optimal_beats_greedy_where_greedy_is_myopic() {
+        // b is nearest to the fire at 9, but sending a there and b to 20 costs less overall.
+        let units = [at("a", 0.0, 0.0), at("b", 10.0, 0.0)];
+        let needs = [
+            Need {
+                fire: FireId(1),
+                position: Point2::new(9.0, 0.0),
+            },
+            Need {
+                fire: FireId(2),
+                position: Point2::new(20.0, 0.0),
+            },
+        ];
+        assert_eq!(total(&greedy(&units, &needs)), 21.0);
+        let best = optimal(&units, &needs);
+        assert_eq!(total(&best), 19.0);
+        assert_eq!(
+            best.iter()
+                .find(|p| p.fire == FireId(1))
+                .unwrap()
+                .unit
+                .as_str(),
+            "a"
+        );
+    }
+
+    /// Least total cost over every injective pairing, by enumeration.
+    fn brute_force(costs: &[f64], rows: usize, cols: usize) -> f64 {
+        fn go(r: usize, rows: usize, cols: usize, costs: &[f64], used: &mut Vec<bool>) -> f64 {
+            if r == rows {
+                return 0.0;
+            }
+            let mut best = f64::INFINITY;
+            for c in 0..cols {
+                if !used[c] {
+                    used[c] = true;
+                    best = best.min(costs[r * cols + c] + go(r + 1, rows, cols, costs, used));
+                    used[c] = false;
+                }
+            }
+            best
+        }
+        if rows <= cols {
+            go(0, rows, cols, costs, &mut vec![false; cols])
+        } else {
+            let t: Vec<f64> = (0..cols)
+                .flat_map(|c| (0..rows).map(move |r| costs[r * cols + c]))
+                .collect();
+            go(0, cols, rows, &t, &mut vec![false; rows])
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn hungarian_matches_brute_force(rows in 1usize..5, cols in 1usize..6, seed in proptest::collection::vec(0.0..100.0f64, 30)) {
+            let costs: Vec<f64> = (0..rows * cols).map(|k| seed[k % seed.len()] + (k as f64 * 7.3) % 11.0).collect();
+            let a = hungarian(&costs, rows, cols);
+            let chosen: Vec<usize> = a.iter().flatten().copied().collect();
+            proptest::prop_assert_eq!(chosen.len(), rows.min(cols));
+            let mut distinct = chosen.clone();
+            distinct.sort_unstable();
+            distinct.dedup();
+            proptest::prop_assert_eq!(distinct.len(), chosen.len(), "a column used twice");
+            let cost: f64 = a.iter().enumerate().filter_map(|(r, c)| c.map(|c| costs[r * cols + c])).sum();
+            proptest::prop_assert!((cost - brute_force(&costs, rows, cols)).abs() < 1e-9);
+        }
     }
 }

@@ -15,7 +15,7 @@ use firefleet_protocol::spec::GROUND;
 use firefleet_protocol::validate::Invalid;
 use firefleet_protocol::{FireId, Point2, UnitId};
 
-use crate::assign::{self, Candidate, Need};
+use crate::assign::{Candidate, Need, Strategy};
 use crate::fusion::{Fused, Fusion};
 
 /// How many decisions the incident remembers for status queries.
@@ -59,6 +59,7 @@ pub struct Incident {
     fusion: Fusion,
     seq: u64,
     lease_s: f64,
+    strategy: Strategy,
     /// (unit, fire) pairs that failed, and until when not to retry them.
     failed: BTreeMap<(UnitId, FireId), f64>,
     decisions: VecDeque<Decision>,
@@ -67,7 +68,12 @@ pub struct Incident {
 impl Incident {
     /// An incident in `tunnel` with the units the site file declares. Reports from any
     /// other unit are refused. A unit silent for `lease_s` is treated as lost.
-    pub fn new(tunnel: Tunnel, units: impl IntoIterator<Item = UnitId>, lease_s: f64) -> Self {
+    pub fn new(
+        tunnel: Tunnel,
+        units: impl IntoIterator<Item = UnitId>,
+        lease_s: f64,
+        strategy: Strategy,
+    ) -> Self {
         Self {
             tunnel,
             units: units
@@ -77,6 +83,7 @@ impl Incident {
             fusion: Fusion::default(),
             seq: 0,
             lease_s,
+            strategy,
             failed: BTreeMap::new(),
             decisions: VecDeque::new(),
         }
@@ -363,7 +370,7 @@ impl Incident {
                 })
             })
             .collect();
-        let picks = assign::greedy(&candidates, &needs);
+        let picks = self.strategy.solve(&candidates, &needs);
         let mut out = Vec::new();
         for p in picks {
             if self.failed.contains_key(&(p.unit.clone(), p.fire)) {
@@ -530,7 +537,7 @@ mod tests {
     }
 
     fn incident() -> Incident {
-        let mut i = Incident::new(TUNNEL, [u("a"), u("b")], 5.0);
+        let mut i = Incident::new(TUNNEL, [u("a"), u("b")], 5.0, Strategy::Optimal);
         for (n, x) in [("a", 10.0), ("b", 40.0)] {
             i.on_alive(&u(n), true, 0.0).unwrap();
             i.on_state(state(n, x, None), 0.0).unwrap();

@@ -20,6 +20,7 @@ use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Invalid;
 use zenoh::sample::SampleKind;
 
+use crate::assign::Strategy;
 use crate::incident::{Incident, Output};
 
 /// How the coordinator runs.
@@ -29,6 +30,7 @@ pub struct CoordinatorOptions {
     pub lease_s: f64,
     /// Follow the simulator's clock instead of the system clock.
     pub sim_clock: bool,
+    pub strategy: Strategy,
 }
 
 /// Run the coordinator until `shutdown` completes.
@@ -50,6 +52,7 @@ pub async fn run(
         scenario.tunnel,
         scenario.units.iter().map(|u| u.id.clone()),
         opts.lease_s,
+        opts.strategy,
     );
 
     let _token = session
