@@ -106,7 +106,11 @@ fn bad_scenarios_and_arguments_are_refused_with_the_reason() {
 
     let out = firefleet(&["coordinator", "--assignment", "auction"]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(text(&out.stderr).contains("'auction' is not an assignment strategy"), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("'auction' is not an assignment strategy"),
+        "{}",
+        text(&out.stderr)
+    );
 
     let out = firefleet(&["sim", "--time-scale", "0"]);
     assert!(!out.status.success());

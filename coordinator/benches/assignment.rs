@@ -48,6 +48,10 @@ fn bench(c: &mut Criterion) {
                 .map(move |u| (u.position.dist(n.position) / u.speed_m_s * 1000.0) as i64)
         })
         .collect();
+    let costs: Vec<f64> = ms.iter().map(|&c| c as f64).collect();
+    g.bench_function("hungarian_only_1000_units_200_fires", |b| {
+        b.iter(|| black_box(assign::hungarian(&costs, needs.len(), units.len())))
+    });
     let matrix = Matrix::from_vec(needs.len(), units.len(), ms).unwrap();
     g.bench_function("pathfinding_kuhn_munkres_1000_units_200_fires", |b| {
         b.iter(|| black_box(pathfinding::kuhn_munkres::kuhn_munkres_min(&matrix)))

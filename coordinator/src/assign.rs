@@ -75,34 +75,39 @@ fn cost(u: &Candidate, n: &Need) -> f64 {
     u.position.dist(n.position) / u.speed_m_s.max(0.1)
 }
 
-/// The cheapest unit for fire `n` other than `chosen`, for the decision log.
-fn runner_up(units: &[Candidate], n: &Need, chosen: &UnitId) -> Option<(UnitId, f64)> {
-    units
+/// Travel times, one row per fire, one column per unit.
+fn cost_matrix(units: &[Candidate], needs: &[Need]) -> Vec<f64> {
+    needs
         .iter()
-        .filter(|u| &u.unit != chosen)
-        .map(|u| (u.unit.clone(), cost(u, n)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .flat_map(|n| units.iter().map(move |u| cost(u, n)))
+        .collect()
+}
+
+/// The decision for fire `f` given to unit `u`, with the cheapest other unit for the log.
+fn pick(units: &[Candidate], needs: &[Need], costs: &[f64], f: usize, u: usize) -> Pick {
+    let row = &costs[f * units.len()..(f + 1) * units.len()];
+    let runner_up = row
+        .iter()
+        .enumerate()
+        .filter(|&(k, _)| k != u)
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(k, c)| (units[k].unit.clone(), *c));
+    Pick {
+        unit: units[u].unit.clone(),
+        fire: needs[f].fire,
+        cost_s: row[u],
+        runner_up,
+    }
 }
 
 /// Minimum total travel time: every fire gets a unit while units last, and the sum of the
 /// chosen travel times is the least possible.
 pub fn optimal(units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
-    let costs: Vec<f64> = needs
-        .iter()
-        .flat_map(|n| units.iter().map(move |u| cost(u, n)))
-        .collect();
+    let costs = cost_matrix(units, needs);
     hungarian(&costs, needs.len(), units.len())
         .into_iter()
         .enumerate()
-        .filter_map(|(f, u)| {
-            let (n, u) = (&needs[f], &units[u?]);
-            Some(Pick {
-                unit: u.unit.clone(),
-                fire: n.fire,
-                cost_s: cost(u, n),
-                runner_up: runner_up(units, n, &u.unit),
-            })
-        })
+        .filter_map(|(f, u)| Some(pick(units, needs, &costs, f, u?)))
         .collect()
 }
 
@@ -190,33 +195,29 @@ pub fn hungarian(costs: &[f64], rows: usize, cols: usize) -> Vec<Option<usize>> 
 
 /// Greedy minimum-cost pairing.
 pub fn greedy(units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
-    let mut free_units: Vec<&Candidate> = units.iter().collect();
-    let mut open: Vec<&Need> = needs.iter().collect();
+    let costs = cost_matrix(units, needs);
+    let (mut unit_free, mut fire_open) = (vec![true; units.len()], vec![true; needs.len()]);
     let mut picks = Vec::new();
-    while !free_units.is_empty() && !open.is_empty() {
-        let mut best: Option<(usize, usize, f64)> = None;
-        for (i, u) in free_units.iter().enumerate() {
-            for (j, n) in open.iter().enumerate() {
-                let c = cost(u, n);
+    loop {
+        let mut best: Option<(usize, usize)> = None;
+        for f in (0..needs.len()).filter(|&f| fire_open[f]) {
+            for u in (0..units.len()).filter(|&u| unit_free[u]) {
+                let c = costs[f * units.len() + u];
                 // Ties break on unit id, so the outcome does not depend on input order.
-                if best
-                    .is_none_or(|(bi, _, bc)| c < bc || (c == bc && u.unit < free_units[bi].unit))
-                {
-                    best = Some((i, j, c));
+                let better = best.is_none_or(|(bf, bu)| {
+                    let bc = costs[bf * units.len() + bu];
+                    c < bc || (c == bc && units[u].unit < units[bu].unit)
+                });
+                if better {
+                    best = Some((f, u));
                 }
             }
         }
-        let (i, j, c) = best.expect("both lists non-empty");
-        let n = open.swap_remove(j);
-        let u = free_units.swap_remove(i);
-        picks.push(Pick {
-            unit: u.unit.clone(),
-            fire: n.fire,
-            cost_s: c,
-            runner_up: runner_up(units, n, &u.unit),
-        });
+        let Some((f, u)) = best else { return picks };
+        fire_open[f] = false;
+        unit_free[u] = false;
+        picks.push(pick(units, needs, &costs, f, u));
     }
-    picks
 }
 
 #[cfg(test)]
