@@ -16,7 +16,7 @@ with open(sys.argv[1], "rb") as f:
     for schema, channel, message in reader.iter_messages():
         json.loads(message.data)
         counts[schema.name] += 1
-for name in ("foxglove.SceneUpdate", "firefleet.UnitState", "firefleet.Task", "firefleet.SimTruth", "firefleet.BtTransitions"):
+for name in ("foxglove.SceneUpdate", "firefleet.UnitState", "firefleet.Task", "firefleet.SimTruth", "firefleet.BtTransitions", "foxglove.Log"):
     assert counts[name] > 0, f"no {name} messages"
 print(f"mcap ok: {len(summary.channels)} channels, {sum(counts.values())} messages")
 for name, n in sorted(counts.items()):

@@ -303,18 +303,27 @@ fn exited(children: &mut [(String, Child)]) -> Option<String> {
         .find_map(|(role, c)| matches!(c.try_wait(), Ok(Some(_))).then(|| role.clone()))
 }
 
-/// Close every child's stdin (their signal to stop), wait a little, then kill stragglers.
-async fn stop_children(mut children: Vec<(String, Child)>) {
+async fn stop_children(children: Vec<(String, Child)>) {
+    // The recorder goes last, so that it keeps everything the others say until they exit.
+    let (recorder, others): (Vec<_>, Vec<_>) = children
+        .into_iter()
+        .partition(|(role, _)| role == "recorder");
+    stop(others).await;
+    stop(recorder).await;
+}
+
+/// Close the children's stdin (their signal to stop), wait a little, kill stragglers.
+async fn stop(mut children: Vec<(String, Child)>) {
     for (_, c) in &mut children {
         drop(c.stdin.take());
     }
     for (role, c) in &mut children {
-        match tokio::time::timeout(Duration::from_secs(5), c.wait()).await {
-            Ok(_) => {}
-            Err(_) => {
-                tracing::warn!(role, "did not stop in 5 s; killing it");
-                let _ = c.kill().await;
-            }
+        if tokio::time::timeout(Duration::from_secs(5), c.wait())
+            .await
+            .is_err()
+        {
+            tracing::warn!(role, "did not stop in 5 s; killing it");
+            let _ = c.kill().await;
         }
     }
 }

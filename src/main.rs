@@ -8,6 +8,7 @@
 mod bt_cli;
 mod demo;
 mod experiment;
+mod replay;
 mod roles;
 mod scenarios;
 
@@ -42,6 +43,8 @@ enum Command {
     Record(RecordArgs),
     /// Print the incident as the coordinator sees it.
     Status(StatusArgs),
+    /// Print the timeline of a recorded incident.
+    Replay(replay::ReplayArgs),
     /// Validate, show or dry-run behavior-tree XML files.
     #[command(subcommand)]
     Bt(bt_cli::BtCommand),
@@ -192,7 +195,10 @@ fn init_logging(default: &str) {
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     // Experiments and tree tools print tables; per-event logs are noise there.
-    let quiet = matches!(cli.command, Command::Experiment(_) | Command::Bt(_));
+    let quiet = matches!(
+        cli.command,
+        Command::Experiment(_) | Command::Bt(_) | Command::Replay(_)
+    );
     init_logging(if quiet { "warn" } else { "info,zenoh=warn" });
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
@@ -208,6 +214,7 @@ fn main() -> std::process::ExitCode {
             Command::Status(a) => roles::status(a).await,
             Command::Scenarios => scenarios::list(),
             Command::Bt(c) => bt_cli::run(c),
+            Command::Replay(a) => replay::run(a),
             Command::Experiment(c) => experiment::run(c),
         }
     });

@@ -78,6 +78,21 @@ fn demo_fleet_puts_out_every_fire_and_records_the_incident() {
         assert_eq!(u["collisions"], 0, "{u}");
     }
     check_recording(&recording);
+
+    // The timeline of the incident, from the recording alone.
+    let replay = Command::new(BIN)
+        .arg("replay")
+        .arg(&recording)
+        .output()
+        .unwrap();
+    assert!(replay.status.success());
+    let timeline = String::from_utf8_lossy(&replay.stdout);
+    assert!(timeline.contains("simulated fires out 3/3"), "{timeline}");
+    assert!(
+        timeline.contains("assign ugv-") && timeline.contains("runner-up"),
+        "{timeline}"
+    );
+    assert!(timeline.contains("reported by"), "{timeline}");
 }
 
 /// Every channel has a JSON schema, every message is JSON, and the scene is there.
@@ -98,6 +113,7 @@ fn check_recording(path: &Path) {
     let mut scene = 0;
     let mut tasks = 0;
     let mut bt = 0;
+    let mut log = 0;
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
         serde_json::from_slice::<serde_json::Value>(&m.data).unwrap();
@@ -105,7 +121,9 @@ fn check_recording(path: &Path) {
         scene += usize::from(name == "foxglove.SceneUpdate");
         tasks += usize::from(name == "firefleet.Task");
         bt += usize::from(name == "firefleet.BtTransitions");
+        log += usize::from(name == "foxglove.Log");
     }
+    assert!(log >= 3, "coordinator decisions as foxglove.Log: {log}");
     assert!(
         scene > 10 && tasks >= 3,
         "scene updates {scene}, tasks {tasks}"

@@ -63,6 +63,8 @@ pub struct Incident {
     /// (unit, fire) pairs that failed, and until when not to retry them.
     failed: BTreeMap<(UnitId, FireId), f64>,
     decisions: VecDeque<Decision>,
+    /// Decisions not yet handed out for publication.
+    unpublished: Vec<Decision>,
 }
 
 impl Incident {
@@ -86,6 +88,7 @@ impl Incident {
             strategy,
             failed: BTreeMap::new(),
             decisions: VecDeque::new(),
+            unpublished: Vec::new(),
         }
     }
 
@@ -94,7 +97,14 @@ impl Incident {
         if self.decisions.len() == DECISION_LOG {
             self.decisions.pop_front();
         }
-        self.decisions.push_back(Decision { t, text });
+        let d = Decision { t, text };
+        self.unpublished.push(d.clone());
+        self.decisions.push_back(d);
+    }
+
+    /// Decisions made since the last call, for the bus (and so the recording).
+    pub fn take_decisions(&mut self) -> Vec<Decision> {
+        std::mem::take(&mut self.unpublished)
     }
 
     fn view(&mut self, unit: &UnitId, field: &str) -> Result<&mut UnitView, Invalid> {

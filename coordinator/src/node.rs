@@ -118,6 +118,9 @@ pub async fn run(
                 Ok(incident.tasks().cloned().map(Output::Task).chain(incident.fire_tracks(t).into_iter().map(Output::Fire)).collect())
             }
         };
+        for d in incident.take_decisions() {
+            bus.put(&keys.key(&Topic::CoordLog), &d).await?;
+        }
         match outputs {
             Ok(outputs) => publish(bus, outputs).await?,
             Err(e) => {

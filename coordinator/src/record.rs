@@ -21,8 +21,8 @@ use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{
-    BtTransitions, FireTrack, FlameReport, GoalAck, Message, SimClock, SimTruth, Task, UnitCommand,
-    UnitSensors, UnitState, ZoneGoal,
+    BtTransitions, Decision, FireTrack, FlameReport, GoalAck, Message, SimClock, SimTruth, Task,
+    UnitCommand, UnitSensors, UnitState, ZoneGoal,
 };
 use firefleet_protocol::scenario::Scenario;
 use serde::Serialize;
@@ -156,12 +156,21 @@ fn now_ns() -> u64 {
         .unwrap_or(0)
 }
 
-fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Option<SimTruth>), CodecError> {
+/// What a decoded message adds to the recording besides its own channel.
+enum Derived {
+    None,
+    /// Ground truth: the scene is redrawn from it.
+    Truth(SimTruth),
+    /// A coordinator decision: also a `foxglove.Log` entry.
+    Decision(Decision),
+}
+
+fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Derived), CodecError> {
     fn plain<M: Message>(
         bytes: &[u8],
         name: &'static str,
-    ) -> Result<(Decoded, Option<SimTruth>), CodecError> {
-        decoded::<M>(bytes, name).map(|(d, _)| (d, None))
+    ) -> Result<(Decoded, Derived), CodecError> {
+        decoded::<M>(bytes, name).map(|(d, _)| (d, Derived::None))
     }
     match topic {
         Topic::UnitState(_) => plain::<UnitState>(bytes, "firefleet.UnitState"),
@@ -175,7 +184,10 @@ fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Option<SimTruth>), Co
         Topic::SimSensors(_) => plain::<UnitSensors>(bytes, "firefleet.UnitSensors"),
         Topic::SimCmd(_) => plain::<UnitCommand>(bytes, "firefleet.UnitCommand"),
         Topic::SimTruth => {
-            decoded::<SimTruth>(bytes, "firefleet.SimTruth").map(|(d, m)| (d, Some(m)))
+            decoded::<SimTruth>(bytes, "firefleet.SimTruth").map(|(d, m)| (d, Derived::Truth(m)))
+        }
+        Topic::CoordLog => {
+            decoded::<Decision>(bytes, "firefleet.Decision").map(|(d, m)| (d, Derived::Decision(m)))
         }
         Topic::UnitAlive(_) | Topic::CoordAlive | Topic::CoordStatus => Err(CodecError::Empty),
     }
@@ -220,13 +232,20 @@ pub async fn record(
                     let parsed = keys::parse(key).map_err(|e| e.to_string())
                         .and_then(|(_, topic)| decode(&topic, &s.payload().to_bytes()).map_err(|e| e.to_string()));
                     match parsed {
-                        Ok((d, truth)) => {
+                        Ok((d, derived)) => {
                             let t = now_ns();
                             sink.write(key, d.schema_name, d.schema, &d.json, t)?;
-                            if let Some(truth) = truth.filter(|tr| tr.t >= next_scene) {
-                                next_scene = truth.t + SCENE_PERIOD_S;
-                                let update = scene::truth_scene(scenario, &truth, scene::Time::from_nanos(t));
-                                sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &serde_json::to_vec(&update).expect("serialises"), t)?;
+                            match derived {
+                                Derived::Truth(truth) if truth.t >= next_scene => {
+                                    next_scene = truth.t + SCENE_PERIOD_S;
+                                    let update = scene::truth_scene(scenario, &truth, scene::Time::from_nanos(t));
+                                    sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &serde_json::to_vec(&update).expect("serialises"), t)?;
+                                }
+                                Derived::Decision(decision) => {
+                                    let log = scene::Log::info("coordinator", &decision, scene::Time::from_nanos(t));
+                                    sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &serde_json::to_vec(&log).expect("serialises"), t)?;
+                                }
+                                _ => {}
                             }
                         }
                         Err(reason) => {

@@ -1,10 +1,10 @@
 //! A Foxglove 3D scene of the tunnel, built from the site file and the simulator's truth.
 //!
-//! The types mirror the fields of Foxglove's well-known `foxglove.SceneUpdate` message that
-//! we use, serialised as JSON (Foxglove decodes JSON messages by schema name). Their JSON
+//! The types mirror the fields of Foxglove's well-known `foxglove.SceneUpdate` and
+//! `foxglove.Log` messages that we use, serialised as JSON (Foxglove decodes JSON messages by schema name). Their JSON
 //! Schemas are derived from these types.
 
-use firefleet_protocol::msg::{SimTruth, TruthFireState};
+use firefleet_protocol::msg::{Decision, SimTruth, TruthFireState};
 use firefleet_protocol::scenario::Scenario;
 use schemars::JsonSchema;
 use serde::Serialize;
@@ -116,6 +116,34 @@ pub struct SceneEntity {
 pub struct SceneUpdate {
     pub deletions: Vec<serde_json::Value>,
     pub entities: Vec<SceneEntity>,
+}
+
+/// Schema name of Foxglove's log message.
+pub const LOG_SCHEMA_NAME: &str = "foxglove.Log";
+
+/// A `foxglove.Log` entry (level 2 is INFO).
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+pub struct Log {
+    pub timestamp: Time,
+    pub level: u8,
+    pub message: String,
+    pub name: String,
+    pub file: String,
+    pub line: u32,
+}
+
+impl Log {
+    /// An INFO entry from `name` for a coordinator decision, stamped with site time.
+    pub fn info(name: &str, d: &Decision, recorded: Time) -> Self {
+        Self {
+            timestamp: recorded,
+            level: 2,
+            message: format!("[t={:.1} s] {}", d.t, d.text),
+            name: name.to_owned(),
+            file: String::new(),
+            line: 0,
+        }
+    }
 }
 
 fn entity(id: String, ts: Time) -> SceneEntity {

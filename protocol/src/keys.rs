@@ -11,6 +11,7 @@
 //! ff/<site>/zone/<zone>/ack       coord -> commander GoalAck (JSON)
 //! ff/<site>/coord/alive           liveliness token of the coordinator
 //! ff/<site>/coord/status          queryable, JSON snapshot of the incident
+//! ff/<site>/coord/log             coord -> recorders Decision (postcard), one per decision
 //! ff/<site>/sim/clock             SimClock (postcard)
 //! ff/<site>/sim/truth             SimTruth (postcard)
 //! ff/<site>/sim/unit/<id>/sensors UnitSensors (postcard)
@@ -39,6 +40,7 @@ pub enum Topic {
     ZoneAck(ZoneId),
     CoordAlive,
     CoordStatus,
+    CoordLog,
     SimClock,
     SimTruth,
     SimSensors(UnitId),
@@ -58,6 +60,7 @@ impl fmt::Display for Topic {
             Topic::ZoneAck(z) => write!(f, "zone/{z}/ack"),
             Topic::CoordAlive => f.write_str("coord/alive"),
             Topic::CoordStatus => f.write_str("coord/status"),
+            Topic::CoordLog => f.write_str("coord/log"),
             Topic::SimClock => f.write_str("sim/clock"),
             Topic::SimTruth => f.write_str("sim/truth"),
             Topic::SimSensors(u) => write!(f, "sim/unit/{u}/sensors"),
@@ -160,6 +163,7 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
         ["zone", z, "ack"] => Topic::ZoneAck(zone(z)?),
         ["coord", "alive"] => Topic::CoordAlive,
         ["coord", "status"] => Topic::CoordStatus,
+        ["coord", "log"] => Topic::CoordLog,
         ["sim", "clock"] => Topic::SimClock,
         ["sim", "truth"] => Topic::SimTruth,
         ["sim", "unit", u, "sensors"] => Topic::SimSensors(unit(u)?),
@@ -192,6 +196,7 @@ mod tests {
             Topic::ZoneAck(z),
             Topic::CoordAlive,
             Topic::CoordStatus,
+            Topic::CoordLog,
             Topic::SimClock,
             Topic::SimTruth,
             Topic::SimSensors(u("b")),

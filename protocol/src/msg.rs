@@ -38,7 +38,7 @@ pub trait Message:
 macro_rules! message {
     ($enc:ident: $($t:ty),*) => { $(impl Message for $t { const ENCODING: Encoding = Encoding::$enc; })* };
 }
-message!(Postcard: UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, SimTruth, BtTransitions);
+message!(Postcard: Decision, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, SimTruth, BtTransitions);
 message!(Json: ZoneGoal, GoalAck, IncidentStatus);
 
 /// Longest list any fleet message may carry; bounds the work one message can cause.
@@ -292,6 +292,17 @@ impl Validate for FireTrack {
 pub struct Decision {
     pub t: f64,
     pub text: String,
+}
+
+impl Validate for Decision {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        if self.text.len() > 1024 {
+            Err(Invalid::new("text", "longer than 1024 bytes"))
+        } else {
+            Ok(())
+        }
+    }
 }
 
 /// What the coordinator knows of one unit.
