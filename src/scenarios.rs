@@ -6,8 +6,9 @@ use std::process::ExitCode;
 use anyhow::{Context, bail};
 use firefleet_protocol::scenario::Scenario;
 
-/// The shipped scenarios, modelled on the BT paper's three virtual experiments.
-pub const BUILT_IN: [(&str, &str); 3] = [
+/// The shipped scenarios: the BT paper's three virtual experiments, and a pile-up for the
+/// fleet experiment.
+pub const BUILT_IN: [(&str, &str); 4] = [
     (
         "vehicle-collision",
         include_str!("../examples/scenarios/vehicle-collision.toml"),
@@ -20,6 +21,7 @@ pub const BUILT_IN: [(&str, &str); 3] = [
         "cargo-truck",
         include_str!("../examples/scenarios/cargo-truck.toml"),
     ),
+    ("pileup", include_str!("../examples/scenarios/pileup.toml")),
 ];
 
 /// A scenario file if `arg` names an existing file, else a built-in scenario of that name.

@@ -161,3 +161,33 @@ fn the_cannon_experiment_reports_every_angle_and_is_reproducible() {
         assert!(x["completion_rate"].as_f64().unwrap() > 0.9, "{x}");
     }
 }
+
+#[test]
+fn the_fleet_experiment_compares_three_strategies_on_every_multi_fire_scenario() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("fleet.json");
+    let out = firefleet(&[
+        "experiment",
+        "fleet",
+        "--trials",
+        "1",
+        "--json",
+        path.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let runs = v["strategies"].as_array().unwrap();
+    assert_eq!(runs.len(), 6, "2 scenarios x 3 strategies");
+    for r in runs {
+        assert!(["autonomous", "greedy", "optimal"].contains(&r["strategy"].as_str().unwrap()));
+        for key in [
+            "time_all_out_s",
+            "heat_dose",
+            "water_l",
+            "fires_never_attacked",
+        ] {
+            assert!(r[key].is_number(), "{key} in {r}");
+        }
+        assert_eq!(r["unfinished"], 0, "every fire out in {r}");
+    }
+}
