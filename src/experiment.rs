@@ -316,7 +316,7 @@ fn fleet_run(
             world.command(id, cmd);
         }
         if let Some(inc) = &mut incident
-            && step % report_every == 0
+            && step.is_multiple_of(report_every)
         {
             let t = world.time();
             let mut outputs = inc.tick(t);
