@@ -103,13 +103,6 @@ impl FlameTracker {
         self.tracks.iter().filter(|t| t.confirmed())
     }
 
-    /// The confirmed track nearest `p`, if within `within` metres.
-    pub fn nearest_confirmed(&self, p: Point2, within: f64) -> Option<&Track> {
-        self.confirmed()
-            .filter(|t| t.position().dist(p) <= within)
-            .min_by(|a, b| a.position().dist(p).total_cmp(&b.position().dist(p)))
-    }
-
     /// Confirmed tracks seen since `since`, as observations for the coordinator.
     pub fn observations(&self, since: f64) -> Vec<FlameObservation> {
         self.confirmed()

@@ -98,14 +98,6 @@ impl Keys {
     pub fn every_sim_cmd(&self) -> String {
         format!("{ROOT}/{}/sim/unit/*/cmd", self.site)
     }
-    /// `ff/<site>/fire/*`.
-    pub fn every_fire(&self) -> String {
-        format!("{ROOT}/{}/fire/*", self.site)
-    }
-    /// `ff/<site>/zone/*/goal`.
-    pub fn every_zone_goal(&self) -> String {
-        format!("{ROOT}/{}/zone/*/goal", self.site)
-    }
 }
 
 /// The per-unit leaves that are subscribed to with a wildcard.
