@@ -100,6 +100,26 @@ pub enum Fused {
 pub struct Fusion {
     fires: Vec<Fire>,
     next_id: u32,
+    /// Tracks merged into an older one: removed id -> kept id.
+    aliases: BTreeMap<FireId, FireId>,
+}
+
+/// A duplicate track merged into an older one.
+#[derive(Debug, Clone)]
+pub struct Merge {
+    pub kept: FireId,
+    /// The track as it was before it was folded into `kept`.
+    pub removed: Fire,
+}
+
+/// How far along its lifecycle an active track is, for merging two.
+fn rank(s: FireState) -> u8 {
+    match s {
+        FireState::Tentative => 0,
+        FireState::Confirmed => 1,
+        FireState::Assigned => 2,
+        _ => 3,
+    }
 }
 
 impl Fusion {
@@ -107,12 +127,61 @@ impl Fusion {
         &self.fires
     }
 
+    /// The id a track goes by now (a merged track's id leads to the one it joined).
+    pub fn resolve(&self, mut id: FireId) -> FireId {
+        while let Some(&kept) = self.aliases.get(&id) {
+            id = kept;
+        }
+        id
+    }
+
     pub fn get(&self, id: FireId) -> Option<&Fire> {
+        let id = self.resolve(id);
         self.fires.iter().find(|f| f.id == id)
     }
 
     pub fn get_mut(&mut self, id: FireId) -> Option<&mut Fire> {
+        let id = self.resolve(id);
         self.fires.iter_mut().find(|f| f.id == id)
+    }
+
+    /// Fold tracks that have come to lie within the association gate of each other into
+    /// the oldest of them: two tracks of one fire, started from reports too far apart to
+    /// associate (a unit that saw it from far away, or mixed it with a neighbouring flame).
+    /// The kept track takes every unit's latest estimate and the further-along state.
+    pub fn merge_duplicates(&mut self) -> Vec<Merge> {
+        let active = |f: &Fire| f.active();
+        let mut merges = Vec::new();
+        'again: loop {
+            for i in 0..self.fires.len() {
+                for j in i + 1..self.fires.len() {
+                    let (a, b) = (&self.fires[i], &self.fires[j]);
+                    if !active(a) || !active(b) || a.estimate.gate2(&b.estimate) >= GATE2 {
+                        continue;
+                    }
+                    let (keep, drop) = if a.id < b.id { (i, j) } else { (j, i) };
+                    let removed = self.fires.remove(drop);
+                    let keep = if drop < keep { keep - 1 } else { keep };
+                    let kept = &mut self.fires[keep];
+                    for (u, e) in &removed.per_unit {
+                        kept.per_unit.entry(u.clone()).or_insert(*e);
+                    }
+                    kept.first_seen = kept.first_seen.min(removed.first_seen);
+                    kept.last_seen = kept.last_seen.max(removed.last_seen);
+                    if rank(removed.state) > rank(kept.state) {
+                        kept.state = removed.state;
+                    }
+                    kept.refuse();
+                    self.aliases.insert(removed.id, kept.id);
+                    merges.push(Merge {
+                        kept: kept.id,
+                        removed,
+                    });
+                    continue 'again;
+                }
+            }
+            return merges;
+        }
     }
 
     /// Fold in one observation by `unit` at time `t`.
@@ -229,6 +298,45 @@ mod tests {
         f.observe(&u("a"), &obs(87.6, -2.5, 0.02, 0.9), 0.0);
         f.observe(&u("b"), &obs(86.4, -2.4, 0.02, 0.9), 0.5);
         assert_eq!(f.fires().len(), 1);
+    }
+
+    #[test]
+    fn two_tracks_of_one_fire_are_merged_into_the_older() {
+        let mut f = Fusion::default();
+        // Seen from far away by a, and by b with a biased first look: two tracks.
+        f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 0.0);
+        f.observe(&u("b"), &obs(54.0, 1.0, 0.3, 0.9), 0.1);
+        assert_eq!(f.fires().len(), 2);
+        assert!(
+            f.merge_duplicates().is_empty(),
+            "4 m apart: two fires so far"
+        );
+        // b's view converges on the same fire.
+        f.get_mut(FireId(2)).unwrap().state = FireState::Assigned;
+        f.observe(&u("b"), &obs(54.0, 1.0, 0.3, 0.9), 0.2);
+        let fire2 = f.get_mut(FireId(2)).unwrap();
+        fire2.per_unit.insert(
+            u("b"),
+            (
+                Gaussian2 {
+                    mean: Point2::new(50.4, 1.0),
+                    cov: [0.3, 0.0, 0.3],
+                },
+                0.9,
+            ),
+        );
+        fire2.refuse();
+        let merges = f.merge_duplicates();
+        assert_eq!(merges.len(), 1);
+        assert_eq!(
+            (merges[0].kept, merges[0].removed.id),
+            (FireId(1), FireId(2))
+        );
+        assert_eq!(f.fires().len(), 1);
+        let kept = f.get(FireId(2)).expect("the old id still finds the fire");
+        assert_eq!(kept.id, FireId(1));
+        assert_eq!(kept.state, FireState::Assigned, "the further-along state");
+        assert_eq!(kept.seen_by().count(), 2);
     }
 
     #[test]

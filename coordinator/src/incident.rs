@@ -175,6 +175,8 @@ impl Incident {
             && task.seq == p.seq
             && let TaskKind::Extinguish { fire, .. } = task.kind
         {
+            // The task may name a track since merged into another.
+            let fire = self.fusion.resolve(fire);
             match p.phase {
                 TaskPhase::Extinguished => {
                     if let Some(f) = self.fusion.get_mut(fire) {
@@ -183,7 +185,14 @@ impl Incident {
                     }
                     self.log(t, format!("fire {fire} out, reported by {unit}"));
                     out.push(Output::Fire(self.track(fire, t)));
-                    out.push(self.standby(&unit, t));
+                    // Everyone on that fire is free again (after a merge, more than one).
+                    let mut free = self.assigned_to(fire);
+                    if !free.contains(&unit) {
+                        free.push(unit.clone());
+                    }
+                    for u in free {
+                        out.push(self.standby(&u, t));
+                    }
                 }
                 TaskPhase::Failed => {
                     self.failed.insert((unit.clone(), fire), t + RETRY_AFTER_S);
@@ -244,6 +253,19 @@ impl Incident {
                     out.push(Output::Fire(self.track(id, t)));
                 }
             }
+        }
+        for m in self.fusion.merge_duplicates() {
+            self.log(
+                t,
+                format!(
+                    "fire {} is fire {} seen again: merged",
+                    m.removed.id, m.kept
+                ),
+            );
+            let mut gone = m.removed.to_track(t, Vec::new());
+            gone.state = FireState::Lost;
+            out.push(Output::Fire(gone));
+            out.push(Output::Fire(self.track(m.kept, t)));
         }
         out.extend(self.solve(t));
         Ok(out)
@@ -425,7 +447,9 @@ impl Incident {
     fn assigned_to(&self, fire: FireId) -> Vec<UnitId> {
         self.units
             .iter()
-            .filter(|(_, v)| v.alive && v.working_on() == Some(fire))
+            .filter(|(_, v)| {
+                v.alive && v.working_on().map(|f| self.fusion.resolve(f)) == Some(fire)
+            })
             .map(|(u, _)| u.clone())
             .collect()
     }
