@@ -131,6 +131,25 @@ fn check_recording(path: &Path) {
     assert!(bt > 10, "behavior-tree transitions recorded: {bt}");
 }
 
+/// Start one role of the fleet as a client of the test's router at `endpoint`.
+fn spawn_role(scenario: &str, endpoint: &str, args: &[&str]) -> Child {
+    Command::new(BIN)
+        .args(args)
+        .args([
+            "--scenario",
+            scenario,
+            "--mode",
+            "client",
+            "--connect",
+            endpoint,
+        ])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .env("RUST_LOG", "warn,zenoh=error")
+        .spawn()
+        .unwrap()
+}
+
 fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0")
         .unwrap()
@@ -168,23 +187,7 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
         .await
         .unwrap();
 
-    let spawn = |args: &[&str]| {
-        Command::new(BIN)
-            .args(args)
-            .args([
-                "--scenario",
-                scenario,
-                "--mode",
-                "client",
-                "--connect",
-                &endpoint,
-            ])
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .env("RUST_LOG", "warn,zenoh=error")
-            .spawn()
-            .unwrap()
-    };
+    let spawn = |args: &[&str]| spawn_role(scenario, &endpoint, args);
     let mut fleet = Fleet(vec![
         spawn(&[
             "sim",
@@ -300,6 +303,114 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
     assert_eq!(
         near_truth.water_used_l, 0.0,
         "the killed unit never sprayed"
+    );
+    drop(fleet);
+    bus.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_restarted_coordinator_takes_over_mid_incident() {
+    let scenario = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/handover.toml");
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let router = Connect {
+        mode: Some("router".into()),
+        listen: vec![endpoint.clone()],
+        ..Connect::default()
+    };
+    let bus = Bus::open(&router, SiteId::new("handover").unwrap())
+        .await
+        .unwrap();
+    let keys = bus.keys().clone();
+    let near_state = bus
+        .subscribe::<UnitState>(&keys.key(&Topic::UnitState(UnitId::new("ugv-near").unwrap())))
+        .await
+        .unwrap();
+    let truths = bus
+        .subscribe::<SimTruth>(&keys.key(&Topic::SimTruth))
+        .await
+        .unwrap();
+    let mut fleet = Fleet(vec![
+        spawn_role(
+            scenario,
+            &endpoint,
+            &[
+                "sim",
+                "--time-scale",
+                "6",
+                "--wait-for-fleet",
+                "30",
+                "--wait-for-coordinator",
+            ],
+        ),
+        spawn_role(scenario, &endpoint, &["coordinator", "--sim-clock"]),
+        spawn_role(scenario, &endpoint, &["agent", "--unit", "ugv-near"]),
+        spawn_role(scenario, &endpoint, &["agent", "--unit", "ugv-far"]),
+    ]);
+
+    // Kill the coordinator as soon as a unit works on the fire, and start a new one.
+    let old_seq = tokio::time::timeout(Duration::from_secs(90), async {
+        loop {
+            let (_, st) = near_state.recv().await.expect("bus open");
+            if let Some(p) = st.task {
+                return p.seq;
+            }
+        }
+    })
+    .await
+    .expect("no unit ever took the fire");
+    fleet.0[1].kill().unwrap();
+    fleet.0[1].wait().unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    fleet.0.push(spawn_role(
+        scenario,
+        &endpoint,
+        &["coordinator", "--sim-clock"],
+    ));
+
+    // The new coordinator knows the fire and its tasks are taken: every fire goes out.
+    let truth = tokio::time::timeout(Duration::from_secs(90), async {
+        loop {
+            let (_, t) = truths.recv().await.expect("bus open");
+            if t.all_out() || t.t >= t.time_limit_s {
+                return t;
+            }
+        }
+    })
+    .await
+    .expect("no outcome before the wall-clock deadline");
+    assert!(
+        truth.all_out(),
+        "fire forgotten after the coordinator restarted: {truth:?}"
+    );
+    let replies = bus
+        .session()
+        .get(keys.key(&Topic::CoordStatus))
+        .await
+        .unwrap();
+    let status: serde_json::Value = serde_json::from_slice(
+        &replies
+            .recv_async()
+            .await
+            .unwrap()
+            .result()
+            .unwrap()
+            .payload()
+            .to_bytes(),
+    )
+    .unwrap();
+    assert!(
+        !status["fires"].as_array().unwrap().is_empty(),
+        "the new coordinator knows the fire: {status}"
+    );
+    let tasks: Vec<u64> = status["units"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|u| u["task"]["seq"].as_u64())
+        .collect();
+    assert!(
+        tasks.iter().all(|s| *s > old_seq),
+        "new tasks {tasks:?} must outnumber the old {old_seq}"
     );
     drop(fleet);
     bus.close().await;

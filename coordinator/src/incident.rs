@@ -102,6 +102,15 @@ impl Incident {
         self.decisions.push_back(d);
     }
 
+    /// A task number higher than any before it, across coordinator restarts too: units
+    /// ignore a task whose number is not higher than the last one they took, so a
+    /// restarted coordinator counting from 0 would be ignored. Numbers are floored by site
+    /// time (1000 per second) and by the highest number seen in any unit's state.
+    fn next_seq(&mut self, t: f64) -> u64 {
+        self.seq = (self.seq + 1).max((t.max(0.0) * 1000.0) as u64);
+        self.seq
+    }
+
     /// Decisions made since the last call, for the bus (and so the recording).
     pub fn take_decisions(&mut self) -> Vec<Decision> {
         std::mem::take(&mut self.unpublished)
@@ -170,6 +179,9 @@ impl Incident {
         let current = v.task.clone();
         let progress = st.task;
         v.state = Some(st);
+        if let Some(p) = progress {
+            self.seq = self.seq.max(p.seq);
+        }
         let mut out = Vec::new();
         if let (Some(task), Some(p)) = (current, progress)
             && task.seq == p.seq
@@ -216,10 +228,10 @@ impl Incident {
     }
 
     fn standby(&mut self, unit: &UnitId, t: f64) -> Output {
-        self.seq += 1;
+        let seq = self.next_seq(t);
         let task = Task {
             unit: unit.clone(),
-            seq: self.seq,
+            seq,
             t,
             kind: TaskKind::Standby,
         };
@@ -346,10 +358,10 @@ impl Incident {
             match (goal, current) {
                 (Some((_, g)), Some(TaskKind::Cruise { goal })) if goal.dist(g) < 3.0 => {}
                 (Some((fire, g)), _) => {
-                    self.seq += 1;
+                    let seq = self.next_seq(t);
                     let task = Task {
                         unit: unit.clone(),
-                        seq: self.seq,
+                        seq,
                         t,
                         kind: TaskKind::Cruise { goal: g },
                     };
@@ -413,10 +425,10 @@ impl Incident {
             };
             fire.state = FireState::Assigned;
             let target = fire.position();
-            self.seq += 1;
+            let seq = self.next_seq(t);
             let task = Task {
                 unit: p.unit.clone(),
-                seq: self.seq,
+                seq,
                 t,
                 kind: TaskKind::Extinguish {
                     fire: p.fire,
@@ -680,6 +692,21 @@ mod tests {
             .map(|t| t.kind)
             .collect();
         assert_eq!(a, [TaskKind::Standby]);
+    }
+
+    #[test]
+    fn a_restarted_coordinator_numbers_tasks_above_what_units_hold() {
+        let mut i = incident();
+        // Unit a still works on task 70000 of the coordinator that died.
+        let held = TaskProgress {
+            seq: 70_000,
+            fire: FireId(3),
+            phase: TaskPhase::Travelling,
+        };
+        i.on_state(state("a", 10.0, Some(held)), 1.0).unwrap();
+        let out = i.on_report(&report("a", 60.0), 2.0).unwrap();
+        assert!(!all_tasks(&out).is_empty());
+        assert!(all_tasks(&out).iter().all(|t| t.seq > 70_000), "{out:?}");
     }
 
     #[test]
