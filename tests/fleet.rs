@@ -4,7 +4,7 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use firefleet_protocol::bus::{Bus, Connect};
+use firefleet_protocol::bus::{Bus, Connect, Inbox};
 use firefleet_protocol::codec::{self, PROTOCOL_VERSION};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
@@ -150,6 +150,60 @@ fn spawn_role(scenario: &str, endpoint: &str, args: &[&str]) -> Child {
         .unwrap()
 }
 
+const HANDOVER: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/handover.toml");
+
+/// A Zenoh router owned by the test on a free loopback port, and its endpoint.
+async fn router() -> (Bus, String) {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let router = Connect {
+        mode: Some("router".into()),
+        listen: vec![endpoint.clone()],
+        ..Connect::default()
+    };
+    (
+        Bus::open(&router, SiteId::new("handover").unwrap())
+            .await
+            .unwrap(),
+        endpoint,
+    )
+}
+
+/// The handover fixture as processes: [simulator, coordinator, ugv-near, ugv-far]. The
+/// simulator starts its clock once they are all up.
+fn handover_fleet(endpoint: &str, coordinator: &[&str]) -> Fleet {
+    Fleet(vec![
+        spawn_role(
+            HANDOVER,
+            endpoint,
+            &[
+                "sim",
+                "--time-scale",
+                "6",
+                "--wait-for-fleet",
+                "30",
+                "--wait-for-coordinator",
+            ],
+        ),
+        spawn_role(HANDOVER, endpoint, coordinator),
+        spawn_role(HANDOVER, endpoint, &["agent", "--unit", "ugv-near"]),
+        spawn_role(HANDOVER, endpoint, &["agent", "--unit", "ugv-far"]),
+    ])
+}
+
+/// The ground truth once every fire is out or the time limit is reached.
+async fn outcome(truths: &Inbox<SimTruth>, within: Duration) -> SimTruth {
+    tokio::time::timeout(within, async {
+        loop {
+            let (_, t) = truths.recv().await.expect("bus open");
+            if t.all_out() || t.t >= t.time_limit_s {
+                return t;
+            }
+        }
+    })
+    .await
+    .expect("no outcome before the wall-clock deadline")
+}
+
 fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0")
         .unwrap()
@@ -160,17 +214,7 @@ fn free_port() -> u16 {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
-    let scenario = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/handover.toml");
-    let port = free_port();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let router = Connect {
-        mode: Some("router".into()),
-        listen: vec![endpoint.clone()],
-        ..Connect::default()
-    };
-    let bus = Bus::open(&router, SiteId::new("handover").unwrap())
-        .await
-        .unwrap();
+    let (bus, endpoint) = router().await;
     let keys = bus.keys().clone();
     let near = UnitId::new("ugv-near").unwrap();
     let far = UnitId::new("ugv-far").unwrap();
@@ -187,20 +231,7 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
         .await
         .unwrap();
 
-    let spawn = |args: &[&str]| spawn_role(scenario, &endpoint, args);
-    let mut fleet = Fleet(vec![
-        spawn(&[
-            "sim",
-            "--time-scale",
-            "6",
-            "--wait-for-fleet",
-            "30",
-            "--wait-for-coordinator",
-        ]),
-        spawn(&["coordinator", "--sim-clock", "--lease-s", "3"]),
-        spawn(&["agent", "--unit", "ugv-near"]),
-        spawn(&["agent", "--unit", "ugv-far"]),
-    ]);
+    let mut fleet = handover_fleet(&endpoint, &["coordinator", "--sim-clock", "--lease-s", "3"]);
 
     let deadline = Instant::now() + Duration::from_secs(120);
 
@@ -284,17 +315,7 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
     );
 
     // And the fire goes out before the time limit.
-    let truth = tokio::time::timeout(deadline.saturating_duration_since(Instant::now()), async {
-        loop {
-            let (_, t) = truths.recv().await.expect("bus open");
-            if t.all_out() || t.t >= t.time_limit_s {
-                return t;
-            }
-        }
-    })
-    .await
-    .map_err(|_| "no outcome before the wall-clock deadline")
-    .unwrap();
+    let truth = outcome(&truths, deadline.saturating_duration_since(Instant::now())).await;
     assert!(
         truth.all_out(),
         "fire still burning at the time limit: {truth:?}"
@@ -310,16 +331,7 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_restarted_coordinator_takes_over_mid_incident() {
-    let scenario = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/handover.toml");
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let router = Connect {
-        mode: Some("router".into()),
-        listen: vec![endpoint.clone()],
-        ..Connect::default()
-    };
-    let bus = Bus::open(&router, SiteId::new("handover").unwrap())
-        .await
-        .unwrap();
+    let (bus, endpoint) = router().await;
     let keys = bus.keys().clone();
     let near_state = bus
         .subscribe::<UnitState>(&keys.key(&Topic::UnitState(UnitId::new("ugv-near").unwrap())))
@@ -329,23 +341,7 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
         .subscribe::<SimTruth>(&keys.key(&Topic::SimTruth))
         .await
         .unwrap();
-    let mut fleet = Fleet(vec![
-        spawn_role(
-            scenario,
-            &endpoint,
-            &[
-                "sim",
-                "--time-scale",
-                "6",
-                "--wait-for-fleet",
-                "30",
-                "--wait-for-coordinator",
-            ],
-        ),
-        spawn_role(scenario, &endpoint, &["coordinator", "--sim-clock"]),
-        spawn_role(scenario, &endpoint, &["agent", "--unit", "ugv-near"]),
-        spawn_role(scenario, &endpoint, &["agent", "--unit", "ugv-far"]),
-    ]);
+    let mut fleet = handover_fleet(&endpoint, &["coordinator", "--sim-clock"]);
 
     // Kill the coordinator as soon as a unit works on the fire, and start a new one.
     let old_seq = tokio::time::timeout(Duration::from_secs(90), async {
@@ -362,22 +358,13 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
     fleet.0[1].wait().unwrap();
     tokio::time::sleep(Duration::from_millis(500)).await;
     fleet.0.push(spawn_role(
-        scenario,
+        HANDOVER,
         &endpoint,
         &["coordinator", "--sim-clock"],
     ));
 
     // The new coordinator knows the fire and its tasks are taken: every fire goes out.
-    let truth = tokio::time::timeout(Duration::from_secs(90), async {
-        loop {
-            let (_, t) = truths.recv().await.expect("bus open");
-            if t.all_out() || t.t >= t.time_limit_s {
-                return t;
-            }
-        }
-    })
-    .await
-    .expect("no outcome before the wall-clock deadline");
+    let truth = outcome(&truths, Duration::from_secs(90)).await;
     assert!(
         truth.all_out(),
         "fire forgotten after the coordinator restarted: {truth:?}"
