@@ -267,10 +267,11 @@ impl Unit {
     pub fn firing_position(&mut self, target: Point2) -> Option<Point2> {
         let from = self.pose().position();
         let home = target.bearing_to(from);
-        let offsets = (0..=8).flat_map(|k| {
-            let a = k as f64 * 0.35;
-            if k == 0 { vec![0.0] } else { vec![a, -a] }
-        });
+        // Straight towards the unit first, then alternately either side, 20 deg steps.
+        let offsets = std::iter::once(0.0).chain((1..=8).flat_map(|k| {
+            let a = f64::from(k) * 0.35;
+            [a, -a]
+        }));
         for off in offsets {
             for r in STANDOFF_M {
                 let spot = target.offset(home + off, r);
