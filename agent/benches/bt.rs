@@ -8,17 +8,7 @@ use firefleet_bt::node::Io;
 use firefleet_bt::{Registry, StatefulAction, Status, Tree, xml};
 use std::hint::black_box;
 
-struct Busy;
-
-impl StatefulAction<()> for Busy {
-    fn on_start(&mut self, _: &mut Io<'_>, _: &mut ()) -> Status {
-        Status::Running
-    }
-    fn on_running(&mut self, _: &mut Io<'_>, _: &mut ()) -> Status {
-        Status::Running
-    }
-    fn on_halted(&mut self, _: &mut Io<'_>, _: &mut ()) {}
-}
+include!("../bt/tests/support/busy.rs");
 
 fn tree(control: &str, attrs: &str, leaf: &str, n: usize) -> Tree<()> {
     let mut r = Registry::new();

@@ -582,6 +582,23 @@ mod tests {
             .collect()
     }
 
+    /// Unit b, given the first fire task in `out`, reports that fire extinguished.
+    fn b_puts_out_the_first_fire(i: &mut Incident, out: &[Output]) -> (FireId, Vec<Output>) {
+        let task = tasks(out)[0].clone();
+        let TaskKind::Extinguish { fire, .. } = task.kind else {
+            panic!("not a fire task: {task:?}")
+        };
+        let done = TaskProgress {
+            seq: task.seq,
+            fire,
+            phase: TaskPhase::Extinguished,
+        };
+        (
+            fire,
+            i.on_state(state("b", 55.0, Some(done)), 20.0).unwrap(),
+        )
+    }
+
     fn incident() -> Incident {
         let mut i = Incident::new(TUNNEL, [u("a"), u("b")], 5.0, Strategy::Optimal);
         for (n, x) in [("a", 10.0), ("b", 40.0)] {
@@ -630,16 +647,7 @@ mod tests {
     fn extinguished_fire_is_out_and_the_unit_stands_by() {
         let mut i = incident();
         let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
-        let task = tasks(&out)[0].clone();
-        let TaskKind::Extinguish { fire, .. } = task.kind else {
-            panic!()
-        };
-        let done = TaskProgress {
-            seq: task.seq,
-            fire,
-            phase: TaskPhase::Extinguished,
-        };
-        let out = i.on_state(state("b", 55.0, Some(done)), 20.0).unwrap();
+        let (fire, out) = b_puts_out_the_first_fire(&mut i, &out);
         assert!(
             out.iter()
                 .any(|o| matches!(o, Output::Fire(f) if f.id == fire && f.state == FireState::Out))
@@ -676,16 +684,7 @@ mod tests {
             all_tasks(&i.tick(2.0)).is_empty(),
             "no churn while nothing changes"
         );
-        let task = tasks(&out)[0].clone();
-        let TaskKind::Extinguish { fire, .. } = task.kind else {
-            panic!()
-        };
-        let done = TaskProgress {
-            seq: task.seq,
-            fire,
-            phase: TaskPhase::Extinguished,
-        };
-        let out = i.on_state(state("b", 55.0, Some(done)), 20.0).unwrap();
+        let (fire, out) = b_puts_out_the_first_fire(&mut i, &out);
         let a: Vec<TaskKind> = all_tasks(&out)
             .into_iter()
             .filter(|t| t.unit.as_str() == "a")

@@ -6,17 +6,7 @@ use firefleet_bt::{Registry, StatefulAction, Status, xml};
 
 include!("support/counting_alloc.rs");
 
-struct Busy;
-
-impl StatefulAction<()> for Busy {
-    fn on_start(&mut self, _: &mut Io<'_>, _: &mut ()) -> Status {
-        Status::Running
-    }
-    fn on_running(&mut self, _: &mut Io<'_>, _: &mut ()) -> Status {
-        Status::Running
-    }
-    fn on_halted(&mut self, _: &mut Io<'_>, _: &mut ()) {}
-}
+include!("support/busy.rs");
 
 #[test]
 fn steady_state_ticks_allocate_nothing() {
