@@ -684,7 +684,7 @@ mod tests {
             all_tasks(&i.tick(2.0)).is_empty(),
             "no churn while nothing changes"
         );
-        let (fire, out) = b_puts_out_the_first_fire(&mut i, &out);
+        let (_, out) = b_puts_out_the_first_fire(&mut i, &out);
         let a: Vec<TaskKind> = all_tasks(&out)
             .into_iter()
             .filter(|t| t.unit.as_str() == "a")
