@@ -1,7 +1,7 @@
 //! What runs on a robot.
 //!
 //! The pure parts ([`perception`], [`nav`], [`aim`], [`tracker`], [`unit`], [`leaves`],
-//! [`ground`]) know
+//! [`ground`], [`rail`], [`fuzzy`]) know
 //! nothing of Zenoh: they
 //! take sensor frames and tasks and return actuator set-points, so they are tested and
 //! benchmarked without a network. The edges are [`platform`], the interface a robot's
@@ -9,12 +9,14 @@
 //! connects a controller to its platform and to the coordinator.
 
 pub mod aim;
+pub mod fuzzy;
 pub mod ground;
 pub mod leaves;
 pub mod nav;
 pub mod node;
 pub mod perception;
 pub mod platform;
+pub mod rail;
 pub mod tracker;
 pub mod unit;
 
