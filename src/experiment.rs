@@ -24,12 +24,16 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
+mod robogat;
+
 #[derive(Subcommand, Debug)]
 pub enum ExperimentCommand {
     /// The BT paper's water-cannon experiment: 1 to 5 flames 6 m away at 0, 30 and 60 deg.
     Cannon(CannonArgs),
     /// The shipped multi-fire scenarios with no coordinator, greedy and optimal assignment.
     Fleet(FleetArgs),
+    /// The ROBOGAT paper's monorail case study: fuzzy against fixed weights.
+    Robogat(robogat::RobogatArgs),
 }
 
 #[derive(Args, Debug)]
@@ -60,6 +64,7 @@ pub fn run(cmd: ExperimentCommand) -> anyhow::Result<ExitCode> {
     match cmd {
         ExperimentCommand::Cannon(a) => cannon(a),
         ExperimentCommand::Fleet(a) => fleet(a),
+        ExperimentCommand::Robogat(a) => robogat::run(a),
     }
 }
 

@@ -8,6 +8,7 @@
 mod bt_cli;
 mod demo;
 mod experiment;
+mod plot;
 mod replay;
 mod roles;
 mod scenarios;
