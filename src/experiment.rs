@@ -151,8 +151,10 @@ fn trial(angle_deg: f64, seed: u64) -> anyhow::Result<(usize, usize, Option<f64>
             x_m: robot.x,
             y_m: robot.y,
             yaw_rad: 0.0,
+            rail: None,
         }],
         zones: Vec::new(),
+        rails: Vec::new(),
     };
     scenario
         .validate()

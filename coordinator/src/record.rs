@@ -21,8 +21,8 @@ use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{
-    BtTransitions, Decision, FireTrack, FlameReport, GoalAck, Message, SimClock, SimTruth, Task,
-    UnitCommand, UnitSensors, UnitState, ZoneGoal,
+    BtTransitions, Decision, FireTrack, FlameReport, GoalAck, Message, RailCommand, RailSensors,
+    SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState, ZoneGoal,
 };
 use firefleet_protocol::scenario::Scenario;
 use serde::Serialize;
@@ -183,6 +183,8 @@ fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Derived), CodecError>
         Topic::SimClock => plain::<SimClock>(bytes, "firefleet.SimClock"),
         Topic::SimSensors(_) => plain::<UnitSensors>(bytes, "firefleet.UnitSensors"),
         Topic::SimCmd(_) => plain::<UnitCommand>(bytes, "firefleet.UnitCommand"),
+        Topic::SimRailSensors(_) => plain::<RailSensors>(bytes, "firefleet.RailSensors"),
+        Topic::SimRailCmd(_) => plain::<RailCommand>(bytes, "firefleet.RailCommand"),
         Topic::SimTruth => {
             decoded::<SimTruth>(bytes, "firefleet.SimTruth").map(|(d, m)| (d, Derived::Truth(m)))
         }

@@ -16,6 +16,8 @@
 //! ff/<site>/sim/truth             SimTruth (postcard)
 //! ff/<site>/sim/unit/<id>/sensors UnitSensors (postcard)
 //! ff/<site>/sim/unit/<id>/cmd     UnitCommand (postcard)
+//! ff/<site>/sim/rail/<id>/sensors RailSensors (postcard), monorail units
+//! ff/<site>/sim/rail/<id>/cmd     RailCommand (postcard), monorail units
 //! ```
 //!
 //! [`Topic`] is the typed form of a key; [`Keys`] turns topics into keys for one site and
@@ -45,6 +47,8 @@ pub enum Topic {
     SimTruth,
     SimSensors(UnitId),
     SimCmd(UnitId),
+    SimRailSensors(UnitId),
+    SimRailCmd(UnitId),
 }
 
 impl fmt::Display for Topic {
@@ -65,6 +69,8 @@ impl fmt::Display for Topic {
             Topic::SimTruth => f.write_str("sim/truth"),
             Topic::SimSensors(u) => write!(f, "sim/unit/{u}/sensors"),
             Topic::SimCmd(u) => write!(f, "sim/unit/{u}/cmd"),
+            Topic::SimRailSensors(u) => write!(f, "sim/rail/{u}/sensors"),
+            Topic::SimRailCmd(u) => write!(f, "sim/rail/{u}/cmd"),
         }
     }
 }
@@ -94,9 +100,13 @@ impl Keys {
     pub fn every_unit(&self, leaf: UnitLeaf) -> String {
         format!("{ROOT}/{}/unit/*/{}", self.site, leaf.as_str())
     }
-    /// `ff/<site>/sim/unit/*/cmd`: actuator commands of every simulated unit.
+    /// `ff/<site>/sim/unit/*/cmd`: actuator commands of every simulated ground unit.
     pub fn every_sim_cmd(&self) -> String {
         format!("{ROOT}/{}/sim/unit/*/cmd", self.site)
+    }
+    /// `ff/<site>/sim/rail/*/cmd`: joint set-points of every simulated monorail unit.
+    pub fn every_sim_rail_cmd(&self) -> String {
+        format!("{ROOT}/{}/sim/rail/*/cmd", self.site)
     }
 }
 
@@ -160,6 +170,8 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
         ["sim", "truth"] => Topic::SimTruth,
         ["sim", "unit", u, "sensors"] => Topic::SimSensors(unit(u)?),
         ["sim", "unit", u, "cmd"] => Topic::SimCmd(unit(u)?),
+        ["sim", "rail", u, "sensors"] => Topic::SimRailSensors(unit(u)?),
+        ["sim", "rail", u, "cmd"] => Topic::SimRailCmd(unit(u)?),
         _ => return Err(err("unknown topic".into())),
     };
     Ok((site, topic))
@@ -193,6 +205,8 @@ mod tests {
             Topic::SimTruth,
             Topic::SimSensors(u("b")),
             Topic::SimCmd(u("b")),
+            Topic::SimRailSensors(u("r")),
+            Topic::SimRailCmd(u("r")),
         ];
         for t in topics {
             let k = keys.key(&t);

@@ -38,7 +38,7 @@ pub trait Message:
 macro_rules! message {
     ($enc:ident: $($t:ty),*) => { $(impl Message for $t { const ENCODING: Encoding = Encoding::$enc; })* };
 }
-message!(Postcard: Decision, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, SimTruth, BtTransitions);
+message!(Postcard: Decision, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions);
 message!(Json: ZoneGoal, GoalAck, IncidentStatus);
 
 /// Longest list any fleet message may carry; bounds the work one message can cause.
@@ -535,6 +535,95 @@ impl Validate for UnitCommand {
         finite("steer", self.steer)?;
         finite("pan", self.pan)?;
         finite("tilt", self.tilt)
+    }
+}
+
+/// A monorail unit's joints: carriage position along its rail and the monitor's state, in
+/// the ROBOGAT paper's terms (see `firefleet_agent::rail::kinematics` for the frame).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+pub struct RailJoints {
+    /// Carriage position from the rail's start, m.
+    pub d: f64,
+    /// Monitor yaw, rad (positive turns the jet to the right of the rail's direction).
+    pub theta1: f64,
+    /// Monitor elevation, rad (0 level, negative down).
+    pub theta2: f64,
+    /// Nozzle exit speed, m/s.
+    pub v0: f64,
+}
+
+impl RailJoints {
+    fn check(&self, field: &str) -> Result<(), Invalid> {
+        for (name, v) in [
+            ("d", self.d),
+            ("theta1", self.theta1),
+            ("theta2", self.theta2),
+            ("v0", self.v0),
+        ] {
+            finite(&format!("{field}.{name}"), v)?;
+        }
+        Ok(())
+    }
+}
+
+/// A hot spot a monorail unit's thermal camera has placed on the road.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct HotSpot {
+    pub position: Point2,
+    /// One-sigma position error, m.
+    pub sigma_m: f64,
+}
+
+/// `ff/<site>/sim/rail/<id>/sensors`: what a monorail unit's drivers publish: its joints,
+/// the ROBOGAT paper's three sensors (fire detector, temperature, and a thermal camera that
+/// gives the distance to the fire) and whether it is plugged into a hose point.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct RailSensors {
+    pub unit: UnitId,
+    pub t: f64,
+    pub joints: RailJoints,
+    /// Carriage speed along the rail, m/s.
+    pub speed: f64,
+    pub valve_open: bool,
+    pub flow_l_s: f64,
+    /// Within reach of a hose point: water is available.
+    pub water_connected: bool,
+    /// The fire detector's output (the paper's `pi`).
+    pub fire_detected: bool,
+    /// Gas temperature at the carriage, degrees C.
+    pub temperature_c: f64,
+    pub hot_spots: Vec<HotSpot>,
+}
+
+impl Validate for RailSensors {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        self.joints.check("joints")?;
+        finite("speed", self.speed)?;
+        in_range("flow_l_s", self.flow_l_s, 0.0, 1e3)?;
+        in_range("temperature_c", self.temperature_c, -50.0, 2000.0)?;
+        max_len("hot_spots", &self.hot_spots, MAX_LIST)?;
+        for (i, h) in self.hot_spots.iter().enumerate() {
+            h.position
+                .validate()
+                .map_err(|e| e.within(&format!("hot_spots[{i}].position")))?;
+            in_range(&format!("hot_spots[{i}].sigma_m"), h.sigma_m, 1e-3, 100.0)?;
+        }
+        Ok(())
+    }
+}
+
+/// `ff/<site>/sim/rail/<id>/cmd`: joint set-points for a monorail unit; the carriage and
+/// the monitor move toward them at their own top rates and stop at their limits.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct RailCommand {
+    pub joints: RailJoints,
+    pub valve_open: bool,
+}
+
+impl Validate for RailCommand {
+    fn validate(&self) -> Result<(), Invalid> {
+        self.joints.check("joints")
     }
 }
 

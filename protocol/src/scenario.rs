@@ -46,6 +46,21 @@
 //! id = "z1"
 //! start_m = 0.0
 //! end_m = 100.0
+//!
+//! [[rails]]                  # a ceiling rail with a water main (monorail units)
+//! id = "rail-1"
+//! start_m = 0.0              # chainage range the carriage can reach
+//! end_m = 200.0
+//! y_m = 0.0                  # lateral offset of the rail
+//! height_m = 5.8             # the monitor's pivot above the road
+//! hose_points_m = [15.0, 45.0, 75.0, 105.0, 135.0, 165.0, 195.0]
+//!
+//! [[units]]
+//! id = "rail-unit-1"
+//! kind = "monorail"
+//! rail = "rail-1"            # monorail units name their rail, stand on it (y_m = the
+//! x_m = 10.0                 # rail's) and start within its range
+//! y_m = 0.0
 //! ```
 //!
 //! Loading validates everything; an error names the file, the field and the reason.
@@ -98,6 +113,8 @@ pub struct Scenario {
     pub units: Vec<UnitSpec>,
     #[serde(default)]
     pub zones: Vec<Zone>,
+    #[serde(default)]
+    pub rails: Vec<Rail>,
 }
 
 fn default_site() -> SiteId {
@@ -224,6 +241,9 @@ pub struct UnitSpec {
     pub y_m: f64,
     #[serde(default)]
     pub yaw_rad: f64,
+    /// The rail a monorail unit runs on.
+    #[serde(default)]
+    pub rail: Option<String>,
 }
 
 impl UnitSpec {
@@ -241,7 +261,29 @@ pub struct Zone {
     pub end_m: f64,
 }
 
+/// A ceiling rail along the tunnel, with a water main and hose points.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rail {
+    pub id: String,
+    pub start_m: f64,
+    pub end_m: f64,
+    pub y_m: f64,
+    pub height_m: f64,
+    pub hose_points_m: Vec<f64>,
+}
+
+impl Rail {
+    pub fn length_m(&self) -> f64 {
+        self.end_m - self.start_m
+    }
+}
+
 impl Scenario {
+    pub fn rail(&self, id: &str) -> Option<&Rail> {
+        self.rails.iter().find(|r| r.id == id)
+    }
+
     /// Parse and validate scenario text; `origin` (a file name) prefixes every error.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ScenarioError> {
         let s: Scenario = toml::from_str(text).map_err(|e| ScenarioError::Syntax {
@@ -332,16 +374,75 @@ impl Scenario {
         }
 
         let mut ids = HashSet::new();
+        for (i, r) in self.rails.iter().enumerate() {
+            let f = |n: &str| format!("rails[{i}].{n}");
+            if !ids.insert(r.id.as_str()) {
+                return Err(Invalid::new(f("id"), format!("'{}' is used twice", r.id)));
+            }
+            in_range(&f("start_m"), r.start_m, 0.0, t.length_m)?;
+            in_range(&f("end_m"), r.end_m, 0.0, t.length_m)?;
+            if r.end_m <= r.start_m {
+                return Err(Invalid::new(f("end_m"), "must be greater than start_m"));
+            }
+            in_range(&f("y_m"), r.y_m, -t.width_m / 2.0, t.width_m / 2.0)?;
+            // The carriage hangs below the rail: its pivot clears the ceiling.
+            in_range(&f("height_m"), r.height_m, 2.0, t.height_m - 0.2)?;
+            if r.hose_points_m.is_empty() {
+                return Err(Invalid::new(
+                    f("hose_points_m"),
+                    "a rail needs a hose point",
+                ));
+            }
+            for (k, h) in r.hose_points_m.iter().enumerate() {
+                in_range(
+                    &format!("rails[{i}].hose_points_m[{k}]"),
+                    *h,
+                    r.start_m,
+                    r.end_m,
+                )?;
+            }
+        }
+
+        let mut ids = HashSet::new();
         for (i, u) in self.units.iter().enumerate() {
             let f = |n: &str| format!("units[{i}].{n}");
             if !ids.insert(&u.id) {
                 return Err(Invalid::new(f("id"), format!("'{}' is used twice", u.id)));
             }
-            if u.kind == UnitKind::Monorail {
-                return Err(Invalid::new(
-                    f("kind"),
-                    "monorail units need a rail, which scenarios cannot declare yet",
-                ));
+            match (u.kind, &u.rail) {
+                (UnitKind::Monorail, None) => {
+                    return Err(Invalid::new(
+                        f("rail"),
+                        "a monorail unit must name its rail",
+                    ));
+                }
+                (UnitKind::Monorail, Some(name)) => {
+                    let Some(r) = self.rail(name) else {
+                        return Err(Invalid::new(
+                            f("rail"),
+                            format!("no rail '{name}' in rails[]"),
+                        ));
+                    };
+                    if !(r.start_m..=r.end_m).contains(&u.x_m) {
+                        return Err(Invalid::new(
+                            f("x_m"),
+                            format!(
+                                "{} is off rail '{name}' ([{}, {}])",
+                                u.x_m, r.start_m, r.end_m
+                            ),
+                        ));
+                    }
+                    if (u.y_m - r.y_m).abs() > 1e-6 {
+                        return Err(Invalid::new(
+                            f("y_m"),
+                            format!("must be rail '{name}''s y_m, {}", r.y_m),
+                        ));
+                    }
+                }
+                (UnitKind::Ground, Some(_)) => {
+                    return Err(Invalid::new(f("rail"), "only monorail units run on a rail"));
+                }
+                (UnitKind::Ground, None) => {}
             }
             in_range(
                 &f("yaw_rad"),
@@ -351,7 +452,11 @@ impl Scenario {
             )?;
             let p = Point2::new(u.x_m, u.y_m);
             t.check_inside(&f("x_m/y_m"), p)?;
-            if let Some(o) = self.obstacles.iter().find(|o| o.footprint_contains(p, 0.5)) {
+            if let Some(o) = self
+                .obstacles
+                .iter()
+                .find(|o| u.kind == UnitKind::Ground && o.footprint_contains(p, 0.5))
+            {
                 return Err(Invalid::new(
                     f("x_m/y_m"),
                     format!("starts inside obstacle '{}'", o.name),
@@ -441,6 +546,43 @@ mod tests {
         let e = err(&OK.replace("lanes = 2", "lanes = 2\ncolour = 3"));
         assert!(e.contains("colour"), "{e}");
         let e = err(&OK.replace("kind = \"ground\"", "kind = \"monorail\""));
-        assert!(e.contains("units[0].kind"), "{e}");
+        assert!(
+            e.contains("units[0].rail: a monorail unit must name its rail"),
+            "{e}"
+        );
+    }
+
+    const RAIL: &str = r#"
+        [[rails]]
+        id = "r"
+        start_m = 10.0
+        end_m = 90.0
+        y_m = 0.0
+        height_m = 5.5
+        hose_points_m = [20.0, 50.0, 80.0]
+    "#;
+
+    fn with_rail_unit(unit: &str) -> String {
+        format!("{OK}{RAIL}\n[[units]]\n{unit}")
+    }
+
+    #[test]
+    fn monorail_units_stand_on_a_declared_rail() {
+        let ok =
+            with_rail_unit("id = \"m\"\nkind = \"monorail\"\nrail = \"r\"\nx_m = 40.0\ny_m = 0.0");
+        let s = Scenario::from_toml(&ok, "s.toml").unwrap();
+        assert_eq!(s.rail("r").unwrap().length_m(), 80.0);
+        let e = err(&ok.replace("rail = \"r\"", "rail = \"q\""));
+        assert!(e.contains("units[1].rail: no rail 'q'"), "{e}");
+        let e = err(&ok.replace("x_m = 40.0\ny_m = 0.0", "x_m = 5.0\ny_m = 0.0"));
+        assert!(e.contains("units[1].x_m: 5 is off rail 'r'"), "{e}");
+        let e = err(&ok.replace("x_m = 40.0\ny_m = 0.0", "x_m = 40.0\ny_m = 1.0"));
+        assert!(e.contains("units[1].y_m"), "{e}");
+        let e = err(&ok.replace("height_m = 5.5", "height_m = 6.0"));
+        assert!(e.contains("rails[0].height_m"), "{e}");
+        let e = err(&ok.replace("[20.0, 50.0, 80.0]", "[20.0, 95.0]"));
+        assert!(e.contains("rails[0].hose_points_m[1]"), "{e}");
+        let e = err(&OK.replace("kind = \"ground\"", "kind = \"ground\"\nrail = \"r\""));
+        assert!(e.contains("only monorail units"), "{e}");
     }
 }

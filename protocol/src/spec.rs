@@ -1,4 +1,4 @@
-//! Physical specification of the ground unit.
+//! Physical specification of the ground and monorail units.
 //!
 //! The simulator moves bodies with these limits and the agent plans with them, the way a
 //! real vehicle's datasheet serves both its firmware and its planners. Values are stated
@@ -219,6 +219,59 @@ pub const GROUND: GroundSpec = GroundSpec {
         box_sigma_px: 2.0,
     },
 };
+
+/// Limits and geometry of a monorail unit: the ROBOGAT carriage and monitor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MonorailSpec {
+    /// Length of the monitor's second link, m (the paper's `l`).
+    pub link_m: f64,
+    /// Joint limits: monitor yaw either side, elevation range, nozzle speed range.
+    pub theta1_limit_rad: f64,
+    pub theta2_min_rad: f64,
+    pub theta2_max_rad: f64,
+    pub v0_min_m_s: f64,
+    pub v0_max_m_s: f64,
+    /// Top carriage speed (`v_dM`), monitor rate (`v_mM`) and rate of change of the nozzle
+    /// speed (`r_0M`).
+    pub carriage_speed_m_s: f64,
+    pub monitor_rate_rad_s: f64,
+    pub nozzle_rate_m_s2: f64,
+    /// Monitor flow with the valve open, L/s (the paper's 8e-3 m^3/s).
+    pub flow_l_s: f64,
+    /// How far the telescopic tubes let the carriage move from the hose point it is
+    /// plugged into, m. Hose points stand about 30 m apart, so +-15 m covers the rail.
+    pub hose_reach_m: f64,
+    /// Range of the fire detector and the thermal camera, m.
+    pub detector_range_m: f64,
+    /// Thermal-camera position error `a + b * range` (one sigma), m: a 640-pixel
+    /// long-wave camera with a 60 degree field of view resolves 1.6 mrad per pixel, so a
+    /// few pixels of blob-centroid error at 30 m is about 0.3 m.
+    pub hot_spot_sigma_a_m: f64,
+    pub hot_spot_sigma_b: f64,
+}
+
+/// The paper's monorail unit (section IV), with our stated assumptions for its sensors and
+/// hose coupling.
+pub const MONORAIL: MonorailSpec = MonorailSpec {
+    link_m: 0.8,
+    theta1_limit_rad: std::f64::consts::FRAC_PI_3,
+    theta2_min_rad: -std::f64::consts::FRAC_PI_2,
+    theta2_max_rad: 0.0,
+    v0_min_m_s: 2.6,
+    v0_max_m_s: 26.6,
+    carriage_speed_m_s: 10.0,
+    monitor_rate_rad_s: 0.3,
+    nozzle_rate_m_s2: 20.0,
+    flow_l_s: 8.0,
+    hose_reach_m: 15.0,
+    detector_range_m: 40.0,
+    hot_spot_sigma_a_m: 0.1,
+    hot_spot_sigma_b: 0.01,
+};
+
+/// What a monorail unit reports as its water, L: it draws from the tunnel's main, which a
+/// unit cannot run dry, so it reports a volume no incident uses up.
+pub const MAINS_WATER_L: f64 = 100_000.0;
 
 #[cfg(test)]
 mod tests {

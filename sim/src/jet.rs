@@ -53,8 +53,21 @@ pub fn trace(
     elevation: f64,
     spec: &NozzleSpec,
 ) -> Landing {
+    let v = flight_speed(spec, nozzle[2], elevation);
+    trace_at_speed(tunnel, obstacles, nozzle, azimuth, elevation, v)
+}
+
+/// Trace a jet that leaves the nozzle at speed `v`: a monitor whose nozzle sets the exit
+/// speed directly (the monorail's variable-area nozzle).
+pub fn trace_at_speed(
+    tunnel: &Tunnel,
+    obstacles: &[Obstacle],
+    nozzle: P3,
+    azimuth: f64,
+    elevation: f64,
+    v: f64,
+) -> Landing {
     let h = nozzle[2];
-    let v = flight_speed(spec, h, elevation);
     let (vz, vh) = (v * elevation.sin(), v * elevation.cos());
     if h + vz.max(0.0).powi(2) / (2.0 * G) >= tunnel.height_m {
         return Landing::Blocked;

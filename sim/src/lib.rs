@@ -4,11 +4,14 @@
 //! fires that grow as t-squared fires, are knocked down by water and re-ignite if left hot,
 //! the radiant heat they give off, ground vehicles on a kinematic bicycle model, water
 //! cannons with slew limits and a ballistic jet, and an RGB-D flame detector (boxes with a
-//! depth window, field of view, range, occlusion, misses, false alarms, noise).
+//! depth window, field of view, range, occlusion, misses, false alarms, noise), and
+//! monorail carriages with their fire monitors ([`carriage`]), fire detector, ceiling-jet
+//! temperature and thermal camera.
 //! [`physics`] holds every physical constant with its source or stated assumption.
 //!
 //! [`node`] puts the world on the bus exactly as real hardware drivers would be: each unit
-//! gets sensor frames and sends actuator set-points on `ff/<site>/sim/unit/<id>/...`, and
+//! gets sensor frames and sends actuator set-points on `ff/<site>/sim/unit/<id>/...`
+//! (monorail units on `ff/<site>/sim/rail/<id>/...`), and
 //! the simulator publishes its clock and ground truth. Agents cannot tell it from hardware
 //! except by the clock it keeps.
 //!
@@ -17,6 +20,7 @@
 //! units.
 
 pub mod camera;
+pub mod carriage;
 pub mod jet;
 pub mod node;
 pub mod physics;

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::keys::{self, Topic};
-use firefleet_protocol::msg::{SimClock, SimTruth, UnitCommand};
+use firefleet_protocol::msg::{RailCommand, SimClock, SimTruth, UnitCommand};
 use firefleet_protocol::scenario::Scenario;
 use tokio::time::MissedTickBehavior;
 
@@ -56,6 +56,9 @@ pub async fn run(
     let keys = bus.keys().clone();
     let mut world = World::new(scenario, opts.seed);
     let commands = bus.subscribe::<UnitCommand>(&keys.every_sim_cmd()).await?;
+    let rail_commands = bus
+        .subscribe::<RailCommand>(&keys.every_sim_rail_cmd())
+        .await?;
     tokio::pin!(shutdown);
 
     if let Some(limit) = opts.wait_for_fleet {
@@ -70,9 +73,10 @@ pub async fn run(
     ticker.set_missed_tick_behavior(MissedTickBehavior::Delay);
     let mut last_command: HashMap<UnitId, Instant> = HashMap::new();
     let ids: Vec<UnitId> = world.unit_ids().cloned().collect();
+    let rail_ids: Vec<UnitId> = world.rail_unit_ids().cloned().collect();
     let mut step = 0u64;
     tracing::info!(
-        units = ids.len(),
+        units = ids.len() + rail_ids.len(),
         fires = scenario.fires.len(),
         time_scale = opts.time_scale,
         "simulation started"
@@ -96,8 +100,22 @@ pub async fn run(
                 }
             }
         }
+        while let Some((key, cmd)) = rail_commands.try_recv() {
+            match keys::parse(&key) {
+                Ok((_, Topic::SimRailCmd(unit))) if world.command_rail(&unit, cmd) => {
+                    last_command.insert(unit, Instant::now());
+                }
+                _ => {
+                    bus.rejects().count_invalid();
+                    tracing::warn!(
+                        key,
+                        "dropped command for a monorail unit this simulation does not have"
+                    );
+                }
+            }
+        }
         let now = Instant::now();
-        for id in &ids {
+        for id in ids.iter().chain(&rail_ids) {
             if last_command
                 .get(id)
                 .is_none_or(|t| now.duration_since(*t) > physics::COMMAND_WATCHDOG)
@@ -119,6 +137,12 @@ pub async fn run(
         for id in &ids {
             if let Some(s) = world.sensors(id) {
                 bus.put(&keys.key(&Topic::SimSensors(id.clone())), &s)
+                    .await?;
+            }
+        }
+        for id in &rail_ids {
+            if let Some(s) = world.rail_sensors(id) {
+                bus.put(&keys.key(&Topic::SimRailSensors(id.clone())), &s)
                     .await?;
             }
         }

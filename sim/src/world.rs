@@ -6,14 +6,17 @@
 use firefleet_protocol::UnitId;
 use firefleet_protocol::geometry::{Point2, Pose2, wrap_angle};
 use firefleet_protocol::msg::{
-    CannonState, SimTruth, TruthFire, TruthFireState, TruthUnit, UnitCommand, UnitSensors,
+    CannonState, HotSpot, RailCommand, RailSensors, SimTruth, TruthFire, TruthFireState, TruthUnit,
+    UnitCommand, UnitKind, UnitSensors,
 };
 use firefleet_protocol::scenario::{FireSpec, Obstacle, Scenario, Tunnel};
-use firefleet_protocol::spec::{GROUND, GroundSpec};
+use firefleet_protocol::spec::{GROUND, GroundSpec, MONORAIL};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
 
 use crate::camera::{self, FlameTarget};
+use crate::carriage::Carriage;
 use crate::jet::{self, Landing};
 use crate::physics;
 
@@ -200,6 +203,7 @@ pub struct World {
     time_limit_s: f64,
     fires: Vec<Fire>,
     bodies: Vec<Body>,
+    carriages: Vec<Carriage>,
     rng: ChaCha8Rng,
 }
 
@@ -219,9 +223,19 @@ impl World {
                 dry_s: 0.0,
             })
             .collect();
+        let carriages = scenario
+            .units
+            .iter()
+            .filter(|u| u.kind == UnitKind::Monorail)
+            .filter_map(|u| {
+                let rail = scenario.rail(u.rail.as_deref()?)?;
+                Some(Carriage::new(u.id.clone(), MONORAIL, rail.clone(), u.x_m))
+            })
+            .collect();
         let bodies = scenario
             .units
             .iter()
+            .filter(|u| u.kind == UnitKind::Ground)
             .map(|u| Body {
                 id: u.id.clone(),
                 spec: GROUND,
@@ -245,6 +259,7 @@ impl World {
             time_limit_s: scenario.time_limit_s,
             fires,
             bodies,
+            carriages,
             rng: ChaCha8Rng::seed_from_u64(seed),
         };
         // Fires that ignited before the start are already at their t-squared size.
@@ -256,8 +271,25 @@ impl World {
         self.t
     }
 
+    /// The ground units.
     pub fn unit_ids(&self) -> impl Iterator<Item = &UnitId> {
         self.bodies.iter().map(|b| &b.id)
+    }
+
+    /// The monorail units.
+    pub fn rail_unit_ids(&self) -> impl Iterator<Item = &UnitId> {
+        self.carriages.iter().map(|c| &c.id)
+    }
+
+    /// Set a monorail unit's joint set-points; `false` if there is no such unit.
+    pub fn command_rail(&mut self, id: &UnitId, cmd: RailCommand) -> bool {
+        match self.carriages.iter_mut().find(|c| &c.id == id) {
+            Some(c) => {
+                c.cmd = cmd;
+                true
+            }
+            None => false,
+        }
     }
 
     /// Set a unit's actuator set-points; `false` if there is no such unit.
@@ -275,6 +307,9 @@ impl World {
     pub fn halt(&mut self, id: &UnitId) {
         if let Some(b) = self.bodies.iter_mut().find(|b| &b.id == id) {
             b.cmd = UnitCommand::halt(&b.cannon);
+        }
+        if let Some(c) = self.carriages.iter_mut().find(|c| &c.id == id) {
+            c.halt();
         }
     }
 
@@ -306,25 +341,55 @@ impl World {
                 sprays.push((at, physics::jet_spread_radius_m(travel_m), litres / dt));
             }
         }
+        for c in &mut self.carriages {
+            c.step(dt);
+            if !c.valve_open {
+                continue;
+            }
+            let litres = c.spec.flow_l_s * dt;
+            c.water_used += litres;
+            let (nozzle, azimuth, elevation) = c.nozzle();
+            let landing = jet::trace_at_speed(
+                &self.tunnel,
+                &self.obstacles,
+                nozzle,
+                azimuth,
+                elevation,
+                c.joints.v0,
+            );
+            if let Landing::Road { at, travel_m } = landing {
+                sprays.push((at, physics::jet_spread_radius_m(travel_m), litres / dt));
+            }
+        }
         self.step_fires(dt, &sprays);
-        for b in &mut self.bodies {
-            let body = [b.pose.x, b.pose.y, physics::UNIT_BODY_HEIGHT_M];
-            b.heat_flux = self
-                .fires
-                .iter()
-                .filter(|f| f.state == TruthFireState::Burning)
-                .map(|f| {
-                    let c = f.flame_centre();
-                    let r = ((c[0] - body[0]).powi(2)
-                        + (c[1] - body[1]).powi(2)
-                        + (c[2] - body[2]).powi(2))
-                    .sqrt();
-                    physics::radiant_flux_kw_m2(f.hrr_kw, r.max(f.spec.radius_m))
-                })
-                .sum();
-            b.heat_dose += b.heat_flux * dt;
+        for i in 0..self.bodies.len() {
+            let p = self.bodies[i].pose;
+            let flux = self.radiant_flux([p.x, p.y, physics::UNIT_BODY_HEIGHT_M]);
+            let b = &mut self.bodies[i];
+            b.heat_flux = flux;
+            b.heat_dose += flux * dt;
+        }
+        for i in 0..self.carriages.len() {
+            let flux = self.radiant_flux(self.carriages[i].pivot());
+            let c = &mut self.carriages[i];
+            c.heat_flux = flux;
+            c.heat_dose += flux * dt;
         }
         self.t += dt;
+    }
+
+    /// Radiant heat flux from every burning fire at `at`, kW/m^2.
+    fn radiant_flux(&self, at: camera::P3) -> f64 {
+        self.fires
+            .iter()
+            .filter(|f| f.state == TruthFireState::Burning)
+            .map(|f| {
+                let c = f.flame_centre();
+                let r = ((c[0] - at[0]).powi(2) + (c[1] - at[1]).powi(2) + (c[2] - at[2]).powi(2))
+                    .sqrt();
+                physics::radiant_flux_kw_m2(f.hrr_kw, r.max(f.spec.radius_m))
+            })
+            .sum()
     }
 
     /// `sprays`: (landing point, wetted radius, flow L/s) of every jet reaching the road.
@@ -379,6 +444,61 @@ impl World {
         })
     }
 
+    /// What monorail unit `id`'s sensors read now; `None` for an unknown unit.
+    ///
+    /// The fire detector and the thermal camera see burning fires within range whose flame
+    /// the carriage has a line of sight to; the camera places each with a Gaussian error
+    /// growing with range. The temperature is Alpert's ceiling jet summed over the fires.
+    pub fn rail_sensors(&mut self, id: &UnitId) -> Option<RailSensors> {
+        let c = self.carriages.iter().find(|c| &c.id == id)?;
+        let m = c.pivot();
+        let spec = c.spec;
+        let mut fire_detected = false;
+        let mut hot_spots = Vec::new();
+        let mut temperature_c = physics::AMBIENT_C;
+        for f in self
+            .fires
+            .iter()
+            .filter(|f| f.state == TruthFireState::Burning)
+        {
+            let r = f
+                .spec
+                .position()
+                .dist(firefleet_protocol::Point2::new(m[0], m[1]));
+            temperature_c += physics::ceiling_jet_rise_c(f.hrr_kw, r, m[2]);
+            let centre = f.flame_centre();
+            let range = (r * r + (m[2] - centre[2]).powi(2)).sqrt();
+            if f.hrr_kw < physics::Q_VISIBLE_KW
+                || range > spec.detector_range_m
+                || camera::line_blocked(&self.obstacles, m, centre)
+            {
+                continue;
+            }
+            fire_detected = true;
+            let sigma = spec.hot_spot_sigma_a_m + spec.hot_spot_sigma_b * range;
+            let noise = Normal::new(0.0, sigma).expect("sigma is positive");
+            hot_spots.push(HotSpot {
+                position: firefleet_protocol::Point2::new(
+                    f.spec.x_m + noise.sample(&mut self.rng),
+                    f.spec.y_m + noise.sample(&mut self.rng),
+                ),
+                sigma_m: sigma,
+            });
+        }
+        Some(RailSensors {
+            unit: c.id.clone(),
+            t: self.t,
+            joints: c.joints,
+            speed: c.speed,
+            valve_open: c.valve_open,
+            flow_l_s: if c.valve_open { spec.flow_l_s } else { 0.0 },
+            water_connected: c.connected(),
+            fire_detected,
+            temperature_c,
+            hot_spots,
+        })
+    }
+
     pub fn truth(&self) -> SimTruth {
         SimTruth {
             t: self.t,
@@ -404,6 +524,13 @@ impl World {
                     water_used_l: b.water_used,
                     collisions: b.collisions,
                 })
+                .chain(self.carriages.iter().map(|c| TruthUnit {
+                    id: c.id.clone(),
+                    pose: c.pose(),
+                    heat_dose_kj_m2: c.heat_dose,
+                    water_used_l: c.water_used,
+                    collisions: 0,
+                }))
                 .collect(),
         }
     }
@@ -589,6 +716,47 @@ mod tests {
         };
         assert_eq!(run(3), run(3));
         assert_ne!(run(3), run(4));
+    }
+
+    #[test]
+    fn a_monorail_monitor_puts_out_a_fire_under_its_rail() {
+        let text = format!(
+            "{}\n[[rails]]\nid = \"r\"\nstart_m = 0.0\nend_m = 100.0\ny_m = 0.0\nheight_m = 5.5\nhose_points_m = [20.0]\n[[units]]\nid = \"m\"\nkind = \"monorail\"\nrail = \"r\"\nx_m = 5.0\ny_m = 0.0",
+            SCEN
+        );
+        let mut w = World::new(&Scenario::from_toml(&text, "w.toml").unwrap(), 1);
+        let m = UnitId::new("m").unwrap();
+        let s = w.rail_sensors(&m).unwrap();
+        assert!(s.fire_detected && s.water_connected);
+        assert!((s.hot_spots[0].position.x - 15.0).abs() < 1.0);
+        assert!(s.temperature_c > physics::AMBIENT_C);
+        // The nozzle speed whose jet lands nearest the fire 10 m ahead, monitor at -15 deg.
+        let c = w.carriages[0].clone();
+        let (nozzle, azimuth, elevation) = c.nozzle();
+        let v0 = (26..=266)
+            .map(|k| k as f64 / 10.0)
+            .min_by_key(|v| {
+                match jet::trace_at_speed(&w.tunnel, &w.obstacles, nozzle, azimuth, elevation, *v) {
+                    Landing::Road { at, .. } => (at.dist(Point2::new(15.0, 0.0)) * 1e3) as i64,
+                    Landing::Blocked => i64::MAX,
+                }
+            })
+            .unwrap();
+        let mut joints = c.joints;
+        joints.v0 = v0;
+        w.command_rail(
+            &m,
+            RailCommand {
+                joints,
+                valve_open: true,
+            },
+        );
+        for _ in 0..600 {
+            w.step(0.05);
+        }
+        assert_eq!(w.truth().fires[0].state, TruthFireState::Out);
+        let carriage = w.truth().units.into_iter().find(|u| u.id == m).unwrap();
+        assert!(carriage.water_used_l > 0.0);
     }
 
     #[test]
