@@ -73,15 +73,12 @@ impl GroundController {
 
     /// A task arrived from the coordinator. Older or repeated tasks are ignored.
     pub fn on_task(&mut self, seq: u64, kind: TaskKind) {
-        if self.unit.task.is_some_and(|(s, _)| s >= seq) {
-            return;
-        }
-        self.unit.task = Some((seq, kind));
+        self.unit.mission.on_task(seq, kind);
     }
 
     /// The coordinator appeared or disappeared.
     pub fn set_coordinator_present(&mut self, present: bool) {
-        self.unit.coordinator_present = present;
+        self.unit.mission.coordinator_present = present;
     }
 
     /// One control step for sensor frame `s`.

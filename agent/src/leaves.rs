@@ -1,5 +1,6 @@
-//! The ground unit's behavior-tree leaves: the paper's Algorithm 1 nodes and the fleet
-//! conditions, registered for the [`Unit`] context.
+//! The ground unit's behavior-tree leaves: the paper's Algorithm 1 nodes, registered for the
+//! [`Unit`] context with the coordinator-link leaves every unit shares
+//! ([`crate::mission`]).
 //!
 //! Leaves are thin: they read and set the unit's services (navigation, cannon, tracker,
 //! coordinator link) and the blackboard. They never block; anything that takes time runs
@@ -9,7 +10,6 @@
 use firefleet_bt::node::Io;
 use firefleet_bt::{PortSpec, PortType, Registry, StatefulAction, Status};
 use firefleet_protocol::Point2;
-use firefleet_protocol::msg::TaskPhase;
 
 use crate::unit::{NavPurpose, Unit};
 
@@ -77,8 +77,9 @@ impl StatefulAction<Unit> for ScanForFire {
 
 /// Every leaf the ground unit's trees may use.
 pub fn registry() -> Registry<Unit> {
-    use PortType::{Double, Int, Point};
+    use PortType::{Double, Point};
     let mut r = Registry::new();
+    crate::mission::register(&mut r);
 
     r.register_action(
         "SetGoal",
@@ -119,80 +120,6 @@ pub fn registry() -> Registry<Unit> {
             Status::Success
         }
     });
-    r.register_condition(
-        "FireDetection",
-        vec![
-            PortSpec::input(
-                "within_m",
-                Double,
-                "how far from the unit (or from `near`) a flame counts",
-            )
-            .with_default("30"),
-            PortSpec::input(
-                "near",
-                Point,
-                "look for a flame near this point instead of near the unit",
-            )
-            .optional(),
-        ],
-        || {
-            |io: &mut Io<'_>, u: &mut Unit| {
-                let within: f64 = io.get(0).unwrap_or(30.0);
-                let of = io.get::<[f64; 2]>(1).map(p).unwrap_or(u.pose().position());
-                ok(u.flame_near(of, within).is_some())
-            }
-        },
-    );
-    r.register_condition("IsAttacking", vec![], || {
-        |_: &mut Io<'_>, u: &mut Unit| ok(u.job.is_some())
-    });
-    r.register_condition("HasAssignedFire", vec![], || {
-        |_: &mut Io<'_>, u: &mut Unit| ok(u.assigned_fire().is_some())
-    });
-    r.register_condition("IsAutonomous", vec![], || {
-        |_: &mut Io<'_>, u: &mut Unit| ok(!u.coordinator_present)
-    });
-    r.register_action(
-        "LocateFire",
-        vec![
-            PortSpec::output("fire", Point, "where the fire is"),
-            PortSpec::output("task", Int, "coordinator task seq, -1 when acting alone"),
-        ],
-        || {
-            |io: &mut Io<'_>, u: &mut Unit| {
-                let (fire, task) = match u.assigned_fire() {
-                    Some((seq, id, target)) => {
-                        u.job = Some(Some((seq, id)));
-                        (u.flame_near(target, 3.0).unwrap_or(target), seq as i64)
-                    }
-                    None => match u.most_confident_flame(f64::INFINITY) {
-                        Some(f) => {
-                            u.job = Some(None);
-                            (f, -1)
-                        }
-                        None => return Status::Failure,
-                    },
-                };
-                ok(io.set(0, [fire.x, fire.y]).is_ok() && io.set(1, task).is_ok())
-            }
-        },
-    );
-    r.register_condition(
-        "IsTaskCurrent",
-        vec![PortSpec::input("task", Int, "the task being worked on")],
-        || {
-            |io: &mut Io<'_>, u: &mut Unit| {
-                let Ok(task) = io.get::<i64>(0) else {
-                    return Status::Failure;
-                };
-                ok(match u.assigned_fire() {
-                    Some((seq, _, _)) => seq as i64 == task,
-                    // Acting alone is current until a coordinator assigns something.
-                    None => task < 0 || u.task.is_some_and(|(s, _)| s as i64 == task),
-                })
-            }
-        },
-    );
     r.register_action(
         "SetTargetToFire",
         vec![
@@ -313,35 +240,5 @@ pub fn registry() -> Registry<Unit> {
             Status::Success
         }
     });
-    r.register_action(
-        "ReportExtinguished",
-        vec![PortSpec::input("task", Int, "the task that is done")],
-        || {
-            |io: &mut Io<'_>, u: &mut Unit| {
-                let task = io.get::<i64>(0).unwrap_or(-1);
-                tracing::info!(unit = %u.id, task, "flame out");
-                u.stop_navigation(NavPurpose::Fire);
-                u.finish(task, TaskPhase::Extinguished);
-                Status::Success
-            }
-        },
-    );
-    r.register_action(
-        "ErrorHandling",
-        vec![PortSpec::input("task", Int, "the task that failed").with_default("-1")],
-        || {
-            |io: &mut Io<'_>, u: &mut Unit| {
-                let task = io.get::<i64>(0).unwrap_or(-1);
-                u.valve = false;
-                u.aim = None;
-                u.stop_navigation(NavPurpose::Fire);
-                if u.job.is_some() {
-                    tracing::warn!(unit = %u.id, task, "attack abandoned");
-                    u.finish(task, TaskPhase::Failed);
-                }
-                Status::Failure
-            }
-        },
-    );
     r
 }

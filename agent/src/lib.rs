@@ -12,6 +12,7 @@ pub mod aim;
 pub mod fuzzy;
 pub mod ground;
 pub mod leaves;
+pub mod mission;
 pub mod nav;
 pub mod node;
 pub mod perception;

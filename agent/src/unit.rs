@@ -9,14 +9,15 @@
 
 use std::sync::Arc;
 
+use firefleet_protocol::UnitId;
 use firefleet_protocol::geometry::{Point2, Pose2, wrap_angle};
 use firefleet_protocol::msg::{
-    FlameReport, TaskKind, TaskPhase, TaskProgress, UnitCommand, UnitKind, UnitMode, UnitSensors,
-    UnitState,
+    FlameReport, TaskKind, UnitCommand, UnitKind, UnitMode, UnitSensors, UnitState,
 };
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::GroundSpec;
-use firefleet_protocol::{FireId, UnitId};
+
+use crate::mission::{Mission, Responder};
 
 use crate::aim;
 use crate::nav::{self, Follow, Grid, PurePursuit};
@@ -78,15 +79,9 @@ pub struct Unit {
     /// Half-angle of the sweep across the flame base while spraying, rad.
     pub(crate) sweep_rad: f64,
     pub(crate) valve: bool,
-    pub(crate) coordinator_present: bool,
-    /// The coordinator's latest task.
-    pub(crate) task: Option<(u64, TaskKind)>,
+    pub(crate) mission: Mission,
     /// Goal of the latest cruise, kept after arrival.
     cruising_to: Option<Point2>,
-    /// The attack under way: coordinator task (seq, fire), or `None` when acting alone.
-    pub(crate) job: Option<Option<(u64, FireId)>>,
-    /// How the last coordinator task ended.
-    pub(crate) outcome: Option<TaskProgress>,
     last_report_t: f64,
 }
 
@@ -122,10 +117,7 @@ impl Unit {
             scan: None,
             sweep_rad: 0.0,
             valve: false,
-            coordinator_present: false,
-            task: None,
-            job: None,
-            outcome: None,
+            mission: Mission::default(),
             last_report_t: f64::NEG_INFINITY,
         }
     }
@@ -147,18 +139,6 @@ impl Unit {
     }
     pub fn now(&self) -> f64 {
         self.frame.t
-    }
-
-    /// The coordinator's Extinguish task not yet finished, if any.
-    pub fn assigned_fire(&self) -> Option<(u64, FireId, Point2)> {
-        match self.task {
-            Some((seq, TaskKind::Extinguish { fire, target }))
-                if self.outcome.is_none_or(|o| o.seq != seq) =>
-            {
-                Some((seq, fire, target))
-            }
-            _ => None,
-        }
     }
 
     /// Set the sweep across the flame at `target`: half its estimated radius either side of
@@ -185,15 +165,13 @@ impl Unit {
             .map(|t| t.position())
     }
 
-    /// The confirmed flame seen within [`RECENTLY_SEEN_S`] and `within` metres that the
-    /// detector is most confident of (ties: the nearest).
-    pub fn most_confident_flame(&self, within: f64) -> Option<Point2> {
+    /// The confirmed flame seen within [`RECENTLY_SEEN_S`] that the detector is most
+    /// confident of (ties: the nearest).
+    pub fn most_confident_flame(&self) -> Option<Point2> {
         let at = self.pose().position();
         self.tracker
             .confirmed()
-            .filter(|t| {
-                self.now() - t.last_seen <= RECENTLY_SEEN_S && t.position().dist(at) <= within
-            })
+            .filter(|t| self.now() - t.last_seen <= RECENTLY_SEEN_S)
             .max_by(|a, b| {
                 a.confidence
                     .total_cmp(&b.confidence)
@@ -204,7 +182,7 @@ impl Unit {
 
     /// Cruise goal: the coordinator's, or else the far end of the lane the unit is in.
     pub fn cruise_goal(&self) -> Point2 {
-        if let Some((_, TaskKind::Cruise { goal })) = self.task {
+        if let Some((_, TaskKind::Cruise { goal })) = self.mission.task {
             return goal;
         }
         let t = &self.scenario.tunnel;
@@ -356,16 +334,6 @@ impl Unit {
         })
     }
 
-    /// Record how the coordinator task `task` ended.
-    pub fn finish(&mut self, task: i64, phase: TaskPhase) {
-        if let Some(Some((seq, fire))) = self.job
-            && seq as i64 == task
-        {
-            self.outcome = Some(TaskProgress { seq, fire, phase });
-        }
-        self.job = None;
-    }
-
     /// Actuator set-points for this step: the navigation service drives, the cannon holds
     /// its aim, the valve follows the request.
     pub fn command(&mut self) -> UnitCommand {
@@ -429,17 +397,7 @@ impl Unit {
                 _ => UnitMode::Idle,
             }
         };
-        let task = match self.job {
-            Some(Some((seq, fire))) => {
-                let phase = if mode == UnitMode::Extinguishing {
-                    TaskPhase::Spraying
-                } else {
-                    TaskPhase::Travelling
-                };
-                Some(TaskProgress { seq, fire, phase })
-            }
-            _ => self.outcome,
-        };
+        let task = self.mission.progress(mode == UnitMode::Extinguishing);
         UnitState {
             unit: self.id.clone(),
             kind: UnitKind::Ground,
@@ -451,7 +409,7 @@ impl Unit {
             health: 1.0,
             heat_flux_kw_m2: f.heat_flux_kw_m2,
             task,
-            autonomous: !self.coordinator_present,
+            autonomous: !self.mission.coordinator_present,
         }
     }
 
@@ -465,5 +423,28 @@ impl Unit {
             observer: self.frame.pose,
             observations,
         })
+    }
+}
+
+impl Responder for Unit {
+    fn id(&self) -> &UnitId {
+        &self.id
+    }
+    fn position(&self) -> Point2 {
+        self.pose().position()
+    }
+    fn mission(&mut self) -> &mut Mission {
+        &mut self.mission
+    }
+    fn flame_near(&self, of: Point2, within: f64) -> Option<Point2> {
+        Unit::flame_near(self, of, within)
+    }
+    fn most_confident_flame(&self) -> Option<Point2> {
+        Unit::most_confident_flame(self)
+    }
+    fn stand_down(&mut self) {
+        self.valve = false;
+        self.aim = None;
+        self.stop_navigation(NavPurpose::Fire);
     }
 }

@@ -1,0 +1,202 @@
+//! A unit's side of the coordinator link, and the behavior-tree leaves that every kind of
+//! unit shares for it.
+//!
+//! [`Mission`] holds the coordinator's latest task, the attack under way and how the last
+//! task ended; [`register`] adds the leaves that read and change it (`HasAssignedFire`,
+//! `LocateFire`, `IsTaskCurrent`, `ReportExtinguished`, `ErrorHandling`, ...) to any unit
+//! context that implements [`Responder`]. Ground and monorail units differ in how they
+//! see flames and how they stand down, not in how they take and report tasks.
+
+use firefleet_bt::node::Io;
+use firefleet_bt::{PortSpec, PortType, Registry, Status};
+use firefleet_protocol::msg::{TaskKind, TaskPhase, TaskProgress};
+use firefleet_protocol::{FireId, Point2, UnitId};
+
+/// The coordinator link's state on the unit.
+#[derive(Debug, Clone, Default)]
+pub struct Mission {
+    pub coordinator_present: bool,
+    /// The coordinator's latest task.
+    pub task: Option<(u64, TaskKind)>,
+    /// The attack under way: coordinator task (seq, fire), or `None` when acting alone.
+    pub job: Option<Option<(u64, FireId)>>,
+    /// How the last coordinator task ended.
+    pub outcome: Option<TaskProgress>,
+}
+
+impl Mission {
+    /// A task arrived. Older or repeated tasks are ignored.
+    pub fn on_task(&mut self, seq: u64, kind: TaskKind) {
+        if self.task.is_some_and(|(s, _)| s >= seq) {
+            return;
+        }
+        self.task = Some((seq, kind));
+    }
+
+    /// The coordinator's Extinguish task not yet finished, if any.
+    pub fn assigned_fire(&self) -> Option<(u64, FireId, Point2)> {
+        match self.task {
+            Some((seq, TaskKind::Extinguish { fire, target }))
+                if self.outcome.is_none_or(|o| o.seq != seq) =>
+            {
+                Some((seq, fire, target))
+            }
+            _ => None,
+        }
+    }
+
+    /// Record how the coordinator task `task` ended.
+    pub fn finish(&mut self, task: i64, phase: TaskPhase) {
+        if let Some(Some((seq, fire))) = self.job
+            && seq as i64 == task
+        {
+            self.outcome = Some(TaskProgress { seq, fire, phase });
+        }
+        self.job = None;
+    }
+
+    /// The task progress to report: the attack under way, or how the last one ended.
+    pub fn progress(&self, spraying: bool) -> Option<TaskProgress> {
+        match self.job {
+            Some(Some((seq, fire))) => Some(TaskProgress {
+                seq,
+                fire,
+                phase: if spraying {
+                    TaskPhase::Spraying
+                } else {
+                    TaskPhase::Travelling
+                },
+            }),
+            _ => self.outcome,
+        }
+    }
+}
+
+/// What the shared leaves need of a unit.
+pub trait Responder: 'static {
+    fn id(&self) -> &UnitId;
+    /// Where the unit is (a monorail unit: its carriage).
+    fn position(&self) -> Point2;
+    fn mission(&mut self) -> &mut Mission;
+    /// A flame seen lately within `within` metres of `of`.
+    fn flame_near(&self, of: Point2, within: f64) -> Option<Point2>;
+    /// The flame to attack when acting alone.
+    fn most_confident_flame(&self) -> Option<Point2>;
+    /// Stop travelling to and spraying the fire.
+    fn stand_down(&mut self);
+}
+
+fn ok(b: bool) -> Status {
+    if b { Status::Success } else { Status::Failure }
+}
+
+/// Add the shared leaves to `r`.
+pub fn register<C: Responder>(r: &mut Registry<C>) {
+    use PortType::{Double, Int, Point};
+    r.register_condition(
+        "FireDetection",
+        vec![
+            PortSpec::input(
+                "within_m",
+                Double,
+                "how far from the unit (or from `near`) a flame counts",
+            )
+            .with_default("30"),
+            PortSpec::input(
+                "near",
+                Point,
+                "look for a flame near this point instead of near the unit",
+            )
+            .optional(),
+        ],
+        || {
+            |io: &mut Io<'_>, u: &mut C| {
+                let within: f64 = io.get(0).unwrap_or(30.0);
+                let of = io
+                    .get::<[f64; 2]>(1)
+                    .map(|[x, y]| Point2::new(x, y))
+                    .unwrap_or(u.position());
+                ok(u.flame_near(of, within).is_some())
+            }
+        },
+    );
+    r.register_condition("IsAttacking", vec![], || {
+        |_: &mut Io<'_>, u: &mut C| ok(u.mission().job.is_some())
+    });
+    r.register_condition("HasAssignedFire", vec![], || {
+        |_: &mut Io<'_>, u: &mut C| ok(u.mission().assigned_fire().is_some())
+    });
+    r.register_condition("IsAutonomous", vec![], || {
+        |_: &mut Io<'_>, u: &mut C| ok(!u.mission().coordinator_present)
+    });
+    r.register_action(
+        "LocateFire",
+        vec![
+            PortSpec::output("fire", Point, "where the fire is"),
+            PortSpec::output("task", Int, "coordinator task seq, -1 when acting alone"),
+        ],
+        || {
+            |io: &mut Io<'_>, u: &mut C| {
+                let (fire, task) = match u.mission().assigned_fire() {
+                    Some((seq, id, target)) => {
+                        u.mission().job = Some(Some((seq, id)));
+                        (u.flame_near(target, 3.0).unwrap_or(target), seq as i64)
+                    }
+                    None => match u.most_confident_flame() {
+                        Some(f) => {
+                            u.mission().job = Some(None);
+                            (f, -1)
+                        }
+                        None => return Status::Failure,
+                    },
+                };
+                ok(io.set(0, [fire.x, fire.y]).is_ok() && io.set(1, task).is_ok())
+            }
+        },
+    );
+    r.register_condition(
+        "IsTaskCurrent",
+        vec![PortSpec::input("task", Int, "the task being worked on")],
+        || {
+            |io: &mut Io<'_>, u: &mut C| {
+                let Ok(task) = io.get::<i64>(0) else {
+                    return Status::Failure;
+                };
+                let m = u.mission();
+                ok(match m.assigned_fire() {
+                    Some((seq, _, _)) => seq as i64 == task,
+                    // Acting alone is current until a coordinator assigns something.
+                    None => task < 0 || m.task.is_some_and(|(s, _)| s as i64 == task),
+                })
+            }
+        },
+    );
+    r.register_action(
+        "ReportExtinguished",
+        vec![PortSpec::input("task", Int, "the task that is done")],
+        || {
+            |io: &mut Io<'_>, u: &mut C| {
+                let task = io.get::<i64>(0).unwrap_or(-1);
+                tracing::info!(unit = %u.id(), task, "flame out");
+                u.stand_down();
+                u.mission().finish(task, TaskPhase::Extinguished);
+                Status::Success
+            }
+        },
+    );
+    r.register_action(
+        "ErrorHandling",
+        vec![PortSpec::input("task", Int, "the task that failed").with_default("-1")],
+        || {
+            |io: &mut Io<'_>, u: &mut C| {
+                let task = io.get::<i64>(0).unwrap_or(-1);
+                u.stand_down();
+                if u.mission().job.is_some() {
+                    tracing::warn!(unit = %u.id(), task, "attack abandoned");
+                    u.mission().finish(task, TaskPhase::Failed);
+                }
+                Status::Failure
+            }
+        },
+    );
+}
