@@ -5,9 +5,24 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::rc::Rc;
 
-use clap::{Args, Subcommand};
-use firefleet_bt::xml;
+use clap::{Args, Subcommand, ValueEnum};
+use firefleet_bt::xml::{self, Document, XmlErrors};
 use firefleet_bt::{Registry, Transition};
+
+/// Which unit's leaves a tree is checked against.
+#[derive(ValueEnum, Clone, Copy, Debug, Default)]
+pub enum Kind {
+    #[default]
+    Ground,
+    Monorail,
+}
+
+fn validate(doc: &Document, kind: Kind) -> Result<(), XmlErrors> {
+    match kind {
+        Kind::Ground => xml::validate(doc, &firefleet_agent::leaves::registry()),
+        Kind::Monorail => xml::validate(doc, &firefleet_agent::monorail::registry()),
+    }
+}
 
 #[derive(Subcommand, Debug)]
 pub enum BtCommand {
@@ -15,9 +30,16 @@ pub enum BtCommand {
     Validate {
         #[arg(required = true)]
         files: Vec<PathBuf>,
+        /// The kind of unit the trees are for.
+        #[arg(long, value_enum, default_value_t)]
+        kind: Kind,
     },
     /// Print a file's main tree as text, subtrees expanded.
-    Show { file: PathBuf },
+    Show {
+        file: PathBuf,
+        #[arg(long, value_enum, default_value_t)]
+        kind: Kind,
+    },
     /// Dry-run a tree of built-in nodes on a simulated clock, printing every transition.
     Run(RunArgs),
 }
@@ -35,13 +57,10 @@ pub struct RunArgs {
 
 pub fn run(cmd: BtCommand) -> anyhow::Result<ExitCode> {
     match cmd {
-        BtCommand::Validate { files } => {
-            let registry = firefleet_agent::leaves::registry();
+        BtCommand::Validate { files, kind } => {
             let mut ok = true;
             for f in files {
-                match xml::load_file(&f)
-                    .and_then(|doc| xml::validate(&doc, &registry).map(|()| doc))
-                {
+                match xml::load_file(&f).and_then(|doc| validate(&doc, kind).map(|()| doc)) {
                     Ok(doc) => println!("{}: valid ({} trees)", f.display(), doc.trees.len()),
                     Err(e) => {
                         ok = false;
@@ -55,10 +74,10 @@ pub fn run(cmd: BtCommand) -> anyhow::Result<ExitCode> {
                 ExitCode::FAILURE
             })
         }
-        BtCommand::Show { file } => {
+        BtCommand::Show { file, kind } => {
             let doc = xml::load_file(&file)?;
             print!("{}", xml::render(&doc).map_err(anyhow::Error::msg)?);
-            match xml::validate(&doc, &firefleet_agent::leaves::registry()) {
+            match validate(&doc, kind) {
                 Ok(()) => Ok(ExitCode::SUCCESS),
                 Err(e) => {
                     eprintln!("{e}");

@@ -10,6 +10,7 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
+use firefleet_agent::Controller;
 use firefleet_agent::ground::{GroundController, cannon_experiment_tree};
 use firefleet_coordinator::Incident;
 use firefleet_coordinator::assign::Strategy;
@@ -291,14 +292,7 @@ fn fleet_run(
             )
         })
         .collect();
-    let mut incident = strategy.map(|s| {
-        Incident::new(
-            scenario.tunnel,
-            scenario.units.iter().map(|u| u.id.clone()),
-            5.0,
-            s,
-        )
-    });
+    let mut incident = strategy.map(|s| Incident::from_scenario(scenario, 5.0, s));
     let deliver = |outputs: Vec<Output>, units: &mut [(UnitId, GroundController)]| {
         for o in outputs {
             if let Output::Task(task) = o

@@ -6,14 +6,15 @@ use std::time::Duration;
 
 use anyhow::Context;
 use firefleet_agent::ground::GroundController;
+use firefleet_agent::monorail::MonorailController;
 use firefleet_agent::{AgentOptions, SimPlatform};
 use firefleet_coordinator::CoordinatorOptions;
 use firefleet_protocol::bus::Bus;
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::IncidentStatus;
+use firefleet_protocol::msg::{IncidentStatus, UnitKind};
 use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::spec::GROUND;
+use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_sim::SimOptions;
 use tokio::io::AsyncReadExt;
 
@@ -109,32 +110,37 @@ pub async fn agent(a: AgentArgs) -> anyhow::Result<ExitCode> {
             scenario.name
         );
     }
-    let doc = match &a.tree {
-        Some(path) => firefleet_bt::xml::load_file(path)?,
-        None => firefleet_agent::ground::default_tree(),
-    };
-    let ctl = GroundController::with_tree(
-        a.unit.clone(),
-        GROUND,
-        Arc::new(scenario.clone()),
-        &doc,
-        1.0 / a.tick_hz,
-    )?;
+    let spec = scenario.unit(&a.unit).expect("checked above");
     let bus = open(&a.zenoh, &scenario).await?;
-    let platform = SimPlatform::connect(&bus, &a.unit, GROUND).await?;
     let opts = AgentOptions {
-        unit: a.unit,
+        unit: a.unit.clone(),
         report_period_s: 0.25,
         print_tree: a.print_tree,
     };
-    firefleet_agent::run(
-        &bus,
-        platform,
-        ctl,
-        &opts,
-        shutdown_signal(a.zenoh.die_with_parent),
-    )
-    .await?;
+    let shared = Arc::new(scenario.clone());
+    let shutdown = shutdown_signal(a.zenoh.die_with_parent);
+    match spec.kind {
+        UnitKind::Ground => {
+            let doc = match &a.tree {
+                Some(path) => firefleet_bt::xml::load_file(path)?,
+                None => firefleet_agent::ground::default_tree(),
+            };
+            let ctl =
+                GroundController::with_tree(a.unit.clone(), GROUND, shared, &doc, 1.0 / a.tick_hz)?;
+            let platform = SimPlatform::ground(&bus, &a.unit).await?;
+            firefleet_agent::run(&bus, platform, ctl, &opts, shutdown).await?;
+        }
+        UnitKind::Monorail => {
+            let doc = match &a.tree {
+                Some(path) => firefleet_bt::xml::load_file(path)?,
+                None => firefleet_agent::monorail::default_tree(),
+            };
+            let ctl = MonorailController::with_tree(a.unit.clone(), MONORAIL, shared, &doc)?
+                .context("the unit's rail is not in the scenario")?;
+            let platform = SimPlatform::monorail(&bus, &a.unit).await?;
+            firefleet_agent::run(&bus, platform, ctl, &opts, shutdown).await?;
+        }
+    }
     bus.close().await;
     Ok(ExitCode::SUCCESS)
 }

@@ -18,6 +18,7 @@ use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::GroundSpec;
 
 use crate::leaves;
+use crate::node::Controller;
 use crate::unit::Unit;
 
 /// The shipped ground-unit tree (Algorithm 1, adapted to the fleet).
@@ -71,18 +72,18 @@ impl GroundController {
         })
     }
 
-    /// A task arrived from the coordinator. Older or repeated tasks are ignored.
-    pub fn on_task(&mut self, seq: u64, kind: TaskKind) {
-        self.unit.mission.on_task(seq, kind);
+    /// Tick the tree once at site time `t` over the unit as it is.
+    pub fn tick(&mut self, t: f64) -> firefleet_bt::Status {
+        self.tree.tick(t, &mut self.unit)
     }
+}
 
-    /// The coordinator appeared or disappeared.
-    pub fn set_coordinator_present(&mut self, present: bool) {
-        self.unit.mission.coordinator_present = present;
-    }
+impl Controller for GroundController {
+    type Sensors = UnitSensors;
+    type Command = UnitCommand;
+    type Context = Unit;
 
-    /// One control step for sensor frame `s`.
-    pub fn step(&mut self, s: &UnitSensors) -> UnitCommand {
+    fn step(&mut self, s: &UnitSensors) -> UnitCommand {
         self.unit.sense(s.clone());
         if s.t >= self.next_tick {
             self.next_tick = s.t + self.tick_period_s;
@@ -91,25 +92,35 @@ impl GroundController {
         self.unit.command()
     }
 
-    /// Tick the tree once at site time `t` over the unit as it is.
-    pub fn tick(&mut self, t: f64) -> firefleet_bt::Status {
-        self.tree.tick(t, &mut self.unit)
+    fn time(s: &UnitSensors) -> f64 {
+        s.t
     }
 
-    pub fn state(&self) -> UnitState {
+    fn halt(s: &UnitSensors) -> UnitCommand {
+        UnitCommand::halt(&s.cannon)
+    }
+
+    fn on_task(&mut self, seq: u64, kind: TaskKind) {
+        self.unit.mission.on_task(seq, kind);
+    }
+
+    fn set_coordinator_present(&mut self, present: bool) {
+        self.unit.mission.coordinator_present = present;
+    }
+
+    fn state(&self) -> UnitState {
         self.unit.state()
     }
 
-    /// Flames seen since the last report, if any.
-    pub fn report(&mut self) -> Option<FlameReport> {
+    fn report(&mut self) -> Option<FlameReport> {
         self.unit.report()
     }
 
-    pub fn tree(&self) -> &Tree<Unit> {
+    fn tree(&self) -> &Tree<Unit> {
         &self.tree
     }
 
-    pub fn tree_mut(&mut self) -> &mut Tree<Unit> {
+    fn tree_mut(&mut self) -> &mut Tree<Unit> {
         &mut self.tree
     }
 }

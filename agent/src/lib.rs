@@ -1,7 +1,7 @@
 //! What runs on a robot.
 //!
 //! The pure parts ([`perception`], [`nav`], [`aim`], [`tracker`], [`unit`], [`leaves`],
-//! [`ground`], [`rail`], [`fuzzy`]) know
+//! [`ground`], [`monorail`], [`rail`], [`fuzzy`]) know
 //! nothing of Zenoh: they
 //! take sensor frames and tasks and return actuator set-points, so they are tested and
 //! benchmarked without a network. The edges are [`platform`], the interface a robot's
@@ -13,6 +13,7 @@ pub mod fuzzy;
 pub mod ground;
 pub mod leaves;
 pub mod mission;
+pub mod monorail;
 pub mod nav;
 pub mod node;
 pub mod perception;
@@ -21,5 +22,5 @@ pub mod rail;
 pub mod tracker;
 pub mod unit;
 
-pub use node::{AgentOptions, run};
+pub use node::{AgentOptions, Controller, run};
 pub use platform::{Platform, SimPlatform};

@@ -10,15 +10,40 @@ use std::cell::RefCell;
 use std::future::Future;
 use std::rc::Rc;
 
-use firefleet_bt::{Status, Transition};
+use firefleet_bt::{Status, Transition, Tree};
 use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{BtTransition, BtTransitions, NodeStatus, Task, UnitCommand};
+use firefleet_protocol::msg::{
+    BtTransition, BtTransitions, FlameReport, NodeStatus, Task, TaskKind, UnitState,
+};
 use zenoh::sample::SampleKind;
 
-use crate::ground::GroundController;
 use crate::platform::Platform;
+
+/// A unit's control loop, whatever its kind: a behavior tree over the unit's services,
+/// stepped on every sensor frame.
+pub trait Controller {
+    type Sensors;
+    type Command;
+    /// The tree's context (the unit's services).
+    type Context;
+    /// One control step for a sensor frame.
+    fn step(&mut self, s: &Self::Sensors) -> Self::Command;
+    /// Site time of a frame.
+    fn time(s: &Self::Sensors) -> f64;
+    /// Set-points that stop the body where the frame says it is, valve shut.
+    fn halt(s: &Self::Sensors) -> Self::Command;
+    /// A task arrived from the coordinator.
+    fn on_task(&mut self, seq: u64, kind: TaskKind);
+    /// The coordinator appeared or disappeared.
+    fn set_coordinator_present(&mut self, present: bool);
+    fn state(&self) -> UnitState;
+    /// Flames seen since the last report, if any.
+    fn report(&mut self) -> Option<FlameReport>;
+    fn tree(&self) -> &Tree<Self::Context>;
+    fn tree_mut(&mut self) -> &mut Tree<Self::Context>;
+}
 
 /// How an agent runs.
 #[derive(Debug, Clone)]
@@ -42,13 +67,17 @@ fn status(s: Status) -> NodeStatus {
 
 /// Run the agent with controller `ctl` until `shutdown` completes or the platform goes
 /// away.
-pub async fn run<P: Platform>(
+pub async fn run<P, K>(
     bus: &Bus,
     mut platform: P,
-    mut ctl: GroundController,
+    mut ctl: K,
     opts: &AgentOptions,
     shutdown: impl Future<Output = ()>,
-) -> Result<(), BusError> {
+) -> Result<(), BusError>
+where
+    P: Platform,
+    K: Controller<Sensors = P::Sensors, Command = P::Command>,
+{
     let keys = bus.keys().clone();
     let unit = &opts.unit;
     let transitions: Rc<RefCell<Vec<Transition>>> = Rc::default();
@@ -87,14 +116,15 @@ pub async fn run<P: Platform>(
     let mut next_print = f64::NEG_INFINITY;
     tracing::info!(%unit, nodes = ctl.tree().len(), "agent started");
     tokio::pin!(shutdown);
-    let mut last_cannon = None;
+    let mut halt = None;
     loop {
         tokio::select! {
             frame = platform.sense() => {
                 let Some(s) = frame else { break };
                 let cmd = ctl.step(&s);
                 platform.actuate(cmd).await?;
-                last_cannon = Some(s.cannon);
+                let t = K::time(&s);
+                halt = Some(K::halt(&s));
                 let batch: Vec<BtTransition> = transitions
                     .borrow_mut()
                     .drain(..)
@@ -103,12 +133,12 @@ pub async fn run<P: Platform>(
                 if !batch.is_empty() {
                     bus.put(&bt_key, &BtTransitions { unit: unit.clone(), transitions: batch }).await?;
                 }
-                if opts.print_tree && s.t >= next_print {
-                    next_print = s.t + 1.0;
-                    eprintln!("{unit} t={:.1}\n{}", s.t, ctl.tree().render());
+                if opts.print_tree && t >= next_print {
+                    next_print = t + 1.0;
+                    eprintln!("{unit} t={t:.1}\n{}", ctl.tree().render());
                 }
-                if s.t >= next_report {
-                    next_report = s.t + opts.report_period_s;
+                if t >= next_report {
+                    next_report = t + opts.report_period_s;
                     bus.put(&state_key, &ctl.state()).await?;
                     if let Some(r) = ctl.report() {
                         bus.put(&report_key, &r).await?;
@@ -133,8 +163,8 @@ pub async fn run<P: Platform>(
             _ = &mut shutdown => break,
         }
     }
-    if let Some(c) = last_cannon {
-        platform.actuate(UnitCommand::halt(&c)).await?;
+    if let Some(cmd) = halt {
+        platform.actuate(cmd).await?;
     }
     Ok(())
 }

@@ -1,57 +1,80 @@
 //! The robot's body as the agent sees it.
 //!
-//! A [`Platform`] delivers sensor frames (pose from localisation, cannon state, tank level,
-//! heat flux, flame detections from the detector node) and accepts actuator set-points.
+//! A [`Platform`] delivers sensor frames (for a ground unit: pose from localisation, cannon
+//! state, tank level, heat flux, flame detections; for a monorail unit: joints, fire
+//! detector, temperature, thermal camera) and accepts actuator set-points.
 //! A real robot implements it over its drivers; [`SimPlatform`] implements it over the
 //! simulator's `ff/<site>/sim/unit/<id>/...` keys, so the agent code is the same for both.
 
 use std::future::Future;
+use std::marker::PhantomData;
 
 use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, BusError, Inbox};
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{UnitCommand, UnitSensors};
-use firefleet_protocol::spec::GroundSpec;
+use firefleet_protocol::msg::{Message, RailCommand, RailSensors, UnitCommand, UnitSensors};
 
-/// A robot body: sensors in, set-points out.
+/// A robot body: sensor frames in, set-points out.
 pub trait Platform {
-    /// The body's datasheet: limits and geometry.
-    fn spec(&self) -> &GroundSpec;
+    type Sensors: Send;
+    type Command: Send;
     /// The next sensor frame; `None` when the body is gone for good.
-    fn sense(&mut self) -> impl Future<Output = Option<UnitSensors>> + Send;
+    fn sense(&mut self) -> impl Future<Output = Option<Self::Sensors>> + Send;
     /// Send set-points; the body applies its own rate limits.
-    fn actuate(&mut self, cmd: UnitCommand) -> impl Future<Output = Result<(), BusError>> + Send;
+    fn actuate(&mut self, cmd: Self::Command) -> impl Future<Output = Result<(), BusError>> + Send;
 }
 
-/// A simulated body, reached over the bus.
-pub struct SimPlatform {
-    spec: GroundSpec,
+/// A simulated body, reached over the bus: a ground vehicle
+/// (`SimPlatform<UnitSensors, UnitCommand>`) or a monorail carriage
+/// (`SimPlatform<RailSensors, RailCommand>`).
+pub struct SimPlatform<S: Message, C> {
     bus: Bus,
-    sensors: Inbox<UnitSensors>,
+    sensors: Inbox<S>,
     cmd_key: String,
+    command: PhantomData<C>,
 }
 
-impl SimPlatform {
-    pub async fn connect(bus: &Bus, unit: &UnitId, spec: GroundSpec) -> Result<Self, BusError> {
+impl<S: Message, C> SimPlatform<S, C> {
+    async fn connect(bus: &Bus, sensors: Topic, cmd: Topic) -> Result<Self, BusError> {
         let keys = bus.keys();
-        let sensors = bus
-            .subscribe(&keys.key(&Topic::SimSensors(unit.clone())))
-            .await?;
         Ok(Self {
-            spec,
+            sensors: bus.subscribe(&keys.key(&sensors)).await?,
+            cmd_key: keys.key(&cmd),
             bus: bus.clone(),
-            sensors,
-            cmd_key: keys.key(&Topic::SimCmd(unit.clone())),
+            command: PhantomData,
         })
     }
 }
 
-impl Platform for SimPlatform {
-    fn spec(&self) -> &GroundSpec {
-        &self.spec
+impl SimPlatform<UnitSensors, UnitCommand> {
+    /// The simulator's ground vehicle `unit`.
+    pub async fn ground(bus: &Bus, unit: &UnitId) -> Result<Self, BusError> {
+        Self::connect(
+            bus,
+            Topic::SimSensors(unit.clone()),
+            Topic::SimCmd(unit.clone()),
+        )
+        .await
     }
+}
 
-    async fn sense(&mut self) -> Option<UnitSensors> {
+impl SimPlatform<RailSensors, RailCommand> {
+    /// The simulator's monorail carriage `unit`.
+    pub async fn monorail(bus: &Bus, unit: &UnitId) -> Result<Self, BusError> {
+        Self::connect(
+            bus,
+            Topic::SimRailSensors(unit.clone()),
+            Topic::SimRailCmd(unit.clone()),
+        )
+        .await
+    }
+}
+
+impl<S: Message, C: Message> Platform for SimPlatform<S, C> {
+    type Sensors = S;
+    type Command = C;
+
+    async fn sense(&mut self) -> Option<S> {
         let (_, mut frame) = self.sensors.recv().await?;
         // Frames queue up if the agent falls behind; act on the newest.
         while let Some((_, newer)) = self.sensors.try_recv() {
@@ -60,7 +83,7 @@ impl Platform for SimPlatform {
         Some(frame)
     }
 
-    async fn actuate(&mut self, cmd: UnitCommand) -> Result<(), BusError> {
+    async fn actuate(&mut self, cmd: C) -> Result<(), BusError> {
         self.bus.put(&self.cmd_key, &cmd).await
     }
 }

@@ -7,7 +7,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use firefleet_coordinator::assign::{self, Candidate, Need};
+use firefleet_coordinator::assign::{self, Candidate, Mobility, Need};
 use firefleet_protocol::{FireId, Point2, UnitId};
 use pathfinding::matrix::Matrix;
 use rand::{Rng, SeedableRng};
@@ -21,7 +21,7 @@ fn instance(units: usize, fires: usize) -> (Vec<Candidate>, Vec<Need>) {
         .map(|i| Candidate {
             unit: UnitId::new(format!("u{i}")).unwrap(),
             position: p(),
-            speed_m_s: 1.5,
+            mobility: Mobility::Ground { speed_m_s: 1.5 },
         })
         .collect();
     let f = (0..fires)
@@ -43,9 +43,10 @@ fn bench(c: &mut Criterion) {
     let ms: Vec<i64> = needs
         .iter()
         .flat_map(|n| {
-            units
-                .iter()
-                .map(move |u| (u.position.dist(n.position) / u.speed_m_s * 1000.0) as i64)
+            units.iter().map(move |u| {
+                let t = u.mobility.travel_s(u.position, n.position).unwrap_or(1e6);
+                (t * 1000.0) as i64
+            })
         })
         .collect();
     let costs: Vec<f64> = ms.iter().map(|&c| c as f64).collect();

@@ -1,7 +1,10 @@
 //! Which free unit attacks which fire.
 //!
-//! Two strategies, both over the same costs (straight-line travel time at the unit's top
-//! speed, a lower bound of the real travel time):
+//! Costs are travel times, by the unit's [`Mobility`]: a ground unit's straight-line time at
+//! its top speed (a lower bound of the real travel time); a monorail unit's time to run its
+//! carriage along the rail until the fire is within its monitor's working reach. A monorail
+//! unit cannot take a fire out of its rail's reach: that pair is infeasible and never
+//! chosen. Two strategies, both over the same costs:
 //!
 //! - [`greedy`]: repeatedly take the cheapest (unit, fire) pair: what a nearest-free-unit
 //!   dispatcher does.
@@ -45,13 +48,63 @@ impl std::str::FromStr for Strategy {
     }
 }
 
+/// How a unit gets to a fire.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Mobility {
+    /// Drives anywhere in the tunnel at up to `speed_m_s`.
+    Ground { speed_m_s: f64 },
+    /// Runs along a rail from chainage `start_m` to `end_m` at lateral offset `y_m`, at up
+    /// to `speed_m_s`, and works fires within `reach_m` of the carriage.
+    Rail {
+        start_m: f64,
+        end_m: f64,
+        y_m: f64,
+        speed_m_s: f64,
+        reach_m: f64,
+    },
+}
+
+impl Mobility {
+    /// Travel time from `from` until the unit can work a fire at `to`, s; `None` if it
+    /// never can.
+    pub fn travel_s(&self, from: Point2, to: Point2) -> Option<f64> {
+        match *self {
+            Mobility::Ground { speed_m_s } => Some(from.dist(to) / speed_m_s.max(0.1)),
+            Mobility::Rail {
+                start_m,
+                end_m,
+                y_m,
+                speed_m_s,
+                reach_m,
+            } => {
+                let lateral = (to.y - y_m).abs();
+                if lateral > reach_m {
+                    return None;
+                }
+                // Along the rail, the fire must come within the reach left by the offset.
+                let along = (reach_m * reach_m - lateral * lateral).sqrt();
+                let (lo, hi) = (to.x - along, to.x + along);
+                if hi < start_m || lo > end_m {
+                    return None;
+                }
+                let goal = from.x.clamp(lo.max(start_m), hi.min(end_m));
+                Some((goal - from.x).abs() / speed_m_s.max(0.1))
+            }
+        }
+    }
+}
+
 /// A unit that could take a fire.
 #[derive(Debug, Clone)]
 pub struct Candidate {
     pub unit: UnitId,
     pub position: Point2,
-    pub speed_m_s: f64,
+    pub mobility: Mobility,
 }
+
+/// The cost of a pair no unit can carry out: large enough that any feasible assignment is
+/// cheaper, finite so that the Hungarian method's arithmetic stays exact.
+const INFEASIBLE: f64 = 1e9;
 
 /// A fire that needs a unit.
 #[derive(Debug, Clone)]
@@ -70,9 +123,11 @@ pub struct Pick {
     pub runner_up: Option<(UnitId, f64)>,
 }
 
-/// Travel time of `u` to `n`, s.
+/// Travel time of `u` to `n`, s, or [`INFEASIBLE`].
 fn cost(u: &Candidate, n: &Need) -> f64 {
-    u.position.dist(n.position) / u.speed_m_s.max(0.1)
+    u.mobility
+        .travel_s(u.position, n.position)
+        .unwrap_or(INFEASIBLE)
 }
 
 /// Travel times, one row per fire, one column per unit.
@@ -89,7 +144,7 @@ fn pick(units: &[Candidate], needs: &[Need], costs: &[f64], f: usize, u: usize) 
     let runner_up = row
         .iter()
         .enumerate()
-        .filter(|&(k, _)| k != u)
+        .filter(|&(k, c)| k != u && *c < INFEASIBLE)
         .min_by(|a, b| a.1.total_cmp(b.1))
         .map(|(k, c)| (units[k].unit.clone(), *c));
     Pick {
@@ -107,7 +162,9 @@ pub fn optimal(units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
     hungarian(&costs, needs.len(), units.len())
         .into_iter()
         .enumerate()
-        .filter_map(|(f, u)| Some(pick(units, needs, &costs, f, u?)))
+        .filter_map(|(f, u)| Some((f, u?)))
+        .filter(|&(f, u)| costs[f * units.len() + u] < INFEASIBLE)
+        .map(|(f, u)| pick(units, needs, &costs, f, u))
         .collect()
 }
 
@@ -203,6 +260,9 @@ pub fn greedy(units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
         for f in (0..needs.len()).filter(|&f| fire_open[f]) {
             for u in (0..units.len()).filter(|&u| unit_free[u]) {
                 let c = costs[f * units.len() + u];
+                if c >= INFEASIBLE {
+                    continue;
+                }
                 // Ties break on unit id, so the outcome does not depend on input order.
                 let better = best.is_none_or(|(bf, bu)| {
                     let bc = costs[bf * units.len() + bu];
@@ -228,7 +288,7 @@ mod tests {
         Candidate {
             unit: UnitId::new(id).unwrap(),
             position: Point2::new(x, 0.0),
-            speed_m_s: 1.0,
+            mobility: Mobility::Ground { speed_m_s: 1.0 },
         }
     }
 
@@ -280,7 +340,7 @@ mod tests {
         Candidate {
             unit: UnitId::new(id).unwrap(),
             position: Point2::new(x, y),
-            speed_m_s: 1.0,
+            mobility: Mobility::Ground { speed_m_s: 1.0 },
         }
     }
 
@@ -355,5 +415,71 @@ mod tests {
             let cost: f64 = a.iter().enumerate().filter_map(|(r, c)| c.map(|c| costs[r * cols + c])).sum();
             proptest::prop_assert!((cost - brute_force(&costs, rows, cols)).abs() < 1e-9);
         }
+    }
+
+    fn rail(id: &str, x: f64) -> Candidate {
+        Candidate {
+            unit: UnitId::new(id).unwrap(),
+            position: Point2::new(x, 0.0),
+            mobility: Mobility::Rail {
+                start_m: 0.0,
+                end_m: 100.0,
+                y_m: 0.0,
+                speed_m_s: 10.0,
+                reach_m: 15.0,
+            },
+        }
+    }
+
+    #[test]
+    fn rail_travel_stops_where_the_fire_comes_within_reach() {
+        let m = rail("r", 10.0).mobility;
+        let from = Point2::new(10.0, 0.0);
+        // 9 m to the side leaves 12 m of reach along the rail: run from 10 to 38.
+        let t = m.travel_s(from, Point2::new(50.0, 9.0)).unwrap();
+        assert!((t - 2.8).abs() < 1e-9, "{t}");
+        assert_eq!(m.travel_s(from, Point2::new(20.0, 0.0)), Some(0.0));
+        assert_eq!(
+            m.travel_s(from, Point2::new(50.0, 16.0)),
+            None,
+            "too far aside"
+        );
+        assert_eq!(
+            m.travel_s(from, Point2::new(130.0, 0.0)),
+            None,
+            "past the rail's end"
+        );
+        assert!(
+            m.travel_s(from, Point2::new(110.0, 0.0)).is_some(),
+            "reached from the end"
+        );
+    }
+
+    #[test]
+    fn a_fire_out_of_a_rails_reach_goes_to_a_ground_unit_or_to_nobody() {
+        let needs = [Need {
+            fire: FireId(1),
+            position: Point2::new(150.0, 0.0),
+        }];
+        for solve in [greedy, optimal] {
+            assert!(solve(&[rail("r", 90.0)], &needs).is_empty());
+            let picks = solve(&[rail("r", 90.0), cand("g", 0.0)], &needs);
+            assert_eq!(picks.len(), 1);
+            assert_eq!(picks[0].unit.as_str(), "g");
+            assert!(
+                picks[0].runner_up.is_none(),
+                "the rail unit is no runner-up"
+            );
+        }
+    }
+
+    #[test]
+    fn a_fast_rail_unit_beats_a_slow_ground_unit_within_its_reach() {
+        let needs = [Need {
+            fire: FireId(1),
+            position: Point2::new(60.0, 2.0),
+        }];
+        let picks = optimal(&[rail("r", 0.0), cand("g", 40.0)], &needs);
+        assert_eq!(picks[0].unit.as_str(), "r");
     }
 }

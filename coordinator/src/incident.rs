@@ -8,14 +8,14 @@ use std::collections::{BTreeMap, VecDeque};
 
 use firefleet_protocol::msg::{
     Decision, FireState, FireTrack, FlameReport, IncidentStatus, Task, TaskKind, TaskPhase,
-    UnitMode, UnitState, UnitStatus,
+    UnitKind, UnitMode, UnitState, UnitStatus,
 };
-use firefleet_protocol::scenario::Tunnel;
-use firefleet_protocol::spec::GROUND;
+use firefleet_protocol::scenario::{Scenario, Tunnel};
+use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::validate::Invalid;
 use firefleet_protocol::{FireId, Point2, UnitId};
 
-use crate::assign::{Candidate, Need, Strategy};
+use crate::assign::{Candidate, Mobility, Need, Strategy};
 use crate::fusion::{Fused, Fusion};
 
 /// How many decisions the incident remembers for status queries.
@@ -35,8 +35,9 @@ pub enum Output {
 }
 
 /// What the coordinator knows of one unit.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 struct UnitView {
+    mobility: Mobility,
     state: Option<UnitState>,
     alive: bool,
     last_heard: f64,
@@ -44,6 +45,16 @@ struct UnitView {
 }
 
 impl UnitView {
+    fn new(mobility: Mobility) -> Self {
+        Self {
+            mobility,
+            state: None,
+            alive: false,
+            last_heard: 0.0,
+            task: None,
+        }
+    }
+
     fn working_on(&self) -> Option<FireId> {
         match self.task.as_ref()?.kind {
             TaskKind::Extinguish { fire, .. } => Some(fire),
@@ -72,7 +83,7 @@ impl Incident {
     /// other unit are refused. A unit silent for `lease_s` is treated as lost.
     pub fn new(
         tunnel: Tunnel,
-        units: impl IntoIterator<Item = UnitId>,
+        units: impl IntoIterator<Item = (UnitId, Mobility)>,
         lease_s: f64,
         strategy: Strategy,
     ) -> Self {
@@ -80,7 +91,7 @@ impl Incident {
             tunnel,
             units: units
                 .into_iter()
-                .map(|u| (u, UnitView::default()))
+                .map(|(u, m)| (u, UnitView::new(m)))
                 .collect(),
             fusion: Fusion::default(),
             seq: 0,
@@ -90,6 +101,28 @@ impl Incident {
             decisions: VecDeque::new(),
             unpublished: Vec::new(),
         }
+    }
+
+    /// The incident of a site file: its tunnel, and its units with their mobility (ground
+    /// units at the ground unit's top speed, monorail units on their rails).
+    pub fn from_scenario(scenario: &Scenario, lease_s: f64, strategy: Strategy) -> Self {
+        let units = scenario.units.iter().map(|u| {
+            let rail = u.rail.as_deref().and_then(|r| scenario.rail(r));
+            let mobility = match (u.kind, rail) {
+                (UnitKind::Monorail, Some(r)) => Mobility::Rail {
+                    start_m: r.start_m,
+                    end_m: r.end_m,
+                    y_m: r.y_m,
+                    speed_m_s: MONORAIL.carriage_speed_m_s,
+                    reach_m: MONORAIL.working_reach_m,
+                },
+                _ => Mobility::Ground {
+                    speed_m_s: GROUND.max_speed_m_s,
+                },
+            };
+            (u.id.clone(), mobility)
+        });
+        Self::new(scenario.tunnel, units, lease_s, strategy)
     }
 
     fn log(&mut self, t: f64, text: String) {
@@ -333,6 +366,8 @@ impl Incident {
             .units
             .iter()
             .filter(|(_, v)| v.alive && v.working_on().is_none())
+            // Monorail units wait where they are: their carriages reach a fire in seconds.
+            .filter(|(_, v)| matches!(v.mobility, Mobility::Ground { .. }))
             .filter_map(|(u, v)| {
                 Some((
                     u.clone(),
@@ -410,7 +445,7 @@ impl Incident {
                 (st.mode != UnitMode::Fault && st.water_l > 0.0).then(|| Candidate {
                     unit: u.clone(),
                     position: st.pose.position(),
-                    speed_m_s: GROUND.max_speed_m_s,
+                    mobility: v.mobility,
                 })
             })
             .collect();
@@ -520,7 +555,7 @@ impl Incident {
 mod tests {
     use super::*;
     use firefleet_protocol::geometry::{Point2, Pose2};
-    use firefleet_protocol::msg::{FlameObservation, TaskProgress, UnitKind};
+    use firefleet_protocol::msg::{FlameObservation, TaskProgress};
 
     const TUNNEL: Tunnel = Tunnel {
         length_m: 200.0,
@@ -600,7 +635,13 @@ mod tests {
     }
 
     fn incident() -> Incident {
-        let mut i = Incident::new(TUNNEL, [u("a"), u("b")], 5.0, Strategy::Optimal);
+        let ground = Mobility::Ground { speed_m_s: 1.5 };
+        let mut i = Incident::new(
+            TUNNEL,
+            [(u("a"), ground), (u("b"), ground)],
+            5.0,
+            Strategy::Optimal,
+        );
         for (n, x) in [("a", 10.0), ("b", 40.0)] {
             i.on_alive(&u(n), true, 0.0).unwrap();
             i.on_state(state(n, x, None), 0.0).unwrap();

@@ -48,12 +48,7 @@ pub async fn run(
     } else {
         Arc::new(SystemClock)
     };
-    let mut incident = Incident::new(
-        scenario.tunnel,
-        scenario.units.iter().map(|u| u.id.clone()),
-        opts.lease_s,
-        opts.strategy,
-    );
+    let mut incident = Incident::from_scenario(scenario, opts.lease_s, opts.strategy);
 
     let _token = session
         .liveliness()

@@ -544,7 +544,7 @@ impl Validate for UnitCommand {
 pub struct RailJoints {
     /// Carriage position from the rail's start, m.
     pub d: f64,
-    /// Monitor yaw, rad (positive turns the jet to the right of the rail's direction).
+    /// Monitor yaw, rad (positive turns the jet to the left of the rail's direction).
     pub theta1: f64,
     /// Monitor elevation, rad (0 level, negative down).
     pub theta2: f64,
@@ -592,6 +592,8 @@ pub struct RailSensors {
     pub fire_detected: bool,
     /// Gas temperature at the carriage, degrees C.
     pub temperature_c: f64,
+    /// Radiant heat flux at the carriage, kW/m^2.
+    pub heat_flux_kw_m2: f64,
     pub hot_spots: Vec<HotSpot>,
 }
 
@@ -602,6 +604,7 @@ impl Validate for RailSensors {
         finite("speed", self.speed)?;
         in_range("flow_l_s", self.flow_l_s, 0.0, 1e3)?;
         in_range("temperature_c", self.temperature_c, -50.0, 2000.0)?;
+        in_range("heat_flux_kw_m2", self.heat_flux_kw_m2, 0.0, 1e4)?;
         max_len("hot_spots", &self.hot_spots, MAX_LIST)?;
         for (i, h) in self.hot_spots.iter().enumerate() {
             h.position

@@ -248,6 +248,12 @@ pub struct MonorailSpec {
     /// few pixels of blob-centroid error at 30 m is about 0.3 m.
     pub hot_spot_sigma_a_m: f64,
     pub hot_spot_sigma_b: f64,
+    /// Horizontal distance from the carriage within which the monitor works a fire
+    /// comfortably, m: the jet's range at the dexterous elevation (-15 deg) and 18 m/s from
+    /// a pivot 4 to 6 m above the road is 15.5 to 17 m (checked in
+    /// `firefleet_agent::rail`). The coordinator sends a monorail unit only to fires this
+    /// close to its rail.
+    pub working_reach_m: f64,
 }
 
 /// The paper's monorail unit (section IV), with our stated assumptions for its sensors and
@@ -267,6 +273,7 @@ pub const MONORAIL: MonorailSpec = MonorailSpec {
     detector_range_m: 40.0,
     hot_spot_sigma_a_m: 0.1,
     hot_spot_sigma_b: 0.01,
+    working_reach_m: 15.0,
 };
 
 /// What a monorail unit reports as its water, L: it draws from the tunnel's main, which a

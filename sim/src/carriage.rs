@@ -124,12 +124,12 @@ impl Carriage {
         Pose2::new(self.x(), self.rail.y_m, 0.0)
     }
 
-    /// Where the jet leaves the nozzle, its site heading and its elevation. Positive yaw
-    /// turns the jet to the right of +x (the paper's frame has y to the right), so the site
-    /// heading is `-theta1`.
+    /// Where the jet leaves the nozzle, its site heading and its elevation. The paper's
+    /// eq. 1 puts the jet at `y = -r sin(theta1)` in a frame whose y points right, so a
+    /// positive yaw turns the jet left: the site heading is `theta1`.
     pub fn nozzle(&self) -> (P3, f64, f64) {
         let j = &self.joints;
-        let azimuth = -j.theta1;
+        let azimuth = j.theta1;
         let (s2, c2) = j.theta2.sin_cos();
         let m = self.pivot();
         let l = self.spec.link_m;
@@ -200,10 +200,10 @@ mod tests {
     }
 
     #[test]
-    fn yaw_to_the_right_points_the_jet_to_negative_site_y() {
+    fn positive_yaw_points_the_jet_to_the_left() {
         let mut c = carriage();
         c.joints.theta1 = 0.5;
         let (n, azimuth, _) = c.nozzle();
-        assert!(azimuth < 0.0 && n[1] < c.rail.y_m);
+        assert!(azimuth > 0.0 && n[1] > c.rail.y_m);
     }
 }

@@ -495,6 +495,7 @@ impl World {
             water_connected: c.connected(),
             fire_detected,
             temperature_c,
+            heat_flux_kw_m2: c.heat_flux,
             hot_spots,
         })
     }

@@ -7,8 +7,9 @@
 //! `(x0, y0)` with M at height `h` ([`super::RailFrame`] does that conversion).
 //!
 //! Joints `q = [d, theta1, theta2, v0]`: carriage position along the rail, monitor yaw
-//! (positive turns the jet to the right of +x), monitor elevation (0 horizontal, negative
-//! down), and the nozzle's exit speed. The jet is a drag-free parabola in the monitor's
+//! (eq. 1 puts the jet at `y = -r sin(theta1)`, so a positive yaw turns the jet to the
+//! *left* of +x), monitor elevation (0 horizontal, negative down), and the nozzle's exit
+//! speed. The jet is a drag-free parabola in the monitor's
 //! vertical plane; `r(theta2, v0, z)` is its horizontal range on the plane `z` below M.
 
 use nalgebra::{Matrix2x4, Vector2, Vector4};

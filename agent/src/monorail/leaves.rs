@@ -1,0 +1,119 @@
+//! The monorail unit's behavior-tree leaves, registered for the [`RailUnit`] context with
+//! the coordinator-link leaves every unit shares ([`crate::mission`]).
+
+use firefleet_bt::node::Io;
+use firefleet_bt::{PortSpec, PortType, Registry, StatefulAction, Status};
+use firefleet_protocol::Point2;
+
+use super::RailUnit;
+use crate::rail::planner::Phase;
+
+fn fire(io: &Io<'_>) -> Option<Point2> {
+    io.get::<[f64; 2]>(0).ok().map(|[x, y]| Point2::new(x, y))
+}
+
+/// Drives the jet onto the fire: Running while the planner approaches, Success once the
+/// jet point is on the fire.
+struct ApproachAlongRail;
+
+impl StatefulAction<RailUnit> for ApproachAlongRail {
+    fn on_start(&mut self, io: &mut Io<'_>, u: &mut RailUnit) -> Status {
+        let Some(f) = fire(io) else {
+            return Status::Failure;
+        };
+        u.start_attack(u.flame_near(f, 3.0).unwrap_or(f));
+        self.on_running(io, u)
+    }
+    fn on_running(&mut self, _: &mut Io<'_>, u: &mut RailUnit) -> Status {
+        match u.attack_phase() {
+            Some(Phase::Approach) => Status::Running,
+            Some(_) => Status::Success,
+            None => Status::Failure,
+        }
+    }
+    fn on_halted(&mut self, _: &mut Io<'_>, u: &mut RailUnit) {
+        u.stop_attack();
+    }
+}
+
+/// Sweeps the fire with the valve open until no hot spot has been seen near it for the
+/// cooling time, then holds the jet and shuts the valve. A fire the camera has not seen
+/// during the attack (hidden from the carriage; sent by the coordinator on others' reports)
+/// gets [`UNSEEN_FACTOR`] times the cooling time.
+struct SprayFire {
+    clear_since: Option<f64>,
+    seen: bool,
+}
+
+const UNSEEN_FACTOR: f64 = 4.0;
+
+impl StatefulAction<RailUnit> for SprayFire {
+    fn on_start(&mut self, io: &mut Io<'_>, u: &mut RailUnit) -> Status {
+        self.clear_since = None;
+        self.seen = false;
+        u.valve = true;
+        self.on_running(io, u)
+    }
+    fn on_running(&mut self, io: &mut Io<'_>, u: &mut RailUnit) -> Status {
+        let (Some(f), Ok(cooling_ms)) = (fire(io), io.get::<i64>(1)) else {
+            return Status::Failure;
+        };
+        if let Some(seen) = u.flame_near(f, 3.0) {
+            self.clear_since = None;
+            self.seen = true;
+            // Follow the fire as the camera sees it.
+            u.start_attack(seen);
+            return Status::Running;
+        }
+        let since = *self.clear_since.get_or_insert(u.now());
+        let factor = if self.seen { 1.0 } else { UNSEEN_FACTOR };
+        if u.now() - since >= factor * cooling_ms as f64 / 1000.0 {
+            u.fire_out();
+            Status::Success
+        } else {
+            Status::Running
+        }
+    }
+    fn on_halted(&mut self, _: &mut Io<'_>, u: &mut RailUnit) {
+        u.stop_attack();
+    }
+}
+
+/// Every leaf the monorail unit's trees may use.
+pub fn registry() -> Registry<RailUnit> {
+    use PortType::{Int, Point};
+    let mut r = Registry::new();
+    crate::mission::register(&mut r);
+    r.register_condition(
+        "InReach",
+        vec![PortSpec::input("fire", Point, "the fire")],
+        || {
+            |io: &mut Io<'_>, u: &mut RailUnit| match fire(io) {
+                Some(f) if u.in_reach(f) => Status::Success,
+                _ => Status::Failure,
+            }
+        },
+    );
+    r.register_stateful(
+        "ApproachAlongRail",
+        vec![PortSpec::input("fire", Point, "the fire")],
+        || ApproachAlongRail,
+    );
+    r.register_stateful(
+        "SprayFire",
+        vec![
+            PortSpec::input("fire", Point, "the fire"),
+            PortSpec::input(
+                "cooling_ms",
+                Int,
+                "keep spraying this long after the last hot spot (a knocked-down fuel bed re-ignites if left hot)",
+            )
+            .with_default("3000"),
+        ],
+        || SprayFire {
+            clear_since: None,
+            seen: false,
+        },
+    );
+    r
+}

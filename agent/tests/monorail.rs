@@ -1,0 +1,134 @@
+//! A monorail unit's controller against the simulated world, stepped together: the unit
+//! finds a fire under its rail, drives its jet onto it with the fuzzy CLIK and puts it out.
+
+use std::sync::Arc;
+
+use firefleet_agent::Controller;
+use firefleet_agent::monorail::{MonorailController, default_tree};
+use firefleet_protocol::msg::{TaskKind, TaskPhase, TruthFireState};
+use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::spec::MONORAIL;
+use firefleet_protocol::{FireId, Point2, UnitId};
+use firefleet_sim::World;
+
+fn scenario(fire_x: f64, fire_y: f64, rail_end: f64) -> Arc<Scenario> {
+    let text = format!(
+        r#"
+        name = "rail"
+        time_limit_s = 300
+        [tunnel]
+        length_m = 200.0
+        width_m = 10.0
+        height_m = 6.3
+        lanes = 2
+        [[fires]]
+        name = "car"
+        x_m = {fire_x}
+        y_m = {fire_y}
+        growth = "fast"
+        peak_kw = 3000.0
+        ignition_s = -60.0
+        [[rails]]
+        id = "r"
+        start_m = 0.0
+        end_m = {rail_end}
+        y_m = 0.0
+        height_m = 5.8
+        hose_points_m = [15.0, 45.0, 75.0]
+        [[units]]
+        id = "m"
+        kind = "monorail"
+        rail = "r"
+        x_m = 10.0
+        y_m = 0.0
+    "#
+    );
+    Arc::new(Scenario::from_toml(&text, "rail.toml").unwrap())
+}
+
+fn step(ctl: &mut MonorailController, world: &mut World) {
+    let id = UnitId::new("m").unwrap();
+    let s = world.rail_sensors(&id).unwrap();
+    let cmd = ctl.step(&s);
+    world.command_rail(&id, cmd);
+    world.step(0.05);
+}
+
+/// Step world and controller for up to `limit_s`; the time the fire went out, if it did.
+fn run(ctl: &mut MonorailController, world: &mut World, limit_s: f64) -> Option<f64> {
+    while world.time() < limit_s {
+        step(ctl, world);
+        if world.truth().all_out() {
+            return Some(world.time());
+        }
+    }
+    None
+}
+
+fn controller(scenario: &Arc<Scenario>) -> MonorailController {
+    MonorailController::with_tree(
+        UnitId::new("m").unwrap(),
+        MONORAIL,
+        scenario.clone(),
+        &default_tree(),
+    )
+    .unwrap()
+    .unwrap()
+}
+
+#[test]
+fn alone_it_finds_and_puts_out_a_fire_under_its_rail() {
+    let s = scenario(45.0, 1.5, 200.0);
+    let mut world = World::new(&s, 1);
+    let mut ctl = controller(&s);
+    let out = run(&mut ctl, &mut world, 120.0).expect("the fire goes out");
+    let carriage = ctl.unit().position();
+    // The carriage moved toward the fire and works it from a standoff.
+    assert!(carriage.x > 15.0 && carriage.x < 45.0, "{carriage:?}");
+    assert!(out < 60.0, "{out}");
+}
+
+fn assign(ctl: &mut MonorailController, at: Point2) {
+    ctl.set_coordinator_present(true);
+    ctl.on_task(
+        1,
+        TaskKind::Extinguish {
+            fire: FireId(1),
+            target: at,
+        },
+    );
+}
+
+#[test]
+fn sent_to_a_fire_beyond_its_camera_it_travels_and_puts_it_out() {
+    // 70 m from the carriage: out of the detector's 40 m, within the rail's reach.
+    let s = scenario(80.0, -2.0, 100.0);
+    let mut world = World::new(&s, 1);
+    let mut ctl = controller(&s);
+    assign(&mut ctl, Point2::new(80.0, -2.0));
+    let out = run(&mut ctl, &mut world, 120.0).expect("the fire goes out");
+    assert!(out < 60.0, "{out}");
+    // Out in the world; the unit finishes its cooling pass and then reports it.
+    while world.time() < out + 15.0 {
+        step(&mut ctl, &mut world);
+    }
+    let st = ctl.state();
+    assert_eq!(
+        st.task.map(|t| t.phase),
+        Some(TaskPhase::Extinguished),
+        "{st:?}"
+    );
+}
+
+#[test]
+fn a_task_for_a_fire_out_of_its_rails_reach_fails_and_the_carriage_stays() {
+    let s = scenario(150.0, 0.0, 100.0);
+    let mut world = World::new(&s, 1);
+    let mut ctl = controller(&s);
+    assign(&mut ctl, Point2::new(150.0, 0.0));
+    assert!(run(&mut ctl, &mut world, 20.0).is_none());
+    assert_eq!(world.truth().fires[0].state, TruthFireState::Burning);
+    let st = ctl.state();
+    assert_eq!(st.task.map(|t| t.phase), Some(TaskPhase::Failed), "{st:?}");
+    assert_eq!(ctl.unit().position().x, 10.0);
+}
