@@ -8,7 +8,7 @@ use firefleet_protocol::scenario::Scenario;
 
 /// The shipped scenarios: the BT paper's three virtual experiments, and a pile-up for the
 /// fleet experiment.
-pub const BUILT_IN: [(&str, &str); 4] = [
+pub const BUILT_IN: [(&str, &str); 5] = [
     (
         "vehicle-collision",
         include_str!("../examples/scenarios/vehicle-collision.toml"),
@@ -22,6 +22,10 @@ pub const BUILT_IN: [(&str, &str); 4] = [
         include_str!("../examples/scenarios/cargo-truck.toml"),
     ),
     ("pileup", include_str!("../examples/scenarios/pileup.toml")),
+    (
+        "rail-tunnel",
+        include_str!("../examples/scenarios/rail-tunnel.toml"),
+    ),
 ];
 
 /// A scenario file if `arg` names an existing file, else a built-in scenario of that name.

@@ -95,6 +95,46 @@ fn demo_fleet_puts_out_every_fire_and_records_the_incident() {
     assert!(timeline.contains("reported by"), "{timeline}");
 }
 
+#[test]
+fn a_monorail_unit_puts_out_fires_beside_ground_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let summary = dir.path().join("summary.json");
+    let out = Command::new(BIN)
+        .args([
+            "demo",
+            "--scenario",
+            "rail-tunnel",
+            "--time-scale",
+            "8",
+            "--summary-json",
+        ])
+        .arg(&summary)
+        .env_remove("RUST_LOG")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "demo exited with {}: {stderr}",
+        out.status
+    );
+    assert!(!stderr.contains("dropped"), "{stderr}");
+    let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&summary).unwrap()).unwrap();
+    assert_eq!(s["fires_out"], 2);
+    let procs = s["processes"].as_array().unwrap();
+    assert!(
+        procs.iter().any(|p| p["role"] == "agent:rail-1"),
+        "{procs:?}"
+    );
+    let rail = s["units"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|u| u["id"] == "rail-1")
+        .expect("the monorail unit is in the summary");
+    assert!(rail["water_used_l"].as_f64().unwrap() > 0.0, "{rail}");
+}
+
 /// Every channel has a JSON schema, every message is JSON, and the scene is there.
 fn check_recording(path: &Path) {
     let bytes = std::fs::read(path).unwrap();
