@@ -10,7 +10,6 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
-use firefleet_agent::Controller;
 use firefleet_agent::ground::{GroundController, cannon_experiment_tree};
 use firefleet_coordinator::Incident;
 use firefleet_coordinator::assign::Strategy;

@@ -26,23 +26,22 @@ impl Drop for Fleet {
     }
 }
 
-#[test]
-fn demo_fleet_puts_out_every_fire_and_records_the_incident() {
-    let dir = tempfile::tempdir().unwrap();
-    let summary = dir.path().join("summary.json");
-    let recording = dir.path().join("run.mcap");
+/// Run `firefleet demo` on `scenario` at 8x with `extra` arguments; its summary, after
+/// checking that it succeeded and that no process dropped a message (in a clean run a
+/// dropped message is a producer's bug).
+fn demo(dir: &Path, scenario: &str, extra: &[&std::ffi::OsStr]) -> serde_json::Value {
+    let summary = dir.join("summary.json");
     let out = Command::new(BIN)
         .args([
             "demo",
             "--scenario",
-            "cargo-truck",
+            scenario,
             "--time-scale",
             "8",
             "--summary-json",
         ])
         .arg(&summary)
-        .arg("--record")
-        .arg(&recording)
+        .args(extra)
         .env_remove("RUST_LOG")
         .output()
         .unwrap();
@@ -52,10 +51,19 @@ fn demo_fleet_puts_out_every_fire_and_records_the_incident() {
         "demo exited with {}: {stderr}",
         out.status
     );
-    // In a clean run no process drops a message: a dropped one is a producer's bug.
     assert!(!stderr.contains("dropped"), "{stderr}");
+    serde_json::from_slice(&std::fs::read(&summary).unwrap()).unwrap()
+}
 
-    let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&summary).unwrap()).unwrap();
+#[test]
+fn demo_fleet_puts_out_every_fire_and_records_the_incident() {
+    let dir = tempfile::tempdir().unwrap();
+    let recording = dir.path().join("run.mcap");
+    let s = demo(
+        dir.path(),
+        "cargo-truck",
+        &["--record".as_ref(), recording.as_os_str()],
+    );
     assert_eq!(s["fires_total"], 3);
     assert_eq!(s["fires_out"], 3);
     assert!(s["sim_time_s"].as_f64().unwrap() < 360.0);
@@ -98,28 +106,7 @@ fn demo_fleet_puts_out_every_fire_and_records_the_incident() {
 #[test]
 fn a_monorail_unit_puts_out_fires_beside_ground_units() {
     let dir = tempfile::tempdir().unwrap();
-    let summary = dir.path().join("summary.json");
-    let out = Command::new(BIN)
-        .args([
-            "demo",
-            "--scenario",
-            "rail-tunnel",
-            "--time-scale",
-            "8",
-            "--summary-json",
-        ])
-        .arg(&summary)
-        .env_remove("RUST_LOG")
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        out.status.success(),
-        "demo exited with {}: {stderr}",
-        out.status
-    );
-    assert!(!stderr.contains("dropped"), "{stderr}");
-    let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&summary).unwrap()).unwrap();
+    let s = demo(dir.path(), "rail-tunnel", &[]);
     assert_eq!(s["fires_out"], 2);
     let procs = s["processes"].as_array().unwrap();
     assert!(

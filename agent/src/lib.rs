@@ -9,6 +9,7 @@
 //! connects a controller to its platform and to the coordinator.
 
 pub mod aim;
+pub mod controller;
 pub mod fuzzy;
 pub mod ground;
 pub mod leaves;
@@ -22,5 +23,6 @@ pub mod rail;
 pub mod tracker;
 pub mod unit;
 
-pub use node::{AgentOptions, Controller, run};
+pub use controller::{Controller, Services};
+pub use node::{AgentOptions, run};
 pub use platform::{Platform, SimPlatform};

@@ -10,40 +10,15 @@ use std::cell::RefCell;
 use std::future::Future;
 use std::rc::Rc;
 
-use firefleet_bt::{Status, Transition, Tree};
+use firefleet_bt::{Status, Transition};
 use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{
-    BtTransition, BtTransitions, FlameReport, NodeStatus, Task, TaskKind, UnitState,
-};
+use firefleet_protocol::msg::{BtTransition, BtTransitions, NodeStatus, Task};
 use zenoh::sample::SampleKind;
 
+use crate::controller::{Controller, Services};
 use crate::platform::Platform;
-
-/// A unit's control loop, whatever its kind: a behavior tree over the unit's services,
-/// stepped on every sensor frame.
-pub trait Controller {
-    type Sensors;
-    type Command;
-    /// The tree's context (the unit's services).
-    type Context;
-    /// One control step for a sensor frame.
-    fn step(&mut self, s: &Self::Sensors) -> Self::Command;
-    /// Site time of a frame.
-    fn time(s: &Self::Sensors) -> f64;
-    /// Set-points that stop the body where the frame says it is, valve shut.
-    fn halt(s: &Self::Sensors) -> Self::Command;
-    /// A task arrived from the coordinator.
-    fn on_task(&mut self, seq: u64, kind: TaskKind);
-    /// The coordinator appeared or disappeared.
-    fn set_coordinator_present(&mut self, present: bool);
-    fn state(&self) -> UnitState;
-    /// Flames seen since the last report, if any.
-    fn report(&mut self) -> Option<FlameReport>;
-    fn tree(&self) -> &Tree<Self::Context>;
-    fn tree_mut(&mut self) -> &mut Tree<Self::Context>;
-}
 
 /// How an agent runs.
 #[derive(Debug, Clone)]
@@ -67,16 +42,16 @@ fn status(s: Status) -> NodeStatus {
 
 /// Run the agent with controller `ctl` until `shutdown` completes or the platform goes
 /// away.
-pub async fn run<P, K>(
+pub async fn run<P, U>(
     bus: &Bus,
     mut platform: P,
-    mut ctl: K,
+    mut ctl: Controller<U>,
     opts: &AgentOptions,
     shutdown: impl Future<Output = ()>,
 ) -> Result<(), BusError>
 where
     P: Platform,
-    K: Controller<Sensors = P::Sensors, Command = P::Command>,
+    U: Services<Sensors = P::Sensors, Command = P::Command>,
 {
     let keys = bus.keys().clone();
     let unit = &opts.unit;
@@ -123,8 +98,8 @@ where
                 let Some(s) = frame else { break };
                 let cmd = ctl.step(&s);
                 platform.actuate(cmd).await?;
-                let t = K::time(&s);
-                halt = Some(K::halt(&s));
+                let t = U::time(&s);
+                halt = Some(U::halt(&s));
                 let batch: Vec<BtTransition> = transitions
                     .borrow_mut()
                     .drain(..)

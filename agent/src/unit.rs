@@ -17,6 +17,7 @@ use firefleet_protocol::msg::{
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::GroundSpec;
 
+use crate::controller::Services;
 use crate::mission::{Mission, Responder};
 
 use crate::aim;
@@ -120,18 +121,6 @@ impl Unit {
             mission: Mission::default(),
             last_report_t: f64::NEG_INFINITY,
         }
-    }
-
-    /// Take in a new sensor frame.
-    pub fn sense(&mut self, frame: UnitSensors) {
-        self.tracker.update(&self.spec, &frame);
-        if frame.collided
-            && let Some(n) = &mut self.nav
-            && n.recover_until.is_none()
-        {
-            n.recover_until = Some(frame.t + RECOVER_S);
-        }
-        self.frame = frame;
     }
 
     pub fn pose(&self) -> Pose2 {
@@ -333,10 +322,50 @@ impl Unit {
                 && (self.frame.cannon.tilt - t).abs() < AIM_TOLERANCE_RAD
         })
     }
+}
+
+impl Responder for Unit {
+    fn id(&self) -> &UnitId {
+        &self.id
+    }
+    fn position(&self) -> Point2 {
+        self.pose().position()
+    }
+    fn mission(&mut self) -> &mut Mission {
+        &mut self.mission
+    }
+    fn flame_near(&self, of: Point2, within: f64) -> Option<Point2> {
+        Unit::flame_near(self, of, within)
+    }
+    fn most_confident_flame(&self) -> Option<Point2> {
+        Unit::most_confident_flame(self)
+    }
+    fn stand_down(&mut self) {
+        self.valve = false;
+        self.aim = None;
+        self.stop_navigation(NavPurpose::Fire);
+    }
+}
+
+impl Services for Unit {
+    type Sensors = UnitSensors;
+    type Command = UnitCommand;
+
+    /// Take in a new sensor frame.
+    fn sense(&mut self, frame: &UnitSensors) {
+        self.tracker.update(&self.spec, frame);
+        if frame.collided
+            && let Some(n) = &mut self.nav
+            && n.recover_until.is_none()
+        {
+            n.recover_until = Some(frame.t + RECOVER_S);
+        }
+        self.frame = frame.clone();
+    }
 
     /// Actuator set-points for this step: the navigation service drives, the cannon holds
     /// its aim, the valve follows the request.
-    pub fn command(&mut self) -> UnitCommand {
+    fn command(&mut self) -> UnitCommand {
         let f = &self.frame;
         // Aiming, scanning, or parked straight ahead (the camera rides on the cannon).
         let (mut pan, tilt) = self
@@ -384,7 +413,7 @@ impl Unit {
     }
 
     /// The unit's state for the bus.
-    pub fn state(&self) -> UnitState {
+    fn state(&self) -> UnitState {
         let f = &self.frame;
         let mode = if f.water_l <= 0.0 {
             UnitMode::Fault
@@ -414,7 +443,7 @@ impl Unit {
     }
 
     /// Flames seen since the last report, if any.
-    pub fn report(&mut self) -> Option<FlameReport> {
+    fn report(&mut self) -> Option<FlameReport> {
         let observations = self.tracker.observations(self.last_report_t);
         self.last_report_t = self.frame.t;
         (!observations.is_empty()).then(|| FlameReport {
@@ -424,27 +453,12 @@ impl Unit {
             observations,
         })
     }
-}
 
-impl Responder for Unit {
-    fn id(&self) -> &UnitId {
-        &self.id
+    fn time(s: &UnitSensors) -> f64 {
+        s.t
     }
-    fn position(&self) -> Point2 {
-        self.pose().position()
-    }
-    fn mission(&mut self) -> &mut Mission {
-        &mut self.mission
-    }
-    fn flame_near(&self, of: Point2, within: f64) -> Option<Point2> {
-        Unit::flame_near(self, of, within)
-    }
-    fn most_confident_flame(&self) -> Option<Point2> {
-        Unit::most_confident_flame(self)
-    }
-    fn stand_down(&mut self) {
-        self.valve = false;
-        self.aim = None;
-        self.stop_navigation(NavPurpose::Fire);
+
+    fn halt(s: &UnitSensors) -> UnitCommand {
+        UnitCommand::halt(&s.cannon)
     }
 }

@@ -3,7 +3,6 @@
 
 use std::sync::Arc;
 
-use firefleet_agent::Controller;
 use firefleet_agent::ground::GroundController;
 use firefleet_protocol::FireId;
 use firefleet_protocol::UnitId;

@@ -3,7 +3,6 @@
 
 use std::sync::Arc;
 
-use firefleet_agent::Controller;
 use firefleet_agent::monorail::{MonorailController, default_tree};
 use firefleet_protocol::msg::{TaskKind, TaskPhase, TruthFireState};
 use firefleet_protocol::scenario::Scenario;

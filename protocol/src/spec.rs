@@ -249,10 +249,10 @@ pub struct MonorailSpec {
     pub hot_spot_sigma_a_m: f64,
     pub hot_spot_sigma_b: f64,
     /// Horizontal distance from the carriage within which the monitor works a fire
-    /// comfortably, m: the jet's range at the dexterous elevation (-15 deg) and 18 m/s from
-    /// a pivot 4 to 6 m above the road is 15.5 to 17 m (checked in
-    /// `firefleet_agent::rail`). The coordinator sends a monorail unit only to fires this
-    /// close to its rail.
+    /// without straining, m: a level jet at 18 m/s (two thirds of full speed) from a pivot
+    /// 4 to 6 m above the road lands 17 to 20 m away (checked in
+    /// `firefleet_agent::monorail`). The coordinator sends a monorail unit only to fires
+    /// this close to its rail.
     pub working_reach_m: f64,
 }
 

@@ -13,19 +13,17 @@ mod leaves;
 
 use std::sync::Arc;
 
-use firefleet_bt::Tree;
 use firefleet_bt::xml::{self, Document, XmlErrors};
 use firefleet_protocol::msg::{
-    FlameObservation, FlameReport, RailCommand, RailJoints, RailSensors, TaskKind, UnitKind,
-    UnitMode, UnitState,
+    FlameObservation, FlameReport, RailCommand, RailJoints, RailSensors, UnitKind, UnitMode,
+    UnitState,
 };
 use firefleet_protocol::scenario::{Rail, Scenario};
 use firefleet_protocol::spec::{MAINS_WATER_L, MonorailSpec};
 use firefleet_protocol::{Point2, Pose2, UnitId};
-use nalgebra::Vector2;
 
+use crate::controller::{Controller, Services};
 use crate::mission::{Mission, Responder};
-use crate::node::Controller;
 use crate::rail::RailFrame;
 use crate::rail::clik::{Clik, ClikParams, Target};
 use crate::rail::fis::{Fis, Inputs};
@@ -176,28 +174,6 @@ impl RailUnit {
         }
     }
 
-    /// Take in a new sensor frame.
-    pub fn sense(&mut self, s: RailSensors) {
-        let t = s.t;
-        self.spots.retain(|(_, seen)| t - seen <= RECENTLY_SEEN_S);
-        for h in &s.hot_spots {
-            let var = h.sigma_m * h.sigma_m;
-            self.spots.push((
-                FlameObservation {
-                    position: h.position,
-                    cov: [var, 0.0, var],
-                    confidence: 0.9,
-                },
-                t,
-            ));
-        }
-        let measured = joints(&s.joints);
-        if self.attack.is_none() || (measured - self.q).amax() > RESYNC_M {
-            self.q = measured;
-        }
-        self.sensors = s;
-    }
-
     pub fn now(&self) -> f64 {
         self.sensors.t
     }
@@ -254,9 +230,60 @@ impl RailUnit {
             .filter(|p| p.dist(of) <= within)
             .min_by(|a, b| a.dist(of).total_cmp(&b.dist(of)))
     }
+}
+
+impl Responder for RailUnit {
+    fn id(&self) -> &UnitId {
+        &self.id
+    }
+    fn position(&self) -> Point2 {
+        RailUnit::position(self)
+    }
+    fn mission(&mut self) -> &mut Mission {
+        &mut self.mission
+    }
+    fn flame_near(&self, of: Point2, within: f64) -> Option<Point2> {
+        RailUnit::flame_near(self, of, within)
+    }
+    fn most_confident_flame(&self) -> Option<Point2> {
+        // Nearest first: the thermal camera's confidence does not rank hot spots.
+        let at = RailUnit::position(self);
+        self.flame_near(at, f64::INFINITY)
+            .filter(|p| self.in_reach(*p))
+    }
+    fn stand_down(&mut self) {
+        self.stop_attack();
+    }
+}
+
+impl Services for RailUnit {
+    type Sensors = RailSensors;
+    type Command = RailCommand;
+
+    /// Take in a new sensor frame.
+    fn sense(&mut self, s: &RailSensors) {
+        let t = s.t;
+        self.spots.retain(|(_, seen)| t - seen <= RECENTLY_SEEN_S);
+        for h in &s.hot_spots {
+            let var = h.sigma_m * h.sigma_m;
+            self.spots.push((
+                FlameObservation {
+                    position: h.position,
+                    cov: [var, 0.0, var],
+                    confidence: 0.9,
+                },
+                t,
+            ));
+        }
+        let measured = joints(&s.joints);
+        if self.attack.is_none() || (measured - self.q).amax() > RESYNC_M {
+            self.q = measured;
+        }
+        self.sensors = s.clone();
+    }
 
     /// Set-points for this frame: integrate the CLIK up to the frame's time.
-    pub fn command(&mut self) -> RailCommand {
+    fn command(&mut self) -> RailCommand {
         let t = self.sensors.t;
         let gap = self.last_step_t.map_or(0.0, |l| t - l);
         self.last_step_t = Some(t);
@@ -297,16 +324,7 @@ impl RailUnit {
         }
     }
 
-    /// Where the jet lands now, in the site frame.
-    pub fn jet_landing(&self) -> Point2 {
-        let p = self
-            .clik
-            .monitor
-            .position(&joints(&self.sensors.joints), self.frame.height_m);
-        self.frame.to_site(Vector2::new(p.x, p.y))
-    }
-
-    pub fn state(&self) -> UnitState {
+    fn state(&self) -> UnitState {
         let s = &self.sensors;
         let mode = if !s.water_connected {
             UnitMode::Fault
@@ -338,7 +356,7 @@ impl RailUnit {
     }
 
     /// Hot spots seen since the last report, if any.
-    pub fn report(&mut self) -> Option<FlameReport> {
+    fn report(&mut self) -> Option<FlameReport> {
         let since = self.last_report_t;
         self.last_report_t = self.sensors.t;
         let observations: Vec<FlameObservation> = self
@@ -355,72 +373,6 @@ impl RailUnit {
             observations,
         })
     }
-}
-
-impl Responder for RailUnit {
-    fn id(&self) -> &UnitId {
-        &self.id
-    }
-    fn position(&self) -> Point2 {
-        RailUnit::position(self)
-    }
-    fn mission(&mut self) -> &mut Mission {
-        &mut self.mission
-    }
-    fn flame_near(&self, of: Point2, within: f64) -> Option<Point2> {
-        RailUnit::flame_near(self, of, within)
-    }
-    fn most_confident_flame(&self) -> Option<Point2> {
-        // Nearest first: the thermal camera's confidence does not rank hot spots.
-        let at = RailUnit::position(self);
-        self.flame_near(at, f64::INFINITY)
-            .filter(|p| self.in_reach(*p))
-    }
-    fn stand_down(&mut self) {
-        self.stop_attack();
-    }
-}
-
-/// The control loop of one monorail unit.
-pub struct MonorailController {
-    tree: Tree<RailUnit>,
-    unit: RailUnit,
-}
-
-impl MonorailController {
-    /// A controller running `doc`'s main tree for unit `id` of `scenario`; `None` if the
-    /// scenario has no such monorail unit.
-    pub fn with_tree(
-        id: UnitId,
-        spec: MonorailSpec,
-        scenario: Arc<Scenario>,
-        doc: &Document,
-    ) -> Result<Option<Self>, XmlErrors> {
-        let tree = xml::build(doc, &leaves::registry())?;
-        Ok(RailUnit::new(id, spec, &scenario).map(|unit| Self { tree, unit }))
-    }
-
-    /// The unit's services, for inspection.
-    pub fn unit(&self) -> &RailUnit {
-        &self.unit
-    }
-}
-
-/// Every leaf the monorail unit's trees may use.
-pub fn registry() -> firefleet_bt::Registry<RailUnit> {
-    leaves::registry()
-}
-
-impl Controller for MonorailController {
-    type Sensors = RailSensors;
-    type Command = RailCommand;
-    type Context = RailUnit;
-
-    fn step(&mut self, s: &RailSensors) -> RailCommand {
-        self.unit.sense(s.clone());
-        self.tree.tick(s.t, &mut self.unit);
-        self.unit.command()
-    }
 
     fn time(s: &RailSensors) -> f64 {
         s.t
@@ -432,30 +384,28 @@ impl Controller for MonorailController {
             valve_open: false,
         }
     }
+}
 
-    fn on_task(&mut self, seq: u64, kind: TaskKind) {
-        self.unit.mission.on_task(seq, kind);
-    }
+/// The control loop of one monorail unit.
+pub type MonorailController = Controller<RailUnit>;
 
-    fn set_coordinator_present(&mut self, present: bool) {
-        self.unit.mission.coordinator_present = present;
+impl Controller<RailUnit> {
+    /// A controller running `doc`'s main tree for unit `id` of `scenario`, ticked on every
+    /// sensor frame; `None` if the scenario has no such monorail unit.
+    pub fn with_tree(
+        id: UnitId,
+        spec: MonorailSpec,
+        scenario: Arc<Scenario>,
+        doc: &Document,
+    ) -> Result<Option<Self>, XmlErrors> {
+        let tree = xml::build(doc, &leaves::registry())?;
+        Ok(RailUnit::new(id, spec, &scenario).map(|unit| Self::from_parts(tree, unit, 0.0)))
     }
+}
 
-    fn state(&self) -> UnitState {
-        self.unit.state()
-    }
-
-    fn report(&mut self) -> Option<FlameReport> {
-        self.unit.report()
-    }
-
-    fn tree(&self) -> &Tree<RailUnit> {
-        &self.tree
-    }
-
-    fn tree_mut(&mut self) -> &mut Tree<RailUnit> {
-        &mut self.tree
-    }
+/// Every leaf the monorail unit's trees may use.
+pub fn registry() -> firefleet_bt::Registry<RailUnit> {
+    leaves::registry()
 }
 
 #[cfg(test)]
@@ -464,12 +414,12 @@ mod tests {
     use firefleet_protocol::spec::MONORAIL;
 
     #[test]
-    fn the_working_reach_is_within_the_jets_range_at_a_dexterous_posture() {
+    fn the_working_reach_is_within_the_jets_range_at_two_thirds_of_full_speed() {
         let m = Monitor {
             link_m: MONORAIL.link_m,
         };
         for height in [4.0, 5.0, 6.0] {
-            let r = m.range(-std::f64::consts::PI / 12.0, 18.0, height);
+            let r = m.range(0.0, 18.0, height);
             assert!(r >= MONORAIL.working_reach_m, "{height} m: {r}");
         }
     }

@@ -1,0 +1,99 @@
+//! A unit's control loop, whatever its kind: a behavior tree ticking over the unit's
+//! services.
+//!
+//! Every sensor frame goes to the services; the tree is ticked at its own rate on the
+//! frame's clock (simulated time in the simulator); the services then produce the actuator
+//! set-points. Ground units ([`crate::ground`]) and monorail units ([`crate::monorail`])
+//! differ only in their services and trees, which is what [`Services`] abstracts.
+//!
+//! Pure: no I/O, no clock of its own.
+
+use firefleet_bt::{Status, Tree};
+use firefleet_protocol::msg::{FlameReport, TaskKind, UnitState};
+
+use crate::mission::Responder;
+
+/// What a unit kind's services provide to the control loop.
+pub trait Services: Responder {
+    type Sensors;
+    type Command;
+    /// Take in a sensor frame.
+    fn sense(&mut self, s: &Self::Sensors);
+    /// Set-points for the frame just sensed.
+    fn command(&mut self) -> Self::Command;
+    /// Site time of a frame.
+    fn time(s: &Self::Sensors) -> f64;
+    /// Set-points that stop the body where the frame says it is, valve shut.
+    fn halt(s: &Self::Sensors) -> Self::Command;
+    fn state(&self) -> UnitState;
+    /// Flames seen since the last report, if any.
+    fn report(&mut self) -> Option<FlameReport>;
+}
+
+/// The control loop of one unit.
+pub struct Controller<U> {
+    tree: Tree<U>,
+    unit: U,
+    tick_period_s: f64,
+    next_tick: f64,
+}
+
+impl<U: Services> Controller<U> {
+    /// `tree` over `unit`, ticked every `tick_period_s` of site time (0: every frame).
+    pub fn from_parts(tree: Tree<U>, unit: U, tick_period_s: f64) -> Self {
+        Self {
+            tree,
+            unit,
+            tick_period_s,
+            next_tick: f64::NEG_INFINITY,
+        }
+    }
+
+    /// One control step for sensor frame `s`.
+    pub fn step(&mut self, s: &U::Sensors) -> U::Command {
+        self.unit.sense(s);
+        let t = U::time(s);
+        if t >= self.next_tick {
+            self.next_tick = t + self.tick_period_s;
+            self.tick(t);
+        }
+        self.unit.command()
+    }
+
+    /// Tick the tree once at site time `t` over the unit as it is.
+    pub fn tick(&mut self, t: f64) -> Status {
+        self.tree.tick(t, &mut self.unit)
+    }
+
+    /// A task arrived from the coordinator. Older or repeated tasks are ignored.
+    pub fn on_task(&mut self, seq: u64, kind: TaskKind) {
+        self.unit.mission().on_task(seq, kind);
+    }
+
+    /// The coordinator appeared or disappeared.
+    pub fn set_coordinator_present(&mut self, present: bool) {
+        self.unit.mission().coordinator_present = present;
+    }
+
+    pub fn state(&self) -> UnitState {
+        self.unit.state()
+    }
+
+    /// Flames seen since the last report, if any.
+    pub fn report(&mut self) -> Option<FlameReport> {
+        self.unit.report()
+    }
+
+    /// The unit's services, for inspection.
+    pub fn unit(&self) -> &U {
+        &self.unit
+    }
+
+    pub fn tree(&self) -> &Tree<U> {
+        &self.tree
+    }
+
+    pub fn tree_mut(&mut self) -> &mut Tree<U> {
+        &mut self.tree
+    }
+}
