@@ -11,9 +11,9 @@ use std::future::Future;
 use std::time::{Duration, Instant};
 
 use firefleet_protocol::UnitId;
-use firefleet_protocol::bus::{Bus, BusError};
+use firefleet_protocol::bus::{Bus, BusError, Inbox};
 use firefleet_protocol::keys::{self, Topic};
-use firefleet_protocol::msg::{RailCommand, SimClock, SimTruth, UnitCommand};
+use firefleet_protocol::msg::{Message, RailCommand, SimClock, SimTruth, UnitCommand};
 use firefleet_protocol::scenario::Scenario;
 use tokio::time::MissedTickBehavior;
 
@@ -86,34 +86,24 @@ pub async fn run(
             _ = ticker.tick() => {}
             _ = &mut shutdown => break,
         }
-        while let Some((key, cmd)) = commands.try_recv() {
-            match keys::parse(&key) {
-                Ok((_, Topic::SimCmd(unit))) if world.command(&unit, cmd) => {
-                    last_command.insert(unit, Instant::now());
-                }
-                _ => {
-                    bus.rejects().count_invalid();
-                    tracing::warn!(
-                        key,
-                        "dropped command for a unit this simulation does not have"
-                    );
-                }
-            }
-        }
-        while let Some((key, cmd)) = rail_commands.try_recv() {
-            match keys::parse(&key) {
-                Ok((_, Topic::SimRailCmd(unit))) if world.command_rail(&unit, cmd) => {
-                    last_command.insert(unit, Instant::now());
-                }
-                _ => {
-                    bus.rejects().count_invalid();
-                    tracing::warn!(
-                        key,
-                        "dropped command for a monorail unit this simulation does not have"
-                    );
-                }
-            }
-        }
+        drain(
+            &commands,
+            bus,
+            &mut last_command,
+            |topic, cmd| match topic {
+                Topic::SimCmd(unit) if world.command(&unit, cmd) => Some(unit),
+                _ => None,
+            },
+        );
+        drain(
+            &rail_commands,
+            bus,
+            &mut last_command,
+            |topic, cmd| match topic {
+                Topic::SimRailCmd(unit) if world.command_rail(&unit, cmd) => Some(unit),
+                _ => None,
+            },
+        );
         let now = Instant::now();
         for id in ids.iter().chain(&rail_ids) {
             if last_command
@@ -154,6 +144,33 @@ pub async fn run(
     let truth = world.truth();
     bus.put(&keys.key(&Topic::SimTruth), &truth).await?;
     Ok(truth)
+}
+
+/// Hand every queued command to `apply`, which returns the unit it commanded; a command
+/// for a unit this simulation does not have is dropped, logged and counted.
+fn drain<T: Message>(
+    commands: &Inbox<T>,
+    bus: &Bus,
+    last_command: &mut HashMap<UnitId, Instant>,
+    mut apply: impl FnMut(Topic, T) -> Option<UnitId>,
+) {
+    while let Some((key, cmd)) = commands.try_recv() {
+        match keys::parse(&key)
+            .ok()
+            .and_then(|(_, topic)| apply(topic, cmd))
+        {
+            Some(unit) => {
+                last_command.insert(unit, Instant::now());
+            }
+            None => {
+                bus.rejects().count_invalid();
+                tracing::warn!(
+                    key,
+                    "dropped command for a unit this simulation does not have"
+                );
+            }
+        }
+    }
 }
 
 async fn wait_for_fleet(bus: &Bus, scenario: &Scenario, coordinator: bool, limit: Duration) {

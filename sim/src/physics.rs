@@ -108,6 +108,27 @@ pub fn disk_overlap_area(r1: f64, r2: f64, d: f64) -> f64 {
     r1 * r1 * a1 + r2 * r2 * a2 - 0.5 * k.max(0.0).sqrt()
 }
 
+/// Ambient temperature in the tunnel, degrees C.
+pub const AMBIENT_C: f64 = 20.0;
+
+/// Gas temperature under the ceiling at horizontal distance `r_m` from a fire of `q_kw`
+/// under a ceiling `h_m` above it: Alpert's ceiling-jet correlation (Alpert 1972; SFPE
+/// Handbook, ch. "Ceiling jet flows"), `dT = 16.9 Q^(2/3) / H^(5/3)` in the plume
+/// (`r / H <= 0.18`) and `5.38 (Q / r)^(2/3) / H` beyond, with Q the total heat release
+/// rate in kW. It ignores the tunnel walls' confinement and ventilation, so it reads low
+/// for a tunnel: a lower bound.
+pub fn ceiling_jet_rise_c(q_kw: f64, r_m: f64, h_m: f64) -> f64 {
+    if q_kw <= 0.0 {
+        return 0.0;
+    }
+    let h = h_m.max(0.5);
+    if r_m / h <= 0.18 {
+        16.9 * q_kw.powf(2.0 / 3.0) / h.powf(5.0 / 3.0)
+    } else {
+        5.38 * (q_kw / r_m).powf(2.0 / 3.0) / h
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -154,26 +175,5 @@ mod tests {
         // Two unit disks one radius apart overlap by 2pi/3 - sqrt(3)/2.
         let a = disk_overlap_area(1.0, 1.0, 1.0);
         assert!((a - (2.0 * std::f64::consts::PI / 3.0 - 3f64.sqrt() / 2.0)).abs() < 1e-9);
-    }
-}
-
-/// Ambient temperature in the tunnel, degrees C.
-pub const AMBIENT_C: f64 = 20.0;
-
-/// Gas temperature under the ceiling at horizontal distance `r_m` from a fire of `q_kw`
-/// under a ceiling `h_m` above it: Alpert's ceiling-jet correlation (Alpert 1972; SFPE
-/// Handbook, ch. "Ceiling jet flows"), `dT = 16.9 Q^(2/3) / H^(5/3)` in the plume
-/// (`r / H <= 0.18`) and `5.38 (Q / r)^(2/3) / H` beyond, with Q the total heat release
-/// rate in kW. It ignores the tunnel walls' confinement and ventilation, so it reads low
-/// for a tunnel: a lower bound.
-pub fn ceiling_jet_rise_c(q_kw: f64, r_m: f64, h_m: f64) -> f64 {
-    if q_kw <= 0.0 {
-        return 0.0;
-    }
-    let h = h_m.max(0.5);
-    if r_m / h <= 0.18 {
-        16.9 * q_kw.powf(2.0 / 3.0) / h.powf(5.0 / 3.0)
-    } else {
-        5.38 * (q_kw / r_m).powf(2.0 / 3.0) / h
     }
 }
