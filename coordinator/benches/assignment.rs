@@ -28,6 +28,7 @@ fn instance(units: usize, fires: usize) -> (Vec<Candidate>, Vec<Need>) {
         .map(|i| Need {
             fire: FireId(i as u32),
             position: p(),
+            priority: 0,
         })
         .collect();
     (u, f)
@@ -38,7 +39,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("assignment");
     g.sample_size(20);
     g.bench_function("1000_units_200_fires", |b| {
-        b.iter(|| black_box(assign::optimal(&units, &needs)))
+        b.iter(|| black_box(assign::optimal(&units, &needs, &[])))
     });
     let ms: Vec<i64> = needs
         .iter()

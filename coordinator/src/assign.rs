@@ -27,10 +27,11 @@ pub enum Strategy {
 }
 
 impl Strategy {
-    pub fn solve(self, units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
+    /// Pair `units` with `needs`; no unit travels through a `barred` chainage range.
+    pub fn solve(self, units: &[Candidate], needs: &[Need], barred: &[(f64, f64)]) -> Vec<Pick> {
         match self {
-            Strategy::Greedy => greedy(units, needs),
-            Strategy::Optimal => optimal(units, needs),
+            Strategy::Greedy => greedy(units, needs, barred),
+            Strategy::Optimal => optimal(units, needs, barred),
         }
     }
 }
@@ -111,7 +112,14 @@ const INFEASIBLE: f64 = 1e9;
 pub struct Need {
     pub fire: FireId,
     pub position: Point2,
+    /// A commander's priority for the fire's zone (0 when none): each level is worth
+    /// [`PRIORITY_S`] of travel, so higher-priority fires are served first when units are
+    /// short.
+    pub priority: u8,
 }
+
+/// Travel time one level of zone priority outweighs, s: more than any trip in a tunnel.
+pub const PRIORITY_S: f64 = 3600.0;
 
 /// One decision: `unit` goes to `fire`, at `cost` seconds; `runner_up` is the next best
 /// unit for the same fire and its cost, for the decision log.
@@ -123,18 +131,41 @@ pub struct Pick {
     pub runner_up: Option<(UnitId, f64)>,
 }
 
-/// Travel time of `u` to `n`, s, or [`INFEASIBLE`].
-fn cost(u: &Candidate, n: &Need) -> f64 {
+/// Travel time of `u` to `n`, s, or [`INFEASIBLE`] if it cannot get there without crossing
+/// a `barred` range.
+fn travel(u: &Candidate, n: &Need, barred: &[(f64, f64)]) -> f64 {
+    let (a, b) = (
+        u.position.x.min(n.position.x),
+        u.position.x.max(n.position.x),
+    );
+    if barred.iter().any(|&(s, e)| a < e && b > s) {
+        return INFEASIBLE;
+    }
     u.mobility
         .travel_s(u.position, n.position)
         .unwrap_or(INFEASIBLE)
 }
 
 /// Travel times, one row per fire, one column per unit.
-fn cost_matrix(units: &[Candidate], needs: &[Need]) -> Vec<f64> {
+fn travel_matrix(units: &[Candidate], needs: &[Need], barred: &[(f64, f64)]) -> Vec<f64> {
     needs
         .iter()
-        .flat_map(|n| units.iter().map(move |u| cost(u, n)))
+        .flat_map(|n| units.iter().map(move |u| travel(u, n, barred)))
+        .collect()
+}
+
+/// The costs the solvers minimise: travel less the priority's worth; infeasible stays so.
+fn cost_matrix(travel: &[f64], units: usize, needs: &[Need]) -> Vec<f64> {
+    travel
+        .iter()
+        .enumerate()
+        .map(|(k, &c)| {
+            if c >= INFEASIBLE {
+                c
+            } else {
+                c - PRIORITY_S * f64::from(needs[k / units].priority)
+            }
+        })
         .collect()
 }
 
@@ -157,14 +188,15 @@ fn pick(units: &[Candidate], needs: &[Need], costs: &[f64], f: usize, u: usize) 
 
 /// Minimum total travel time: every fire gets a unit while units last, and the sum of the
 /// chosen travel times is the least possible.
-pub fn optimal(units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
-    let costs = cost_matrix(units, needs);
+pub fn optimal(units: &[Candidate], needs: &[Need], barred: &[(f64, f64)]) -> Vec<Pick> {
+    let travel = travel_matrix(units, needs, barred);
+    let costs = cost_matrix(&travel, units.len(), needs);
     hungarian(&costs, needs.len(), units.len())
         .into_iter()
         .enumerate()
         .filter_map(|(f, u)| Some((f, u?)))
-        .filter(|&(f, u)| costs[f * units.len() + u] < INFEASIBLE)
-        .map(|(f, u)| pick(units, needs, &costs, f, u))
+        .filter(|&(f, u)| travel[f * units.len() + u] < INFEASIBLE)
+        .map(|(f, u)| pick(units, needs, &travel, f, u))
         .collect()
 }
 
@@ -251,8 +283,9 @@ pub fn hungarian(costs: &[f64], rows: usize, cols: usize) -> Vec<Option<usize>> 
 }
 
 /// Greedy minimum-cost pairing.
-pub fn greedy(units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
-    let costs = cost_matrix(units, needs);
+pub fn greedy(units: &[Candidate], needs: &[Need], barred: &[(f64, f64)]) -> Vec<Pick> {
+    let travel = travel_matrix(units, needs, barred);
+    let costs = cost_matrix(&travel, units.len(), needs);
     let (mut unit_free, mut fire_open) = (vec![true; units.len()], vec![true; needs.len()]);
     let mut picks = Vec::new();
     loop {
@@ -276,7 +309,7 @@ pub fn greedy(units: &[Candidate], needs: &[Need]) -> Vec<Pick> {
         let Some((f, u)) = best else { return picks };
         fire_open[f] = false;
         unit_free[u] = false;
-        picks.push(pick(units, needs, &costs, f, u));
+        picks.push(pick(units, needs, &travel, f, u));
     }
 }
 
@@ -299,13 +332,15 @@ mod tests {
             Need {
                 fire: FireId(1),
                 position: Point2::new(50.0, 0.0),
+                priority: 0,
             },
             Need {
                 fire: FireId(2),
                 position: Point2::new(5.0, 0.0),
+                priority: 0,
             },
         ];
-        let picks = greedy(&units, &needs);
+        let picks = greedy(&units, &needs, &[]);
         assert_eq!(picks.len(), 2);
         let of = |f: u32| picks.iter().find(|p| p.fire == FireId(f)).unwrap();
         assert_eq!(of(1).unit.as_str(), "b");
@@ -325,12 +360,15 @@ mod tests {
                 Need {
                     fire: FireId(1),
                     position: Point2::new(90.0, 0.0),
+                    priority: 0,
                 },
                 Need {
                     fire: FireId(2),
                     position: Point2::new(10.0, 0.0),
+                    priority: 0,
                 },
             ],
+            &[],
         );
         assert_eq!(picks.len(), 1);
         assert_eq!(picks[0].fire, FireId(2));
@@ -356,14 +394,16 @@ mod tests {
             Need {
                 fire: FireId(1),
                 position: Point2::new(9.0, 0.0),
+                priority: 0,
             },
             Need {
                 fire: FireId(2),
                 position: Point2::new(20.0, 0.0),
+                priority: 0,
             },
         ];
-        assert_eq!(total(&greedy(&units, &needs)), 21.0);
-        let best = optimal(&units, &needs);
+        assert_eq!(total(&greedy(&units, &needs, &[])), 21.0);
+        let best = optimal(&units, &needs, &[]);
         assert_eq!(total(&best), 19.0);
         assert_eq!(
             best.iter()
@@ -460,10 +500,11 @@ mod tests {
         let needs = [Need {
             fire: FireId(1),
             position: Point2::new(150.0, 0.0),
+            priority: 0,
         }];
         for solve in [greedy, optimal] {
-            assert!(solve(&[rail("r", 90.0)], &needs).is_empty());
-            let picks = solve(&[rail("r", 90.0), cand("g", 0.0)], &needs);
+            assert!(solve(&[rail("r", 90.0)], &needs, &[]).is_empty());
+            let picks = solve(&[rail("r", 90.0), cand("g", 0.0)], &needs, &[]);
             assert_eq!(picks.len(), 1);
             assert_eq!(picks[0].unit.as_str(), "g");
             assert!(
@@ -478,8 +519,51 @@ mod tests {
         let needs = [Need {
             fire: FireId(1),
             position: Point2::new(60.0, 2.0),
+            priority: 0,
         }];
-        let picks = optimal(&[rail("r", 0.0), cand("g", 40.0)], &needs);
+        let picks = optimal(&[rail("r", 0.0), cand("g", 40.0)], &needs, &[]);
         assert_eq!(picks[0].unit.as_str(), "r");
+    }
+
+    #[test]
+    fn a_higher_priority_fire_is_served_first_when_units_are_short() {
+        let mut needs = [
+            Need {
+                fire: FireId(1),
+                position: Point2::new(10.0, 0.0),
+                priority: 0,
+            },
+            Need {
+                fire: FireId(2),
+                position: Point2::new(90.0, 0.0),
+                priority: 2,
+            },
+        ];
+        for solve in [greedy, optimal] {
+            let picks = solve(&[cand("a", 0.0)], &needs, &[]);
+            assert_eq!(picks[0].fire, FireId(2));
+            assert_eq!(
+                picks[0].cost_s, 90.0,
+                "the log shows travel, not the priority"
+            );
+        }
+        needs[1].priority = 0;
+        assert_eq!(optimal(&[cand("a", 0.0)], &needs, &[])[0].fire, FireId(1));
+    }
+
+    #[test]
+    fn no_unit_travels_through_a_barred_range() {
+        let needs = [Need {
+            fire: FireId(1),
+            position: Point2::new(90.0, 0.0),
+            priority: 0,
+        }];
+        let units = [cand("near", 50.0), cand("far", 150.0)];
+        for solve in [greedy, optimal] {
+            let picks = solve(&units, &needs, &[(60.0, 80.0)]);
+            assert_eq!(picks.len(), 1);
+            assert_eq!(picks[0].unit.as_str(), "far");
+            assert!(solve(&units[..1], &needs, &[(60.0, 80.0)]).is_empty());
+        }
     }
 }

@@ -7,16 +7,17 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use firefleet_protocol::msg::{
-    Decision, FireState, FireTrack, FlameReport, IncidentStatus, Task, TaskKind, TaskPhase,
-    UnitKind, UnitMode, UnitState, UnitStatus,
+    Decision, FireState, FireTrack, FlameReport, GoalAck, GoalKind, IncidentStatus, Task, TaskKind,
+    TaskPhase, UnitKind, UnitMode, UnitState, UnitStatus, ZoneGoal,
 };
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::validate::Invalid;
-use firefleet_protocol::{FireId, Point2, UnitId};
+use firefleet_protocol::{FireId, Point2, UnitId, ZoneId};
 
 use crate::assign::{Candidate, Mobility, Need, Strategy};
 use crate::fusion::{Fused, Fusion};
+use crate::goals::Goals;
 
 /// How many decisions the incident remembers for status queries.
 const DECISION_LOG: usize = 200;
@@ -26,6 +27,8 @@ const DECISION_LOG: usize = 200;
 const STAGE_OFFSET_M: f64 = 25.0;
 /// After a unit fails a fire, it is not sent to that fire again for this long, s.
 const RETRY_AFTER_S: f64 = 60.0;
+/// How far outside a zone units leaving it are sent, m.
+const EVACUATE_MARGIN_M: f64 = 5.0;
 
 /// What to publish after an event.
 #[derive(Debug, Clone, PartialEq)]
@@ -76,6 +79,7 @@ pub struct Incident {
     decisions: VecDeque<Decision>,
     /// Decisions not yet handed out for publication.
     unpublished: Vec<Decision>,
+    goals: Goals,
 }
 
 impl Incident {
@@ -100,6 +104,7 @@ impl Incident {
             failed: BTreeMap::new(),
             decisions: VecDeque::new(),
             unpublished: Vec::new(),
+            goals: Goals::default(),
         }
     }
 
@@ -122,7 +127,108 @@ impl Incident {
             };
             (u.id.clone(), mobility)
         });
-        Self::new(scenario.tunnel, units, lease_s, strategy)
+        let mut incident = Self::new(scenario.tunnel, units, lease_s, strategy);
+        incident.goals = Goals::new(&scenario.zones);
+        incident
+    }
+
+    /// A commander's goal arrived on zone `key_zone`'s key: the acknowledgement, and the
+    /// decisions it leads to when accepted.
+    pub fn on_goal(&mut self, key_zone: &ZoneId, goal: ZoneGoal, t: f64) -> (GoalAck, Vec<Output>) {
+        let text = format!(
+            "goal '{}' ({:?}, priority {}) on zone {} from '{}'",
+            goal.id, goal.goal, goal.priority, goal.zone, goal.issued_by
+        );
+        let ack = self.goals.submit(key_zone, goal, t);
+        if ack.accepted {
+            self.log(t, format!("{text}: {}", ack.reason));
+            (ack, self.enforce(t))
+        } else {
+            self.log(t, format!("{text} rejected: {}", ack.reason));
+            (ack, Vec::new())
+        }
+    }
+
+    /// Every goal on `zone` withdrawn by a commander.
+    pub fn clear_goals(&mut self, zone: &ZoneId, t: f64) -> Vec<Output> {
+        for g in self.goals.clear(zone) {
+            self.log(t, format!("goal '{}' on zone {zone} cleared", g.id));
+        }
+        self.enforce(t)
+    }
+
+    /// The goals in force.
+    pub fn goals(&self) -> impl Iterator<Item = &ZoneGoal> {
+        self.goals.active().iter().map(|a| &a.goal)
+    }
+
+    /// Apply the goals in force to the units: withdraw units from fires they may no longer
+    /// attack, move units out of zones they may not be in, then re-solve.
+    fn enforce(&mut self, t: f64) -> Vec<Output> {
+        let mut out = Vec::new();
+        let units: Vec<UnitId> = self.units.keys().cloned().collect();
+        for u in units {
+            let v = &self.units[&u];
+            if !v.alive {
+                continue;
+            }
+            if let Some(fire) = v.working_on()
+                && let Some(f) = self.fusion.get(self.fusion.resolve(fire))
+                && let Some(g) = self.goals.at(f.position().x)
+                && g.bars_attack()
+            {
+                let text = format!(
+                    "withdraw {u} from fire {fire}: goal '{}' ({:?}) on zone {}",
+                    g.goal.id, g.goal.goal, g.goal.zone
+                );
+                self.log(t, text);
+                if let Some(f) = self.fusion.get_mut(fire) {
+                    f.state = FireState::Confirmed;
+                }
+                out.push(self.standby(&u, t));
+            }
+            let v = &self.units[&u];
+            let (Some(st), Mobility::Ground { .. }) = (&v.state, v.mobility) else {
+                continue;
+            };
+            let at = st.pose.position();
+            let Some(g) = self.goals.at(at.x).filter(|g| g.bars_entry()) else {
+                continue;
+            };
+            let (id, zone) = (g.goal.id.clone(), g.goal.zone.clone());
+            let Some(x) = self.goals.nearest_allowed(
+                at.x,
+                EVACUATE_MARGIN_M,
+                1.0,
+                self.tunnel.length_m - 1.0,
+            ) else {
+                self.log(
+                    t,
+                    format!("{u} cannot leave zone {zone}: no chainage outside it"),
+                );
+                continue;
+            };
+            let goal = Point2::new(x, at.y);
+            if matches!(v.task.as_ref().map(|t| t.kind), Some(TaskKind::Cruise { goal: g }) if g.dist(goal) < 1.0)
+            {
+                continue;
+            }
+            let seq = self.next_seq(t);
+            let task = Task {
+                unit: u.clone(),
+                seq,
+                t,
+                kind: TaskKind::Cruise { goal },
+            };
+            self.units.get_mut(&u).expect("known unit").task = Some(task.clone());
+            self.log(
+                t,
+                format!("evacuate {u} from zone {zone} to chainage {x:.1}: goal '{id}'"),
+            );
+            out.push(Output::Task(task));
+        }
+        out.extend(self.solve(t));
+        out
     }
 
     fn log(&mut self, t: f64, text: String) {
@@ -336,7 +442,10 @@ impl Incident {
             out.push(Output::Fire(self.track(id, t)));
         }
         self.failed.retain(|_, until| *until > t);
-        out.extend(self.solve(t));
+        for g in self.goals.expire(t) {
+            self.log(t, format!("goal '{}' on zone {} expired", g.id, g.zone));
+        }
+        out.extend(self.enforce(t));
         out
     }
 
@@ -375,6 +484,8 @@ impl Incident {
                     v.task.as_ref().map(|t| t.kind),
                 ))
             })
+            // Units leaving a barred zone keep their way out.
+            .filter(|(_, at, _)| !self.goals.at(at.x).is_some_and(|g| g.bars_entry()))
             .collect();
         let mut out = Vec::new();
         for (unit, at, current) in free {
@@ -383,7 +494,16 @@ impl Incident {
                 .min_by(|a, b| a.1.dist(at).total_cmp(&b.1.dist(at)));
             let goal = nearest.map(|&(fire, f)| {
                 let side = if at.x <= f.x { -1.0 } else { 1.0 };
-                let x = (f.x + side * STAGE_OFFSET_M).clamp(5.0, self.tunnel.length_m - 5.0);
+                // Under a contain goal, reserves hold the line the front must not pass.
+                let x = match self.goals.at(f.x).map(|g| (g.goal.goal, g.goal.before_m)) {
+                    Some((GoalKind::Contain, Some(line))) => line,
+                    _ => f.x + side * STAGE_OFFSET_M,
+                };
+                let x = self
+                    .goals
+                    .nearest_allowed(x, EVACUATE_MARGIN_M, 5.0, self.tunnel.length_m - 5.0)
+                    .unwrap_or(at.x)
+                    .clamp(5.0, self.tunnel.length_m - 5.0);
                 let lane = (0..self.tunnel.lanes)
                     .map(|i| self.tunnel.lane_center_y(i))
                     .min_by(|a, b| (a - at.y).abs().total_cmp(&(b - at.y).abs()))
@@ -428,9 +548,16 @@ impl Incident {
             .fires()
             .iter()
             .filter(|f| f.state == FireState::Confirmed)
-            .map(|f| Need {
-                fire: f.id,
-                position: f.position(),
+            .filter_map(|f| {
+                let goal = self.goals.at(f.position().x);
+                if goal.is_some_and(|g| g.bars_attack()) {
+                    return None;
+                }
+                Some(Need {
+                    fire: f.id,
+                    position: f.position(),
+                    priority: goal.map_or(0, |g| g.goal.priority),
+                })
             })
             .collect();
         if needs.is_empty() {
@@ -449,7 +576,12 @@ impl Incident {
                 })
             })
             .collect();
-        let picks = self.strategy.solve(&candidates, &needs);
+        let barred = self.goals.barred();
+        let candidates: Vec<Candidate> = candidates
+            .into_iter()
+            .filter(|c| !barred.iter().any(|&(s, e)| (s..=e).contains(&c.position.x)))
+            .collect();
+        let picks = self.strategy.solve(&candidates, &needs, &barred);
         let mut out = Vec::new();
         for p in picks {
             if self.failed.contains_key(&(p.unit.clone(), p.fire)) {
@@ -546,6 +678,7 @@ impl Incident {
                 .collect(),
             fires: self.fire_tracks(t),
             decisions: self.decisions.iter().rev().take(20).cloned().collect(),
+            goals: self.goals().cloned().collect(),
             rejected: Default::default(),
         }
     }
@@ -762,5 +895,161 @@ mod tests {
         assert_eq!(e.field, "observations[0].position");
         assert!(i.fire_tracks(1.0).is_empty());
         assert!(i.on_state(state("a", -30.0, None), 1.0).is_err());
+    }
+
+    fn zoned() -> Incident {
+        let mut i = incident();
+        let z = |id: &str, a: f64, b: f64| firefleet_protocol::scenario::Zone {
+            id: ZoneId::new(id).unwrap(),
+            start_m: a,
+            end_m: b,
+        };
+        i.goals = Goals::new(&[z("z1", 50.0, 100.0), z("z2", 100.0, 200.0)]);
+        i
+    }
+
+    fn goal(
+        id: &str,
+        zone: &str,
+        kind: GoalKind,
+        priority: u8,
+        before_m: Option<f64>,
+    ) -> (ZoneId, ZoneGoal) {
+        let zone = ZoneId::new(zone).unwrap();
+        let g = ZoneGoal {
+            id: id.into(),
+            zone: zone.clone(),
+            goal: kind,
+            priority,
+            before_m,
+            expires_s: None,
+            issued_by: "ic-1".into(),
+        };
+        (zone, g)
+    }
+
+    fn submit(i: &mut Incident, (zone, g): (ZoneId, ZoneGoal), t: f64) -> (GoalAck, Vec<Output>) {
+        i.on_goal(&zone, g, t)
+    }
+
+    #[test]
+    fn no_fire_in_a_keep_out_zone_is_attacked_and_no_unit_crosses_it() {
+        let mut i = zoned();
+        let (ack, _) = submit(&mut i, goal("g1", "z1", GoalKind::KeepOut, 0, None), 0.5);
+        assert!(ack.accepted, "{ack:?}");
+        assert!(tasks(&i.on_report(&report("a", 60.0), 1.0).unwrap()).is_empty());
+        // Both units are on the near side: the fire beyond the zone gets nobody.
+        assert!(tasks(&i.on_report(&report("a", 150.0), 2.0).unwrap()).is_empty());
+        let out = i.clear_goals(&ZoneId::new("z1").unwrap(), 3.0);
+        assert_eq!(tasks(&out).len(), 2, "cleared: both fires are attacked");
+    }
+
+    #[test]
+    fn a_monitor_goal_withdraws_the_unit_and_leaves_the_fire_burning() {
+        let mut i = zoned();
+        let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+        assert_eq!(tasks(&out)[0].unit.as_str(), "b");
+        let (ack, out) = submit(&mut i, goal("g1", "z1", GoalKind::Monitor, 0, None), 2.0);
+        assert!(ack.accepted);
+        let b: Vec<TaskKind> = all_tasks(&out)
+            .iter()
+            .filter(|t| t.unit.as_str() == "b")
+            .map(|t| t.kind)
+            .collect();
+        assert_eq!(b[0], TaskKind::Standby, "{out:?}");
+        // Free again, b may wait as a reserve outside the zone, watching.
+        assert!(
+            b[1..].iter().all(
+                |k| matches!(k, TaskKind::Cruise { goal } if !(50.0..=100.0).contains(&goal.x))
+            ),
+            "{out:?}"
+        );
+        assert!(tasks(&out).is_empty(), "nobody else is sent: {out:?}");
+        assert!(
+            i.decisions()
+                .any(|d| d.text.starts_with("withdraw b from fire f1: goal 'g1'"))
+        );
+        assert!(tasks(&i.tick(3.0)).is_empty());
+    }
+
+    #[test]
+    fn evacuate_sends_units_out_of_the_zone_now() {
+        let mut i = zoned();
+        i.on_state(state("b", 55.0, None), 0.5).unwrap();
+        let (_, out) = submit(&mut i, goal("g1", "z1", GoalKind::Evacuate, 0, None), 1.0);
+        let b: Vec<TaskKind> = all_tasks(&out)
+            .iter()
+            .filter(|t| t.unit.as_str() == "b")
+            .map(|t| t.kind)
+            .collect();
+        assert_eq!(
+            b,
+            [TaskKind::Cruise {
+                goal: Point2::new(45.0, -2.0)
+            }],
+            "{out:?}"
+        );
+        // The order stands: no repeat on the next tick.
+        assert!(all_tasks(&i.tick(2.0)).is_empty());
+    }
+
+    #[test]
+    fn a_priority_zone_s_fire_is_served_first() {
+        let mut i = zoned();
+        i.on_alive(&u("b"), false, 0.5).unwrap();
+        submit(&mut i, goal("g1", "z2", GoalKind::Extinguish, 2, None), 0.6);
+        let mut r = report("a", 60.0);
+        r.observations.push(FlameObservation {
+            position: Point2::new(170.0, 1.0),
+            cov: [0.2, 0.0, 0.2],
+            confidence: 0.9,
+        });
+        let out = i.on_report(&r, 1.0).unwrap();
+        let t = tasks(&out);
+        assert_eq!(t.len(), 1);
+        assert!(
+            matches!(t[0].kind, TaskKind::Extinguish { target, .. } if target.x > 150.0),
+            "{t:?}"
+        );
+    }
+
+    #[test]
+    fn under_contain_reserves_hold_the_line() {
+        let mut i = zoned();
+        submit(
+            &mut i,
+            goal("g1", "z2", GoalKind::Contain, 0, Some(110.0)),
+            0.5,
+        );
+        let out = i.on_report(&report("a", 150.0), 1.0).unwrap();
+        let a: Vec<TaskKind> = all_tasks(&out)
+            .iter()
+            .filter(|t| t.unit.as_str() == "a")
+            .map(|t| t.kind)
+            .collect();
+        assert_eq!(
+            a,
+            [TaskKind::Cruise {
+                goal: Point2::new(110.0, -2.5)
+            }],
+            "{out:?}"
+        );
+    }
+
+    #[test]
+    fn a_rejected_goal_changes_nothing() {
+        let mut i = zoned();
+        let (ack, out) = submit(&mut i, goal("g1", "z9", GoalKind::KeepOut, 0, None), 0.5);
+        assert!(!ack.accepted && ack.reason.contains("unknown zone 'z9'"));
+        assert!(out.is_empty());
+        assert_eq!(i.goals().count(), 0);
+        assert!(
+            i.decisions()
+                .any(|d| d.text.contains("rejected: unknown zone 'z9'"))
+        );
+        assert_eq!(
+            tasks(&i.on_report(&report("a", 60.0), 1.0).unwrap()).len(),
+            1
+        );
     }
 }

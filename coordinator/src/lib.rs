@@ -1,16 +1,18 @@
 //! The incident's brain and its memory.
 //!
 //! [`fusion`] turns flame reports from every unit into fire tracks; [`assign`] decides which
-//! unit attacks which fire; [`incident`] holds the whole picture (units, fires, tasks) and
-//! reacts to events with decisions, each logged with its reason. All three are pure: no
+//! unit attacks which fire; [`goals`] holds the commanders' zone goals; [`incident`] holds
+//! the whole picture (units, fires, tasks, goals) and reacts to events with decisions,
+//! each logged with its reason. All four are pure: no
 //! Zenoh, no clock of their own. [`node`] wires them to the bus, and [`record`] writes
 //! everything on the bus to an MCAP file with a Foxglove scene ([`scene`]).
 //!
-//! Not here yet: zone goals from commanders, optimal (Hungarian) assignment with heat and
-//! water in the cost, coordinator restart from recorded tracks.
+//! Not here yet: heat and water in the assignment cost, more than one unit on a fire,
+//! coordinator restart from recorded tracks.
 
 pub mod assign;
 pub mod fusion;
+pub mod goals;
 pub mod incident;
 pub mod node;
 pub mod record;

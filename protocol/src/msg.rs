@@ -322,6 +322,9 @@ pub struct IncidentStatus {
     pub fires: Vec<FireTrack>,
     /// Newest first.
     pub decisions: Vec<Decision>,
+    /// Commanders' zone goals in force.
+    #[serde(default)]
+    pub goals: Vec<ZoneGoal>,
     /// Messages the coordinator dropped, by class (undecodable, version, invalid).
     pub rejected: BTreeMap<String, u64>,
 }

@@ -1,0 +1,307 @@
+//! Incident commanders' zone goals: which are in force, and what each asks of the fleet.
+//!
+//! Zones are chainage ranges from the site file. A goal names a zone and asks for
+//! `extinguish` (the default behaviour, with a priority), `contain` (hold the fire front
+//! before a chainage), `monitor` (watch, do not attack), `keep-out` (no unit enters or
+//! travels through) or `evacuate` (units inside leave now, then as keep-out). Goals may
+//! expire. Every submission is answered: accepted, or rejected with the reason.
+//!
+//! Rules:
+//! - A goal with the id of one in force replaces it (a commander amends a goal).
+//! - A zone holds one goal per priority: a different goal at a priority already taken on
+//!   that zone is a conflict, rejected with the goal in the way; a goal at another priority
+//!   stands beside it and the higher priority wins.
+//! - Where zones overlap, the highest-priority goal covering a chainage governs it.
+//!
+//! Pure: no I/O, no clock of its own.
+
+use firefleet_protocol::ZoneId;
+use firefleet_protocol::msg::{GoalAck, GoalKind, ZoneGoal};
+use firefleet_protocol::scenario::Zone;
+
+/// A goal in force.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Active {
+    pub goal: ZoneGoal,
+    pub start_m: f64,
+    pub end_m: f64,
+    /// Site time it lapses, if ever.
+    pub until: Option<f64>,
+}
+
+impl Active {
+    pub fn covers(&self, x: f64) -> bool {
+        (self.start_m..=self.end_m).contains(&x)
+    }
+
+    /// Whether a unit may not be in or travel through the zone.
+    pub fn bars_entry(&self) -> bool {
+        matches!(self.goal.goal, GoalKind::KeepOut | GoalKind::Evacuate)
+    }
+
+    /// Whether fires in the zone are not to be attacked.
+    pub fn bars_attack(&self) -> bool {
+        matches!(
+            self.goal.goal,
+            GoalKind::Monitor | GoalKind::KeepOut | GoalKind::Evacuate
+        )
+    }
+}
+
+/// The goals in force on a site.
+#[derive(Debug, Clone, Default)]
+pub struct Goals {
+    zones: Vec<Zone>,
+    active: Vec<Active>,
+}
+
+fn ack(g: &ZoneGoal, accepted: bool, reason: impl Into<String>) -> GoalAck {
+    GoalAck {
+        id: g.id.clone(),
+        zone: g.zone.clone(),
+        accepted,
+        reason: reason.into(),
+    }
+}
+
+impl Goals {
+    pub fn new(zones: &[Zone]) -> Self {
+        Self {
+            zones: zones.to_vec(),
+            active: Vec::new(),
+        }
+    }
+
+    /// Take goal `g`, which arrived on zone `key_zone`'s key at site time `t`.
+    pub fn submit(&mut self, key_zone: &ZoneId, g: ZoneGoal, t: f64) -> GoalAck {
+        if &g.zone != key_zone {
+            return ack(
+                &g,
+                false,
+                format!("names zone '{}' but was sent on zone '{key_zone}'", g.zone),
+            );
+        }
+        let Some(zone) = self.zones.iter().find(|z| z.id == g.zone) else {
+            let known: Vec<&str> = self.zones.iter().map(|z| z.id.as_str()).collect();
+            return ack(
+                &g,
+                false,
+                format!("unknown zone '{}' (zones: {})", g.zone, known.join(", ")),
+            );
+        };
+        if let Some(b) = g.before_m
+            && !(zone.start_m..=zone.end_m).contains(&b)
+        {
+            return ack(
+                &g,
+                false,
+                format!(
+                    "before_m {b} is outside zone '{}' ([{}, {}])",
+                    g.zone, zone.start_m, zone.end_m
+                ),
+            );
+        }
+        if let Some(other) = self
+            .active
+            .iter()
+            .find(|a| a.goal.zone == g.zone && a.goal.priority == g.priority && a.goal.id != g.id)
+        {
+            return ack(
+                &g,
+                false,
+                format!(
+                    "conflicts with goal '{}' ({:?}) on zone '{}' at priority {}: clear it or use another priority",
+                    other.goal.id, other.goal.goal, g.zone, g.priority
+                ),
+            );
+        }
+        let replaced = self.active.iter().position(|a| a.goal.id == g.id);
+        let active = Active {
+            start_m: zone.start_m,
+            end_m: zone.end_m,
+            until: g.expires_s.map(|e| t + e),
+            goal: g,
+        };
+        let reason = match replaced {
+            Some(i) => {
+                self.active[i] = active.clone();
+                "accepted, replacing the goal with the same id"
+            }
+            None => {
+                self.active.push(active.clone());
+                "accepted"
+            }
+        };
+        ack(&active.goal, true, reason)
+    }
+
+    /// Clear every goal on `zone`; the goals cleared.
+    pub fn clear(&mut self, zone: &ZoneId) -> Vec<ZoneGoal> {
+        let (gone, kept) = self.active.drain(..).partition(|a| &a.goal.zone == zone);
+        self.active = kept;
+        gone.into_iter().map(|a: Active| a.goal).collect()
+    }
+
+    /// Drop goals that lapsed by `t`; the goals dropped.
+    pub fn expire(&mut self, t: f64) -> Vec<ZoneGoal> {
+        let (gone, kept) = self
+            .active
+            .drain(..)
+            .partition(|a| a.until.is_some_and(|u| u <= t));
+        self.active = kept;
+        gone.into_iter().map(|a: Active| a.goal).collect()
+    }
+
+    pub fn active(&self) -> &[Active] {
+        &self.active
+    }
+
+    /// The goal governing chainage `x`, if any.
+    pub fn at(&self, x: f64) -> Option<&Active> {
+        self.active
+            .iter()
+            .filter(|a| a.covers(x))
+            .max_by_key(|a| a.goal.priority)
+    }
+
+    /// Chainage ranges no unit may enter or travel through.
+    pub fn barred(&self) -> Vec<(f64, f64)> {
+        self.active
+            .iter()
+            .filter(|a| a.bars_entry())
+            .map(|a| (a.start_m, a.end_m))
+            .collect()
+    }
+
+    /// The nearest chainage to `x` outside every barred range, `margin` clear of it, within
+    /// `[lo, hi]`; `None` if there is none.
+    pub fn nearest_allowed(&self, x: f64, margin: f64, lo: f64, hi: f64) -> Option<f64> {
+        let barred = self.barred();
+        let ok = |c: f64| {
+            (lo..=hi).contains(&c)
+                && barred
+                    .iter()
+                    .all(|(s, e)| c < s - margin + 1e-9 || c > e + margin - 1e-9)
+        };
+        if ok(x) {
+            return Some(x);
+        }
+        barred
+            .iter()
+            .flat_map(|(s, e)| [s - margin, e + margin])
+            .filter(|c| ok(*c))
+            .min_by(|a, b| (a - x).abs().total_cmp(&(b - x).abs()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn z(id: &str, start: f64, end: f64) -> Zone {
+        Zone {
+            id: ZoneId::new(id).unwrap(),
+            start_m: start,
+            end_m: end,
+        }
+    }
+
+    fn goal(id: &str, zone: &str, kind: GoalKind, priority: u8) -> ZoneGoal {
+        ZoneGoal {
+            id: id.into(),
+            zone: ZoneId::new(zone).unwrap(),
+            goal: kind,
+            priority,
+            before_m: (kind == GoalKind::Contain).then_some(60.0),
+            expires_s: None,
+            issued_by: "ic".into(),
+        }
+    }
+
+    fn goals() -> Goals {
+        Goals::new(&[
+            z("a", 0.0, 100.0),
+            z("b", 100.0, 200.0),
+            z("c", 50.0, 150.0),
+        ])
+    }
+
+    fn zid(s: &str) -> ZoneId {
+        ZoneId::new(s).unwrap()
+    }
+
+    #[test]
+    fn bad_goals_are_rejected_with_the_reason() {
+        let mut g = goals();
+        let a = g.submit(&zid("q"), goal("g1", "q", GoalKind::Monitor, 0), 0.0);
+        assert!(
+            !a.accepted && a.reason.contains("unknown zone 'q' (zones: a, b, c)"),
+            "{a:?}"
+        );
+        let a = g.submit(&zid("b"), goal("g1", "a", GoalKind::Monitor, 0), 0.0);
+        assert!(
+            !a.accepted && a.reason.contains("sent on zone 'b'"),
+            "{a:?}"
+        );
+        let a = g.submit(&zid("b"), goal("g1", "b", GoalKind::Contain, 0), 0.0);
+        assert!(
+            !a.accepted && a.reason.contains("before_m 60 is outside zone 'b'"),
+            "{a:?}"
+        );
+        assert!(g.active().is_empty(), "nothing rejected is in force");
+    }
+
+    #[test]
+    fn one_goal_per_zone_and_priority_and_the_higher_priority_governs() {
+        let mut g = goals();
+        assert!(
+            g.submit(&zid("a"), goal("g1", "a", GoalKind::Monitor, 1), 0.0)
+                .accepted
+        );
+        let a = g.submit(&zid("a"), goal("g2", "a", GoalKind::KeepOut, 1), 0.0);
+        assert!(
+            !a.accepted && a.reason.contains("conflicts with goal 'g1'"),
+            "{a:?}"
+        );
+        // Amending g1 is fine; a higher priority stands beside it and wins.
+        assert!(
+            g.submit(&zid("a"), goal("g1", "a", GoalKind::Extinguish, 1), 0.0)
+                .accepted
+        );
+        assert!(
+            g.submit(&zid("c"), goal("g3", "c", GoalKind::Evacuate, 5), 0.0)
+                .accepted
+        );
+        assert_eq!(g.at(20.0).unwrap().goal.id, "g1");
+        assert_eq!(
+            g.at(70.0).unwrap().goal.id,
+            "g3",
+            "overlap: the higher priority"
+        );
+        assert!(g.at(180.0).is_none());
+        assert_eq!(g.barred(), vec![(50.0, 150.0)]);
+        assert_eq!(g.clear(&zid("c")).len(), 1);
+        assert!(g.barred().is_empty());
+    }
+
+    #[test]
+    fn goals_lapse() {
+        let mut g = goals();
+        let mut x = goal("g1", "b", GoalKind::KeepOut, 0);
+        x.expires_s = Some(30.0);
+        assert!(g.submit(&zid("b"), x, 10.0).accepted);
+        assert!(g.expire(39.0).is_empty());
+        assert_eq!(g.expire(40.0).len(), 1);
+        assert!(g.active().is_empty());
+    }
+
+    #[test]
+    fn the_nearest_allowed_chainage_is_outside_every_barred_zone() {
+        let mut g = goals();
+        g.submit(&zid("b"), goal("g1", "b", GoalKind::KeepOut, 0), 0.0);
+        assert_eq!(g.nearest_allowed(40.0, 5.0, 0.0, 300.0), Some(40.0));
+        assert_eq!(g.nearest_allowed(120.0, 5.0, 0.0, 300.0), Some(95.0));
+        assert_eq!(g.nearest_allowed(190.0, 5.0, 0.0, 300.0), Some(205.0));
+        assert_eq!(g.nearest_allowed(190.0, 5.0, 0.0, 200.0), Some(95.0));
+    }
+}
