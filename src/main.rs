@@ -8,6 +8,7 @@
 mod bt_cli;
 mod demo;
 mod experiment;
+mod goal;
 mod plot;
 mod replay;
 mod roles;
@@ -44,6 +45,9 @@ enum Command {
     Record(RecordArgs),
     /// Print the incident as the coordinator sees it.
     Status(StatusArgs),
+    /// Issue, list or clear incident commanders' zone goals.
+    #[command(subcommand)]
+    Goal(goal::GoalCommand),
     /// Print the timeline of a recorded incident.
     Replay(replay::ReplayArgs),
     /// Validate, show or dry-run behavior-tree XML files.
@@ -213,6 +217,7 @@ fn main() -> std::process::ExitCode {
             Command::Agent(a) => roles::agent(a).await,
             Command::Record(a) => roles::record(a).await,
             Command::Status(a) => roles::status(a).await,
+            Command::Goal(c) => goal::run(c).await,
             Command::Scenarios => scenarios::list(),
             Command::Bt(c) => bt_cli::run(c),
             Command::Replay(a) => replay::run(a),

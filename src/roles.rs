@@ -12,7 +12,7 @@ use firefleet_coordinator::CoordinatorOptions;
 use firefleet_protocol::bus::Bus;
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{IncidentStatus, UnitKind};
+use firefleet_protocol::msg::{IncidentStatus, UnitKind, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_sim::SimOptions;
@@ -49,7 +49,7 @@ pub async fn shutdown_signal(die_with_parent: bool) {
     }
 }
 
-async fn open(zenoh: &ZenohArgs, scenario: &Scenario) -> anyhow::Result<Bus> {
+pub async fn open(zenoh: &ZenohArgs, scenario: &Scenario) -> anyhow::Result<Bus> {
     Bus::open(&zenoh.connect(), scenario.site.clone())
         .await
         .context("joining the Zenoh network")
@@ -160,9 +160,8 @@ pub async fn record(a: RecordArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-pub async fn status(a: StatusArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.scenario.scenario)?;
-    let bus = open(&a.zenoh, &scenario).await?;
+/// The coordinator's snapshot of the incident, decoded and as sent.
+pub async fn query_status(bus: &Bus) -> anyhow::Result<(IncidentStatus, Vec<u8>)> {
     let key = bus.keys().key(&Topic::CoordStatus);
     let replies = bus
         .session()
@@ -177,8 +176,15 @@ pub async fn status(a: StatusArgs) -> anyhow::Result<ExitCode> {
     let sample = reply
         .result()
         .map_err(|e| anyhow::anyhow!("the coordinator answered with an error: {e:?}"))?;
-    let bytes = sample.payload().to_bytes();
-    let status: IncidentStatus = codec::decode(&bytes).context("the coordinator's status")?;
+    let bytes = sample.payload().to_bytes().to_vec();
+    let status = codec::decode(&bytes).context("the coordinator's status")?;
+    Ok((status, bytes))
+}
+
+pub async fn status(a: StatusArgs) -> anyhow::Result<ExitCode> {
+    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let bus = open(&a.zenoh, &scenario).await?;
+    let (status, bytes) = query_status(&bus).await?;
     if a.json {
         println!("{}", String::from_utf8_lossy(&bytes));
     } else {
@@ -186,6 +192,32 @@ pub async fn status(a: StatusArgs) -> anyhow::Result<ExitCode> {
     }
     bus.close().await;
     Ok(ExitCode::SUCCESS)
+}
+
+/// The goals in force, one a line.
+pub fn print_goals(goals: &[ZoneGoal]) {
+    if goals.is_empty() {
+        println!("  (none)");
+    }
+    for g in goals {
+        let kind = serde_json::to_value(g.goal)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_owned))
+            .unwrap_or_default();
+        let before = g
+            .before_m
+            .map_or(String::new(), |b| format!(" before {b:.1} m"));
+        let expires = g
+            .expires_s
+            .map_or(String::new(), |e| format!(", expires after {e:.0} s"));
+        println!(
+            "  {:12} zone {:8} {kind}{before}  priority {}  by '{}'{expires}",
+            g.id,
+            g.zone.as_str(),
+            g.priority,
+            g.issued_by
+        );
+    }
 }
 
 fn print_status(s: &IncidentStatus) {
@@ -226,6 +258,8 @@ fn print_status(s: &IncidentStatus) {
             u.state.as_ref().map_or(0.0, |st| st.water_l),
         );
     }
+    println!("goals:");
+    print_goals(&s.goals);
     if s.rejected.values().any(|n| *n > 0) {
         println!("rejected messages: {:?}", s.rejected);
     }

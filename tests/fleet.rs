@@ -429,3 +429,156 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
     drop(fleet);
     bus.close().await;
 }
+
+/// Run a one-shot CLI command against the router at `endpoint` on the rail-tunnel site.
+fn cli(endpoint: &str, args: &[&str]) -> std::process::Output {
+    Command::new(BIN)
+        .args(args)
+        .args([
+            "--scenario",
+            "rail-tunnel",
+            "--mode",
+            "client",
+            "--connect",
+            endpoint,
+        ])
+        .env("RUST_LOG", "warn,zenoh=error")
+        .output()
+        .unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn commanders_goals_are_answered_listed_and_cleared() {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let router = Connect {
+        mode: Some("router".into()),
+        listen: vec![endpoint.clone()],
+        ..Connect::default()
+    };
+    let bus = Bus::open(&router, SiteId::new("tunnel-r").unwrap())
+        .await
+        .unwrap();
+    let _fleet = Fleet(vec![spawn_role("rail-tunnel", &endpoint, &["coordinator"])]);
+    let set = [
+        "goal",
+        "set",
+        "--zone",
+        "deep",
+        "--goal",
+        "keep-out",
+        "--priority",
+        "1",
+    ];
+    // The coordinator needs a moment to join; the first accepted answer ends the wait.
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let out = loop {
+        let out = cli(&endpoint, &set);
+        if out.status.success() || Instant::now() > deadline {
+            break out;
+        }
+        tokio::time::sleep(Duration::from_millis(300)).await;
+    };
+    let text = |o: &std::process::Output| {
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        )
+    };
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(
+        text(&out).contains("goal 'deep-keep-out' on zone deep: accepted"),
+        "{}",
+        text(&out)
+    );
+
+    let out = cli(
+        &endpoint,
+        &["goal", "set", "--zone", "nowhere", "--goal", "monitor"],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out).contains("unknown zone 'nowhere' (zones: portal, deep)"),
+        "{}",
+        text(&out)
+    );
+    let out = cli(
+        &endpoint,
+        &[
+            "goal",
+            "set",
+            "--zone",
+            "deep",
+            "--goal",
+            "monitor",
+            "--priority",
+            "1",
+            "--id",
+            "m",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out).contains("conflicts with goal 'deep-keep-out'"),
+        "{}",
+        text(&out)
+    );
+    let out = cli(
+        &endpoint,
+        &["goal", "set", "--zone", "deep", "--goal", "contain"],
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "refused before sending: contain needs before_m"
+    );
+    assert!(text(&out).contains("before_m"), "{}", text(&out));
+
+    // Any Zenoh client may send JSON; a malformed goal is answered too.
+    let acks = bus
+        .subscribe::<firefleet_protocol::msg::GoalAck>("ff/tunnel-r/zone/deep/ack")
+        .await
+        .unwrap();
+    bus.session()
+        .put(
+            "ff/tunnel-r/zone/deep/goal",
+            r#"{"id": "x", "zone": "deep", "goal": "flood"}"#,
+        )
+        .await
+        .unwrap();
+    let (_, ack) = tokio::time::timeout(Duration::from_secs(5), acks.recv())
+        .await
+        .unwrap()
+        .unwrap();
+    assert!(
+        !ack.accepted && ack.reason.starts_with("malformed"),
+        "{ack:?}"
+    );
+
+    let out = cli(&endpoint, &["goal", "list"]);
+    assert!(
+        text(&out).contains("deep-keep-out") && text(&out).contains("keep-out"),
+        "{}",
+        text(&out)
+    );
+    let out = cli(&endpoint, &["status"]);
+    assert!(
+        text(&out).contains("goals:") && text(&out).contains("deep-keep-out"),
+        "{}",
+        text(&out)
+    );
+    assert!(
+        cli(&endpoint, &["goal", "clear", "--zone", "deep"])
+            .status
+            .success()
+    );
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let out = cli(&endpoint, &["goal", "list"]);
+        if text(&out).contains("(none)") {
+            break;
+        }
+        assert!(Instant::now() < deadline, "not cleared: {}", text(&out));
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+}

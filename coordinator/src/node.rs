@@ -4,6 +4,8 @@
 //! [`Incident`], and publishes what it decides: tasks on `unit/<id>/task`, fire tracks on
 //! `fire/<id>`. Tasks and tracks are re-published every second so that a unit that missed a
 //! message or joined late converges. `coord/status` answers queries with a JSON snapshot.
+//! Commanders' zone goals arrive as JSON on `zone/<zone>/goal` and each is answered on
+//! `zone/<zone>/ack`, malformed ones included; a delete on a goal key clears the zone.
 //! A message the incident refuses (unknown unit, outside the tunnel) is logged and counted;
 //! nothing else changes.
 
@@ -11,11 +13,12 @@ use std::future::Future;
 use std::sync::Arc;
 use std::time::Duration;
 
+use firefleet_protocol::ZoneId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::clock::{Clock, ExternalClock, SystemClock};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::{self, Topic, UnitLeaf};
-use firefleet_protocol::msg::{FlameReport, SimClock, UnitState};
+use firefleet_protocol::msg::{FlameReport, GoalAck, SimClock, UnitState, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Invalid;
 use zenoh::sample::SampleKind;
@@ -71,6 +74,9 @@ pub async fn run(
     let status = session
         .declare_queryable(keys.key(&Topic::CoordStatus))
         .await?;
+    // Goals are read raw, not through the bus's typed inbox: a malformed goal must still
+    // be answered, and a delete on a zone's goal key clears the zone.
+    let goals = session.declare_subscriber(keys.every_zone_goal()).await?;
 
     let mut tick = tokio::time::interval(Duration::from_millis(200));
     let mut republish = tokio::time::interval(Duration::from_secs(1));
@@ -96,6 +102,28 @@ pub async fn run(
                     incident.on_report(&r, clock.now())
                 } else {
                     Err(Invalid::new("unit", format!("report on '{key}' names unit '{}'", r.unit)))
+                }
+            }
+            Ok(sample) = goals.recv_async() => {
+                let t = clock.now();
+                let zone = match keys::parse(sample.key_expr().as_str()) {
+                    Ok((_, Topic::ZoneGoal(zone))) => zone,
+                    _ => continue,
+                };
+                if sample.kind() == SampleKind::Delete {
+                    Ok(incident.clear_goals(&zone, t))
+                } else {
+                    let bytes = sample.payload().to_bytes();
+                    let (ack, out) = match codec::decode::<ZoneGoal>(&bytes) {
+                        Ok(goal) => incident.on_goal(&zone, goal, t),
+                        Err(e) => {
+                            bus.rejects().count_invalid();
+                            tracing::warn!(%zone, "malformed zone goal: {e}");
+                            (malformed(&bytes, &zone, &e), Vec::new())
+                        }
+                    };
+                    bus.put(&keys.key(&Topic::ZoneAck(zone)), &ack).await?;
+                    Ok(out)
                 }
             }
             Ok(query) = status.recv_async() => {
@@ -125,6 +153,21 @@ pub async fn run(
         }
     }
     Ok(())
+}
+
+/// The answer to a goal that does not decode: rejected, with the id if the JSON has one
+/// so that the sender can tell it is theirs.
+fn malformed(bytes: &[u8], zone: &ZoneId, e: &codec::CodecError) -> GoalAck {
+    let id = serde_json::from_slice::<serde_json::Value>(bytes)
+        .ok()
+        .and_then(|v| v.get("id")?.as_str().map(|s| s.chars().take(64).collect()))
+        .unwrap_or_default();
+    GoalAck {
+        id,
+        zone: zone.clone(),
+        accepted: false,
+        reason: format!("malformed: {e}"),
+    }
 }
 
 async fn publish(bus: &Bus, outputs: Vec<Output>) -> Result<(), BusError> {

@@ -163,6 +163,8 @@ enum Derived {
     Truth(SimTruth),
     /// A coordinator decision: also a `foxglove.Log` entry.
     Decision(Decision),
+    /// An answer to a zone goal: also a `foxglove.Log` entry.
+    Ack(GoalAck),
 }
 
 fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Derived), CodecError> {
@@ -179,7 +181,9 @@ fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Derived), CodecError>
         Topic::UnitBt(_) => plain::<BtTransitions>(bytes, "firefleet.BtTransitions"),
         Topic::Fire(_) => plain::<FireTrack>(bytes, "firefleet.FireTrack"),
         Topic::ZoneGoal(_) => plain::<ZoneGoal>(bytes, "firefleet.ZoneGoal"),
-        Topic::ZoneAck(_) => plain::<GoalAck>(bytes, "firefleet.GoalAck"),
+        Topic::ZoneAck(_) => {
+            decoded::<GoalAck>(bytes, "firefleet.GoalAck").map(|(d, m)| (d, Derived::Ack(m)))
+        }
         Topic::SimClock => plain::<SimClock>(bytes, "firefleet.SimClock"),
         Topic::SimSensors(_) => plain::<UnitSensors>(bytes, "firefleet.UnitSensors"),
         Topic::SimCmd(_) => plain::<UnitCommand>(bytes, "firefleet.UnitCommand"),
@@ -245,6 +249,10 @@ pub async fn record(
                                 }
                                 Derived::Decision(decision) => {
                                     let log = scene::Log::info("coordinator", &decision, scene::Time::from_nanos(t));
+                                    sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &serde_json::to_vec(&log).expect("serialises"), t)?;
+                                }
+                                Derived::Ack(ack) => {
+                                    let log = scene::Log::ack(&ack, scene::Time::from_nanos(t));
                                     sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &serde_json::to_vec(&log).expect("serialises"), t)?;
                                 }
                                 _ => {}

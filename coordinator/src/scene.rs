@@ -4,7 +4,7 @@
 //! `foxglove.Log` messages that we use, serialised as JSON (Foxglove decodes JSON messages by schema name). Their JSON
 //! Schemas are derived from these types.
 
-use firefleet_protocol::msg::{Decision, SimTruth, TruthFireState};
+use firefleet_protocol::msg::{Decision, GoalAck, SimTruth, TruthFireState};
 use firefleet_protocol::scenario::Scenario;
 use schemars::JsonSchema;
 use serde::Serialize;
@@ -135,10 +135,25 @@ pub struct Log {
 impl Log {
     /// An INFO entry from `name` for a coordinator decision, stamped with site time.
     pub fn info(name: &str, d: &Decision, recorded: Time) -> Self {
+        Self::new(2, name, format!("[t={:.1} s] {}", d.t, d.text), recorded)
+    }
+
+    /// The coordinator's answer to a zone goal: INFO if accepted, WARNING if not.
+    pub fn ack(a: &GoalAck, recorded: Time) -> Self {
+        let verdict = if a.accepted { "accepted" } else { "rejected" };
+        Self::new(
+            if a.accepted { 2 } else { 3 },
+            "coordinator",
+            format!("goal '{}' on zone {} {verdict}: {}", a.id, a.zone, a.reason),
+            recorded,
+        )
+    }
+
+    fn new(level: u8, name: &str, message: String, recorded: Time) -> Self {
         Self {
             timestamp: recorded,
-            level: 2,
-            message: format!("[t={:.1} s] {}", d.t, d.text),
+            level,
+            message,
             name: name.to_owned(),
             file: String::new(),
             line: 0,
@@ -226,6 +241,40 @@ pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
                 b: 0.4,
                 a: 1.0,
             },
+        });
+        entities.push(e);
+    }
+    for z in &s.zones {
+        let mut e = entity(format!("zone/{}", z.id), ts);
+        let mid = (z.start_m + z.end_m) / 2.0;
+        e.cubes.push(CubePrimitive {
+            pose: Pose::at(mid, 0.0, 0.01, 0.0),
+            size: Vector3 {
+                x: z.end_m - z.start_m,
+                y: t.width_m,
+                z: 0.02,
+            },
+            color: Color {
+                r: 0.2,
+                g: 0.5,
+                b: 1.0,
+                a: 0.15,
+            },
+        });
+        e.texts
+            .push(label(mid, t.width_m / 2.0, 0.5, format!("zone {}", z.id)));
+        entities.push(e);
+    }
+    for r in &s.rails {
+        let mut e = entity(format!("rail/{}", r.id), ts);
+        e.cubes.push(CubePrimitive {
+            pose: Pose::at((r.start_m + r.end_m) / 2.0, r.y_m, r.height_m + 0.1, 0.0),
+            size: Vector3 {
+                x: r.end_m - r.start_m,
+                y: 0.15,
+                z: 0.15,
+            },
+            color: grey(1.0),
         });
         entities.push(e);
     }

@@ -100,6 +100,10 @@ impl Keys {
     pub fn every_unit(&self, leaf: UnitLeaf) -> String {
         format!("{ROOT}/{}/unit/*/{}", self.site, leaf.as_str())
     }
+    /// `ff/<site>/zone/*/goal`: commanders' goals for every zone.
+    pub fn every_zone_goal(&self) -> String {
+        format!("{ROOT}/{}/zone/*/goal", self.site)
+    }
     /// `ff/<site>/sim/unit/*/cmd`: actuator commands of every simulated ground unit.
     pub fn every_sim_cmd(&self) -> String {
         format!("{ROOT}/{}/sim/unit/*/cmd", self.site)

@@ -1,0 +1,150 @@
+//! `firefleet goal`: issue, list and clear incident commanders' zone goals.
+//!
+//! A goal is JSON on `ff/<site>/zone/<zone>/goal`; the coordinator answers every goal on
+//! `ff/<site>/zone/<zone>/ack`, and a delete on the goal key clears the zone. This command
+//! is one client of that API; any Zenoh client can do the same (see the README).
+
+use std::process::ExitCode;
+use std::time::Duration;
+
+use anyhow::Context;
+use clap::{Args, Subcommand};
+use firefleet_protocol::ZoneId;
+use firefleet_protocol::keys::Topic;
+use firefleet_protocol::msg::{GoalAck, GoalKind, ZoneGoal};
+use firefleet_protocol::validate::Validate;
+
+use crate::roles::{open, print_goals, query_status};
+use crate::{ScenarioArg, ZenohArgs, scenarios};
+
+#[derive(Subcommand, Debug)]
+pub enum GoalCommand {
+    /// Issue a goal for a zone and wait for the coordinator's answer (exit 1 if rejected).
+    Set(SetArgs),
+    /// List the goals in force.
+    List(Common),
+    /// Clear every goal of a zone.
+    Clear(ClearArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct Common {
+    #[command(flatten)]
+    scenario: ScenarioArg,
+    #[command(flatten)]
+    zenoh: ZenohArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct SetArgs {
+    #[command(flatten)]
+    common: Common,
+    #[arg(long)]
+    zone: ZoneId,
+    /// extinguish, contain, monitor, keep-out or evacuate.
+    #[arg(long, value_parser = parse_kind)]
+    goal: GoalKind,
+    /// The goal's id (default: the zone and the goal, e.g. `z3-keep-out`).
+    #[arg(long)]
+    id: Option<String>,
+    #[arg(long, default_value_t = 0)]
+    priority: u8,
+    /// For contain: the chainage the fire front must not pass, m.
+    #[arg(long)]
+    before_m: Option<f64>,
+    /// Seconds of site time after which the goal lapses.
+    #[arg(long)]
+    expires_s: Option<f64>,
+    #[arg(long, default_value = "firefleet-cli")]
+    issued_by: String,
+}
+
+#[derive(Args, Debug)]
+pub struct ClearArgs {
+    #[command(flatten)]
+    common: Common,
+    #[arg(long)]
+    zone: ZoneId,
+}
+
+fn parse_kind(s: &str) -> Result<GoalKind, String> {
+    serde_json::from_value(serde_json::Value::String(s.to_owned())).map_err(|_| {
+        format!("'{s}' is not a goal (extinguish, contain, monitor, keep-out, evacuate)")
+    })
+}
+
+/// How long to wait for the coordinator's answer.
+const ACK_TIMEOUT: Duration = Duration::from_secs(5);
+
+pub async fn run(cmd: GoalCommand) -> anyhow::Result<ExitCode> {
+    match cmd {
+        GoalCommand::Set(a) => set(a).await,
+        GoalCommand::List(a) => {
+            let scenario = scenarios::resolve(&a.scenario.scenario)?;
+            let bus = open(&a.zenoh, &scenario).await?;
+            let (status, _) = query_status(&bus).await?;
+            print_goals(&status.goals);
+            bus.close().await;
+            Ok(ExitCode::SUCCESS)
+        }
+        GoalCommand::Clear(a) => {
+            let scenario = scenarios::resolve(&a.common.scenario.scenario)?;
+            let bus = open(&a.common.zenoh, &scenario).await?;
+            let key = bus.keys().key(&Topic::ZoneGoal(a.zone.clone()));
+            bus.session()
+                .delete(&key)
+                .await
+                .map_err(|e| anyhow::anyhow!("clearing {key}: {e}"))?;
+            println!("cleared the goals of zone {}", a.zone);
+            bus.close().await;
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
+async fn set(a: SetArgs) -> anyhow::Result<ExitCode> {
+    let scenario = scenarios::resolve(&a.common.scenario.scenario)?;
+    let kind = serde_json::to_value(a.goal)?
+        .as_str()
+        .unwrap_or_default()
+        .to_owned();
+    let goal = ZoneGoal {
+        id: a.id.unwrap_or_else(|| format!("{}-{kind}", a.zone)),
+        zone: a.zone.clone(),
+        goal: a.goal,
+        priority: a.priority,
+        before_m: a.before_m,
+        expires_s: a.expires_s,
+        issued_by: a.issued_by,
+    };
+    goal.validate()
+        .map_err(|e| anyhow::anyhow!("the goal is not valid: {e}"))?;
+    let bus = open(&a.common.zenoh, &scenario).await?;
+    let acks = bus
+        .subscribe::<GoalAck>(&bus.keys().key(&Topic::ZoneAck(a.zone.clone())))
+        .await?;
+    bus.put(&bus.keys().key(&Topic::ZoneGoal(a.zone.clone())), &goal)
+        .await?;
+    let deadline = tokio::time::Instant::now() + ACK_TIMEOUT;
+    let ack = loop {
+        let (_, ack) = tokio::time::timeout_at(deadline, acks.recv())
+            .await
+            .ok()
+            .flatten()
+            .context("no answer from a coordinator within 5 s")?;
+        if ack.id == goal.id {
+            break ack;
+        }
+    };
+    bus.close().await;
+    if ack.accepted {
+        println!("goal '{}' on zone {}: {}", ack.id, ack.zone, ack.reason);
+        Ok(ExitCode::SUCCESS)
+    } else {
+        eprintln!(
+            "goal '{}' on zone {} rejected: {}",
+            ack.id, ack.zone, ack.reason
+        );
+        Ok(ExitCode::FAILURE)
+    }
+}
