@@ -49,7 +49,9 @@ proptest! {
                 let target = Point2::new(100.0, 0.0).offset(bearing, d);
                 prop_assert!(at.dist(target) < 0.05, "missed by {:.3} m at {d:.1} m", at.dist(target));
             }
-            Ok(Landing::Blocked) => prop_assert!(false, "a solved shot was blocked"),
+            Ok(Landing::Blocked | Landing::Vehicle { .. }) => {
+                prop_assert!(false, "a solved shot was blocked")
+            }
             Err(e) => prop_assert!(d > 15.0, "no solution at {d:.1} m: {e}"),
         }
     }

@@ -10,7 +10,7 @@ use firefleet_protocol::Point2;
 use firefleet_protocol::scenario::{Obstacle, Tunnel};
 use firefleet_protocol::spec::NozzleSpec;
 
-use crate::camera::{P3, line_blocked};
+use crate::camera::{P3, segment_hits};
 use crate::physics::G;
 
 /// Where a jet ends.
@@ -18,7 +18,9 @@ use crate::physics::G;
 pub enum Landing {
     /// On the road at `at`, after `travel_m` metres of horizontal travel.
     Road { at: Point2, travel_m: f64 },
-    /// Against the ceiling, a wall or a vehicle.
+    /// Against parked vehicle `index` (of the scenario's obstacles): it wets the vehicle.
+    Vehicle { index: usize },
+    /// Against the ceiling or a wall.
     Blocked,
 }
 
@@ -87,8 +89,11 @@ pub fn trace_at_speed(
     let mut prev = nozzle;
     for i in 1..=steps {
         let p = at(t_land * i as f64 / steps as f64);
-        if p[1].abs() > tunnel.width_m / 2.0 || line_blocked(obstacles, prev, p) {
+        if p[1].abs() > tunnel.width_m / 2.0 {
             return Landing::Blocked;
+        }
+        if let Some(index) = obstacles.iter().position(|o| segment_hits(o, prev, p)) {
+            return Landing::Vehicle { index };
         }
         prev = p;
     }
@@ -178,7 +183,7 @@ mod tests {
         };
         assert_eq!(
             trace(&TUNNEL, &[car], [0.0, 0.0, 1.0], 0.0, 0.0, &n),
-            Landing::Blocked,
+            Landing::Vehicle { index: 0 },
             "vehicle"
         );
     }

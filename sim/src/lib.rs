@@ -16,8 +16,9 @@
 //! except by the clock it keeps.
 //!
 //! Not modelled (yet): smoke transport and visibility (smoke only lowers detector
-//! confidence with distance), ventilation, fire spread between vehicles, collisions between
-//! units.
+//! confidence with distance), ventilation, collisions between units. Fire spreads to
+//! parked vehicles by radiation (flux-time product, see [`physics`]); fire does not spread
+//! along the road.
 
 pub mod camera;
 pub mod carriage;

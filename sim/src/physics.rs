@@ -129,6 +129,26 @@ pub fn ceiling_jet_rise_c(q_kw: f64, r_m: f64, h_m: f64) -> f64 {
     }
 }
 
+/// Fire spread to parked vehicles, by the flux-time product (Toal, Silcock & Shields 1989;
+/// Babrauskas, Ignition Handbook): a vehicle ignites once `integral (q - q_cr) dt` reaches
+/// [`VEHICLE_FTP_KJ_M2`], counting only the radiant flux `q` on its side nearest the fire
+/// above the critical flux [`VEHICLE_CRITICAL_FLUX_KW_M2`]. 12 kW/m^2 is the order of the
+/// critical flux of vehicle polymers (tyres, bumpers, seats: 10 to 20 kW/m^2). The FTP is
+/// an assumption: a car in the next lane 0.7 m from a 5 MW car fire takes about 21 kW/m^2
+/// on its near side and catches after about 5 minutes; one 5 m away never does. Car-park
+/// tests report 5 to 20 minutes between neighbours.
+pub const VEHICLE_CRITICAL_FLUX_KW_M2: f64 = 12.0;
+pub const VEHICLE_FTP_KJ_M2: f64 = 3000.0;
+/// Water on an exposed vehicle cools it: while wetted its accumulated exposure decays with
+/// this time constant, s (assumption: a wetted body sheds its stored heat within a minute).
+pub const VEHICLE_COOLING_TAU_S: f64 = 20.0;
+/// Peak heat release of a burning vehicle per square metre of footprint, kW/m^2: a car
+/// (8 m^2) burns at about 5 MW (the vehicle fires of PIARC and NFPA 502), kept within
+/// [`VEHICLE_PEAK_MIN_KW`, `VEHICLE_PEAK_MAX_KW`].
+pub const VEHICLE_PEAK_KW_PER_M2: f64 = 600.0;
+pub const VEHICLE_PEAK_MIN_KW: f64 = 2000.0;
+pub const VEHICLE_PEAK_MAX_KW: f64 = 30000.0;
+
 #[cfg(test)]
 mod tests {
     use super::*;

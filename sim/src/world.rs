@@ -190,9 +190,28 @@ impl Body {
     }
 }
 
+/// The point of `o`'s footprint nearest `p`.
+fn nearest_on(o: &Obstacle, p: Point2) -> Point2 {
+    let b = o.pose().to_body(p);
+    let (hl, hw) = (o.length_m / 2.0, o.width_m / 2.0);
+    o.pose()
+        .to_site(Point2::new(b.x.clamp(-hl, hl), b.y.clamp(-hw, hw)))
+}
+
 fn inside(pose: &Pose2, spec: &GroundSpec, p: Point2) -> bool {
     let b = pose.to_body(p);
     b.x.abs() <= spec.length_m / 2.0 && b.y.abs() <= spec.width_m / 2.0
+}
+
+/// How close a parked vehicle is to catching fire.
+#[derive(Debug, Clone, Copy, Default)]
+struct Exposure {
+    /// Flux-time product so far, kJ/m^2.
+    ftp: f64,
+    /// The fire burning on it, once it burns (index into the world's fires).
+    fire: Option<usize>,
+    /// Burning from the start (a scenario fire stands on it): it has no fire of its own.
+    burning: bool,
 }
 
 /// The whole simulated world.
@@ -204,6 +223,8 @@ pub struct World {
     fires: Vec<Fire>,
     bodies: Vec<Body>,
     carriages: Vec<Carriage>,
+    /// One per obstacle.
+    exposure: Vec<Exposure>,
     rng: ChaCha8Rng,
 }
 
@@ -260,6 +281,17 @@ impl World {
             fires,
             bodies,
             carriages,
+            exposure: scenario
+                .obstacles
+                .iter()
+                .map(|o| Exposure {
+                    burning: scenario
+                        .fires
+                        .iter()
+                        .any(|f| o.footprint_contains(f.position(), 0.5)),
+                    ..Exposure::default()
+                })
+                .collect(),
             rng: ChaCha8Rng::seed_from_u64(seed),
         };
         // Fires that ignited before the start are already at their t-squared size.
@@ -337,9 +369,7 @@ impl World {
                 b.cannon.tilt,
                 &b.spec.nozzle,
             );
-            if let Landing::Road { at, travel_m } = landing {
-                sprays.push((at, physics::jet_spread_radius_m(travel_m), litres / dt));
-            }
+            sprays.push((landing, litres / dt));
         }
         for c in &mut self.carriages {
             c.step(dt);
@@ -357,11 +387,11 @@ impl World {
                 elevation,
                 c.joints.v0,
             );
-            if let Landing::Road { at, travel_m } = landing {
-                sprays.push((at, physics::jet_spread_radius_m(travel_m), litres / dt));
-            }
+            sprays.push((landing, litres / dt));
         }
+        let sprays = self.wet(dt, &sprays);
         self.step_fires(dt, &sprays);
+        self.spread(dt);
         for i in 0..self.bodies.len() {
             let p = self.bodies[i].pose;
             let flux = self.radiant_flux([p.x, p.y, physics::UNIT_BODY_HEIGHT_M]);
@@ -376,6 +406,97 @@ impl World {
             c.heat_dose += flux * dt;
         }
         self.t += dt;
+    }
+
+    /// Where water lands: on the road (a disk as wide as the jet's spread), or on a vehicle,
+    /// which cools it and, if it burns, puts the water on its fire. Returns the water on
+    /// the road and on burning vehicles as (landing point, wetted radius, flow L/s).
+    fn wet(&mut self, dt: f64, sprays: &[(Landing, f64)]) -> Vec<(Point2, f64, f64)> {
+        let mut wetted = vec![false; self.obstacles.len()];
+        let mut out = Vec::new();
+        for &(landing, flow) in sprays {
+            match landing {
+                Landing::Road { at, travel_m } => {
+                    let r = physics::jet_spread_radius_m(travel_m);
+                    for (i, o) in self.obstacles.iter().enumerate() {
+                        wetted[i] |= o.footprint_contains(at, r);
+                    }
+                    out.push((at, r, flow));
+                }
+                Landing::Vehicle { index } => {
+                    wetted[index] = true;
+                    if let Some(f) = self.exposure[index].fire {
+                        let fire = &self.fires[f].spec;
+                        out.push((fire.position(), fire.radius_m, flow));
+                    }
+                }
+                Landing::Blocked => {}
+            }
+        }
+        for (e, wet) in self.exposure.iter_mut().zip(wetted) {
+            if wet {
+                e.ftp *= (-dt / physics::VEHICLE_COOLING_TAU_S).exp();
+            }
+        }
+        out
+    }
+
+    /// Heat parked vehicles with the fires' radiation; one that has taken enough catches
+    /// fire (see [`physics::VEHICLE_FTP_KJ_M2`]).
+    fn spread(&mut self, dt: f64) {
+        for i in 0..self.obstacles.len() {
+            let e = self.exposure[i];
+            if e.burning || e.fire.is_some() {
+                continue;
+            }
+            let o = &self.obstacles[i];
+            // The hottest side: the footprint point nearest each burning fire, half-way up.
+            let flux = self
+                .fires
+                .iter()
+                .filter(|f| f.state == TruthFireState::Burning)
+                .map(|f| {
+                    let p = nearest_on(o, f.spec.position());
+                    let c = f.flame_centre();
+                    let r = ((c[0] - p.x).powi(2)
+                        + (c[1] - p.y).powi(2)
+                        + (c[2] - o.height_m / 2.0).powi(2))
+                    .sqrt();
+                    physics::radiant_flux_kw_m2(f.hrr_kw, r.max(f.spec.radius_m))
+                })
+                .sum::<f64>();
+            let over = flux - physics::VEHICLE_CRITICAL_FLUX_KW_M2;
+            if over <= 0.0 {
+                continue;
+            }
+            self.exposure[i].ftp += over * dt;
+            if self.exposure[i].ftp < physics::VEHICLE_FTP_KJ_M2 {
+                continue;
+            }
+            let area = o.length_m * o.width_m;
+            let spec = FireSpec {
+                name: format!("{}-spread", o.name),
+                x_m: o.x_m,
+                y_m: o.y_m,
+                growth: firefleet_protocol::scenario::Growth::Fast,
+                peak_kw: (physics::VEHICLE_PEAK_KW_PER_M2 * area)
+                    .clamp(physics::VEHICLE_PEAK_MIN_KW, physics::VEHICLE_PEAK_MAX_KW),
+                ignition_s: self.t,
+                radius_m: 0.5 * o.length_m.min(o.width_m),
+            };
+            tracing::info!(vehicle = %o.name, t = self.t, "fire spread to a parked vehicle");
+            self.exposure[i].fire = Some(self.fires.len());
+            self.fires.push(Fire {
+                alpha: physics::growth_alpha_kw_s2(spec.growth),
+                spec,
+                hrr_kw: 0.0,
+                state: TruthFireState::Dormant,
+                wetted: false,
+                water_received_l: 0.0,
+                cooling_left_l: 0.0,
+                dry_s: 0.0,
+            });
+        }
     }
 
     /// Radiant heat flux from every burning fire at `at`, kW/m^2.
@@ -739,7 +860,7 @@ mod tests {
             .min_by_key(|v| {
                 match jet::trace_at_speed(&w.tunnel, &w.obstacles, nozzle, azimuth, elevation, *v) {
                     Landing::Road { at, .. } => (at.dist(Point2::new(15.0, 0.0)) * 1e3) as i64,
-                    Landing::Blocked => i64::MAX,
+                    Landing::Blocked | Landing::Vehicle { .. } => i64::MAX,
                 }
             })
             .unwrap();
@@ -758,6 +879,85 @@ mod tests {
         assert_eq!(w.truth().fires[0].state, TruthFireState::Out);
         let carriage = w.truth().units.into_iter().find(|u| u.id == m).unwrap();
         assert!(carriage.water_used_l > 0.0);
+    }
+
+    /// A 5 MW car fire in one lane, a car in the next lane 0.7 m away, after 400 s; `hose`
+    /// puts a jet on the exposed car while the unit's water lasts.
+    fn neighbours(hose: bool) -> World {
+        let text = r#"
+            name = "spread"
+            time_limit_s = 900
+            [tunnel]
+            length_m = 100.0
+            width_m = 10.0
+            height_m = 6.0
+            lanes = 2
+            [[obstacles]]
+            name = "burning"
+            x_m = 50.0
+            y_m = -1.25
+            length_m = 4.5
+            width_m = 1.8
+            height_m = 1.5
+            [[obstacles]]
+            name = "exposed"
+            x_m = 50.0
+            y_m = 1.25
+            length_m = 4.5
+            width_m = 1.8
+            height_m = 1.5
+            [[fires]]
+            name = "car"
+            x_m = 50.0
+            y_m = -1.25
+            growth = "ultrafast"
+            peak_kw = 5000.0
+            ignition_s = -300.0
+            radius_m = 1.0
+            [[units]]
+            id = "u1"
+            kind = "ground"
+            x_m = 30.0
+            y_m = 3.0
+        "#;
+        let mut w = World::new(&Scenario::from_toml(text, "s.toml").unwrap(), 1);
+        if hose {
+            // A jet into the exposed car's rear, 18 m away: the lowest elevation that hits it.
+            let pan = (1.25f64 - 3.0).atan2(18.0);
+            let nozzle = [30.0, 3.0, GROUND.cannon_height_m];
+            let tilt = (0..60)
+                .map(|k| k as f64 * 0.01)
+                .find(|th| {
+                    jet::trace(&w.tunnel, &w.obstacles, nozzle, pan, *th, &GROUND.nozzle)
+                        == Landing::Vehicle { index: 1 }
+                })
+                .expect("some elevation hits the exposed car");
+            w.command(
+                &u1(),
+                UnitCommand {
+                    speed: 0.0,
+                    steer: 0.0,
+                    pan,
+                    tilt,
+                    valve_open: true,
+                },
+            );
+        }
+        // 400 s: the unit's tank (150 s of water) is empty well before the end.
+        for _ in 0..(400.0 / 0.05) as usize {
+            w.step(0.05);
+        }
+        w
+    }
+
+    #[test]
+    fn fire_spreads_to_an_exposed_vehicle_and_water_on_it_holds_it_back() {
+        let spread = neighbours(false).truth();
+        assert_eq!(spread.fires.len(), 2, "{:?}", spread.fires);
+        assert_eq!(spread.fires[1].name, "exposed-spread");
+        assert_ne!(spread.fires[1].state, TruthFireState::Dormant);
+        let cooled = neighbours(true).truth();
+        assert_eq!(cooled.fires.len(), 1, "{:?}", cooled.fires);
     }
 
     #[test]
