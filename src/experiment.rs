@@ -25,6 +25,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 mod robogat;
+mod scale;
 
 #[derive(Subcommand, Debug)]
 pub enum ExperimentCommand {
@@ -34,6 +35,8 @@ pub enum ExperimentCommand {
     Fleet(FleetArgs),
     /// The ROBOGAT paper's monorail case study: fuzzy against fixed weights.
     Robogat(robogat::RobogatArgs),
+    /// A real coordinator process under a large simulated fleet over loopback Zenoh.
+    Scale(scale::ScaleArgs),
 }
 
 #[derive(Args, Debug)]
@@ -60,11 +63,12 @@ pub struct CannonArgs {
     json: Option<PathBuf>,
 }
 
-pub fn run(cmd: ExperimentCommand) -> anyhow::Result<ExitCode> {
+pub async fn run(cmd: ExperimentCommand) -> anyhow::Result<ExitCode> {
     match cmd {
         ExperimentCommand::Cannon(a) => cannon(a),
         ExperimentCommand::Fleet(a) => fleet(a),
         ExperimentCommand::Robogat(a) => robogat::run(a),
+        ExperimentCommand::Scale(a) => scale::run(a).await,
     }
 }
 

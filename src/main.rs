@@ -221,7 +221,7 @@ fn main() -> std::process::ExitCode {
             Command::Scenarios => scenarios::list(),
             Command::Bt(c) => bt_cli::run(c),
             Command::Replay(a) => replay::run(a),
-            Command::Experiment(c) => experiment::run(c),
+            Command::Experiment(c) => experiment::run(c).await,
         }
     });
     match result {

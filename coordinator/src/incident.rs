@@ -25,6 +25,8 @@ const DECISION_LOG: usize = 200;
 /// which a cruising unit stops for a flame, and where the radiant flux of a 5 MW fire is
 /// under 0.2 kW/m^2.
 const STAGE_OFFSET_M: f64 = 25.0;
+/// Free units staged as reserves per active fire, nearest first.
+const RESERVES_PER_FIRE: usize = 3;
 /// After a unit fails a fire, it is not sent to that fire again for this long, s.
 const RETRY_AFTER_S: f64 = 60.0;
 /// How far outside a zone units leaving it are sent, m.
@@ -466,7 +468,8 @@ impl Incident {
     }
 
     /// Free units wait [`STAGE_OFFSET_M`] short of the nearest active fire, on their own
-    /// side and in their lane, or patrol on their own when nothing burns.
+    /// side and in their lane, at most [`RESERVES_PER_FIRE`] per fire; the others patrol on
+    /// their own.
     fn stage(&mut self, t: f64) -> Vec<Output> {
         let active: Vec<(FireId, Point2)> = self
             .fusion
@@ -497,10 +500,35 @@ impl Incident {
             .filter(|(_, at, _)| !self.goals.at(at.x).is_some_and(|g| g.bars_entry()))
             .collect();
         let mut out = Vec::new();
-        for (unit, at, current) in free {
-            let nearest = active
-                .iter()
-                .min_by(|a, b| a.1.dist(at).total_cmp(&b.1.dist(at)));
+        // Each free unit's nearest active fire; each fire keeps its nearest
+        // RESERVES_PER_FIRE, the others patrol (a thousand units must not converge on the
+        // first fire reported).
+        let nearest: Vec<Option<&(FireId, Point2)>> = free
+            .iter()
+            .map(|(_, at, _)| {
+                active
+                    .iter()
+                    .min_by(|a, b| a.1.dist(*at).total_cmp(&b.1.dist(*at)))
+            })
+            .collect();
+        let mut order: Vec<usize> = (0..free.len()).collect();
+        order.sort_by(|&i, &j| {
+            let d = |k: usize| nearest[k].map_or(f64::INFINITY, |f| f.1.dist(free[k].1));
+            d(i).total_cmp(&d(j))
+        });
+        let mut kept: BTreeMap<FireId, usize> = BTreeMap::new();
+        let mut reserve = vec![false; free.len()];
+        for i in order {
+            if let Some((fire, _)) = nearest[i] {
+                let n = kept.entry(*fire).or_default();
+                if *n < RESERVES_PER_FIRE {
+                    *n += 1;
+                    reserve[i] = true;
+                }
+            }
+        }
+        for (k, (unit, at, current)) in free.into_iter().enumerate() {
+            let nearest = nearest[k].filter(|_| reserve[k]);
             let goal = nearest.map(|&(fire, f)| {
                 let side = if at.x <= f.x { -1.0 } else { 1.0 };
                 // Under a contain goal, reserves hold the line the front must not pass.

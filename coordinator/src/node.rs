@@ -2,8 +2,8 @@
 //!
 //! Follows every unit's liveliness token, state and flame reports, feeds them to the
 //! [`Incident`], and publishes what it decides: tasks on `unit/<id>/task`, fire tracks on
-//! `fire/<id>`. Tasks and tracks are re-published every second so that a unit that missed a
-//! message or joined late converges. `coord/status` answers queries with a JSON snapshot.
+//! `fire/<id>`. Tasks and tracks are re-published every second (a tenth every 100 ms) so
+//! that a unit that missed a message or joined late converges. `coord/status` answers queries with a JSON snapshot.
 //! Commanders' zone goals arrive as JSON on `zone/<zone>/goal` and each is answered on
 //! `zone/<zone>/ack`, malformed ones included; a delete on a goal key clears the zone.
 //! A message the incident refuses (unknown unit, outside the tunnel) is logged and counted;
@@ -25,6 +25,9 @@ use zenoh::sample::SampleKind;
 
 use crate::assign::Strategy;
 use crate::incident::{Incident, Output};
+
+/// Re-publication of tasks and tracks is spread over this many ticks a second.
+const REPUBLISH_SLICES: usize = 10;
 
 /// How the coordinator runs.
 #[derive(Debug, Clone)]
@@ -62,8 +65,12 @@ pub async fn run(
         .declare_subscriber(keys.every_unit(UnitLeaf::Alive))
         .history(true)
         .await?;
+    // Room for two states of every unit: units publish in bursts.
     let states = bus
-        .subscribe::<UnitState>(&keys.every_unit(UnitLeaf::State))
+        .subscribe_with_capacity::<UnitState>(
+            &keys.every_unit(UnitLeaf::State),
+            (2 * scenario.units.len()).max(256),
+        )
         .await?;
     let reports = bus
         .subscribe::<FlameReport>(&keys.every_unit(UnitLeaf::Report))
@@ -79,7 +86,12 @@ pub async fn run(
     let goals = session.declare_subscriber(keys.every_zone_goal()).await?;
 
     let mut tick = tokio::time::interval(Duration::from_millis(200));
-    let mut republish = tokio::time::interval(Duration::from_secs(1));
+    // Every task and track is re-sent once a second, a tenth every 100 ms: re-sending a
+    // thousand units' tasks at once would hold up the loop (and a report behind it) for
+    // tens of milliseconds.
+    let mut republish =
+        tokio::time::interval(Duration::from_millis(1000 / REPUBLISH_SLICES as u64));
+    let mut slice = 0;
     tokio::pin!(shutdown);
     tracing::info!(units = scenario.units.len(), "coordinator started");
     loop {
@@ -138,7 +150,16 @@ pub async fn run(
             _ = tick.tick() => Ok(incident.tick(clock.now())),
             _ = republish.tick() => {
                 let t = clock.now();
-                Ok(incident.tasks().cloned().map(Output::Task).chain(incident.fire_tracks(t).into_iter().map(Output::Fire)).collect())
+                slice = (slice + 1) % REPUBLISH_SLICES;
+                Ok(incident
+                    .tasks()
+                    .cloned()
+                    .map(Output::Task)
+                    .chain(incident.fire_tracks(t).into_iter().map(Output::Fire))
+                    .enumerate()
+                    .filter(|(i, _)| i % REPUBLISH_SLICES == slice)
+                    .map(|(_, o)| o)
+                    .collect())
             }
         };
         for d in incident.take_decisions() {

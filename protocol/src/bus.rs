@@ -183,9 +183,21 @@ impl Bus {
 
     /// Subscribe to `key` (may contain wildcards), decoding `M`.
     pub async fn subscribe<M: Message>(&self, key: &str) -> Result<Inbox<M>, BusError> {
+        self.subscribe_with_capacity(key, DEFAULT_INBOX).await
+    }
+
+    /// Like [`Bus::subscribe`], with room for `capacity` messages. When an inbox is full,
+    /// Zenoh's receiving task waits for room, and every other subscription of the session
+    /// waits with it: a high-rate stream (every unit's state) gets room for a burst.
+    pub async fn subscribe_with_capacity<M: Message>(
+        &self,
+        key: &str,
+        capacity: usize,
+    ) -> Result<Inbox<M>, BusError> {
         let sub = self
             .session
             .declare_subscriber(key.to_owned())
+            .with(zenoh::handlers::FifoChannel::new(capacity))
             .await
             .map_err(BusError::from_zenoh)?;
         Ok(Inbox {
@@ -201,6 +213,9 @@ impl Bus {
         }
     }
 }
+
+/// Zenoh's default inbox size.
+const DEFAULT_INBOX: usize = 256;
 
 /// Validated messages of one type arriving on a subscription.
 pub struct Inbox<M> {

@@ -1,0 +1,366 @@
+//! `firefleet experiment scale`: a real coordinator process under the load of a large fleet.
+//!
+//! The coordinator is a separate `firefleet coordinator` process on a generated site with
+//! `--units` ground units; it is also the Zenoh router the fleet connects to, so that its
+//! CPU share includes the routing a coordinator machine would do.
+//! Light-weight simulated units (one Zenoh session in this process) hold a liveliness token
+//! each and publish their state at 10 Hz; after a warm-up, a flame report for each of
+//! `--fires` fires is sent, one every `--report-interval-ms`, by the unit nearest the fire.
+//! Measured: for each report, the time until the coordinator's Extinguish task for that
+//! fire arrives (the whole path: the report over Zenoh, fusion, the assignment over every
+//! unit, the task back over Zenoh), and the coordinator process's CPU time over the run.
+//! The units do not move or act: this measures the coordinator, not the fleet.
+
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::process::{ExitCode, Stdio};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use clap::Args;
+use firefleet_protocol::bus::{Bus, Connect};
+use firefleet_protocol::codec;
+use firefleet_protocol::keys::{Topic, UnitLeaf};
+use firefleet_protocol::msg::{
+    FlameObservation, FlameReport, Task, TaskKind, UnitKind, UnitMode, UnitState,
+};
+use firefleet_protocol::{Point2, Pose2, SiteId, UnitId};
+use serde::Serialize;
+
+#[derive(Args, Debug)]
+pub struct ScaleArgs {
+    #[arg(long, default_value_t = 1000)]
+    units: usize,
+    #[arg(long, default_value_t = 200)]
+    fires: usize,
+    /// Time between two fires' reports, ms.
+    #[arg(long, default_value_t = 50)]
+    report_interval_ms: u64,
+    /// Also write the figures as JSON.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct Figures {
+    units: usize,
+    fires: usize,
+    state_msgs_per_s: f64,
+    tasks_received: usize,
+    report_to_task_p50_ms: f64,
+    report_to_task_p99_ms: f64,
+    report_to_task_max_ms: f64,
+    coordinator_cpu_share: f64,
+    wall_s: f64,
+}
+
+/// Units stand 10 m apart; fires 50 m apart, so that fusion keeps them apart.
+const UNIT_SPACING_M: f64 = 10.0;
+const FIRE_SPACING_M: f64 = 50.0;
+const WARM_UP: Duration = Duration::from_secs(3);
+/// How long to wait for the last answers after the last report.
+const DRAIN: Duration = Duration::from_secs(3);
+
+fn site_file(units: usize, fires: usize) -> String {
+    let length = (units as f64 * UNIT_SPACING_M).max(fires as f64 * FIRE_SPACING_M) + 100.0;
+    let mut toml = format!(
+        "name = \"scale\"\nsite = \"scale\"\ntime_limit_s = 3600\n[tunnel]\nlength_m = {length}\nwidth_m = 10.0\nheight_m = 6.3\nlanes = 2\n"
+    );
+    for i in 0..units {
+        toml.push_str(&format!(
+            "[[units]]\nid = \"u{i:05}\"\nkind = \"ground\"\nx_m = {}\ny_m = -1.75\n",
+            50.0 + i as f64 * UNIT_SPACING_M
+        ));
+    }
+    toml
+}
+
+fn fire_at(i: usize) -> Point2 {
+    Point2::new(55.0 + i as f64 * FIRE_SPACING_M, 1.0)
+}
+
+/// User plus system CPU time of process `pid` so far, s (Linux `/proc`).
+fn cpu_time_s(pid: u32) -> anyhow::Result<f64> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .context("reading the coordinator's CPU time (Linux /proc)")?;
+    // Fields after the command name, which is in parentheses and may contain spaces.
+    let rest = stat.rsplit_once(')').context("/proc stat format")?.1;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = f[11].parse::<f64>()? + f[12].parse::<f64>()?;
+    // The kernel's USER_HZ is 100 on every Linux architecture we run on.
+    Ok(ticks / 100.0)
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let k = ((p / 100.0) * (sorted.len() - 1) as f64).round() as usize;
+    sorted[k]
+}
+
+pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
+    anyhow::ensure!(a.units >= 1 && a.units <= 20_000, "--units: 1 to 20000");
+    anyhow::ensure!(a.fires >= 1 && a.fires <= a.units, "--fires: 1 to --units");
+    let dir = tempfile::tempdir()?;
+    let site = dir.path().join("scale.toml");
+    std::fs::File::create(&site)?.write_all(site_file(a.units, a.fires).as_bytes())?;
+
+    let endpoint = format!("tcp/127.0.0.1:{}", crate::demo::free_port()?);
+    let client = Connect {
+        mode: Some("client".into()),
+        connect: vec![endpoint.clone()],
+        ..Connect::default()
+    };
+
+    let launched = Instant::now();
+    let mut coordinator = tokio::process::Command::new(std::env::current_exe()?)
+        .args(["coordinator", "--scenario"])
+        .arg(&site)
+        .args([
+            "--mode",
+            "router",
+            "--listen",
+            &endpoint,
+            "--die-with-parent",
+        ])
+        .env("RUST_LOG", "warn,zenoh=error")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .kill_on_drop(true)
+        .spawn()
+        .context("starting the coordinator")?;
+    let pid = coordinator.id().context("the coordinator's pid")?;
+    // Held until the end: the coordinator stops when its stdin closes, and `wait` would
+    // close it if the child still owned it.
+    let stdin = coordinator.stdin.take();
+    let fleet = loop {
+        match Bus::open(&client, SiteId::new("scale")?).await {
+            Ok(bus) => break bus,
+            Err(e) if Instant::now().duration_since(launched) < Duration::from_secs(10) => {
+                tracing::debug!("coordinator not listening yet: {e}");
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
+            Err(e) => return Err(e).context("connecting to the coordinator"),
+        }
+    };
+    let keys = fleet.keys().clone();
+    // Reports go out, and tasks come in, on a session of their own, as on a unit's own
+    // link: queued behind the thousand states this process sends every 100 ms they would
+    // measure this process, not the coordinator.
+    let reporter = Bus::open(&client, SiteId::new("scale")?).await?;
+    let tasks = reporter
+        .subscribe::<Task>(&keys.every_unit(UnitLeaf::Task))
+        .await?;
+    // The fleet comes up once the coordinator answers status queries (its last step).
+    while crate::roles::query_status(&fleet).await.is_err() {
+        anyhow::ensure!(
+            launched.elapsed() < Duration::from_secs(20),
+            "the coordinator did not come up within 20 s"
+        );
+        if let Some(status) = coordinator.try_wait()? {
+            anyhow::bail!("the coordinator exited early: {status}");
+        }
+    }
+
+    let ids: Vec<UnitId> = (0..a.units)
+        .map(|i| UnitId::new(format!("u{i:05}")))
+        .collect::<Result<_, _>>()?;
+    let mut tokens = Vec::with_capacity(ids.len());
+    for id in &ids {
+        tokens.push(
+            fleet
+                .session()
+                .liveliness()
+                .declare_token(keys.key(&Topic::UnitAlive(id.clone())))
+                .await
+                .map_err(|e| anyhow::anyhow!("liveliness: {e}"))?,
+        );
+    }
+    let state = |i: usize, id: &UnitId, t: f64| UnitState {
+        unit: id.clone(),
+        kind: UnitKind::Ground,
+        t,
+        pose: Pose2::new(50.0 + i as f64 * UNIT_SPACING_M, -1.75, 0.0),
+        speed: 0.0,
+        mode: UnitMode::Idle,
+        water_l: 1500.0,
+        health: 1.0,
+        heat_flux_kw_m2: 0.0,
+        task: None,
+        autonomous: false,
+    };
+
+    println!(
+        "scale: {} units at 10 Hz, {} fires, coordinator pid {pid} on {endpoint}",
+        a.units, a.fires
+    );
+    let start = Instant::now();
+    let epoch = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)?
+        .as_secs_f64();
+    let now = move || epoch + start.elapsed().as_secs_f64();
+    // Unit states go out from their own task, tasks are taken in by another, so that
+    // neither waits on the reports.
+    let published = Arc::new(AtomicU64::new(0));
+    // One declared publisher per unit: what a unit's state publisher would be.
+    let mut publishers = Vec::with_capacity(ids.len());
+    for id in &ids {
+        publishers.push(
+            fleet
+                .session()
+                .declare_publisher(keys.key(&Topic::UnitState(id.clone())))
+                .await
+                .map_err(|e| anyhow::anyhow!("declaring a publisher: {e}"))?,
+        );
+    }
+    let publisher = {
+        let (ids, published) = (ids.clone(), published.clone());
+        let n = a.units;
+        tokio::spawn(async move {
+            let mut ticker = tokio::time::interval(Duration::from_millis(100));
+            loop {
+                ticker.tick().await;
+                let t = now();
+                for (i, (id, publisher)) in ids.iter().zip(&publishers).enumerate() {
+                    let bytes = codec::encode(&state(i, id, t));
+                    if publisher.put(bytes).await.is_err() {
+                        return;
+                    }
+                }
+                published.fetch_add(n as u64, Ordering::Relaxed);
+            }
+        })
+    };
+    let arrivals: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(vec![None; a.fires]));
+    let receiver = {
+        let arrivals = arrivals.clone();
+        let fires = a.fires;
+        tokio::spawn(async move {
+            while let Some((_, task)) = tasks.recv().await {
+                if let TaskKind::Extinguish { target, .. } = task.kind {
+                    let k = ((target.x - 55.0) / FIRE_SPACING_M).round();
+                    if k >= 0.0 && (k as usize) < fires {
+                        arrivals.lock().expect("not poisoned")[k as usize]
+                            .get_or_insert_with(Instant::now);
+                    }
+                }
+            }
+        })
+    };
+    tokio::time::sleep(WARM_UP).await;
+    let cpu0 = cpu_time_s(pid)?;
+    let (t0, s0) = (Instant::now(), published.load(Ordering::Relaxed));
+    let mut sent = Vec::with_capacity(a.fires);
+    // The unit nearest fire `k` reports it.
+    let reporter_id =
+        |k: usize| (((fire_at(k).x - 50.0) / UNIT_SPACING_M).round() as usize).min(a.units - 1);
+    let mut ticker = tokio::time::interval(Duration::from_millis(a.report_interval_ms));
+    for k in 0..a.fires {
+        ticker.tick().await;
+        if let Some(status) = coordinator.try_wait()? {
+            anyhow::bail!("the coordinator exited early: {status}");
+        }
+        let at = fire_at(k);
+        let by = reporter_id(k);
+        let report = FlameReport {
+            unit: ids[by].clone(),
+            t: now(),
+            observer: state(by, &ids[by], 0.0).pose,
+            observations: vec![FlameObservation {
+                position: at,
+                cov: [0.25, 0.0, 0.25],
+                confidence: 0.9,
+            }],
+        };
+        sent.push(Instant::now());
+        reporter
+            .put(
+                &keys.key(&Topic::UnitReport(ids[reporter_id(k)].clone())),
+                &report,
+            )
+            .await?;
+    }
+    // Wait for the last answers, up to DRAIN.
+    let deadline = Instant::now() + DRAIN;
+    while Instant::now() < deadline
+        && arrivals
+            .lock()
+            .expect("not poisoned")
+            .iter()
+            .any(Option::is_none)
+    {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    publisher.abort();
+    receiver.abort();
+    let latency_ms: Vec<Option<f64>> = arrivals
+        .lock()
+        .expect("not poisoned")
+        .iter()
+        .zip(&sent)
+        .map(|(got, s)| got.map(|g| g.duration_since(*s).as_secs_f64() * 1e3))
+        .collect();
+    let states = published.load(Ordering::Relaxed);
+    let cpu = cpu_time_s(pid)? - cpu0;
+    let wall = t0.elapsed().as_secs_f64();
+    drop(stdin);
+    let _ = tokio::time::timeout(Duration::from_secs(5), coordinator.wait()).await;
+    drop(tokens);
+    fleet.close().await;
+    reporter.close().await;
+
+    let mut lat: Vec<f64> = latency_ms.iter().flatten().copied().collect();
+    lat.sort_by(f64::total_cmp);
+    let f = Figures {
+        units: a.units,
+        fires: a.fires,
+        state_msgs_per_s: (states - s0) as f64 / wall,
+        tasks_received: lat.len(),
+        report_to_task_p50_ms: percentile(&lat, 50.0),
+        report_to_task_p99_ms: percentile(&lat, 99.0),
+        report_to_task_max_ms: lat.last().copied().unwrap_or(f64::NAN),
+        coordinator_cpu_share: cpu / wall,
+        wall_s: wall,
+    };
+    println!(
+        "{:<36} {:>10}",
+        "unit states published, per s",
+        format!("{:.0}", f.state_msgs_per_s)
+    );
+    println!(
+        "{:<36} {:>10}",
+        "fires answered with a task",
+        format!("{}/{}", f.tasks_received, a.fires)
+    );
+    println!(
+        "{:<36} {:>10.2}",
+        "report -> task p50, ms", f.report_to_task_p50_ms
+    );
+    println!(
+        "{:<36} {:>10.2}   (target 10 ms)",
+        "report -> task p99, ms", f.report_to_task_p99_ms
+    );
+    println!(
+        "{:<36} {:>10.2}",
+        "report -> task max, ms", f.report_to_task_max_ms
+    );
+    println!(
+        "{:<36} {:>9.0} %   of one core, over {:.1} s",
+        "coordinator CPU",
+        f.coordinator_cpu_share * 100.0,
+        f.wall_s
+    );
+    if let Some(path) = &a.json {
+        std::fs::write(path, serde_json::to_string_pretty(&f)?)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(if f.tasks_received == a.fires {
+        ExitCode::SUCCESS
+    } else {
+        eprintln!("{} fires got no task", a.fires - f.tasks_received);
+        ExitCode::FAILURE
+    })
+}
