@@ -422,9 +422,15 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
         .iter()
         .filter_map(|u| u["task"]["seq"].as_u64())
         .collect();
+    // The running task was adopted (it keeps its number); every new one is numbered above.
     assert!(
-        tasks.iter().all(|s| *s > old_seq),
+        tasks.iter().all(|s| *s >= old_seq),
         "new tasks {tasks:?} must outnumber the old {old_seq}"
+    );
+    let decisions = status["decisions"].to_string();
+    assert!(
+        decisions.contains(&format!("task {old_seq} on fire")) && decisions.contains("adopt"),
+        "the new coordinator adopted the running task: {decisions}"
     );
     drop(fleet);
     bus.close().await;

@@ -18,8 +18,9 @@ pub struct Mission {
     pub coordinator_present: bool,
     /// The coordinator's latest task.
     pub task: Option<(u64, TaskKind)>,
-    /// The attack under way: coordinator task (seq, fire), or `None` when acting alone.
-    pub job: Option<Option<(u64, FireId)>>,
+    /// The attack under way: coordinator task (seq, fire, where the fire is), or `None`
+    /// when acting alone.
+    pub job: Option<Option<(u64, FireId, Point2)>>,
     /// How the last coordinator task ended.
     pub outcome: Option<TaskProgress>,
 }
@@ -47,10 +48,15 @@ impl Mission {
 
     /// Record how the coordinator task `task` ended.
     pub fn finish(&mut self, task: i64, phase: TaskPhase) {
-        if let Some(Some((seq, fire))) = self.job
+        if let Some(Some((seq, fire, target))) = self.job
             && seq as i64 == task
         {
-            self.outcome = Some(TaskProgress { seq, fire, phase });
+            self.outcome = Some(TaskProgress {
+                seq,
+                fire,
+                phase,
+                target,
+            });
         }
         self.job = None;
     }
@@ -58,9 +64,10 @@ impl Mission {
     /// The task progress to report: the attack under way, or how the last one ended.
     pub fn progress(&self, spraying: bool) -> Option<TaskProgress> {
         match self.job {
-            Some(Some((seq, fire))) => Some(TaskProgress {
+            Some(Some((seq, fire, target))) => Some(TaskProgress {
                 seq,
                 fire,
+                target,
                 phase: if spraying {
                     TaskPhase::Spraying
                 } else {
@@ -139,8 +146,9 @@ pub fn register<C: Responder>(r: &mut Registry<C>) {
             |io: &mut Io<'_>, u: &mut C| {
                 let (fire, task) = match u.mission().assigned_fire() {
                     Some((seq, id, target)) => {
-                        u.mission().job = Some(Some((seq, id)));
-                        (u.flame_near(target, 3.0).unwrap_or(target), seq as i64)
+                        let fire = u.flame_near(target, 3.0).unwrap_or(target);
+                        u.mission().job = Some(Some((seq, id, fire)));
+                        (fire, seq as i64)
                     }
                     None => match u.most_confident_flame() {
                         Some(f) => {

@@ -24,6 +24,9 @@ const GATE2: f64 = 13.8;
 const MIN_VAR_M2: f64 = 0.25;
 /// Confidence at which a tentative track is confirmed.
 const CONFIRM_CONFIDENCE: f64 = 0.8;
+/// Position variance of a track adopted from a unit's task, m^2: the unit's own estimate
+/// carries no covariance on the wire; (1 m)^2 lets the first report refine it.
+const ADOPT_VAR_M2: f64 = 1.0;
 /// A track nobody works on and nobody has seen for this long is lost, s.
 const LOSE_AFTER_S: f64 = 60.0;
 /// Flames seen again at an extinguished fire after this long mean it reignited, s.
@@ -182,6 +185,37 @@ impl Fusion {
             }
             return merges;
         }
+    }
+
+    /// The active track nearest `at`, within `radius` metres.
+    pub fn nearest_active(&self, at: Point2, radius: f64) -> Option<FireId> {
+        self.fires
+            .iter()
+            .filter(|f| f.active() && f.position().dist(at) <= radius)
+            .min_by(|a, b| a.position().dist(at).total_cmp(&b.position().dist(at)))
+            .map(|f| f.id)
+    }
+
+    /// A track for a fire a unit is already working on (its task predates this
+    /// coordinator): confirmed on the unit's word, at the unit's estimate `at`.
+    pub fn adopt(&mut self, unit: &UnitId, at: Point2, t: f64) -> FireId {
+        self.next_id += 1;
+        let id = FireId(self.next_id);
+        let z = Gaussian2 {
+            mean: at,
+            cov: [ADOPT_VAR_M2, 0.0, ADOPT_VAR_M2],
+        };
+        self.fires.push(Fire {
+            id,
+            state: FireState::Confirmed,
+            per_unit: BTreeMap::from([(unit.clone(), (z, CONFIRM_CONFIDENCE))]),
+            estimate: z,
+            confidence: CONFIRM_CONFIDENCE,
+            first_seen: t,
+            last_seen: t,
+            out_at: None,
+        });
+        id
     }
 
     /// Fold in one observation by `unit` at time `t`.

@@ -8,7 +8,7 @@ use std::collections::{BTreeMap, VecDeque};
 
 use firefleet_protocol::msg::{
     Decision, FireState, FireTrack, FlameReport, GoalAck, GoalKind, IncidentStatus, Task, TaskKind,
-    TaskPhase, UnitKind, UnitMode, UnitState, UnitStatus, ZoneGoal,
+    TaskPhase, TaskProgress, UnitKind, UnitMode, UnitState, UnitStatus, ZoneGoal,
 };
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::{GROUND, MONORAIL};
@@ -29,6 +29,8 @@ const STAGE_OFFSET_M: f64 = 25.0;
 const RESERVES_PER_FIRE: usize = 3;
 /// After a unit fails a fire, it is not sent to that fire again for this long, s.
 const RETRY_AFTER_S: f64 = 60.0;
+/// A task adopted after a restart binds to a track this close to the unit's target, m.
+const ADOPT_RADIUS_M: f64 = 5.0;
 /// How far outside a zone units leaving it are sent, m.
 const EVACUATE_MARGIN_M: f64 = 5.0;
 
@@ -329,6 +331,14 @@ impl Incident {
             self.seq = self.seq.max(p.seq);
         }
         let mut out = Vec::new();
+        if current.is_none()
+            && let Some(p) = progress
+            && matches!(p.phase, TaskPhase::Travelling | TaskPhase::Spraying)
+        {
+            out.extend(self.adopt(&unit, p, t));
+            relevant = true;
+        }
+        let current = self.units[&unit].task.clone();
         if let (Some(task), Some(p)) = (current, progress)
             && task.seq == p.seq
             && let TaskKind::Extinguish { fire, .. } = task.kind
@@ -375,6 +385,43 @@ impl Incident {
             out.extend(self.solve(t));
         }
         Ok(out)
+    }
+
+    /// A unit works on a task this coordinator did not give (it gave it before a restart):
+    /// take the task over rather than send the unit elsewhere. Its fire becomes the track
+    /// within [`ADOPT_RADIUS_M`] of where the unit believes it is, or a new track there.
+    fn adopt(&mut self, unit: &UnitId, p: TaskProgress, t: f64) -> Vec<Output> {
+        let fire = match self.fusion.nearest_active(p.target, ADOPT_RADIUS_M) {
+            Some(id) => id,
+            None => self.fusion.adopt(unit, p.target, t),
+        };
+        if let Some(f) = self.fusion.get_mut(fire)
+            && matches!(f.state, FireState::Tentative | FireState::Confirmed)
+        {
+            f.state = if p.phase == TaskPhase::Spraying {
+                FireState::Suppressing
+            } else {
+                FireState::Assigned
+            };
+        }
+        let task = Task {
+            unit: unit.clone(),
+            seq: p.seq,
+            t,
+            kind: TaskKind::Extinguish {
+                fire,
+                target: p.target,
+            },
+        };
+        self.units.get_mut(unit).expect("known unit").task = Some(task);
+        self.log(
+            t,
+            format!(
+                "adopt {unit}'s task {} on fire {fire} at ({:.1}, {:.1}): given before this coordinator started",
+                p.seq, p.target.x, p.target.y
+            ),
+        );
+        vec![Output::Fire(self.track(fire, t))]
     }
 
     fn standby(&mut self, unit: &UnitId, t: f64) -> Output {
@@ -725,7 +772,7 @@ impl Incident {
 mod tests {
     use super::*;
     use firefleet_protocol::geometry::{Point2, Pose2};
-    use firefleet_protocol::msg::{FlameObservation, TaskProgress};
+    use firefleet_protocol::msg::FlameObservation;
 
     const TUNNEL: Tunnel = Tunnel {
         length_m: 200.0,
@@ -797,6 +844,7 @@ mod tests {
             seq: task.seq,
             fire,
             phase: TaskPhase::Extinguished,
+            target: Point2::new(60.0, 1.0),
         };
         (
             fire,
@@ -905,18 +953,42 @@ mod tests {
     }
 
     #[test]
-    fn a_restarted_coordinator_numbers_tasks_above_what_units_hold() {
+    fn a_restarted_coordinator_adopts_running_tasks_and_numbers_new_ones_above_them() {
         let mut i = incident();
-        // Unit a still works on task 70000 of the coordinator that died.
+        // Unit a still works on task 70000 of the coordinator that died, on a fire at 60.
         let held = TaskProgress {
             seq: 70_000,
             fire: FireId(3),
             phase: TaskPhase::Travelling,
+            target: Point2::new(60.0, 1.0),
         };
-        i.on_state(state("a", 10.0, Some(held)), 1.0).unwrap();
-        let out = i.on_report(&report("a", 60.0), 2.0).unwrap();
+        let out = i.on_state(state("a", 10.0, Some(held)), 1.0).unwrap();
+        assert!(all_tasks(&out).is_empty(), "a keeps its task: {out:?}");
+        assert!(
+            i.decisions()
+                .any(|d| d.text.starts_with("adopt a's task 70000"))
+        );
+        // The fire, reported again, is a's: nobody else is sent.
+        let out = i.on_report(&report("b", 60.0), 2.0).unwrap();
+        assert!(tasks(&out).is_empty(), "{out:?}");
+        let fires = i.fire_tracks(2.0);
+        assert_eq!(fires.len(), 1);
+        assert_eq!(fires[0].assigned, [u("a")]);
+        // A new fire gets a new task, numbered above the adopted one.
+        let out = i.on_report(&report("b", 150.0), 3.0).unwrap();
         assert!(!all_tasks(&out).is_empty());
         assert!(all_tasks(&out).iter().all(|t| t.seq > 70_000), "{out:?}");
+        // a finishes the adopted task: its fire is out.
+        let done = TaskProgress {
+            phase: TaskPhase::Extinguished,
+            ..held
+        };
+        let out = i.on_state(state("a", 45.0, Some(done)), 4.0).unwrap();
+        assert!(
+            out.iter()
+                .any(|o| matches!(o, Output::Fire(f) if f.state == FireState::Out)),
+            "{out:?}"
+        );
     }
 
     #[test]

@@ -80,12 +80,15 @@ pub enum TaskPhase {
     Failed,
 }
 
-/// The task a unit is working on, echoed in its state so the coordinator can follow it.
+/// The task a unit is working on, echoed in its state so the coordinator can follow it,
+/// and a restarted coordinator can adopt it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct TaskProgress {
     pub seq: u64,
     pub fire: FireId,
     pub phase: TaskPhase,
+    /// Where the unit believes the fire is.
+    pub target: Point2,
 }
 
 /// `ff/<site>/unit/<id>/state`: a unit's self-report, a few times a second.
@@ -115,7 +118,11 @@ impl Validate for UnitState {
         in_range("speed", self.speed, -20.0, 20.0)?;
         in_range("water_l", self.water_l, 0.0, 1e6)?;
         in_range("health", self.health, 0.0, 1.0)?;
-        in_range("heat_flux_kw_m2", self.heat_flux_kw_m2, 0.0, 1e4)
+        in_range("heat_flux_kw_m2", self.heat_flux_kw_m2, 0.0, 1e4)?;
+        if let Some(p) = &self.task {
+            p.target.validate().map_err(|e| e.within("task.target"))?;
+        }
+        Ok(())
     }
 }
 
