@@ -336,6 +336,8 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
     .unwrap();
     assert_eq!(reassigned, fire);
     let reaction = killed_at.elapsed();
+    // The figure for the notes: `cargo test --test fleet killed -- --nocapture`.
+    eprintln!("unit killed -> its fire reassigned: {reaction:?} (wall time)");
     assert!(
         reaction < Duration::from_secs(5),
         "reassignment took {reaction:?}"
