@@ -7,7 +7,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use firefleet_coordinator::assign::{self, Candidate, Mobility, Need};
+use firefleet_coordinator::assign::{self, Candidate, Mobility, Need, Site};
 use firefleet_protocol::{FireId, Point2, UnitId};
 use pathfinding::matrix::Matrix;
 use rand::{Rng, SeedableRng};
@@ -22,6 +22,7 @@ fn instance(units: usize, fires: usize) -> (Vec<Candidate>, Vec<Need>) {
             unit: UnitId::new(format!("u{i}")).unwrap(),
             position: p(),
             mobility: Mobility::Ground { speed_m_s: 1.5 },
+            water_l: 1500.0,
         })
         .collect();
     let f = (0..fires)
@@ -39,7 +40,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("assignment");
     g.sample_size(20);
     g.bench_function("1000_units_200_fires", |b| {
-        b.iter(|| black_box(assign::optimal(&units, &needs, &[])))
+        b.iter(|| black_box(assign::optimal(&units, &needs, &Site::default())))
     });
     let ms: Vec<i64> = needs
         .iter()

@@ -2,9 +2,12 @@
 //!
 //! Costs are travel times, by the unit's [`Mobility`]: a ground unit's straight-line time at
 //! its top speed (a lower bound of the real travel time); a monorail unit's time to run its
-//! carriage along the rail until the fire is within its monitor's working reach. A monorail
-//! unit cannot take a fire out of its rail's reach: that pair is infeasible and never
-//! chosen. Two strategies, both over the same costs:
+//! carriage along the rail until the fire is within its monitor's working reach. To that a
+//! ground unit adds [`HAZARD_S`] per other burning fire it would drive past, and any unit
+//! [`LOW_WATER_S`] if it carries less than [`WATER_NEEDED_L`]. A zone goal's priority is
+//! worth [`PRIORITY_S`] per level. A pair that cannot happen (a fire out of a rail's reach,
+//! a way through a keep-out zone) is infeasible and never chosen. Two strategies, both
+//! over the same costs:
 //!
 //! - [`greedy`]: repeatedly take the cheapest (unit, fire) pair: what a nearest-free-unit
 //!   dispatcher does.
@@ -27,11 +30,11 @@ pub enum Strategy {
 }
 
 impl Strategy {
-    /// Pair `units` with `needs`; no unit travels through a `barred` chainage range.
-    pub fn solve(self, units: &[Candidate], needs: &[Need], barred: &[(f64, f64)]) -> Vec<Pick> {
+    /// Pair `units` with `needs` on `site`.
+    pub fn solve(self, units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<Pick> {
         match self {
-            Strategy::Greedy => greedy(units, needs, barred),
-            Strategy::Optimal => optimal(units, needs, barred),
+            Strategy::Greedy => greedy(units, needs, site),
+            Strategy::Optimal => optimal(units, needs, site),
         }
     }
 }
@@ -101,7 +104,26 @@ pub struct Candidate {
     pub unit: UnitId,
     pub position: Point2,
     pub mobility: Mobility,
+    /// Water on board, L.
+    pub water_l: f64,
 }
+
+/// What the site imposes on every pairing.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Site<'a> {
+    /// Chainage ranges no unit may enter or travel through (zone goals).
+    pub barred: &'a [(f64, f64)],
+    /// Burning fires: a ground unit driving past one takes its heat.
+    pub hazards: &'a [Point2],
+}
+
+/// Cost of driving past another burning fire on the way, s: the heat dose and the risk
+/// of being stopped there are worth this much travel.
+pub const HAZARD_S: f64 = 30.0;
+/// Water a unit should carry to take a fire on, L: a minute of a ground cannon. A unit
+/// with less still may, at [`LOW_WATER_S`] more.
+pub const WATER_NEEDED_L: f64 = 600.0;
+pub const LOW_WATER_S: f64 = 120.0;
 
 /// The cost of a pair no unit can carry out: large enough that any feasible assignment is
 /// cheaper, finite so that the Hungarian method's arithmetic stays exact.
@@ -131,26 +153,45 @@ pub struct Pick {
     pub runner_up: Option<(UnitId, f64)>,
 }
 
-/// Travel time of `u` to `n`, s, or [`INFEASIBLE`] if it cannot get there without crossing
-/// a `barred` range.
-fn travel(u: &Candidate, n: &Need, barred: &[(f64, f64)]) -> f64 {
+/// Cost of `u` taking `n`, s: travel time, plus [`HAZARD_S`] for every other burning fire
+/// a ground unit would drive past, plus [`LOW_WATER_S`] if it is short of water; or
+/// [`INFEASIBLE`] if it cannot get there without crossing a barred range.
+fn travel(u: &Candidate, n: &Need, site: &Site<'_>) -> f64 {
     let (a, b) = (
         u.position.x.min(n.position.x),
         u.position.x.max(n.position.x),
     );
-    if barred.iter().any(|&(s, e)| a < e && b > s) {
+    if site.barred.iter().any(|&(s, e)| a < e && b > s) {
         return INFEASIBLE;
     }
-    u.mobility
-        .travel_s(u.position, n.position)
-        .unwrap_or(INFEASIBLE)
+    let Some(t) = u.mobility.travel_s(u.position, n.position) else {
+        return INFEASIBLE;
+    };
+    let passed = match u.mobility {
+        // A carriage runs under the ceiling, over the fires.
+        Mobility::Rail { .. } => 0,
+        Mobility::Ground { .. } => site
+            .hazards
+            .iter()
+            .filter(|h| h.x > a && h.x < b && h.dist(n.position) > SAME_FIRE_M)
+            .count(),
+    };
+    let thirsty = if u.water_l < WATER_NEEDED_L {
+        LOW_WATER_S
+    } else {
+        0.0
+    };
+    t + HAZARD_S * passed as f64 + thirsty
 }
 
-/// Travel times, one row per fire, one column per unit.
-fn travel_matrix(units: &[Candidate], needs: &[Need], barred: &[(f64, f64)]) -> Vec<f64> {
+/// A hazard this close to the fire is the fire itself, m.
+const SAME_FIRE_M: f64 = 3.0;
+
+/// Costs, one row per fire, one column per unit.
+fn travel_matrix(units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<f64> {
     needs
         .iter()
-        .flat_map(|n| units.iter().map(move |u| travel(u, n, barred)))
+        .flat_map(|n| units.iter().map(move |u| travel(u, n, site)))
         .collect()
 }
 
@@ -188,8 +229,8 @@ fn pick(units: &[Candidate], needs: &[Need], costs: &[f64], f: usize, u: usize) 
 
 /// Minimum total travel time: every fire gets a unit while units last, and the sum of the
 /// chosen travel times is the least possible.
-pub fn optimal(units: &[Candidate], needs: &[Need], barred: &[(f64, f64)]) -> Vec<Pick> {
-    let travel = travel_matrix(units, needs, barred);
+pub fn optimal(units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<Pick> {
+    let travel = travel_matrix(units, needs, site);
     let costs = cost_matrix(&travel, units.len(), needs);
     hungarian(&costs, needs.len(), units.len())
         .into_iter()
@@ -283,8 +324,8 @@ pub fn hungarian(costs: &[f64], rows: usize, cols: usize) -> Vec<Option<usize>> 
 }
 
 /// Greedy minimum-cost pairing.
-pub fn greedy(units: &[Candidate], needs: &[Need], barred: &[(f64, f64)]) -> Vec<Pick> {
-    let travel = travel_matrix(units, needs, barred);
+pub fn greedy(units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<Pick> {
+    let travel = travel_matrix(units, needs, site);
     let costs = cost_matrix(&travel, units.len(), needs);
     let (mut unit_free, mut fire_open) = (vec![true; units.len()], vec![true; needs.len()]);
     let mut picks = Vec::new();
@@ -322,6 +363,7 @@ mod tests {
             unit: UnitId::new(id).unwrap(),
             position: Point2::new(x, 0.0),
             mobility: Mobility::Ground { speed_m_s: 1.0 },
+            water_l: 1500.0,
         }
     }
 
@@ -340,7 +382,7 @@ mod tests {
                 priority: 0,
             },
         ];
-        let picks = greedy(&units, &needs, &[]);
+        let picks = greedy(&units, &needs, &Site::default());
         assert_eq!(picks.len(), 2);
         let of = |f: u32| picks.iter().find(|p| p.fire == FireId(f)).unwrap();
         assert_eq!(of(1).unit.as_str(), "b");
@@ -368,7 +410,7 @@ mod tests {
                     priority: 0,
                 },
             ],
-            &[],
+            &Site::default(),
         );
         assert_eq!(picks.len(), 1);
         assert_eq!(picks[0].fire, FireId(2));
@@ -379,6 +421,7 @@ mod tests {
             unit: UnitId::new(id).unwrap(),
             position: Point2::new(x, y),
             mobility: Mobility::Ground { speed_m_s: 1.0 },
+            water_l: 1500.0,
         }
     }
 
@@ -402,8 +445,8 @@ mod tests {
                 priority: 0,
             },
         ];
-        assert_eq!(total(&greedy(&units, &needs, &[])), 21.0);
-        let best = optimal(&units, &needs, &[]);
+        assert_eq!(total(&greedy(&units, &needs, &Site::default())), 21.0);
+        let best = optimal(&units, &needs, &Site::default());
         assert_eq!(total(&best), 19.0);
         assert_eq!(
             best.iter()
@@ -468,6 +511,7 @@ mod tests {
                 speed_m_s: 10.0,
                 reach_m: 15.0,
             },
+            water_l: 1e5,
         }
     }
 
@@ -503,8 +547,8 @@ mod tests {
             priority: 0,
         }];
         for solve in [greedy, optimal] {
-            assert!(solve(&[rail("r", 90.0)], &needs, &[]).is_empty());
-            let picks = solve(&[rail("r", 90.0), cand("g", 0.0)], &needs, &[]);
+            assert!(solve(&[rail("r", 90.0)], &needs, &Site::default()).is_empty());
+            let picks = solve(&[rail("r", 90.0), cand("g", 0.0)], &needs, &Site::default());
             assert_eq!(picks.len(), 1);
             assert_eq!(picks[0].unit.as_str(), "g");
             assert!(
@@ -521,7 +565,7 @@ mod tests {
             position: Point2::new(60.0, 2.0),
             priority: 0,
         }];
-        let picks = optimal(&[rail("r", 0.0), cand("g", 40.0)], &needs, &[]);
+        let picks = optimal(&[rail("r", 0.0), cand("g", 40.0)], &needs, &Site::default());
         assert_eq!(picks[0].unit.as_str(), "r");
     }
 
@@ -540,7 +584,7 @@ mod tests {
             },
         ];
         for solve in [greedy, optimal] {
-            let picks = solve(&[cand("a", 0.0)], &needs, &[]);
+            let picks = solve(&[cand("a", 0.0)], &needs, &Site::default());
             assert_eq!(picks[0].fire, FireId(2));
             assert_eq!(
                 picks[0].cost_s, 90.0,
@@ -548,7 +592,10 @@ mod tests {
             );
         }
         needs[1].priority = 0;
-        assert_eq!(optimal(&[cand("a", 0.0)], &needs, &[])[0].fire, FireId(1));
+        assert_eq!(
+            optimal(&[cand("a", 0.0)], &needs, &Site::default())[0].fire,
+            FireId(1)
+        );
     }
 
     #[test]
@@ -560,10 +607,40 @@ mod tests {
         }];
         let units = [cand("near", 50.0), cand("far", 150.0)];
         for solve in [greedy, optimal] {
-            let picks = solve(&units, &needs, &[(60.0, 80.0)]);
+            let site = Site {
+                barred: &[(60.0, 80.0)],
+                ..Site::default()
+            };
+            let picks = solve(&units, &needs, &site);
             assert_eq!(picks.len(), 1);
             assert_eq!(picks[0].unit.as_str(), "far");
-            assert!(solve(&units[..1], &needs, &[(60.0, 80.0)]).is_empty());
+            assert!(solve(&units[..1], &needs, &site).is_empty());
         }
+    }
+
+    #[test]
+    fn units_avoid_driving_past_other_fires_and_running_dry() {
+        let needs = [Need {
+            fire: FireId(1),
+            position: Point2::new(50.0, 0.0),
+            priority: 0,
+        }];
+        // Equally far, but the way from the left passes a burning car at 40.
+        let units = [cand("left", 20.0), cand("right", 80.0)];
+        let hazards = [Point2::new(40.0, 1.0), Point2::new(50.5, 0.0)];
+        let site = Site {
+            hazards: &hazards,
+            ..Site::default()
+        };
+        let picks = optimal(&units, &needs, &site);
+        assert_eq!(picks[0].unit.as_str(), "right");
+        assert_eq!(picks[0].cost_s, 30.0, "the target itself is no hazard");
+        assert_eq!(picks[0].runner_up.as_ref().unwrap().1, 30.0 + HAZARD_S);
+        let mut dry = units.clone();
+        dry[1].water_l = 100.0;
+        assert_eq!(
+            optimal(&dry, &needs, &Site::default())[0].unit.as_str(),
+            "left"
+        );
     }
 }

@@ -15,7 +15,7 @@ use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::validate::Invalid;
 use firefleet_protocol::{FireId, Point2, UnitId, ZoneId};
 
-use crate::assign::{Candidate, Mobility, Need, Strategy};
+use crate::assign::{Candidate, Mobility, Need, Site, Strategy};
 use crate::fusion::{Fused, Fusion};
 use crate::goals::Goals;
 
@@ -657,6 +657,7 @@ impl Incident {
                     unit: u.clone(),
                     position: st.pose.position(),
                     mobility: v.mobility,
+                    water_l: st.water_l,
                 })
             })
             .collect();
@@ -665,7 +666,18 @@ impl Incident {
             .into_iter()
             .filter(|c| !barred.iter().any(|&(s, e)| (s..=e).contains(&c.position.x)))
             .collect();
-        let picks = self.strategy.solve(&candidates, &needs, &barred);
+        let hazards: Vec<Point2> = self
+            .fusion
+            .fires()
+            .iter()
+            .filter(|f| f.active() && f.state != FireState::Tentative)
+            .map(|f| f.position())
+            .collect();
+        let site = Site {
+            barred: &barred,
+            hazards: &hazards,
+        };
+        let picks = self.strategy.solve(&candidates, &needs, &site);
         let mut out = Vec::new();
         for p in picks {
             if self.failed.contains_key(&(p.unit.clone(), p.fire)) {
@@ -697,7 +709,7 @@ impl Incident {
             self.log(
                 t,
                 format!(
-                    "assign {} to fire {}: travel {:.1} s; {runner_up}",
+                    "assign {} to fire {}: cost {:.1} s; {runner_up}",
                     p.unit, p.fire, p.cost_s
                 ),
             );
