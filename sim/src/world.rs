@@ -699,6 +699,20 @@ mod tests {
         UnitId::new("u1").unwrap()
     }
 
+    /// Unit u1 stands still and sprays at `pan`, `tilt`.
+    fn spray(w: &mut World, pan: f64, tilt: f64) {
+        w.command(
+            &u1(),
+            UnitCommand {
+                speed: 0.0,
+                steer: 0.0,
+                pan,
+                tilt,
+                valve_open: true,
+            },
+        );
+    }
+
     #[test]
     fn fire_grows_as_t_squared_to_its_peak() {
         let mut w = world();
@@ -791,16 +805,7 @@ mod tests {
             let (g, h) = (physics::G, 1.2);
             let tilt =
                 ((v * v - (v.powi(4) - g * (g * d * d - 2.0 * h * v * v)).sqrt()) / (g * d)).atan();
-            w.command(
-                &u1(),
-                UnitCommand {
-                    speed: 0.0,
-                    steer: 0.0,
-                    pan,
-                    tilt,
-                    valve_open: true,
-                },
-            );
+            spray(w, pan, tilt);
         };
         let mut off = world();
         aim(&mut off, 0.6);
@@ -932,16 +937,7 @@ mod tests {
                         == Landing::Vehicle { index: 1 }
                 })
                 .expect("some elevation hits the exposed car");
-            w.command(
-                &u1(),
-                UnitCommand {
-                    speed: 0.0,
-                    steer: 0.0,
-                    pan,
-                    tilt,
-                    valve_open: true,
-                },
-            );
+            spray(&mut w, pan, tilt);
         }
         // 400 s: the unit's tank (150 s of water) is empty well before the end.
         for _ in 0..(400.0 / 0.05) as usize {

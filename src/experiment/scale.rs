@@ -136,16 +136,18 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
     // Held until the end: the coordinator stops when its stdin closes, and `wait` would
     // close it if the child still owned it.
     let stdin = coordinator.stdin.take();
-    let fleet = loop {
-        match Bus::open(&client, SiteId::new("scale")?).await {
-            Ok(bus) => break bus,
-            Err(e) if Instant::now().duration_since(launched) < Duration::from_secs(10) => {
-                tracing::debug!("coordinator not listening yet: {e}");
-                tokio::time::sleep(Duration::from_millis(100)).await;
-            }
-            Err(e) => return Err(e).context("connecting to the coordinator"),
-        }
-    };
+    // Connect once the coordinator listens (Zenoh would log every refused attempt).
+    let addr = endpoint.trim_start_matches("tcp/").to_owned();
+    while tokio::net::TcpStream::connect(&addr).await.is_err() {
+        anyhow::ensure!(
+            launched.elapsed() < Duration::from_secs(20),
+            "the coordinator did not listen on {endpoint} within 20 s"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let fleet = Bus::open(&client, SiteId::new("scale")?)
+        .await
+        .context("connecting to the coordinator")?;
     let keys = fleet.keys().clone();
     // Reports go out, and tasks come in, on a session of their own, as on a unit's own
     // link: queued behind the thousand states this process sends every 100 ms they would
