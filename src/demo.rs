@@ -14,9 +14,12 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::Args;
+use firefleet_protocol::ZoneId;
 use firefleet_protocol::bus::{Bus, Connect};
 use firefleet_protocol::keys::{Topic, UnitLeaf};
-use firefleet_protocol::msg::{SimTruth, TruthFireState, UnitState};
+use firefleet_protocol::msg::{GoalAck, GoalKind, SimTruth, TruthFireState, UnitState, ZoneGoal};
+use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::validate::Validate;
 use serde::Serialize;
 use tokio::process::{Child, Command};
 
@@ -40,6 +43,42 @@ pub struct DemoArgs {
     /// Write a JSON summary of the run to this file.
     #[arg(long, value_name = "FILE")]
     summary_json: Option<PathBuf>,
+    /// Issue a commander's zone goal once the fleet is up, `ZONE:GOAL[:PRIORITY]` (e.g.
+    /// `deep:keep-out` or `portal:extinguish:2`); repeatable.
+    #[arg(long, value_name = "ZONE:GOAL[:PRIORITY]")]
+    goal: Vec<String>,
+}
+
+/// A `--goal` argument as a goal for `scenario`'s zones.
+fn parse_goal(arg: &str, scenario: &Scenario) -> anyhow::Result<ZoneGoal> {
+    let mut parts = arg.split(':');
+    let (Some(zone), Some(kind)) = (parts.next(), parts.next()) else {
+        anyhow::bail!("--goal {arg}: expected ZONE:GOAL[:PRIORITY]");
+    };
+    let zone = ZoneId::new(zone).with_context(|| format!("--goal {arg}"))?;
+    anyhow::ensure!(
+        scenario.zones.iter().any(|z| z.id == zone),
+        "--goal {arg}: the scenario has no zone '{zone}'"
+    );
+    let goal: GoalKind = serde_json::from_value(serde_json::Value::String(kind.to_owned()))
+        .map_err(|_| anyhow::anyhow!("--goal {arg}: '{kind}' is not a goal (extinguish, monitor, keep-out, evacuate; contain needs a line, use `firefleet goal set`)"))?;
+    let priority = match parts.next() {
+        Some(p) => p
+            .parse()
+            .with_context(|| format!("--goal {arg}: priority"))?,
+        None => 0,
+    };
+    let g = ZoneGoal {
+        id: format!("demo-{zone}-{kind}"),
+        zone,
+        goal,
+        priority,
+        before_m: None,
+        expires_s: None,
+        issued_by: "firefleet demo".into(),
+    };
+    g.validate().with_context(|| format!("--goal {arg}"))?;
+    Ok(g)
 }
 
 #[derive(Serialize)]
@@ -83,6 +122,11 @@ enum Outcome {
 
 pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario)?;
+    let goals = a
+        .goal
+        .iter()
+        .map(|g| parse_goal(g, &scenario))
+        .collect::<anyhow::Result<Vec<_>>>()?;
     let seed = a.seed.unwrap_or(scenario.seed);
     let port = free_port().context("finding a free loopback port")?;
     let endpoint = format!("tcp/127.0.0.1:{port}");
@@ -101,6 +145,8 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let states = bus
         .subscribe::<UnitState>(&keys.every_unit(UnitLeaf::State))
         .await?;
+    let acks = bus.subscribe::<GoalAck>(&keys.every_zone_ack()).await?;
+    let mut goals_to_issue = Some(goals);
 
     let exe = std::env::current_exe().context("locating the firefleet binary")?;
     let common = [
@@ -184,7 +230,16 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             Some((_, st)) = states.recv() => {
                 modes.insert(st.unit.to_string(), serde_json::to_value(st.mode)?.as_str().unwrap_or("?").to_owned());
             }
+            Some((_, ack)) = acks.recv() => {
+                let verdict = if ack.accepted { "" } else { "rejected: " };
+                println!("goal '{}' on zone {}: {verdict}{}", ack.id, ack.zone, ack.reason);
+            }
             Some((_, truth)) = truths.recv() => {
+                // The simulator starts once the coordinator is up: time to issue the goals.
+                for g in goals_to_issue.take().unwrap_or_default() {
+                    println!("issuing goal '{}': {:?} on zone {} (priority {})", g.id, g.goal, g.zone, g.priority);
+                    bus.put(&keys.key(&Topic::ZoneGoal(g.zone.clone())), &g).await?;
+                }
                 let out = truth.fires_out();
                 if truth.t >= next_print || out != last_out {
                     next_print = truth.t + 10.0;

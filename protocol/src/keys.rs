@@ -104,6 +104,10 @@ impl Keys {
     pub fn every_zone_goal(&self) -> String {
         format!("{ROOT}/{}/zone/*/goal", self.site)
     }
+    /// `ff/<site>/zone/*/ack`: the coordinator's answers for every zone.
+    pub fn every_zone_ack(&self) -> String {
+        format!("{ROOT}/{}/zone/*/ack", self.site)
+    }
     /// `ff/<site>/sim/unit/*/cmd`: actuator commands of every simulated ground unit.
     pub fn every_sim_cmd(&self) -> String {
         format!("{ROOT}/{}/sim/unit/*/cmd", self.site)
