@@ -3,12 +3,14 @@
 //! [`fusion`] turns flame reports from every unit into fire tracks; [`assign`] decides which
 //! unit attacks which fire; [`goals`] holds the commanders' zone goals; [`incident`] holds
 //! the whole picture (units, fires, tasks, goals) and reacts to events with decisions,
-//! each logged with its reason. All four are pure: no
-//! Zenoh, no clock of their own. [`node`] wires them to the bus, and [`record`] writes
-//! everything on the bus to an MCAP file with a Foxglove scene ([`scene`]).
+//! each logged with its reason. All four are pure: no Zenoh, no clock of their own.
+//! [`node`] wires them to the bus, and [`record`] writes everything on the bus to an MCAP
+//! file with a Foxglove scene ([`scene`]).
 //!
-//! Not here yet: heat and water in the assignment cost, more than one unit on a fire,
-//! coordinator restart from recorded tracks.
+//! A restarted coordinator rebuilds its picture from the units' states (adopting the tasks
+//! they still work on) and their new reports. Not here yet: sizing the number of units on
+//! a fire by its heat release (a second unit backs up every fire while units are free),
+//! and reading back the previous coordinator's fire tracks.
 
 pub mod assign;
 pub mod fusion;
