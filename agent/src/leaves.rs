@@ -10,6 +10,7 @@
 use firefleet_bt::node::Io;
 use firefleet_bt::{PortSpec, PortType, Registry, StatefulAction, Status};
 use firefleet_protocol::Point2;
+use firefleet_protocol::msg::TaskKind;
 
 use crate::unit::{NavPurpose, Unit};
 
@@ -112,6 +113,11 @@ pub fn registry() -> Registry<Unit> {
         |_: &mut Io<'_>, u: &mut Unit| {
             ok(u.cruising_to()
                 .is_none_or(|g| g.dist(u.cruise_goal()) < 0.5))
+        }
+    });
+    r.register_condition("IsSearching", vec![], || {
+        |_: &mut Io<'_>, u: &mut Unit| {
+            ok(matches!(u.mission.task, Some((_, TaskKind::Search { .. }))))
         }
     });
     r.register_action("StopCruise", vec![], || {

@@ -171,7 +171,8 @@ impl Unit {
 
     /// Cruise goal: the coordinator's, or else the far end of the lane the unit is in.
     pub fn cruise_goal(&self) -> Point2 {
-        if let Some((_, TaskKind::Cruise { goal })) = self.mission.task {
+        if let Some((_, TaskKind::Cruise { goal } | TaskKind::Search { goal })) = self.mission.task
+        {
             return goal;
         }
         let t = &self.scenario.tunnel;

@@ -85,7 +85,7 @@ impl UnitView {
     fn working_on(&self) -> Option<FireId> {
         match self.task.as_ref()?.kind {
             TaskKind::Extinguish { fire, .. } => Some(fire),
-            TaskKind::Standby | TaskKind::Cruise { .. } => None,
+            TaskKind::Standby | TaskKind::Cruise { .. } | TaskKind::Search { .. } => None,
         }
     }
 }
@@ -546,18 +546,31 @@ impl Incident {
     /// side and in their lane, at most [`RESERVES_PER_FIRE`] per fire; the others patrol on
     /// their own.
     fn stage(&mut self, t: f64) -> Vec<Output> {
+        let burning = |f: &&crate::fusion::Fire| {
+            matches!(
+                f.state,
+                FireState::Confirmed | FireState::Assigned | FireState::Suppressing
+            )
+        };
         let active: Vec<(FireId, Point2)> = self
             .fusion
             .fires()
             .iter()
+            .filter(burning)
             .filter(|f| {
-                matches!(
-                    f.state,
-                    FireState::Confirmed | FireState::Assigned | FireState::Suppressing
-                )
+                !self
+                    .goals
+                    .at(f.position().x)
+                    .is_some_and(|g| g.bars_attack())
             })
             .map(|f| (f.id, f.position()))
             .collect();
+        // Fires left burning by a goal hold no reserves; free units search on past them.
+        let left_burning = self.fusion.fires().iter().filter(burning).any(|f| {
+            self.goals
+                .at(f.position().x)
+                .is_some_and(|g| g.bars_attack())
+        });
         let free: Vec<(UnitId, Point2, Option<TaskKind>)> = self
             .units
             .iter()
@@ -643,7 +656,41 @@ impl Incident {
                     );
                     out.push(Output::Task(task));
                 }
-                (None, Some(TaskKind::Cruise { .. })) => {
+                (None, current) if left_burning => {
+                    // Search the rest of the tunnel, away from where the unit came in.
+                    let end = if at.x < self.tunnel.length_m / 2.0 {
+                        self.tunnel.length_m - 10.0
+                    } else {
+                        10.0
+                    };
+                    let Some(x) = self.goals.nearest_allowed(
+                        end,
+                        EVACUATE_MARGIN_M,
+                        5.0,
+                        self.tunnel.length_m - 5.0,
+                    ) else {
+                        continue;
+                    };
+                    let g = Point2::new(x, at.y);
+                    if matches!(current, Some(TaskKind::Search { goal }) if goal.dist(g) < 3.0) {
+                        continue;
+                    }
+                    let seq = self.next_seq(t);
+                    let task = Task {
+                        unit: unit.clone(),
+                        seq,
+                        t,
+                        kind: TaskKind::Search { goal: g },
+                    };
+                    self.units.get_mut(&unit).expect("free unit is known").task =
+                        Some(task.clone());
+                    self.log(
+                        t,
+                        format!("send {unit} on to search past the fires left burning, to ({x:.1}, {:.1})", at.y),
+                    );
+                    out.push(Output::Task(task));
+                }
+                (None, Some(TaskKind::Cruise { .. } | TaskKind::Search { .. })) => {
                     self.log(t, format!("release {unit} to patrol: no active fire"));
                     out.push(self.standby(&unit, t));
                 }
@@ -1153,11 +1200,9 @@ mod tests {
             .map(|t| t.kind)
             .collect();
         assert_eq!(b[0], TaskKind::Standby, "{out:?}");
-        // Free again, b may wait as a reserve outside the zone, watching.
+        // Free again, b searches on past the fire left burning.
         assert!(
-            b[1..].iter().all(
-                |k| matches!(k, TaskKind::Cruise { goal } if !(50.0..=100.0).contains(&goal.x))
-            ),
+            b[1..].iter().all(|k| matches!(k, TaskKind::Search { .. })),
             "{out:?}"
         );
         assert!(tasks(&out).is_empty(), "nobody else is sent: {out:?}");
@@ -1289,5 +1334,21 @@ mod tests {
         i.on_state(state("a", 50.0, Some(spraying)), 1.5).unwrap();
         let out = i.on_report(&report("b", 150.0), 2.0).unwrap();
         assert!(tasks(&out).is_empty(), "{out:?}");
+    }
+
+    #[test]
+    fn past_a_fire_left_burning_free_units_search_on() {
+        let mut i = zoned();
+        submit(&mut i, goal("g1", "z1", GoalKind::Monitor, 0, None), 0.5);
+        let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+        let kinds: Vec<TaskKind> = all_tasks(&out).iter().map(|t| t.kind).collect();
+        assert_eq!(kinds.len(), 2, "{out:?}");
+        assert!(
+            kinds
+                .iter()
+                .all(|k| matches!(k, TaskKind::Search { goal } if goal.x == 190.0)),
+            "both units search on to the far end: {kinds:?}"
+        );
+        assert!(all_tasks(&i.tick(2.0)).is_empty(), "the order stands");
     }
 }

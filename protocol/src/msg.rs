@@ -177,6 +177,9 @@ pub enum TaskKind {
     Standby,
     /// Drive to `goal` and hold there, looking for fire (staged as a reserve).
     Cruise { goal: Point2 },
+    /// Drive to `goal` looking for new fires, past the fires the coordinator already knows
+    /// (left burning by a commander's goal): do not stop for them.
+    Search { goal: Point2 },
     /// Put out the fire believed to be at `target`.
     Extinguish { fire: FireId, target: Point2 },
 }
@@ -196,6 +199,7 @@ impl fmt::Display for TaskKind {
         match self {
             TaskKind::Standby => f.write_str("standby"),
             TaskKind::Cruise { goal } => write!(f, "cruise to ({:.1}, {:.1})", goal.x, goal.y),
+            TaskKind::Search { goal } => write!(f, "search to ({:.1}, {:.1})", goal.x, goal.y),
             TaskKind::Extinguish { fire, target } => {
                 write!(f, "extinguish {fire} at ({:.1}, {:.1})", target.x, target.y)
             }
@@ -208,7 +212,9 @@ impl Validate for Task {
         finite("t", self.t)?;
         match self.kind {
             TaskKind::Standby => Ok(()),
-            TaskKind::Cruise { goal } => goal.validate().map_err(|e| e.within("kind.goal")),
+            TaskKind::Cruise { goal } | TaskKind::Search { goal } => {
+                goal.validate().map_err(|e| e.within("kind.goal"))
+            }
             TaskKind::Extinguish { target, .. } => {
                 target.validate().map_err(|e| e.within("kind.target"))
             }
