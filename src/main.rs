@@ -9,6 +9,7 @@ mod bt_cli;
 mod demo;
 mod experiment;
 mod goal;
+mod plan;
 mod plot;
 mod replay;
 mod roles;
@@ -48,6 +49,9 @@ enum Command {
     /// Issue, list or clear incident commanders' zone goals.
     #[command(subcommand)]
     Goal(goal::GoalCommand),
+    /// Run the planners on standard inputs (MovingAI grid benchmarks).
+    #[command(subcommand)]
+    Plan(plan::PlanCommand),
     /// Print the timeline of a recorded incident.
     Replay(replay::ReplayArgs),
     /// Validate, show or dry-run behavior-tree XML files.
@@ -202,7 +206,7 @@ fn main() -> std::process::ExitCode {
     // Experiments and tree tools print tables; per-event logs are noise there.
     let quiet = matches!(
         cli.command,
-        Command::Experiment(_) | Command::Bt(_) | Command::Replay(_)
+        Command::Experiment(_) | Command::Bt(_) | Command::Replay(_) | Command::Plan(_)
     );
     init_logging(if quiet { "warn" } else { "info,zenoh=warn" });
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -218,6 +222,7 @@ fn main() -> std::process::ExitCode {
             Command::Record(a) => roles::record(a).await,
             Command::Status(a) => roles::status(a).await,
             Command::Goal(c) => goal::run(c).await,
+            Command::Plan(c) => plan::run(c),
             Command::Scenarios => scenarios::list(),
             Command::Bt(c) => bt_cli::run(c),
             Command::Replay(a) => replay::run(a),

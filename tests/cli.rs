@@ -191,3 +191,38 @@ fn the_fleet_experiment_compares_three_strategies_on_every_multi_fire_scenario()
         assert_eq!(r["unfinished"], 0, "every fire out in {r}");
     }
 }
+
+#[test]
+fn plan_grid_solves_a_movingai_benchmark_to_its_optimal_lengths() {
+    // The fixture's optimal lengths come from an independent Dijkstra
+    // (tests/fixtures/make_grid_bench.py).
+    let fixtures = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("grid.json");
+    let map = format!("{fixtures}/grid-bench.map");
+    let scen = format!("{fixtures}/grid-bench.scen");
+    let out = firefleet(&[
+        "plan",
+        "grid",
+        "--map",
+        &map,
+        "--scen",
+        &scen,
+        "--json",
+        path.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    assert_eq!(v["problems"], 60);
+    assert_eq!(v["solved"], 60);
+    assert!(v["mean_rel_error"].as_f64().unwrap() < 1e-8, "{v}");
+    assert!(v["mean_ms"].is_number());
+
+    let out = firefleet(&["plan", "grid", "--map", &scen, "--scen", &scen]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("grid-bench.scen: line 1: expected 'type'"),
+        "{}",
+        text(&out.stderr)
+    );
+}

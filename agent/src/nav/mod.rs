@@ -3,10 +3,14 @@
 //! This is the first planner: 8-connected A* on an occupancy grid inflated by the robot's
 //! footprint, string-pulled into straight segments and followed by pure pursuit. It keeps
 //! clear of parked vehicles and the walls. It is not yet kinematically aware (that is the
-//! Hybrid A* planner's job) and does not weigh heat.
+//! Hybrid A* planner's job) and does not weigh heat. [`grid_search`] is the general
+//! weighted-grid search (Dijkstra to all cells, A* between two) that the heat-aware cost
+//! map and the MovingAI benchmarks use.
 
 pub mod astar;
 pub mod grid;
+pub mod grid_search;
+pub mod movingai;
 pub mod pursuit;
 
 pub use astar::plan;
