@@ -24,6 +24,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
+mod costmap_ga;
 mod robogat;
 mod scale;
 
@@ -37,6 +38,8 @@ pub enum ExperimentCommand {
     Robogat(robogat::RobogatArgs),
     /// A real coordinator process under a large simulated fleet over loopback Zenoh.
     Scale(scale::ScaleArgs),
+    /// The Dijkstra+GA paper's heat-aware cost map: no heat, w1 = w2 = 1, GA-tuned.
+    CostmapGa(costmap_ga::CostmapGaArgs),
 }
 
 #[derive(Args, Debug)]
@@ -69,6 +72,7 @@ pub async fn run(cmd: ExperimentCommand) -> anyhow::Result<ExitCode> {
         ExperimentCommand::Fleet(a) => fleet(a),
         ExperimentCommand::Robogat(a) => robogat::run(a),
         ExperimentCommand::Scale(a) => scale::run(a).await,
+        ExperimentCommand::CostmapGa(a) => costmap_ga::run(a),
     }
 }
 

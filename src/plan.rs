@@ -6,13 +6,31 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
+use firefleet_agent::nav::costmap::{Ga, Terrain, TimeModel};
 use firefleet_agent::nav::movingai;
+use firefleet_protocol::Point2;
 use serde::Serialize;
 
 #[derive(Subcommand, Debug)]
 pub enum PlanCommand {
     /// Solve a MovingAI grid benchmark (.map + .scen) and compare with its optimal lengths.
     Grid(GridArgs),
+    /// Tune the heat-aware cost map's weights (w1 time, w2 heat) with the genetic
+    /// algorithm, for a trip through a scenario: from its first unit to the tunnel's far
+    /// end in that unit's lane, past the fires.
+    TuneCostmap(TuneArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct TuneArgs {
+    /// A built-in scenario name or a scenario file.
+    #[arg(long, default_value = "vehicle-collision")]
+    scenario: String,
+    /// Cell size, m.
+    #[arg(long, default_value_t = 0.5)]
+    res_m: f64,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
 }
 
 #[derive(Args, Debug)]
@@ -37,7 +55,47 @@ struct GridFigures {
 pub fn run(cmd: PlanCommand) -> anyhow::Result<ExitCode> {
     match cmd {
         PlanCommand::Grid(a) => grid(a),
+        PlanCommand::TuneCostmap(a) => tune(a),
     }
+}
+
+fn tune(a: TuneArgs) -> anyhow::Result<ExitCode> {
+    anyhow::ensure!(
+        (0.1..=5.0).contains(&a.res_m),
+        "--res-m {}: must be within [0.1, 5] m",
+        a.res_m
+    );
+    let s = crate::scenarios::resolve(&a.scenario)?;
+    let unit = s.units.first().context("the scenario has no unit")?;
+    let terrain = Terrain::from_scenario(&s, a.res_m);
+    let width = s.tunnel.width_m;
+    let start = terrain.cell_of(unit.pose().position(), a.res_m, width);
+    let end = Point2::new(s.tunnel.length_m - 1.0, unit.y_m);
+    let goal = terrain.cell_of(end, a.res_m, width);
+    let time = terrain.time(&TimeModel::PAPER);
+    let tuned = Ga::default()
+        .tune(&terrain, &time, start, goal, a.seed)
+        .context("no path from the unit to the tunnel's far end")?;
+    let (w, sc) = (tuned.weights, tuned.score);
+    println!(
+        "{}: {} from ({:.1}, {:.1}) to ({:.1}, {:.1}), {} x {} cells of {} m",
+        s.name, unit.id, unit.x_m, unit.y_m, end.x, end.y, terrain.width, terrain.height, a.res_m
+    );
+    println!("weights     w1 (time) {:.4}, w2 (heat) {:.4}", w[0], w[1]);
+    println!(
+        "fitness     {:.1}  (path time {:.1}, heat {:.1})",
+        sc.fitness, sc.time, sc.heat
+    );
+    println!(
+        "best by generation: {}",
+        tuned
+            .history
+            .iter()
+            .map(|f| format!("{f:.0}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 fn grid(a: GridArgs) -> anyhow::Result<ExitCode> {

@@ -226,3 +226,36 @@ fn plan_grid_solves_a_movingai_benchmark_to_its_optimal_lengths() {
         text(&out.stderr)
     );
 }
+
+#[test]
+fn the_costmap_experiment_reports_the_papers_three_cases_in_its_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cg.json");
+    let out = firefleet(&[
+        "experiment",
+        "costmap-ga",
+        "--size",
+        "40",
+        "--json",
+        path.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let cases = v["cases"].as_array().unwrap();
+    assert_eq!(cases.len(), 3);
+    let f = |k: usize| cases[k]["fitness"].as_f64().unwrap();
+    for c in cases {
+        for key in ["case", "fitness", "path_time", "heat_dose"] {
+            assert!(c[key].is_number(), "{key} in {c}");
+        }
+    }
+    assert!(
+        f(2) <= f(1) && f(2) <= f(0),
+        "the GA's weights plan the fittest path: {v}"
+    );
+    let h = |k: usize| cases[k]["heat_dose"].as_f64().unwrap();
+    assert!(
+        h(1) < h(0),
+        "heat in the cost keeps the path out of the heat: {v}"
+    );
+}

@@ -5,9 +5,10 @@
 //! clear of parked vehicles and the walls. It is not yet kinematically aware (that is the
 //! Hybrid A* planner's job) and does not weigh heat. [`grid_search`] is the general
 //! weighted-grid search (Dijkstra to all cells, A* between two) that the heat-aware cost
-//! map and the MovingAI benchmarks use.
+//! map ([`costmap`]) and the MovingAI benchmarks ([`movingai`]) use.
 
 pub mod astar;
+pub mod costmap;
 pub mod grid;
 pub mod grid_search;
 pub mod movingai;
