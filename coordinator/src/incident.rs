@@ -946,6 +946,15 @@ mod tests {
             .collect()
     }
 
+    /// The kinds of the tasks in `out` for `unit`, in order.
+    fn kinds_for(out: &[Output], unit: &str) -> Vec<TaskKind> {
+        all_tasks(out)
+            .iter()
+            .filter(|t| t.unit.as_str() == unit)
+            .map(|t| t.kind)
+            .collect()
+    }
+
     fn all_tasks(out: &[Output]) -> Vec<&Task> {
         out.iter()
             .filter_map(|o| {
@@ -1194,11 +1203,7 @@ mod tests {
         assert_eq!(tasks(&out)[0].unit.as_str(), "b");
         let (ack, out) = submit(&mut i, goal("g1", "z1", GoalKind::Monitor, 0, None), 2.0);
         assert!(ack.accepted);
-        let b: Vec<TaskKind> = all_tasks(&out)
-            .iter()
-            .filter(|t| t.unit.as_str() == "b")
-            .map(|t| t.kind)
-            .collect();
+        let b = kinds_for(&out, "b");
         assert_eq!(b[0], TaskKind::Standby, "{out:?}");
         // Free again, b searches on past the fire left burning.
         assert!(
@@ -1218,11 +1223,7 @@ mod tests {
         let mut i = zoned();
         i.on_state(state("b", 55.0, None), 0.5).unwrap();
         let (_, out) = submit(&mut i, goal("g1", "z1", GoalKind::Evacuate, 0, None), 1.0);
-        let b: Vec<TaskKind> = all_tasks(&out)
-            .iter()
-            .filter(|t| t.unit.as_str() == "b")
-            .map(|t| t.kind)
-            .collect();
+        let b = kinds_for(&out, "b");
         assert_eq!(
             b,
             [TaskKind::Cruise {
@@ -1263,11 +1264,7 @@ mod tests {
             0.5,
         );
         let out = i.on_report(&report("a", 150.0), 1.0).unwrap();
-        let a: Vec<TaskKind> = all_tasks(&out)
-            .iter()
-            .filter(|t| t.unit.as_str() == "a")
-            .map(|t| t.kind)
-            .collect();
+        let a = kinds_for(&out, "a");
         assert_eq!(
             a,
             [TaskKind::Cruise {
