@@ -1051,13 +1051,8 @@ mod tests {
             out.iter()
                 .any(|o| matches!(o, Output::Fire(f) if f.id == fire && f.state == FireState::Out))
         );
-        let b = all_tasks(&out)
-            .into_iter()
-            .filter(|t| t.unit.as_str() == "b")
-            .map(|t| t.kind)
-            .collect::<Vec<_>>();
         assert_eq!(
-            b,
+            kinds_for(&out, "b"),
             [TaskKind::Standby],
             "b stands by, nothing left to stage for"
         );
@@ -1067,16 +1062,11 @@ mod tests {
     fn free_units_are_staged_short_of_the_fire_and_released_when_it_is_out() {
         let mut i = incident();
         let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
-        let staged: Vec<&Task> = all_tasks(&out)
-            .into_iter()
-            .filter(|t| t.unit.as_str() == "a")
-            .collect();
-        assert_eq!(staged.len(), 1);
         assert_eq!(
-            staged[0].kind,
-            TaskKind::Cruise {
+            kinds_for(&out, "a"),
+            [TaskKind::Cruise {
                 goal: Point2::new(35.0, -2.5)
-            },
+            }],
             "25 m short, in a's lane"
         );
         assert!(
@@ -1084,12 +1074,7 @@ mod tests {
             "no churn while nothing changes"
         );
         let (_, out) = b_puts_out_the_first_fire(&mut i, &out);
-        let a: Vec<TaskKind> = all_tasks(&out)
-            .into_iter()
-            .filter(|t| t.unit.as_str() == "a")
-            .map(|t| t.kind)
-            .collect();
-        assert_eq!(a, [TaskKind::Standby]);
+        assert_eq!(kinds_for(&out, "a"), [TaskKind::Standby]);
     }
 
     #[test]
