@@ -5,7 +5,8 @@
 //! clear of parked vehicles and the walls. It is not yet kinematically aware (that is the
 //! Hybrid A* planner's job) and does not weigh heat. [`grid_search`] is the general
 //! weighted-grid search (Dijkstra to all cells, A* between two) that the heat-aware cost
-//! map ([`costmap`]) and the MovingAI benchmarks ([`movingai`]) use.
+//! map ([`costmap`]) and the MovingAI benchmarks ([`movingai`]) use; [`reeds_shepp`] gives
+//! the shortest paths of a car that may reverse, for the Hybrid A* planner to come.
 
 pub mod astar;
 pub mod costmap;
@@ -13,6 +14,7 @@ pub mod grid;
 pub mod grid_search;
 pub mod movingai;
 pub mod pursuit;
+pub mod reeds_shepp;
 
 pub use astar::plan;
 pub use grid::Grid;
