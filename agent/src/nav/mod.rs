@@ -6,12 +6,14 @@
 //! Hybrid A* planner's job) and does not weigh heat. [`grid_search`] is the general
 //! weighted-grid search (Dijkstra to all cells, A* between two) that the heat-aware cost
 //! map ([`costmap`]) and the MovingAI benchmarks ([`movingai`]) use; [`reeds_shepp`] gives
-//! the shortest paths of a car that may reverse, for the Hybrid A* planner to come.
+//! the shortest paths of a car that may reverse, which [`hybrid_astar`] uses for its
+//! heuristic and its analytic expansion. The ground unit does not use Hybrid A* yet.
 
 pub mod astar;
 pub mod costmap;
 pub mod grid;
 pub mod grid_search;
+pub mod hybrid_astar;
 pub mod movingai;
 pub mod pursuit;
 pub mod reeds_shepp;

@@ -1,0 +1,71 @@
+//! Hybrid A* in a 200 m x 10 m tunnel at 0.1 m (200 000 cells), 72 heading bins, two
+//! parked vehicles between the start and the flame, the visibility term on.
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use firefleet_agent::nav::Grid;
+use firefleet_agent::nav::hybrid_astar::{Footprint, HybridAStar, Params};
+use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::spec::GROUND;
+use firefleet_protocol::{Point2, Pose2};
+
+const SITE: &str = r#"
+name = "bench"
+time_limit_s = 100
+[tunnel]
+length_m = 200.0
+width_m = 10.0
+height_m = 6.3
+lanes = 2
+[[obstacles]]
+name = "car"
+x_m = 80.0
+y_m = -2.5
+length_m = 4.5
+width_m = 1.8
+height_m = 1.5
+[[obstacles]]
+name = "van"
+x_m = 140.0
+y_m = 2.5
+length_m = 5.5
+width_m = 2.0
+height_m = 2.4
+"#;
+
+fn hybrid_astar(c: &mut Criterion) {
+    let site = Scenario::from_toml(SITE, "bench.toml").expect("valid");
+    let grid = Grid::from_scenario(&site, 0.1, 0.0);
+    let mut params = Params::for_radius(GROUND.min_turn_radius_m());
+    params.lambda_m = 5.0;
+    let planner = HybridAStar::new(
+        &grid,
+        Footprint {
+            length_m: GROUND.length_m,
+            width_m: GROUND.width_m,
+        },
+        params,
+    );
+    let (start, goal, flame) = (
+        Pose2::new(5.0, -2.5, 0.0),
+        Pose2::new(172.0, 2.5, 0.0),
+        Point2::new(180.0, 2.5),
+    );
+    let plan = planner.plan(start, goal, Some(flame)).expect("a path");
+    eprintln!(
+        "tunnel_200m: {} expansions, {:.1} m, {} poses",
+        plan.expansions,
+        plan.length_m,
+        plan.poses.len()
+    );
+    let mut g = c.benchmark_group("hybrid_astar");
+    g.sample_size(20);
+    g.bench_function("tunnel_200m", |b| {
+        b.iter(|| black_box(planner.plan(start, goal, Some(flame))))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, hybrid_astar);
+criterion_main!(benches);

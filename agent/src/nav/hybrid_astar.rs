@@ -1,0 +1,482 @@
+//! Hybrid A* (Dolgov, Thrun, Montemerlo, Diebel 2008) with the BT paper's visibility
+//! reward (section 3.3.1, eq. 1-6).
+//!
+//! The search runs over continuous poses, deduplicated in cells of `xy_bin_m` and
+//! `heading_bins` headings. A node expands by six motion primitives: an arc of `step_m`
+//! turning fully left, straight or fully right (the minimum turning radius), forwards or
+//! backwards. The cost of a primitive is `w_dist ds + w_steer |steer| ds` (times
+//! `w_reverse` backwards) plus `w_switch` when the direction changes: the paper's
+//! `w1 ds + w2 |delta| + w3 I_rev`. The heuristic is `max(obstacle-aware 2-D distance,
+//! Reeds-Shepp distance)`; the 2-D part is a Dijkstra from the goal over a coarse grid
+//! (passable where any fine cell is, so it never overestimates), the Reeds-Shepp part is
+//! computed near the goal only, where it dominates. Near the goal each node also tries the
+//! analytic expansion: the Reeds-Shepp path to the goal, taken if collision-free.
+//!
+//! Visibility: `h' = h + lambda (1 - I_LOS)`, with `I_LOS = 1` when the segment from the
+//! pose to the flame crosses no occupied cell of the sight grid (a supercover traversal,
+//! which misses no cell the segment touches, where Bresenham would let a sight line slip
+//! through a corner). The paper writes `h + lambda I_LOS` and describes a reward for keeping
+//! the flame in view; as printed that would penalise visibility, so the term charges
+//! losing sight instead.
+//!
+//! Collisions: the footprint rectangle's outline, sampled at the grid's resolution, on
+//! the occupancy grid of walls and vehicles (not inflated: the footprint is the robot).
+//! Pure: no I/O, no clock.
+
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashMap};
+
+use firefleet_protocol::geometry::wrap_angle;
+use firefleet_protocol::{Point2, Pose2};
+
+use super::grid::Grid;
+use super::grid_search::CostGrid;
+use super::reeds_shepp::{self, Turn};
+
+/// The robot's footprint: a rectangle centred on the pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Footprint {
+    pub length_m: f64,
+    pub width_m: f64,
+}
+
+/// How the planner searches.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Params {
+    pub min_radius_m: f64,
+    pub step_m: f64,
+    pub xy_bin_m: f64,
+    pub heading_bins: usize,
+    pub w_dist: f64,
+    pub w_steer: f64,
+    pub w_reverse: f64,
+    pub w_switch: f64,
+    pub goal_xy_tol_m: f64,
+    pub goal_yaw_tol_rad: f64,
+    /// The visibility term's weight, m (0: off).
+    pub lambda_m: f64,
+    /// Try the analytic Reeds-Shepp expansion within this distance of the goal, m.
+    pub analytic_within_m: f64,
+    pub max_expansions: usize,
+}
+
+impl Params {
+    /// Defaults for a robot turning at `min_radius_m`: 72 heading bins, primitives of
+    /// 0.5 m in 0.25 m cells, reversing twice as dear as driving forwards.
+    pub fn for_radius(min_radius_m: f64) -> Self {
+        Self {
+            min_radius_m,
+            step_m: 0.5,
+            xy_bin_m: 0.25,
+            heading_bins: 72,
+            w_dist: 1.0,
+            w_steer: 0.2,
+            w_reverse: 2.0,
+            w_switch: 2.0,
+            goal_xy_tol_m: 0.25,
+            goal_yaw_tol_rad: 5f64.to_radians(),
+            lambda_m: 0.0,
+            analytic_within_m: 12.0,
+            max_expansions: 200_000,
+        }
+    }
+}
+
+/// Why no path was found.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PlanError {
+    #[error("the start pose collides")]
+    StartBlocked,
+    #[error("the goal pose collides")]
+    GoalBlocked,
+    #[error("no path after {0} expansions")]
+    NoPath(usize),
+}
+
+/// A planned path: poses every grid cell or so, and whether each is driven backwards.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    pub poses: Vec<Pose2>,
+    pub reverse: Vec<bool>,
+    pub length_m: f64,
+    pub expansions: usize,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    pose: Pose2,
+    g: f64,
+    parent: usize,
+    steer: i8,
+    reverse: bool,
+}
+
+/// Poses of one primitive, every `res` along it.
+fn arc(from: Pose2, turn: Turn, length: f64, radius: f64, res: f64) -> impl Iterator<Item = Pose2> {
+    let n = (length.abs() / res).ceil().max(1.0) as usize;
+    (1..=n).map(move |k| reeds_shepp::advance(from, turn, length * k as f64 / n as f64, radius))
+}
+
+/// The planner for one map.
+pub struct HybridAStar<'a> {
+    grid: &'a Grid,
+    footprint: Footprint,
+    outline: Vec<(f64, f64)>,
+    params: Params,
+}
+
+impl<'a> HybridAStar<'a> {
+    pub fn new(grid: &'a Grid, footprint: Footprint, params: Params) -> Self {
+        // The outline of the footprint in the body frame, one point per grid cell.
+        let (hl, hw) = (footprint.length_m / 2.0, footprint.width_m / 2.0);
+        let res = grid.resolution();
+        let mut outline = Vec::new();
+        let n_l = (footprint.length_m / res).ceil() as usize;
+        let n_w = (footprint.width_m / res).ceil() as usize;
+        for k in 0..=n_l {
+            let x = -hl + footprint.length_m * k as f64 / n_l as f64;
+            outline.push((x, hw));
+            outline.push((x, -hw));
+        }
+        for k in 1..n_w {
+            let y = -hw + footprint.width_m * k as f64 / n_w as f64;
+            outline.push((hl, y));
+            outline.push((-hl, y));
+        }
+        Self {
+            grid,
+            footprint,
+            outline,
+            params,
+        }
+    }
+
+    pub fn footprint(&self) -> Footprint {
+        self.footprint
+    }
+
+    /// Whether the footprint at `p` touches no occupied cell.
+    pub fn pose_free(&self, p: &Pose2) -> bool {
+        let (s, c) = p.yaw.sin_cos();
+        self.outline.iter().all(|&(bx, by)| {
+            self.grid
+                .free(Point2::new(p.x + c * bx - s * by, p.y + s * bx + c * by))
+        })
+    }
+
+    /// Dijkstra from the goal over a coarse grid: the obstacle-aware 2-D distance, and the
+    /// coarse cell size.
+    fn distance_field(&self, goal: Point2) -> (CostGrid, Vec<f64>, usize) {
+        let (w, h) = self.grid.size();
+        let k = ((0.5 / self.grid.resolution()).round() as usize).max(1);
+        let (cw, ch) = (w.div_ceil(k), h.div_ceil(k));
+        let passable: Vec<bool> = (0..cw * ch)
+            .map(|i| {
+                let (cc, cr) = (i % cw, i / cw);
+                (cr * k..((cr + 1) * k).min(h))
+                    .any(|r| (cc * k..((cc + 1) * k).min(w)).any(|c| !self.grid.blocked((c, r))))
+            })
+            .collect();
+        let coarse = CostGrid::from_passable(cw, ch, &passable).expect("sizes match");
+        let g = self.grid.cell(goal).map_or((0, 0), |(c, r)| (c / k, r / k));
+        let dist = coarse.dijkstra_all(g);
+        (coarse, dist, k)
+    }
+
+    /// Plan from `start` to `goal`, keeping `flame` in view if given and `lambda_m > 0`.
+    pub fn plan(
+        &self,
+        start: Pose2,
+        goal: Pose2,
+        flame: Option<Point2>,
+    ) -> Result<Plan, PlanError> {
+        let p = &self.params;
+        if !self.pose_free(&start) {
+            return Err(PlanError::StartBlocked);
+        }
+        if !self.pose_free(&goal) {
+            return Err(PlanError::GoalBlocked);
+        }
+        let res = self.grid.resolution();
+        let (_, dist, k) = self.distance_field(goal.position());
+        let (w, _) = self.grid.size();
+        let cw = w.div_ceil(k);
+        let coarse_m = res * k as f64;
+        let h2d = |q: &Pose2| {
+            self.grid
+                .cell(q.position())
+                .map_or(f64::INFINITY, |(c, r)| {
+                    // Cells of the coarse grid are up to a diagonal apart from the pose.
+                    (dist[(r / k) * cw + c / k] * coarse_m - coarse_m * std::f64::consts::SQRT_2)
+                        .max(0.0)
+                })
+        };
+        let visible = |q: &Pose2| flame.is_none_or(|f| self.grid.segment_free(q.position(), f));
+        let h = |q: &Pose2| {
+            let d = q.position().dist(goal.position());
+            let mut v = h2d(q);
+            if d < p.analytic_within_m {
+                v = v.max(reeds_shepp::distance(*q, goal, p.min_radius_m));
+            }
+            if p.lambda_m > 0.0 && !visible(q) {
+                v += p.lambda_m;
+            }
+            p.w_dist * v
+        };
+        let bin = |q: &Pose2| {
+            let t = (wrap_angle(q.yaw) + std::f64::consts::PI) / std::f64::consts::TAU;
+            (
+                (q.x / p.xy_bin_m).floor() as i64,
+                (q.y / p.xy_bin_m).floor() as i64,
+                ((t * p.heading_bins as f64) as usize).min(p.heading_bins - 1),
+            )
+        };
+        let mut nodes = vec![Node {
+            pose: start,
+            g: 0.0,
+            parent: usize::MAX,
+            steer: 0,
+            reverse: false,
+        }];
+        let mut best: HashMap<(i64, i64, usize), f64> = HashMap::new();
+        best.insert(bin(&start), 0.0);
+        let mut open = BinaryHeap::new();
+        open.push((Reverse(h(&start).to_bits()), 0usize));
+        let mut expansions = 0;
+        while let Some((_, i)) = open.pop() {
+            let n = nodes[i];
+            if best.get(&bin(&n.pose)).is_some_and(|g| *g < n.g) {
+                continue;
+            }
+            expansions += 1;
+            if expansions > p.max_expansions {
+                return Err(PlanError::NoPath(expansions));
+            }
+            let d = n.pose.position().dist(goal.position());
+            if d <= p.goal_xy_tol_m && wrap_angle(n.pose.yaw - goal.yaw).abs() <= p.goal_yaw_tol_rad
+            {
+                return Ok(self.finish(&nodes, i, None, expansions));
+            }
+            if d < p.analytic_within_m {
+                let rs = reeds_shepp::shortest(n.pose, goal, p.min_radius_m);
+                let samples = rs.sample(n.pose, p.min_radius_m, res);
+                if samples.iter().all(|q| self.pose_free(q)) {
+                    return Ok(self.finish(&nodes, i, Some(rs), expansions));
+                }
+            }
+            for reverse in [false, true] {
+                for steer in [-1i8, 0, 1] {
+                    let turn = match steer {
+                        -1 => Turn::Right,
+                        0 => Turn::Straight,
+                        _ => Turn::Left,
+                    };
+                    let len = if reverse { -p.step_m } else { p.step_m };
+                    let mut end = n.pose;
+                    let mut free = true;
+                    for q in arc(n.pose, turn, len, p.min_radius_m, res) {
+                        if !self.pose_free(&q) {
+                            free = false;
+                            break;
+                        }
+                        end = q;
+                    }
+                    if !free {
+                        continue;
+                    }
+                    let mut cost = p.step_m * (p.w_dist + p.w_steer * f64::from(steer.abs()));
+                    if reverse {
+                        cost *= p.w_reverse;
+                    }
+                    if i != 0 && reverse != n.reverse {
+                        cost += p.w_switch;
+                    }
+                    let g = n.g + cost;
+                    let key = bin(&end);
+                    if best.get(&key).is_some_and(|b| *b <= g) {
+                        continue;
+                    }
+                    best.insert(key, g);
+                    nodes.push(Node {
+                        pose: end,
+                        g,
+                        parent: i,
+                        steer,
+                        reverse,
+                    });
+                    open.push((Reverse((g + h(&end)).to_bits()), nodes.len() - 1));
+                }
+            }
+        }
+        Err(PlanError::NoPath(expansions))
+    }
+
+    /// The path to node `i`, then the analytic tail if any, sampled every grid cell.
+    fn finish(
+        &self,
+        nodes: &[Node],
+        mut i: usize,
+        tail: Option<reeds_shepp::Path>,
+        expansions: usize,
+    ) -> Plan {
+        let res = self.grid.resolution();
+        let r = self.params.min_radius_m;
+        let mut chain = Vec::new();
+        while i != usize::MAX {
+            chain.push(nodes[i]);
+            i = nodes[i].parent;
+        }
+        chain.reverse();
+        let mut poses = vec![chain[0].pose];
+        let mut reverse = vec![false];
+        for w in chain.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            let turn = match b.steer {
+                -1 => Turn::Right,
+                0 => Turn::Straight,
+                _ => Turn::Left,
+            };
+            let len = if b.reverse {
+                -self.params.step_m
+            } else {
+                self.params.step_m
+            };
+            for q in arc(a.pose, turn, len, r, res) {
+                poses.push(q);
+                reverse.push(b.reverse);
+            }
+        }
+        if let Some(rs) = tail {
+            let mut at = *poses.last().expect("the start is there");
+            for s in &rs.segments {
+                for q in arc(at, s.turn, s.length, r, res) {
+                    poses.push(q);
+                    reverse.push(s.length < 0.0);
+                }
+                at = reeds_shepp::advance(at, s.turn, s.length, r);
+            }
+        }
+        let length_m = poses
+            .windows(2)
+            .map(|w| w[0].position().dist(w[1].position()))
+            .sum();
+        Plan {
+            poses,
+            reverse,
+            length_m,
+            expansions,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firefleet_protocol::scenario::Scenario;
+
+    const R: f64 = 1.83; // the ground unit's turning radius (1 m wheelbase, 0.5 rad)
+
+    fn tunnel(extra: &str) -> Scenario {
+        let text = format!(
+            "name = \"t\"\ntime_limit_s = 100\n[tunnel]\nlength_m = 60.0\nwidth_m = 7.0\nheight_m = 6.0\nlanes = 2\n{extra}"
+        );
+        Scenario::from_toml(&text, "t.toml").unwrap()
+    }
+
+    const CAR: &str = "[[obstacles]]\nname = \"car\"\nx_m = 25.0\ny_m = -1.5\nlength_m = 4.5\nwidth_m = 1.8\nheight_m = 1.5\n";
+    const FOOT: Footprint = Footprint {
+        length_m: 1.6,
+        width_m: 1.0,
+    };
+
+    fn check(planner: &HybridAStar<'_>, plan: &Plan, start: Pose2, goal: Pose2) {
+        assert_eq!(plan.poses[0], start);
+        let end = *plan.poses.last().unwrap();
+        assert!(end.position().dist(goal.position()) < 0.3, "{end:?}");
+        for (k, w) in plan.poses.windows(2).enumerate() {
+            assert!(planner.pose_free(&w[1]), "pose {k} collides: {:?}", w[1]);
+            // Kinematically feasible: the heading turns no more than an arc of the minimum
+            // radius turns over this chord (chord = 2 R sin(dyaw / 2)).
+            let ds = w[0].position().dist(w[1].position());
+            let dyaw = wrap_angle(w[1].yaw - w[0].yaw).abs();
+            let most = 2.0 * (ds / (2.0 * R)).min(1.0).asin();
+            assert!(dyaw <= most + 1e-6, "pose {k}: {dyaw} rad over {ds} m");
+        }
+    }
+
+    #[test]
+    fn drives_around_a_parked_car_without_touching_it() {
+        let s = tunnel(CAR);
+        let grid = Grid::from_scenario(&s, 0.1, 0.0);
+        let planner = HybridAStar::new(&grid, FOOT, Params::for_radius(R));
+        let (start, goal) = (Pose2::new(5.0, -1.5, 0.0), Pose2::new(45.0, -1.5, 0.0));
+        let plan = planner.plan(start, goal, None).unwrap();
+        check(&planner, &plan, start, goal);
+        // The car fills y in [-2.4, -0.6]: passing it takes the robot's centre above -0.1.
+        let mut passing = plan.poses.iter().filter(|p| (22.75..27.25).contains(&p.x));
+        assert!(passing.all(|p| p.y > -0.1), "it goes round the car");
+        assert!(plan.length_m < 45.0, "{}", plan.length_m);
+    }
+
+    #[test]
+    fn reaches_a_goal_behind_it_facing_the_other_way() {
+        let s = tunnel("");
+        let grid = Grid::from_scenario(&s, 0.1, 0.0);
+        let planner = HybridAStar::new(&grid, FOOT, Params::for_radius(R));
+        let (start, goal) = (
+            Pose2::new(30.0, -1.5, 0.0),
+            Pose2::new(24.0, 1.5, std::f64::consts::PI),
+        );
+        let plan = planner.plan(start, goal, None).unwrap();
+        check(&planner, &plan, start, goal);
+        let end = plan.poses.last().unwrap();
+        assert!(wrap_angle(end.yaw - goal.yaw).abs() < 0.1, "{end:?}");
+    }
+
+    #[test]
+    fn refuses_blocked_poses_and_unreachable_goals() {
+        let wall = "[[obstacles]]\nname = \"wall\"\nx_m = 30.0\ny_m = 0.0\nlength_m = 1.0\nwidth_m = 7.0\nheight_m = 3.0\n";
+        let s = tunnel(wall);
+        let grid = Grid::from_scenario(&s, 0.1, 0.0);
+        let mut params = Params::for_radius(R);
+        params.max_expansions = 20_000;
+        let planner = HybridAStar::new(&grid, FOOT, params);
+        let start = Pose2::new(5.0, 0.0, 0.0);
+        assert_eq!(
+            planner.plan(start, Pose2::new(30.0, 0.0, 0.0), None),
+            Err(PlanError::GoalBlocked)
+        );
+        assert!(matches!(
+            planner.plan(start, Pose2::new(50.0, 0.0, 0.0), None),
+            Err(PlanError::NoPath(_))
+        ));
+    }
+
+    #[test]
+    fn the_visibility_term_keeps_the_flame_in_view_longer() {
+        // A van between the start and the flame: without the term the path hugs it.
+        let van = "[[obstacles]]\nname = \"van\"\nx_m = 25.0\ny_m = 1.7\nlength_m = 5.5\nwidth_m = 2.0\nheight_m = 2.4\n";
+        let s = tunnel(van);
+        let grid = Grid::from_scenario(&s, 0.1, 0.0);
+        let flame = Point2::new(40.0, 2.0);
+        let (start, goal) = (Pose2::new(5.0, 1.5, 0.0), Pose2::new(35.0, 1.5, 0.0));
+        let in_view = |lambda: f64| {
+            let mut p = Params::for_radius(R);
+            p.lambda_m = lambda;
+            let planner = HybridAStar::new(&grid, FOOT, p);
+            let plan = planner.plan(start, goal, Some(flame)).unwrap();
+            check(&planner, &plan, start, goal);
+            let seen = plan
+                .poses
+                .iter()
+                .filter(|q| grid.segment_free(q.position(), flame))
+                .count();
+            seen as f64 / plan.poses.len() as f64
+        };
+        let (without, with) = (in_view(0.0), in_view(10.0));
+        assert!(
+            with > without,
+            "in view {with:.2} with the term, {without:.2} without"
+        );
+    }
+}
