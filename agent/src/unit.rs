@@ -21,6 +21,7 @@ use crate::controller::Services;
 use crate::mission::{Mission, Responder};
 
 use crate::aim;
+use crate::nav::hybrid_astar::{Footprint, HybridAStar, Params};
 use crate::nav::{self, Follow, Grid, PurePursuit};
 use crate::tracker::FlameTracker;
 
@@ -31,6 +32,11 @@ const STANDOFF_M: [f64; 5] = [5.5, 6.5, 4.5, 8.0, 10.0];
 const AIM_TOLERANCE_RAD: f64 = 0.05;
 /// Grid resolution of the navigation map, m.
 const GRID_RES_M: f64 = 0.25;
+/// Clearance Hybrid A* keeps between the footprint and walls or vehicles, m: room for the
+/// path follower's tracking error.
+const HYBRID_MARGIN_M: f64 = 0.3;
+/// Weight of Hybrid A*'s visibility term on the way to a fire, m of path.
+const VISIBILITY_LAMBDA_M: f64 = 5.0;
 /// How long after the last detection a flame still counts as seen, s.
 const RECENTLY_SEEN_S: f64 = 2.0;
 /// Period of the sweep across a flame's base while spraying, s. With the sweep's half-width
@@ -66,6 +72,9 @@ pub struct Unit {
     pub(crate) scenario: Arc<Scenario>,
     nav_grid: Grid,
     sight_grid: Grid,
+    /// Walls and vehicles grown by [`HYBRID_MARGIN_M`]: what Hybrid A* checks the
+    /// footprint against.
+    hybrid_grid: Grid,
     pub(crate) tracker: FlameTracker,
     /// The latest sensor frame.
     pub(crate) frame: UnitSensors,
@@ -103,12 +112,14 @@ impl Unit {
         };
         let nav_grid = Grid::from_scenario(&scenario, GRID_RES_M, spec.circumradius_m() + 0.25);
         let sight_grid = Grid::from_scenario(&scenario, GRID_RES_M, 0.0);
+        let hybrid_grid = Grid::from_scenario(&scenario, GRID_RES_M, HYBRID_MARGIN_M);
         Self {
             id,
             spec,
             scenario,
             nav_grid,
             sight_grid,
+            hybrid_grid,
             tracker: FlameTracker::default(),
             frame,
             nav: None,
@@ -232,6 +243,27 @@ impl Unit {
     /// Choose a firing position for a fire at `target` and prepare the path to it: free for
     /// the vehicle, with line of sight and a jet solution under the ceiling, arriving along
     /// the line towards the fire so that the camera faces it.
+    /// A forward-only Hybrid A* path from the unit to `spot`, arriving facing `target` and
+    /// keeping it in view, as points for the path follower; `None` if it finds none.
+    fn hybrid_path(&self, from: Point2, spot: Point2, target: Point2) -> Option<Vec<Point2>> {
+        let mut params = Params::for_radius(self.spec.min_turn_radius_m());
+        params.allow_reverse = false;
+        params.lambda_m = VISIBILITY_LAMBDA_M;
+        params.max_expansions = 20_000;
+        let footprint = Footprint {
+            length_m: self.spec.length_m,
+            width_m: self.spec.width_m,
+        };
+        let planner = HybridAStar::new(&self.hybrid_grid, footprint, params);
+        let start = Pose2::new(from.x, from.y, self.pose().yaw);
+        let goal = Pose2::new(spot.x, spot.y, spot.bearing_to(target));
+        let plan = planner.plan(start, goal, Some(target)).ok()?;
+        // A point every half metre or so is plenty for pure pursuit.
+        let mut points: Vec<Point2> = plan.poses.iter().step_by(2).map(|p| p.position()).collect();
+        points.push(spot);
+        Some(points)
+    }
+
     pub fn firing_position(&mut self, target: Point2) -> Option<Point2> {
         let from = self.pose().position();
         let home = target.bearing_to(from);
@@ -249,6 +281,12 @@ impl Unit {
                     || self.firing_solution(spot, target).is_err()
                 {
                     continue;
+                }
+                // A kinematically feasible path that arrives facing the flame and keeps
+                // it in view, when Hybrid A* finds one; else the grid path with a lead-in.
+                if let Some(p) = self.hybrid_path(from, spot, target) {
+                    self.prepared = Some((spot, p));
+                    return Some(spot);
                 }
                 let lead_in = target.offset(home + off, r + 2.5);
                 let path = if nav.free(lead_in) && nav.segment_free(lead_in, spot) {

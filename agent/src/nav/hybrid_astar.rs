@@ -57,6 +57,9 @@ pub struct Params {
     pub lambda_m: f64,
     /// Try the analytic Reeds-Shepp expansion within this distance of the goal, m.
     pub analytic_within_m: f64,
+    /// Whether paths may reverse (a follower that only drives forwards needs `false`:
+    /// no backward primitives, and only analytic expansions without a reversal).
+    pub allow_reverse: bool,
     pub max_expansions: usize,
 }
 
@@ -77,6 +80,7 @@ impl Params {
             goal_yaw_tol_rad: 5f64.to_radians(),
             lambda_m: 0.0,
             analytic_within_m: 12.0,
+            allow_reverse: true,
             max_expansions: 200_000,
         }
     }
@@ -260,11 +264,15 @@ impl<'a> HybridAStar<'a> {
             if d < p.analytic_within_m {
                 let rs = reeds_shepp::shortest(n.pose, goal, p.min_radius_m);
                 let samples = rs.sample(n.pose, p.min_radius_m, res);
-                if samples.iter().all(|q| self.pose_free(q)) {
+                if (p.allow_reverse || !rs.reverses()) && samples.iter().all(|q| self.pose_free(q))
+                {
                     return Ok(self.finish(&nodes, i, Some(rs), expansions));
                 }
             }
             for reverse in [false, true] {
+                if reverse && !p.allow_reverse {
+                    continue;
+                }
                 for steer in [-1i8, 0, 1] {
                     let turn = match steer {
                         -1 => Turn::Right,
