@@ -245,19 +245,11 @@ impl Incident {
             {
                 continue;
             }
-            let seq = self.next_seq(t);
-            let task = Task {
-                unit: u.clone(),
-                seq,
-                t,
-                kind: TaskKind::Cruise { goal },
-            };
-            self.units.get_mut(&u).expect("known unit").task = Some(task.clone());
+            out.push(self.give(&u, TaskKind::Cruise { goal }, t));
             self.log(
                 t,
                 format!("evacuate {u} from zone {zone} to chainage {x:.1}: goal '{id}'"),
             );
-            out.push(Output::Task(task));
         }
         out.extend(self.solve(t));
         out
@@ -453,12 +445,17 @@ impl Incident {
     }
 
     fn standby(&mut self, unit: &UnitId, t: f64) -> Output {
+        self.give(unit, TaskKind::Standby, t)
+    }
+
+    /// Give `unit` a new task of `kind`, numbered above every task before it.
+    fn give(&mut self, unit: &UnitId, kind: TaskKind, t: f64) -> Output {
         let seq = self.next_seq(t);
         let task = Task {
             unit: unit.clone(),
             seq,
             t,
-            kind: TaskKind::Standby,
+            kind,
         };
         self.units.get_mut(unit).expect("known unit").task = Some(task.clone());
         Output::Task(task)
@@ -638,15 +635,7 @@ impl Incident {
             match (goal, current) {
                 (Some((_, g)), Some(TaskKind::Cruise { goal })) if goal.dist(g) < 3.0 => {}
                 (Some((fire, g)), _) => {
-                    let seq = self.next_seq(t);
-                    let task = Task {
-                        unit: unit.clone(),
-                        seq,
-                        t,
-                        kind: TaskKind::Cruise { goal: g },
-                    };
-                    self.units.get_mut(&unit).expect("free unit is known").task =
-                        Some(task.clone());
+                    out.push(self.give(&unit, TaskKind::Cruise { goal: g }, t));
                     self.log(
                         t,
                         format!(
@@ -654,7 +643,6 @@ impl Incident {
                             g.x, g.y
                         ),
                     );
-                    out.push(Output::Task(task));
                 }
                 (None, current) if left_burning => {
                     // Search the rest of the tunnel, away from where the unit came in.
@@ -675,20 +663,11 @@ impl Incident {
                     if matches!(current, Some(TaskKind::Search { goal }) if goal.dist(g) < 3.0) {
                         continue;
                     }
-                    let seq = self.next_seq(t);
-                    let task = Task {
-                        unit: unit.clone(),
-                        seq,
-                        t,
-                        kind: TaskKind::Search { goal: g },
-                    };
-                    self.units.get_mut(&unit).expect("free unit is known").task =
-                        Some(task.clone());
+                    out.push(self.give(&unit, TaskKind::Search { goal: g }, t));
                     self.log(
                         t,
                         format!("send {unit} on to search past the fires left burning, to ({x:.1}, {:.1})", at.y),
                     );
-                    out.push(Output::Task(task));
                 }
                 (None, Some(TaskKind::Cruise { .. } | TaskKind::Search { .. })) => {
                     self.log(t, format!("release {unit} to patrol: no active fire"));
@@ -797,26 +776,24 @@ impl Incident {
             fire.state = FireState::Assigned;
         }
         let target = fire.position();
-        let seq = self.next_seq(t);
-        let task = Task {
-            unit: p.unit.clone(),
-            seq,
-            t,
-            kind: TaskKind::Extinguish {
-                fire: p.fire,
-                target,
-            },
-        };
-        let view = self.units.get_mut(&p.unit).expect("candidate is known");
-        if let Some(old) = view.working_on().filter(|f| *f != p.fire) {
+        if let Some(old) = self.units[&p.unit].working_on().filter(|f| *f != p.fire) {
             self.log(
                 t,
                 format!("{} leaves fire {old}, where it was a backup", p.unit),
             );
         }
-        let view = self.units.get_mut(&p.unit).expect("candidate is known");
-        view.task = Some(task.clone());
-        view.backup = backup;
+        let task = self.give(
+            &p.unit,
+            TaskKind::Extinguish {
+                fire: p.fire,
+                target,
+            },
+            t,
+        );
+        self.units
+            .get_mut(&p.unit)
+            .expect("candidate is known")
+            .backup = backup;
         let runner_up = match &p.runner_up {
             Some((u, c)) => format!("runner-up {u} at {c:.1} s"),
             None => "no other free unit".to_owned(),
@@ -828,7 +805,7 @@ impl Incident {
                 p.unit, p.fire, p.cost_s
             ),
         );
-        vec![Output::Task(task), Output::Fire(self.track(p.fire, t))]
+        vec![task, Output::Fire(self.track(p.fire, t))]
     }
 
     fn assigned_to(&self, fire: FireId) -> Vec<UnitId> {
