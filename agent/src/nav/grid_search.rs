@@ -90,29 +90,31 @@ impl CostGrid {
         c < self.width && r < self.height && self.cost[self.index((c, r))].is_finite()
     }
 
-    /// The moves out of (inner) cell index `i`: (neighbour index, cost).
+    /// Call `f(neighbour index, cost)` for every move out of (inner) cell index `i`:
+    /// straight moves, then diagonals between two passable straight neighbours (no corner
+    /// cutting). Unrolled over fixed offsets: this is the inner loop of every search.
     #[inline]
-    fn moves(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+    fn for_each_move(&self, i: usize, mut f: impl FnMut(usize, f64)) {
         let wp = (self.width + 2) as isize;
-        // Straight moves, then diagonals with the two straight moves they pass between.
-        let straight = [1, -1, wp, -wp];
-        let diagonal = [(1, wp), (1, -wp), (-1, wp), (-1, -wp)];
-        let c = &self.cost;
-        let at = move |d: isize| i.wrapping_add_signed(d);
-        straight
-            .into_iter()
-            .filter_map(move |d| {
-                let j = at(d);
-                let e = c[j];
-                e.is_finite().then(|| (j, f64::from(e)))
-            })
-            .chain(diagonal.into_iter().filter_map(move |(dx, dy)| {
-                let j = at(dx + dy);
-                let e = c[j];
-                // No corner cutting: both cells the move passes between must be passable.
-                (e.is_finite() && c[at(dx)].is_finite() && c[at(dy)].is_finite())
-                    .then(|| (j, std::f64::consts::SQRT_2 * f64::from(e)))
-            }))
+        let cost = &self.cost;
+        let straight = [1, -1, wp, -wp].map(|o| {
+            let j = i.wrapping_add_signed(o);
+            (j, cost[j])
+        });
+        for (j, e) in straight {
+            if e.is_finite() {
+                f(j, f64::from(e));
+            }
+        }
+        for (a, b) in [(0, 2), (0, 3), (1, 2), (1, 3)] {
+            let ((ja, ea), (jb, eb)) = (straight[a], straight[b]);
+            if ea.is_finite() && eb.is_finite() {
+                let j = ja + jb - i;
+                if cost[j].is_finite() {
+                    f(j, std::f64::consts::SQRT_2 * f64::from(cost[j]));
+                }
+            }
+        }
     }
 
     /// Cost of the cheapest path from `source` to every cell (infinite where unreachable),
@@ -132,8 +134,6 @@ impl CostGrid {
             dist[s] = 0.0;
             buckets[0].push(s as u32);
             let (mut current, mut queued) = (0usize, 1usize);
-            let wp = (self.width + 2) as isize;
-            let cost = &self.cost;
             while queued > 0 {
                 let b = current % ring;
                 // Cells pushed into this bucket while it is emptied (a float rounding at
@@ -145,33 +145,14 @@ impl CostGrid {
                     if slot(d) != current {
                         continue; // stale: improved into an earlier bucket since
                     }
-                    let mut relax = |j: usize, step: f64| {
+                    self.for_each_move(i, |j, step| {
                         let nd = d + step;
                         if nd < dist[j] {
                             dist[j] = nd;
                             buckets[slot(nd) % ring].push(j as u32);
                             queued += 1;
                         }
-                    };
-                    let free = [1, -1, wp, -wp].map(|o| {
-                        let j = i.wrapping_add_signed(o);
-                        (j, cost[j])
                     });
-                    for (j, e) in free {
-                        if e.is_finite() {
-                            relax(j, f64::from(e));
-                        }
-                    }
-                    // Diagonals, only between two passable straight neighbours.
-                    for (a, b) in [(0, 2), (0, 3), (1, 2), (1, 3)] {
-                        let ((ja, ea), (jb, eb)) = (free[a], free[b]);
-                        if ea.is_finite() && eb.is_finite() {
-                            let j = ja + jb - i;
-                            if cost[j].is_finite() {
-                                relax(j, std::f64::consts::SQRT_2 * f64::from(cost[j]));
-                            }
-                        }
-                    }
                 }
                 current += 1;
             }
@@ -186,12 +167,12 @@ impl CostGrid {
                 if d > dist[i] {
                     continue;
                 }
-                for (j, c) in self.moves(i) {
+                self.for_each_move(i, |j, c| {
                     if d + c < dist[j] {
                         dist[j] = d + c;
                         open.push((key(d + c), j));
                     }
-                }
+                });
             }
         }
         let wp = self.width + 2;
@@ -234,14 +215,15 @@ impl CostGrid {
             if f64::from_bits(bits) > dist[i] + h(i) + 1e-9 {
                 continue;
             }
-            for (j, c) in self.moves(i) {
-                let nd = dist[i] + c;
+            let di = dist[i];
+            self.for_each_move(i, |j, c| {
+                let nd = di + c;
                 if nd < dist[j] {
                     dist[j] = nd;
                     parent[j] = i;
                     open.push((key(nd + h(j)), j));
                 }
-            }
+            });
         }
         if !dist[g].is_finite() {
             return None;
@@ -367,7 +349,8 @@ mod tests {
                     for win in path.windows(2) {
                         let (p, q) = (win[0], win[1]);
                         let j = g.index(q);
-                        let step = g.moves(g.index(p)).find(|(k, _)| *k == j);
+                        let mut step = None;
+                        g.for_each_move(g.index(p), |k, c| if k == j { step = Some((k, c)) });
                         prop_assert!(step.is_some(), "illegal step {:?} -> {:?}", p, q);
                         sum += step.unwrap().1;
                     }
