@@ -48,6 +48,22 @@ pub struct Fire {
 }
 
 impl Fire {
+    /// A track first seen by `unit` at `t`, at `z` with confidence `c`.
+    fn new(id: FireId, unit: &UnitId, z: Gaussian2, c: f64, t: f64) -> Self {
+        let mut f = Fire {
+            id,
+            state: FireState::Tentative,
+            per_unit: BTreeMap::from([(unit.clone(), (z, c))]),
+            estimate: z,
+            confidence: 0.0,
+            first_seen: t,
+            last_seen: t,
+            out_at: None,
+        };
+        f.refuse();
+        f
+    }
+
     fn refuse(&mut self) {
         let mut it = self.per_unit.values();
         let Some((first, _)) = it.next() else { return };
@@ -200,22 +216,14 @@ impl Fusion {
     /// coordinator): confirmed on the unit's word, at the unit's estimate `at`.
     pub fn adopt(&mut self, unit: &UnitId, at: Point2, t: f64) -> FireId {
         self.next_id += 1;
-        let id = FireId(self.next_id);
         let z = Gaussian2 {
             mean: at,
             cov: [ADOPT_VAR_M2, 0.0, ADOPT_VAR_M2],
         };
-        self.fires.push(Fire {
-            id,
-            state: FireState::Confirmed,
-            per_unit: BTreeMap::from([(unit.clone(), (z, CONFIRM_CONFIDENCE))]),
-            estimate: z,
-            confidence: CONFIRM_CONFIDENCE,
-            first_seen: t,
-            last_seen: t,
-            out_at: None,
-        });
-        id
+        let mut f = Fire::new(FireId(self.next_id), unit, z, CONFIRM_CONFIDENCE, t);
+        f.state = FireState::Confirmed;
+        self.fires.push(f);
+        FireId(self.next_id)
     }
 
     /// Fold in one observation by `unit` at time `t`.
@@ -236,17 +244,7 @@ impl Fusion {
         let Some((_, fire)) = best else {
             self.next_id += 1;
             let id = FireId(self.next_id);
-            let mut f = Fire {
-                id,
-                state: FireState::Tentative,
-                per_unit: BTreeMap::from([(unit.clone(), (z, obs.confidence))]),
-                estimate: z,
-                confidence: 0.0,
-                first_seen: t,
-                last_seen: t,
-                out_at: None,
-            };
-            f.refuse();
+            let mut f = Fire::new(id, unit, z, obs.confidence, t);
             let confirmed = f.confidence >= CONFIRM_CONFIDENCE;
             if confirmed {
                 f.state = FireState::Confirmed;
