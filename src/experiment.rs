@@ -132,12 +132,7 @@ fn trial(angle_deg: f64, seed: u64) -> anyhow::Result<(usize, usize, Option<f64>
         site: SiteId::new("cannon")?,
         seed,
         time_limit_s: TRIAL_LIMIT_S,
-        tunnel: Tunnel {
-            length_m: 80.0,
-            width_m: 10.0,
-            height_m: 6.3,
-            lanes: 2,
-        },
+        tunnel: Tunnel::straight(80.0, 10.0, 6.3, 2),
         obstacles: Vec::new(),
         fires: spots
             .iter()

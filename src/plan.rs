@@ -8,7 +8,6 @@ use anyhow::Context;
 use clap::{Args, Subcommand};
 use firefleet_agent::nav::costmap::{Ga, Terrain, TimeModel};
 use firefleet_agent::nav::movingai;
-use firefleet_protocol::Point2;
 use serde::Serialize;
 
 #[derive(Subcommand, Debug)]
@@ -68,10 +67,10 @@ fn tune(a: TuneArgs) -> anyhow::Result<ExitCode> {
     let s = crate::scenarios::resolve(&a.scenario)?;
     let unit = s.units.first().context("the scenario has no unit")?;
     let terrain = Terrain::from_scenario(&s, a.res_m);
-    let width = s.tunnel.width_m;
-    let start = terrain.cell_of(unit.pose().position(), a.res_m, width);
-    let end = Point2::new(s.tunnel.length_m - 1.0, unit.y_m);
-    let goal = terrain.cell_of(end, a.res_m, width);
+    let t = &s.tunnel;
+    let start = terrain.cell_of(unit.pose().position(), a.res_m, t);
+    let end = t.point_at(t.length_m - 1.0, t.station(unit.pose().position()).d);
+    let goal = terrain.cell_of(end, a.res_m, t);
     let time = terrain.time(&TimeModel::PAPER);
     let tuned = Ga::default()
         .tune(&terrain, &time, start, goal, a.seed)

@@ -86,7 +86,7 @@ fn bad_scenarios_and_arguments_are_refused_with_the_reason() {
     let out = firefleet(&["demo", "--scenario", bad.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     assert!(
-        text(&out.stderr).contains("fires[0].x_m: 80 is outside [0, 50]"),
+        text(&out.stderr).contains("fires[0].x_m/y_m: (80.00, 0.00) is outside the tunnel"),
         "{}",
         text(&out.stderr)
     );

@@ -187,12 +187,12 @@ impl Unit {
             return goal;
         }
         let t = &self.scenario.tunnel;
-        let y = self.pose().y;
+        let d = t.station(self.pose().position()).d;
         let lane = (0..t.lanes)
             .map(|i| t.lane_center_y(i))
-            .min_by(|a, b| (a - y).abs().total_cmp(&(b - y).abs()))
+            .min_by(|a, b| (a - d).abs().total_cmp(&(b - d).abs()))
             .unwrap_or(0.0);
-        Point2::new(t.length_m - 10.0, lane)
+        t.point_at(t.length_m - 10.0, lane)
     }
 
     /// Start driving to `goal`; false if no path exists.
@@ -333,7 +333,7 @@ impl Unit {
                 let z = h + aim::height_at(x, th, v);
                 let p = from.offset(az, x);
                 z < t.height_m - JET_CEILING_MARGIN_M
-                    && p.y.abs() < t.width_m / 2.0
+                    && t.contains(p, 0.0)
                     && !self
                         .scenario
                         .obstacles

@@ -14,6 +14,7 @@ const TUNNEL: Tunnel = Tunnel {
     width_m: 10.0,
     height_m: 6.3,
     lanes: 2,
+    centerline: Vec::new(),
 };
 
 /// Solve within the cannon's limits and under a ceiling `ceiling_m` high, then fly the jet.

@@ -7,8 +7,8 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use firefleet_coordinator::assign::{self, Candidate, Mobility, Need, Site};
-use firefleet_protocol::{FireId, Point2, UnitId};
+use firefleet_coordinator::assign::{self, Candidate, Mobility, Need, Place, Site};
+use firefleet_protocol::{FireId, UnitId};
 use pathfinding::matrix::Matrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -16,11 +16,11 @@ use rand_chacha::ChaCha8Rng;
 /// Units and fires scattered along a 2 km tunnel.
 fn instance(units: usize, fires: usize) -> (Vec<Candidate>, Vec<Need>) {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let mut p = || Point2::new(rng.random_range(0.0..2000.0), rng.random_range(-4.5..4.5));
+    let mut p = || Place::straight(rng.random_range(0.0..2000.0), rng.random_range(-4.5..4.5));
     let u = (0..units)
         .map(|i| Candidate {
             unit: UnitId::new(format!("u{i}")).unwrap(),
-            position: p(),
+            at: p(),
             mobility: Mobility::Ground { speed_m_s: 1.5 },
             water_l: 1500.0,
         })
@@ -28,7 +28,7 @@ fn instance(units: usize, fires: usize) -> (Vec<Candidate>, Vec<Need>) {
     let f = (0..fires)
         .map(|i| Need {
             fire: FireId(i as u32),
-            position: p(),
+            at: p(),
             priority: 0,
         })
         .collect();
@@ -46,7 +46,10 @@ fn bench(c: &mut Criterion) {
         .iter()
         .flat_map(|n| {
             units.iter().map(move |u| {
-                let t = u.mobility.travel_s(u.position, n.position).unwrap_or(1e6);
+                let t = u
+                    .mobility
+                    .travel_s(u.at.position, n.at.position)
+                    .unwrap_or(1e6);
                 (t * 1000.0) as i64
             })
         })

@@ -17,6 +17,7 @@
 //! Either way only free units and unattended fires take part: a unit already working on a
 //! fire keeps it, so nobody is pulled off a fire it is spraying.
 
+use firefleet_protocol::scenario::Tunnel;
 use firefleet_protocol::{FireId, Point2, UnitId};
 
 /// How the coordinator pairs units with fires.
@@ -98,11 +99,37 @@ impl Mobility {
     }
 }
 
+/// Where something is: its site-frame position and its chainage along the tunnel (they
+/// differ in a curved tunnel; ranges such as barred zones are chainages).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Place {
+    pub position: Point2,
+    pub chainage_m: f64,
+}
+
+impl Place {
+    /// Where `p` is in `tunnel`.
+    pub fn in_tunnel(tunnel: &Tunnel, p: Point2) -> Self {
+        Self {
+            position: p,
+            chainage_m: tunnel.chainage(p),
+        }
+    }
+
+    /// A place in a straight tunnel, where chainage is x.
+    pub fn straight(x: f64, y: f64) -> Self {
+        Self {
+            position: Point2::new(x, y),
+            chainage_m: x,
+        }
+    }
+}
+
 /// A unit that could take a fire.
 #[derive(Debug, Clone)]
 pub struct Candidate {
     pub unit: UnitId,
-    pub position: Point2,
+    pub at: Place,
     pub mobility: Mobility,
     /// Water on board, L.
     pub water_l: f64,
@@ -114,7 +141,7 @@ pub struct Site<'a> {
     /// Chainage ranges no unit may enter or travel through (zone goals).
     pub barred: &'a [(f64, f64)],
     /// Burning fires: a ground unit driving past one takes its heat.
-    pub hazards: &'a [Point2],
+    pub hazards: &'a [Place],
 }
 
 /// Cost of driving past another burning fire on the way, s: the heat dose and the risk
@@ -133,7 +160,7 @@ const INFEASIBLE: f64 = 1e9;
 #[derive(Debug, Clone)]
 pub struct Need {
     pub fire: FireId,
-    pub position: Point2,
+    pub at: Place,
     /// A commander's priority for the fire's zone (0 when none): each level is worth
     /// [`PRIORITY_S`] of travel, so higher-priority fires are served first when units are
     /// short.
@@ -158,13 +185,13 @@ pub struct Pick {
 /// [`INFEASIBLE`] if it cannot get there without crossing a barred range.
 fn travel(u: &Candidate, n: &Need, site: &Site<'_>) -> f64 {
     let (a, b) = (
-        u.position.x.min(n.position.x),
-        u.position.x.max(n.position.x),
+        u.at.chainage_m.min(n.at.chainage_m),
+        u.at.chainage_m.max(n.at.chainage_m),
     );
     if site.barred.iter().any(|&(s, e)| a < e && b > s) {
         return INFEASIBLE;
     }
-    let Some(t) = u.mobility.travel_s(u.position, n.position) else {
+    let Some(t) = u.mobility.travel_s(u.at.position, n.at.position) else {
         return INFEASIBLE;
     };
     let passed = match u.mobility {
@@ -173,7 +200,9 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>) -> f64 {
         Mobility::Ground { .. } => site
             .hazards
             .iter()
-            .filter(|h| h.x > a && h.x < b && h.dist(n.position) > SAME_FIRE_M)
+            .filter(|h| {
+                h.chainage_m > a && h.chainage_m < b && h.position.dist(n.at.position) > SAME_FIRE_M
+            })
             .count(),
     };
     let thirsty = if u.water_l < WATER_NEEDED_L {
@@ -361,7 +390,7 @@ mod tests {
     fn cand(id: &str, x: f64) -> Candidate {
         Candidate {
             unit: UnitId::new(id).unwrap(),
-            position: Point2::new(x, 0.0),
+            at: Place::straight(x, 0.0),
             mobility: Mobility::Ground { speed_m_s: 1.0 },
             water_l: 1500.0,
         }
@@ -373,12 +402,12 @@ mod tests {
         let needs = [
             Need {
                 fire: FireId(1),
-                position: Point2::new(50.0, 0.0),
+                at: Place::straight(50.0, 0.0),
                 priority: 0,
             },
             Need {
                 fire: FireId(2),
-                position: Point2::new(5.0, 0.0),
+                at: Place::straight(5.0, 0.0),
                 priority: 0,
             },
         ];
@@ -401,12 +430,12 @@ mod tests {
             &[
                 Need {
                     fire: FireId(1),
-                    position: Point2::new(90.0, 0.0),
+                    at: Place::straight(90.0, 0.0),
                     priority: 0,
                 },
                 Need {
                     fire: FireId(2),
-                    position: Point2::new(10.0, 0.0),
+                    at: Place::straight(10.0, 0.0),
                     priority: 0,
                 },
             ],
@@ -419,7 +448,7 @@ mod tests {
     fn at(id: &str, x: f64, y: f64) -> Candidate {
         Candidate {
             unit: UnitId::new(id).unwrap(),
-            position: Point2::new(x, y),
+            at: Place::straight(x, y),
             mobility: Mobility::Ground { speed_m_s: 1.0 },
             water_l: 1500.0,
         }
@@ -436,12 +465,12 @@ mod tests {
         let needs = [
             Need {
                 fire: FireId(1),
-                position: Point2::new(9.0, 0.0),
+                at: Place::straight(9.0, 0.0),
                 priority: 0,
             },
             Need {
                 fire: FireId(2),
-                position: Point2::new(20.0, 0.0),
+                at: Place::straight(20.0, 0.0),
                 priority: 0,
             },
         ];
@@ -503,7 +532,7 @@ mod tests {
     fn rail(id: &str, x: f64) -> Candidate {
         Candidate {
             unit: UnitId::new(id).unwrap(),
-            position: Point2::new(x, 0.0),
+            at: Place::straight(x, 0.0),
             mobility: Mobility::Rail {
                 start_m: 0.0,
                 end_m: 100.0,
@@ -543,7 +572,7 @@ mod tests {
     fn a_fire_out_of_a_rails_reach_goes_to_a_ground_unit_or_to_nobody() {
         let needs = [Need {
             fire: FireId(1),
-            position: Point2::new(150.0, 0.0),
+            at: Place::straight(150.0, 0.0),
             priority: 0,
         }];
         for solve in [greedy, optimal] {
@@ -562,7 +591,7 @@ mod tests {
     fn a_fast_rail_unit_beats_a_slow_ground_unit_within_its_reach() {
         let needs = [Need {
             fire: FireId(1),
-            position: Point2::new(60.0, 2.0),
+            at: Place::straight(60.0, 2.0),
             priority: 0,
         }];
         let picks = optimal(&[rail("r", 0.0), cand("g", 40.0)], &needs, &Site::default());
@@ -574,12 +603,12 @@ mod tests {
         let mut needs = [
             Need {
                 fire: FireId(1),
-                position: Point2::new(10.0, 0.0),
+                at: Place::straight(10.0, 0.0),
                 priority: 0,
             },
             Need {
                 fire: FireId(2),
-                position: Point2::new(90.0, 0.0),
+                at: Place::straight(90.0, 0.0),
                 priority: 2,
             },
         ];
@@ -602,7 +631,7 @@ mod tests {
     fn no_unit_travels_through_a_barred_range() {
         let needs = [Need {
             fire: FireId(1),
-            position: Point2::new(90.0, 0.0),
+            at: Place::straight(90.0, 0.0),
             priority: 0,
         }];
         let units = [cand("near", 50.0), cand("far", 150.0)];
@@ -622,12 +651,12 @@ mod tests {
     fn units_avoid_driving_past_other_fires_and_running_dry() {
         let needs = [Need {
             fire: FireId(1),
-            position: Point2::new(50.0, 0.0),
+            at: Place::straight(50.0, 0.0),
             priority: 0,
         }];
         // Equally far, but the way from the left passes a burning car at 40.
         let units = [cand("left", 20.0), cand("right", 80.0)];
-        let hazards = [Point2::new(40.0, 1.0), Point2::new(50.5, 0.0)];
+        let hazards = [Place::straight(40.0, 1.0), Place::straight(50.5, 0.0)];
         let site = Site {
             hazards: &hazards,
             ..Site::default()

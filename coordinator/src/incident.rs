@@ -15,7 +15,7 @@ use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::validate::Invalid;
 use firefleet_protocol::{FireId, Point2, UnitId, ZoneId};
 
-use crate::assign::{Candidate, Mobility, Need, Pick, Site, Strategy};
+use crate::assign::{Candidate, Mobility, Need, Pick, Place, Site, Strategy};
 use crate::fusion::{Fused, Fusion};
 use crate::goals::Goals;
 
@@ -159,7 +159,7 @@ impl Incident {
             };
             (u.id.clone(), mobility)
         });
-        let mut incident = Self::new(scenario.tunnel, units, lease_s, strategy);
+        let mut incident = Self::new(scenario.tunnel.clone(), units, lease_s, strategy);
         incident.goals = Goals::new(&scenario.zones);
         incident
     }
@@ -206,7 +206,7 @@ impl Incident {
             }
             if let Some(fire) = v.working_on()
                 && let Some(f) = self.fusion.get(self.fusion.resolve(fire))
-                && let Some(g) = self.goals.at(f.position().x)
+                && let Some(g) = self.goals.at(self.tunnel.chainage(f.position()))
                 && g.bars_attack()
             {
                 let text = format!(
@@ -223,13 +223,13 @@ impl Incident {
             let (Some(st), Mobility::Ground { .. }) = (&v.state, v.mobility) else {
                 continue;
             };
-            let at = st.pose.position();
-            let Some(g) = self.goals.at(at.x).filter(|g| g.bars_entry()) else {
+            let at = self.tunnel.station(st.pose.position());
+            let Some(g) = self.goals.at(at.s).filter(|g| g.bars_entry()) else {
                 continue;
             };
             let (id, zone) = (g.goal.id.clone(), g.goal.zone.clone());
             let Some(x) = self.goals.nearest_allowed(
-                at.x,
+                at.s,
                 EVACUATE_MARGIN_M,
                 1.0,
                 self.tunnel.length_m - 1.0,
@@ -240,7 +240,7 @@ impl Incident {
                 );
                 continue;
             };
-            let goal = Point2::new(x, at.y);
+            let goal = self.tunnel.point_at(x, at.d);
             if matches!(v.task.as_ref().map(|t| t.kind), Some(TaskKind::Cruise { goal: g }) if g.dist(goal) < 1.0)
             {
                 continue;
@@ -582,7 +582,12 @@ impl Incident {
                 ))
             })
             // Units leaving a barred zone keep their way out.
-            .filter(|(_, at, _)| !self.goals.at(at.x).is_some_and(|g| g.bars_entry()))
+            .filter(|(_, at, _)| {
+                !self
+                    .goals
+                    .at(self.tunnel.chainage(*at))
+                    .is_some_and(|g| g.bars_entry())
+            })
             .collect();
         let mut out = Vec::new();
         // Each free unit's nearest active fire; each fire keeps its nearest
@@ -614,23 +619,25 @@ impl Incident {
         }
         for (k, (unit, at, current)) in free.into_iter().enumerate() {
             let nearest = nearest[k].filter(|_| reserve[k]);
+            let at = self.tunnel.station(at);
             let goal = nearest.map(|&(fire, f)| {
-                let side = if at.x <= f.x { -1.0 } else { 1.0 };
+                let f = self.tunnel.chainage(f);
+                let side = if at.s <= f { -1.0 } else { 1.0 };
                 // Under a contain goal, reserves hold the line the front must not pass.
-                let x = match self.goals.at(f.x).map(|g| (g.goal.goal, g.goal.before_m)) {
+                let s = match self.goals.at(f).map(|g| (g.goal.goal, g.goal.before_m)) {
                     Some((GoalKind::Contain, Some(line))) => line,
-                    _ => f.x + side * STAGE_OFFSET_M,
+                    _ => f + side * STAGE_OFFSET_M,
                 };
-                let x = self
+                let s = self
                     .goals
-                    .nearest_allowed(x, EVACUATE_MARGIN_M, 5.0, self.tunnel.length_m - 5.0)
-                    .unwrap_or(at.x)
+                    .nearest_allowed(s, EVACUATE_MARGIN_M, 5.0, self.tunnel.length_m - 5.0)
+                    .unwrap_or(at.s)
                     .clamp(5.0, self.tunnel.length_m - 5.0);
                 let lane = (0..self.tunnel.lanes)
                     .map(|i| self.tunnel.lane_center_y(i))
-                    .min_by(|a, b| (a - at.y).abs().total_cmp(&(b - at.y).abs()))
+                    .min_by(|a, b| (a - at.d).abs().total_cmp(&(b - at.d).abs()))
                     .unwrap_or(0.0);
-                (fire, Point2::new(x, lane))
+                (fire, self.tunnel.point_at(s, lane))
             });
             match (goal, current) {
                 (Some((_, g)), Some(TaskKind::Cruise { goal })) if goal.dist(g) < 3.0 => {}
@@ -646,7 +653,7 @@ impl Incident {
                 }
                 (None, current) if left_burning => {
                     // Search the rest of the tunnel, away from where the unit came in.
-                    let end = if at.x < self.tunnel.length_m / 2.0 {
+                    let end = if at.s < self.tunnel.length_m / 2.0 {
                         self.tunnel.length_m - 10.0
                     } else {
                         10.0
@@ -659,14 +666,14 @@ impl Incident {
                     ) else {
                         continue;
                     };
-                    let g = Point2::new(x, at.y);
+                    let g = self.tunnel.point_at(x, at.d);
                     if matches!(current, Some(TaskKind::Search { goal }) if goal.dist(g) < 3.0) {
                         continue;
                     }
                     out.push(self.give(&unit, TaskKind::Search { goal: g }, t));
                     self.log(
                         t,
-                        format!("send {unit} on to search past the fires left burning, to ({x:.1}, {:.1})", at.y),
+                        format!("send {unit} on to search past the fires left burning, to ({:.1}, {:.1})", g.x, g.y),
                     );
                 }
                 (None, Some(TaskKind::Cruise { .. } | TaskKind::Search { .. })) => {
@@ -681,8 +688,8 @@ impl Incident {
 
     /// Assign free units to fires that need one.
     fn assign(&mut self, t: f64) -> Vec<Output> {
-        let attackable = |f: &crate::fusion::Fire, goals: &Goals| {
-            let goal = goals.at(f.position().x);
+        let attackable = |f: &crate::fusion::Fire, goals: &Goals, tunnel: &Tunnel| {
+            let goal = goals.at(tunnel.chainage(f.position()));
             (!goal.is_some_and(|g| g.bars_attack())).then(|| goal.map_or(0, |g| g.goal.priority))
         };
         let needs: Vec<Need> = self
@@ -693,8 +700,8 @@ impl Incident {
             .filter_map(|f| {
                 Some(Need {
                     fire: f.id,
-                    position: f.position(),
-                    priority: attackable(f, &self.goals)?,
+                    at: Place::in_tunnel(&self.tunnel, f.position()),
+                    priority: attackable(f, &self.goals, &self.tunnel)?,
                 })
             })
             .collect();
@@ -707,22 +714,26 @@ impl Incident {
                 let st = v.state.as_ref()?;
                 (st.mode != UnitMode::Fault && st.water_l > 0.0).then(|| Candidate {
                     unit: u.clone(),
-                    position: st.pose.position(),
+                    at: Place::in_tunnel(&self.tunnel, st.pose.position()),
                     mobility: v.mobility,
                     water_l: st.water_l,
                 })
             })
-            .filter(|c| !barred.iter().any(|&(s, e)| (s..=e).contains(&c.position.x)))
+            .filter(|c| {
+                !barred
+                    .iter()
+                    .any(|&(s, e)| (s..=e).contains(&c.at.chainage_m))
+            })
             .collect();
         if candidates.is_empty() {
             return Vec::new();
         }
-        let hazards: Vec<Point2> = self
+        let hazards: Vec<Place> = self
             .fusion
             .fires()
             .iter()
             .filter(|f| f.active() && f.state != FireState::Tentative)
-            .map(|f| f.position())
+            .map(|f| Place::in_tunnel(&self.tunnel, f.position()))
             .collect();
         let site = Site {
             barred: &barred,
@@ -749,8 +760,8 @@ impl Incident {
             .filter_map(|f| {
                 Some(Need {
                     fire: f.id,
-                    position: f.position(),
-                    priority: attackable(f, &self.goals)?,
+                    at: Place::in_tunnel(&self.tunnel, f.position()),
+                    priority: attackable(f, &self.goals, &self.tunnel)?,
                 })
             })
             .collect();
@@ -880,6 +891,7 @@ mod tests {
         width_m: 10.0,
         height_m: 6.0,
         lanes: 2,
+        centerline: Vec::new(),
     };
 
     fn u(s: &str) -> UnitId {

@@ -5,7 +5,7 @@
 //! Schemas are derived from these types.
 
 use firefleet_protocol::msg::{Decision, GoalAck, SimTruth, TruthFireState};
-use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::scenario::{Scenario, Tunnel};
 use schemars::JsonSchema;
 use serde::Serialize;
 
@@ -190,6 +190,37 @@ fn label(x: f64, y: f64, z: f64, text: String) -> TextPrimitive {
     }
 }
 
+/// Boxes along the tunnel from chainage `s.0` to `s.1`, centred `d.0` off the centreline
+/// and `d.1` wide, centred `z.0` above the road and `z.1` tall: one box in a straight
+/// tunnel, pieces of at most 2 m round a curve.
+fn band(
+    t: &Tunnel,
+    s: (f64, f64),
+    d: (f64, f64),
+    z: (f64, f64),
+    color: Color,
+) -> impl Iterator<Item = CubePrimitive> + '_ {
+    let n = if t.is_straight() {
+        1
+    } else {
+        ((s.1 - s.0) / 2.0).ceil().max(1.0) as usize
+    };
+    let piece = (s.1 - s.0) / n as f64;
+    (0..n).map(move |k| {
+        let mid = s.0 + (k as f64 + 0.5) * piece;
+        let at = t.point_at(mid, d.0);
+        CubePrimitive {
+            pose: Pose::at(at.x, at.y, z.0, t.heading_at(mid)),
+            size: Vector3 {
+                x: piece,
+                y: d.1,
+                z: z.1,
+            },
+            color,
+        }
+    })
+}
+
 /// Road, walls and parked vehicles: drawn once.
 pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
     let t = &s.tunnel;
@@ -200,30 +231,21 @@ pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
         b: 0.55,
         a,
     };
-    tunnel.cubes.push(CubePrimitive {
-        pose: Pose::at(t.length_m / 2.0, 0.0, -0.05, 0.0),
-        size: Vector3 {
-            x: t.length_m,
-            y: t.width_m,
-            z: 0.1,
-        },
-        color: grey(1.0),
-    });
+    tunnel.cubes.extend(band(
+        t,
+        (0.0, t.length_m),
+        (0.0, t.width_m),
+        (-0.05, 0.1),
+        grey(1.0),
+    ));
     for side in [-1.0, 1.0] {
-        tunnel.cubes.push(CubePrimitive {
-            pose: Pose::at(
-                t.length_m / 2.0,
-                side * (t.width_m / 2.0 + 0.1),
-                t.height_m / 2.0,
-                0.0,
-            ),
-            size: Vector3 {
-                x: t.length_m,
-                y: 0.2,
-                z: t.height_m,
-            },
-            color: grey(0.25),
-        });
+        tunnel.cubes.extend(band(
+            t,
+            (0.0, t.length_m),
+            (side * (t.width_m / 2.0 + 0.1), 0.2),
+            (t.height_m / 2.0, t.height_m),
+            grey(0.25),
+        ));
     }
     let mut entities = vec![tunnel];
     for o in &s.obstacles {
@@ -247,22 +269,21 @@ pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
     for z in &s.zones {
         let mut e = entity(format!("zone/{}", z.id), ts);
         let mid = (z.start_m + z.end_m) / 2.0;
-        e.cubes.push(CubePrimitive {
-            pose: Pose::at(mid, 0.0, 0.01, 0.0),
-            size: Vector3 {
-                x: z.end_m - z.start_m,
-                y: t.width_m,
-                z: 0.02,
-            },
-            color: Color {
+        e.cubes.extend(band(
+            t,
+            (z.start_m, z.end_m),
+            (0.0, t.width_m),
+            (0.01, 0.02),
+            Color {
                 r: 0.2,
                 g: 0.5,
                 b: 1.0,
                 a: 0.15,
             },
-        });
+        ));
+        let at = t.point_at(mid, t.width_m / 2.0);
         e.texts
-            .push(label(mid, t.width_m / 2.0, 0.5, format!("zone {}", z.id)));
+            .push(label(at.x, at.y, 0.5, format!("zone {}", z.id)));
         entities.push(e);
     }
     for r in &s.rails {

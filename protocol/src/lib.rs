@@ -21,6 +21,7 @@ pub mod keys;
 pub mod msg;
 pub mod scenario;
 pub mod spec;
+pub mod tunnel;
 pub mod validate;
 
 pub use codec::{CodecError, PROTOCOL_VERSION};

@@ -73,6 +73,7 @@ use serde::{Deserialize, Serialize};
 use crate::geometry::{Point2, Pose2};
 use crate::ids::{SiteId, UnitId, ZoneId};
 use crate::msg::UnitKind;
+pub use crate::tunnel::{Segment, Station, Tunnel};
 use crate::validate::{Invalid, in_range};
 
 /// Why a scenario was rejected.
@@ -119,48 +120,6 @@ pub struct Scenario {
 
 fn default_site() -> SiteId {
     SiteId::new("tunnel").expect("valid literal")
-}
-
-/// A straight tunnel: x from 0 (the portal) to `length_m`, y from `-width_m/2` to
-/// `width_m/2`, z from the road to `height_m`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Tunnel {
-    pub length_m: f64,
-    pub width_m: f64,
-    pub height_m: f64,
-    pub lanes: u8,
-}
-
-impl Tunnel {
-    /// Whether `p` is inside the tunnel with at least `margin` metres to every wall.
-    pub fn contains(&self, p: Point2, margin: f64) -> bool {
-        p.x >= margin && p.x <= self.length_m - margin && p.y.abs() <= self.width_m / 2.0 - margin
-    }
-
-    /// Like [`Tunnel::contains`] with no margin, as a validation result naming `field`.
-    pub fn check_inside(&self, field: &str, p: Point2) -> Result<(), Invalid> {
-        if self.contains(p, 0.0) {
-            Ok(())
-        } else {
-            Err(Invalid::new(
-                field,
-                format!(
-                    "({:.2}, {:.2}) is outside the tunnel (x in [0, {}], |y| <= {})",
-                    p.x,
-                    p.y,
-                    self.length_m,
-                    self.width_m / 2.0
-                ),
-            ))
-        }
-    }
-
-    /// Lateral centre of lane `i` (0 is the rightmost lane, driving in +x).
-    pub fn lane_center_y(&self, i: u8) -> f64 {
-        let lane_w = self.width_m / f64::from(self.lanes);
-        -self.width_m / 2.0 + lane_w * (f64::from(i) + 0.5)
-    }
 }
 
 /// A box standing on the road (a parked vehicle).
@@ -318,15 +277,7 @@ impl Scenario {
         }
         in_range("time_limit_s", self.time_limit_s, 1.0, 7.0 * 86400.0)?;
         let t = &self.tunnel;
-        in_range("tunnel.length_m", t.length_m, 10.0, 100_000.0)?;
-        in_range("tunnel.width_m", t.width_m, 2.0, 50.0)?;
-        in_range("tunnel.height_m", t.height_m, 2.0, 30.0)?;
-        if !(1..=8).contains(&t.lanes) {
-            return Err(Invalid::new(
-                "tunnel.lanes",
-                format!("{} is outside [1, 8]", t.lanes),
-            ));
-        }
+        t.validate()?;
 
         let mut names = HashSet::new();
         for (i, o) in self.obstacles.iter().enumerate() {
@@ -361,8 +312,7 @@ impl Scenario {
                     format!("'{}' is used twice", fire.name),
                 ));
             }
-            in_range(&f("x_m"), fire.x_m, 0.0, t.length_m)?;
-            in_range(&f("y_m"), fire.y_m, -t.width_m / 2.0, t.width_m / 2.0)?;
+            t.check_inside(&f("x_m/y_m"), fire.position())?;
             in_range(&f("peak_kw"), fire.peak_kw, 1.0, 300_000.0)?;
             in_range(
                 &f("ignition_s"),
@@ -376,6 +326,13 @@ impl Scenario {
         let mut ids = HashSet::new();
         for (i, r) in self.rails.iter().enumerate() {
             let f = |n: &str| format!("rails[{i}].{n}");
+            // The carriage model and the monorail planner measure the rail along x.
+            if !t.is_straight() {
+                return Err(Invalid::new(
+                    f("id"),
+                    "rails are supported in straight tunnels only",
+                ));
+            }
             if !ids.insert(r.id.as_str()) {
                 return Err(Invalid::new(f("id"), format!("'{}' is used twice", r.id)));
             }
@@ -529,9 +486,36 @@ mod tests {
     }
 
     #[test]
+    fn a_curved_centerline_loads_and_its_mistakes_are_named() {
+        let curved = OK.replace(
+            "lanes = 2\n",
+            "lanes = 2\ncenterline = [{ straight_m = 40.0 }, { arc_deg = 30.0, radius_m = 60.0, turn = \"right\" }, { straight_m = 28.584 }]\n",
+        );
+        let s = Scenario::from_toml(&curved, "c.toml").unwrap();
+        assert!(!s.tunnel.is_straight());
+        let end = s.tunnel.centre_pose(100.0);
+        assert!((end.yaw + 30f64.to_radians()).abs() < 1e-9, "turns right");
+        let e = err(&curved.replace("turn = \"right\"", "turn = \"up\""));
+        assert!(
+            e.contains("line 9") && e.contains("unknown variant `up`"),
+            "{e}"
+        );
+        let e = err(&curved.replace("radius_m = 60.0, ", ""));
+        assert!(e.contains("either { straight_m }"), "{e}");
+        let e = err(&curved.replace("28.584", "20.0"));
+        assert!(
+            e.contains("tunnel.length_m: is 100 but the centerline adds up to 91.416"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn errors_name_file_field_and_reason() {
         let e = err(&OK.replace("x_m = 60.0", "x_m = 160.0"));
-        assert!(e.starts_with("s.toml: fires[0].x_m: 160 is outside"), "{e}");
+        assert!(
+            e.starts_with("s.toml: fires[0].x_m/y_m: (160.00, 1.00) is outside the tunnel"),
+            "{e}"
+        );
         let e = err(&OK.replace("growth = \"fast\"", "growth = \"quick\""));
         assert!(e.contains("s.toml") && e.contains("quick"), "{e}");
         let e = err(&OK.replace("id = \"u1\"", "id = \"U 1\""));

@@ -7,9 +7,10 @@
 //! outside the image, or behind parked vehicles. A real detector replaces this stream and
 //! the agent cannot tell the difference.
 
+use firefleet_protocol::Point2;
 use firefleet_protocol::geometry::Pose2;
 use firefleet_protocol::msg::{DEPTH_WINDOW, FlameDetection, ObjectClass};
-use firefleet_protocol::scenario::Obstacle;
+use firefleet_protocol::scenario::{Obstacle, Tunnel};
 use firefleet_protocol::spec::CameraSpec;
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
@@ -23,8 +24,8 @@ pub type P3 = [f64; 3];
 /// frame).
 pub fn segment_hits(o: &Obstacle, a: P3, b: P3) -> bool {
     let pose = o.pose();
-    let la = pose.to_body(firefleet_protocol::Point2::new(a[0], a[1]));
-    let lb = pose.to_body(firefleet_protocol::Point2::new(b[0], b[1]));
+    let la = pose.to_body(Point2::new(a[0], a[1]));
+    let lb = pose.to_body(Point2::new(b[0], b[1]));
     let start = [la.x, la.y, a[2]];
     let dir = [lb.x - la.x, lb.y - la.y, b[2] - a[2]];
     let lo = [-o.length_m / 2.0, -o.width_m / 2.0, 0.0];
@@ -50,9 +51,12 @@ pub fn segment_hits(o: &Obstacle, a: P3, b: P3) -> bool {
     true
 }
 
-/// Whether any obstacle blocks the straight line between `a` and `b`.
-pub fn line_blocked(obstacles: &[Obstacle], a: P3, b: P3) -> bool {
-    obstacles.iter().any(|o| segment_hits(o, a, b))
+/// Whether a wall or an obstacle blocks the straight line between `a` and `b`. The walls
+/// of a straight tunnel never do (the road is convex); round a bend the inner wall does.
+pub fn line_blocked(tunnel: &Tunnel, obstacles: &[Obstacle], a: P3, b: P3) -> bool {
+    let plan = |p: P3| Point2::new(p[0], p[1]);
+    (!tunnel.is_straight() && !tunnel.segment_inside(plan(a), plan(b)))
+        || obstacles.iter().any(|o| segment_hits(o, a, b))
 }
 
 /// One flame as the camera could see it.
@@ -82,15 +86,16 @@ pub fn detect(
     cam: &CameraSpec,
     pose: &Pose2,
     flames: &[FlameTarget],
+    tunnel: &Tunnel,
     obstacles: &[Obstacle],
     rng: &mut impl Rng,
 ) -> Vec<FlameDetection> {
-    let optical_centre = pose.to_site(firefleet_protocol::Point2::new(cam.mount_forward_m, 0.0));
+    let optical_centre = pose.to_site(Point2::new(cam.mount_forward_m, 0.0));
     let eye = [optical_centre.x, optical_centre.y, cam.mount_height_m];
     let edge = Normal::new(0.0, cam.box_sigma_px).expect("positive sigma");
     let mut out = Vec::new();
     for f in flames {
-        let b = pose.to_body(firefleet_protocol::Point2::new(f.centre[0], f.centre[1]));
+        let b = pose.to_body(Point2::new(f.centre[0], f.centre[1]));
         let c = cam.body_to_camera([b.x, b.y, f.centre[2]]);
         let range = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
         let (Some([u0, v0]), Some([u1, v1])) = (
@@ -101,7 +106,7 @@ pub fn detect(
         };
         let (uc, vc) = ((u0 + u1) / 2.0, (v0 + v1) / 2.0);
         let in_image = (0.0..cam.width_px).contains(&uc) && (0.0..cam.height_px).contains(&vc);
-        if !in_image || range > cam.range_m || line_blocked(obstacles, eye, f.centre) {
+        if !in_image || range > cam.range_m || line_blocked(tunnel, obstacles, eye, f.centre) {
             continue;
         }
         // Draw every random number whether or not the flame is missed, so that one miss
@@ -164,6 +169,11 @@ mod tests {
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
+    /// A straight road wide enough that its walls never matter.
+    fn open_road() -> Tunnel {
+        Tunnel::straight(1000.0, 50.0, 10.0, 2)
+    }
+
     fn car(x: f64, y: f64) -> Obstacle {
         Obstacle {
             name: "car".into(),
@@ -191,7 +201,7 @@ mod tests {
         obstacles: &[Obstacle],
         rng: &mut ChaCha8Rng,
     ) -> Vec<FlameDetection> {
-        detect(&GROUND.camera, pose, &[f], obstacles, rng)
+        detect(&GROUND.camera, pose, &[f], &open_road(), obstacles, rng)
             .into_iter()
             .filter(|d| d.confidence > 0.6)
             .collect()
@@ -292,7 +302,14 @@ mod tests {
             },
         ];
         for _ in 0..5000 {
-            for d in detect(&GROUND.camera, &Pose2::default(), &flames, &[], &mut rng) {
+            for d in detect(
+                &GROUND.camera,
+                &Pose2::default(),
+                &flames,
+                &open_road(),
+                &[],
+                &mut rng,
+            ) {
                 d.validate().unwrap();
             }
         }
@@ -303,7 +320,17 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let frames = 20_000;
         let alarms: usize = (0..frames)
-            .map(|_| detect(&GROUND.camera, &Pose2::default(), &[], &[], &mut rng).len())
+            .map(|_| {
+                detect(
+                    &GROUND.camera,
+                    &Pose2::default(),
+                    &[],
+                    &open_road(),
+                    &[],
+                    &mut rng,
+                )
+                .len()
+            })
             .sum();
         let rate = alarms as f64 / frames as f64;
         assert!((rate - physics::FALSE_ALARM_PROB).abs() < 0.004, "{rate}");

@@ -89,7 +89,7 @@ pub fn trace_at_speed(
     let mut prev = nozzle;
     for i in 1..=steps {
         let p = at(t_land * i as f64 / steps as f64);
-        if p[1].abs() > tunnel.width_m / 2.0 {
+        if !tunnel.contains(Point2::new(p[0], p[1]), 0.0) {
             return Landing::Blocked;
         }
         if let Some(index) = obstacles.iter().position(|o| segment_hits(o, prev, p)) {
@@ -113,6 +113,7 @@ mod tests {
         width_m: 10.0,
         height_m: 6.0,
         lanes: 2,
+        centerline: Vec::new(),
     };
 
     /// A nozzle whose jet is a plain drag-free jet at `v` m/s (no reach correction).

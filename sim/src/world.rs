@@ -274,7 +274,7 @@ impl World {
             })
             .collect();
         let mut w = Self {
-            tunnel: scenario.tunnel,
+            tunnel: scenario.tunnel.clone(),
             obstacles: scenario.obstacles.clone(),
             t: 0.0,
             time_limit_s: scenario.time_limit_s,
@@ -548,6 +548,7 @@ impl World {
             &b.spec.camera,
             &b.spec.camera.looking_from(&b.pose, b.cannon.pan),
             &flames,
+            &self.tunnel,
             &self.obstacles,
             &mut self.rng,
         );
@@ -591,7 +592,7 @@ impl World {
             let range = (r * r + (m[2] - centre[2]).powi(2)).sqrt();
             if f.hrr_kw < physics::Q_VISIBLE_KW
                 || range > spec.detector_range_m
-                || camera::line_blocked(&self.obstacles, m, centre)
+                || camera::line_blocked(&self.tunnel, &self.obstacles, m, centre)
             {
                 continue;
             }

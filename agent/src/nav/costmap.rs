@@ -18,7 +18,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use firefleet_protocol::Point2;
-use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::scenario::{Scenario, Tunnel};
 
 use super::grid_search::{Cell, CostGrid};
 
@@ -97,7 +97,14 @@ impl Terrain {
         let cost = time
             .iter()
             .zip(&self.temp)
-            .map(|(t, temp)| (w[0] * t + w[1] * f64::from(*temp)) as f32)
+            // An impassable cell stays so even at a zero time weight (0 x inf is NaN).
+            .map(|(t, temp)| {
+                if t.is_finite() {
+                    (w[0] * t + w[1] * f64::from(*temp)) as f32
+                } else {
+                    f32::INFINITY
+                }
+            })
             .collect();
         CostGrid::new(self.width, self.height, cost).expect("non-negative weights and terms")
     }
@@ -201,16 +208,19 @@ impl Terrain {
     /// (kW/m^2) of the scenario's fires at their peak, from a point source radiating 30 %
     /// of the heat release (the simulator's model), capped at 100 kW/m^2. The paper's
     /// layer is a temperature; any heat-exposure field serves eq. 6 and 8 the same way.
+    /// The grid covers the road's bounding box; cells outside the tunnel (round a curve)
+    /// get infinite roughness, which makes them impassable.
     pub fn from_scenario(s: &Scenario, res: f64) -> Self {
         let t = &s.tunnel;
+        let (lo, hi) = t.bounds();
         let (w, h) = (
-            (t.length_m / res).ceil() as usize,
-            (t.width_m / res).ceil() as usize,
+            ((hi.x - lo.x) / res).ceil() as usize,
+            ((hi.y - lo.y) / res).ceil() as usize,
         );
         let centre = |i: usize| {
             Point2::new(
-                ((i % w) as f64 + 0.5) * res,
-                -t.width_m / 2.0 + ((i / w) as f64 + 0.5) * res,
+                lo.x + ((i % w) as f64 + 0.5) * res,
+                lo.y + ((i / w) as f64 + 0.5) * res,
             )
         };
         let heights = (0..w * h)
@@ -240,17 +250,26 @@ impl Terrain {
             width: w,
             height: h,
             h: heights,
-            r: vec![1.0; w * h],
+            r: (0..w * h)
+                .map(|i| {
+                    if t.contains(centre(i), 0.0) {
+                        1.0
+                    } else {
+                        f32::INFINITY
+                    }
+                })
+                .collect(),
             temp: heat,
         }
     }
 
     /// The cell of site point `p` at `res` metres per cell, for a terrain made by
-    /// [`Terrain::from_scenario`] of a tunnel `width_m` wide.
-    pub fn cell_of(&self, p: Point2, res: f64, width_m: f64) -> Cell {
+    /// [`Terrain::from_scenario`] of tunnel `t`.
+    pub fn cell_of(&self, p: Point2, res: f64, t: &Tunnel) -> Cell {
+        let lo = t.bounds().0;
         (
-            ((p.x / res) as usize).min(self.width - 1),
-            (((p.y + width_m / 2.0) / res) as usize).min(self.height - 1),
+            (((p.x - lo.x) / res).max(0.0) as usize).min(self.width - 1),
+            (((p.y - lo.y) / res).max(0.0) as usize).min(self.height - 1),
         )
     }
 }

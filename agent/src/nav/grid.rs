@@ -1,4 +1,6 @@
-//! Occupancy grid of the tunnel road.
+//! Occupancy grid of the tunnel road: the road's bounding box in the site frame, cells
+//! outside the tunnel (beyond its walls or ends) blocked like obstacles, so a curved
+//! tunnel is just a grid with more blocked cells.
 
 use firefleet_protocol::Point2;
 use firefleet_protocol::scenario::Scenario;
@@ -6,10 +8,11 @@ use firefleet_protocol::scenario::Scenario;
 /// A cell index (column along x, row along y).
 pub type Cell = (usize, usize);
 
-/// A boolean occupancy grid over the tunnel, origin at (0, -width/2).
+/// A boolean occupancy grid over the tunnel, origin at the road's lowest corner.
 #[derive(Debug, Clone)]
 pub struct Grid {
     res: f64,
+    x0: f64,
     y0: f64,
     w: usize,
     h: usize,
@@ -20,11 +23,13 @@ impl Grid {
     /// Road cells blocked by walls and obstacle footprints grown by `inflate` metres.
     pub fn from_scenario(s: &Scenario, res: f64, inflate: f64) -> Self {
         let t = &s.tunnel;
-        let w = (t.length_m / res).ceil() as usize;
-        let h = (t.width_m / res).ceil() as usize;
+        let (lo, hi) = t.bounds();
+        let w = ((hi.x - lo.x) / res).ceil() as usize;
+        let h = ((hi.y - lo.y) / res).ceil() as usize;
         let mut g = Self {
             res,
-            y0: -t.width_m / 2.0,
+            x0: lo.x,
+            y0: lo.y,
             w,
             h,
             occ: vec![false; w * h],
@@ -48,7 +53,7 @@ impl Grid {
     }
 
     pub fn cell(&self, p: Point2) -> Option<Cell> {
-        let c = (p.x / self.res).floor();
+        let c = ((p.x - self.x0) / self.res).floor();
         let r = ((p.y - self.y0) / self.res).floor();
         (c >= 0.0 && r >= 0.0 && (c as usize) < self.w && (r as usize) < self.h)
             .then_some((c as usize, r as usize))
@@ -56,7 +61,7 @@ impl Grid {
 
     pub fn center(&self, (c, r): Cell) -> Point2 {
         Point2::new(
-            (c as f64 + 0.5) * self.res,
+            self.x0 + (c as f64 + 0.5) * self.res,
             self.y0 + (r as f64 + 0.5) * self.res,
         )
     }
@@ -95,7 +100,7 @@ impl Grid {
             };
             (origin + k * self.res - pos) / d
         };
-        let mut t_x = first(a.x, 0.0, cur.0, step_x, dx);
+        let mut t_x = first(a.x, self.x0, cur.0, step_x, dx);
         let mut t_y = first(a.y, self.y0, cur.1, step_y, dy);
         let t_dx = if dx != 0.0 {
             self.res / dx.abs()
