@@ -25,6 +25,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 mod costmap_ga;
+mod nav;
 mod robogat;
 mod scale;
 
@@ -40,6 +41,8 @@ pub enum ExperimentCommand {
     Scale(scale::ScaleArgs),
     /// The Dijkstra+GA paper's heat-aware cost map: no heat, w1 = w2 = 1, GA-tuned.
     CostmapGa(costmap_ga::CostmapGaArgs),
+    /// The BT paper's navigation trials in a curved tunnel, visibility term on and off.
+    Nav(nav::NavArgs),
 }
 
 #[derive(Args, Debug)]
@@ -73,6 +76,7 @@ pub async fn run(cmd: ExperimentCommand) -> anyhow::Result<ExitCode> {
         ExperimentCommand::Robogat(a) => robogat::run(a),
         ExperimentCommand::Scale(a) => scale::run(a).await,
         ExperimentCommand::CostmapGa(a) => costmap_ga::run(a),
+        ExperimentCommand::Nav(a) => nav::run(a),
     }
 }
 

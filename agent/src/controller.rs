@@ -60,6 +60,10 @@ impl<U: Services> Controller<U> {
         self.unit.command()
     }
 
+    pub(crate) fn unit_mut(&mut self) -> &mut U {
+        &mut self.unit
+    }
+
     /// Tick the tree once at site time `t` over the unit as it is.
     pub fn tick(&mut self, t: f64) -> Status {
         self.tree.tick(t, &mut self.unit)

@@ -60,4 +60,11 @@ impl Controller<Unit> {
             tick_period_s,
         ))
     }
+
+    /// The weight of Hybrid A*'s visibility term on the way to a fire, m of path (0 turns
+    /// it off; the default is the shipped tuning). For experiments that measure what the
+    /// term buys.
+    pub fn set_visibility_weight(&mut self, lambda_m: f64) {
+        self.unit_mut().visibility_lambda_m = lambda_m.max(0.0);
+    }
 }

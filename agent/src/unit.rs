@@ -35,6 +35,12 @@ const GRID_RES_M: f64 = 0.25;
 /// Clearance Hybrid A* keeps between the footprint and walls or vehicles, m: room for the
 /// path follower's tracking error.
 const HYBRID_MARGIN_M: f64 = 0.3;
+/// Expansions Hybrid A* may spend on one firing spot, and how many spots it tries before
+/// the grid planner takes over: a bound on the planning done inside one control step.
+const HYBRID_BUDGET: usize = 20_000;
+const HYBRID_SPOTS: usize = 6;
+/// The straight a Hybrid A* path to a firing spot ends on, m, longest first.
+const RUN_IN_M: [f64; 3] = [2.5, 1.5, 0.75];
 /// Weight of Hybrid A*'s visibility term on the way to a fire, m of path.
 const VISIBILITY_LAMBDA_M: f64 = 5.0;
 /// How long after the last detection a flame still counts as seen, s.
@@ -92,6 +98,8 @@ pub struct Unit {
     pub(crate) mission: Mission,
     /// Goal of the latest cruise, kept after arrival.
     cruising_to: Option<Point2>,
+    /// Weight of Hybrid A*'s visibility term on the way to a fire, m.
+    pub(crate) visibility_lambda_m: f64,
     last_report_t: f64,
 }
 
@@ -124,6 +132,7 @@ impl Unit {
             frame,
             nav: None,
             cruising_to: None,
+            visibility_lambda_m: VISIBILITY_LAMBDA_M,
             prepared: None,
             aim: None,
             scan: None,
@@ -240,67 +249,97 @@ impl Unit {
         self.nav.as_ref().is_some_and(|n| n.arrived)
     }
 
-    /// Choose a firing position for a fire at `target` and prepare the path to it: free for
-    /// the vehicle, with line of sight and a jet solution under the ceiling, arriving along
-    /// the line towards the fire so that the camera faces it.
     /// A forward-only Hybrid A* path from the unit to `spot`, arriving facing `target` and
     /// keeping it in view, as points for the path follower; `None` if it finds none.
     fn hybrid_path(&self, from: Point2, spot: Point2, target: Point2) -> Option<Vec<Point2>> {
         let mut params = Params::for_radius(self.spec.min_turn_radius_m());
         params.allow_reverse = false;
-        params.lambda_m = VISIBILITY_LAMBDA_M;
-        params.max_expansions = 20_000;
+        params.lambda_m = self.visibility_lambda_m;
+        params.max_expansions = HYBRID_BUDGET;
         let footprint = Footprint {
             length_m: self.spec.length_m,
             width_m: self.spec.width_m,
         };
         let planner = HybridAStar::new(&self.hybrid_grid, footprint, params);
         let start = Pose2::new(from.x, from.y, self.pose().yaw);
-        let goal = Pose2::new(spot.x, spot.y, spot.bearing_to(target));
+        let facing = spot.bearing_to(target);
+        // Plan to a pose short of the spot and finish on a straight run-in: a follower
+        // settles its heading on a straight, while on the end of a curve it lags behind
+        // the path by degrees. The longest run-in there is room for; none at worst.
+        let back = |d: f64| {
+            let p = spot.offset(facing + std::f64::consts::PI, d);
+            Pose2::new(p.x, p.y, facing)
+        };
+        let goal = RUN_IN_M
+            .into_iter()
+            .find(|&len| (0..=8).all(|k| planner.pose_free(&back(len * f64::from(k) / 8.0))))
+            .map_or(back(0.0), back);
         let plan = planner.plan(start, goal, Some(target)).ok()?;
         // A point every half metre or so is plenty for pure pursuit.
         let mut points: Vec<Point2> = plan.poses.iter().step_by(2).map(|p| p.position()).collect();
-        points.push(spot);
+        points.push(goal.position());
+        if goal.position() != spot {
+            points.push(spot);
+        }
         Some(points)
     }
 
+    /// Choose a firing position for a fire at `target` and prepare the path to it: free for
+    /// the vehicle, with line of sight and a jet solution under the ceiling, arriving along
+    /// the line towards the fire so that the camera faces it.
     pub fn firing_position(&mut self, target: Point2) -> Option<Point2> {
         let from = self.pose().position();
-        let home = target.bearing_to(from);
+        let t = &self.scenario.tunnel;
+        // Spots on the unit's side of the fire: towards the unit where it can see the
+        // fire's spot, else back along the road (round a bend the straight line to the unit
+        // runs through the wall).
+        let home = if t.segment_inside(target, from) {
+            target.bearing_to(from)
+        } else {
+            let axis = t.heading_at(t.chainage(target));
+            if t.chainage(from) < t.chainage(target) {
+                axis + std::f64::consts::PI
+            } else {
+                axis
+            }
+        };
         // Straight towards the unit first, then alternately either side, 20 deg steps.
         let offsets = std::iter::once(0.0).chain((1..=8).flat_map(|k| {
             let a = f64::from(k) * 0.35;
             [a, -a]
         }));
-        for off in offsets {
-            for r in STANDOFF_M {
-                let spot = target.offset(home + off, r);
-                let nav = &self.nav_grid;
-                if !nav.free(spot)
-                    || !self.sight_grid.segment_free(spot, target)
-                    || self.firing_solution(spot, target).is_err()
-                {
-                    continue;
-                }
-                // A kinematically feasible path that arrives facing the flame and keeps
-                // it in view, when Hybrid A* finds one; else the grid path with a lead-in.
-                if let Some(p) = self.hybrid_path(from, spot, target) {
-                    self.prepared = Some((spot, p));
-                    return Some(spot);
-                }
-                let lead_in = target.offset(home + off, r + 2.5);
-                let path = if nav.free(lead_in) && nav.segment_free(lead_in, spot) {
-                    nav::plan(nav, from, lead_in).map(|mut p| {
-                        p.push(spot);
-                        p
-                    })
-                } else {
-                    nav::plan(nav, from, spot)
-                };
-                if let Some(p) = path {
-                    self.prepared = Some((spot, p));
-                    return Some(spot);
-                }
+        let spots: Vec<(f64, f64, Point2)> = offsets
+            .flat_map(|off| STANDOFF_M.map(|r| (off, r, target.offset(home + off, r))))
+            .filter(|&(_, _, spot)| {
+                self.nav_grid.free(spot)
+                    && self.sight_grid.segment_free(spot, target)
+                    && self.firing_solution(spot, target).is_ok()
+            })
+            .collect();
+        // A kinematically feasible path that arrives facing the flame and keeps it in
+        // view, to one of the best few spots; a spot can be out of reach of a forward-only
+        // vehicle (say, beside a parked car at an angle), so a few are tried.
+        for &(_, _, spot) in spots.iter().take(HYBRID_SPOTS) {
+            if let Some(p) = self.hybrid_path(from, spot, target) {
+                self.prepared = Some((spot, p));
+                return Some(spot);
+            }
+        }
+        // Else the grid path, with a lead-in along the line to the fire where there is room.
+        let nav = &self.nav_grid;
+        for &(off, r, spot) in &spots {
+            let lead_in = target.offset(home + off, r + 2.5);
+            let path = if nav.free(lead_in) && nav.segment_free(lead_in, spot) {
+                nav::plan(nav, from, lead_in).map(|mut p| {
+                    p.push(spot);
+                    p
+                })
+            } else {
+                nav::plan(nav, from, spot)
+            };
+            if let Some(p) = path {
+                self.prepared = Some((spot, p));
+                return Some(spot);
             }
         }
         None

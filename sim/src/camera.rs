@@ -81,6 +81,52 @@ fn depth_window(
     })
 }
 
+/// A flame in the image: its centre in the camera frame, its range and its box.
+struct Imaged {
+    c: P3,
+    range: f64,
+    corners: [f64; 4],
+}
+
+/// Where flame `f` appears to a camera at `pose`, if it is in the image, within range and
+/// in plain sight.
+fn image(
+    cam: &CameraSpec,
+    pose: &Pose2,
+    f: &FlameTarget,
+    tunnel: &Tunnel,
+    obstacles: &[Obstacle],
+) -> Option<Imaged> {
+    let b = pose.to_body(Point2::new(f.centre[0], f.centre[1]));
+    let c = cam.body_to_camera([b.x, b.y, f.centre[2]]);
+    let range = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+    let [u0, v0] = cam.project([c[0] - f.radius_m, c[1] - f.height_m / 2.0, c[2]])?;
+    let [u1, v1] = cam.project([c[0] + f.radius_m, c[1] + f.height_m / 2.0, c[2]])?;
+    let (uc, vc) = ((u0 + u1) / 2.0, (v0 + v1) / 2.0);
+    let in_image = (0.0..cam.width_px).contains(&uc) && (0.0..cam.height_px).contains(&vc);
+    let optical_centre = pose.to_site(Point2::new(cam.mount_forward_m, 0.0));
+    let eye = [optical_centre.x, optical_centre.y, cam.mount_height_m];
+    (in_image && range <= cam.range_m && !line_blocked(tunnel, obstacles, eye, f.centre)).then_some(
+        Imaged {
+            c,
+            range,
+            corners: [u0, v0, u1, v1],
+        },
+    )
+}
+
+/// Whether a camera at `pose` has flame `f` in view: in the image, within range, not
+/// hidden by a wall or a vehicle. What the detector would see if it never missed.
+pub fn in_view(
+    cam: &CameraSpec,
+    pose: &Pose2,
+    f: &FlameTarget,
+    tunnel: &Tunnel,
+    obstacles: &[Obstacle],
+) -> bool {
+    image(cam, pose, f, tunnel, obstacles).is_some()
+}
+
 /// Detect flames from a unit at `pose`; `rng` draws misses, false alarms and noise.
 pub fn detect(
     cam: &CameraSpec,
@@ -90,25 +136,17 @@ pub fn detect(
     obstacles: &[Obstacle],
     rng: &mut impl Rng,
 ) -> Vec<FlameDetection> {
-    let optical_centre = pose.to_site(Point2::new(cam.mount_forward_m, 0.0));
-    let eye = [optical_centre.x, optical_centre.y, cam.mount_height_m];
     let edge = Normal::new(0.0, cam.box_sigma_px).expect("positive sigma");
     let mut out = Vec::new();
     for f in flames {
-        let b = pose.to_body(Point2::new(f.centre[0], f.centre[1]));
-        let c = cam.body_to_camera([b.x, b.y, f.centre[2]]);
-        let range = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-        let (Some([u0, v0]), Some([u1, v1])) = (
-            cam.project([c[0] - f.radius_m, c[1] - f.height_m / 2.0, c[2]]),
-            cam.project([c[0] + f.radius_m, c[1] + f.height_m / 2.0, c[2]]),
-        ) else {
+        let Some(Imaged {
+            c,
+            range,
+            corners: [u0, v0, u1, v1],
+        }) = image(cam, pose, f, tunnel, obstacles)
+        else {
             continue;
         };
-        let (uc, vc) = ((u0 + u1) / 2.0, (v0 + v1) / 2.0);
-        let in_image = (0.0..cam.width_px).contains(&uc) && (0.0..cam.height_px).contains(&vc);
-        if !in_image || range > cam.range_m || line_blocked(tunnel, obstacles, eye, f.centre) {
-            continue;
-        }
         // Draw every random number whether or not the flame is missed, so that one miss
         // does not shift the noise of every later detection.
         let missed = rng.random::<f64>() < physics::DETECT_MISS_PROB;

@@ -531,18 +531,40 @@ impl World {
         }
     }
 
+    /// The flames a camera could see now, one per visible fire, in scenario order.
+    fn visible_flames(&self) -> impl Iterator<Item = (usize, FlameTarget)> + '_ {
+        self.fires
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| {
+                f.state == TruthFireState::Burning && f.hrr_kw >= physics::Q_VISIBLE_KW
+            })
+            .map(|(i, f)| {
+                (
+                    i,
+                    FlameTarget {
+                        centre: f.flame_centre(),
+                        radius_m: f.spec.radius_m,
+                        height_m: f.flame_height(),
+                    },
+                )
+            })
+    }
+
+    /// Whether ground unit `id`'s camera has fire `fire` (scenario index) in view now: in
+    /// its image, within range, hidden by no wall or vehicle. Ground truth for experiments;
+    /// `None` for an unknown unit.
+    pub fn flame_in_view(&self, id: &UnitId, fire: usize) -> Option<bool> {
+        let b = self.bodies.iter().find(|b| &b.id == id)?;
+        let eye = b.spec.camera.looking_from(&b.pose, b.cannon.pan);
+        Some(self.visible_flames().any(|(i, f)| {
+            i == fire && camera::in_view(&b.spec.camera, &eye, &f, &self.tunnel, &self.obstacles)
+        }))
+    }
+
     /// What unit `id`'s sensors read now; `None` for an unknown unit.
     pub fn sensors(&mut self, id: &UnitId) -> Option<UnitSensors> {
-        let flames: Vec<FlameTarget> = self
-            .fires
-            .iter()
-            .filter(|f| f.state == TruthFireState::Burning && f.hrr_kw >= physics::Q_VISIBLE_KW)
-            .map(|f| FlameTarget {
-                centre: f.flame_centre(),
-                radius_m: f.spec.radius_m,
-                height_m: f.flame_height(),
-            })
-            .collect();
+        let flames: Vec<FlameTarget> = self.visible_flames().map(|(_, f)| f).collect();
         let b = self.bodies.iter().find(|b| &b.id == id)?;
         let detections = camera::detect(
             &b.spec.camera,

@@ -95,7 +95,18 @@ impl PurePursuit {
             left -= d;
             from = to;
         }
-        self.goal()
+        // Past the end, aim along the last segment's extension: steering at the goal point
+        // itself would swing the vehicle round to face it and spoil the arrival heading.
+        let n = self.path.len();
+        if n < 2 {
+            return self.goal();
+        }
+        let (a, b) = (self.path[n - 2], self.path[n - 1]);
+        let d = a.dist(b);
+        if d < 1e-9 {
+            return b;
+        }
+        lerp(b, Point2::new(2.0 * b.x - a.x, 2.0 * b.y - a.y), left / d)
     }
 
     fn remaining_from(&self, p: Point2) -> f64 {
