@@ -287,6 +287,7 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
             position: Point2::new(f64::NAN, 0.0),
             cov: [0.1, 0.0, 0.1],
             confidence: 0.9,
+            hrr_kw: None,
         }],
     };
     let mut stale_version = codec::encode(&bad_report);
@@ -297,6 +298,7 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
             position: Point2::new(30.0, 0.0),
             cov: [0.1, 0.0, 0.1],
             confidence: 0.9,
+            hrr_kw: None,
         }],
         ..bad_report.clone()
     };

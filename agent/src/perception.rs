@@ -24,6 +24,19 @@ pub struct Located {
     pub radius_m: f64,
 }
 
+impl Located {
+    /// The heat release a flame of this size gives off, kW: Heskestad's flame-height
+    /// correlation `L = 0.235 Q^0.4 - 1.02 D` (SFPE Handbook) solved for `Q`, with the
+    /// flame `L` twice the box centre's height (the box spans the flame from the road up)
+    /// and `D` the box's width. Coarse (a flickering flame's height varies by tens of per
+    /// cent, and the heat release goes with its 5/2 power), but enough to tell a burning
+    /// tyre from a burning truck, which is what deciding how many units a fire needs asks.
+    pub fn heat_release_kw(&self) -> f64 {
+        let (l, d) = (2.0 * self.height_m, 2.0 * self.radius_m);
+        ((l + 1.02 * d) / 0.235).powf(2.5)
+    }
+}
+
 /// Median of the valid (non-zero, finite) depths, or `None` with too few of them.
 pub fn robust_depth(window: &[f32]) -> Option<f64> {
     let mut valid = [0.0f32; DEPTH_WINDOW * DEPTH_WINDOW];
@@ -68,6 +81,21 @@ mod tests {
     use firefleet_protocol::msg::ObjectClass;
     use firefleet_protocol::spec::GROUND;
     use proptest::prelude::*;
+
+    #[test]
+    fn heat_release_inverts_heskestads_flame_height() {
+        // 5 MW over a 2 m pool: L = 0.235 * 5000^0.4 - 1.02 * 2 = 5.05 m.
+        let l = 0.235 * 5000f64.powf(0.4) - 2.04;
+        let seen = Located {
+            estimate: Gaussian2 {
+                mean: Point2::new(0.0, 0.0),
+                cov: [0.1, 0.0, 0.1],
+            },
+            height_m: l / 2.0,
+            radius_m: 1.0,
+        };
+        assert!((seen.heat_release_kw() - 5000.0).abs() < 1e-6);
+    }
 
     /// An ideal detection of a flame centred at body point `b`.
     fn detection(cam: &CameraSpec, b: [f64; 3], depth: f32) -> FlameDetection {

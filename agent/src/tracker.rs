@@ -6,7 +6,7 @@
 //! [`CONFIRM_HITS`] hits, which suppresses one-frame false alarms.
 
 use firefleet_protocol::geometry::{Gaussian2, Point2};
-use firefleet_protocol::msg::{FlameObservation, UnitSensors};
+use firefleet_protocol::msg::{FlameObservation, MAX_HRR_KW, UnitSensors};
 use firefleet_protocol::spec::GroundSpec;
 
 use crate::perception;
@@ -29,6 +29,8 @@ pub struct Track {
     pub confidence: f64,
     /// Half the flame's width, from its box and depth, m (smoothed).
     pub radius_m: f64,
+    /// Heat release from the flame's size, kW (smoothed).
+    pub hrr_kw: f64,
     pub hits: u32,
     pub last_seen: f64,
 }
@@ -80,12 +82,14 @@ impl FlameTracker {
                     tr.hits += 1;
                     tr.confidence = 0.7 * tr.confidence + 0.3 * d.confidence;
                     tr.radius_m = 0.7 * tr.radius_m + 0.3 * located.radius_m;
+                    tr.hrr_kw = 0.7 * tr.hrr_kw + 0.3 * located.heat_release_kw();
                     tr.last_seen = s.t;
                 }
                 None => self.tracks.push(Track {
                     estimate: z,
                     confidence: d.confidence,
                     radius_m: located.radius_m,
+                    hrr_kw: located.heat_release_kw(),
                     hits: 1,
                     last_seen: s.t,
                 }),
@@ -111,6 +115,7 @@ impl FlameTracker {
                 position: t.position(),
                 cov: t.estimate.cov,
                 confidence: t.confidence.clamp(0.0, 1.0),
+                hrr_kw: Some(t.hrr_kw.clamp(0.0, MAX_HRR_KW)),
             })
             .collect()
     }

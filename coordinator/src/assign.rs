@@ -167,6 +167,32 @@ pub struct Need {
     pub priority: u8,
 }
 
+/// Heat release per square metre of a burning vehicle, kW/m^2: design value for car and
+/// truck fires, in the range of the measured peaks (about 250 to 600 kW/m^2; Ingason and
+/// Lönnermark, tunnel fire tests). A fire's burning area is its heat release over this.
+pub const HRR_PER_AREA_KW_M2: f64 = 600.0;
+/// Time in which the ground cannons on a fire should knock it down to [`KNOCKED_DOWN_KW`],
+/// s.
+pub const KNOCKDOWN_S: f64 = 60.0;
+pub const KNOCKED_DOWN_KW: f64 = 20.0;
+/// No fire is given more ground units than this: beyond, they only get in each other's
+/// way (and the tunnel cross-section has room for about three).
+pub const MAX_ATTACKERS: usize = 3;
+
+/// How many ground cannons of `flow_l_s` a fire of `hrr_kw` needs (1 if its size is
+/// unknown): enough water on its burning area that Evans' suppression correlation
+/// (`Q(t) = Q0 exp(-t / tau)`, `tau = 3 w''^-1.85` s for a spray density `w''` in mm/s;
+/// NISTIR 5254) brings it down to [`KNOCKED_DOWN_KW`] within [`KNOCKDOWN_S`].
+pub fn attackers_needed(hrr_kw: Option<f64>, flow_l_s: f64) -> usize {
+    let Some(q) = hrr_kw.filter(|q| *q > KNOCKED_DOWN_KW) else {
+        return 1;
+    };
+    let tau = KNOCKDOWN_S / (q / KNOCKED_DOWN_KW).ln();
+    let density_mm_s = (3.0 / tau).powf(1.0 / 1.85);
+    let flow = density_mm_s * q / HRR_PER_AREA_KW_M2;
+    ((flow / flow_l_s.max(0.1)).ceil() as usize).clamp(1, MAX_ATTACKERS)
+}
+
 /// Travel time one level of zone priority outweighs, s: more than any trip in a tunnel.
 pub const PRIORITY_S: f64 = 3600.0;
 
@@ -393,6 +419,24 @@ mod tests {
             at: Place::straight(x, 0.0),
             mobility: Mobility::Ground { speed_m_s: 1.0 },
             water_l: 1500.0,
+        }
+    }
+
+    #[test]
+    fn bigger_fires_need_more_cannons() {
+        let n = |q| attackers_needed(q, 10.0);
+        assert_eq!(n(None), 1, "unknown size: one");
+        assert_eq!(n(Some(5.0)), 1);
+        // 5 MW (a car): 8.3 m^2 at 0.50 mm/s, 4.2 L/s.
+        assert_eq!(n(Some(5_000.0)), 1);
+        // 20 MW (a van or small truck): 33 m^2 at 0.56 mm/s, 19 L/s.
+        assert_eq!(n(Some(20_000.0)), 2);
+        assert_eq!(n(Some(30_000.0)), 3);
+        assert_eq!(n(Some(300_000.0)), MAX_ATTACKERS);
+        let mut last = 0;
+        for q in (1..200).map(|k| f64::from(k) * 1000.0) {
+            assert!(n(Some(q)) >= last, "monotonic in the heat release");
+            last = n(Some(q));
         }
     }
 

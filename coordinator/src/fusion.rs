@@ -39,6 +39,8 @@ pub struct Fire {
     pub state: FireState,
     /// Latest estimate from each unit that has seen it.
     per_unit: BTreeMap<UnitId, (Gaussian2, f64)>,
+    /// Latest heat-release estimate from each unit that could size it, kW.
+    sizes: BTreeMap<UnitId, f64>,
     pub estimate: Gaussian2,
     pub confidence: f64,
     pub first_seen: f64,
@@ -54,6 +56,7 @@ impl Fire {
             id,
             state: FireState::Tentative,
             per_unit: BTreeMap::from([(unit.clone(), (z, c))]),
+            sizes: BTreeMap::new(),
             estimate: z,
             confidence: 0.0,
             first_seen: t,
@@ -82,6 +85,12 @@ impl Fire {
         self.estimate.mean
     }
 
+    /// Heat release, kW: the mean of the units' latest estimates; `None` until a unit
+    /// that can size flames has seen it.
+    pub fn hrr_kw(&self) -> Option<f64> {
+        (!self.sizes.is_empty()).then(|| self.sizes.values().sum::<f64>() / self.sizes.len() as f64)
+    }
+
     /// Still burning as far as the coordinator knows.
     pub fn active(&self) -> bool {
         !matches!(self.state, FireState::Out | FireState::Lost)
@@ -101,6 +110,7 @@ impl Fire {
             state: self.state,
             assigned,
             seen_by: self.per_unit.keys().cloned().collect(),
+            hrr_kw: self.hrr_kw(),
         }
     }
 }
@@ -185,6 +195,9 @@ impl Fusion {
                     for (u, e) in &removed.per_unit {
                         kept.per_unit.entry(u.clone()).or_insert(*e);
                     }
+                    for (u, q) in &removed.sizes {
+                        kept.sizes.entry(u.clone()).or_insert(*q);
+                    }
                     kept.first_seen = kept.first_seen.min(removed.first_seen);
                     kept.last_seen = kept.last_seen.max(removed.last_seen);
                     if rank(removed.state) > rank(kept.state) {
@@ -245,6 +258,9 @@ impl Fusion {
             self.next_id += 1;
             let id = FireId(self.next_id);
             let mut f = Fire::new(id, unit, z, obs.confidence, t);
+            if let Some(q) = obs.hrr_kw {
+                f.sizes.insert(unit.clone(), q);
+            }
             let confirmed = f.confidence >= CONFIRM_CONFIDENCE;
             if confirmed {
                 f.state = FireState::Confirmed;
@@ -258,6 +274,9 @@ impl Fusion {
         };
         fire.last_seen = t;
         fire.per_unit.insert(unit.clone(), (z, obs.confidence));
+        if let Some(q) = obs.hrr_kw {
+            fire.sizes.insert(unit.clone(), q);
+        }
         fire.refuse();
         match fire.state {
             FireState::Out if fire.out_at.is_some_and(|o| t - o > REIGNITE_AFTER_S) => {
@@ -302,6 +321,7 @@ mod tests {
             position: Point2::new(x, y),
             cov: [var, 0.0, var],
             confidence: c,
+            hrr_kw: None,
         }
     }
 

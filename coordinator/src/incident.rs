@@ -15,7 +15,7 @@ use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::validate::Invalid;
 use firefleet_protocol::{FireId, Point2, UnitId, ZoneId};
 
-use crate::assign::{Candidate, Mobility, Need, Pick, Place, Site, Strategy};
+use crate::assign::{Candidate, Mobility, Need, Pick, Place, Site, Strategy, attackers_needed};
 use crate::fusion::{Fused, Fusion};
 use crate::goals::Goals;
 
@@ -25,9 +25,10 @@ const DECISION_LOG: usize = 200;
 /// which a cruising unit stops for a flame, and where the radiant flux of a 5 MW fire is
 /// under 0.2 kW/m^2.
 const STAGE_OFFSET_M: f64 = 25.0;
-/// Ground units sent to one fire, the second as soon as one is free: alone, every unit
-/// that sees a fire attacks it, and two cannons knock a fire down in less than half the
-/// time of one (Evans: tau ~ density^-1.85).
+/// Ground units sent to one fire while units are free (more if its heat release needs
+/// them, [`crate::assign::attackers_needed`]): alone, every unit that sees a fire attacks
+/// it, and two cannons knock a fire down in less than half the time of one (Evans: tau ~
+/// density^-1.85).
 const UNITS_PER_FIRE: usize = 2;
 /// Free units staged as reserves per active fire, nearest first.
 const RESERVES_PER_FIRE: usize = 3;
@@ -135,7 +136,8 @@ impl Incident {
         }
     }
 
-    /// Send up to `n` ground units to each fire (default [`UNITS_PER_FIRE`]; at least 1).
+    /// Send up to `n` ground units to each fire while units are free (default
+    /// [`UNITS_PER_FIRE`]; at least 1), or more if its heat release needs them.
     pub fn set_units_per_fire(&mut self, n: usize) {
         self.units_per_fire = n.max(1);
     }
@@ -745,8 +747,9 @@ impl Incident {
                 out.extend(self.dispatch(p, t, false));
             }
         }
-        // Second wave: ground units still free join fires that have fewer than
-        // `units_per_fire` attackers, nearest first.
+        // Second wave: ground units still free join fires that have fewer attackers than
+        // `units_per_fire` or than their heat release needs, nearest first, one more per
+        // fire and solve.
         candidates.retain(|c| {
             matches!(c.mobility, Mobility::Ground { .. })
                 && self.units[&c.unit].working_on().is_none()
@@ -756,7 +759,10 @@ impl Incident {
             .fires()
             .iter()
             .filter(|f| matches!(f.state, FireState::Assigned | FireState::Suppressing))
-            .filter(|f| self.assigned_to(f.id).len() < self.units_per_fire)
+            .filter(|f| {
+                let needed = attackers_needed(f.hrr_kw(), GROUND.cannon_flow_l_s);
+                self.assigned_to(f.id).len() < self.units_per_fire.max(needed)
+            })
             .filter_map(|f| {
                 Some(Need {
                     fire: f.id,
@@ -923,6 +929,7 @@ mod tests {
                 position: Point2::new(x, 1.0),
                 cov: [0.2, 0.0, 0.2],
                 confidence: 0.9,
+                hrr_kw: None,
             }],
         }
     }
@@ -994,6 +1001,20 @@ mod tests {
             i.on_state(state(n, x, None), 0.0).unwrap();
         }
         i
+    }
+
+    #[test]
+    fn a_fire_whose_heat_release_needs_two_cannons_gets_two_units() {
+        for (hrr_kw, attackers) in [(Some(4_000.0), 1), (Some(20_000.0), 2), (None, 1)] {
+            let mut i = incident();
+            let mut r = report("a", 60.0);
+            r.observations[0].hrr_kw = hrr_kw;
+            let mut out = i.on_report(&r, 1.0).unwrap();
+            out.extend(i.tick(1.2));
+            assert_eq!(tasks(&out).len(), attackers, "{hrr_kw:?} kW");
+            let fire = i.fusion.fires()[0].id;
+            assert_eq!(i.track(fire, 1.2).hrr_kw, hrr_kw);
+        }
     }
 
     #[test]
@@ -1219,6 +1240,7 @@ mod tests {
             position: Point2::new(170.0, 1.0),
             cov: [0.2, 0.0, 0.2],
             confidence: 0.9,
+            hrr_kw: None,
         });
         let out = i.on_report(&r, 1.0).unwrap();
         let t = tasks(&out);

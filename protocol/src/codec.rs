@@ -10,7 +10,7 @@ use crate::validate::Invalid;
 
 /// Version of the postcard wire format. Bump on any incompatible change to a postcard
 /// message.
-pub const PROTOCOL_VERSION: u8 = 1;
+pub const PROTOCOL_VERSION: u8 = 2;
 
 /// Why bytes could not become a valid message.
 #[derive(Debug, thiserror::Error)]
@@ -84,6 +84,7 @@ mod tests {
                 position: Point2::new(x, 1.0),
                 cov: [0.2, 0.0, 0.2],
                 confidence: conf,
+                hrr_kw: None,
             }],
         }
     }

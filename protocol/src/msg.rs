@@ -134,7 +134,14 @@ pub struct FlameObservation {
     pub cov: [f64; 3],
     /// Detector confidence in [0, 1].
     pub confidence: f64,
+    /// Heat release the unit estimates from the flame's size, kW; `None` from a sensor
+    /// that cannot size a flame.
+    pub hrr_kw: Option<f64>,
 }
+
+/// The largest heat release anyone reports, kW: a fully involved fuel tanker is about
+/// 300 MW.
+pub const MAX_HRR_KW: f64 = 500_000.0;
 
 impl Validate for FlameObservation {
     fn validate(&self) -> Result<(), Invalid> {
@@ -146,7 +153,11 @@ impl Validate for FlameObservation {
         if xx <= 0.0 || yy <= 0.0 || xx * yy - xy * xy <= 0.0 {
             return Err(Invalid::new("cov", "not positive definite"));
         }
-        in_range("confidence", self.confidence, 0.0, 1.0)
+        in_range("confidence", self.confidence, 0.0, 1.0)?;
+        match self.hrr_kw {
+            Some(q) => in_range("hrr_kw", q, 0.0, MAX_HRR_KW),
+            None => Ok(()),
+        }
     }
 }
 
@@ -288,6 +299,8 @@ pub struct FireTrack {
     pub assigned: Vec<UnitId>,
     /// Units whose reports made this track, for "seen by n units".
     pub seen_by: Vec<UnitId>,
+    /// Estimated heat release, kW, when some unit could size the flame.
+    pub hrr_kw: Option<f64>,
 }
 
 impl Validate for FireTrack {
@@ -295,6 +308,9 @@ impl Validate for FireTrack {
         finite("t", self.t)?;
         self.position.validate().map_err(|e| e.within("position"))?;
         in_range("confidence", self.confidence, 0.0, 1.0)?;
+        if let Some(q) = self.hrr_kw {
+            in_range("hrr_kw", q, 0.0, MAX_HRR_KW)?;
+        }
         max_len("assigned", &self.assigned, MAX_LIST)?;
         max_len("seen_by", &self.seen_by, MAX_LIST)
     }

@@ -275,6 +275,7 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
                 position: at,
                 cov: [0.25, 0.0, 0.25],
                 confidence: 0.9,
+                hrr_kw: None,
             }],
         };
         sent.push(Instant::now());

@@ -271,6 +271,7 @@ impl Services for RailUnit {
                     position: h.position,
                     cov: [var, 0.0, var],
                     confidence: 0.9,
+                    hrr_kw: None,
                 },
                 t,
             ));
