@@ -2,8 +2,10 @@
 //!
 //! In the paper the tree sits on top of Autoware (navigation) and a cannon driver; the
 //! tree sets goals and polls for arrival while those services do the continuous work.
-//! [`Unit`] plays that role here: a navigation service that plans (grid A*), follows the
-//! path (pure pursuit) and recovers from touching an obstacle; a cannon service that
+//! [`Unit`] plays that role here: a navigation service that plans (Hybrid A* to firing
+//! positions, keeping the flame in view and away from the heat of tracked fires; grid A*
+//! for cruising and as the fallback), follows the path (pure pursuit) and recovers from
+//! touching an obstacle; a cannon service that
 //! slews to the aim set-point and opens the valve on request; the flame tracker; and the
 //! link state to the coordinator. Leaves ([`crate::leaves`]) only read and set these.
 
@@ -21,7 +23,7 @@ use crate::controller::Services;
 use crate::mission::{Mission, Responder};
 
 use crate::aim;
-use crate::nav::hybrid_astar::{Footprint, HybridAStar, Params};
+use crate::nav::hybrid_astar::{Footprint, HeatSource, HybridAStar, Params};
 use crate::nav::{self, Follow, Grid, PurePursuit};
 use crate::tracker::FlameTracker;
 
@@ -260,7 +262,16 @@ impl Unit {
             length_m: self.spec.length_m,
             width_m: self.spec.width_m,
         };
-        let planner = HybridAStar::new(&self.hybrid_grid, footprint, params);
+        // Every flame the unit tracks radiates, the one it is sent to included.
+        let heat = self
+            .tracker
+            .confirmed()
+            .map(|t| HeatSource {
+                at: t.position(),
+                hrr_kw: t.hrr_kw,
+            })
+            .collect();
+        let planner = HybridAStar::new(&self.hybrid_grid, footprint, params).with_heat(heat);
         let start = Pose2::new(from.x, from.y, self.pose().yaw);
         let facing = spot.bearing_to(target);
         // Plan to a pose short of the spot and finish on a straight run-in: a follower

@@ -21,6 +21,7 @@ use firefleet_protocol::Point2;
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 
 use super::grid_search::{Cell, CostGrid};
+use super::hybrid_astar::{HeatSource, radiant_flux_kw_m2};
 
 /// A 2.5-D grid: per cell, obstacle height (m), roughness (dimensionless, 1 = smooth road)
 /// and temperature (C); row-major.
@@ -233,18 +234,16 @@ impl Terrain {
                     .fold(0.0, f32::max)
             })
             .collect();
-        let heat = (0..w * h)
-            .map(|i| {
-                let p = centre(i);
-                s.fires
-                    .iter()
-                    .map(|f| {
-                        let d = p.dist(f.position()).max(f.radius_m);
-                        0.3 * f.peak_kw / (4.0 * std::f64::consts::PI * d * d)
-                    })
-                    .sum::<f64>()
-                    .min(100.0) as f32
+        let fires: Vec<HeatSource> = s
+            .fires
+            .iter()
+            .map(|f| HeatSource {
+                at: f.position(),
+                hrr_kw: f.peak_kw,
             })
+            .collect();
+        let heat = (0..w * h)
+            .map(|i| radiant_flux_kw_m2(&fires, centre(i)) as f32)
             .collect();
         Self {
             width: w,
