@@ -31,9 +31,11 @@ impl Located {
     /// and `D` the box's width. Coarse (a flickering flame's height varies by tens of per
     /// cent, and the heat release goes with its 5/2 power), but enough to tell a burning
     /// tyre from a burning truck, which is what deciding how many units a fire needs asks.
+    /// A box whose centre noise puts at or below the road gives 0, never NaN.
     pub fn heat_release_kw(&self) -> f64 {
         let (l, d) = (2.0 * self.height_m, 2.0 * self.radius_m);
-        ((l + 1.02 * d) / 0.235).powf(2.5)
+        let q = ((l + 1.02 * d).max(0.0) / 0.235).powf(2.5);
+        if q.is_finite() { q } else { 0.0 }
     }
 }
 
@@ -95,6 +97,11 @@ mod tests {
             radius_m: 1.0,
         };
         assert!((seen.heat_release_kw() - 5000.0).abs() < 1e-6);
+        let below = Located {
+            height_m: -1.5,
+            ..seen
+        };
+        assert_eq!(below.heat_release_kw(), 0.0, "noise below the road: no NaN");
     }
 
     /// An ideal detection of a flame centred at body point `b`.
