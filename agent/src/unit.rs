@@ -319,41 +319,38 @@ impl Unit {
             let a = f64::from(k) * 0.35;
             [a, -a]
         }));
-        let spots: Vec<(f64, f64, Point2)> = offsets
+        let mut spots = offsets
             .flat_map(|off| STANDOFF_M.map(|r| (off, r, target.offset(home + off, r))))
             .filter(|&(_, _, spot)| {
                 self.nav_grid.free(spot)
                     && self.sight_grid.segment_free(spot, target)
                     && self.firing_solution(spot, target).is_ok()
-            })
-            .collect();
+            });
         // A kinematically feasible path that arrives facing the flame and keeps it in
         // view, to one of the best few spots; a spot can be out of reach of a forward-only
-        // vehicle (say, beside a parked car at an angle), so a few are tried.
-        for &(_, _, spot) in spots.iter().take(HYBRID_SPOTS) {
-            if let Some(p) = self.hybrid_path(from, spot, target) {
-                self.prepared = Some((spot, p));
-                return Some(spot);
-            }
-        }
-        // Else the grid path, with a lead-in along the line to the fire where there is room.
+        // vehicle (say, beside a parked car at an angle), so a few are tried. Else the grid
+        // path, with a lead-in along the line to the fire where there is room.
         let nav = &self.nav_grid;
-        for &(off, r, spot) in &spots {
-            let lead_in = target.offset(home + off, r + 2.5);
-            let path = if nav.free(lead_in) && nav.segment_free(lead_in, spot) {
-                nav::plan(nav, from, lead_in).map(|mut p| {
-                    p.push(spot);
-                    p
+        let (spot, path) = spots
+            .clone()
+            .take(HYBRID_SPOTS)
+            .find_map(|(_, _, spot)| Some((spot, self.hybrid_path(from, spot, target)?)))
+            .or_else(|| {
+                spots.find_map(|(off, r, spot)| {
+                    let lead_in = target.offset(home + off, r + 2.5);
+                    let path = if nav.free(lead_in) && nav.segment_free(lead_in, spot) {
+                        nav::plan(nav, from, lead_in).map(|mut p| {
+                            p.push(spot);
+                            p
+                        })
+                    } else {
+                        nav::plan(nav, from, spot)
+                    };
+                    Some((spot, path?))
                 })
-            } else {
-                nav::plan(nav, from, spot)
-            };
-            if let Some(p) = path {
-                self.prepared = Some((spot, p));
-                return Some(spot);
-            }
-        }
-        None
+            })?;
+        self.prepared = Some((spot, path));
+        Some(spot)
     }
 
     /// The shot from a nozzle above `from` onto the road at `target`: the low arc if it is

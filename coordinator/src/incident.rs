@@ -16,7 +16,7 @@ use firefleet_protocol::validate::Invalid;
 use firefleet_protocol::{FireId, Point2, UnitId, ZoneId};
 
 use crate::assign::{Candidate, Mobility, Need, Pick, Place, Site, Strategy, attackers_needed};
-use crate::fusion::{Fused, Fusion};
+use crate::fusion::{Fire, Fused, Fusion};
 use crate::goals::Goals;
 
 /// How many decisions the incident remembers for status queries.
@@ -688,24 +688,26 @@ impl Incident {
         out
     }
 
+    /// Fire `f` as a need for a unit, with its zone's priority; `None` if a goal bars
+    /// attacking it.
+    fn need(&self, f: &Fire) -> Option<Need> {
+        let at = Place::in_tunnel(&self.tunnel, f.position());
+        let goal = self.goals.at(at.chainage_m);
+        (!goal.is_some_and(|g| g.bars_attack())).then(|| Need {
+            fire: f.id,
+            at,
+            priority: goal.map_or(0, |g| g.goal.priority),
+        })
+    }
+
     /// Assign free units to fires that need one.
     fn assign(&mut self, t: f64) -> Vec<Output> {
-        let attackable = |f: &crate::fusion::Fire, goals: &Goals, tunnel: &Tunnel| {
-            let goal = goals.at(tunnel.chainage(f.position()));
-            (!goal.is_some_and(|g| g.bars_attack())).then(|| goal.map_or(0, |g| g.goal.priority))
-        };
         let needs: Vec<Need> = self
             .fusion
             .fires()
             .iter()
             .filter(|f| f.state == FireState::Confirmed)
-            .filter_map(|f| {
-                Some(Need {
-                    fire: f.id,
-                    at: Place::in_tunnel(&self.tunnel, f.position()),
-                    priority: attackable(f, &self.goals, &self.tunnel)?,
-                })
-            })
+            .filter_map(|f| self.need(f))
             .collect();
         let barred = self.goals.barred();
         let mut candidates: Vec<Candidate> = self
@@ -763,13 +765,7 @@ impl Incident {
                 let needed = attackers_needed(f.hrr_kw(), GROUND.cannon_flow_l_s);
                 self.assigned_to(f.id).len() < self.units_per_fire.max(needed)
             })
-            .filter_map(|f| {
-                Some(Need {
-                    fire: f.id,
-                    at: Place::in_tunnel(&self.tunnel, f.position()),
-                    priority: attackable(f, &self.goals, &self.tunnel)?,
-                })
-            })
+            .filter_map(|f| self.need(f))
             .collect();
         if !backups.is_empty() && !candidates.is_empty() {
             for p in self.strategy.solve(&candidates, &backups, &site) {
