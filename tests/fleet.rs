@@ -8,9 +8,10 @@ use firefleet_protocol::bus::{Bus, Connect, Inbox};
 use firefleet_protocol::codec::{self, PROTOCOL_VERSION};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    FlameObservation, FlameReport, SimTruth, Task, TaskKind, TaskPhase, UnitState,
+    FireState, FireTrack, FlameObservation, FlameReport, SimTruth, Task, TaskKind, TaskPhase,
+    UnitState,
 };
-use firefleet_protocol::{Point2, Pose2, SiteId, UnitId};
+use firefleet_protocol::{FireId, Point2, Pose2, SiteId, UnitId};
 
 const BIN: &str = env!("CARGO_BIN_EXE_firefleet");
 
@@ -372,14 +373,21 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
         .subscribe::<SimTruth>(&keys.key(&Topic::SimTruth))
         .await
         .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let recording = dir.path().join("run.mcap");
     let mut fleet = handover_fleet(&endpoint, &["coordinator", "--sim-clock"]);
+    fleet.0.push(spawn_role(
+        HANDOVER,
+        &endpoint,
+        &["record", "--out", recording.to_str().unwrap()],
+    ));
 
     // Kill the coordinator as soon as a unit works on the fire, and start a new one.
-    let old_seq = tokio::time::timeout(Duration::from_secs(90), async {
+    let (old_seq, old_fire) = tokio::time::timeout(Duration::from_secs(90), async {
         loop {
             let (_, st) = near_state.recv().await.expect("bus open");
             if let Some(p) = st.task {
-                return p.seq;
+                return (p.seq, p.fire);
             }
         }
     })
@@ -433,8 +441,90 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
     );
     let decisions = status["decisions"].to_string();
     assert!(
-        decisions.contains(&format!("task {old_seq} on fire")) && decisions.contains("adopt"),
-        "the new coordinator adopted the running task: {decisions}"
+        decisions.contains(&format!("task {old_seq} on fire {old_fire}"))
+            && decisions.contains("adopt"),
+        "the new coordinator adopted the running task on the fire it recalled: {decisions}"
+    );
+    assert!(
+        decisions.contains(&format!("recall fire {old_fire}")),
+        "the new coordinator recalled the recorded track: {decisions}"
+    );
+    drop(fleet);
+    bus.close().await;
+}
+
+/// The coordinator's status, queried over the bus until one answers (or `within` passes).
+async fn status_of(bus: &Bus, within: Duration) -> serde_json::Value {
+    let key = bus.keys().key(&Topic::CoordStatus);
+    tokio::time::timeout(within, async {
+        loop {
+            let replies = bus.session().get(&key).await.unwrap();
+            if let Ok(reply) = replies.recv_async().await
+                && let Ok(sample) = reply.result()
+            {
+                return serde_json::from_slice(&sample.payload().to_bytes()).unwrap();
+            }
+            tokio::time::sleep(Duration::from_millis(200)).await;
+        }
+    })
+    .await
+    .expect("no coordinator answered")
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_fire_nobody_works_on_survives_a_coordinator_restart() {
+    let (bus, endpoint) = router().await;
+    let keys = bus.keys().clone();
+    let dir = tempfile::tempdir().unwrap();
+    let recording = dir.path().join("run.mcap");
+    let mut fleet = Fleet(vec![spawn_role(
+        HANDOVER,
+        &endpoint,
+        &["record", "--out", recording.to_str().unwrap()],
+    )]);
+    // The coordinator that died had tracked f7, confirmed, with nobody on it and nobody
+    // looking at it now; the recorder kept its last track.
+    let track = FireTrack {
+        id: FireId(7),
+        t: 30.0,
+        position: Point2::new(70.0, 1.0),
+        cov: [0.3, 0.0, 0.3],
+        confidence: 0.9,
+        state: FireState::Confirmed,
+        assigned: Vec::new(),
+        seen_by: vec![UnitId::new("ugv-near").unwrap()],
+        hrr_kw: Some(4000.0),
+    };
+    tokio::time::timeout(Duration::from_secs(30), async {
+        loop {
+            bus.put(&keys.key(&Topic::Fire(track.id)), &track)
+                .await
+                .unwrap();
+            let replies = bus.session().get(keys.every_fire()).await.unwrap();
+            if let Ok(reply) = replies.recv_async().await
+                && reply.result().is_ok()
+            {
+                return;
+            }
+            tokio::time::sleep(Duration::from_millis(200)).await;
+        }
+    })
+    .await
+    .expect("the recorder never answered with the track");
+
+    fleet.0.push(spawn_role(
+        HANDOVER,
+        &endpoint,
+        &["coordinator", "--sim-clock"],
+    ));
+    let status = status_of(&bus, Duration::from_secs(30)).await;
+    let fires = status["fires"].as_array().unwrap();
+    assert_eq!(fires.len(), 1, "{status}");
+    assert_eq!(fires[0]["id"], 7, "the fire keeps its id: {status}");
+    assert_eq!(fires[0]["state"], "confirmed", "{status}");
+    assert!(
+        status["decisions"].to_string().contains("recall fire f7"),
+        "{status}"
     );
     drop(fleet);
     bus.close().await;

@@ -239,6 +239,57 @@ impl Fusion {
         FireId(self.next_id)
     }
 
+    /// Take back a track a previous coordinator published (answered by a recorder after a
+    /// restart), under its own id so that ids stay stable across coordinators. Returns
+    /// false, and changes nothing, for an id this fusion already has.
+    ///
+    /// The wire form carries the fused estimate, not each unit's: every unit that saw the
+    /// fire gets the fused estimate with its covariance scaled by the number of units and a
+    /// confidence `1 - (1 - c)^(1/n)`, so that fusing them back gives the published estimate
+    /// and confidence exactly, and a unit's next report replaces only its own share. The
+    /// assignment is not restored (the units' states say what they work on): an assigned or
+    /// suppressing fire comes back confirmed, and the next solve or an adopted task takes it.
+    pub fn restore(&mut self, track: &FireTrack) -> bool {
+        if self.fires.iter().any(|f| f.id == track.id) || self.aliases.contains_key(&track.id) {
+            return false;
+        }
+        let n = track.seen_by.len().max(1) as f64;
+        let share = Gaussian2 {
+            mean: track.position,
+            cov: track.cov.map(|c| c * n),
+        };
+        let c = 1.0 - (1.0 - track.confidence.clamp(0.0, 1.0)).powf(1.0 / n);
+        let state = match track.state {
+            FireState::Assigned | FireState::Suppressing => FireState::Confirmed,
+            s => s,
+        };
+        let mut fire = Fire {
+            id: track.id,
+            state,
+            per_unit: track
+                .seen_by
+                .iter()
+                .map(|u| (u.clone(), (share, c)))
+                .collect(),
+            sizes: track
+                .hrr_kw
+                .map(|q| track.seen_by.iter().map(|u| (u.clone(), q)).collect())
+                .unwrap_or_default(),
+            estimate: Gaussian2 {
+                mean: track.position,
+                cov: track.cov,
+            },
+            confidence: track.confidence,
+            first_seen: track.t,
+            last_seen: track.t,
+            out_at: (state == FireState::Out).then_some(track.t),
+        };
+        fire.refuse();
+        self.next_id = self.next_id.max(track.id.0);
+        self.fires.push(fire);
+        true
+    }
+
     /// Fold in one observation by `unit` at time `t`.
     pub fn observe(&mut self, unit: &UnitId, obs: &FlameObservation, t: f64) -> Fused {
         let mut z = Gaussian2 {
@@ -407,6 +458,53 @@ mod tests {
         }
         assert!((f.fires()[0].confidence - 0.5).abs() < 1e-9);
         assert_eq!(f.fires()[0].state, FireState::Tentative);
+    }
+
+    #[test]
+    fn a_restored_track_keeps_its_id_estimate_and_confidence_and_takes_new_reports() {
+        let mut old = Fusion::default();
+        old.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.7), 0.0);
+        old.observe(&u("b"), &obs(50.5, 1.2, 0.5, 0.6), 0.5);
+        old.fires[0].sizes.insert(u("a"), 4000.0);
+        old.fires[0].state = FireState::Suppressing;
+        let track = old.fires()[0].to_track(9.0, vec![u("a")]);
+
+        let mut new = Fusion::default();
+        assert!(new.restore(&track));
+        assert!(
+            !new.restore(&track),
+            "an id already known is not taken twice"
+        );
+        let fire = new.get(track.id).unwrap();
+        assert_eq!(
+            fire.state,
+            FireState::Confirmed,
+            "the assignment is not restored"
+        );
+        assert!(fire.position().dist(track.position) < 1e-9);
+        for (got, want) in fire.estimate.cov.iter().zip(track.cov) {
+            assert!(
+                (got - want).abs() < 1e-9,
+                "{:?} vs {:?}",
+                fire.estimate.cov,
+                track.cov
+            );
+        }
+        assert!((fire.confidence - track.confidence).abs() < 1e-9);
+        assert_eq!(fire.hrr_kw(), Some(4000.0));
+        assert_eq!(fire.last_seen, 9.0);
+
+        // A unit's next report of it lands on the restored track, and a new fire is
+        // numbered above every restored one.
+        assert_eq!(
+            new.observe(&u("b"), &obs(50.3, 1.1, 0.3, 0.9), 10.0),
+            Fused::Updated(track.id)
+        );
+        assert_eq!(new.fires().len(), 1);
+        let Fused::Confirmed(id) = new.observe(&u("a"), &obs(150.0, 1.0, 0.3, 0.9), 11.0) else {
+            panic!()
+        };
+        assert!(id > track.id);
     }
 
     #[test]

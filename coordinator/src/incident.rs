@@ -12,7 +12,7 @@ use firefleet_protocol::msg::{
 };
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::{GROUND, MONORAIL};
-use firefleet_protocol::validate::Invalid;
+use firefleet_protocol::validate::{Invalid, Validate};
 use firefleet_protocol::{FireId, Point2, UnitId, ZoneId};
 
 use crate::assign::{Candidate, Mobility, Need, Pick, Place, Site, Strategy, attackers_needed};
@@ -335,6 +335,41 @@ impl Incident {
         Some(Output::Fire(self.track(fire, t)))
     }
 
+    /// Fire tracks a previous coordinator published, as a recorder kept them: taken back
+    /// under their ids before the units are heard from, so that a fire nobody is working on
+    /// right now is not forgotten across a restart. A track that fails validation or lies
+    /// outside the tunnel is refused (returned with its reason) and the rest are still
+    /// taken; one whose id is already known is skipped.
+    pub fn restore(&mut self, tracks: &[FireTrack], t: f64) -> (Vec<Output>, Vec<Invalid>) {
+        let mut refused = Vec::new();
+        for track in tracks {
+            let checked = track
+                .validate()
+                .and_then(|()| self.tunnel.check_inside("position", track.position))
+                .map_err(|e| e.within(&format!("fire {}", track.id)));
+            if let Err(e) = checked {
+                refused.push(e);
+                continue;
+            }
+            if self.fusion.restore(track) {
+                let seen_by: Vec<&str> = track.seen_by.iter().map(|u| u.as_str()).collect();
+                self.log(
+                    t,
+                    format!(
+                        "recall fire {} at ({:.1}, {:.1}), {:?} at t = {:.1} s, seen by [{}]: tracked before this coordinator started",
+                        track.id,
+                        track.position.x,
+                        track.position.y,
+                        track.state,
+                        track.t,
+                        seen_by.join(", ")
+                    ),
+                );
+            }
+        }
+        (self.solve(t), refused)
+    }
+
     /// A unit's state message.
     pub fn on_state(&mut self, st: UnitState, t: f64) -> Result<Vec<Output>, Invalid> {
         let unit = st.unit.clone();
@@ -410,10 +445,16 @@ impl Incident {
     }
 
     /// A unit works on a task this coordinator did not give (it gave it before a restart):
-    /// take the task over rather than send the unit elsewhere. Its fire becomes the track
-    /// within [`ADOPT_RADIUS_M`] of where the unit believes it is, or a new track there.
+    /// take the task over rather than send the unit elsewhere. Its fire is the track the
+    /// task names if that was recalled and is still burning, else the track within
+    /// [`ADOPT_RADIUS_M`] of where the unit believes it is, or a new track there.
     fn adopt(&mut self, unit: &UnitId, p: TaskProgress, t: f64) -> Vec<Output> {
-        let fire = match self.fusion.nearest_active(p.target, ADOPT_RADIUS_M) {
+        let named = self
+            .fusion
+            .get(p.fire)
+            .filter(|f| f.active() && f.position().dist(p.target) <= ADOPT_RADIUS_M)
+            .map(|f| f.id);
+        let fire = match named.or_else(|| self.fusion.nearest_active(p.target, ADOPT_RADIUS_M)) {
             Some(id) => id,
             None => self.fusion.adopt(unit, p.target, t),
         };
@@ -1123,6 +1164,74 @@ mod tests {
                 .any(|o| matches!(o, Output::Fire(f) if f.state == FireState::Out)),
             "{out:?}"
         );
+    }
+
+    #[test]
+    fn a_restarted_coordinator_recalls_recorded_fires_under_their_ids() {
+        // The coordinator that died tracked two fires: f4, which a is working on, and f9,
+        // which nobody works on or sees any more. A third track is corrupt.
+        let track = |id: u32, x: f64, state: FireState, assigned: &[&str]| FireTrack {
+            id: FireId(id),
+            t: 40.0,
+            position: Point2::new(x, 1.0),
+            cov: [0.3, 0.0, 0.3],
+            confidence: 0.95,
+            state,
+            assigned: assigned.iter().map(|s| u(s)).collect(),
+            seen_by: vec![u("a"), u("b")],
+            hrr_kw: Some(5000.0),
+        };
+        // Restored before any unit is heard from, as a starting coordinator does.
+        let ground = Mobility::Ground { speed_m_s: 1.5 };
+        let mut i = Incident::new(
+            TUNNEL,
+            [(u("a"), ground), (u("b"), ground)],
+            5.0,
+            Strategy::Optimal,
+        );
+        i.set_units_per_fire(1);
+        let (_, refused) = i.restore(
+            &[
+                track(4, 60.0, FireState::Assigned, &["a"]),
+                track(9, 150.0, FireState::Confirmed, &[]),
+                track(12, 500.0, FireState::Confirmed, &[]),
+            ],
+            41.0,
+        );
+        assert_eq!(refused.len(), 1);
+        assert!(refused[0].field.starts_with("fire f12"), "{:?}", refused[0]);
+        let ids: Vec<FireId> = i.fire_tracks(41.0).iter().map(|f| f.id).collect();
+        assert_eq!(ids, [FireId(4), FireId(9)]);
+        assert_eq!(
+            i.decisions()
+                .filter(|d| d.text.starts_with("recall fire"))
+                .count(),
+            2
+        );
+
+        // a says it works on f4: adopted on that track. b is free and is sent to f9, the
+        // fire only the recording remembered.
+        let held = TaskProgress {
+            seq: 40_100,
+            fire: FireId(4),
+            phase: TaskPhase::Spraying,
+            target: Point2::new(60.3, 1.1),
+        };
+        i.on_alive(&u("a"), true, 42.0).unwrap();
+        i.on_state(state("a", 55.0, Some(held)), 42.0).unwrap();
+        i.on_alive(&u("b"), true, 42.0).unwrap();
+        let out = i.on_state(state("b", 100.0, None), 42.0).unwrap();
+        assert_eq!(
+            kinds_for(&out, "b"),
+            [TaskKind::Extinguish {
+                fire: FireId(9),
+                target: Point2::new(150.0, 1.0),
+            }]
+        );
+        let tracks = i.fire_tracks(42.0);
+        assert_eq!(tracks[0].assigned, [u("a")]);
+        assert_eq!(tracks[0].state, FireState::Suppressing);
+        assert_eq!(tracks[1].assigned, [u("b")]);
     }
 
     #[test]

@@ -7,10 +7,9 @@
 //! [`node`] wires them to the bus, and [`record`] writes everything on the bus to an MCAP
 //! file with a Foxglove scene ([`scene`]).
 //!
-//! A restarted coordinator rebuilds its picture from the units' states (adopting the tasks
-//! they still work on) and their new reports. Not here yet: sizing the number of units on
-//! a fire by its heat release (a second unit backs up every fire while units are free),
-//! and reading back the previous coordinator's fire tracks.
+//! A restarted coordinator rebuilds its picture from the recorded fire tracks (a recorder
+//! answers `fire/*` with the latest of each; the tracks keep their ids), then from the
+//! units' states (adopting the tasks they still work on) and their new reports.
 
 pub mod assign;
 pub mod fusion;

@@ -8,19 +8,24 @@
 //! `zone/<zone>/ack`, malformed ones included; a delete on a goal key clears the zone.
 //! A message the incident refuses (unknown unit, outside the tunnel) is logged and counted;
 //! nothing else changes.
+//!
+//! At start it asks `fire/*` for the tracks a previous coordinator published; recorders
+//! answer with the latest of each, so a restarted coordinator keeps every fire (and its
+//! id), even one nobody is working on or looking at when it comes back.
 
+use std::collections::BTreeMap;
 use std::future::Future;
 use std::sync::Arc;
 use std::time::Duration;
 
-use firefleet_protocol::ZoneId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::clock::{Clock, ExternalClock, SystemClock};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::{self, Topic, UnitLeaf};
-use firefleet_protocol::msg::{FlameReport, GoalAck, SimClock, UnitState, ZoneGoal};
+use firefleet_protocol::msg::{FireTrack, FlameReport, GoalAck, SimClock, UnitState, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Invalid;
+use firefleet_protocol::{FireId, ZoneId};
 use zenoh::sample::SampleKind;
 
 use crate::assign::Strategy;
@@ -84,6 +89,19 @@ pub async fn run(
     // Goals are read raw, not through the bus's typed inbox: a malformed goal must still
     // be answered, and a delete on a zone's goal key clears the zone.
     let goals = session.declare_subscriber(keys.every_zone_goal()).await?;
+
+    // Before anything else is heard: the tracks the previous coordinator published, as a
+    // recorder kept them (none at a first start, or when nothing records).
+    let recalled = recall_fires(bus).await?;
+    if !recalled.is_empty() {
+        let t = recalled.iter().map(|f| f.t).fold(clock.now(), f64::max);
+        let (out, refused) = incident.restore(&recalled, t);
+        for e in refused {
+            bus.rejects().count_invalid();
+            tracing::warn!("refused recalled fire track: {e}");
+        }
+        publish(bus, out).await?;
+    }
 
     let mut tick = tokio::time::interval(Duration::from_millis(200));
     // Every task and track is re-sent once a second, a tenth every 100 ms: re-sending a
@@ -174,6 +192,35 @@ pub async fn run(
         }
     }
     Ok(())
+}
+
+/// How long a starting coordinator waits for recorders to answer with fire tracks.
+const RECALL_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// The latest track of every fire that anyone on `fire/*` answers with (recorders do):
+/// with several answers for one fire, the newest wins. Answers that do not decode are
+/// counted and logged, never taken.
+async fn recall_fires(bus: &Bus) -> Result<Vec<FireTrack>, BusError> {
+    let replies = bus
+        .session()
+        .get(bus.keys().every_fire())
+        .timeout(RECALL_TIMEOUT)
+        .await?;
+    let mut latest: BTreeMap<FireId, FireTrack> = BTreeMap::new();
+    while let Ok(reply) = replies.recv_async().await {
+        let Ok(sample) = reply.result() else { continue };
+        match codec::decode::<FireTrack>(&sample.payload().to_bytes()) {
+            Ok(f) if latest.get(&f.id).is_none_or(|old| old.t < f.t) => {
+                latest.insert(f.id, f);
+            }
+            Ok(_) => {}
+            Err(e) => {
+                bus.rejects().count(&e);
+                tracing::warn!(key = %sample.key_expr(), "recalled fire track refused: {e}");
+            }
+        }
+    }
+    Ok(latest.into_values().collect())
 }
 
 /// The answer to a goal that does not decode: rejected, with the id if the JSON has one

@@ -7,6 +7,10 @@
 //! tunnel, the parked vehicles, the units and the fires. Undecodable messages are counted
 //! and skipped, never written as garbage.
 //!
+//! The recorder also keeps the latest track of every fire and answers queries on
+//! `fire/*` with them: that is how a restarted coordinator recalls the fires the previous
+//! one tracked (the recording is the incident's memory, on the bus as well as on disk).
+//!
 //! Chunks are not compressed: compression would pull C libraries into the build, and
 //! uncompressed MCAP is readable everywhere.
 
@@ -17,6 +21,7 @@ use std::io::BufWriter;
 use std::path::Path;
 use std::time::{SystemTime, UNIX_EPOCH};
 
+use firefleet_protocol::FireId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::{self, Topic};
@@ -165,6 +170,8 @@ enum Derived {
     Decision(Decision),
     /// An answer to a zone goal: also a `foxglove.Log` entry.
     Ack(GoalAck),
+    /// A fire track: kept (the latest of each fire) for a restarted coordinator to recall.
+    Fire(FireTrack),
 }
 
 fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Derived), CodecError> {
@@ -179,7 +186,9 @@ fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Derived), CodecError>
         Topic::UnitReport(_) => plain::<FlameReport>(bytes, "firefleet.FlameReport"),
         Topic::UnitTask(_) => plain::<Task>(bytes, "firefleet.Task"),
         Topic::UnitBt(_) => plain::<BtTransitions>(bytes, "firefleet.BtTransitions"),
-        Topic::Fire(_) => plain::<FireTrack>(bytes, "firefleet.FireTrack"),
+        Topic::Fire(_) => {
+            decoded::<FireTrack>(bytes, "firefleet.FireTrack").map(|(d, m)| (d, Derived::Fire(m)))
+        }
         Topic::ZoneGoal(_) => plain::<ZoneGoal>(bytes, "firefleet.ZoneGoal"),
         Topic::ZoneAck(_) => {
             decoded::<GoalAck>(bytes, "firefleet.GoalAck").map(|(d, m)| (d, Derived::Ack(m)))
@@ -219,6 +228,9 @@ pub async fn record(
     let result = async {
         let samples = session.declare_subscriber(keys.all()).await.map_err(BusError::from)?;
         let tokens = session.liveliness().declare_subscriber(keys.all()).history(true).await.map_err(BusError::from)?;
+        let recall = session.declare_queryable(keys.every_fire()).await.map_err(BusError::from)?;
+        // The latest track of every fire, as received: (its time, its key, its bytes).
+        let mut fires: BTreeMap<FireId, (f64, String, Vec<u8>)> = BTreeMap::new();
         let scene_schema = || schemars::schema_for!(scene::SceneUpdate);
         let statics = serde_json::to_vec(&scene::static_scene(scenario, scene::Time::from_nanos(now_ns()))).expect("serialises");
         sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &statics, now_ns())?;
@@ -233,10 +245,18 @@ pub async fn record(
                     let json = serde_json::to_vec(&l).expect("serialises");
                     sink.write(&liveliness_topic, "firefleet.Liveliness", || schemars::schema_for!(Liveliness), &json, now_ns())?;
                 }
+                Ok(query) = recall.recv_async() => {
+                    for (_, key, bytes) in fires.values() {
+                        if let Err(e) = query.reply(key, bytes.clone()).await {
+                            tracing::warn!("fire track reply failed: {e}");
+                        }
+                    }
+                }
                 Ok(s) = samples.recv_async() => {
                     let key = s.key_expr().as_str();
+                    let bytes = s.payload().to_bytes();
                     let parsed = keys::parse(key).map_err(|e| e.to_string())
-                        .and_then(|(_, topic)| decode(&topic, &s.payload().to_bytes()).map_err(|e| e.to_string()));
+                        .and_then(|(_, topic)| decode(&topic, &bytes).map_err(|e| e.to_string()));
                     match parsed {
                         Ok((d, derived)) => {
                             let t = now_ns();
@@ -254,6 +274,9 @@ pub async fn record(
                                 Derived::Ack(ack) => {
                                     let log = scene::Log::ack(&ack, scene::Time::from_nanos(t));
                                     sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &serde_json::to_vec(&log).expect("serialises"), t)?;
+                                }
+                                Derived::Fire(track) if fires.get(&track.id).is_none_or(|(old, _, _)| *old <= track.t) => {
+                                    fires.insert(track.id, (track.t, key.to_owned(), bytes.to_vec()));
                                 }
                                 _ => {}
                             }

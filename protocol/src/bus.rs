@@ -114,7 +114,8 @@ pub struct RejectCounts {
 }
 
 impl RejectCounts {
-    fn count(&self, e: &CodecError) {
+    /// Count a message that did not decode, by why.
+    pub fn count(&self, e: &CodecError) {
         let c = match e.class() {
             "version" => &self.version,
             "invalid" => &self.invalid,

@@ -6,7 +6,8 @@
 //! ff/<site>/unit/<id>/report      unit -> coord      FlameReport (postcard)
 //! ff/<site>/unit/<id>/task        coord -> unit      Task (postcard)
 //! ff/<site>/unit/<id>/bt          unit -> recorders  BtTransitions (postcard)
-//! ff/<site>/fire/<fire_id>        coord -> all       FireTrack (postcard)
+//! ff/<site>/fire/<fire_id>        coord -> all       FireTrack (postcard); recorders answer
+//!                                 queries on fire/* with the latest of each
 //! ff/<site>/zone/<zone>/goal      commander -> coord ZoneGoal (JSON)
 //! ff/<site>/zone/<zone>/ack       coord -> commander GoalAck (JSON)
 //! ff/<site>/coord/alive           liveliness token of the coordinator
@@ -99,6 +100,10 @@ impl Keys {
     /// `ff/<site>/unit/*/<leaf>`: the same leaf of every unit.
     pub fn every_unit(&self, leaf: UnitLeaf) -> String {
         format!("{ROOT}/{}/unit/*/{}", self.site, leaf.as_str())
+    }
+    /// `ff/<site>/fire/*`: every fire track.
+    pub fn every_fire(&self) -> String {
+        format!("{ROOT}/{}/fire/*", self.site)
     }
     /// `ff/<site>/zone/*/goal`: commanders' goals for every zone.
     pub fn every_zone_goal(&self) -> String {
