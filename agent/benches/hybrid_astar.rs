@@ -39,14 +39,11 @@ fn hybrid_astar(c: &mut Criterion) {
     let grid = Grid::from_scenario(&site, 0.1, 0.0);
     let mut params = Params::for_radius(GROUND.min_turn_radius_m());
     params.lambda_m = 5.0;
-    let planner = HybridAStar::new(
-        &grid,
-        Footprint {
-            length_m: GROUND.length_m,
-            width_m: GROUND.width_m,
-        },
-        params,
-    );
+    let footprint = Footprint {
+        length_m: GROUND.length_m,
+        width_m: GROUND.width_m,
+    };
+    let planner = HybridAStar::new(&grid, footprint, params);
     let (start, goal, flame) = (
         Pose2::new(5.0, -2.5, 0.0),
         Pose2::new(172.0, 2.5, 0.0),
@@ -54,15 +51,28 @@ fn hybrid_astar(c: &mut Criterion) {
     );
     let plan = planner.plan(start, goal, Some(flame)).expect("a path");
     eprintln!(
-        "tunnel_200m: {} expansions, {:.1} m, {} poses",
+        "tunnel_200m: {} expansions, {:.1} m, {} poses, smoothed {}",
         plan.expansions,
         plan.length_m,
-        plan.poses.len()
+        plan.poses.len(),
+        plan.smoothed
     );
     let mut g = c.benchmark_group("hybrid_astar");
     g.sample_size(20);
     g.bench_function("tunnel_200m", |b| {
         b.iter(|| black_box(planner.plan(start, goal, Some(flame))))
+    });
+    // The same search without the smoother, for the smoother's share of the time.
+    let search_only = HybridAStar::new(
+        &grid,
+        footprint,
+        Params {
+            smoothing: None,
+            ..params
+        },
+    );
+    g.bench_function("tunnel_200m_unsmoothed", |b| {
+        b.iter(|| black_box(search_only.plan(start, goal, Some(flame))))
     });
     g.finish();
 }

@@ -27,6 +27,11 @@
 //! analytic Reeds-Shepp tail (within `analytic_within_m` of the goal) is taken without
 //! its heat cost; the goal is a firing position at a standoff chosen for its flux anyway.
 //!
+//! Smoothing: the path found is handed to [`smoother`] (Dolgov's smoothing with the
+//! obstacle and curvature terms as hard checks); its result replaces the search's path only
+//! if every pose of it is free and drivable, which is checked with this planner's own
+//! footprint test.
+//!
 //! Collisions: the footprint rectangle's outline, sampled at the grid's resolution, on
 //! the occupancy grid of walls and vehicles (not inflated: the footprint is the robot).
 //! Pure: no I/O, no clock.
@@ -40,6 +45,7 @@ use firefleet_protocol::{Point2, Pose2};
 use super::grid::Grid;
 use super::grid_search::CostGrid;
 use super::reeds_shepp::{self, Turn};
+use super::smoother::{self, Smoothing};
 
 /// The robot's footprint: a rectangle centred on the pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,6 +77,8 @@ pub struct Params {
     /// no backward primitives, and only analytic expansions without a reversal).
     pub allow_reverse: bool,
     pub max_expansions: usize,
+    /// Smooth the path the search finds ([`smoother`]); `None` keeps it as searched.
+    pub smoothing: Option<Smoothing>,
 }
 
 impl Params {
@@ -93,6 +101,7 @@ impl Params {
             analytic_within_m: 12.0,
             allow_reverse: true,
             max_expansions: 200_000,
+            smoothing: Some(Smoothing::default()),
         }
     }
 }
@@ -115,6 +124,8 @@ pub struct Plan {
     pub reverse: Vec<bool>,
     pub length_m: f64,
     pub expansions: usize,
+    /// Whether the smoother's path replaced the search's.
+    pub smoothed: bool,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -407,6 +418,14 @@ impl<'a> HybridAStar<'a> {
                 at = reeds_shepp::advance(at, s.turn, s.length, r);
             }
         }
+        let smoothed = self
+            .params
+            .smoothing
+            .and_then(|s| smoother::smooth(&poses, &reverse, r, res, |q| self.pose_free(q), &s));
+        let (poses, reverse, smoothed) = match smoothed {
+            Some(s) => (s.poses, s.reverse, true),
+            None => (poses, reverse, false),
+        };
         let length_m = poses
             .windows(2)
             .map(|w| w[0].position().dist(w[1].position()))
@@ -416,6 +435,7 @@ impl<'a> HybridAStar<'a> {
             reverse,
             length_m,
             expansions,
+            smoothed,
         }
     }
 }
@@ -467,6 +487,44 @@ mod tests {
         let mut passing = plan.poses.iter().filter(|p| (22.75..27.25).contains(&p.x));
         assert!(passing.all(|p| p.y > -0.1), "it goes round the car");
         assert!(plan.length_m < 45.0, "{}", plan.length_m);
+    }
+
+    #[test]
+    fn the_smoothed_path_round_a_car_bends_less_and_is_no_longer() {
+        let s = tunnel(CAR);
+        let grid = Grid::from_scenario(&s, 0.1, 0.0);
+        let (start, goal) = (Pose2::new(5.0, -1.5, 0.0), Pose2::new(45.0, -1.5, 0.0));
+        let mut raw_params = Params::for_radius(R);
+        raw_params.smoothing = None;
+        let raw = HybridAStar::new(&grid, FOOT, raw_params)
+            .plan(start, goal, None)
+            .unwrap();
+        let planner = HybridAStar::new(&grid, FOOT, Params::for_radius(R));
+        let plan = planner.plan(start, goal, None).unwrap();
+        assert!(plan.smoothed && !raw.smoothed);
+        check(&planner, &plan, start, goal);
+        // Bending energy: the squared heading change per metre, summed over the path.
+        let bending = |p: &Plan| -> f64 {
+            p.poses
+                .windows(2)
+                .map(|w| {
+                    let ds = w[0].position().dist(w[1].position()).max(1e-9);
+                    wrap_angle(w[1].yaw - w[0].yaw).powi(2) / ds
+                })
+                .sum()
+        };
+        assert!(
+            bending(&plan) < 0.7 * bending(&raw),
+            "bending {:.3} smoothed, {:.3} as searched",
+            bending(&plan),
+            bending(&raw)
+        );
+        assert!(
+            plan.length_m <= raw.length_m + 1e-9,
+            "{} vs {}",
+            plan.length_m,
+            raw.length_m
+        );
     }
 
     #[test]

@@ -1,13 +1,14 @@
-//! Ground navigation: a map of the tunnel, a grid planner and a path follower.
+//! Ground navigation: maps of the tunnel, planners and a path follower.
 //!
-//! This is the first planner: 8-connected A* on an occupancy grid inflated by the robot's
-//! footprint, string-pulled into straight segments and followed by pure pursuit. It keeps
-//! clear of parked vehicles and the walls. It is not yet kinematically aware (that is the
-//! Hybrid A* planner's job) and does not weigh heat. [`grid_search`] is the general
-//! weighted-grid search (Dijkstra to all cells, A* between two) that the heat-aware cost
-//! map ([`costmap`]) and the MovingAI benchmarks ([`movingai`]) use; [`reeds_shepp`] gives
-//! the shortest paths of a car that may reverse, which [`hybrid_astar`] uses for its
-//! heuristic and its analytic expansion. The ground unit does not use Hybrid A* yet.
+//! [`hybrid_astar`] plans kinematically feasible paths to firing positions (Dolgov's
+//! Hybrid A* with the BT paper's visibility reward and a radiant-heat term), using
+//! [`reeds_shepp`] for its heuristic and analytic expansion, and [`smoother`] to ease the
+//! swerves its motion primitives leave. [`astar`] is the 8-connected grid planner on the
+//! inflated occupancy [`grid`], string-pulled into straight segments: units cruise on it,
+//! and fall back on it when no Hybrid A* path to a firing spot is found within budget.
+//! [`grid_search`] is the general weighted-grid search (Dijkstra to all cells, A* between
+//! two) under the heat-aware cost map ([`costmap`]) and the MovingAI benchmarks
+//! ([`movingai`]). [`pursuit`] follows any of these paths.
 
 pub mod astar;
 pub mod costmap;
@@ -17,6 +18,7 @@ pub mod hybrid_astar;
 pub mod movingai;
 pub mod pursuit;
 pub mod reeds_shepp;
+pub mod smoother;
 
 pub use astar::plan;
 pub use grid::Grid;
