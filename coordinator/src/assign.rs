@@ -135,13 +135,33 @@ pub struct Candidate {
     pub water_l: f64,
 }
 
+/// How a ground unit would drive to a fire.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Road {
+    /// A road this long, m.
+    Metres(f64),
+    /// No road: vehicles or walls close the way.
+    Blocked,
+    /// Not mapped: straight-line distance stands in.
+    Unmapped,
+}
+
+/// Driving distances from anywhere to each fire (the coordinator's road map).
+pub trait Roads {
+    /// The road from `from` to `fire`. Called for every (unit, fire) pair of a solve, so
+    /// it should be a lookup.
+    fn road(&self, fire: FireId, from: &Place) -> Road;
+}
+
 /// What the site imposes on every pairing.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Clone, Copy, Default)]
 pub struct Site<'a> {
     /// Chainage ranges no unit may enter or travel through (zone goals).
     pub barred: &'a [(f64, f64)],
     /// Burning fires: a ground unit driving past one takes its heat.
     pub hazards: &'a [Place],
+    /// Driving distances for ground units; straight lines without.
+    pub roads: Option<&'a dyn Roads>,
 }
 
 /// Cost of driving past another burning fire on the way, s: the heat dose and the risk
@@ -206,9 +226,11 @@ pub struct Pick {
     pub runner_up: Option<(UnitId, f64)>,
 }
 
-/// Cost of `u` taking `n`, s: travel time, plus [`HAZARD_S`] for every other burning fire
+/// Cost of `u` taking `n`, s: travel time (a ground unit's along the road where the site
+/// has a road map), plus [`HAZARD_S`] for every other burning fire
 /// a ground unit would drive past, plus [`LOW_WATER_S`] if it is short of water; or
-/// [`INFEASIBLE`] if it cannot get there without crossing a barred range.
+/// [`INFEASIBLE`] if it cannot get there without crossing a barred range, or no road leads
+/// there.
 fn travel(u: &Candidate, n: &Need, site: &Site<'_>) -> f64 {
     let (a, b) = (
         u.at.chainage_m.min(n.at.chainage_m),
@@ -217,7 +239,15 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>) -> f64 {
     if site.barred.iter().any(|&(s, e)| a < e && b > s) {
         return INFEASIBLE;
     }
-    let Some(t) = u.mobility.travel_s(u.at.position, n.at.position) else {
+    let road = match (u.mobility, site.roads) {
+        (Mobility::Ground { speed_m_s }, Some(roads)) => match roads.road(n.fire, &u.at) {
+            Road::Metres(d) => Some(Some(d / speed_m_s.max(0.1))),
+            Road::Blocked => Some(None),
+            Road::Unmapped => None,
+        },
+        _ => None,
+    };
+    let Some(t) = road.unwrap_or_else(|| u.mobility.travel_s(u.at.position, n.at.position)) else {
         return INFEASIBLE;
     };
     let passed = match u.mobility {

@@ -15,9 +15,12 @@ use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::validate::{Invalid, Validate};
 use firefleet_protocol::{FireId, Point2, UnitId, ZoneId};
 
-use crate::assign::{Candidate, Mobility, Need, Pick, Place, Site, Strategy, attackers_needed};
+use crate::assign::{
+    Candidate, Mobility, Need, Pick, Place, Roads, Site, Strategy, attackers_needed,
+};
 use crate::fusion::{Fire, Fused, Fusion};
 use crate::goals::Goals;
+use crate::roads::RoadMap;
 
 /// How many decisions the incident remembers for status queries.
 const DECISION_LOG: usize = 200;
@@ -107,6 +110,9 @@ pub struct Incident {
     goals: Goals,
     /// Ground units sent to one fire.
     units_per_fire: usize,
+    /// Driving distances to fires; straight lines without (an incident built without a
+    /// site file).
+    roads: Option<RoadMap>,
 }
 
 impl Incident {
@@ -133,6 +139,7 @@ impl Incident {
             unpublished: Vec::new(),
             goals: Goals::default(),
             units_per_fire: UNITS_PER_FIRE,
+            roads: None,
         }
     }
 
@@ -163,6 +170,7 @@ impl Incident {
         });
         let mut incident = Self::new(scenario.tunnel.clone(), units, lease_s, strategy);
         incident.goals = Goals::new(&scenario.zones);
+        incident.roads = Some(RoadMap::from_scenario(scenario));
         incident
     }
 
@@ -773,16 +781,26 @@ impl Incident {
         if candidates.is_empty() {
             return Vec::new();
         }
-        let hazards: Vec<Place> = self
+        let burning: Vec<(FireId, Point2)> = self
             .fusion
             .fires()
             .iter()
             .filter(|f| f.active() && f.state != FireState::Tentative)
-            .map(|f| Place::in_tunnel(&self.tunnel, f.position()))
+            .map(|f| (f.id, f.position()))
             .collect();
+        let hazards: Vec<Place> = burning
+            .iter()
+            .map(|(_, p)| Place::in_tunnel(&self.tunnel, *p))
+            .collect();
+        // Out of `self` while decisions are dispatched below; put back at the end.
+        let mut roads = self.roads.take();
+        if let Some(r) = &mut roads {
+            r.track(&burning);
+        }
         let site = Site {
             barred: &barred,
             hazards: &hazards,
+            roads: roads.as_ref().map(|r| r as &dyn Roads),
         };
         let mut out = Vec::new();
         if !needs.is_empty() {
@@ -813,6 +831,7 @@ impl Incident {
                 out.extend(self.dispatch(p, t, true));
             }
         }
+        self.roads = roads;
         out
     }
 
@@ -1232,6 +1251,26 @@ mod tests {
         assert_eq!(tracks[0].assigned, [u("a")]);
         assert_eq!(tracks[0].state, FireState::Suppressing);
         assert_eq!(tracks[1].assigned, [u("b")]);
+    }
+
+    #[test]
+    fn the_nearer_unit_behind_a_truck_across_the_road_is_not_sent() {
+        // a is 15 m from the fire but a jack-knifed truck closes the tunnel between them;
+        // b is 40 m away on the open side.
+        let text = "name = \"t\"\ntime_limit_s = 100\n[tunnel]\nlength_m = 200.0\nwidth_m = 10.0\nheight_m = 6.0\nlanes = 2\n\
+            [[obstacles]]\nname = \"truck\"\nx_m = 52.0\ny_m = 0.0\nlength_m = 3.0\nwidth_m = 10.0\nheight_m = 3.0\n\
+            [[units]]\nid = \"a\"\nkind = \"ground\"\nx_m = 45.0\ny_m = -2.0\n\
+            [[units]]\nid = \"b\"\nkind = \"ground\"\nx_m = 100.0\ny_m = -2.0\n";
+        let scenario = Scenario::from_toml(text, "t.toml").unwrap();
+        let mut i = Incident::from_scenario(&scenario, 5.0, Strategy::Optimal);
+        i.set_units_per_fire(1);
+        for (n, x) in [("a", 45.0), ("b", 100.0)] {
+            i.on_alive(&u(n), true, 0.0).unwrap();
+            i.on_state(state(n, x, None), 0.0).unwrap();
+        }
+        let out = i.on_report(&report("b", 60.0), 1.0).unwrap();
+        let sent: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
+        assert_eq!(sent, ["b"], "{out:?}");
     }
 
     #[test]

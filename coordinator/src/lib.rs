@@ -1,9 +1,9 @@
 //! The incident's brain and its memory.
 //!
 //! [`fusion`] turns flame reports from every unit into fire tracks; [`assign`] decides which
-//! unit attacks which fire; [`goals`] holds the commanders' zone goals; [`incident`] holds
+//! unit attacks which fire, ranking ground units by the driving distance [`roads`] gives; [`goals`] holds the commanders' zone goals; [`incident`] holds
 //! the whole picture (units, fires, tasks, goals) and reacts to events with decisions,
-//! each logged with its reason. All four are pure: no Zenoh, no clock of their own.
+//! each logged with its reason. All five are pure: no Zenoh, no clock of their own.
 //! [`node`] wires them to the bus, and [`record`] writes everything on the bus to an MCAP
 //! file with a Foxglove scene ([`scene`]).
 //!
@@ -17,6 +17,7 @@ pub mod goals;
 pub mod incident;
 pub mod node;
 pub mod record;
+pub mod roads;
 pub mod scene;
 
 pub use incident::Incident;
