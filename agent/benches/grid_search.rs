@@ -8,6 +8,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use firefleet_agent::nav::grid::NEIGHBOURS;
 use firefleet_agent::nav::grid_search::CostGrid;
 
 const N: usize = 1000;
@@ -42,16 +43,7 @@ fn grid_search(c: &mut Criterion) {
     };
     let successors = |&(x, y): &(isize, isize)| {
         let mut out = Vec::with_capacity(8);
-        for (dx, dy) in [
-            (1, 0),
-            (-1, 0),
-            (0, 1),
-            (0, -1),
-            (1, 1),
-            (1, -1),
-            (-1, 1),
-            (-1, -1),
-        ] {
+        for (dx, dy) in NEIGHBOURS {
             let (nx, ny) = (x + dx, y + dy);
             if !free(nx, ny) {
                 continue;

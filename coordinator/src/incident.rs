@@ -1044,14 +1044,19 @@ mod tests {
         i
     }
 
-    fn incident_with_backups() -> Incident {
+    /// Ground units a and b, neither heard from yet.
+    fn unheard() -> Incident {
         let ground = Mobility::Ground { speed_m_s: 1.5 };
-        let mut i = Incident::new(
+        Incident::new(
             TUNNEL,
             [(u("a"), ground), (u("b"), ground)],
             5.0,
             Strategy::Optimal,
-        );
+        )
+    }
+
+    fn incident_with_backups() -> Incident {
+        let mut i = unheard();
         for (n, x) in [("a", 10.0), ("b", 40.0)] {
             i.on_alive(&u(n), true, 0.0).unwrap();
             i.on_state(state(n, x, None), 0.0).unwrap();
@@ -1201,13 +1206,7 @@ mod tests {
             hrr_kw: Some(5000.0),
         };
         // Restored before any unit is heard from, as a starting coordinator does.
-        let ground = Mobility::Ground { speed_m_s: 1.5 };
-        let mut i = Incident::new(
-            TUNNEL,
-            [(u("a"), ground), (u("b"), ground)],
-            5.0,
-            Strategy::Optimal,
-        );
+        let mut i = unheard();
         i.set_units_per_fire(1);
         let (_, refused) = i.restore(
             &[

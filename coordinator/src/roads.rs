@@ -27,6 +27,7 @@
 use std::collections::BTreeMap;
 
 use firefleet_agent::nav::Grid;
+use firefleet_agent::nav::grid::NEIGHBOURS;
 use firefleet_agent::nav::grid_search::CostGrid;
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::GROUND;
@@ -253,16 +254,7 @@ fn components(grid: &Grid) -> Vec<u32> {
                     && (r as usize) < h
                     && !grid.blocked((c as usize, r as usize))
             };
-            for (dc, dr) in [
-                (1, 0),
-                (-1, 0),
-                (0, 1),
-                (0, -1),
-                (1, 1),
-                (1, -1),
-                (-1, 1),
-                (-1, -1),
-            ] {
+            for (dc, dr) in NEIGHBOURS {
                 let (nc, nr) = (c + dc, r + dr);
                 // A diagonal step needs both cells it passes between free.
                 if !free(nc, nr) || (dc != 0 && dr != 0 && !(free(c + dc, r) && free(c, r + dr))) {

@@ -5,7 +5,7 @@ use std::collections::BinaryHeap;
 
 use firefleet_protocol::Point2;
 
-use super::grid::Grid;
+use super::grid::{Grid, NEIGHBOURS};
 
 /// How far from its start a path may run through inflated (but not truly occupied)
 /// space, m; about the inflation margin.
@@ -43,16 +43,7 @@ pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
         if cur == g {
             break;
         }
-        for (dc, dr) in [
-            (1, 0),
-            (-1, 0),
-            (0, 1),
-            (0, -1),
-            (1, 1),
-            (1, -1),
-            (-1, 1),
-            (-1, -1),
-        ] {
+        for (dc, dr) in NEIGHBOURS {
             let (Some(c), Some(r)) = (cur.0.checked_add_signed(dc), cur.1.checked_add_signed(dr))
             else {
                 continue;

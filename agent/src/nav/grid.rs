@@ -8,6 +8,18 @@ use firefleet_protocol::scenario::Scenario;
 /// A cell index (column along x, row along y).
 pub type Cell = (usize, usize);
 
+/// The eight moves of an 8-connected grid, (column, row): straight ones first.
+pub const NEIGHBOURS: [(isize, isize); 8] = [
+    (1, 0),
+    (-1, 0),
+    (0, 1),
+    (0, -1),
+    (1, 1),
+    (1, -1),
+    (-1, 1),
+    (-1, -1),
+];
+
 /// A boolean occupancy grid over the tunnel, origin at the road's lowest corner.
 #[derive(Debug, Clone)]
 pub struct Grid {
