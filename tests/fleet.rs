@@ -408,22 +408,7 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
         truth.all_out(),
         "fire forgotten after the coordinator restarted: {truth:?}"
     );
-    let replies = bus
-        .session()
-        .get(keys.key(&Topic::CoordStatus))
-        .await
-        .unwrap();
-    let status: serde_json::Value = serde_json::from_slice(
-        &replies
-            .recv_async()
-            .await
-            .unwrap()
-            .result()
-            .unwrap()
-            .payload()
-            .to_bytes(),
-    )
-    .unwrap();
+    let status = status_of(&bus, Duration::from_secs(10)).await;
     assert!(
         !status["fires"].as_array().unwrap().is_empty(),
         "the new coordinator knows the fire: {status}"
