@@ -24,7 +24,7 @@ use crate::mission::{Mission, Responder};
 
 use crate::aim;
 use crate::nav::hybrid_astar::{Footprint, HeatSource, HybridAStar, Params};
-use crate::nav::{self, Follow, Grid, PurePursuit};
+use crate::nav::{self, Follow, Grid, PurePursuit, Route};
 use crate::tracker::FlameTracker;
 
 /// Preferred distances from a fire to fire from, m, in order of preference. 5 to 6 m keeps
@@ -37,9 +37,10 @@ const GRID_RES_M: f64 = 0.25;
 /// Clearance Hybrid A* keeps between the footprint and walls or vehicles, m: room for the
 /// path follower's tracking error.
 const HYBRID_MARGIN_M: f64 = 0.3;
-/// Expansions Hybrid A* may spend on one firing spot, and how many spots it tries before
-/// the grid planner takes over: a bound on the planning done inside one control step.
-const HYBRID_BUDGET: usize = 20_000;
+/// How many firing spots Hybrid A* searches for at once, and the expansions it may spend
+/// on them before the grid planner takes over: a bound on the planning done inside one
+/// control step (about 3.5 us an expansion in the nav experiment's tunnel, so 0.35 s).
+const HYBRID_BUDGET: usize = 100_000;
 const HYBRID_SPOTS: usize = 6;
 /// The straight a Hybrid A* path to a firing spot ends on, m, longest first.
 const RUN_IN_M: [f64; 3] = [2.5, 1.5, 0.75];
@@ -87,9 +88,9 @@ pub struct Unit {
     /// The latest sensor frame.
     pub(crate) frame: UnitSensors,
     nav: Option<Navigation>,
-    /// A firing path prepared for a goal (from `SetTargetToFire`), used by the next
+    /// A firing route prepared for a goal (from `SetTargetToFire`), used by the next
     /// `StartNavigation` to that goal.
-    prepared: Option<(Point2, Vec<Point2>)>,
+    prepared: Option<(Point2, Route)>,
     /// Cannon set-point (pan, tilt) and whether the valve is wanted open.
     pub(crate) aim: Option<(f64, f64)>,
     /// Pan set-point while sweeping the cannon (and its camera) to look for fire.
@@ -210,7 +211,7 @@ impl Unit {
     pub fn navigate(&mut self, goal: Point2, purpose: NavPurpose) -> bool {
         let path = match self.prepared.take() {
             Some((g, p)) if g.dist(goal) < 1e-9 => Some(p),
-            _ => nav::plan(&self.nav_grid, self.pose().position(), goal),
+            _ => nav::plan(&self.nav_grid, self.pose().position(), goal).map(Route::forward),
         };
         match path {
             Some(p) => {
@@ -251,11 +252,16 @@ impl Unit {
         self.nav.as_ref().is_some_and(|n| n.arrived)
     }
 
-    /// A forward-only Hybrid A* path from the unit to `spot`, arriving facing `target` and
-    /// keeping it in view, as points for the path follower; `None` if it finds none.
-    fn hybrid_path(&self, from: Point2, spot: Point2, target: Point2) -> Option<Vec<Point2>> {
+    /// A Hybrid A* route from the unit to the cheapest to reach of `spots`, arriving
+    /// facing `target` and keeping it in view; the spot and the route, or `None` if the
+    /// search finds none within budget.
+    fn hybrid_route(
+        &self,
+        from: Point2,
+        spots: &[Point2],
+        target: Point2,
+    ) -> Option<(Point2, Route)> {
         let mut params = Params::for_radius(self.spec.min_turn_radius_m());
-        params.allow_reverse = false;
         params.lambda_m = self.visibility_lambda_m;
         params.max_expansions = HYBRID_BUDGET;
         let footprint = Footprint {
@@ -273,26 +279,33 @@ impl Unit {
             .collect();
         let planner = HybridAStar::new(&self.hybrid_grid, footprint, params).with_heat(heat);
         let start = Pose2::new(from.x, from.y, self.pose().yaw);
-        let facing = spot.bearing_to(target);
-        // Plan to a pose short of the spot and finish on a straight run-in: a follower
+        // Plan to a pose short of each spot and finish on a straight run-in: a follower
         // settles its heading on a straight, while on the end of a curve it lags behind
         // the path by degrees. The longest run-in there is room for; none at worst.
-        let back = |d: f64| {
-            let p = spot.offset(facing + std::f64::consts::PI, d);
-            Pose2::new(p.x, p.y, facing)
-        };
-        let goal = RUN_IN_M
-            .into_iter()
-            .find(|&len| (0..=8).all(|k| planner.pose_free(&back(len * f64::from(k) / 8.0))))
-            .map_or(back(0.0), back);
-        let plan = planner.plan(start, goal, Some(target)).ok()?;
+        let goals: Vec<Pose2> = spots
+            .iter()
+            .map(|&spot| {
+                let facing = spot.bearing_to(target);
+                let back = |d: f64| {
+                    let p = spot.offset(facing + std::f64::consts::PI, d);
+                    Pose2::new(p.x, p.y, facing)
+                };
+                RUN_IN_M
+                    .into_iter()
+                    .find(|&len| {
+                        (0..=8).all(|k| planner.pose_free(&back(len * f64::from(k) / 8.0)))
+                    })
+                    .map_or(back(0.0), back)
+            })
+            .collect();
+        let plan = planner.plan_any(start, &goals, Some(target)).ok()?;
+        let (spot, goal) = (spots[plan.goal], goals[plan.goal]);
         // A point every half metre or so is plenty for pure pursuit.
-        let mut points: Vec<Point2> = plan.poses.iter().step_by(2).map(|p| p.position()).collect();
-        points.push(goal.position());
+        let mut route = Route::from_poses(&plan.poses, &plan.reverse, 2);
         if goal.position() != spot {
-            points.push(spot);
+            route.push_forward(spot);
         }
-        Some(points)
+        Some((spot, route))
     }
 
     /// Choose a firing position for a fire at `target` and prepare the path to it: free for
@@ -327,28 +340,32 @@ impl Unit {
                     && self.firing_solution(spot, target).is_ok()
             });
         // A kinematically feasible path that arrives facing the flame and keeps it in
-        // view, to one of the best few spots; a spot can be out of reach of a forward-only
-        // vehicle (say, beside a parked car at an angle), so a few are tried. Else the grid
-        // path, with a lead-in along the line to the fire where there is room.
+        // view, backing where it must (say, to turn round in a narrow bore), to the
+        // cheapest to reach of the best few spots: one is often out of reach (beside a
+        // car parked askew, say), and one search to all of them costs less than one each.
+        // Else the grid path, with a lead-in along the line to the fire where there is
+        // room.
         let nav = &self.nav_grid;
-        let (spot, path) = spots
+        let best: Vec<Point2> = spots
             .clone()
             .take(HYBRID_SPOTS)
-            .find_map(|(_, _, spot)| Some((spot, self.hybrid_path(from, spot, target)?)))
-            .or_else(|| {
-                spots.find_map(|(off, r, spot)| {
-                    let lead_in = target.offset(home + off, r + 2.5);
-                    let path = if nav.free(lead_in) && nav.segment_free(lead_in, spot) {
-                        nav::plan(nav, from, lead_in).map(|mut p| {
-                            p.push(spot);
-                            p
-                        })
-                    } else {
-                        nav::plan(nav, from, spot)
-                    };
-                    Some((spot, path?))
-                })
-            })?;
+            .map(|(_, _, spot)| spot)
+            .collect();
+        let (spot, path) = self.hybrid_route(from, &best, target).or_else(|| {
+            spots.find_map(|(off, r, spot)| {
+                let lead_in = target.offset(home + off, r + 2.5);
+                let path = if nav.free(lead_in) && nav.segment_free(lead_in, spot) {
+                    nav::plan(nav, from, lead_in).map(|mut p| {
+                        p.push(spot);
+                        p
+                    })
+                } else {
+                    nav::plan(nav, from, spot)
+                };
+                let path = path.map(Route::forward);
+                Some((spot, path?))
+            })
+        })?;
         self.prepared = Some((spot, path));
         Some(spot)
     }
@@ -468,7 +485,7 @@ impl Services for Unit {
             tilt,
             valve_open: self.valve && f.water_l > 0.0,
         };
-        let (pose, now, spec) = (f.pose, f.t, self.spec);
+        let (pose, speed, steer, now, spec) = (f.pose, f.speed, f.steer, f.t, self.spec);
         let Some(n) = &mut self.nav else { return cmd };
         if n.arrived || n.failed {
             return cmd;
@@ -480,7 +497,7 @@ impl Services for Unit {
             }
             n.recover_until = None;
             match nav::plan(&self.nav_grid, pose.position(), n.goal) {
-                Some(p) => n.follow = PurePursuit::new(p),
+                Some(p) => n.follow = PurePursuit::new(Route::forward(p)),
                 None => {
                     tracing::warn!(unit = %self.id, goal = ?n.goal, "no path after recovering; navigation failed");
                     n.failed = true;
@@ -488,7 +505,7 @@ impl Services for Unit {
                 }
             }
         }
-        match n.follow.follow(&pose, &spec) {
+        match n.follow.follow(&pose, speed, steer, &spec) {
             Follow::Drive { speed, steer } => {
                 cmd.speed = speed;
                 cmd.steer = steer;

@@ -6,8 +6,8 @@ use std::sync::Arc;
 use firefleet_agent::ground::GroundController;
 use firefleet_protocol::FireId;
 use firefleet_protocol::UnitId;
-use firefleet_protocol::geometry::Point2;
-use firefleet_protocol::msg::{TaskKind, TaskPhase, TruthFireState};
+use firefleet_protocol::geometry::{Point2, wrap_angle};
+use firefleet_protocol::msg::{TaskKind, TaskPhase, TruthFireState, UnitMode};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::GROUND;
 use firefleet_sim::World;
@@ -215,4 +215,71 @@ fn a_staged_unit_assigned_the_fire_puts_it_out() {
         "the staged unit never put the fire out"
     );
     assert_eq!(world.truth().units[0].collisions, 0);
+}
+
+/// A unit sent to a fire behind it in a bore too narrow to turn round in one sweep (a
+/// U-turn takes 3.7 m of turning circle plus the body and the planner's clearance, 5.3 m)
+/// must back and fill: its route has cusps, the follower drives them, and it still ends
+/// facing the flame without touching a wall.
+#[test]
+fn facing_away_in_a_narrow_bore_the_unit_turns_round_by_backing() {
+    let scenario = Arc::new(
+        Scenario::from_toml(
+            r#"
+            name = "narrow-bore"
+            time_limit_s = 120
+            [tunnel]
+            length_m = 60.0
+            width_m = 5.0
+            height_m = 6.3
+            lanes = 1
+            [[fires]]
+            name = "fire"
+            x_m = 12.0
+            y_m = 0.0
+            growth = "medium"
+            peak_kw = 400.0
+            ignition_s = -120.0
+            [[units]]
+            id = "u1"
+            kind = "ground"
+            x_m = 30.0
+            y_m = 0.0
+            yaw_rad = 0.0
+        "#,
+            "narrow-bore.toml",
+        )
+        .unwrap(),
+    );
+    let mut world = World::new(&scenario, 3);
+    let id = UnitId::new("u1").unwrap();
+    let mut ctl = GroundController::new(id.clone(), GROUND, scenario.clone());
+    ctl.set_coordinator_present(true);
+    let flame = scenario.fires[0].position();
+    ctl.on_task(
+        1,
+        TaskKind::Extinguish {
+            fire: FireId(1),
+            target: flame,
+        },
+    );
+    let mut backed_m = 0.0;
+    while world.time() < 90.0 {
+        let s = world.sensors(&id).unwrap();
+        let cmd = ctl.step(&s);
+        let state = ctl.state();
+        if state.mode == UnitMode::Extinguishing {
+            let off = wrap_angle(state.pose.yaw - state.pose.position().bearing_to(flame));
+            assert!(off.abs() < 5f64.to_radians(), "{off} rad off the flame");
+            assert!(backed_m > 1.0, "turned round backing only {backed_m} m");
+            assert_eq!(world.truth().units[0].collisions, 0, "touched a wall");
+            return;
+        }
+        if s.speed < 0.0 {
+            backed_m += -s.speed * 0.05;
+        }
+        world.command(&id, cmd);
+        world.step(0.05);
+    }
+    panic!("never reached a firing position: {:?}", ctl.state());
 }

@@ -6,7 +6,7 @@
 //! angular deviation from facing the flame over 30 trials.
 //!
 //! Ours: the shipped ground tree and unit (flame tracker, firing-position choice,
-//! forward-only Hybrid A* with the visibility term, pure pursuit) on the simulated body,
+//! Hybrid A* with the visibility term, pure pursuit) on the simulated body,
 //! stepped in-process with the world. The unit is given the fire as a coordinator's task
 //! at t = 0, as the paper starts its timer with the flame already localised. Arrival is
 //! when the unit stops navigating and starts aiming. Each trial runs twice, with the
@@ -330,8 +330,9 @@ mod tests {
         let s = scenario(1000).unwrap();
         let r = trial(&s, 1000, None).unwrap();
         let t = r.time_s.expect("arrived");
-        // 82 m along the road at up to 1.5 m/s.
-        assert!((54.0..70.0).contains(&t), "{t} s");
+        // 82 m along the road to the flame, the firing spot 4.5 m or more short of it, at
+        // up to 1.5 m/s: 51 s at least, a little less on the inside of the curve.
+        assert!((48.0..70.0).contains(&t), "{t} s");
         assert!(r.angle_deg.abs() < 5.0, "{} deg off the flame", r.angle_deg);
         assert_eq!(r.collisions, 0);
         assert!(r.in_view > 0.1 && r.in_view < 0.9, "{}", r.in_view);

@@ -120,6 +120,8 @@ pub enum PlanError {
 /// A planned path: poses every grid cell or so, and whether each is driven backwards.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
+    /// Which of the goals the path reaches (0 for [`HybridAStar::plan`]).
+    pub goal: usize,
     pub poses: Vec<Pose2>,
     pub reverse: Vec<bool>,
     pub length_m: f64,
@@ -244,15 +246,41 @@ impl<'a> HybridAStar<'a> {
         goal: Pose2,
         flame: Option<Point2>,
     ) -> Result<Plan, PlanError> {
+        self.plan_any(start, &[goal], flame)
+    }
+
+    /// Plan from `start` to whichever of `goals` is cheapest to reach; [`Plan::goal`] says
+    /// which. One search to all of them costs less than one per goal (nodes on the way
+    /// to several are expanded once) and takes the budget where it is needed: a goal
+    /// that cannot be reached does not use it up before the others are tried. Blocked
+    /// goals are left out; `GoalBlocked` if all are.
+    pub fn plan_any(
+        &self,
+        start: Pose2,
+        goals: &[Pose2],
+        flame: Option<Point2>,
+    ) -> Result<Plan, PlanError> {
         let p = &self.params;
         if !self.pose_free(&start) {
             return Err(PlanError::StartBlocked);
         }
-        if !self.pose_free(&goal) {
+        let goals: Vec<(usize, Pose2)> = goals
+            .iter()
+            .copied()
+            .enumerate()
+            .filter(|(_, g)| self.pose_free(g))
+            .collect();
+        if goals.is_empty() {
             return Err(PlanError::GoalBlocked);
         }
         let res = self.grid.resolution();
-        let (_, dist, k) = self.distance_field(goal.position());
+        let (_, mut dist, k) = self.distance_field(goals[0].1.position());
+        for (_, g) in &goals[1..] {
+            let (_, other, _) = self.distance_field(g.position());
+            for (d, o) in dist.iter_mut().zip(other) {
+                *d = d.min(o);
+            }
+        }
         let (w, _) = self.grid.size();
         let cw = w.div_ceil(k);
         let coarse_m = res * k as f64;
@@ -266,12 +294,32 @@ impl<'a> HybridAStar<'a> {
                 })
         };
         let visible = |q: &Pose2| flame.is_none_or(|f| self.grid.segment_free(q.position(), f));
-        let h = |q: &Pose2| {
-            let d = q.position().dist(goal.position());
-            let mut v = h2d(q);
-            if d < p.analytic_within_m {
-                v = v.max(reeds_shepp::distance(*q, goal, p.min_radius_m));
+        // The least Reeds-Shepp distance to a goal, which goal, and whether it is close
+        // enough for an analytic expansion. Beyond `analytic_within_m` the straight line
+        // stands in for it (a lower bound too, and cheap); a goal's Reeds-Shepp distance
+        // is only worked out while its straight line is shorter than the best so far.
+        let nearest = |q: &Pose2| {
+            let line = |j: usize| q.position().dist(goals[j].1.position());
+            let closest = (0..goals.len())
+                .min_by(|&a, &b| line(a).total_cmp(&line(b)))
+                .expect("at least one goal");
+            let mut best = (f64::INFINITY, closest, false);
+            for j in std::iter::once(closest).chain((0..goals.len()).filter(|&j| j != closest)) {
+                let l = line(j);
+                if l >= best.0 {
+                    continue;
+                }
+                best = if l < p.analytic_within_m {
+                    let rs = reeds_shepp::distance(*q, goals[j].1, p.min_radius_m);
+                    if rs < best.0 { (rs, j, true) } else { best }
+                } else {
+                    (l, j, false)
+                };
             }
+            best
+        };
+        let h = |q: &Pose2| {
+            let mut v = h2d(q).max(nearest(q).0);
             if p.lambda_m > 0.0 && !visible(q) {
                 v += p.lambda_m;
             }
@@ -306,17 +354,19 @@ impl<'a> HybridAStar<'a> {
             if expansions > p.max_expansions {
                 return Err(PlanError::NoPath(expansions));
             }
-            let d = n.pose.position().dist(goal.position());
-            if d <= p.goal_xy_tol_m && wrap_angle(n.pose.yaw - goal.yaw).abs() <= p.goal_yaw_tol_rad
-            {
-                return Ok(self.finish(&nodes, i, None, expansions));
+            if let Some(&(j, _)) = goals.iter().find(|(_, g)| {
+                n.pose.position().dist(g.position()) <= p.goal_xy_tol_m
+                    && wrap_angle(n.pose.yaw - g.yaw).abs() <= p.goal_yaw_tol_rad
+            }) {
+                return Ok(self.finish(&nodes, i, j, None, expansions));
             }
-            if d < p.analytic_within_m {
-                let rs = reeds_shepp::shortest(n.pose, goal, p.min_radius_m);
+            let (_, j, near) = nearest(&n.pose);
+            if near {
+                let rs = reeds_shepp::shortest(n.pose, goals[j].1, p.min_radius_m);
                 let samples = rs.sample(n.pose, p.min_radius_m, res);
                 if (p.allow_reverse || !rs.reverses()) && samples.iter().all(|q| self.pose_free(q))
                 {
-                    return Ok(self.finish(&nodes, i, Some(rs), expansions));
+                    return Ok(self.finish(&nodes, i, goals[j].0, Some(rs), expansions));
                 }
             }
             for reverse in [false, true] {
@@ -373,11 +423,13 @@ impl<'a> HybridAStar<'a> {
         Err(PlanError::NoPath(expansions))
     }
 
-    /// The path to node `i`, then the analytic tail if any, sampled every grid cell.
+    /// The path to node `i`, then the analytic tail if any, sampled every grid cell; it
+    /// reaches goal `goal`.
     fn finish(
         &self,
         nodes: &[Node],
         mut i: usize,
+        goal: usize,
         tail: Option<reeds_shepp::Path>,
         expansions: usize,
     ) -> Plan {
@@ -431,6 +483,7 @@ impl<'a> HybridAStar<'a> {
             .map(|w| w[0].position().dist(w[1].position()))
             .sum();
         Plan {
+            goal,
             poses,
             reverse,
             length_m,
@@ -487,6 +540,36 @@ mod tests {
         let mut passing = plan.poses.iter().filter(|p| (22.75..27.25).contains(&p.x));
         assert!(passing.all(|p| p.y > -0.1), "it goes round the car");
         assert!(plan.length_m < 45.0, "{}", plan.length_m);
+    }
+
+    /// Several goals: a blocked one is left out, and of the others the search takes the
+    /// one cheapest to reach, by the path it would take to that one alone.
+    #[test]
+    fn to_any_of_several_goals_it_reaches_the_cheapest() {
+        let s = tunnel(CAR);
+        let grid = Grid::from_scenario(&s, 0.1, 0.0);
+        let mut params = Params::for_radius(R);
+        params.allow_reverse = false;
+        let planner = HybridAStar::new(&grid, FOOT, params);
+        let start = Pose2::new(5.0, -1.5, 0.0);
+        let inside_the_car = Pose2::new(25.0, -1.5, 0.0);
+        let far = Pose2::new(45.0, 1.5, 0.0);
+        let near = Pose2::new(35.0, 1.5, 0.0);
+        let goals = [inside_the_car, far, near];
+        let plan = planner.plan_any(start, &goals, None).unwrap();
+        assert_eq!(plan.goal, 2, "the nearer free goal");
+        check(&planner, &plan, start, near);
+        let alone = planner.plan(start, near, None).unwrap();
+        assert!(
+            (plan.length_m - alone.length_m).abs() < 1e-6,
+            "the same path as to it alone"
+        );
+        assert_eq!(
+            planner
+                .plan_any(start, &[inside_the_car], None)
+                .unwrap_err(),
+            PlanError::GoalBlocked
+        );
     }
 
     #[test]

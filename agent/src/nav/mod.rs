@@ -22,4 +22,4 @@ pub mod smoother;
 
 pub use astar::plan;
 pub use grid::Grid;
-pub use pursuit::{Follow, PurePursuit};
+pub use pursuit::{Follow, PurePursuit, Route};
