@@ -11,13 +11,14 @@ use std::sync::Arc;
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use firefleet_agent::ground::{GroundController, cannon_experiment_tree};
+use firefleet_agent::monorail::MonorailController;
 use firefleet_coordinator::Incident;
 use firefleet_coordinator::assign::Strategy;
 use firefleet_coordinator::incident::Output;
 use firefleet_protocol::geometry::Point2;
-use firefleet_protocol::msg::{TruthFireState, UnitKind};
+use firefleet_protocol::msg::{FlameReport, TaskKind, TruthFireState, UnitKind, UnitState};
 use firefleet_protocol::scenario::{FireSpec, Growth, Scenario, Tunnel, UnitSpec};
-use firefleet_protocol::spec::GROUND;
+use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::{SiteId, UnitId};
 use firefleet_sim::World;
 use rand::{Rng, SeedableRng};
@@ -256,7 +257,58 @@ fn cannon(a: CannonArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// The multi-fire scenarios the fleet experiment runs.
-const FLEET_SCENARIOS: [&str; 2] = ["cargo-truck", "pileup"];
+const FLEET_SCENARIOS: [&str; 3] = ["cargo-truck", "pileup", "rail-tunnel"];
+
+/// One unit's control loop, whichever kind it is.
+enum Fleet {
+    Ground(GroundController),
+    Rail(MonorailController),
+}
+
+impl Fleet {
+    /// One control step on the unit's simulated body.
+    fn step(&mut self, id: &UnitId, world: &mut World) -> anyhow::Result<()> {
+        match self {
+            Self::Ground(c) => {
+                let sensors = world.sensors(id).context("unit exists")?;
+                world.command(id, c.step(&sensors));
+            }
+            Self::Rail(c) => {
+                let sensors = world.rail_sensors(id).context("unit exists")?;
+                world.command_rail(id, c.step(&sensors));
+            }
+        }
+        Ok(())
+    }
+
+    fn on_task(&mut self, seq: u64, kind: TaskKind) {
+        match self {
+            Self::Ground(c) => c.on_task(seq, kind),
+            Self::Rail(c) => c.on_task(seq, kind),
+        }
+    }
+
+    fn set_coordinator_present(&mut self, present: bool) {
+        match self {
+            Self::Ground(c) => c.set_coordinator_present(present),
+            Self::Rail(c) => c.set_coordinator_present(present),
+        }
+    }
+
+    fn state(&self) -> UnitState {
+        match self {
+            Self::Ground(c) => c.state(),
+            Self::Rail(c) => c.state(),
+        }
+    }
+
+    fn report(&mut self) -> Option<FlameReport> {
+        match self {
+            Self::Ground(c) => c.report(),
+            Self::Rail(c) => c.report(),
+        }
+    }
+}
 
 #[derive(Serialize)]
 struct FleetRun {
@@ -288,18 +340,30 @@ fn fleet_run(
 ) -> anyhow::Result<(Option<f64>, f64, f64, usize)> {
     let shared = Arc::new(scenario.clone());
     let mut world = World::new(scenario, seed);
-    let mut units: Vec<(UnitId, GroundController)> = scenario
+    let monorail = firefleet_agent::monorail::default_tree();
+    let mut units: Vec<(UnitId, Fleet)> = scenario
         .units
         .iter()
         .map(|u| {
-            (
-                u.id.clone(),
-                GroundController::new(u.id.clone(), GROUND, shared.clone()),
-            )
+            let ctl = match u.kind {
+                UnitKind::Ground => {
+                    Fleet::Ground(GroundController::new(u.id.clone(), GROUND, shared.clone()))
+                }
+                UnitKind::Monorail => Fleet::Rail(
+                    MonorailController::with_tree(
+                        u.id.clone(),
+                        MONORAIL,
+                        shared.clone(),
+                        &monorail,
+                    )?
+                    .with_context(|| format!("monorail unit {} has no rail", u.id))?,
+                ),
+            };
+            Ok((u.id.clone(), ctl))
         })
-        .collect();
+        .collect::<anyhow::Result<_>>()?;
     let mut incident = strategy.map(|s| Incident::from_scenario(scenario, 5.0, s));
-    let deliver = |outputs: Vec<Output>, units: &mut [(UnitId, GroundController)]| {
+    let deliver = |outputs: Vec<Output>, units: &mut [(UnitId, Fleet)]| {
         for o in outputs {
             if let Output::Task(task) = o
                 && let Some((_, ctl)) = units.iter_mut().find(|(id, _)| *id == task.unit)
@@ -318,9 +382,7 @@ fn fleet_run(
     let mut step = 0u64;
     while world.time() < scenario.time_limit_s {
         for (id, ctl) in &mut units {
-            let sensors = world.sensors(id).context("unit exists")?;
-            let cmd = ctl.step(&sensors);
-            world.command(id, cmd);
+            ctl.step(id, &mut world)?;
         }
         if let Some(inc) = &mut incident
             && step.is_multiple_of(report_every)

@@ -177,7 +177,7 @@ fn the_fleet_experiment_compares_three_strategies_on_every_multi_fire_scenario()
     assert!(out.status.success(), "{}", text(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
     let runs = v["strategies"].as_array().unwrap();
-    assert_eq!(runs.len(), 6, "2 scenarios x 3 strategies");
+    assert_eq!(runs.len(), 9, "3 scenarios x 3 strategies");
     for r in runs {
         assert!(["autonomous", "greedy", "optimal"].contains(&r["strategy"].as_str().unwrap()));
         for key in [

@@ -16,7 +16,7 @@ use firefleet_protocol::geometry::{Point2, Pose2, wrap_angle};
 use firefleet_protocol::msg::{
     FlameReport, TaskKind, UnitCommand, UnitKind, UnitMode, UnitSensors, UnitState,
 };
-use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::GroundSpec;
 
 use crate::controller::Services;
@@ -101,6 +101,8 @@ pub struct Unit {
     pub(crate) mission: Mission,
     /// Goal of the latest cruise, kept after arrival.
     cruising_to: Option<Point2>,
+    /// Where the unit patrols to on its own ([`patrol_goal`]).
+    patrol_goal: Point2,
     /// Weight of Hybrid A*'s visibility term on the way to a fire, m.
     pub(crate) visibility_lambda_m: f64,
     last_report_t: f64,
@@ -109,10 +111,12 @@ pub struct Unit {
 impl Unit {
     /// A unit at its start pose in the scenario, until the first frame arrives.
     pub fn new(id: UnitId, spec: GroundSpec, scenario: Arc<Scenario>) -> Self {
+        let start = scenario.unit(&id).map(|u| u.pose()).unwrap_or_default();
+        let patrol_goal = patrol_goal(&scenario.tunnel, start.position());
         let frame = UnitSensors {
             unit: id.clone(),
             t: 0.0,
-            pose: scenario.unit(&id).map(|u| u.pose()).unwrap_or_default(),
+            pose: start,
             speed: 0.0,
             steer: 0.0,
             heat_flux_kw_m2: 0.0,
@@ -135,6 +139,7 @@ impl Unit {
             frame,
             nav: None,
             cruising_to: None,
+            patrol_goal,
             visibility_lambda_m: VISIBILITY_LAMBDA_M,
             prepared: None,
             aim: None,
@@ -192,19 +197,12 @@ impl Unit {
             .map(|t| t.position())
     }
 
-    /// Cruise goal: the coordinator's, or else the far end of the lane the unit is in.
+    /// Cruise goal: the coordinator's, or else the patrol's ([`patrol_goal`]).
     pub fn cruise_goal(&self) -> Point2 {
-        if let Some((_, TaskKind::Cruise { goal } | TaskKind::Search { goal })) = self.mission.task
-        {
-            return goal;
+        match self.mission.task {
+            Some((_, TaskKind::Cruise { goal } | TaskKind::Search { goal })) => goal,
+            _ => self.patrol_goal,
         }
-        let t = &self.scenario.tunnel;
-        let d = t.station(self.pose().position()).d;
-        let lane = (0..t.lanes)
-            .map(|i| t.lane_center_y(i))
-            .min_by(|a, b| (a - d).abs().total_cmp(&(b - d).abs()))
-            .unwrap_or(0.0);
-        t.point_at(t.length_m - 10.0, lane)
     }
 
     /// Start driving to `goal`; false if no path exists.
@@ -427,6 +425,24 @@ impl Unit {
     }
 }
 
+/// Where a unit that starts at `start` patrols to on its own: 10 m short of the far end of
+/// the tunnel, in the lane it starts in. The far end from where it starts, not from where
+/// it is (a goal that flipped at the middle would turn it round there): a unit that comes
+/// in at either portal sweeps the whole bore.
+fn patrol_goal(t: &Tunnel, start: Point2) -> Point2 {
+    let at = t.station(start);
+    let lane = (0..t.lanes)
+        .map(|i| t.lane_center_y(i))
+        .min_by(|a, b| (a - at.d).abs().total_cmp(&(b - at.d).abs()))
+        .unwrap_or(0.0);
+    let end = if at.s < t.length_m / 2.0 {
+        t.length_m - 10.0
+    } else {
+        10.0
+    };
+    t.point_at(end, lane)
+}
+
 impl Responder for Unit {
     fn id(&self) -> &UnitId {
         &self.id
@@ -563,5 +579,25 @@ impl Services for Unit {
 
     fn halt(s: &UnitSensors) -> UnitCommand {
         UnitCommand::halt(&s.cannon)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_unit_patrols_to_the_far_end_from_where_it_starts_in_its_lane() {
+        let t = Tunnel::straight(300.0, 10.0, 6.3, 2);
+        let (right, left) = (t.lane_center_y(0), t.lane_center_y(1));
+        assert_eq!(
+            patrol_goal(&t, Point2::new(5.0, right)),
+            t.point_at(290.0, right)
+        );
+        assert_eq!(
+            patrol_goal(&t, Point2::new(295.0, left + 0.4)),
+            t.point_at(10.0, left),
+            "in from the east portal, it patrols west"
+        );
     }
 }

@@ -4,13 +4,18 @@
 use std::sync::Arc;
 
 use firefleet_agent::monorail::{MonorailController, default_tree};
-use firefleet_protocol::msg::{TaskKind, TaskPhase, TruthFireState};
+use firefleet_protocol::msg::{TaskKind, TaskPhase, TruthFireState, UnitMode};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::MONORAIL;
 use firefleet_protocol::{FireId, Point2, UnitId};
 use firefleet_sim::World;
 
 fn scenario(fire_x: f64, fire_y: f64, rail_end: f64) -> Arc<Scenario> {
+    // A hose point every 30 m of the rail.
+    let hose_points: Vec<f64> = (0..)
+        .map(|k| 15.0 + 30.0 * f64::from(k))
+        .take_while(|&x| x < rail_end)
+        .collect();
     let text = format!(
         r#"
         name = "rail"
@@ -33,7 +38,7 @@ fn scenario(fire_x: f64, fire_y: f64, rail_end: f64) -> Arc<Scenario> {
         end_m = {rail_end}
         y_m = 0.0
         height_m = 5.8
-        hose_points_m = [15.0, 45.0, 75.0]
+        hose_points_m = {hose_points:?}
         [[units]]
         id = "m"
         kind = "monorail"
@@ -130,4 +135,48 @@ fn a_task_for_a_fire_out_of_its_rails_reach_fails_and_the_carriage_stays() {
     let st = ctl.state();
     assert_eq!(st.task.map(|t| t.phase), Some(TaskPhase::Failed), "{st:?}");
     assert_eq!(ctl.unit().position().x, 10.0);
+}
+
+#[test]
+fn sent_searching_it_runs_along_the_rail_reports_what_it_passes_and_stops_for_a_fire() {
+    // 150 m from the carriage: far beyond the detector's 40 m.
+    let s = scenario(160.0, -2.0, 200.0);
+    let mut world = World::new(&s, 1);
+    let mut ctl = controller(&s);
+    ctl.set_coordinator_present(true);
+    ctl.on_task(
+        1,
+        TaskKind::Search {
+            goal: Point2::new(195.0, 0.0),
+        },
+    );
+    let mut first_report = None;
+    while world.time() < 30.0 && first_report.is_none() {
+        step(&mut ctl, &mut world);
+        if let Some(r) = ctl.report() {
+            first_report = Some((world.time(), r));
+        }
+    }
+    let (t, r) = first_report.expect("the fire is reported on the way");
+    assert!(
+        r.observations
+            .iter()
+            .any(|o| o.position.dist(Point2::new(160.0, -2.0)) < 2.0),
+        "{r:?}"
+    );
+    // 110 m at 10 m/s, and a frame or two.
+    assert!(t < 15.0, "seen at {t} s");
+    assert_eq!(ctl.state().mode, UnitMode::Cruising);
+    // Searching, it does not attack on its own: the coordinator decides. A fire task
+    // stops the run and the attack starts from where the carriage is.
+    ctl.on_task(
+        2,
+        TaskKind::Extinguish {
+            fire: FireId(1),
+            target: Point2::new(160.0, -2.0),
+        },
+    );
+    run(&mut ctl, &mut world, 120.0).expect("the fire goes out");
+    let carriage = ctl.unit().position();
+    assert!((140.0..160.0).contains(&carriage.x), "{carriage:?}");
 }

@@ -4,6 +4,7 @@
 use firefleet_bt::node::Io;
 use firefleet_bt::{PortSpec, PortType, Registry, StatefulAction, Status};
 use firefleet_protocol::Point2;
+use firefleet_protocol::msg::TaskKind;
 
 use super::RailUnit;
 use crate::rail::planner::Phase;
@@ -79,6 +80,32 @@ impl StatefulAction<RailUnit> for SprayFire {
     }
 }
 
+/// Runs the carriage to the coordinator's search goal: Running on the way, Success there,
+/// Failure without a search task.
+struct SearchAlongRail;
+
+impl StatefulAction<RailUnit> for SearchAlongRail {
+    fn on_start(&mut self, io: &mut Io<'_>, u: &mut RailUnit) -> Status {
+        self.on_running(io, u)
+    }
+    fn on_running(&mut self, _: &mut Io<'_>, u: &mut RailUnit) -> Status {
+        let Some((_, TaskKind::Search { goal })) = u.mission.task else {
+            u.stop_run();
+            return Status::Failure;
+        };
+        // A new goal takes effect at once.
+        u.run_to(goal);
+        if u.run_done() {
+            Status::Success
+        } else {
+            Status::Running
+        }
+    }
+    fn on_halted(&mut self, _: &mut Io<'_>, u: &mut RailUnit) {
+        u.stop_run();
+    }
+}
+
 /// Every leaf the monorail unit's trees may use.
 pub fn registry() -> Registry<RailUnit> {
     use PortType::{Int, Point};
@@ -94,6 +121,7 @@ pub fn registry() -> Registry<RailUnit> {
             }
         },
     );
+    r.register_stateful("SearchAlongRail", vec![], || SearchAlongRail);
     r.register_stateful(
         "ApproachAlongRail",
         vec![PortSpec::input("fire", Point, "the fire")],

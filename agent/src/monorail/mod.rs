@@ -48,6 +48,8 @@ const MAX_GAP_S: f64 = 0.25;
 /// A monitor at least this far off its set-point has lost track; the CLIK restarts from
 /// where the joints are.
 const RESYNC_M: f64 = 2.0;
+/// A run along the rail ends this close to its goal, m.
+const RUN_DONE_M: f64 = 0.5;
 /// Half-widths of the sweep over a fire, m. The case study's +-1.5 m by +-1 m spreads the
 /// 8 L/s over about 20 m^2 once the jet's own footprint (over 1 m in radius at 10 m of
 /// travel) is added, a seventh of it on a car-sized fire; +-0.5 m keeps about a third on
@@ -74,6 +76,8 @@ pub struct RailUnit {
     /// The joints the CLIK drives; set-points for the carriage and the monitor.
     q: Joints,
     attack: Option<Attack>,
+    /// Carriage set-point of a run along the rail with no attack (a search), m of rail.
+    transit: Option<f64>,
     pub(crate) valve: bool,
     pub(crate) mission: Mission,
     /// Hot spots of the latest frame with the time they were seen.
@@ -157,6 +161,7 @@ impl RailUnit {
             fis: Fis::new(),
             q: joints(&start),
             attack: None,
+            transit: None,
             valve: false,
             mission: Mission::default(),
             spots: Vec::new(),
@@ -220,6 +225,23 @@ impl RailUnit {
     pub fn stop_attack(&mut self) {
         self.attack = None;
         self.valve = false;
+    }
+
+    /// Run the carriage to the point of the rail nearest `goal`, the monitor held as it
+    /// is: a search, the thermal camera looking as the carriage goes. An attack takes
+    /// over the carriage.
+    pub fn run_to(&mut self, goal: Point2) {
+        self.transit = Some(goal.x.clamp(self.rail.start_m, self.rail.end_m) - self.rail.start_m);
+    }
+
+    /// Whether the carriage has reached the end of its run.
+    pub fn run_done(&self) -> bool {
+        self.transit
+            .is_none_or(|d| (self.sensors.joints.d - d).abs() < RUN_DONE_M)
+    }
+
+    pub fn stop_run(&mut self) {
+        self.transit = None;
     }
 
     /// A hot spot seen lately within `within` of `of`.
@@ -313,6 +335,9 @@ impl Services for RailUnit {
                 }
                 self.attack = Some(a);
             }
+        } else if let Some(d) = self.transit {
+            // The carriage's drive keeps to its own speed limit.
+            self.q[0] = d;
         }
         RailCommand {
             joints: RailJoints {
@@ -333,6 +358,8 @@ impl Services for RailUnit {
             UnitMode::Extinguishing
         } else if self.attack_phase() == Some(Phase::Approach) {
             UnitMode::Navigating
+        } else if self.attack.is_none() && !self.run_done() {
+            UnitMode::Cruising
         } else {
             UnitMode::Idle
         };
