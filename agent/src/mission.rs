@@ -61,6 +61,24 @@ impl Mission {
         self.job = None;
     }
 
+    /// The attack on coordinator task `task` (-1: acting alone) stopped before the fire
+    /// was out. If the coordinator has since replaced or withdrawn the task nothing
+    /// failed and nothing is reported (it has moved on, and a failure would bar the unit
+    /// from that fire for a while); else the task failed. `None` if there was no attack.
+    pub fn stop_short(&mut self, task: i64) -> Option<Stopped> {
+        let stopped = match self.job? {
+            Some((seq, ..)) if self.assigned_fire().is_none_or(|a| a.0 != seq) => {
+                Stopped::Withdrawn
+            }
+            _ => Stopped::Failed,
+        };
+        match stopped {
+            Stopped::Failed => self.finish(task, TaskPhase::Failed),
+            Stopped::Withdrawn => self.job = None,
+        }
+        Some(stopped)
+    }
+
     /// The task progress to report: the attack under way, or how the last one ended.
     pub fn progress(&self, spraying: bool) -> Option<TaskProgress> {
         match self.job {
@@ -77,6 +95,15 @@ impl Mission {
             _ => self.outcome,
         }
     }
+}
+
+/// Why an attack stopped before the fire was out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stopped {
+    /// The unit gave up: no path, no firing solution, no water, out of time.
+    Failed,
+    /// The coordinator replaced or withdrew the task.
+    Withdrawn,
 }
 
 /// What the shared leaves need of a unit.
@@ -199,12 +226,69 @@ pub fn register<C: Responder>(r: &mut Registry<C>) {
             |io: &mut Io<'_>, u: &mut C| {
                 let task = io.get::<i64>(0).unwrap_or(-1);
                 u.stand_down();
-                if u.mission().job.is_some() {
-                    tracing::warn!(unit = %u.id(), task, "attack abandoned");
-                    u.mission().finish(task, TaskPhase::Failed);
+                match u.mission().stop_short(task) {
+                    Some(Stopped::Failed) => {
+                        tracing::warn!(unit = %u.id(), task, "attack abandoned")
+                    }
+                    Some(Stopped::Withdrawn) => {
+                        tracing::info!(unit = %u.id(), task, "task withdrawn")
+                    }
+                    None => {}
                 }
                 Status::Failure
             }
         },
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn extinguish(fire: u32) -> TaskKind {
+        TaskKind::Extinguish {
+            fire: FireId(fire),
+            target: Point2::new(50.0, 0.0),
+        }
+    }
+
+    /// A unit attacking the fire of task 1.
+    fn attacking() -> Mission {
+        let mut m = Mission::default();
+        m.on_task(1, extinguish(1));
+        m.job = Some(m.assigned_fire());
+        m
+    }
+
+    #[test]
+    fn a_task_given_up_is_reported_failed() {
+        let mut m = attacking();
+        assert_eq!(m.stop_short(1), Some(Stopped::Failed));
+        assert_eq!(
+            m.progress(false).map(|p| (p.seq, p.phase)),
+            Some((1, TaskPhase::Failed))
+        );
+        assert_eq!(m.stop_short(1), None, "nothing left to stop");
+    }
+
+    #[test]
+    fn a_task_replaced_or_withdrawn_is_not_reported_failed() {
+        for then in [extinguish(2), TaskKind::Standby] {
+            let mut m = attacking();
+            m.on_task(2, then);
+            assert_eq!(m.stop_short(1), Some(Stopped::Withdrawn), "{then:?}");
+            assert_eq!(m.progress(false), None, "{then:?}");
+            assert!(m.job.is_none());
+        }
+    }
+
+    #[test]
+    fn alone_a_stopped_attack_is_a_failed_one() {
+        let mut m = Mission {
+            job: Some(None),
+            ..Mission::default()
+        };
+        assert_eq!(m.stop_short(-1), Some(Stopped::Failed));
+        assert!(m.job.is_none());
+    }
 }
