@@ -113,20 +113,19 @@ pub async fn run(
     tokio::pin!(shutdown);
     tracing::info!(units = scenario.units.len(), "coordinator started");
     loop {
+        // Biased, in order of urgency: a flame report or a lost unit is acted on before
+        // the next of the ten thousand states a second a large fleet sends (fairness
+        // among them would make a report wait behind a burst of states). States come
+        // last, as each only refreshes the picture; the timers before them are ready only
+        // when due, so nothing starves.
         let outputs: Result<Vec<Output>, Invalid> = tokio::select! {
+            biased;
             _ = &mut shutdown => break,
             Some((_, c)) = clock_msgs.recv() => { sim_time.set(c.t); Ok(Vec::new()) }
             Ok(sample) = alive.recv_async() => match keys::parse(sample.key_expr().as_str()) {
                 Ok((_, Topic::UnitAlive(unit))) => incident.on_alive(&unit, sample.kind() == SampleKind::Put, clock.now()),
                 _ => Err(Invalid::new("key", format!("'{}' is not a unit token", sample.key_expr()))),
             },
-            Some((key, st)) = states.recv() => {
-                if keys::parse(&key).ok().map(|(_, t)| t) == Some(Topic::UnitState(st.unit.clone())) {
-                    incident.on_state(st, clock.now())
-                } else {
-                    Err(Invalid::new("unit", format!("state on '{key}' names unit '{}'", st.unit)))
-                }
-            }
             Some((key, r)) = reports.recv() => {
                 if keys::parse(&key).ok().map(|(_, t)| t) == Some(Topic::UnitReport(r.unit.clone())) {
                     incident.on_report(&r, clock.now())
@@ -178,6 +177,13 @@ pub async fn run(
                     .filter(|(i, _)| i % REPUBLISH_SLICES == slice)
                     .map(|(_, o)| o)
                     .collect())
+            }
+            Some((key, st)) = states.recv() => {
+                if keys::parse(&key).ok().map(|(_, t)| t) == Some(Topic::UnitState(st.unit.clone())) {
+                    incident.on_state(st, clock.now())
+                } else {
+                    Err(Invalid::new("unit", format!("state on '{key}' names unit '{}'", st.unit)))
+                }
             }
         };
         for d in incident.take_decisions() {
