@@ -293,7 +293,27 @@ impl<'a> HybridAStar<'a> {
                         .max(0.0)
                 })
         };
-        let visible = |q: &Pose2| flame.is_none_or(|f| self.grid.segment_free(q.position(), f));
+        // I_LOS per grid cell, traced once from the cell's centre (the paper's Bresenham
+        // runs cell to cell too) and kept: a cell is reached at many headings, and a trace
+        // to a flame 100 m off crosses a thousand cells. 0: not traced, 1: in view, 2: not.
+        let (gw, gh) = self.grid.size();
+        let traced: Vec<std::cell::Cell<u8>> = if flame.is_some() && p.lambda_m > 0.0 {
+            vec![std::cell::Cell::new(0); gw * gh]
+        } else {
+            Vec::new()
+        };
+        let visible = |q: &Pose2| {
+            let Some(f) = flame else { return true };
+            let Some((c, r)) = self.grid.cell(q.position()) else {
+                return false;
+            };
+            let k = &traced[r * gw + c];
+            if k.get() == 0 {
+                let seen = self.grid.segment_free(self.grid.center((c, r)), f);
+                k.set(if seen { 1 } else { 2 });
+            }
+            k.get() == 1
+        };
         // The least Reeds-Shepp distance to a goal, which goal, and whether it is close
         // enough for an analytic expansion. Beyond `analytic_within_m` the straight line
         // stands in for it (a lower bound too, and cheap); a goal's Reeds-Shepp distance
