@@ -139,6 +139,11 @@ pub struct CoordinatorArgs {
     /// (nearest free unit first).
     #[arg(long, default_value = "optimal")]
     assignment: firefleet_coordinator::assign::Strategy,
+    /// Take back the fire tracks recorded in this MCAP file (a recording of this site by
+    /// `firefleet record` or `demo --record`), for a restart with no recorder left
+    /// running; a file cut short by a crash is read up to where it ends.
+    #[arg(long, value_name = "FILE.mcap")]
+    resume: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]

@@ -1,5 +1,6 @@
 //! Running one role per process, and how every role is told to stop.
 
+use std::path::Path;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
@@ -9,10 +10,11 @@ use firefleet_agent::ground::GroundController;
 use firefleet_agent::monorail::MonorailController;
 use firefleet_agent::{AgentOptions, SimPlatform};
 use firefleet_coordinator::CoordinatorOptions;
+use firefleet_protocol::SiteId;
 use firefleet_protocol::bus::Bus;
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{IncidentStatus, UnitKind, ZoneGoal};
+use firefleet_protocol::msg::{FireTrack, IncidentStatus, UnitKind, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_sim::SimOptions;
@@ -85,10 +87,15 @@ pub async fn sim(a: SimArgs) -> anyhow::Result<ExitCode> {
 pub async fn coordinator(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
     let bus = open(&a.zenoh, &scenario).await?;
+    let resume = match &a.resume {
+        Some(path) => recorded_fires(path, &scenario.site)?,
+        None => Vec::new(),
+    };
     let opts = CoordinatorOptions {
         lease_s: a.lease_s,
         sim_clock: a.sim_clock,
         strategy: a.assignment,
+        resume,
     };
     firefleet_coordinator::run(
         &bus,
@@ -99,6 +106,21 @@ pub async fn coordinator(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
     .await?;
     bus.close().await;
     Ok(ExitCode::SUCCESS)
+}
+
+/// The latest fire tracks of `site` recorded in `path`, for `coordinator --resume`.
+fn recorded_fires(path: &Path, site: &SiteId) -> anyhow::Result<Vec<FireTrack>> {
+    let bytes = std::fs::read(path).with_context(|| format!("--resume {}", path.display()))?;
+    let r = firefleet_coordinator::record::fire_tracks_in(&bytes, site)
+        .with_context(|| format!("--resume {}", path.display()))?;
+    if let Some(why) = &r.cut_short {
+        tracing::warn!(file = %path.display(), "the recording ends early ({why}); using what comes before");
+    }
+    for why in &r.refused {
+        tracing::warn!(file = %path.display(), "recorded fire track refused: {why}");
+    }
+    tracing::info!(file = %path.display(), fires = r.tracks.len(), "fire tracks read from the recording");
+    Ok(r.tracks)
 }
 
 pub async fn agent(a: AgentArgs) -> anyhow::Result<ExitCode> {

@@ -459,7 +459,6 @@ async fn status_of(bus: &Bus, within: Duration) -> serde_json::Value {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_fire_nobody_works_on_survives_a_coordinator_restart() {
     let (bus, endpoint) = router().await;
-    let keys = bus.keys().clone();
     let dir = tempfile::tempdir().unwrap();
     let recording = dir.path().join("run.mcap");
     let mut fleet = Fleet(vec![spawn_role(
@@ -467,9 +466,22 @@ async fn a_fire_nobody_works_on_survives_a_coordinator_restart() {
         &endpoint,
         &["record", "--out", recording.to_str().unwrap()],
     )]);
-    // The coordinator that died had tracked f7, confirmed, with nobody on it and nobody
-    // looking at it now; the recorder kept its last track.
-    let track = FireTrack {
+    // The coordinator that died had tracked f7; the recorder kept its last track.
+    until_recorded(&bus, &f7()).await;
+    fleet.0.push(spawn_role(
+        HANDOVER,
+        &endpoint,
+        &["coordinator", "--sim-clock"],
+    ));
+    assert_f7_recalled(&status_of(&bus, Duration::from_secs(30)).await);
+    drop(fleet);
+    bus.close().await;
+}
+
+/// The last track of fire f7 as a coordinator that has since died published it: confirmed,
+/// nobody on it, nobody looking at it now.
+fn f7() -> FireTrack {
+    FireTrack {
         id: FireId(7),
         t: 30.0,
         position: Point2::new(70.0, 1.0),
@@ -479,10 +491,15 @@ async fn a_fire_nobody_works_on_survives_a_coordinator_restart() {
         assigned: Vec::new(),
         seen_by: vec![UnitId::new("ugv-near").unwrap()],
         hrr_kw: Some(4000.0),
-    };
+    }
+}
+
+/// Publish `track` until the recorder on the bus answers a recall query with it.
+async fn until_recorded(bus: &Bus, track: &FireTrack) {
+    let keys = bus.keys().clone();
     tokio::time::timeout(Duration::from_secs(30), async {
         loop {
-            bus.put(&keys.key(&Topic::Fire(track.id)), &track)
+            bus.put(&keys.key(&Topic::Fire(track.id)), track)
                 .await
                 .unwrap();
             let replies = bus.session().get(keys.every_fire()).await.unwrap();
@@ -496,13 +513,10 @@ async fn a_fire_nobody_works_on_survives_a_coordinator_restart() {
     })
     .await
     .expect("the recorder never answered with the track");
+}
 
-    fleet.0.push(spawn_role(
-        HANDOVER,
-        &endpoint,
-        &["coordinator", "--sim-clock"],
-    ));
-    let status = status_of(&bus, Duration::from_secs(30)).await;
+/// The coordinator whose status this is took f7 back under its id.
+fn assert_f7_recalled(status: &serde_json::Value) {
     let fires = status["fires"].as_array().unwrap();
     assert_eq!(fires.len(), 1, "{status}");
     assert_eq!(fires[0]["id"], 7, "the fire keeps its id: {status}");
@@ -511,7 +525,35 @@ async fn a_fire_nobody_works_on_survives_a_coordinator_restart() {
         status["decisions"].to_string().contains("recall fire f7"),
         "{status}"
     );
-    drop(fleet);
+}
+
+/// The recorder dies too (killed outright, its file never finished); a coordinator
+/// started with `--resume` on what it left still keeps the fire.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_coordinator_resumed_from_a_killed_recorders_file_keeps_the_fire() {
+    let (bus, endpoint) = router().await;
+    let dir = tempfile::tempdir().unwrap();
+    let recording = dir.path().join("run.mcap");
+    let recorder = Fleet(vec![spawn_role(
+        HANDOVER,
+        &endpoint,
+        &["record", "--out", recording.to_str().unwrap()],
+    )]);
+    until_recorded(&bus, &f7()).await;
+    // The recorder writes its file out once a second.
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    drop(recorder);
+    let _coordinator = Fleet(vec![spawn_role(
+        HANDOVER,
+        &endpoint,
+        &[
+            "coordinator",
+            "--sim-clock",
+            "--resume",
+            recording.to_str().unwrap(),
+        ],
+    )]);
+    assert_f7_recalled(&status_of(&bus, Duration::from_secs(30)).await);
     bus.close().await;
 }
 

@@ -11,13 +11,14 @@
 //!
 //! At start it asks `fire/*` for the tracks a previous coordinator published; recorders
 //! answer with the latest of each, so a restarted coordinator keeps every fire (and its
-//! id), even one nobody is working on or looking at when it comes back.
+//! id), even one nobody is working on or looking at when it comes back. Tracks read from
+//! a recording ([`CoordinatorOptions::resume`]) are taken the same way.
 
-use std::collections::BTreeMap;
 use std::future::Future;
 use std::sync::Arc;
 use std::time::Duration;
 
+use firefleet_protocol::ZoneId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::clock::{Clock, ExternalClock, SystemClock};
 use firefleet_protocol::codec;
@@ -25,11 +26,11 @@ use firefleet_protocol::keys::{self, Topic, UnitLeaf};
 use firefleet_protocol::msg::{FireTrack, FlameReport, GoalAck, SimClock, UnitState, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Invalid;
-use firefleet_protocol::{FireId, ZoneId};
 use zenoh::sample::SampleKind;
 
 use crate::assign::Strategy;
 use crate::incident::{Incident, Output};
+use crate::record::latest_per_fire;
 
 /// Re-publication of tasks and tracks is spread over this many ticks a second.
 const REPUBLISH_SLICES: usize = 10;
@@ -42,6 +43,9 @@ pub struct CoordinatorOptions {
     /// Follow the simulator's clock instead of the system clock.
     pub sim_clock: bool,
     pub strategy: Strategy,
+    /// Fire tracks to take back at start besides those recorders answer with (read from a
+    /// recording: [`crate::record::fire_tracks_in`]); the newest of each fire wins.
+    pub resume: Vec<FireTrack>,
 }
 
 /// Run the coordinator until `shutdown` completes.
@@ -92,7 +96,12 @@ pub async fn run(
 
     // Before anything else is heard: the tracks the previous coordinator published, as a
     // recorder kept them (none at a first start, or when nothing records).
-    let recalled = recall_fires(bus).await?;
+    let recalled = latest_per_fire(
+        recall_fires(bus)
+            .await?
+            .into_iter()
+            .chain(opts.resume.clone()),
+    );
     if !recalled.is_empty() {
         let t = recalled.iter().map(|f| f.t).fold(clock.now(), f64::max);
         let (out, refused) = incident.restore(&recalled, t);
@@ -212,21 +221,18 @@ async fn recall_fires(bus: &Bus) -> Result<Vec<FireTrack>, BusError> {
         .get(bus.keys().every_fire())
         .timeout(RECALL_TIMEOUT)
         .await?;
-    let mut latest: BTreeMap<FireId, FireTrack> = BTreeMap::new();
+    let mut tracks = Vec::new();
     while let Ok(reply) = replies.recv_async().await {
         let Ok(sample) = reply.result() else { continue };
         match codec::decode::<FireTrack>(&sample.payload().to_bytes()) {
-            Ok(f) if latest.get(&f.id).is_none_or(|old| old.t < f.t) => {
-                latest.insert(f.id, f);
-            }
-            Ok(_) => {}
+            Ok(f) => tracks.push(f),
             Err(e) => {
                 bus.rejects().count(&e);
                 tracing::warn!(key = %sample.key_expr(), "recalled fire track refused: {e}");
             }
         }
     }
-    Ok(latest.into_values().collect())
+    Ok(latest_per_fire(tracks))
 }
 
 /// The answer to a goal that does not decode: rejected, with the id if the JSON has one

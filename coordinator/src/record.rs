@@ -10,6 +10,8 @@
 //! The recorder also keeps the latest track of every fire and answers queries on
 //! `fire/*` with them: that is how a restarted coordinator recalls the fires the previous
 //! one tracked (the recording is the incident's memory, on the bus as well as on disk).
+//! With no recorder left running, [`fire_tracks_in`] reads the same tracks back from the
+//! file (the coordinator's `--resume`).
 //!
 //! Chunks are not compressed: compression would pull C libraries into the build, and
 //! uncompressed MCAP is readable everywhere.
@@ -21,7 +23,6 @@ use std::io::BufWriter;
 use std::path::Path;
 use std::time::{SystemTime, UNIX_EPOCH};
 
-use firefleet_protocol::FireId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::{self, Topic};
@@ -30,6 +31,7 @@ use firefleet_protocol::msg::{
     SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState, ZoneGoal,
 };
 use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::{FireId, SiteId};
 use serde::Serialize;
 use zenoh::sample::SampleKind;
 
@@ -57,6 +59,9 @@ pub struct RecordSummary {
     pub skipped: u64,
 }
 
+/// How often the recording is written out (a chunk closed): what a recorder killed
+/// outright loses at most.
+const FLUSH_EVERY: std::time::Duration = std::time::Duration::from_secs(1);
 /// Simulated seconds between two scene updates.
 const SCENE_PERIOD_S: f64 = 0.5;
 
@@ -147,6 +152,13 @@ impl McapSink {
         Ok(())
     }
 
+    /// Close the current chunk and write it out: a recorder killed after this loses
+    /// nothing before it.
+    fn flush(&mut self) -> Result<(), RecordError> {
+        self.writer.flush()?;
+        Ok(())
+    }
+
     fn finish(mut self) -> Result<RecordSummary, RecordError> {
         self.writer.finish()?;
         self.summary.channels = self.channels.len();
@@ -208,6 +220,64 @@ fn decode(topic: &Topic, bytes: &[u8]) -> Result<(Decoded, Derived), CodecError>
     }
 }
 
+/// Why a recording could not be read at all.
+#[derive(Debug, thiserror::Error)]
+#[error("not an MCAP recording: {0}")]
+pub struct NotARecording(#[from] mcap::McapError);
+
+/// The fire tracks a recording holds.
+#[derive(Debug, Clone, Default)]
+pub struct Recorded {
+    /// The latest track of every fire, by its site time.
+    pub tracks: Vec<FireTrack>,
+    /// Records on a fire channel that are not a fire track, with why.
+    pub refused: Vec<String>,
+    /// Where the file stopped being readable, if it did before its end (a recorder
+    /// killed before it could finish the file): what came before is still used.
+    pub cut_short: Option<String>,
+}
+
+/// The latest track of every fire of `site` in a recording made by [`record`] (a JSON
+/// record on each `ff/<site>/fire/f<n>` channel).
+pub fn fire_tracks_in(bytes: &[u8], site: &SiteId) -> Result<Recorded, NotARecording> {
+    let mut out = Recorded::default();
+    let mut tracks = Vec::new();
+    for (k, m) in mcap::MessageStream::new(bytes)?.enumerate() {
+        let m = match m {
+            Ok(m) => m,
+            // Nothing readable at all: not a recording (a recording's first records are
+            // the recorder's scene).
+            Err(e) if k == 0 => return Err(NotARecording(e)),
+            Err(e) => {
+                out.cut_short = Some(e.to_string());
+                break;
+            }
+        };
+        if !matches!(keys::parse(&m.channel.topic), Ok((s, Topic::Fire(_))) if s == *site) {
+            continue;
+        }
+        match serde_json::from_slice::<FireTrack>(&m.data) {
+            Ok(track) => tracks.push(track),
+            Err(e) => out
+                .refused
+                .push(format!("{} at {} ns: {e}", m.channel.topic, m.log_time)),
+        }
+    }
+    out.tracks = latest_per_fire(tracks);
+    Ok(out)
+}
+
+/// The newest of each fire's tracks (by site time; the later one of a tie).
+pub fn latest_per_fire(tracks: impl IntoIterator<Item = FireTrack>) -> Vec<FireTrack> {
+    let mut latest: BTreeMap<FireId, FireTrack> = BTreeMap::new();
+    for f in tracks {
+        if latest.get(&f.id).is_none_or(|old| old.t <= f.t) {
+            latest.insert(f.id, f);
+        }
+    }
+    latest.into_values().collect()
+}
+
 #[derive(Serialize, schemars::JsonSchema)]
 struct Liveliness {
     key: String,
@@ -236,10 +306,12 @@ pub async fn record(
         sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &statics, now_ns())?;
         let liveliness_topic = format!("{}/liveliness", keys.site());
         let mut next_scene = 0.0;
+        let mut flush = tokio::time::interval(FLUSH_EVERY);
         tokio::pin!(shutdown);
         loop {
             tokio::select! {
                 _ = &mut shutdown => break,
+                _ = flush.tick() => sink.flush()?,
                 Ok(s) = tokens.recv_async() => {
                     let l = Liveliness { key: s.key_expr().to_string(), alive: s.kind() == SampleKind::Put };
                     let json = serde_json::to_vec(&l).expect("serialises");
@@ -295,4 +367,92 @@ pub async fn record(
     // Finish the file whatever happened above, so that what was recorded stays readable.
     let summary = sink.finish()?;
     result.map(|_| summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firefleet_protocol::geometry::Point2;
+    use firefleet_protocol::msg::FireState;
+
+    fn track(id: u32, t: f64) -> FireTrack {
+        FireTrack {
+            id: FireId(id),
+            t,
+            position: Point2::new(50.0 + f64::from(id), 1.0),
+            cov: [0.3, 0.0, 0.3],
+            confidence: 0.9,
+            state: FireState::Confirmed,
+            assigned: Vec::new(),
+            seen_by: Vec::new(),
+            hrr_kw: None,
+        }
+    }
+
+    /// A recording as `record` writes it, of the given (topic, JSON) records.
+    fn recording(records: &[(&str, Vec<u8>)]) -> Vec<u8> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("run.mcap");
+        let mut sink = McapSink::create(&path).unwrap();
+        for (k, (topic, json)) in records.iter().enumerate() {
+            let schema = || schemars::schema_for!(FireTrack);
+            sink.write(topic, "firefleet.FireTrack", schema, json, k as u64)
+                .unwrap();
+            // As the recorder does once a second.
+            if k % 20 == 19 {
+                sink.flush().unwrap();
+            }
+        }
+        sink.finish().unwrap();
+        std::fs::read(&path).unwrap()
+    }
+
+    fn json(t: &FireTrack) -> Vec<u8> {
+        serde_json::to_vec(t).unwrap()
+    }
+
+    #[test]
+    fn a_recording_gives_back_the_latest_track_of_each_of_its_sites_fires() {
+        let site = SiteId::new("tunnel-a").unwrap();
+        let bytes = recording(&[
+            ("ff/tunnel-a/fire/f3", json(&track(3, 10.0))),
+            ("ff/tunnel-a/fire/f4", json(&track(4, 5.0))),
+            ("ff/tunnel-a/fire/f3", json(&track(3, 20.0))),
+            // Another site's fire, a state on another channel, a corrupt record.
+            ("ff/tunnel-b/fire/f9", json(&track(9, 30.0))),
+            ("ff/tunnel-a/unit/u1/state", b"{}".to_vec()),
+            ("ff/tunnel-a/fire/f5", b"{\"id\": 5".to_vec()),
+        ]);
+        let r = fire_tracks_in(&bytes, &site).unwrap();
+        let got: Vec<(u32, f64)> = r.tracks.iter().map(|t| (t.id.0, t.t)).collect();
+        assert_eq!(got, vec![(3, 20.0), (4, 5.0)]);
+        assert_eq!(r.refused.len(), 1, "{:?}", r.refused);
+        assert!(
+            r.refused[0].contains("ff/tunnel-a/fire/f5"),
+            "{:?}",
+            r.refused
+        );
+        assert_eq!(r.cut_short, None);
+    }
+
+    #[test]
+    fn a_recording_cut_short_gives_back_what_comes_before_the_cut() {
+        let site = SiteId::new("tunnel-a").unwrap();
+        let mut records: Vec<(&str, Vec<u8>)> = (0..200)
+            .map(|k| ("ff/tunnel-a/fire/f1", json(&track(1, f64::from(k)))))
+            .collect();
+        records.push(("ff/tunnel-a/fire/f2", json(&track(2, 500.0))));
+        let whole = recording(&records);
+        // A recorder killed mid-write: no summary, no footer, half a chunk.
+        let cut = &whole[..whole.len() / 2];
+        let r = fire_tracks_in(cut, &site).unwrap();
+        assert!(r.cut_short.is_some());
+        assert_eq!(r.tracks.len(), 1, "{:?}", r.tracks);
+        assert!(r.tracks[0].t > 50.0, "up to the cut: {:?}", r.tracks);
+        assert!(r.tracks.iter().all(|t| t.id == FireId(1)), "{:?}", r.tracks);
+        assert!(
+            fire_tracks_in(b"not an mcap file", &site).is_err(),
+            "not a recording at all"
+        );
+    }
 }
