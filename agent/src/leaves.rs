@@ -127,6 +127,46 @@ pub fn registry() -> Registry<Unit> {
         }
     });
     r.register_action(
+        "FireWhereExpected",
+        vec![
+            PortSpec::inout("fire", Point, "the fire, moved to where it is seen"),
+            PortSpec::input(
+                "within_m",
+                Double,
+                "a flame seen this close to the fire is that fire",
+            )
+            .with_default("5.0"),
+            PortSpec::input(
+                "moved_m",
+                Double,
+                "the fire has moved when seen further than this from where it was",
+            )
+            .with_default("1.5"),
+        ],
+        || {
+            // Success while the fire is where the blackboard says (or not in view); a fire
+            // seen elsewhere is written back and the leaf fails, so that a retry around the
+            // navigation plans again to the fire as it now is. The coordinator's estimate
+            // comes from units that saw it from afar; the unit's own camera, closing in,
+            // does better.
+            |io: &mut Io<'_>, u: &mut Unit| {
+                let (Ok(f), Ok(within), Ok(moved)) =
+                    (io.get::<[f64; 2]>(0), io.get::<f64>(1), io.get::<f64>(2))
+                else {
+                    return Status::Failure;
+                };
+                match u.flame_near(p(f), within) {
+                    Some(seen) if seen.dist(p(f)) > moved => {
+                        tracing::info!(unit = %u.id, from = ?f, to = ?seen, "the fire is not where expected; planning again");
+                        let _ = io.set(0, [seen.x, seen.y]);
+                        Status::Failure
+                    }
+                    _ => Status::Success,
+                }
+            }
+        },
+    );
+    r.register_action(
         "SetTargetToFire",
         vec![
             PortSpec::input("fire", Point, "the fire"),

@@ -137,6 +137,18 @@ fn with_a_task_the_unit_reports_the_fire_extinguished() {
     );
 }
 
+/// The coordinator's estimate of the fire is 3.5 m off (fused from units that saw it from
+/// afar): the unit, seeing the flame itself on the way, plans again to the fire where it
+/// is and puts it out.
+#[test]
+fn sent_to_a_misplaced_fire_the_unit_goes_where_its_own_camera_sees_it() {
+    let r = run(Some(Point2::new(56.5, -2.5)));
+    assert!(r.out_at.is_some(), "fire never went out");
+    assert_eq!(r.world.truth().units[0].collisions, 0);
+    let task = r.ctl.state().task.expect("task progress echoed");
+    assert_eq!(task.phase, TaskPhase::Extinguished);
+}
+
 #[test]
 fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
     let scenario = Arc::new(Scenario::from_toml(SCENARIO, "closed-loop.toml").unwrap());

@@ -56,6 +56,17 @@ impl PortSpec {
             description,
         }
     }
+    /// A port read and written: it must name a blackboard entry.
+    pub const fn inout(name: &'static str, ty: PortType, description: &'static str) -> Self {
+        Self {
+            name,
+            dir: PortDir::InOut,
+            ty,
+            default: None,
+            optional: false,
+            description,
+        }
+    }
     /// An input that may be left out: reading it then gives [`PortError::Unbound`].
     pub const fn optional(mut self) -> Self {
         self.optional = true;
