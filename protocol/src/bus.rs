@@ -152,8 +152,8 @@ pub struct Bus {
     keys: Keys,
     rejects: Arc<RejectCounts>,
     /// A declared publisher per key put on: a put on an undeclared key makes Zenoh match
-    /// the key against every resource it knows, each time (with a thousand units, three
-    /// quarters of a coordinator's CPU); a declared one keeps its route. Keys are few
+    /// the key against every resource it knows, each time (with a thousand units, about
+    /// half of a coordinator's CPU); a declared one keeps its route. Keys are few
     /// (a unit's topics, a fire's track, a zone's ack), so the map stays small.
     publishers: Arc<Mutex<HashMap<String, Publisher<'static>>>>,
 }
