@@ -8,7 +8,8 @@
 //! and fall back on it when no Hybrid A* path to a firing spot is found within budget.
 //! [`grid_search`] is the general weighted-grid search (Dijkstra to all cells, A* between
 //! two) under the heat-aware cost map ([`costmap`]) and the MovingAI benchmarks
-//! ([`movingai`]). [`pursuit`] follows any of these paths.
+//! ([`movingai`]). [`pursuit`] follows any of these paths, forwards and backing through
+//! the cusps of a Hybrid A* route.
 
 pub mod astar;
 pub mod costmap;
