@@ -101,7 +101,7 @@ pub struct Unit {
     pub(crate) mission: Mission,
     /// Goal of the latest cruise, kept after arrival.
     cruising_to: Option<Point2>,
-    /// Where the unit patrols to on its own ([`patrol_goal`]).
+    /// Where the unit patrols to on its own (`patrol_goal`).
     patrol_goal: Point2,
     /// Weight of Hybrid A*'s visibility term on the way to a fire, m.
     pub(crate) visibility_lambda_m: f64,
@@ -171,7 +171,7 @@ impl Unit {
         self.sweep_rad = (0.5 * radius / self.pose().position().dist(target).max(1.0)).atan();
     }
 
-    /// A confirmed flame seen within [`RECENTLY_SEEN_S`] and within `within` metres of `of`.
+    /// A confirmed flame seen within `RECENTLY_SEEN_S` and within `within` metres of `of`.
     pub fn flame_near(&self, of: Point2, within: f64) -> Option<Point2> {
         self.tracker
             .confirmed()
@@ -182,7 +182,7 @@ impl Unit {
             .map(|t| t.position())
     }
 
-    /// The confirmed flame seen within [`RECENTLY_SEEN_S`] that the detector is most
+    /// The confirmed flame seen within `RECENTLY_SEEN_S` that the detector is most
     /// confident of (ties: the nearest).
     pub fn most_confident_flame(&self) -> Option<Point2> {
         let at = self.pose().position();
@@ -197,7 +197,7 @@ impl Unit {
             .map(|t| t.position())
     }
 
-    /// Cruise goal: the coordinator's, or else the patrol's ([`patrol_goal`]).
+    /// Cruise goal: the coordinator's, or else the patrol's (`patrol_goal`).
     pub fn cruise_goal(&self) -> Point2 {
         match self.mission.task {
             Some((_, TaskKind::Cruise { goal } | TaskKind::Search { goal })) => goal,
