@@ -113,16 +113,6 @@ impl Route {
     pub fn runs(&self) -> &[Run] {
         &self.runs
     }
-
-    pub fn goal(&self) -> Point2 {
-        let last = self.runs.last().expect("never empty");
-        *last.points.last().expect("runs are never empty")
-    }
-
-    /// Whether any part is driven backwards.
-    pub fn reverses(&self) -> bool {
-        self.runs.iter().any(|r| r.reverse)
-    }
 }
 
 /// Follows one route.
@@ -158,14 +148,6 @@ impl PurePursuit {
             seg: 0,
             at_cusp: false,
         }
-    }
-
-    pub fn route(&self) -> &Route {
-        &self.route
-    }
-
-    pub fn goal(&self) -> Point2 {
-        self.route.goal()
     }
 
     /// Steering and speed for the vehicle at `pose`, driving at `speed_now` (m/s) with its
@@ -488,6 +470,9 @@ mod tests {
         let mut route = route;
         route.push_forward(Point2::new(10.0, 0.0));
         assert_eq!(route.runs().len(), 3);
-        assert_eq!(route.goal(), Point2::new(10.0, 0.0));
+        assert_eq!(
+            route.runs()[2].points().last(),
+            Some(&Point2::new(10.0, 0.0))
+        );
     }
 }
