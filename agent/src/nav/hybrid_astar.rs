@@ -220,9 +220,9 @@ impl<'a> HybridAStar<'a> {
         })
     }
 
-    /// Dijkstra from the goal over a coarse grid: the obstacle-aware 2-D distance, and the
-    /// coarse cell size.
-    fn distance_field(&self, goal: Point2) -> (CostGrid, Vec<f64>, usize) {
+    /// Dijkstra from the goals over a coarse grid: the obstacle-aware 2-D distance to the
+    /// nearest goal, and the coarse cell size. The coarse grid is made once for all goals.
+    fn distance_field(&self, goals: &[Point2]) -> (Vec<f64>, usize) {
         let (w, h) = self.grid.size();
         let k = ((0.5 / self.grid.resolution()).round() as usize).max(1);
         let (cw, ch) = (w.div_ceil(k), h.div_ceil(k));
@@ -234,9 +234,17 @@ impl<'a> HybridAStar<'a> {
             })
             .collect();
         let coarse = CostGrid::from_passable(cw, ch, &passable).expect("sizes match");
-        let g = self.grid.cell(goal).map_or((0, 0), |(c, r)| (c / k, r / k));
-        let dist = coarse.dijkstra_all(g);
-        (coarse, dist, k)
+        let mut dist = vec![f64::INFINITY; cw * ch];
+        for goal in goals {
+            let g = self
+                .grid
+                .cell(*goal)
+                .map_or((0, 0), |(c, r)| (c / k, r / k));
+            for (d, o) in dist.iter_mut().zip(coarse.dijkstra_all(g)) {
+                *d = d.min(o);
+            }
+        }
+        (dist, k)
     }
 
     /// Plan from `start` to `goal`, keeping `flame` in view if given and `lambda_m > 0`.
@@ -274,13 +282,8 @@ impl<'a> HybridAStar<'a> {
             return Err(PlanError::GoalBlocked);
         }
         let res = self.grid.resolution();
-        let (_, mut dist, k) = self.distance_field(goals[0].1.position());
-        for (_, g) in &goals[1..] {
-            let (_, other, _) = self.distance_field(g.position());
-            for (d, o) in dist.iter_mut().zip(other) {
-                *d = d.min(o);
-            }
-        }
+        let positions: Vec<Point2> = goals.iter().map(|(_, g)| g.position()).collect();
+        let (dist, k) = self.distance_field(&positions);
         let (w, _) = self.grid.size();
         let cw = w.div_ceil(k);
         let coarse_m = res * k as f64;
