@@ -11,14 +11,10 @@ use std::sync::Arc;
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use firefleet_agent::ground::{GroundController, cannon_experiment_tree};
-use firefleet_agent::monorail::MonorailController;
-use firefleet_coordinator::Incident;
-use firefleet_coordinator::assign::Strategy;
-use firefleet_coordinator::incident::Output;
 use firefleet_protocol::geometry::Point2;
-use firefleet_protocol::msg::{FlameReport, TaskKind, TruthFireState, UnitKind, UnitState};
+use firefleet_protocol::msg::{TruthFireState, UnitKind};
 use firefleet_protocol::scenario::{FireSpec, Growth, Scenario, Tunnel, UnitSpec};
-use firefleet_protocol::spec::{GROUND, MONORAIL};
+use firefleet_protocol::spec::GROUND;
 use firefleet_protocol::{SiteId, UnitId};
 use firefleet_sim::World;
 use rand::{Rng, SeedableRng};
@@ -26,6 +22,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 mod costmap_ga;
+mod fleet;
 mod nav;
 mod robogat;
 mod scale;
@@ -35,7 +32,7 @@ pub enum ExperimentCommand {
     /// The BT paper's water-cannon experiment: 1 to 5 flames 6 m away at 0, 30 and 60 deg.
     Cannon(CannonArgs),
     /// The shipped multi-fire scenarios with no coordinator, greedy and optimal assignment.
-    Fleet(FleetArgs),
+    Fleet(fleet::FleetArgs),
     /// The ROBOGAT paper's monorail case study: fuzzy against fixed weights.
     Robogat(robogat::RobogatArgs),
     /// A real coordinator process under a large simulated fleet over loopback Zenoh.
@@ -44,18 +41,6 @@ pub enum ExperimentCommand {
     CostmapGa(costmap_ga::CostmapGaArgs),
     /// The BT paper's navigation trials in a curved tunnel, visibility term on and off.
     Nav(nav::NavArgs),
-}
-
-#[derive(Args, Debug)]
-pub struct FleetArgs {
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// Runs per scenario and strategy (seeds seed, seed+1, ...).
-    #[arg(long, default_value_t = 3)]
-    trials: u32,
-    /// Also write the results as JSON.
-    #[arg(long, value_name = "FILE")]
-    json: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -73,7 +58,7 @@ pub struct CannonArgs {
 pub async fn run(cmd: ExperimentCommand) -> anyhow::Result<ExitCode> {
     match cmd {
         ExperimentCommand::Cannon(a) => cannon(a),
-        ExperimentCommand::Fleet(a) => fleet(a),
+        ExperimentCommand::Fleet(a) => fleet::run(a),
         ExperimentCommand::Robogat(a) => robogat::run(a),
         ExperimentCommand::Scale(a) => scale::run(a).await,
         ExperimentCommand::CostmapGa(a) => costmap_ga::run(a),
@@ -249,236 +234,6 @@ fn cannon(a: CannonArgs) -> anyhow::Result<ExitCode> {
             serde_json::to_vec_pretty(&CannonResults {
                 seed: a.seed,
                 angles,
-            })?,
-        )
-        .with_context(|| format!("writing {}", path.display()))?;
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-/// The multi-fire scenarios the fleet experiment runs.
-const FLEET_SCENARIOS: [&str; 3] = ["cargo-truck", "pileup", "rail-tunnel"];
-
-/// One unit's control loop, whichever kind it is.
-enum Fleet {
-    Ground(GroundController),
-    Rail(MonorailController),
-}
-
-impl Fleet {
-    /// One control step on the unit's simulated body.
-    fn step(&mut self, id: &UnitId, world: &mut World) -> anyhow::Result<()> {
-        match self {
-            Self::Ground(c) => {
-                let sensors = world.sensors(id).context("unit exists")?;
-                world.command(id, c.step(&sensors));
-            }
-            Self::Rail(c) => {
-                let sensors = world.rail_sensors(id).context("unit exists")?;
-                world.command_rail(id, c.step(&sensors));
-            }
-        }
-        Ok(())
-    }
-
-    fn on_task(&mut self, seq: u64, kind: TaskKind) {
-        match self {
-            Self::Ground(c) => c.on_task(seq, kind),
-            Self::Rail(c) => c.on_task(seq, kind),
-        }
-    }
-
-    fn set_coordinator_present(&mut self, present: bool) {
-        match self {
-            Self::Ground(c) => c.set_coordinator_present(present),
-            Self::Rail(c) => c.set_coordinator_present(present),
-        }
-    }
-
-    fn state(&self) -> UnitState {
-        match self {
-            Self::Ground(c) => c.state(),
-            Self::Rail(c) => c.state(),
-        }
-    }
-
-    fn report(&mut self) -> Option<FlameReport> {
-        match self {
-            Self::Ground(c) => c.report(),
-            Self::Rail(c) => c.report(),
-        }
-    }
-}
-
-#[derive(Serialize)]
-struct FleetRun {
-    strategy: &'static str,
-    scenario: String,
-    trials: u32,
-    /// Mean over trials; a trial that did not finish counts at the time limit.
-    time_all_out_s: f64,
-    unfinished: u32,
-    heat_dose: f64,
-    water_l: f64,
-    fires_never_attacked: f64,
-}
-
-#[derive(Serialize)]
-struct FleetResults {
-    seed: u64,
-    strategies: Vec<FleetRun>,
-}
-
-/// One run of `scenario` with the units' trees and, unless `strategy` is `None`, the
-/// coordinator's incident logic, stepped together in-process (the same code as the
-/// processes of a demo, without the bus): time all out (or `None`), heat dose (kJ/m^2,
-/// summed over units), water used (L), fires that got no water.
-fn fleet_run(
-    scenario: &Scenario,
-    strategy: Option<Strategy>,
-    seed: u64,
-) -> anyhow::Result<(Option<f64>, f64, f64, usize)> {
-    let shared = Arc::new(scenario.clone());
-    let mut world = World::new(scenario, seed);
-    let monorail = firefleet_agent::monorail::default_tree();
-    let mut units: Vec<(UnitId, Fleet)> = scenario
-        .units
-        .iter()
-        .map(|u| {
-            let ctl = match u.kind {
-                UnitKind::Ground => {
-                    Fleet::Ground(GroundController::new(u.id.clone(), GROUND, shared.clone()))
-                }
-                UnitKind::Monorail => Fleet::Rail(
-                    MonorailController::with_tree(
-                        u.id.clone(),
-                        MONORAIL,
-                        shared.clone(),
-                        &monorail,
-                    )?
-                    .with_context(|| format!("monorail unit {} has no rail", u.id))?,
-                ),
-            };
-            Ok((u.id.clone(), ctl))
-        })
-        .collect::<anyhow::Result<_>>()?;
-    let mut incident = strategy.map(|s| Incident::from_scenario(scenario, 5.0, s));
-    let deliver = |outputs: Vec<Output>, units: &mut [(UnitId, Fleet)]| {
-        for o in outputs {
-            if let Output::Task(task) = o
-                && let Some((_, ctl)) = units.iter_mut().find(|(id, _)| *id == task.unit)
-            {
-                ctl.on_task(task.seq, task.kind);
-            }
-        }
-    };
-    if let Some(inc) = &mut incident {
-        for (id, ctl) in &mut units {
-            ctl.set_coordinator_present(true);
-            inc.on_alive(id, true, 0.0).map_err(anyhow::Error::msg)?;
-        }
-    }
-    let (dt, report_every) = (0.05, 5);
-    let mut step = 0u64;
-    while world.time() < scenario.time_limit_s {
-        for (id, ctl) in &mut units {
-            ctl.step(id, &mut world)?;
-        }
-        if let Some(inc) = &mut incident
-            && step.is_multiple_of(report_every)
-        {
-            let t = world.time();
-            let mut outputs = inc.tick(t);
-            for (_, ctl) in &mut units {
-                outputs.extend(inc.on_state(ctl.state(), t).unwrap_or_default());
-                if let Some(r) = ctl.report() {
-                    outputs.extend(inc.on_report(&r, t).unwrap_or_default());
-                }
-            }
-            deliver(outputs, &mut units);
-        }
-        world.step(dt);
-        step += 1;
-        if world.truth().all_out() {
-            break;
-        }
-    }
-    let truth = world.truth();
-    let done = truth.all_out().then_some(truth.t);
-    let dose = truth.units.iter().map(|u| u.heat_dose_kj_m2).sum();
-    let water = truth.units.iter().map(|u| u.water_used_l).sum();
-    let never = truth
-        .fires
-        .iter()
-        .filter(|f| f.water_received_l == 0.0)
-        .count();
-    Ok((done, dose, water, never))
-}
-
-fn fleet(a: FleetArgs) -> anyhow::Result<ExitCode> {
-    let strategies: [(&str, Option<Strategy>); 3] = [
-        ("autonomous", None),
-        ("greedy", Some(Strategy::Greedy)),
-        ("optimal", Some(Strategy::Optimal)),
-    ];
-    let mut runs = Vec::new();
-    println!(
-        "fleet experiment: {} trials per scenario and strategy, seed {}",
-        a.trials, a.seed
-    );
-    println!(
-        "{:<12} {:<11} {:>16} {:>10} {:>14} {:>9} {:>14}",
-        "scenario",
-        "strategy",
-        "all out (s)",
-        "unfinished",
-        "heat (kJ/m2)",
-        "water (L)",
-        "never attacked"
-    );
-    for name in FLEET_SCENARIOS {
-        let scenario = crate::scenarios::resolve(name)?;
-        for (label, strategy) in strategies {
-            let (mut time, mut unfinished, mut dose, mut water, mut never) =
-                (0.0, 0, 0.0, 0.0, 0.0);
-            for k in 0..a.trials {
-                let (done, d, w, n) = fleet_run(&scenario, strategy, a.seed + u64::from(k))?;
-                time += done.unwrap_or(scenario.time_limit_s);
-                unfinished += u32::from(done.is_none());
-                dose += d;
-                water += w;
-                never += n as f64;
-            }
-            let n = f64::from(a.trials);
-            let run = FleetRun {
-                strategy: label,
-                scenario: name.to_owned(),
-                trials: a.trials,
-                time_all_out_s: time / n,
-                unfinished,
-                heat_dose: dose / n,
-                water_l: water / n,
-                fires_never_attacked: never / n,
-            };
-            println!(
-                "{:<12} {:<11} {:>16.1} {:>10} {:>14.1} {:>9.0} {:>14.1}",
-                run.scenario,
-                run.strategy,
-                run.time_all_out_s,
-                run.unfinished,
-                run.heat_dose,
-                run.water_l,
-                run.fires_never_attacked
-            );
-            runs.push(run);
-        }
-    }
-    if let Some(path) = &a.json {
-        std::fs::write(
-            path,
-            serde_json::to_vec_pretty(&FleetResults {
-                seed: a.seed,
-                strategies: runs,
             })?,
         )
         .with_context(|| format!("writing {}", path.display()))?;

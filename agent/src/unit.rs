@@ -53,6 +53,9 @@ const RECENTLY_SEEN_S: f64 = 2.0;
 const SWEEP_PERIOD_S: f64 = 2.0;
 /// Clearance a planned jet keeps from the ceiling, m.
 const JET_CEILING_MARGIN_M: f64 = 0.3;
+/// How far a navigation goal on a blocked cell is moved to a free one at most, m: half a
+/// car's length and its inflation.
+const GOAL_SHIFT_M: f64 = 4.0;
 /// Backing off after touching something, s.
 const RECOVER_S: f64 = 1.5;
 
@@ -205,17 +208,24 @@ impl Unit {
         }
     }
 
-    /// Start driving to `goal`; false if no path exists.
+    /// Start driving to `goal`; false if no path exists. A goal on a blocked cell (a
+    /// cruise goal the coordinator set in a lane a parked car stands in) is moved to the
+    /// nearest free point within [`GOAL_SHIFT_M`].
     pub fn navigate(&mut self, goal: Point2, purpose: NavPurpose) -> bool {
-        let path = match self.prepared.take() {
-            Some((g, p)) if g.dist(goal) < 1e-9 => Some(p),
-            _ => nav::plan(&self.nav_grid, self.pose().position(), goal).map(Route::forward),
+        let prepared = self.prepared.take().filter(|(g, _)| g.dist(goal) < 1e-9);
+        let to = self
+            .nav_grid
+            .nearest_free(goal, GOAL_SHIFT_M)
+            .unwrap_or(goal);
+        let path = match prepared {
+            Some((_, p)) => Some(p),
+            None => nav::plan(&self.nav_grid, self.pose().position(), to).map(Route::forward),
         };
         match path {
             Some(p) => {
                 self.nav = Some(Navigation {
                     purpose,
-                    goal,
+                    goal: to,
                     follow: PurePursuit::new(p),
                     arrived: false,
                     recover_until: None,

@@ -7,6 +7,12 @@
 //! one estimate per unit (the latest) and fuses across units, which is where independent
 //! information comes from. Confidence combines the units' confidences as independent
 //! witnesses: `1 - prod(1 - c_u)`.
+//!
+//! A track is confirmed by a second unit, by confidence, or by one unit that keeps seeing
+//! it: a flame reported steadily for [`CONFIRM_HELD_S`] at a confidence a real flame gives
+//! within the camera's range. Without that last rule a lone unit that stops short of a
+//! flame for the coordinator to decide (its detector gives about 0.6 at 20 m, in smoke)
+//! waits for a second unit that may never come.
 
 use std::collections::BTreeMap;
 
@@ -24,6 +30,17 @@ const GATE2: f64 = 13.8;
 const MIN_VAR_M2: f64 = 0.25;
 /// Confidence at which a tentative track is confirmed.
 const CONFIRM_CONFIDENCE: f64 = 0.8;
+/// A flame one unit reports without a break for this long is confirmed on that unit's
+/// word, s. A detector's false alarms are single frames in random places (hot surfaces,
+/// reflections); the unit's tracker already drops those that do not repeat, and two
+/// seconds is some forty frames at one spot.
+pub const CONFIRM_HELD_S: f64 = 2.0;
+/// ... provided its confidence is at least this: what the simulated camera gives a real
+/// flame at 28 m in light smoke, and above the mean of its false alarms (0.45).
+const CONFIRM_HELD_CONFIDENCE: f64 = 0.5;
+/// Reports of one unit further apart than this are separate sightings, s (the unit's
+/// tracker drops a flame unseen for 3 s).
+const SIGHTING_GAP_S: f64 = 3.0;
 /// Position variance of a track adopted from a unit's task, m^2: the unit's own estimate
 /// carries no covariance on the wire; (1 m)^2 lets the first report refine it.
 const ADOPT_VAR_M2: f64 = 1.0;
@@ -32,13 +49,39 @@ const LOSE_AFTER_S: f64 = 60.0;
 /// Flames seen again at an extinguished fire after this long mean it reignited, s.
 const REIGNITE_AFTER_S: f64 = 5.0;
 
+/// One unit's view of a fire: its latest estimate and confidence, and since when it has
+/// seen the fire without a break.
+#[derive(Debug, Clone, Copy)]
+struct Sighting {
+    estimate: Gaussian2,
+    confidence: f64,
+    since: f64,
+    last: f64,
+}
+
+impl Sighting {
+    fn new(estimate: Gaussian2, confidence: f64, t: f64) -> Self {
+        Self {
+            estimate,
+            confidence,
+            since: t,
+            last: t,
+        }
+    }
+
+    /// Held long and confidently enough to confirm the fire alone.
+    fn held(&self) -> bool {
+        self.last - self.since >= CONFIRM_HELD_S && self.confidence >= CONFIRM_HELD_CONFIDENCE
+    }
+}
+
 /// One fused fire.
 #[derive(Debug, Clone)]
 pub struct Fire {
     pub id: FireId,
     pub state: FireState,
-    /// Latest estimate from each unit that has seen it.
-    per_unit: BTreeMap<UnitId, (Gaussian2, f64)>,
+    /// Each unit's latest sighting.
+    per_unit: BTreeMap<UnitId, Sighting>,
     /// Latest heat-release estimate from each unit that could size it, kW.
     sizes: BTreeMap<UnitId, f64>,
     pub estimate: Gaussian2,
@@ -55,7 +98,7 @@ impl Fire {
         let mut f = Fire {
             id,
             state: FireState::Tentative,
-            per_unit: BTreeMap::from([(unit.clone(), (z, c))]),
+            per_unit: BTreeMap::from([(unit.clone(), Sighting::new(z, c, t))]),
             sizes: BTreeMap::new(),
             estimate: z,
             confidence: 0.0,
@@ -69,15 +112,15 @@ impl Fire {
 
     fn refuse(&mut self) {
         let mut it = self.per_unit.values();
-        let Some((first, _)) = it.next() else { return };
-        self.estimate = it.fold(*first, |acc, (g, _)| acc.fuse(g));
+        let Some(first) = it.next() else { return };
+        self.estimate = it.fold(first.estimate, |acc, s| acc.fuse(&s.estimate));
         self.estimate.cov[0] = self.estimate.cov[0].max(MIN_VAR_M2);
         self.estimate.cov[2] = self.estimate.cov[2].max(MIN_VAR_M2);
         self.confidence = 1.0
             - self
                 .per_unit
                 .values()
-                .map(|(_, c)| 1.0 - c)
+                .map(|s| 1.0 - s.confidence)
                 .product::<f64>();
     }
 
@@ -269,7 +312,7 @@ impl Fusion {
             per_unit: track
                 .seen_by
                 .iter()
-                .map(|u| (u.clone(), (share, c)))
+                .map(|u| (u.clone(), Sighting::new(share, c, track.t)))
                 .collect(),
             sizes: track
                 .hrr_kw
@@ -324,7 +367,18 @@ impl Fusion {
             };
         };
         fire.last_seen = t;
-        fire.per_unit.insert(unit.clone(), (z, obs.confidence));
+        let since = fire
+            .per_unit
+            .get(unit)
+            .filter(|s| t - s.last <= SIGHTING_GAP_S)
+            .map_or(t, |s| s.since);
+        let sighting = Sighting {
+            estimate: z,
+            confidence: obs.confidence,
+            since,
+            last: t,
+        };
+        fire.per_unit.insert(unit.clone(), sighting);
         if let Some(q) = obs.hrr_kw {
             fire.sizes.insert(unit.clone(), q);
         }
@@ -336,7 +390,9 @@ impl Fusion {
                 Fused::Reignited(fire.id)
             }
             FireState::Tentative
-                if fire.confidence >= CONFIRM_CONFIDENCE || fire.per_unit.len() >= 2 =>
+                if fire.confidence >= CONFIRM_CONFIDENCE
+                    || fire.per_unit.len() >= 2
+                    || sighting.held() =>
             {
                 fire.state = FireState::Confirmed;
                 Fused::Confirmed(fire.id)
@@ -420,12 +476,13 @@ mod tests {
         let fire2 = f.get_mut(FireId(2)).unwrap();
         fire2.per_unit.insert(
             u("b"),
-            (
+            Sighting::new(
                 Gaussian2 {
                     mean: Point2::new(50.4, 1.0),
                     cov: [0.3, 0.0, 0.3],
                 },
                 0.9,
+                0.2,
             ),
         );
         fire2.refuse();
@@ -454,9 +511,36 @@ mod tests {
     fn repeated_reports_of_one_unit_do_not_inflate_confidence() {
         let mut f = Fusion::default();
         for k in 0..20 {
-            f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.5), k as f64);
+            f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.45), k as f64);
         }
-        assert!((f.fires()[0].confidence - 0.5).abs() < 1e-9);
+        assert!((f.fires()[0].confidence - 0.45).abs() < 1e-9);
+        assert_eq!(
+            f.fires()[0].state,
+            FireState::Tentative,
+            "held, but no more confident than a false alarm"
+        );
+    }
+
+    #[test]
+    fn one_unit_that_keeps_seeing_a_flame_confirms_it() {
+        let mut f = Fusion::default();
+        let mut confirmed_at = None;
+        for k in 0..=12 {
+            let t = 0.25 * f64::from(k);
+            if f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.6), t) == Fused::Confirmed(FireId(1)) {
+                confirmed_at = Some(t);
+            }
+        }
+        assert_eq!(confirmed_at, Some(CONFIRM_HELD_S));
+        assert!((f.fires()[0].confidence - 0.6).abs() < 1e-9, "not inflated");
+    }
+
+    #[test]
+    fn sightings_with_gaps_do_not_add_up_to_a_held_one() {
+        let mut f = Fusion::default();
+        for t in [0.0, 1.5, 5.0, 6.5, 10.0, 11.5] {
+            f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.6), t);
+        }
         assert_eq!(f.fires()[0].state, FireState::Tentative);
     }
 

@@ -4,7 +4,7 @@
 //! passing) updates the picture and returns the messages to publish: new tasks and changed
 //! fire tracks. Every decision is logged with its reason and kept in [`Incident::decisions`].
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use firefleet_protocol::msg::{
     Decision, FireState, FireTrack, FlameReport, GoalAck, GoalKind, IncidentStatus, Task, TaskKind,
@@ -13,11 +13,12 @@ use firefleet_protocol::msg::{
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::validate::{Invalid, Validate};
-use firefleet_protocol::{FireId, Point2, UnitId, ZoneId};
+use firefleet_protocol::{FireId, Point2, Pose2, UnitId, ZoneId};
 
 use crate::assign::{
     Candidate, Mobility, Need, Pick, Place, Roads, Site, Strategy, attackers_needed,
 };
+use crate::coverage::Coverage;
 use crate::fusion::{Fire, Fused, Fusion};
 use crate::goals::Goals;
 use crate::roads::RoadMap;
@@ -35,6 +36,11 @@ const STAGE_OFFSET_M: f64 = 25.0;
 const UNITS_PER_FIRE: usize = 2;
 /// Free units staged as reserves per active fire, nearest first.
 const RESERVES_PER_FIRE: usize = 3;
+/// A backup or a reserve is sent to a fire only from this near, s of travel: a unit
+/// attacking alone has a minute to knock its fire down (the ground tree's timeout), so one
+/// that arrives later comes to a fire that is out, or to a unit that has given up and is
+/// replaced by the ordinary assignment. Farther units are worth more searching.
+const HELP_WITHIN_S: f64 = 60.0;
 /// After a unit fails a fire, it is not sent to that fire again for this long, s.
 const RETRY_AFTER_S: f64 = 60.0;
 /// A task adopted after a restart binds to a track this close to the unit's target, m.
@@ -43,6 +49,15 @@ const ADOPT_RADIUS_M: f64 = 5.0;
 const RAIL_RUN_DONE_M: f64 = 1.0;
 /// How far outside a zone units leaving it are sent, m.
 const EVACUATE_MARGIN_M: f64 = 5.0;
+/// A stretch nobody has looked at for this long is searched again, s: fire spreads to
+/// nearby vehicles, and a fast-growing fire goes from nothing to 1 MW in 146 s.
+const SEARCH_AGAIN_AFTER_S: f64 = 120.0;
+/// A searching unit's goal is changed only when the new one lies this far from it, m: the
+/// unseen stretch shrinks as units look, and every new goal makes the unit plan again.
+const SEARCH_GOAL_SLACK_M: f64 = 10.0;
+/// A ground unit takes in this much of the road behind it, m: its heat sensors feel a fire
+/// it stands next to, whichever way its camera looks.
+const SIGHT_BEHIND_M: f64 = 5.0;
 
 /// What to publish after an event.
 #[derive(Debug, Clone, PartialEq)]
@@ -115,6 +130,8 @@ pub struct Incident {
     /// Driving distances to fires; straight lines without (an incident built without a
     /// site file).
     roads: Option<RoadMap>,
+    /// Where units have looked.
+    coverage: Coverage,
 }
 
 impl Incident {
@@ -127,7 +144,6 @@ impl Incident {
         strategy: Strategy,
     ) -> Self {
         Self {
-            tunnel,
             units: units
                 .into_iter()
                 .map(|(u, m)| (u, UnitView::new(m)))
@@ -142,6 +158,8 @@ impl Incident {
             goals: Goals::default(),
             units_per_fire: UNITS_PER_FIRE,
             roads: None,
+            coverage: Coverage::new(tunnel.length_m),
+            tunnel,
         }
     }
 
@@ -384,6 +402,9 @@ impl Incident {
     pub fn on_state(&mut self, st: UnitState, t: f64) -> Result<Vec<Output>, Invalid> {
         let unit = st.unit.clone();
         self.tunnel.check_inside("pose", st.pose.position())?;
+        let mobility = self.view(&unit, "unit")?.mobility;
+        let (from, to) = self.sight(mobility, st.pose);
+        self.coverage.look(from, to, t);
         let v = self.view(&unit, "unit")?;
         v.last_heard = t;
         let current = v.task.clone();
@@ -558,7 +579,7 @@ impl Incident {
         Ok(out)
     }
 
-    /// Time passed: expire silent units and unseen fires, then re-solve.
+    /// Time passed: expire silent units and unseen fires, enforce goals, re-solve.
     pub fn tick(&mut self, t: f64) -> Vec<Output> {
         let silent: Vec<UnitId> = self
             .units
@@ -582,16 +603,139 @@ impl Incident {
             self.log(t, format!("goal '{}' on zone {} expired", g.id, g.zone));
         }
         out.extend(self.enforce(t));
+        // Units move and look between events: searches end, searchers change.
+        out.extend(self.solve(t));
+        out
+    }
+
+    /// Re-decide: assign free units to fires that need one; send free ground units to
+    /// search where nobody has looked; back up fires with the units still free; stage the
+    /// rest.
+    ///
+    /// Search comes before backups: a second cannon shortens a knock-down by seconds,
+    /// while a fire nobody has seen burns on until somebody drives past it.
+    fn solve(&mut self, t: f64) -> Vec<Output> {
+        let mut out = self.assign(t);
+        let (sent, searching) = self.search(t);
+        out.extend(sent);
+        out.extend(self.back_up(&searching, t));
+        out.extend(self.stage(&searching, t));
         out.extend(self.patrol_rails(t));
         out
     }
 
-    /// Re-decide: assign free units to fires that need one, then stage the rest.
-    fn solve(&mut self, t: f64) -> Vec<Output> {
-        let mut out = self.assign(t);
-        out.extend(self.stage(t));
-        out.extend(self.patrol_rails(t));
-        out
+    /// The chainages a unit's sensors take in where it stands: a ground unit's camera
+    /// looks ahead along the road (and its heat sensors feel the few metres behind it), a
+    /// carriage's detector looks both ways along its rail.
+    fn sight(&self, mobility: Mobility, pose: Pose2) -> (f64, f64) {
+        let s = self.tunnel.chainage(pose.position());
+        match mobility {
+            Mobility::Rail { .. } => (s - MONORAIL.detector_range_m, s + MONORAIL.detector_range_m),
+            Mobility::Ground { .. } => {
+                let range = GROUND.camera.range_m;
+                if (pose.yaw - self.tunnel.heading_at(s)).cos() >= 0.0 {
+                    (s - SIGHT_BEHIND_M, s + range)
+                } else {
+                    (s - range, s + SIGHT_BEHIND_M)
+                }
+            }
+        }
+    }
+
+    /// Free ground units search the stretches nobody has looked at for
+    /// [`SEARCH_AGAIN_AFTER_S`] (less barred zones): each end of each unseen stretch gets
+    /// the nearest free unit on its side, nearest pairs first. Searched from both ends, a
+    /// stretch is split at its middle; from one, the unit drives through to its far end.
+    /// A unit already searching keeps its goal unless the new one is
+    /// [`SEARCH_GOAL_SLACK_M`] away. Returns the tasks and the units searching.
+    fn search(&mut self, t: f64) -> (Vec<Output>, BTreeSet<UnitId>) {
+        let mut gaps = self.coverage.gaps(t - SEARCH_AGAIN_AFTER_S);
+        for (bs, be) in self.goals.barred() {
+            let (lo, hi) = (bs - EVACUATE_MARGIN_M, be + EVACUATE_MARGIN_M);
+            gaps = gaps
+                .into_iter()
+                .flat_map(|(a, b)| [(a, b.min(lo)), (a.max(hi), b)])
+                .filter(|(a, b)| b > a)
+                .collect();
+        }
+        let free = self.free_ground_units(&BTreeSet::new());
+        let searching_now = |u: &UnitId| {
+            matches!(
+                self.units[u].task.as_ref().map(|t| t.kind),
+                Some(TaskKind::Search { .. })
+            )
+        };
+        // (cost, unit, gap, from the west): the distance to the stretch's near end, less
+        // the slack for a unit already searching, so that two units side by side do not
+        // trade places at every solve.
+        let mut pairs: Vec<(f64, usize, usize, bool)> = Vec::new();
+        for (k, c) in free.iter().enumerate() {
+            let s = c.at.chainage_m;
+            for (g, &(a, b)) in gaps.iter().enumerate() {
+                let west = s < (a + b) / 2.0;
+                let d = if west { a - s } else { s - b }.max(0.0);
+                let bonus = if searching_now(&c.unit) {
+                    SEARCH_GOAL_SLACK_M
+                } else {
+                    0.0
+                };
+                pairs.push((d - bonus, k, g, west));
+            }
+        }
+        pairs.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let mut taken_units = vec![false; free.len()];
+        let mut ends: BTreeMap<(usize, bool), usize> = BTreeMap::new();
+        for (_, k, g, west) in pairs {
+            if !taken_units[k] && !ends.contains_key(&(g, west)) {
+                taken_units[k] = true;
+                ends.insert((g, west), k);
+            }
+        }
+        let mut out = Vec::new();
+        let mut searching = BTreeSet::new();
+        for (&(g, west), &k) in &ends {
+            let (a, b) = gaps[g];
+            let both = ends.contains_key(&(g, !west));
+            let x = match (both, west) {
+                (true, _) => (a + b) / 2.0,
+                (false, true) => b,
+                (false, false) => a,
+            };
+            let lo = 10.0_f64.min(self.tunnel.length_m / 2.0);
+            let hi = self.tunnel.length_m - lo;
+            let Some(x) = self
+                .goals
+                .nearest_allowed(x.clamp(lo, hi), EVACUATE_MARGIN_M, lo, hi)
+            else {
+                continue;
+            };
+            let c = &free[k];
+            let lane = self.lane_nearest(self.tunnel.station(c.at.position).d);
+            let goal = self.tunnel.point_at(x, lane);
+            searching.insert(c.unit.clone());
+            let current = self.units[&c.unit].task.as_ref().map(|t| t.kind);
+            if matches!(current, Some(TaskKind::Search { goal: now }) if now.dist(goal) < SEARCH_GOAL_SLACK_M)
+            {
+                continue;
+            }
+            out.push(self.give(&c.unit, TaskKind::Search { goal }, t));
+            self.log(
+                t,
+                format!(
+                    "send {} searching the unseen stretch {a:.0}-{b:.0} m, to ({:.1}, {:.1})",
+                    c.unit, goal.x, goal.y
+                ),
+            );
+        }
+        (out, searching)
+    }
+
+    /// The centre of the lane nearest lateral offset `d`.
+    fn lane_nearest(&self, d: f64) -> f64 {
+        (0..self.tunnel.lanes)
+            .map(|i| self.tunnel.lane_center_y(i))
+            .min_by(|a, b| (a - d).abs().total_cmp(&(b - d).abs()))
+            .unwrap_or(0.0)
     }
 
     /// Free monorail units search their rail from end to end and back: at 10 m/s, with a
@@ -652,10 +796,10 @@ impl Incident {
         out
     }
 
-    /// Free units wait [`STAGE_OFFSET_M`] short of the nearest active fire, on their own
-    /// side and in their lane, at most [`RESERVES_PER_FIRE`] per fire; the others patrol on
-    /// their own.
-    fn stage(&mut self, t: f64) -> Vec<Output> {
+    /// Free units (but the `searching`) wait [`STAGE_OFFSET_M`] short of the nearest
+    /// active fire, on their own side and in their lane, at most [`RESERVES_PER_FIRE`] per
+    /// fire; the others patrol on their own.
+    fn stage(&mut self, searching: &BTreeSet<UnitId>, t: f64) -> Vec<Output> {
         let burning = |f: &&crate::fusion::Fire| {
             matches!(
                 f.state,
@@ -681,10 +825,10 @@ impl Incident {
                 .at(f.position().x)
                 .is_some_and(|g| g.bars_attack())
         });
-        let free: Vec<(UnitId, Point2, Option<TaskKind>)> = self
+        let free: Vec<(UnitId, Point2, Option<TaskKind>, Mobility)> = self
             .units
             .iter()
-            .filter(|(_, v)| v.alive && v.working_on().is_none())
+            .filter(|(u, v)| v.alive && v.working_on().is_none() && !searching.contains(*u))
             // Monorail units wait where they are: their carriages reach a fire in seconds.
             .filter(|(_, v)| matches!(v.mobility, Mobility::Ground { .. }))
             .filter_map(|(u, v)| {
@@ -692,10 +836,11 @@ impl Incident {
                     u.clone(),
                     v.state.as_ref()?.pose.position(),
                     v.task.as_ref().map(|t| t.kind),
+                    v.mobility,
                 ))
             })
             // Units leaving a barred zone keep their way out.
-            .filter(|(_, at, _)| {
+            .filter(|(_, at, ..)| {
                 !self
                     .goals
                     .at(self.tunnel.chainage(*at))
@@ -704,14 +849,26 @@ impl Incident {
             .collect();
         let mut out = Vec::new();
         // Each free unit's nearest active fire; each fire keeps its nearest
-        // RESERVES_PER_FIRE, the others patrol (a thousand units must not converge on the
-        // first fire reported).
+        // RESERVES_PER_FIRE within HELP_WITHIN_S (any distance to hold a contain line),
+        // the others patrol (a thousand units must not converge on the first fire
+        // reported).
+        let holds_a_line = |f: Point2| {
+            self.goals
+                .at(self.tunnel.chainage(f))
+                .is_some_and(|g| g.goal.goal == GoalKind::Contain)
+        };
         let nearest: Vec<Option<&(FireId, Point2)>> = free
             .iter()
-            .map(|(_, at, _)| {
+            .map(|(_, at, _, mobility)| {
                 active
                     .iter()
                     .min_by(|a, b| a.1.dist(*at).total_cmp(&b.1.dist(*at)))
+                    .filter(|(_, f)| {
+                        holds_a_line(*f)
+                            || mobility
+                                .travel_s(*at, *f)
+                                .is_some_and(|s| s <= HELP_WITHIN_S)
+                    })
             })
             .collect();
         let mut order: Vec<usize> = (0..free.len()).collect();
@@ -730,7 +887,7 @@ impl Incident {
                 }
             }
         }
-        for (k, (unit, at, current)) in free.into_iter().enumerate() {
+        for (k, (unit, at, current, _)) in free.into_iter().enumerate() {
             let nearest = nearest[k].filter(|_| reserve[k]);
             let at = self.tunnel.station(at);
             let goal = nearest.map(|&(fire, f)| {
@@ -746,11 +903,7 @@ impl Incident {
                     .nearest_allowed(s, EVACUATE_MARGIN_M, 5.0, self.tunnel.length_m - 5.0)
                     .unwrap_or(at.s)
                     .clamp(5.0, self.tunnel.length_m - 5.0);
-                let lane = (0..self.tunnel.lanes)
-                    .map(|i| self.tunnel.lane_center_y(i))
-                    .min_by(|a, b| (a - at.d).abs().total_cmp(&(b - at.d).abs()))
-                    .unwrap_or(0.0);
-                (fire, self.tunnel.point_at(s, lane))
+                (fire, self.tunnel.point_at(s, self.lane_nearest(at.d)))
             });
             match (goal, current) {
                 (Some((_, g)), Some(TaskKind::Cruise { goal })) if goal.dist(g) < 3.0 => {}
@@ -820,9 +973,25 @@ impl Incident {
             .filter(|f| f.state == FireState::Confirmed)
             .filter_map(|f| self.need(f))
             .collect();
+        let candidates = self.candidates();
+        self.solve_for(candidates, needs, false, t)
+    }
+
+    /// Ground units not working on a fire, less those in `busy`.
+    fn free_ground_units(&self, busy: &BTreeSet<UnitId>) -> Vec<Candidate> {
+        let mut candidates = self.candidates();
+        candidates.retain(|c| {
+            matches!(c.mobility, Mobility::Ground { .. })
+                && self.units[&c.unit].working_on().is_none()
+                && !busy.contains(&c.unit)
+        });
+        candidates
+    }
+
+    /// Units that may be sent to a fire: alive, able, with water, outside barred zones.
+    fn candidates(&self) -> Vec<Candidate> {
         let barred = self.goals.barred();
-        let mut candidates: Vec<Candidate> = self
-            .units
+        self.units
             .iter()
             .filter(|(_, v)| v.alive && v.available())
             .filter_map(|(u, v)| {
@@ -839,10 +1008,40 @@ impl Incident {
                     .iter()
                     .any(|&(s, e)| (s..=e).contains(&c.at.chainage_m))
             })
+            .collect()
+    }
+
+    /// Second wave: ground units still free (and not in `busy`) join fires that have
+    /// fewer attackers than `units_per_fire` or than their heat release needs, nearest
+    /// first, one more per fire and solve.
+    fn back_up(&mut self, busy: &BTreeSet<UnitId>, t: f64) -> Vec<Output> {
+        let backups: Vec<Need> = self
+            .fusion
+            .fires()
+            .iter()
+            .filter(|f| matches!(f.state, FireState::Assigned | FireState::Suppressing))
+            .filter(|f| {
+                let needed = attackers_needed(f.hrr_kw(), GROUND.cannon_flow_l_s);
+                self.assigned_to(f.id).len() < self.units_per_fire.max(needed)
+            })
+            .filter_map(|f| self.need(f))
             .collect();
-        if candidates.is_empty() {
+        let candidates = self.free_ground_units(busy);
+        self.solve_for(candidates, backups, true, t)
+    }
+
+    /// Solve `needs` over `candidates` and dispatch the picks (as backups if `backup`).
+    fn solve_for(
+        &mut self,
+        candidates: Vec<Candidate>,
+        needs: Vec<Need>,
+        backup: bool,
+        t: f64,
+    ) -> Vec<Output> {
+        if candidates.is_empty() || needs.is_empty() {
             return Vec::new();
         }
+        let barred = self.goals.barred();
         let burning: Vec<(FireId, Point2)> = self
             .fusion
             .fires()
@@ -865,32 +1064,9 @@ impl Incident {
             roads: roads.as_ref().map(|r| r as &dyn Roads),
         };
         let mut out = Vec::new();
-        if !needs.is_empty() {
-            for p in self.strategy.solve(&candidates, &needs, &site) {
-                out.extend(self.dispatch(p, t, false));
-            }
-        }
-        // Second wave: ground units still free join fires that have fewer attackers than
-        // `units_per_fire` or than their heat release needs, nearest first, one more per
-        // fire and solve.
-        candidates.retain(|c| {
-            matches!(c.mobility, Mobility::Ground { .. })
-                && self.units[&c.unit].working_on().is_none()
-        });
-        let backups: Vec<Need> = self
-            .fusion
-            .fires()
-            .iter()
-            .filter(|f| matches!(f.state, FireState::Assigned | FireState::Suppressing))
-            .filter(|f| {
-                let needed = attackers_needed(f.hrr_kw(), GROUND.cannon_flow_l_s);
-                self.assigned_to(f.id).len() < self.units_per_fire.max(needed)
-            })
-            .filter_map(|f| self.need(f))
-            .collect();
-        if !backups.is_empty() && !candidates.is_empty() {
-            for p in self.strategy.solve(&candidates, &backups, &site) {
-                out.extend(self.dispatch(p, t, true));
+        for p in self.strategy.solve(&candidates, &needs, &site) {
+            if !backup || p.cost_s <= HELP_WITHIN_S {
+                out.extend(self.dispatch(p, t, backup));
             }
         }
         self.roads = roads;
@@ -1106,15 +1282,18 @@ mod tests {
         i
     }
 
-    /// Ground units a and b, neither heard from yet.
+    /// Ground units a and b, neither heard from yet, in a tunnel searched at t = 0 (these
+    /// tests are about fires; searching has tests of its own).
     fn unheard() -> Incident {
         let ground = Mobility::Ground { speed_m_s: 1.5 };
-        Incident::new(
+        let mut i = Incident::new(
             TUNNEL,
             [(u("a"), ground), (u("b"), ground)],
             5.0,
             Strategy::Optimal,
-        )
+        );
+        i.coverage.look(0.0, TUNNEL.length_m, 0.0);
+        i
     }
 
     fn incident_with_backups() -> Incident {
@@ -1561,6 +1740,121 @@ mod tests {
             tasks(&i.on_report(&report("a", 60.0), 1.0).unwrap()).len(),
             1
         );
+    }
+
+    /// Ground units a and b in a tunnel nobody has looked at yet.
+    fn unsearched() -> Incident {
+        let mut i = unheard();
+        i.coverage = Coverage::new(TUNNEL.length_m);
+        i
+    }
+
+    fn facing(unit: &str, x: f64, yaw: f64) -> UnitState {
+        UnitState {
+            pose: Pose2::new(x, -2.0, yaw),
+            ..state(unit, x, None)
+        }
+    }
+
+    /// The goal of `unit`'s newest task, if it is a search.
+    fn searching_to(i: &Incident, unit: &str) -> Option<Point2> {
+        match i.units[&u(unit)].task.as_ref()?.kind {
+            TaskKind::Search { goal } => Some(goal),
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn units_from_both_portals_search_the_unseen_middle_from_both_ends() {
+        let mut i = unsearched();
+        i.on_alive(&u("a"), true, 0.0).unwrap();
+        i.on_alive(&u("b"), true, 0.0).unwrap();
+        i.on_state(facing("a", 5.0, 0.0), 0.0).unwrap();
+        i.on_state(facing("b", 195.0, std::f64::consts::PI), 0.0)
+            .unwrap();
+        // a sees 0-35 m, b 165-200 m: the unseen middle is 35-165, split at 100.
+        assert_eq!(searching_to(&i, "a").map(|g| g.x), Some(100.0));
+        assert_eq!(searching_to(&i, "b").map(|g| g.x), Some(100.0));
+        assert!(i.decisions().any(|d| {
+            d.text
+                .starts_with("send b searching the unseen stretch 35-165 m")
+        }));
+        // As they look, the middle shrinks evenly: the goals stand, no new tasks.
+        for k in 1..=8 {
+            let (t, d) = (5.0 * f64::from(k), 7.5 * f64::from(k));
+            i.on_state(facing("a", 5.0 + d, 0.0), t).unwrap();
+            i.on_state(facing("b", 195.0 - d, std::f64::consts::PI), t)
+                .unwrap();
+            assert!(all_tasks(&i.solve(t)).is_empty(), "at {t} s");
+        }
+        // Once all is seen they are released to patrol.
+        i.on_state(facing("a", 72.5, 0.0), 45.0).unwrap();
+        i.on_state(facing("b", 127.5, std::f64::consts::PI), 45.0)
+            .unwrap();
+        let out = i.solve(45.0);
+        assert_eq!(kinds_for(&out, "a"), vec![TaskKind::Standby]);
+        assert_eq!(kinds_for(&out, "b"), vec![TaskKind::Standby]);
+    }
+
+    #[test]
+    fn one_unit_searches_and_its_partner_takes_the_fire_it_finds() {
+        let mut i = unsearched();
+        for n in ["a", "b"] {
+            i.on_alive(&u(n), true, 0.0).unwrap();
+            i.on_state(facing(n, 5.0, 0.0), 0.0).unwrap();
+        }
+        let searcher = ["a", "b"]
+            .into_iter()
+            .find(|n| searching_to(&i, n).is_some())
+            .expect("one of the pair searches");
+        assert_eq!(searching_to(&i, searcher).map(|g| g.x), Some(190.0));
+        let other = if searcher == "a" { "b" } else { "a" };
+        assert_eq!(searching_to(&i, other), None, "one searcher per end");
+        // The pair sees a fire at 60 m from 35 m: one attacks, the other searches on
+        // beyond it rather than backing up a fire one unit can fight.
+        i.on_state(facing("a", 35.0, 0.0), 20.0).unwrap();
+        i.on_state(facing("b", 35.0, 0.0), 20.0).unwrap();
+        let out = i.on_report(&report("a", 60.0), 20.0).unwrap();
+        assert_eq!(tasks(&out).len(), 1, "{out:?}");
+        let attacker = tasks(&out)[0].unit.as_str().to_owned();
+        let other = if attacker == "a" { "b" } else { "a" };
+        assert_eq!(searching_to(&i, other).map(|g| g.x), Some(190.0));
+    }
+
+    #[test]
+    fn search_stops_short_of_a_keep_out_zone() {
+        let mut i = zoned();
+        i.coverage = Coverage::new(TUNNEL.length_m);
+        submit(&mut i, goal("g1", "z2", GoalKind::KeepOut, 0, None), 0.0);
+        i.on_state(facing("a", 10.0, 0.0), 1.0).unwrap();
+        let g = searching_to(&i, "a").expect("a searches");
+        assert_eq!(g.x, 100.0 - EVACUATE_MARGIN_M);
+    }
+
+    #[test]
+    fn a_stretch_not_seen_for_two_minutes_is_searched_again() {
+        let mut i = incident();
+        assert_eq!(searching_to(&i, "a"), None);
+        i.on_state(facing("a", 10.0, 0.0), SEARCH_AGAIN_AFTER_S - 1.0)
+            .unwrap();
+        assert!(all_tasks(&i.solve(SEARCH_AGAIN_AFTER_S - 1.0)).is_empty());
+        i.on_state(facing("a", 10.0, 0.0), SEARCH_AGAIN_AFTER_S + 1.0)
+            .unwrap();
+        i.on_state(facing("b", 40.0, 0.0), SEARCH_AGAIN_AFTER_S + 1.0)
+            .unwrap();
+        i.solve(SEARCH_AGAIN_AFTER_S + 1.0);
+        assert_eq!(searching_to(&i, "b").map(|g| g.x), Some(190.0));
+    }
+
+    #[test]
+    fn no_backup_or_reserve_is_sent_from_more_than_a_minute_away() {
+        let mut i = incident_with_backups();
+        // b drives to 150 m: 90 m from a fire at 60 m is a minute at 1.5 m/s, and more.
+        i.on_state(state("b", 155.0, None), 0.5).unwrap();
+        let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+        assert_eq!(tasks(&out).len(), 1, "{out:?}");
+        assert_eq!(tasks(&out)[0].unit.as_str(), "a");
+        assert!(kinds_for(&out, "b").is_empty(), "{out:?}");
     }
 
     #[test]

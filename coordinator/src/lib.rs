@@ -1,9 +1,11 @@
 //! The incident's brain and its memory.
 //!
 //! [`fusion`] turns flame reports from every unit into fire tracks; [`assign`] decides which
-//! unit attacks which fire, ranking ground units by the driving distance [`roads`] gives; [`goals`] holds the commanders' zone goals; [`incident`] holds
-//! the whole picture (units, fires, tasks, goals) and reacts to events with decisions,
-//! each logged with its reason. All five are pure: no Zenoh, no clock of their own.
+//! unit attacks which fire, ranking ground units by the driving distance [`roads`] gives;
+//! [`goals`] holds the commanders' zone goals; [`coverage`] remembers where units have
+//! looked, so free units search where nobody has; [`incident`] holds the whole picture
+//! (units, fires, tasks, goals) and reacts to events with decisions, each logged with its
+//! reason. All six are pure: no Zenoh, no clock of their own.
 //! [`node`] wires them to the bus, and [`record`] writes everything on the bus to an MCAP
 //! file with a Foxglove scene ([`scene`]).
 //!
@@ -12,6 +14,7 @@
 //! units' states (adopting the tasks they still work on) and their new reports.
 
 pub mod assign;
+pub mod coverage;
 pub mod fusion;
 pub mod goals;
 pub mod incident;

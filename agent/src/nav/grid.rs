@@ -87,6 +87,28 @@ impl Grid {
         self.cell(p).is_some_and(|c| !self.blocked(c))
     }
 
+    /// The free cell centre nearest `p` within `within_m` of it (`p` itself if its cell is
+    /// free), if any.
+    pub fn nearest_free(&self, p: Point2, within_m: f64) -> Option<Point2> {
+        if self.free(p) {
+            return Some(p);
+        }
+        let reach = (within_m / self.res).ceil() as isize;
+        let c0 = ((p.x - self.x0) / self.res).floor() as isize;
+        let r0 = ((p.y - self.y0) / self.res).floor() as isize;
+        let cells = (-reach..=reach).flat_map(|dr| (-reach..=reach).map(move |dc| (dc, dr)));
+        cells
+            .filter_map(|(dc, dr)| {
+                let (c, r) = (
+                    usize::try_from(c0 + dc).ok()?,
+                    usize::try_from(r0 + dr).ok()?,
+                );
+                (c < self.w && r < self.h && !self.blocked((c, r))).then(|| self.center((c, r)))
+            })
+            .filter(|q| q.dist(p) <= within_m)
+            .min_by(|a, b| a.dist(p).total_cmp(&b.dist(p)))
+    }
+
     /// Whether the segment `a`-`b` crosses only free cells. Uses a supercover traversal
     /// (every cell the segment touches, Amanatides-Woo), not Bresenham: Bresenham skips
     /// cells the segment clips at a corner, which would let a path graze an obstacle.
@@ -183,6 +205,24 @@ pub(crate) mod tests {
         assert!(g.free(Point2::new(20.0, 2.6)));
         assert!(!g.free(Point2::new(5.0, 4.5)), "wall margin");
         assert!(!g.free(Point2::new(-1.0, 0.0)));
+    }
+
+    #[test]
+    fn the_nearest_free_point_to_one_inside_a_car_is_beside_it() {
+        let g = Grid::from_scenario(&scenario(), 0.25, 1.0);
+        let p = g.nearest_free(Point2::new(20.0, 0.5), 5.0).unwrap();
+        assert!(g.free(p));
+        // The car is 2 m wide: inflated, it reaches y = 2.0; the nearest free cell
+        // centre lies just beyond.
+        assert!(
+            (p.y - 2.125).abs() < 1e-9 && (p.x - 20.0).abs() < 0.2,
+            "{p:?}"
+        );
+        assert_eq!(
+            g.nearest_free(Point2::new(5.0, 0.0), 5.0),
+            Some(Point2::new(5.0, 0.0))
+        );
+        assert_eq!(g.nearest_free(Point2::new(20.0, 0.5), 1.0), None);
     }
 
     #[test]
