@@ -14,8 +14,10 @@
 //! - [`optimal`]: the minimum total cost over all pairings ([`hungarian`]), so that one
 //!   unit's nearest fire does not leave another fire with only a far unit.
 //!
-//! Either way only free units and unattended fires take part: a unit already working on a
-//! fire keeps it, so nobody is pulled off a fire it is spraying.
+//! Units on their way to a fire take part again at every solve, so that a unit that
+//! becomes free near a fire takes it over from one still far away; the unit on its way
+//! has [`KEEP_S`] off its cost for its own fire, so it is replaced only for a real gain
+//! (hysteresis). Units spraying take no part: nobody is pulled off a fire it is spraying.
 
 use firefleet_protocol::scenario::Tunnel;
 use firefleet_protocol::{FireId, Point2, UnitId};
@@ -133,7 +135,14 @@ pub struct Candidate {
     pub mobility: Mobility,
     /// Water on board, L.
     pub water_l: f64,
+    /// The fire the unit is already on its way to, if any: it costs [`KEEP_S`] less.
+    pub heading_for: Option<FireId>,
 }
+
+/// What another unit must save to take over a fire from the unit on its way to it, s of
+/// travel: a changed task costs a stop and a new plan, and straight-line travel times
+/// are off by more than a few seconds wherever vehicles stand in the way.
+pub const KEEP_S: f64 = 20.0;
 
 /// How a ground unit would drive to a fire.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -226,12 +235,50 @@ pub struct Pick {
     pub runner_up: Option<(UnitId, f64)>,
 }
 
+/// The burning fires a ground unit would drive past, for counting them fast: every
+/// hazard's chainage, sorted. A solve counts them for every pair (200 000 pairs at 1000
+/// units and 200 fires): with each unit's and each fire's rank among the hazards found
+/// once, a pair's count is a subtraction.
+struct Hazards {
+    sorted: Vec<f64>,
+}
+
+/// Where a chainage falls among the hazards: how many lie before it, and how many before
+/// or at it.
+#[derive(Debug, Clone, Copy)]
+struct Rank {
+    before: usize,
+    up_to: usize,
+}
+
+impl Hazards {
+    fn new(site: &Site<'_>) -> Self {
+        let mut sorted: Vec<f64> = site.hazards.iter().map(|h| h.chainage_m).collect();
+        sorted.sort_by(f64::total_cmp);
+        Self { sorted }
+    }
+
+    fn rank(&self, chainage: f64) -> Rank {
+        Rank {
+            before: self.sorted.partition_point(|&c| c < chainage),
+            up_to: self.sorted.partition_point(|&c| c <= chainage),
+        }
+    }
+
+    /// Hazards strictly between the chainages ranked `x` and `y` (either order).
+    fn between(x: Rank, y: Rank) -> usize {
+        let (lo, hi) = if x.up_to <= y.before { (x, y) } else { (y, x) };
+        hi.before.saturating_sub(lo.up_to)
+    }
+}
+
 /// Cost of `u` taking `n`, s: travel time (a ground unit's along the road where the site
 /// has a road map), plus [`HAZARD_S`] for every other burning fire
 /// a ground unit would drive past, plus [`LOW_WATER_S`] if it is short of water; or
 /// [`INFEASIBLE`] if it cannot get there without crossing a barred range, or no road leads
-/// there.
-fn travel(u: &Candidate, n: &Need, site: &Site<'_>) -> f64 {
+/// there. `hazards_between` is the number of hazards between the unit and the fire,
+/// the fire itself left out.
+fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f64 {
     let (a, b) = (
         u.at.chainage_m.min(n.at.chainage_m),
         u.at.chainage_m.max(n.at.chainage_m),
@@ -253,13 +300,7 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>) -> f64 {
     let passed = match u.mobility {
         // A carriage runs under the ceiling, over the fires.
         Mobility::Rail { .. } => 0,
-        Mobility::Ground { .. } => site
-            .hazards
-            .iter()
-            .filter(|h| {
-                h.chainage_m > a && h.chainage_m < b && h.position.dist(n.at.position) > SAME_FIRE_M
-            })
-            .count(),
+        Mobility::Ground { .. } => hazards_between,
     };
     let thirsty = if u.water_l < WATER_NEEDED_L {
         LOW_WATER_S
@@ -274,22 +315,50 @@ const SAME_FIRE_M: f64 = 3.0;
 
 /// Costs, one row per fire, one column per unit.
 fn travel_matrix(units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<f64> {
-    needs
+    let hazards = Hazards::new(site);
+    let unit_ranks: Vec<Rank> = units
         .iter()
-        .flat_map(|n| units.iter().map(move |u| travel(u, n, site)))
-        .collect()
+        .map(|u| hazards.rank(u.at.chainage_m))
+        .collect();
+    let mut costs = Vec::with_capacity(needs.len() * units.len());
+    for n in needs {
+        let rank = hazards.rank(n.at.chainage_m);
+        // The hazards that are this fire (or lie within its size), by chainage.
+        let itself: Vec<f64> = site
+            .hazards
+            .iter()
+            .filter(|h| h.position.dist(n.at.position) <= SAME_FIRE_M)
+            .map(|h| h.chainage_m)
+            .collect();
+        costs.extend(units.iter().zip(&unit_ranks).map(|(u, &r)| {
+            let (a, b) = (
+                u.at.chainage_m.min(n.at.chainage_m),
+                u.at.chainage_m.max(n.at.chainage_m),
+            );
+            let own = itself.iter().filter(|&&c| c > a && c < b).count();
+            travel(u, n, site, Hazards::between(r, rank) - own)
+        }));
+    }
+    costs
 }
 
-/// The costs the solvers minimise: travel less the priority's worth; infeasible stays so.
-fn cost_matrix(travel: &[f64], units: usize, needs: &[Need]) -> Vec<f64> {
+/// The costs the solvers minimise: travel less the priority's worth, less [`KEEP_S`] for
+/// the fire a unit is already on its way to; infeasible stays so.
+fn cost_matrix(travel: &[f64], units: &[Candidate], needs: &[Need]) -> Vec<f64> {
     travel
         .iter()
         .enumerate()
         .map(|(k, &c)| {
+            let (n, u) = (&needs[k / units.len()], &units[k % units.len()]);
             if c >= INFEASIBLE {
                 c
             } else {
-                c - PRIORITY_S * f64::from(needs[k / units].priority)
+                let keep = if u.heading_for == Some(n.fire) {
+                    KEEP_S
+                } else {
+                    0.0
+                };
+                c - PRIORITY_S * f64::from(n.priority) - keep
             }
         })
         .collect()
@@ -316,7 +385,7 @@ fn pick(units: &[Candidate], needs: &[Need], costs: &[f64], f: usize, u: usize) 
 /// chosen travel times is the least possible.
 pub fn optimal(units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<Pick> {
     let travel = travel_matrix(units, needs, site);
-    let costs = cost_matrix(&travel, units.len(), needs);
+    let costs = cost_matrix(&travel, units, needs);
     hungarian(&costs, needs.len(), units.len())
         .into_iter()
         .enumerate()
@@ -411,7 +480,7 @@ pub fn hungarian(costs: &[f64], rows: usize, cols: usize) -> Vec<Option<usize>> 
 /// Greedy minimum-cost pairing.
 pub fn greedy(units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<Pick> {
     let travel = travel_matrix(units, needs, site);
-    let costs = cost_matrix(&travel, units.len(), needs);
+    let costs = cost_matrix(&travel, units, needs);
     let (mut unit_free, mut fire_open) = (vec![true; units.len()], vec![true; needs.len()]);
     let mut picks = Vec::new();
     loop {
@@ -449,6 +518,7 @@ mod tests {
             at: Place::straight(x, 0.0),
             mobility: Mobility::Ground { speed_m_s: 1.0 },
             water_l: 1500.0,
+            heading_for: None,
         }
     }
 
@@ -525,6 +595,7 @@ mod tests {
             at: Place::straight(x, y),
             mobility: Mobility::Ground { speed_m_s: 1.0 },
             water_l: 1500.0,
+            heading_for: None,
         }
     }
 
@@ -561,6 +632,31 @@ mod tests {
         );
     }
 
+    #[test]
+    fn a_unit_on_its_way_is_replaced_only_by_one_keep_s_sooner() {
+        let fire = Need {
+            fire: FireId(1),
+            at: Place::straight(100.0, 0.0),
+            priority: 0,
+        };
+        let on_its_way = Candidate {
+            heading_for: Some(FireId(1)),
+            ..at("a", 40.0, 0.0)
+        };
+        for strategy in [Strategy::Greedy, Strategy::Optimal] {
+            let solve = |b: f64| {
+                let units = [on_its_way.clone(), at("b", b, 0.0)];
+                strategy.solve(&units, std::slice::from_ref(&fire), &Site::default())[0]
+                    .unit
+                    .to_string()
+            };
+            // a is 60 s away; b 50 s: not worth the change.
+            assert_eq!(solve(50.0), "a", "{strategy:?}");
+            // b 30 s away: 30 s sooner.
+            assert_eq!(solve(70.0), "b", "{strategy:?}");
+        }
+    }
+
     /// Least total cost over every injective pairing, by enumeration.
     fn brute_force(costs: &[f64], rows: usize, cols: usize) -> f64 {
         fn go(r: usize, rows: usize, cols: usize, costs: &[f64], used: &mut Vec<bool>) -> f64 {
@@ -589,6 +685,21 @@ mod tests {
 
     proptest::proptest! {
         #[test]
+        fn hazards_between_are_counted_as_by_looking_at_each(
+            at in proptest::collection::vec(0.0..100.0f64, 0..20),
+            a in 0.0..100.0f64,
+            len in 0.0..100.0f64,
+        ) {
+            let places: Vec<Place> = at.iter().map(|&x| Place::straight(x, 0.0)).collect();
+            let site = Site { hazards: &places, ..Site::default() };
+            let b = a + len;
+            let naive = at.iter().filter(|&&c| c > a && c < b).count();
+            let h = Hazards::new(&site);
+            proptest::prop_assert_eq!(Hazards::between(h.rank(a), h.rank(b)), naive);
+            proptest::prop_assert_eq!(Hazards::between(h.rank(b), h.rank(a)), naive);
+        }
+
+        #[test]
         fn hungarian_matches_brute_force(rows in 1usize..5, cols in 1usize..6, seed in proptest::collection::vec(0.0..100.0f64, 30)) {
             let costs: Vec<f64> = (0..rows * cols).map(|k| seed[k % seed.len()] + (k as f64 * 7.3) % 11.0).collect();
             let a = hungarian(&costs, rows, cols);
@@ -615,6 +726,7 @@ mod tests {
                 reach_m: 15.0,
             },
             water_l: 1e5,
+            heading_for: None,
         }
     }
 
