@@ -60,6 +60,8 @@ const SEARCH_AGAIN_AFTER_S: f64 = 120.0;
 /// A searching unit's goal is changed only when the new one lies this far from it, m: the
 /// unseen stretch shrinks as units look, and every new goal makes the unit plan again.
 const SEARCH_GOAL_SLACK_M: f64 = 10.0;
+/// The first and last metres of the tunnel, which search leaves out, m.
+const PORTAL_M: f64 = 10.0;
 /// A ground unit takes in this much of the road behind it, m: its heat sensors feel a fire
 /// it stands next to, whichever way its camera looks.
 const SIGHT_BEHIND_M: f64 = 5.0;
@@ -679,8 +681,19 @@ impl Incident {
     /// A unit already searching keeps its goal unless the new one is
     /// [`SEARCH_GOAL_SLACK_M`] away. Returns the tasks and the units searching.
     fn search(&mut self, t: f64) -> (Vec<Output>, BTreeSet<UnitId>) {
-        let mut gaps = self.coverage.gaps(t - SEARCH_AGAIN_AFTER_S);
-        for (bs, be) in self.goals.barred() {
+        // Not the portals' mouths: units come in through them, and the incident's command
+        // post sees them from outside.
+        let lo = PORTAL_M.min(self.tunnel.length_m / 2.0);
+        let hi = self.tunnel.length_m - lo;
+        let mut gaps: Vec<(f64, f64)> = self
+            .coverage
+            .gaps(t - SEARCH_AGAIN_AFTER_S)
+            .into_iter()
+            .map(|(a, b)| (a.max(lo), b.min(hi)))
+            .filter(|(a, b)| b > a)
+            .collect();
+        let barred = self.goals.barred();
+        for &(bs, be) in &barred {
             let (lo, hi) = (bs - EVACUATE_MARGIN_M, be + EVACUATE_MARGIN_M);
             gaps = gaps
                 .into_iter()
@@ -703,6 +716,12 @@ impl Incident {
             let s = c.at.chainage_m;
             for (g, &(a, b)) in gaps.iter().enumerate() {
                 let west = s < (a + b) / 2.0;
+                // No way to a stretch through a barred zone.
+                let end = if west { a } else { b };
+                let (lo, hi) = (s.min(end), s.max(end));
+                if barred.iter().any(|&(bs, be)| lo < be && hi > bs) {
+                    continue;
+                }
                 let d = if west { a - s } else { s - b }.max(0.0);
                 let bonus = if searching_now(&c.unit) {
                     SEARCH_GOAL_SLACK_M
@@ -731,8 +750,6 @@ impl Incident {
                 (false, true) => b,
                 (false, false) => a,
             };
-            let lo = 10.0_f64.min(self.tunnel.length_m / 2.0);
-            let hi = self.tunnel.length_m - lo;
             let Some(x) = self
                 .goals
                 .nearest_allowed(x.clamp(lo, hi), EVACUATE_MARGIN_M, lo, hi)
@@ -950,9 +967,9 @@ impl Incident {
                 (None, current) if left_burning => {
                     // Search the rest of the tunnel, away from where the unit came in.
                     let end = if at.s < self.tunnel.length_m / 2.0 {
-                        self.tunnel.length_m - 10.0
+                        self.tunnel.length_m - PORTAL_M
                     } else {
-                        10.0
+                        PORTAL_M
                     };
                     let Some(x) = self.goals.nearest_allowed(
                         end,
@@ -1948,6 +1965,19 @@ mod tests {
     }
 
     #[test]
+    fn nobody_searches_a_stretch_beyond_a_keep_out_zone() {
+        let mut i = zoned();
+        i.coverage = Coverage::new(TUNNEL.length_m);
+        submit(&mut i, goal("g1", "z1", GoalKind::KeepOut, 0, None), 0.0);
+        i.on_state(facing("a", 10.0, 0.0), 1.0).unwrap();
+        i.on_state(facing("b", 40.0, 0.0), 1.0).unwrap();
+        i.solve(1.0);
+        // Up to 70 m is seen (b looks 30 m ahead); 105-190 lies beyond the zone.
+        assert_eq!(searching_to(&i, "a"), None);
+        assert_eq!(searching_to(&i, "b"), None);
+    }
+
+    #[test]
     fn a_stretch_not_seen_for_two_minutes_is_searched_again() {
         let mut i = incident();
         assert_eq!(searching_to(&i, "a"), None);
@@ -1996,13 +2026,17 @@ mod tests {
         );
     }
 
+    /// Unit b at `x`, out of order.
+    fn broken(x: f64) -> UnitState {
+        UnitState {
+            mode: UnitMode::Fault,
+            ..state("b", x, None)
+        }
+    }
+
     #[test]
     fn a_unit_come_free_near_a_fire_takes_it_over_from_one_far_away() {
         let mut i = incident();
-        let broken = |x: f64| UnitState {
-            mode: UnitMode::Fault,
-            ..state("b", x, None)
-        };
         i.on_state(broken(140.0), 0.5).unwrap();
         let out = i.on_report(&report("a", 150.0), 1.0).unwrap();
         assert_eq!(tasks(&out)[0].unit.as_str(), "a", "{out:?}");
@@ -2021,10 +2055,6 @@ mod tests {
     #[test]
     fn a_unit_on_its_way_keeps_its_fire_against_a_marginal_gain_and_stays_as_backup_otherwise() {
         let mut i = incident_with_backups();
-        let broken = |x: f64| UnitState {
-            mode: UnitMode::Fault,
-            ..state("b", x, None)
-        };
         i.on_state(broken(100.0), 0.5).unwrap();
         i.on_state(state("a", 40.0, None), 0.5).unwrap();
         i.on_report(&report("a", 80.0), 1.0).unwrap();
