@@ -1954,11 +1954,17 @@ mod tests {
         assert_eq!(searching_to(&i, other).map(|g| g.x), Some(190.0));
     }
 
-    #[test]
-    fn search_stops_short_of_a_keep_out_zone() {
+    /// The zoned incident, unsearched, with `zone` kept out of from t = 0.
+    fn unsearched_keeping_out_of(zone: &str) -> Incident {
         let mut i = zoned();
         i.coverage = Coverage::new(TUNNEL.length_m);
-        submit(&mut i, goal("g1", "z2", GoalKind::KeepOut, 0, None), 0.0);
+        submit(&mut i, goal("g1", zone, GoalKind::KeepOut, 0, None), 0.0);
+        i
+    }
+
+    #[test]
+    fn search_stops_short_of_a_keep_out_zone() {
+        let mut i = unsearched_keeping_out_of("z2");
         i.on_state(facing("a", 10.0, 0.0), 1.0).unwrap();
         let g = searching_to(&i, "a").expect("a searches");
         assert_eq!(g.x, 100.0 - EVACUATE_MARGIN_M);
@@ -1966,9 +1972,7 @@ mod tests {
 
     #[test]
     fn nobody_searches_a_stretch_beyond_a_keep_out_zone() {
-        let mut i = zoned();
-        i.coverage = Coverage::new(TUNNEL.length_m);
-        submit(&mut i, goal("g1", "z1", GoalKind::KeepOut, 0, None), 0.0);
+        let mut i = unsearched_keeping_out_of("z1");
         i.on_state(facing("a", 10.0, 0.0), 1.0).unwrap();
         i.on_state(facing("b", 40.0, 0.0), 1.0).unwrap();
         i.solve(1.0);
