@@ -6,8 +6,8 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
-use firefleet_agent::nav::costmap::{Ga, Terrain, TimeModel};
-use firefleet_agent::nav::movingai;
+use firefleet_nav::costmap::{Ga, Terrain, TimeModel};
+use firefleet_nav::movingai;
 use serde::Serialize;
 
 #[derive(Subcommand, Debug)]
@@ -69,7 +69,7 @@ fn tune(a: TuneArgs) -> anyhow::Result<ExitCode> {
     let terrain = Terrain::from_scenario(&s, a.res_m);
     let t = &s.tunnel;
     let start = terrain.cell_of(unit.pose().position(), a.res_m, t);
-    let end = t.point_at(t.length_m - 1.0, t.station(unit.pose().position()).d);
+    let end = t.point_at(t.end() - 1.0, t.station(unit.pose().position()).d);
     let goal = terrain.cell_of(end, a.res_m, t);
     let time = terrain.time(&TimeModel::PAPER);
     let tuned = Ga::default()

@@ -1,12 +1,13 @@
 //! What runs on a robot.
 //!
-//! The pure parts ([`perception`], [`nav`], [`aim`], [`tracker`], [`unit`], [`leaves`],
-//! [`ground`], [`monorail`], [`rail`], [`fuzzy`]) know
-//! nothing of Zenoh: they
-//! take sensor frames and tasks and return actuator set-points, so they are tested and
-//! benchmarked without a network. The edges are [`platform`], the interface a robot's
-//! hardware drivers implement (implemented here for the simulator), and [`node`], which
-//! connects a controller to its platform and to the coordinator.
+//! The pure parts ([`perception`], [`aim`], [`tracker`], [`unit`], [`leaves`], [`ground`],
+//! [`monorail`], [`rail`], [`fuzzy`]) know nothing of Zenoh: they take sensor frames and
+//! tasks and return actuator set-points, so they are tested and benchmarked without a
+//! network. Navigation (grids, planners, the path follower) is its own crate,
+//! `firefleet-nav`, which the coordinator shares for its road map. The edges are
+//! [`platform`], the interface a robot's hardware drivers implement (implemented here for
+//! the simulator), and [`node`], which connects a controller to its platform and to the
+//! coordinator.
 
 pub mod aim;
 pub mod controller;
@@ -15,7 +16,6 @@ pub mod ground;
 pub mod leaves;
 pub mod mission;
 pub mod monorail;
-pub mod nav;
 pub mod node;
 pub mod perception;
 pub mod platform;

@@ -11,21 +11,21 @@
 
 use std::sync::Arc;
 
-use firefleet_protocol::UnitId;
 use firefleet_protocol::geometry::{Point2, Pose2, wrap_angle};
 use firefleet_protocol::msg::{
     FlameReport, TaskKind, UnitCommand, UnitKind, UnitMode, UnitSensors, UnitState,
 };
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::GroundSpec;
+use firefleet_protocol::{Chainage, UnitId};
 
 use crate::controller::Services;
 use crate::mission::{Mission, Responder};
 
 use crate::aim;
-use crate::nav::hybrid_astar::{Footprint, HeatSource, HybridAStar, Params};
-use crate::nav::{self, Follow, Grid, PurePursuit, Route};
 use crate::tracker::FlameTracker;
+use firefleet_nav::hybrid_astar::{Footprint, HeatSource, HybridAStar, Params};
+use firefleet_nav::{self as nav, Follow, Grid, PurePursuit, Route};
 
 /// Preferred distances from a fire to fire from, m, in order of preference. 5 to 6 m keeps
 /// radiant heat from a 5 MW fire under about 5 kW/m^2 and the jet short and accurate.
@@ -441,16 +441,12 @@ impl Unit {
 /// in at either portal sweeps the whole bore.
 fn patrol_goal(t: &Tunnel, start: Point2) -> Point2 {
     let at = t.station(start);
-    let lane = (0..t.lanes)
-        .map(|i| t.lane_center_y(i))
-        .min_by(|a, b| (a - at.d).abs().total_cmp(&(b - at.d).abs()))
-        .unwrap_or(0.0);
-    let end = if at.s < t.length_m / 2.0 {
-        t.length_m - 10.0
+    let end = if at.s.m() < t.length_m / 2.0 {
+        t.end() - 10.0
     } else {
-        10.0
+        Chainage::new(10.0)
     };
-    t.point_at(end, lane)
+    t.point_at(end, t.lane_nearest(at.d))
 }
 
 impl Responder for Unit {
@@ -602,11 +598,11 @@ mod tests {
         let (right, left) = (t.lane_center_y(0), t.lane_center_y(1));
         assert_eq!(
             patrol_goal(&t, Point2::new(5.0, right)),
-            t.point_at(290.0, right)
+            t.point_at(Chainage::new(290.0), right)
         );
         assert_eq!(
             patrol_goal(&t, Point2::new(295.0, left + 0.4)),
-            t.point_at(10.0, left),
+            t.point_at(Chainage::new(10.0), left),
             "in from the east portal, it patrols west"
         );
     }

@@ -20,7 +20,7 @@
 //! (hysteresis). Units spraying take no part: nobody is pulled off a fire it is spraying.
 
 use firefleet_protocol::scenario::Tunnel;
-use firefleet_protocol::{FireId, Point2, UnitId};
+use firefleet_protocol::{Chainage, FireId, Point2, UnitId};
 
 /// How the coordinator pairs units with fires.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -106,7 +106,7 @@ impl Mobility {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Place {
     pub position: Point2,
-    pub chainage_m: f64,
+    pub chainage: Chainage,
 }
 
 impl Place {
@@ -114,7 +114,7 @@ impl Place {
     pub fn in_tunnel(tunnel: &Tunnel, p: Point2) -> Self {
         Self {
             position: p,
-            chainage_m: tunnel.chainage(p),
+            chainage: tunnel.chainage(p),
         }
     }
 
@@ -122,7 +122,7 @@ impl Place {
     pub fn straight(x: f64, y: f64) -> Self {
         Self {
             position: Point2::new(x, y),
-            chainage_m: x,
+            chainage: Chainage::new(x),
         }
     }
 }
@@ -166,7 +166,7 @@ pub trait Roads {
 #[derive(Clone, Copy, Default)]
 pub struct Site<'a> {
     /// Chainage ranges no unit may enter or travel through (zone goals).
-    pub barred: &'a [(f64, f64)],
+    pub barred: &'a [(Chainage, Chainage)],
     /// Burning fires: a ground unit driving past one takes its heat.
     pub hazards: &'a [Place],
     /// Driving distances for ground units; straight lines without.
@@ -240,7 +240,7 @@ pub struct Pick {
 /// units and 200 fires): with each unit's and each fire's rank among the hazards found
 /// once, a pair's count is a subtraction.
 struct Hazards {
-    sorted: Vec<f64>,
+    sorted: Vec<Chainage>,
 }
 
 /// Where a chainage falls among the hazards: how many lie before it, and how many before
@@ -253,12 +253,12 @@ struct Rank {
 
 impl Hazards {
     fn new(site: &Site<'_>) -> Self {
-        let mut sorted: Vec<f64> = site.hazards.iter().map(|h| h.chainage_m).collect();
-        sorted.sort_by(f64::total_cmp);
+        let mut sorted: Vec<Chainage> = site.hazards.iter().map(|h| h.chainage).collect();
+        sorted.sort_by(Chainage::total_cmp);
         Self { sorted }
     }
 
-    fn rank(&self, chainage: f64) -> Rank {
+    fn rank(&self, chainage: Chainage) -> Rank {
         Rank {
             before: self.sorted.partition_point(|&c| c < chainage),
             up_to: self.sorted.partition_point(|&c| c <= chainage),
@@ -280,8 +280,8 @@ impl Hazards {
 /// the fire itself left out.
 fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f64 {
     let (a, b) = (
-        u.at.chainage_m.min(n.at.chainage_m),
-        u.at.chainage_m.max(n.at.chainage_m),
+        u.at.chainage.min(n.at.chainage),
+        u.at.chainage.max(n.at.chainage),
     );
     if site.barred.iter().any(|&(s, e)| a < e && b > s) {
         return INFEASIBLE;
@@ -316,24 +316,21 @@ const SAME_FIRE_M: f64 = 3.0;
 /// Costs, one row per fire, one column per unit.
 fn travel_matrix(units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<f64> {
     let hazards = Hazards::new(site);
-    let unit_ranks: Vec<Rank> = units
-        .iter()
-        .map(|u| hazards.rank(u.at.chainage_m))
-        .collect();
+    let unit_ranks: Vec<Rank> = units.iter().map(|u| hazards.rank(u.at.chainage)).collect();
     let mut costs = Vec::with_capacity(needs.len() * units.len());
     for n in needs {
-        let rank = hazards.rank(n.at.chainage_m);
+        let rank = hazards.rank(n.at.chainage);
         // The hazards that are this fire (or lie within its size), by chainage.
-        let itself: Vec<f64> = site
+        let itself: Vec<Chainage> = site
             .hazards
             .iter()
             .filter(|h| h.position.dist(n.at.position) <= SAME_FIRE_M)
-            .map(|h| h.chainage_m)
+            .map(|h| h.chainage)
             .collect();
         costs.extend(units.iter().zip(&unit_ranks).map(|(u, &r)| {
             let (a, b) = (
-                u.at.chainage_m.min(n.at.chainage_m),
-                u.at.chainage_m.max(n.at.chainage_m),
+                u.at.chainage.min(n.at.chainage),
+                u.at.chainage.max(n.at.chainage),
             );
             let own = itself.iter().filter(|&&c| c > a && c < b).count();
             travel(u, n, site, Hazards::between(r, rank) - own)
@@ -695,6 +692,7 @@ mod tests {
             let b = a + len;
             let naive = at.iter().filter(|&&c| c > a && c < b).count();
             let h = Hazards::new(&site);
+            let (a, b) = (Chainage::new(a), Chainage::new(b));
             proptest::prop_assert_eq!(Hazards::between(h.rank(a), h.rank(b)), naive);
             proptest::prop_assert_eq!(Hazards::between(h.rank(b), h.rank(a)), naive);
         }
@@ -823,7 +821,7 @@ mod tests {
         let units = [cand("near", 50.0), cand("far", 150.0)];
         for solve in [greedy, optimal] {
             let site = Site {
-                barred: &[(60.0, 80.0)],
+                barred: &[(Chainage::new(60.0), Chainage::new(80.0))],
                 ..Site::default()
             };
             let picks = solve(&units, &needs, &site);

@@ -12,6 +12,8 @@
 //! and a fire can start in a stretch after it was seen; stretches go stale after a while
 //! and are searched again.
 
+use firefleet_protocol::Chainage;
+
 /// Width of a coverage bin along the chainage, m.
 pub const BIN_M: f64 = 5.0;
 
@@ -31,10 +33,10 @@ impl Coverage {
         }
     }
 
-    /// A sensor took in chainages `from_m` to `to_m` at `t`: every bin whose middle lies in
+    /// A sensor took in chainages `from` to `to` at `t`: every bin whose middle lies in
     /// that range counts as seen.
-    pub fn look(&mut self, from_m: f64, to_m: f64, t: f64) {
-        let (lo, hi) = (from_m.min(to_m), from_m.max(to_m));
+    pub fn look(&mut self, from: Chainage, to: Chainage, t: f64) {
+        let (lo, hi) = (from.min(to).m(), from.max(to).m());
         if !(lo.is_finite() && hi.is_finite()) {
             return;
         }
@@ -49,23 +51,24 @@ impl Coverage {
         }
     }
 
-    /// The stretches nobody has looked at since `since`, as (start, end) chainages in
-    /// metres, in order along the tunnel.
-    pub fn gaps(&self, since: f64) -> Vec<(f64, f64)> {
+    /// The stretches nobody has looked at since `since`, as (start, end) chainages, in
+    /// order along the tunnel.
+    pub fn gaps(&self, since: f64) -> Vec<(Chainage, Chainage)> {
+        let at = |bin: usize| Chainage::new(bin as f64 * BIN_M);
         let mut gaps = Vec::new();
         let mut open: Option<usize> = None;
         for (i, &t) in self.seen.iter().enumerate() {
             match (t < since, open) {
                 (true, None) => open = Some(i),
                 (false, Some(start)) => {
-                    gaps.push((start as f64 * BIN_M, i as f64 * BIN_M));
+                    gaps.push((at(start), at(i)));
                     open = None;
                 }
                 _ => {}
             }
         }
         if let Some(start) = open {
-            gaps.push((start as f64 * BIN_M, self.seen.len() as f64 * BIN_M));
+            gaps.push((at(start), at(self.seen.len())));
         }
         gaps
     }
@@ -76,37 +79,41 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    fn ch(m: f64) -> Chainage {
+        Chainage::new(m)
+    }
+
     #[test]
     fn nothing_seen_is_one_gap_the_length_of_the_tunnel() {
-        assert_eq!(Coverage::new(300.0).gaps(0.0), vec![(0.0, 300.0)]);
+        assert_eq!(Coverage::new(300.0).gaps(0.0), vec![(ch(0.0), ch(300.0))]);
     }
 
     #[test]
     fn two_parties_from_the_portals_leave_the_middle_unseen() {
         let mut c = Coverage::new(300.0);
-        c.look(0.0, 85.0, 30.0);
-        c.look(225.0, 300.0, 30.0);
-        assert_eq!(c.gaps(0.0), vec![(85.0, 225.0)]);
+        c.look(ch(0.0), ch(85.0), 30.0);
+        c.look(ch(225.0), ch(300.0), 30.0);
+        assert_eq!(c.gaps(0.0), vec![(ch(85.0), ch(225.0))]);
     }
 
     #[test]
     fn a_stretch_seen_long_ago_is_stale_again() {
         let mut c = Coverage::new(100.0);
-        c.look(0.0, 50.0, 10.0);
-        c.look(50.0, 100.0, 100.0);
+        c.look(ch(0.0), ch(50.0), 10.0);
+        c.look(ch(50.0), ch(100.0), 100.0);
         assert!(c.gaps(5.0).is_empty());
-        assert_eq!(c.gaps(20.0), vec![(0.0, 50.0)]);
+        assert_eq!(c.gaps(20.0), vec![(ch(0.0), ch(50.0))]);
     }
 
     #[test]
     fn sight_beyond_the_portals_is_clipped() {
         let mut c = Coverage::new(100.0);
-        c.look(-30.0, 10.0, 1.0);
-        c.look(95.0, 130.0, 1.0);
-        assert_eq!(c.gaps(0.0), vec![(10.0, 95.0)]);
-        c.look(-50.0, -20.0, 1.0);
-        c.look(150.0, 200.0, 1.0);
-        assert_eq!(c.gaps(0.0), vec![(10.0, 95.0)]);
+        c.look(ch(-30.0), ch(10.0), 1.0);
+        c.look(ch(95.0), ch(130.0), 1.0);
+        assert_eq!(c.gaps(0.0), vec![(ch(10.0), ch(95.0))]);
+        c.look(ch(-50.0), ch(-20.0), 1.0);
+        c.look(ch(150.0), ch(200.0), 1.0);
+        assert_eq!(c.gaps(0.0), vec![(ch(10.0), ch(95.0))]);
     }
 
     proptest! {
@@ -118,7 +125,7 @@ mod tests {
         ) {
             let mut c = Coverage::new(300.0);
             for &(from, len, t) in &looks {
-                c.look(from, from + len, t);
+                c.look(Chainage::new(from), Chainage::new(from + len), t);
             }
             let gaps = c.gaps(since);
             for w in gaps.windows(2) {
@@ -126,7 +133,7 @@ mod tests {
             }
             for k in 0..c.seen.len() {
                 let mid = (k as f64 + 0.5) * BIN_M;
-                let in_gap = gaps.iter().any(|&(a, b)| (a..b).contains(&mid));
+                let in_gap = gaps.iter().any(|&(a, b)| (a..b).contains(&ch(mid)));
                 let seen = looks.iter().any(|&(from, len, t)| {
                     t >= since && (from..=from + len).contains(&mid)
                 });

@@ -15,23 +15,23 @@
 //!
 //! Pure: no I/O, no clock of its own.
 
-use firefleet_protocol::ZoneId;
 use firefleet_protocol::msg::{GoalAck, GoalKind, ZoneGoal};
 use firefleet_protocol::scenario::Zone;
+use firefleet_protocol::{Chainage, ZoneId};
 
 /// A goal in force.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Active {
     pub goal: ZoneGoal,
-    pub start_m: f64,
-    pub end_m: f64,
+    pub start: Chainage,
+    pub end: Chainage,
     /// Site time it lapses, if ever.
     pub until: Option<f64>,
 }
 
 impl Active {
-    pub fn covers(&self, x: f64) -> bool {
-        (self.start_m..=self.end_m).contains(&x)
+    pub fn covers(&self, s: Chainage) -> bool {
+        (self.start..=self.end).contains(&s)
     }
 
     /// Whether a unit may not be in or travel through the zone.
@@ -90,7 +90,7 @@ impl Goals {
             );
         };
         if let Some(b) = g.before_m
-            && !(zone.start_m..=zone.end_m).contains(&b)
+            && !(zone.start_m..=zone.end_m).contains(&Chainage::new(b))
         {
             return ack(
                 &g,
@@ -117,8 +117,8 @@ impl Goals {
         }
         let replaced = self.active.iter().position(|a| a.goal.id == g.id);
         let active = Active {
-            start_m: zone.start_m,
-            end_m: zone.end_m,
+            start: zone.start_m,
+            end: zone.end_m,
             until: g.expires_s.map(|e| t + e),
             goal: g,
         };
@@ -156,41 +156,47 @@ impl Goals {
         &self.active
     }
 
-    /// The goal governing chainage `x`, if any.
-    pub fn at(&self, x: f64) -> Option<&Active> {
+    /// The goal governing chainage `s`, if any.
+    pub fn at(&self, s: Chainage) -> Option<&Active> {
         self.active
             .iter()
-            .filter(|a| a.covers(x))
+            .filter(|a| a.covers(s))
             .max_by_key(|a| a.goal.priority)
     }
 
     /// Chainage ranges no unit may enter or travel through.
-    pub fn barred(&self) -> Vec<(f64, f64)> {
+    pub fn barred(&self) -> Vec<(Chainage, Chainage)> {
         self.active
             .iter()
             .filter(|a| a.bars_entry())
-            .map(|a| (a.start_m, a.end_m))
+            .map(|a| (a.start, a.end))
             .collect()
     }
 
-    /// The nearest chainage to `x` outside every barred range, `margin` clear of it, within
-    /// `[lo, hi]`; `None` if there is none.
-    pub fn nearest_allowed(&self, x: f64, margin: f64, lo: f64, hi: f64) -> Option<f64> {
+    /// The nearest chainage to `x` outside every barred range, `margin` (m) clear of it,
+    /// within `[lo, hi]`; `None` if there is none.
+    pub fn nearest_allowed(
+        &self,
+        x: Chainage,
+        margin: f64,
+        lo: Chainage,
+        hi: Chainage,
+    ) -> Option<Chainage> {
         let barred = self.barred();
-        let ok = |c: f64| {
+        let ok = |c: Chainage| {
             (lo..=hi).contains(&c)
                 && barred
                     .iter()
-                    .all(|(s, e)| c < s - margin + 1e-9 || c > e + margin - 1e-9)
+                    .all(|&(s, e)| c < s - (margin - 1e-9) || c > e + (margin - 1e-9))
         };
         if ok(x) {
             return Some(x);
         }
         barred
             .iter()
-            .flat_map(|(s, e)| [s - margin, e + margin])
+            .flat_map(|&(s, e)| [s - margin, e + margin])
             .filter(|c| ok(*c))
-            .min_by(|a, b| (a - x).abs().total_cmp(&(b - x).abs()))
+            .min_by(|a, b| (*a - x).abs().total_cmp(&(*b - x).abs()))
     }
 }
 
@@ -198,11 +204,15 @@ impl Goals {
 mod tests {
     use super::*;
 
+    fn c(m: f64) -> Chainage {
+        Chainage::new(m)
+    }
+
     fn z(id: &str, start: f64, end: f64) -> Zone {
         Zone {
             id: ZoneId::new(id).unwrap(),
-            start_m: start,
-            end_m: end,
+            start_m: Chainage::new(start),
+            end_m: Chainage::new(end),
         }
     }
 
@@ -272,14 +282,14 @@ mod tests {
             g.submit(&zid("c"), goal("g3", "c", GoalKind::Evacuate, 5), 0.0)
                 .accepted
         );
-        assert_eq!(g.at(20.0).unwrap().goal.id, "g1");
+        assert_eq!(g.at(c(20.0)).unwrap().goal.id, "g1");
         assert_eq!(
-            g.at(70.0).unwrap().goal.id,
+            g.at(c(70.0)).unwrap().goal.id,
             "g3",
             "overlap: the higher priority"
         );
-        assert!(g.at(180.0).is_none());
-        assert_eq!(g.barred(), vec![(50.0, 150.0)]);
+        assert!(g.at(c(180.0)).is_none());
+        assert_eq!(g.barred(), vec![(c(50.0), c(150.0))]);
         assert_eq!(g.clear(&zid("c")).len(), 1);
         assert!(g.barred().is_empty());
     }
@@ -299,9 +309,21 @@ mod tests {
     fn the_nearest_allowed_chainage_is_outside_every_barred_zone() {
         let mut g = goals();
         g.submit(&zid("b"), goal("g1", "b", GoalKind::KeepOut, 0), 0.0);
-        assert_eq!(g.nearest_allowed(40.0, 5.0, 0.0, 300.0), Some(40.0));
-        assert_eq!(g.nearest_allowed(120.0, 5.0, 0.0, 300.0), Some(95.0));
-        assert_eq!(g.nearest_allowed(190.0, 5.0, 0.0, 300.0), Some(205.0));
-        assert_eq!(g.nearest_allowed(190.0, 5.0, 0.0, 200.0), Some(95.0));
+        assert_eq!(
+            g.nearest_allowed(c(40.0), 5.0, c(0.0), c(300.0)),
+            Some(c(40.0))
+        );
+        assert_eq!(
+            g.nearest_allowed(c(120.0), 5.0, c(0.0), c(300.0)),
+            Some(c(95.0))
+        );
+        assert_eq!(
+            g.nearest_allowed(c(190.0), 5.0, c(0.0), c(300.0)),
+            Some(c(205.0))
+        );
+        assert_eq!(
+            g.nearest_allowed(c(190.0), 5.0, c(0.0), c(200.0)),
+            Some(c(95.0))
+        );
     }
 }

@@ -26,12 +26,12 @@
 
 use std::collections::BTreeMap;
 
-use firefleet_agent::nav::Grid;
-use firefleet_agent::nav::grid::NEIGHBOURS;
-use firefleet_agent::nav::grid_search::CostGrid;
+use firefleet_nav::Grid;
+use firefleet_nav::grid::NEIGHBOURS;
+use firefleet_nav::grid_search::CostGrid;
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::GROUND;
-use firefleet_protocol::{FireId, Point2};
+use firefleet_protocol::{Chainage, FireId, Point2};
 
 use crate::assign::{Place, Road, Roads};
 
@@ -52,7 +52,7 @@ const WALL: u32 = u32::MAX;
 struct Field {
     /// Where the field was made from.
     from: Point2,
-    chainage_m: f64,
+    chainage: Chainage,
     col0: usize,
     row0: usize,
     cols: usize,
@@ -113,13 +113,14 @@ impl RoadMap {
         // cells outside that chainage range (in a bend the box takes in more).
         let hw = self.tunnel.width_m / 2.0;
         let mut corners = Vec::new();
-        let mut c = lo.max(0.0);
+        let mut c = lo.max(Chainage::ZERO);
+        let end = hi.min(self.tunnel.end());
         loop {
             corners.extend([self.tunnel.point_at(c, -hw), self.tunnel.point_at(c, hw)]);
-            if c >= hi.min(self.tunnel.length_m) {
+            if c >= end {
                 break;
             }
-            c = (c + 5.0).min(hi.min(self.tunnel.length_m));
+            c = (c + 5.0).min(end);
         }
         let cells: Vec<(usize, usize)> = corners.iter().filter_map(|p| self.snap_any(*p)).collect();
         let col0 = cells
@@ -160,7 +161,7 @@ impl RoadMap {
         };
         let mut field = Field {
             from: at,
-            chainage_m: s,
+            chainage: s,
             col0,
             row0,
             cols,
@@ -291,12 +292,12 @@ impl Roads for RoadMap {
         if f.component == WALL || self.component[r * w + c] != f.component {
             return Road::Blocked;
         }
-        let beyond = (from.chainage_m - f.chainage_m).abs() - (WINDOW_M - 2.0 * RES_M);
+        let beyond = (from.chainage - f.chainage).abs() - (WINDOW_M - 2.0 * RES_M);
         let d = if beyond <= 0.0 {
             self.lookup(f, from.position)
         } else {
             // Along the road to the window's edge, then the field from there.
-            let edge = f.edges[usize::from(from.chainage_m > f.chainage_m)];
+            let edge = f.edges[usize::from(from.chainage > f.chainage)];
             edge.is_finite().then_some(edge + beyond)
         };
         d.map_or(Road::Blocked, Road::Metres)

@@ -4,6 +4,7 @@
 //! `foxglove.Log` messages that we use, serialised as JSON (Foxglove decodes JSON messages by schema name). Their JSON
 //! Schemas are derived from these types.
 
+use firefleet_protocol::Chainage;
 use firefleet_protocol::msg::{Decision, GoalAck, SimTruth, TruthFireState};
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use schemars::JsonSchema;
@@ -195,7 +196,7 @@ fn label(x: f64, y: f64, z: f64, text: String) -> TextPrimitive {
 /// tunnel, pieces of at most 2 m round a curve.
 fn band(
     t: &Tunnel,
-    s: (f64, f64),
+    s: (Chainage, Chainage),
     d: (f64, f64),
     z: (f64, f64),
     color: Color,
@@ -233,7 +234,7 @@ pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
     };
     tunnel.cubes.extend(band(
         t,
-        (0.0, t.length_m),
+        (Chainage::ZERO, t.end()),
         (0.0, t.width_m),
         (-0.05, 0.1),
         grey(1.0),
@@ -241,7 +242,7 @@ pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
     for side in [-1.0, 1.0] {
         tunnel.cubes.extend(band(
             t,
-            (0.0, t.length_m),
+            (Chainage::ZERO, t.end()),
             (side * (t.width_m / 2.0 + 0.1), 0.2),
             (t.height_m / 2.0, t.height_m),
             grey(0.25),
@@ -268,7 +269,7 @@ pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
     }
     for z in &s.zones {
         let mut e = entity(format!("zone/{}", z.id), ts);
-        let mid = (z.start_m + z.end_m) / 2.0;
+        let mid = z.start_m.midpoint(z.end_m);
         e.cubes.extend(band(
             t,
             (z.start_m, z.end_m),

@@ -73,6 +73,7 @@ use serde::{Deserialize, Serialize};
 use crate::geometry::{Point2, Pose2};
 use crate::ids::{SiteId, UnitId, ZoneId};
 use crate::msg::UnitKind;
+use crate::tunnel::Chainage;
 pub use crate::tunnel::{Segment, Station, Tunnel};
 use crate::validate::{Invalid, in_range};
 
@@ -216,8 +217,8 @@ impl UnitSpec {
 #[serde(deny_unknown_fields)]
 pub struct Zone {
     pub id: ZoneId,
-    pub start_m: f64,
-    pub end_m: f64,
+    pub start_m: Chainage,
+    pub end_m: Chainage,
 }
 
 /// A ceiling rail along the tunnel, with a water main and hose points.
@@ -427,8 +428,8 @@ impl Scenario {
             if !ids.insert(&z.id) {
                 return Err(Invalid::new(f("id"), format!("'{}' is used twice", z.id)));
             }
-            in_range(&f("start_m"), z.start_m, 0.0, t.length_m)?;
-            in_range(&f("end_m"), z.end_m, 0.0, t.length_m)?;
+            in_range(&f("start_m"), z.start_m.m(), 0.0, t.length_m)?;
+            in_range(&f("end_m"), z.end_m.m(), 0.0, t.length_m)?;
             if z.end_m <= z.start_m {
                 return Err(Invalid::new(f("end_m"), "must be greater than start_m"));
             }
@@ -493,7 +494,7 @@ mod tests {
         );
         let s = Scenario::from_toml(&curved, "c.toml").unwrap();
         assert!(!s.tunnel.is_straight());
-        let end = s.tunnel.centre_pose(100.0);
+        let end = s.tunnel.centre_pose(Chainage::new(100.0));
         assert!((end.yaw + 30f64.to_radians()).abs() < 1e-9, "turns right");
         let e = err(&curved.replace("turn = \"right\"", "turn = \"up\""));
         assert!(

@@ -166,10 +166,81 @@ impl Segment {
     }
 }
 
-/// A position along the tunnel: chainage and lateral offset (left positive), m.
+/// Distance along the centreline from the portal, m: where zones, rails, staging lines
+/// and hazards are. A type of its own because in a curved tunnel it is not the site
+/// frame's x, and a bare `f64` let the two be mixed up (a zone looked up by x).
+///
+/// Differences of chainages are plain metres; a chainage plus or minus metres is a
+/// chainage. On the wire and in site files it is a bare number (serde transparent).
+#[derive(Debug, Clone, Copy, Default, PartialEq, PartialOrd, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct Chainage(f64);
+
+impl Chainage {
+    pub const ZERO: Chainage = Chainage(0.0);
+
+    pub const fn new(m: f64) -> Self {
+        Self(m)
+    }
+
+    /// Metres from the portal.
+    pub const fn m(self) -> f64 {
+        self.0
+    }
+
+    pub fn min(self, other: Chainage) -> Chainage {
+        Chainage(self.0.min(other.0))
+    }
+
+    pub fn max(self, other: Chainage) -> Chainage {
+        Chainage(self.0.max(other.0))
+    }
+
+    pub fn clamp(self, lo: Chainage, hi: Chainage) -> Chainage {
+        Chainage(self.0.clamp(lo.0, hi.0))
+    }
+
+    /// Half-way between `self` and `other`.
+    pub fn midpoint(self, other: Chainage) -> Chainage {
+        Chainage((self.0 + other.0) / 2.0)
+    }
+
+    pub fn total_cmp(&self, other: &Chainage) -> std::cmp::Ordering {
+        self.0.total_cmp(&other.0)
+    }
+}
+
+impl std::ops::Add<f64> for Chainage {
+    type Output = Chainage;
+    fn add(self, m: f64) -> Chainage {
+        Chainage(self.0 + m)
+    }
+}
+
+impl std::ops::Sub<f64> for Chainage {
+    type Output = Chainage;
+    fn sub(self, m: f64) -> Chainage {
+        Chainage(self.0 - m)
+    }
+}
+
+impl std::ops::Sub for Chainage {
+    type Output = f64;
+    fn sub(self, other: Chainage) -> f64 {
+        self.0 - other.0
+    }
+}
+
+impl std::fmt::Display for Chainage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(&self.0, f)
+    }
+}
+
+/// A position along the tunnel: chainage and lateral offset (left positive, m).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Station {
-    pub s: f64,
+    pub s: Chainage,
     pub d: f64,
 }
 
@@ -203,8 +274,14 @@ impl Tunnel {
         })
     }
 
+    /// The tunnel's far end.
+    pub fn end(&self) -> Chainage {
+        Chainage(self.length_m)
+    }
+
     /// The centreline pose at chainage `s` (extended straight beyond either end).
-    pub fn centre_pose(&self, s: f64) -> Pose2 {
+    pub fn centre_pose(&self, s: Chainage) -> Pose2 {
+        let s = s.m();
         let (mut end, mut end_s) = (Pose2::new(0.0, 0.0, 0.0), 0.0);
         if s > 0.0 {
             for (seg, start, s0) in self.pieces() {
@@ -221,12 +298,12 @@ impl Tunnel {
     }
 
     /// The site-frame point at chainage `s`, offset `d`.
-    pub fn point_at(&self, s: f64, d: f64) -> Point2 {
+    pub fn point_at(&self, s: Chainage, d: f64) -> Point2 {
         self.centre_pose(s).to_site(Point2::new(0.0, d))
     }
 
     /// The tunnel's direction (+s) at chainage `s`, radians.
-    pub fn heading_at(&self, s: f64) -> f64 {
+    pub fn heading_at(&self, s: Chainage) -> f64 {
         self.centre_pose(s).yaw
     }
 
@@ -234,10 +311,19 @@ impl Tunnel {
     /// (extended straight beyond the two ends).
     pub fn station(&self, p: Point2) -> Station {
         if self.centerline.is_empty() {
-            return Station { s: p.x, d: p.y };
+            return Station {
+                s: Chainage(p.x),
+                d: p.y,
+            };
         }
         let n = self.centerline.len();
-        let (mut best, mut best_dist) = (Station { s: 0.0, d: 0.0 }, f64::INFINITY);
+        let (mut best, mut best_dist) = (
+            Station {
+                s: Chainage::ZERO,
+                d: 0.0,
+            },
+            f64::INFINITY,
+        );
         for (i, (seg, start, s0)) in self.pieces().enumerate() {
             let len = seg.length_m();
             let lo = if i == 0 { f64::NEG_INFINITY } else { 0.0 };
@@ -258,7 +344,7 @@ impl Tunnel {
             if dist < best_dist {
                 best_dist = dist;
                 best = Station {
-                    s: s0 + t,
+                    s: Chainage(s0 + t),
                     d: on.to_body(p).y,
                 };
             }
@@ -266,8 +352,8 @@ impl Tunnel {
         best
     }
 
-    /// Chainage of a site-frame point, m.
-    pub fn chainage(&self, p: Point2) -> f64 {
+    /// Chainage of a site-frame point.
+    pub fn chainage(&self, p: Point2) -> Chainage {
         self.station(p).s
     }
 
@@ -275,6 +361,7 @@ impl Tunnel {
     /// to either end.
     pub fn contains(&self, p: Point2, margin: f64) -> bool {
         let Station { s, d } = self.station(p);
+        let s = s.m();
         s >= margin && s <= self.length_m - margin && d.abs() <= self.width_m / 2.0 - margin
     }
 
@@ -320,6 +407,14 @@ impl Tunnel {
         -self.width_m / 2.0 + lane_w * (f64::from(i) + 0.5)
     }
 
+    /// The centre of the lane nearest lateral offset `d`.
+    pub fn lane_nearest(&self, d: f64) -> f64 {
+        (0..self.lanes)
+            .map(|i| self.lane_center_y(i))
+            .min_by(|a, b| (a - d).abs().total_cmp(&(b - d).abs()))
+            .unwrap_or(0.0)
+    }
+
     /// The site-frame bounding box of the road, `(min, max)`.
     pub fn bounds(&self) -> (Point2, Point2) {
         let hw = self.width_m / 2.0;
@@ -332,7 +427,7 @@ impl Tunnel {
         for k in 0..=n {
             let s = self.length_m * k as f64 / n as f64;
             for d in [-hw, hw] {
-                let p = self.point_at(s, d);
+                let p = self.point_at(Chainage(s), d);
                 lo = Point2::new(lo.x.min(p.x), lo.y.min(p.y));
                 hi = Point2::new(hi.x.max(p.x), hi.y.max(p.y));
             }
@@ -411,10 +506,10 @@ mod tests {
     #[test]
     fn a_quarter_turn_left_ends_where_geometry_says() {
         let t = curved();
-        let end = t.centre_pose(30.0 + 20.0 * std::f64::consts::PI);
+        let end = t.centre_pose(Chainage(30.0 + 20.0 * std::f64::consts::PI));
         assert!((end.x - 70.0).abs() < 1e-9 && (end.y - 40.0).abs() < 1e-9);
         assert!((end.yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
-        let far = t.point_at(t.length_m, -2.0);
+        let far = t.point_at(t.end(), -2.0);
         assert!((far.x - 72.0).abs() < 1e-9 && (far.y - 60.0).abs() < 1e-9);
         assert!(t.validate().is_ok());
     }
@@ -422,11 +517,11 @@ mod tests {
     #[test]
     fn the_inner_wall_hides_what_is_round_the_bend() {
         let t = curved();
-        let before = t.point_at(20.0, 0.0);
-        let after = t.point_at(100.0, 0.0);
+        let before = t.point_at(Chainage(20.0), 0.0);
+        let after = t.point_at(Chainage(100.0), 0.0);
         assert!(t.contains(before, 0.0) && t.contains(after, 0.0));
         assert!(!t.segment_inside(before, after));
-        assert!(t.segment_inside(before, t.point_at(35.0, 3.0)));
+        assert!(t.segment_inside(before, t.point_at(Chainage(35.0), 3.0)));
     }
 
     #[test]
@@ -451,7 +546,7 @@ mod tests {
     fn a_straight_tunnel_is_its_own_frame() {
         let t = Tunnel::straight(100.0, 10.0, 6.0, 2);
         let st = t.station(Point2::new(12.5, -3.0));
-        assert_eq!((st.s, st.d), (12.5, -3.0));
+        assert_eq!((st.s, st.d), (Chainage(12.5), -3.0));
         assert!(!t.contains(Point2::new(50.0, 5.1), 0.0));
     }
 
@@ -459,8 +554,8 @@ mod tests {
         #[test]
         fn station_inverts_point_at(s in 0.0..131.0f64, d in -3.9..3.9f64) {
             let t = curved();
-            let st = t.station(t.point_at(s, d));
-            prop_assert!((st.s - s).abs() < 1e-6, "s {} -> {}", s, st.s);
+            let st = t.station(t.point_at(Chainage(s), d));
+            prop_assert!((st.s.m() - s).abs() < 1e-6, "s {} -> {}", s, st.s);
             prop_assert!((st.d - d).abs() < 1e-6, "d {} -> {}", d, st.d);
         }
     }

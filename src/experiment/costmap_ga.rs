@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
-use firefleet_agent::nav::costmap::{Ga, Terrain, three_cases};
+use firefleet_nav::costmap::{Ga, Terrain, three_cases};
 use serde::Serialize;
 
 #[derive(Args, Debug)]

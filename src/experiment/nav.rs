@@ -32,7 +32,7 @@ use firefleet_protocol::scenario::{
     FireSpec, Growth, Obstacle, Scenario, Segment, Tunnel, UnitSpec,
 };
 use firefleet_protocol::spec::GROUND;
-use firefleet_protocol::{FireId, SiteId, UnitId};
+use firefleet_protocol::{Chainage, FireId, SiteId, UnitId};
 use firefleet_sim::World;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -92,6 +92,7 @@ fn curve_end_m() -> f64 {
 
 /// A parked car at chainage `s` in lane `lane`, a little off the lane's centre and askew.
 fn car(name: &str, t: &Tunnel, s: f64, lane: u8, rng: &mut ChaCha8Rng) -> Obstacle {
+    let s = Chainage::new(s);
     let d = t.lane_center_y(lane) + rng.random_range(-0.4..0.4);
     let p = t.point_at(s, d);
     Obstacle {
@@ -110,8 +111,8 @@ fn scenario(seed: u64) -> anyhow::Result<Scenario> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let t = tunnel();
     let flame_s = curve_end_m() + FLAME_PAST_CURVE_M;
-    let flame = t.point_at(flame_s, FLAME_D_M);
-    let start = t.point_at(START_S_M, t.lane_center_y(0));
+    let flame = t.point_at(Chainage::new(flame_s), FLAME_D_M);
+    let start = t.point_at(Chainage::new(START_S_M), t.lane_center_y(0));
     let on_curve = rng.random_range(STRAIGHT_IN_M + 3.0..curve_end_m() - 3.0);
     let lane_curve = rng.random_range(0..2u8);
     let in_front = flame_s - rng.random_range(6.5..10.0);

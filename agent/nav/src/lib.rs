@@ -10,6 +10,11 @@
 //! two) under the heat-aware cost map ([`costmap`]) and the MovingAI benchmarks
 //! ([`movingai`]). [`pursuit`] follows any of these paths, forwards and backing through
 //! the cusps of a Hybrid A* route.
+//!
+//! No I/O, no Zenoh, no clock: every function takes a map and poses and returns a path or
+//! a command, so the robot (`firefleet-agent`) and the coordinator's road map share the
+//! same code. What to plan for (firing spots, tasks) is the agent's business, not this
+//! crate's.
 
 pub mod astar;
 pub mod costmap;

@@ -4,8 +4,8 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use firefleet_agent::nav::Grid;
-use firefleet_agent::nav::hybrid_astar::{Footprint, HybridAStar, Params};
+use firefleet_nav::Grid;
+use firefleet_nav::hybrid_astar::{Footprint, HybridAStar, Params};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::GROUND;
 use firefleet_protocol::{Point2, Pose2};

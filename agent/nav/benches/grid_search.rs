@@ -8,8 +8,8 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use firefleet_agent::nav::grid::NEIGHBOURS;
-use firefleet_agent::nav::grid_search::CostGrid;
+use firefleet_nav::grid::NEIGHBOURS;
+use firefleet_nav::grid_search::CostGrid;
 
 const N: usize = 1000;
 

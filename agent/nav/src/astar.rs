@@ -112,7 +112,7 @@ pub fn length(path: &[Point2]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::nav::grid::tests::scenario;
+    use crate::grid::tests::scenario;
 
     #[test]
     fn path_goes_around_the_car_and_stays_free() {

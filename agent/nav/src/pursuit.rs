@@ -307,7 +307,7 @@ fn lerp(a: Point2, b: Point2, t: f64) -> Point2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::nav::reeds_shepp;
+    use crate::reeds_shepp;
     use firefleet_protocol::geometry::wrap_angle;
     use firefleet_protocol::spec::GROUND;
 

@@ -302,7 +302,7 @@ pub fn step_drivable(a: &Pose2, b: &Pose2, min_radius_m: f64) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::nav::reeds_shepp::{Turn, advance};
+    use crate::reeds_shepp::{Turn, advance};
 
     const R: f64 = 2.0;
 

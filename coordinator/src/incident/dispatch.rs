@@ -1,0 +1,271 @@
+//! Dispatch: fires as needs, units as candidates, the strategy's picks turned into tasks
+//! (first attackers, backups), and units relieved when another gets there much sooner.
+//!
+//! The cost model and the solvers are [`crate::assign`]'s; this module feeds them the
+//! incident's picture and acts on what they pick.
+
+use std::collections::BTreeSet;
+
+use firefleet_protocol::msg::{FireState, TaskKind, UnitMode};
+use firefleet_protocol::spec::GROUND;
+use firefleet_protocol::{FireId, Point2, UnitId};
+
+use crate::assign::{Candidate, Mobility, Need, Pick, Place, Roads, Site, attackers_needed};
+use crate::fusion::Fire;
+
+use super::{Incident, Output, Scope};
+
+impl Incident {
+    /// Fire `f` as a need for a unit, with its zone's priority; `None` if a goal bars
+    /// attacking it.
+    pub(super) fn need(&self, f: &Fire) -> Option<Need> {
+        let at = Place::in_tunnel(&self.tunnel, f.position());
+        let goal = self.goals.at(at.chainage);
+        (!goal.is_some_and(|g| g.bars_attack())).then(|| Need {
+            fire: f.id,
+            at,
+            priority: goal.map_or(0, |g| g.goal.priority),
+        })
+    }
+
+    /// Assign units to the fires that need one: fires nobody has taken, and fires whose
+    /// units are all still on their way, solved again so that a unit come free near a
+    /// fire takes it over from one still far away ([`crate::assign::KEEP_S`] keeps changes to real
+    /// gains). A unit that loses its fire so stays on as its backup if it is within
+    /// [`Policy::help_within_s`] of it and the fire wants another attacker, and is released
+    /// otherwise.
+    pub(super) fn assign(&mut self, scope: Scope, t: f64) -> Vec<Output> {
+        let open = |s: FireState| match scope {
+            Scope::All => matches!(s, FireState::Confirmed | FireState::Assigned),
+            Scope::NewFires => s == FireState::Confirmed,
+        };
+        let needs: Vec<Need> = self
+            .fusion
+            .fires()
+            .iter()
+            .filter(|f| open(f.state))
+            .filter_map(|f| self.need(f))
+            .collect();
+        // The first attackers on their way to those fires, before the solve.
+        let on_their_way: Vec<(UnitId, FireId)> = self
+            .units
+            .iter()
+            .filter(|(_, v)| v.alive && !v.backup)
+            .filter_map(|(u, v)| Some((u.clone(), self.fusion.resolve(v.working_on()?))))
+            .filter(|(_, f)| needs.iter().any(|n| n.fire == *f))
+            .collect();
+        let mut candidates = self.candidates();
+        if scope == Scope::NewFires {
+            // A unit on its way to a fire nobody sprays yet stays out: its fire is not in
+            // this solve, so nothing would hold the unit to it.
+            candidates.retain(|c| {
+                c.heading_for
+                    .and_then(|f| self.fusion.get(f))
+                    .is_none_or(|f| f.state != FireState::Assigned)
+            });
+        }
+        let picks = self.picks(&candidates, &needs);
+        let mut out = Vec::new();
+        for p in &picks {
+            out.extend(self.dispatch(p, t, false));
+        }
+        for (unit, fire) in on_their_way {
+            let Some(taker) = picks.iter().find(|p| p.fire == fire) else {
+                continue;
+            };
+            let v = &self.units[&unit];
+            if taker.unit == unit || v.working_on().map(|f| self.fusion.resolve(f)) != Some(fire) {
+                continue;
+            }
+            let from = v.state.as_ref().map(|s| s.pose.position());
+            let to = self.fusion.get(fire).map(|f| f.position());
+            let away = from
+                .zip(to)
+                .and_then(|(a, b)| v.mobility.travel_s(a, b))
+                .unwrap_or(f64::INFINITY);
+            let taken = format!(
+                "{} gets there in {:.1} s, {unit} in about {away:.1} s",
+                taker.unit, taker.cost_s
+            );
+            let wanted = self.policy.units_per_fire.max(attackers_needed(
+                self.fusion.get(fire).and_then(|f| f.hrr_kw()),
+                GROUND.cannon_flow_l_s,
+            ));
+            if away <= self.policy.help_within_s && self.assigned_to(fire).len() <= wanted {
+                self.units.get_mut(&unit).expect("known unit").backup = true;
+                self.log(
+                    t,
+                    format!("{unit} stays on fire {fire} as a backup: {taken}"),
+                );
+            } else {
+                self.log(t, format!("release {unit} from fire {fire}: {taken}"));
+                out.push(self.standby(&unit, t));
+            }
+        }
+        // A fire whose unit went to a more urgent one waits for the next.
+        for n in &needs {
+            if self.assigned_to(n.fire).is_empty()
+                && let Some(f) = self.fusion.get_mut(n.fire)
+                && f.state == FireState::Assigned
+            {
+                f.state = FireState::Confirmed;
+                out.push(Output::Fire(self.track(n.fire, t)));
+            }
+        }
+        out
+    }
+
+    /// Ground units not working on a fire, less those in `busy`.
+    pub(super) fn free_ground_units(&self, busy: &BTreeSet<UnitId>) -> Vec<Candidate> {
+        let mut candidates = self.candidates();
+        candidates.retain(|c| {
+            matches!(c.mobility, Mobility::Ground { .. })
+                && self.units[&c.unit].working_on().is_none()
+                && !busy.contains(&c.unit)
+        });
+        candidates
+    }
+
+    /// Units that may be sent to a fire: alive, able, with water, outside barred zones.
+    pub(super) fn candidates(&self) -> Vec<Candidate> {
+        let barred = self.goals.barred();
+        self.units
+            .iter()
+            .filter(|(_, v)| v.alive && v.available())
+            .filter_map(|(u, v)| {
+                let st = v.state.as_ref()?;
+                (st.mode != UnitMode::Fault && st.water_l > 0.0).then(|| Candidate {
+                    unit: u.clone(),
+                    at: Place::in_tunnel(&self.tunnel, st.pose.position()),
+                    mobility: v.mobility,
+                    water_l: st.water_l,
+                    // Backups are extra hands: only a fire's first attacker is kept on it.
+                    heading_for: v
+                        .working_on()
+                        .filter(|_| !v.backup)
+                        .map(|f| self.fusion.resolve(f)),
+                })
+            })
+            .filter(|c| {
+                !barred
+                    .iter()
+                    .any(|&(s, e)| (s..=e).contains(&c.at.chainage))
+            })
+            .collect()
+    }
+
+    /// Second wave: ground units still free (and not in `busy`) join fires that have
+    /// fewer attackers than `units_per_fire` or than their heat release needs, nearest
+    /// first, one more per fire and solve.
+    pub(super) fn back_up(&mut self, busy: &BTreeSet<UnitId>, t: f64) -> Vec<Output> {
+        let backups: Vec<Need> = self
+            .fusion
+            .fires()
+            .iter()
+            .filter(|f| matches!(f.state, FireState::Assigned | FireState::Suppressing))
+            .filter(|f| {
+                let needed = attackers_needed(f.hrr_kw(), GROUND.cannon_flow_l_s);
+                self.assigned_to(f.id).len() < self.policy.units_per_fire.max(needed)
+            })
+            .filter_map(|f| self.need(f))
+            .collect();
+        let candidates = self.free_ground_units(busy);
+        let mut out = Vec::new();
+        for p in self.picks(&candidates, &backups) {
+            if p.cost_s <= self.policy.help_within_s {
+                out.extend(self.dispatch(&p, t, true));
+            }
+        }
+        out
+    }
+
+    /// `needs` paired with `candidates` by the strategy, on this site.
+    pub(super) fn picks(&mut self, candidates: &[Candidate], needs: &[Need]) -> Vec<Pick> {
+        if candidates.is_empty() || needs.is_empty() {
+            return Vec::new();
+        }
+        let barred = self.goals.barred();
+        let burning: Vec<(FireId, Point2)> = self
+            .fusion
+            .fires()
+            .iter()
+            .filter(|f| f.active() && f.state != FireState::Tentative)
+            .map(|f| (f.id, f.position()))
+            .collect();
+        let hazards: Vec<Place> = burning
+            .iter()
+            .map(|(_, p)| Place::in_tunnel(&self.tunnel, *p))
+            .collect();
+        // Out of `self` while decisions are dispatched below; put back at the end.
+        let mut roads = self.roads.take();
+        if let Some(r) = &mut roads {
+            r.track(&burning);
+        }
+        let site = Site {
+            barred: &barred,
+            hazards: &hazards,
+            roads: roads.as_ref().map(|r| r as &dyn Roads),
+        };
+        let picks = self.strategy.solve(candidates, needs, &site);
+        self.roads = roads;
+        picks
+    }
+
+    /// Give `p.unit` the task of putting out `p.fire` (as its second attacker if `backup`),
+    /// logging the decision.
+    pub(super) fn dispatch(&mut self, p: &Pick, t: f64, backup: bool) -> Vec<Output> {
+        let verb = if backup { "send backup" } else { "assign" };
+        if self.failed.contains_key(&(p.unit.clone(), p.fire)) {
+            return Vec::new();
+        }
+        let view = self.units.get_mut(&p.unit).expect("candidate is known");
+        if view.working_on().map(|f| self.fusion.resolve(f)) == Some(p.fire) {
+            // Already on its way there: no new task. A backup chosen as the first
+            // attacker becomes it.
+            if view.backup && !backup {
+                view.backup = false;
+                self.log(t, format!("backup {} takes fire {} over", p.unit, p.fire));
+            }
+            return Vec::new();
+        }
+        let Some(fire) = self.fusion.get_mut(p.fire) else {
+            return Vec::new();
+        };
+        if fire.state == FireState::Confirmed {
+            fire.state = FireState::Assigned;
+        }
+        let target = fire.position();
+        if let Some(old) = self.units[&p.unit].working_on() {
+            let why = if self.units[&p.unit].backup {
+                ", where it was a backup".to_owned()
+            } else {
+                format!(" for fire {}, where it does more", p.fire)
+            };
+            self.log(t, format!("{} leaves fire {old}{why}", p.unit));
+        }
+        let task = self.give(
+            &p.unit,
+            TaskKind::Extinguish {
+                fire: p.fire,
+                target,
+            },
+            t,
+        );
+        self.units
+            .get_mut(&p.unit)
+            .expect("candidate is known")
+            .backup = backup;
+        let runner_up = match &p.runner_up {
+            Some((u, c)) => format!("runner-up {u} at {c:.1} s"),
+            None => "no other free unit".to_owned(),
+        };
+        self.log(
+            t,
+            format!(
+                "{verb} {} to fire {}: cost {:.1} s; {runner_up}",
+                p.unit, p.fire, p.cost_s
+            ),
+        );
+        vec![task, Output::Fire(self.track(p.fire, t))]
+    }
+}

@@ -1,0 +1,327 @@
+//! How the incident takes events: a unit appearing, vanishing or stating where it is and
+//! what it does, a flame report, recalled tracks, time passing. Each handler updates the
+//! picture and re-solves as much of the assignment as the event can change.
+//!
+//! Not here: what the solve decides (dispatch, search, staging, zones).
+
+use firefleet_protocol::msg::{
+    FireState, FireTrack, FlameReport, Task, TaskKind, TaskPhase, TaskProgress, UnitMode, UnitState,
+};
+use firefleet_protocol::validate::{Invalid, Validate};
+use firefleet_protocol::{FireId, UnitId};
+
+use crate::fusion::Fused;
+
+use super::{Incident, Output, Scope};
+
+impl Incident {
+    /// A unit's liveliness token appeared or vanished.
+    pub fn on_alive(&mut self, unit: &UnitId, alive: bool, t: f64) -> Result<Vec<Output>, Invalid> {
+        let v = self.view(unit, "unit")?;
+        let was = v.alive;
+        v.alive = alive;
+        if alive {
+            v.last_heard = t;
+            if !was {
+                self.log(t, format!("unit {unit} joined"));
+            }
+            return Ok(self.solve(t));
+        }
+        if !was {
+            return Ok(Vec::new());
+        }
+        Ok(self.lose(unit, t, "its liveliness token vanished"))
+    }
+
+    pub(super) fn lose(&mut self, unit: &UnitId, t: f64, why: &str) -> Vec<Output> {
+        let v = self.units.get_mut(unit).expect("known unit");
+        v.alive = false;
+        let fire = v.working_on();
+        v.task = None;
+        let mut out = Vec::new();
+        match fire {
+            Some(f) => {
+                self.log(
+                    t,
+                    format!("unit {unit} lost ({why}); fire {f} needs a new unit"),
+                );
+                out.extend(self.release(f, t));
+            }
+            None => self.log(t, format!("unit {unit} lost ({why})")),
+        }
+        out.extend(self.solve(t));
+        out
+    }
+
+    /// Put a fire back among those needing a unit, if it still burns.
+    pub(super) fn release(&mut self, fire: FireId, t: f64) -> Option<Output> {
+        let f = self.fusion.get_mut(fire)?;
+        if !f.active() {
+            return None;
+        }
+        f.state = FireState::Confirmed;
+        Some(Output::Fire(self.track(fire, t)))
+    }
+
+    /// Fire tracks a previous coordinator published, as a recorder kept them: taken back
+    /// under their ids before the units are heard from, so that a fire nobody is working on
+    /// right now is not forgotten across a restart. A track that fails validation or lies
+    /// outside the tunnel is refused (returned with its reason) and the rest are still
+    /// taken; one whose id is already known is skipped.
+    pub fn restore(&mut self, tracks: &[FireTrack], t: f64) -> (Vec<Output>, Vec<Invalid>) {
+        let mut refused = Vec::new();
+        for track in tracks {
+            let checked = track
+                .validate()
+                .and_then(|()| self.tunnel.check_inside("position", track.position))
+                .map_err(|e| e.within(&format!("fire {}", track.id)));
+            if let Err(e) = checked {
+                refused.push(e);
+                continue;
+            }
+            if self.fusion.restore(track) {
+                let seen_by: Vec<&str> = track.seen_by.iter().map(|u| u.as_str()).collect();
+                self.log(
+                    t,
+                    format!(
+                        "recall fire {} at ({:.1}, {:.1}), {:?} at t = {:.1} s, seen by [{}]: tracked before this coordinator started",
+                        track.id,
+                        track.position.x,
+                        track.position.y,
+                        track.state,
+                        track.t,
+                        seen_by.join(", ")
+                    ),
+                );
+            }
+        }
+        (self.solve(t), refused)
+    }
+
+    /// A unit's state message.
+    pub fn on_state(&mut self, st: UnitState, t: f64) -> Result<Vec<Output>, Invalid> {
+        let unit = st.unit.clone();
+        self.tunnel.check_inside("pose", st.pose.position())?;
+        let mobility = self.view(&unit, "unit")?.mobility;
+        let (from, to) = self.sight(mobility, st.pose);
+        self.coverage.look(from, to, t);
+        let v = self.view(&unit, "unit")?;
+        v.last_heard = t;
+        let current = v.task.clone();
+        let progress = st.task;
+        // A state changes the decisions only when it brings a unit into play or takes one
+        // out; a moving unit's position is picked up by the periodic re-solve. Re-solving
+        // on every state would cost a solve per message: 10 000 a second for 1000 units.
+        let able = |s: &UnitState| s.mode != UnitMode::Fault && s.water_l > 0.0;
+        let mut relevant = v.state.as_ref().is_none_or(|old| able(old) != able(&st));
+        v.state = Some(st);
+        if let Some(p) = progress {
+            self.seq = self.seq.max(p.seq);
+        }
+        let mut out = Vec::new();
+        if current.is_none()
+            && let Some(p) = progress
+            && matches!(p.phase, TaskPhase::Travelling | TaskPhase::Spraying)
+        {
+            out.extend(self.adopt(&unit, p, t));
+            relevant = true;
+        }
+        let current = self.units[&unit].task.clone();
+        if let (Some(task), Some(p)) = (current, progress)
+            && task.seq == p.seq
+            && let TaskKind::Extinguish { fire, .. } = task.kind
+        {
+            // The task may name a track since merged into another.
+            let fire = self.fusion.resolve(fire);
+            match p.phase {
+                TaskPhase::Extinguished => {
+                    relevant = true;
+                    if let Some(f) = self.fusion.get_mut(fire) {
+                        f.state = FireState::Out;
+                        f.out_at = Some(t);
+                    }
+                    self.log(t, format!("fire {fire} out, reported by {unit}"));
+                    out.push(Output::Fire(self.track(fire, t)));
+                    // Everyone on that fire is free again (after a merge, more than one).
+                    let mut free = self.assigned_to(fire);
+                    if !free.contains(&unit) {
+                        free.push(unit.clone());
+                    }
+                    for u in free {
+                        out.push(self.standby(&u, t));
+                    }
+                }
+                TaskPhase::Failed => {
+                    relevant = true;
+                    self.failed
+                        .insert((unit.clone(), fire), t + self.policy.retry_after_s);
+                    self.log(t, format!("unit {unit} gave up fire {fire}"));
+                    out.extend(self.release(fire, t));
+                    out.push(self.standby(&unit, t));
+                }
+                TaskPhase::Spraying => {
+                    if let Some(f) = self.fusion.get_mut(fire)
+                        && f.state == FireState::Assigned
+                    {
+                        f.state = FireState::Suppressing;
+                        out.push(Output::Fire(self.track(fire, t)));
+                    }
+                }
+                TaskPhase::Travelling => {}
+            }
+        }
+        if relevant {
+            out.extend(self.solve(t));
+        }
+        Ok(out)
+    }
+
+    /// A unit works on a task this coordinator did not give (it gave it before a restart):
+    /// take the task over rather than send the unit elsewhere. Its fire is the track the
+    /// task names if that was recalled and is still burning, else the track within
+    /// [`Policy::adopt_radius_m`] of where the unit believes it is, or a new track there.
+    pub(super) fn adopt(&mut self, unit: &UnitId, p: TaskProgress, t: f64) -> Vec<Output> {
+        let named = self
+            .fusion
+            .get(p.fire)
+            .filter(|f| f.active() && f.position().dist(p.target) <= self.policy.adopt_radius_m)
+            .map(|f| f.id);
+        let fire = match named.or_else(|| {
+            self.fusion
+                .nearest_active(p.target, self.policy.adopt_radius_m)
+        }) {
+            Some(id) => id,
+            None => self.fusion.adopt(unit, p.target, t),
+        };
+        if let Some(f) = self.fusion.get_mut(fire)
+            && matches!(f.state, FireState::Tentative | FireState::Confirmed)
+        {
+            f.state = if p.phase == TaskPhase::Spraying {
+                FireState::Suppressing
+            } else {
+                FireState::Assigned
+            };
+        }
+        let task = Task {
+            unit: unit.clone(),
+            seq: p.seq,
+            t,
+            kind: TaskKind::Extinguish {
+                fire,
+                target: p.target,
+            },
+        };
+        self.units.get_mut(unit).expect("known unit").task = Some(task);
+        self.log(
+            t,
+            format!(
+                "adopt {unit}'s task {} on fire {fire} at ({:.1}, {:.1}): given before this coordinator started",
+                p.seq, p.target.x, p.target.y
+            ),
+        );
+        vec![Output::Fire(self.track(fire, t))]
+    }
+
+    /// A unit's flame report.
+    pub fn on_report(&mut self, r: &FlameReport, t: f64) -> Result<Vec<Output>, Invalid> {
+        self.view(&r.unit, "unit")?.last_heard = t;
+        for (i, o) in r.observations.iter().enumerate() {
+            self.tunnel
+                .check_inside(&format!("observations[{i}].position"), o.position)?;
+        }
+        let mut out = Vec::new();
+        for o in &r.observations {
+            match self.fusion.observe(&r.unit, o, t) {
+                Fused::New(_) | Fused::Updated(_) => {}
+                Fused::Confirmed(id) => {
+                    self.log(
+                        t,
+                        format!(
+                            "fire {id} confirmed at ({:.1}, {:.1})",
+                            o.position.x, o.position.y
+                        ),
+                    );
+                    out.push(Output::Fire(self.track(id, t)));
+                }
+                Fused::Reignited(id) => {
+                    self.log(t, format!("fire {id} reignited"));
+                    out.push(Output::Fire(self.track(id, t)));
+                }
+            }
+        }
+        for m in self.fusion.merge_duplicates() {
+            self.log(
+                t,
+                format!(
+                    "fire {} is fire {} seen again: merged",
+                    m.removed.id, m.kept
+                ),
+            );
+            let mut gone = m.removed.to_track(t, Vec::new());
+            gone.state = FireState::Lost;
+            out.push(Output::Fire(gone));
+            out.push(Output::Fire(self.track(m.kept, t)));
+        }
+        out.extend(self.solve_within(Scope::NewFires, t));
+        Ok(out)
+    }
+
+    /// Time passed: expire silent units and unseen fires, enforce goals, re-solve.
+    pub fn tick(&mut self, t: f64) -> Vec<Output> {
+        let silent: Vec<UnitId> = self
+            .units
+            .iter()
+            .filter(|(_, v)| v.alive && t - v.last_heard > self.lease_s)
+            .map(|(u, _)| u.clone())
+            .collect();
+        let mut out = Vec::new();
+        for u in silent {
+            out.extend(self.lose(&u, t, "silent beyond its lease"));
+        }
+        for id in self.fusion.expire(t) {
+            self.log(
+                t,
+                format!("fire {id} lost: unseen for a minute and unattended"),
+            );
+            out.push(Output::Fire(self.track(id, t)));
+        }
+        self.failed.retain(|_, until| *until > t);
+        for g in self.goals.expire(t) {
+            self.log(t, format!("goal '{}' on zone {} expired", g.id, g.zone));
+        }
+        out.extend(self.enforce(t));
+        // Units move and look between events: searches end, searchers change, and a unit
+        // on its way may now have a nearer relief.
+        let scope = if t - self.solved_all_at >= self.policy.solve_all_every_s {
+            Scope::All
+        } else {
+            Scope::NewFires
+        };
+        out.extend(self.solve_within(scope, t));
+        out
+    }
+
+    /// Re-decide: assign free units to fires that need one; send free ground units to
+    /// search where nobody has looked; back up fires with the units still free; stage the
+    /// rest.
+    ///
+    /// Search comes before backups: a second cannon shortens a knock-down by seconds,
+    /// while a fire nobody has seen burns on until somebody drives past it.
+    pub(super) fn solve(&mut self, t: f64) -> Vec<Output> {
+        self.solve_within(Scope::All, t)
+    }
+
+    /// [`Incident::solve`], assigning within `scope`.
+    pub(super) fn solve_within(&mut self, scope: Scope, t: f64) -> Vec<Output> {
+        if scope == Scope::All {
+            self.solved_all_at = t;
+        }
+        let mut out = self.assign(scope, t);
+        let (sent, searching) = self.search(t);
+        out.extend(sent);
+        out.extend(self.back_up(&searching, t));
+        out.extend(self.stage(&searching, t));
+        out.extend(self.patrol_rails(t));
+        out
+    }
+}

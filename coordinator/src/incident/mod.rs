@@ -1,0 +1,289 @@
+//! The coordinator's picture of the incident, and how it reacts to events.
+//!
+//! Every event (a unit's state, a flame report, a unit appearing or vanishing, time
+//! passing) updates the picture and returns the messages to publish: new tasks and changed
+//! fire tracks. Every decision is logged with its reason and kept in [`Incident::decisions`].
+
+use std::collections::{BTreeMap, VecDeque};
+
+use firefleet_protocol::msg::{
+    Decision, FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitKind, UnitState, UnitStatus,
+};
+use firefleet_protocol::scenario::{Scenario, Tunnel};
+use firefleet_protocol::spec::{GROUND, MONORAIL};
+use firefleet_protocol::validate::Invalid;
+use firefleet_protocol::{FireId, UnitId};
+
+use crate::assign::{Mobility, Strategy};
+use crate::coverage::Coverage;
+use crate::fusion::Fusion;
+use crate::goals::Goals;
+use crate::roads::RoadMap;
+
+mod dispatch;
+mod events;
+mod policy;
+mod search;
+mod staging;
+mod zones;
+
+pub use policy::Policy;
+
+/// How many decisions the incident remembers for status queries.
+const DECISION_LOG: usize = 200;
+
+/// How much of the assignment a solve takes up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Scope {
+    /// Fires nobody has taken, for units not on their way to a fire: what a flame report
+    /// changes.
+    NewFires,
+    /// Every fire nobody sprays yet, for every unit not spraying.
+    All,
+}
+
+/// What to publish after an event.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Output {
+    Task(Task),
+    Fire(FireTrack),
+}
+
+/// What the coordinator knows of one unit.
+#[derive(Debug, Clone)]
+struct UnitView {
+    mobility: Mobility,
+    state: Option<UnitState>,
+    alive: bool,
+    last_heard: f64,
+    task: Option<Task>,
+    /// The task makes the unit a fire's second attacker: a new fire with nobody on it may
+    /// take the unit while it is still on its way.
+    backup: bool,
+}
+
+impl UnitView {
+    fn new(mobility: Mobility) -> Self {
+        Self {
+            mobility,
+            state: None,
+            alive: false,
+            last_heard: 0.0,
+            task: None,
+            backup: false,
+        }
+    }
+
+    /// Not spraying: a unit spraying is never pulled off its fire; any other may be given
+    /// a fire (one on its way keeps its own unless another unit is much nearer).
+    fn available(&self) -> bool {
+        !self
+            .state
+            .as_ref()
+            .and_then(|s| s.task)
+            .is_some_and(|p| p.phase == TaskPhase::Spraying)
+    }
+
+    fn working_on(&self) -> Option<FireId> {
+        match self.task.as_ref()?.kind {
+            TaskKind::Extinguish { fire, .. } => Some(fire),
+            TaskKind::Standby | TaskKind::Cruise { .. } | TaskKind::Search { .. } => None,
+        }
+    }
+}
+
+/// The incident.
+pub struct Incident {
+    tunnel: Tunnel,
+    units: BTreeMap<UnitId, UnitView>,
+    fusion: Fusion,
+    seq: u64,
+    lease_s: f64,
+    strategy: Strategy,
+    /// (unit, fire) pairs that failed, and until when not to retry them.
+    failed: BTreeMap<(UnitId, FireId), f64>,
+    decisions: VecDeque<Decision>,
+    /// Decisions not yet handed out for publication.
+    unpublished: Vec<Decision>,
+    goals: Goals,
+    policy: Policy,
+    /// Driving distances to fires; straight lines without (an incident built without a
+    /// site file).
+    roads: Option<RoadMap>,
+    /// Where units have looked.
+    coverage: Coverage,
+    /// When the whole assignment was last solved.
+    solved_all_at: f64,
+}
+
+impl Incident {
+    /// An incident in `tunnel` with the units the site file declares. Reports from any
+    /// other unit are refused. A unit silent for `lease_s` is treated as lost.
+    pub fn new(
+        tunnel: Tunnel,
+        units: impl IntoIterator<Item = (UnitId, Mobility)>,
+        lease_s: f64,
+        strategy: Strategy,
+    ) -> Self {
+        Self {
+            units: units
+                .into_iter()
+                .map(|(u, m)| (u, UnitView::new(m)))
+                .collect(),
+            fusion: Fusion::default(),
+            seq: 0,
+            lease_s,
+            strategy,
+            failed: BTreeMap::new(),
+            decisions: VecDeque::new(),
+            unpublished: Vec::new(),
+            goals: Goals::default(),
+            policy: Policy::DEFAULT,
+            roads: None,
+            coverage: Coverage::new(tunnel.length_m),
+            solved_all_at: f64::NEG_INFINITY,
+            tunnel,
+        }
+    }
+
+    /// Send up to `n` ground units to each fire while units are free (default
+    /// [`Policy::units_per_fire`]; at least 1), or more if its heat release needs them.
+    pub fn set_units_per_fire(&mut self, n: usize) {
+        self.policy.units_per_fire = n.max(1);
+    }
+
+    /// The incident of a site file: its tunnel, and its units with their mobility (ground
+    /// units at the ground unit's top speed, monorail units on their rails).
+    pub fn from_scenario(scenario: &Scenario, lease_s: f64, strategy: Strategy) -> Self {
+        let units = scenario.units.iter().map(|u| {
+            let rail = u.rail.as_deref().and_then(|r| scenario.rail(r));
+            let mobility = match (u.kind, rail) {
+                (UnitKind::Monorail, Some(r)) => Mobility::Rail {
+                    start_m: r.start_m,
+                    end_m: r.end_m,
+                    y_m: r.y_m,
+                    speed_m_s: MONORAIL.carriage_speed_m_s,
+                    reach_m: MONORAIL.working_reach_m,
+                },
+                _ => Mobility::Ground {
+                    speed_m_s: GROUND.max_speed_m_s,
+                },
+            };
+            (u.id.clone(), mobility)
+        });
+        let mut incident = Self::new(scenario.tunnel.clone(), units, lease_s, strategy);
+        incident.goals = Goals::new(&scenario.zones);
+        incident.roads = Some(RoadMap::from_scenario(scenario));
+        incident
+    }
+
+    fn log(&mut self, t: f64, text: String) {
+        tracing::info!(t, "{text}");
+        if self.decisions.len() == DECISION_LOG {
+            self.decisions.pop_front();
+        }
+        let d = Decision { t, text };
+        self.unpublished.push(d.clone());
+        self.decisions.push_back(d);
+    }
+
+    /// A task number higher than any before it, across coordinator restarts too: units
+    /// ignore a task whose number is not higher than the last one they took, so a
+    /// restarted coordinator counting from 0 would be ignored. Numbers are floored by site
+    /// time (1000 per second) and by the highest number seen in any unit's state.
+    fn next_seq(&mut self, t: f64) -> u64 {
+        self.seq = (self.seq + 1).max((t.max(0.0) * 1000.0) as u64);
+        self.seq
+    }
+
+    /// Decisions made since the last call, for the bus (and so the recording).
+    pub fn take_decisions(&mut self) -> Vec<Decision> {
+        std::mem::take(&mut self.unpublished)
+    }
+
+    fn view(&mut self, unit: &UnitId, field: &str) -> Result<&mut UnitView, Invalid> {
+        self.units
+            .get_mut(unit)
+            .ok_or_else(|| Invalid::new(field, format!("unknown unit '{unit}'")))
+    }
+
+    fn standby(&mut self, unit: &UnitId, t: f64) -> Output {
+        self.give(unit, TaskKind::Standby, t)
+    }
+
+    /// Give `unit` a new task of `kind`, numbered above every task before it.
+    fn give(&mut self, unit: &UnitId, kind: TaskKind, t: f64) -> Output {
+        let seq = self.next_seq(t);
+        let task = Task {
+            unit: unit.clone(),
+            seq,
+            t,
+            kind,
+        };
+        self.units.get_mut(unit).expect("known unit").task = Some(task.clone());
+        Output::Task(task)
+    }
+
+    fn assigned_to(&self, fire: FireId) -> Vec<UnitId> {
+        self.units
+            .iter()
+            .filter(|(_, v)| {
+                v.alive && v.working_on().map(|f| self.fusion.resolve(f)) == Some(fire)
+            })
+            .map(|(u, _)| u.clone())
+            .collect()
+    }
+
+    fn track(&self, fire: FireId, t: f64) -> FireTrack {
+        self.fusion
+            .get(fire)
+            .expect("track exists")
+            .to_track(t, self.assigned_to(fire))
+    }
+
+    /// Every current task, for periodic re-publication (late joiners, lost messages).
+    pub fn tasks(&self) -> impl Iterator<Item = &Task> {
+        self.units
+            .values()
+            .filter(|v| v.alive)
+            .filter_map(|v| v.task.as_ref())
+    }
+
+    /// Every fire track.
+    pub fn fire_tracks(&self, t: f64) -> Vec<FireTrack> {
+        self.fusion
+            .fires()
+            .iter()
+            .map(|f| f.to_track(t, self.assigned_to(f.id)))
+            .collect()
+    }
+
+    pub fn decisions(&self) -> impl Iterator<Item = &Decision> {
+        self.decisions.iter()
+    }
+
+    /// A snapshot of the incident, for `firefleet status` and any Zenoh client. The
+    /// caller fills in `rejected`, which it counts.
+    pub fn status(&self, t: f64) -> IncidentStatus {
+        IncidentStatus {
+            t,
+            units: self
+                .units
+                .iter()
+                .map(|(u, v)| UnitStatus {
+                    unit: u.clone(),
+                    alive: v.alive,
+                    state: v.state.clone(),
+                    task: v.task.clone(),
+                })
+                .collect(),
+            fires: self.fire_tracks(t),
+            decisions: self.decisions.iter().rev().take(20).cloned().collect(),
+            goals: self.goals().cloned().collect(),
+            rejected: Default::default(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

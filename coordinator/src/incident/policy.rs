@@ -1,0 +1,76 @@
+//! The incident's policy: the numbers that shape its decisions, each with the reason
+//! for its value. One place, so that a reader sees the whole policy at once and an
+//! experiment can try another.
+//!
+//! Not here: the physics these numbers come from (units' speeds, ranges and flows are in
+//! `firefleet_protocol::spec`).
+
+/// The numbers the incident decides by.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Policy {
+    /// Free units are staged this far short of the nearest active fire, m: beyond the 20 m at
+    /// which a cruising unit stops for a flame, and where the radiant flux of a 5 MW fire is
+    /// under 0.2 kW/m^2.
+    pub stage_offset_m: f64,
+    /// Ground units sent to one fire while units are free (more if its heat release needs
+    /// them, [`crate::assign::attackers_needed`]): alone, every unit that sees a fire attacks
+    /// it, and two cannons knock a fire down in less than half the time of one (Evans: tau ~
+    /// density^-1.85).
+    pub units_per_fire: usize,
+    /// Free units staged as reserves per active fire, nearest first.
+    pub reserves_per_fire: usize,
+    /// A backup or a reserve is sent to a fire only from this near, s of travel: a unit
+    /// attacking alone has a minute to knock its fire down (the ground tree's timeout), so one
+    /// that arrives later comes to a fire that is out, or to a unit that has given up and is
+    /// replaced by the ordinary assignment. Farther units are worth more searching.
+    pub help_within_s: f64,
+    /// After a unit fails a fire, it is not sent to that fire again for this long, s.
+    pub retry_after_s: f64,
+    /// A task adopted after a restart binds to a track this close to the unit's target, m.
+    pub adopt_radius_m: f64,
+    /// A monorail unit's search run has ended this close to its end, m.
+    pub rail_run_done_m: f64,
+    /// The whole assignment, units on their way included, is solved again at least this often,
+    /// s: a unit on its way that a nearer one should relieve is relieved within the second.
+    /// A flame report re-solves only the fires nobody has taken (a whole solve takes about
+    /// 2 ms at 1000 units and 200 fires, too long to run on every report).
+    pub solve_all_every_s: f64,
+    /// How far outside a zone units leaving it are sent, m.
+    pub evacuate_margin_m: f64,
+    /// A stretch nobody has looked at for this long is searched again, s: fire spreads to
+    /// nearby vehicles, and a fast-growing fire goes from nothing to 1 MW in 146 s.
+    pub search_again_after_s: f64,
+    /// A searching unit's goal is changed only when the new one lies this far from it, m: the
+    /// unseen stretch shrinks as units look, and every new goal makes the unit plan again.
+    pub search_goal_slack_m: f64,
+    /// The first and last metres of the tunnel, which search leaves out, m.
+    pub portal_m: f64,
+    /// A ground unit takes in this much of the road behind it, m: its heat sensors feel a fire
+    /// it stands next to, whichever way its camera looks.
+    pub sight_behind_m: f64,
+}
+
+impl Policy {
+    /// The policy the coordinator runs with.
+    pub const DEFAULT: Policy = Policy {
+        stage_offset_m: 25.0,
+        units_per_fire: 2,
+        reserves_per_fire: 3,
+        help_within_s: 60.0,
+        retry_after_s: 60.0,
+        adopt_radius_m: 5.0,
+        rail_run_done_m: 1.0,
+        solve_all_every_s: 1.0,
+        evacuate_margin_m: 5.0,
+        search_again_after_s: 120.0,
+        search_goal_slack_m: 10.0,
+        portal_m: 10.0,
+        sight_behind_m: 5.0,
+    };
+}
+
+impl Default for Policy {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}

@@ -1,0 +1,160 @@
+//! Assignment, backups and relief.
+
+use super::*;
+
+#[test]
+fn a_fire_whose_heat_release_needs_two_cannons_gets_two_units() {
+    for (hrr_kw, attackers) in [(Some(4_000.0), 1), (Some(20_000.0), 2), (None, 1)] {
+        let mut i = incident();
+        let mut r = report("a", 60.0);
+        r.observations[0].hrr_kw = hrr_kw;
+        let mut out = i.on_report(&r, 1.0).unwrap();
+        out.extend(i.tick(1.2));
+        assert_eq!(tasks(&out).len(), attackers, "{hrr_kw:?} kW");
+        let fire = i.fusion.fires()[0].id;
+        assert_eq!(i.track(fire, 1.2).hrr_kw, hrr_kw);
+    }
+}
+
+#[test]
+fn a_confirmed_fire_goes_to_the_nearest_free_unit() {
+    let mut i = incident();
+    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let t = tasks(&out);
+    assert_eq!(t.len(), 1);
+    assert_eq!(t[0].unit.as_str(), "b");
+    assert!(matches!(t[0].kind, TaskKind::Extinguish { .. }));
+    assert!(
+        i.decisions()
+            .any(|d| d.text.starts_with("assign b to fire f1") && d.text.contains("runner-up a"))
+    );
+}
+
+#[test]
+fn the_nearer_unit_behind_a_truck_across_the_road_is_not_sent() {
+    // a is 15 m from the fire but a jack-knifed truck closes the tunnel between them;
+    // b is 40 m away on the open side.
+    let text = "name = \"t\"\ntime_limit_s = 100\n[tunnel]\nlength_m = 200.0\nwidth_m = 10.0\nheight_m = 6.0\nlanes = 2\n\
+        [[obstacles]]\nname = \"truck\"\nx_m = 52.0\ny_m = 0.0\nlength_m = 3.0\nwidth_m = 10.0\nheight_m = 3.0\n\
+        [[units]]\nid = \"a\"\nkind = \"ground\"\nx_m = 45.0\ny_m = -2.0\n\
+        [[units]]\nid = \"b\"\nkind = \"ground\"\nx_m = 100.0\ny_m = -2.0\n";
+    let scenario = Scenario::from_toml(text, "t.toml").unwrap();
+    let mut i = Incident::from_scenario(&scenario, 5.0, Strategy::Optimal);
+    i.set_units_per_fire(1);
+    for (n, x) in [("a", 45.0), ("b", 100.0)] {
+        i.on_alive(&u(n), true, 0.0).unwrap();
+        i.on_state(state(n, x, None), 0.0).unwrap();
+    }
+    let out = i.on_report(&report("b", 60.0), 1.0).unwrap();
+    let sent: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
+    assert_eq!(sent, ["b"], "{out:?}");
+}
+
+#[test]
+fn no_backup_or_reserve_is_sent_from_more_than_a_minute_away() {
+    let mut i = incident_with_backups();
+    // b drives to 150 m: 90 m from a fire at 60 m is a minute at 1.5 m/s, and more.
+    i.on_state(state("b", 155.0, None), 0.5).unwrap();
+    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    assert_eq!(tasks(&out).len(), 1, "{out:?}");
+    assert_eq!(tasks(&out)[0].unit.as_str(), "a");
+    assert!(kinds_for(&out, "b").is_empty(), "{out:?}");
+}
+
+#[test]
+fn a_second_free_unit_backs_up_and_leaves_for_a_fire_nobody_attacks() {
+    let mut i = incident_with_backups();
+    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let t = tasks(&out);
+    assert_eq!(t.len(), 2, "{out:?}");
+    assert_eq!((t[0].unit.as_str(), t[1].unit.as_str()), ("b", "a"));
+    assert!(
+        i.decisions()
+            .any(|d| d.text.starts_with("send backup a to fire f1"))
+    );
+    // A new fire, nobody on it: the backup (still on its way) takes it.
+    let out = i.on_report(&report("b", 150.0), 2.0).unwrap();
+    let t = tasks(&out);
+    assert_eq!(t.len(), 1, "{out:?}");
+    assert_eq!(t[0].unit.as_str(), "a");
+    assert!(matches!(t[0].kind, TaskKind::Extinguish { target, .. } if target.x > 100.0));
+    assert!(
+        i.decisions()
+            .any(|d| d.text == "a leaves fire f1, where it was a backup")
+    );
+}
+
+/// Unit b at `x`, out of order.
+fn broken(x: f64) -> UnitState {
+    UnitState {
+        mode: UnitMode::Fault,
+        ..state("b", x, None)
+    }
+}
+
+#[test]
+fn a_unit_come_free_near_a_fire_takes_it_over_from_one_far_away() {
+    let mut i = incident();
+    i.on_state(broken(140.0), 0.5).unwrap();
+    let out = i.on_report(&report("a", 150.0), 1.0).unwrap();
+    assert_eq!(tasks(&out)[0].unit.as_str(), "a", "{out:?}");
+    // b is repaired 10 m from the fire: a, 90 s away, is released.
+    let out = i.on_state(state("b", 140.0, None), 2.0).unwrap();
+    assert_eq!(tasks(&out).len(), 1, "{out:?}");
+    assert_eq!(tasks(&out)[0].unit.as_str(), "b");
+    assert_eq!(kinds_for(&out, "a"), vec![TaskKind::Standby]);
+    assert!(i.decisions().any(|d| {
+        d.text
+            .starts_with("release a from fire f1: b gets there in")
+    }));
+    assert!(all_tasks(&i.solve(3.0)).is_empty(), "settled");
+}
+
+#[test]
+fn a_unit_on_its_way_keeps_its_fire_against_a_marginal_gain_and_stays_as_backup_otherwise() {
+    let mut i = incident_with_backups();
+    i.on_state(broken(100.0), 0.5).unwrap();
+    i.on_state(state("a", 40.0, None), 0.5).unwrap();
+    i.on_report(&report("a", 80.0), 1.0).unwrap();
+    // b 10 s nearer (15 m against 40 m): not worth a change; b backs a up.
+    i.on_state(state("b", 95.0, None), 2.0).unwrap();
+    assert!(!i.units[&u("a")].backup);
+    assert!(i.units[&u("b")].backup);
+    // b next to the fire, 25 s sooner: b takes it over without a new task, and a
+    // (27 s away) stays on as its backup.
+    i.on_state(state("b", 82.0, None), 4.0).unwrap();
+    let out = i.tick(4.0);
+    assert!(all_tasks(&out).is_empty(), "{out:?}");
+    assert!(i.units[&u("a")].backup && !i.units[&u("b")].backup);
+    assert!(
+        i.decisions()
+            .any(|d| d.text == "backup b takes fire f1 over")
+    );
+    assert!(
+        i.decisions()
+            .any(|d| d.text.starts_with("a stays on fire f1 as a backup"))
+    );
+}
+
+#[test]
+fn a_spraying_backup_stays_on_its_fire_and_the_unit_still_on_its_way_takes_a_new_one() {
+    let mut i = incident_with_backups();
+    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let backup = tasks(&out)[1].clone();
+    let TaskKind::Extinguish { fire, target } = backup.kind else {
+        panic!()
+    };
+    let spraying = TaskProgress {
+        seq: backup.seq,
+        fire,
+        phase: TaskPhase::Spraying,
+        target,
+    };
+    i.on_state(state("a", 50.0, Some(spraying)), 1.5).unwrap();
+    let out = i.on_report(&report("b", 150.0), 2.0).unwrap();
+    assert!(kinds_for(&out, "a").is_empty(), "{out:?}");
+    let t = tasks(&out);
+    assert_eq!(t.len(), 1, "{out:?}");
+    assert_eq!(t[0].unit.as_str(), "b");
+    assert!(matches!(t[0].kind, TaskKind::Extinguish { target, .. } if target.x > 100.0));
+}

@@ -1,0 +1,158 @@
+//! Liveness, fires going out, bad input, and a restarted coordinator.
+
+use super::*;
+
+#[test]
+fn a_lost_unit_s_fire_is_reassigned_at_once() {
+    let mut i = incident();
+    i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.on_alive(&u("b"), false, 2.0).unwrap();
+    let t = tasks(&out);
+    assert_eq!(t.len(), 1, "{out:?}");
+    assert_eq!(t[0].unit.as_str(), "a");
+}
+
+#[test]
+fn a_silent_unit_is_lost_after_its_lease() {
+    let mut i = incident();
+    i.on_report(&report("a", 60.0), 1.0).unwrap();
+    i.on_state(state("a", 10.0, None), 5.5).unwrap();
+    assert!(tasks(&i.tick(4.0)).is_empty());
+    let out = i.tick(6.0);
+    assert_eq!(tasks(&out)[0].unit.as_str(), "a");
+}
+
+#[test]
+fn extinguished_fire_is_out_and_the_unit_stands_by() {
+    let mut i = incident();
+    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let (fire, out) = b_puts_out_the_first_fire(&mut i, &out);
+    assert!(
+        out.iter()
+            .any(|o| matches!(o, Output::Fire(f) if f.id == fire && f.state == FireState::Out))
+    );
+    assert_eq!(
+        kinds_for(&out, "b"),
+        [TaskKind::Standby],
+        "b stands by, nothing left to stage for"
+    );
+}
+
+#[test]
+fn bad_input_is_refused_and_changes_nothing() {
+    let mut i = incident();
+    assert!(
+        i.on_report(&report("zz", 60.0), 1.0)
+            .unwrap_err()
+            .reason
+            .contains("unknown unit")
+    );
+    let e = i.on_report(&report("a", 260.0), 1.0).unwrap_err();
+    assert_eq!(e.field, "observations[0].position");
+    assert!(i.fire_tracks(1.0).is_empty());
+    assert!(i.on_state(state("a", -30.0, None), 1.0).is_err());
+}
+
+#[test]
+fn a_restarted_coordinator_adopts_running_tasks_and_numbers_new_ones_above_them() {
+    let mut i = incident();
+    // Unit a still works on task 70000 of the coordinator that died, on a fire at 60.
+    let held = TaskProgress {
+        seq: 70_000,
+        fire: FireId(3),
+        phase: TaskPhase::Travelling,
+        target: Point2::new(60.0, 1.0),
+    };
+    let out = i.on_state(state("a", 10.0, Some(held)), 1.0).unwrap();
+    assert!(
+        all_tasks(&out).iter().all(|t| t.unit.as_str() != "a"),
+        "a keeps its task: {out:?}"
+    );
+    assert!(
+        i.decisions()
+            .any(|d| d.text.starts_with("adopt a's task 70000"))
+    );
+    // The fire, reported again, is a's: nobody else is sent.
+    let out = i.on_report(&report("b", 60.0), 2.0).unwrap();
+    assert!(tasks(&out).is_empty(), "{out:?}");
+    let fires = i.fire_tracks(2.0);
+    assert_eq!(fires.len(), 1);
+    assert_eq!(fires[0].assigned, [u("a")]);
+    // A new fire gets a new task, numbered above the adopted one.
+    let out = i.on_report(&report("b", 150.0), 3.0).unwrap();
+    assert!(!all_tasks(&out).is_empty());
+    assert!(all_tasks(&out).iter().all(|t| t.seq > 70_000), "{out:?}");
+    // a finishes the adopted task: its fire is out.
+    let done = TaskProgress {
+        phase: TaskPhase::Extinguished,
+        ..held
+    };
+    let out = i.on_state(state("a", 45.0, Some(done)), 4.0).unwrap();
+    assert!(
+        out.iter()
+            .any(|o| matches!(o, Output::Fire(f) if f.state == FireState::Out)),
+        "{out:?}"
+    );
+}
+
+#[test]
+fn a_restarted_coordinator_recalls_recorded_fires_under_their_ids() {
+    // The coordinator that died tracked two fires: f4, which a is working on, and f9,
+    // which nobody works on or sees any more. A third track is corrupt.
+    let track = |id: u32, x: f64, state: FireState, assigned: &[&str]| FireTrack {
+        id: FireId(id),
+        t: 40.0,
+        position: Point2::new(x, 1.0),
+        cov: [0.3, 0.0, 0.3],
+        confidence: 0.95,
+        state,
+        assigned: assigned.iter().map(|s| u(s)).collect(),
+        seen_by: vec![u("a"), u("b")],
+        hrr_kw: Some(5000.0),
+    };
+    // Restored before any unit is heard from, as a starting coordinator does.
+    let mut i = unheard();
+    i.set_units_per_fire(1);
+    let (_, refused) = i.restore(
+        &[
+            track(4, 60.0, FireState::Assigned, &["a"]),
+            track(9, 150.0, FireState::Confirmed, &[]),
+            track(12, 500.0, FireState::Confirmed, &[]),
+        ],
+        41.0,
+    );
+    assert_eq!(refused.len(), 1);
+    assert!(refused[0].field.starts_with("fire f12"), "{:?}", refused[0]);
+    let ids: Vec<FireId> = i.fire_tracks(41.0).iter().map(|f| f.id).collect();
+    assert_eq!(ids, [FireId(4), FireId(9)]);
+    assert_eq!(
+        i.decisions()
+            .filter(|d| d.text.starts_with("recall fire"))
+            .count(),
+        2
+    );
+
+    // a says it works on f4: adopted on that track. b is free and is sent to f9, the
+    // fire only the recording remembered.
+    let held = TaskProgress {
+        seq: 40_100,
+        fire: FireId(4),
+        phase: TaskPhase::Spraying,
+        target: Point2::new(60.3, 1.1),
+    };
+    i.on_alive(&u("a"), true, 42.0).unwrap();
+    i.on_state(state("a", 55.0, Some(held)), 42.0).unwrap();
+    i.on_alive(&u("b"), true, 42.0).unwrap();
+    let out = i.on_state(state("b", 100.0, None), 42.0).unwrap();
+    assert_eq!(
+        kinds_for(&out, "b"),
+        [TaskKind::Extinguish {
+            fire: FireId(9),
+            target: Point2::new(150.0, 1.0),
+        }]
+    );
+    let tracks = i.fire_tracks(42.0);
+    assert_eq!(tracks[0].assigned, [u("a")]);
+    assert_eq!(tracks[0].state, FireState::Suppressing);
+    assert_eq!(tracks[1].assigned, [u("b")]);
+}

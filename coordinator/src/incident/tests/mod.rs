@@ -1,0 +1,174 @@
+//! The incident's tests, by concern, and the fixtures they share.
+
+use super::*;
+use firefleet_protocol::geometry::{Point2, Pose2};
+use firefleet_protocol::msg::FlameObservation;
+use firefleet_protocol::msg::{
+    FireState, FlameReport, GoalAck, GoalKind, TaskProgress, UnitMode, ZoneGoal,
+};
+use firefleet_protocol::scenario::Zone;
+use firefleet_protocol::{Chainage, ZoneId};
+
+mod dispatch;
+mod events;
+mod search;
+mod staging;
+mod zones;
+
+const TUNNEL: Tunnel = Tunnel {
+    length_m: 200.0,
+    width_m: 10.0,
+    height_m: 6.0,
+    lanes: 2,
+    centerline: Vec::new(),
+};
+
+fn u(s: &str) -> UnitId {
+    UnitId::new(s).unwrap()
+}
+
+fn state(unit: &str, x: f64, task: Option<TaskProgress>) -> UnitState {
+    UnitState {
+        unit: u(unit),
+        kind: UnitKind::Ground,
+        t: 0.0,
+        pose: Pose2::new(x, -2.0, 0.0),
+        speed: 0.0,
+        mode: UnitMode::Idle,
+        water_l: 1000.0,
+        health: 1.0,
+        heat_flux_kw_m2: 0.0,
+        task,
+        autonomous: false,
+    }
+}
+
+fn report(unit: &str, x: f64) -> FlameReport {
+    FlameReport {
+        unit: u(unit),
+        t: 0.0,
+        observer: Pose2::new(x - 15.0, -2.0, 0.0),
+        observations: vec![FlameObservation {
+            position: Point2::new(x, 1.0),
+            cov: [0.2, 0.0, 0.2],
+            confidence: 0.9,
+            hrr_kw: None,
+        }],
+    }
+}
+
+/// Extinguish tasks only.
+fn tasks(out: &[Output]) -> Vec<&Task> {
+    all_tasks(out)
+        .into_iter()
+        .filter(|t| matches!(t.kind, TaskKind::Extinguish { .. }))
+        .collect()
+}
+
+/// The kinds of the tasks in `out` for `unit`, in order.
+fn kinds_for(out: &[Output], unit: &str) -> Vec<TaskKind> {
+    all_tasks(out)
+        .iter()
+        .filter(|t| t.unit.as_str() == unit)
+        .map(|t| t.kind)
+        .collect()
+}
+
+fn all_tasks(out: &[Output]) -> Vec<&Task> {
+    out.iter()
+        .filter_map(|o| {
+            if let Output::Task(t) = o {
+                Some(t)
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+/// Unit b, given the first fire task in `out`, reports that fire extinguished.
+fn b_puts_out_the_first_fire(i: &mut Incident, out: &[Output]) -> (FireId, Vec<Output>) {
+    let task = tasks(out)[0].clone();
+    let TaskKind::Extinguish { fire, .. } = task.kind else {
+        panic!("not a fire task: {task:?}")
+    };
+    let done = TaskProgress {
+        seq: task.seq,
+        fire,
+        phase: TaskPhase::Extinguished,
+        target: Point2::new(60.0, 1.0),
+    };
+    (
+        fire,
+        i.on_state(state("b", 55.0, Some(done)), 20.0).unwrap(),
+    )
+}
+
+/// Two ground units, one per fire (the backup wave has tests of its own).
+fn incident() -> Incident {
+    let mut i = incident_with_backups();
+    i.set_units_per_fire(1);
+    i
+}
+
+/// Ground units a and b, neither heard from yet, in a tunnel searched at t = 0 (these
+/// tests are about fires; searching has tests of its own).
+fn unheard() -> Incident {
+    let ground = Mobility::Ground { speed_m_s: 1.5 };
+    let mut i = Incident::new(
+        TUNNEL,
+        [(u("a"), ground), (u("b"), ground)],
+        5.0,
+        Strategy::Optimal,
+    );
+    i.coverage.look(Chainage::ZERO, TUNNEL.end(), 0.0);
+    i
+}
+
+fn incident_with_backups() -> Incident {
+    let mut i = unheard();
+    for (n, x) in [("a", 10.0), ("b", 40.0)] {
+        i.on_alive(&u(n), true, 0.0).unwrap();
+        i.on_state(state(n, x, None), 0.0).unwrap();
+    }
+    i
+}
+
+/// Zone `id` from chainage `a` to `b`.
+fn zone(id: &str, a: f64, b: f64) -> Zone {
+    Zone {
+        id: ZoneId::new(id).unwrap(),
+        start_m: Chainage::new(a),
+        end_m: Chainage::new(b),
+    }
+}
+
+fn zoned() -> Incident {
+    let mut i = incident();
+    i.goals = Goals::new(&[zone("z1", 50.0, 100.0), zone("z2", 100.0, 200.0)]);
+    i
+}
+
+fn goal(
+    id: &str,
+    zone: &str,
+    kind: GoalKind,
+    priority: u8,
+    before_m: Option<f64>,
+) -> (ZoneId, ZoneGoal) {
+    let zone = ZoneId::new(zone).unwrap();
+    let g = ZoneGoal {
+        id: id.into(),
+        zone: zone.clone(),
+        goal: kind,
+        priority,
+        before_m,
+        expires_s: None,
+        issued_by: "ic-1".into(),
+    };
+    (zone, g)
+}
+
+fn submit(i: &mut Incident, (zone, g): (ZoneId, ZoneGoal), t: f64) -> (GoalAck, Vec<Output>) {
+    i.on_goal(&zone, g, t)
+}

@@ -1,0 +1,111 @@
+//! Commanders' zone goals.
+
+use super::*;
+
+#[test]
+fn no_fire_in_a_keep_out_zone_is_attacked_and_no_unit_crosses_it() {
+    let mut i = zoned();
+    let (ack, _) = submit(&mut i, goal("g1", "z1", GoalKind::KeepOut, 0, None), 0.5);
+    assert!(ack.accepted, "{ack:?}");
+    assert!(tasks(&i.on_report(&report("a", 60.0), 1.0).unwrap()).is_empty());
+    // Both units are on the near side: the fire beyond the zone gets nobody.
+    assert!(tasks(&i.on_report(&report("a", 150.0), 2.0).unwrap()).is_empty());
+    let out = i.clear_goals(&ZoneId::new("z1").unwrap(), 3.0);
+    assert_eq!(tasks(&out).len(), 2, "cleared: both fires are attacked");
+}
+
+#[test]
+fn a_monitor_goal_withdraws_the_unit_and_leaves_the_fire_burning() {
+    let mut i = zoned();
+    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    assert_eq!(tasks(&out)[0].unit.as_str(), "b");
+    let (ack, out) = submit(&mut i, goal("g1", "z1", GoalKind::Monitor, 0, None), 2.0);
+    assert!(ack.accepted);
+    let b = kinds_for(&out, "b");
+    assert_eq!(b[0], TaskKind::Standby, "{out:?}");
+    // Free again, b searches on past the fire left burning.
+    assert!(
+        b[1..].iter().all(|k| matches!(k, TaskKind::Search { .. })),
+        "{out:?}"
+    );
+    assert!(tasks(&out).is_empty(), "nobody else is sent: {out:?}");
+    assert!(
+        i.decisions()
+            .any(|d| d.text.starts_with("withdraw b from fire f1: goal 'g1'"))
+    );
+    assert!(tasks(&i.tick(3.0)).is_empty());
+}
+
+#[test]
+fn evacuate_sends_units_out_of_the_zone_now() {
+    let mut i = zoned();
+    i.on_state(state("b", 55.0, None), 0.5).unwrap();
+    let (_, out) = submit(&mut i, goal("g1", "z1", GoalKind::Evacuate, 0, None), 1.0);
+    let b = kinds_for(&out, "b");
+    assert_eq!(
+        b,
+        [TaskKind::Cruise {
+            goal: Point2::new(45.0, -2.0)
+        }],
+        "{out:?}"
+    );
+    // The order stands: no repeat on the next tick.
+    assert!(all_tasks(&i.tick(2.0)).is_empty());
+}
+
+#[test]
+fn a_priority_zone_s_fire_is_served_first() {
+    let mut i = zoned();
+    i.on_alive(&u("b"), false, 0.5).unwrap();
+    submit(&mut i, goal("g1", "z2", GoalKind::Extinguish, 2, None), 0.6);
+    let mut r = report("a", 60.0);
+    r.observations.push(FlameObservation {
+        position: Point2::new(170.0, 1.0),
+        cov: [0.2, 0.0, 0.2],
+        confidence: 0.9,
+        hrr_kw: None,
+    });
+    let out = i.on_report(&r, 1.0).unwrap();
+    let t = tasks(&out);
+    assert_eq!(t.len(), 1);
+    assert!(
+        matches!(t[0].kind, TaskKind::Extinguish { target, .. } if target.x > 150.0),
+        "{t:?}"
+    );
+}
+
+#[test]
+fn under_contain_reserves_hold_the_line() {
+    let mut i = zoned();
+    submit(
+        &mut i,
+        goal("g1", "z2", GoalKind::Contain, 0, Some(110.0)),
+        0.5,
+    );
+    let out = i.on_report(&report("a", 150.0), 1.0).unwrap();
+    let a = kinds_for(&out, "a");
+    assert_eq!(
+        a,
+        [TaskKind::Cruise {
+            goal: Point2::new(110.0, -2.5)
+        }],
+        "{out:?}"
+    );
+}
+
+#[test]
+fn a_rejected_goal_changes_nothing() {
+    let mut i = zoned();
+    let (ack, out) = submit(&mut i, goal("g1", "z9", GoalKind::KeepOut, 0, None), 0.5);
+    assert!(!ack.accepted && ack.reason.contains("unknown zone 'z9'"));
+    assert!(out.is_empty());
+    assert_eq!(i.goals().count(), 0);
+    assert!(
+        i.decisions()
+            .any(|d| d.text.contains("rejected: unknown zone 'z9'"))
+    );
+    assert_eq!(
+        tasks(&i.on_report(&report("a", 60.0), 1.0).unwrap()).len(),
+        1
+    );
+}

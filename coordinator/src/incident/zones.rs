@@ -1,0 +1,116 @@
+//! Commanders' zone goals as the incident applies them: goals taken or refused, and what
+//! goals in force mean for units already at work (withdrawn from fires they may no longer
+//! attack, sent out of zones they may not be in).
+//!
+//! Which goal governs where is [`crate::goals`]' business; this module only acts on it.
+
+use firefleet_protocol::msg::{FireState, GoalAck, TaskKind, ZoneGoal};
+use firefleet_protocol::{Chainage, Point2, UnitId, ZoneId};
+
+use crate::assign::Mobility;
+use crate::goals::Active;
+
+use super::{Incident, Output};
+
+impl Incident {
+    /// A commander's goal arrived on zone `key_zone`'s key: the acknowledgement, and the
+    /// decisions it leads to when accepted.
+    pub fn on_goal(&mut self, key_zone: &ZoneId, goal: ZoneGoal, t: f64) -> (GoalAck, Vec<Output>) {
+        let text = format!(
+            "goal '{}' ({:?}, priority {}) on zone {} from '{}'",
+            goal.id, goal.goal, goal.priority, goal.zone, goal.issued_by
+        );
+        let ack = self.goals.submit(key_zone, goal, t);
+        if ack.accepted {
+            self.log(t, format!("{text}: {}", ack.reason));
+            (ack, self.enforce(t))
+        } else {
+            self.log(t, format!("{text} rejected: {}", ack.reason));
+            (ack, Vec::new())
+        }
+    }
+
+    /// Every goal on `zone` withdrawn by a commander.
+    pub fn clear_goals(&mut self, zone: &ZoneId, t: f64) -> Vec<Output> {
+        for g in self.goals.clear(zone) {
+            self.log(t, format!("goal '{}' on zone {zone} cleared", g.id));
+        }
+        self.enforce(t)
+    }
+
+    /// The goals in force.
+    pub fn goals(&self) -> impl Iterator<Item = &ZoneGoal> {
+        self.goals.active().iter().map(|a| &a.goal)
+    }
+
+    /// The goal governing where `p` is.
+    pub(super) fn goal_at(&self, p: Point2) -> Option<&Active> {
+        self.goals.at(self.tunnel.chainage(p))
+    }
+
+    /// Whether a goal bars attacking a fire at `p`.
+    pub(super) fn attack_barred_at(&self, p: Point2) -> bool {
+        self.goal_at(p).is_some_and(|g| g.bars_attack())
+    }
+
+    /// Apply the goals in force to the units: withdraw units from fires they may no longer
+    /// attack, move units out of zones they may not be in, then re-solve.
+    pub(super) fn enforce(&mut self, t: f64) -> Vec<Output> {
+        let mut out = Vec::new();
+        let units: Vec<UnitId> = self.units.keys().cloned().collect();
+        for u in units {
+            let v = &self.units[&u];
+            if !v.alive {
+                continue;
+            }
+            if let Some(fire) = v.working_on()
+                && let Some(f) = self.fusion.get(self.fusion.resolve(fire))
+                && let Some(g) = self.goal_at(f.position())
+                && g.bars_attack()
+            {
+                let text = format!(
+                    "withdraw {u} from fire {fire}: goal '{}' ({:?}) on zone {}",
+                    g.goal.id, g.goal.goal, g.goal.zone
+                );
+                self.log(t, text);
+                if let Some(f) = self.fusion.get_mut(fire) {
+                    f.state = FireState::Confirmed;
+                }
+                out.push(self.standby(&u, t));
+            }
+            let v = &self.units[&u];
+            let (Some(st), Mobility::Ground { .. }) = (&v.state, v.mobility) else {
+                continue;
+            };
+            let at = self.tunnel.station(st.pose.position());
+            let Some(g) = self.goals.at(at.s).filter(|g| g.bars_entry()) else {
+                continue;
+            };
+            let (id, zone) = (g.goal.id.clone(), g.goal.zone.clone());
+            let Some(x) = self.goals.nearest_allowed(
+                at.s,
+                self.policy.evacuate_margin_m,
+                Chainage::new(1.0),
+                self.tunnel.end() - 1.0,
+            ) else {
+                self.log(
+                    t,
+                    format!("{u} cannot leave zone {zone}: no chainage outside it"),
+                );
+                continue;
+            };
+            let goal = self.tunnel.point_at(x, at.d);
+            if matches!(v.task.as_ref().map(|t| t.kind), Some(TaskKind::Cruise { goal: g }) if g.dist(goal) < 1.0)
+            {
+                continue;
+            }
+            out.push(self.give(&u, TaskKind::Cruise { goal }, t));
+            self.log(
+                t,
+                format!("evacuate {u} from zone {zone} to chainage {x:.1}: goal '{id}'"),
+            );
+        }
+        out.extend(self.solve(t));
+        out
+    }
+}
