@@ -196,7 +196,7 @@ pub async fn run(
             }
         };
         for d in incident.take_decisions() {
-            bus.put(&keys.key(&Topic::CoordLog), &d).await?;
+            bus.put(&keys.key(&Topic::CoordLog), &d.to_msg()).await?;
         }
         match outputs {
             Ok(outputs) => publish(bus, outputs).await?,

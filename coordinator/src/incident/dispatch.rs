@@ -13,7 +13,7 @@ use firefleet_protocol::{FireId, Point2, UnitId};
 use crate::assign::{Candidate, Mobility, Need, Pick, Place, Roads, Site, attackers_needed};
 use crate::fusion::Fire;
 
-use super::{Incident, Output, Scope};
+use super::{Decision, Incident, Output, Scope};
 
 impl Incident {
     /// Fire `f` as a need for a unit, with its zone's priority; `None` if a goal bars
@@ -83,22 +83,26 @@ impl Incident {
                 .zip(to)
                 .and_then(|(a, b)| v.mobility.travel_s(a, b))
                 .unwrap_or(f64::INFINITY);
-            let taken = format!(
-                "{} gets there in {:.1} s, {unit} in about {away:.1} s",
-                taker.unit, taker.cost_s
-            );
             let wanted = self.policy.units_per_fire.max(attackers_needed(
                 self.fusion.get(fire).and_then(|f| f.hrr_kw()),
                 GROUND.cannon_flow_l_s,
             ));
-            if away <= self.policy.help_within_s && self.assigned_to(fire).len() <= wanted {
+            let as_backup =
+                away <= self.policy.help_within_s && self.assigned_to(fire).len() <= wanted;
+            self.log(
+                t,
+                Decision::Relieved {
+                    unit: unit.clone(),
+                    fire,
+                    by: taker.unit.clone(),
+                    by_s: taker.cost_s,
+                    own_s: away,
+                    as_backup,
+                },
+            );
+            if as_backup {
                 self.units.get_mut(&unit).expect("known unit").backup = true;
-                self.log(
-                    t,
-                    format!("{unit} stays on fire {fire} as a backup: {taken}"),
-                );
             } else {
-                self.log(t, format!("release {unit} from fire {fire}: {taken}"));
                 out.push(self.standby(&unit, t));
             }
         }
@@ -214,7 +218,6 @@ impl Incident {
     /// Give `p.unit` the task of putting out `p.fire` (as its second attacker if `backup`),
     /// logging the decision.
     pub(super) fn dispatch(&mut self, p: &Pick, t: f64, backup: bool) -> Vec<Output> {
-        let verb = if backup { "send backup" } else { "assign" };
         if self.failed.contains_key(&(p.unit.clone(), p.fire)) {
             return Vec::new();
         }
@@ -224,7 +227,13 @@ impl Incident {
             // attacker becomes it.
             if view.backup && !backup {
                 view.backup = false;
-                self.log(t, format!("backup {} takes fire {} over", p.unit, p.fire));
+                self.log(
+                    t,
+                    Decision::BackupTakesOver {
+                        unit: p.unit.clone(),
+                        fire: p.fire,
+                    },
+                );
             }
             return Vec::new();
         }
@@ -236,12 +245,16 @@ impl Incident {
         }
         let target = fire.position();
         if let Some(old) = self.units[&p.unit].working_on() {
-            let why = if self.units[&p.unit].backup {
-                ", where it was a backup".to_owned()
-            } else {
-                format!(" for fire {}, where it does more", p.fire)
-            };
-            self.log(t, format!("{} leaves fire {old}{why}", p.unit));
+            let was_backup = self.units[&p.unit].backup;
+            self.log(
+                t,
+                Decision::Leaves {
+                    unit: p.unit.clone(),
+                    from: old,
+                    to: p.fire,
+                    was_backup,
+                },
+            );
         }
         let task = self.give(
             &p.unit,
@@ -255,16 +268,15 @@ impl Incident {
             .get_mut(&p.unit)
             .expect("candidate is known")
             .backup = backup;
-        let runner_up = match &p.runner_up {
-            Some((u, c)) => format!("runner-up {u} at {c:.1} s"),
-            None => "no other free unit".to_owned(),
-        };
         self.log(
             t,
-            format!(
-                "{verb} {} to fire {}: cost {:.1} s; {runner_up}",
-                p.unit, p.fire, p.cost_s
-            ),
+            Decision::Assign {
+                unit: p.unit.clone(),
+                fire: p.fire,
+                backup,
+                cost_s: p.cost_s,
+                runner_up: p.runner_up.clone(),
+            },
         );
         vec![task, Output::Fire(self.track(p.fire, t))]
     }

@@ -12,7 +12,7 @@ use firefleet_protocol::{FireId, UnitId};
 
 use crate::fusion::Fused;
 
-use super::{Incident, Output, Scope};
+use super::{Decision, Incident, Loss, Output, Scope};
 
 impl Incident {
     /// A unit's liveliness token appeared or vanished.
@@ -23,31 +23,32 @@ impl Incident {
         if alive {
             v.last_heard = t;
             if !was {
-                self.log(t, format!("unit {unit} joined"));
+                self.log(t, Decision::Joined { unit: unit.clone() });
             }
             return Ok(self.solve(t));
         }
         if !was {
             return Ok(Vec::new());
         }
-        Ok(self.lose(unit, t, "its liveliness token vanished"))
+        Ok(self.lose(unit, t, Loss::TokenVanished))
     }
 
-    pub(super) fn lose(&mut self, unit: &UnitId, t: f64, why: &str) -> Vec<Output> {
+    pub(super) fn lose(&mut self, unit: &UnitId, t: f64, why: Loss) -> Vec<Output> {
         let v = self.units.get_mut(unit).expect("known unit");
         v.alive = false;
         let fire = v.working_on();
         v.task = None;
         let mut out = Vec::new();
-        match fire {
-            Some(f) => {
-                self.log(
-                    t,
-                    format!("unit {unit} lost ({why}); fire {f} needs a new unit"),
-                );
-                out.extend(self.release(f, t));
-            }
-            None => self.log(t, format!("unit {unit} lost ({why})")),
+        self.log(
+            t,
+            Decision::Lost {
+                unit: unit.clone(),
+                why,
+                fire,
+            },
+        );
+        if let Some(f) = fire {
+            out.extend(self.release(f, t));
         }
         out.extend(self.solve(t));
         out
@@ -80,18 +81,11 @@ impl Incident {
                 continue;
             }
             if self.fusion.restore(track) {
-                let seen_by: Vec<&str> = track.seen_by.iter().map(|u| u.as_str()).collect();
                 self.log(
                     t,
-                    format!(
-                        "recall fire {} at ({:.1}, {:.1}), {:?} at t = {:.1} s, seen by [{}]: tracked before this coordinator started",
-                        track.id,
-                        track.position.x,
-                        track.position.y,
-                        track.state,
-                        track.t,
-                        seen_by.join(", ")
-                    ),
+                    Decision::Recall {
+                        track: track.clone(),
+                    },
                 );
             }
         }
@@ -140,7 +134,13 @@ impl Incident {
                         f.state = FireState::Out;
                         f.out_at = Some(t);
                     }
-                    self.log(t, format!("fire {fire} out, reported by {unit}"));
+                    self.log(
+                        t,
+                        Decision::FireOut {
+                            fire,
+                            by: unit.clone(),
+                        },
+                    );
                     out.push(Output::Fire(self.track(fire, t)));
                     // Everyone on that fire is free again (after a merge, more than one).
                     let mut free = self.assigned_to(fire);
@@ -155,7 +155,13 @@ impl Incident {
                     relevant = true;
                     self.failed
                         .insert((unit.clone(), fire), t + self.policy.retry_after_s);
-                    self.log(t, format!("unit {unit} gave up fire {fire}"));
+                    self.log(
+                        t,
+                        Decision::GaveUp {
+                            unit: unit.clone(),
+                            fire,
+                        },
+                    );
                     out.extend(self.release(fire, t));
                     out.push(self.standby(&unit, t));
                 }
@@ -214,10 +220,12 @@ impl Incident {
         self.units.get_mut(unit).expect("known unit").task = Some(task);
         self.log(
             t,
-            format!(
-                "adopt {unit}'s task {} on fire {fire} at ({:.1}, {:.1}): given before this coordinator started",
-                p.seq, p.target.x, p.target.y
-            ),
+            Decision::Adopt {
+                unit: unit.clone(),
+                seq: p.seq,
+                fire,
+                target: p.target,
+            },
         );
         vec![Output::Fire(self.track(fire, t))]
     }
@@ -236,15 +244,15 @@ impl Incident {
                 Fused::Confirmed(id) => {
                     self.log(
                         t,
-                        format!(
-                            "fire {id} confirmed at ({:.1}, {:.1})",
-                            o.position.x, o.position.y
-                        ),
+                        Decision::Confirmed {
+                            fire: id,
+                            at: o.position,
+                        },
                     );
                     out.push(Output::Fire(self.track(id, t)));
                 }
                 Fused::Reignited(id) => {
-                    self.log(t, format!("fire {id} reignited"));
+                    self.log(t, Decision::Reignited { fire: id });
                     out.push(Output::Fire(self.track(id, t)));
                 }
             }
@@ -252,10 +260,10 @@ impl Incident {
         for m in self.fusion.merge_duplicates() {
             self.log(
                 t,
-                format!(
-                    "fire {} is fire {} seen again: merged",
-                    m.removed.id, m.kept
-                ),
+                Decision::Merged {
+                    removed: m.removed.id,
+                    kept: m.kept,
+                },
             );
             let mut gone = m.removed.to_track(t, Vec::new());
             gone.state = FireState::Lost;
@@ -276,18 +284,21 @@ impl Incident {
             .collect();
         let mut out = Vec::new();
         for u in silent {
-            out.extend(self.lose(&u, t, "silent beyond its lease"));
+            out.extend(self.lose(&u, t, Loss::Silent));
         }
         for id in self.fusion.expire(t) {
-            self.log(
-                t,
-                format!("fire {id} lost: unseen for a minute and unattended"),
-            );
+            self.log(t, Decision::FireLost { fire: id });
             out.push(Output::Fire(self.track(id, t)));
         }
         self.failed.retain(|_, until| *until > t);
         for g in self.goals.expire(t) {
-            self.log(t, format!("goal '{}' on zone {} expired", g.id, g.zone));
+            self.log(
+                t,
+                Decision::GoalExpired {
+                    zone: g.zone,
+                    goal: g.id,
+                },
+            );
         }
         out.extend(self.enforce(t));
         // Units move and look between events: searches end, searchers change, and a unit

@@ -7,7 +7,7 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use firefleet_protocol::msg::{
-    Decision, FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitKind, UnitState, UnitStatus,
+    FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitKind, UnitState, UnitStatus,
 };
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::{GROUND, MONORAIL};
@@ -20,6 +20,7 @@ use crate::fusion::Fusion;
 use crate::goals::Goals;
 use crate::roads::RoadMap;
 
+mod decision;
 mod dispatch;
 mod events;
 mod policy;
@@ -27,6 +28,7 @@ mod search;
 mod staging;
 mod zones;
 
+pub use decision::{Decision, Logged, Loss};
 pub use policy::Policy;
 
 /// How many decisions the incident remembers for status queries.
@@ -102,9 +104,9 @@ pub struct Incident {
     strategy: Strategy,
     /// (unit, fire) pairs that failed, and until when not to retry them.
     failed: BTreeMap<(UnitId, FireId), f64>,
-    decisions: VecDeque<Decision>,
+    decisions: VecDeque<Logged>,
     /// Decisions not yet handed out for publication.
-    unpublished: Vec<Decision>,
+    unpublished: Vec<Logged>,
     goals: Goals,
     policy: Policy,
     /// Driving distances to fires; straight lines without (an incident built without a
@@ -177,12 +179,12 @@ impl Incident {
         incident
     }
 
-    fn log(&mut self, t: f64, text: String) {
-        tracing::info!(t, "{text}");
+    fn log(&mut self, t: f64, decision: Decision) {
+        tracing::info!(t, "{decision}");
         if self.decisions.len() == DECISION_LOG {
             self.decisions.pop_front();
         }
-        let d = Decision { t, text };
+        let d = Logged { t, decision };
         self.unpublished.push(d.clone());
         self.decisions.push_back(d);
     }
@@ -197,7 +199,7 @@ impl Incident {
     }
 
     /// Decisions made since the last call, for the bus (and so the recording).
-    pub fn take_decisions(&mut self) -> Vec<Decision> {
+    pub fn take_decisions(&mut self) -> Vec<Logged> {
         std::mem::take(&mut self.unpublished)
     }
 
@@ -258,7 +260,7 @@ impl Incident {
             .collect()
     }
 
-    pub fn decisions(&self) -> impl Iterator<Item = &Decision> {
+    pub fn decisions(&self) -> impl Iterator<Item = &Logged> {
         self.decisions.iter()
     }
 
@@ -278,7 +280,13 @@ impl Incident {
                 })
                 .collect(),
             fires: self.fire_tracks(t),
-            decisions: self.decisions.iter().rev().take(20).cloned().collect(),
+            decisions: self
+                .decisions
+                .iter()
+                .rev()
+                .take(20)
+                .map(Logged::to_msg)
+                .collect(),
             goals: self.goals().cloned().collect(),
             rejected: Default::default(),
         }

@@ -12,7 +12,7 @@ use firefleet_protocol::{Chainage, Point2, Pose2, UnitId};
 
 use crate::assign::Mobility;
 
-use super::{Incident, Output};
+use super::{Decision, Incident, Output};
 
 impl Incident {
     /// The chainages a unit's sensors take in where it stands: a ground unit's camera
@@ -132,10 +132,12 @@ impl Incident {
             out.push(self.give(&c.unit, TaskKind::Search { goal }, t));
             self.log(
                 t,
-                format!(
-                    "send {} searching the unseen stretch {a:.0}-{b:.0} m, to ({:.1}, {:.1})",
-                    c.unit, goal.x, goal.y
-                ),
+                Decision::Search {
+                    unit: c.unit.clone(),
+                    from: a,
+                    to: b,
+                    goal,
+                },
             );
         }
         (out, searching)
@@ -192,10 +194,7 @@ impl Incident {
         let mut out = Vec::new();
         for (unit, goal) in runs {
             out.push(self.give(&unit, TaskKind::Search { goal }, t));
-            self.log(
-                t,
-                format!("send {unit} searching along its rail to {:.0} m", goal.x),
-            );
+            self.log(t, Decision::SearchRail { unit, to: goal });
         }
         out
     }

@@ -11,7 +11,7 @@ use firefleet_protocol::{Chainage, FireId, Point2, UnitId};
 
 use crate::assign::Mobility;
 
-use super::{Incident, Output};
+use super::{Decision, Incident, Output};
 
 impl Incident {
     /// Free units (but the `searching`) wait [`Policy::stage_offset_m`] short of the nearest
@@ -123,13 +123,7 @@ impl Incident {
                 (Some((_, g)), Some(TaskKind::Cruise { goal })) if goal.dist(g) < 3.0 => {}
                 (Some((fire, g)), _) => {
                     out.push(self.give(&unit, TaskKind::Cruise { goal: g }, t));
-                    self.log(
-                        t,
-                        format!(
-                            "stage {unit} at ({:.1}, {:.1}), in reserve for fire {fire}",
-                            g.x, g.y
-                        ),
-                    );
+                    self.log(t, Decision::Stage { unit, at: g, fire });
                 }
                 (None, current) if left_burning => {
                     // Search the rest of the tunnel, away from where the unit came in.
@@ -149,14 +143,11 @@ impl Incident {
                         continue;
                     }
                     out.push(self.give(&unit, TaskKind::Search { goal: g }, t));
-                    self.log(
-                        t,
-                        format!("send {unit} on to search past the fires left burning, to ({:.1}, {:.1})", g.x, g.y),
-                    );
+                    self.log(t, Decision::SearchOn { unit, goal: g });
                 }
                 (None, Some(TaskKind::Cruise { .. } | TaskKind::Search { .. })) => {
-                    self.log(t, format!("release {unit} to patrol: no active fire"));
                     out.push(self.standby(&unit, t));
+                    self.log(t, Decision::ReleaseToPatrol { unit });
                 }
                 (None, _) => {}
             }

@@ -10,22 +10,24 @@ use firefleet_protocol::{Chainage, Point2, UnitId, ZoneId};
 use crate::assign::Mobility;
 use crate::goals::Active;
 
-use super::{Incident, Output};
+use super::{Decision, Incident, Output};
 
 impl Incident {
     /// A commander's goal arrived on zone `key_zone`'s key: the acknowledgement, and the
     /// decisions it leads to when accepted.
     pub fn on_goal(&mut self, key_zone: &ZoneId, goal: ZoneGoal, t: f64) -> (GoalAck, Vec<Output>) {
-        let text = format!(
-            "goal '{}' ({:?}, priority {}) on zone {} from '{}'",
-            goal.id, goal.goal, goal.priority, goal.zone, goal.issued_by
+        let ack = self.goals.submit(key_zone, goal.clone(), t);
+        self.log(
+            t,
+            Decision::Goal {
+                goal,
+                accepted: ack.accepted,
+                reason: ack.reason.clone(),
+            },
         );
-        let ack = self.goals.submit(key_zone, goal, t);
         if ack.accepted {
-            self.log(t, format!("{text}: {}", ack.reason));
             (ack, self.enforce(t))
         } else {
-            self.log(t, format!("{text} rejected: {}", ack.reason));
             (ack, Vec::new())
         }
     }
@@ -33,7 +35,13 @@ impl Incident {
     /// Every goal on `zone` withdrawn by a commander.
     pub fn clear_goals(&mut self, zone: &ZoneId, t: f64) -> Vec<Output> {
         for g in self.goals.clear(zone) {
-            self.log(t, format!("goal '{}' on zone {zone} cleared", g.id));
+            self.log(
+                t,
+                Decision::GoalCleared {
+                    zone: zone.clone(),
+                    goal: g.id,
+                },
+            );
         }
         self.enforce(t)
     }
@@ -68,11 +76,14 @@ impl Incident {
                 && let Some(g) = self.goal_at(f.position())
                 && g.bars_attack()
             {
-                let text = format!(
-                    "withdraw {u} from fire {fire}: goal '{}' ({:?}) on zone {}",
-                    g.goal.id, g.goal.goal, g.goal.zone
-                );
-                self.log(t, text);
+                let d = Decision::Withdraw {
+                    unit: u.clone(),
+                    fire,
+                    goal: g.goal.id.clone(),
+                    kind: g.goal.goal,
+                    zone: g.goal.zone.clone(),
+                };
+                self.log(t, d);
                 if let Some(f) = self.fusion.get_mut(fire) {
                     f.state = FireState::Confirmed;
                 }
@@ -93,10 +104,7 @@ impl Incident {
                 Chainage::new(1.0),
                 self.tunnel.end() - 1.0,
             ) else {
-                self.log(
-                    t,
-                    format!("{u} cannot leave zone {zone}: no chainage outside it"),
-                );
+                self.log(t, Decision::Trapped { unit: u, zone });
                 continue;
             };
             let goal = self.tunnel.point_at(x, at.d);
@@ -107,7 +115,12 @@ impl Incident {
             out.push(self.give(&u, TaskKind::Cruise { goal }, t));
             self.log(
                 t,
-                format!("evacuate {u} from zone {zone} to chainage {x:.1}: goal '{id}'"),
+                Decision::Evacuate {
+                    unit: u,
+                    zone,
+                    to: x,
+                    goal: id,
+                },
             );
         }
         out.extend(self.solve(t));

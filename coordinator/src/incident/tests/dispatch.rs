@@ -24,10 +24,11 @@ fn a_confirmed_fire_goes_to_the_nearest_free_unit() {
     assert_eq!(t.len(), 1);
     assert_eq!(t[0].unit.as_str(), "b");
     assert!(matches!(t[0].kind, TaskKind::Extinguish { .. }));
-    assert!(
-        i.decisions()
-            .any(|d| d.text.starts_with("assign b to fire f1") && d.text.contains("runner-up a"))
-    );
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Assign { unit, fire: F1, backup: false, runner_up: Some((r, _)), .. }
+            if unit == "b" && r == "a"
+    )));
 }
 
 #[test]
@@ -68,20 +69,20 @@ fn a_second_free_unit_backs_up_and_leaves_for_a_fire_nobody_attacks() {
     let t = tasks(&out);
     assert_eq!(t.len(), 2, "{out:?}");
     assert_eq!((t[0].unit.as_str(), t[1].unit.as_str()), ("b", "a"));
-    assert!(
-        i.decisions()
-            .any(|d| d.text.starts_with("send backup a to fire f1"))
-    );
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Assign { unit, fire: F1, backup: true, .. } if unit == "a"
+    )));
     // A new fire, nobody on it: the backup (still on its way) takes it.
     let out = i.on_report(&report("b", 150.0), 2.0).unwrap();
     let t = tasks(&out);
     assert_eq!(t.len(), 1, "{out:?}");
     assert_eq!(t[0].unit.as_str(), "a");
     assert!(matches!(t[0].kind, TaskKind::Extinguish { target, .. } if target.x > 100.0));
-    assert!(
-        i.decisions()
-            .any(|d| d.text == "a leaves fire f1, where it was a backup")
-    );
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Leaves { unit, from: F1, was_backup: true, .. } if unit == "a"
+    )));
 }
 
 /// Unit b at `x`, out of order.
@@ -103,10 +104,10 @@ fn a_unit_come_free_near_a_fire_takes_it_over_from_one_far_away() {
     assert_eq!(tasks(&out).len(), 1, "{out:?}");
     assert_eq!(tasks(&out)[0].unit.as_str(), "b");
     assert_eq!(kinds_for(&out, "a"), vec![TaskKind::Standby]);
-    assert!(i.decisions().any(|d| {
-        d.text
-            .starts_with("release a from fire f1: b gets there in")
-    }));
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Relieved { unit, fire: F1, by, as_backup: false, .. } if unit == "a" && by == "b"
+    )));
     assert!(all_tasks(&i.solve(3.0)).is_empty(), "settled");
 }
 
@@ -126,14 +127,14 @@ fn a_unit_on_its_way_keeps_its_fire_against_a_marginal_gain_and_stays_as_backup_
     let out = i.tick(4.0);
     assert!(all_tasks(&out).is_empty(), "{out:?}");
     assert!(i.units[&u("a")].backup && !i.units[&u("b")].backup);
-    assert!(
-        i.decisions()
-            .any(|d| d.text == "backup b takes fire f1 over")
-    );
-    assert!(
-        i.decisions()
-            .any(|d| d.text.starts_with("a stays on fire f1 as a backup"))
-    );
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::BackupTakesOver { unit, fire: F1 } if unit == "b"
+    )));
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Relieved { unit, fire: F1, as_backup: true, .. } if unit == "a"
+    )));
 }
 
 #[test]

@@ -68,10 +68,10 @@ fn a_restarted_coordinator_adopts_running_tasks_and_numbers_new_ones_above_them(
         all_tasks(&out).iter().all(|t| t.unit.as_str() != "a"),
         "a keeps its task: {out:?}"
     );
-    assert!(
-        i.decisions()
-            .any(|d| d.text.starts_with("adopt a's task 70000"))
-    );
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Adopt { unit, seq: 70000, .. } if unit == "a"
+    )));
     // The fire, reported again, is a's: nobody else is sent.
     let out = i.on_report(&report("b", 60.0), 2.0).unwrap();
     assert!(tasks(&out).is_empty(), "{out:?}");
@@ -127,7 +127,7 @@ fn a_restarted_coordinator_recalls_recorded_fires_under_their_ids() {
     assert_eq!(ids, [FireId(4), FireId(9)]);
     assert_eq!(
         i.decisions()
-            .filter(|d| d.text.starts_with("recall fire"))
+            .filter(|d| matches!(d.decision, Decision::Recall { .. }))
             .count(),
         2
     );

@@ -172,3 +172,11 @@ fn goal(
 fn submit(i: &mut Incident, (zone, g): (ZoneId, ZoneGoal), t: f64) -> (GoalAck, Vec<Output>) {
     i.on_goal(&zone, g, t)
 }
+
+/// The fire the first report of a test becomes.
+const F1: FireId = FireId(1);
+
+/// Whether the incident made a decision that `f` accepts.
+fn decided(i: &Incident, f: impl Fn(&Decision) -> bool) -> bool {
+    i.decisions().any(|d| f(&d.decision))
+}

@@ -29,10 +29,10 @@ fn a_monitor_goal_withdraws_the_unit_and_leaves_the_fire_burning() {
         "{out:?}"
     );
     assert!(tasks(&out).is_empty(), "nobody else is sent: {out:?}");
-    assert!(
-        i.decisions()
-            .any(|d| d.text.starts_with("withdraw b from fire f1: goal 'g1'"))
-    );
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Withdraw { unit, fire: F1, goal, .. } if unit == "b" && goal == "g1"
+    )));
     assert!(tasks(&i.tick(3.0)).is_empty());
 }
 
@@ -100,10 +100,10 @@ fn a_rejected_goal_changes_nothing() {
     assert!(!ack.accepted && ack.reason.contains("unknown zone 'z9'"));
     assert!(out.is_empty());
     assert_eq!(i.goals().count(), 0);
-    assert!(
-        i.decisions()
-            .any(|d| d.text.contains("rejected: unknown zone 'z9'"))
-    );
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Goal { accepted: false, reason, .. } if reason.starts_with("unknown zone 'z9'")
+    )));
     assert_eq!(
         tasks(&i.on_report(&report("a", 60.0), 1.0).unwrap()).len(),
         1

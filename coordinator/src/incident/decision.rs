@@ -1,0 +1,354 @@
+//! The incident's decisions as data: what it decided, about whom, and why, in fields a
+//! test or a checker can match on. Text is made only at the edges (the log, the status
+//! snapshot, the `coord/log` messages the recorder keeps), through `Display`.
+//!
+//! Not here: deciding. Each variant is raised by the module that makes that decision.
+
+use std::fmt;
+
+use firefleet_protocol::msg::{self, FireTrack, GoalKind, ZoneGoal};
+use firefleet_protocol::{Chainage, FireId, Point2, UnitId, ZoneId};
+
+/// Why a unit counts as lost.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Loss {
+    /// Its liveliness token vanished: the process or its link is gone.
+    TokenVanished,
+    /// Nothing heard from it for longer than its lease.
+    Silent,
+}
+
+impl fmt::Display for Loss {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Loss::TokenVanished => "its liveliness token vanished",
+            Loss::Silent => "silent beyond its lease",
+        })
+    }
+}
+
+/// One decision of the incident.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Decision {
+    /// A commander's goal, taken (`accepted`) or refused, with the reason.
+    Goal {
+        goal: ZoneGoal,
+        accepted: bool,
+        reason: String,
+    },
+    /// A commander cleared a zone's goals; this one of them.
+    GoalCleared {
+        zone: ZoneId,
+        goal: String,
+    },
+    GoalExpired {
+        zone: ZoneId,
+        goal: String,
+    },
+    /// A goal bars attacking the fire the unit was on.
+    Withdraw {
+        unit: UnitId,
+        fire: FireId,
+        goal: String,
+        kind: GoalKind,
+        zone: ZoneId,
+    },
+    /// The unit is inside a zone it may not be in, and no chainage is free to send it to.
+    Trapped {
+        unit: UnitId,
+        zone: ZoneId,
+    },
+    Evacuate {
+        unit: UnitId,
+        zone: ZoneId,
+        to: Chainage,
+        goal: String,
+    },
+    Joined {
+        unit: UnitId,
+    },
+    /// A unit is lost; the fire it was on, if any, needs another.
+    Lost {
+        unit: UnitId,
+        why: Loss,
+        fire: Option<FireId>,
+    },
+    /// A track a previous coordinator published, taken back after a restart.
+    Recall {
+        track: FireTrack,
+    },
+    FireOut {
+        fire: FireId,
+        by: UnitId,
+    },
+    GaveUp {
+        unit: UnitId,
+        fire: FireId,
+    },
+    /// A unit's task given before a restart, taken over.
+    Adopt {
+        unit: UnitId,
+        seq: u64,
+        fire: FireId,
+        target: Point2,
+    },
+    Confirmed {
+        fire: FireId,
+        at: Point2,
+    },
+    Reignited {
+        fire: FireId,
+    },
+    /// Two tracks are one fire: `removed` is now `kept`.
+    Merged {
+        removed: FireId,
+        kept: FireId,
+    },
+    /// Unseen for a minute and unattended.
+    FireLost {
+        fire: FireId,
+    },
+    /// A ground unit sent to search the unseen stretch `from`-`to`.
+    Search {
+        unit: UnitId,
+        from: Chainage,
+        to: Chainage,
+        goal: Point2,
+    },
+    SearchRail {
+        unit: UnitId,
+        to: Point2,
+    },
+    /// A free unit waits short of a fire, in reserve.
+    Stage {
+        unit: UnitId,
+        at: Point2,
+        fire: FireId,
+    },
+    /// Past fires a goal leaves burning, a free unit searches on.
+    SearchOn {
+        unit: UnitId,
+        goal: Point2,
+    },
+    ReleaseToPatrol {
+        unit: UnitId,
+    },
+    /// Another unit takes `fire` because it gets there sooner; `unit` stays on as its
+    /// backup (`as_backup`) or is released.
+    Relieved {
+        unit: UnitId,
+        fire: FireId,
+        by: UnitId,
+        by_s: f64,
+        own_s: f64,
+        as_backup: bool,
+    },
+    BackupTakesOver {
+        unit: UnitId,
+        fire: FireId,
+    },
+    /// A unit on its way to `from` goes to `to` instead (`was_backup`: it was a spare hand
+    /// there).
+    Leaves {
+        unit: UnitId,
+        from: FireId,
+        to: FireId,
+        was_backup: bool,
+    },
+    /// A unit sent to a fire (as its first attacker, or as a `backup`), with its cost and
+    /// the next best unit's.
+    Assign {
+        unit: UnitId,
+        fire: FireId,
+        backup: bool,
+        cost_s: f64,
+        runner_up: Option<(UnitId, f64)>,
+    },
+}
+
+impl fmt::Display for Decision {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Decision::Goal {
+                goal: g,
+                accepted,
+                reason,
+            } => {
+                write!(
+                    f,
+                    "goal '{}' ({:?}, priority {}) on zone {} from '{}'",
+                    g.id, g.goal, g.priority, g.zone, g.issued_by
+                )?;
+                if *accepted {
+                    write!(f, ": {reason}")
+                } else {
+                    write!(f, " rejected: {reason}")
+                }
+            }
+            Decision::GoalCleared { zone, goal } => {
+                write!(f, "goal '{goal}' on zone {zone} cleared")
+            }
+            Decision::GoalExpired { zone, goal } => {
+                write!(f, "goal '{goal}' on zone {zone} expired")
+            }
+            Decision::Withdraw {
+                unit,
+                fire,
+                goal,
+                kind,
+                zone,
+            } => write!(
+                f,
+                "withdraw {unit} from fire {fire}: goal '{goal}' ({kind:?}) on zone {zone}"
+            ),
+            Decision::Trapped { unit, zone } => {
+                write!(f, "{unit} cannot leave zone {zone}: no chainage outside it")
+            }
+            Decision::Evacuate {
+                unit,
+                zone,
+                to,
+                goal,
+            } => write!(
+                f,
+                "evacuate {unit} from zone {zone} to chainage {to:.1}: goal '{goal}'"
+            ),
+            Decision::Joined { unit } => write!(f, "unit {unit} joined"),
+            Decision::Lost { unit, why, fire } => {
+                write!(f, "unit {unit} lost ({why})")?;
+                match fire {
+                    Some(fire) => write!(f, "; fire {fire} needs a new unit"),
+                    None => Ok(()),
+                }
+            }
+            Decision::Recall { track } => {
+                let seen_by: Vec<&str> = track.seen_by.iter().map(|u| u.as_str()).collect();
+                write!(
+                    f,
+                    "recall fire {} at ({:.1}, {:.1}), {:?} at t = {:.1} s, seen by [{}]: tracked before this coordinator started",
+                    track.id,
+                    track.position.x,
+                    track.position.y,
+                    track.state,
+                    track.t,
+                    seen_by.join(", ")
+                )
+            }
+            Decision::FireOut { fire, by } => write!(f, "fire {fire} out, reported by {by}"),
+            Decision::GaveUp { unit, fire } => write!(f, "unit {unit} gave up fire {fire}"),
+            Decision::Adopt {
+                unit,
+                seq,
+                fire,
+                target,
+            } => write!(
+                f,
+                "adopt {unit}'s task {seq} on fire {fire} at ({:.1}, {:.1}): given before this coordinator started",
+                target.x, target.y
+            ),
+            Decision::Confirmed { fire, at } => {
+                write!(f, "fire {fire} confirmed at ({:.1}, {:.1})", at.x, at.y)
+            }
+            Decision::Reignited { fire } => write!(f, "fire {fire} reignited"),
+            Decision::Merged { removed, kept } => {
+                write!(f, "fire {removed} is fire {kept} seen again: merged")
+            }
+            Decision::FireLost { fire } => {
+                write!(f, "fire {fire} lost: unseen for a minute and unattended")
+            }
+            Decision::Search {
+                unit,
+                from,
+                to,
+                goal,
+            } => write!(
+                f,
+                "send {unit} searching the unseen stretch {from:.0}-{to:.0} m, to ({:.1}, {:.1})",
+                goal.x, goal.y
+            ),
+            Decision::SearchRail { unit, to } => {
+                write!(f, "send {unit} searching along its rail to {:.0} m", to.x)
+            }
+            Decision::Stage { unit, at, fire } => write!(
+                f,
+                "stage {unit} at ({:.1}, {:.1}), in reserve for fire {fire}",
+                at.x, at.y
+            ),
+            Decision::SearchOn { unit, goal } => write!(
+                f,
+                "send {unit} on to search past the fires left burning, to ({:.1}, {:.1})",
+                goal.x, goal.y
+            ),
+            Decision::ReleaseToPatrol { unit } => {
+                write!(f, "release {unit} to patrol: no active fire")
+            }
+            Decision::Relieved {
+                unit,
+                fire,
+                by,
+                by_s,
+                own_s,
+                as_backup,
+            } => {
+                if *as_backup {
+                    write!(f, "{unit} stays on fire {fire} as a backup")?;
+                } else {
+                    write!(f, "release {unit} from fire {fire}")?;
+                }
+                write!(
+                    f,
+                    ": {by} gets there in {by_s:.1} s, {unit} in about {own_s:.1} s"
+                )
+            }
+            Decision::BackupTakesOver { unit, fire } => {
+                write!(f, "backup {unit} takes fire {fire} over")
+            }
+            Decision::Leaves {
+                unit,
+                from,
+                to,
+                was_backup,
+            } => {
+                if *was_backup {
+                    write!(f, "{unit} leaves fire {from}, where it was a backup")
+                } else {
+                    write!(
+                        f,
+                        "{unit} leaves fire {from} for fire {to}, where it does more"
+                    )
+                }
+            }
+            Decision::Assign {
+                unit,
+                fire,
+                backup,
+                cost_s,
+                runner_up,
+            } => {
+                let verb = if *backup { "send backup" } else { "assign" };
+                write!(f, "{verb} {unit} to fire {fire}: cost {cost_s:.1} s; ")?;
+                match runner_up {
+                    Some((u, c)) => write!(f, "runner-up {u} at {c:.1} s"),
+                    None => write!(f, "no other free unit"),
+                }
+            }
+        }
+    }
+}
+
+/// A decision and the site time it was made.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Logged {
+    pub t: f64,
+    pub decision: Decision,
+}
+
+impl Logged {
+    /// The decision as the bus and the status snapshot carry it.
+    pub fn to_msg(&self) -> msg::Decision {
+        msg::Decision {
+            t: self.t,
+            text: self.decision.to_string(),
+        }
+    }
+}
