@@ -16,7 +16,6 @@ use anyhow::Context;
 use clap::Args;
 use firefleet_protocol::ZoneId;
 use firefleet_protocol::bus::{Bus, Connect};
-use firefleet_protocol::keys::{Topic, UnitLeaf};
 use firefleet_protocol::msg::{GoalAck, GoalKind, SimTruth, TruthFireState, UnitState, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Validate;
@@ -139,12 +138,8 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         .await
         .context("starting the demo's Zenoh router")?;
     let keys = bus.keys().clone();
-    let truths = bus
-        .subscribe::<SimTruth>(&keys.key(&Topic::SimTruth))
-        .await?;
-    let states = bus
-        .subscribe::<UnitState>(&keys.every_unit(UnitLeaf::State))
-        .await?;
+    let truths = bus.subscribe::<SimTruth>(&keys.sim_truth()).await?;
+    let states = bus.subscribe::<UnitState>(&keys.every_unit_state()).await?;
     let acks = bus.subscribe::<GoalAck>(&keys.every_zone_ack()).await?;
     let mut goals_to_issue = Some(goals);
 
@@ -238,7 +233,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
                 // The simulator starts once the coordinator is up: time to issue the goals.
                 for g in goals_to_issue.take().unwrap_or_default() {
                     println!("issuing goal '{}': {:?} on zone {} (priority {})", g.id, g.goal, g.zone, g.priority);
-                    bus.put(&keys.key(&Topic::ZoneGoal(g.zone.clone())), &g).await?;
+                    bus.put(&keys.zone_goal(&g.zone), &g).await?;
                 }
                 let out = truth.fires_out();
                 if truth.t >= next_print || out != last_out {

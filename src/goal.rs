@@ -10,7 +10,6 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use firefleet_protocol::ZoneId;
-use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{GoalAck, GoalKind, ZoneGoal};
 use firefleet_protocol::validate::Validate;
 
@@ -90,11 +89,11 @@ pub async fn run(cmd: GoalCommand) -> anyhow::Result<ExitCode> {
         GoalCommand::Clear(a) => {
             let scenario = scenarios::resolve(&a.common.scenario.scenario)?;
             let bus = open(&a.common.zenoh, &scenario).await?;
-            let key = bus.keys().key(&Topic::ZoneGoal(a.zone.clone()));
+            let key = bus.keys().zone_goal(&a.zone);
             bus.session()
-                .delete(&key)
+                .delete(key.as_str())
                 .await
-                .map_err(|e| anyhow::anyhow!("clearing {key}: {e}"))?;
+                .map_err(|e| anyhow::anyhow!("clearing {}: {e}", key.as_str()))?;
             println!("cleared the goals of zone {}", a.zone);
             bus.close().await;
             Ok(ExitCode::SUCCESS)
@@ -121,10 +120,9 @@ async fn set(a: SetArgs) -> anyhow::Result<ExitCode> {
         .map_err(|e| anyhow::anyhow!("the goal is not valid: {e}"))?;
     let bus = open(&a.common.zenoh, &scenario).await?;
     let acks = bus
-        .subscribe::<GoalAck>(&bus.keys().key(&Topic::ZoneAck(a.zone.clone())))
+        .subscribe::<GoalAck>(&bus.keys().zone_ack(&a.zone))
         .await?;
-    bus.put(&bus.keys().key(&Topic::ZoneGoal(a.zone.clone())), &goal)
-        .await?;
+    bus.put(&bus.keys().zone_goal(&a.zone), &goal).await?;
     let deadline = tokio::time::Instant::now() + ACK_TIMEOUT;
     let ack = loop {
         let (_, ack) = tokio::time::timeout_at(deadline, acks.recv())

@@ -184,7 +184,7 @@ pub async fn record(a: RecordArgs) -> anyhow::Result<ExitCode> {
 
 /// The coordinator's snapshot of the incident, decoded and as sent.
 pub async fn query_status(bus: &Bus) -> anyhow::Result<(IncidentStatus, Vec<u8>)> {
-    let key = bus.keys().key(&Topic::CoordStatus);
+    let key = bus.keys().expr(&Topic::CoordStatus);
     let replies = bus
         .session()
         .get(&key)

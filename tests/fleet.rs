@@ -11,7 +11,7 @@ use firefleet_protocol::msg::{
     FireState, FireTrack, FlameObservation, FlameReport, SimTruth, Task, TaskKind, TaskPhase,
     UnitState,
 };
-use firefleet_protocol::{FireId, Point2, Pose2, SiteId, UnitId};
+use firefleet_protocol::{FireId, Point2, Pose2, SiteId, UnitId, ZoneId};
 
 const BIN: &str = env!("CARGO_BIN_EXE_firefleet");
 
@@ -247,17 +247,11 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
     let near = UnitId::new("ugv-near").unwrap();
     let far = UnitId::new("ugv-far").unwrap();
     let near_state = bus
-        .subscribe::<UnitState>(&keys.key(&Topic::UnitState(near.clone())))
+        .subscribe::<UnitState>(&keys.unit_state(&near))
         .await
         .unwrap();
-    let far_tasks = bus
-        .subscribe::<Task>(&keys.key(&Topic::UnitTask(far.clone())))
-        .await
-        .unwrap();
-    let truths = bus
-        .subscribe::<SimTruth>(&keys.key(&Topic::SimTruth))
-        .await
-        .unwrap();
+    let far_tasks = bus.subscribe::<Task>(&keys.unit_task(&far)).await.unwrap();
+    let truths = bus.subscribe::<SimTruth>(&keys.sim_truth()).await.unwrap();
 
     let mut fleet = handover_fleet(&endpoint, &["coordinator", "--sim-clock", "--lease-s", "3"]);
 
@@ -279,7 +273,7 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
     .unwrap();
     // The coordinator is up (it assigned the fire). Garbage on the bus changes nothing
     // and is counted.
-    let report_key = keys.key(&Topic::UnitReport(far.clone()));
+    let report_key = keys.unit_report(&far);
     let bad_report = FlameReport {
         unit: far.clone(),
         t: 0.0,
@@ -305,17 +299,23 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
     };
     let session = bus.session();
     session
-        .put(&report_key, vec![PROTOCOL_VERSION, 0xff, 0xff, 0xff])
+        .put(
+            report_key.as_str(),
+            vec![PROTOCOL_VERSION, 0xff, 0xff, 0xff],
+        )
         .await
         .unwrap();
     session
-        .put(&report_key, codec::encode(&bad_report))
+        .put(report_key.as_str(), codec::encode(&bad_report))
         .await
         .unwrap();
-    session.put(&report_key, stale_version).await.unwrap();
+    session
+        .put(report_key.as_str(), stale_version)
+        .await
+        .unwrap();
     session
         .put(
-            keys.key(&Topic::UnitReport(UnitId::new("ghost").unwrap())),
+            keys.unit_report(&UnitId::new("ghost").unwrap()).as_str(),
             codec::encode(&ghost),
         )
         .await
@@ -366,13 +366,10 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
     let (bus, endpoint) = router().await;
     let keys = bus.keys().clone();
     let near_state = bus
-        .subscribe::<UnitState>(&keys.key(&Topic::UnitState(UnitId::new("ugv-near").unwrap())))
+        .subscribe::<UnitState>(&keys.unit_state(&UnitId::new("ugv-near").unwrap()))
         .await
         .unwrap();
-    let truths = bus
-        .subscribe::<SimTruth>(&keys.key(&Topic::SimTruth))
-        .await
-        .unwrap();
+    let truths = bus.subscribe::<SimTruth>(&keys.sim_truth()).await.unwrap();
     let dir = tempfile::tempdir().unwrap();
     let recording = dir.path().join("run.mcap");
     let mut fleet = handover_fleet(&endpoint, &["coordinator", "--sim-clock"]);
@@ -440,7 +437,7 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
 
 /// The coordinator's status, queried over the bus until one answers (or `within` passes).
 async fn status_of(bus: &Bus, within: Duration) -> serde_json::Value {
-    let key = bus.keys().key(&Topic::CoordStatus);
+    let key = bus.keys().expr(&Topic::CoordStatus);
     tokio::time::timeout(within, async {
         loop {
             let replies = bus.session().get(&key).await.unwrap();
@@ -499,10 +496,8 @@ async fn until_recorded(bus: &Bus, track: &FireTrack) {
     let keys = bus.keys().clone();
     tokio::time::timeout(Duration::from_secs(30), async {
         loop {
-            bus.put(&keys.key(&Topic::Fire(track.id)), track)
-                .await
-                .unwrap();
-            let replies = bus.session().get(keys.every_fire()).await.unwrap();
+            bus.put(&keys.fire(track.id), track).await.unwrap();
+            let replies = bus.session().get(keys.every_fire().as_str()).await.unwrap();
             if let Ok(reply) = replies.recv_async().await
                 && reply.result().is_ok()
             {
@@ -663,7 +658,7 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
 
     // Any Zenoh client may send JSON; a malformed goal is answered too.
     let acks = bus
-        .subscribe::<firefleet_protocol::msg::GoalAck>("ff/tunnel-r/zone/deep/ack")
+        .subscribe(&bus.keys().zone_ack(&ZoneId::new("deep").unwrap()))
         .await
         .unwrap();
     bus.session()

@@ -14,7 +14,7 @@ use firefleet_bt::{Status, Transition};
 use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{BtTransition, BtTransitions, NodeStatus, Task};
+use firefleet_protocol::msg::{BtTransition, BtTransitions, NodeStatus};
 use zenoh::sample::SampleKind;
 
 use crate::controller::{Controller, Services};
@@ -73,20 +73,18 @@ where
     let _token = bus
         .session()
         .liveliness()
-        .declare_token(keys.key(&Topic::UnitAlive(unit.clone())))
+        .declare_token(keys.expr(&Topic::UnitAlive(unit.clone())))
         .await?;
     let coord = bus
         .session()
         .liveliness()
-        .declare_subscriber(keys.key(&Topic::CoordAlive))
+        .declare_subscriber(keys.expr(&Topic::CoordAlive))
         .history(true)
         .await?;
-    let tasks = bus
-        .subscribe::<Task>(&keys.key(&Topic::UnitTask(unit.clone())))
-        .await?;
-    let state_key = keys.key(&Topic::UnitState(unit.clone()));
-    let report_key = keys.key(&Topic::UnitReport(unit.clone()));
-    let bt_key = keys.key(&Topic::UnitBt(unit.clone()));
+    let tasks = bus.subscribe(&keys.unit_task(&unit)).await?;
+    let state_key = keys.unit_state(&unit);
+    let report_key = keys.unit_report(&unit);
+    let bt_key = keys.unit_bt(&unit);
     let mut next_report = f64::NEG_INFINITY;
     let mut next_print = f64::NEG_INFINITY;
     tracing::info!(%unit, nodes = ctl.tree().len(), "agent started");

@@ -7,11 +7,10 @@
 //! simulator's `ff/<site>/sim/unit/<id>/...` keys, so the agent code is the same for both.
 
 use std::future::Future;
-use std::marker::PhantomData;
 
 use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, BusError, Inbox};
-use firefleet_protocol::keys::Topic;
+use firefleet_protocol::keys::Key;
 use firefleet_protocol::msg::{Message, RailCommand, RailSensors, UnitCommand, UnitSensors};
 
 /// A robot body: sensor frames in, set-points out.
@@ -27,21 +26,18 @@ pub trait Platform {
 /// A simulated body, reached over the bus: a ground vehicle
 /// (`SimPlatform<UnitSensors, UnitCommand>`) or a monorail carriage
 /// (`SimPlatform<RailSensors, RailCommand>`).
-pub struct SimPlatform<S: Message, C> {
+pub struct SimPlatform<S: Message, C: Message> {
     bus: Bus,
     sensors: Inbox<S>,
-    cmd_key: String,
-    command: PhantomData<C>,
+    cmd_key: Key<C>,
 }
 
-impl<S: Message, C> SimPlatform<S, C> {
-    async fn connect(bus: &Bus, sensors: Topic, cmd: Topic) -> Result<Self, BusError> {
-        let keys = bus.keys();
+impl<S: Message, C: Message> SimPlatform<S, C> {
+    async fn connect(bus: &Bus, sensors: Key<S>, cmd_key: Key<C>) -> Result<Self, BusError> {
         Ok(Self {
-            sensors: bus.subscribe(&keys.key(&sensors)).await?,
-            cmd_key: keys.key(&cmd),
+            sensors: bus.subscribe(&sensors).await?,
+            cmd_key,
             bus: bus.clone(),
-            command: PhantomData,
         })
     }
 }
@@ -49,24 +45,16 @@ impl<S: Message, C> SimPlatform<S, C> {
 impl SimPlatform<UnitSensors, UnitCommand> {
     /// The simulator's ground vehicle `unit`.
     pub async fn ground(bus: &Bus, unit: &UnitId) -> Result<Self, BusError> {
-        Self::connect(
-            bus,
-            Topic::SimSensors(unit.clone()),
-            Topic::SimCmd(unit.clone()),
-        )
-        .await
+        let keys = bus.keys();
+        Self::connect(bus, keys.sim_sensors(unit), keys.sim_cmd(unit)).await
     }
 }
 
 impl SimPlatform<RailSensors, RailCommand> {
     /// The simulator's monorail carriage `unit`.
     pub async fn monorail(bus: &Bus, unit: &UnitId) -> Result<Self, BusError> {
-        Self::connect(
-            bus,
-            Topic::SimRailSensors(unit.clone()),
-            Topic::SimRailCmd(unit.clone()),
-        )
-        .await
+        let keys = bus.keys();
+        Self::connect(bus, keys.sim_rail_sensors(unit), keys.sim_rail_cmd(unit)).await
     }
 }
 

@@ -22,8 +22,8 @@ use firefleet_protocol::ZoneId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::clock::{Clock, ExternalClock, SystemClock};
 use firefleet_protocol::codec;
-use firefleet_protocol::keys::{self, Topic, UnitLeaf};
-use firefleet_protocol::msg::{FireTrack, FlameReport, GoalAck, SimClock, UnitState, ZoneGoal};
+use firefleet_protocol::keys::{self, Topic};
+use firefleet_protocol::msg::{FireTrack, GoalAck, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Invalid;
 use zenoh::sample::SampleKind;
@@ -67,32 +67,30 @@ pub async fn run(
 
     let _token = session
         .liveliness()
-        .declare_token(keys.key(&Topic::CoordAlive))
+        .declare_token(keys.expr(&Topic::CoordAlive))
         .await?;
     let alive = session
         .liveliness()
-        .declare_subscriber(keys.every_unit(UnitLeaf::Alive))
+        .declare_subscriber(keys.every_unit_alive())
         .history(true)
         .await?;
     // Room for two states of every unit: units publish in bursts.
     let states = bus
-        .subscribe_with_capacity::<UnitState>(
-            &keys.every_unit(UnitLeaf::State),
+        .subscribe_with_capacity(
+            &keys.every_unit_state(),
             (2 * scenario.units.len()).max(256),
         )
         .await?;
-    let reports = bus
-        .subscribe::<FlameReport>(&keys.every_unit(UnitLeaf::Report))
-        .await?;
-    let clock_msgs = bus
-        .subscribe::<SimClock>(&keys.key(&Topic::SimClock))
-        .await?;
+    let reports = bus.subscribe(&keys.every_unit_report()).await?;
+    let clock_msgs = bus.subscribe(&keys.sim_clock()).await?;
     let status = session
-        .declare_queryable(keys.key(&Topic::CoordStatus))
+        .declare_queryable(keys.expr(&Topic::CoordStatus))
         .await?;
     // Goals are read raw, not through the bus's typed inbox: a malformed goal must still
     // be answered, and a delete on a zone's goal key clears the zone.
-    let goals = session.declare_subscriber(keys.every_zone_goal()).await?;
+    let goals = session
+        .declare_subscriber(keys.every_zone_goal().as_str())
+        .await?;
 
     // Before anything else is heard: the tracks the previous coordinator published, as a
     // recorder kept them (none at a first start, or when nothing records).
@@ -135,11 +133,11 @@ pub async fn run(
                 Ok((_, Topic::UnitAlive(unit))) => incident.on_alive(&unit, sample.kind() == SampleKind::Put, clock.now()),
                 _ => Err(Invalid::new("key", format!("'{}' is not a unit token", sample.key_expr()))),
             },
-            Some((key, r)) = reports.recv() => {
-                if keys::parse(&key).ok().map(|(_, t)| t) == Some(Topic::UnitReport(r.unit.clone())) {
+            Some((topic, r)) = reports.recv() => {
+                if topic == Topic::UnitReport(r.unit.clone()) {
                     incident.on_report(&r, clock.now())
                 } else {
-                    Err(Invalid::new("unit", format!("report on '{key}' names unit '{}'", r.unit)))
+                    Err(Invalid::new("unit", format!("report on '{topic}' names unit '{}'", r.unit)))
                 }
             }
             Ok(sample) = goals.recv_async() => {
@@ -160,7 +158,7 @@ pub async fn run(
                             (malformed(&bytes, &zone, &e), Vec::new())
                         }
                     };
-                    bus.put(&keys.key(&Topic::ZoneAck(zone)), &ack).await?;
+                    bus.put(&keys.zone_ack(&zone), &ack).await?;
                     Ok(out)
                 }
             }
@@ -168,7 +166,7 @@ pub async fn run(
                 let mut body = incident.status(clock.now());
                 body.rejected = bus.rejects().snapshot().into_iter().map(|(k, v)| (k.to_owned(), v)).collect();
                 let body = codec::encode(&body);
-                if let Err(e) = query.reply(keys.key(&Topic::CoordStatus), body).await {
+                if let Err(e) = query.reply(keys.expr(&Topic::CoordStatus), body).await {
                     tracing::warn!("status reply failed: {e}");
                 }
                 Ok(Vec::new())
@@ -187,16 +185,16 @@ pub async fn run(
                     .map(|(_, o)| o)
                     .collect())
             }
-            Some((key, st)) = states.recv() => {
-                if keys::parse(&key).ok().map(|(_, t)| t) == Some(Topic::UnitState(st.unit.clone())) {
+            Some((topic, st)) = states.recv() => {
+                if topic == Topic::UnitState(st.unit.clone()) {
                     incident.on_state(st, clock.now())
                 } else {
-                    Err(Invalid::new("unit", format!("state on '{key}' names unit '{}'", st.unit)))
+                    Err(Invalid::new("unit", format!("state on '{topic}' names unit '{}'", st.unit)))
                 }
             }
         };
         for d in incident.take_decisions() {
-            bus.put(&keys.key(&Topic::CoordLog), &d.to_msg()).await?;
+            bus.put(&keys.coord_log(), &d.to_msg()).await?;
         }
         match outputs {
             Ok(outputs) => publish(bus, outputs).await?,
@@ -218,7 +216,7 @@ const RECALL_TIMEOUT: Duration = Duration::from_secs(2);
 async fn recall_fires(bus: &Bus) -> Result<Vec<FireTrack>, BusError> {
     let replies = bus
         .session()
-        .get(bus.keys().every_fire())
+        .get(bus.keys().every_fire().as_str())
         .timeout(RECALL_TIMEOUT)
         .await?;
     let mut tracks = Vec::new();
@@ -254,11 +252,8 @@ async fn publish(bus: &Bus, outputs: Vec<Output>) -> Result<(), BusError> {
     let keys = bus.keys();
     for o in outputs {
         match o {
-            Output::Task(t) => {
-                bus.put(&keys.key(&Topic::UnitTask(t.unit.clone())), &t)
-                    .await?
-            }
-            Output::Fire(f) => bus.put(&keys.key(&Topic::Fire(f.id)), &f).await?,
+            Output::Task(t) => bus.put(&keys.unit_task(&t.unit), &t).await?,
+            Output::Fire(f) => bus.put(&keys.fire(f.id), &f).await?,
         }
     }
     Ok(())

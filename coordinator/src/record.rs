@@ -298,7 +298,7 @@ pub async fn record(
     let result = async {
         let samples = session.declare_subscriber(keys.all()).await.map_err(BusError::from)?;
         let tokens = session.liveliness().declare_subscriber(keys.all()).history(true).await.map_err(BusError::from)?;
-        let recall = session.declare_queryable(keys.every_fire()).await.map_err(BusError::from)?;
+        let recall = session.declare_queryable(keys.every_fire().as_str()).await.map_err(BusError::from)?;
         // The latest track of every fire, as received: (its time, its key, its bytes).
         let mut fires: BTreeMap<FireId, (f64, String, Vec<u8>)> = BTreeMap::new();
         let scene_schema = || schemars::schema_for!(scene::SceneUpdate);

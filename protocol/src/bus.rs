@@ -24,7 +24,7 @@ use zenoh::{Session, Wait};
 
 use crate::codec::{self, CodecError};
 use crate::ids::SiteId;
-use crate::keys::Keys;
+use crate::keys::{self, Key, Keys, Subscribable, Topic};
 use crate::msg::Message;
 
 /// A bus error: Zenoh refused something.
@@ -183,7 +183,8 @@ impl Bus {
     }
 
     /// Publish `m` on `key`.
-    pub async fn put<M: Message>(&self, key: &str, m: &M) -> Result<(), BusError> {
+    pub async fn put<M: Message>(&self, key: &Key<M>, m: &M) -> Result<(), BusError> {
+        let key = key.as_str();
         let bytes = codec::encode(m);
         // Zenoh's blocking calls, so that the map is not locked across an await: a put
         // with the default congestion control (drop) never waits, and declaring a
@@ -201,8 +202,11 @@ impl Bus {
         publisher.put(bytes).wait().map_err(BusError::from_zenoh)
     }
 
-    /// Subscribe to `key` (may contain wildcards), decoding `M`.
-    pub async fn subscribe<M: Message>(&self, key: &str) -> Result<Inbox<M>, BusError> {
+    /// Subscribe to `key` (one key or a pattern), decoding `M`.
+    pub async fn subscribe<M: Message>(
+        &self,
+        key: &impl Subscribable<M>,
+    ) -> Result<Inbox<M>, BusError> {
         self.subscribe_with_capacity(key, DEFAULT_INBOX).await
     }
 
@@ -211,12 +215,12 @@ impl Bus {
     /// waits with it: a high-rate stream (every unit's state) gets room for a burst.
     pub async fn subscribe_with_capacity<M: Message>(
         &self,
-        key: &str,
+        key: &impl Subscribable<M>,
         capacity: usize,
     ) -> Result<Inbox<M>, BusError> {
         let sub = self
             .session
-            .declare_subscriber(key.to_owned())
+            .declare_subscriber(key.key_expr().to_owned())
             .with(zenoh::handlers::FifoChannel::new(capacity))
             .await
             .map_err(BusError::from_zenoh)?;
@@ -245,8 +249,8 @@ pub struct Inbox<M> {
 }
 
 impl<M: Message> Inbox<M> {
-    /// The next valid message and its key; `None` once the session is closed.
-    pub async fn recv(&self) -> Option<(String, M)> {
+    /// The next valid message and the topic it came on; `None` once the session is closed.
+    pub async fn recv(&self) -> Option<(Topic, M)> {
         loop {
             let sample = self.sub.recv_async().await.ok()?;
             if let Some(m) = self.accept(&sample) {
@@ -256,7 +260,7 @@ impl<M: Message> Inbox<M> {
     }
 
     /// A message already waiting, without blocking.
-    pub fn try_recv(&self) -> Option<(String, M)> {
+    pub fn try_recv(&self) -> Option<(Topic, M)> {
         while let Ok(Some(sample)) = self.sub.try_recv() {
             if let Some(m) = self.accept(&sample) {
                 return Some(m);
@@ -265,13 +269,21 @@ impl<M: Message> Inbox<M> {
         None
     }
 
-    fn accept(&self, sample: &Sample) -> Option<(String, M)> {
+    fn accept(&self, sample: &Sample) -> Option<(Topic, M)> {
         if sample.kind() == SampleKind::Delete {
             return None;
         }
         let key = sample.key_expr().as_str();
+        let topic = match keys::parse(key) {
+            Ok((_, topic)) => topic,
+            Err(e) => {
+                self.rejects.count_invalid();
+                tracing::warn!(key, "dropped message: {e}");
+                return None;
+            }
+        };
         match codec::decode::<M>(&sample.payload().to_bytes()) {
-            Ok(m) => Some((key.to_owned(), m)),
+            Ok(m) => Some((topic, m)),
             Err(e) => {
                 self.rejects.count(&e);
                 tracing::warn!(key, "dropped message: {e}");

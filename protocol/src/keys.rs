@@ -22,11 +22,23 @@
 //! ```
 //!
 //! [`Topic`] is the typed form of a key; [`Keys`] turns topics into keys for one site and
-//! [`parse`] turns keys back into topics, so the two directions cannot drift apart.
+//! [`parse`] turns keys back into topics, so the two directions cannot drift apart. A
+//! [`Key<M>`] is a concrete key together with the message type it carries, and a
+//! [`Pattern<M>`] a wildcard over keys of one message type: the bus puts an `M` only on a
+//! `Key<M>` and subscribes for an `M` only on a `Key<M>` or `Pattern<M>`, so the key and
+//! the payload agree at compile time. Liveliness tokens and the status queryable carry no
+//! message and are plain key expressions ([`Keys::expr`]).
+//!
+//! Not here: access rules or routing; this module only names keys.
 
 use std::fmt;
+use std::marker::PhantomData;
 
 use crate::ids::{FireId, SiteId, UnitId, ZoneId};
+use crate::msg::{
+    BtTransitions, Decision, FireTrack, FlameReport, GoalAck, Message, RailCommand, RailSensors,
+    SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState, ZoneGoal,
+};
 
 const ROOT: &str = "ff";
 
@@ -76,6 +88,59 @@ impl fmt::Display for Topic {
     }
 }
 
+/// A concrete key on which messages of type `M` travel.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct Key<M> {
+    topic: Topic,
+    expr: String,
+    _m: PhantomData<fn() -> M>,
+}
+
+impl<M: Message> Key<M> {
+    pub fn topic(&self) -> &Topic {
+        &self.topic
+    }
+    pub fn as_str(&self) -> &str {
+        &self.expr
+    }
+}
+
+/// A key expression with wildcards, matching keys on which messages of type `M` travel.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Pattern<M> {
+    expr: String,
+    _m: PhantomData<fn() -> M>,
+}
+
+impl<M: Message> Pattern<M> {
+    fn new(expr: String) -> Self {
+        Self {
+            expr,
+            _m: PhantomData,
+        }
+    }
+    pub fn as_str(&self) -> &str {
+        &self.expr
+    }
+}
+
+/// What can be subscribed to for messages of type `M`: one key, or a pattern.
+pub trait Subscribable<M: Message> {
+    fn key_expr(&self) -> &str;
+}
+
+impl<M: Message> Subscribable<M> for Key<M> {
+    fn key_expr(&self) -> &str {
+        &self.expr
+    }
+}
+
+impl<M: Message> Subscribable<M> for Pattern<M> {
+    fn key_expr(&self) -> &str {
+        &self.expr
+    }
+}
+
 /// Key builder for one site.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Keys {
@@ -89,57 +154,101 @@ impl Keys {
     pub fn site(&self) -> &SiteId {
         &self.site
     }
-    /// The concrete key of `topic` on this site.
-    pub fn key(&self, topic: &Topic) -> String {
+    /// The concrete key expression of `topic` on this site: for liveliness tokens and
+    /// queryables, which carry no message; messages go on a typed [`Key`].
+    pub fn expr(&self, topic: &Topic) -> String {
         format!("{ROOT}/{}/{topic}", self.site)
+    }
+
+    fn key<M: Message>(&self, topic: Topic) -> Key<M> {
+        Key {
+            expr: self.expr(&topic),
+            topic,
+            _m: PhantomData,
+        }
+    }
+
+    pub fn unit_state(&self, u: &UnitId) -> Key<UnitState> {
+        self.key(Topic::UnitState(u.clone()))
+    }
+    pub fn unit_report(&self, u: &UnitId) -> Key<FlameReport> {
+        self.key(Topic::UnitReport(u.clone()))
+    }
+    pub fn unit_task(&self, u: &UnitId) -> Key<Task> {
+        self.key(Topic::UnitTask(u.clone()))
+    }
+    pub fn unit_bt(&self, u: &UnitId) -> Key<BtTransitions> {
+        self.key(Topic::UnitBt(u.clone()))
+    }
+    pub fn fire(&self, id: FireId) -> Key<FireTrack> {
+        self.key(Topic::Fire(id))
+    }
+    pub fn zone_goal(&self, z: &ZoneId) -> Key<ZoneGoal> {
+        self.key(Topic::ZoneGoal(z.clone()))
+    }
+    pub fn zone_ack(&self, z: &ZoneId) -> Key<GoalAck> {
+        self.key(Topic::ZoneAck(z.clone()))
+    }
+    pub fn coord_log(&self) -> Key<Decision> {
+        self.key(Topic::CoordLog)
+    }
+    pub fn sim_clock(&self) -> Key<SimClock> {
+        self.key(Topic::SimClock)
+    }
+    pub fn sim_truth(&self) -> Key<SimTruth> {
+        self.key(Topic::SimTruth)
+    }
+    pub fn sim_sensors(&self, u: &UnitId) -> Key<UnitSensors> {
+        self.key(Topic::SimSensors(u.clone()))
+    }
+    pub fn sim_cmd(&self, u: &UnitId) -> Key<UnitCommand> {
+        self.key(Topic::SimCmd(u.clone()))
+    }
+    pub fn sim_rail_sensors(&self, u: &UnitId) -> Key<RailSensors> {
+        self.key(Topic::SimRailSensors(u.clone()))
+    }
+    pub fn sim_rail_cmd(&self, u: &UnitId) -> Key<RailCommand> {
+        self.key(Topic::SimRailCmd(u.clone()))
     }
     /// Everything on this site, for recorders.
     pub fn all(&self) -> String {
         format!("{ROOT}/{}/**", self.site)
     }
-    /// `ff/<site>/unit/*/<leaf>`: the same leaf of every unit.
-    pub fn every_unit(&self, leaf: UnitLeaf) -> String {
-        format!("{ROOT}/{}/unit/*/{}", self.site, leaf.as_str())
+    /// `ff/<site>/unit/*/alive`: every unit's liveliness token.
+    pub fn every_unit_alive(&self) -> String {
+        format!("{ROOT}/{}/unit/*/alive", self.site)
+    }
+    /// `ff/<site>/unit/*/state`: every unit's state.
+    pub fn every_unit_state(&self) -> Pattern<UnitState> {
+        Pattern::new(format!("{ROOT}/{}/unit/*/state", self.site))
+    }
+    /// `ff/<site>/unit/*/report`: every unit's flame reports.
+    pub fn every_unit_report(&self) -> Pattern<FlameReport> {
+        Pattern::new(format!("{ROOT}/{}/unit/*/report", self.site))
+    }
+    /// `ff/<site>/unit/*/task`: every unit's task.
+    pub fn every_unit_task(&self) -> Pattern<Task> {
+        Pattern::new(format!("{ROOT}/{}/unit/*/task", self.site))
     }
     /// `ff/<site>/fire/*`: every fire track.
-    pub fn every_fire(&self) -> String {
-        format!("{ROOT}/{}/fire/*", self.site)
+    pub fn every_fire(&self) -> Pattern<FireTrack> {
+        Pattern::new(format!("{ROOT}/{}/fire/*", self.site))
     }
     /// `ff/<site>/zone/*/goal`: commanders' goals for every zone.
-    pub fn every_zone_goal(&self) -> String {
-        format!("{ROOT}/{}/zone/*/goal", self.site)
+    pub fn every_zone_goal(&self) -> Pattern<ZoneGoal> {
+        Pattern::new(format!("{ROOT}/{}/zone/*/goal", self.site))
     }
     /// `ff/<site>/zone/*/ack`: the coordinator's answers for every zone.
-    pub fn every_zone_ack(&self) -> String {
-        format!("{ROOT}/{}/zone/*/ack", self.site)
+    pub fn every_zone_ack(&self) -> Pattern<GoalAck> {
+        Pattern::new(format!("{ROOT}/{}/zone/*/ack", self.site))
     }
     /// `ff/<site>/sim/unit/*/cmd`: actuator commands of every simulated ground unit.
-    pub fn every_sim_cmd(&self) -> String {
-        format!("{ROOT}/{}/sim/unit/*/cmd", self.site)
+    pub fn every_sim_cmd(&self) -> Pattern<UnitCommand> {
+        Pattern::new(format!("{ROOT}/{}/sim/unit/*/cmd", self.site))
     }
     /// `ff/<site>/sim/rail/*/cmd`: joint set-points of every simulated monorail unit.
-    pub fn every_sim_rail_cmd(&self) -> String {
-        format!("{ROOT}/{}/sim/rail/*/cmd", self.site)
-    }
-}
-
-/// The per-unit leaves that are subscribed to with a wildcard.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum UnitLeaf {
-    State,
-    Alive,
-    Report,
-    Task,
-}
-
-impl UnitLeaf {
-    fn as_str(self) -> &'static str {
-        match self {
-            UnitLeaf::State => "state",
-            UnitLeaf::Alive => "alive",
-            UnitLeaf::Report => "report",
-            UnitLeaf::Task => "task",
-        }
+    pub fn every_sim_rail_cmd(&self) -> Pattern<RailCommand> {
+        Pattern::new(format!("{ROOT}/{}/sim/rail/*/cmd", self.site))
     }
 }
 
@@ -222,7 +331,7 @@ mod tests {
             Topic::SimRailCmd(u("r")),
         ];
         for t in topics {
-            let k = keys.key(&t);
+            let k = keys.expr(&t);
             let (site, back) = parse(&k).unwrap();
             assert_eq!(site.as_str(), "t1");
             assert_eq!(back, t, "{k}");
@@ -232,8 +341,9 @@ mod tests {
     #[test]
     fn wildcards_match_concrete_keys() {
         let keys = Keys::new(SiteId::new("t1").unwrap());
-        assert_eq!(keys.every_unit(UnitLeaf::State), "ff/t1/unit/*/state");
-        assert_eq!(keys.key(&Topic::UnitState(u("x"))), "ff/t1/unit/x/state");
+        assert_eq!(keys.every_unit_state().as_str(), "ff/t1/unit/*/state");
+        assert_eq!(keys.unit_state(&u("x")).as_str(), "ff/t1/unit/x/state");
+        assert_eq!(keys.unit_state(&u("x")).topic(), &Topic::UnitState(u("x")));
     }
 
     #[test]

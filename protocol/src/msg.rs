@@ -33,10 +33,15 @@ pub trait Message:
     Serialize + DeserializeOwned + Validate + JsonSchema + Send + Sync + 'static
 {
     const ENCODING: Encoding;
+    /// The schema name recordings and other tools know the type by.
+    const NAME: &'static str;
 }
 
 macro_rules! message {
-    ($enc:ident: $($t:ty),*) => { $(impl Message for $t { const ENCODING: Encoding = Encoding::$enc; })* };
+    ($enc:ident: $($t:ident),*) => { $(impl Message for $t {
+        const ENCODING: Encoding = Encoding::$enc;
+        const NAME: &'static str = concat!("firefleet.", stringify!($t));
+    })* };
 }
 message!(Postcard: Decision, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions);
 message!(Json: ZoneGoal, GoalAck, IncidentStatus);

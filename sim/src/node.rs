@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, BusError, Inbox};
 use firefleet_protocol::keys::{self, Topic};
-use firefleet_protocol::msg::{Message, RailCommand, SimClock, SimTruth, UnitCommand};
+use firefleet_protocol::msg::{Message, SimClock, SimTruth};
 use firefleet_protocol::scenario::Scenario;
 use tokio::time::MissedTickBehavior;
 
@@ -55,10 +55,8 @@ pub async fn run(
 ) -> Result<SimTruth, BusError> {
     let keys = bus.keys().clone();
     let mut world = World::new(scenario, opts.seed);
-    let commands = bus.subscribe::<UnitCommand>(&keys.every_sim_cmd()).await?;
-    let rail_commands = bus
-        .subscribe::<RailCommand>(&keys.every_sim_rail_cmd())
-        .await?;
+    let commands = bus.subscribe(&keys.every_sim_cmd()).await?;
+    let rail_commands = bus.subscribe(&keys.every_sim_rail_cmd()).await?;
     tokio::pin!(shutdown);
 
     if let Some(limit) = opts.wait_for_fleet {
@@ -117,7 +115,7 @@ pub async fn run(
             world.step(opts.step_s);
         }
         bus.put(
-            &keys.key(&Topic::SimClock),
+            &keys.sim_clock(),
             &SimClock {
                 t: world.time(),
                 time_scale: opts.time_scale,
@@ -126,23 +124,21 @@ pub async fn run(
         .await?;
         for id in &ids {
             if let Some(s) = world.sensors(id) {
-                bus.put(&keys.key(&Topic::SimSensors(id.clone())), &s)
-                    .await?;
+                bus.put(&keys.sim_sensors(id), &s).await?;
             }
         }
         for id in &rail_ids {
             if let Some(s) = world.rail_sensors(id) {
-                bus.put(&keys.key(&Topic::SimRailSensors(id.clone())), &s)
-                    .await?;
+                bus.put(&keys.sim_rail_sensors(id), &s).await?;
             }
         }
         if step.is_multiple_of(2) {
-            bus.put(&keys.key(&Topic::SimTruth), &world.truth()).await?;
+            bus.put(&keys.sim_truth(), &world.truth()).await?;
         }
         step += 1;
     }
     let truth = world.truth();
-    bus.put(&keys.key(&Topic::SimTruth), &truth).await?;
+    bus.put(&keys.sim_truth(), &truth).await?;
     Ok(truth)
 }
 
@@ -154,11 +150,9 @@ fn drain<T: Message>(
     last_command: &mut HashMap<UnitId, Instant>,
     mut apply: impl FnMut(Topic, T) -> Option<UnitId>,
 ) {
-    while let Some((key, cmd)) = commands.try_recv() {
-        match keys::parse(&key)
-            .ok()
-            .and_then(|(_, topic)| apply(topic, cmd))
-        {
+    while let Some((topic, cmd)) = commands.try_recv() {
+        let key = topic.to_string();
+        match apply(topic, cmd) {
             Some(unit) => {
                 last_command.insert(unit, Instant::now());
             }

@@ -22,7 +22,7 @@ use anyhow::Context;
 use clap::Args;
 use firefleet_protocol::bus::{Bus, Connect};
 use firefleet_protocol::codec;
-use firefleet_protocol::keys::{Topic, UnitLeaf};
+use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
     FlameObservation, FlameReport, Task, TaskKind, UnitKind, UnitMode, UnitState,
 };
@@ -153,9 +153,7 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
     // link: queued behind the thousand states this process sends every 100 ms they would
     // measure this process, not the coordinator.
     let reporter = Bus::open(&client, SiteId::new("scale")?).await?;
-    let tasks = reporter
-        .subscribe::<Task>(&keys.every_unit(UnitLeaf::Task))
-        .await?;
+    let tasks = reporter.subscribe::<Task>(&keys.every_unit_task()).await?;
     // The fleet comes up once the coordinator answers status queries (its last step).
     while crate::roles::query_status(&fleet).await.is_err() {
         anyhow::ensure!(
@@ -176,7 +174,7 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
             fleet
                 .session()
                 .liveliness()
-                .declare_token(keys.key(&Topic::UnitAlive(id.clone())))
+                .declare_token(keys.expr(&Topic::UnitAlive(id.clone())))
                 .await
                 .map_err(|e| anyhow::anyhow!("liveliness: {e}"))?,
         );
@@ -213,7 +211,7 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
         publishers.push(
             fleet
                 .session()
-                .declare_publisher(keys.key(&Topic::UnitState(id.clone())))
+                .declare_publisher(keys.unit_state(id).as_str().to_owned())
                 .await
                 .map_err(|e| anyhow::anyhow!("declaring a publisher: {e}"))?,
         );
@@ -280,10 +278,7 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
         };
         sent.push(Instant::now());
         reporter
-            .put(
-                &keys.key(&Topic::UnitReport(ids[reporter_id(k)].clone())),
-                &report,
-            )
+            .put(&keys.unit_report(&ids[reporter_id(k)]), &report)
             .await?;
     }
     // Wait for the last answers, up to DRAIN.
