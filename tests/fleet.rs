@@ -4,7 +4,7 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use firefleet_protocol::bus::{Bus, Connect, Inbox};
+use firefleet_protocol::bus::{Bus, Connect, Inbox, Mode, free_loopback_port};
 use firefleet_protocol::codec::{self, PROTOCOL_VERSION};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
@@ -182,9 +182,9 @@ const HANDOVER: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/hand
 
 /// A Zenoh router owned by the test on a free loopback port, and its endpoint.
 async fn router() -> (Bus, String) {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port().unwrap());
     let router = Connect {
-        mode: Some("router".into()),
+        mode: Some(Mode::Router),
         listen: vec![endpoint.clone()],
         ..Connect::default()
     };
@@ -230,14 +230,6 @@ async fn outcome(truths: &Inbox<SimTruth>, within: Duration) -> SimTruth {
     })
     .await
     .expect("no outcome before the wall-clock deadline")
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -571,9 +563,9 @@ fn cli(endpoint: &str, args: &[&str]) -> std::process::Output {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn commanders_goals_are_answered_listed_and_cleared() {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port().unwrap());
     let router = Connect {
-        mode: Some("router".into()),
+        mode: Some(Mode::Router),
         listen: vec![endpoint.clone()],
         ..Connect::default()
     };

@@ -81,10 +81,10 @@ where
         .declare_subscriber(keys.expr(&Topic::CoordAlive))
         .history(true)
         .await?;
-    let tasks = bus.subscribe(&keys.unit_task(&unit)).await?;
-    let state_key = keys.unit_state(&unit);
-    let report_key = keys.unit_report(&unit);
-    let bt_key = keys.unit_bt(&unit);
+    let tasks = bus.subscribe(&keys.unit_task(unit)).await?;
+    let state_key = keys.unit_state(unit);
+    let report_key = keys.unit_report(unit);
+    let bt_key = keys.unit_bt(unit);
     let mut next_report = f64::NEG_INFINITY;
     let mut next_print = f64::NEG_INFINITY;
     tracing::info!(%unit, nodes = ctl.tree().len(), "agent started");

@@ -6,8 +6,7 @@
 //! looked, so free units search where nobody has; [`incident`] holds the whole picture
 //! (units, fires, tasks, goals) and reacts to events with decisions, each logged with its
 //! reason. All six are pure: no Zenoh, no clock of their own.
-//! [`node`] wires them to the bus, and [`record`] writes everything on the bus to an MCAP
-//! file with a Foxglove scene ([`scene`]).
+//! [`node`] wires them to the bus. Recording is the `firefleet-recorder` crate's.
 //!
 //! A restarted coordinator rebuilds its picture from the recorded fire tracks (a recorder
 //! answers `fire/*` with the latest of each; the tracks keep their ids), then from the
@@ -19,9 +18,7 @@ pub mod fusion;
 pub mod goals;
 pub mod incident;
 pub mod node;
-pub mod record;
 pub mod roads;
-pub mod scene;
 
 pub use incident::Incident;
 pub use node::{CoordinatorOptions, run};

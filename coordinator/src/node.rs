@@ -30,7 +30,7 @@ use zenoh::sample::SampleKind;
 
 use crate::assign::Strategy;
 use crate::incident::{Incident, Output};
-use crate::record::latest_per_fire;
+use firefleet_protocol::msg::latest_per_fire;
 
 /// Re-publication of tasks and tracks is spread over this many ticks a second.
 const REPUBLISH_SLICES: usize = 10;
@@ -44,7 +44,7 @@ pub struct CoordinatorOptions {
     pub sim_clock: bool,
     pub strategy: Strategy,
     /// Fire tracks to take back at start besides those recorders answer with (read from a
-    /// recording: [`crate::record::fire_tracks_in`]); the newest of each fire wins.
+    /// recording: `firefleet_recorder::reader::fire_tracks_in`); the newest of each fire wins.
     pub resume: Vec<FireTrack>,
 }
 

@@ -321,6 +321,18 @@ impl Validate for FireTrack {
     }
 }
 
+/// The newest of each fire's tracks (by site time; the later one of a tie): what a
+/// restarted coordinator recalls when recorders (or a recording) give it several.
+pub fn latest_per_fire(tracks: impl IntoIterator<Item = FireTrack>) -> Vec<FireTrack> {
+    let mut latest: BTreeMap<FireId, FireTrack> = BTreeMap::new();
+    for f in tracks {
+        if latest.get(&f.id).is_none_or(|old| old.t <= f.t) {
+            latest.insert(f.id, f);
+        }
+    }
+    latest.into_values().collect()
+}
+
 /// One logged decision of the coordinator, with its reason in the text.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct Decision {

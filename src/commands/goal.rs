@@ -13,8 +13,9 @@ use firefleet_protocol::ZoneId;
 use firefleet_protocol::msg::{GoalAck, GoalKind, ZoneGoal};
 use firefleet_protocol::validate::Validate;
 
-use crate::roles::{open, print_goals, query_status};
-use crate::{ScenarioArg, ZenohArgs, scenarios};
+use super::status::print_goals;
+use super::{ScenarioArg, scenarios};
+use crate::net::{ZenohArgs, open, query_status};
 
 #[derive(Subcommand, Debug)]
 pub enum GoalCommand {

@@ -263,7 +263,7 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
         "never attacked"
     );
     for name in FLEET_SCENARIOS {
-        let scenario = crate::scenarios::resolve(name)?;
+        let scenario = crate::commands::scenarios::resolve(name)?;
         for (label, command) in ROWS {
             let (mut time, mut unfinished, mut dose, mut water, mut never) =
                 (0.0, 0, 0.0, 0.0, 0.0);

@@ -11,7 +11,7 @@ use firefleet_agent::rail::case_study::{CaseStudy, Outcome, Weighting};
 use firefleet_agent::rail::kinematics::{D, THETA1, THETA2, V0};
 use serde::Serialize;
 
-use crate::plot::{self, Labels, Series};
+use super::plot::{self, Labels, Series};
 
 #[derive(Args, Debug)]
 pub struct RobogatArgs {

@@ -11,20 +11,23 @@ use firefleet_protocol::scenario::Scenario;
 pub const BUILT_IN: [(&str, &str); 5] = [
     (
         "vehicle-collision",
-        include_str!("../examples/scenarios/vehicle-collision.toml"),
+        include_str!("../../examples/scenarios/vehicle-collision.toml"),
     ),
     (
         "self-ignition",
-        include_str!("../examples/scenarios/self-ignition.toml"),
+        include_str!("../../examples/scenarios/self-ignition.toml"),
     ),
     (
         "cargo-truck",
-        include_str!("../examples/scenarios/cargo-truck.toml"),
+        include_str!("../../examples/scenarios/cargo-truck.toml"),
     ),
-    ("pileup", include_str!("../examples/scenarios/pileup.toml")),
+    (
+        "pileup",
+        include_str!("../../examples/scenarios/pileup.toml"),
+    ),
     (
         "rail-tunnel",
-        include_str!("../examples/scenarios/rail-tunnel.toml"),
+        include_str!("../../examples/scenarios/rail-tunnel.toml"),
     ),
 ];
 

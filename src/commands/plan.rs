@@ -64,7 +64,7 @@ fn tune(a: TuneArgs) -> anyhow::Result<ExitCode> {
         "--res-m {}: must be within [0.1, 5] m",
         a.res_m
     );
-    let s = crate::scenarios::resolve(&a.scenario)?;
+    let s = crate::commands::scenarios::resolve(&a.scenario)?;
     let unit = s.units.first().context("the scenario has no unit")?;
     let terrain = Terrain::from_scenario(&s, a.res_m);
     let t = &s.tunnel;

@@ -15,15 +15,15 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use clap::Args;
 use firefleet_protocol::ZoneId;
-use firefleet_protocol::bus::{Bus, Connect};
+use firefleet_protocol::bus::{Bus, Connect, Mode, free_loopback_port};
 use firefleet_protocol::msg::{GoalAck, GoalKind, SimTruth, TruthFireState, UnitState, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Validate;
 use serde::Serialize;
 use tokio::process::{Child, Command};
 
-use crate::roles::shutdown_signal;
-use crate::{positive_f64, scenarios};
+use super::{positive_f64, scenarios};
+use crate::net::shutdown_signal;
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
@@ -127,10 +127,10 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         .map(|g| parse_goal(g, &scenario))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let seed = a.seed.unwrap_or(scenario.seed);
-    let port = free_port().context("finding a free loopback port")?;
+    let port = free_loopback_port().context("finding a free loopback port")?;
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let router = Connect {
-        mode: Some("router".into()),
+        mode: Some(Mode::Router),
         listen: vec![endpoint.clone()],
         ..Connect::default()
     };
@@ -376,10 +376,4 @@ async fn stop(mut children: Vec<(String, Child)>) {
             let _ = c.kill().await;
         }
     }
-}
-
-pub fn free_port() -> std::io::Result<u16> {
-    Ok(std::net::TcpListener::bind("127.0.0.1:0")?
-        .local_addr()?
-        .port())
 }

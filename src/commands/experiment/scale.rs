@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::Args;
-use firefleet_protocol::bus::{Bus, Connect};
+use firefleet_protocol::bus::{Bus, Connect, Mode, free_loopback_port};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
@@ -108,9 +108,9 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
     let site = dir.path().join("scale.toml");
     std::fs::File::create(&site)?.write_all(site_file(a.units, a.fires).as_bytes())?;
 
-    let endpoint = format!("tcp/127.0.0.1:{}", crate::demo::free_port()?);
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
     let client = Connect {
-        mode: Some("client".into()),
+        mode: Some(Mode::Client),
         connect: vec![endpoint.clone()],
         ..Connect::default()
     };
@@ -155,7 +155,7 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
     let reporter = Bus::open(&client, SiteId::new("scale")?).await?;
     let tasks = reporter.subscribe::<Task>(&keys.every_unit_task()).await?;
     // The fleet comes up once the coordinator answers status queries (its last step).
-    while crate::roles::query_status(&fleet).await.is_err() {
+    while crate::net::query_status(&fleet).await.is_err() {
         anyhow::ensure!(
             launched.elapsed() < Duration::from_secs(20),
             "the coordinator did not come up within 20 s"

@@ -24,6 +24,7 @@ use serde::Serialize;
 mod costmap_ga;
 mod fleet;
 mod nav;
+mod plot;
 mod robogat;
 mod scale;
 

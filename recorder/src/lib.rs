@@ -1,0 +1,18 @@
+//! The incident's memory.
+//!
+//! [`record`] writes everything on a site's bus to an MCAP file (JSON messages with their
+//! JSON Schemas, liveliness changes, a Foxglove [`scene`] and log), and answers a
+//! restarted coordinator's query for the fire tracks it holds. [`reader`] takes the same
+//! tracks back from a file, [`replay`] tells a recording's story on site time, and
+//! [`payload`] is the one typed decoder all of them read the fleet's messages through.
+//!
+//! Not here: deciding anything. The recorder never publishes but its answers to recall
+//! queries, so a fleet runs the same with or without it.
+
+pub mod payload;
+pub mod reader;
+pub mod record;
+pub mod replay;
+pub mod scene;
+
+pub use record::{RecordError, RecordSummary, record};

@@ -1,0 +1,139 @@
+//! The one typed decoder of the fleet's traffic: a message on a [`Topic`], as the bus
+//! carries it (postcard or JSON, [`Payload::from_wire`]) or as a recording keeps it (JSON,
+//! [`Payload::from_json`]), becomes a [`Payload`] of the topic's message type.
+//!
+//! The recorder and the replay both read through it, so the topic-to-type table exists
+//! once here (beside the key builders of `firefleet_protocol::keys`, which fix the same
+//! pairs for senders) and schema names come from `Message::NAME`.
+//!
+//! Not here: liveliness tokens and the status queryable, which carry no message.
+
+use firefleet_protocol::codec::{self, CodecError};
+use firefleet_protocol::keys::Topic;
+use firefleet_protocol::msg::{
+    BtTransitions, Decision, FireTrack, FlameReport, GoalAck, Message, RailCommand, RailSensors,
+    SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState, ZoneGoal,
+};
+use serde::{Deserialize, Serialize};
+
+/// Why a record or a sample could not be decoded.
+#[derive(Debug, thiserror::Error)]
+pub enum PayloadError {
+    #[error("topic {0} carries no message")]
+    NoMessage(Topic),
+    #[error(transparent)]
+    Wire(#[from] CodecError),
+    #[error("malformed JSON: {0}")]
+    Json(#[from] serde_json::Error),
+}
+
+macro_rules! payloads {
+    ($($variant:ident($ty:ty) = $pat:pat,)*) => {
+        /// A decoded message of any type the fleet sends.
+        #[derive(Debug, Clone, PartialEq)]
+        pub enum Payload {
+            $($variant($ty),)*
+        }
+
+        impl Payload {
+            /// Decode the bytes of a sample on `topic` in its wire encoding (validated).
+            pub fn from_wire(topic: &Topic, bytes: &[u8]) -> Result<Self, PayloadError> {
+                match topic {
+                    $($pat => Ok(Payload::$variant(codec::decode::<$ty>(bytes)?)),)*
+                    other => Err(PayloadError::NoMessage(other.clone())),
+                }
+            }
+
+            /// Decode a recording's JSON record of a message on `topic`.
+            pub fn from_json(topic: &Topic, json: &[u8]) -> Result<Self, PayloadError> {
+                match topic {
+                    $($pat => Ok(Payload::$variant(serde_json::from_slice::<$ty>(json)?)),)*
+                    other => Err(PayloadError::NoMessage(other.clone())),
+                }
+            }
+
+            /// The schema name of the message's type.
+            pub fn name(&self) -> &'static str {
+                match self {
+                    $(Payload::$variant(_) => <$ty as Message>::NAME,)*
+                }
+            }
+
+            /// The JSON Schema of the message's type.
+            pub fn schema(&self) -> fn() -> schemars::Schema {
+                match self {
+                    $(Payload::$variant(_) => || schemars::schema_for!($ty),)*
+                }
+            }
+
+            /// The message as JSON, as recordings keep it.
+            pub fn to_json(&self) -> Vec<u8> {
+                match self {
+                    $(Payload::$variant(m) => serde_json::to_vec(m),)*
+                }
+                .expect("messages serialise to JSON")
+            }
+        }
+    };
+}
+
+payloads! {
+    UnitState(UnitState) = Topic::UnitState(_),
+    FlameReport(FlameReport) = Topic::UnitReport(_),
+    Task(Task) = Topic::UnitTask(_),
+    Bt(BtTransitions) = Topic::UnitBt(_),
+    Fire(FireTrack) = Topic::Fire(_),
+    Goal(ZoneGoal) = Topic::ZoneGoal(_),
+    Ack(GoalAck) = Topic::ZoneAck(_),
+    Decision(Decision) = Topic::CoordLog,
+    SimClock(SimClock) = Topic::SimClock,
+    SimTruth(SimTruth) = Topic::SimTruth,
+    UnitSensors(UnitSensors) = Topic::SimSensors(_),
+    UnitCommand(UnitCommand) = Topic::SimCmd(_),
+    RailSensors(RailSensors) = Topic::SimRailSensors(_),
+    RailCommand(RailCommand) = Topic::SimRailCmd(_),
+}
+
+/// A liveliness token appearing (`alive`) or vanishing, as recordings keep it on
+/// `<site>/liveliness`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct Liveliness {
+    pub key: String,
+    pub alive: bool,
+}
+
+impl Liveliness {
+    pub const NAME: &'static str = "firefleet.Liveliness";
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firefleet_protocol::UnitId;
+    use firefleet_protocol::msg::SimClock;
+
+    #[test]
+    fn wire_and_recording_forms_decode_to_the_same_payload() {
+        let clock = SimClock {
+            t: 12.5,
+            time_scale: 4.0,
+        };
+        let wire = codec::encode(&clock);
+        let p = Payload::from_wire(&Topic::SimClock, &wire).unwrap();
+        assert_eq!(p, Payload::SimClock(clock));
+        assert_eq!(p.name(), "firefleet.SimClock");
+        assert_eq!(
+            Payload::from_json(&Topic::SimClock, &p.to_json()).unwrap(),
+            p
+        );
+        let state = Topic::UnitState(UnitId::new("u1").unwrap());
+        assert!(
+            Payload::from_wire(&state, &wire).is_err(),
+            "a clock is no state"
+        );
+        assert!(matches!(
+            Payload::from_wire(&Topic::CoordAlive, &wire),
+            Err(PayloadError::NoMessage(_))
+        ));
+    }
+}

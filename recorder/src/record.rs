@@ -1,0 +1,238 @@
+//! Recording the whole fleet's traffic to MCAP.
+//!
+//! Every message on `ff/<site>/**` is decoded by its key's type and written as JSON on a
+//! channel named after its key, with a JSON Schema per message type, so any MCAP reader
+//! (Foxglove, Lichtblick, the `mcap` CLI and libraries) can open and decode the file.
+//! Liveliness changes go to `<site>/liveliness`. A Foxglove scene (`/scene`) shows the
+//! tunnel, the parked vehicles, the units and the fires. Undecodable messages are counted
+//! and skipped, never written as garbage.
+//!
+//! The recorder also keeps the latest track of every fire and answers queries on
+//! `fire/*` with them: that is how a restarted coordinator recalls the fires the previous
+//! one tracked (the recording is the incident's memory, on the bus as well as on disk).
+//! With no recorder left running, [`crate::reader::fire_tracks_in`] reads the same tracks
+//! back from the file (the coordinator's `--resume`).
+//!
+//! Chunks are not compressed: compression would pull C libraries into the build, and
+//! uncompressed MCAP is readable everywhere.
+
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::future::Future;
+use std::io::BufWriter;
+use std::path::Path;
+use std::time::{SystemTime, UNIX_EPOCH};
+
+use firefleet_protocol::FireId;
+use firefleet_protocol::bus::{Bus, BusError};
+use firefleet_protocol::keys;
+use firefleet_protocol::scenario::Scenario;
+use serde::Serialize;
+use zenoh::sample::SampleKind;
+
+use crate::payload::{Liveliness, Payload};
+use crate::scene;
+
+/// Why recording failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    #[error("cannot create {path}: {source}")]
+    Create {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("writing MCAP: {0}")]
+    Mcap(#[from] mcap::McapError),
+    #[error(transparent)]
+    Bus(#[from] BusError),
+}
+
+/// What a recording holds.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct RecordSummary {
+    pub messages: u64,
+    pub channels: usize,
+    pub skipped: u64,
+}
+
+/// How often the recording is written out (a chunk closed): what a recorder killed
+/// outright loses at most.
+const FLUSH_EVERY: std::time::Duration = std::time::Duration::from_secs(1);
+/// Simulated seconds between two scene updates.
+const SCENE_PERIOD_S: f64 = 0.5;
+
+/// An MCAP file being written.
+pub(crate) struct McapSink {
+    writer: mcap::Writer<BufWriter<File>>,
+    schemas: HashMap<&'static str, u16>,
+    channels: HashMap<String, (u16, u32)>,
+    summary: RecordSummary,
+}
+
+impl McapSink {
+    pub(crate) fn create(path: &Path) -> Result<Self, RecordError> {
+        let file = File::create(path).map_err(|source| RecordError::Create {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let writer = mcap::WriteOptions::new()
+            .compression(None)
+            .profile("firefleet")
+            .create(BufWriter::new(file))?;
+        Ok(Self {
+            writer,
+            schemas: HashMap::new(),
+            channels: HashMap::new(),
+            summary: RecordSummary::default(),
+        })
+    }
+
+    pub(crate) fn write(
+        &mut self,
+        topic: &str,
+        schema_name: &'static str,
+        schema: fn() -> schemars::Schema,
+        json: &[u8],
+        t_ns: u64,
+    ) -> Result<(), RecordError> {
+        let schema_id = match self.schemas.get(schema_name) {
+            Some(id) => *id,
+            None => {
+                let data = serde_json::to_vec(&schema()).expect("a schema serialises");
+                let id = self.writer.add_schema(schema_name, "jsonschema", &data)?;
+                self.schemas.insert(schema_name, id);
+                id
+            }
+        };
+        let (channel_id, seq) = match self.channels.get_mut(topic) {
+            Some(c) => c,
+            None => {
+                let id = self
+                    .writer
+                    .add_channel(schema_id, topic, "json", &BTreeMap::new())?;
+                self.channels.entry(topic.to_owned()).or_insert((id, 0))
+            }
+        };
+        *seq += 1;
+        let header = mcap::records::MessageHeader {
+            channel_id: *channel_id,
+            sequence: *seq,
+            log_time: t_ns,
+            publish_time: t_ns,
+        };
+        self.writer.write_to_known_channel(&header, json)?;
+        self.summary.messages += 1;
+        Ok(())
+    }
+
+    /// Close the current chunk and write it out: a recorder killed after this loses
+    /// nothing before it.
+    pub(crate) fn flush(&mut self) -> Result<(), RecordError> {
+        self.writer.flush()?;
+        Ok(())
+    }
+
+    pub(crate) fn finish(mut self) -> Result<RecordSummary, RecordError> {
+        self.writer.finish()?;
+        self.summary.channels = self.channels.len();
+        Ok(self.summary)
+    }
+}
+
+fn now_ns() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0)
+}
+
+/// Record everything on the site until `shutdown` completes; the file is finished (summary
+/// and index written) however the recording ends.
+pub async fn record(
+    bus: &Bus,
+    scenario: &Scenario,
+    path: &Path,
+    shutdown: impl Future<Output = ()>,
+) -> Result<RecordSummary, RecordError> {
+    let keys = bus.keys().clone();
+    let session = bus.session();
+    let mut sink = McapSink::create(path)?;
+    let result = async {
+        let samples = session.declare_subscriber(keys.all()).await.map_err(BusError::from)?;
+        let tokens = session.liveliness().declare_subscriber(keys.all()).history(true).await.map_err(BusError::from)?;
+        let recall = session.declare_queryable(keys.every_fire().as_str()).await.map_err(BusError::from)?;
+        // The latest track of every fire, as received: (its time, its key, its bytes).
+        let mut fires: BTreeMap<FireId, (f64, String, Vec<u8>)> = BTreeMap::new();
+        let scene_schema = || schemars::schema_for!(scene::SceneUpdate);
+        let statics = serde_json::to_vec(&scene::static_scene(scenario, scene::Time::from_nanos(now_ns()))).expect("serialises");
+        sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &statics, now_ns())?;
+        let liveliness_topic = format!("{}/liveliness", keys.site());
+        let mut next_scene = 0.0;
+        let mut flush = tokio::time::interval(FLUSH_EVERY);
+        tokio::pin!(shutdown);
+        loop {
+            tokio::select! {
+                _ = &mut shutdown => break,
+                _ = flush.tick() => sink.flush()?,
+                Ok(s) = tokens.recv_async() => {
+                    let l = Liveliness { key: s.key_expr().to_string(), alive: s.kind() == SampleKind::Put };
+                    let json = serde_json::to_vec(&l).expect("serialises");
+                    sink.write(&liveliness_topic, Liveliness::NAME, || schemars::schema_for!(Liveliness), &json, now_ns())?;
+                }
+                Ok(query) = recall.recv_async() => {
+                    for (_, key, bytes) in fires.values() {
+                        if let Err(e) = query.reply(key, bytes.clone()).await {
+                            tracing::warn!("fire track reply failed: {e}");
+                        }
+                    }
+                }
+                Ok(s) = samples.recv_async() => {
+                    let key = s.key_expr().as_str();
+                    if s.kind() == SampleKind::Delete {
+                        // A commander clearing a zone's goals, for one; it has no payload.
+                        tracing::debug!(key, "delete not recorded");
+                        continue;
+                    }
+                    let bytes = s.payload().to_bytes();
+                    let parsed = keys::parse(key).map_err(|e| e.to_string())
+                        .and_then(|(_, topic)| Payload::from_wire(&topic, &bytes).map_err(|e| e.to_string()));
+                    let p = match parsed {
+                        Ok(p) => p,
+                        Err(reason) => {
+                            sink.summary.skipped += 1;
+                            tracing::warn!(key, "not recorded: {reason}");
+                            continue;
+                        }
+                    };
+                    let t = now_ns();
+                    sink.write(key, p.name(), p.schema(), &p.to_json(), t)?;
+                    let log = |log: scene::Log| serde_json::to_vec(&log).expect("serialises");
+                    match p {
+                        Payload::SimTruth(truth) if truth.t >= next_scene => {
+                            next_scene = truth.t + SCENE_PERIOD_S;
+                            let update = scene::truth_scene(scenario, &truth, scene::Time::from_nanos(t));
+                            sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &serde_json::to_vec(&update).expect("serialises"), t)?;
+                        }
+                        Payload::Decision(decision) => {
+                            let entry = log(scene::Log::info("coordinator", &decision, scene::Time::from_nanos(t)));
+                            sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &entry, t)?;
+                        }
+                        Payload::Ack(ack) => {
+                            let entry = log(scene::Log::ack(&ack, scene::Time::from_nanos(t)));
+                            sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &entry, t)?;
+                        }
+                        Payload::Fire(track) if fires.get(&track.id).is_none_or(|(old, _, _)| *old <= track.t) => {
+                            fires.insert(track.id, (track.t, key.to_owned(), bytes.to_vec()));
+                        }
+                        _ => {}
+                    }
+                }
+            }
+        }
+        Ok::<(), RecordError>(())
+    }
+    .await;
+    // Finish the file whatever happened above, so that what was recorded stays readable.
+    let summary = sink.finish()?;
+    result.map(|_| summary)
+}

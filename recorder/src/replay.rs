@@ -1,0 +1,100 @@
+//! The incident's timeline from a recording, for people.
+//!
+//! Prints, on site time, what happened: units joining and leaving, the coordinator's
+//! decisions with their reasons, fire tracks changing state, and (in a simulated run) the
+//! simulator's truth about each fire. Any MCAP file written by the recorder works. Records
+//! are read through the one typed decoder ([`crate::payload`]); a record that does not
+//! decode is passed over.
+//!
+//! Not here: reading the file from disk or printing to a terminal (the CLI's `replay`).
+
+use std::collections::BTreeMap;
+use std::io::Write;
+
+use firefleet_protocol::keys::{self, Topic};
+
+use crate::payload::{Liveliness, Payload};
+
+/// Why a timeline could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    #[error("not an MCAP file: {0}")]
+    NotMcap(mcap::McapError),
+    #[error("corrupt MCAP record after {after} messages: {source}")]
+    Corrupt {
+        after: usize,
+        source: mcap::McapError,
+    },
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+}
+
+/// Write the timeline of the recording `bytes` to `out`.
+pub fn timeline(bytes: &[u8], out: &mut impl Write) -> Result<(), ReplayError> {
+    let mut site_t = 0.0f64;
+    let mut tracks: BTreeMap<String, String> = BTreeMap::new();
+    let mut truth: BTreeMap<String, String> = BTreeMap::new();
+    let (mut decisions, mut messages) = (0usize, 0usize);
+    for m in mcap::MessageStream::new(bytes).map_err(ReplayError::NotMcap)? {
+        let m = m.map_err(|source| ReplayError::Corrupt {
+            after: messages,
+            source,
+        })?;
+        messages += 1;
+        let schema = m.channel.schema.as_ref().map(|s| s.name.as_str());
+        if schema == Some(Liveliness::NAME) {
+            let Ok(l) = serde_json::from_slice::<Liveliness>(&m.data) else {
+                continue;
+            };
+            let who = match keys::parse(&l.key) {
+                Ok((_, Topic::UnitAlive(u))) => u.to_string(),
+                _ => "coordinator".to_owned(),
+            };
+            let what = if l.alive { "is up" } else { "is gone" };
+            writeln!(out, "t={site_t:7.1} s  {who} {what}")?;
+            continue;
+        }
+        let Ok((_, topic)) = keys::parse(&m.channel.topic) else {
+            continue;
+        };
+        let Ok(payload) = Payload::from_json(&topic, &m.data) else {
+            continue;
+        };
+        match payload {
+            Payload::SimClock(c) => site_t = c.t,
+            Payload::Decision(d) => {
+                decisions += 1;
+                site_t = d.t;
+                writeln!(out, "t={site_t:7.1} s  {}", d.text)?;
+            }
+            Payload::Fire(f) => {
+                let (id, state) = (f.id.to_string(), format!("{:?}", f.state).to_lowercase());
+                if tracks.insert(id.clone(), state.clone()).as_ref() != Some(&state) {
+                    writeln!(
+                        out,
+                        "t={site_t:7.1} s  track {id} {state} at ({:.1}, {:.1})",
+                        f.position.x, f.position.y
+                    )?;
+                }
+            }
+            Payload::SimTruth(t) => {
+                site_t = t.t;
+                for f in &t.fires {
+                    let state = format!("{:?}", f.state).to_lowercase();
+                    if truth.insert(f.name.clone(), state.clone()).as_ref() != Some(&state) {
+                        writeln!(out, "t={site_t:7.1} s  (truth) fire {} {state}", f.name)?;
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    let fires_out = truth.values().filter(|s| *s == "out").count();
+    writeln!(
+        out,
+        "{messages} messages, {decisions} decisions, {} tracks; simulated fires out {fires_out}/{} at t={site_t:.1} s",
+        tracks.len(),
+        truth.len()
+    )?;
+    Ok(())
+}

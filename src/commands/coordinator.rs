@@ -1,0 +1,78 @@
+//! `firefleet coordinator`: the incident's coordinator as a process, optionally resumed
+//! from a recording.
+//!
+//! Not here: the coordinator's logic (`firefleet_coordinator`).
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Args;
+use firefleet_coordinator::CoordinatorOptions;
+use firefleet_protocol::SiteId;
+use firefleet_protocol::msg::FireTrack;
+
+use super::{ScenarioArg, positive_f64, scenarios};
+use crate::net::{ZenohArgs, open, shutdown_signal};
+
+#[derive(Args, Debug)]
+pub struct CoordinatorArgs {
+    #[command(flatten)]
+    scenario: ScenarioArg,
+    #[command(flatten)]
+    zenoh: ZenohArgs,
+    /// A unit silent this long is treated as lost, seconds of site time.
+    #[arg(long, default_value_t = 5.0, value_parser = positive_f64)]
+    lease_s: f64,
+    /// Follow the simulator's clock (ff/<site>/sim/clock) instead of the system clock.
+    #[arg(long)]
+    sim_clock: bool,
+    /// How units are paired with fires: optimal (least total travel time) or greedy
+    /// (nearest free unit first).
+    #[arg(long, default_value = "optimal")]
+    assignment: firefleet_coordinator::assign::Strategy,
+    /// Take back the fire tracks recorded in this MCAP file (a recording of this site by
+    /// `firefleet record` or `demo --record`), for a restart with no recorder left
+    /// running; a file cut short by a crash is read up to where it ends.
+    #[arg(long, value_name = "FILE.mcap")]
+    resume: Option<PathBuf>,
+}
+
+pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
+    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let bus = open(&a.zenoh, &scenario).await?;
+    let resume = match &a.resume {
+        Some(path) => recorded_fires(path, &scenario.site)?,
+        None => Vec::new(),
+    };
+    let opts = CoordinatorOptions {
+        lease_s: a.lease_s,
+        sim_clock: a.sim_clock,
+        strategy: a.assignment,
+        resume,
+    };
+    firefleet_coordinator::run(
+        &bus,
+        &scenario,
+        &opts,
+        shutdown_signal(a.zenoh.die_with_parent),
+    )
+    .await?;
+    bus.close().await;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The latest fire tracks of `site` recorded in `path`, for `coordinator --resume`.
+fn recorded_fires(path: &Path, site: &SiteId) -> anyhow::Result<Vec<FireTrack>> {
+    let bytes = std::fs::read(path).with_context(|| format!("--resume {}", path.display()))?;
+    let r = firefleet_recorder::reader::fire_tracks_in(&bytes, site)
+        .with_context(|| format!("--resume {}", path.display()))?;
+    if let Some(why) = &r.cut_short {
+        tracing::warn!(file = %path.display(), "the recording ends early ({why}); using what comes before");
+    }
+    for why in &r.refused {
+        tracing::warn!(file = %path.display(), "recorded fire track refused: {why}");
+    }
+    tracing::info!(file = %path.display(), fires = r.tracks.len(), "fire tracks read from the recording");
+    Ok(r.tracks)
+}

@@ -1,0 +1,35 @@
+//! The `firefleet` subcommands, one module each, each owning its arguments, and the
+//! argument types they share.
+//!
+//! Not here: the bus plumbing they share ([`crate::net`]).
+
+use clap::Args;
+
+pub mod agent;
+pub mod bt;
+pub mod coordinator;
+pub mod demo;
+pub mod experiment;
+pub mod goal;
+pub mod plan;
+pub mod record;
+pub mod replay;
+pub mod scenarios;
+pub mod sim;
+pub mod status;
+
+/// The scenario (site file) every role reads.
+#[derive(Args, Clone, Debug)]
+pub struct ScenarioArg {
+    /// A built-in scenario name (see `firefleet scenarios`) or a scenario file.
+    #[arg(long, default_value = "vehicle-collision")]
+    pub scenario: String,
+}
+
+pub fn positive_f64(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        Ok(v) => Err(format!("{v} is not a positive number")),
+        Err(e) => Err(e.to_string()),
+    }
+}

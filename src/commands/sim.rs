@@ -1,0 +1,59 @@
+//! `firefleet sim`: the tunnel fire simulator as a process of its own.
+//!
+//! Not here: the world itself (`firefleet_sim`).
+
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::Args;
+use firefleet_sim::SimOptions;
+
+use super::{ScenarioArg, positive_f64, scenarios};
+use crate::net::{ZenohArgs, open, shutdown_signal};
+
+#[derive(Args, Debug)]
+pub struct SimArgs {
+    #[command(flatten)]
+    scenario: ScenarioArg,
+    #[command(flatten)]
+    zenoh: ZenohArgs,
+    /// Seed of the simulator's random draws (default: the scenario's).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Simulated seconds per wall-clock second.
+    #[arg(long, default_value_t = 1.0, value_parser = positive_f64)]
+    time_scale: f64,
+    /// Wait up to this many seconds for every unit to be alive before starting the clock.
+    #[arg(long, value_name = "SECONDS", value_parser = positive_f64)]
+    wait_for_fleet: Option<f64>,
+    /// With --wait-for-fleet, wait for a coordinator too.
+    #[arg(long)]
+    wait_for_coordinator: bool,
+}
+
+pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
+    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let bus = open(&a.zenoh, &scenario).await?;
+    let opts = SimOptions {
+        seed: a.seed.unwrap_or(scenario.seed),
+        time_scale: a.time_scale,
+        wait_for_fleet: a.wait_for_fleet.map(Duration::from_secs_f64),
+        wait_for_coordinator: a.wait_for_coordinator,
+        ..SimOptions::default()
+    };
+    let truth = firefleet_sim::run(
+        &bus,
+        &scenario,
+        &opts,
+        shutdown_signal(a.zenoh.die_with_parent),
+    )
+    .await?;
+    tracing::info!(
+        t = truth.t,
+        fires_out = truth.fires_out(),
+        fires = truth.fires.len(),
+        "simulation stopped"
+    );
+    bus.close().await;
+    Ok(ExitCode::SUCCESS)
+}

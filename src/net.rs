@@ -1,0 +1,122 @@
+//! The command line's way onto the bus: Zenoh arguments, opening a site's bus, shutting
+//! down on a signal, and asking the coordinator for its status.
+//!
+//! Not here: what any role does once it is on the bus (`commands`).
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use firefleet_protocol::bus::{Bus, Connect, Mode};
+use firefleet_protocol::codec;
+use firefleet_protocol::keys::Topic;
+use firefleet_protocol::msg::IncidentStatus;
+use firefleet_protocol::scenario::Scenario;
+use tokio::io::AsyncReadExt;
+
+/// Zenoh's roles for a session.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ZenohMode {
+    Peer,
+    Client,
+    Router,
+}
+
+impl From<ZenohMode> for Mode {
+    fn from(m: ZenohMode) -> Mode {
+        match m {
+            ZenohMode::Peer => Mode::Peer,
+            ZenohMode::Client => Mode::Client,
+            ZenohMode::Router => Mode::Router,
+        }
+    }
+}
+
+/// How a role joins the Zenoh network.
+#[derive(Args, Clone, Debug, Default)]
+pub struct ZenohArgs {
+    /// A Zenoh configuration file (JSON5, zenoh's own format).
+    #[arg(long, value_name = "FILE")]
+    pub zenoh_config: Option<PathBuf>,
+    /// Zenoh mode (default: peer, or the config file's).
+    #[arg(long, value_enum)]
+    pub mode: Option<ZenohMode>,
+    /// Endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// Endpoint to listen on (repeatable).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// Exit when standard input closes (used by `demo` so no child outlives it).
+    #[arg(long, hide = true)]
+    pub die_with_parent: bool,
+}
+
+impl ZenohArgs {
+    pub fn connect(&self) -> Connect {
+        Connect {
+            config_file: self.zenoh_config.clone(),
+            mode: self.mode.map(Mode::from),
+            connect: self.connect.clone(),
+            listen: self.listen.clone(),
+        }
+    }
+}
+
+/// Completes on Ctrl-C, SIGTERM, or (with `--die-with-parent`) when stdin closes.
+pub async fn shutdown_signal(die_with_parent: bool) {
+    let stdin_closed = async {
+        if die_with_parent {
+            let mut buf = [0u8; 64];
+            let mut stdin = tokio::io::stdin();
+            while matches!(stdin.read(&mut buf).await, Ok(n) if n > 0) {}
+        } else {
+            std::future::pending::<()>().await;
+        }
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = tokio::signal::ctrl_c() => {}
+        _ = term => {}
+        _ = stdin_closed => {}
+    }
+}
+
+/// Join the Zenoh network as `zenoh` says, for `scenario`'s site.
+pub async fn open(zenoh: &ZenohArgs, scenario: &Scenario) -> anyhow::Result<Bus> {
+    Bus::open(&zenoh.connect(), scenario.site.clone())
+        .await
+        .context("joining the Zenoh network")
+}
+
+/// The coordinator's snapshot of the incident, decoded and as sent.
+pub async fn query_status(bus: &Bus) -> anyhow::Result<(IncidentStatus, Vec<u8>)> {
+    let key = bus.keys().expr(&Topic::CoordStatus);
+    let replies = bus
+        .session()
+        .get(&key)
+        .timeout(Duration::from_secs(3))
+        .await
+        .map_err(|e| anyhow::anyhow!("querying {key}: {e}"))?;
+    let reply = replies
+        .recv_async()
+        .await
+        .map_err(|_| anyhow::anyhow!("no coordinator answered on {key}"))?;
+    let sample = reply
+        .result()
+        .map_err(|e| anyhow::anyhow!("the coordinator answered with an error: {e:?}"))?;
+    let bytes = sample.payload().to_bytes().to_vec();
+    let status = codec::decode(&bytes).context("the coordinator's status")?;
+    Ok((status, bytes))
+}
