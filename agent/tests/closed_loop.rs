@@ -12,35 +12,6 @@ use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::GROUND;
 use firefleet_sim::World;
 
-const SCENARIO: &str = r#"
-    name = "closed-loop"
-    time_limit_s = 300
-    [tunnel]
-    length_m = 120.0
-    width_m = 10.0
-    height_m = 6.3
-    lanes = 2
-    [[obstacles]]
-    name = "car"
-    x_m = 40.0
-    y_m = -2.5
-    length_m = 4.5
-    width_m = 1.8
-    height_m = 1.5
-    [[fires]]
-    name = "fire"
-    x_m = 60.0
-    y_m = -2.0
-    growth = "fast"
-    peak_kw = 5000.0
-    ignition_s = -120.0
-    [[units]]
-    id = "u1"
-    kind = "ground"
-    x_m = 5.0
-    y_m = -2.5
-"#;
-
 /// What a closed-loop run did.
 struct Run {
     /// When the fire went out.
@@ -54,7 +25,14 @@ struct Run {
 /// Step world and controller together until the fire is out (and 5 s more, for the
 /// controller to notice) or the time limit.
 fn run(coordinator_task: Option<Point2>) -> Run {
-    let scenario = Arc::new(Scenario::from_toml(SCENARIO, "closed-loop.toml").unwrap());
+    let scenario = Arc::new(
+        Scenario::straight(120.0)
+            .name("closed-loop")
+            .car("car", 40.0, -2.5)
+            .fire("fire", 60.0, -2.0, 5000.0)
+            .ground("u1", 5.0, -2.5)
+            .build(),
+    );
     let mut world = World::new(&scenario, 11);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), GROUND, scenario.clone());
@@ -71,10 +49,7 @@ fn run(coordinator_task: Option<Point2>) -> Run {
     let dt = 0.05;
     let mut closest_while_burning = f64::INFINITY;
     while world.time() < scenario.time_limit_s {
-        let s = world.sensors(&id).unwrap();
-        let cmd = ctl.step(&s);
-        world.command(&id, cmd);
-        world.step(dt);
+        world.step_unit(&id, dt, |s| ctl.step(s)).unwrap();
         let truth = world.truth();
         if truth.fires[0].state != TruthFireState::Out {
             closest_while_burning = closest_while_burning
@@ -83,10 +58,7 @@ fn run(coordinator_task: Option<Point2>) -> Run {
         }
         let out_at = Some(world.time());
         for _ in 0..100 {
-            let s = world.sensors(&id).unwrap();
-            let cmd = ctl.step(&s);
-            world.command(&id, cmd);
-            world.step(dt);
+            world.step_unit(&id, dt, |s| ctl.step(s)).unwrap();
         }
         return Run {
             out_at,
@@ -151,7 +123,14 @@ fn sent_to_a_misplaced_fire_the_unit_goes_where_its_own_camera_sees_it() {
 
 #[test]
 fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
-    let scenario = Arc::new(Scenario::from_toml(SCENARIO, "closed-loop.toml").unwrap());
+    let scenario = Arc::new(
+        Scenario::straight(120.0)
+            .name("closed-loop")
+            .car("car", 40.0, -2.5)
+            .fire("fire", 60.0, -2.0, 5000.0)
+            .ground("u1", 5.0, -2.5)
+            .build(),
+    );
     let mut world = World::new(&scenario, 3);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), GROUND, scenario);
@@ -159,9 +138,7 @@ fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
     let drive = |ctl: &mut GroundController, world: &mut World, seconds: f64| {
         let end = world.time() + seconds;
         while world.time() < end {
-            let cmd = ctl.step(&world.sensors(&id).unwrap());
-            world.command(&id, cmd);
-            world.step(0.05);
+            world.step_unit(&id, 0.05, |s| ctl.step(s)).unwrap();
         }
         world.truth().units[0].pose.position()
     };
@@ -192,7 +169,14 @@ fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
 
 #[test]
 fn a_staged_unit_assigned_the_fire_puts_it_out() {
-    let scenario = Arc::new(Scenario::from_toml(SCENARIO, "closed-loop.toml").unwrap());
+    let scenario = Arc::new(
+        Scenario::straight(120.0)
+            .name("closed-loop")
+            .car("car", 40.0, -2.5)
+            .fire("fire", 60.0, -2.0, 5000.0)
+            .ground("u1", 5.0, -2.5)
+            .build(),
+    );
     let mut world = World::new(&scenario, 5);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), GROUND, scenario.clone());
@@ -217,9 +201,7 @@ fn a_staged_unit_assigned_the_fire_puts_it_out() {
             );
             assigned = true;
         }
-        let cmd = ctl.step(&world.sensors(&id).unwrap());
-        world.command(&id, cmd);
-        world.step(0.05);
+        world.step_unit(&id, 0.05, |s| ctl.step(s)).unwrap();
     }
     assert_eq!(
         world.truth().fires[0].state,

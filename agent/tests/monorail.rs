@@ -16,46 +16,20 @@ fn scenario(fire_x: f64, fire_y: f64, rail_end: f64) -> Arc<Scenario> {
         .map(|k| 15.0 + 30.0 * f64::from(k))
         .take_while(|&x| x < rail_end)
         .collect();
-    let text = format!(
-        r#"
-        name = "rail"
-        time_limit_s = 300
-        [tunnel]
-        length_m = 200.0
-        width_m = 10.0
-        height_m = 6.3
-        lanes = 2
-        [[fires]]
-        name = "car"
-        x_m = {fire_x}
-        y_m = {fire_y}
-        growth = "fast"
-        peak_kw = 3000.0
-        ignition_s = -60.0
-        [[rails]]
-        id = "r"
-        start_m = 0.0
-        end_m = {rail_end}
-        y_m = 0.0
-        height_m = 5.8
-        hose_points_m = {hose_points:?}
-        [[units]]
-        id = "m"
-        kind = "monorail"
-        rail = "r"
-        x_m = 10.0
-        y_m = 0.0
-    "#
-    );
-    Arc::new(Scenario::from_toml(&text, "rail.toml").unwrap())
+    Arc::new(
+        Scenario::straight(200.0)
+            .name("rail")
+            .fire("car", fire_x, fire_y, 3000.0)
+            .ignition(-60.0)
+            .rail("r", 0.0, rail_end, &hose_points)
+            .monorail("m", "r", 10.0)
+            .build(),
+    )
 }
 
 fn step(ctl: &mut MonorailController, world: &mut World) {
     let id = UnitId::new("m").unwrap();
-    let s = world.rail_sensors(&id).unwrap();
-    let cmd = ctl.step(&s);
-    world.command_rail(&id, cmd);
-    world.step(0.05);
+    world.step_rail_unit(&id, 0.05, |s| ctl.step(s)).unwrap();
 }
 
 /// Step world and controller for up to `limit_s`; the time the fire went out, if it did.

@@ -21,6 +21,8 @@ pub mod keys;
 pub mod msg;
 pub mod scenario;
 pub mod spec;
+#[cfg(any(test, feature = "testing"))]
+pub mod testing;
 pub mod tunnel;
 pub mod validate;
 

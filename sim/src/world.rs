@@ -335,6 +335,35 @@ impl World {
         }
     }
 
+    /// One turn of ground unit `id`'s closed loop, in-process: its sensor frame to
+    /// `control`, the command back to the unit, the world on by `dt`. Experiments and
+    /// tests drive units through this, as the simulator's process does over the bus (and
+    /// so with the same seed, the same run). `None`, and no step, for an unknown unit.
+    pub fn step_unit(
+        &mut self,
+        id: &UnitId,
+        dt: f64,
+        control: impl FnOnce(&UnitSensors) -> UnitCommand,
+    ) -> Option<UnitSensors> {
+        let sensors = self.sensors(id)?;
+        self.command(id, control(&sensors));
+        self.step(dt);
+        Some(sensors)
+    }
+
+    /// [`World::step_unit`] for monorail unit `id`.
+    pub fn step_rail_unit(
+        &mut self,
+        id: &UnitId,
+        dt: f64,
+        control: impl FnOnce(&RailSensors) -> RailCommand,
+    ) -> Option<RailSensors> {
+        let sensors = self.rail_sensors(id)?;
+        self.command_rail(id, control(&sensors));
+        self.step(dt);
+        Some(sensors)
+    }
+
     /// Stop a unit and shut its valve (its controller went silent).
     pub fn halt(&mut self, id: &UnitId) {
         if let Some(b) = self.bodies.iter_mut().find(|b| &b.id == id) {
@@ -684,38 +713,22 @@ impl World {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use firefleet_protocol::testing::ScenarioBuilder;
 
-    const SCEN: &str = r#"
-        name = "w"
-        time_limit_s = 200
-        [tunnel]
-        length_m = 100.0
-        width_m = 10.0
-        height_m = 6.0
-        lanes = 2
-        [[obstacles]]
-        name = "car"
-        x_m = 20.0
-        y_m = -2.5
-        length_m = 4.0
-        width_m = 1.8
-        height_m = 1.5
-        [[fires]]
-        name = "f"
-        x_m = 15.0
-        y_m = 0.0
-        growth = "fast"
-        peak_kw = 3000.0
-        ignition_s = -100.0
-        [[units]]
-        id = "u1"
-        kind = "ground"
-        x_m = 5.0
-        y_m = -2.5
-    "#;
+    /// A 100 m tunnel with a car, a 3 MW fire just short of it, and unit u1.
+    fn site() -> ScenarioBuilder {
+        Scenario::straight(100.0)
+            .name("w")
+            .section(10.0, 6.0)
+            .time_limit(200.0)
+            .obstacle("car", (20.0, -2.5), [4.0, 1.8, 1.5])
+            .fire("f", 15.0, 0.0, 3000.0)
+            .ignition(-100.0)
+            .ground("u1", 5.0, -2.5)
+    }
 
     fn world() -> World {
-        World::new(&Scenario::from_toml(SCEN, "w.toml").unwrap(), 1)
+        World::new(&site().build(), 1)
     }
 
     fn u1() -> UnitId {
@@ -846,7 +859,7 @@ mod tests {
     #[test]
     fn same_seed_same_world() {
         let run = |seed| {
-            let mut w = World::new(&Scenario::from_toml(SCEN, "w.toml").unwrap(), seed);
+            let mut w = World::new(&site().build(), seed);
             w.command(
                 &u1(),
                 UnitCommand {
@@ -870,11 +883,12 @@ mod tests {
 
     #[test]
     fn a_monorail_monitor_puts_out_a_fire_under_its_rail() {
-        let text = format!(
-            "{}\n[[rails]]\nid = \"r\"\nstart_m = 0.0\nend_m = 100.0\ny_m = 0.0\nheight_m = 5.5\nhose_points_m = [20.0]\n[[units]]\nid = \"m\"\nkind = \"monorail\"\nrail = \"r\"\nx_m = 5.0\ny_m = 0.0",
-            SCEN
-        );
-        let mut w = World::new(&Scenario::from_toml(&text, "w.toml").unwrap(), 1);
+        let site = site()
+            .rail("r", 0.0, 100.0, &[20.0])
+            .rail_height(5.5)
+            .monorail("m", "r", 5.0)
+            .build();
+        let mut w = World::new(&site, 1);
         let m = UnitId::new("m").unwrap();
         let s = w.rail_sensors(&m).unwrap();
         assert!(s.fire_detected && s.water_connected);

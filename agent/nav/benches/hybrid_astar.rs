@@ -10,32 +10,12 @@ use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::GROUND;
 use firefleet_protocol::{Point2, Pose2};
 
-const SITE: &str = r#"
-name = "bench"
-time_limit_s = 100
-[tunnel]
-length_m = 200.0
-width_m = 10.0
-height_m = 6.3
-lanes = 2
-[[obstacles]]
-name = "car"
-x_m = 80.0
-y_m = -2.5
-length_m = 4.5
-width_m = 1.8
-height_m = 1.5
-[[obstacles]]
-name = "van"
-x_m = 140.0
-y_m = 2.5
-length_m = 5.5
-width_m = 2.0
-height_m = 2.4
-"#;
-
 fn hybrid_astar(c: &mut Criterion) {
-    let site = Scenario::from_toml(SITE, "bench.toml").expect("valid");
+    let site = Scenario::straight(200.0)
+        .name("bench")
+        .car("car", 80.0, -2.5)
+        .obstacle("van", (140.0, 2.5), [5.5, 2.0, 2.4])
+        .build();
     let grid = Grid::from_scenario(&site, 0.1, 0.0);
     let mut params = Params::for_radius(GROUND.min_turn_radius_m());
     params.lambda_m = 5.0;

@@ -174,26 +174,11 @@ pub(crate) mod tests {
     use super::*;
 
     pub(crate) fn scenario() -> Scenario {
-        Scenario::from_toml(
-            r#"
-            name = "g"
-            time_limit_s = 10
-            [tunnel]
-            length_m = 50.0
-            width_m = 10.0
-            height_m = 6.0
-            lanes = 2
-            [[obstacles]]
-            name = "car"
-            x_m = 20.0
-            y_m = 0.0
-            length_m = 4.0
-            width_m = 2.0
-            height_m = 1.5
-            "#,
-            "g.toml",
-        )
-        .unwrap()
+        Scenario::straight(50.0)
+            .section(10.0, 6.0)
+            .time_limit(10.0)
+            .obstacle("car", (20.0, 0.0), [4.0, 2.0, 1.5])
+            .build()
     }
 
     #[test]

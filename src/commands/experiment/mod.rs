@@ -162,10 +162,9 @@ fn trial(angle_deg: f64, seed: u64) -> anyhow::Result<(usize, usize, Option<f64>
         0.0,
     )?;
     while world.time() < TRIAL_LIMIT_S {
-        let sensors = world.sensors(&unit).context("the unit exists")?;
-        let cmd = ctl.step(&sensors);
-        world.command(&unit, cmd);
-        world.step(0.05);
+        world
+            .step_unit(&unit, 0.05, |s| ctl.step(s))
+            .context("the unit exists")?;
         if world.truth().all_out() {
             return Ok((n, n, Some(world.time() / n as f64)));
         }

@@ -35,11 +35,12 @@ fn a_confirmed_fire_goes_to_the_nearest_free_unit() {
 fn the_nearer_unit_behind_a_truck_across_the_road_is_not_sent() {
     // a is 15 m from the fire but a jack-knifed truck closes the tunnel between them;
     // b is 40 m away on the open side.
-    let text = "name = \"t\"\ntime_limit_s = 100\n[tunnel]\nlength_m = 200.0\nwidth_m = 10.0\nheight_m = 6.0\nlanes = 2\n\
-        [[obstacles]]\nname = \"truck\"\nx_m = 52.0\ny_m = 0.0\nlength_m = 3.0\nwidth_m = 10.0\nheight_m = 3.0\n\
-        [[units]]\nid = \"a\"\nkind = \"ground\"\nx_m = 45.0\ny_m = -2.0\n\
-        [[units]]\nid = \"b\"\nkind = \"ground\"\nx_m = 100.0\ny_m = -2.0\n";
-    let scenario = Scenario::from_toml(text, "t.toml").unwrap();
+    let scenario = Scenario::straight(200.0)
+        .section(10.0, 6.0)
+        .obstacle("truck", (52.0, 0.0), [3.0, 10.0, 3.0])
+        .ground("a", 45.0, -2.0)
+        .ground("b", 100.0, -2.0)
+        .build();
     let mut i = Incident::from_scenario(&scenario, 5.0, Strategy::Optimal);
     i.set_units_per_fire(1);
     for (n, x) in [("a", 45.0), ("b", 100.0)] {
