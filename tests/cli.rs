@@ -1,16 +1,8 @@
 //! The command line: exit codes and messages a user relies on.
 
-use std::process::{Command, Output};
+mod support;
 
-const BIN: &str = env!("CARGO_BIN_EXE_firefleet");
-
-fn firefleet(args: &[&str]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap()
-}
+use support::firefleet;
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()

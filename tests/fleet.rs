@@ -1,31 +1,20 @@
 //! End-to-end: the real `firefleet` binary as separate processes over loopback Zenoh.
 
+mod support;
+
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
-use firefleet_protocol::bus::{Bus, Connect, Inbox, Mode, free_loopback_port};
+use firefleet_protocol::bus::{Bus, Inbox};
 use firefleet_protocol::codec::{self, PROTOCOL_VERSION};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
     FireState, FireTrack, FlameObservation, FlameReport, SimTruth, Task, TaskKind, TaskPhase,
     UnitState,
 };
-use firefleet_protocol::{FireId, Point2, Pose2, SiteId, UnitId, ZoneId};
-
-const BIN: &str = env!("CARGO_BIN_EXE_firefleet");
-
-/// Children are killed when the test ends, pass or fail.
-struct Fleet(Vec<Child>);
-
-impl Drop for Fleet {
-    fn drop(&mut self) {
-        for c in &mut self.0 {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
-}
+use firefleet_protocol::{FireId, Point2, Pose2, UnitId, ZoneId};
+use support::{BIN, Fleet, cli, router, spawn_role, text};
 
 /// Run `firefleet demo` on `scenario` at 8x with `extra` arguments; its summary, after
 /// checking that it succeeded and that no process dropped a message (in a clean run a
@@ -159,42 +148,7 @@ fn check_recording(path: &Path) {
     assert!(bt > 10, "behavior-tree transitions recorded: {bt}");
 }
 
-/// Start one role of the fleet as a client of the test's router at `endpoint`.
-fn spawn_role(scenario: &str, endpoint: &str, args: &[&str]) -> Child {
-    Command::new(BIN)
-        .args(args)
-        .args([
-            "--scenario",
-            scenario,
-            "--mode",
-            "client",
-            "--connect",
-            endpoint,
-        ])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .env("RUST_LOG", "warn,zenoh=error")
-        .spawn()
-        .unwrap()
-}
-
 const HANDOVER: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/handover.toml");
-
-/// A Zenoh router owned by the test on a free loopback port, and its endpoint.
-async fn router() -> (Bus, String) {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port().unwrap());
-    let router = Connect {
-        mode: Some(Mode::Router),
-        listen: vec![endpoint.clone()],
-        ..Connect::default()
-    };
-    (
-        Bus::open(&router, SiteId::new("handover").unwrap())
-            .await
-            .unwrap(),
-        endpoint,
-    )
-}
 
 /// The handover fixture as processes: [simulator, coordinator, ugv-near, ugv-far]. The
 /// simulator starts its clock once they are all up.
@@ -234,7 +188,7 @@ async fn outcome(truths: &Inbox<SimTruth>, within: Duration) -> SimTruth {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
-    let (bus, endpoint) = router().await;
+    let (bus, endpoint) = router("handover").await;
     let keys = bus.keys().clone();
     let near = UnitId::new("ugv-near").unwrap();
     let far = UnitId::new("ugv-far").unwrap();
@@ -355,7 +309,7 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_restarted_coordinator_takes_over_mid_incident() {
-    let (bus, endpoint) = router().await;
+    let (bus, endpoint) = router("handover").await;
     let keys = bus.keys().clone();
     let near_state = bus
         .subscribe::<UnitState>(&keys.unit_state(&UnitId::new("ugv-near").unwrap()))
@@ -447,7 +401,7 @@ async fn status_of(bus: &Bus, within: Duration) -> serde_json::Value {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_fire_nobody_works_on_survives_a_coordinator_restart() {
-    let (bus, endpoint) = router().await;
+    let (bus, endpoint) = router("handover").await;
     let dir = tempfile::tempdir().unwrap();
     let recording = dir.path().join("run.mcap");
     let mut fleet = Fleet(vec![spawn_role(
@@ -518,7 +472,7 @@ fn assert_f7_recalled(status: &serde_json::Value) {
 /// started with `--resume` on what it left still keeps the fire.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_coordinator_resumed_from_a_killed_recorders_file_keeps_the_fire() {
-    let (bus, endpoint) = router().await;
+    let (bus, endpoint) = router("handover").await;
     let dir = tempfile::tempdir().unwrap();
     let recording = dir.path().join("run.mcap");
     let recorder = Fleet(vec![spawn_role(
@@ -544,34 +498,9 @@ async fn a_coordinator_resumed_from_a_killed_recorders_file_keeps_the_fire() {
     bus.close().await;
 }
 
-/// Run a one-shot CLI command against the router at `endpoint` on the rail-tunnel site.
-fn cli(endpoint: &str, args: &[&str]) -> std::process::Output {
-    Command::new(BIN)
-        .args(args)
-        .args([
-            "--scenario",
-            "rail-tunnel",
-            "--mode",
-            "client",
-            "--connect",
-            endpoint,
-        ])
-        .env("RUST_LOG", "warn,zenoh=error")
-        .output()
-        .unwrap()
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn commanders_goals_are_answered_listed_and_cleared() {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port().unwrap());
-    let router = Connect {
-        mode: Some(Mode::Router),
-        listen: vec![endpoint.clone()],
-        ..Connect::default()
-    };
-    let bus = Bus::open(&router, SiteId::new("tunnel-r").unwrap())
-        .await
-        .unwrap();
+    let (bus, endpoint) = router("tunnel-r").await;
     let _fleet = Fleet(vec![spawn_role("rail-tunnel", &endpoint, &["coordinator"])]);
     let set = [
         "goal",
@@ -586,18 +515,11 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
     // The coordinator needs a moment to join; the first accepted answer ends the wait.
     let deadline = Instant::now() + Duration::from_secs(20);
     let out = loop {
-        let out = cli(&endpoint, &set);
+        let out = cli("rail-tunnel", &endpoint, &set);
         if out.status.success() || Instant::now() > deadline {
             break out;
         }
         tokio::time::sleep(Duration::from_millis(300)).await;
-    };
-    let text = |o: &std::process::Output| {
-        format!(
-            "{}{}",
-            String::from_utf8_lossy(&o.stdout),
-            String::from_utf8_lossy(&o.stderr)
-        )
     };
     assert!(out.status.success(), "{}", text(&out));
     assert!(
@@ -607,6 +529,7 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
     );
 
     let out = cli(
+        "rail-tunnel",
         &endpoint,
         &["goal", "set", "--zone", "nowhere", "--goal", "monitor"],
     );
@@ -617,6 +540,7 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
         text(&out)
     );
     let out = cli(
+        "rail-tunnel",
         &endpoint,
         &[
             "goal",
@@ -638,6 +562,7 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
         text(&out)
     );
     let out = cli(
+        "rail-tunnel",
         &endpoint,
         &["goal", "set", "--zone", "deep", "--goal", "contain"],
     );
@@ -669,26 +594,30 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
         "{ack:?}"
     );
 
-    let out = cli(&endpoint, &["goal", "list"]);
+    let out = cli("rail-tunnel", &endpoint, &["goal", "list"]);
     assert!(
         text(&out).contains("deep-keep-out") && text(&out).contains("keep-out"),
         "{}",
         text(&out)
     );
-    let out = cli(&endpoint, &["status"]);
+    let out = cli("rail-tunnel", &endpoint, &["status"]);
     assert!(
         text(&out).contains("goals:") && text(&out).contains("deep-keep-out"),
         "{}",
         text(&out)
     );
     assert!(
-        cli(&endpoint, &["goal", "clear", "--zone", "deep"])
-            .status
-            .success()
+        cli(
+            "rail-tunnel",
+            &endpoint,
+            &["goal", "clear", "--zone", "deep"]
+        )
+        .status
+        .success()
     );
     let deadline = Instant::now() + Duration::from_secs(5);
     loop {
-        let out = cli(&endpoint, &["goal", "list"]);
+        let out = cli("rail-tunnel", &endpoint, &["goal", "list"]);
         if text(&out).contains("(none)") {
             break;
         }

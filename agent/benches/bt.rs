@@ -4,11 +4,9 @@
 //! target here is at most 20 ns per leaf per tick.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use firefleet_bt::node::Io;
-use firefleet_bt::{Registry, StatefulAction, Status, Tree, xml};
+use firefleet_bt::testing::Busy;
+use firefleet_bt::{Registry, Tree, xml};
 use std::hint::black_box;
-
-include!("../bt/tests/support/busy.rs");
 
 fn tree(control: &str, attrs: &str, leaf: &str, n: usize) -> Tree<()> {
     let mut r = Registry::new();

@@ -13,6 +13,18 @@ use firefleet_protocol::spec::GROUND;
 use firefleet_sim::World;
 
 /// What a closed-loop run did.
+/// A 120 m tunnel: a parked car at 40 m, a 5 MW fire at 60 m, unit u1 at the portal.
+fn site() -> Arc<Scenario> {
+    Arc::new(
+        Scenario::straight(120.0)
+            .name("closed-loop")
+            .car("car", 40.0, -2.5)
+            .fire("fire", 60.0, -2.0, 5000.0)
+            .ground("u1", 5.0, -2.5)
+            .build(),
+    )
+}
+
 struct Run {
     /// When the fire went out.
     out_at: Option<f64>,
@@ -25,14 +37,7 @@ struct Run {
 /// Step world and controller together until the fire is out (and 5 s more, for the
 /// controller to notice) or the time limit.
 fn run(coordinator_task: Option<Point2>) -> Run {
-    let scenario = Arc::new(
-        Scenario::straight(120.0)
-            .name("closed-loop")
-            .car("car", 40.0, -2.5)
-            .fire("fire", 60.0, -2.0, 5000.0)
-            .ground("u1", 5.0, -2.5)
-            .build(),
-    );
+    let scenario = site();
     let mut world = World::new(&scenario, 11);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), GROUND, scenario.clone());
@@ -123,14 +128,7 @@ fn sent_to_a_misplaced_fire_the_unit_goes_where_its_own_camera_sees_it() {
 
 #[test]
 fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
-    let scenario = Arc::new(
-        Scenario::straight(120.0)
-            .name("closed-loop")
-            .car("car", 40.0, -2.5)
-            .fire("fire", 60.0, -2.0, 5000.0)
-            .ground("u1", 5.0, -2.5)
-            .build(),
-    );
+    let scenario = site();
     let mut world = World::new(&scenario, 3);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), GROUND, scenario);
@@ -169,14 +167,7 @@ fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
 
 #[test]
 fn a_staged_unit_assigned_the_fire_puts_it_out() {
-    let scenario = Arc::new(
-        Scenario::straight(120.0)
-            .name("closed-loop")
-            .car("car", 40.0, -2.5)
-            .fire("fire", 60.0, -2.0, 5000.0)
-            .ground("u1", 5.0, -2.5)
-            .build(),
-    );
+    let scenario = site();
     let mut world = World::new(&scenario, 5);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), GROUND, scenario.clone());

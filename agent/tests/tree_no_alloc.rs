@@ -3,7 +3,10 @@
 
 include!("support/cruising.rs");
 
-include!("../bt/tests/support/counting_alloc.rs");
+use firefleet_bt::testing::{CountingAlloc, allocations_during};
+
+#[global_allocator]
+static GLOBAL: CountingAlloc = CountingAlloc;
 
 #[test]
 fn the_cruising_ground_tree_ticks_without_allocating() {

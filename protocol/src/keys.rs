@@ -167,49 +167,6 @@ impl Keys {
             _m: PhantomData,
         }
     }
-
-    pub fn unit_state(&self, u: &UnitId) -> Key<UnitState> {
-        self.key(Topic::UnitState(u.clone()))
-    }
-    pub fn unit_report(&self, u: &UnitId) -> Key<FlameReport> {
-        self.key(Topic::UnitReport(u.clone()))
-    }
-    pub fn unit_task(&self, u: &UnitId) -> Key<Task> {
-        self.key(Topic::UnitTask(u.clone()))
-    }
-    pub fn unit_bt(&self, u: &UnitId) -> Key<BtTransitions> {
-        self.key(Topic::UnitBt(u.clone()))
-    }
-    pub fn fire(&self, id: FireId) -> Key<FireTrack> {
-        self.key(Topic::Fire(id))
-    }
-    pub fn zone_goal(&self, z: &ZoneId) -> Key<ZoneGoal> {
-        self.key(Topic::ZoneGoal(z.clone()))
-    }
-    pub fn zone_ack(&self, z: &ZoneId) -> Key<GoalAck> {
-        self.key(Topic::ZoneAck(z.clone()))
-    }
-    pub fn coord_log(&self) -> Key<Decision> {
-        self.key(Topic::CoordLog)
-    }
-    pub fn sim_clock(&self) -> Key<SimClock> {
-        self.key(Topic::SimClock)
-    }
-    pub fn sim_truth(&self) -> Key<SimTruth> {
-        self.key(Topic::SimTruth)
-    }
-    pub fn sim_sensors(&self, u: &UnitId) -> Key<UnitSensors> {
-        self.key(Topic::SimSensors(u.clone()))
-    }
-    pub fn sim_cmd(&self, u: &UnitId) -> Key<UnitCommand> {
-        self.key(Topic::SimCmd(u.clone()))
-    }
-    pub fn sim_rail_sensors(&self, u: &UnitId) -> Key<RailSensors> {
-        self.key(Topic::SimRailSensors(u.clone()))
-    }
-    pub fn sim_rail_cmd(&self, u: &UnitId) -> Key<RailCommand> {
-        self.key(Topic::SimRailCmd(u.clone()))
-    }
     /// Everything on this site, for recorders.
     pub fn all(&self) -> String {
         format!("{ROOT}/{}/**", self.site)
@@ -218,37 +175,59 @@ impl Keys {
     pub fn every_unit_alive(&self) -> String {
         format!("{ROOT}/{}/unit/*/alive", self.site)
     }
-    /// `ff/<site>/unit/*/state`: every unit's state.
-    pub fn every_unit_state(&self) -> Pattern<UnitState> {
-        Pattern::new(format!("{ROOT}/{}/unit/*/state", self.site))
+}
+
+/// The typed keys and patterns: which message travels on which topic, in one table.
+macro_rules! typed_keys {
+    (
+        keys { $($key:ident($($arg:ident: $ty:ty)?) -> $m:ty = $topic:expr;)* }
+        patterns { $($(#[$doc:meta])* $pattern:ident -> $pm:ty = $tail:literal;)* }
+    ) => {
+        impl Keys {
+            $(pub fn $key(&self $(, $arg: $ty)?) -> Key<$m> {
+                self.key($topic)
+            })*
+            $($(#[$doc])* pub fn $pattern(&self) -> Pattern<$pm> {
+                Pattern::new(format!("{ROOT}/{}/{}", self.site, $tail))
+            })*
+        }
+    };
+}
+
+typed_keys! {
+    keys {
+        unit_state(u: &UnitId) -> UnitState = Topic::UnitState(u.clone());
+        unit_report(u: &UnitId) -> FlameReport = Topic::UnitReport(u.clone());
+        unit_task(u: &UnitId) -> Task = Topic::UnitTask(u.clone());
+        unit_bt(u: &UnitId) -> BtTransitions = Topic::UnitBt(u.clone());
+        fire(id: FireId) -> FireTrack = Topic::Fire(id);
+        zone_goal(z: &ZoneId) -> ZoneGoal = Topic::ZoneGoal(z.clone());
+        zone_ack(z: &ZoneId) -> GoalAck = Topic::ZoneAck(z.clone());
+        coord_log() -> Decision = Topic::CoordLog;
+        sim_clock() -> SimClock = Topic::SimClock;
+        sim_truth() -> SimTruth = Topic::SimTruth;
+        sim_sensors(u: &UnitId) -> UnitSensors = Topic::SimSensors(u.clone());
+        sim_cmd(u: &UnitId) -> UnitCommand = Topic::SimCmd(u.clone());
+        sim_rail_sensors(u: &UnitId) -> RailSensors = Topic::SimRailSensors(u.clone());
+        sim_rail_cmd(u: &UnitId) -> RailCommand = Topic::SimRailCmd(u.clone());
     }
-    /// `ff/<site>/unit/*/report`: every unit's flame reports.
-    pub fn every_unit_report(&self) -> Pattern<FlameReport> {
-        Pattern::new(format!("{ROOT}/{}/unit/*/report", self.site))
-    }
-    /// `ff/<site>/unit/*/task`: every unit's task.
-    pub fn every_unit_task(&self) -> Pattern<Task> {
-        Pattern::new(format!("{ROOT}/{}/unit/*/task", self.site))
-    }
-    /// `ff/<site>/fire/*`: every fire track.
-    pub fn every_fire(&self) -> Pattern<FireTrack> {
-        Pattern::new(format!("{ROOT}/{}/fire/*", self.site))
-    }
-    /// `ff/<site>/zone/*/goal`: commanders' goals for every zone.
-    pub fn every_zone_goal(&self) -> Pattern<ZoneGoal> {
-        Pattern::new(format!("{ROOT}/{}/zone/*/goal", self.site))
-    }
-    /// `ff/<site>/zone/*/ack`: the coordinator's answers for every zone.
-    pub fn every_zone_ack(&self) -> Pattern<GoalAck> {
-        Pattern::new(format!("{ROOT}/{}/zone/*/ack", self.site))
-    }
-    /// `ff/<site>/sim/unit/*/cmd`: actuator commands of every simulated ground unit.
-    pub fn every_sim_cmd(&self) -> Pattern<UnitCommand> {
-        Pattern::new(format!("{ROOT}/{}/sim/unit/*/cmd", self.site))
-    }
-    /// `ff/<site>/sim/rail/*/cmd`: joint set-points of every simulated monorail unit.
-    pub fn every_sim_rail_cmd(&self) -> Pattern<RailCommand> {
-        Pattern::new(format!("{ROOT}/{}/sim/rail/*/cmd", self.site))
+    patterns {
+        /// Every unit's state.
+        every_unit_state -> UnitState = "unit/*/state";
+        /// Every unit's flame reports.
+        every_unit_report -> FlameReport = "unit/*/report";
+        /// Every unit's task.
+        every_unit_task -> Task = "unit/*/task";
+        /// Every fire track.
+        every_fire -> FireTrack = "fire/*";
+        /// Commanders' goals for every zone.
+        every_zone_goal -> ZoneGoal = "zone/*/goal";
+        /// The coordinator's answers for every zone.
+        every_zone_ack -> GoalAck = "zone/*/ack";
+        /// Actuator commands of every simulated ground unit.
+        every_sim_cmd -> UnitCommand = "sim/unit/*/cmd";
+        /// Joint set-points of every simulated monorail unit.
+        every_sim_rail_cmd -> RailCommand = "sim/rail/*/cmd";
     }
 }
 
@@ -344,6 +323,44 @@ mod tests {
         assert_eq!(keys.every_unit_state().as_str(), "ff/t1/unit/*/state");
         assert_eq!(keys.unit_state(&u("x")).as_str(), "ff/t1/unit/x/state");
         assert_eq!(keys.unit_state(&u("x")).topic(), &Topic::UnitState(u("x")));
+    }
+
+    #[test]
+    fn typed_keys_parse_back_to_their_topics_and_patterns_cover_them() {
+        let keys = Keys::new(SiteId::new("t1").unwrap());
+        let z = ZoneId::new("z").unwrap();
+        let pairs = [
+            (
+                keys.unit_task(&u("a")).as_str().to_owned(),
+                keys.every_unit_task().as_str().to_owned(),
+            ),
+            (
+                keys.unit_state(&u("a")).as_str().to_owned(),
+                keys.every_unit_state().as_str().to_owned(),
+            ),
+            (
+                keys.fire(FireId(2)).as_str().to_owned(),
+                keys.every_fire().as_str().to_owned(),
+            ),
+            (
+                keys.zone_ack(&z).as_str().to_owned(),
+                keys.every_zone_ack().as_str().to_owned(),
+            ),
+            (
+                keys.sim_rail_cmd(&u("r")).as_str().to_owned(),
+                keys.every_sim_rail_cmd().as_str().to_owned(),
+            ),
+        ];
+        for (key, pattern) in pairs {
+            let (head, tail) = pattern.split_once('*').unwrap();
+            assert!(
+                key.starts_with(head) && key.ends_with(tail),
+                "{key} ~ {pattern}"
+            );
+            assert!(parse(&key).is_ok(), "{key}");
+        }
+        let k = keys.sim_clock();
+        assert_eq!(&parse(k.as_str()).unwrap().1, k.topic());
     }
 
     #[test]

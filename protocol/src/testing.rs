@@ -103,6 +103,16 @@ impl ScenarioBuilder {
         self
     }
 
+    /// The t-squared growth class of the last fire added.
+    pub fn growth(mut self, growth: Growth) -> Self {
+        self.0
+            .fires
+            .last_mut()
+            .expect("growth() follows fire()")
+            .growth = growth;
+        self
+    }
+
     fn unit(mut self, id: &str, kind: UnitKind, x_m: f64, y_m: f64, rail: Option<&str>) -> Self {
         self.0.units.push(UnitSpec {
             id: UnitId::new(id).expect("a valid unit id"),

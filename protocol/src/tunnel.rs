@@ -246,7 +246,7 @@ pub struct Station {
 
 impl Tunnel {
     /// A straight tunnel.
-    pub fn straight(length_m: f64, width_m: f64, height_m: f64, lanes: u8) -> Self {
+    pub const fn straight(length_m: f64, width_m: f64, height_m: f64, lanes: u8) -> Self {
         Self {
             length_m,
             width_m,

@@ -108,13 +108,7 @@ mod tests {
     use super::*;
     use firefleet_protocol::spec::GROUND;
 
-    const TUNNEL: Tunnel = Tunnel {
-        length_m: 200.0,
-        width_m: 10.0,
-        height_m: 6.0,
-        lanes: 2,
-        centerline: Vec::new(),
-    };
+    const TUNNEL: Tunnel = Tunnel::straight(200.0, 10.0, 6.0, 2);
 
     /// A nozzle whose jet is a plain drag-free jet at `v` m/s (no reach correction).
     fn plain(v: f64) -> NozzleSpec {

@@ -713,6 +713,7 @@ impl World {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use firefleet_protocol::scenario::Growth;
     use firefleet_protocol::testing::ScenarioBuilder;
 
     /// A 100 m tunnel with a car, a 3 MW fire just short of it, and unit u1.
@@ -926,43 +927,18 @@ mod tests {
     /// A 5 MW car fire in one lane, a car in the next lane 0.7 m away, after 400 s; `hose`
     /// puts a jet on the exposed car while the unit's water lasts.
     fn neighbours(hose: bool) -> World {
-        let text = r#"
-            name = "spread"
-            time_limit_s = 900
-            [tunnel]
-            length_m = 100.0
-            width_m = 10.0
-            height_m = 6.0
-            lanes = 2
-            [[obstacles]]
-            name = "burning"
-            x_m = 50.0
-            y_m = -1.25
-            length_m = 4.5
-            width_m = 1.8
-            height_m = 1.5
-            [[obstacles]]
-            name = "exposed"
-            x_m = 50.0
-            y_m = 1.25
-            length_m = 4.5
-            width_m = 1.8
-            height_m = 1.5
-            [[fires]]
-            name = "car"
-            x_m = 50.0
-            y_m = -1.25
-            growth = "ultrafast"
-            peak_kw = 5000.0
-            ignition_s = -300.0
-            radius_m = 1.0
-            [[units]]
-            id = "u1"
-            kind = "ground"
-            x_m = 30.0
-            y_m = 3.0
-        "#;
-        let mut w = World::new(&Scenario::from_toml(text, "s.toml").unwrap(), 1);
+        let site = Scenario::straight(100.0)
+            .name("spread")
+            .section(10.0, 6.0)
+            .time_limit(900.0)
+            .car("burning", 50.0, -1.25)
+            .car("exposed", 50.0, 1.25)
+            .fire("car", 50.0, -1.25, 5000.0)
+            .growth(Growth::Ultrafast)
+            .ignition(-300.0)
+            .ground("u1", 30.0, 3.0)
+            .build();
+        let mut w = World::new(&site, 1);
         if hose {
             // A jet into the exposed car's rear, 18 m away: the lowest elevation that hits it.
             let pan = (1.25f64 - 3.0).atan2(18.0);

@@ -22,7 +22,7 @@ use firefleet_protocol::validate::Validate;
 use serde::Serialize;
 use tokio::process::{Child, Command};
 
-use super::{positive_f64, scenarios};
+use super::{positive_f64, scenarios, write_json};
 use crate::net::shutdown_signal;
 
 #[derive(Args, Debug)]
@@ -319,10 +319,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             .collect(),
         recording: a.record.clone(),
     };
-    if let Some(path) = &a.summary_json {
-        std::fs::write(path, serde_json::to_vec_pretty(&summary)?)
-            .with_context(|| format!("writing {}", path.display()))?;
-    }
+    write_json(a.summary_json.as_deref(), &summary)?;
     Ok(match outcome {
         Outcome::AllOut => ExitCode::SUCCESS,
         Outcome::Interrupted => ExitCode::from(130),

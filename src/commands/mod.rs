@@ -3,7 +3,11 @@
 //!
 //! Not here: the bus plumbing they share ([`crate::net`]).
 
+use std::path::Path;
+
+use anyhow::Context;
 use clap::Args;
+use serde::Serialize;
 
 pub mod agent;
 pub mod bt;
@@ -32,4 +36,14 @@ pub fn positive_f64(s: &str) -> Result<f64, String> {
         Ok(v) => Err(format!("{v} is not a positive number")),
         Err(e) => Err(e.to_string()),
     }
+}
+
+/// Write `value` as pretty JSON to `path`, if a path was given (the commands' `--json` and
+/// `--summary-json`).
+pub fn write_json(path: Option<&Path>, value: &impl Serialize) -> anyhow::Result<()> {
+    if let Some(path) = path {
+        std::fs::write(path, serde_json::to_vec_pretty(value)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
 }

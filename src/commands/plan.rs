@@ -10,6 +10,8 @@ use firefleet_nav::costmap::{Ga, Terrain, TimeModel};
 use firefleet_nav::movingai;
 use serde::Serialize;
 
+use crate::commands::write_json;
+
 #[derive(Subcommand, Debug)]
 pub enum PlanCommand {
     /// Solve a MovingAI grid benchmark (.map + .scen) and compare with its optimal lengths.
@@ -139,10 +141,7 @@ fn grid(a: GridArgs) -> anyhow::Result<ExitCode> {
         f.mean_rel_error
     );
     println!("mean time       {:.3} ms per problem", f.mean_ms);
-    if let Some(path) = &a.json {
-        std::fs::write(path, serde_json::to_string_pretty(&f)?)
-            .with_context(|| format!("cannot write {}", path.display()))?;
-    }
+    write_json(a.json.as_deref(), &f)?;
     Ok(if f.solved == f.problems {
         ExitCode::SUCCESS
     } else {

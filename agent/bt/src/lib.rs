@@ -16,6 +16,8 @@ pub mod factory;
 pub mod node;
 pub mod script;
 pub mod status;
+#[cfg(any(test, feature = "testing"))]
+pub mod testing;
 pub mod tree;
 pub mod value;
 pub mod xml;

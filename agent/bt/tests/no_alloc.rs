@@ -1,12 +1,11 @@
 //! Ticking a tree in steady state allocates nothing. One test per file: the counting
 //! allocator is process-wide, and counts only on the thread that asks it to.
 
-use firefleet_bt::node::Io;
-use firefleet_bt::{Registry, StatefulAction, Status, xml};
+use firefleet_bt::testing::{Busy, CountingAlloc, allocations_during};
+use firefleet_bt::{Registry, Status, xml};
 
-include!("support/counting_alloc.rs");
-
-include!("support/busy.rs");
+#[global_allocator]
+static GLOBAL: CountingAlloc = CountingAlloc;
 
 #[test]
 fn steady_state_ticks_allocate_nothing() {

@@ -10,6 +10,8 @@ use clap::Args;
 use firefleet_nav::costmap::{Ga, Terrain, three_cases};
 use serde::Serialize;
 
+use crate::commands::write_json;
+
 #[derive(Args, Debug)]
 pub struct CostmapGaArgs {
     /// Seed of the generated map and of the GA.
@@ -98,8 +100,7 @@ pub fn run(a: CostmapGaArgs) -> anyhow::Result<ExitCode> {
                 })
                 .collect(),
         };
-        std::fs::write(path, serde_json::to_string_pretty(&r)?)
-            .with_context(|| format!("cannot write {}", path.display()))?;
+        write_json(Some(path), &r)?;
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -27,6 +27,8 @@ use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_sim::World;
 use serde::Serialize;
 
+use crate::commands::write_json;
+
 #[derive(Args, Debug)]
 pub struct FleetArgs {
     #[arg(long, default_value_t = 1)]
@@ -303,15 +305,14 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
         }
     }
     if let Some(path) = &a.json {
-        std::fs::write(
-            path,
-            serde_json::to_vec_pretty(&FleetResults {
+        write_json(
+            Some(path),
+            &FleetResults {
                 seed: a.seed,
                 strategies: runs,
                 bounds,
-            })?,
-        )
-        .with_context(|| format!("writing {}", path.display()))?;
+            },
+        )?;
     }
     Ok(ExitCode::SUCCESS)
 }

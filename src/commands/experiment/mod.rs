@@ -21,6 +21,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
+use crate::commands::write_json;
+
 mod costmap_ga;
 mod fleet;
 mod nav;
@@ -229,14 +231,13 @@ fn cannon(a: CannonArgs) -> anyhow::Result<ExitCode> {
         });
     }
     if let Some(path) = &a.json {
-        std::fs::write(
-            path,
-            serde_json::to_vec_pretty(&CannonResults {
+        write_json(
+            Some(path),
+            &CannonResults {
                 seed: a.seed,
                 angles,
-            })?,
-        )
-        .with_context(|| format!("writing {}", path.display()))?;
+            },
+        )?;
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -40,6 +40,8 @@ use serde::Serialize;
 
 use super::mean_std;
 
+use crate::commands::write_json;
+
 #[derive(Args, Debug)]
 pub struct NavArgs {
     #[arg(long, default_value_t = 1)]
@@ -316,8 +318,7 @@ pub fn run(a: NavArgs) -> anyhow::Result<ExitCode> {
                 std_angle_deg: PAPER.3,
             },
         };
-        std::fs::write(path, serde_json::to_vec_pretty(&results)?)
-            .with_context(|| format!("writing {}", path.display()))?;
+        write_json(Some(path), &results)?;
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -13,6 +13,8 @@ use serde::Serialize;
 
 use super::plot::{self, Labels, Series};
 
+use crate::commands::write_json;
+
 #[derive(Args, Debug)]
 pub struct RobogatArgs {
     /// Also write the figures as JSON.
@@ -88,8 +90,7 @@ pub fn run(a: RobogatArgs) -> anyhow::Result<ExitCode> {
             fuzzy: figures(&fuzzy),
             fixed: figures(&fixed),
         };
-        std::fs::write(path, serde_json::to_string_pretty(&r)?)
-            .with_context(|| format!("cannot write {}", path.display()))?;
+        write_json(Some(path), &r)?;
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -29,6 +29,8 @@ use firefleet_protocol::msg::{
 use firefleet_protocol::{Point2, Pose2, SiteId, UnitId};
 use serde::Serialize;
 
+use crate::commands::write_json;
+
 #[derive(Args, Debug)]
 pub struct ScaleArgs {
     #[arg(long, default_value_t = 1000)]
@@ -351,10 +353,7 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
         f.coordinator_cpu_share * 100.0,
         f.wall_s
     );
-    if let Some(path) = &a.json {
-        std::fs::write(path, serde_json::to_string_pretty(&f)?)
-            .with_context(|| format!("cannot write {}", path.display()))?;
-    }
+    write_json(a.json.as_deref(), &f)?;
     Ok(if f.tasks_received == a.fires {
         ExitCode::SUCCESS
     } else {

@@ -15,13 +15,7 @@ mod search;
 mod staging;
 mod zones;
 
-const TUNNEL: Tunnel = Tunnel {
-    length_m: 200.0,
-    width_m: 10.0,
-    height_m: 6.0,
-    lanes: 2,
-    centerline: Vec::new(),
-};
+const TUNNEL: Tunnel = Tunnel::straight(200.0, 10.0, 6.0, 2);
 
 fn u(s: &str) -> UnitId {
     UnitId::new(s).unwrap()

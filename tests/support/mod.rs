@@ -1,0 +1,86 @@
+//! The process harness the end-to-end tests share: the `firefleet` binary, a router owned
+//! by the test, roles started as client processes, one-shot commands against them.
+//!
+//! Each test binary uses part of this module.
+#![allow(dead_code)]
+
+use std::process::{Child, Command, Output, Stdio};
+
+use firefleet_protocol::SiteId;
+use firefleet_protocol::bus::{Bus, Connect, Mode, free_loopback_port};
+
+pub const BIN: &str = env!("CARGO_BIN_EXE_firefleet");
+
+/// Child processes, killed when the test ends, pass or fail.
+pub struct Fleet(pub Vec<Child>);
+
+impl Drop for Fleet {
+    fn drop(&mut self) {
+        for c in &mut self.0 {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// `firefleet ARGS` run from the repository root, to completion.
+pub fn firefleet(args: &[&str]) -> Output {
+    Command::new(BIN)
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap()
+}
+
+/// Standard output and standard error, as text.
+pub fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// `firefleet ARGS` as a client of the router at `endpoint`, on `scenario`'s site.
+fn client(scenario: &str, endpoint: &str, args: &[&str]) -> Command {
+    let mut c = Command::new(BIN);
+    c.args(args)
+        .args([
+            "--scenario",
+            scenario,
+            "--mode",
+            "client",
+            "--connect",
+            endpoint,
+        ])
+        .env("RUST_LOG", "warn,zenoh=error");
+    c
+}
+
+/// Start one role of the fleet as a client of the test's router at `endpoint`.
+pub fn spawn_role(scenario: &str, endpoint: &str, args: &[&str]) -> Child {
+    client(scenario, endpoint, args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap()
+}
+
+/// Run a one-shot command against the router at `endpoint` on `scenario`'s site.
+pub fn cli(scenario: &str, endpoint: &str, args: &[&str]) -> Output {
+    client(scenario, endpoint, args).output().unwrap()
+}
+
+/// A Zenoh router owned by the test on a free loopback port for `site`, and its endpoint.
+pub async fn router(site: &str) -> (Bus, String) {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port().unwrap());
+    let router = Connect {
+        mode: Some(Mode::Router),
+        listen: vec![endpoint.clone()],
+        ..Connect::default()
+    };
+    let bus = Bus::open(&router, SiteId::new(site).unwrap())
+        .await
+        .unwrap();
+    (bus, endpoint)
+}
