@@ -2,7 +2,7 @@
 
 mod support;
 
-use support::firefleet;
+use support::{assert_says, firefleet, json_of};
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
@@ -76,11 +76,10 @@ fn bad_scenarios_and_arguments_are_refused_with_the_reason() {
     let bad = dir.path().join("bad.toml");
     std::fs::write(&bad, "name = \"x\"\ntime_limit_s = 10\n[tunnel]\nlength_m = 50.0\nwidth_m = 10.0\nheight_m = 6.0\nlanes = 2\n[[fires]]\nname = \"f\"\nx_m = 80.0\ny_m = 0.0\ngrowth = \"fast\"\npeak_kw = 100.0\n").unwrap();
     let out = firefleet(&["demo", "--scenario", bad.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        text(&out.stderr).contains("fires[0].x_m/y_m: (80.00, 0.00) is outside the tunnel"),
-        "{}",
-        text(&out.stderr)
+    assert_says(
+        &out,
+        2,
+        "fires[0].x_m/y_m: (80.00, 0.00) is outside the tunnel",
     );
 
     let out = firefleet(&[
@@ -90,19 +89,14 @@ fn bad_scenarios_and_arguments_are_refused_with_the_reason() {
         "--unit",
         "ugv-9",
     ]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        text(&out.stderr)
-            .contains("--unit ugv-9: the scenario 'vehicle-collision' has no such unit")
+    assert_says(
+        &out,
+        2,
+        "--unit ugv-9: the scenario 'vehicle-collision' has no such unit",
     );
 
     let out = firefleet(&["coordinator", "--assignment", "auction"]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        text(&out.stderr).contains("'auction' is not an assignment strategy"),
-        "{}",
-        text(&out.stderr)
-    );
+    assert_says(&out, 2, "'auction' is not an assignment strategy");
 
     let out = firefleet(&["sim", "--time-scale", "0"]);
     assert!(!out.status.success());
@@ -156,18 +150,7 @@ fn the_cannon_experiment_reports_every_angle_and_is_reproducible() {
 
 #[test]
 fn the_fleet_experiment_compares_three_strategies_on_every_multi_fire_scenario() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("fleet.json");
-    let out = firefleet(&[
-        "experiment",
-        "fleet",
-        "--trials",
-        "1",
-        "--json",
-        path.to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let v = json_of(&["experiment", "fleet", "--trials", "1"]);
     let runs = v["strategies"].as_array().unwrap();
     assert_eq!(runs.len(), 9, "3 scenarios x 3 strategies");
     for r in runs {
@@ -189,50 +172,21 @@ fn plan_grid_solves_a_movingai_benchmark_to_its_optimal_lengths() {
     // The fixture's optimal lengths come from an independent Dijkstra
     // (tests/fixtures/make_grid_bench.py).
     let fixtures = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures");
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("grid.json");
     let map = format!("{fixtures}/grid-bench.map");
     let scen = format!("{fixtures}/grid-bench.scen");
-    let out = firefleet(&[
-        "plan",
-        "grid",
-        "--map",
-        &map,
-        "--scen",
-        &scen,
-        "--json",
-        path.to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let v = json_of(&["plan", "grid", "--map", &map, "--scen", &scen]);
     assert_eq!(v["problems"], 60);
     assert_eq!(v["solved"], 60);
     assert!(v["mean_rel_error"].as_f64().unwrap() < 1e-8, "{v}");
     assert!(v["mean_ms"].is_number());
 
     let out = firefleet(&["plan", "grid", "--map", &scen, "--scen", &scen]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        text(&out.stderr).contains("grid-bench.scen: line 1: expected 'type'"),
-        "{}",
-        text(&out.stderr)
-    );
+    assert_says(&out, 2, "grid-bench.scen: line 1: expected 'type'");
 }
 
 #[test]
 fn the_costmap_experiment_reports_the_papers_three_cases_in_its_order() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("cg.json");
-    let out = firefleet(&[
-        "experiment",
-        "costmap-ga",
-        "--size",
-        "40",
-        "--json",
-        path.to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let v = json_of(&["experiment", "costmap-ga", "--size", "40"]);
     let cases = v["cases"].as_array().unwrap();
     assert_eq!(cases.len(), 3);
     let f = |k: usize| cases[k]["fitness"].as_f64().unwrap();

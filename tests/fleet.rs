@@ -14,7 +14,7 @@ use firefleet_protocol::msg::{
     UnitState,
 };
 use firefleet_protocol::{FireId, Point2, Pose2, UnitId, ZoneId};
-use support::{BIN, Fleet, cli, router, spawn_role, text};
+use support::{BIN, Fleet, assert_says, cli, router, spawn_role, text};
 
 /// Run `firefleet demo` on `scenario` at 8x with `extra` arguments; its summary, after
 /// checking that it succeeded and that no process dropped a message (in a clean run a
@@ -521,24 +521,14 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
         }
         tokio::time::sleep(Duration::from_millis(300)).await;
     };
-    assert!(out.status.success(), "{}", text(&out));
-    assert!(
-        text(&out).contains("goal 'deep-keep-out' on zone deep: accepted"),
-        "{}",
-        text(&out)
-    );
+    assert_says(&out, 0, "goal 'deep-keep-out' on zone deep: accepted");
 
     let out = cli(
         "rail-tunnel",
         &endpoint,
         &["goal", "set", "--zone", "nowhere", "--goal", "monitor"],
     );
-    assert_eq!(out.status.code(), Some(1));
-    assert!(
-        text(&out).contains("unknown zone 'nowhere' (zones: portal, deep)"),
-        "{}",
-        text(&out)
-    );
+    assert_says(&out, 1, "unknown zone 'nowhere' (zones: portal, deep)");
     let out = cli(
         "rail-tunnel",
         &endpoint,
@@ -555,12 +545,7 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
             "m",
         ],
     );
-    assert_eq!(out.status.code(), Some(1));
-    assert!(
-        text(&out).contains("conflicts with goal 'deep-keep-out'"),
-        "{}",
-        text(&out)
-    );
+    assert_says(&out, 1, "conflicts with goal 'deep-keep-out'");
     let out = cli(
         "rail-tunnel",
         &endpoint,

@@ -29,7 +29,9 @@ fn scenario(fire_x: f64, fire_y: f64, rail_end: f64) -> Arc<Scenario> {
 
 fn step(ctl: &mut MonorailController, world: &mut World) {
     let id = UnitId::new("m").unwrap();
-    world.step_rail_unit(&id, 0.05, |s| ctl.step(s)).unwrap();
+    let cmd = ctl.step(&world.rail_sensors(&id).unwrap());
+    world.command_rail(&id, cmd);
+    world.step(0.05);
 }
 
 /// Step world and controller for up to `limit_s`; the time the fire went out, if it did.

@@ -309,21 +309,14 @@ mod tests {
     fn the_nearest_allowed_chainage_is_outside_every_barred_zone() {
         let mut g = goals();
         g.submit(&zid("b"), goal("g1", "b", GoalKind::KeepOut, 0), 0.0);
-        assert_eq!(
-            g.nearest_allowed(c(40.0), 5.0, c(0.0), c(300.0)),
-            Some(c(40.0))
-        );
-        assert_eq!(
-            g.nearest_allowed(c(120.0), 5.0, c(0.0), c(300.0)),
-            Some(c(95.0))
-        );
-        assert_eq!(
-            g.nearest_allowed(c(190.0), 5.0, c(0.0), c(300.0)),
-            Some(c(205.0))
-        );
-        assert_eq!(
-            g.nearest_allowed(c(190.0), 5.0, c(0.0), c(200.0)),
-            Some(c(95.0))
-        );
+        for (from, hi, want) in [
+            (40.0, 300.0, 40.0),
+            (120.0, 300.0, 95.0),
+            (190.0, 300.0, 205.0),
+            (190.0, 200.0, 95.0),
+        ] {
+            let got = g.nearest_allowed(c(from), 5.0, c(0.0), c(hi));
+            assert_eq!(got, Some(c(want)), "from {from} within [0, {hi}]");
+        }
     }
 }

@@ -123,20 +123,13 @@ impl RoadMap {
             c = (c + 5.0).min(end);
         }
         let cells: Vec<(usize, usize)> = corners.iter().filter_map(|p| self.snap_any(*p)).collect();
-        let col0 = cells
-            .iter()
-            .map(|c| c.0)
-            .min()
-            .unwrap_or(0)
-            .saturating_sub(1);
-        let row0 = cells
-            .iter()
-            .map(|c| c.1)
-            .min()
-            .unwrap_or(0)
-            .saturating_sub(1);
-        let col1 = (cells.iter().map(|c| c.0).max().unwrap_or(w - 1) + 1).min(w - 1);
-        let row1 = (cells.iter().map(|c| c.1).max().unwrap_or(h - 1) + 1).min(h - 1);
+        // One cell of margin round them, within the grid; the whole grid without cells.
+        let span = |axis: fn(&(usize, usize)) -> usize, n: usize| {
+            let at = cells.iter().map(axis);
+            let lo = at.clone().min().map_or(0, |m| m.saturating_sub(1));
+            (lo, at.max().map_or(n - 1, |m| (m + 1).min(n - 1)))
+        };
+        let ((col0, col1), (row0, row1)) = (span(|c| c.0, w), span(|c| c.1, h));
         let (cols, rows) = (col1 - col0 + 1, row1 - row0 + 1);
         let straight = self.tunnel.is_straight();
         let passable: Vec<bool> = (0..cols * rows)

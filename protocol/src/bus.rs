@@ -359,27 +359,25 @@ mod tests {
 
     #[test]
     fn bad_connect_options_are_named() {
-        let bad_ep = Connect {
-            connect: vec!["nonsense".into()],
-            ..Default::default()
-        };
-        assert!(
-            bad_ep
-                .to_config()
-                .unwrap_err()
-                .to_string()
-                .contains("--connect")
-        );
-        let missing = Connect {
-            config_file: Some("/nonexistent.json5".into()),
-            ..Default::default()
-        };
-        assert!(
-            missing
-                .to_config()
-                .unwrap_err()
-                .to_string()
-                .contains("/nonexistent.json5")
-        );
+        let bad = [
+            (
+                Connect {
+                    connect: vec!["nonsense".into()],
+                    ..Default::default()
+                },
+                "--connect",
+            ),
+            (
+                Connect {
+                    config_file: Some("/nonexistent.json5".into()),
+                    ..Default::default()
+                },
+                "/nonexistent.json5",
+            ),
+        ];
+        for (c, named) in bad {
+            let e = c.to_config().unwrap_err().to_string();
+            assert!(e.contains(named), "{e}");
+        }
     }
 }

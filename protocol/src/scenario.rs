@@ -240,6 +240,24 @@ impl Rail {
 }
 
 impl Scenario {
+    /// A site of `tunnel` with nothing in it yet: no obstacles, fires, units, zones or
+    /// rails, seed 0 (generated scenarios fill them in).
+    pub fn empty(name: &str, site: SiteId, tunnel: Tunnel, time_limit_s: f64) -> Self {
+        Self {
+            name: name.into(),
+            description: String::new(),
+            site,
+            seed: 0,
+            time_limit_s,
+            tunnel,
+            obstacles: Vec::new(),
+            fires: Vec::new(),
+            units: Vec::new(),
+            zones: Vec::new(),
+            rails: Vec::new(),
+        }
+    }
+
     pub fn rail(&self, id: &str) -> Option<&Rail> {
         self.rails.iter().find(|r| r.id == id)
     }

@@ -24,19 +24,12 @@ impl Scenario {
     /// A straight tunnel `length_m` long, 10 m wide, 6.3 m high, two lanes, with a
     /// 300 s time limit and nothing in it yet.
     pub fn straight(length_m: f64) -> ScenarioBuilder {
-        ScenarioBuilder(Scenario {
-            name: "test".into(),
-            description: String::new(),
-            site: crate::SiteId::new("tunnel").expect("valid literal"),
-            seed: 0,
-            time_limit_s: 300.0,
-            tunnel: Tunnel::straight(length_m, 10.0, 6.3, 2),
-            obstacles: Vec::new(),
-            fires: Vec::new(),
-            units: Vec::new(),
-            zones: Vec::new(),
-            rails: Vec::new(),
-        })
+        ScenarioBuilder(Scenario::empty(
+            "test",
+            crate::SiteId::new("tunnel").expect("valid literal"),
+            Tunnel::straight(length_m, 10.0, 6.3, 2),
+            300.0,
+        ))
     }
 }
 

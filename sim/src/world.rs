@@ -36,6 +36,20 @@ struct Fire {
 }
 
 impl Fire {
+    /// A fire not yet ignited (it ignites at its spec's time).
+    fn new(spec: FireSpec) -> Self {
+        Self {
+            alpha: physics::growth_alpha_kw_s2(spec.growth),
+            spec,
+            hrr_kw: 0.0,
+            state: TruthFireState::Dormant,
+            wetted: false,
+            water_received_l: 0.0,
+            cooling_left_l: 0.0,
+            dry_s: 0.0,
+        }
+    }
+
     fn flame_centre(&self) -> camera::P3 {
         [self.spec.x_m, self.spec.y_m, self.flame_height() / 2.0]
     }
@@ -233,16 +247,7 @@ impl World {
         let fires = scenario
             .fires
             .iter()
-            .map(|f| Fire {
-                spec: f.clone(),
-                alpha: physics::growth_alpha_kw_s2(f.growth),
-                hrr_kw: 0.0,
-                state: TruthFireState::Dormant,
-                wetted: false,
-                water_received_l: 0.0,
-                cooling_left_l: 0.0,
-                dry_s: 0.0,
-            })
+            .map(|f| Fire::new(f.clone()))
             .collect();
         let carriages = scenario
             .units
@@ -315,24 +320,14 @@ impl World {
 
     /// Set a monorail unit's joint set-points; `false` if there is no such unit.
     pub fn command_rail(&mut self, id: &UnitId, cmd: RailCommand) -> bool {
-        match self.carriages.iter_mut().find(|c| &c.id == id) {
-            Some(c) => {
-                c.cmd = cmd;
-                true
-            }
-            None => false,
-        }
+        let unit = self.carriages.iter_mut().find(|c| &c.id == id);
+        unit.map(|c| c.cmd = cmd).is_some()
     }
 
     /// Set a unit's actuator set-points; `false` if there is no such unit.
     pub fn command(&mut self, id: &UnitId, cmd: UnitCommand) -> bool {
-        match self.bodies.iter_mut().find(|b| &b.id == id) {
-            Some(b) => {
-                b.cmd = cmd;
-                true
-            }
-            None => false,
-        }
+        let unit = self.bodies.iter_mut().find(|b| &b.id == id);
+        unit.map(|b| b.cmd = cmd).is_some()
     }
 
     /// One turn of ground unit `id`'s closed loop, in-process: its sensor frame to
@@ -347,19 +342,6 @@ impl World {
     ) -> Option<UnitSensors> {
         let sensors = self.sensors(id)?;
         self.command(id, control(&sensors));
-        self.step(dt);
-        Some(sensors)
-    }
-
-    /// [`World::step_unit`] for monorail unit `id`.
-    pub fn step_rail_unit(
-        &mut self,
-        id: &UnitId,
-        dt: f64,
-        control: impl FnOnce(&RailSensors) -> RailCommand,
-    ) -> Option<RailSensors> {
-        let sensors = self.rail_sensors(id)?;
-        self.command_rail(id, control(&sensors));
         self.step(dt);
         Some(sensors)
     }
@@ -515,16 +497,7 @@ impl World {
             };
             tracing::info!(vehicle = %o.name, t = self.t, "fire spread to a parked vehicle");
             self.exposure[i].fire = Some(self.fires.len());
-            self.fires.push(Fire {
-                alpha: physics::growth_alpha_kw_s2(spec.growth),
-                spec,
-                hrr_kw: 0.0,
-                state: TruthFireState::Dormant,
-                wetted: false,
-                water_received_l: 0.0,
-                cooling_left_l: 0.0,
-                dry_s: 0.0,
-            });
+            self.fires.push(Fire::new(spec));
         }
     }
 

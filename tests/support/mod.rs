@@ -84,3 +84,19 @@ pub async fn router(site: &str) -> (Bus, String) {
         .unwrap();
     (bus, endpoint)
 }
+
+/// Asserts that `out` exited with `code` and that what it printed says `needle`.
+pub fn assert_says(out: &Output, code: i32, needle: &str) {
+    let t = text(out);
+    assert_eq!(out.status.code(), Some(code), "{t}");
+    assert!(t.contains(needle), "expected {needle:?} in: {t}");
+}
+
+/// `firefleet ARGS --json FILE`, which must succeed: the JSON it wrote.
+pub fn json_of(args: &[&str]) -> serde_json::Value {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("out.json");
+    let out = firefleet(&[args, &["--json", path.to_str().unwrap()]].concat());
+    assert!(out.status.success(), "{}", text(&out));
+    serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap()
+}

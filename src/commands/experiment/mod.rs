@@ -120,13 +120,7 @@ fn trial(angle_deg: f64, seed: u64) -> anyhow::Result<(usize, usize, Option<f64>
     }
     let unit = UnitId::new("ugv")?;
     let scenario = Scenario {
-        name: "cannon-experiment".into(),
-        description: String::new(),
-        site: SiteId::new("cannon")?,
         seed,
-        time_limit_s: TRIAL_LIMIT_S,
-        tunnel: Tunnel::straight(80.0, 10.0, 6.3, 2),
-        obstacles: Vec::new(),
         fires: spots
             .iter()
             .enumerate()
@@ -149,8 +143,12 @@ fn trial(angle_deg: f64, seed: u64) -> anyhow::Result<(usize, usize, Option<f64>
             yaw_rad: 0.0,
             rail: None,
         }],
-        zones: Vec::new(),
-        rails: Vec::new(),
+        ..Scenario::empty(
+            "cannon-experiment",
+            SiteId::new("cannon")?,
+            Tunnel::straight(80.0, 10.0, 6.3, 2),
+            TRIAL_LIMIT_S,
+        )
     };
     scenario
         .validate()

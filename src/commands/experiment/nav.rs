@@ -124,12 +124,7 @@ fn scenario(seed: u64) -> anyhow::Result<Scenario> {
         car("before-flame", &t, in_front, lane_front, &mut rng),
     ];
     let s = Scenario {
-        name: "nav-experiment".into(),
-        description: String::new(),
-        site: SiteId::new("nav")?,
         seed,
-        time_limit_s: TRIAL_LIMIT_S,
-        tunnel: t,
         obstacles,
         fires: vec![FireSpec {
             name: "flame".into(),
@@ -150,8 +145,7 @@ fn scenario(seed: u64) -> anyhow::Result<Scenario> {
             yaw_rad: 0.0,
             rail: None,
         }],
-        zones: Vec::new(),
-        rails: Vec::new(),
+        ..Scenario::empty("nav-experiment", SiteId::new("nav")?, t, TRIAL_LIMIT_S)
     };
     s.validate()
         .map_err(|e| anyhow::anyhow!("generated scenario (seed {seed}): {e}"))?;

@@ -150,49 +150,44 @@ fn joints(o: &Outcome) -> Vec<Series<'static>> {
     ]
 }
 
+/// The paper's figures 5-8: file, title, y axis.
+const FIGURES: [(&str, &str, &str); 4] = [
+    (
+        "fig5_task_space.png",
+        "Planned task-space trajectory of the jet (fuzzy)",
+        "[m]",
+    ),
+    (
+        "fig6_joints_fuzzy.png",
+        "Joint positions, fuzzy weights",
+        "[m, rad, rad, m/s]",
+    ),
+    ("fig7_fuzzy_outputs.png", "Fuzzy outputs", "weight"),
+    (
+        "fig8_joints_fixed.png",
+        "Joint positions, fixed weights (beta = 1)",
+        "[m, rad, rad, m/s]",
+    ),
+];
+
 fn write_plots(dir: &Path, fuzzy: &Outcome, fixed: &Outcome) -> anyhow::Result<()> {
-    let time = "t [s]";
-    plot::line_chart(
-        &dir.join("fig5_task_space.png"),
-        &Labels {
-            title: "Planned task-space trajectory of the jet (fuzzy)",
-            x: time,
-            y: "[m]",
-        },
-        &[
-            series(fuzzy, "x planned", |s| s.planned.x),
-            series(fuzzy, "y planned", |s| s.planned.y),
-        ],
-    )?;
-    plot::line_chart(
-        &dir.join("fig6_joints_fuzzy.png"),
-        &Labels {
-            title: "Joint positions, fuzzy weights",
-            x: time,
-            y: "[m, rad, rad, m/s]",
-        },
-        &joints(fuzzy),
-    )?;
-    plot::line_chart(
-        &dir.join("fig7_fuzzy_outputs.png"),
-        &Labels {
-            title: "Fuzzy outputs",
-            x: time,
-            y: "weight",
-        },
-        &[
-            series(fuzzy, "beta_d", |s| s.weights.beta_d),
-            series(fuzzy, "beta_m", |s| s.weights.beta_m),
-            series(fuzzy, "beta_v", |s| s.weights.beta_v),
-        ],
-    )?;
-    plot::line_chart(
-        &dir.join("fig8_joints_fixed.png"),
-        &Labels {
-            title: "Joint positions, fixed weights (beta = 1)",
-            x: time,
-            y: "[m, rad, rad, m/s]",
-        },
-        &joints(fixed),
-    )
+    let planned = vec![
+        series(fuzzy, "x planned", |s| s.planned.x),
+        series(fuzzy, "y planned", |s| s.planned.y),
+    ];
+    let weights = vec![
+        series(fuzzy, "beta_d", |s| s.weights.beta_d),
+        series(fuzzy, "beta_m", |s| s.weights.beta_m),
+        series(fuzzy, "beta_v", |s| s.weights.beta_v),
+    ];
+    let lines = [planned, joints(fuzzy), weights, joints(fixed)];
+    for ((file, title, y), lines) in FIGURES.into_iter().zip(lines) {
+        let labels = Labels {
+            title,
+            x: "t [s]",
+            y,
+        };
+        plot::line_chart(&dir.join(file), &labels, &lines)?;
+    }
+    Ok(())
 }
