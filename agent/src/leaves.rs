@@ -8,7 +8,7 @@
 //! Autoware and the cannon driver.
 
 use firefleet_bt::node::Io;
-use firefleet_bt::{PortSpec, PortType, Registry, StatefulAction, Status};
+use firefleet_bt::{Port, Registry, StatefulAction, Status};
 use firefleet_protocol::Point2;
 use firefleet_protocol::msg::TaskKind;
 
@@ -21,6 +21,37 @@ fn p(v: [f64; 2]) -> Point2 {
 fn ok(b: bool) -> Status {
     if b { Status::Success } else { Status::Failure }
 }
+
+/// A point on the blackboard: `[x, y]` in the site frame.
+type At = [f64; 2];
+
+const CRUISE_GOAL: Port<At> = Port::output("goal", "cruise goal: the far end of the current lane");
+const CRUISE_TO: Port<At> = Port::input("goal", "where to cruise to");
+const FIRE_AS_SEEN: Port<At> = Port::inout("fire", "the fire, moved to where it is seen");
+const SAME_FIRE_WITHIN: Port<f64> = Port::input(
+    "within_m",
+    "a flame seen this close to the fire is that fire",
+)
+.with_default("5.0");
+const MOVED: Port<f64> = Port::input(
+    "moved_m",
+    "the fire has moved when seen further than this from where it was",
+)
+.with_default("1.5");
+const FIRE: Port<At> = Port::input("fire", "the fire");
+const FIRING_POSITION: Port<At> = Port::output("target", "the firing position");
+const DRIVE_TO: Port<At> = Port::input("goal", "where to drive");
+const PAN_TO_FIRE: Port<f64> = Port::output("pan", "cannon pan to the fire, rad");
+const TILT_TO_FIRE: Port<f64> =
+    Port::output("tilt", "cannon elevation landing the jet on the fire, rad");
+const WANTED_PAN: Port<f64> = Port::input("pan", "wanted pan, rad");
+const WANTED_TILT: Port<f64> = Port::input("tilt", "wanted tilt, rad");
+const AIM_THRESHOLD: Port<f64> =
+    Port::input("threshold_rad", "re-aim when the set-point is off by more").with_default("0.02");
+const PAN: Port<f64> = Port::input("pan", "pan, rad");
+const TILT: Port<f64> = Port::input("tilt", "elevation, rad");
+const SCAN_AMPLITUDE: Port<f64> =
+    Port::input("amplitude_rad", "sweep either side of straight ahead").with_default("1.5");
 
 /// Opens the valve once the cannon is on its set-point (Running while it slews).
 struct StartWaterCannon;
@@ -57,7 +88,7 @@ impl StatefulAction<Unit> for ScanForFire {
     }
     fn on_running(&mut self, io: &mut Io<'_>, u: &mut Unit) -> Status {
         let amplitude = io
-            .get::<f64>(0)
+            .get(&SCAN_AMPLITUDE)
             .unwrap_or(1.5)
             .clamp(0.0, u.spec.cannon_pan_limit_rad);
         let period = 4.0 * amplitude / (0.9 * u.spec.cannon_pan_rate_rad_s);
@@ -78,34 +109,21 @@ impl StatefulAction<Unit> for ScanForFire {
 
 /// Every leaf the ground unit's trees may use.
 pub fn registry() -> Registry<Unit> {
-    use PortType::{Double, Point};
     let mut r = Registry::new();
     crate::mission::register(&mut r);
 
-    r.register_action(
-        "SetGoal",
-        vec![PortSpec::output(
-            "goal",
-            Point,
-            "cruise goal: the far end of the current lane",
-        )],
-        || {
-            |io: &mut Io<'_>, u: &mut Unit| {
-                let g = u.cruise_goal();
-                ok(io.set(0, [g.x, g.y]).is_ok())
-            }
-        },
-    );
-    r.register_action(
-        "StartCruise",
-        vec![PortSpec::input("goal", Point, "where to cruise to")],
-        || {
-            |io: &mut Io<'_>, u: &mut Unit| match io.get::<[f64; 2]>(0) {
-                Ok(g) => ok(u.navigate(p(g), NavPurpose::Cruise)),
-                Err(_) => Status::Failure,
-            }
-        },
-    );
+    r.register_action("SetGoal", vec![CRUISE_GOAL.spec()], || {
+        |io: &mut Io<'_>, u: &mut Unit| {
+            let g = u.cruise_goal();
+            ok(io.set(&CRUISE_GOAL, [g.x, g.y]).is_ok())
+        }
+    });
+    r.register_action("StartCruise", vec![CRUISE_TO.spec()], || {
+        |io: &mut Io<'_>, u: &mut Unit| match io.get(&CRUISE_TO) {
+            Ok(g) => ok(u.navigate(p(g), NavPurpose::Cruise)),
+            Err(_) => Status::Failure,
+        }
+    });
     r.register_condition("IsArrival", vec![], || {
         |_: &mut Io<'_>, u: &mut Unit| ok(u.arrived())
     });
@@ -128,21 +146,7 @@ pub fn registry() -> Registry<Unit> {
     });
     r.register_action(
         "FireWhereExpected",
-        vec![
-            PortSpec::inout("fire", Point, "the fire, moved to where it is seen"),
-            PortSpec::input(
-                "within_m",
-                Double,
-                "a flame seen this close to the fire is that fire",
-            )
-            .with_default("5.0"),
-            PortSpec::input(
-                "moved_m",
-                Double,
-                "the fire has moved when seen further than this from where it was",
-            )
-            .with_default("1.5"),
-        ],
+        vec![FIRE_AS_SEEN.spec(), SAME_FIRE_WITHIN.spec(), MOVED.spec()],
         || {
             // Success while the fire is where the blackboard says (or not in view); a fire
             // seen elsewhere is written back and the leaf fails, so that a retry around the
@@ -150,15 +154,18 @@ pub fn registry() -> Registry<Unit> {
             // comes from units that saw it from afar; the unit's own camera, closing in,
             // does better.
             |io: &mut Io<'_>, u: &mut Unit| {
-                let (Ok(f), Ok(within), Ok(moved)) =
-                    (io.get::<[f64; 2]>(0), io.get::<f64>(1), io.get::<f64>(2))
+                let (Ok(f), Ok(within), Ok(moved)) = (
+                    io.get(&FIRE_AS_SEEN),
+                    io.get(&SAME_FIRE_WITHIN),
+                    io.get(&MOVED),
+                )
                 else {
                     return Status::Failure;
                 };
                 match u.flame_near(p(f), within) {
                     Some(seen) if seen.dist(p(f)) > moved => {
                         tracing::info!(unit = %u.id, from = ?f, to = ?seen, "the fire is not where expected; planning again");
-                        let _ = io.set(0, [seen.x, seen.y]);
+                        let _ = io.set(&FIRE_AS_SEEN, [seen.x, seen.y]);
                         Status::Failure
                     }
                     _ => Status::Success,
@@ -168,17 +175,14 @@ pub fn registry() -> Registry<Unit> {
     );
     r.register_action(
         "SetTargetToFire",
-        vec![
-            PortSpec::input("fire", Point, "the fire"),
-            PortSpec::output("target", Point, "the firing position"),
-        ],
+        vec![FIRE.spec(), FIRING_POSITION.spec()],
         || {
             |io: &mut Io<'_>, u: &mut Unit| {
-                let Ok(f) = io.get::<[f64; 2]>(0) else {
+                let Ok(f) = io.get(&FIRE) else {
                     return Status::Failure;
                 };
                 match u.firing_position(p(f)) {
-                    Some(t) => ok(io.set(1, [t.x, t.y]).is_ok()),
+                    Some(t) => ok(io.set(&FIRING_POSITION, [t.x, t.y]).is_ok()),
                     None => {
                         tracing::warn!(unit = %u.id, fire = ?f, "no reachable firing position");
                         Status::Failure
@@ -187,37 +191,27 @@ pub fn registry() -> Registry<Unit> {
             }
         },
     );
-    r.register_action(
-        "StartNavigation",
-        vec![PortSpec::input("goal", Point, "where to drive")],
-        || {
-            |io: &mut Io<'_>, u: &mut Unit| match io.get::<[f64; 2]>(0) {
-                Ok(g) => ok(u.navigate(p(g), NavPurpose::Fire)),
-                Err(_) => Status::Failure,
-            }
-        },
-    );
+    r.register_action("StartNavigation", vec![DRIVE_TO.spec()], || {
+        |io: &mut Io<'_>, u: &mut Unit| match io.get(&DRIVE_TO) {
+            Ok(g) => ok(u.navigate(p(g), NavPurpose::Fire)),
+            Err(_) => Status::Failure,
+        }
+    });
     r.register_action(
         "ComputeRelativePosition",
-        vec![
-            PortSpec::input("fire", Point, "the fire"),
-            PortSpec::output("pan", Double, "cannon pan to the fire, rad"),
-            PortSpec::output(
-                "tilt",
-                Double,
-                "cannon elevation landing the jet on the fire, rad",
-            ),
-        ],
+        vec![FIRE.spec(), PAN_TO_FIRE.spec(), TILT_TO_FIRE.spec()],
         || {
             |io: &mut Io<'_>, u: &mut Unit| {
-                let Ok(f) = io.get::<[f64; 2]>(0) else {
+                let Ok(f) = io.get(&FIRE) else {
                     return Status::Failure;
                 };
                 // Re-aim at the flame as the camera sees it now.
                 let target = u.flame_near(p(f), 3.0).unwrap_or(p(f));
                 u.sweep_over(target);
                 match u.aim_at(target) {
-                    Some((pan, tilt)) => ok(io.set(1, pan).is_ok() && io.set(2, tilt).is_ok()),
+                    Some((pan, tilt)) => ok(
+                        io.set(&PAN_TO_FIRE, pan).is_ok() && io.set(&TILT_TO_FIRE, tilt).is_ok()
+                    ),
                     None => Status::Failure,
                 }
             }
@@ -225,21 +219,14 @@ pub fn registry() -> Registry<Unit> {
     );
     r.register_condition(
         "RelativePosAboveThreshold",
-        vec![
-            PortSpec::input("pan", Double, "wanted pan, rad"),
-            PortSpec::input("tilt", Double, "wanted tilt, rad"),
-            PortSpec::input(
-                "threshold_rad",
-                Double,
-                "re-aim when the set-point is off by more",
-            )
-            .with_default("0.02"),
-        ],
+        vec![WANTED_PAN.spec(), WANTED_TILT.spec(), AIM_THRESHOLD.spec()],
         || {
             |io: &mut Io<'_>, u: &mut Unit| {
-                let (Ok(pan), Ok(tilt), Ok(th)) =
-                    (io.get::<f64>(0), io.get::<f64>(1), io.get::<f64>(2))
-                else {
+                let (Ok(pan), Ok(tilt), Ok(th)) = (
+                    io.get(&WANTED_PAN),
+                    io.get(&WANTED_TILT),
+                    io.get(&AIM_THRESHOLD),
+                ) else {
                     return Status::Failure;
                 };
                 ok(u.aim
@@ -247,34 +234,18 @@ pub fn registry() -> Registry<Unit> {
             }
         },
     );
-    r.register_action(
-        "AimWaterCannon",
-        vec![
-            PortSpec::input("pan", Double, "pan, rad"),
-            PortSpec::input("tilt", Double, "elevation, rad"),
-        ],
-        || {
-            |io: &mut Io<'_>, u: &mut Unit| match (io.get::<f64>(0), io.get::<f64>(1)) {
-                (Ok(pan), Ok(tilt)) => {
-                    u.aim = Some((pan, tilt));
-                    Status::Success
-                }
-                _ => Status::Failure,
+    r.register_action("AimWaterCannon", vec![PAN.spec(), TILT.spec()], || {
+        |io: &mut Io<'_>, u: &mut Unit| match (io.get(&PAN), io.get(&TILT)) {
+            (Ok(pan), Ok(tilt)) => {
+                u.aim = Some((pan, tilt));
+                Status::Success
             }
-        },
-    );
-    r.register_stateful(
-        "ScanForFire",
-        vec![
-            PortSpec::input(
-                "amplitude_rad",
-                Double,
-                "sweep either side of straight ahead",
-            )
-            .with_default("1.5"),
-        ],
-        || ScanForFire { since: 0.0 },
-    );
+            _ => Status::Failure,
+        }
+    });
+    r.register_stateful("ScanForFire", vec![SCAN_AMPLITUDE.spec()], || ScanForFire {
+        since: 0.0,
+    });
     r.register_condition("IsCannonNotStarted", vec![], || {
         |_: &mut Io<'_>, u: &mut Unit| ok(!u.valve)
     });

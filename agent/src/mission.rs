@@ -8,7 +8,7 @@
 //! see flames and how they stand down, not in how they take and report tasks.
 
 use firefleet_bt::node::Io;
-use firefleet_bt::{PortSpec, PortType, Registry, Status};
+use firefleet_bt::{Port, Registry, Status};
 use firefleet_protocol::msg::{TaskKind, TaskPhase, TaskProgress};
 use firefleet_protocol::{FireId, Point2, UnitId};
 
@@ -124,30 +124,32 @@ fn ok(b: bool) -> Status {
     if b { Status::Success } else { Status::Failure }
 }
 
+const FLAME_WITHIN: Port<f64> = Port::input(
+    "within_m",
+    "how far from the unit (or from `near`) a flame counts",
+)
+.with_default("30");
+const NEAR: Port<[f64; 2]> = Port::input(
+    "near",
+    "look for a flame near this point instead of near the unit",
+)
+.optional();
+const LOCATED_FIRE: Port<[f64; 2]> = Port::output("fire", "where the fire is");
+const LOCATED_TASK: Port<i64> = Port::output("task", "coordinator task seq, -1 when acting alone");
+const TASK: Port<i64> = Port::input("task", "the task being worked on");
+const DONE_TASK: Port<i64> = Port::input("task", "the task that is done");
+const FAILED_TASK: Port<i64> = Port::input("task", "the task that failed").with_default("-1");
+
 /// Add the shared leaves to `r`.
 pub fn register<C: Responder>(r: &mut Registry<C>) {
-    use PortType::{Double, Int, Point};
     r.register_condition(
         "FireDetection",
-        vec![
-            PortSpec::input(
-                "within_m",
-                Double,
-                "how far from the unit (or from `near`) a flame counts",
-            )
-            .with_default("30"),
-            PortSpec::input(
-                "near",
-                Point,
-                "look for a flame near this point instead of near the unit",
-            )
-            .optional(),
-        ],
+        vec![FLAME_WITHIN.spec(), NEAR.spec()],
         || {
             |io: &mut Io<'_>, u: &mut C| {
-                let within: f64 = io.get(0).unwrap_or(30.0);
+                let within = io.get(&FLAME_WITHIN).unwrap_or(30.0);
                 let of = io
-                    .get::<[f64; 2]>(1)
+                    .get(&NEAR)
                     .map(|[x, y]| Point2::new(x, y))
                     .unwrap_or(u.position());
                 ok(u.flame_near(of, within).is_some())
@@ -165,10 +167,7 @@ pub fn register<C: Responder>(r: &mut Registry<C>) {
     });
     r.register_action(
         "LocateFire",
-        vec![
-            PortSpec::output("fire", Point, "where the fire is"),
-            PortSpec::output("task", Int, "coordinator task seq, -1 when acting alone"),
-        ],
+        vec![LOCATED_FIRE.spec(), LOCATED_TASK.spec()],
         || {
             |io: &mut Io<'_>, u: &mut C| {
                 let (fire, task) = match u.mission().assigned_fire() {
@@ -185,60 +184,49 @@ pub fn register<C: Responder>(r: &mut Registry<C>) {
                         None => return Status::Failure,
                     },
                 };
-                ok(io.set(0, [fire.x, fire.y]).is_ok() && io.set(1, task).is_ok())
+                ok(io.set(&LOCATED_FIRE, [fire.x, fire.y]).is_ok()
+                    && io.set(&LOCATED_TASK, task).is_ok())
             }
         },
     );
-    r.register_condition(
-        "IsTaskCurrent",
-        vec![PortSpec::input("task", Int, "the task being worked on")],
-        || {
-            |io: &mut Io<'_>, u: &mut C| {
-                let Ok(task) = io.get::<i64>(0) else {
-                    return Status::Failure;
-                };
-                let m = u.mission();
-                ok(match m.assigned_fire() {
-                    Some((seq, _, _)) => seq as i64 == task,
-                    // Acting alone is current until a coordinator assigns something.
-                    None => task < 0 || m.task.is_some_and(|(s, _)| s as i64 == task),
-                })
-            }
-        },
-    );
-    r.register_action(
-        "ReportExtinguished",
-        vec![PortSpec::input("task", Int, "the task that is done")],
-        || {
-            |io: &mut Io<'_>, u: &mut C| {
-                let task = io.get::<i64>(0).unwrap_or(-1);
-                tracing::info!(unit = %u.id(), task, "flame out");
-                u.stand_down();
-                u.mission().finish(task, TaskPhase::Extinguished);
-                Status::Success
-            }
-        },
-    );
-    r.register_action(
-        "ErrorHandling",
-        vec![PortSpec::input("task", Int, "the task that failed").with_default("-1")],
-        || {
-            |io: &mut Io<'_>, u: &mut C| {
-                let task = io.get::<i64>(0).unwrap_or(-1);
-                u.stand_down();
-                match u.mission().stop_short(task) {
-                    Some(Stopped::Failed) => {
-                        tracing::warn!(unit = %u.id(), task, "attack abandoned")
-                    }
-                    Some(Stopped::Withdrawn) => {
-                        tracing::info!(unit = %u.id(), task, "task withdrawn")
-                    }
-                    None => {}
+    r.register_condition("IsTaskCurrent", vec![TASK.spec()], || {
+        |io: &mut Io<'_>, u: &mut C| {
+            let Ok(task) = io.get(&TASK) else {
+                return Status::Failure;
+            };
+            let m = u.mission();
+            ok(match m.assigned_fire() {
+                Some((seq, _, _)) => seq as i64 == task,
+                // Acting alone is current until a coordinator assigns something.
+                None => task < 0 || m.task.is_some_and(|(s, _)| s as i64 == task),
+            })
+        }
+    });
+    r.register_action("ReportExtinguished", vec![DONE_TASK.spec()], || {
+        |io: &mut Io<'_>, u: &mut C| {
+            let task = io.get(&DONE_TASK).unwrap_or(-1);
+            tracing::info!(unit = %u.id(), task, "flame out");
+            u.stand_down();
+            u.mission().finish(task, TaskPhase::Extinguished);
+            Status::Success
+        }
+    });
+    r.register_action("ErrorHandling", vec![FAILED_TASK.spec()], || {
+        |io: &mut Io<'_>, u: &mut C| {
+            let task = io.get(&FAILED_TASK).unwrap_or(-1);
+            u.stand_down();
+            match u.mission().stop_short(task) {
+                Some(Stopped::Failed) => {
+                    tracing::warn!(unit = %u.id(), task, "attack abandoned")
                 }
-                Status::Failure
+                Some(Stopped::Withdrawn) => {
+                    tracing::info!(unit = %u.id(), task, "task withdrawn")
+                }
+                None => {}
             }
-        },
-    );
+            Status::Failure
+        }
+    });
 }
 
 #[cfg(test)]

@@ -66,6 +66,7 @@
 //! Loading validates everything; an error names the file, the field and the reason.
 
 use std::collections::HashSet;
+use std::f64::consts::TAU;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -117,6 +118,19 @@ pub struct Scenario {
     pub zones: Vec<Zone>,
     #[serde(default)]
     pub rails: Vec<Rail>,
+}
+
+/// `name` is not in `seen` yet (and is now); else the error names `field()`.
+fn once<'a>(
+    seen: &mut HashSet<&'a str>,
+    name: &'a str,
+    field: impl FnOnce() -> String,
+) -> Result<(), Invalid> {
+    if seen.insert(name) {
+        Ok(())
+    } else {
+        Err(Invalid::new(field(), format!("'{name}' is used twice")))
+    }
 }
 
 fn default_site() -> SiteId {
@@ -301,21 +315,11 @@ impl Scenario {
         let mut names = HashSet::new();
         for (i, o) in self.obstacles.iter().enumerate() {
             let f = |n: &str| format!("obstacles[{i}].{n}");
-            if !names.insert(o.name.as_str()) {
-                return Err(Invalid::new(
-                    f("name"),
-                    format!("'{}' is used twice", o.name),
-                ));
-            }
+            once(&mut names, o.name.as_str(), || f("name"))?;
             in_range(&f("length_m"), o.length_m, 0.1, 50.0)?;
             in_range(&f("width_m"), o.width_m, 0.1, t.width_m)?;
             in_range(&f("height_m"), o.height_m, 0.1, t.height_m)?;
-            in_range(
-                &f("yaw_rad"),
-                o.yaw_rad,
-                -std::f64::consts::TAU,
-                std::f64::consts::TAU,
-            )?;
+            in_range(&f("yaw_rad"), o.yaw_rad, -TAU, TAU)?;
             for c in o.corners() {
                 t.check_inside(&f("x_m/y_m"), c)
                     .map_err(|e| Invalid::new(e.field, format!("a corner {}", e.reason)))?;
@@ -325,12 +329,7 @@ impl Scenario {
         let mut names = HashSet::new();
         for (i, fire) in self.fires.iter().enumerate() {
             let f = |n: &str| format!("fires[{i}].{n}");
-            if !names.insert(fire.name.as_str()) {
-                return Err(Invalid::new(
-                    f("name"),
-                    format!("'{}' is used twice", fire.name),
-                ));
-            }
+            once(&mut names, fire.name.as_str(), || f("name"))?;
             t.check_inside(&f("x_m/y_m"), fire.position())?;
             in_range(&f("peak_kw"), fire.peak_kw, 1.0, 300_000.0)?;
             in_range(
@@ -352,9 +351,7 @@ impl Scenario {
                     "rails are supported in straight tunnels only",
                 ));
             }
-            if !ids.insert(r.id.as_str()) {
-                return Err(Invalid::new(f("id"), format!("'{}' is used twice", r.id)));
-            }
+            once(&mut ids, r.id.as_str(), || f("id"))?;
             in_range(&f("start_m"), r.start_m, 0.0, t.length_m)?;
             in_range(&f("end_m"), r.end_m, 0.0, t.length_m)?;
             if r.end_m <= r.start_m {
@@ -382,9 +379,7 @@ impl Scenario {
         let mut ids = HashSet::new();
         for (i, u) in self.units.iter().enumerate() {
             let f = |n: &str| format!("units[{i}].{n}");
-            if !ids.insert(&u.id) {
-                return Err(Invalid::new(f("id"), format!("'{}' is used twice", u.id)));
-            }
+            once(&mut ids, u.id.as_str(), || f("id"))?;
             match (u.kind, &u.rail) {
                 (UnitKind::Monorail, None) => {
                     return Err(Invalid::new(
@@ -420,12 +415,7 @@ impl Scenario {
                 }
                 (UnitKind::Ground, None) => {}
             }
-            in_range(
-                &f("yaw_rad"),
-                u.yaw_rad,
-                -std::f64::consts::TAU,
-                std::f64::consts::TAU,
-            )?;
+            in_range(&f("yaw_rad"), u.yaw_rad, -TAU, TAU)?;
             let p = Point2::new(u.x_m, u.y_m);
             t.check_inside(&f("x_m/y_m"), p)?;
             if let Some(o) = self
@@ -443,9 +433,7 @@ impl Scenario {
         let mut ids = HashSet::new();
         for (i, z) in self.zones.iter().enumerate() {
             let f = |n: &str| format!("zones[{i}].{n}");
-            if !ids.insert(&z.id) {
-                return Err(Invalid::new(f("id"), format!("'{}' is used twice", z.id)));
-            }
+            once(&mut ids, z.id.as_str(), || f("id"))?;
             in_range(&f("start_m"), z.start_m.m(), 0.0, t.length_m)?;
             in_range(&f("end_m"), z.end_m.m(), 0.0, t.length_m)?;
             if z.end_m <= z.start_m {

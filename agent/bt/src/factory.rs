@@ -351,6 +351,7 @@ pub struct Builder<'r, C> {
     nodes: Vec<NodeData<C>>,
     children: Vec<u32>,
     bindings: Vec<Binding>,
+    port_names: Vec<&'static str>,
     done: Vec<bool>,
     bb: Blackboard,
     scopes: Vec<Scope>,
@@ -367,6 +368,7 @@ impl<'r, C> Builder<'r, C> {
             nodes: Vec::new(),
             children: Vec::new(),
             bindings: Vec::new(),
+            port_names: Vec::new(),
             done: Vec::new(),
             bb: Blackboard::default(),
             scopes: vec![Scope {
@@ -525,6 +527,7 @@ impl<'r, C> Builder<'r, C> {
                 },
             };
             self.bindings.push(binding);
+            self.port_names.push(p.name);
         }
         let n_ports = t.ports.len() as u32;
         let literal_int = |i: usize| -> Option<i64> {
@@ -714,7 +717,7 @@ impl<'r, C> Builder<'r, C> {
         Ok(Tree::from_parts(
             self.nodes,
             self.children,
-            self.bindings,
+            (self.bindings, self.port_names),
             self.done,
             self.bb,
             root.0,

@@ -24,7 +24,7 @@ pub mod xml;
 
 pub use blackboard::{Blackboard, Slot};
 pub use factory::{Builder, Category, NodeId, Registry, ScopeId};
-pub use node::{Action, Io, PortDir, PortSpec, StatefulAction};
+pub use node::{Action, Io, Port, PortDir, PortSpec, StatefulAction};
 pub use status::Status;
 pub use tree::{Transition, Tree};
 pub use value::{PortType, Value};

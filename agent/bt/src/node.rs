@@ -1,4 +1,11 @@
 //! What user nodes implement, and how they reach their ports.
+//!
+//! A leaf declares each port once, as a typed [`Port`] constant; the node type's port
+//! list is made of their specs, and the leaf reads and writes through the same constants.
+//! Ports are found by name, so the order of the list does not matter, and the value type
+//! is the port's own.
+
+use std::marker::PhantomData;
 
 use crate::blackboard::{Blackboard, Slot};
 use crate::status::Status;
@@ -23,7 +30,7 @@ impl PortDir {
 }
 
 /// A port a node type declares.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PortSpec {
     pub name: &'static str,
     pub dir: PortDir,
@@ -78,6 +85,45 @@ impl PortSpec {
     }
 }
 
+/// A port of type `T`: its spec, declared once, and the handle a leaf reads and writes it
+/// through (`const FIRE: Port<[f64; 2]> = Port::input("fire", "the fire");`).
+#[derive(Debug)]
+pub struct Port<T> {
+    spec: PortSpec,
+    _t: PhantomData<fn() -> T>,
+}
+
+impl<T: PortValue> Port<T> {
+    const fn new(spec: PortSpec) -> Self {
+        Self {
+            spec,
+            _t: PhantomData,
+        }
+    }
+    pub const fn input(name: &'static str, description: &'static str) -> Self {
+        Self::new(PortSpec::input(name, T::TYPE, description))
+    }
+    pub const fn output(name: &'static str, description: &'static str) -> Self {
+        Self::new(PortSpec::output(name, T::TYPE, description))
+    }
+    pub const fn inout(name: &'static str, description: &'static str) -> Self {
+        Self::new(PortSpec::inout(name, T::TYPE, description))
+    }
+    pub const fn optional(self) -> Self {
+        Self::new(self.spec.optional())
+    }
+    pub const fn with_default(self, default: &'static str) -> Self {
+        Self::new(self.spec.with_default(default))
+    }
+    pub const fn name(&self) -> &'static str {
+        self.spec.name
+    }
+    /// The spec for the node type's port list.
+    pub const fn spec(&self) -> PortSpec {
+        self.spec
+    }
+}
+
 /// How one port of one node instance was bound at build time.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Binding {
@@ -90,19 +136,26 @@ pub enum Binding {
 /// Why a port could not be read or written.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PortError {
-    #[error("port {0} is not bound")]
-    Unbound(usize),
-    #[error("port {0}: the blackboard entry has no value yet")]
-    Empty(usize),
-    #[error("port {index}: expected {expected}")]
-    Type { index: usize, expected: PortType },
-    #[error("port {index}: {reason}")]
-    Write { index: usize, reason: String },
+    #[error("port '{0}' is not one the node type declares")]
+    Undeclared(&'static str),
+    #[error("port '{0}' is not bound")]
+    Unbound(&'static str),
+    #[error("port '{0}': the blackboard entry has no value yet")]
+    Empty(&'static str),
+    #[error("port '{port}': expected {expected}")]
+    Type {
+        port: &'static str,
+        expected: PortType,
+    },
+    #[error("port '{port}': {reason}")]
+    Write { port: &'static str, reason: String },
 }
 
 /// A node's view of its ports and of the tree's clock during one tick.
 pub struct Io<'a> {
     pub(crate) bindings: &'a [Binding],
+    /// The names of the node type's ports, in the order of `bindings`.
+    pub(crate) names: &'a [&'static str],
     pub(crate) bb: &'a mut Blackboard,
     pub(crate) now: f64,
 }
@@ -113,29 +166,40 @@ impl Io<'_> {
         self.now
     }
 
-    /// Read port `i` (in the order the node type declares its ports).
-    pub fn get<T: PortValue>(&self, i: usize) -> Result<T, PortError> {
-        let v = match self.bindings.get(i).ok_or(PortError::Unbound(i))? {
+    /// How `port` is bound on this node (a node has a handful of ports: a scan of their
+    /// names costs less than a lookup structure).
+    fn binding<T>(&self, port: &Port<T>) -> Result<&Binding, PortError> {
+        let name = port.spec.name;
+        let i = self.names.iter().position(|n| *n == name);
+        i.and_then(|i| self.bindings.get(i))
+            .ok_or(PortError::Undeclared(name))
+    }
+
+    /// Read `port`.
+    pub fn get<T: PortValue>(&self, port: &Port<T>) -> Result<T, PortError> {
+        let name = port.spec.name;
+        let v = match self.binding(port)? {
             Binding::Literal(v) => v,
-            Binding::Entry(slot) => self.bb.get(*slot).ok_or(PortError::Empty(i))?,
-            Binding::Unbound => return Err(PortError::Unbound(i)),
+            Binding::Entry(slot) => self.bb.get(*slot).ok_or(PortError::Empty(name))?,
+            Binding::Unbound => return Err(PortError::Unbound(name)),
         };
         T::from_value(v).ok_or(PortError::Type {
-            index: i,
+            port: name,
             expected: T::TYPE,
         })
     }
 
-    /// Write port `i`; an unbound optional output is silently ignored.
-    pub fn set<T: PortValue>(&mut self, i: usize, v: T) -> Result<(), PortError> {
-        match self.bindings.get(i).ok_or(PortError::Unbound(i))? {
+    /// Write `port`; an unbound optional output is silently ignored.
+    pub fn set<T: PortValue>(&mut self, port: &Port<T>, v: T) -> Result<(), PortError> {
+        let name = port.spec.name;
+        match *self.binding(port)? {
             Binding::Entry(slot) => self
                 .bb
-                .set(*slot, v.into_value())
-                .map_err(|reason| PortError::Write { index: i, reason }),
+                .set(slot, v.into_value())
+                .map_err(|reason| PortError::Write { port: name, reason }),
             Binding::Unbound => Ok(()),
             Binding::Literal(_) => Err(PortError::Write {
-                index: i,
+                port: name,
                 reason: "bound to a literal".into(),
             }),
         }

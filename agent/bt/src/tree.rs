@@ -101,6 +101,8 @@ pub struct Tree<C> {
     pub(crate) nodes: Vec<NodeData<C>>,
     pub(crate) children: Vec<u32>,
     pub(crate) bindings: Vec<Binding>,
+    /// The port name of each binding.
+    pub(crate) port_names: Vec<&'static str>,
     /// Completion flags of Parallel children (one per child, preallocated).
     pub(crate) done: Vec<bool>,
     pub(crate) bb: Blackboard,
@@ -116,7 +118,7 @@ impl<C> Tree<C> {
     pub(crate) fn from_parts(
         nodes: Vec<NodeData<C>>,
         children: Vec<u32>,
-        bindings: Vec<Binding>,
+        (bindings, port_names): (Vec<Binding>, Vec<&'static str>),
         done: Vec<bool>,
         bb: Blackboard,
         root: u32,
@@ -125,6 +127,7 @@ impl<C> Tree<C> {
             nodes,
             children,
             bindings,
+            port_names,
             done,
             bb,
             root,
@@ -291,9 +294,10 @@ impl<C> Tree<C> {
         let n = &mut self.nodes[i as usize];
         match &mut n.kind {
             Kind::Stateful(a) if was_running => {
+                let ports = n.first_port as usize..(n.first_port + n.n_ports) as usize;
                 let mut io = Io {
-                    bindings: &self.bindings
-                        [n.first_port as usize..(n.first_port + n.n_ports) as usize],
+                    bindings: &self.bindings[ports.clone()],
+                    names: &self.port_names[ports],
                     bb: &mut self.bb,
                     now: self.now,
                 };
@@ -328,7 +332,8 @@ impl<C> Tree<C> {
             Kind::AlwaysFailure => return Status::Failure,
             Kind::Condition(a) => {
                 let mut io = Io {
-                    bindings: &self.bindings[ports],
+                    bindings: &self.bindings[ports.clone()],
+                    names: &self.port_names[ports],
                     bb: &mut self.bb,
                     now,
                 };
@@ -340,7 +345,8 @@ impl<C> Tree<C> {
             }
             Kind::Action(a) => {
                 let mut io = Io {
-                    bindings: &self.bindings[ports],
+                    bindings: &self.bindings[ports.clone()],
+                    names: &self.port_names[ports],
                     bb: &mut self.bb,
                     now,
                 };
@@ -353,7 +359,8 @@ impl<C> Tree<C> {
             }
             Kind::Stateful(a) => {
                 let mut io = Io {
-                    bindings: &self.bindings[ports],
+                    bindings: &self.bindings[ports.clone()],
+                    names: &self.port_names[ports],
                     bb: &mut self.bb,
                     now,
                 };

@@ -2,15 +2,22 @@
 //! the coordinator-link leaves every unit shares ([`crate::mission`]).
 
 use firefleet_bt::node::Io;
-use firefleet_bt::{PortSpec, PortType, Registry, StatefulAction, Status};
+use firefleet_bt::{Port, Registry, StatefulAction, Status};
 use firefleet_protocol::Point2;
 use firefleet_protocol::msg::TaskKind;
 
 use super::RailUnit;
 use crate::rail::planner::Phase;
 
+const FIRE: Port<[f64; 2]> = Port::input("fire", "the fire");
+const COOLING: Port<i64> = Port::input(
+    "cooling_ms",
+    "keep spraying this long after the last hot spot (a knocked-down fuel bed re-ignites if left hot)",
+)
+.with_default("3000");
+
 fn fire(io: &Io<'_>) -> Option<Point2> {
-    io.get::<[f64; 2]>(0).ok().map(|[x, y]| Point2::new(x, y))
+    io.get(&FIRE).ok().map(|[x, y]| Point2::new(x, y))
 }
 
 /// Drives the jet onto the fire: Running while the planner approaches, Success once the
@@ -56,7 +63,7 @@ impl StatefulAction<RailUnit> for SprayFire {
         self.on_running(io, u)
     }
     fn on_running(&mut self, io: &mut Io<'_>, u: &mut RailUnit) -> Status {
-        let (Some(f), Ok(cooling_ms)) = (fire(io), io.get::<i64>(1)) else {
+        let (Some(f), Ok(cooling_ms)) = (fire(io), io.get(&COOLING)) else {
             return Status::Failure;
         };
         if let Some(seen) = u.flame_near(f, 3.0) {
@@ -108,40 +115,21 @@ impl StatefulAction<RailUnit> for SearchAlongRail {
 
 /// Every leaf the monorail unit's trees may use.
 pub fn registry() -> Registry<RailUnit> {
-    use PortType::{Int, Point};
     let mut r = Registry::new();
     crate::mission::register(&mut r);
-    r.register_condition(
-        "InReach",
-        vec![PortSpec::input("fire", Point, "the fire")],
-        || {
-            |io: &mut Io<'_>, u: &mut RailUnit| match fire(io) {
-                Some(f) if u.in_reach(f) => Status::Success,
-                _ => Status::Failure,
-            }
-        },
-    );
+    r.register_condition("InReach", vec![FIRE.spec()], || {
+        |io: &mut Io<'_>, u: &mut RailUnit| match fire(io) {
+            Some(f) if u.in_reach(f) => Status::Success,
+            _ => Status::Failure,
+        }
+    });
     r.register_stateful("SearchAlongRail", vec![], || SearchAlongRail);
-    r.register_stateful(
-        "ApproachAlongRail",
-        vec![PortSpec::input("fire", Point, "the fire")],
-        || ApproachAlongRail,
-    );
-    r.register_stateful(
-        "SprayFire",
-        vec![
-            PortSpec::input("fire", Point, "the fire"),
-            PortSpec::input(
-                "cooling_ms",
-                Int,
-                "keep spraying this long after the last hot spot (a knocked-down fuel bed re-ignites if left hot)",
-            )
-            .with_default("3000"),
-        ],
-        || SprayFire {
+    r.register_stateful("ApproachAlongRail", vec![FIRE.spec()], || ApproachAlongRail);
+    r.register_stateful("SprayFire", vec![FIRE.spec(), COOLING.spec()], || {
+        SprayFire {
             clear_since: None,
             seen: false,
-        },
-    );
+        }
+    });
     r
 }

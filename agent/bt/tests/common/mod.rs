@@ -4,7 +4,7 @@
 
 use firefleet_bt::node::Io;
 use firefleet_bt::xml;
-use firefleet_bt::{PortSpec, PortType, Registry, StatefulAction, Status, Tree};
+use firefleet_bt::{Port, Registry, StatefulAction, Status, Tree};
 
 /// What the leaves did, in order.
 #[derive(Default)]
@@ -22,6 +22,11 @@ fn status_of(c: char) -> Status {
     }
 }
 
+const ID: Port<String> = Port::input("id", "log name");
+const SEQ: Port<String> = Port::input("seq", "statuses to play");
+const TICKS: Port<i64> = Port::input("ticks", "running ticks").with_default("1000");
+const VALUE: Port<bool> = Port::input("value", "the flag");
+
 /// Plays `seq` (letters S F R K), one letter per tick, then repeats the last.
 struct Scripted {
     k: usize,
@@ -34,8 +39,8 @@ struct Work {
 
 impl StatefulAction<Ctx> for Work {
     fn on_start(&mut self, io: &mut Io<'_>, ctx: &mut Ctx) -> Status {
-        let id: String = io.get(0).unwrap();
-        self.left = io.get(1).unwrap();
+        let id = io.get(&ID).unwrap();
+        self.left = io.get(&TICKS).unwrap();
         ctx.log.push(format!("{id}:start"));
         if self.left <= 0 {
             Status::Success
@@ -44,7 +49,7 @@ impl StatefulAction<Ctx> for Work {
         }
     }
     fn on_running(&mut self, io: &mut Io<'_>, ctx: &mut Ctx) -> Status {
-        let id: String = io.get(0).unwrap();
+        let id = io.get(&ID).unwrap();
         ctx.log.push(format!("{id}:run"));
         self.left -= 1;
         if self.left <= 0 {
@@ -54,52 +59,34 @@ impl StatefulAction<Ctx> for Work {
         }
     }
     fn on_halted(&mut self, io: &mut Io<'_>, ctx: &mut Ctx) {
-        let id: String = io.get(0).unwrap();
+        let id = io.get(&ID).unwrap();
         ctx.log.push(format!("{id}:halt"));
     }
 }
 
 pub fn registry() -> Registry<Ctx> {
     let mut r = Registry::new();
-    r.register_action(
-        "Scripted",
-        vec![
-            PortSpec::input("id", PortType::String, "log name"),
-            PortSpec::input("seq", PortType::String, "statuses to play"),
-        ],
-        || {
-            let mut s = Scripted { k: 0 };
-            move |io: &mut Io<'_>, ctx: &mut Ctx| {
-                let id: String = io.get(0).unwrap();
-                let seq: String = io.get(1).unwrap();
-                let c = seq.chars().nth(s.k).or_else(|| seq.chars().last()).unwrap();
-                s.k += 1;
-                ctx.log.push(id);
-                status_of(c)
+    r.register_action("Scripted", vec![ID.spec(), SEQ.spec()], || {
+        let mut s = Scripted { k: 0 };
+        move |io: &mut Io<'_>, ctx: &mut Ctx| {
+            let id = io.get(&ID).unwrap();
+            let seq = io.get(&SEQ).unwrap();
+            let c = seq.chars().nth(s.k).or_else(|| seq.chars().last()).unwrap();
+            s.k += 1;
+            ctx.log.push(id);
+            status_of(c)
+        }
+    });
+    r.register_stateful("Work", vec![ID.spec(), TICKS.spec()], || Work { left: 0 });
+    r.register_condition("Flag", vec![VALUE.spec()], || {
+        |io: &mut Io<'_>, _: &mut Ctx| {
+            if io.get(&VALUE).unwrap_or(false) {
+                Status::Success
+            } else {
+                Status::Failure
             }
-        },
-    );
-    r.register_stateful(
-        "Work",
-        vec![
-            PortSpec::input("id", PortType::String, "log name"),
-            PortSpec::input("ticks", PortType::Int, "running ticks").with_default("1000"),
-        ],
-        || Work { left: 0 },
-    );
-    r.register_condition(
-        "Flag",
-        vec![PortSpec::input("value", PortType::Bool, "the flag")],
-        || {
-            |io: &mut Io<'_>, _: &mut Ctx| {
-                if io.get::<bool>(0).unwrap_or(false) {
-                    Status::Success
-                } else {
-                    Status::Failure
-                }
-            }
-        },
-    );
+        }
+    });
     r
 }
 
