@@ -1,0 +1,297 @@
+//! Control nodes: Sequence, SequenceWithMemory and Fallback, their reactive forms,
+//! Parallel and ParallelAll, IfThenElse and WhileDoElse, with BehaviorTree.CPP v4's
+//! semantics, node by node.
+//!
+//! Not here: decorators ([`super::decorators`]) and the tick loop itself.
+
+use crate::status::Status;
+
+use super::{Kind, Tree};
+
+impl<C> Tree<C> {
+    /// Sequence, SequenceWithMemory and Fallback.
+    pub(super) fn tick_ordered(&mut self, i: u32, ctx: &mut C) -> Status {
+        let Kind::Ordered {
+            mut idx,
+            mut all_skipped,
+            stop,
+            memory,
+        } = self.nodes[i as usize].kind
+        else {
+            unreachable!()
+        };
+        // What the node returns when every child got past: the opposite of `stop`.
+        let done = if stop == Status::Failure {
+            Status::Success
+        } else {
+            Status::Failure
+        };
+        if self.nodes[i as usize].status == Status::Idle {
+            all_skipped = true;
+        }
+        self.set_status(i, Status::Running);
+        let n = self.n_children(i);
+        let result = loop {
+            if idx >= n {
+                self.reset_children(i, ctx);
+                idx = 0;
+                break if all_skipped { Status::Skipped } else { done };
+            }
+            let c = self.child(i, idx);
+            let s = self.tick_node(c, ctx);
+            all_skipped &= s == Status::Skipped;
+            if s == Status::Running {
+                break Status::Running;
+            }
+            if s == stop {
+                if memory {
+                    // Keep the position: the next tick resumes at the failed child.
+                    self.reset_children_from(i, idx, ctx);
+                } else {
+                    self.reset_children(i, ctx);
+                    idx = 0;
+                }
+                break stop;
+            }
+            idx += 1;
+        };
+        if let Kind::Ordered {
+            idx: a,
+            all_skipped: b,
+            ..
+        } = &mut self.nodes[i as usize].kind
+        {
+            (*a, *b) = (idx, all_skipped);
+        }
+        result
+    }
+
+    /// ReactiveSequence (`pass` = Success) and ReactiveFallback (`pass` = Failure): every
+    /// tick starts from the first child; a running child halts all the others.
+    pub(super) fn tick_reactive(&mut self, i: u32, ctx: &mut C) -> Status {
+        let pass = if matches!(self.nodes[i as usize].kind, Kind::ReactiveSequence) {
+            Status::Success
+        } else {
+            Status::Failure
+        };
+        let stop = if pass == Status::Success {
+            Status::Failure
+        } else {
+            Status::Success
+        };
+        self.set_status(i, Status::Running);
+        let n = self.n_children(i);
+        let mut all_skipped = true;
+        for k in 0..n {
+            let c = self.child(i, k);
+            let s = self.tick_node(c, ctx);
+            all_skipped &= s == Status::Skipped;
+            if s == Status::Running {
+                for o in (0..n).filter(|&o| o != k) {
+                    let oc = self.child(i, o);
+                    self.reset_child(oc, ctx);
+                }
+                return Status::Running;
+            }
+            if s == stop {
+                self.reset_children(i, ctx);
+                return stop;
+            }
+        }
+        self.reset_children(i, ctx);
+        if all_skipped { Status::Skipped } else { pass }
+    }
+
+    pub(super) fn tick_parallel(&mut self, i: u32, ctx: &mut C) -> Status {
+        let Kind::Parallel {
+            mut succ,
+            mut fail,
+            done,
+        } = self.nodes[i as usize].kind
+        else {
+            unreachable!()
+        };
+        let n = self.n_children(i);
+        let raw_s = self.port_i64(i, 0).unwrap_or(-1);
+        let raw_f = self.port_i64(i, 1).unwrap_or(1);
+        let threshold = |t: i64| {
+            if t < 0 {
+                (i64::from(n) + t + 1).max(0) as u32
+            } else {
+                t as u32
+            }
+        };
+        let (need_s, need_f) = (threshold(raw_s), threshold(raw_f));
+        if n < need_s || n < need_f {
+            return Status::Failure;
+        }
+        self.set_status(i, Status::Running);
+        let mut skipped = 0;
+        let mut result = None;
+        for k in 0..n {
+            if !self.done[(done + k) as usize] {
+                let c = self.child(i, k);
+                match self.tick_node(c, ctx) {
+                    Status::Skipped => skipped += 1,
+                    Status::Success => {
+                        self.done[(done + k) as usize] = true;
+                        succ += 1;
+                    }
+                    Status::Failure => {
+                        self.done[(done + k) as usize] = true;
+                        fail += 1;
+                    }
+                    _ => {}
+                }
+            }
+            if succ >= need_s || (raw_s < 0 && succ + skipped >= need_s) {
+                result = Some(Status::Success);
+            } else if n - fail < need_s || fail == need_f {
+                // Failed outright, or success has become impossible.
+                result = Some(Status::Failure);
+            }
+            if result.is_some() {
+                break;
+            }
+        }
+        match result {
+            Some(r) => {
+                self.done[done as usize..(done + n) as usize].fill(false);
+                if let Kind::Parallel { succ, fail, .. } = &mut self.nodes[i as usize].kind {
+                    (*succ, *fail) = (0, 0);
+                }
+                self.reset_children(i, ctx);
+                r
+            }
+            None => {
+                if let Kind::Parallel {
+                    succ: a, fail: b, ..
+                } = &mut self.nodes[i as usize].kind
+                {
+                    (*a, *b) = (succ, fail);
+                }
+                if skipped == n {
+                    Status::Skipped
+                } else {
+                    Status::Running
+                }
+            }
+        }
+    }
+
+    pub(super) fn tick_parallel_all(&mut self, i: u32, ctx: &mut C) -> Status {
+        let Kind::ParallelAll { mut fail, done } = self.nodes[i as usize].kind else {
+            unreachable!()
+        };
+        let n = self.n_children(i);
+        let raw = self.port_i64(i, 0).unwrap_or(1);
+        let max_failures = if raw < 0 {
+            (i64::from(n) + raw + 1).max(0) as u32
+        } else {
+            raw as u32
+        };
+        self.set_status(i, Status::Running);
+        let mut skipped = 0;
+        for k in 0..n {
+            if self.done[(done + k) as usize] {
+                continue;
+            }
+            let c = self.child(i, k);
+            match self.tick_node(c, ctx) {
+                Status::Success => self.done[(done + k) as usize] = true,
+                Status::Failure => {
+                    self.done[(done + k) as usize] = true;
+                    fail += 1;
+                }
+                Status::Skipped => {
+                    self.done[(done + k) as usize] = true;
+                    skipped += 1;
+                }
+                _ => {}
+            }
+        }
+        let completed = self.done[done as usize..(done + n) as usize]
+            .iter()
+            .filter(|d| **d)
+            .count() as u32;
+        if completed < n {
+            if let Kind::ParallelAll { fail: f, .. } = &mut self.nodes[i as usize].kind {
+                *f = fail;
+            }
+            return Status::Running;
+        }
+        self.done[done as usize..(done + n) as usize].fill(false);
+        if let Kind::ParallelAll { fail: f, .. } = &mut self.nodes[i as usize].kind {
+            *f = 0;
+        }
+        self.reset_children(i, ctx);
+        if skipped == n {
+            Status::Skipped
+        } else if fail >= max_failures {
+            Status::Failure
+        } else {
+            Status::Success
+        }
+    }
+
+    pub(super) fn tick_if_then_else(&mut self, i: u32, ctx: &mut C) -> Status {
+        let Kind::IfThenElse { mut branch } = self.nodes[i as usize].kind else {
+            unreachable!()
+        };
+        let n = self.n_children(i);
+        self.set_status(i, Status::Running);
+        if branch == 0 {
+            let c = self.child(i, 0);
+            match self.tick_node(c, ctx) {
+                Status::Success => branch = 1,
+                Status::Failure if n == 3 => branch = 2,
+                Status::Failure => {
+                    self.reset_children(i, ctx);
+                    return Status::Failure;
+                }
+                other => return other,
+            }
+        }
+        let c = self.child(i, branch);
+        let s = self.tick_node(c, ctx);
+        if s == Status::Running {
+            if let Kind::IfThenElse { branch: b } = &mut self.nodes[i as usize].kind {
+                *b = branch;
+            }
+            return s;
+        }
+        self.reset_children(i, ctx);
+        if let Kind::IfThenElse { branch: b } = &mut self.nodes[i as usize].kind {
+            *b = 0;
+        }
+        s
+    }
+
+    pub(super) fn tick_while_do_else(&mut self, i: u32, ctx: &mut C) -> Status {
+        let n = self.n_children(i);
+        self.set_status(i, Status::Running);
+        let cond = self.child(i, 0);
+        let s = match self.tick_node(cond, ctx) {
+            Status::Running => return Status::Running,
+            Status::Success => {
+                if n == 3 {
+                    let e = self.child(i, 2);
+                    self.reset_child(e, ctx);
+                }
+                let d = self.child(i, 1);
+                self.tick_node(d, ctx)
+            }
+            Status::Failure if n == 3 => {
+                let d = self.child(i, 1);
+                self.reset_child(d, ctx);
+                let e = self.child(i, 2);
+                self.tick_node(e, ctx)
+            }
+            _ => Status::Failure,
+        };
+        if s != Status::Running {
+            self.reset_children(i, ctx);
+        }
+        s
+    }
+}

@@ -1,0 +1,351 @@
+//! The parent module's tests.
+
+use super::*;
+
+fn cand(id: &str, x: f64) -> Candidate {
+    Candidate {
+        unit: UnitId::new(id).unwrap(),
+        at: Place::straight(x, 0.0),
+        mobility: Mobility::Ground { speed_m_s: 1.0 },
+        water_l: 1500.0,
+        heading_for: None,
+    }
+}
+
+#[test]
+fn bigger_fires_need_more_cannons() {
+    let n = |q| attackers_needed(q, 10.0);
+    assert_eq!(n(None), 1, "unknown size: one");
+    assert_eq!(n(Some(5.0)), 1);
+    // 5 MW (a car): 8.3 m^2 at 0.50 mm/s, 4.2 L/s.
+    assert_eq!(n(Some(5_000.0)), 1);
+    // 20 MW (a van or small truck): 33 m^2 at 0.56 mm/s, 19 L/s.
+    assert_eq!(n(Some(20_000.0)), 2);
+    assert_eq!(n(Some(30_000.0)), 3);
+    assert_eq!(n(Some(300_000.0)), MAX_ATTACKERS);
+    let mut last = 0;
+    for q in (1..200).map(|k| f64::from(k) * 1000.0) {
+        assert!(n(Some(q)) >= last, "monotonic in the heat release");
+        last = n(Some(q));
+    }
+}
+
+#[test]
+fn nearest_free_unit_gets_each_fire() {
+    let units = [cand("a", 0.0), cand("b", 40.0), cand("c", 100.0)];
+    let needs = [
+        Need {
+            fire: FireId(1),
+            at: Place::straight(50.0, 0.0),
+            priority: 0,
+        },
+        Need {
+            fire: FireId(2),
+            at: Place::straight(5.0, 0.0),
+            priority: 0,
+        },
+    ];
+    let picks = greedy(&units, &needs, &Site::default());
+    assert_eq!(picks.len(), 2);
+    let of = |f: u32| picks.iter().find(|p| p.fire == FireId(f)).unwrap();
+    assert_eq!(of(1).unit.as_str(), "b");
+    assert_eq!(of(2).unit.as_str(), "a");
+    assert_eq!(
+        of(1).runner_up.as_ref().unwrap().1,
+        50.0,
+        "a and c are both 50 s away"
+    );
+}
+
+#[test]
+fn more_fires_than_units_leaves_the_farthest_unattended() {
+    let picks = greedy(
+        &[cand("a", 0.0)],
+        &[
+            Need {
+                fire: FireId(1),
+                at: Place::straight(90.0, 0.0),
+                priority: 0,
+            },
+            Need {
+                fire: FireId(2),
+                at: Place::straight(10.0, 0.0),
+                priority: 0,
+            },
+        ],
+        &Site::default(),
+    );
+    assert_eq!(picks.len(), 1);
+    assert_eq!(picks[0].fire, FireId(2));
+}
+
+fn at(id: &str, x: f64, y: f64) -> Candidate {
+    Candidate {
+        unit: UnitId::new(id).unwrap(),
+        at: Place::straight(x, y),
+        mobility: Mobility::Ground { speed_m_s: 1.0 },
+        water_l: 1500.0,
+        heading_for: None,
+    }
+}
+
+fn total(p: &[Pick]) -> f64 {
+    p.iter().map(|p| p.cost_s).sum()
+}
+
+#[test]
+fn optimal_beats_greedy_where_greedy_is_myopic() {
+    // b is nearest to the fire at 9, but sending a there and b to 20 costs less overall.
+    let units = [at("a", 0.0, 0.0), at("b", 10.0, 0.0)];
+    let needs = [
+        Need {
+            fire: FireId(1),
+            at: Place::straight(9.0, 0.0),
+            priority: 0,
+        },
+        Need {
+            fire: FireId(2),
+            at: Place::straight(20.0, 0.0),
+            priority: 0,
+        },
+    ];
+    assert_eq!(total(&greedy(&units, &needs, &Site::default())), 21.0);
+    let best = optimal(&units, &needs, &Site::default());
+    assert_eq!(total(&best), 19.0);
+    assert_eq!(
+        best.iter()
+            .find(|p| p.fire == FireId(1))
+            .unwrap()
+            .unit
+            .as_str(),
+        "a"
+    );
+}
+
+#[test]
+fn a_unit_on_its_way_is_replaced_only_by_one_keep_s_sooner() {
+    let fire = Need {
+        fire: FireId(1),
+        at: Place::straight(100.0, 0.0),
+        priority: 0,
+    };
+    let on_its_way = Candidate {
+        heading_for: Some(FireId(1)),
+        ..at("a", 40.0, 0.0)
+    };
+    for strategy in [Strategy::Greedy, Strategy::Optimal] {
+        let solve = |b: f64| {
+            let units = [on_its_way.clone(), at("b", b, 0.0)];
+            strategy.solve(&units, std::slice::from_ref(&fire), &Site::default())[0]
+                .unit
+                .to_string()
+        };
+        // a is 60 s away; b 50 s: not worth the change.
+        assert_eq!(solve(50.0), "a", "{strategy:?}");
+        // b 30 s away: 30 s sooner.
+        assert_eq!(solve(70.0), "b", "{strategy:?}");
+    }
+}
+
+/// Least total cost over every injective pairing, by enumeration.
+fn brute_force(costs: &[f64], rows: usize, cols: usize) -> f64 {
+    fn go(r: usize, rows: usize, cols: usize, costs: &[f64], used: &mut Vec<bool>) -> f64 {
+        if r == rows {
+            return 0.0;
+        }
+        let mut best = f64::INFINITY;
+        for c in 0..cols {
+            if !used[c] {
+                used[c] = true;
+                best = best.min(costs[r * cols + c] + go(r + 1, rows, cols, costs, used));
+                used[c] = false;
+            }
+        }
+        best
+    }
+    if rows <= cols {
+        go(0, rows, cols, costs, &mut vec![false; cols])
+    } else {
+        let t: Vec<f64> = (0..cols)
+            .flat_map(|c| (0..rows).map(move |r| costs[r * cols + c]))
+            .collect();
+        go(0, cols, rows, &t, &mut vec![false; rows])
+    }
+}
+
+proptest::proptest! {
+    #[test]
+    fn hazards_between_are_counted_as_by_looking_at_each(
+        at in proptest::collection::vec(0.0..100.0f64, 0..20),
+        a in 0.0..100.0f64,
+        len in 0.0..100.0f64,
+    ) {
+        let places: Vec<Place> = at.iter().map(|&x| Place::straight(x, 0.0)).collect();
+        let site = Site { hazards: &places, ..Site::default() };
+        let b = a + len;
+        let naive = at.iter().filter(|&&c| c > a && c < b).count();
+        let h = Hazards::new(&site);
+        let (a, b) = (Chainage::new(a), Chainage::new(b));
+        proptest::prop_assert_eq!(Hazards::between(h.rank(a), h.rank(b)), naive);
+        proptest::prop_assert_eq!(Hazards::between(h.rank(b), h.rank(a)), naive);
+    }
+
+    #[test]
+    fn hungarian_matches_brute_force(rows in 1usize..5, cols in 1usize..6, seed in proptest::collection::vec(0.0..100.0f64, 30)) {
+        let costs: Vec<f64> = (0..rows * cols).map(|k| seed[k % seed.len()] + (k as f64 * 7.3) % 11.0).collect();
+        let a = hungarian(&costs, rows, cols);
+        let chosen: Vec<usize> = a.iter().flatten().copied().collect();
+        proptest::prop_assert_eq!(chosen.len(), rows.min(cols));
+        let mut distinct = chosen.clone();
+        distinct.sort_unstable();
+        distinct.dedup();
+        proptest::prop_assert_eq!(distinct.len(), chosen.len(), "a column used twice");
+        let cost: f64 = a.iter().enumerate().filter_map(|(r, c)| c.map(|c| costs[r * cols + c])).sum();
+        proptest::prop_assert!((cost - brute_force(&costs, rows, cols)).abs() < 1e-9);
+    }
+}
+
+fn rail(id: &str, x: f64) -> Candidate {
+    Candidate {
+        unit: UnitId::new(id).unwrap(),
+        at: Place::straight(x, 0.0),
+        mobility: Mobility::Rail {
+            start_m: 0.0,
+            end_m: 100.0,
+            y_m: 0.0,
+            speed_m_s: 10.0,
+            reach_m: 15.0,
+        },
+        water_l: 1e5,
+        heading_for: None,
+    }
+}
+
+#[test]
+fn rail_travel_stops_where_the_fire_comes_within_reach() {
+    let m = rail("r", 10.0).mobility;
+    let from = Point2::new(10.0, 0.0);
+    // 9 m to the side leaves 12 m of reach along the rail: run from 10 to 38.
+    let t = m.travel_s(from, Point2::new(50.0, 9.0)).unwrap();
+    assert!((t - 2.8).abs() < 1e-9, "{t}");
+    assert_eq!(m.travel_s(from, Point2::new(20.0, 0.0)), Some(0.0));
+    assert_eq!(
+        m.travel_s(from, Point2::new(50.0, 16.0)),
+        None,
+        "too far aside"
+    );
+    assert_eq!(
+        m.travel_s(from, Point2::new(130.0, 0.0)),
+        None,
+        "past the rail's end"
+    );
+    assert!(
+        m.travel_s(from, Point2::new(110.0, 0.0)).is_some(),
+        "reached from the end"
+    );
+}
+
+#[test]
+fn a_fire_out_of_a_rails_reach_goes_to_a_ground_unit_or_to_nobody() {
+    let needs = [Need {
+        fire: FireId(1),
+        at: Place::straight(150.0, 0.0),
+        priority: 0,
+    }];
+    for solve in [greedy, optimal] {
+        assert!(solve(&[rail("r", 90.0)], &needs, &Site::default()).is_empty());
+        let picks = solve(&[rail("r", 90.0), cand("g", 0.0)], &needs, &Site::default());
+        assert_eq!(picks.len(), 1);
+        assert_eq!(picks[0].unit.as_str(), "g");
+        assert!(
+            picks[0].runner_up.is_none(),
+            "the rail unit is no runner-up"
+        );
+    }
+}
+
+#[test]
+fn a_fast_rail_unit_beats_a_slow_ground_unit_within_its_reach() {
+    let needs = [Need {
+        fire: FireId(1),
+        at: Place::straight(60.0, 2.0),
+        priority: 0,
+    }];
+    let picks = optimal(&[rail("r", 0.0), cand("g", 40.0)], &needs, &Site::default());
+    assert_eq!(picks[0].unit.as_str(), "r");
+}
+
+#[test]
+fn a_higher_priority_fire_is_served_first_when_units_are_short() {
+    let mut needs = [
+        Need {
+            fire: FireId(1),
+            at: Place::straight(10.0, 0.0),
+            priority: 0,
+        },
+        Need {
+            fire: FireId(2),
+            at: Place::straight(90.0, 0.0),
+            priority: 2,
+        },
+    ];
+    for solve in [greedy, optimal] {
+        let picks = solve(&[cand("a", 0.0)], &needs, &Site::default());
+        assert_eq!(picks[0].fire, FireId(2));
+        assert_eq!(
+            picks[0].cost_s, 90.0,
+            "the log shows travel, not the priority"
+        );
+    }
+    needs[1].priority = 0;
+    assert_eq!(
+        optimal(&[cand("a", 0.0)], &needs, &Site::default())[0].fire,
+        FireId(1)
+    );
+}
+
+#[test]
+fn no_unit_travels_through_a_barred_range() {
+    let needs = [Need {
+        fire: FireId(1),
+        at: Place::straight(90.0, 0.0),
+        priority: 0,
+    }];
+    let units = [cand("near", 50.0), cand("far", 150.0)];
+    for solve in [greedy, optimal] {
+        let site = Site {
+            barred: &[(Chainage::new(60.0), Chainage::new(80.0))],
+            ..Site::default()
+        };
+        let picks = solve(&units, &needs, &site);
+        assert_eq!(picks.len(), 1);
+        assert_eq!(picks[0].unit.as_str(), "far");
+        assert!(solve(&units[..1], &needs, &site).is_empty());
+    }
+}
+
+#[test]
+fn units_avoid_driving_past_other_fires_and_running_dry() {
+    let needs = [Need {
+        fire: FireId(1),
+        at: Place::straight(50.0, 0.0),
+        priority: 0,
+    }];
+    // Equally far, but the way from the left passes a burning car at 40.
+    let units = [cand("left", 20.0), cand("right", 80.0)];
+    let hazards = [Place::straight(40.0, 1.0), Place::straight(50.5, 0.0)];
+    let site = Site {
+        hazards: &hazards,
+        ..Site::default()
+    };
+    let picks = optimal(&units, &needs, &site);
+    assert_eq!(picks[0].unit.as_str(), "right");
+    assert_eq!(picks[0].cost_s, 30.0, "the target itself is no hazard");
+    assert_eq!(picks[0].runner_up.as_ref().unwrap().1, 30.0 + HAZARD_S);
+    let mut dry = units.clone();
+    dry[1].water_l = 100.0;
+    assert_eq!(
+        optimal(&dry, &needs, &Site::default())[0].unit.as_str(),
+        "left"
+    );
+}

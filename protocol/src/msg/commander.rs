@@ -1,0 +1,118 @@
+//! The commander-facing messages: zone goals, their acknowledgements and the incident
+//! status (JSON, so any Zenoh client can read and write them).
+
+use std::collections::BTreeMap;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use super::*;
+use crate::ids::{UnitId, ZoneId};
+use crate::validate::{Invalid, Validate, finite, in_range};
+
+/// What the coordinator knows of one unit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct UnitStatus {
+    pub unit: UnitId,
+    pub alive: bool,
+    pub state: Option<UnitState>,
+    pub task: Option<Task>,
+}
+
+/// `ff/<site>/coord/status` (JSON, answered to queries): a snapshot of the incident.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct IncidentStatus {
+    pub t: f64,
+    pub units: Vec<UnitStatus>,
+    pub fires: Vec<FireTrack>,
+    /// Newest first.
+    pub decisions: Vec<Decision>,
+    /// Commanders' zone goals in force.
+    #[serde(default)]
+    pub goals: Vec<ZoneGoal>,
+    /// Messages the coordinator dropped, by class (undecodable, version, invalid).
+    pub rejected: BTreeMap<String, u64>,
+}
+
+impl Validate for IncidentStatus {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)
+    }
+}
+
+/// A commander's instruction for a zone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum GoalKind {
+    Extinguish,
+    /// Hold the fire front before `before_m` (chainage).
+    Contain,
+    Monitor,
+    KeepOut,
+    Evacuate,
+}
+
+/// `ff/<site>/zone/<zone>/goal` (JSON): an incident commander's zone goal.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ZoneGoal {
+    /// Commander-chosen id, echoed in the acknowledgement.
+    pub id: String,
+    pub zone: ZoneId,
+    pub goal: GoalKind,
+    #[serde(default)]
+    pub priority: u8,
+    /// For `contain`: chainage the fire front must not pass, metres.
+    #[serde(default)]
+    pub before_m: Option<f64>,
+    /// Seconds of site time after which the goal lapses.
+    #[serde(default)]
+    pub expires_s: Option<f64>,
+    #[serde(default)]
+    pub issued_by: String,
+}
+
+impl Validate for ZoneGoal {
+    fn validate(&self) -> Result<(), Invalid> {
+        if self.id.is_empty() || self.id.len() > 64 {
+            return Err(Invalid::new("id", "must have 1 to 64 characters"));
+        }
+        if self.issued_by.len() > 64 {
+            return Err(Invalid::new("issued_by", "longer than 64 characters"));
+        }
+        if let Some(b) = self.before_m {
+            finite("before_m", b)?;
+        }
+        match (self.goal, self.before_m) {
+            (GoalKind::Contain, None) => {
+                return Err(Invalid::new("before_m", "required for a contain goal"));
+            }
+            (GoalKind::Contain, _) | (_, None) => {}
+            (_, Some(_)) => {
+                return Err(Invalid::new(
+                    "before_m",
+                    "only a contain goal takes before_m",
+                ));
+            }
+        }
+        if let Some(e) = self.expires_s {
+            in_range("expires_s", e, 0.0, 1e9)?;
+        }
+        Ok(())
+    }
+}
+
+/// `ff/<site>/zone/<zone>/ack` (JSON): the coordinator's answer to a zone goal.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct GoalAck {
+    pub id: String,
+    pub zone: ZoneId,
+    pub accepted: bool,
+    pub reason: String,
+}
+
+impl Validate for GoalAck {
+    fn validate(&self) -> Result<(), Invalid> {
+        Ok(())
+    }
+}

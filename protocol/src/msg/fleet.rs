@@ -1,0 +1,277 @@
+//! Robot-to-robot and robot-to-coordinator traffic: unit states, flame reports, tasks,
+//! fused fire tracks and the coordinator's decisions (postcard).
+//!
+//! Not here: the commander's JSON, the simulator's sensor and actuator messages.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use super::*;
+use crate::geometry::{Point2, Pose2};
+use crate::ids::{FireId, UnitId};
+use crate::validate::{Invalid, Validate, each, finite, in_range, max_len};
+
+/// Ground vehicle or ceiling-rail carriage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum UnitKind {
+    Ground,
+    Monorail,
+}
+
+/// What a unit is doing, as it reports it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum UnitMode {
+    /// Holding still with nothing to do.
+    Idle,
+    /// Patrolling the tunnel looking for fire.
+    Cruising,
+    /// Driving to a firing position.
+    Navigating,
+    /// Aiming and spraying.
+    Extinguishing,
+    /// Cannot act (no water, damaged, stuck).
+    Fault,
+}
+
+/// Where a unit is in carrying out its task.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum TaskPhase {
+    Travelling,
+    Spraying,
+    /// The unit no longer sees the flame it was sent to.
+    Extinguished,
+    /// The unit gave up: no path, no firing solution, no water.
+    Failed,
+}
+
+/// The task a unit is working on, echoed in its state so the coordinator can follow it,
+/// and a restarted coordinator can adopt it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct TaskProgress {
+    pub seq: u64,
+    pub fire: FireId,
+    pub phase: TaskPhase,
+    /// Where the unit believes the fire is.
+    pub target: Point2,
+}
+
+/// `ff/<site>/unit/<id>/state`: a unit's self-report, a few times a second.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct UnitState {
+    pub unit: UnitId,
+    pub kind: UnitKind,
+    pub t: f64,
+    pub pose: Pose2,
+    /// Forward speed, m/s (negative when reversing).
+    pub speed: f64,
+    pub mode: UnitMode,
+    pub water_l: f64,
+    /// 1 is intact, 0 destroyed.
+    pub health: f64,
+    /// Radiant heat flux at the unit, kW/m^2.
+    pub heat_flux_kw_m2: f64,
+    pub task: Option<TaskProgress>,
+    /// True when the unit acts on its own because it has no coordinator.
+    pub autonomous: bool,
+}
+
+impl Validate for UnitState {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        self.pose.validate().map_err(|e| e.within("pose"))?;
+        in_range("speed", self.speed, -20.0, 20.0)?;
+        in_range("water_l", self.water_l, 0.0, 1e6)?;
+        in_range("health", self.health, 0.0, 1.0)?;
+        in_range("heat_flux_kw_m2", self.heat_flux_kw_m2, 0.0, 1e4)?;
+        if let Some(p) = &self.task {
+            p.target.validate().map_err(|e| e.within("task.target"))?;
+        }
+        Ok(())
+    }
+}
+
+/// One flame a unit has placed in the site frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FlameObservation {
+    pub position: Point2,
+    /// Position covariance, m^2: [xx, xy, yy].
+    pub cov: [f64; 3],
+    /// Detector confidence in [0, 1].
+    pub confidence: f64,
+    /// Heat release the unit estimates from the flame's size, kW; `None` from a sensor
+    /// that cannot size a flame.
+    pub hrr_kw: Option<f64>,
+}
+
+/// The largest heat release anyone reports, kW: a fully involved fuel tanker is about
+/// 300 MW.
+pub const MAX_HRR_KW: f64 = 500_000.0;
+
+impl Validate for FlameObservation {
+    fn validate(&self) -> Result<(), Invalid> {
+        self.position.validate().map_err(|e| e.within("position"))?;
+        let [xx, xy, yy] = self.cov;
+        for (name, v) in [("cov[0]", xx), ("cov[1]", xy), ("cov[2]", yy)] {
+            finite(name, v)?;
+        }
+        if xx <= 0.0 || yy <= 0.0 || xx * yy - xy * xy <= 0.0 {
+            return Err(Invalid::new("cov", "not positive definite"));
+        }
+        in_range("confidence", self.confidence, 0.0, 1.0)?;
+        match self.hrr_kw {
+            Some(q) => in_range("hrr_kw", q, 0.0, MAX_HRR_KW),
+            None => Ok(()),
+        }
+    }
+}
+
+/// `ff/<site>/unit/<id>/report`: flames a unit currently sees, in the site frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FlameReport {
+    pub unit: UnitId,
+    pub t: f64,
+    pub observer: Pose2,
+    pub observations: Vec<FlameObservation>,
+}
+
+impl Validate for FlameReport {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        self.observer.validate().map_err(|e| e.within("observer"))?;
+        max_len("observations", &self.observations, MAX_LIST)?;
+        each("observations", &self.observations)
+    }
+}
+
+/// What the coordinator asks of a unit.
+// Externally tagged: postcard cannot decode internally tagged enums.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum TaskKind {
+    /// Nothing assigned: the unit cruises or holds on its own.
+    Standby,
+    /// Drive to `goal` and hold there, looking for fire (staged as a reserve).
+    Cruise { goal: Point2 },
+    /// Drive to `goal` looking for new fires, past the fires the coordinator already knows
+    /// (left burning by a commander's goal): do not stop for them.
+    Search { goal: Point2 },
+    /// Put out the fire believed to be at `target`.
+    Extinguish { fire: FireId, target: Point2 },
+}
+
+/// `ff/<site>/unit/<id>/task`: a unit's current assignment. `seq` grows with every new
+/// decision, so a unit can ignore a stale or repeated one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Task {
+    pub unit: UnitId,
+    pub seq: u64,
+    pub t: f64,
+    pub kind: TaskKind,
+}
+
+impl fmt::Display for TaskKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TaskKind::Standby => f.write_str("standby"),
+            TaskKind::Cruise { goal } => write!(f, "cruise to ({:.1}, {:.1})", goal.x, goal.y),
+            TaskKind::Search { goal } => write!(f, "search to ({:.1}, {:.1})", goal.x, goal.y),
+            TaskKind::Extinguish { fire, target } => {
+                write!(f, "extinguish {fire} at ({:.1}, {:.1})", target.x, target.y)
+            }
+        }
+    }
+}
+
+impl Validate for Task {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        match self.kind {
+            TaskKind::Standby => Ok(()),
+            TaskKind::Cruise { goal } | TaskKind::Search { goal } => {
+                goal.validate().map_err(|e| e.within("kind.goal"))
+            }
+            TaskKind::Extinguish { target, .. } => {
+                target.validate().map_err(|e| e.within("kind.target"))
+            }
+        }
+    }
+}
+
+/// Lifecycle of a fused fire track.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum FireState {
+    /// Seen, not yet confirmed.
+    Tentative,
+    Confirmed,
+    Assigned,
+    Suppressing,
+    Out,
+    /// Not seen for too long while nobody was working on it.
+    Lost,
+}
+
+/// `ff/<site>/fire/<fire_id>`: a fused fire track.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FireTrack {
+    pub id: FireId,
+    pub t: f64,
+    pub position: Point2,
+    pub cov: [f64; 3],
+    pub confidence: f64,
+    pub state: FireState,
+    pub assigned: Vec<UnitId>,
+    /// Units whose reports made this track, for "seen by n units".
+    pub seen_by: Vec<UnitId>,
+    /// Estimated heat release, kW, when some unit could size the flame.
+    pub hrr_kw: Option<f64>,
+}
+
+impl Validate for FireTrack {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        self.position.validate().map_err(|e| e.within("position"))?;
+        in_range("confidence", self.confidence, 0.0, 1.0)?;
+        if let Some(q) = self.hrr_kw {
+            in_range("hrr_kw", q, 0.0, MAX_HRR_KW)?;
+        }
+        max_len("assigned", &self.assigned, MAX_LIST)?;
+        max_len("seen_by", &self.seen_by, MAX_LIST)
+    }
+}
+
+/// The newest of each fire's tracks (by site time; the later one of a tie): what a
+/// restarted coordinator recalls when recorders (or a recording) give it several.
+pub fn latest_per_fire(tracks: impl IntoIterator<Item = FireTrack>) -> Vec<FireTrack> {
+    let mut latest: BTreeMap<FireId, FireTrack> = BTreeMap::new();
+    for f in tracks {
+        if latest.get(&f.id).is_none_or(|old| old.t <= f.t) {
+            latest.insert(f.id, f);
+        }
+    }
+    latest.into_values().collect()
+}
+
+/// One logged decision of the coordinator, with its reason in the text.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Decision {
+    pub t: f64,
+    pub text: String,
+}
+
+impl Validate for Decision {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        if self.text.len() > 1024 {
+            Err(Invalid::new("text", "longer than 1024 bytes"))
+        } else {
+            Ok(())
+        }
+    }
+}

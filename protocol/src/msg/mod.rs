@@ -1,0 +1,55 @@
+//! Every message the fleet exchanges.
+//!
+//! Fleet messages (unit state, flame reports, tasks, fire tracks) and simulator messages
+//! travel as postcard; commander-facing ones (zone goals and their acknowledgements, the
+//! incident status) as JSON. [`Message::ENCODING`] says which, so a sender cannot pick the
+//! wrong one.
+//!
+//! Times `t` are site time in seconds: simulator time in the simulator, system time on real
+//! hardware (see [`crate::clock`]).
+
+use schemars::JsonSchema;
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+use crate::validate::Validate;
+
+/// How a message type is put on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Encoding {
+    /// One protocol-version byte, then postcard.
+    Postcard,
+    /// Plain UTF-8 JSON, for humans and any Zenoh client.
+    Json,
+}
+
+/// A type that travels on the bus.
+pub trait Message:
+    Serialize + DeserializeOwned + Validate + JsonSchema + Send + Sync + 'static
+{
+    const ENCODING: Encoding;
+    /// The schema name recordings and other tools know the type by.
+    const NAME: &'static str;
+}
+
+macro_rules! message {
+    ($enc:ident: $($t:ident),*) => { $(impl Message for $t {
+        const ENCODING: Encoding = Encoding::$enc;
+        const NAME: &'static str = concat!("firefleet.", stringify!($t));
+    })* };
+}
+message!(Postcard: Decision, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions);
+message!(Json: ZoneGoal, GoalAck, IncidentStatus);
+
+/// Longest list any fleet message may carry; bounds the work one message can cause.
+pub const MAX_LIST: usize = 64;
+
+mod bt;
+mod commander;
+mod fleet;
+mod sim;
+
+pub use bt::*;
+pub use commander::*;
+pub use fleet::*;
+pub use sim::*;

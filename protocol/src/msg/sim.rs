@@ -1,0 +1,295 @@
+//! The simulator's side of the bus: its clock, sensor frames out, actuator commands in,
+//! and the ground truth (postcard). A real robot's drivers stand where these are.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use super::*;
+use crate::geometry::{Point2, Pose2};
+use crate::ids::UnitId;
+use crate::validate::{Invalid, Validate, each, finite, in_range, max_len};
+
+/// `ff/<site>/sim/clock`: simulator time, the ROS `/clock` convention.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SimClock {
+    pub t: f64,
+    pub time_scale: f64,
+}
+
+impl Validate for SimClock {
+    fn validate(&self) -> Result<(), Invalid> {
+        in_range("t", self.t, 0.0, 1e9)?;
+        in_range("time_scale", self.time_scale, 0.0, 1e4)
+    }
+}
+
+/// What a detector found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum ObjectClass {
+    Fire,
+}
+
+/// Side of the square depth window a detection carries, pixels.
+pub const DEPTH_WINDOW: usize = 5;
+
+/// A detection as a YOLO-style detector node publishes it, with the aligned depth image's
+/// pixels around the box centre (what the localization node reads from the depth image).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FlameDetection {
+    pub class: ObjectClass,
+    pub confidence: f64,
+    /// Bounding box, pixels: `[u_min, v_min, u_max, v_max]`.
+    pub bbox: [f64; 4],
+    /// Depth, m, of the `DEPTH_WINDOW` x `DEPTH_WINDOW` pixels centred on the box centre,
+    /// row by row; 0 where the depth camera has no value.
+    pub depth: [f32; DEPTH_WINDOW * DEPTH_WINDOW],
+}
+
+impl Validate for FlameDetection {
+    fn validate(&self) -> Result<(), Invalid> {
+        in_range("confidence", self.confidence, 0.0, 1.0)?;
+        for (i, v) in self.bbox.iter().enumerate() {
+            in_range(&format!("bbox[{i}]"), *v, -1e4, 1e4)?;
+        }
+        if self.bbox[0] > self.bbox[2] || self.bbox[1] > self.bbox[3] {
+            return Err(Invalid::new("bbox", "min corner beyond max corner"));
+        }
+        for (i, z) in self.depth.iter().enumerate() {
+            in_range(&format!("depth[{i}]"), f64::from(*z), 0.0, 1e3)?;
+        }
+        Ok(())
+    }
+}
+
+/// State of a unit's water cannon.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+pub struct CannonState {
+    /// Pan relative to the body, radians.
+    pub pan: f64,
+    /// Elevation above horizontal, radians.
+    pub tilt: f64,
+    pub valve_open: bool,
+    /// Current flow, litres per second.
+    pub flow_l_s: f64,
+}
+
+/// `ff/<site>/sim/unit/<id>/sensors`: what a unit's hardware drivers would publish.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct UnitSensors {
+    pub unit: UnitId,
+    pub t: f64,
+    pub pose: Pose2,
+    pub speed: f64,
+    pub steer: f64,
+    pub heat_flux_kw_m2: f64,
+    pub water_l: f64,
+    pub cannon: CannonState,
+    pub detections: Vec<FlameDetection>,
+    /// The body touched an obstacle or a wall in the last step.
+    pub collided: bool,
+}
+
+impl Validate for UnitSensors {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        self.pose.validate().map_err(|e| e.within("pose"))?;
+        finite("speed", self.speed)?;
+        finite("steer", self.steer)?;
+        in_range("heat_flux_kw_m2", self.heat_flux_kw_m2, 0.0, 1e4)?;
+        in_range("water_l", self.water_l, 0.0, 1e6)?;
+        finite("cannon.pan", self.cannon.pan)?;
+        finite("cannon.tilt", self.cannon.tilt)?;
+        max_len("detections", &self.detections, MAX_LIST)?;
+        each("detections", &self.detections)
+    }
+}
+
+/// `ff/<site>/sim/unit/<id>/cmd`: set-points for a unit's drivers. The platform applies
+/// its own limits (acceleration, steering rate, slew rates); these are targets.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct UnitCommand {
+    pub speed: f64,
+    pub steer: f64,
+    pub pan: f64,
+    pub tilt: f64,
+    pub valve_open: bool,
+}
+
+impl UnitCommand {
+    /// Stand still with the valve shut, cannon where it is.
+    pub fn halt(cannon: &CannonState) -> Self {
+        Self {
+            speed: 0.0,
+            steer: 0.0,
+            pan: cannon.pan,
+            tilt: cannon.tilt,
+            valve_open: false,
+        }
+    }
+}
+
+impl Validate for UnitCommand {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("speed", self.speed)?;
+        finite("steer", self.steer)?;
+        finite("pan", self.pan)?;
+        finite("tilt", self.tilt)
+    }
+}
+
+/// A monorail unit's joints: carriage position along its rail and the monitor's state, in
+/// the ROBOGAT paper's terms (see `firefleet_agent::rail::kinematics` for the frame).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+pub struct RailJoints {
+    /// Carriage position from the rail's start, m.
+    pub d: f64,
+    /// Monitor yaw, rad (positive turns the jet to the left of the rail's direction).
+    pub theta1: f64,
+    /// Monitor elevation, rad (0 level, negative down).
+    pub theta2: f64,
+    /// Nozzle exit speed, m/s.
+    pub v0: f64,
+}
+
+impl RailJoints {
+    fn check(&self, field: &str) -> Result<(), Invalid> {
+        for (name, v) in [
+            ("d", self.d),
+            ("theta1", self.theta1),
+            ("theta2", self.theta2),
+            ("v0", self.v0),
+        ] {
+            finite(&format!("{field}.{name}"), v)?;
+        }
+        Ok(())
+    }
+}
+
+/// A hot spot a monorail unit's thermal camera has placed on the road.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct HotSpot {
+    pub position: Point2,
+    /// One-sigma position error, m.
+    pub sigma_m: f64,
+}
+
+/// `ff/<site>/sim/rail/<id>/sensors`: what a monorail unit's drivers publish: its joints,
+/// the ROBOGAT paper's three sensors (fire detector, temperature, and a thermal camera that
+/// gives the distance to the fire) and whether it is plugged into a hose point.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct RailSensors {
+    pub unit: UnitId,
+    pub t: f64,
+    pub joints: RailJoints,
+    /// Carriage speed along the rail, m/s.
+    pub speed: f64,
+    pub valve_open: bool,
+    pub flow_l_s: f64,
+    /// Within reach of a hose point: water is available.
+    pub water_connected: bool,
+    /// The fire detector's output (the paper's `pi`).
+    pub fire_detected: bool,
+    /// Gas temperature at the carriage, degrees C.
+    pub temperature_c: f64,
+    /// Radiant heat flux at the carriage, kW/m^2.
+    pub heat_flux_kw_m2: f64,
+    pub hot_spots: Vec<HotSpot>,
+}
+
+impl Validate for RailSensors {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        self.joints.check("joints")?;
+        finite("speed", self.speed)?;
+        in_range("flow_l_s", self.flow_l_s, 0.0, 1e3)?;
+        in_range("temperature_c", self.temperature_c, -50.0, 2000.0)?;
+        in_range("heat_flux_kw_m2", self.heat_flux_kw_m2, 0.0, 1e4)?;
+        max_len("hot_spots", &self.hot_spots, MAX_LIST)?;
+        for (i, h) in self.hot_spots.iter().enumerate() {
+            h.position
+                .validate()
+                .map_err(|e| e.within(&format!("hot_spots[{i}].position")))?;
+            in_range(&format!("hot_spots[{i}].sigma_m"), h.sigma_m, 1e-3, 100.0)?;
+        }
+        Ok(())
+    }
+}
+
+/// `ff/<site>/sim/rail/<id>/cmd`: joint set-points for a monorail unit; the carriage and
+/// the monitor move toward them at their own top rates and stop at their limits.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct RailCommand {
+    pub joints: RailJoints,
+    pub valve_open: bool,
+}
+
+impl Validate for RailCommand {
+    fn validate(&self) -> Result<(), Invalid> {
+        self.joints.check("joints")
+    }
+}
+
+/// Whether a simulated fire still burns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum TruthFireState {
+    /// Not ignited yet.
+    Dormant,
+    Burning,
+    /// Flames knocked down, fuel bed still hot: re-ignites if left without water.
+    Smouldering,
+    Out,
+}
+
+/// Ground truth about one simulated fire.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct TruthFire {
+    pub name: String,
+    pub position: Point2,
+    pub hrr_kw: f64,
+    pub state: TruthFireState,
+    pub water_received_l: f64,
+}
+
+/// Ground truth about one simulated unit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct TruthUnit {
+    pub id: UnitId,
+    pub pose: Pose2,
+    /// Radiant heat dose taken so far, kJ/m^2.
+    pub heat_dose_kj_m2: f64,
+    pub water_used_l: f64,
+    pub collisions: u32,
+}
+
+/// `ff/<site>/sim/truth`: the simulator's ground truth, for progress displays, tests and
+/// recordings. Units never read it: they know only what their sensors say.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SimTruth {
+    pub t: f64,
+    pub time_limit_s: f64,
+    pub fires: Vec<TruthFire>,
+    pub units: Vec<TruthUnit>,
+}
+
+impl SimTruth {
+    pub fn fires_out(&self) -> usize {
+        self.fires
+            .iter()
+            .filter(|f| f.state == TruthFireState::Out)
+            .count()
+    }
+    pub fn all_out(&self) -> bool {
+        self.fires.iter().all(|f| f.state == TruthFireState::Out)
+    }
+}
+
+impl Validate for SimTruth {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        finite("time_limit_s", self.time_limit_s)?;
+        max_len("fires", &self.fires, 4096)?;
+        max_len("units", &self.units, 4096)
+    }
+}
