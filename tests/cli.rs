@@ -2,7 +2,7 @@
 
 mod support;
 
-use support::{assert_says, firefleet, json_of};
+use support::{assert_numbers, assert_says, firefleet, json_of};
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
@@ -126,14 +126,15 @@ fn the_cannon_experiment_reports_every_angle_and_is_reproducible() {
         [0.0, 30.0, 60.0]
     );
     for x in angles {
-        for key in [
-            "trials",
-            "mean_s_per_flame",
-            "std_s_per_flame",
-            "completion_rate",
-        ] {
-            assert!(x[key].is_number(), "{key} in {x}");
-        }
+        assert_numbers(
+            x,
+            &[
+                "trials",
+                "mean_s_per_flame",
+                "std_s_per_flame",
+                "completion_rate",
+            ],
+        );
         assert!(x["completion_rate"].as_f64().unwrap() > 0.9, "{x}");
     }
 }
@@ -145,14 +146,15 @@ fn the_fleet_experiment_compares_three_strategies_on_every_multi_fire_scenario()
     assert_eq!(runs.len(), 9, "3 scenarios x 3 strategies");
     for r in runs {
         assert!(["autonomous", "greedy", "optimal"].contains(&r["strategy"].as_str().unwrap()));
-        for key in [
-            "time_all_out_s",
-            "heat_dose",
-            "water_l",
-            "fires_never_attacked",
-        ] {
-            assert!(r[key].is_number(), "{key} in {r}");
-        }
+        assert_numbers(
+            r,
+            &[
+                "time_all_out_s",
+                "heat_dose",
+                "water_l",
+                "fires_never_attacked",
+            ],
+        );
         assert_eq!(r["unfinished"], 0, "every fire out in {r}");
     }
 }

@@ -516,6 +516,14 @@ mod tests {
         );
     }
 
+    /// Each `(from, to, says)`: `base` with `from` replaced by `to` is refused, saying `says`.
+    fn refused(base: &str, cases: &[(&str, &str, &str)]) {
+        for (from, to, says) in cases {
+            let e = err(&base.replace(from, to));
+            assert!(e.contains(says), "{from} -> {to}: {e}");
+        }
+    }
+
     #[test]
     fn errors_name_file_field_and_reason() {
         let e = err(&OK.replace("x_m = 60.0", "x_m = 160.0"));
@@ -525,21 +533,23 @@ mod tests {
         );
         let e = err(&OK.replace("growth = \"fast\"", "growth = \"quick\""));
         assert!(e.contains("s.toml") && e.contains("quick"), "{e}");
-        let e = err(&OK.replace("id = \"u1\"", "id = \"U 1\""));
-        assert!(e.contains("unit id"), "{e}");
-        let e = err(&OK.replace("x_m = 5.0", "x_m = 40.0"));
-        assert!(
-            e.contains("units[0].x_m/y_m: starts inside obstacle 'car'"),
-            "{e}"
-        );
-        let e = err(&OK.replace("end_m = 50.0", "end_m = 0.0"));
-        assert!(e.contains("zones[0].end_m"), "{e}");
-        let e = err(&OK.replace("lanes = 2", "lanes = 2\ncolour = 3"));
-        assert!(e.contains("colour"), "{e}");
-        let e = err(&OK.replace("kind = \"ground\"", "kind = \"monorail\""));
-        assert!(
-            e.contains("units[0].rail: a monorail unit must name its rail"),
-            "{e}"
+        refused(
+            &OK,
+            &[
+                ("id = \"u1\"", "id = \"U 1\"", "unit id"),
+                (
+                    "x_m = 5.0",
+                    "x_m = 40.0",
+                    "units[0].x_m/y_m: starts inside obstacle 'car'",
+                ),
+                ("end_m = 50.0", "end_m = 0.0", "zones[0].end_m"),
+                ("lanes = 2", "lanes = 2\ncolour = 3", "colour"),
+                (
+                    "kind = \"ground\"",
+                    "kind = \"monorail\"",
+                    "units[0].rail: a monorail unit must name its rail",
+                ),
+            ],
         );
     }
 
@@ -563,16 +573,28 @@ mod tests {
             with_rail_unit("id = \"m\"\nkind = \"monorail\"\nrail = \"r\"\nx_m = 40.0\ny_m = 0.0");
         let s = Scenario::from_toml(&ok, "s.toml").unwrap();
         assert_eq!(s.rail("r").unwrap().length_m(), 80.0);
-        let e = err(&ok.replace("rail = \"r\"", "rail = \"q\""));
-        assert!(e.contains("units[1].rail: no rail 'q'"), "{e}");
-        let e = err(&ok.replace("x_m = 40.0\ny_m = 0.0", "x_m = 5.0\ny_m = 0.0"));
-        assert!(e.contains("units[1].x_m: 5 is off rail 'r'"), "{e}");
-        let e = err(&ok.replace("x_m = 40.0\ny_m = 0.0", "x_m = 40.0\ny_m = 1.0"));
-        assert!(e.contains("units[1].y_m"), "{e}");
-        let e = err(&ok.replace("height_m = 5.5", "height_m = 6.0"));
-        assert!(e.contains("rails[0].height_m"), "{e}");
-        let e = err(&ok.replace("[20.0, 50.0, 80.0]", "[20.0, 95.0]"));
-        assert!(e.contains("rails[0].hose_points_m[1]"), "{e}");
+        refused(
+            &ok,
+            &[
+                ("rail = \"r\"", "rail = \"q\"", "units[1].rail: no rail 'q'"),
+                (
+                    "x_m = 40.0\ny_m = 0.0",
+                    "x_m = 5.0\ny_m = 0.0",
+                    "units[1].x_m: 5 is off rail 'r'",
+                ),
+                (
+                    "x_m = 40.0\ny_m = 0.0",
+                    "x_m = 40.0\ny_m = 1.0",
+                    "units[1].y_m",
+                ),
+                ("height_m = 5.5", "height_m = 6.0", "rails[0].height_m"),
+                (
+                    "[20.0, 50.0, 80.0]",
+                    "[20.0, 95.0]",
+                    "rails[0].hose_points_m[1]",
+                ),
+            ],
+        );
         let e = err(&OK.replace("kind = \"ground\"", "kind = \"ground\"\nrail = \"r\""));
         assert!(e.contains("only monorail units"), "{e}");
     }

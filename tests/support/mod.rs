@@ -100,3 +100,10 @@ pub fn json_of(args: &[&str]) -> serde_json::Value {
     assert!(out.status.success(), "{}", text(&out));
     serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap()
 }
+
+/// Asserts that every one of `keys` in `v` is a number.
+pub fn assert_numbers(v: &serde_json::Value, keys: &[&str]) {
+    for key in keys {
+        assert!(v[key].is_number(), "{key} in {v}");
+    }
+}

@@ -16,6 +16,23 @@ use crate::value::Value;
 mod control;
 mod decorators;
 
+/// A leaf's view of its `ports` during a tick. A free function, not a method: the leaf
+/// itself is borrowed from the node arena at the same time.
+fn io<'a>(
+    bindings: &'a [Binding],
+    names: &'a [&'static str],
+    bb: &'a mut Blackboard,
+    ports: std::ops::Range<usize>,
+    now: f64,
+) -> Io<'a> {
+    Io {
+        bindings: &bindings[ports.clone()],
+        names: &names[ports],
+        bb,
+        now,
+    }
+}
+
 /// One status change, as an observer sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Transition {
@@ -298,12 +315,13 @@ impl<C> Tree<C> {
         match &mut n.kind {
             Kind::Stateful(a) if was_running => {
                 let ports = n.first_port as usize..(n.first_port + n.n_ports) as usize;
-                let mut io = Io {
-                    bindings: &self.bindings[ports.clone()],
-                    names: &self.port_names[ports],
-                    bb: &mut self.bb,
-                    now: self.now,
-                };
+                let mut io = io(
+                    &self.bindings,
+                    &self.port_names,
+                    &mut self.bb,
+                    ports,
+                    self.now,
+                );
                 a.on_halted(&mut io, ctx);
             }
             Kind::Ordered { idx, .. } => *idx = 0,
@@ -334,12 +352,7 @@ impl<C> Tree<C> {
             Kind::AlwaysSuccess => return Status::Success,
             Kind::AlwaysFailure => return Status::Failure,
             Kind::Condition(a) => {
-                let mut io = Io {
-                    bindings: &self.bindings[ports.clone()],
-                    names: &self.port_names[ports],
-                    bb: &mut self.bb,
-                    now,
-                };
+                let mut io = io(&self.bindings, &self.port_names, &mut self.bb, ports, now);
                 return match a.tick(&mut io, ctx) {
                     Status::Success => Status::Success,
                     // A condition never runs; anything else is a failure.
@@ -347,12 +360,7 @@ impl<C> Tree<C> {
                 };
             }
             Kind::Action(a) => {
-                let mut io = Io {
-                    bindings: &self.bindings[ports.clone()],
-                    names: &self.port_names[ports],
-                    bb: &mut self.bb,
-                    now,
-                };
+                let mut io = io(&self.bindings, &self.port_names, &mut self.bb, ports, now);
                 let s = a.tick(&mut io, ctx);
                 return if s == Status::Idle {
                     Status::Failure
@@ -361,12 +369,7 @@ impl<C> Tree<C> {
                 };
             }
             Kind::Stateful(a) => {
-                let mut io = Io {
-                    bindings: &self.bindings[ports.clone()],
-                    names: &self.port_names[ports],
-                    bb: &mut self.bb,
-                    now,
-                };
+                let mut io = io(&self.bindings, &self.port_names, &mut self.bb, ports, now);
                 let s = if n.status == Status::Running {
                     a.on_running(&mut io, ctx)
                 } else {
