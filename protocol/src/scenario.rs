@@ -534,7 +534,7 @@ mod tests {
         let e = err(&OK.replace("growth = \"fast\"", "growth = \"quick\""));
         assert!(e.contains("s.toml") && e.contains("quick"), "{e}");
         refused(
-            &OK,
+            OK,
             &[
                 ("id = \"u1\"", "id = \"U 1\"", "unit id"),
                 (
