@@ -153,9 +153,12 @@ pub enum PortError {
 
 /// A node's view of its ports and of the tree's clock during one tick.
 pub struct Io<'a> {
+    /// Every binding of the tree, and the port name of each; this node's are `ports`.
+    /// Sliced only when a port is used: most ticks of most leaves read none, and an Io is
+    /// made for every leaf ticked.
     pub(crate) bindings: &'a [Binding],
-    /// The names of the node type's ports, in the order of `bindings`.
     pub(crate) names: &'a [&'static str],
+    pub(crate) ports: std::ops::Range<usize>,
     pub(crate) bb: &'a mut Blackboard,
     pub(crate) now: f64,
 }
@@ -170,8 +173,9 @@ impl Io<'_> {
     /// names costs less than a lookup structure).
     fn binding<T>(&self, port: &Port<T>) -> Result<&Binding, PortError> {
         let name = port.spec.name;
-        let i = self.names.iter().position(|n| *n == name);
-        i.and_then(|i| self.bindings.get(i))
+        let names = &self.names[self.ports.clone()];
+        let i = names.iter().position(|n| *n == name);
+        i.map(|i| &self.bindings[self.ports.start + i])
             .ok_or(PortError::Undeclared(name))
     }
 

@@ -26,8 +26,9 @@ fn io<'a>(
     now: f64,
 ) -> Io<'a> {
     Io {
-        bindings: &bindings[ports.clone()],
-        names: &names[ports],
+        bindings,
+        names,
+        ports,
         bb,
         now,
     }
