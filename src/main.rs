@@ -4,6 +4,9 @@
 //! unit, optionally a recorder) as child processes and reports the incident. The other
 //! subcommands run one role each and join a Zenoh network given on the command line, so
 //! the same binary deploys onto several machines.
+//!
+//! Not here: any role's work; each subcommand lives in `commands/`, the bus plumbing in
+//! `net`.
 
 mod commands;
 mod net;

@@ -6,6 +6,9 @@
 //! coordinator link) and the blackboard. They never block; anything that takes time runs
 //! in a service and is polled (`IsArrival`, `StartWaterCannon`), as the paper's leaves poll
 //! Autoware and the cannon driver.
+//!
+//! Not here: the trees that arrange them (`agent/trees/*.xml`) or the services they drive
+//! ([`crate::unit`]).
 
 use firefleet_bt::node::Io;
 use firefleet_bt::{Port, Registry, StatefulAction, Status};

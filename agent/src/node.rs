@@ -5,6 +5,9 @@
 //! takes tasks, steps the controller on every sensor frame, and publishes the unit's state
 //! and flame reports a few times a second of site time, and its behavior tree's
 //! transitions every step (for recordings).
+//!
+//! Not here: deciding anything; the controller decides, this loop only carries frames,
+//! commands and messages.
 
 use std::cell::RefCell;
 use std::future::Future;

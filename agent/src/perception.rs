@@ -5,6 +5,9 @@
 //! paper's typo fixed: y uses c_y and f_y), then the camera's mount and the unit's pose
 //! take it to the site frame. Depth is taken robustly: the median of the valid pixels of
 //! the window around the box centre, with too few valid pixels meaning no position.
+//!
+//! Not here: tracking flames over time ([`crate::tracker`]) or any image processing before
+//! the detector's boxes.
 
 use firefleet_protocol::geometry::{Gaussian2, Point2, Pose2};
 use firefleet_protocol::msg::{DEPTH_WINDOW, FlameDetection};

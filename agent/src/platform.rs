@@ -5,6 +5,9 @@
 //! detector, temperature, thermal camera) and accepts actuator set-points.
 //! A real robot implements it over its drivers; [`SimPlatform`] implements it over the
 //! simulator's `ff/<site>/sim/unit/<id>/...` keys, so the agent code is the same for both.
+//!
+//! Not here: what the unit does with its body (the controllers) or the bus to the
+//! coordinator ([`crate::node`]).
 
 use std::future::Future;
 

@@ -210,7 +210,7 @@ impl Unit {
 
     /// Start driving to `goal`; false if no path exists. A goal on a blocked cell (a
     /// cruise goal the coordinator set in a lane a parked car stands in) is moved to the
-    /// nearest free point within [`GOAL_SHIFT_M`].
+    /// nearest free point within `GOAL_SHIFT_M`.
     pub fn navigate(&mut self, goal: Point2, purpose: NavPurpose) -> bool {
         let prepared = self.prepared.take().filter(|(g, _)| g.dist(goal) < 1e-9);
         let to = self

@@ -11,6 +11,9 @@
 //! A restarted coordinator rebuilds its picture from the recorded fire tracks (a recorder
 //! answers `fire/*` with the latest of each; the tracks keep their ids), then from the
 //! units' states (adopting the tasks they still work on) and their new reports.
+//!
+//! Not here: recording (the `firefleet-recorder` crate) or anything a robot runs
+//! (`firefleet-agent`).
 
 pub mod assign;
 pub mod coverage;

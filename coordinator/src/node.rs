@@ -13,6 +13,9 @@
 //! answer with the latest of each, so a restarted coordinator keeps every fire (and its
 //! id), even one nobody is working on or looking at when it comes back. Tracks read from
 //! a recording ([`CoordinatorOptions::resume`]) are taken the same way.
+//!
+//! Not here: any decision; [`crate::incident`] decides, this loop carries events in and
+//! decisions out.
 
 use std::future::Future;
 use std::sync::Arc;

@@ -4,6 +4,8 @@
 //! [`Clock`]. In the simulator the clock follows the simulator's `sim/clock` messages (the
 //! ROS `/clock` convention), so a fleet run ten times faster than real time behaves the same
 //! as one run in real time; on real hardware it is the system clock.
+//!
+//! Not here: timers or scheduling; a clock only tells the time.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};

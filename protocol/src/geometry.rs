@@ -1,5 +1,7 @@
 //! Planar geometry in the site frame: x along the tunnel (chainage in a straight tunnel),
 //! y lateral (left positive), z up from the road surface. SI units and radians.
+//!
+//! Not here: the tunnel's own coordinates (chainage and offset, [`crate::tunnel`]).
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};

@@ -2,6 +2,8 @@
 //!
 //! Site and unit ids become chunks of Zenoh key expressions, so they are restricted to a
 //! small alphabet that can never contain the key-expression specials (`/ * $ # ?`).
+//!
+//! Not here: key expressions built from them ([`crate::keys`]).
 
 use std::fmt;
 use std::str::FromStr;

@@ -64,6 +64,9 @@
 //! ```
 //!
 //! Loading validates everything; an error names the file, the field and the reason.
+//!
+//! Not here: simulating the site (`firefleet-sim`) or the tunnel's geometry
+//! ([`crate::tunnel`]).
 
 use std::collections::HashSet;
 use std::f64::consts::TAU;

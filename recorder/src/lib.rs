@@ -1,6 +1,6 @@
 //! The incident's memory.
 //!
-//! [`record`] writes everything on a site's bus to an MCAP file (JSON messages with their
+//! [`record`](mod@record) writes everything on a site's bus to an MCAP file (JSON messages with their
 //! JSON Schemas, liveliness changes, a Foxglove [`scene`] and log), and answers a
 //! restarted coordinator's query for the fire tracks it holds. [`reader`] takes the same
 //! tracks back from a file, [`replay`] tells a recording's story on site time, and

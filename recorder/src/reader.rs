@@ -25,7 +25,7 @@ pub struct Recorded {
     pub cut_short: Option<String>,
 }
 
-/// The latest track of every fire of `site` in a recording made by [`record`] (a JSON
+/// The latest track of every fire of `site` in a recording made by [`crate::record()`] (a JSON
 /// record on each `ff/<site>/fire/f<n>` channel).
 pub fn fire_tracks_in(bytes: &[u8], site: &SiteId) -> Result<Recorded, NotARecording> {
     let mut out = Recorded::default();

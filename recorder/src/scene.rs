@@ -3,6 +3,8 @@
 //! The types mirror the fields of Foxglove's well-known `foxglove.SceneUpdate` and
 //! `foxglove.Log` messages that we use, serialised as JSON (Foxglove decodes JSON messages by schema name). Their JSON
 //! Schemas are derived from these types.
+//!
+//! Not here: writing the file ([`crate::record`](mod@crate::record)).
 
 use firefleet_protocol::Chainage;
 use firefleet_protocol::msg::{Decision, GoalAck, SimTruth, TruthFireState};

@@ -5,6 +5,9 @@
 //! jet's exit speed directly. Water flows when the valve is open and the carriage is within
 //! its telescopic tubes' reach of a hose point. The jet itself is traced by [`crate::jet`],
 //! the same ballistics and suppression model as ground cannons.
+//!
+//! Not here: the monitor's control (the agent's CLIK) or water suppression
+//! ([`crate::world`]).
 
 use firefleet_protocol::UnitId;
 use firefleet_protocol::geometry::Pose2;

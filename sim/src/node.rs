@@ -5,6 +5,9 @@
 //! wall clock (10 runs ten times faster than real time). A unit whose commands stop for
 //! [`physics::COMMAND_WATCHDOG`] of wall time is halted with its valve shut, as real drive
 //! controllers do when their computer dies.
+//!
+//! Not here: the world itself ([`crate::world`]); this loop only paces it and carries its
+//! messages.
 
 use std::collections::HashMap;
 use std::future::Future;

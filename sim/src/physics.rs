@@ -1,5 +1,7 @@
 //! Physical constants and models of the simulated tunnel, each with its source or a stated
 //! assumption. Nothing here is tuned to reproduce a paper's figure.
+//!
+//! Not here: state or time stepping ([`crate::world`]).
 
 use firefleet_protocol::scenario::Growth;
 

@@ -2,6 +2,8 @@
 //!
 //! Deterministic: the same scenario, seed and sequence of commands give the same world.
 //! The world knows nothing of Zenoh; [`crate::node`] drives it.
+//!
+//! Not here: the bus ([`crate::node`]) or wall-clock pacing.
 
 use firefleet_protocol::UnitId;
 use firefleet_protocol::geometry::{Point2, Pose2, wrap_angle};

@@ -24,7 +24,7 @@ pub struct AgentArgs {
     scenario: ScenarioArg,
     #[command(flatten)]
     zenoh: ZenohArgs,
-    /// The unit this agent drives (an id from the scenario's [[units]]).
+    /// The unit this agent drives (an id from the scenario's `[[units]]`).
     #[arg(long)]
     unit: UnitId,
     /// Behavior tree (BehaviorTree.CPP v4 XML) to run instead of the shipped one.

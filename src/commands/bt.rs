@@ -1,4 +1,6 @@
 //! `firefleet bt`: check, show and dry-run behavior-tree files without a robot.
+//!
+//! Not here: the engine (`firefleet-bt`) or the unit leaves (`firefleet-agent`).
 
 use std::cell::RefCell;
 use std::path::PathBuf;

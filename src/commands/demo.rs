@@ -6,6 +6,8 @@
 //! standard input (`--die-with-parent`), which also ends them if the demo itself dies, so
 //! none outlives it. The demo follows the simulator's ground truth, prints progress, and
 //! exits 0 exactly when every fire is out before the scenario's time limit.
+//!
+//! Not here: any role's logic; it starts the processes, watches the truth and reports.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;

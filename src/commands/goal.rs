@@ -3,6 +3,8 @@
 //! A goal is JSON on `ff/<site>/zone/<zone>/goal`; the coordinator answers every goal on
 //! `ff/<site>/zone/<zone>/ack`, and a delete on the goal key clears the zone. This command
 //! is one client of that API; any Zenoh client can do the same (see the README).
+//!
+//! Not here: how the coordinator applies goals (`firefleet_coordinator::goals`).
 
 use std::process::ExitCode;
 use std::time::Duration;

@@ -1,4 +1,6 @@
 //! `firefleet plan`: run the planners on standard inputs.
+//!
+//! Not here: the planners (`firefleet-nav`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;

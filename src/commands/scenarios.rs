@@ -1,4 +1,6 @@
 //! Built-in scenarios and how a `--scenario` argument is resolved.
+//!
+//! Not here: the scenario format (`firefleet_protocol::scenario`).
 
 use std::path::Path;
 use std::process::ExitCode;

@@ -1,4 +1,6 @@
 //! `firefleet status`: the incident as the coordinator sees it, for people or as JSON.
+//!
+//! Not here: the snapshot itself (the coordinator answers `coord/status`).
 
 use std::process::ExitCode;
 

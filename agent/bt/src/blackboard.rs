@@ -4,6 +4,9 @@
 //! own scope: its keys are separate slots unless the SubTree remaps them onto the parent's
 //! keys (explicitly, or all of them with `_autoremap`), in which case they are the very
 //! same slot. Remapping is therefore free at tick time.
+//!
+//! Not here: what the entries mean (the trees and their leaves) or how values are typed
+//! ([`crate::value`]).
 
 use std::collections::HashMap;
 

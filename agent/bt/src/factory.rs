@@ -19,6 +19,9 @@
 //! | SucceedImmediately             | `AlwaysSuccess`                                          |
 //! | RepeatUntilSuccessWithTimeout  | `Timeout msec=".."` around `RetryUntilSuccessful num_attempts="-1"` |
 //! | Root (Parallel)                | `Parallel`                                               |
+//!
+//! Not here: building one tree from node types ([`Builder`]) or reading XML
+//! ([`crate::xml`]).
 
 use std::collections::BTreeMap;
 

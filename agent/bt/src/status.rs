@@ -1,4 +1,6 @@
 //! Node statuses.
+//!
+//! Not here: what any node does with them ([`crate::tree`]).
 
 use std::fmt;
 use std::str::FromStr;

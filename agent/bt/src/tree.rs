@@ -4,6 +4,9 @@
 //! difference: `Repeat` and `RetryUntilSuccessful` with an infinite count (-1) run one
 //! cycle per tick, where BehaviorTree.CPP would loop forever inside a single tick on a
 //! child that completes synchronously.
+//!
+//! Not here: how a tree is built ([`crate::factory`], [`crate::xml`]); control nodes and
+//! decorators tick in their own modules.
 
 use std::fmt::Write as _;
 

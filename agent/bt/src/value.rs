@@ -3,6 +3,8 @@
 //! Ports are typed: a literal in XML is parsed to the port's type when the tree is
 //! loaded, and a blackboard entry takes the type of the ports that use it, so a type error
 //! is a load-time error, never a surprise on the robot.
+//!
+//! Not here: where values live at tick time ([`crate::blackboard`]).
 
 use std::fmt;
 

@@ -1,4 +1,7 @@
 //! 8-connected A* on the occupancy grid, then string pulling into straight segments.
+//!
+//! Not here: kinematics (paths here turn on the spot; [`crate::hybrid_astar`] plans what a
+//! car-like unit can drive) or cost maps ([`crate::grid_search`]).
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;

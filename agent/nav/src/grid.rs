@@ -1,6 +1,9 @@
 //! Occupancy grid of the tunnel road: the road's bounding box in the site frame, cells
 //! outside the tunnel (beyond its walls or ends) blocked like obstacles, so a curved
 //! tunnel is just a grid with more blocked cells.
+//!
+//! Not here: search over it ([`crate::astar`], [`crate::hybrid_astar`]) or costs beyond
+//! free and blocked ([`crate::costmap`]).
 
 use firefleet_protocol::Point2;
 use firefleet_protocol::scenario::Scenario;

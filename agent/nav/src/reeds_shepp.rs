@@ -12,6 +12,9 @@
 //! 1e-6 on every pose pair tried.
 //!
 //! Lengths are in units of the turning radius inside, metres outside.
+//!
+//! Not here: obstacles; a Reeds-Shepp path knows only the turning radius, and its users
+//! check it against the grid.
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 

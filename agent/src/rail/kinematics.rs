@@ -11,6 +11,9 @@
 //! *left* of +x), monitor elevation (0 horizontal, negative down), and the nozzle's exit
 //! speed. The jet is a drag-free parabola in the monitor's
 //! vertical plane; `r(theta2, v0, z)` is its horizontal range on the plane `z` below M.
+//!
+//! Not here: choosing joint velocities (the CLIK, [`super::clik`]) or planning the jet's
+//! path ([`super::planner`]).
 
 use nalgebra::{Matrix2x4, Vector2, Vector4};
 

@@ -3,6 +3,9 @@
 //! Every event (a unit's state, a flame report, a unit appearing or vanishing, time
 //! passing) updates the picture and returns the messages to publish: new tasks and changed
 //! fire tracks. Every decision is logged with its reason and kept in [`Incident::decisions`].
+//!
+//! Not here: the bus ([`crate::node`]), the cost model and solvers ([`crate::assign`]),
+//! fusion ([`crate::fusion`]); the policy numbers are [`Policy`].
 
 use std::collections::{BTreeMap, VecDeque};
 

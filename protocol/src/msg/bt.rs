@@ -1,4 +1,6 @@
 //! Behavior-tree transitions a unit publishes for recordings (postcard).
+//!
+//! Not here: the tree engine itself (`firefleet-bt`).
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};

@@ -1,5 +1,7 @@
 //! The commander-facing messages: zone goals, their acknowledgements and the incident
 //! status (JSON, so any Zenoh client can read and write them).
+//!
+//! Not here: how goals are applied (the coordinator's zones) or the commander's tools.
 
 use std::collections::BTreeMap;
 

@@ -1,5 +1,7 @@
 //! The simulator's side of the bus: its clock, sensor frames out, actuator commands in,
 //! and the ground truth (postcard). A real robot's drivers stand where these are.
+//!
+//! Not here: the world that produces them (`firefleet-sim`).
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};

@@ -1,6 +1,8 @@
 //! `firefleet experiment costmap-ga`: the Dijkstra+GA paper's three cases on a generated
 //! 2.5-D fire map: no heat in the cost (case 1), heat with w1 = w2 = 1 (case 2), and
 //! GA-tuned weights (case 3).
+//!
+//! Not here: the cost map and the GA themselves (`firefleet_nav::costmap`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;

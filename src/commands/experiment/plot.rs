@@ -3,6 +3,8 @@
 //! Just what the experiments need: one chart per file, several named series over a shared
 //! x axis, a legend. The font ships with the program (`assets/fonts`), so a chart looks the
 //! same on every machine and needs no system fonts.
+//!
+//! Not here: the data; the experiments compute the series.
 
 use std::path::Path;
 

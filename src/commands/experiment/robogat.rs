@@ -1,5 +1,7 @@
 //! `firefleet experiment robogat`: the ROBOGAT paper's case study, fuzzy against fixed
 //! weights, with the time histories as CSV and as PNG plots of the paper's figures 5-8.
+//!
+//! Not here: the case study itself (`firefleet_agent::rail::case_study`).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
