@@ -4,11 +4,11 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use firefleet_agent::rail::case_study::CaseStudy;
-use firefleet_agent::rail::clik::{Clik, ClikParams, Target};
-use firefleet_agent::rail::fis::{Fis, Inputs};
-use firefleet_agent::rail::kinematics::{Joints, Limits, Monitor};
-use firefleet_agent::rail::planner::{Planner, PlannerParams};
+use firefleet_agent::monorail::case_study::CaseStudy;
+use firefleet_agent::monorail::clik::{Clik, ClikParams, Target};
+use firefleet_agent::monorail::fis::{Fis, Inputs};
+use firefleet_agent::monorail::kinematics::{Joints, Limits, Monitor};
+use firefleet_agent::monorail::planner::{Planner, PlannerParams};
 use nalgebra::Vector2;
 
 fn clik(c: &mut Criterion) {

@@ -2,7 +2,7 @@
 //! across the working range, and targets out of reach or behind the ceiling get an
 //! explicit "no firing solution".
 
-use firefleet_agent::aim::{self, NoSolution};
+use firefleet_agent::ground::aim::{self, NoSolution};
 use firefleet_protocol::Point2;
 use firefleet_protocol::scenario::Tunnel;
 use firefleet_protocol::spec::GROUND;

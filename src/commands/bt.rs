@@ -21,7 +21,7 @@ pub enum Kind {
 
 fn validate(doc: &Document, kind: Kind) -> Result<(), XmlErrors> {
     match kind {
-        Kind::Ground => xml::validate(doc, &firefleet_agent::leaves::registry()),
+        Kind::Ground => xml::validate(doc, &firefleet_agent::ground::leaves::registry()),
         Kind::Monorail => xml::validate(doc, &firefleet_agent::monorail::registry()),
     }
 }

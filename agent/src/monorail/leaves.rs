@@ -10,7 +10,7 @@ use firefleet_protocol::Point2;
 use firefleet_protocol::msg::TaskKind;
 
 use super::RailUnit;
-use crate::rail::planner::Phase;
+use crate::monorail::planner::Phase;
 
 const FIRE: Port<[f64; 2]> = Port::input("fire", "the fire");
 const COOLING: Port<i64> = Port::input(

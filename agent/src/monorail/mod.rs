@@ -7,9 +7,26 @@
 //! (`trees/monorail_unit.xml`) decides which fire to attack and when the attack is over,
 //! with the coordinator-link leaves every unit shares ([`crate::mission`]).
 //!
-//! Pure: no I/O, no clock of its own.
+//! The ROBOGAT paper's parts (`robogat-monorail-fuzzy-redundancy.txt`), all pure:
+//! - [`kinematics`]: where the jet lands for given joints, and the Jacobians (eq. 1-2).
+//! - [`clik`]: the weighted, damped pseudo-inverse CLIK with the null-space dexterity task
+//!   (eq. 5-8), joint limits enforced.
+//! - [`fis`]: the fuzzy system that sets the weights from fire, temperature and distance,
+//!   built on the general Mamdani engine in [`fuzzy`].
+//! - [`planner`]: the jet point's approach, sweep and hold (eq. 9).
+//! - [`case_study`]: the paper's simulation case study, for the experiment and the bench.
+//! - [`frame`]: the rail's frame in the site.
+//!
+//! Pure: no I/O, no clock of its own. Not here: the ground unit ([`crate::ground`]).
 
+pub mod case_study;
+pub mod clik;
+pub mod fis;
+pub mod frame;
+pub mod fuzzy;
+pub mod kinematics;
 mod leaves;
+pub mod planner;
 
 use std::sync::Arc;
 
@@ -24,11 +41,11 @@ use firefleet_protocol::{Point2, Pose2, UnitId};
 
 use crate::controller::{Controller, Services};
 use crate::mission::{Mission, Responder};
-use crate::rail::RailFrame;
-use crate::rail::clik::{Clik, ClikParams, Target};
-use crate::rail::fis::{Fis, Inputs};
-use crate::rail::kinematics::{Joints, Limits, Monitor};
-use crate::rail::planner::{Phase, Planner, PlannerParams};
+use crate::monorail::clik::{Clik, ClikParams, Target};
+use crate::monorail::fis::{Fis, Inputs};
+use crate::monorail::frame::RailFrame;
+use crate::monorail::kinematics::{Joints, Limits, Monitor};
+use crate::monorail::planner::{Phase, Planner, PlannerParams};
 
 /// The shipped monorail-unit tree.
 pub const MONORAIL_TREE: &str = include_str!("../../trees/monorail_unit.xml");

@@ -141,7 +141,7 @@ impl Validate for UnitCommand {
 }
 
 /// A monorail unit's joints: carriage position along its rail and the monitor's state, in
-/// the ROBOGAT paper's terms (see `firefleet_agent::rail::kinematics` for the frame).
+/// the ROBOGAT paper's terms (see `firefleet_agent::monorail::kinematics` for the frame).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
 pub struct RailJoints {
     /// Carriage position from the rail's start, m.

@@ -1,7 +1,7 @@
 //! `firefleet experiment robogat`: the ROBOGAT paper's case study, fuzzy against fixed
 //! weights, with the time histories as CSV and as PNG plots of the paper's figures 5-8.
 //!
-//! Not here: the case study itself (`firefleet_agent::rail::case_study`).
+//! Not here: the case study itself (`firefleet_agent::monorail::case_study`).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -9,8 +9,8 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
-use firefleet_agent::rail::case_study::{CaseStudy, Outcome, Weighting};
-use firefleet_agent::rail::kinematics::{D, THETA1, THETA2, V0};
+use firefleet_agent::monorail::case_study::{CaseStudy, Outcome, Weighting};
+use firefleet_agent::monorail::kinematics::{D, THETA1, THETA2, V0};
 use serde::Serialize;
 
 use super::plot::{self, Labels, Series};
@@ -135,7 +135,7 @@ fn write_csv(dir: &Path, o: &Outcome) -> anyhow::Result<()> {
 fn series<'a>(
     o: &Outcome,
     name: &'a str,
-    f: impl Fn(&firefleet_agent::rail::case_study::Sample) -> f64,
+    f: impl Fn(&firefleet_agent::monorail::case_study::Sample) -> f64,
 ) -> Series<'a> {
     Series {
         name,

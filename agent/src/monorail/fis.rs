@@ -24,7 +24,7 @@
 //! multiplied by the fire detector's output `pi`, freezing the valve when there is no fire.
 
 use super::clik::Weights;
-use crate::fuzzy::{Mamdani, Scratch, Set, Variable};
+use crate::monorail::fuzzy::{Mamdani, Scratch, Set, Variable};
 
 /// The paper's four rules, verbatim but for `medium` (see the module doc).
 pub const RULES: [&str; 4] = [

@@ -5,6 +5,12 @@
 //!
 //! Pure: no I/O, no clock of its own.
 
+pub mod aim;
+pub mod leaves;
+pub mod perception;
+pub mod tracker;
+pub mod unit;
+
 use std::sync::Arc;
 
 use firefleet_bt::xml::{self, Document, XmlErrors};
@@ -13,14 +19,13 @@ use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::GroundSpec;
 
 use crate::controller::Controller;
-use crate::leaves;
-use crate::unit::Unit;
+use unit::Unit;
 
 /// The shipped ground-unit tree (Algorithm 1, adapted to the fleet).
-pub const GROUND_TREE: &str = include_str!("../trees/ground_unit.xml");
+pub const GROUND_TREE: &str = include_str!("../../trees/ground_unit.xml");
 
 /// The BT paper's water-cannon experiment: scan, locate, extinguish, repeat.
-pub const CANNON_EXPERIMENT_TREE: &str = include_str!("../trees/cannon_experiment.xml");
+pub const CANNON_EXPERIMENT_TREE: &str = include_str!("../../trees/cannon_experiment.xml");
 
 /// The shipped tree as a document.
 pub fn default_tree() -> Document {

@@ -7,7 +7,7 @@
 //! for cruising and as the fallback), follows the path (pure pursuit) and recovers from
 //! touching an obstacle; a cannon service that
 //! slews to the aim set-point and opens the valve on request; the flame tracker; and the
-//! link state to the coordinator. Leaves ([`crate::leaves`]) only read and set these.
+//! link state to the coordinator. Leaves ([`crate::ground::leaves`]) only read and set these.
 
 use std::sync::Arc;
 
@@ -22,8 +22,8 @@ use firefleet_protocol::{Chainage, UnitId};
 use crate::controller::Services;
 use crate::mission::{Mission, Responder};
 
-use crate::aim;
-use crate::tracker::FlameTracker;
+use crate::ground::aim;
+use crate::ground::tracker::FlameTracker;
 use firefleet_nav::hybrid_astar::{Footprint, HeatSource, HybridAStar, Params};
 use firefleet_nav::{self as nav, Follow, Grid, PurePursuit, Route};
 

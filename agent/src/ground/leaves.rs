@@ -8,14 +8,14 @@
 //! Autoware and the cannon driver.
 //!
 //! Not here: the trees that arrange them (`agent/trees/*.xml`) or the services they drive
-//! ([`crate::unit`]).
+//! ([`super::unit`]).
 
 use firefleet_bt::node::Io;
 use firefleet_bt::{Port, Registry, StatefulAction, Status};
 use firefleet_protocol::Point2;
 use firefleet_protocol::msg::TaskKind;
 
-use crate::unit::{NavPurpose, Unit};
+use crate::ground::unit::{NavPurpose, Unit};
 
 fn p(v: [f64; 2]) -> Point2 {
     Point2::new(v[0], v[1])

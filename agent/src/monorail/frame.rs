@@ -1,22 +1,8 @@
-//! Monorail units: a carriage on a ceiling rail carrying a fire monitor (the ROBOGAT
-//! paper, `robogat-monorail-fuzzy-redundancy.txt`).
+//! The rail's frame: where a rail's base frame sits in the site. The ROBOGAT paper's
+//! frame (z down, y right) lives inside the monorail's kinematics, CLIK and planner;
+//! [`RailFrame`] converts to and from the site frame (z up, y left).
 //!
-//! - [`kinematics`]: where the jet lands for given joints, and the Jacobians (eq. 1-2).
-//! - [`clik`]: the weighted, damped pseudo-inverse CLIK with the null-space dexterity task
-//!   (eq. 5-8), joint limits enforced.
-//! - [`fis`]: the fuzzy system that sets the weights from fire, temperature and distance,
-//!   built on the general engine in [`crate::fuzzy`].
-//! - [`planner`]: the jet point's approach, sweep and hold (eq. 9).
-//! - [`case_study`]: the paper's simulation case study, for the experiment and the bench.
-//!
-//! All pure: no I/O, no clock. The paper's frame (z down, y right) lives inside these
-//! modules; [`RailFrame`] converts to and from the site frame (z up, y left).
-
-pub mod case_study;
-pub mod clik;
-pub mod fis;
-pub mod kinematics;
-pub mod planner;
+//! Not here: the kinematics themselves ([`super::kinematics`]).
 
 use firefleet_protocol::Point2;
 use nalgebra::Vector2;

@@ -1,7 +1,7 @@
 //! Per-unit flame tracker: detections become site-frame flame estimates.
 //!
 //! Each detection is placed in the site frame with a covariance from the camera's noise
-//! model ([`crate::perception`]), associated with the nearest track within a Mahalanobis gate, and
+//! model ([`crate::ground::perception`]), associated with the nearest track within a Mahalanobis gate, and
 //! fused into it. Tracks not seen for [`STALE_S`] are dropped. A track is confirmed after
 //! [`CONFIRM_HITS`] hits, which suppresses one-frame false alarms.
 
@@ -9,7 +9,7 @@ use firefleet_protocol::geometry::{Gaussian2, Point2};
 use firefleet_protocol::msg::{FlameObservation, MAX_HRR_KW, UnitSensors};
 use firefleet_protocol::spec::GroundSpec;
 
-use crate::perception;
+use crate::ground::perception;
 
 /// Seconds without a detection after which a track is dropped.
 pub const STALE_S: f64 = 3.0;

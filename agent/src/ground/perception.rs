@@ -6,7 +6,7 @@
 //! take it to the site frame. Depth is taken robustly: the median of the valid pixels of
 //! the window around the box centre, with too few valid pixels meaning no position.
 //!
-//! Not here: tracking flames over time ([`crate::tracker`]) or any image processing before
+//! Not here: tracking flames over time ([`crate::ground::tracker`]) or any image processing before
 //! the detector's boxes.
 
 use firefleet_protocol::geometry::{Gaussian2, Point2, Pose2};

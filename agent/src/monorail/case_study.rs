@@ -269,7 +269,7 @@ impl Stats {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rail::kinematics::{THETA2, V0};
+    use crate::monorail::kinematics::{THETA2, V0};
 
     #[test]
     fn reproduces_the_papers_qualitative_results() {
