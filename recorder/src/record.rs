@@ -188,11 +188,6 @@ pub async fn record(
                 }
                 Ok(s) = samples.recv_async() => {
                     let key = s.key_expr().as_str();
-                    if s.kind() == SampleKind::Delete {
-                        // A commander clearing a zone's goals, for one; it has no payload.
-                        tracing::debug!(key, "delete not recorded");
-                        continue;
-                    }
                     let bytes = s.payload().to_bytes();
                     let parsed = keys::parse(key).map_err(|e| e.to_string())
                         .and_then(|(_, topic)| Payload::from_wire(&topic, &bytes).map_err(|e| e.to_string()));

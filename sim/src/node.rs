@@ -92,7 +92,7 @@ pub async fn run(
             bus,
             &mut last_command,
             |topic, cmd| match topic {
-                Topic::SimCmd(unit) if world.command(&unit, cmd) => Some(unit),
+                Topic::SimCmd(unit) if world.command(unit, cmd) => Some(unit.clone()),
                 _ => None,
             },
         );
@@ -101,7 +101,7 @@ pub async fn run(
             bus,
             &mut last_command,
             |topic, cmd| match topic {
-                Topic::SimRailCmd(unit) if world.command_rail(&unit, cmd) => Some(unit),
+                Topic::SimRailCmd(unit) if world.command_rail(unit, cmd) => Some(unit.clone()),
                 _ => None,
             },
         );
@@ -151,18 +151,17 @@ fn drain<T: Message>(
     commands: &Inbox<T>,
     bus: &Bus,
     last_command: &mut HashMap<UnitId, Instant>,
-    mut apply: impl FnMut(Topic, T) -> Option<UnitId>,
+    mut apply: impl FnMut(&Topic, T) -> Option<UnitId>,
 ) {
     while let Some((topic, cmd)) = commands.try_recv() {
-        let key = topic.to_string();
-        match apply(topic, cmd) {
+        match apply(&topic, cmd) {
             Some(unit) => {
                 last_command.insert(unit, Instant::now());
             }
             None => {
                 bus.rejects().count_invalid();
                 tracing::warn!(
-                    key,
+                    %topic,
                     "dropped command for a unit this simulation does not have"
                 );
             }

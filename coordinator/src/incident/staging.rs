@@ -61,8 +61,8 @@ impl Incident {
         let (lo, hi) = (Chainage::ZERO + INSIDE_M, self.tunnel.end() - INSIDE_M);
         let mut out = Vec::new();
         // Each free unit's nearest active fire; each fire keeps its nearest
-        // self.policy.reserves_per_fire within self.policy.help_within_s (any distance to hold a contain line),
-        // the others patrol (a thousand units must not converge on the first fire
+        // `reserves_per_fire` within `help_within_s` (any distance to hold a contain
+        // line), the others patrol (a thousand units must not converge on the first fire
         // reported).
         let holds_a_line = |f: Point2| {
             self.goal_at(f)
