@@ -21,6 +21,8 @@ pub enum CodecError {
     Version { got: u8 },
     #[error("undecodable: {0}")]
     Postcard(#[from] postcard::Error),
+    #[error("undecodable: {0} bytes after the message")]
+    Trailing(usize),
     #[error("malformed JSON: {0}")]
     Json(#[from] serde_json::Error),
     #[error("invalid: {0}")]
@@ -31,7 +33,10 @@ impl CodecError {
     /// Short, stable name of the failure class, for counters.
     pub fn class(&self) -> &'static str {
         match self {
-            CodecError::Empty | CodecError::Postcard(_) | CodecError::Json(_) => "undecodable",
+            CodecError::Empty
+            | CodecError::Postcard(_)
+            | CodecError::Trailing(_)
+            | CodecError::Json(_) => "undecodable",
             CodecError::Version { .. } => "version",
             CodecError::Invalid(_) => "invalid",
         }
@@ -59,7 +64,13 @@ pub fn decode<M: Message>(bytes: &[u8]) -> Result<M, CodecError> {
             if v != PROTOCOL_VERSION {
                 return Err(CodecError::Version { got: v });
             }
-            postcard::from_bytes(body)?
+            // A message followed by more bytes is not the message its sender meant (or
+            // carries something smuggled past validation): refused whole.
+            let (m, rest) = postcard::take_from_bytes(body)?;
+            if !rest.is_empty() {
+                return Err(CodecError::Trailing(rest.len()));
+            }
+            m
         }
         Encoding::Json => serde_json::from_slice(bytes)?,
     };
@@ -102,6 +113,23 @@ mod tests {
             Err(CodecError::Version { .. })
         ));
         assert!(matches!(decode::<FlameReport>(&[]), Err(CodecError::Empty)));
+    }
+
+    #[test]
+    fn trailing_bytes_and_absurd_magnitudes_are_refused() {
+        let mut bytes = encode(&report(3.0, 0.9));
+        bytes.push(0);
+        let e = decode::<FlameReport>(&bytes).unwrap_err();
+        assert!(matches!(e, CodecError::Trailing(1)), "{e}");
+        assert_eq!(e.class(), "undecodable");
+        let mut r = report(3.0, 0.9);
+        r.observer.yaw = 1e308;
+        let e = decode::<FlameReport>(&encode(&r)).unwrap_err();
+        assert!(e.to_string().contains("observer.yaw"), "{e}");
+        let e = decode::<FlameReport>(&encode(&report(1e12, 0.9))).unwrap_err();
+        assert!(e.to_string().contains("observations[0].position.x"), "{e}");
+        r.observer.yaw = -3.0;
+        assert!(decode::<FlameReport>(&encode(&r)).is_ok());
     }
 
     #[test]

@@ -6,7 +6,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::validate::{Invalid, Validate, finite};
+use crate::validate::{Invalid, Validate, in_range};
 
 /// A point on the road plane, metres.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
@@ -35,10 +35,20 @@ impl Point2 {
     }
 }
 
+/// Largest coordinate a site-frame position may have, m. Site frames are local to one
+/// tunnel (the longest road tunnel is 24.5 km); a larger value is a lie or a bug, and
+/// one that a distance or a grid index computed from it would turn into nonsense.
+pub const MAX_COORD_M: f64 = 100_000.0;
+
+/// Largest heading magnitude a pose may have, rad: senders wrap their headings, but an
+/// odometry heading left unwrapped for fifteen turns still passes. Trigonometry on a
+/// heading of 1e308 is finite and meaningless.
+pub const MAX_YAW_RAD: f64 = 100.0;
+
 impl Validate for Point2 {
     fn validate(&self) -> Result<(), Invalid> {
-        finite("x", self.x)?;
-        finite("y", self.y)
+        in_range("x", self.x, -MAX_COORD_M, MAX_COORD_M)?;
+        in_range("y", self.y, -MAX_COORD_M, MAX_COORD_M)
     }
 }
 
@@ -72,9 +82,8 @@ impl Pose2 {
 
 impl Validate for Pose2 {
     fn validate(&self) -> Result<(), Invalid> {
-        finite("x", self.x)?;
-        finite("y", self.y)?;
-        finite("yaw", self.yaw)
+        self.position().validate()?;
+        in_range("yaw", self.yaw, -MAX_YAW_RAD, MAX_YAW_RAD)
     }
 }
 
