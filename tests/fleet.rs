@@ -578,6 +578,24 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
         !ack.accepted && ack.reason.starts_with("malformed"),
         "{ack:?}"
     );
+    // A key whose zone chunk is no zone id at all has no ack key: counted, not lost.
+    let invalid = |v: &serde_json::Value| v["rejected"]["invalid"].as_u64().unwrap_or(0);
+    let before = invalid(&status_of(&bus, Duration::from_secs(5)).await);
+    bus.session()
+        .put(
+            "ff/tunnel-r/zone/WEST/goal",
+            r#"{"id": "w", "zone": "WEST", "goal": "monitor"}"#,
+        )
+        .await
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while invalid(&status_of(&bus, Duration::from_secs(5)).await) == before {
+        assert!(
+            Instant::now() < deadline,
+            "a goal on zone/WEST was not counted"
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
 
     let out = cli("rail-tunnel", &endpoint, &["goal", "list"]);
     assert!(

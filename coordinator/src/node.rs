@@ -143,28 +143,29 @@ pub async fn run(
                     Err(Invalid::new("unit", format!("report on '{topic}' names unit '{}'", r.unit)))
                 }
             }
-            Ok(sample) = goals.recv_async() => {
-                let t = clock.now();
-                let zone = match keys::parse(sample.key_expr().as_str()) {
-                    Ok((_, Topic::ZoneGoal(zone))) => zone,
-                    _ => continue,
-                };
-                if sample.kind() == SampleKind::Delete {
-                    Ok(incident.clear_goals(&zone, t))
-                } else {
-                    let bytes = sample.payload().to_bytes();
-                    let (ack, out) = match codec::decode::<ZoneGoal>(&bytes) {
-                        Ok(goal) => incident.on_goal(&zone, goal, t),
-                        Err(e) => {
-                            bus.rejects().count_invalid();
-                            tracing::warn!(%zone, "malformed zone goal: {e}");
-                            (malformed(&bytes, &zone, &e), Vec::new())
-                        }
-                    };
-                    bus.put(&keys.zone_ack(&zone), &ack).await?;
-                    Ok(out)
+            Ok(sample) = goals.recv_async() => match keys::parse(sample.key_expr().as_str()) {
+                Ok((_, Topic::ZoneGoal(zone))) => {
+                    let t = clock.now();
+                    if sample.kind() == SampleKind::Delete {
+                        Ok(incident.clear_goals(&zone, t))
+                    } else {
+                        let bytes = sample.payload().to_bytes();
+                        let (ack, out) = match codec::decode::<ZoneGoal>(&bytes) {
+                            Ok(goal) => incident.on_goal(&zone, goal, t),
+                            Err(e) => {
+                                bus.rejects().count_invalid();
+                                tracing::warn!(%zone, "malformed zone goal: {e}");
+                                (malformed(&bytes, &zone, &e), Vec::new())
+                            }
+                        };
+                        bus.put(&keys.zone_ack(&zone), &ack).await?;
+                        Ok(out)
+                    }
                 }
-            }
+                // Not a zone id at all (`zone/WEST/goal`): there is no ack key to answer
+                // on; refused and counted like any other bad message.
+                _ => Err(Invalid::new("key", format!("'{}' names no zone", sample.key_expr()))),
+            },
             Ok(query) = status.recv_async() => {
                 let mut body = incident.status(clock.now());
                 body.rejected = bus.rejects().snapshot().into_iter().map(|(k, v)| (k.to_owned(), v)).collect();
