@@ -44,6 +44,8 @@ enum Command {
     /// Run the planners on standard inputs (MovingAI grid benchmarks).
     #[command(subcommand)]
     Plan(commands::plan::PlanCommand),
+    /// Check a recorded incident against the commanders' zone goals (exit 1 on a violation).
+    Check(commands::check::CheckArgs),
     /// Print the timeline of a recorded incident.
     Replay(commands::replay::ReplayArgs),
     /// Validate, show or dry-run behavior-tree XML files.
@@ -71,7 +73,11 @@ fn main() -> std::process::ExitCode {
     // Experiments and tree tools print tables; per-event logs are noise there.
     let quiet = matches!(
         cli.command,
-        Command::Experiment(_) | Command::Bt(_) | Command::Replay(_) | Command::Plan(_)
+        Command::Experiment(_)
+            | Command::Bt(_)
+            | Command::Replay(_)
+            | Command::Check(_)
+            | Command::Plan(_)
     );
     init_logging(if quiet { "warn" } else { "info,zenoh=warn" });
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -91,6 +97,7 @@ fn main() -> std::process::ExitCode {
             Command::Scenarios => commands::scenarios::list(),
             Command::Bt(c) => commands::bt::run(c),
             Command::Replay(a) => commands::replay::run(a),
+            Command::Check(a) => commands::check::run(a),
             Command::Experiment(c) => commands::experiment::run(c).await,
         }
     });

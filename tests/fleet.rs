@@ -76,6 +76,9 @@ fn demo_fleet_puts_out_every_fire_and_records_the_incident() {
         assert_eq!(u["collisions"], 0, "{u}");
     }
     check_recording(&recording);
+    let rec = recording.to_str().unwrap();
+    let out = support::firefleet(&["check", rec, "--scenario", "cargo-truck"]);
+    assert_says(&out, 0, "0 violations");
 
     // The timeline of the incident, from the recording alone.
     let replay = Command::new(BIN)

@@ -6,7 +6,8 @@
 //! looked, so free units search where nobody has; [`incident`] holds the whole picture
 //! (units, fires, tasks, goals) and reacts to events with decisions, each logged with its
 //! reason. All six are pure: no Zenoh, no clock of their own.
-//! [`node`] wires them to the bus. Recording is the `firefleet-recorder` crate's.
+//! [`invariants`] checks an incident's history against the zone goals (for recordings and
+//! experiments). [`node`] wires them to the bus. Recording is the `firefleet-recorder` crate's.
 //!
 //! A restarted coordinator rebuilds its picture from the recorded fire tracks (a recorder
 //! answers `fire/*` with the latest of each; the tracks keep their ids), then from the
@@ -20,6 +21,7 @@ pub mod coverage;
 pub mod fusion;
 pub mod goals;
 pub mod incident;
+pub mod invariants;
 pub mod node;
 pub mod roads;
 

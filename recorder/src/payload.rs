@@ -8,6 +8,7 @@
 //!
 //! Not here: liveliness tokens and the status queryable, which carry no message.
 
+use firefleet_protocol::ZoneId;
 use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
@@ -104,6 +105,17 @@ pub struct Liveliness {
 
 impl Liveliness {
     pub const NAME: &'static str = "firefleet.Liveliness";
+}
+
+/// A commander's delete on a zone's goal key (which clears the zone's goals), as
+/// recordings keep it on that key's channel: a delete has no payload of its own.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct GoalClear {
+    pub zone: ZoneId,
+}
+
+impl GoalClear {
+    pub const NAME: &'static str = "firefleet.GoalClear";
 }
 
 #[cfg(test)]

@@ -25,12 +25,12 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 use firefleet_protocol::FireId;
 use firefleet_protocol::bus::{Bus, BusError};
-use firefleet_protocol::keys;
+use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::scenario::Scenario;
 use serde::Serialize;
 use zenoh::sample::SampleKind;
 
-use crate::payload::{Liveliness, Payload};
+use crate::payload::{GoalClear, Liveliness, Payload};
 use crate::scene;
 
 /// Why recording failed.
@@ -188,6 +188,13 @@ pub async fn record(
                 }
                 Ok(s) = samples.recv_async() => {
                     let key = s.key_expr().as_str();
+                    if s.kind() == SampleKind::Delete
+                        && let Ok((_, Topic::ZoneGoal(zone))) = keys::parse(key)
+                    {
+                        let json = serde_json::to_vec(&GoalClear { zone }).expect("serialises");
+                        sink.write(key, GoalClear::NAME, || schemars::schema_for!(GoalClear), &json, now_ns())?;
+                        continue;
+                    }
                     let bytes = s.payload().to_bytes();
                     let parsed = keys::parse(key).map_err(|e| e.to_string())
                         .and_then(|(_, topic)| Payload::from_wire(&topic, &bytes).map_err(|e| e.to_string()));

@@ -13,7 +13,7 @@ use std::io::Write;
 
 use firefleet_protocol::keys::{self, Topic};
 
-use crate::payload::{Liveliness, Payload};
+use crate::payload::{GoalClear, Liveliness, Payload};
 
 /// Why a timeline could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -52,6 +52,12 @@ pub fn timeline(bytes: &[u8], out: &mut impl Write) -> Result<(), ReplayError> {
             };
             let what = if l.alive { "is up" } else { "is gone" };
             writeln!(out, "t={site_t:7.1} s  {who} {what}")?;
+            continue;
+        }
+        if schema == Some(GoalClear::NAME) {
+            if let Ok(c) = serde_json::from_slice::<GoalClear>(&m.data) {
+                writeln!(out, "t={site_t:7.1} s  zone {} goals cleared", c.zone)?;
+            }
             continue;
         }
         let Ok((_, topic)) = keys::parse(&m.channel.topic) else {

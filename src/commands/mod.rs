@@ -11,6 +11,7 @@ use serde::Serialize;
 
 pub mod agent;
 pub mod bt;
+pub mod check;
 pub mod coordinator;
 pub mod demo;
 pub mod experiment;

@@ -1,0 +1,485 @@
+//! Invariants of an incident, checked over its history: what the fleet did against what
+//! the commanders' zone goals asked. A Jepsen-style checker: events in (goals, clears,
+//! unit states, tasks, each at its site time), violations out.
+//!
+//! Checked:
+//! - **inside barred space**: a unit inside a keep-out or evacuate zone later than its
+//!   grace period after the goal took effect. The grace is the time to drive out by the
+//!   shortest way from where the unit stood when the goal arrived, at its top speed, twice
+//!   over (vehicles to go round, a turn to make), plus [`REACTION_S`] to hear the goal and
+//!   plan; a unit outside when the goal arrived has none.
+//! - **sent into barred space**: a task whose destination lies in a zone barred to units
+//!   when it was given.
+//! - **attack where barred**: a unit spraying a fire in a zone whose goal forbids attack
+//!   (monitor, keep-out, evacuate), later than [`REACTION_S`] after the goal.
+//!
+//! Goals are applied with the coordinator's own rules ([`crate::goals::Goals`]: ids
+//! replace, priorities, expiry), so a goal the coordinator refused binds nobody here
+//! either. Pure: no I/O; reading a recording into events is the caller's business.
+//!
+//! Not here: why a violation happened. A violation names the unit, the goal and the time;
+//! the recording around it tells the rest.
+
+use std::collections::BTreeMap;
+
+use firefleet_protocol::msg::{Task, TaskKind, TaskPhase, UnitKind, UnitState, ZoneGoal};
+use firefleet_protocol::scenario::{Scenario, Tunnel};
+use firefleet_protocol::spec::{GROUND, MONORAIL};
+use firefleet_protocol::{Chainage, Point2, UnitId, ZoneId};
+
+use crate::goals::{Active, Goals};
+
+/// Time to hear a goal and act on it, s: a state or task message comes at least once a
+/// second, and a plan takes up to half a second.
+pub const REACTION_S: f64 = 10.0;
+/// The grace's allowance for the way out being longer than the straight line.
+const DETOUR: f64 = 2.0;
+
+/// One thing that happened, at site time.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// A commander's goal as sent on zone `key_zone`'s key (the checker decides, as the
+    /// coordinator did, whether it was taken).
+    Goal {
+        key_zone: ZoneId,
+        goal: ZoneGoal,
+    },
+    /// A commander cleared the goals of a zone.
+    Clear(ZoneId),
+    State(UnitState),
+    Task(Task),
+}
+
+/// A broken invariant.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Violation {
+    /// `unit` was inside barred zone `zone` at `t` (and, if `until` is later, through
+    /// `until`), its grace for goal `goal` having run out at `deadline`.
+    InsideBarred {
+        unit: UnitId,
+        zone: ZoneId,
+        goal: String,
+        t: f64,
+        until: f64,
+        deadline: f64,
+        at: Chainage,
+    },
+    /// Task `seq` sent `unit` to `to`, inside zone `zone` barred by goal `goal`.
+    SentIntoBarred {
+        unit: UnitId,
+        seq: u64,
+        t: f64,
+        to: Point2,
+        zone: ZoneId,
+        goal: String,
+    },
+    /// `unit` sprayed a fire at `target` inside zone `zone`, where goal `goal` forbids
+    /// attack.
+    AttackWhereBarred {
+        unit: UnitId,
+        t: f64,
+        target: Point2,
+        zone: ZoneId,
+        goal: String,
+    },
+}
+
+impl std::fmt::Display for Violation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Violation::InsideBarred {
+                unit,
+                zone,
+                goal,
+                t,
+                until,
+                deadline,
+                at,
+            } => write!(
+                f,
+                "t={t:.1} s: {unit} inside zone {zone} (goal '{goal}') at chainage {at:.1} until t={until:.1} s; barred to it from t={deadline:.1} s"
+            ),
+            Violation::SentIntoBarred {
+                unit,
+                seq,
+                t,
+                to,
+                zone,
+                goal,
+            } => write!(
+                f,
+                "t={t:.1} s: task {seq} sent {unit} to ({:.1}, {:.1}) in zone {zone}, barred by goal '{goal}'",
+                to.x, to.y
+            ),
+            Violation::AttackWhereBarred {
+                unit,
+                t,
+                target,
+                zone,
+                goal,
+            } => write!(
+                f,
+                "t={t:.1} s: {unit} sprayed a fire at ({:.1}, {:.1}) in zone {zone}, where goal '{goal}' forbids attack",
+                target.x, target.y
+            ),
+        }
+    }
+}
+
+/// The checker: feed it events in order, then take the violations.
+pub struct Invariants {
+    tunnel: Tunnel,
+    goals: Goals,
+    t: f64,
+    /// When each goal took effect, by id.
+    since: BTreeMap<String, f64>,
+    /// Each unit's last state.
+    units: BTreeMap<UnitId, UnitState>,
+    /// For each (unit, goal id): when the unit must be out, site time.
+    deadlines: BTreeMap<(UnitId, String), f64>,
+    /// The open inside-barred violation of each (unit, goal id), to extend while it lasts.
+    open: BTreeMap<(UnitId, String), usize>,
+    violations: Vec<Violation>,
+}
+
+impl Invariants {
+    pub fn new(scenario: &Scenario) -> Self {
+        Self {
+            tunnel: scenario.tunnel.clone(),
+            goals: Goals::new(&scenario.zones),
+            t: 0.0,
+            since: BTreeMap::new(),
+            units: BTreeMap::new(),
+            deadlines: BTreeMap::new(),
+            open: BTreeMap::new(),
+            violations: Vec::new(),
+        }
+    }
+
+    /// Take `event`, which happened at site time `t` (times never go back: an earlier
+    /// `t` counts as the latest seen).
+    pub fn observe(&mut self, t: f64, event: Event) {
+        self.t = self.t.max(t);
+        let t = self.t;
+        for g in self.goals.expire(t) {
+            self.forget(&g.id);
+        }
+        match event {
+            Event::Goal { key_zone, goal } => {
+                let id = goal.id.clone();
+                if self.goals.submit(&key_zone, goal, t).accepted {
+                    self.forget(&id);
+                    self.since.insert(id.clone(), t);
+                    self.grant_grace(&id, t);
+                }
+            }
+            Event::Clear(zone) => {
+                for g in self.goals.clear(&zone) {
+                    self.forget(&g.id);
+                }
+            }
+            Event::State(st) => self.check_state(st, t),
+            Event::Task(task) => self.check_task(&task, t),
+        }
+    }
+
+    /// The violations found so far.
+    pub fn violations(&self) -> &[Violation] {
+        &self.violations
+    }
+
+    fn forget(&mut self, goal: &str) {
+        self.since.remove(goal);
+        self.deadlines.retain(|(_, g), _| g != goal);
+        self.open.retain(|(_, g), _| g != goal);
+    }
+
+    /// Every unit inside goal `id`'s zone when it took effect gets until its deadline.
+    fn grant_grace(&mut self, id: &str, t: f64) {
+        let Some(active) = self.goals.active().iter().find(|a| a.goal.id == id) else {
+            return;
+        };
+        if !active.bars_entry() {
+            return;
+        }
+        let (start, end) = (active.start, active.end);
+        for (unit, st) in &self.units {
+            let s = self.tunnel.chainage(st.pose.position());
+            if !(start..=end).contains(&s) {
+                continue;
+            }
+            let out_m = (s - start).min(end - s).max(0.0);
+            let speed = match st.kind {
+                UnitKind::Ground => GROUND.max_speed_m_s,
+                UnitKind::Monorail => MONORAIL.carriage_speed_m_s,
+            };
+            let deadline = t + REACTION_S + DETOUR * out_m / speed;
+            self.deadlines
+                .insert((unit.clone(), id.to_owned()), deadline);
+        }
+    }
+
+    /// The goal governing `p`, if one is in force there.
+    fn goal_at(&self, p: Point2) -> Option<&Active> {
+        self.goals.at(self.tunnel.chainage(p))
+    }
+
+    fn check_state(&mut self, st: UnitState, t: f64) {
+        let unit = st.unit.clone();
+        let p = st.pose.position();
+        if let Some(g) = self.goal_at(p).filter(|g| g.bars_entry()) {
+            let (id, zone) = (g.goal.id.clone(), g.goal.zone.clone());
+            let key = (unit.clone(), id.clone());
+            // A unit that was outside when the goal came has no grace.
+            let deadline = self
+                .deadlines
+                .get(&key)
+                .or(self.since.get(&id))
+                .copied()
+                .unwrap_or(t);
+            if t > deadline {
+                match self.open.get(&key) {
+                    Some(&k) => {
+                        if let Violation::InsideBarred { until, .. } = &mut self.violations[k] {
+                            *until = t;
+                        }
+                    }
+                    None => {
+                        self.open.insert(key, self.violations.len());
+                        self.violations.push(Violation::InsideBarred {
+                            unit: unit.clone(),
+                            zone,
+                            goal: id,
+                            t,
+                            until: t,
+                            deadline,
+                            at: self.tunnel.chainage(p),
+                        });
+                    }
+                }
+            }
+        } else {
+            // Out (or the goal lapsed): a later time inside is a new violation.
+            self.open.retain(|(u, _), _| u != &unit);
+        }
+        if let Some(progress) = st.task
+            && progress.phase == TaskPhase::Spraying
+            && let Some(g) = self.goal_at(progress.target).filter(|g| g.bars_attack())
+            && self
+                .since
+                .get(&g.goal.id)
+                .is_some_and(|since| t > since + REACTION_S)
+        {
+            let v = Violation::AttackWhereBarred {
+                unit: unit.clone(),
+                t,
+                target: progress.target,
+                zone: g.goal.zone.clone(),
+                goal: g.goal.id.clone(),
+            };
+            // One report per unit and goal: a unit spraying sends a state ten times a
+            // second.
+            let reported = self.violations.iter().any(|w| {
+                matches!(w, Violation::AttackWhereBarred { unit: u, goal, .. }
+                    if *u == unit && *goal == g.goal.id)
+            });
+            if !reported {
+                self.violations.push(v);
+            }
+        }
+        self.units.insert(unit, st);
+    }
+
+    fn check_task(&mut self, task: &Task, t: f64) {
+        let to = match task.kind {
+            TaskKind::Cruise { goal } | TaskKind::Search { goal } => goal,
+            TaskKind::Extinguish { target, .. } => target,
+            TaskKind::Standby => return,
+        };
+        if let Some(g) = self.goal_at(to).filter(|g| g.bars_entry()) {
+            let v = Violation::SentIntoBarred {
+                unit: task.unit.clone(),
+                seq: task.seq,
+                t,
+                to,
+                zone: g.goal.zone.clone(),
+                goal: g.goal.id.clone(),
+            };
+            // Tasks are re-sent every second; the first sending is the violation.
+            if !self.violations.iter().any(|w| {
+                matches!(w, Violation::SentIntoBarred { unit, seq, .. }
+                    if *unit == task.unit && *seq == task.seq)
+            }) {
+                self.violations.push(v);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firefleet_protocol::Pose2;
+    use firefleet_protocol::msg::{GoalKind, TaskProgress, UnitMode};
+    use firefleet_protocol::{FireId, scenario::Zone};
+
+    fn site() -> Scenario {
+        let mut s = Scenario::straight(300.0).ground("u1", 5.0, -2.5).build();
+        s.zones = vec![Zone {
+            id: z("deep"),
+            start_m: Chainage::new(100.0),
+            end_m: Chainage::new(200.0),
+        }];
+        s
+    }
+
+    fn z(id: &str) -> ZoneId {
+        ZoneId::new(id).unwrap()
+    }
+
+    fn u() -> UnitId {
+        UnitId::new("u1").unwrap()
+    }
+
+    fn state(x: f64, t: f64, task: Option<TaskProgress>) -> Event {
+        Event::State(UnitState {
+            unit: u(),
+            kind: UnitKind::Ground,
+            t,
+            pose: Pose2::new(x, -2.5, 0.0),
+            speed: 1.0,
+            mode: UnitMode::Navigating,
+            water_l: 500.0,
+            health: 1.0,
+            heat_flux_kw_m2: 0.0,
+            task,
+            autonomous: false,
+        })
+    }
+
+    fn goal(kind: GoalKind) -> Event {
+        Event::Goal {
+            key_zone: z("deep"),
+            goal: ZoneGoal {
+                id: "g".into(),
+                zone: z("deep"),
+                goal: kind,
+                priority: 0,
+                before_m: None,
+                expires_s: None,
+                issued_by: "ic".into(),
+            },
+        }
+    }
+
+    /// Feeds `events` (each at its time) and returns the violations.
+    fn check(events: Vec<(f64, Event)>) -> Vec<Violation> {
+        let mut inv = Invariants::new(&site());
+        for (t, e) in events {
+            inv.observe(t, e);
+        }
+        inv.violations().to_vec()
+    }
+
+    #[test]
+    fn a_unit_that_leaves_within_its_grace_breaks_nothing() {
+        // At 120 m when the goal comes: 20 m from the edge, so 10 + 2 * 20 / 1.5 = 36.7 s.
+        let v = check(vec![
+            (0.0, state(120.0, 0.0, None)),
+            (1.0, goal(GoalKind::KeepOut)),
+            (30.0, state(101.0, 30.0, None)),
+            (36.0, state(95.0, 36.0, None)),
+        ]);
+        assert!(v.is_empty(), "{v:?}");
+    }
+
+    #[test]
+    fn a_unit_still_inside_after_its_grace_is_reported_once_with_how_long() {
+        let v = check(vec![
+            (0.0, state(120.0, 0.0, None)),
+            (1.0, goal(GoalKind::Evacuate)),
+            (40.0, state(110.0, 40.0, None)),
+            (50.0, state(105.0, 50.0, None)),
+            (60.0, state(95.0, 60.0, None)),
+        ]);
+        assert_eq!(v.len(), 1, "{v:?}");
+        let Violation::InsideBarred {
+            t, until, deadline, ..
+        } = &v[0]
+        else {
+            panic!("{v:?}")
+        };
+        assert_eq!((*t, *until), (40.0, 50.0));
+        assert!((deadline - (1.0 + 10.0 + 2.0 * 20.0 / 1.5)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn entering_after_the_goal_is_a_violation_at_once_and_a_clear_ends_the_contract() {
+        let v = check(vec![
+            (0.0, state(90.0, 0.0, None)),
+            (1.0, goal(GoalKind::KeepOut)),
+            (5.0, state(101.0, 5.0, None)),
+            (6.0, Event::Clear(z("deep"))),
+            (7.0, state(110.0, 7.0, None)),
+        ]);
+        assert_eq!(v.len(), 1, "{v:?}");
+        assert!(matches!(
+            v[0],
+            Violation::InsideBarred {
+                t: 5.0,
+                until: 5.0,
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn tasks_into_barred_space_and_attacks_in_a_monitor_zone_are_reported() {
+        let task = |seq, x| {
+            Event::Task(Task {
+                unit: u(),
+                seq,
+                t: 0.0,
+                kind: TaskKind::Cruise {
+                    goal: Point2::new(x, -2.5),
+                },
+            })
+        };
+        let v = check(vec![
+            (1.0, goal(GoalKind::KeepOut)),
+            (2.0, task(7, 150.0)),
+            (3.0, task(7, 150.0)),
+            (4.0, task(8, 95.0)),
+        ]);
+        assert_eq!(v.len(), 1, "re-sent tasks count once: {v:?}");
+        assert!(matches!(v[0], Violation::SentIntoBarred { seq: 7, .. }));
+
+        let spraying = |t| {
+            let p = TaskProgress {
+                seq: 1,
+                fire: FireId(1),
+                phase: TaskPhase::Spraying,
+                target: Point2::new(150.0, 0.0),
+            };
+            (t, state(140.0, t, Some(p)))
+        };
+        let v = check(vec![
+            (0.0, goal(GoalKind::Monitor)),
+            spraying(5.0),
+            spraying(11.0),
+            spraying(12.0),
+        ]);
+        assert_eq!(v.len(), 1, "{v:?}");
+        assert!(matches!(v[0], Violation::AttackWhereBarred { t: 11.0, .. }));
+    }
+
+    #[test]
+    fn a_refused_goal_binds_nobody() {
+        let mut g = goal(GoalKind::KeepOut);
+        if let Event::Goal { key_zone, .. } = &mut g {
+            *key_zone = z("other");
+        }
+        let v = check(vec![(1.0, g), (2.0, state(150.0, 2.0, None))]);
+        assert!(v.is_empty(), "{v:?}");
+    }
+}
