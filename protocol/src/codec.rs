@@ -153,6 +153,15 @@ mod tests {
         let e = decode::<ZoneGoal>(br#"{"id":"g1","zone":"z1","goal":"contain"}"#).unwrap_err();
         assert!(e.to_string().contains("before_m"), "{e}");
         assert!(decode::<ZoneGoal>(br#"{"id":"g1","zone":"Z/1","goal":"monitor"}"#).is_err());
+        for p in ["999", "-1"] {
+            let json = format!(r#"{{"id":"g1","zone":"z1","goal":"monitor","priority":{p}}}"#);
+            let e = decode::<ZoneGoal>(json.as_bytes()).unwrap_err();
+            assert!(
+                e.to_string()
+                    .contains(&format!("priority {p} is outside 0-255")),
+                "{e}"
+            );
+        }
     }
 
     #[test]

@@ -45,8 +45,9 @@ pub struct DemoArgs {
     #[arg(long, value_name = "FILE")]
     summary_json: Option<PathBuf>,
     /// Issue a commander's zone goal once the fleet is up, `ZONE:GOAL[:PRIORITY]` (e.g.
-    /// `deep:keep-out` or `portal:extinguish:2`); repeatable.
-    #[arg(long, value_name = "ZONE:GOAL[:PRIORITY]")]
+    /// `deep:keep-out`, `portal:extinguish:2`, or `portal:contain@40` to hold the fire
+    /// front before chainage 40 m); repeatable.
+    #[arg(long, value_name = "ZONE:GOAL[@CHAINAGE][:PRIORITY]")]
     goal: Vec<String>,
 }
 
@@ -54,7 +55,16 @@ pub struct DemoArgs {
 fn parse_goal(arg: &str, scenario: &Scenario) -> anyhow::Result<ZoneGoal> {
     let mut parts = arg.split(':');
     let (Some(zone), Some(kind)) = (parts.next(), parts.next()) else {
-        anyhow::bail!("--goal {arg}: expected ZONE:GOAL[:PRIORITY]");
+        anyhow::bail!("--goal {arg}: expected ZONE:GOAL[@CHAINAGE][:PRIORITY]");
+    };
+    let (kind, before_m) = match kind.split_once('@') {
+        Some((kind, line)) => {
+            let line: f64 = line.parse().map_err(|_| {
+                anyhow::anyhow!("--goal {arg}: '{line}' is not a chainage in metres")
+            })?;
+            (kind, Some(line))
+        }
+        None => (kind, None),
     };
     let zone = ZoneId::new(zone).with_context(|| format!("--goal {arg}"))?;
     anyhow::ensure!(
@@ -62,11 +72,15 @@ fn parse_goal(arg: &str, scenario: &Scenario) -> anyhow::Result<ZoneGoal> {
         "--goal {arg}: the scenario has no zone '{zone}'"
     );
     let goal: GoalKind = serde_json::from_value(serde_json::Value::String(kind.to_owned()))
-        .map_err(|_| anyhow::anyhow!("--goal {arg}: '{kind}' is not a goal (extinguish, monitor, keep-out, evacuate; contain needs a line, use `firefleet goal set`)"))?;
+        .map_err(|_| anyhow::anyhow!("--goal {arg}: '{kind}' is not a goal (extinguish, contain@CHAINAGE, monitor, keep-out, evacuate)"))?;
+    anyhow::ensure!(
+        goal != GoalKind::Contain || before_m.is_some(),
+        "--goal {arg}: contain needs the line the front must not pass: {zone}:contain@CHAINAGE"
+    );
     let priority = match parts.next() {
-        Some(p) => p
-            .parse()
-            .with_context(|| format!("--goal {arg}: priority"))?,
+        Some(p) => p.parse().map_err(|_| {
+            anyhow::anyhow!("--goal {arg}: priority '{p}' is not a whole number from 0 to 255")
+        })?,
         None => 0,
     };
     let g = ZoneGoal {
@@ -74,7 +88,7 @@ fn parse_goal(arg: &str, scenario: &Scenario) -> anyhow::Result<ZoneGoal> {
         zone,
         goal,
         priority,
-        before_m: None,
+        before_m,
         expires_s: None,
         issued_by: "firefleet demo".into(),
     };

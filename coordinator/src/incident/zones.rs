@@ -4,7 +4,7 @@
 //!
 //! Which goal governs where is [`crate::goals`]' business; this module only acts on it.
 
-use firefleet_protocol::msg::{FireState, GoalAck, TaskKind, ZoneGoal};
+use firefleet_protocol::msg::{FireState, GoalAck, GoalKind, TaskKind, ZoneGoal};
 use firefleet_protocol::{Chainage, Point2, UnitId, ZoneId};
 
 use crate::assign::Mobility;
@@ -16,7 +16,18 @@ impl Incident {
     /// A commander's goal arrived on zone `key_zone`'s key: the acknowledgement, and the
     /// decisions it leads to when accepted.
     pub fn on_goal(&mut self, key_zone: &ZoneId, goal: ZoneGoal, t: f64) -> (GoalAck, Vec<Output>) {
-        let ack = self.goals.submit(key_zone, goal.clone(), t);
+        let mut ack = self.goals.submit(key_zone, goal.clone(), t);
+        if ack.accepted
+            && let (GoalKind::Contain, Some(line)) = (goal.goal, goal.before_m)
+            && !self.fire_in_zone(&goal.id)
+        {
+            // A contain goal changes nothing until its zone burns: say so, or the
+            // commander sees no effect and no reason.
+            ack.reason = format!(
+                "{}; no fire in zone {} yet: when one is confirmed there, reserves will hold the line at {line:.1} m",
+                ack.reason, goal.zone
+            );
+        }
         self.log(
             t,
             Decision::Goal {
@@ -30,6 +41,18 @@ impl Incident {
         } else {
             (ack, Vec::new())
         }
+    }
+
+    /// Whether a fire burns (confirmed, not out) in the zone of the goal in force `goal`.
+    fn fire_in_zone(&self, goal: &str) -> bool {
+        let Some(g) = self.goals.active().iter().find(|a| a.goal.id == goal) else {
+            return false;
+        };
+        self.fusion
+            .fires()
+            .iter()
+            .filter(|f| f.active() && f.state != FireState::Tentative)
+            .any(|f| g.covers(self.tunnel.chainage(f.position())))
     }
 
     /// Every goal on `zone` withdrawn by a commander.

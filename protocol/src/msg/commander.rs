@@ -62,7 +62,7 @@ pub struct ZoneGoal {
     pub id: String,
     pub zone: ZoneId,
     pub goal: GoalKind,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "priority")]
     pub priority: u8,
     /// For `contain`: chainage the fire front must not pass, metres.
     #[serde(default)]
@@ -117,4 +117,11 @@ impl Validate for GoalAck {
     fn validate(&self) -> Result<(), Invalid> {
         Ok(())
     }
+}
+
+/// A goal's priority, 0 to 255, said so when it is not (serde's own message for a JSON
+/// 999 is "number too large to fit in target type").
+fn priority<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u8, D::Error> {
+    let p = i64::deserialize(d)?;
+    u8::try_from(p).map_err(|_| serde::de::Error::custom(format!("priority {p} is outside 0-255")))
 }

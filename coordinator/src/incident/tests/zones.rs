@@ -94,6 +94,28 @@ fn under_contain_reserves_hold_the_line() {
 }
 
 #[test]
+fn a_contain_goal_on_a_zone_without_fire_says_what_it_will_do() {
+    let mut i = zoned();
+    let (ack, _) = submit(
+        &mut i,
+        goal("g1", "z2", GoalKind::Contain, 0, Some(110.0)),
+        0.5,
+    );
+    assert!(ack.accepted, "{ack:?}");
+    assert!(
+        ack.reason.contains("no fire in zone z2 yet") && ack.reason.contains("110.0 m"),
+        "{ack:?}"
+    );
+    i.on_report(&report("a", 150.0), 1.0).unwrap();
+    let (ack, _) = submit(
+        &mut i,
+        goal("g1", "z2", GoalKind::Contain, 0, Some(120.0)),
+        2.0,
+    );
+    assert!(!ack.reason.contains("no fire"), "{ack:?}");
+}
+
+#[test]
 fn a_rejected_goal_changes_nothing() {
     let mut i = zoned();
     let (ack, out) = submit(&mut i, goal("g1", "z9", GoalKind::KeepOut, 0, None), 0.5);
