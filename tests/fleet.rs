@@ -566,13 +566,13 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
         .subscribe(&bus.keys().zone_ack(&ZoneId::new("deep").unwrap()))
         .await
         .unwrap();
-    bus.session()
-        .put(
-            "ff/tunnel-r/zone/deep/goal",
-            r#"{"id": "x", "zone": "deep", "goal": "flood"}"#,
-        )
-        .await
-        .unwrap();
+    let put = |key: &'static str, json: &'static str| bus.session().put(key, json);
+    put(
+        "ff/tunnel-r/zone/deep/goal",
+        r#"{"id": "x", "zone": "deep", "goal": "flood"}"#,
+    )
+    .await
+    .unwrap();
     let (_, ack) = tokio::time::timeout(Duration::from_secs(5), acks.recv())
         .await
         .unwrap()
@@ -584,13 +584,12 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
     // A key whose zone chunk is no zone id at all has no ack key: counted, not lost.
     let invalid = |v: &serde_json::Value| v["rejected"]["invalid"].as_u64().unwrap_or(0);
     let before = invalid(&status_of(&bus, Duration::from_secs(5)).await);
-    bus.session()
-        .put(
-            "ff/tunnel-r/zone/WEST/goal",
-            r#"{"id": "w", "zone": "WEST", "goal": "monitor"}"#,
-        )
-        .await
-        .unwrap();
+    put(
+        "ff/tunnel-r/zone/WEST/goal",
+        r#"{"id": "w", "zone": "WEST", "goal": "monitor"}"#,
+    )
+    .await
+    .unwrap();
     let deadline = Instant::now() + Duration::from_secs(5);
     while invalid(&status_of(&bus, Duration::from_secs(5)).await) == before {
         assert!(
