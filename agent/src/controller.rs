@@ -9,9 +9,9 @@
 //! Pure: no I/O, no clock of its own.
 
 use firefleet_bt::{Status, Tree};
-use firefleet_protocol::msg::{FlameReport, TaskKind, UnitState};
+use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitState};
 
-use crate::mission::Responder;
+use crate::mission::{Responder, review};
 
 /// What a unit kind's services provide to the control loop.
 pub trait Services: Responder {
@@ -28,6 +28,8 @@ pub trait Services: Responder {
     fn state(&self) -> UnitState;
     /// Flames seen since the last report, if any.
     fn report(&mut self) -> Option<FlameReport>;
+    /// The barred space in the mission changed: the services enforce the new one.
+    fn barred_changed(&mut self);
 }
 
 /// The control loop of one unit.
@@ -72,6 +74,16 @@ impl<U: Services> Controller<U> {
     /// A task arrived from the coordinator. Older or repeated tasks are ignored.
     pub fn on_task(&mut self, seq: u64, kind: TaskKind) {
         self.unit.mission().on_task(seq, kind);
+        review(&mut self.unit);
+    }
+
+    /// The coordinator's barred space arrived: kept if newer, then the unit's services and
+    /// its task are held to it.
+    pub fn on_barred(&mut self, barred: BarredSpace) {
+        if self.unit.mission().on_barred(barred) {
+            self.unit.barred_changed();
+            review(&mut self.unit);
+        }
     }
 
     /// The coordinator appeared or disappeared.

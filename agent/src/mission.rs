@@ -6,16 +6,38 @@
 //! `LocateFire`, `IsTaskCurrent`, `ReportExtinguished`, `ErrorHandling`, ...) to any unit
 //! context that implements [`Responder`]. Ground and monorail units differ in how they
 //! see flames and how they stand down, not in how they take and report tasks.
+//!
+//! Commanders' goals bind here too. The coordinator's [`BarredSpace`] is kept (the newest
+//! heard, for as long as the unit runs: a coordinator gone does not lift a keep-out), and
+//! every task is reviewed against it ([`review`]): a task whose destination or way lies in
+//! barred space is refused, reported in the unit's state and replaced by standby. While
+//! the unit's body is leaving barred space ([`Mission::leaving`]) no attack starts or goes
+//! on; one under way is suspended, not failed, and resumes once out.
+//!
+//! After a restart the unit knows nothing barred until it hears the coordinator (the set
+//! is re-sent every second, and the agent asks for it at start: the coordinator and the
+//! recorders answer). Nothing is kept on disk: a saved set could be stale (a goal cleared
+//! or lapsed while the unit was down), and the unit has no clock it could trust across a
+//! restart to tell.
 
 use firefleet_bt::node::Io;
 use firefleet_bt::{Port, Registry, Status};
-use firefleet_protocol::msg::{TaskKind, TaskPhase, TaskProgress};
+use firefleet_protocol::msg::{
+    BarredSpace, CLEAR_OF_BARRED_M, Refusal, TaskKind, TaskPhase, TaskProgress, UnitKind,
+};
+use firefleet_protocol::scenario::Tunnel;
 use firefleet_protocol::{FireId, Point2, UnitId};
 
 /// The coordinator link's state on the unit.
 #[derive(Debug, Clone, Default)]
 pub struct Mission {
     pub coordinator_present: bool,
+    /// The newest barred space heard; `None` until the first.
+    pub barred: Option<BarredSpace>,
+    /// The unit's refusal of its latest task, if it refused it.
+    pub refused: Option<Refusal>,
+    /// The unit's body is on its way out of barred space.
+    pub leaving: bool,
     /// The coordinator's latest task.
     pub task: Option<(u64, TaskKind)>,
     /// The attack under way: coordinator task (seq, fire, where the fire is), or `None`
@@ -32,6 +54,39 @@ impl Mission {
             return;
         }
         self.task = Some((seq, kind));
+        self.refused = None;
+    }
+
+    /// A barred space arrived; true if it replaced the one kept (an older one, by site
+    /// time, is ignored: a late or replayed message must not lift a newer keep-out).
+    pub fn on_barred(&mut self, b: BarredSpace) -> bool {
+        if self.barred.as_ref().is_some_and(|old| old.t > b.t) || self.barred.as_ref() == Some(&b) {
+            return false;
+        }
+        self.barred = Some(b);
+        true
+    }
+
+    /// Whether a unit of kind `kind` at `from` may go to `to` (and attack there if
+    /// `attack`) as the barred space kept stands.
+    pub fn permits(
+        &self,
+        tunnel: &Tunnel,
+        kind: UnitKind,
+        from: Point2,
+        to: Point2,
+        attack: bool,
+    ) -> bool {
+        self.barred.as_ref().is_none_or(|b| {
+            b.refuses(
+                kind,
+                tunnel.chainage(from),
+                tunnel.chainage(to),
+                CLEAR_OF_BARRED_M,
+                attack,
+            )
+            .is_none()
+        })
     }
 
     /// The coordinator's Extinguish task not yet finished, if any.
@@ -65,8 +120,11 @@ impl Mission {
     /// was out. If the coordinator has since replaced or withdrawn the task nothing
     /// failed and nothing is reported (it has moved on, and a failure would bar the unit
     /// from that fire for a while); else the task failed. `None` if there was no attack.
+    /// A unit leaving barred space suspends its attack: nothing failed, and it resumes
+    /// once out.
     pub fn stop_short(&mut self, task: i64) -> Option<Stopped> {
         let stopped = match self.job? {
+            _ if self.leaving => Stopped::Withdrawn,
             Some((seq, ..)) if self.assigned_fire().is_none_or(|a| a.0 != seq) => {
                 Stopped::Withdrawn
             }
@@ -109,6 +167,8 @@ pub enum Stopped {
 /// What the shared leaves need of a unit.
 pub trait Responder: 'static {
     fn id(&self) -> &UnitId;
+    fn kind(&self) -> UnitKind;
+    fn tunnel(&self) -> &Tunnel;
     /// Where the unit is (a monorail unit: its carriage).
     fn position(&self) -> Point2;
     fn mission(&mut self) -> &mut Mission;
@@ -118,6 +178,37 @@ pub trait Responder: 'static {
     fn most_confident_flame(&self) -> Option<Point2>;
     /// Stop travelling to and spraying the fire.
     fn stand_down(&mut self);
+}
+
+/// Hold the unit's task against the barred space it keeps: a task that would need barred
+/// space is refused (logged, reported in the unit's state, and replaced by standby, so
+/// that nothing acts on it), and an attack the unit chose alone where attack is now barred
+/// is stopped. Called on every new task and every new barred space.
+pub fn review<C: Responder>(u: &mut C) {
+    let (kind, from) = (u.kind(), u.tunnel().chainage(u.position()));
+    let (seq, to, attack) = match u.mission().task {
+        Some((seq, TaskKind::Cruise { goal } | TaskKind::Search { goal })) => (seq, goal, false),
+        Some((seq, TaskKind::Extinguish { target, .. })) => (seq, target, true),
+        Some((_, TaskKind::Standby)) | None => (0, u.position(), false),
+    };
+    let to = u.tunnel().chainage(to);
+    let m = u.mission();
+    let Some(barred) = &m.barred else { return };
+    let refusal = barred
+        .refuses(kind, from, to, CLEAR_OF_BARRED_M, attack)
+        .map(|(why, span)| Refusal::new(seq, why, span));
+    let alone = m.job == Some(None) && !barred.spans.is_empty();
+    if let Some(r) = refusal {
+        tracing::warn!(unit = %u.id(), "{r}");
+        let m = u.mission();
+        m.task = Some((seq, TaskKind::Standby));
+        m.refused = Some(r);
+        u.stand_down();
+    } else if alone {
+        // The flame it chose alone may now be barred: drop the attack, and the tree picks
+        // again among the flames it may attack.
+        u.stand_down();
+    }
 }
 
 fn ok(b: bool) -> Status {
@@ -160,7 +251,10 @@ pub fn register<C: Responder>(r: &mut Registry<C>) {
         |_: &mut Io<'_>, u: &mut C| ok(u.mission().job.is_some())
     });
     r.register_condition("HasAssignedFire", vec![], || {
-        |_: &mut Io<'_>, u: &mut C| ok(u.mission().assigned_fire().is_some())
+        |_: &mut Io<'_>, u: &mut C| {
+            let m = u.mission();
+            ok(!m.leaving && m.assigned_fire().is_some())
+        }
     });
     r.register_condition("IsAutonomous", vec![], || {
         |_: &mut Io<'_>, u: &mut C| ok(!u.mission().coordinator_present)
@@ -170,6 +264,9 @@ pub fn register<C: Responder>(r: &mut Registry<C>) {
         vec![LOCATED_FIRE.spec(), LOCATED_TASK.spec()],
         || {
             |io: &mut Io<'_>, u: &mut C| {
+                if u.mission().leaving {
+                    return Status::Failure;
+                }
                 let (fire, task) = match u.mission().assigned_fire() {
                     Some((seq, id, target)) => {
                         let fire = u.flame_near(target, 3.0).unwrap_or(target);
@@ -195,11 +292,12 @@ pub fn register<C: Responder>(r: &mut Registry<C>) {
                 return Status::Failure;
             };
             let m = u.mission();
-            ok(match m.assigned_fire() {
-                Some((seq, _, _)) => seq as i64 == task,
-                // Acting alone is current until a coordinator assigns something.
-                None => task < 0 || m.task.is_some_and(|(s, _)| s as i64 == task),
-            })
+            ok(!m.leaving
+                && match m.assigned_fire() {
+                    Some((seq, _, _)) => seq as i64 == task,
+                    // Acting alone is current until a coordinator assigns something.
+                    None => task < 0 || m.task.is_some_and(|(s, _)| s as i64 == task),
+                })
         }
     });
     r.register_action("ReportExtinguished", vec![DONE_TASK.spec()], || {

@@ -2,7 +2,8 @@
 //!
 //! Declares the unit's liveliness token (the coordinator learns of a lost unit the moment
 //! its session drops), follows the coordinator's own token to know whether to act alone,
-//! takes tasks, steps the controller on every sensor frame, and publishes the unit's state
+//! takes tasks and the barred space commanders' goals make (asking for the newest at
+//! start: the coordinator and recorders answer), steps the controller on every sensor frame, and publishes the unit's state
 //! and flame reports a few times a second of site time, and its behavior tree's
 //! transitions every step (for recordings).
 //!
@@ -12,16 +13,21 @@
 use std::cell::RefCell;
 use std::future::Future;
 use std::rc::Rc;
+use std::time::Duration;
 
 use firefleet_bt::{Status, Transition};
 use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, BusError};
+use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{BtTransition, BtTransitions, NodeStatus};
+use firefleet_protocol::msg::{BarredSpace, BtTransition, BtTransitions, NodeStatus};
 use zenoh::sample::SampleKind;
 
 use crate::controller::{Controller, Services};
 use crate::platform::Platform;
+
+/// How long the agent's start-up question for the barred space stays open.
+const BARRED_QUERY_TIMEOUT: Duration = Duration::from_secs(2);
 
 /// How an agent runs.
 #[derive(Debug, Clone)]
@@ -85,6 +91,13 @@ where
         .history(true)
         .await?;
     let tasks = bus.subscribe(&keys.unit_task(unit)).await?;
+    let barred = bus.subscribe(&keys.coord_barred()).await?;
+    // Asked, not awaited: the answers come in with everything else.
+    let barred_answers = bus
+        .session()
+        .get(keys.coord_barred().as_str())
+        .timeout(BARRED_QUERY_TIMEOUT)
+        .await?;
     let state_key = keys.unit_state(unit);
     let report_key = keys.unit_report(unit);
     let bt_key = keys.unit_bt(unit);
@@ -128,6 +141,17 @@ where
                 } else {
                     bus.rejects().count_invalid();
                     tracing::warn!(%unit, other = %task.unit, "dropped a task addressed to another unit");
+                }
+            }
+            Some((_, b)) = barred.recv() => ctl.on_barred(b),
+            Ok(reply) = barred_answers.recv_async() => {
+                let Ok(sample) = reply.result() else { continue };
+                match codec::decode::<BarredSpace>(&sample.payload().to_bytes()) {
+                    Ok(b) => ctl.on_barred(b),
+                    Err(e) => {
+                        bus.rejects().count(&e);
+                        tracing::warn!(%unit, "barred space answer refused: {e}");
+                    }
                 }
             }
             sample = coord.recv_async() => {

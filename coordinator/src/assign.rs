@@ -19,6 +19,7 @@
 //! has [`KEEP_S`] off its cost for its own fire, so it is replaced only for a real gain
 //! (hysteresis). Units spraying take no part: nobody is pulled off a fire it is spraying.
 
+use firefleet_protocol::msg::UnitKind;
 use firefleet_protocol::scenario::Tunnel;
 use firefleet_protocol::{Chainage, FireId, Point2, UnitId};
 
@@ -72,6 +73,14 @@ pub enum Mobility {
 }
 
 impl Mobility {
+    /// The kind of unit that moves so.
+    pub fn kind(&self) -> UnitKind {
+        match self {
+            Mobility::Ground { .. } => UnitKind::Ground,
+            Mobility::Rail { .. } => UnitKind::Monorail,
+        }
+    }
+
     /// Travel time from `from` until the unit can work a fire at `to`, s; `None` if it
     /// never can.
     pub fn travel_s(&self, from: Point2, to: Point2) -> Option<f64> {
@@ -165,8 +174,10 @@ pub trait Roads {
 /// What the site imposes on every pairing.
 #[derive(Clone, Copy, Default)]
 pub struct Site<'a> {
-    /// Chainage ranges no unit may enter or travel through (zone goals).
+    /// Chainage ranges no ground unit may enter or travel through (zone goals).
     pub barred: &'a [(Chainage, Chainage)],
+    /// The same for monorail carriages (a goal may let them through).
+    pub barred_rail: &'a [(Chainage, Chainage)],
     /// Burning fires: a ground unit driving past one takes its heat.
     pub hazards: &'a [Place],
     /// Driving distances for ground units; straight lines without.
@@ -283,7 +294,11 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f
         u.at.chainage.min(n.at.chainage),
         u.at.chainage.max(n.at.chainage),
     );
-    if site.barred.iter().any(|&(s, e)| a < e && b > s) {
+    let barred = match u.mobility {
+        Mobility::Ground { .. } => site.barred,
+        Mobility::Rail { .. } => site.barred_rail,
+    };
+    if barred.iter().any(|&(s, e)| a < e && b > s) {
         return INFEASIBLE;
     }
     let road = match (u.mobility, site.roads) {

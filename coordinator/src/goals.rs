@@ -11,11 +11,17 @@
 //! - A zone holds one goal per priority: a different goal at a priority already taken on
 //!   that zone is a conflict, rejected with the goal in the way; a goal at another priority
 //!   stands beside it and the higher priority wins.
-//! - Where zones overlap, the highest-priority goal covering a chainage governs it.
+//! - Where zones overlap, the highest-priority goal covering a chainage governs it, for
+//!   what it bars as for what it asks: a keep-out under a higher-priority extinguish goal is
+//!   open where the two overlap ([`Goals::barred_space`] is what units are told).
+//! - A keep-out or evacuate goal bars monorail carriages too unless it says
+//!   `rail_allowed`.
 //!
 //! Pure: no I/O, no clock of its own.
 
-use firefleet_protocol::msg::{GoalAck, GoalKind, ZoneGoal};
+use firefleet_protocol::msg::{
+    Bar, BarredSpace, BarredSpan, GoalAck, GoalKind, UnitKind, ZoneGoal, nearest_allowed,
+};
 use firefleet_protocol::scenario::Zone;
 use firefleet_protocol::{Chainage, ZoneId};
 
@@ -164,17 +170,45 @@ impl Goals {
             .max_by_key(|a| a.goal.priority)
     }
 
-    /// Chainage ranges no unit may enter or travel through.
-    pub fn barred(&self) -> Vec<(Chainage, Chainage)> {
-        self.active
-            .iter()
-            .filter(|a| a.bars_entry())
-            .map(|a| (a.start, a.end))
-            .collect()
+    /// What the goals in force bar, stretch by stretch, as units are told at site time
+    /// `t`: each stretch where the governing goal bars attack or entry, adjacent stretches
+    /// of one goal merged.
+    pub fn barred_space(&self, t: f64) -> BarredSpace {
+        let mut cuts: Vec<Chainage> = self.active.iter().flat_map(|a| [a.start, a.end]).collect();
+        cuts.sort_by(Chainage::total_cmp);
+        cuts.dedup();
+        let mut spans: Vec<BarredSpan> = Vec::new();
+        for w in cuts.windows(2) {
+            let (lo, hi) = (w[0], w[1]);
+            let Some(g) = self.at(lo.midpoint(hi)).filter(|g| g.bars_attack()) else {
+                continue;
+            };
+            match spans.last_mut() {
+                Some(last) if last.goal == g.goal.id && last.end == lo => last.end = hi,
+                _ => spans.push(BarredSpan {
+                    goal: g.goal.id.clone(),
+                    zone: g.goal.zone.clone(),
+                    start: lo,
+                    end: hi,
+                    bar: if g.bars_entry() {
+                        Bar::Entry
+                    } else {
+                        Bar::Attack
+                    },
+                    rail_allowed: g.goal.rail_allowed,
+                }),
+            }
+        }
+        BarredSpace { t, spans }
     }
 
-    /// The nearest chainage to `x` outside every barred range, `margin` (m) clear of it,
-    /// within `[lo, hi]`; `None` if there is none.
+    /// Chainage ranges a unit of kind `kind` may not enter or travel through.
+    pub fn barred(&self, kind: UnitKind) -> Vec<(Chainage, Chainage)> {
+        self.barred_space(0.0).ranges(kind)
+    }
+
+    /// The nearest chainage to `x` outside every range barred to ground units, `margin`
+    /// (m) clear of it, within `[lo, hi]`; `None` if there is none.
     pub fn nearest_allowed(
         &self,
         x: Chainage,
@@ -182,21 +216,7 @@ impl Goals {
         lo: Chainage,
         hi: Chainage,
     ) -> Option<Chainage> {
-        let barred = self.barred();
-        let ok = |c: Chainage| {
-            (lo..=hi).contains(&c)
-                && barred
-                    .iter()
-                    .all(|&(s, e)| c < s - (margin - 1e-9) || c > e + (margin - 1e-9))
-        };
-        if ok(x) {
-            return Some(x);
-        }
-        barred
-            .iter()
-            .flat_map(|&(s, e)| [s - margin, e + margin])
-            .filter(|c| ok(*c))
-            .min_by(|a, b| (*a - x).abs().total_cmp(&(*b - x).abs()))
+        nearest_allowed(&self.barred(UnitKind::Ground), x, margin, lo, hi)
     }
 }
 
@@ -225,6 +245,7 @@ mod tests {
             before_m: (kind == GoalKind::Contain).then_some(60.0),
             expires_s: None,
             issued_by: "ic".into(),
+            rail_allowed: false,
         }
     }
 
@@ -289,9 +310,42 @@ mod tests {
             "overlap: the higher priority"
         );
         assert!(g.at(c(180.0)).is_none());
-        assert_eq!(g.barred(), vec![(c(50.0), c(150.0))]);
+        assert_eq!(g.barred(UnitKind::Ground), vec![(c(50.0), c(150.0))]);
         assert_eq!(g.clear(&zid("c")).len(), 1);
-        assert!(g.barred().is_empty());
+        assert!(g.barred(UnitKind::Ground).is_empty());
+    }
+
+    #[test]
+    fn units_are_told_what_the_governing_goal_bars_stretch_by_stretch() {
+        let mut g = goals();
+        // Keep-out on b [100, 200] at 0, extinguish on c [50, 150] above it, monitor on a.
+        let mut keep_out = goal("k", "b", GoalKind::KeepOut, 0);
+        keep_out.rail_allowed = true;
+        assert!(g.submit(&zid("b"), keep_out, 0.0).accepted);
+        assert!(
+            g.submit(&zid("c"), goal("x", "c", GoalKind::Extinguish, 3), 0.0)
+                .accepted
+        );
+        assert!(
+            g.submit(&zid("a"), goal("m", "a", GoalKind::Monitor, 0), 0.0)
+                .accepted
+        );
+        let b = g.barred_space(7.0);
+        let spans: Vec<(&str, f64, f64, Bar)> = b
+            .spans
+            .iter()
+            .map(|s| (s.goal.as_str(), s.start.m(), s.end.m(), s.bar))
+            .collect();
+        assert_eq!(
+            spans,
+            vec![
+                ("m", 0.0, 50.0, Bar::Attack),
+                ("k", 150.0, 200.0, Bar::Entry)
+            ]
+        );
+        assert_eq!(b.t, 7.0);
+        assert_eq!(g.barred(UnitKind::Ground), vec![(c(150.0), c(200.0))]);
+        assert!(g.barred(UnitKind::Monorail).is_empty(), "rail allowed");
     }
 
     #[test]

@@ -354,6 +354,7 @@ mod tests {
             heat_flux_kw_m2: 0.0,
             task,
             autonomous: false,
+            refused: None,
         })
     }
 
@@ -368,6 +369,7 @@ mod tests {
                 before_m: None,
                 expires_s: None,
                 issued_by: "ic".into(),
+                rail_allowed: false,
             },
         }
     }

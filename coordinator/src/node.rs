@@ -6,6 +6,9 @@
 //! that a unit that missed a message or joined late converges. `coord/status` answers queries with a JSON snapshot.
 //! Commanders' zone goals arrive as JSON on `zone/<zone>/goal` and each is answered on
 //! `zone/<zone>/ack`, malformed ones included; a delete on a goal key clears the zone.
+//! What the goals in force bar goes to every unit on `coord/barred`: on every change,
+//! again every second (a unit that missed it, or started late, converges), and in answer
+//! to a query (a unit asks at start).
 //! A message the incident refuses (unknown unit, outside the tunnel) is logged and counted;
 //! nothing else changes.
 //!
@@ -89,6 +92,10 @@ pub async fn run(
     let status = session
         .declare_queryable(keys.expr(&Topic::CoordStatus))
         .await?;
+    let barred_key = keys.coord_barred();
+    let barred_q = session.declare_queryable(barred_key.as_str()).await?;
+    // What units were last told is barred (nothing, until a goal bars something).
+    let mut told = incident.barred_space(clock.now());
     // Goals are read raw, not through the bus's typed inbox: a malformed goal must still
     // be answered, and a delete on a zone's goal key clears the zone.
     let goals = session
@@ -166,6 +173,13 @@ pub async fn run(
                 // on; refused and counted like any other bad message.
                 _ => Err(Invalid::new("key", format!("'{}' names no zone", sample.key_expr()))),
             },
+            Ok(query) = barred_q.recv_async() => {
+                let body = codec::encode(&incident.barred_space(clock.now()));
+                if let Err(e) = query.reply(barred_key.as_str(), body).await {
+                    tracing::warn!("barred space reply failed: {e}");
+                }
+                Ok(Vec::new())
+            }
             Ok(query) = status.recv_async() => {
                 let mut body = incident.status(clock.now());
                 body.rejected = bus.rejects().snapshot().into_iter().map(|(k, v)| (k.to_owned(), v)).collect();
@@ -179,6 +193,10 @@ pub async fn run(
             _ = republish.tick() => {
                 let t = clock.now();
                 slice = (slice + 1) % REPUBLISH_SLICES;
+                if slice == 0 {
+                    told = incident.barred_space(t);
+                    bus.put(&barred_key, &told).await?;
+                }
                 Ok(incident
                     .tasks()
                     .cloned()
@@ -199,6 +217,12 @@ pub async fn run(
         };
         for d in incident.take_decisions() {
             bus.put(&keys.coord_log(), &d.to_msg()).await?;
+        }
+        // Units hear of barred space before any task that depends on it.
+        let barred = incident.barred_space(clock.now());
+        if barred.spans != told.spans {
+            told = barred;
+            bus.put(&barred_key, &told).await?;
         }
         match outputs {
             Ok(outputs) => publish(bus, outputs).await?,

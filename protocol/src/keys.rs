@@ -13,6 +13,9 @@
 //! ff/<site>/coord/alive           liveliness token of the coordinator
 //! ff/<site>/coord/status          queryable, JSON snapshot of the incident
 //! ff/<site>/coord/log             coord -> recorders Decision (postcard), one per decision
+//! ff/<site>/coord/barred          coord -> units     BarredSpace (postcard), every second
+//!                                 and on change; the coordinator and recorders answer
+//!                                 queries on it with the newest
 //! ff/<site>/sim/clock             SimClock (postcard)
 //! ff/<site>/sim/truth             SimTruth (postcard)
 //! ff/<site>/sim/unit/<id>/sensors UnitSensors (postcard)
@@ -36,8 +39,8 @@ use std::marker::PhantomData;
 
 use crate::ids::{FireId, SiteId, UnitId, ZoneId};
 use crate::msg::{
-    BtTransitions, Decision, FireTrack, FlameReport, GoalAck, Message, RailCommand, RailSensors,
-    SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState, ZoneGoal,
+    BarredSpace, BtTransitions, Decision, FireTrack, FlameReport, GoalAck, Message, RailCommand,
+    RailSensors, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState, ZoneGoal,
 };
 
 const ROOT: &str = "ff";
@@ -56,6 +59,7 @@ pub enum Topic {
     CoordAlive,
     CoordStatus,
     CoordLog,
+    CoordBarred,
     SimClock,
     SimTruth,
     SimSensors(UnitId),
@@ -78,6 +82,7 @@ impl fmt::Display for Topic {
             Topic::CoordAlive => f.write_str("coord/alive"),
             Topic::CoordStatus => f.write_str("coord/status"),
             Topic::CoordLog => f.write_str("coord/log"),
+            Topic::CoordBarred => f.write_str("coord/barred"),
             Topic::SimClock => f.write_str("sim/clock"),
             Topic::SimTruth => f.write_str("sim/truth"),
             Topic::SimSensors(u) => write!(f, "sim/unit/{u}/sensors"),
@@ -204,6 +209,7 @@ typed_keys! {
         zone_goal(z: &ZoneId) -> ZoneGoal = Topic::ZoneGoal(z.clone());
         zone_ack(z: &ZoneId) -> GoalAck = Topic::ZoneAck(z.clone());
         coord_log() -> Decision = Topic::CoordLog;
+        coord_barred() -> BarredSpace = Topic::CoordBarred;
         sim_clock() -> SimClock = Topic::SimClock;
         sim_truth() -> SimTruth = Topic::SimTruth;
         sim_sensors(u: &UnitId) -> UnitSensors = Topic::SimSensors(u.clone());
@@ -267,6 +273,7 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
         ["coord", "alive"] => Topic::CoordAlive,
         ["coord", "status"] => Topic::CoordStatus,
         ["coord", "log"] => Topic::CoordLog,
+        ["coord", "barred"] => Topic::CoordBarred,
         ["sim", "clock"] => Topic::SimClock,
         ["sim", "truth"] => Topic::SimTruth,
         ["sim", "unit", u, "sensors"] => Topic::SimSensors(unit(u)?),
@@ -302,6 +309,7 @@ mod tests {
             Topic::CoordAlive,
             Topic::CoordStatus,
             Topic::CoordLog,
+            Topic::CoordBarred,
             Topic::SimClock,
             Topic::SimTruth,
             Topic::SimSensors(u("b")),

@@ -13,6 +13,7 @@
 //! back close to themselves (the projection takes the nearest piece of centreline, which
 //! is only right while radii exceed the half-width, which validation enforces).
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{Point2, Pose2, wrap_angle};
@@ -172,7 +173,9 @@ impl Segment {
 ///
 /// Differences of chainages are plain metres; a chainage plus or minus metres is a
 /// chainage. On the wire and in site files it is a bare number (serde transparent).
-#[derive(Debug, Clone, Copy, Default, PartialEq, PartialOrd, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, PartialOrd, Serialize, Deserialize, JsonSchema,
+)]
 #[serde(transparent)]
 pub struct Chainage(f64);
 

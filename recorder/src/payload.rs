@@ -12,8 +12,8 @@ use firefleet_protocol::ZoneId;
 use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    BtTransitions, Decision, FireTrack, FlameReport, GoalAck, Message, RailCommand, RailSensors,
-    SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState, ZoneGoal,
+    BarredSpace, BtTransitions, Decision, FireTrack, FlameReport, GoalAck, Message, RailCommand,
+    RailSensors, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState, ZoneGoal,
 };
 use serde::{Deserialize, Serialize};
 
@@ -87,6 +87,7 @@ payloads! {
     Goal(ZoneGoal) = Topic::ZoneGoal(_),
     Ack(GoalAck) = Topic::ZoneAck(_),
     Decision(Decision) = Topic::CoordLog,
+    Barred(BarredSpace) = Topic::CoordBarred,
     SimClock(SimClock) = Topic::SimClock,
     SimTruth(SimTruth) = Topic::SimTruth,
     UnitSensors(UnitSensors) = Topic::SimSensors(_),

@@ -10,6 +10,8 @@
 //! The recorder also keeps the latest track of every fire and answers queries on
 //! `fire/*` with them: that is how a restarted coordinator recalls the fires the previous
 //! one tracked (the recording is the incident's memory, on the bus as well as on disk).
+//! It answers queries on `coord/barred` with the newest barred space the same way, so that
+//! a unit restarted while the coordinator is gone still learns what commanders barred.
 //! With no recorder left running, [`crate::reader::fire_tracks_in`] reads the same tracks
 //! back from the file (the coordinator's `--resume`).
 //!
@@ -161,8 +163,11 @@ pub async fn record(
         let samples = session.declare_subscriber(keys.all()).await.map_err(BusError::from)?;
         let tokens = session.liveliness().declare_subscriber(keys.all()).history(true).await.map_err(BusError::from)?;
         let recall = session.declare_queryable(keys.every_fire().as_str()).await.map_err(BusError::from)?;
+        let barred_q = session.declare_queryable(keys.coord_barred().as_str()).await.map_err(BusError::from)?;
         // The latest track of every fire, as received: (its time, its key, its bytes).
         let mut fires: BTreeMap<FireId, (f64, String, Vec<u8>)> = BTreeMap::new();
+        // The newest barred space: (its time, its bytes).
+        let mut barred: Option<(f64, Vec<u8>)> = None;
         let scene_schema = || schemars::schema_for!(scene::SceneUpdate);
         let statics = serde_json::to_vec(&scene::static_scene(scenario, scene::Time::from_nanos(now_ns()))).expect("serialises");
         sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &statics, now_ns())?;
@@ -184,6 +189,13 @@ pub async fn record(
                         if let Err(e) = query.reply(key, bytes.clone()).await {
                             tracing::warn!("fire track reply failed: {e}");
                         }
+                    }
+                }
+                Ok(query) = barred_q.recv_async() => {
+                    if let Some((_, bytes)) = &barred
+                        && let Err(e) = query.reply(keys.coord_barred().as_str(), bytes.clone()).await
+                    {
+                        tracing::warn!("barred space reply failed: {e}");
                     }
                 }
                 Ok(s) = samples.recv_async() => {
@@ -222,6 +234,9 @@ pub async fn record(
                         Payload::Ack(ack) => {
                             let entry = log(scene::Log::ack(&ack, scene::Time::from_nanos(t)));
                             sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &entry, t)?;
+                        }
+                        Payload::Barred(b) if barred.as_ref().is_none_or(|(old, _)| *old <= b.t) => {
+                            barred = Some((b.t, bytes.to_vec()));
                         }
                         Payload::Fire(track) if fires.get(&track.id).is_none_or(|(old, _, _)| *old <= track.t) => {
                             fires.insert(track.id, (track.t, key.to_owned(), bytes.to_vec()));

@@ -45,8 +45,9 @@ pub struct DemoArgs {
     #[arg(long, value_name = "FILE")]
     summary_json: Option<PathBuf>,
     /// Issue a commander's zone goal once the fleet is up, `ZONE:GOAL[:PRIORITY]` (e.g.
-    /// `deep:keep-out`, `portal:extinguish:2`, or `portal:contain@40` to hold the fire
-    /// front before chainage 40 m); repeatable.
+    /// `deep:keep-out`, `portal:extinguish:2`, `portal:contain@40` to hold the fire
+    /// front before chainage 40 m, or `deep:keep-out+rail` to let monorail carriages
+    /// through); repeatable.
     #[arg(long, value_name = "ZONE:GOAL[@CHAINAGE][:PRIORITY]")]
     goal: Vec<String>,
 }
@@ -56,6 +57,10 @@ fn parse_goal(arg: &str, scenario: &Scenario) -> anyhow::Result<ZoneGoal> {
     let mut parts = arg.split(':');
     let (Some(zone), Some(kind)) = (parts.next(), parts.next()) else {
         anyhow::bail!("--goal {arg}: expected ZONE:GOAL[@CHAINAGE][:PRIORITY]");
+    };
+    let (kind, rail_allowed) = match kind.strip_suffix("+rail") {
+        Some(kind) => (kind, true),
+        None => (kind, false),
     };
     let (kind, before_m) = match kind.split_once('@') {
         Some((kind, line)) => {
@@ -91,6 +96,7 @@ fn parse_goal(arg: &str, scenario: &Scenario) -> anyhow::Result<ZoneGoal> {
         before_m,
         expires_s: None,
         issued_by: "firefleet demo".into(),
+        rail_allowed,
     };
     g.validate().with_context(|| format!("--goal {arg}"))?;
     Ok(g)

@@ -57,6 +57,9 @@ pub struct SetArgs {
     /// Seconds of site time after which the goal lapses.
     #[arg(long)]
     expires_s: Option<f64>,
+    /// For keep-out and evacuate: monorail carriages may still run through the zone.
+    #[arg(long)]
+    rail_allowed: bool,
     #[arg(long, default_value = "firefleet-cli")]
     issued_by: String,
 }
@@ -118,6 +121,7 @@ async fn set(a: SetArgs) -> anyhow::Result<ExitCode> {
         before_m: a.before_m,
         expires_s: a.expires_s,
         issued_by: a.issued_by,
+        rail_allowed: a.rail_allowed,
     };
     goal.validate()
         .map_err(|e| anyhow::anyhow!("the goal is not valid: {e}"))?;

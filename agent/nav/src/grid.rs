@@ -60,6 +60,20 @@ impl Grid {
         g
     }
 
+    /// This grid with every cell whose centre `barred` holds blocked as well: a keep-out
+    /// layer (as Nav2's keepout filter), so that no search over it enters that space.
+    pub fn with_keepout(&self, barred: impl Fn(Point2) -> bool) -> Self {
+        let mut g = self.clone();
+        for r in 0..g.h {
+            for c in 0..g.w {
+                if !g.occ[r * g.w + c] && barred(g.center((c, r))) {
+                    g.occ[r * g.w + c] = true;
+                }
+            }
+        }
+        g
+    }
+
     pub fn resolution(&self) -> f64 {
         self.res
     }

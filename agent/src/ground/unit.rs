@@ -5,15 +5,26 @@
 //! [`Unit`] plays that role here: a navigation service that plans (Hybrid A* to firing
 //! positions, keeping the flame in view and away from the heat of tracked fires; grid A*
 //! for cruising and as the fallback), follows the path (pure pursuit) and recovers from
-//! touching an obstacle; a cannon service that
+//! touching an obstacle; a keep-out service that holds the navigation to commanders'
+//! barred space (see below); a cannon service that
 //! slews to the aim set-point and opens the valve on request; the flame tracker; and the
 //! link state to the coordinator. Leaves ([`crate::ground::leaves`]) only read and set these.
+//!
+//! Barred space is enforced here, below the tree, so that no tree can plan through it: the
+//! grids every planner searches (grid A* for cruising, patrol, search and recovery; Hybrid
+//! A* to firing positions, backing included) carry a keep-out layer, the barred chainage
+//! grown by the vehicle's half-diagonal so that the whole body stays out; a patrol stops
+//! short of barred space; backing off an obstacle does not back into it; and a unit that
+//! finds itself inside (a goal arrived while it was there) suspends whatever it was doing
+//! and drives out by the shortest way, [`CLEAR_OF_BARRED_M`] past the edge, before the
+//! tree may act again.
 
 use std::sync::Arc;
 
 use firefleet_protocol::geometry::{Point2, Pose2, wrap_angle};
 use firefleet_protocol::msg::{
-    FlameReport, TaskKind, UnitCommand, UnitKind, UnitMode, UnitSensors, UnitState,
+    CLEAR_OF_BARRED_M, FlameReport, TaskKind, UnitCommand, UnitKind, UnitMode, UnitSensors,
+    UnitState, nearest_allowed,
 };
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::GroundSpec;
@@ -58,12 +69,16 @@ const JET_CEILING_MARGIN_M: f64 = 0.3;
 const GOAL_SHIFT_M: f64 = 4.0;
 /// Backing off after touching something, s.
 const RECOVER_S: f64 = 1.5;
+/// How often a unit inside barred space that found no way out tries again, s.
+const LEAVE_RETRY_S: f64 = 1.0;
 
 /// What the navigation service is driving to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NavPurpose {
     Cruise,
     Fire,
+    /// Out of barred space, by the shortest way.
+    Leave,
 }
 
 #[derive(Debug)]
@@ -82,11 +97,19 @@ pub struct Unit {
     pub(crate) id: UnitId,
     pub(crate) spec: GroundSpec,
     pub(crate) scenario: Arc<Scenario>,
+    /// Walls and vehicles grown by the vehicle's radius and a margin, with the keep-out
+    /// layer: what grid A* searches for the vehicle's centre.
     nav_grid: Grid,
     sight_grid: Grid,
-    /// Walls and vehicles grown by [`HYBRID_MARGIN_M`]: what Hybrid A* checks the
-    /// footprint against.
+    /// Walls and vehicles grown by [`HYBRID_MARGIN_M`], with the keep-out layer: what
+    /// Hybrid A* checks the footprint against.
     hybrid_grid: Grid,
+    /// `nav_grid` and `hybrid_grid` without the keep-out layer: the way out of barred
+    /// space is planned on the first, and both are the base a new layer is laid on.
+    open_nav_grid: Grid,
+    open_hybrid_grid: Grid,
+    /// A unit inside barred space that found no way out tries again at this time.
+    leave_retry_at: f64,
     pub(crate) tracker: FlameTracker,
     /// The latest sensor frame.
     pub(crate) frame: UnitSensors,
@@ -135,6 +158,9 @@ impl Unit {
             id,
             spec,
             scenario,
+            open_nav_grid: nav_grid.clone(),
+            open_hybrid_grid: hybrid_grid.clone(),
+            leave_retry_at: f64::NEG_INFINITY,
             nav_grid,
             sight_grid,
             hybrid_grid,
@@ -189,9 +215,14 @@ impl Unit {
     /// confident of (ties: the nearest).
     pub fn most_confident_flame(&self) -> Option<Point2> {
         let at = self.pose().position();
+        let tunnel = &self.scenario.tunnel;
         self.tracker
             .confirmed()
             .filter(|t| self.now() - t.last_seen <= RECENTLY_SEEN_S)
+            .filter(|t| {
+                self.mission
+                    .permits(tunnel, UnitKind::Ground, at, t.position(), true)
+            })
             .max_by(|a, b| {
                 a.confidence
                     .total_cmp(&b.confidence)
@@ -200,11 +231,128 @@ impl Unit {
             .map(|t| t.position())
     }
 
-    /// Cruise goal: the coordinator's, or else the patrol's (`patrol_goal`).
+    /// Cruise goal: the coordinator's, or else the patrol's (`patrol_goal`), stopped short
+    /// of barred space.
     pub fn cruise_goal(&self) -> Point2 {
         match self.mission.task {
             Some((_, TaskKind::Cruise { goal } | TaskKind::Search { goal })) => goal,
-            _ => self.patrol_goal,
+            _ => {
+                let Some(barred) = &self.mission.barred else {
+                    return self.patrol_goal;
+                };
+                let t = &self.scenario.tunnel;
+                let to = barred.reach(
+                    UnitKind::Ground,
+                    t.chainage(self.pose().position()),
+                    t.chainage(self.patrol_goal),
+                    CLEAR_OF_BARRED_M,
+                );
+                t.point_at(to, t.station(self.patrol_goal).d)
+            }
+        }
+    }
+
+    /// How far the keep-out layer reaches beyond barred chainage, m: the vehicle's
+    /// half-diagonal, so that no part of it enters.
+    fn keepout_growth_m(&self) -> f64 {
+        self.spec.circumradius_m()
+    }
+
+    /// Whether any part of the vehicle at `p` would be in barred space.
+    fn in_barred(&self, p: Point2) -> bool {
+        let grow = self.keepout_growth_m();
+        let s = self.scenario.tunnel.chainage(p);
+        self.mission.barred.as_ref().is_some_and(|b| {
+            b.spans.iter().any(|span| {
+                span.bars_entry(UnitKind::Ground)
+                    && (span.start - grow..=span.end + grow).contains(&s)
+            })
+        })
+    }
+
+    /// Lay the keep-out layer of the barred space kept on the planners' grids.
+    fn lay_keepout(&mut self) {
+        let t = &self.scenario.tunnel;
+        let grow = self.keepout_growth_m();
+        let ranges = self
+            .mission
+            .barred
+            .as_ref()
+            .map(|b| b.ranges(UnitKind::Ground))
+            .unwrap_or_default();
+        let barred = |by: f64| {
+            let ranges = &ranges;
+            move |p: Point2| {
+                let s = t.chainage(p);
+                ranges.iter().any(|&(a, b)| (a - by..=b + by).contains(&s))
+            }
+        };
+        self.nav_grid = self.open_nav_grid.with_keepout(barred(grow));
+        self.hybrid_grid = self.open_hybrid_grid.with_keepout(barred(0.0));
+        self.prepared = None;
+    }
+
+    /// Inside barred space: suspend the attack and drive out by the shortest way. Out (or
+    /// the space lifted): the tree may act again.
+    fn keep_out(&mut self) {
+        let pose = self.pose();
+        if !self.in_barred(pose.position()) {
+            if self.mission.leaving {
+                self.mission.leaving = false;
+                self.stop_navigation(NavPurpose::Leave);
+                tracing::info!(unit = %self.id, "out of barred space");
+            }
+            return;
+        }
+        let leaving_now = self
+            .nav
+            .as_ref()
+            .is_some_and(|n| n.purpose == NavPurpose::Leave && !n.arrived && !n.failed);
+        if leaving_now || self.now() < self.leave_retry_at {
+            return;
+        }
+        if !self.mission.leaving {
+            tracing::warn!(unit = %self.id, at = ?pose.position(), "inside barred space: leaving by the shortest way");
+            self.mission.leaving = true;
+            self.stand_down();
+            self.stop_navigation(NavPurpose::Cruise);
+            self.cruising_to = None;
+        }
+        let t = &self.scenario.tunnel;
+        let at = t.station(pose.position());
+        let ranges = self
+            .mission
+            .barred
+            .as_ref()
+            .map(|b| b.ranges(UnitKind::Ground))
+            .unwrap_or_default();
+        let exit = nearest_allowed(
+            &ranges,
+            at.s,
+            CLEAR_OF_BARRED_M,
+            Chainage::new(1.0),
+            t.end() - 1.0,
+        )
+        .map(|x| t.point_at(x, t.lane_nearest(at.d)));
+        let path = exit.and_then(|goal| {
+            let goal = self.open_nav_grid.nearest_free(goal, GOAL_SHIFT_M)?;
+            Some((goal, nav::plan(&self.open_nav_grid, pose.position(), goal)?))
+        });
+        match path {
+            Some((goal, p)) => {
+                self.nav = Some(Navigation {
+                    purpose: NavPurpose::Leave,
+                    goal,
+                    follow: PurePursuit::new(Route::forward(p)),
+                    arrived: false,
+                    recover_until: None,
+                    failed: false,
+                });
+            }
+            None => {
+                tracing::warn!(unit = %self.id, "inside barred space and no way out; holding");
+                self.leave_retry_at = self.now() + LEAVE_RETRY_S;
+            }
         }
     }
 
@@ -212,6 +360,9 @@ impl Unit {
     /// cruise goal the coordinator set in a lane a parked car stands in) is moved to the
     /// nearest free point within `GOAL_SHIFT_M`.
     pub fn navigate(&mut self, goal: Point2, purpose: NavPurpose) -> bool {
+        if self.mission.leaving {
+            return false;
+        }
         let prepared = self.prepared.take().filter(|(g, _)| g.dist(goal) < 1e-9);
         let to = self
             .nav_grid
@@ -255,9 +406,12 @@ impl Unit {
         self.nav.as_ref().map(|n| n.purpose)
     }
 
-    /// Arrived at the current navigation goal.
+    /// Arrived at the current navigation goal (the way out of barred space is not one
+    /// the tree set).
     pub fn arrived(&self) -> bool {
-        self.nav.as_ref().is_some_and(|n| n.arrived)
+        self.nav
+            .as_ref()
+            .is_some_and(|n| n.arrived && n.purpose != NavPurpose::Leave)
     }
 
     /// A Hybrid A* route from the unit to the cheapest to reach of `spots`, arriving
@@ -453,6 +607,12 @@ impl Responder for Unit {
     fn id(&self) -> &UnitId {
         &self.id
     }
+    fn kind(&self) -> UnitKind {
+        UnitKind::Ground
+    }
+    fn tunnel(&self) -> &Tunnel {
+        &self.scenario.tunnel
+    }
     fn position(&self) -> Point2 {
         self.pose().position()
     }
@@ -486,6 +646,7 @@ impl Services for Unit {
             n.recover_until = Some(frame.t + RECOVER_S);
         }
         self.frame = frame.clone();
+        self.keep_out();
     }
 
     /// Actuator set-points for this step: the navigation service drives, the cannon holds
@@ -508,17 +669,27 @@ impl Services for Unit {
             valve_open: self.valve && f.water_l > 0.0,
         };
         let (pose, speed, steer, now, spec) = (f.pose, f.speed, f.steer, f.t, self.spec);
+        // Backing off does not back into barred space (a unit already inside backs off on
+        // its way out).
+        let behind_barred =
+            self.in_barred(pose.position().offset(pose.yaw + std::f64::consts::PI, 1.0));
         let Some(n) = &mut self.nav else { return cmd };
         if n.arrived || n.failed {
             return cmd;
         }
         if let Some(until) = n.recover_until {
-            if now < until {
+            let backing_in = n.purpose != NavPurpose::Leave && behind_barred;
+            if now < until && !backing_in {
                 cmd.speed = -0.4;
                 return cmd;
             }
             n.recover_until = None;
-            match nav::plan(&self.nav_grid, pose.position(), n.goal) {
+            let grid = if n.purpose == NavPurpose::Leave {
+                &self.open_nav_grid
+            } else {
+                &self.nav_grid
+            };
+            match nav::plan(grid, pose.position(), n.goal) {
                 Some(p) => n.follow = PurePursuit::new(Route::forward(p)),
                 None => {
                     tracing::warn!(unit = %self.id, goal = ?n.goal, "no path after recovering; navigation failed");
@@ -547,7 +718,9 @@ impl Services for Unit {
         } else {
             match self.nav_purpose() {
                 Some(NavPurpose::Fire) => UnitMode::Navigating,
-                Some(NavPurpose::Cruise) if !self.arrived() => UnitMode::Cruising,
+                Some(NavPurpose::Cruise | NavPurpose::Leave) if !self.arrived() => {
+                    UnitMode::Cruising
+                }
                 _ => UnitMode::Idle,
             }
         };
@@ -564,6 +737,7 @@ impl Services for Unit {
             heat_flux_kw_m2: f.heat_flux_kw_m2,
             task,
             autonomous: !self.mission.coordinator_present,
+            refused: self.mission.refused.clone(),
         }
     }
 
@@ -577,6 +751,11 @@ impl Services for Unit {
             observer: self.frame.pose,
             observations,
         })
+    }
+
+    fn barred_changed(&mut self) {
+        self.lay_keepout();
+        self.keep_out();
     }
 
     fn time(s: &UnitSensors) -> f64 {

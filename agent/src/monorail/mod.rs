@@ -17,6 +17,12 @@
 //! - [`case_study`]: the paper's simulation case study, for the experiment and the bench.
 //! - [`frame`]: the rail's frame in the site.
 //!
+//! Barred space binds the carriage as a joint limit: the carriage's travel is narrowed to
+//! the stretch of rail it may be on (the CLIK then aims from the nearest allowed point,
+//! the monitor's pan and tilt doing the rest), a search run stops short of barred space,
+//! and a carriage inside it (a goal arrived while it was there) drops its attack and runs
+//! out by the shortest way. A goal's `rail_allowed` lets carriages through.
+//!
 //! Pure: no I/O, no clock of its own. Not here: the ground unit ([`crate::ground`]).
 
 pub mod case_study;
@@ -31,11 +37,12 @@ pub mod planner;
 use std::sync::Arc;
 
 use firefleet_bt::xml::{self, Document, XmlErrors};
+use firefleet_protocol::Chainage;
 use firefleet_protocol::msg::{
-    FlameObservation, FlameReport, RailCommand, RailJoints, RailSensors, UnitKind, UnitMode,
-    UnitState,
+    CLEAR_OF_BARRED_M, FlameObservation, FlameReport, RailCommand, RailJoints, RailSensors,
+    UnitKind, UnitMode, UnitState, nearest_allowed,
 };
-use firefleet_protocol::scenario::{Rail, Scenario};
+use firefleet_protocol::scenario::{Rail, Scenario, Tunnel};
 use firefleet_protocol::spec::{MAINS_WATER_L, MonorailSpec};
 use firefleet_protocol::{Point2, Pose2, UnitId};
 
@@ -86,6 +93,9 @@ pub struct RailUnit {
     pub(crate) id: UnitId,
     spec: MonorailSpec,
     rail: Rail,
+    tunnel: Tunnel,
+    /// The CLIK's limits on the whole rail; barred space narrows the carriage's.
+    rail_limits: Limits,
     frame: RailFrame,
     sensors: RailSensors,
     fis: Fis,
@@ -173,6 +183,8 @@ impl RailUnit {
                     ..ClikParams::ROBOGAT
                 },
             },
+            rail_limits: limits(&spec, rail.length_m()),
+            tunnel: scenario.tunnel.clone(),
             rail,
             sensors,
             fis: Fis::new(),
@@ -254,11 +266,72 @@ impl RailUnit {
     /// Whether the carriage has reached the end of its run.
     pub fn run_done(&self) -> bool {
         self.transit
-            .is_none_or(|d| (self.sensors.joints.d - d).abs() < RUN_DONE_M)
+            .is_none_or(|d| (self.sensors.joints.d - self.run_end(d)).abs() < RUN_DONE_M)
+    }
+
+    /// Where a run to `d` (m of rail) ends: there, or short of barred space unless the run
+    /// is the way out of it.
+    fn run_end(&self, d: f64) -> f64 {
+        let lim = &self.clik.limits;
+        if self.mission.leaving {
+            d
+        } else {
+            d.clamp(lim.lo[0], lim.hi[0])
+        }
     }
 
     pub fn stop_run(&mut self) {
         self.transit = None;
+    }
+
+    /// Hold the carriage to barred space: inside it, drop the attack and run out by the
+    /// shortest way; outside, narrow its travel to the stretch of rail it is on.
+    fn keep_out(&mut self) {
+        let mut lim = self.rail_limits;
+        let Some(barred) = &self.mission.barred else {
+            self.clik.limits = lim;
+            return;
+        };
+        let (x0, x1) = (self.rail.start_m, self.rail.end_m);
+        let here = Chainage::new(self.position().x);
+        if barred.entry_at(UnitKind::Monorail, here).is_some() {
+            let ranges = barred.ranges(UnitKind::Monorail);
+            if !self.mission.leaving {
+                tracing::warn!(unit = %self.id, at = here.m(), "inside barred space: leaving by the shortest way");
+                self.mission.leaving = true;
+                self.stop_attack();
+            }
+            match nearest_allowed(
+                &ranges,
+                here,
+                CLEAR_OF_BARRED_M,
+                Chainage::new(x0),
+                Chainage::new(x1),
+            ) {
+                Some(x) => self.transit = Some(x.m() - x0),
+                None => {
+                    tracing::warn!(unit = %self.id, "inside barred space and no way out along the rail; holding");
+                    self.transit = None;
+                }
+            }
+            self.clik.limits = lim;
+            return;
+        }
+        if self.mission.leaving {
+            self.mission.leaving = false;
+            self.transit = None;
+            tracing::info!(unit = %self.id, "out of barred space");
+        }
+        let k = UnitKind::Monorail;
+        lim.lo[0] = barred
+            .reach(k, here, Chainage::new(x0), CLEAR_OF_BARRED_M)
+            .m()
+            - x0;
+        lim.hi[0] = barred
+            .reach(k, here, Chainage::new(x1), CLEAR_OF_BARRED_M)
+            .m()
+            - x0;
+        self.clik.limits = lim;
     }
 
     /// A hot spot seen lately within `within` of `of`.
@@ -275,6 +348,12 @@ impl Responder for RailUnit {
     fn id(&self) -> &UnitId {
         &self.id
     }
+    fn kind(&self) -> UnitKind {
+        UnitKind::Monorail
+    }
+    fn tunnel(&self) -> &Tunnel {
+        &self.tunnel
+    }
     fn position(&self) -> Point2 {
         RailUnit::position(self)
     }
@@ -287,8 +366,16 @@ impl Responder for RailUnit {
     fn most_confident_flame(&self) -> Option<Point2> {
         // Nearest first: the thermal camera's confidence does not rank hot spots.
         let at = RailUnit::position(self);
-        self.flame_near(at, f64::INFINITY)
-            .filter(|p| self.in_reach(*p))
+        self.spots
+            .iter()
+            .map(|(o, _)| o.position)
+            .filter(|p| {
+                self.in_reach(*p)
+                    && self
+                        .mission
+                        .permits(&self.tunnel, UnitKind::Monorail, at, *p, true)
+            })
+            .min_by(|a, b| a.dist(at).total_cmp(&b.dist(at)))
     }
     fn stand_down(&mut self) {
         self.stop_attack();
@@ -320,6 +407,7 @@ impl Services for RailUnit {
             self.q = measured;
         }
         self.sensors = s.clone();
+        self.keep_out();
     }
 
     /// Set-points for this frame: integrate the CLIK up to the frame's time.
@@ -353,8 +441,9 @@ impl Services for RailUnit {
                 self.attack = Some(a);
             }
         } else if let Some(d) = self.transit {
-            // The carriage's drive keeps to its own speed limit.
-            self.q[0] = d;
+            // The carriage's drive keeps to its own speed limit; barred space bounds the
+            // run unless it is the way out.
+            self.q[0] = self.run_end(d);
         }
         RailCommand {
             joints: RailJoints {
@@ -397,6 +486,7 @@ impl Services for RailUnit {
             heat_flux_kw_m2: s.heat_flux_kw_m2,
             task: self.mission.progress(mode == UnitMode::Extinguishing),
             autonomous: !self.mission.coordinator_present,
+            refused: self.mission.refused.clone(),
         }
     }
 
@@ -417,6 +507,10 @@ impl Services for RailUnit {
             observer: Pose2::new(p.x, p.y, 0.0),
             observations,
         })
+    }
+
+    fn barred_changed(&mut self) {
+        self.keep_out();
     }
 
     fn time(s: &RailSensors) -> f64 {

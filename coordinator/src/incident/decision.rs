@@ -58,11 +58,18 @@ pub enum Decision {
         unit: UnitId,
         zone: ZoneId,
     },
+    /// The unit is inside a zone it may not be in: it leaves on its own, and is told
+    /// where to hold once out.
     Evacuate {
         unit: UnitId,
         zone: ZoneId,
         to: Chainage,
         goal: String,
+    },
+    /// The unit refused its task, which would need barred space.
+    Refused {
+        unit: UnitId,
+        refusal: msg::Refusal,
     },
     Joined {
         unit: UnitId,
@@ -211,8 +218,9 @@ impl fmt::Display for Decision {
                 goal,
             } => write!(
                 f,
-                "evacuate {unit} from zone {zone} to chainage {to:.1}: goal '{goal}'"
+                "evacuate {unit} from zone {zone} to chainage {to:.1}: goal '{goal}' (the unit leaves on its own, by the same way)"
             ),
+            Decision::Refused { unit, refusal } => write!(f, "{unit} {refusal}"),
             Decision::Joined { unit } => write!(f, "unit {unit} joined"),
             Decision::Lost { unit, why, fire } => {
                 write!(f, "unit {unit} lost ({why})")?;

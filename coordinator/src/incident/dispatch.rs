@@ -6,7 +6,7 @@
 
 use std::collections::BTreeSet;
 
-use firefleet_protocol::msg::{FireState, TaskKind, UnitMode};
+use firefleet_protocol::msg::{FireState, TaskKind, UnitKind, UnitMode};
 use firefleet_protocol::spec::GROUND;
 use firefleet_protocol::{FireId, Point2, UnitId};
 
@@ -132,7 +132,7 @@ impl Incident {
 
     /// Units that may be sent to a fire: alive, able, with water, outside barred zones.
     pub(super) fn candidates(&self) -> Vec<Candidate> {
-        let barred = self.goals.barred();
+        let barred = self.goals.barred_space(0.0);
         self.units
             .iter()
             .filter(|(_, v)| v.alive && v.available())
@@ -150,11 +150,7 @@ impl Incident {
                         .map(|f| self.fusion.resolve(f)),
                 })
             })
-            .filter(|c| {
-                !barred
-                    .iter()
-                    .any(|&(s, e)| (s..=e).contains(&c.at.chainage))
-            })
+            .filter(|c| barred.entry_at(c.mobility.kind(), c.at.chainage).is_none())
             .collect()
     }
 
@@ -188,7 +184,10 @@ impl Incident {
         if candidates.is_empty() || needs.is_empty() {
             return Vec::new();
         }
-        let barred = self.goals.barred();
+        let (barred, barred_rail) = (
+            self.goals.barred(UnitKind::Ground),
+            self.goals.barred(UnitKind::Monorail),
+        );
         let burning: Vec<(FireId, Point2)> = self
             .fusion
             .fires()
@@ -207,6 +206,7 @@ impl Incident {
         }
         let site = Site {
             barred: &barred,
+            barred_rail: &barred_rail,
             hazards: &hazards,
             roads: roads.as_ref().map(|r| r as &dyn Roads),
         };

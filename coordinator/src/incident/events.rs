@@ -103,6 +103,7 @@ impl Incident {
         v.last_heard = t;
         let current = v.task.clone();
         let progress = st.task;
+        let refusal = st.refused.clone();
         // A state changes the decisions only when it brings a unit into play or takes one
         // out; a moving unit's position is picked up by the periodic re-solve. Re-solving
         // on every state would cost a solve per message: 10 000 a second for 1000 units.
@@ -175,6 +176,29 @@ impl Incident {
                 }
                 TaskPhase::Travelling => {}
             }
+        }
+        if let Some(r) = refusal
+            && let Some(task) = self.units[&unit].task.clone()
+            && task.seq == r.seq
+        {
+            // The unit holds a barred space the coordinator did not (one of them is late,
+            // or the two disagree): the unit's word stands. Standby replaces the task, so
+            // the refusal is logged once.
+            if let TaskKind::Extinguish { fire, .. } = task.kind {
+                let fire = self.fusion.resolve(fire);
+                self.failed
+                    .insert((unit.clone(), fire), t + self.policy.retry_after_s);
+                out.extend(self.release(fire, t));
+            }
+            self.log(
+                t,
+                Decision::Refused {
+                    unit: unit.clone(),
+                    refusal: r,
+                },
+            );
+            out.push(self.standby(&unit, t));
+            relevant = true;
         }
         if relevant {
             out.extend(self.solve(t));

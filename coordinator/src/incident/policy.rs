@@ -5,6 +5,8 @@
 //! Not here: the physics these numbers come from (units' speeds, ranges and flows are in
 //! `firefleet_protocol::spec`).
 
+use firefleet_protocol::msg::CLEAR_OF_BARRED_M;
+
 /// The numbers the incident decides by.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Policy {
@@ -35,7 +37,9 @@ pub struct Policy {
     /// A flame report re-solves only the fires nobody has taken (a whole solve takes about
     /// 2 ms at 1000 units and 200 fires, too long to run on every report).
     pub solve_all_every_s: f64,
-    /// How far outside a zone units leaving it are sent, m.
+    /// How far outside a zone units leaving it stop, and short of it units are sent, m:
+    /// the units' own margin ([`CLEAR_OF_BARRED_M`]), or a unit would refuse a task the
+    /// coordinator thinks allowed.
     pub evacuate_margin_m: f64,
     /// A stretch nobody has looked at for this long is searched again, s: fire spreads to
     /// nearby vehicles, and a fast-growing fire goes from nothing to 1 MW in 146 s.
@@ -61,7 +65,7 @@ impl Policy {
         adopt_radius_m: 5.0,
         rail_run_done_m: 1.0,
         solve_all_every_s: 1.0,
-        evacuate_margin_m: 5.0,
+        evacuate_margin_m: CLEAR_OF_BARRED_M,
         search_again_after_s: 120.0,
         search_goal_slack_m: 10.0,
         portal_m: 10.0,

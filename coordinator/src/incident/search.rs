@@ -6,7 +6,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use firefleet_protocol::msg::TaskKind;
+use firefleet_protocol::msg::{TaskKind, UnitKind};
 use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::{Chainage, Point2, Pose2, UnitId};
 
@@ -51,7 +51,7 @@ impl Incident {
             .map(|(a, b)| (a.max(lo), b.min(hi)))
             .filter(|(a, b)| b > a)
             .collect();
-        let barred = self.goals.barred();
+        let barred = self.goals.barred(UnitKind::Ground);
         for &(bs, be) in &barred {
             let (lo, hi) = (
                 bs - self.policy.evacuate_margin_m,
@@ -150,7 +150,7 @@ impl Incident {
     /// coordinator puts it to use. The run keeps out of barred zones: it turns at the
     /// first one either side.
     pub(super) fn patrol_rails(&mut self, t: f64) -> Vec<Output> {
-        let barred = self.goals.barred();
+        let barred = self.goals.barred(UnitKind::Monorail);
         let runs: Vec<(UnitId, Point2)> = self
             .units
             .iter()

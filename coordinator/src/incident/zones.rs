@@ -4,7 +4,7 @@
 //!
 //! Which goal governs where is [`crate::goals`]' business; this module only acts on it.
 
-use firefleet_protocol::msg::{FireState, GoalAck, GoalKind, TaskKind, ZoneGoal};
+use firefleet_protocol::msg::{BarredSpace, FireState, GoalAck, GoalKind, TaskKind, ZoneGoal};
 use firefleet_protocol::{Chainage, Point2, UnitId, ZoneId};
 
 use crate::assign::Mobility;
@@ -67,6 +67,11 @@ impl Incident {
             );
         }
         self.enforce(t)
+    }
+
+    /// What the goals in force bar, as units are told at site time `t`.
+    pub fn barred_space(&self, t: f64) -> BarredSpace {
+        self.goals.barred_space(t)
     }
 
     /// The goals in force.

@@ -72,6 +72,11 @@ pub struct ZoneGoal {
     pub expires_s: Option<f64>,
     #[serde(default)]
     pub issued_by: String,
+    /// For `keep-out` and `evacuate`: monorail carriages may still run through the zone.
+    /// A carriage runs on the ceiling rail, above the firefighters, but it drips, sprays
+    /// and can fall: a commander lets it in by saying so, never by default.
+    #[serde(default)]
+    pub rail_allowed: bool,
 }
 
 impl Validate for ZoneGoal {
@@ -99,6 +104,12 @@ impl Validate for ZoneGoal {
         }
         if let Some(e) = self.expires_s {
             in_range("expires_s", e, 0.0, 1e9)?;
+        }
+        if self.rail_allowed && !matches!(self.goal, GoalKind::KeepOut | GoalKind::Evacuate) {
+            return Err(Invalid::new(
+                "rail_allowed",
+                "only a keep-out or evacuate goal bars rail units, so only it can let them in",
+            ));
         }
         Ok(())
     }

@@ -79,6 +79,8 @@ pub struct UnitState {
     pub task: Option<TaskProgress>,
     /// True when the unit acts on its own because it has no coordinator.
     pub autonomous: bool,
+    /// The unit's refusal of its latest task, because it would need barred space.
+    pub refused: Option<Refusal>,
 }
 
 impl Validate for UnitState {
@@ -92,7 +94,10 @@ impl Validate for UnitState {
         if let Some(p) = &self.task {
             p.target.validate().map_err(|e| e.within("task.target"))?;
         }
-        Ok(())
+        match &self.refused {
+            Some(r) => r.validate().map_err(|e| e.within("refused")),
+            None => Ok(()),
+        }
     }
 }
 

@@ -38,17 +38,19 @@ macro_rules! message {
         const NAME: &'static str = concat!("firefleet.", stringify!($t));
     })* };
 }
-message!(Postcard: Decision, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions);
+message!(Postcard: Decision, BarredSpace, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions);
 message!(Json: ZoneGoal, GoalAck, IncidentStatus);
 
 /// Longest list any fleet message may carry; bounds the work one message can cause.
 pub const MAX_LIST: usize = 64;
 
+mod barred;
 mod bt;
 mod commander;
 mod fleet;
 mod sim;
 
+pub use barred::*;
 pub use bt::*;
 pub use commander::*;
 pub use fleet::*;

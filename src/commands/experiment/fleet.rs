@@ -10,23 +10,15 @@
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::Arc;
 
-use anyhow::Context;
 use clap::Args;
-use firefleet_agent::ground::GroundController;
-use firefleet_agent::monorail::MonorailController;
-use firefleet_coordinator::Incident;
 use firefleet_coordinator::assign::Strategy;
-use firefleet_coordinator::incident::Output;
 use firefleet_protocol::FireId;
-use firefleet_protocol::UnitId;
-use firefleet_protocol::msg::{FireState, FireTrack, FlameReport, TaskKind, UnitKind, UnitState};
+use firefleet_protocol::msg::{FireState, FireTrack};
 use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::spec::{GROUND, MONORAIL};
-use firefleet_sim::World;
 use serde::Serialize;
 
+use super::sim_fleet::{self, SimFleet};
 use crate::commands::write_json;
 
 #[derive(Args, Debug)]
@@ -44,57 +36,6 @@ pub struct FleetArgs {
 /// The multi-fire scenarios the fleet experiment runs.
 const FLEET_SCENARIOS: [&str; 3] = ["cargo-truck", "pileup", "rail-tunnel"];
 
-/// One unit's control loop, whichever kind it is.
-enum Fleet {
-    Ground(GroundController),
-    Rail(MonorailController),
-}
-
-impl Fleet {
-    /// One control step on the unit's simulated body.
-    fn step(&mut self, id: &UnitId, world: &mut World) -> anyhow::Result<()> {
-        match self {
-            Self::Ground(c) => {
-                let sensors = world.sensors(id).context("unit exists")?;
-                world.command(id, c.step(&sensors));
-            }
-            Self::Rail(c) => {
-                let sensors = world.rail_sensors(id).context("unit exists")?;
-                world.command_rail(id, c.step(&sensors));
-            }
-        }
-        Ok(())
-    }
-
-    fn on_task(&mut self, seq: u64, kind: TaskKind) {
-        match self {
-            Self::Ground(c) => c.on_task(seq, kind),
-            Self::Rail(c) => c.on_task(seq, kind),
-        }
-    }
-
-    fn set_coordinator_present(&mut self, present: bool) {
-        match self {
-            Self::Ground(c) => c.set_coordinator_present(present),
-            Self::Rail(c) => c.set_coordinator_present(present),
-        }
-    }
-
-    fn state(&self) -> UnitState {
-        match self {
-            Self::Ground(c) => c.state(),
-            Self::Rail(c) => c.state(),
-        }
-    }
-
-    fn report(&mut self) -> Option<FlameReport> {
-        match self {
-            Self::Ground(c) => c.report(),
-            Self::Rail(c) => c.report(),
-        }
-    }
-}
-
 #[derive(Serialize)]
 struct FleetRun {
     strategy: &'static str,
@@ -106,6 +47,8 @@ struct FleetRun {
     heat_dose: f64,
     water_l: f64,
     fires_never_attacked: f64,
+    /// Incident invariants broken, over all trials (`firefleet check`'s).
+    violations: usize,
 }
 
 #[derive(Serialize)]
@@ -156,96 +99,44 @@ fn known_fires(scenario: &Scenario) -> Vec<FireTrack> {
 /// One run of `scenario` with the units' trees under `command` (the coordinator's
 /// incident logic, when there is one, stepped together with them in-process: the same
 /// code as the processes of a demo, without the bus): time all out (or `None`), heat dose
-/// (kJ/m^2, summed over units), water used (L), fires that got no water.
-fn fleet_run(
-    scenario: &Scenario,
-    command: Command,
-    seed: u64,
-) -> anyhow::Result<(Option<f64>, f64, f64, usize)> {
-    let shared = Arc::new(scenario.clone());
-    let mut world = World::new(scenario, seed);
-    let monorail = firefleet_agent::monorail::default_tree();
-    let mut units: Vec<(UnitId, Fleet)> = scenario
-        .units
-        .iter()
-        .map(|u| {
-            let ctl = match u.kind {
-                UnitKind::Ground => {
-                    Fleet::Ground(GroundController::new(u.id.clone(), GROUND, shared.clone()))
-                }
-                UnitKind::Monorail => Fleet::Rail(
-                    MonorailController::with_tree(
-                        u.id.clone(),
-                        MONORAIL,
-                        shared.clone(),
-                        &monorail,
-                    )?
-                    .with_context(|| format!("monorail unit {} has no rail", u.id))?,
-                ),
-            };
-            Ok((u.id.clone(), ctl))
-        })
-        .collect::<anyhow::Result<_>>()?;
-    let mut incident = match command {
-        Command::Alone => None,
-        Command::Coordinator(s) => Some(Incident::from_scenario(scenario, 5.0, s)),
-        Command::Told => {
-            let mut inc = Incident::from_scenario(scenario, 5.0, Strategy::Optimal);
-            let (_, refused) = inc.restore(&known_fires(scenario), 0.0);
-            anyhow::ensure!(refused.is_empty(), "fires refused: {refused:?}");
-            Some(inc)
-        }
+/// (kJ/m^2, summed over units), water used (L), fires that got no water, invariants broken.
+fn fleet_run(scenario: &Scenario, command: Command, seed: u64) -> anyhow::Result<Outcome> {
+    let (how, known) = match command {
+        Command::Alone => (sim_fleet::Command::Alone, Vec::new()),
+        Command::Coordinator(s) => (sim_fleet::Command::Coordinator(s), Vec::new()),
+        Command::Told => (
+            sim_fleet::Command::Coordinator(Strategy::Optimal),
+            known_fires(scenario),
+        ),
     };
-    let deliver = |outputs: Vec<Output>, units: &mut [(UnitId, Fleet)]| {
-        for o in outputs {
-            if let Output::Task(task) = o
-                && let Some((_, ctl)) = units.iter_mut().find(|(id, _)| *id == task.unit)
-            {
-                ctl.on_task(task.seq, task.kind);
-            }
-        }
-    };
-    if let Some(inc) = &mut incident {
-        for (id, ctl) in &mut units {
-            ctl.set_coordinator_present(true);
-            inc.on_alive(id, true, 0.0).map_err(anyhow::Error::msg)?;
-        }
-    }
-    let (dt, report_every) = (0.05, 5);
-    let mut step = 0u64;
-    while world.time() < scenario.time_limit_s {
-        for (id, ctl) in &mut units {
-            ctl.step(id, &mut world)?;
-        }
-        if let Some(inc) = &mut incident
-            && step.is_multiple_of(report_every)
-        {
-            let t = world.time();
-            let mut outputs = inc.tick(t);
-            for (_, ctl) in &mut units {
-                outputs.extend(inc.on_state(ctl.state(), t).unwrap_or_default());
-                if let Some(r) = ctl.report() {
-                    outputs.extend(inc.on_report(&r, t).unwrap_or_default());
-                }
-            }
-            deliver(outputs, &mut units);
-        }
-        world.step(dt);
-        step += 1;
-        if world.truth().all_out() {
+    let mut fleet = SimFleet::new(scenario, how, seed, &known)?;
+    while fleet.time() < scenario.time_limit_s {
+        fleet.step()?;
+        if fleet.truth().all_out() {
             break;
         }
     }
-    let truth = world.truth();
-    let done = truth.all_out().then_some(truth.t);
-    let dose = truth.units.iter().map(|u| u.heat_dose_kj_m2).sum();
-    let water = truth.units.iter().map(|u| u.water_used_l).sum();
-    let never = truth
-        .fires
-        .iter()
-        .filter(|f| f.water_received_l == 0.0)
-        .count();
-    Ok((done, dose, water, never))
+    let truth = fleet.truth();
+    Ok(Outcome {
+        done: truth.all_out().then_some(truth.t),
+        dose: truth.units.iter().map(|u| u.heat_dose_kj_m2).sum(),
+        water: truth.units.iter().map(|u| u.water_used_l).sum(),
+        never: truth
+            .fires
+            .iter()
+            .filter(|f| f.water_received_l == 0.0)
+            .count(),
+        violations: fleet.violations().len(),
+    })
+}
+
+/// What one run came to.
+struct Outcome {
+    done: Option<f64>,
+    dose: f64,
+    water: f64,
+    never: usize,
+    violations: usize,
 }
 
 pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
@@ -255,27 +146,29 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
         a.trials, a.seed
     );
     println!(
-        "{:<12} {:<11} {:>16} {:>10} {:>14} {:>9} {:>14}",
+        "{:<12} {:<11} {:>16} {:>10} {:>14} {:>9} {:>14} {:>10}",
         "scenario",
         "strategy",
         "all out (s)",
         "unfinished",
         "heat (kJ/m2)",
         "water (L)",
-        "never attacked"
+        "never attacked",
+        "violations"
     );
     for name in FLEET_SCENARIOS {
         let scenario = crate::commands::scenarios::resolve(name)?;
         for (label, command) in ROWS {
-            let (mut time, mut unfinished, mut dose, mut water, mut never) =
-                (0.0, 0, 0.0, 0.0, 0.0);
+            let (mut time, mut unfinished, mut dose, mut water, mut never, mut violations) =
+                (0.0, 0, 0.0, 0.0, 0.0, 0);
             for k in 0..a.trials {
-                let (done, d, w, n) = fleet_run(&scenario, command, a.seed + u64::from(k))?;
-                time += done.unwrap_or(scenario.time_limit_s);
-                unfinished += u32::from(done.is_none());
-                dose += d;
-                water += w;
-                never += n as f64;
+                let o = fleet_run(&scenario, command, a.seed + u64::from(k))?;
+                time += o.done.unwrap_or(scenario.time_limit_s);
+                unfinished += u32::from(o.done.is_none());
+                dose += o.dose;
+                water += o.water;
+                never += o.never as f64;
+                violations += o.violations;
             }
             let n = f64::from(a.trials);
             let run = FleetRun {
@@ -287,16 +180,18 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
                 heat_dose: dose / n,
                 water_l: water / n,
                 fires_never_attacked: never / n,
+                violations,
             };
             println!(
-                "{:<12} {:<11} {:>16.1} {:>10} {:>14.1} {:>9.0} {:>14.1}",
+                "{:<12} {:<11} {:>16.1} {:>10} {:>14.1} {:>9.0} {:>14.1} {:>10}",
                 run.scenario,
                 run.strategy,
                 run.time_all_out_s,
                 run.unfinished,
                 run.heat_dose,
                 run.water_l,
-                run.fires_never_attacked
+                run.fires_never_attacked,
+                run.violations
             );
             match command {
                 Command::Told => bounds.push(run),

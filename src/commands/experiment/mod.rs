@@ -29,6 +29,7 @@ mod nav;
 mod plot;
 mod robogat;
 mod scale;
+mod sim_fleet;
 
 #[derive(Subcommand, Debug)]
 pub enum ExperimentCommand {

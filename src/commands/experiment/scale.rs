@@ -193,6 +193,7 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
         heat_flux_kw_m2: 0.0,
         task: None,
         autonomous: false,
+        refused: None,
     };
 
     println!(

@@ -34,6 +34,7 @@ fn state(unit: &str, x: f64, task: Option<TaskProgress>) -> UnitState {
         heat_flux_kw_m2: 0.0,
         task,
         autonomous: false,
+        refused: None,
     }
 }
 
@@ -159,6 +160,7 @@ fn goal(
         before_m,
         expires_s: None,
         issued_by: "ic-1".into(),
+        rail_allowed: false,
     };
     (zone, g)
 }

@@ -1,0 +1,249 @@
+//! A whole fleet stepped in one process: the simulated world, every unit's controller and,
+//! when there is one, the coordinator's incident logic, exchanging what the processes of a
+//! demo exchange over the bus (states and flame reports up every quarter second, tasks
+//! and barred space down) without the bus, so that a seed gives the same run every time.
+//!
+//! Every run is watched by the incident invariants checker
+//! ([`firefleet_coordinator::invariants`]) as `firefleet check` watches a recording: the
+//! fleet experiments report its violations.
+//!
+//! Not here: what an experiment measures; the fleet and zones experiments do.
+
+use std::sync::Arc;
+
+use anyhow::Context;
+use firefleet_agent::ground::GroundController;
+use firefleet_agent::monorail::MonorailController;
+use firefleet_coordinator::Incident;
+use firefleet_coordinator::assign::Strategy;
+use firefleet_coordinator::incident::Output;
+use firefleet_coordinator::invariants::{Event, Invariants, Violation};
+use firefleet_protocol::UnitId;
+use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitKind, UnitState, ZoneGoal};
+use firefleet_protocol::msg::{FireTrack, SimTruth};
+use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::spec::{GROUND, MONORAIL};
+use firefleet_sim::World;
+
+/// The simulator's step, s.
+const DT_S: f64 = 0.05;
+/// Units and coordinator exchange states, reports and tasks every this many steps (a
+/// quarter second, as the agents publish).
+const EXCHANGE_EVERY: u64 = 5;
+/// Barred space is re-sent every this many steps (a second, as the coordinator does).
+const BARRED_EVERY: u64 = 20;
+
+/// One unit's control loop, whichever kind it is.
+enum Unit {
+    Ground(GroundController),
+    Rail(MonorailController),
+}
+
+impl Unit {
+    /// One control step on the unit's simulated body.
+    fn step(&mut self, id: &UnitId, world: &mut World) -> anyhow::Result<()> {
+        match self {
+            Self::Ground(c) => {
+                let sensors = world.sensors(id).context("unit exists")?;
+                world.command(id, c.step(&sensors));
+            }
+            Self::Rail(c) => {
+                let sensors = world.rail_sensors(id).context("unit exists")?;
+                world.command_rail(id, c.step(&sensors));
+            }
+        }
+        Ok(())
+    }
+
+    fn on_task(&mut self, seq: u64, kind: TaskKind) {
+        match self {
+            Self::Ground(c) => c.on_task(seq, kind),
+            Self::Rail(c) => c.on_task(seq, kind),
+        }
+    }
+
+    fn on_barred(&mut self, b: BarredSpace) {
+        match self {
+            Self::Ground(c) => c.on_barred(b),
+            Self::Rail(c) => c.on_barred(b),
+        }
+    }
+
+    fn set_coordinator_present(&mut self, present: bool) {
+        match self {
+            Self::Ground(c) => c.set_coordinator_present(present),
+            Self::Rail(c) => c.set_coordinator_present(present),
+        }
+    }
+
+    fn state(&self) -> UnitState {
+        match self {
+            Self::Ground(c) => c.state(),
+            Self::Rail(c) => c.state(),
+        }
+    }
+
+    fn report(&mut self) -> Option<FlameReport> {
+        match self {
+            Self::Ground(c) => c.report(),
+            Self::Rail(c) => c.report(),
+        }
+    }
+}
+
+/// Who decides what the units do.
+#[derive(Debug, Clone, Copy)]
+pub enum Command {
+    /// No coordinator: every unit runs its tree alone.
+    Alone,
+    /// A coordinator with this strategy, which learns of fires from the units' reports.
+    Coordinator(Strategy),
+}
+
+/// A fleet, its world and its coordinator, stepped together.
+pub struct SimFleet {
+    world: World,
+    units: Vec<(UnitId, Unit)>,
+    incident: Option<Incident>,
+    invariants: Invariants,
+    step: u64,
+}
+
+impl SimFleet {
+    /// `scenario`'s fleet at t = 0 under `command`, the world seeded with `seed`; a
+    /// coordinator first takes the tracks `known` (as if recalled).
+    pub fn new(
+        scenario: &Scenario,
+        command: Command,
+        seed: u64,
+        known: &[FireTrack],
+    ) -> anyhow::Result<Self> {
+        let shared = Arc::new(scenario.clone());
+        let monorail = firefleet_agent::monorail::default_tree();
+        let mut units: Vec<(UnitId, Unit)> = scenario
+            .units
+            .iter()
+            .map(|u| {
+                let ctl = match u.kind {
+                    UnitKind::Ground => {
+                        Unit::Ground(GroundController::new(u.id.clone(), GROUND, shared.clone()))
+                    }
+                    UnitKind::Monorail => Unit::Rail(
+                        MonorailController::with_tree(
+                            u.id.clone(),
+                            MONORAIL,
+                            shared.clone(),
+                            &monorail,
+                        )?
+                        .with_context(|| format!("monorail unit {} has no rail", u.id))?,
+                    ),
+                };
+                Ok((u.id.clone(), ctl))
+            })
+            .collect::<anyhow::Result<_>>()?;
+        let incident = match command {
+            Command::Alone => None,
+            Command::Coordinator(s) => {
+                let mut inc = Incident::from_scenario(scenario, 5.0, s);
+                if !known.is_empty() {
+                    let (_, refused) = inc.restore(known, 0.0);
+                    anyhow::ensure!(refused.is_empty(), "fires refused: {refused:?}");
+                }
+                for (id, ctl) in &mut units {
+                    ctl.set_coordinator_present(true);
+                    inc.on_alive(id, true, 0.0).map_err(anyhow::Error::msg)?;
+                }
+                Some(inc)
+            }
+        };
+        Ok(Self {
+            world: World::new(scenario, seed),
+            units,
+            incident,
+            invariants: Invariants::new(scenario),
+            step: 0,
+        })
+    }
+
+    pub fn time(&self) -> f64 {
+        self.world.time()
+    }
+
+    pub fn truth(&self) -> SimTruth {
+        self.world.truth()
+    }
+
+    /// The invariants the run broke so far.
+    pub fn violations(&self) -> &[Violation] {
+        self.invariants.violations()
+    }
+
+    /// A commander's goal arrives now (only a coordinator hears it).
+    pub fn goal(&mut self, goal: ZoneGoal) -> anyhow::Result<()> {
+        let t = self.time();
+        let zone = goal.zone.clone();
+        self.invariants.observe(
+            t,
+            Event::Goal {
+                key_zone: zone.clone(),
+                goal: goal.clone(),
+            },
+        );
+        let Some(inc) = &mut self.incident else {
+            return Ok(());
+        };
+        let (ack, out) = inc.on_goal(&zone, goal, t);
+        anyhow::ensure!(ack.accepted, "goal refused: {}", ack.reason);
+        let barred = inc.barred_space(t);
+        for (_, u) in &mut self.units {
+            u.on_barred(barred.clone());
+        }
+        self.deliver(out);
+        Ok(())
+    }
+
+    /// One step of every unit, the exchange with the coordinator when due, and the world.
+    pub fn step(&mut self) -> anyhow::Result<()> {
+        for (id, u) in &mut self.units {
+            u.step(id, &mut self.world)?;
+        }
+        if self.step.is_multiple_of(EXCHANGE_EVERY) {
+            let t = self.world.time();
+            for (_, u) in &self.units {
+                self.invariants.observe(t, Event::State(u.state()));
+            }
+            if let Some(inc) = &mut self.incident {
+                let mut outputs = inc.tick(t);
+                for (_, u) in &mut self.units {
+                    outputs.extend(inc.on_state(u.state(), t).unwrap_or_default());
+                    if let Some(r) = u.report() {
+                        outputs.extend(inc.on_report(&r, t).unwrap_or_default());
+                    }
+                }
+                if self.step.is_multiple_of(BARRED_EVERY) {
+                    let barred = inc.barred_space(t);
+                    for (_, u) in &mut self.units {
+                        u.on_barred(barred.clone());
+                    }
+                }
+                self.deliver(outputs);
+            }
+        }
+        self.world.step(DT_S);
+        self.step += 1;
+        Ok(())
+    }
+
+    /// Tasks to their units, each seen by the invariants checker.
+    fn deliver(&mut self, outputs: Vec<Output>) {
+        let t = self.world.time();
+        for o in outputs {
+            if let Output::Task(task) = o {
+                self.invariants.observe(t, Event::Task(task.clone()));
+                if let Some((_, u)) = self.units.iter_mut().find(|(id, _)| *id == task.unit) {
+                    u.on_task(task.seq, task.kind);
+                }
+            }
+        }
+    }
+}
