@@ -186,22 +186,26 @@ pub trait Responder: 'static {
 /// is stopped. Called on every new task and every new barred space.
 pub fn review<C: Responder>(u: &mut C) {
     let (kind, from) = (u.kind(), u.tunnel().chainage(u.position()));
-    let (seq, to, attack) = match u.mission().task {
-        Some((seq, TaskKind::Cruise { goal } | TaskKind::Search { goal })) => (seq, goal, false),
-        Some((seq, TaskKind::Extinguish { target, .. })) => (seq, target, true),
-        Some((_, TaskKind::Standby)) | None => (0, u.position(), false),
+    let task = match u.mission().task {
+        Some((seq, TaskKind::Cruise { goal } | TaskKind::Search { goal })) => {
+            Some((seq, goal, false))
+        }
+        Some((seq, TaskKind::Extinguish { target, .. })) => Some((seq, target, true)),
+        Some((_, TaskKind::Standby)) | None => None,
     };
-    let to = u.tunnel().chainage(to);
+    let task = task.map(|(seq, to, attack)| (seq, u.tunnel().chainage(to), attack));
     let m = u.mission();
     let Some(barred) = &m.barred else { return };
-    let refusal = barred
-        .refuses(kind, from, to, CLEAR_OF_BARRED_M, attack)
-        .map(|(why, span)| Refusal::new(seq, why, span));
+    let refusal = task.and_then(|(seq, to, attack)| {
+        barred
+            .refuses(kind, from, to, CLEAR_OF_BARRED_M, attack)
+            .map(|(why, span)| Refusal::new(seq, why, span))
+    });
     let alone = m.job == Some(None) && !barred.spans.is_empty();
     if let Some(r) = refusal {
         tracing::warn!(unit = %u.id(), "{r}");
         let m = u.mission();
-        m.task = Some((seq, TaskKind::Standby));
+        m.task = Some((r.seq, TaskKind::Standby));
         m.refused = Some(r);
         u.stand_down();
     } else if alone {

@@ -3,11 +3,15 @@
 //! unit states, tasks, each at its site time), violations out.
 //!
 //! Checked:
-//! - **inside barred space**: a unit inside a keep-out or evacuate zone later than its
-//!   grace period after the goal took effect. The grace is the time to drive out by the
-//!   shortest way from where the unit stood when the goal arrived, at its top speed, twice
-//!   over (vehicles to go round, a turn to make), plus [`REACTION_S`] to hear the goal and
-//!   plan; a unit outside when the goal arrived has none.
+//! - **inside barred space**: a unit inside a keep-out or evacuate zone (one that bars
+//!   its kind: `rail_allowed` lets carriages in) later than its grace period after the goal
+//!   took effect. The grace is [`REACTION_S`] to hear the goal, plan and brake, plus, for a
+//!   unit inside when the goal arrived, the time to drive out by the shortest way from
+//!   where it stood, at its top speed, twice over (vehicles to go round, a turn to make).
+//!   The shortest way stays in the tunnel: a zone that takes in a portal is left by its
+//!   other end, since a unit's map ends at the portal. A unit with no way out at all (a
+//!   carriage whose rail lies wholly in the zone) breaks nothing by staying: the
+//!   coordinator tells the commander it is trapped.
 //! - **sent into barred space**: a task whose destination lies in a zone barred to units
 //!   when it was given.
 //! - **attack where barred**: a unit spraying a fire in a zone whose goal forbids attack
@@ -22,7 +26,9 @@
 
 use std::collections::BTreeMap;
 
-use firefleet_protocol::msg::{Task, TaskKind, TaskPhase, UnitKind, UnitState, ZoneGoal};
+use firefleet_protocol::msg::{
+    INSIDE_PORTAL_M, Task, TaskKind, TaskPhase, UnitKind, UnitState, ZoneGoal, nearest_allowed,
+};
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::{Chainage, Point2, UnitId, ZoneId};
@@ -202,18 +208,26 @@ impl Invariants {
         if !active.bars_entry() {
             return;
         }
-        let (start, end) = (active.start, active.end);
+        let barred = self.goals.barred_space(t);
         for (unit, st) in &self.units {
             let s = self.tunnel.chainage(st.pose.position());
-            if !(start..=end).contains(&s) {
+            if barred.entry_at(st.kind, s).is_none_or(|b| b.goal != id) {
                 continue;
             }
-            let out_m = (s - start).min(end - s).max(0.0);
+            let (lo, hi) = (
+                Chainage::new(INSIDE_PORTAL_M),
+                self.tunnel.end() - INSIDE_PORTAL_M,
+            );
+            let Some(out) = nearest_allowed(&barred.ranges(st.kind), s, 0.0, lo, hi) else {
+                self.deadlines
+                    .insert((unit.clone(), id.to_owned()), f64::INFINITY);
+                continue;
+            };
             let speed = match st.kind {
                 UnitKind::Ground => GROUND.max_speed_m_s,
                 UnitKind::Monorail => MONORAIL.carriage_speed_m_s,
             };
-            let deadline = t + REACTION_S + DETOUR * out_m / speed;
+            let deadline = t + REACTION_S + DETOUR * (out - s).abs() / speed;
             self.deadlines
                 .insert((unit.clone(), id.to_owned()), deadline);
         }
@@ -227,15 +241,17 @@ impl Invariants {
     fn check_state(&mut self, st: UnitState, t: f64) {
         let unit = st.unit.clone();
         let p = st.pose.position();
-        if let Some(g) = self.goal_at(p).filter(|g| g.bars_entry()) {
-            let (id, zone) = (g.goal.id.clone(), g.goal.zone.clone());
+        let barred = self.goals.barred_space(t);
+        if let Some(b) = barred.entry_at(st.kind, self.tunnel.chainage(p)) {
+            let (id, zone) = (b.goal.clone(), b.zone.clone());
             let key = (unit.clone(), id.clone());
-            // A unit that was outside when the goal came has no grace.
+            // A unit that was outside when the goal came has the time to hear it and
+            // brake.
             let deadline = self
                 .deadlines
                 .get(&key)
-                .or(self.since.get(&id))
                 .copied()
+                .or(self.since.get(&id).map(|since| since + REACTION_S))
                 .unwrap_or(t);
             if t > deadline {
                 match self.open.get(&key) {
@@ -296,14 +312,19 @@ impl Invariants {
             TaskKind::Extinguish { target, .. } => target,
             TaskKind::Standby => return,
         };
-        if let Some(g) = self.goal_at(to).filter(|g| g.bars_entry()) {
+        let kind = self
+            .units
+            .get(&task.unit)
+            .map_or(UnitKind::Ground, |st| st.kind);
+        let barred = self.goals.barred_space(t);
+        if let Some(b) = barred.entry_at(kind, self.tunnel.chainage(to)) {
             let v = Violation::SentIntoBarred {
                 unit: task.unit.clone(),
                 seq: task.seq,
                 t,
                 to,
-                zone: g.goal.zone.clone(),
-                goal: g.goal.id.clone(),
+                zone: b.zone.clone(),
+                goal: b.goal.clone(),
             };
             // Tasks are re-sent every second; the first sending is the violation.
             if !self.violations.iter().any(|w| {
@@ -416,23 +437,49 @@ mod tests {
     }
 
     #[test]
-    fn entering_after_the_goal_is_a_violation_at_once_and_a_clear_ends_the_contract() {
+    fn entering_after_the_time_to_hear_the_goal_is_a_violation_and_a_clear_ends_it() {
         let v = check(vec![
             (0.0, state(90.0, 0.0, None)),
             (1.0, goal(GoalKind::KeepOut)),
-            (5.0, state(101.0, 5.0, None)),
-            (6.0, Event::Clear(z("deep"))),
-            (7.0, state(110.0, 7.0, None)),
+            // Braking at the edge as the goal is heard: not yet a violation.
+            (5.0, state(100.5, 5.0, None)),
+            (6.0, state(98.0, 6.0, None)),
+            (15.0, state(101.0, 15.0, None)),
+            (16.0, Event::Clear(z("deep"))),
+            (17.0, state(110.0, 17.0, None)),
         ]);
         assert_eq!(v.len(), 1, "{v:?}");
         assert!(matches!(
             v[0],
             Violation::InsideBarred {
-                t: 5.0,
-                until: 5.0,
+                t: 15.0,
+                until: 15.0,
+                deadline: 11.0,
                 ..
             }
         ));
+    }
+
+    #[test]
+    fn a_zone_at_the_portal_is_left_by_its_far_end_and_a_trapped_unit_breaks_nothing() {
+        let mut s = site();
+        s.zones[0].start_m = Chainage::ZERO;
+        let mut inv = Invariants::new(&s);
+        // At 20 m in a zone from the portal to 200 m: 180 m to its far end, 10 + 2 * 180 /
+        // 1.5 = 250 s.
+        inv.observe(0.0, state(20.0, 0.0, None));
+        inv.observe(1.0, goal(GoalKind::Evacuate));
+        inv.observe(200.0, state(150.0, 200.0, None));
+        assert!(inv.violations().is_empty(), "{:?}", inv.violations());
+        inv.observe(252.0, state(199.0, 252.0, None));
+        assert_eq!(inv.violations().len(), 1);
+
+        s.zones[0].end_m = Chainage::new(300.0);
+        let mut inv = Invariants::new(&s);
+        inv.observe(0.0, state(20.0, 0.0, None));
+        inv.observe(1.0, goal(GoalKind::Evacuate));
+        inv.observe(900.0, state(20.0, 900.0, None));
+        assert!(inv.violations().is_empty(), "{:?}", inv.violations());
     }
 
     #[test]

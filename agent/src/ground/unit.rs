@@ -23,8 +23,8 @@ use std::sync::Arc;
 
 use firefleet_protocol::geometry::{Point2, Pose2, wrap_angle};
 use firefleet_protocol::msg::{
-    CLEAR_OF_BARRED_M, FlameReport, TaskKind, UnitCommand, UnitKind, UnitMode, UnitSensors,
-    UnitState, nearest_allowed,
+    CLEAR_OF_BARRED_M, FlameReport, INSIDE_PORTAL_M, TaskKind, UnitCommand, UnitKind, UnitMode,
+    UnitSensors, UnitState, nearest_allowed,
 };
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::GroundSpec;
@@ -330,20 +330,19 @@ impl Unit {
             &ranges,
             at.s,
             CLEAR_OF_BARRED_M,
-            Chainage::new(1.0),
-            t.end() - 1.0,
-        )
-        .map(|x| t.point_at(x, t.lane_nearest(at.d)));
-        let path = exit.and_then(|goal| {
-            let goal = self.open_nav_grid.nearest_free(goal, GOAL_SHIFT_M)?;
-            Some((goal, nav::plan(&self.open_nav_grid, pose.position(), goal)?))
+            Chainage::new(INSIDE_PORTAL_M),
+            t.end() - INSIDE_PORTAL_M,
+        );
+        let path = exit.and_then(|x| {
+            let goal = t.point_at(x, t.lane_nearest(at.d));
+            Some((goal, self.exit_route(goal, x)?))
         });
         match path {
-            Some((goal, p)) => {
+            Some((goal, route)) => {
                 self.nav = Some(Navigation {
                     purpose: NavPurpose::Leave,
                     goal,
-                    follow: PurePursuit::new(Route::forward(p)),
+                    follow: PurePursuit::new(route),
                     arrived: false,
                     recover_until: None,
                     failed: false,
@@ -423,23 +422,7 @@ impl Unit {
         spots: &[Point2],
         target: Point2,
     ) -> Option<(Point2, Route)> {
-        let mut params = Params::for_radius(self.spec.min_turn_radius_m());
-        params.lambda_m = self.visibility_lambda_m;
-        params.max_expansions = HYBRID_BUDGET;
-        let footprint = Footprint {
-            length_m: self.spec.length_m,
-            width_m: self.spec.width_m,
-        };
-        // Every flame the unit tracks radiates, the one it is sent to included.
-        let heat = self
-            .tracker
-            .confirmed()
-            .map(|t| HeatSource {
-                at: t.position(),
-                hrr_kw: t.hrr_kw,
-            })
-            .collect();
-        let planner = HybridAStar::new(&self.hybrid_grid, footprint, params).with_heat(heat);
+        let planner = self.hybrid_planner(&self.hybrid_grid);
         let start = Pose2::new(from.x, from.y, self.pose().yaw);
         // Plan to a pose short of each spot and finish on a straight run-in: a follower
         // settles its heading on a straight, while on the end of a curve it lags behind
@@ -468,6 +451,45 @@ impl Unit {
             route.push_forward(spot);
         }
         Some((spot, route))
+    }
+
+    /// Hybrid A* for this vehicle over `grid`, within the planning budget, away from the
+    /// heat of every flame the unit tracks.
+    fn hybrid_planner<'g>(&self, grid: &'g Grid) -> HybridAStar<'g> {
+        let mut params = Params::for_radius(self.spec.min_turn_radius_m());
+        params.lambda_m = self.visibility_lambda_m;
+        params.max_expansions = HYBRID_BUDGET;
+        let footprint = Footprint {
+            length_m: self.spec.length_m,
+            width_m: self.spec.width_m,
+        };
+        // Every flame the unit tracks radiates, the one it is sent to included.
+        let heat = self
+            .tracker
+            .confirmed()
+            .map(|t| HeatSource {
+                at: t.position(),
+                hrr_kw: t.hrr_kw,
+            })
+            .collect();
+        HybridAStar::new(grid, footprint, params).with_heat(heat)
+    }
+
+    /// The way out of barred space to `goal` (chainage `x`): Hybrid A* over the grid
+    /// without the keep-out layer, to the goal facing either way along the road, so that a
+    /// unit driving deeper when the goal came may back straight out rather than wrestle a
+    /// U-turn between the walls (the search weighs which is quicker); else the grid path.
+    fn exit_route(&self, goal: Point2, x: Chainage) -> Option<Route> {
+        let axis = self.scenario.tunnel.heading_at(x);
+        let ends = [0.0, std::f64::consts::PI].map(|turn| Pose2::new(goal.x, goal.y, axis + turn));
+        self.hybrid_planner(&self.open_hybrid_grid)
+            .plan_any(self.pose(), &ends, None)
+            .ok()
+            .map(|plan| Route::from_poses(&plan.poses, &plan.reverse, 2))
+            .or_else(|| {
+                let goal = self.open_nav_grid.nearest_free(goal, GOAL_SHIFT_M)?;
+                nav::plan(&self.open_nav_grid, self.pose().position(), goal).map(Route::forward)
+            })
     }
 
     /// Choose a firing position for a fire at `target` and prepare the path to it: free for

@@ -105,6 +105,9 @@ pub struct RailUnit {
     attack: Option<Attack>,
     /// Carriage set-point of a run along the rail with no attack (a search), m of rail.
     transit: Option<f64>,
+    /// Carriage set-point of the way out of barred space, m of rail: it overrides the
+    /// rest while the carriage is inside.
+    exit: Option<f64>,
     pub(crate) valve: bool,
     pub(crate) mission: Mission,
     /// Hot spots of the latest frame with the time they were seen.
@@ -191,6 +194,7 @@ impl RailUnit {
             q: joints(&start),
             attack: None,
             transit: None,
+            exit: None,
             valve: false,
             mission: Mission::default(),
             spots: Vec::new(),
@@ -269,15 +273,10 @@ impl RailUnit {
             .is_none_or(|d| (self.sensors.joints.d - self.run_end(d)).abs() < RUN_DONE_M)
     }
 
-    /// Where a run to `d` (m of rail) ends: there, or short of barred space unless the run
-    /// is the way out of it.
+    /// Where a run to `d` (m of rail) ends: there, or short of barred space.
     fn run_end(&self, d: f64) -> f64 {
         let lim = &self.clik.limits;
-        if self.mission.leaving {
-            d
-        } else {
-            d.clamp(lim.lo[0], lim.hi[0])
-        }
+        d.clamp(lim.lo[0], lim.hi[0])
     }
 
     pub fn stop_run(&mut self) {
@@ -296,30 +295,32 @@ impl RailUnit {
         let here = Chainage::new(self.position().x);
         if barred.entry_at(UnitKind::Monorail, here).is_some() {
             let ranges = barred.ranges(UnitKind::Monorail);
-            if !self.mission.leaving {
-                tracing::warn!(unit = %self.id, at = here.m(), "inside barred space: leaving by the shortest way");
-                self.mission.leaving = true;
-                self.stop_attack();
-            }
-            match nearest_allowed(
+            self.exit = nearest_allowed(
                 &ranges,
                 here,
                 CLEAR_OF_BARRED_M,
                 Chainage::new(x0),
                 Chainage::new(x1),
-            ) {
-                Some(x) => self.transit = Some(x.m() - x0),
-                None => {
-                    tracing::warn!(unit = %self.id, "inside barred space and no way out along the rail; holding");
-                    self.transit = None;
+            )
+            .map(|x| x.m() - x0);
+            if !self.mission.leaving {
+                match self.exit {
+                    Some(d) => {
+                        tracing::warn!(unit = %self.id, at = here.m(), to = d + x0, "inside barred space: leaving by the shortest way")
+                    }
+                    None => {
+                        tracing::warn!(unit = %self.id, at = here.m(), "inside barred space and no way out along the rail: holding")
+                    }
                 }
+                self.mission.leaving = true;
+                self.stop_attack();
             }
             self.clik.limits = lim;
             return;
         }
         if self.mission.leaving {
             self.mission.leaving = false;
-            self.transit = None;
+            self.exit = None;
             tracing::info!(unit = %self.id, "out of barred space");
         }
         let k = UnitKind::Monorail;
@@ -440,9 +441,12 @@ impl Services for RailUnit {
                 }
                 self.attack = Some(a);
             }
+        } else if self.mission.leaving {
+            // Held where it is when there is no way out.
+            self.q[0] = self.exit.unwrap_or(self.sensors.joints.d);
         } else if let Some(d) = self.transit {
             // The carriage's drive keeps to its own speed limit; barred space bounds the
-            // run unless it is the way out.
+            // run.
             self.q[0] = self.run_end(d);
         }
         RailCommand {

@@ -150,7 +150,8 @@ impl Incident {
     /// coordinator puts it to use. The run keeps out of barred zones: it turns at the
     /// first one either side.
     pub(super) fn patrol_rails(&mut self, t: f64) -> Vec<Output> {
-        let barred = self.goals.barred(UnitKind::Monorail);
+        let barred = self.goals.barred_space(t);
+        let rail = UnitKind::Monorail;
         let runs: Vec<(UnitId, Point2)> = self
             .units
             .iter()
@@ -166,17 +167,14 @@ impl Incident {
                     return None;
                 };
                 let x = self.tunnel.chainage(v.state.as_ref()?.pose.position());
-                let lo = barred
-                    .iter()
-                    .map(|&(_, e)| e + self.policy.evacuate_margin_m)
-                    .filter(|&c| c <= x)
-                    .fold(Chainage::new(start_m), Chainage::max);
-                let hi = barred
-                    .iter()
-                    .map(|&(s, _)| s - self.policy.evacuate_margin_m)
-                    .filter(|&c| c >= x)
-                    .fold(Chainage::new(end_m), Chainage::min);
-                if !(lo..=hi).contains(&x) || hi - lo < 2.0 * self.policy.rail_run_done_m {
+                // A carriage inside barred space leaves it on its own first.
+                if barred.entry_at(rail, x).is_some() {
+                    return None;
+                }
+                let margin = self.policy.evacuate_margin_m;
+                let lo = barred.reach(rail, x, Chainage::new(start_m), margin);
+                let hi = barred.reach(rail, x, Chainage::new(end_m), margin);
+                if hi - lo < 2.0 * self.policy.rail_run_done_m {
                     return None;
                 }
                 let searching = match v.task.as_ref().map(|t| t.kind) {

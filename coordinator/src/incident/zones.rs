@@ -4,7 +4,9 @@
 //!
 //! Which goal governs where is [`crate::goals`]' business; this module only acts on it.
 
-use firefleet_protocol::msg::{BarredSpace, FireState, GoalAck, GoalKind, TaskKind, ZoneGoal};
+use firefleet_protocol::msg::{
+    BarredSpace, FireState, GoalAck, GoalKind, INSIDE_PORTAL_M, TaskKind, ZoneGoal,
+};
 use firefleet_protocol::{Chainage, Point2, UnitId, ZoneId};
 
 use crate::assign::Mobility;
@@ -129,8 +131,8 @@ impl Incident {
             let Some(x) = self.goals.nearest_allowed(
                 at.s,
                 self.policy.evacuate_margin_m,
-                Chainage::new(1.0),
-                self.tunnel.end() - 1.0,
+                Chainage::new(INSIDE_PORTAL_M),
+                self.tunnel.end() - INSIDE_PORTAL_M,
             ) else {
                 self.log(t, Decision::Trapped { unit: u, zone });
                 continue;

@@ -32,6 +32,10 @@ use crate::validate::{Invalid, Validate, each, finite, in_range, max_len};
 /// vehicle's width of road to themselves.
 pub const CLEAR_OF_BARRED_M: f64 = 5.0;
 
+/// The way out of barred space ends at least this far inside a portal, m: a unit's map of
+/// the road ends at the portal, so a zone that takes in a portal is left by its other end.
+pub const INSIDE_PORTAL_M: f64 = 1.0;
+
 /// What a goal forbids in its stretch.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "kebab-case")]

@@ -30,6 +30,7 @@ mod plot;
 mod robogat;
 mod scale;
 mod sim_fleet;
+mod zones;
 
 #[derive(Subcommand, Debug)]
 pub enum ExperimentCommand {
@@ -45,6 +46,8 @@ pub enum ExperimentCommand {
     CostmapGa(costmap_ga::CostmapGaArgs),
     /// The BT paper's navigation trials in a curved tunnel, visibility term on and off.
     Nav(nav::NavArgs),
+    /// Keep-out and evacuate goals issued mid-incident on the shipped scenarios.
+    Zones(zones::ZonesArgs),
 }
 
 #[derive(Args, Debug)]
@@ -67,6 +70,7 @@ pub async fn run(cmd: ExperimentCommand) -> anyhow::Result<ExitCode> {
         ExperimentCommand::Scale(a) => scale::run(a).await,
         ExperimentCommand::CostmapGa(a) => costmap_ga::run(a),
         ExperimentCommand::Nav(a) => nav::run(a),
+        ExperimentCommand::Zones(a) => zones::run(a),
     }
 }
 
