@@ -1,7 +1,8 @@
 //! The incident's timeline from a recording, for people.
 //!
 //! Prints, on site time, what happened: units joining and leaving, the coordinator's
-//! decisions with their reasons, fire tracks changing state, and (in a simulated run) the
+//! decisions with their reasons, fire tracks changing state, what units were told is
+//! barred (when it changes), and (in a simulated run) the
 //! simulator's truth about each fire. Any MCAP file written by the recorder works. Records
 //! are read through the one typed decoder ([`crate::payload`]); a record that does not
 //! decode is passed over.
@@ -12,6 +13,7 @@ use std::collections::BTreeMap;
 use std::io::Write;
 
 use firefleet_protocol::keys::{self, Topic};
+use firefleet_protocol::msg::Bar;
 
 use crate::payload::{GoalClear, Liveliness, Payload};
 
@@ -34,6 +36,7 @@ pub fn timeline(bytes: &[u8], out: &mut impl Write) -> Result<(), ReplayError> {
     let mut site_t = 0.0f64;
     let mut tracks: BTreeMap<String, String> = BTreeMap::new();
     let mut truth: BTreeMap<String, String> = BTreeMap::new();
+    let mut barred = Vec::new();
     let (mut decisions, mut messages) = (0usize, 0usize);
     for m in mcap::MessageStream::new(bytes).map_err(ReplayError::NotMcap)? {
         let m = m.map_err(|source| ReplayError::Corrupt {
@@ -82,6 +85,32 @@ pub fn timeline(bytes: &[u8], out: &mut impl Write) -> Result<(), ReplayError> {
                         f.position.x, f.position.y
                     )?;
                 }
+            }
+            Payload::Barred(b) if b.spans != barred => {
+                barred = b.spans;
+                let spans: Vec<String> = barred
+                    .iter()
+                    .map(|s| {
+                        let what = match (s.bar, s.rail_allowed) {
+                            (Bar::Attack, _) => "no attack",
+                            (Bar::Entry, false) => "no entry",
+                            (Bar::Entry, true) => "no entry but for rail units",
+                        };
+                        format!(
+                            "zone {} {:.1}-{:.1} m {what} (goal '{}')",
+                            s.zone,
+                            s.start.m(),
+                            s.end.m(),
+                            s.goal
+                        )
+                    })
+                    .collect();
+                let told = if spans.is_empty() {
+                    "nothing".to_owned()
+                } else {
+                    spans.join("; ")
+                };
+                writeln!(out, "t={site_t:7.1} s  units told barred: {told}")?;
             }
             Payload::SimTruth(t) => {
                 site_t = t.t;

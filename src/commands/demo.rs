@@ -24,7 +24,7 @@ use firefleet_protocol::validate::Validate;
 use serde::Serialize;
 use tokio::process::{Child, Command};
 
-use super::{positive_f64, scenarios, write_json};
+use super::{non_negative_f64, positive_f64, scenarios, write_json};
 use crate::net::shutdown_signal;
 
 #[derive(Args, Debug)]
@@ -50,6 +50,10 @@ pub struct DemoArgs {
     /// through); repeatable.
     #[arg(long, value_name = "ZONE:GOAL[@CHAINAGE][:PRIORITY]")]
     goal: Vec<String>,
+    /// Issue the goals this many seconds of site time into the incident instead of at its
+    /// start (mid-incident, with units already at work).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = non_negative_f64)]
+    goals_at: f64,
 }
 
 /// A `--goal` argument as a goal for `scenario`'s zones.
@@ -253,8 +257,9 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             }
             Some((_, truth)) = truths.recv() => {
                 // The simulator starts once the coordinator is up: time to issue the goals.
-                for g in goals_to_issue.take().unwrap_or_default() {
-                    println!("issuing goal '{}': {:?} on zone {} (priority {})", g.id, g.goal, g.zone, g.priority);
+                let due = goals_to_issue.take_if(|_| truth.t >= a.goals_at);
+                for g in due.unwrap_or_default() {
+                    println!("t={:.1} s: issuing goal '{}': {:?} on zone {} (priority {})", truth.t, g.id, g.goal, g.zone, g.priority);
                     bus.put(&keys.zone_goal(&g.zone), &g).await?;
                 }
                 let out = truth.fires_out();

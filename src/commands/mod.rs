@@ -39,6 +39,14 @@ pub fn positive_f64(s: &str) -> Result<f64, String> {
     }
 }
 
+pub fn non_negative_f64(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        Ok(v) => Err(format!("{v} is not a number 0 or more")),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
 /// Write `value` as pretty JSON to `path`, if a path was given (the commands' `--json` and
 /// `--summary-json`).
 pub fn write_json(path: Option<&Path>, value: &impl Serialize) -> anyhow::Result<()> {

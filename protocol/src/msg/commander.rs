@@ -72,7 +72,8 @@ pub struct ZoneGoal {
     pub expires_s: Option<f64>,
     #[serde(default)]
     pub issued_by: String,
-    /// For `keep-out` and `evacuate`: monorail carriages may still run through the zone.
+    /// For `keep-out` and `evacuate`: monorail carriages may still run through the zone
+    /// (a search with their cameras, the way to a fire beyond), though not attack in it.
     /// A carriage runs on the ceiling rail, above the firefighters, but it drips, sprays
     /// and can fall: a commander lets it in by saying so, never by default.
     #[serde(default)]

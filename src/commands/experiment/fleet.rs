@@ -199,15 +199,18 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
             }
         }
     }
-    if let Some(path) = &a.json {
-        write_json(
-            Some(path),
-            &FleetResults {
-                seed: a.seed,
-                strategies: runs,
-                bounds,
-            },
-        )?;
+    let broken: usize = runs.iter().chain(&bounds).map(|r| r.violations).sum();
+    write_json(
+        a.json.as_deref(),
+        &FleetResults {
+            seed: a.seed,
+            strategies: runs,
+            bounds,
+        },
+    )?;
+    if broken > 0 {
+        eprintln!("{broken} invariant violations");
+        return Ok(ExitCode::FAILURE);
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -1,6 +1,7 @@
 //! Commanders' zone goals.
 
 use super::*;
+use firefleet_protocol::msg::{Refusal, RefusalReason};
 
 #[test]
 fn no_fire_in_a_keep_out_zone_is_attacked_and_no_unit_crosses_it() {
@@ -129,5 +130,53 @@ fn a_rejected_goal_changes_nothing() {
     assert_eq!(
         tasks(&i.on_report(&report("a", 60.0), 1.0).unwrap()).len(),
         1
+    );
+}
+
+#[test]
+fn a_unit_s_refusal_is_logged_and_its_task_withdrawn() {
+    let mut i = zoned();
+    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let task = tasks(&out)[0].clone();
+    assert_eq!(task.unit.as_str(), "b");
+    let TaskKind::Extinguish { fire, .. } = task.kind else {
+        unreachable!()
+    };
+    // b holds a barred space the coordinator does not (its goal came by another way).
+    let mut st = state("b", 40.0, None);
+    st.refused = Some(Refusal {
+        seq: task.seq,
+        reason: RefusalReason::DestinationBarred,
+        goal: "ko".into(),
+        zone: ZoneId::new("z1").unwrap(),
+    });
+    let out = i.on_state(st.clone(), 2.0).unwrap();
+    assert_eq!(kinds_for(&out, "b")[0], TaskKind::Standby, "{out:?}");
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Refused { unit, refusal } if unit == "b" && refusal.seq == task.seq
+    )));
+    let said = format!(
+        "b refused task {}: its destination is in zone z1, barred by goal 'ko'",
+        task.seq
+    );
+    let text: Vec<String> = i.take_decisions().iter().map(|d| d.to_msg().text).collect();
+    assert!(text.contains(&said), "{text:?}");
+    // The fire goes to a; b is not sent to it again, and its refusal is not logged twice.
+    assert!(
+        tasks(&out).iter().all(|t| t.unit.as_str() != "b"),
+        "{out:?}"
+    );
+    let again = i.on_state(st, 3.0).unwrap();
+    assert!(
+        !kinds_for(&again, "b")
+            .iter()
+            .any(|k| matches!(k, TaskKind::Extinguish { fire: f, .. } if *f == fire)),
+        "{again:?}"
+    );
+    assert!(
+        !i.take_decisions()
+            .iter()
+            .any(|d| matches!(d.decision, Decision::Refused { .. }))
     );
 }
