@@ -10,8 +10,8 @@ use firefleet_protocol::bus::{Bus, Inbox};
 use firefleet_protocol::codec::{self, PROTOCOL_VERSION};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    FireState, FireTrack, FlameObservation, FlameReport, SimTruth, Task, TaskKind, TaskPhase,
-    UnitState,
+    Bar, BarredSpace, FireState, FireTrack, FlameObservation, FlameReport, SimTruth, Task,
+    TaskKind, TaskPhase, UnitState,
 };
 use firefleet_protocol::{FireId, Point2, Pose2, UnitId, ZoneId};
 use support::{BIN, Fleet, assert_says, cli, router, spawn_role, text};
@@ -384,22 +384,35 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
     bus.close().await;
 }
 
-/// The coordinator's status, queried over the bus until one answers (or `within` passes).
-async fn status_of(bus: &Bus, within: Duration) -> serde_json::Value {
-    let key = bus.keys().expr(&Topic::CoordStatus);
+/// The first answer to a query on `key` that `take` accepts, asking again until one comes
+/// (or `within` passes).
+async fn first_answer<T>(
+    bus: &Bus,
+    key: &str,
+    within: Duration,
+    take: impl Fn(&[u8]) -> Option<T>,
+) -> T {
     tokio::time::timeout(within, async {
         loop {
-            let replies = bus.session().get(&key).await.unwrap();
-            if let Ok(reply) = replies.recv_async().await
-                && let Ok(sample) = reply.result()
-            {
-                return serde_json::from_slice(&sample.payload().to_bytes()).unwrap();
+            let replies = bus.session().get(key).await.unwrap();
+            while let Ok(reply) = replies.recv_async().await {
+                if let Ok(sample) = reply.result()
+                    && let Some(v) = take(&sample.payload().to_bytes())
+                {
+                    return v;
+                }
             }
             tokio::time::sleep(Duration::from_millis(200)).await;
         }
     })
     .await
-    .expect("no coordinator answered")
+    .unwrap_or_else(|_| panic!("no answer on {key}"))
+}
+
+/// The coordinator's status, queried over the bus until one answers (or `within` passes).
+async fn status_of(bus: &Bus, within: Duration) -> serde_json::Value {
+    let key = bus.keys().expr(&Topic::CoordStatus);
+    first_answer(bus, &key, within, |b| serde_json::from_slice(b).ok()).await
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -501,29 +514,29 @@ async fn a_coordinator_resumed_from_a_killed_recorders_file_keeps_the_fire() {
     bus.close().await;
 }
 
+/// `firefleet goal set --zone deep` with `args` on the rail tunnel, sent again until it is
+/// accepted (the coordinator needs a moment to join) or 20 s pass; the last answer.
+async fn set_goal(endpoint: &str, args: &[&str]) -> std::process::Output {
+    let set: Vec<&str> = ["goal", "set", "--zone", "deep"]
+        .iter()
+        .chain(args)
+        .copied()
+        .collect();
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        let out = cli("rail-tunnel", endpoint, &set);
+        if out.status.success() || Instant::now() > deadline {
+            return out;
+        }
+        tokio::time::sleep(Duration::from_millis(300)).await;
+    }
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn commanders_goals_are_answered_listed_and_cleared() {
     let (bus, endpoint) = router("tunnel-r").await;
     let _fleet = Fleet(vec![spawn_role("rail-tunnel", &endpoint, &["coordinator"])]);
-    let set = [
-        "goal",
-        "set",
-        "--zone",
-        "deep",
-        "--goal",
-        "keep-out",
-        "--priority",
-        "1",
-    ];
-    // The coordinator needs a moment to join; the first accepted answer ends the wait.
-    let deadline = Instant::now() + Duration::from_secs(20);
-    let out = loop {
-        let out = cli("rail-tunnel", &endpoint, &set);
-        if out.status.success() || Instant::now() > deadline {
-            break out;
-        }
-        tokio::time::sleep(Duration::from_millis(300)).await;
-    };
+    let out = set_goal(&endpoint, &["--goal", "keep-out", "--priority", "1"]).await;
     assert_says(&out, 0, "goal 'deep-keep-out' on zone deep: accepted");
 
     let out = cli(
@@ -629,4 +642,72 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
         assert!(Instant::now() < deadline, "not cleared: {}", text(&out));
         tokio::time::sleep(Duration::from_millis(200)).await;
     }
+}
+
+/// The barred space on `coord/barred` as whoever answers a query (the coordinator, or a
+/// recorder once it is gone) gives it, once it bars something.
+async fn barred_answer(bus: &Bus, within: Duration) -> BarredSpace {
+    let key = bus.keys().coord_barred();
+    first_answer(bus, key.as_str(), within, |b| {
+        codec::decode::<BarredSpace>(b)
+            .ok()
+            .filter(|b| !b.spans.is_empty())
+    })
+    .await
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn barred_space_reaches_the_units_and_outlives_the_coordinator() {
+    let (bus, endpoint) = router("tunnel-r").await;
+    let told = bus.subscribe(&bus.keys().coord_barred()).await.unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let recording = dir.path().join("run.mcap");
+    let mut fleet = Fleet(vec![
+        spawn_role("rail-tunnel", &endpoint, &["coordinator"]),
+        spawn_role(
+            "rail-tunnel",
+            &endpoint,
+            &["record", "--out", recording.to_str().unwrap()],
+        ),
+    ]);
+    let out = set_goal(&endpoint, &["--goal", "keep-out", "--rail-allowed"]).await;
+    assert_says(&out, 0, "accepted");
+    // Every unit hears it on the fleet-wide key.
+    let b = tokio::time::timeout(Duration::from_secs(5), async {
+        loop {
+            let (_, b) = told.recv().await.expect("bus open");
+            if !b.spans.is_empty() {
+                return b;
+            }
+        }
+    })
+    .await
+    .expect("the barred space was never published");
+    let s = &b.spans[0];
+    assert_eq!(
+        (
+            s.goal.as_str(),
+            s.zone.as_str(),
+            s.start.m(),
+            s.end.m(),
+            s.bar,
+            s.rail_allowed
+        ),
+        ("deep-keep-out", "deep", 100.0, 300.0, Bar::Entry, true),
+        "{b:?}"
+    );
+    // A unit starting now asks, and the coordinator answers; with the coordinator gone,
+    // the recorder does.
+    assert_eq!(
+        barred_answer(&bus, Duration::from_secs(5)).await.spans,
+        b.spans
+    );
+    fleet.0[0].kill().unwrap();
+    fleet.0[0].wait().unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(
+        barred_answer(&bus, Duration::from_secs(5)).await.spans,
+        b.spans
+    );
+    bus.close().await;
 }

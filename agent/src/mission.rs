@@ -59,12 +59,19 @@ impl Mission {
 
     /// A barred space arrived; true if it replaced the one kept (an older one, by site
     /// time, is ignored: a late or replayed message must not lift a newer keep-out).
+    /// The coordinator re-sends the same set every second: that only brings its time on.
     pub fn on_barred(&mut self, b: BarredSpace) -> bool {
-        if self.barred.as_ref().is_some_and(|old| old.t > b.t) || self.barred.as_ref() == Some(&b) {
-            return false;
+        match &mut self.barred {
+            Some(old) if old.t > b.t => false,
+            Some(old) if old.spans == b.spans => {
+                old.t = b.t;
+                false
+            }
+            _ => {
+                self.barred = Some(b);
+                true
+            }
         }
-        self.barred = Some(b);
-        true
     }
 
     /// Whether a unit of kind `kind` at `from` may go to `to` (and attack there if
@@ -348,6 +355,41 @@ mod tests {
         m.on_task(1, extinguish(1));
         m.job = Some(m.assigned_fire());
         m
+    }
+
+    #[test]
+    fn only_a_newer_and_different_barred_space_changes_anything() {
+        let space = |t: f64, end: f64| BarredSpace {
+            t,
+            spans: vec![firefleet_protocol::msg::BarredSpan {
+                goal: "g".into(),
+                zone: firefleet_protocol::ZoneId::new("z").unwrap(),
+                start: firefleet_protocol::Chainage::new(10.0),
+                end: firefleet_protocol::Chainage::new(end),
+                bar: firefleet_protocol::msg::Bar::Entry,
+                rail_allowed: false,
+            }],
+        };
+        let mut m = Mission::default();
+        assert!(m.on_barred(space(5.0, 20.0)));
+        assert!(!m.on_barred(space(6.0, 20.0)), "the same set again");
+        assert!(
+            !m.on_barred(BarredSpace::default()),
+            "older: a late message"
+        );
+        assert!(
+            m.barred
+                .as_ref()
+                .is_some_and(|b| b.t == 6.0 && !b.spans.is_empty())
+        );
+        assert!(m.on_barred(space(7.0, 30.0)));
+        assert!(
+            m.on_barred(BarredSpace {
+                t: 8.0,
+                spans: Vec::new()
+            }),
+            "lifted"
+        );
     }
 
     #[test]

@@ -1,16 +1,14 @@
-//! Commanders' barred space enforced by the units themselves, against the simulated world:
-//! a ground unit inside leaves by the shortest way and stays out, a task that needs barred
-//! space is refused with its reason, a unit alone does not attack a fire in it, and a
-//! monorail carriage keeps out of it unless the goal lets rail units through (and even
-//! then attacks nothing there).
+//! Commanders' barred space enforced by a ground unit itself, against the simulated world:
+//! inside, it leaves by the shortest way and stays out; a task that needs barred space is
+//! refused with its reason; alone, it does not attack a fire there. (The monorail
+//! carriage's part is in `monorail.rs`.)
 
 use std::sync::Arc;
 
 use firefleet_agent::ground::GroundController;
-use firefleet_agent::monorail::{MonorailController, default_tree};
 use firefleet_protocol::msg::{Bar, BarredSpace, BarredSpan, RefusalReason, TaskKind};
 use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::spec::{GROUND, MONORAIL};
+use firefleet_protocol::spec::GROUND;
 use firefleet_protocol::{Chainage, FireId, Point2, UnitId, ZoneId};
 use firefleet_sim::World;
 
@@ -133,82 +131,4 @@ fn alone_a_unit_does_not_attack_a_fire_in_barred_space() {
     let fire = &world.truth().fires[0];
     assert_eq!(fire.water_received_l, 0.0, "{fire:?}");
     assert!(farthest < 80.0, "went to {farthest}");
-}
-
-fn carriage(scenario: &Arc<Scenario>) -> MonorailController {
-    MonorailController::with_tree(
-        UnitId::new("m").unwrap(),
-        MONORAIL,
-        scenario.clone(),
-        &default_tree(),
-    )
-    .unwrap()
-    .unwrap()
-}
-
-/// Step a monorail controller and its world for `seconds`; the carriage's chainages.
-fn ride(ctl: &mut MonorailController, world: &mut World, seconds: f64) -> Vec<f64> {
-    let id = UnitId::new("m").unwrap();
-    let until = world.time() + seconds;
-    let mut at = Vec::new();
-    while world.time() < until {
-        let cmd = ctl.step(&world.rail_sensors(&id).unwrap());
-        world.command_rail(&id, cmd);
-        world.step(0.05);
-        at.push(ctl.state().pose.x);
-    }
-    at
-}
-
-#[test]
-fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
-    let scenario = Arc::new(
-        Scenario::straight(200.0)
-            .fire("car", 100.0, 1.0, 3000.0)
-            .ignition(-60.0)
-            .rail("r", 0.0, 200.0, &[15.0, 45.0, 75.0, 105.0, 135.0, 165.0])
-            .monorail("m", "r", 120.0)
-            .build(),
-    );
-    let attack = TaskKind::Extinguish {
-        fire: FireId(1),
-        target: Point2::new(100.0, 1.0),
-    };
-    // Inside 50-150 m when the goal comes: it runs out by the nearest end (155 m), and
-    // refuses the fire inside.
-    let mut world = World::new(&scenario, 5);
-    let mut ctl = carriage(&scenario);
-    ctl.set_coordinator_present(true);
-    ride(&mut ctl, &mut world, 1.0);
-    ctl.on_barred(barred(world.time(), 50.0, 150.0, false));
-    ctl.on_task(1, attack);
-    assert_eq!(
-        ctl.state().refused.map(|r| r.reason),
-        Some(RefusalReason::DestinationBarred)
-    );
-    let at = ride(&mut ctl, &mut world, 60.0);
-    let settled = &at[at.len() / 2..];
-    assert!(settled.iter().all(|&x| x > 150.0), "{:?}", &settled[..5]);
-    assert_eq!(world.truth().fires[0].water_received_l, 0.0);
-
-    // Let through, it runs across the zone (a search to the far end), but still does not
-    // attack there: the goal lets carriages pass, not spray where firefighters go in.
-    let mut world = World::new(&scenario, 5);
-    let mut ctl = carriage(&scenario);
-    ctl.set_coordinator_present(true);
-    ctl.on_barred(barred(0.0, 50.0, 150.0, true));
-    ctl.on_task(
-        1,
-        TaskKind::Search {
-            goal: Point2::new(10.0, 0.0),
-        },
-    );
-    assert_eq!(ctl.state().refused, None);
-    let at = ride(&mut ctl, &mut world, 30.0);
-    assert!(at.iter().any(|&x| x < 20.0), "ran to {:?}", at.last());
-    ctl.on_task(2, attack);
-    assert_eq!(
-        ctl.state().refused.map(|r| r.reason),
-        Some(RefusalReason::DestinationBarred)
-    );
 }

@@ -4,10 +4,12 @@
 use std::sync::Arc;
 
 use firefleet_agent::monorail::{MonorailController, default_tree};
-use firefleet_protocol::msg::{TaskKind, TaskPhase, TruthFireState, UnitMode};
+use firefleet_protocol::msg::{
+    Bar, BarredSpace, BarredSpan, RefusalReason, TaskKind, TaskPhase, TruthFireState, UnitMode,
+};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::MONORAIL;
-use firefleet_protocol::{FireId, Point2, UnitId};
+use firefleet_protocol::{Chainage, FireId, Point2, UnitId, ZoneId};
 use firefleet_sim::World;
 
 fn scenario(fire_x: f64, fire_y: f64, rail_end: f64) -> Arc<Scenario> {
@@ -155,4 +157,83 @@ fn sent_searching_it_runs_along_the_rail_reports_what_it_passes_and_stops_for_a_
     run(&mut ctl, &mut world, 120.0).expect("the fire goes out");
     let carriage = ctl.unit().position();
     assert!((140.0..160.0).contains(&carriage.x), "{carriage:?}");
+}
+
+/// Step the controller and its world for `seconds`; the carriage's chainages.
+fn ride(ctl: &mut MonorailController, world: &mut World, seconds: f64) -> Vec<f64> {
+    let until = world.time() + seconds;
+    let mut at = Vec::new();
+    while world.time() < until {
+        step(ctl, world);
+        at.push(ctl.state().pose.x);
+    }
+    at
+}
+
+/// Chainages 50-150 m barred by a keep-out (to carriages too unless `rail_allowed`).
+fn keep_out(t: f64, rail_allowed: bool) -> BarredSpace {
+    BarredSpace {
+        t,
+        spans: vec![BarredSpan {
+            goal: "ko".into(),
+            zone: ZoneId::new("z").unwrap(),
+            start: Chainage::new(50.0),
+            end: Chainage::new(150.0),
+            bar: Bar::Entry,
+            rail_allowed,
+        }],
+    }
+}
+
+#[test]
+fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
+    let scenario = Arc::new(
+        Scenario::straight(200.0)
+            .fire("car", 100.0, 1.0, 3000.0)
+            .ignition(-60.0)
+            .rail("r", 0.0, 200.0, &[15.0, 45.0, 75.0, 105.0, 135.0, 165.0])
+            .monorail("m", "r", 120.0)
+            .build(),
+    );
+    let attack = TaskKind::Extinguish {
+        fire: FireId(1),
+        target: Point2::new(100.0, 1.0),
+    };
+    // Inside 50-150 m when the goal comes: it runs out by the nearest end (155 m), and
+    // refuses the fire inside.
+    let mut world = World::new(&scenario, 5);
+    let mut ctl = controller(&scenario);
+    ctl.set_coordinator_present(true);
+    ride(&mut ctl, &mut world, 1.0);
+    ctl.on_barred(keep_out(world.time(), false));
+    ctl.on_task(1, attack);
+    assert_eq!(
+        ctl.state().refused.map(|r| r.reason),
+        Some(RefusalReason::DestinationBarred)
+    );
+    let at = ride(&mut ctl, &mut world, 60.0);
+    let settled = &at[at.len() / 2..];
+    assert!(settled.iter().all(|&x| x > 150.0), "{:?}", &settled[..5]);
+    assert_eq!(world.truth().fires[0].water_received_l, 0.0);
+
+    // Let through, it runs across the zone (a search to the far end), but still does not
+    // attack there: the goal lets carriages pass, not spray where firefighters go in.
+    let mut world = World::new(&scenario, 5);
+    let mut ctl = controller(&scenario);
+    ctl.set_coordinator_present(true);
+    ctl.on_barred(keep_out(0.0, true));
+    ctl.on_task(
+        1,
+        TaskKind::Search {
+            goal: Point2::new(10.0, 0.0),
+        },
+    );
+    assert_eq!(ctl.state().refused, None);
+    let at = ride(&mut ctl, &mut world, 30.0);
+    assert!(at.iter().any(|&x| x < 20.0), "ran to {:?}", at.last());
+    ctl.on_task(2, attack);
+    assert_eq!(
+        ctl.state().refused.map(|r| r.reason),
+        Some(RefusalReason::DestinationBarred)
+    );
 }

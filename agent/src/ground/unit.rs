@@ -270,16 +270,20 @@ impl Unit {
         })
     }
 
+    /// The chainage ranges barred to this unit, as it last heard.
+    fn barred_ranges(&self) -> Vec<(Chainage, Chainage)> {
+        self.mission
+            .barred
+            .as_ref()
+            .map(|b| b.ranges(UnitKind::Ground))
+            .unwrap_or_default()
+    }
+
     /// Lay the keep-out layer of the barred space kept on the planners' grids.
     fn lay_keepout(&mut self) {
         let t = &self.scenario.tunnel;
         let grow = self.keepout_growth_m();
-        let ranges = self
-            .mission
-            .barred
-            .as_ref()
-            .map(|b| b.ranges(UnitKind::Ground))
-            .unwrap_or_default();
+        let ranges = self.barred_ranges();
         let barred = |by: f64| {
             let ranges = &ranges;
             move |p: Point2| {
@@ -320,12 +324,7 @@ impl Unit {
         }
         let t = &self.scenario.tunnel;
         let at = t.station(pose.position());
-        let ranges = self
-            .mission
-            .barred
-            .as_ref()
-            .map(|b| b.ranges(UnitKind::Ground))
-            .unwrap_or_default();
+        let ranges = self.barred_ranges();
         let exit = nearest_allowed(
             &ranges,
             at.s,
