@@ -22,9 +22,7 @@
 
 use firefleet_bt::node::Io;
 use firefleet_bt::{Port, Registry, Status};
-use firefleet_protocol::msg::{
-    BarredSpace, CLEAR_OF_BARRED_M, Refusal, TaskKind, TaskPhase, TaskProgress, UnitKind,
-};
+use firefleet_protocol::msg::{BarredSpace, Refusal, TaskKind, TaskPhase, TaskProgress, UnitKind};
 use firefleet_protocol::scenario::Tunnel;
 use firefleet_protocol::{FireId, Point2, UnitId};
 
@@ -86,10 +84,10 @@ impl Mission {
     ) -> bool {
         self.barred.as_ref().is_none_or(|b| {
             b.refuses(
+                tunnel,
                 kind,
                 tunnel.chainage(from),
                 tunnel.chainage(to),
-                CLEAR_OF_BARRED_M,
                 attack,
             )
             .is_none()
@@ -201,14 +199,18 @@ pub fn review<C: Responder>(u: &mut C) {
         Some((_, TaskKind::Standby)) | None => None,
     };
     let task = task.map(|(seq, to, attack)| (seq, u.tunnel().chainage(to), attack));
-    let m = u.mission();
-    let Some(barred) = &m.barred else { return };
+    // Out of the mission while the tunnel is read beside it; put back below.
+    let Some(barred) = u.mission().barred.take() else {
+        return;
+    };
     let refusal = task.and_then(|(seq, to, attack)| {
         barred
-            .refuses(kind, from, to, CLEAR_OF_BARRED_M, attack)
+            .refuses(u.tunnel(), kind, from, to, attack)
             .map(|(why, span)| Refusal::new(seq, why, span))
     });
+    let m = u.mission();
     let alone = m.job == Some(None) && !barred.spans.is_empty();
+    m.barred = Some(barred);
     if let Some(r) = refusal {
         tracing::warn!(unit = %u.id(), "{r}");
         let m = u.mission();

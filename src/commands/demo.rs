@@ -167,7 +167,9 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let truths = bus.subscribe::<SimTruth>(&keys.sim_truth()).await?;
     let states = bus.subscribe::<UnitState>(&keys.every_unit_state()).await?;
     let acks = bus.subscribe::<GoalAck>(&keys.every_zone_ack()).await?;
-    let mut goals_to_issue = Some(goals);
+    let mut goals_to_issue = Some(goals.clone());
+    // The goals the coordinator accepted: fires where one bars attack may be left burning.
+    let mut in_force: Vec<ZoneGoal> = Vec::new();
 
     let exe = std::env::current_exe().context("locating the firefleet binary")?;
     let common = [
@@ -252,6 +254,9 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
                 modes.insert(st.unit.to_string(), serde_json::to_value(st.mode)?.as_str().unwrap_or("?").to_owned());
             }
             Some((_, ack)) = acks.recv() => {
+                if ack.accepted && let Some(g) = goals.iter().find(|g| g.id == ack.id && g.zone == ack.zone) {
+                    in_force.push(g.clone());
+                }
                 let verdict = if ack.accepted { "" } else { "rejected: " };
                 println!("goal '{}' on zone {}: {verdict}{}", ack.id, ack.zone, ack.reason);
             }
@@ -299,12 +304,49 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         fires: Vec::new(),
         units: Vec::new(),
     });
-    let success = matches!(outcome, Outcome::AllOut);
+    // Fires still burning where a commander's accepted goal bars attack: left so on purpose.
+    let spared: Vec<&str> = truth
+        .fires
+        .iter()
+        .filter(|f| f.state != TruthFireState::Out)
+        .filter_map(|f| {
+            let s = scenario.tunnel.chainage(f.position);
+            in_force
+                .iter()
+                .filter(|g| {
+                    matches!(
+                        g.goal,
+                        GoalKind::Monitor | GoalKind::KeepOut | GoalKind::Evacuate
+                    )
+                })
+                .find(|g| {
+                    scenario
+                        .zones
+                        .iter()
+                        .any(|z| z.id == g.zone && (z.start_m..=z.end_m).contains(&s))
+                })
+                .map(|g| g.zone.as_str())
+        })
+        .collect();
+    let mut zones = spared.clone();
+    zones.sort_unstable();
+    zones.dedup();
+    let all_but_spared = matches!(outcome, Outcome::TimeLimit)
+        && !spared.is_empty()
+        && truth.fires_out() + spared.len() == truth.fires.len();
+    let success = matches!(outcome, Outcome::AllOut) || all_but_spared;
     let outcome_text = match &outcome {
         Outcome::AllOut => format!(
             "all {} fires out at t = {:.1} s",
             truth.fires.len(),
             truth.t
+        ),
+        Outcome::TimeLimit if all_but_spared => format!(
+            "time limit {:.0} s reached with {} of {} fires out; the rest burn where a commander's goal bars attack (zone {})",
+            truth.time_limit_s,
+            truth.fires_out(),
+            truth.fires.len(),
+            zones.join(", ")
         ),
         Outcome::TimeLimit => format!(
             "time limit {:.0} s reached with {} of {} fires out",
@@ -348,7 +390,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     };
     write_json(a.summary_json.as_deref(), &summary)?;
     Ok(match outcome {
-        Outcome::AllOut => ExitCode::SUCCESS,
+        _ if success => ExitCode::SUCCESS,
         Outcome::Interrupted => ExitCode::from(130),
         _ => ExitCode::FAILURE,
     })

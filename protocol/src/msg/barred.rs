@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 use super::*;
 use crate::geometry::MAX_COORD_M;
 use crate::ids::ZoneId;
-use crate::tunnel::Chainage;
+use crate::tunnel::{Chainage, Tunnel};
 use crate::validate::{Invalid, Validate, each, finite, in_range, max_len};
 
 /// How far clear of barred space a unit leaving it stops, and how far short of it a unit
@@ -144,16 +144,17 @@ impl BarredSpace {
             .collect()
     }
 
-    /// Whether task `task`, given to a unit of kind `kind` at chainage `from`, would need
-    /// barred space: its destination (the fire, for an attack) is barred, or the way there
-    /// crosses a barred stretch. A unit inside barred space leaves it first, by the
-    /// shortest way ([`nearest_allowed`] with `margin`), so its way starts there.
+    /// Whether a task for a unit of kind `kind` at chainage `from` of `tunnel`, sending it
+    /// to chainage `to` (to attack a fire there if `attack`), would need barred space: its
+    /// destination is barred, or the way there crosses a barred stretch. A unit inside
+    /// barred space leaves it first by the shortest way it has ([`nearest_allowed`],
+    /// [`CLEAR_OF_BARRED_M`] out, not through a portal), so its way starts there.
     pub fn refuses(
         &self,
+        tunnel: &Tunnel,
         kind: UnitKind,
         from: Chainage,
         to: Chainage,
-        margin: f64,
         attack: bool,
     ) -> Option<(RefusalReason, &BarredSpan)> {
         if attack && let Some(b) = self.attack_at(to) {
@@ -162,13 +163,12 @@ impl BarredSpace {
         if let Some(b) = self.entry_at(kind, to) {
             return Some((RefusalReason::DestinationBarred, b));
         }
-        let ranges = self.ranges(kind);
         let start = nearest_allowed(
-            &ranges,
+            &self.ranges(kind),
             from,
-            margin,
-            Chainage::new(-MAX_COORD_M),
-            Chainage::new(MAX_COORD_M),
+            CLEAR_OF_BARRED_M,
+            Chainage::new(INSIDE_PORTAL_M),
+            tunnel.end() - INSIDE_PORTAL_M,
         )
         .unwrap_or(from);
         self.crossed(kind, start, to)
@@ -260,6 +260,8 @@ impl Validate for Refusal {
 mod tests {
     use super::*;
 
+    const T: Tunnel = Tunnel::straight(400.0, 10.0, 6.0, 2);
+
     fn c(m: f64) -> Chainage {
         Chainage::new(m)
     }
@@ -293,18 +295,18 @@ mod tests {
         let b = space(false);
         let g = UnitKind::Ground;
         assert_eq!(
-            b.refuses(g, c(50.0), c(150.0), 5.0, false).map(|r| r.0),
+            b.refuses(&T, g, c(50.0), c(150.0), false).map(|r| r.0),
             Some(RefusalReason::DestinationBarred)
         );
         assert_eq!(
-            b.refuses(g, c(50.0), c(250.0), 5.0, false).map(|r| r.0),
+            b.refuses(&T, g, c(50.0), c(250.0), false).map(|r| r.0),
             Some(RefusalReason::WayBarred)
         );
-        assert_eq!(b.refuses(g, c(50.0), c(90.0), 5.0, false), None);
+        assert_eq!(b.refuses(&T, g, c(50.0), c(90.0), false), None);
         // A monitor zone may be crossed, and a fire in it is not attacked.
-        assert_eq!(b.refuses(g, c(250.0), c(360.0), 5.0, false), None);
+        assert_eq!(b.refuses(&T, g, c(250.0), c(360.0), false), None);
         assert_eq!(
-            b.refuses(g, c(250.0), c(320.0), 5.0, true).map(|r| r.0),
+            b.refuses(&T, g, c(250.0), c(320.0), true).map(|r| r.0),
             Some(RefusalReason::DestinationBarred)
         );
     }
@@ -314,12 +316,12 @@ mod tests {
         let b = space(false);
         let g = UnitKind::Ground;
         // At 120 the way out is west (95): a task west is fine, one east crosses the zone.
-        assert_eq!(b.refuses(g, c(120.0), c(60.0), 5.0, false), None);
+        assert_eq!(b.refuses(&T, g, c(120.0), c(60.0), false), None);
         assert_eq!(
-            b.refuses(g, c(120.0), c(250.0), 5.0, false).map(|r| r.0),
+            b.refuses(&T, g, c(120.0), c(250.0), false).map(|r| r.0),
             Some(RefusalReason::WayBarred)
         );
-        assert_eq!(b.refuses(g, c(180.0), c(250.0), 5.0, false), None);
+        assert_eq!(b.refuses(&T, g, c(180.0), c(250.0), false), None);
     }
 
     #[test]
@@ -335,13 +337,24 @@ mod tests {
     }
 
     #[test]
+    fn a_zone_at_the_portal_is_left_by_its_far_end() {
+        let mut b = space(false);
+        b.spans[0].start = c(0.0);
+        // At 20 m in 0-200 m the way out is east: a task east of the zone is on the way.
+        assert_eq!(
+            b.refuses(&T, UnitKind::Ground, c(20.0), c(250.0), false),
+            None
+        );
+    }
+
+    #[test]
     fn rail_units_pass_where_the_goal_allows_them() {
         let (open, shut) = (space(true), space(false));
         let r = UnitKind::Monorail;
-        assert_eq!(open.refuses(r, c(50.0), c(250.0), 5.0, false), None);
-        assert!(shut.refuses(r, c(50.0), c(250.0), 5.0, false).is_some());
+        assert_eq!(open.refuses(&T, r, c(50.0), c(250.0), false), None);
+        assert!(shut.refuses(&T, r, c(50.0), c(250.0), false).is_some());
         assert!(
-            open.refuses(UnitKind::Ground, c(50.0), c(250.0), 5.0, false)
+            open.refuses(&T, UnitKind::Ground, c(50.0), c(250.0), false)
                 .is_some()
         );
     }
