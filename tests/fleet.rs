@@ -711,3 +711,64 @@ async fn barred_space_reaches_the_units_and_outlives_the_coordinator() {
     );
     bus.close().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn forged_tasks_do_not_leave_a_unit_deaf_to_its_coordinator() {
+    let (bus, endpoint) = router("handover").await;
+    let keys = bus.keys().clone();
+    let near = UnitId::new("ugv-near").unwrap();
+    let near_state = bus
+        .subscribe::<UnitState>(&keys.unit_state(&near))
+        .await
+        .unwrap();
+    let truths = bus.subscribe::<SimTruth>(&keys.sim_truth()).await.unwrap();
+    let _fleet = handover_fleet(&endpoint, &["coordinator", "--sim-clock"]);
+    // Once the near unit is on its way to the fire, an impostor tells it to stand by: once
+    // numbered near u64::MAX (refused: ahead of the clock), once just above its task
+    // (taken; the coordinator sees a number it never gave and tasks the unit again above).
+    let taken = tokio::time::timeout(Duration::from_secs(90), async {
+        loop {
+            let (_, st) = near_state.recv().await.expect("bus open");
+            if st.task.is_some_and(|p| p.phase == TaskPhase::Travelling) {
+                return st.task_seq.expect("a unit on a task echoes its number");
+            }
+        }
+    })
+    .await
+    .expect("the near unit never set off");
+    for seq in [u64::MAX, taken + 500] {
+        let forged = Task {
+            unit: near.clone(),
+            seq,
+            t: 0.0,
+            kind: TaskKind::Standby,
+        };
+        bus.put(&keys.unit_task(&near), &forged).await.unwrap();
+    }
+    // The near unit itself is back on the coordinator's numbering (not only the far one
+    // covering for it).
+    tokio::time::timeout(Duration::from_secs(30), async {
+        loop {
+            let (_, st) = near_state.recv().await.expect("bus open");
+            if st.task_seq.is_some_and(|s| s > taken + 500 && s < u64::MAX) {
+                return;
+            }
+        }
+    })
+    .await
+    .expect("the near unit never took the coordinator's task again");
+    let truth = outcome(&truths, Duration::from_secs(90)).await;
+    assert!(
+        truth.all_out(),
+        "a forged task kept the fire burning: {truth:?}"
+    );
+    let status = status_of(&bus, Duration::from_secs(10)).await;
+    assert!(
+        status["decisions"].to_string().contains(&format!(
+            "took task {}, which this coordinator never gave",
+            taken + 500
+        )),
+        "{status}"
+    );
+    bus.close().await;
+}

@@ -9,7 +9,7 @@
 //! Pure: no I/O, no clock of its own.
 
 use firefleet_bt::{Status, Tree};
-use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitState};
+use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitState, task_seq_ceiling};
 
 use crate::mission::{Responder, review};
 
@@ -38,6 +38,19 @@ pub struct Controller<U> {
     unit: U,
     tick_period_s: f64,
     next_tick: f64,
+    /// Site time of the latest frame.
+    now: f64,
+}
+
+/// A task numbered beyond what the site clock allows ([`task_seq_ceiling`]), refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "task {seq} is numbered ahead of the site clock (t = {t:.1} s takes at most {ceiling}): refused"
+)]
+pub struct TaskAhead {
+    pub seq: u64,
+    pub t: f64,
+    pub ceiling: u64,
 }
 
 impl<U: Services> Controller<U> {
@@ -48,6 +61,7 @@ impl<U: Services> Controller<U> {
             unit,
             tick_period_s,
             next_tick: f64::NEG_INFINITY,
+            now: 0.0,
         }
     }
 
@@ -55,6 +69,7 @@ impl<U: Services> Controller<U> {
     pub fn step(&mut self, s: &U::Sensors) -> U::Command {
         self.unit.sense(s);
         let t = U::time(s);
+        self.now = t;
         if t >= self.next_tick {
             self.next_tick = t + self.tick_period_s;
             self.tick(t);
@@ -71,10 +86,20 @@ impl<U: Services> Controller<U> {
         self.tree.tick(t, &mut self.unit)
     }
 
-    /// A task arrived from the coordinator. Older or repeated tasks are ignored.
-    pub fn on_task(&mut self, seq: u64, kind: TaskKind) {
+    /// A task arrived from the coordinator. Older or repeated tasks are ignored; one
+    /// numbered ahead of the site clock is refused.
+    pub fn on_task(&mut self, seq: u64, kind: TaskKind) -> Result<(), TaskAhead> {
+        let ceiling = task_seq_ceiling(self.now);
+        if seq > ceiling {
+            return Err(TaskAhead {
+                seq,
+                t: self.now,
+                ceiling,
+            });
+        }
         self.unit.mission().on_task(seq, kind);
         review(&mut self.unit);
+        Ok(())
     }
 
     /// The coordinator's barred space arrived: kept if newer, then the unit's services and

@@ -137,7 +137,10 @@ where
             task = tasks.recv() => {
                 let Some((_, task)) = task else { break };
                 if &task.unit == unit {
-                    ctl.on_task(task.seq, task.kind);
+                    if let Err(e) = ctl.on_task(task.seq, task.kind) {
+                        bus.rejects().count_invalid();
+                        tracing::warn!(%unit, "{e}");
+                    }
                 } else {
                     bus.rejects().count_invalid();
                     tracing::warn!(%unit, other = %task.unit, "dropped a task addressed to another unit");

@@ -49,7 +49,8 @@ fn run(coordinator_task: Option<Point2>) -> Run {
                 fire: FireId(1),
                 target,
             },
-        );
+        )
+        .unwrap();
     }
     let dt = 0.05;
     let mut closest_while_burning = f64::INFINITY;
@@ -145,7 +146,8 @@ fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
         TaskKind::Cruise {
             goal: Point2::new(25.0, -2.5),
         },
-    );
+    )
+    .unwrap();
     let at = drive(&mut ctl, &mut world, 40.0);
     assert!(
         at.dist(Point2::new(25.0, -2.5)) < 1.0,
@@ -156,7 +158,8 @@ fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
         TaskKind::Cruise {
             goal: Point2::new(15.0, 2.5),
         },
-    );
+    )
+    .unwrap();
     let at = drive(&mut ctl, &mut world, 60.0);
     assert!(
         at.dist(Point2::new(15.0, 2.5)) < 1.0,
@@ -177,7 +180,8 @@ fn a_staged_unit_assigned_the_fire_puts_it_out() {
         TaskKind::Cruise {
             goal: Point2::new(30.0, 2.5),
         },
-    );
+    )
+    .unwrap();
     let mut assigned = false;
     while world.time() < scenario.time_limit_s
         && world.truth().fires[0].state != TruthFireState::Out
@@ -189,7 +193,8 @@ fn a_staged_unit_assigned_the_fire_puts_it_out() {
                     fire: FireId(1),
                     target: Point2::new(60.0, -2.0),
                 },
-            );
+            )
+            .unwrap();
             assigned = true;
         }
         world.step_unit(&id, 0.05, |s| ctl.step(s)).unwrap();
@@ -247,7 +252,8 @@ fn facing_away_in_a_narrow_bore_the_unit_turns_round_by_backing() {
             fire: FireId(1),
             target: flame,
         },
-    );
+    )
+    .unwrap();
     let mut backed_m = 0.0;
     while world.time() < 90.0 {
         let s = world.sensors(&id).unwrap();
@@ -267,4 +273,29 @@ fn facing_away_in_a_narrow_bore_the_unit_turns_round_by_backing() {
         world.step(0.05);
     }
     panic!("never reached a firing position: {:?}", ctl.state());
+}
+
+#[test]
+fn a_task_numbered_ahead_of_the_clock_is_refused_and_the_coordinator_still_heard() {
+    let scenario = site();
+    let mut world = World::new(&scenario, 11);
+    let id = UnitId::new("u1").unwrap();
+    let mut ctl = GroundController::new(id.clone(), GROUND, scenario);
+    ctl.set_coordinator_present(true);
+    for _ in 0..20 {
+        world.step_unit(&id, 0.05, |s| ctl.step(s)).unwrap();
+    }
+    // One forged task numbered near u64::MAX would leave it deaf to every later real one.
+    let forged = TaskKind::Cruise {
+        goal: Point2::new(5.0, -2.5),
+    };
+    let e = ctl.on_task(u64::MAX, forged).unwrap_err();
+    assert!((120_000..=121_000).contains(&e.ceiling), "{e}");
+    assert!(e.to_string().contains("ahead of the site clock"), "{e}");
+    assert_eq!(ctl.state().task_seq, None);
+    let real = TaskKind::Cruise {
+        goal: Point2::new(25.0, -2.5),
+    };
+    ctl.on_task(1_001, real).unwrap();
+    assert_eq!(ctl.state().task_seq, Some(1_001));
 }

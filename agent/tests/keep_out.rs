@@ -88,7 +88,8 @@ fn a_task_that_needs_barred_space_is_refused_with_the_reason() {
         TaskKind::Cruise {
             goal: Point2::new(180.0, -2.5),
         },
-    );
+    )
+    .unwrap();
     let r = ctl.state().refused.expect("refused");
     assert_eq!(
         (r.seq, r.reason, r.goal.as_str()),
@@ -102,7 +103,8 @@ fn a_task_that_needs_barred_space_is_refused_with_the_reason() {
         TaskKind::Cruise {
             goal: Point2::new(30.0, -2.5),
         },
-    );
+    )
+    .unwrap();
     assert_eq!(ctl.state().refused, None);
     ctl.on_task(
         3,
@@ -110,7 +112,8 @@ fn a_task_that_needs_barred_space_is_refused_with_the_reason() {
             fire: FireId(1),
             target: Point2::new(100.0, 0.0),
         },
-    );
+    )
+    .unwrap();
     let r = ctl.state().refused.expect("refused");
     assert_eq!((r.seq, r.reason), (3, RefusalReason::DestinationBarred));
 }

@@ -78,7 +78,8 @@ fn assign(ctl: &mut MonorailController, at: Point2) {
             fire: FireId(1),
             target: at,
         },
-    );
+    )
+    .unwrap();
 }
 
 #[test]
@@ -127,7 +128,8 @@ fn sent_searching_it_runs_along_the_rail_reports_what_it_passes_and_stops_for_a_
         TaskKind::Search {
             goal: Point2::new(195.0, 0.0),
         },
-    );
+    )
+    .unwrap();
     let mut first_report = None;
     while world.time() < 30.0 && first_report.is_none() {
         step(&mut ctl, &mut world);
@@ -153,7 +155,8 @@ fn sent_searching_it_runs_along_the_rail_reports_what_it_passes_and_stops_for_a_
             fire: FireId(1),
             target: Point2::new(160.0, -2.0),
         },
-    );
+    )
+    .unwrap();
     run(&mut ctl, &mut world, 120.0).expect("the fire goes out");
     let carriage = ctl.unit().position();
     assert!((140.0..160.0).contains(&carriage.x), "{carriage:?}");
@@ -206,7 +209,7 @@ fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
     ctl.set_coordinator_present(true);
     ride(&mut ctl, &mut world, 1.0);
     ctl.on_barred(keep_out(world.time(), false));
-    ctl.on_task(1, attack);
+    ctl.on_task(1, attack).unwrap();
     assert_eq!(
         ctl.state().refused.map(|r| r.reason),
         Some(RefusalReason::DestinationBarred)
@@ -227,11 +230,12 @@ fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
         TaskKind::Search {
             goal: Point2::new(10.0, 0.0),
         },
-    );
+    )
+    .unwrap();
     assert_eq!(ctl.state().refused, None);
     let at = ride(&mut ctl, &mut world, 30.0);
     assert!(at.iter().any(|&x| x < 20.0), "ran to {:?}", at.last());
-    ctl.on_task(2, attack);
+    ctl.on_task(2, attack).unwrap();
     assert_eq!(
         ctl.state().refused.map(|r| r.reason),
         Some(RefusalReason::DestinationBarred)

@@ -376,6 +376,7 @@ mod tests {
             task,
             autonomous: false,
             refused: None,
+            task_seq: None,
         })
     }
 

@@ -759,6 +759,7 @@ impl Services for Unit {
             task,
             autonomous: !self.mission.coordinator_present,
             refused: self.mission.refused.clone(),
+            task_seq: self.mission.task.map(|(seq, _)| seq),
         }
     }
 

@@ -491,6 +491,7 @@ impl Services for RailUnit {
             task: self.mission.progress(mode == UnitMode::Extinguishing),
             autonomous: !self.mission.coordinator_present,
             refused: self.mission.refused.clone(),
+            task_seq: self.mission.task.map(|(seq, _)| seq),
         }
     }
 

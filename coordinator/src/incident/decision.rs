@@ -66,6 +66,13 @@ pub enum Decision {
         to: Chainage,
         goal: String,
     },
+    /// The unit took task `foreign`, which this coordinator never gave (its own for the
+    /// unit was `ours`): the unit's task is given again above it.
+    Superseded {
+        unit: UnitId,
+        foreign: u64,
+        ours: u64,
+    },
     /// The unit refused its task, which would need barred space.
     Refused {
         unit: UnitId,
@@ -221,6 +228,14 @@ impl fmt::Display for Decision {
                 "evacuate {unit} from zone {zone} to chainage {to:.1}: goal '{goal}' (the unit leaves on its own, by the same way)"
             ),
             Decision::Refused { unit, refusal } => write!(f, "{unit} {refusal}"),
+            Decision::Superseded {
+                unit,
+                foreign,
+                ours,
+            } => write!(
+                f,
+                "{unit} took task {foreign}, which this coordinator never gave (its task was {ours}): given again above it"
+            ),
             Decision::Joined { unit } => write!(f, "unit {unit} joined"),
             Decision::Lost { unit, why, fire } => {
                 write!(f, "unit {unit} lost ({why})")?;

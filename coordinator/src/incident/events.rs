@@ -104,6 +104,7 @@ impl Incident {
         let current = v.task.clone();
         let progress = st.task;
         let refusal = st.refused.clone();
+        let taken = st.task_seq;
         // A state changes the decisions only when it brings a unit into play or takes one
         // out; a moving unit's position is picked up by the periodic re-solve. Re-solving
         // on every state would cost a solve per message: 10 000 a second for 1000 units.
@@ -111,7 +112,7 @@ impl Incident {
         let mut relevant = v.state.as_ref().is_none_or(|old| able(old) != able(&st));
         v.state = Some(st);
         if let Some(p) = progress {
-            self.seq = self.seq.max(p.seq);
+            self.heed_seq(p.seq, t);
         }
         let mut out = Vec::new();
         if current.is_none()
@@ -176,6 +177,23 @@ impl Incident {
                 }
                 TaskPhase::Travelling => {}
             }
+        }
+        // The unit took a task numbered above the one this coordinator gave it: a task it
+        // never gave (forged, or another coordinator's). Give the unit its task again,
+        // numbered above, so that it hears this coordinator again.
+        if let (Some(taken), Some(task)) = (taken, self.units[&unit].task.clone())
+            && taken > task.seq
+            && self.heed_seq(taken, t)
+        {
+            self.log(
+                t,
+                Decision::Superseded {
+                    unit: unit.clone(),
+                    foreign: taken,
+                    ours: task.seq,
+                },
+            );
+            out.push(self.give(&unit, task.kind, t));
         }
         if let Some(r) = refusal
             && let Some(task) = self.units[&unit].task.clone()

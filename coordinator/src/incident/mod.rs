@@ -11,6 +11,7 @@ use std::collections::{BTreeMap, VecDeque};
 
 use firefleet_protocol::msg::{
     FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitKind, UnitState, UnitStatus,
+    task_seq_ceiling, task_seq_floor,
 };
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::{GROUND, MONORAIL};
@@ -195,10 +196,23 @@ impl Incident {
     /// A task number higher than any before it, across coordinator restarts too: units
     /// ignore a task whose number is not higher than the last one they took, so a
     /// restarted coordinator counting from 0 would be ignored. Numbers are floored by site
-    /// time (1000 per second) and by the highest number seen in any unit's state.
+    /// time ([`task_seq_floor`]) and by the highest number seen in any unit's state that
+    /// is not ahead of the clock ([`Incident::heed_seq`]).
     fn next_seq(&mut self, t: f64) -> u64 {
-        self.seq = (self.seq + 1).max((t.max(0.0) * 1000.0) as u64);
+        self.seq = self.seq.saturating_add(1).max(task_seq_floor(t));
         self.seq
+    }
+
+    /// Number tasks above `seq`, a number seen in a unit's state at site time `t`, unless
+    /// it is ahead of the clock ([`task_seq_ceiling`]): a forged state numbered near
+    /// `u64::MAX` must not push this coordinator's numbers where every unit refuses them.
+    /// Whether it was heeded.
+    fn heed_seq(&mut self, seq: u64, t: f64) -> bool {
+        let ok = seq <= task_seq_ceiling(t);
+        if ok {
+            self.seq = self.seq.max(seq);
+        }
+        ok
     }
 
     /// Decisions made since the last call, for the bus (and so the recording).

@@ -79,6 +79,9 @@ pub struct UnitState {
     pub task: Option<TaskProgress>,
     /// True when the unit acts on its own because it has no coordinator.
     pub autonomous: bool,
+    /// The number of the latest task the unit took, of any kind: a coordinator that sees
+    /// one above its own for the unit knows somebody else tasked it.
+    pub task_seq: Option<u64>,
     /// The unit's refusal of its latest task, because it would need barred space.
     pub refused: Option<Refusal>,
 }
@@ -170,8 +173,28 @@ pub enum TaskKind {
     Extinguish { fire: FireId, target: Point2 },
 }
 
+/// Task numbers grow at least this fast with site time, per second: a restarted
+/// coordinator numbering from its clock starts above every task it gave before.
+pub const TASK_SEQ_PER_S: u64 = 1000;
+/// A task numbered more than this many seconds' worth ahead of the receiver's site clock is
+/// refused: units take only numbers above the last, so one forged task numbered near
+/// `u64::MAX` would otherwise make a unit deaf to its coordinator for good. Two minutes
+/// cover clock skew between hosts and a coordinator's burst of thousands of tasks.
+pub const TASK_SEQ_LEAD_S: u64 = 120;
+
+/// The lowest task number a coordinator may give at site time `t`.
+pub fn task_seq_floor(t: f64) -> u64 {
+    (t.max(0.0) * TASK_SEQ_PER_S as f64) as u64
+}
+
+/// The highest task number anyone takes at site time `t`.
+pub fn task_seq_ceiling(t: f64) -> u64 {
+    task_seq_floor(t).saturating_add(TASK_SEQ_LEAD_S * TASK_SEQ_PER_S)
+}
+
 /// `ff/<site>/unit/<id>/task`: a unit's current assignment. `seq` grows with every new
-/// decision, so a unit can ignore a stale or repeated one.
+/// decision, so a unit can ignore a stale or repeated one; see [`task_seq_ceiling`] for
+/// the ones it refuses.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct Task {
     pub unit: UnitId,

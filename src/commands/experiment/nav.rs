@@ -178,7 +178,7 @@ fn trial(s: &Scenario, seed: u64, lambda_m: Option<f64>) -> anyhow::Result<Trial
             fire: FireId(1),
             target: flame,
         },
-    );
+    )?;
     let (mut frames, mut seen) = (0u32, 0u32);
     while world.time() < TRIAL_LIMIT_S {
         let sensors = world.sensors(&id).context("the unit exists")?;

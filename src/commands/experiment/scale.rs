@@ -194,6 +194,7 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
         task: None,
         autonomous: false,
         refused: None,
+        task_seq: None,
     };
 
     println!(

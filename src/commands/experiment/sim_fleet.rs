@@ -12,6 +12,7 @@
 use std::sync::Arc;
 
 use anyhow::Context;
+use firefleet_agent::controller::TaskAhead;
 use firefleet_agent::ground::GroundController;
 use firefleet_agent::monorail::MonorailController;
 use firefleet_coordinator::Incident;
@@ -55,7 +56,7 @@ impl Unit {
         Ok(())
     }
 
-    fn on_task(&mut self, seq: u64, kind: TaskKind) {
+    fn on_task(&mut self, seq: u64, kind: TaskKind) -> Result<(), TaskAhead> {
         match self {
             Self::Ground(c) => c.on_task(seq, kind),
             Self::Rail(c) => c.on_task(seq, kind),
@@ -240,8 +241,10 @@ impl SimFleet {
         for o in outputs {
             if let Output::Task(task) = o {
                 self.invariants.observe(t, Event::Task(task.clone()));
-                if let Some((_, u)) = self.units.iter_mut().find(|(id, _)| *id == task.unit) {
-                    u.on_task(task.seq, task.kind);
+                if let Some((_, u)) = self.units.iter_mut().find(|(id, _)| *id == task.unit)
+                    && let Err(e) = u.on_task(task.seq, task.kind)
+                {
+                    tracing::warn!(unit = %task.unit, "{e}");
                 }
             }
         }

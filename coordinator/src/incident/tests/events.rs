@@ -156,3 +156,37 @@ fn a_restarted_coordinator_recalls_recorded_fires_under_their_ids() {
     assert_eq!(tracks[0].state, FireState::Suppressing);
     assert_eq!(tracks[1].assigned, [u("b")]);
 }
+
+#[test]
+fn a_task_the_coordinator_never_gave_is_superseded_and_forged_numbers_are_not_heeded() {
+    let mut i = incident();
+    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let ours = tasks(&out)[0].clone();
+    assert_eq!(ours.unit.as_str(), "b");
+    // b took a task numbered above ours: somebody else's.
+    let mut st = state("b", 40.0, None);
+    st.task_seq = Some(ours.seq + 50);
+    let out = i.on_state(st, 2.0).unwrap();
+    let again = all_tasks(&out)
+        .into_iter()
+        .find(|t| t.unit.as_str() == "b")
+        .expect("b's task given again");
+    assert_eq!(again.kind, ours.kind);
+    assert!(again.seq > ours.seq + 50, "{again:?}");
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Superseded { unit, foreign, .. } if unit == "b" && *foreign == ours.seq + 50
+    )));
+    // A number far ahead of the clock (a forged state) moves nothing, and numbering goes on.
+    let mut st = state("a", 10.0, None);
+    st.task_seq = Some(u64::MAX);
+    st.task = Some(TaskProgress {
+        seq: u64::MAX,
+        fire: FireId(9),
+        phase: TaskPhase::Travelling,
+        target: Point2::new(10.0, 1.0),
+    });
+    i.on_state(st, 3.0).unwrap();
+    let out = i.on_report(&report("a", 150.0), 4.0).unwrap();
+    assert!(all_tasks(&out).iter().all(|t| t.seq < 1_000_000), "{out:?}");
+}

@@ -35,6 +35,7 @@ fn state(unit: &str, x: f64, task: Option<TaskProgress>) -> UnitState {
         task,
         autonomous: false,
         refused: None,
+        task_seq: None,
     }
 }
 
