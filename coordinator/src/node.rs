@@ -111,8 +111,22 @@ pub async fn run(
             .chain(opts.resume.clone()),
     );
     if !recalled.is_empty() {
-        let t = recalled.iter().map(|f| f.t).fold(clock.now(), f64::max);
-        let (out, refused) = incident.restore(&recalled, t);
+        // The site clock dates the recalled tracks (one dated ahead of it is refused); a
+        // running simulator sends it ten times a second. With no clock to go by (no
+        // simulator running) they cannot be dated, and are taken as they are.
+        if opts.sim_clock {
+            match tokio::time::timeout(CLOCK_WAIT, clock_msgs.recv()).await {
+                Ok(Some((_, c))) => sim_time.set(c.t),
+                _ => {
+                    let newest = recalled.iter().map(|f| f.t).fold(0.0, f64::max);
+                    tracing::warn!(
+                        "no site clock within {CLOCK_WAIT:?}: recalled fire tracks taken undated (newest t = {newest:.1} s)"
+                    );
+                    sim_time.set(newest);
+                }
+            }
+        }
+        let (out, refused) = incident.restore(&recalled, clock.now());
         for e in refused {
             bus.rejects().count_invalid();
             tracing::warn!("refused recalled fire track: {e}");
@@ -234,6 +248,10 @@ pub async fn run(
     }
     Ok(())
 }
+
+/// How long a starting coordinator with recalled tracks waits for the simulator's clock to
+/// date them.
+const CLOCK_WAIT: Duration = Duration::from_secs(3);
 
 /// How long a starting coordinator waits for recorders to answer with fire tracks.
 const RECALL_TIMEOUT: Duration = Duration::from_secs(2);

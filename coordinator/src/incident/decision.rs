@@ -81,6 +81,11 @@ pub enum Decision {
     Joined {
         unit: UnitId,
     },
+    /// A unit lost for its silence was heard again after `silent_s`.
+    Rejoined {
+        unit: UnitId,
+        silent_s: f64,
+    },
     /// A unit is lost; the fire it was on, if any, needs another.
     Lost {
         unit: UnitId,
@@ -237,6 +242,10 @@ impl fmt::Display for Decision {
                 "{unit} took task {foreign}, which this coordinator never gave (its task was {ours}): given again above it"
             ),
             Decision::Joined { unit } => write!(f, "unit {unit} joined"),
+            Decision::Rejoined { unit, silent_s } => write!(
+                f,
+                "unit {unit} heard again after {silent_s:.1} s of silence: back in play"
+            ),
             Decision::Lost { unit, why, fire } => {
                 write!(f, "unit {unit} lost ({why})")?;
                 match fire {

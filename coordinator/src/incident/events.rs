@@ -14,6 +14,10 @@ use crate::fusion::Fused;
 
 use super::{Decision, Incident, Loss, Output, Scope};
 
+/// How far ahead of the site clock a recalled track may be dated, s: clock skew between the
+/// hosts of the coordinator that published it and of this one.
+pub const RECALL_AHEAD_S: f64 = 5.0;
+
 impl Incident {
     /// A unit's liveliness token appeared or vanished.
     pub fn on_alive(&mut self, unit: &UnitId, alive: bool, t: f64) -> Result<Vec<Output>, Invalid> {
@@ -22,6 +26,7 @@ impl Incident {
         v.alive = alive;
         if alive {
             v.last_heard = t;
+            v.lost = None;
             if !was {
                 self.log(t, Decision::Joined { unit: unit.clone() });
             }
@@ -36,6 +41,7 @@ impl Incident {
     pub(super) fn lose(&mut self, unit: &UnitId, t: f64, why: Loss) -> Vec<Output> {
         let v = self.units.get_mut(unit).expect("known unit");
         v.alive = false;
+        v.lost = Some(why);
         let fire = v.working_on();
         v.task = None;
         let mut out = Vec::new();
@@ -66,15 +72,27 @@ impl Incident {
 
     /// Fire tracks a previous coordinator published, as a recorder kept them: taken back
     /// under their ids before the units are heard from, so that a fire nobody is working on
-    /// right now is not forgotten across a restart. A track that fails validation or lies
-    /// outside the tunnel is refused (returned with its reason) and the rest are still
-    /// taken; one whose id is already known is skipped.
+    /// right now is not forgotten across a restart. A track that fails validation, lies
+    /// outside the tunnel or is dated ahead of the site clock `t` (by more than
+    /// [`RECALL_AHEAD_S`]: a forged track dated t = 1e9 would outrank every real one) is
+    /// refused (returned with its reason) and the rest are still taken; one whose id is
+    /// already known is skipped.
     pub fn restore(&mut self, tracks: &[FireTrack], t: f64) -> (Vec<Output>, Vec<Invalid>) {
         let mut refused = Vec::new();
         for track in tracks {
             let checked = track
                 .validate()
                 .and_then(|()| self.tunnel.check_inside("position", track.position))
+                .and_then(|()| {
+                    if track.t > t + RECALL_AHEAD_S {
+                        Err(Invalid::new(
+                            "t",
+                            format!("{:.1} s is ahead of the site clock ({t:.1} s)", track.t),
+                        ))
+                    } else {
+                        Ok(())
+                    }
+                })
                 .map_err(|e| e.within(&format!("fire {}", track.id)));
             if let Err(e) = checked {
                 refused.push(e);
@@ -100,7 +118,16 @@ impl Incident {
         let (from, to) = self.sight(mobility, st.pose);
         self.coverage.look(from, to, t);
         let v = self.view(&unit, "unit")?;
+        let silent_s = t - v.last_heard;
         v.last_heard = t;
+        // Lost only for its silence (its token never went): heard again, it is back in
+        // play. A unit whose token vanished comes back with its token.
+        let back = v.lost == Some(Loss::Silent);
+        if back {
+            v.alive = true;
+            v.lost = None;
+        }
+        let tasked = v.tasked;
         let current = v.task.clone();
         let progress = st.task;
         let refusal = st.refused.clone();
@@ -109,13 +136,26 @@ impl Incident {
         // out; a moving unit's position is picked up by the periodic re-solve. Re-solving
         // on every state would cost a solve per message: 10 000 a second for 1000 units.
         let able = |s: &UnitState| s.mode != UnitMode::Fault && s.water_l > 0.0;
-        let mut relevant = v.state.as_ref().is_none_or(|old| able(old) != able(&st));
+        let mut relevant = back || v.state.as_ref().is_none_or(|old| able(old) != able(&st));
         v.state = Some(st);
         if let Some(p) = progress {
             self.heed_seq(p.seq, t);
         }
         let mut out = Vec::new();
+        if back {
+            self.log(
+                t,
+                Decision::Rejoined {
+                    unit: unit.clone(),
+                    silent_s,
+                },
+            );
+        }
+        // A task this coordinator did not give (it gave it before a restart) is adopted;
+        // what a unit it tasked reports of an older task is not (a unit heard again after
+        // its lease lapsed may still be on a fire since given to another).
         if current.is_none()
+            && !tasked
             && let Some(p) = progress
             && matches!(p.phase, TaskPhase::Travelling | TaskPhase::Spraying)
         {

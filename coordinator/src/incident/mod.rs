@@ -66,6 +66,11 @@ struct UnitView {
     /// The task makes the unit a fire's second attacker: a new fire with nobody on it may
     /// take the unit while it is still on its way.
     backup: bool,
+    /// Why the unit was lost, while it is.
+    lost: Option<Loss>,
+    /// This coordinator has given the unit a task: what the unit reports working on is
+    /// then this coordinator's business, never a task to adopt.
+    tasked: bool,
 }
 
 impl UnitView {
@@ -77,6 +82,8 @@ impl UnitView {
             last_heard: 0.0,
             task: None,
             backup: false,
+            lost: None,
+            tasked: false,
         }
     }
 
@@ -239,7 +246,9 @@ impl Incident {
             t,
             kind,
         };
-        self.units.get_mut(unit).expect("known unit").task = Some(task.clone());
+        let v = self.units.get_mut(unit).expect("known unit");
+        v.task = Some(task.clone());
+        v.tasked = true;
         Output::Task(task)
     }
 

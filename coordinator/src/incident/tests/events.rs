@@ -118,11 +118,22 @@ fn a_restarted_coordinator_recalls_recorded_fires_under_their_ids() {
             track(4, 60.0, FireState::Assigned, &["a"]),
             track(9, 150.0, FireState::Confirmed, &[]),
             track(12, 500.0, FireState::Confirmed, &[]),
+            FireTrack {
+                t: 1e9,
+                state: FireState::Out,
+                ..track(13, 100.0, FireState::Out, &[])
+            },
         ],
         41.0,
     );
-    assert_eq!(refused.len(), 1);
+    assert_eq!(refused.len(), 2);
     assert!(refused[0].field.starts_with("fire f12"), "{:?}", refused[0]);
+    assert_eq!(refused[1].field, "fire f13.t", "{:?}", refused[1]);
+    assert!(
+        refused[1]
+            .reason
+            .contains("ahead of the site clock (41.0 s)")
+    );
     let ids: Vec<FireId> = i.fire_tracks(41.0).iter().map(|f| f.id).collect();
     assert_eq!(ids, [FireId(4), FireId(9)]);
     assert_eq!(
@@ -189,4 +200,50 @@ fn a_task_the_coordinator_never_gave_is_superseded_and_forged_numbers_are_not_he
     i.on_state(st, 3.0).unwrap();
     let out = i.on_report(&report("a", 150.0), 4.0).unwrap();
     assert!(all_tasks(&out).iter().all(|t| t.seq < 1_000_000), "{out:?}");
+}
+
+#[test]
+fn a_unit_heard_again_after_its_lease_is_back_in_play_and_its_old_task_not_adopted() {
+    let mut i = incident();
+    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let first = tasks(&out)[0].clone();
+    assert_eq!(first.unit.as_str(), "b");
+    let TaskKind::Extinguish { fire, target } = first.kind else {
+        unreachable!()
+    };
+    // b falls silent past its lease (its token stays): lost, its fire goes to a.
+    i.on_state(state("a", 10.0, None), 5.5).unwrap();
+    let out = i.tick(6.5);
+    assert_eq!(tasks(&out)[0].unit.as_str(), "a");
+    // b is heard again, still reporting its old task: back in play, the old task not
+    // taken over (a has the fire), no new fire made of it.
+    let old = TaskProgress {
+        seq: first.seq,
+        fire,
+        phase: TaskPhase::Travelling,
+        target,
+    };
+    let out = i.on_state(state("b", 40.0, Some(old)), 7.0).unwrap();
+    assert!(decided(
+        &i,
+        |d| matches!(d, Decision::Rejoined { unit, .. } if unit == "b")
+    ));
+    assert!(
+        !decided(&i, |d| matches!(d, Decision::Adopt { .. })),
+        "{out:?}"
+    );
+    assert_eq!(i.fire_tracks(7.0).len(), 1);
+    assert!(
+        i.status(7.0)
+            .units
+            .iter()
+            .any(|u| u.unit.as_str() == "b" && u.alive),
+        "b is usable again"
+    );
+    // It is given work again: a new fire nearer b than a goes to b.
+    let out = i.on_report(&report("b", 45.0), 8.0).unwrap();
+    assert!(
+        tasks(&out).iter().any(|t| t.unit.as_str() == "b"),
+        "{out:?}"
+    );
 }
