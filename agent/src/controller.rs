@@ -9,7 +9,9 @@
 //! Pure: no I/O, no clock of its own.
 
 use firefleet_bt::{Status, Tree};
-use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitState, task_seq_ceiling};
+use firefleet_protocol::msg::{
+    BarredSpace, FlameReport, TASK_SEQ_LEAD_S, TaskKind, UnitState, task_seq_ceiling,
+};
 
 use crate::mission::{Responder, review};
 
@@ -38,8 +40,18 @@ pub struct Controller<U> {
     unit: U,
     tick_period_s: f64,
     next_tick: f64,
-    /// Site time of the latest frame.
-    now: f64,
+    /// Site time of the latest frame; `None` before the first.
+    now: Option<f64>,
+    /// A barred space heard before the first frame, judged when the clock is known.
+    pending: Option<BarredSpace>,
+}
+
+/// A barred space dated beyond what the site clock allows, refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("barred space dated t = {t:.1} s, ahead of the site clock (t = {now:.1} s): refused")]
+pub struct BarredAhead {
+    pub t: f64,
+    pub now: f64,
 }
 
 /// A task numbered beyond what the site clock allows ([`task_seq_ceiling`]), refused.
@@ -61,7 +73,8 @@ impl<U: Services> Controller<U> {
             unit,
             tick_period_s,
             next_tick: f64::NEG_INFINITY,
-            now: 0.0,
+            now: None,
+            pending: None,
         }
     }
 
@@ -69,7 +82,12 @@ impl<U: Services> Controller<U> {
     pub fn step(&mut self, s: &U::Sensors) -> U::Command {
         self.unit.sense(s);
         let t = U::time(s);
-        self.now = t;
+        self.now = Some(t);
+        if let Some(b) = self.pending.take()
+            && let Err(e) = self.on_barred(b)
+        {
+            tracing::warn!(unit = %self.unit.id(), "{e}");
+        }
         if t >= self.next_tick {
             self.next_tick = t + self.tick_period_s;
             self.tick(t);
@@ -89,11 +107,12 @@ impl<U: Services> Controller<U> {
     /// A task arrived from the coordinator. Older or repeated tasks are ignored; one
     /// numbered ahead of the site clock is refused.
     pub fn on_task(&mut self, seq: u64, kind: TaskKind) -> Result<(), TaskAhead> {
-        let ceiling = task_seq_ceiling(self.now);
+        let now = self.now.unwrap_or(0.0);
+        let ceiling = task_seq_ceiling(now);
         if seq > ceiling {
             return Err(TaskAhead {
                 seq,
-                t: self.now,
+                t: now,
                 ceiling,
             });
         }
@@ -103,12 +122,24 @@ impl<U: Services> Controller<U> {
     }
 
     /// The coordinator's barred space arrived: kept if newer, then the unit's services and
-    /// its task are held to it.
-    pub fn on_barred(&mut self, barred: BarredSpace) {
+    /// its task are held to it. One dated ahead of the site clock (by more than the task
+    /// numbers' lead) is refused: kept, it would shut out every real one after it. One
+    /// heard before the first frame waits for the clock.
+    pub fn on_barred(&mut self, barred: BarredSpace) -> Result<(), BarredAhead> {
+        let Some(now) = self.now else {
+            if self.pending.as_ref().is_none_or(|p| p.t <= barred.t) {
+                self.pending = Some(barred);
+            }
+            return Ok(());
+        };
+        if barred.t > now + TASK_SEQ_LEAD_S as f64 {
+            return Err(BarredAhead { t: barred.t, now });
+        }
         if self.unit.mission().on_barred(barred) {
             self.unit.barred_changed();
             review(&mut self.unit);
         }
+        Ok(())
     }
 
     /// The coordinator appeared or disappeared.

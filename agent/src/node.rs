@@ -146,15 +146,26 @@ where
                     tracing::warn!(%unit, other = %task.unit, "dropped a task addressed to another unit");
                 }
             }
-            Some((_, b)) = barred.recv() => ctl.on_barred(b),
+            Some((_, b)) = barred.recv() => {
+                if let Err(e) = ctl.on_barred(b) {
+                    bus.rejects().count_invalid();
+                    tracing::warn!(%unit, "{e}");
+                }
+            }
             Ok(reply) = barred_answers.recv_async() => {
                 let Ok(sample) = reply.result() else { continue };
-                match codec::decode::<BarredSpace>(&sample.payload().to_bytes()) {
-                    Ok(b) => ctl.on_barred(b),
+                let refused = match codec::decode::<BarredSpace>(&sample.payload().to_bytes()) {
+                    Ok(b) => ctl.on_barred(b).map_err(|e| {
+                        bus.rejects().count_invalid();
+                        e.to_string()
+                    }),
                     Err(e) => {
                         bus.rejects().count(&e);
-                        tracing::warn!(%unit, "barred space answer refused: {e}");
+                        Err(e.to_string())
                     }
+                };
+                if let Err(e) = refused {
+                    tracing::warn!(%unit, "barred space answer refused: {e}");
                 }
             }
             sample = coord.recv_async() => {

@@ -52,7 +52,8 @@ fn a_unit_inside_a_new_keep_out_leaves_by_the_shortest_way_and_stays_out() {
     drive(&mut ctl, &mut world, &id, 40.0);
     let x0 = ctl.state().pose.x;
     assert!((60.0..100.0).contains(&x0), "at {x0}");
-    ctl.on_barred(barred(world.time(), 50.0, 150.0, false));
+    ctl.on_barred(barred(world.time(), 50.0, 150.0, false))
+        .unwrap();
     // The way out is west, back past 50 m: at most (x0 - 45) at 1.5 m/s, twice over.
     let deadline = 2.0 * (x0 - 45.0) / GROUND.max_speed_m_s;
     let mut out_after = None;
@@ -82,7 +83,8 @@ fn a_task_that_needs_barred_space_is_refused_with_the_reason() {
     let s = Scenario::straight(200.0).ground("u1", 20.0, -2.5).build();
     let (mut ctl, mut world, id) = ground(s);
     ctl.set_coordinator_present(true);
-    ctl.on_barred(barred(0.0, 50.0, 150.0, false));
+    drive(&mut ctl, &mut world, &id, 0.1);
+    ctl.on_barred(barred(0.0, 50.0, 150.0, false)).unwrap();
     ctl.on_task(
         1,
         TaskKind::Cruise {
@@ -125,7 +127,7 @@ fn alone_a_unit_does_not_attack_a_fire_in_barred_space() {
         .ground("u1", 20.0, -2.5)
         .build();
     let (mut ctl, mut world, id) = ground(s);
-    ctl.on_barred(barred(0.0, 80.0, 120.0, false));
+    ctl.on_barred(barred(0.0, 80.0, 120.0, false)).unwrap();
     let mut farthest: f64 = 0.0;
     for _ in 0..240 {
         drive(&mut ctl, &mut world, &id, 0.5);
@@ -134,4 +136,43 @@ fn alone_a_unit_does_not_attack_a_fire_in_barred_space() {
     let fire = &world.truth().fires[0];
     assert_eq!(fire.water_received_l, 0.0, "{fire:?}");
     assert!(farthest < 80.0, "went to {farthest}");
+}
+
+#[test]
+fn a_barred_space_dated_ahead_of_the_clock_is_refused_and_one_heard_before_the_first_frame_waits() {
+    let s = Scenario::straight(200.0).ground("u1", 20.0, -2.5).build();
+    let (mut ctl, mut world, id) = ground(s);
+    // Before the first frame (a recorder's answer to the start-up question): kept, judged
+    // when the clock is known.
+    ctl.on_barred(barred(0.5, 50.0, 150.0, false)).unwrap();
+    drive(&mut ctl, &mut world, &id, 1.0);
+    ctl.on_task(
+        1,
+        TaskKind::Cruise {
+            goal: Point2::new(180.0, -2.5),
+        },
+    )
+    .unwrap();
+    assert!(
+        ctl.state().refused.is_some(),
+        "the early barred space binds"
+    );
+    // Dated a day ahead: refused, and it does not shut out the real lifting of the zone.
+    let e = ctl
+        .on_barred(barred(86_400.0, 0.0, 200.0, false))
+        .unwrap_err();
+    assert!(e.to_string().contains("ahead of the site clock"), "{e}");
+    ctl.on_barred(BarredSpace {
+        t: 2.0,
+        spans: Vec::new(),
+    })
+    .unwrap();
+    ctl.on_task(
+        2,
+        TaskKind::Cruise {
+            goal: Point2::new(180.0, -2.5),
+        },
+    )
+    .unwrap();
+    assert_eq!(ctl.state().refused, None);
 }

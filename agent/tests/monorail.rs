@@ -208,7 +208,7 @@ fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
     let mut ctl = controller(&scenario);
     ctl.set_coordinator_present(true);
     ride(&mut ctl, &mut world, 1.0);
-    ctl.on_barred(keep_out(world.time(), false));
+    ctl.on_barred(keep_out(world.time(), false)).unwrap();
     ctl.on_task(1, attack).unwrap();
     assert_eq!(
         ctl.state().refused.map(|r| r.reason),
@@ -224,7 +224,7 @@ fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
     let mut world = World::new(&scenario, 5);
     let mut ctl = controller(&scenario);
     ctl.set_coordinator_present(true);
-    ctl.on_barred(keep_out(0.0, true));
+    ctl.on_barred(keep_out(0.0, true)).unwrap();
     ctl.on_task(
         1,
         TaskKind::Search {

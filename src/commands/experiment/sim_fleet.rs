@@ -12,7 +12,7 @@
 use std::sync::Arc;
 
 use anyhow::Context;
-use firefleet_agent::controller::TaskAhead;
+use firefleet_agent::controller::{BarredAhead, TaskAhead};
 use firefleet_agent::ground::GroundController;
 use firefleet_agent::monorail::MonorailController;
 use firefleet_coordinator::Incident;
@@ -63,7 +63,7 @@ impl Unit {
         }
     }
 
-    fn on_barred(&mut self, b: BarredSpace) {
+    fn on_barred(&mut self, b: BarredSpace) -> Result<(), BarredAhead> {
         match self {
             Self::Ground(c) => c.on_barred(b),
             Self::Rail(c) => c.on_barred(b),
@@ -195,11 +195,20 @@ impl SimFleet {
         };
         let (ack, out) = inc.on_goal(&zone, goal, t);
         anyhow::ensure!(ack.accepted, "goal refused: {}", ack.reason);
+        self.tell_barred(t)?;
+        self.deliver(out);
+        Ok(())
+    }
+
+    /// Every unit hears what the coordinator bars as of `t`.
+    fn tell_barred(&mut self, t: f64) -> anyhow::Result<()> {
+        let Some(inc) = &self.incident else {
+            return Ok(());
+        };
         let barred = inc.barred_space(t);
         for (_, u) in &mut self.units {
-            u.on_barred(barred.clone());
+            u.on_barred(barred.clone())?;
         }
-        self.deliver(out);
         Ok(())
     }
 
@@ -221,13 +230,10 @@ impl SimFleet {
                         outputs.extend(inc.on_report(&r, t).unwrap_or_default());
                     }
                 }
-                if self.step.is_multiple_of(BARRED_EVERY) {
-                    let barred = inc.barred_space(t);
-                    for (_, u) in &mut self.units {
-                        u.on_barred(barred.clone());
-                    }
-                }
                 self.deliver(outputs);
+                if self.step.is_multiple_of(BARRED_EVERY) {
+                    self.tell_barred(t)?;
+                }
             }
         }
         self.world.step(DT_S);
