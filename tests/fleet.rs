@@ -709,6 +709,25 @@ async fn barred_space_reaches_the_units_and_outlives_the_coordinator() {
         barred_answer(&bus, Duration::from_secs(5)).await.spans,
         b.spans
     );
+    // A coordinator started now takes the goal back before it tells the units anything:
+    // its first word on the barred space still bars deep (a restart lifts no keep-out).
+    while told.try_recv().is_some() {}
+    fleet
+        .0
+        .push(spawn_role("rail-tunnel", &endpoint, &["coordinator"]));
+    let (_, first) = tokio::time::timeout(Duration::from_secs(20), told.recv())
+        .await
+        .expect("the new coordinator never published the barred space")
+        .expect("bus open");
+    assert_eq!(first.spans, b.spans, "lifted by the restart");
+    let status = status_of(&bus, Duration::from_secs(10)).await;
+    assert_eq!(status["goals"][0]["id"], "deep-keep-out", "{status}");
+    assert!(
+        status["decisions"]
+            .to_string()
+            .contains("recall goal 'deep-keep-out' (KeepOut, priority 0) on zone deep"),
+        "{status}"
+    );
     bus.close().await;
 }
 

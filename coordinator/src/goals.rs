@@ -20,7 +20,8 @@
 //! Pure: no I/O, no clock of its own.
 
 use firefleet_protocol::msg::{
-    Bar, BarredSpace, BarredSpan, GoalAck, GoalKind, UnitKind, ZoneGoal, nearest_allowed,
+    Bar, BarredSpace, BarredSpan, GoalAck, GoalInForce, GoalKind, GoalsInForce, UnitKind, ZoneGoal,
+    nearest_allowed,
 };
 use firefleet_protocol::scenario::Zone;
 use firefleet_protocol::{Chainage, ZoneId};
@@ -31,6 +32,8 @@ pub struct Active {
     pub goal: ZoneGoal,
     pub start: Chainage,
     pub end: Chainage,
+    /// Site time it took effect.
+    pub since: f64,
     /// Site time it lapses, if ever.
     pub until: Option<f64>,
 }
@@ -125,6 +128,7 @@ impl Goals {
         let active = Active {
             start: zone.start_m,
             end: zone.end_m,
+            since: t,
             until: g.expires_s.map(|e| t + e),
             goal: g,
         };
@@ -139,6 +143,38 @@ impl Goals {
             }
         };
         ack(&active.goal, true, reason)
+    }
+
+    /// Take back a goal a previous coordinator had in force (`coord/goals`, as a recorder
+    /// kept it) at site time `t`, under the same rules as a new one, keeping when it took
+    /// effect and when it lapses; one already lapsed is not taken.
+    pub fn restore(&mut self, g: &GoalInForce, t: f64) -> GoalAck {
+        if g.until.is_some_and(|u| u <= t) {
+            return ack(&g.goal, false, "lapsed while no coordinator ran");
+        }
+        let a = self.submit(&g.goal.zone.clone(), g.goal.clone(), g.since);
+        if a.accepted
+            && let Some(active) = self.active.iter_mut().find(|x| x.goal.id == g.goal.id)
+        {
+            active.until = g.until;
+        }
+        a
+    }
+
+    /// The goals in force as of `t`, for `coord/goals`.
+    pub fn in_force(&self, t: f64) -> GoalsInForce {
+        GoalsInForce {
+            t,
+            goals: self
+                .active
+                .iter()
+                .map(|a| GoalInForce {
+                    goal: a.goal.clone(),
+                    since: a.since,
+                    until: a.until,
+                })
+                .collect(),
+        }
     }
 
     /// Clear every goal on `zone`; the goals cleared.
@@ -346,6 +382,28 @@ mod tests {
         assert_eq!(b.t, 7.0);
         assert_eq!(g.barred(UnitKind::Ground), vec![(c(150.0), c(200.0))]);
         assert!(g.barred(UnitKind::Monorail).is_empty(), "rail allowed");
+    }
+
+    #[test]
+    fn goals_in_force_are_taken_back_with_their_times_and_lapsed_ones_are_not() {
+        let mut g = goals();
+        let mut x = goal("g1", "b", GoalKind::KeepOut, 0);
+        x.expires_s = Some(100.0);
+        assert!(g.submit(&zid("b"), x, 10.0).accepted);
+        assert!(
+            g.submit(&zid("a"), goal("g2", "a", GoalKind::Monitor, 1), 20.0)
+                .accepted
+        );
+        let kept = g.in_force(30.0);
+        let mut back = goals();
+        for f in &kept.goals {
+            assert!(back.restore(f, 50.0).accepted);
+        }
+        assert_eq!(back.in_force(30.0), kept, "same goals, same times");
+        assert_eq!(back.barred(UnitKind::Ground), g.barred(UnitKind::Ground));
+        let mut late = goals();
+        let a = late.restore(&kept.goals[0], 110.0);
+        assert!(!a.accepted && a.reason.contains("lapsed"), "{a:?}");
     }
 
     #[test]

@@ -8,7 +8,9 @@
 //! `zone/<zone>/ack`, malformed ones included; a delete on a goal key clears the zone.
 //! What the goals in force bar goes to every unit on `coord/barred`: on every change,
 //! again every second (a unit that missed it, or started late, converges), and in answer
-//! to a query (a unit asks at start).
+//! to a query (a unit asks at start). The goals themselves go on `coord/goals` the same
+//! way, and a starting coordinator takes back the newest it can get (recorders keep it)
+//! before it tells the units anything: a restart must not lift a keep-out.
 //! A message the incident refuses (unknown unit, outside the tunnel) is logged and counted;
 //! nothing else changes.
 //!
@@ -29,10 +31,10 @@ use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::clock::{Clock, ExternalClock, SystemClock};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::{self, Topic};
-use firefleet_protocol::msg::{FireTrack, GoalAck, ZoneGoal};
+use firefleet_protocol::msg::{BarredSpace, FireTrack, GoalAck, GoalsInForce, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Invalid;
-use zenoh::sample::SampleKind;
+use zenoh::sample::{Locality, SampleKind};
 
 use crate::assign::Strategy;
 use crate::incident::{Incident, Output};
@@ -89,21 +91,25 @@ pub async fn run(
         .await?;
     let reports = bus.subscribe(&keys.every_unit_report()).await?;
     let clock_msgs = bus.subscribe(&keys.sim_clock()).await?;
-    let status = session
-        .declare_queryable(keys.expr(&Topic::CoordStatus))
-        .await?;
-    let barred_key = keys.coord_barred();
-    let barred_q = session.declare_queryable(barred_key.as_str()).await?;
-    // What units were last told is barred (nothing, until a goal bars something).
-    let mut told = incident.barred_space(clock.now());
+    // `coord/status`, `coord/barred` and `coord/goals` are answered to queries.
+    let coord_q = session.declare_queryable(keys.every_coord()).await?;
+    let mut told = Told::default();
     // Goals are read raw, not through the bus's typed inbox: a malformed goal must still
     // be answered, and a delete on a zone's goal key clears the zone.
     let goals = session
         .declare_subscriber(keys.every_zone_goal().as_str())
         .await?;
 
-    // Before anything else is heard: the tracks the previous coordinator published, as a
-    // recorder kept them (none at a first start, or when nothing records).
+    // Before anything else is heard: the goals and the tracks the previous coordinator
+    // published, as a recorder kept them (none at a first start, or when nothing records).
+    if let Some(kept) = recall_goals(bus).await? {
+        let (out, refused) = incident.restore_goals(&kept, clock.now());
+        for ack in refused {
+            bus.rejects().count_invalid();
+            tracing::warn!(goal = ack.id, zone = %ack.zone, "recalled goal refused: {}", ack.reason);
+        }
+        publish(bus, out).await?;
+    }
     let recalled = latest_per_fire(
         recall_fires(bus)
             .await?
@@ -116,7 +122,14 @@ pub async fn run(
         // simulator running) they cannot be dated, and are taken as they are.
         if opts.sim_clock {
             match tokio::time::timeout(CLOCK_WAIT, clock_msgs.recv()).await {
-                Ok(Some((_, c))) => sim_time.set(c.t),
+                Ok(Some((_, c))) => {
+                    // The newest of those queued while the recorders answered.
+                    let mut t = c.t;
+                    while let Some((_, c)) = clock_msgs.try_recv() {
+                        t = t.max(c.t);
+                    }
+                    sim_time.set(t);
+                }
                 _ => {
                     let newest = recalled.iter().map(|f| f.t).fold(0.0, f64::max);
                     tracing::warn!(
@@ -187,19 +200,23 @@ pub async fn run(
                 // on; refused and counted like any other bad message.
                 _ => Err(Invalid::new("key", format!("'{}' names no zone", sample.key_expr()))),
             },
-            Ok(query) = barred_q.recv_async() => {
-                let body = codec::encode(&incident.barred_space(clock.now()));
-                if let Err(e) = query.reply(barred_key.as_str(), body).await {
-                    tracing::warn!("barred space reply failed: {e}");
-                }
-                Ok(Vec::new())
-            }
-            Ok(query) = status.recv_async() => {
-                let mut body = incident.status(clock.now());
-                body.rejected = bus.rejects().snapshot().into_iter().map(|(k, v)| (k.to_owned(), v)).collect();
-                let body = codec::encode(&body);
-                if let Err(e) = query.reply(keys.expr(&Topic::CoordStatus), body).await {
-                    tracing::warn!("status reply failed: {e}");
+            Ok(query) = coord_q.recv_async() => {
+                let t = clock.now();
+                let key = query.key_expr().as_str().to_owned();
+                let body = match keys::parse(&key) {
+                    Ok((_, Topic::CoordBarred)) => Some(codec::encode(&incident.barred_space(t))),
+                    Ok((_, Topic::CoordGoals)) => Some(codec::encode(&incident.goals_in_force(t))),
+                    Ok((_, Topic::CoordStatus)) => {
+                        let mut body = incident.status(t);
+                        body.rejected = bus.rejects().snapshot().into_iter().map(|(k, v)| (k.to_owned(), v)).collect();
+                        Some(codec::encode(&body))
+                    }
+                    _ => None,
+                };
+                if let Some(body) = body
+                    && let Err(e) = query.reply(key.as_str(), body).await
+                {
+                    tracing::warn!(key, "reply failed: {e}");
                 }
                 Ok(Vec::new())
             }
@@ -208,8 +225,7 @@ pub async fn run(
                 let t = clock.now();
                 slice = (slice + 1) % REPUBLISH_SLICES;
                 if slice == 0 {
-                    told = incident.barred_space(t);
-                    bus.put(&barred_key, &told).await?;
+                    told.tell(bus, &incident, t, true).await?;
                 }
                 Ok(incident
                     .tasks()
@@ -233,11 +249,7 @@ pub async fn run(
             bus.put(&keys.coord_log(), &d.to_msg()).await?;
         }
         // Units hear of barred space before any task that depends on it.
-        let barred = incident.barred_space(clock.now());
-        if barred.spans != told.spans {
-            told = barred;
-            bus.put(&barred_key, &told).await?;
-        }
+        told.tell(bus, &incident, clock.now(), false).await?;
         match outputs {
             Ok(outputs) => publish(bus, outputs).await?,
             Err(e) => {
@@ -252,6 +264,64 @@ pub async fn run(
 /// How long a starting coordinator with recalled tracks waits for the simulator's clock to
 /// date them.
 const CLOCK_WAIT: Duration = Duration::from_secs(3);
+
+/// What the coordinator last published of its goals and what they bar.
+#[derive(Default)]
+struct Told {
+    barred: BarredSpace,
+    goals: GoalsInForce,
+}
+
+impl Told {
+    /// Publish the barred space and the goals in force as of `t` if either changed since
+    /// last told, or `always` (the once-a-second re-send).
+    async fn tell(
+        &mut self,
+        bus: &Bus,
+        incident: &Incident,
+        t: f64,
+        always: bool,
+    ) -> Result<(), BusError> {
+        let keys = bus.keys();
+        let barred = incident.barred_space(t);
+        if always || barred.spans != self.barred.spans {
+            bus.put(&keys.coord_barred(), &barred).await?;
+            self.barred = barred;
+        }
+        let goals = incident.goals_in_force(t);
+        if always || goals.goals != self.goals.goals {
+            bus.put(&keys.coord_goals(), &goals).await?;
+            self.goals = goals;
+        }
+        Ok(())
+    }
+}
+
+/// The newest goals in force anyone on `coord/goals` answers with (recorders do, for a
+/// coordinator that is gone); answers that do not decode are counted and logged.
+async fn recall_goals(bus: &Bus) -> Result<Option<GoalsInForce>, BusError> {
+    let replies = bus
+        .session()
+        .get(bus.keys().coord_goals().as_str())
+        // Not this coordinator's own queryable, which answers only once it runs: asked,
+        // it would hold the question open for the whole timeout.
+        .allowed_destination(Locality::Remote)
+        .timeout(RECALL_TIMEOUT)
+        .await?;
+    let mut newest: Option<GoalsInForce> = None;
+    while let Ok(reply) = replies.recv_async().await {
+        let Ok(sample) = reply.result() else { continue };
+        match codec::decode::<GoalsInForce>(&sample.payload().to_bytes()) {
+            Ok(g) if newest.as_ref().is_none_or(|n| n.t <= g.t) => newest = Some(g),
+            Ok(_) => {}
+            Err(e) => {
+                bus.rejects().count(&e);
+                tracing::warn!(key = %sample.key_expr(), "recalled goals refused: {e}");
+            }
+        }
+    }
+    Ok(newest)
+}
 
 /// How long a starting coordinator waits for recorders to answer with fire tracks.
 const RECALL_TIMEOUT: Duration = Duration::from_secs(2);

@@ -16,6 +16,8 @@
 //! ff/<site>/coord/barred          coord -> units     BarredSpace (postcard), every second
 //!                                 and on change; the coordinator and recorders answer
 //!                                 queries on it with the newest
+//! ff/<site>/coord/goals           coord -> all       GoalsInForce (JSON), the same way:
+//!                                 a starting coordinator recalls the goals from it
 //! ff/<site>/sim/clock             SimClock (postcard)
 //! ff/<site>/sim/truth             SimTruth (postcard)
 //! ff/<site>/sim/unit/<id>/sensors UnitSensors (postcard)
@@ -39,8 +41,9 @@ use std::marker::PhantomData;
 
 use crate::ids::{FireId, SiteId, UnitId, ZoneId};
 use crate::msg::{
-    BarredSpace, BtTransitions, Decision, FireTrack, FlameReport, GoalAck, Message, RailCommand,
-    RailSensors, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState, ZoneGoal,
+    BarredSpace, BtTransitions, Decision, FireTrack, FlameReport, GoalAck, GoalsInForce, Message,
+    RailCommand, RailSensors, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState,
+    ZoneGoal,
 };
 
 const ROOT: &str = "ff";
@@ -60,6 +63,7 @@ pub enum Topic {
     CoordStatus,
     CoordLog,
     CoordBarred,
+    CoordGoals,
     SimClock,
     SimTruth,
     SimSensors(UnitId),
@@ -83,6 +87,7 @@ impl fmt::Display for Topic {
             Topic::CoordStatus => f.write_str("coord/status"),
             Topic::CoordLog => f.write_str("coord/log"),
             Topic::CoordBarred => f.write_str("coord/barred"),
+            Topic::CoordGoals => f.write_str("coord/goals"),
             Topic::SimClock => f.write_str("sim/clock"),
             Topic::SimTruth => f.write_str("sim/truth"),
             Topic::SimSensors(u) => write!(f, "sim/unit/{u}/sensors"),
@@ -176,6 +181,10 @@ impl Keys {
     pub fn all(&self) -> String {
         format!("{ROOT}/{}/**", self.site)
     }
+    /// `ff/<site>/coord/*`: the coordinator's keys, for recorders answering on its behalf.
+    pub fn every_coord(&self) -> String {
+        format!("{ROOT}/{}/coord/*", self.site)
+    }
     /// `ff/<site>/unit/*/alive`: every unit's liveliness token.
     pub fn every_unit_alive(&self) -> String {
         format!("{ROOT}/{}/unit/*/alive", self.site)
@@ -210,6 +219,7 @@ typed_keys! {
         zone_ack(z: &ZoneId) -> GoalAck = Topic::ZoneAck(z.clone());
         coord_log() -> Decision = Topic::CoordLog;
         coord_barred() -> BarredSpace = Topic::CoordBarred;
+        coord_goals() -> GoalsInForce = Topic::CoordGoals;
         sim_clock() -> SimClock = Topic::SimClock;
         sim_truth() -> SimTruth = Topic::SimTruth;
         sim_sensors(u: &UnitId) -> UnitSensors = Topic::SimSensors(u.clone());
@@ -274,6 +284,7 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
         ["coord", "status"] => Topic::CoordStatus,
         ["coord", "log"] => Topic::CoordLog,
         ["coord", "barred"] => Topic::CoordBarred,
+        ["coord", "goals"] => Topic::CoordGoals,
         ["sim", "clock"] => Topic::SimClock,
         ["sim", "truth"] => Topic::SimTruth,
         ["sim", "unit", u, "sensors"] => Topic::SimSensors(unit(u)?),
@@ -310,6 +321,7 @@ mod tests {
             Topic::CoordStatus,
             Topic::CoordLog,
             Topic::CoordBarred,
+            Topic::CoordGoals,
             Topic::SimClock,
             Topic::SimTruth,
             Topic::SimSensors(u("b")),

@@ -12,8 +12,9 @@ use firefleet_protocol::ZoneId;
 use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    BarredSpace, BtTransitions, Decision, FireTrack, FlameReport, GoalAck, Message, RailCommand,
-    RailSensors, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState, ZoneGoal,
+    BarredSpace, BtTransitions, Decision, FireTrack, FlameReport, GoalAck, GoalsInForce, Message,
+    RailCommand, RailSensors, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState,
+    ZoneGoal,
 };
 use serde::{Deserialize, Serialize};
 
@@ -88,6 +89,7 @@ payloads! {
     Ack(GoalAck) = Topic::ZoneAck(_),
     Decision(Decision) = Topic::CoordLog,
     Barred(BarredSpace) = Topic::CoordBarred,
+    Goals(GoalsInForce) = Topic::CoordGoals,
     SimClock(SimClock) = Topic::SimClock,
     SimTruth(SimTruth) = Topic::SimTruth,
     UnitSensors(UnitSensors) = Topic::SimSensors(_),

@@ -10,8 +10,9 @@
 //! The recorder also keeps the latest track of every fire and answers queries on
 //! `fire/*` with them: that is how a restarted coordinator recalls the fires the previous
 //! one tracked (the recording is the incident's memory, on the bus as well as on disk).
-//! It answers queries on `coord/barred` with the newest barred space the same way, so that
-//! a unit restarted while the coordinator is gone still learns what commanders barred.
+//! It answers queries on `coord/barred` and `coord/goals` with the newest barred space and
+//! goals in force the same way, so that a unit restarted while the coordinator is gone
+//! still learns what commanders barred, and a restarted coordinator takes their goals back.
 //! With no recorder left running, [`crate::reader::fire_tracks_in`] reads the same tracks
 //! back from the file (the coordinator's `--resume`).
 //!
@@ -28,6 +29,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use firefleet_protocol::FireId;
 use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::keys::{self, Topic};
+use firefleet_protocol::msg::{BarredSpace, GoalsInForce};
 use firefleet_protocol::scenario::Scenario;
 use serde::Serialize;
 use zenoh::sample::SampleKind;
@@ -163,11 +165,13 @@ pub async fn record(
         let samples = session.declare_subscriber(keys.all()).await.map_err(BusError::from)?;
         let tokens = session.liveliness().declare_subscriber(keys.all()).history(true).await.map_err(BusError::from)?;
         let recall = session.declare_queryable(keys.every_fire().as_str()).await.map_err(BusError::from)?;
-        let barred_q = session.declare_queryable(keys.coord_barred().as_str()).await.map_err(BusError::from)?;
+        // The coordinator's state that outlives it: `coord/*` queries are answered with the
+        // newest of `coord/barred` and `coord/goals` seen (by their site time).
+        let coord_q = session.declare_queryable(keys.every_coord()).await.map_err(BusError::from)?;
         // The latest track of every fire, as received: (its time, its key, its bytes).
         let mut fires: BTreeMap<FireId, (f64, String, Vec<u8>)> = BTreeMap::new();
-        // The newest barred space: (its time, its bytes).
-        let mut barred: Option<(f64, Vec<u8>)> = None;
+        // Newest by key: (its time, its bytes).
+        let mut newest: BTreeMap<String, (f64, Vec<u8>)> = BTreeMap::new();
         let scene_schema = || schemars::schema_for!(scene::SceneUpdate);
         let statics = serde_json::to_vec(&scene::static_scene(scenario, scene::Time::from_nanos(now_ns()))).expect("serialises");
         sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &statics, now_ns())?;
@@ -191,11 +195,12 @@ pub async fn record(
                         }
                     }
                 }
-                Ok(query) = barred_q.recv_async() => {
-                    if let Some((_, bytes)) = &barred
-                        && let Err(e) = query.reply(keys.coord_barred().as_str(), bytes.clone()).await
+                Ok(query) = coord_q.recv_async() => {
+                    let key = query.key_expr().as_str().to_owned();
+                    if let Some((_, bytes)) = newest.get(&key)
+                        && let Err(e) = query.reply(key.as_str(), bytes.clone()).await
                     {
-                        tracing::warn!("barred space reply failed: {e}");
+                        tracing::warn!(key, "reply failed: {e}");
                     }
                 }
                 Ok(s) = samples.recv_async() => {
@@ -235,8 +240,10 @@ pub async fn record(
                             let entry = log(scene::Log::ack(&ack, scene::Time::from_nanos(t)));
                             sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &entry, t)?;
                         }
-                        Payload::Barred(b) if barred.as_ref().is_none_or(|(old, _)| *old <= b.t) => {
-                            barred = Some((b.t, bytes.to_vec()));
+                        Payload::Barred(BarredSpace { t: at, .. }) | Payload::Goals(GoalsInForce { t: at, .. })
+                            if newest.get(key).is_none_or(|(old, _)| *old <= at) =>
+                        {
+                            newest.insert(key.to_owned(), (at, bytes.to_vec()));
                         }
                         Payload::Fire(track) if fires.get(&track.id).is_none_or(|(old, _, _)| *old <= track.t) => {
                             fires.insert(track.id, (track.t, key.to_owned(), bytes.to_vec()));

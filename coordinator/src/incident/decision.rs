@@ -45,6 +45,11 @@ pub enum Decision {
         zone: ZoneId,
         goal: String,
     },
+    /// A goal a previous coordinator had in force since `since`, taken back.
+    GoalRecalled {
+        goal: ZoneGoal,
+        since: f64,
+    },
     /// A goal bars attacking the fire the unit was on.
     Withdraw {
         unit: UnitId,
@@ -210,6 +215,11 @@ impl fmt::Display for Decision {
             Decision::GoalExpired { zone, goal } => {
                 write!(f, "goal '{goal}' on zone {zone} expired")
             }
+            Decision::GoalRecalled { goal, since } => write!(
+                f,
+                "recall goal '{}' ({:?}, priority {}) on zone {}, in force since t = {since:.1} s: kept before this coordinator started",
+                goal.id, goal.goal, goal.priority, goal.zone
+            ),
             Decision::Withdraw {
                 unit,
                 fire,

@@ -5,7 +5,7 @@
 //! Which goal governs where is [`crate::goals`]' business; this module only acts on it.
 
 use firefleet_protocol::msg::{
-    BarredSpace, FireState, GoalAck, GoalKind, INSIDE_PORTAL_M, TaskKind, ZoneGoal,
+    BarredSpace, FireState, GoalAck, GoalKind, GoalsInForce, INSIDE_PORTAL_M, TaskKind, ZoneGoal,
 };
 use firefleet_protocol::{Chainage, Point2, UnitId, ZoneId};
 
@@ -55,6 +55,34 @@ impl Incident {
             .iter()
             .filter(|f| f.active() && f.state != FireState::Tentative)
             .any(|f| g.covers(self.tunnel.chainage(f.position())))
+    }
+
+    /// Goals a previous coordinator had in force, as `coord/goals` kept them: taken back
+    /// (with when they took effect and lapse) before anything is decided, so that a
+    /// restart lifts no keep-out. Each is logged; one no longer valid here (lapsed, its zone
+    /// gone from the site file) is refused with the reason.
+    pub fn restore_goals(&mut self, kept: &GoalsInForce, t: f64) -> (Vec<Output>, Vec<GoalAck>) {
+        let mut refused = Vec::new();
+        for g in &kept.goals {
+            let ack = self.goals.restore(g, t);
+            if ack.accepted {
+                self.log(
+                    t,
+                    Decision::GoalRecalled {
+                        goal: g.goal.clone(),
+                        since: g.since,
+                    },
+                );
+            } else {
+                refused.push(ack);
+            }
+        }
+        (self.enforce(t), refused)
+    }
+
+    /// The goals in force as of `t`, for `coord/goals`.
+    pub fn goals_in_force(&self, t: f64) -> GoalsInForce {
+        self.goals.in_force(t)
     }
 
     /// Every goal on `zone` withdrawn by a commander.

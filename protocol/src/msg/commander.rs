@@ -116,6 +116,43 @@ impl Validate for ZoneGoal {
     }
 }
 
+/// A goal in force, with when it took effect and when it lapses (site time).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct GoalInForce {
+    pub goal: ZoneGoal,
+    pub since: f64,
+    pub until: Option<f64>,
+}
+
+/// `ff/<site>/coord/goals` (JSON): every goal in force as of `t`, published by the
+/// coordinator on every change and every second. Recorders keep the newest and answer
+/// queries with it, so that a restarted (or standby) coordinator takes the commanders'
+/// goals back before it tells the units what is barred: forgetting them would lift every
+/// keep-out.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+pub struct GoalsInForce {
+    pub t: f64,
+    pub goals: Vec<GoalInForce>,
+}
+
+impl Validate for GoalsInForce {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        if self.goals.len() > MAX_LIST {
+            return Err(Invalid::new("goals", format!("more than {MAX_LIST}")));
+        }
+        for (i, g) in self.goals.iter().enumerate() {
+            let within = |e: Invalid| e.within(&format!("goals[{i}]"));
+            g.goal.validate().map_err(|e| within(e.within("goal")))?;
+            finite("since", g.since).map_err(within)?;
+            if let Some(u) = g.until {
+                finite("until", u).map_err(within)?;
+            }
+        }
+        Ok(())
+    }
+}
+
 /// `ff/<site>/zone/<zone>/ack` (JSON): the coordinator's answer to a zone goal.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct GoalAck {

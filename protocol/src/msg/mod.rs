@@ -39,7 +39,7 @@ macro_rules! message {
     })* };
 }
 message!(Postcard: Decision, BarredSpace, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions);
-message!(Json: ZoneGoal, GoalAck, IncidentStatus);
+message!(Json: ZoneGoal, GoalAck, GoalsInForce, IncidentStatus);
 
 /// Longest list any fleet message may carry; bounds the work one message can cause.
 pub const MAX_LIST: usize = 64;
