@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::*;
 use crate::ids::{UnitId, ZoneId};
-use crate::validate::{Invalid, Validate, finite, in_range};
+use crate::validate::{Invalid, Validate, each, finite, in_range, max_len};
 
 /// What the coordinator knows of one unit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -135,21 +135,22 @@ pub struct GoalsInForce {
     pub goals: Vec<GoalInForce>,
 }
 
+impl Validate for GoalInForce {
+    fn validate(&self) -> Result<(), Invalid> {
+        self.goal.validate().map_err(|e| e.within("goal"))?;
+        finite("since", self.since)?;
+        match self.until {
+            Some(u) => finite("until", u),
+            None => Ok(()),
+        }
+    }
+}
+
 impl Validate for GoalsInForce {
     fn validate(&self) -> Result<(), Invalid> {
         finite("t", self.t)?;
-        if self.goals.len() > MAX_LIST {
-            return Err(Invalid::new("goals", format!("more than {MAX_LIST}")));
-        }
-        for (i, g) in self.goals.iter().enumerate() {
-            let within = |e: Invalid| e.within(&format!("goals[{i}]"));
-            g.goal.validate().map_err(|e| within(e.within("goal")))?;
-            finite("since", g.since).map_err(within)?;
-            if let Some(u) = g.until {
-                finite("until", u).map_err(within)?;
-            }
-        }
-        Ok(())
+        max_len("goals", &self.goals, MAX_LIST)?;
+        each("goals", &self.goals)
     }
 }
 
