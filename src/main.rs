@@ -56,6 +56,9 @@ enum Command {
     Experiment(commands::experiment::ExperimentCommand),
     /// List the built-in scenarios.
     Scenarios,
+    /// Make a site's certificates for mutual TLS.
+    #[command(subcommand)]
+    Pki(commands::pki::PkiCommand),
 }
 
 /// Log to stderr; `RUST_LOG` overrides `default`.
@@ -95,6 +98,7 @@ fn main() -> std::process::ExitCode {
             Command::Goal(c) => commands::goal::run(c).await,
             Command::Plan(c) => commands::plan::run(c),
             Command::Scenarios => commands::scenarios::list(),
+            Command::Pki(c) => commands::pki::run(c),
             Command::Bt(c) => commands::bt::run(c),
             Command::Replay(a) => commands::replay::run(a),
             Command::Check(a) => commands::check::run(a),

@@ -48,6 +48,10 @@ pub struct ZenohArgs {
     /// Endpoint to listen on (repeatable).
     #[arg(long, value_name = "ENDPOINT")]
     pub listen: Vec<String>,
+    /// Mutual TLS as the identity in DIR (ca.pem, cert.pem, key.pem, as `firefleet pki init`
+    /// writes them); every endpoint must then be tls/HOST:PORT.
+    #[arg(long, value_name = "DIR")]
+    pub tls_dir: Option<PathBuf>,
     /// Exit when standard input closes (used by `demo` so no child outlives it).
     #[arg(long, hide = true)]
     pub die_with_parent: bool,
@@ -60,6 +64,7 @@ impl ZenohArgs {
             mode: self.mode.map(Mode::from),
             connect: self.connect.clone(),
             listen: self.listen.clone(),
+            tls: self.tls_dir.clone(),
         }
     }
 }

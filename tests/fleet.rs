@@ -791,3 +791,101 @@ async fn forged_tasks_do_not_leave_a_unit_deaf_to_its_coordinator() {
     );
     bus.close().await;
 }
+
+#[test]
+fn mutual_tls_lets_in_only_the_site_s_identities() {
+    let dir = tempfile::tempdir().unwrap();
+    let pki = dir.path().join("pki");
+    let pki_str = pki.to_str().unwrap();
+    let out = support::firefleet(&[
+        "pki",
+        "init",
+        "--scenario",
+        "rail-tunnel",
+        "--out",
+        pki_str,
+        "--commander",
+        "rossi",
+    ]);
+    assert_says(&out, 0, "CA and 7 identities");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        for key in ["ca/ca.key", "unit-ugv-1/key.pem", "commander-rossi/key.pem"] {
+            let mode = std::fs::metadata(pki.join(key))
+                .unwrap()
+                .permissions()
+                .mode();
+            assert_eq!(mode & 0o777, 0o600, "{key}");
+        }
+    }
+    let port = firefleet_protocol::bus::free_loopback_port().unwrap();
+    let endpoint = format!("tls/127.0.0.1:{port}");
+    let id = |name: &str| pki.join(name).to_str().unwrap().to_owned();
+    let _router = Fleet(vec![
+        Command::new(BIN)
+            .args([
+                "coordinator",
+                "--scenario",
+                "rail-tunnel",
+                "--mode",
+                "router",
+            ])
+            .args(["--listen", &endpoint, "--tls-dir", &id("coordinator")])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    ]);
+    let status = |tls: Option<&str>, endpoint: &str| {
+        let mut c = Command::new(BIN);
+        c.args(["status", "--scenario", "rail-tunnel", "--mode", "client"])
+            .args(["--connect", endpoint]);
+        if let Some(dir) = tls {
+            c.args(["--tls-dir", dir]);
+        }
+        c.output().unwrap()
+    };
+    // A commander of this site gets the status once the router is up.
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let rossi = id("commander-rossi");
+    while !status(Some(&rossi), &endpoint).status.success() {
+        assert!(
+            Instant::now() < deadline,
+            "the site's commander never got in"
+        );
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    // No certificate, plain TCP, or a certificate of another site's CA: no link at all.
+    assert!(!status(None, &endpoint).status.success());
+    assert!(
+        !status(None, &format!("tcp/127.0.0.1:{port}"))
+            .status
+            .success()
+    );
+    let other = dir.path().join("other");
+    let out = support::firefleet(&[
+        "pki",
+        "init",
+        "--scenario",
+        "rail-tunnel",
+        "--out",
+        other.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    let mixed = dir.path().join("mixed");
+    std::fs::create_dir(&mixed).unwrap();
+    std::fs::copy(pki.join("ca/ca.pem"), mixed.join("ca.pem")).unwrap();
+    for f in ["cert.pem", "key.pem"] {
+        std::fs::copy(other.join("coordinator").join(f), mixed.join(f)).unwrap();
+    }
+    assert!(
+        !status(Some(mixed.to_str().unwrap()), &endpoint)
+            .status
+            .success(),
+        "a certificate the site CA did not sign got in"
+    );
+    // With an identity, a plain endpoint is refused before anything is sent.
+    let out = status(Some(&rossi), &format!("tcp/127.0.0.1:{port}"));
+    assert_says(&out, 2, "is not TLS");
+}

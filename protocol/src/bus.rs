@@ -73,6 +73,10 @@ pub struct Connect {
     pub connect: Vec<String>,
     /// Endpoints to listen on.
     pub listen: Vec<String>,
+    /// Mutual TLS with this identity: a directory holding the site CA (`ca.pem`) and the
+    /// identity's certificate and key (`cert.pem`, `key.pem`), as `firefleet pki` writes
+    /// them. Every link is then TLS both ways, and a plain `tcp/` endpoint is refused.
+    pub tls: Option<PathBuf>,
 }
 
 impl Connect {
@@ -102,6 +106,40 @@ impl Connect {
                     .join(",")
             )
         };
+        if let Some(dir) = &self.tls {
+            for e in self.connect.iter().chain(&self.listen) {
+                if !e.starts_with("tls/") {
+                    return Err(BusError(format!(
+                        "endpoint '{e}' is not TLS: with a TLS identity ({}) every link is tls/...",
+                        dir.display()
+                    )));
+                }
+            }
+            let file = |name: &str| {
+                let path = dir.join(name);
+                if path.is_file() {
+                    Ok(json_string(&path.display().to_string()))
+                } else {
+                    Err(BusError(format!(
+                        "TLS identity {}: no {name} (run firefleet pki init)",
+                        dir.display()
+                    )))
+                }
+            };
+            let (ca, cert, key) = (file("ca.pem")?, file("cert.pem")?, file("key.pem")?);
+            for (field, value) in [
+                ("root_ca_certificate", &ca),
+                ("listen_certificate", &cert),
+                ("listen_private_key", &key),
+                ("connect_certificate", &cert),
+                ("connect_private_key", &key),
+                ("enable_mtls", &"true".to_owned()),
+            ] {
+                config
+                    .insert_json5(&format!("transport/link/tls/{field}"), value)
+                    .map_err(|e| BusError(format!("TLS {field}: {e}")))?;
+            }
+        }
         if !self.connect.is_empty() {
             config
                 .insert_json5("connect/endpoints", &list(&self.connect))

@@ -16,6 +16,7 @@ pub mod coordinator;
 pub mod demo;
 pub mod experiment;
 pub mod goal;
+pub mod pki;
 pub mod plan;
 pub mod record;
 pub mod replay;
