@@ -62,6 +62,9 @@ impl Active {
 pub struct Goals {
     zones: Vec<Zone>,
     active: Vec<Active>,
+    /// Grows with every change to the goals in force: what depends on them only (what is
+    /// barred, the goals published) need not be worked out again while it stands.
+    revision: u64,
 }
 
 fn ack(g: &ZoneGoal, accepted: bool, reason: impl Into<String>) -> GoalAck {
@@ -78,6 +81,7 @@ impl Goals {
         Self {
             zones: zones.to_vec(),
             active: Vec::new(),
+            revision: 0,
         }
     }
 
@@ -125,6 +129,7 @@ impl Goals {
             );
         }
         let replaced = self.active.iter().position(|a| a.goal.id == g.id);
+        self.revision += 1;
         let active = Active {
             start: zone.start_m,
             end: zone.end_m,
@@ -179,8 +184,10 @@ impl Goals {
 
     /// Clear every goal on `zone`; the goals cleared.
     pub fn clear(&mut self, zone: &ZoneId) -> Vec<ZoneGoal> {
-        let (gone, kept) = self.active.drain(..).partition(|a| &a.goal.zone == zone);
+        let (gone, kept): (Vec<Active>, _) =
+            self.active.drain(..).partition(|a| &a.goal.zone == zone);
         self.active = kept;
+        self.revision += u64::from(!gone.is_empty());
         gone.into_iter().map(|a: Active| a.goal).collect()
     }
 
@@ -191,7 +198,13 @@ impl Goals {
             .drain(..)
             .partition(|a| a.until.is_some_and(|u| u <= t));
         self.active = kept;
+        self.revision += u64::from(!gone.is_empty());
         gone.into_iter().map(|a: Active| a.goal).collect()
+    }
+
+    /// Grows with every change to the goals in force.
+    pub fn revision(&self) -> u64 {
+        self.revision
     }
 
     pub fn active(&self) -> &[Active] {

@@ -31,7 +31,7 @@ use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::clock::{Clock, ExternalClock, SystemClock};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::{self, Topic};
-use firefleet_protocol::msg::{BarredSpace, FireTrack, GoalAck, GoalsInForce, ZoneGoal};
+use firefleet_protocol::msg::{FireTrack, GoalAck, GoalsInForce, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Invalid;
 use zenoh::sample::{Locality, SampleKind};
@@ -265,16 +265,16 @@ pub async fn run(
 /// date them.
 const CLOCK_WAIT: Duration = Duration::from_secs(3);
 
-/// What the coordinator last published of its goals and what they bar.
+/// Which revision of its goals the coordinator last published (`None`: none yet).
 #[derive(Default)]
 struct Told {
-    barred: BarredSpace,
-    goals: GoalsInForce,
+    revision: Option<u64>,
 }
 
 impl Told {
-    /// Publish the barred space and the goals in force as of `t` if either changed since
-    /// last told, or `always` (the once-a-second re-send).
+    /// Publish the barred space and the goals in force as of `t` if the goals changed
+    /// since last told, or `always` (the once-a-second re-send). Checked after every event,
+    /// so it costs a comparison unless something changed.
     async fn tell(
         &mut self,
         bus: &Bus,
@@ -282,16 +282,14 @@ impl Told {
         t: f64,
         always: bool,
     ) -> Result<(), BusError> {
-        let keys = bus.keys();
-        let barred = incident.barred_space(t);
-        if always || barred.spans != self.barred.spans {
-            bus.put(&keys.coord_barred(), &barred).await?;
-            self.barred = barred;
-        }
-        let goals = incident.goals_in_force(t);
-        if always || goals.goals != self.goals.goals {
-            bus.put(&keys.coord_goals(), &goals).await?;
-            self.goals = goals;
+        let revision = incident.goals_revision();
+        if always || self.revision != Some(revision) {
+            let keys = bus.keys();
+            bus.put(&keys.coord_barred(), &incident.barred_space(t))
+                .await?;
+            bus.put(&keys.coord_goals(), &incident.goals_in_force(t))
+                .await?;
+            self.revision = Some(revision);
         }
         Ok(())
     }

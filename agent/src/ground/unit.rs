@@ -258,7 +258,8 @@ impl Unit {
         self.spec.circumradius_m()
     }
 
-    /// Whether any part of the vehicle at `p` would be in barred space.
+    /// Whether any part of the vehicle at `p` would be in barred space. Read off the
+    /// spans as they are: this runs on every frame, and allocates nothing.
     fn in_barred(&self, p: Point2) -> bool {
         let grow = self.keepout_growth_m();
         let s = self.scenario.tunnel.chainage(p);
@@ -691,9 +692,10 @@ impl Services for Unit {
         };
         let (pose, speed, steer, now, spec) = (f.pose, f.speed, f.steer, f.t, self.spec);
         // Backing off does not back into barred space (a unit already inside backs off on
-        // its way out).
-        let behind_barred =
-            self.in_barred(pose.position().offset(pose.yaw + std::f64::consts::PI, 1.0));
+        // its way out). Looked at only while backing off: this runs on every frame.
+        let recovering = self.nav.as_ref().is_some_and(|n| n.recover_until.is_some());
+        let behind_barred = recovering
+            && self.in_barred(pose.position().offset(pose.yaw + std::f64::consts::PI, 1.0));
         let Some(n) = &mut self.nav else { return cmd };
         if n.arrived || n.failed {
             return cmd;

@@ -85,6 +85,11 @@ impl Incident {
         self.goals.in_force(t)
     }
 
+    /// Grows with every change to the goals in force (and so to what they bar).
+    pub fn goals_revision(&self) -> u64 {
+        self.goals.revision()
+    }
+
     /// Every goal on `zone` withdrawn by a commander.
     pub fn clear_goals(&mut self, zone: &ZoneId, t: f64) -> Vec<Output> {
         for g in self.goals.clear(zone) {
