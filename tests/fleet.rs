@@ -702,6 +702,36 @@ async fn barred_space_reaches_the_units_and_outlives_the_coordinator() {
         barred_answer(&bus, Duration::from_secs(5)).await.spans,
         b.spans
     );
+    // Both answer once the recorder has heard it (it may have started after the change
+    // was published; the re-send reaches it within a second). Answers on one key are
+    // consolidated into one unless asked otherwise.
+    let key = bus.keys().coord_barred();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        let replies = bus
+            .session()
+            .get(key.as_str())
+            .consolidation(zenoh::query::ConsolidationMode::None)
+            .await
+            .unwrap();
+        let mut barring = 0;
+        while let Ok(reply) = replies.recv_async().await {
+            if let Ok(sample) = reply.result()
+                && codec::decode::<BarredSpace>(&sample.payload().to_bytes())
+                    .is_ok_and(|a| a.spans == b.spans)
+            {
+                barring += 1;
+            }
+        }
+        if barring >= 2 {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the recorder never kept the barred space"
+        );
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
     fleet.0[0].kill().unwrap();
     fleet.0[0].wait().unwrap();
     tokio::time::sleep(Duration::from_millis(500)).await;

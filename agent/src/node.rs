@@ -21,6 +21,7 @@ use firefleet_protocol::bus::{Bus, BusError};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{BarredSpace, BtTransition, BtTransitions, NodeStatus};
+use zenoh::query::ConsolidationMode;
 use zenoh::sample::SampleKind;
 
 use crate::controller::{Controller, Services};
@@ -96,6 +97,8 @@ where
     let barred_answers = bus
         .session()
         .get(keys.coord_barred().as_str())
+        // Every answer (the coordinator's, each recorder's): the newest is kept.
+        .consolidation(ConsolidationMode::None)
         .timeout(BARRED_QUERY_TIMEOUT)
         .await?;
     let state_key = keys.unit_state(unit);

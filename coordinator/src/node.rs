@@ -34,6 +34,7 @@ use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{FireTrack, GoalAck, GoalsInForce, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Invalid;
+use zenoh::query::ConsolidationMode;
 use zenoh::sample::{Locality, SampleKind};
 
 use crate::assign::Strategy;
@@ -304,6 +305,8 @@ async fn recall_goals(bus: &Bus) -> Result<Option<GoalsInForce>, BusError> {
         // Not this coordinator's own queryable, which answers only once it runs: asked,
         // it would hold the question open for the whole timeout.
         .allowed_destination(Locality::Remote)
+        // Every recorder's answer, not one of them: the newest wins below.
+        .consolidation(ConsolidationMode::None)
         .timeout(RECALL_TIMEOUT)
         .await?;
     let mut newest: Option<GoalsInForce> = None;
