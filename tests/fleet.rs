@@ -581,7 +581,7 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
         .unwrap();
     let put = |key: &'static str, json: &'static str| bus.session().put(key, json);
     put(
-        "ff/tunnel-r/zone/deep/goal",
+        "ff/tunnel-r/zone/deep/goal/x",
         r#"{"id": "x", "zone": "deep", "goal": "flood"}"#,
     )
     .await
@@ -598,7 +598,7 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
     let invalid = |v: &serde_json::Value| v["rejected"]["invalid"].as_u64().unwrap_or(0);
     let before = invalid(&status_of(&bus, Duration::from_secs(5)).await);
     put(
-        "ff/tunnel-r/zone/WEST/goal",
+        "ff/tunnel-r/zone/WEST/goal/x",
         r#"{"id": "w", "zone": "WEST", "goal": "monitor"}"#,
     )
     .await

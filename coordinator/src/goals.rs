@@ -7,7 +7,11 @@
 //! expire. Every submission is answered: accepted, or rejected with the reason.
 //!
 //! Rules:
-//! - A goal with the id of one in force replaces it (a commander amends a goal).
+//! - A goal's issuer is the commander named by the key it arrived on (which the site's
+//!   access rules let only that commander put): `issued_by` is filled in from it, and a
+//!   goal whose `issued_by` names someone else is rejected rather than believed.
+//! - A goal with the id of one in force replaces it (a commander amends a goal); a goal
+//!   in force is amended or cleared only by its issuer.
 //! - A zone holds one goal per priority: a different goal at a priority already taken on
 //!   that zone is a conflict, rejected with the goal in the way; a goal at another priority
 //!   stands beside it and the higher priority wins.
@@ -24,7 +28,7 @@ use firefleet_protocol::msg::{
     nearest_allowed,
 };
 use firefleet_protocol::scenario::Zone;
-use firefleet_protocol::{Chainage, ZoneId};
+use firefleet_protocol::{Chainage, CommanderId, ZoneId};
 
 /// A goal in force.
 #[derive(Debug, Clone, PartialEq)]
@@ -85,13 +89,46 @@ impl Goals {
         }
     }
 
-    /// Take goal `g`, which arrived on zone `key_zone`'s key at site time `t`.
-    pub fn submit(&mut self, key_zone: &ZoneId, g: ZoneGoal, t: f64) -> GoalAck {
+    /// Take goal `g`, which arrived on zone `key_zone`'s key from commander `by` at site
+    /// time `t`.
+    pub fn submit(
+        &mut self,
+        key_zone: &ZoneId,
+        by: &CommanderId,
+        mut g: ZoneGoal,
+        t: f64,
+    ) -> GoalAck {
         if &g.zone != key_zone {
             return ack(
                 &g,
                 false,
                 format!("names zone '{}' but was sent on zone '{key_zone}'", g.zone),
+            );
+        }
+        if g.issued_by.is_empty() {
+            g.issued_by = by.to_string();
+        } else if by != g.issued_by.as_str() {
+            return ack(
+                &g,
+                false,
+                format!(
+                    "says it is issued by '{}' but was sent on commander '{by}''s key",
+                    g.issued_by
+                ),
+            );
+        }
+        if let Some(a) = self
+            .active
+            .iter()
+            .find(|a| a.goal.id == g.id && by != a.goal.issued_by.as_str())
+        {
+            return ack(
+                &g,
+                false,
+                format!(
+                    "goal '{}' in force was issued by '{}': only its issuer amends it",
+                    g.id, a.goal.issued_by
+                ),
             );
         }
         let Some(zone) = self.zones.iter().find(|z| z.id == g.zone) else {
@@ -157,7 +194,10 @@ impl Goals {
         if g.until.is_some_and(|u| u <= t) {
             return ack(&g.goal, false, "lapsed while no coordinator ran");
         }
-        let a = self.submit(&g.goal.zone.clone(), g.goal.clone(), g.since);
+        let Ok(by) = CommanderId::new(g.goal.issued_by.as_str()) else {
+            return ack(&g.goal, false, "names no commander as its issuer");
+        };
+        let a = self.submit(&g.goal.zone.clone(), &by, g.goal.clone(), g.since);
         if a.accepted
             && let Some(active) = self.active.iter_mut().find(|x| x.goal.id == g.goal.id)
         {
@@ -182,10 +222,12 @@ impl Goals {
         }
     }
 
-    /// Clear every goal on `zone`; the goals cleared.
-    pub fn clear(&mut self, zone: &ZoneId) -> Vec<ZoneGoal> {
-        let (gone, kept): (Vec<Active>, _) =
-            self.active.drain(..).partition(|a| &a.goal.zone == zone);
+    /// Clear commander `by`'s goals on `zone`; the goals cleared.
+    pub fn clear(&mut self, zone: &ZoneId, by: &CommanderId) -> Vec<ZoneGoal> {
+        let (gone, kept): (Vec<Active>, _) = self
+            .active
+            .drain(..)
+            .partition(|a| &a.goal.zone == zone && by == a.goal.issued_by.as_str());
         self.active = kept;
         self.revision += u64::from(!gone.is_empty());
         gone.into_iter().map(|a: Active| a.goal).collect()
@@ -310,20 +352,24 @@ mod tests {
         ZoneId::new(s).unwrap()
     }
 
+    fn ic() -> CommanderId {
+        CommanderId::new("ic").unwrap()
+    }
+
     #[test]
     fn bad_goals_are_rejected_with_the_reason() {
         let mut g = goals();
-        let a = g.submit(&zid("q"), goal("g1", "q", GoalKind::Monitor, 0), 0.0);
+        let a = g.submit(&zid("q"), &ic(), goal("g1", "q", GoalKind::Monitor, 0), 0.0);
         assert!(
             !a.accepted && a.reason.contains("unknown zone 'q' (zones: a, b, c)"),
             "{a:?}"
         );
-        let a = g.submit(&zid("b"), goal("g1", "a", GoalKind::Monitor, 0), 0.0);
+        let a = g.submit(&zid("b"), &ic(), goal("g1", "a", GoalKind::Monitor, 0), 0.0);
         assert!(
             !a.accepted && a.reason.contains("sent on zone 'b'"),
             "{a:?}"
         );
-        let a = g.submit(&zid("b"), goal("g1", "b", GoalKind::Contain, 0), 0.0);
+        let a = g.submit(&zid("b"), &ic(), goal("g1", "b", GoalKind::Contain, 0), 0.0);
         assert!(
             !a.accepted && a.reason.contains("before_m 60 is outside zone 'b'"),
             "{a:?}"
@@ -335,22 +381,32 @@ mod tests {
     fn one_goal_per_zone_and_priority_and_the_higher_priority_governs() {
         let mut g = goals();
         assert!(
-            g.submit(&zid("a"), goal("g1", "a", GoalKind::Monitor, 1), 0.0)
+            g.submit(&zid("a"), &ic(), goal("g1", "a", GoalKind::Monitor, 1), 0.0)
                 .accepted
         );
-        let a = g.submit(&zid("a"), goal("g2", "a", GoalKind::KeepOut, 1), 0.0);
+        let a = g.submit(&zid("a"), &ic(), goal("g2", "a", GoalKind::KeepOut, 1), 0.0);
         assert!(
             !a.accepted && a.reason.contains("conflicts with goal 'g1'"),
             "{a:?}"
         );
         // Amending g1 is fine; a higher priority stands beside it and wins.
         assert!(
-            g.submit(&zid("a"), goal("g1", "a", GoalKind::Extinguish, 1), 0.0)
-                .accepted
+            g.submit(
+                &zid("a"),
+                &ic(),
+                goal("g1", "a", GoalKind::Extinguish, 1),
+                0.0
+            )
+            .accepted
         );
         assert!(
-            g.submit(&zid("c"), goal("g3", "c", GoalKind::Evacuate, 5), 0.0)
-                .accepted
+            g.submit(
+                &zid("c"),
+                &ic(),
+                goal("g3", "c", GoalKind::Evacuate, 5),
+                0.0
+            )
+            .accepted
         );
         assert_eq!(g.at(c(20.0)).unwrap().goal.id, "g1");
         assert_eq!(
@@ -360,8 +416,36 @@ mod tests {
         );
         assert!(g.at(c(180.0)).is_none());
         assert_eq!(g.barred(UnitKind::Ground), vec![(c(50.0), c(150.0))]);
-        assert_eq!(g.clear(&zid("c")).len(), 1);
+        assert_eq!(g.clear(&zid("c"), &ic()).len(), 1);
         assert!(g.barred(UnitKind::Ground).is_empty());
+    }
+
+    #[test]
+    fn the_key_names_the_issuer_and_only_the_issuer_amends_or_clears() {
+        let mut g = goals();
+        let rossi = CommanderId::new("rossi").unwrap();
+        let mallory = CommanderId::new("mallory").unwrap();
+        let mut unsigned = goal("k", "b", GoalKind::KeepOut, 0);
+        unsigned.issued_by = String::new();
+        assert!(g.submit(&zid("b"), &rossi, unsigned, 0.0).accepted);
+        assert_eq!(
+            g.active()[0].goal.issued_by,
+            "rossi",
+            "filled in from the key"
+        );
+
+        let mut lie = goal("m", "a", GoalKind::Monitor, 0);
+        lie.issued_by = "rossi".into();
+        let a = g.submit(&zid("a"), &mallory, lie, 0.0);
+        assert!(!a.accepted && a.reason.contains("'mallory''s key"), "{a:?}");
+
+        let mut amend = goal("k", "b", GoalKind::Extinguish, 0);
+        amend.issued_by = String::new();
+        let a = g.submit(&zid("b"), &mallory, amend, 0.0);
+        assert!(!a.accepted && a.reason.contains("only its issuer"), "{a:?}");
+        assert!(g.clear(&zid("b"), &mallory).is_empty());
+        assert_eq!(g.active()[0].goal.goal, GoalKind::KeepOut);
+        assert_eq!(g.clear(&zid("b"), &rossi).len(), 1);
     }
 
     #[test]
@@ -370,13 +454,18 @@ mod tests {
         // Keep-out on b [100, 200] at 0, extinguish on c [50, 150] above it, monitor on a.
         let mut keep_out = goal("k", "b", GoalKind::KeepOut, 0);
         keep_out.rail_allowed = true;
-        assert!(g.submit(&zid("b"), keep_out, 0.0).accepted);
+        assert!(g.submit(&zid("b"), &ic(), keep_out, 0.0).accepted);
         assert!(
-            g.submit(&zid("c"), goal("x", "c", GoalKind::Extinguish, 3), 0.0)
-                .accepted
+            g.submit(
+                &zid("c"),
+                &ic(),
+                goal("x", "c", GoalKind::Extinguish, 3),
+                0.0
+            )
+            .accepted
         );
         assert!(
-            g.submit(&zid("a"), goal("m", "a", GoalKind::Monitor, 0), 0.0)
+            g.submit(&zid("a"), &ic(), goal("m", "a", GoalKind::Monitor, 0), 0.0)
                 .accepted
         );
         let b = g.barred_space(7.0);
@@ -402,10 +491,15 @@ mod tests {
         let mut g = goals();
         let mut x = goal("g1", "b", GoalKind::KeepOut, 0);
         x.expires_s = Some(100.0);
-        assert!(g.submit(&zid("b"), x, 10.0).accepted);
+        assert!(g.submit(&zid("b"), &ic(), x, 10.0).accepted);
         assert!(
-            g.submit(&zid("a"), goal("g2", "a", GoalKind::Monitor, 1), 20.0)
-                .accepted
+            g.submit(
+                &zid("a"),
+                &ic(),
+                goal("g2", "a", GoalKind::Monitor, 1),
+                20.0
+            )
+            .accepted
         );
         let kept = g.in_force(30.0);
         let mut back = goals();
@@ -424,7 +518,7 @@ mod tests {
         let mut g = goals();
         let mut x = goal("g1", "b", GoalKind::KeepOut, 0);
         x.expires_s = Some(30.0);
-        assert!(g.submit(&zid("b"), x, 10.0).accepted);
+        assert!(g.submit(&zid("b"), &ic(), x, 10.0).accepted);
         assert!(g.expire(39.0).is_empty());
         assert_eq!(g.expire(40.0).len(), 1);
         assert!(g.active().is_empty());
@@ -433,7 +527,7 @@ mod tests {
     #[test]
     fn the_nearest_allowed_chainage_is_outside_every_barred_zone() {
         let mut g = goals();
-        g.submit(&zid("b"), goal("g1", "b", GoalKind::KeepOut, 0), 0.0);
+        g.submit(&zid("b"), &ic(), goal("g1", "b", GoalKind::KeepOut, 0), 0.0);
         for (from, hi, want) in [
             (40.0, 300.0, 40.0),
             (120.0, 300.0, 95.0),

@@ -31,7 +31,7 @@ use firefleet_protocol::msg::{
 };
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::{GROUND, MONORAIL};
-use firefleet_protocol::{Chainage, Point2, UnitId, ZoneId};
+use firefleet_protocol::{Chainage, CommanderId, Point2, UnitId, ZoneId};
 
 use crate::goals::{Active, Goals};
 
@@ -44,14 +44,18 @@ const DETOUR: f64 = 2.0;
 /// One thing that happened, at site time.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Event {
-    /// A commander's goal as sent on zone `key_zone`'s key (the checker decides, as the
-    /// coordinator did, whether it was taken).
+    /// A commander's goal as sent on zone `key_zone`'s key by commander `by` (the checker
+    /// decides, as the coordinator did, whether it was taken).
     Goal {
         key_zone: ZoneId,
+        by: CommanderId,
         goal: ZoneGoal,
     },
-    /// A commander cleared the goals of a zone.
-    Clear(ZoneId),
+    /// Commander `by` cleared its goals on `zone`.
+    Clear {
+        zone: ZoneId,
+        by: CommanderId,
+    },
     State(UnitState),
     Task(Task),
 }
@@ -171,16 +175,16 @@ impl Invariants {
             self.forget(&g.id);
         }
         match event {
-            Event::Goal { key_zone, goal } => {
+            Event::Goal { key_zone, by, goal } => {
                 let id = goal.id.clone();
-                if self.goals.submit(&key_zone, goal, t).accepted {
+                if self.goals.submit(&key_zone, &by, goal, t).accepted {
                     self.forget(&id);
                     self.since.insert(id.clone(), t);
                     self.grant_grace(&id, t);
                 }
             }
-            Event::Clear(zone) => {
-                for g in self.goals.clear(&zone) {
+            Event::Clear { zone, by } => {
+                for g in self.goals.clear(&zone, &by) {
                     self.forget(&g.id);
                 }
             }
@@ -383,6 +387,7 @@ mod tests {
     fn goal(kind: GoalKind) -> Event {
         Event::Goal {
             key_zone: z("deep"),
+            by: CommanderId::new("ic").unwrap(),
             goal: ZoneGoal {
                 id: "g".into(),
                 zone: z("deep"),
@@ -446,7 +451,13 @@ mod tests {
             (5.0, state(100.5, 5.0, None)),
             (6.0, state(98.0, 6.0, None)),
             (15.0, state(101.0, 15.0, None)),
-            (16.0, Event::Clear(z("deep"))),
+            (
+                16.0,
+                Event::Clear {
+                    zone: z("deep"),
+                    by: CommanderId::new("ic").unwrap(),
+                },
+            ),
             (17.0, state(110.0, 17.0, None)),
         ]);
         assert_eq!(v.len(), 1, "{v:?}");

@@ -179,14 +179,14 @@ pub async fn run(
                 }
             }
             Ok(sample) = goals.recv_async() => match keys::parse(sample.key_expr().as_str()) {
-                Ok((_, Topic::ZoneGoal(zone))) => {
+                Ok((_, Topic::ZoneGoal(zone, by))) => {
                     let t = clock.now();
                     if sample.kind() == SampleKind::Delete {
-                        Ok(incident.clear_goals(&zone, t))
+                        Ok(incident.clear_goals(&zone, &by, t))
                     } else {
                         let bytes = sample.payload().to_bytes();
                         let (ack, out) = match codec::decode::<ZoneGoal>(&bytes) {
-                            Ok(goal) => incident.on_goal(&zone, goal, t),
+                            Ok(goal) => incident.on_goal(&zone, &by, goal, t),
                             Err(e) => {
                                 bus.rejects().count_invalid();
                                 tracing::warn!(%zone, "malformed zone goal: {e}");
@@ -197,7 +197,7 @@ pub async fn run(
                         Ok(out)
                     }
                 }
-                // Not a zone id at all (`zone/WEST/goal`): there is no ack key to answer
+                // Not a zone id or a commander at all (`zone/WEST/goal/x`): there is no ack key to answer
                 // on; refused and counted like any other bad message.
                 _ => Err(Invalid::new("key", format!("'{}' names no zone", sample.key_expr()))),
             },

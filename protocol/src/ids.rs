@@ -111,6 +111,13 @@ chunk_id!(
     ZoneId,
     "zone id"
 );
+chunk_id!(
+    /// An incident commander, as goals name their issuer: the last chunk of a goal's key,
+    /// and the name in the commander's certificate (`commander:<name>`), so on a site with
+    /// access rules the router, not the goal's text, says who issued it.
+    CommanderId,
+    "commander name"
+);
 
 /// A fused fire track, numbered by the coordinator that created it.
 #[derive(

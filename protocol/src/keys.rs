@@ -8,7 +8,8 @@
 //! ff/<site>/unit/<id>/bt          unit -> recorders  BtTransitions (postcard)
 //! ff/<site>/fire/<fire_id>        coord -> all       FireTrack (postcard); recorders answer
 //!                                 queries on fire/* with the latest of each
-//! ff/<site>/zone/<zone>/goal      commander -> coord ZoneGoal (JSON)
+//! ff/<site>/zone/<zone>/goal/<by> commander -> coord ZoneGoal (JSON), issued by commander
+//!                                 <by>; a delete clears <by>'s goals on the zone
 //! ff/<site>/zone/<zone>/ack       coord -> commander GoalAck (JSON)
 //! ff/<site>/coord/alive           liveliness token of the coordinator
 //! ff/<site>/coord/status          queryable, JSON snapshot of the incident
@@ -39,7 +40,7 @@
 use std::fmt;
 use std::marker::PhantomData;
 
-use crate::ids::{FireId, SiteId, UnitId, ZoneId};
+use crate::ids::{CommanderId, FireId, SiteId, UnitId, ZoneId};
 use crate::msg::{
     BarredSpace, BtTransitions, Decision, FireTrack, FlameReport, GoalAck, GoalsInForce, Message,
     RailCommand, RailSensors, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState,
@@ -57,7 +58,7 @@ pub enum Topic {
     UnitTask(UnitId),
     UnitBt(UnitId),
     Fire(FireId),
-    ZoneGoal(ZoneId),
+    ZoneGoal(ZoneId, CommanderId),
     ZoneAck(ZoneId),
     CoordAlive,
     CoordStatus,
@@ -81,7 +82,7 @@ impl fmt::Display for Topic {
             Topic::UnitTask(u) => write!(f, "unit/{u}/task"),
             Topic::UnitBt(u) => write!(f, "unit/{u}/bt"),
             Topic::Fire(id) => write!(f, "fire/{id}"),
-            Topic::ZoneGoal(z) => write!(f, "zone/{z}/goal"),
+            Topic::ZoneGoal(z, by) => write!(f, "zone/{z}/goal/{by}"),
             Topic::ZoneAck(z) => write!(f, "zone/{z}/ack"),
             Topic::CoordAlive => f.write_str("coord/alive"),
             Topic::CoordStatus => f.write_str("coord/status"),
@@ -185,6 +186,10 @@ impl Keys {
     pub fn every_coord(&self) -> String {
         format!("{ROOT}/{}/coord/*", self.site)
     }
+    /// `ff/<site>/zone/*/goal/<by>`: commander `by`'s goals on every zone.
+    pub fn zone_goals_by(&self, by: &CommanderId) -> Pattern<ZoneGoal> {
+        Pattern::new(format!("{ROOT}/{}/zone/*/goal/{by}", self.site))
+    }
     /// `ff/<site>/unit/*/alive`: every unit's liveliness token.
     pub fn every_unit_alive(&self) -> String {
         format!("{ROOT}/{}/unit/*/alive", self.site)
@@ -194,11 +199,11 @@ impl Keys {
 /// The typed keys and patterns: which message travels on which topic, in one table.
 macro_rules! typed_keys {
     (
-        keys { $($key:ident($($arg:ident: $ty:ty)?) -> $m:ty = $topic:expr;)* }
+        keys { $($key:ident($($arg:ident: $ty:ty),*) -> $m:ty = $topic:expr;)* }
         patterns { $($(#[$doc:meta])* $pattern:ident -> $pm:ty = $tail:literal;)* }
     ) => {
         impl Keys {
-            $(pub fn $key(&self $(, $arg: $ty)?) -> Key<$m> {
+            $(pub fn $key(&self $(, $arg: $ty)*) -> Key<$m> {
                 self.key($topic)
             })*
             $($(#[$doc])* pub fn $pattern(&self) -> Pattern<$pm> {
@@ -215,7 +220,7 @@ typed_keys! {
         unit_task(u: &UnitId) -> Task = Topic::UnitTask(u.clone());
         unit_bt(u: &UnitId) -> BtTransitions = Topic::UnitBt(u.clone());
         fire(id: FireId) -> FireTrack = Topic::Fire(id);
-        zone_goal(z: &ZoneId) -> ZoneGoal = Topic::ZoneGoal(z.clone());
+        zone_goal(z: &ZoneId, by: &CommanderId) -> ZoneGoal = Topic::ZoneGoal(z.clone(), by.clone());
         zone_ack(z: &ZoneId) -> GoalAck = Topic::ZoneAck(z.clone());
         coord_log() -> Decision = Topic::CoordLog;
         coord_barred() -> BarredSpace = Topic::CoordBarred;
@@ -237,7 +242,7 @@ typed_keys! {
         /// Every fire track.
         every_fire -> FireTrack = "fire/*";
         /// Commanders' goals for every zone.
-        every_zone_goal -> ZoneGoal = "zone/*/goal";
+        every_zone_goal -> ZoneGoal = "zone/*/goal/*";
         /// The coordinator's answers for every zone.
         every_zone_ack -> GoalAck = "zone/*/ack";
         /// Actuator commands of every simulated ground unit.
@@ -278,7 +283,10 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
             id.parse()
                 .map_err(|e: crate::ids::IdError| err(e.to_string()))?,
         ),
-        ["zone", z, "goal"] => Topic::ZoneGoal(zone(z)?),
+        ["zone", z, "goal", by] => Topic::ZoneGoal(
+            zone(z)?,
+            CommanderId::new(*by).map_err(|e| err(e.to_string()))?,
+        ),
         ["zone", z, "ack"] => Topic::ZoneAck(zone(z)?),
         ["coord", "alive"] => Topic::CoordAlive,
         ["coord", "status"] => Topic::CoordStatus,
@@ -315,7 +323,7 @@ mod tests {
             Topic::UnitTask(u("a")),
             Topic::UnitBt(u("a")),
             Topic::Fire(FireId(4)),
-            Topic::ZoneGoal(z.clone()),
+            Topic::ZoneGoal(z.clone(), CommanderId::new("rossi").unwrap()),
             Topic::ZoneAck(z),
             Topic::CoordAlive,
             Topic::CoordStatus,

@@ -28,6 +28,6 @@ pub mod validate;
 
 pub use codec::{CodecError, PROTOCOL_VERSION};
 pub use geometry::{Gaussian2, Point2, Pose2};
-pub use ids::{FireId, SiteId, UnitId, ZoneId};
+pub use ids::{CommanderId, FireId, SiteId, UnitId, ZoneId};
 pub use tunnel::Chainage;
 pub use validate::{Invalid, Validate};

@@ -8,7 +8,6 @@
 //!
 //! Not here: liveliness tokens and the status queryable, which carry no message.
 
-use firefleet_protocol::ZoneId;
 use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
@@ -16,6 +15,7 @@ use firefleet_protocol::msg::{
     RailCommand, RailSensors, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState,
     ZoneGoal,
 };
+use firefleet_protocol::{CommanderId, ZoneId};
 use serde::{Deserialize, Serialize};
 
 /// Why a record or a sample could not be decoded.
@@ -85,7 +85,7 @@ payloads! {
     Task(Task) = Topic::UnitTask(_),
     Bt(BtTransitions) = Topic::UnitBt(_),
     Fire(FireTrack) = Topic::Fire(_),
-    Goal(ZoneGoal) = Topic::ZoneGoal(_),
+    Goal(ZoneGoal) = Topic::ZoneGoal(..),
     Ack(GoalAck) = Topic::ZoneAck(_),
     Decision(Decision) = Topic::CoordLog,
     Barred(BarredSpace) = Topic::CoordBarred,
@@ -110,11 +110,13 @@ impl Liveliness {
     pub const NAME: &'static str = "firefleet.Liveliness";
 }
 
-/// A commander's delete on a zone's goal key (which clears the zone's goals), as
+/// A commander's delete on its goal key of a zone (which clears its goals there), as
 /// recordings keep it on that key's channel: a delete has no payload of its own.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct GoalClear {
     pub zone: ZoneId,
+    /// The commander whose goals on the zone were cleared.
+    pub by: CommanderId,
 }
 
 impl GoalClear {

@@ -206,9 +206,9 @@ pub async fn record(
                 Ok(s) = samples.recv_async() => {
                     let key = s.key_expr().as_str();
                     if s.kind() == SampleKind::Delete
-                        && let Ok((_, Topic::ZoneGoal(zone))) = keys::parse(key)
+                        && let Ok((_, Topic::ZoneGoal(zone, by))) = keys::parse(key)
                     {
-                        let json = serde_json::to_vec(&GoalClear { zone }).expect("serialises");
+                        let json = serde_json::to_vec(&GoalClear { zone, by }).expect("serialises");
                         sink.write(key, GoalClear::NAME, || schemars::schema_for!(GoalClear), &json, now_ns())?;
                         continue;
                     }

@@ -49,10 +49,13 @@ pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
         messages += 1;
         let event = match (&topic, Payload::from_json(&topic, &m.data)) {
             // A clear is told apart by its schema: a goal's JSON would parse as one too.
-            (Topic::ZoneGoal(zone), _)
+            (Topic::ZoneGoal(zone, by), _)
                 if m.channel.schema.as_ref().map(|s| s.name.as_str()) == Some(GoalClear::NAME) =>
             {
-                Some(Event::Clear(zone.clone()))
+                Some(Event::Clear {
+                    zone: zone.clone(),
+                    by: by.clone(),
+                })
             }
             (_, Ok(Payload::SimClock(c))) => {
                 t = c.t;
@@ -66,8 +69,9 @@ pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
                 t = task.t;
                 Some(Event::Task(task))
             }
-            (Topic::ZoneGoal(zone), Ok(Payload::Goal(goal))) => Some(Event::Goal {
+            (Topic::ZoneGoal(zone, by), Ok(Payload::Goal(goal))) => Some(Event::Goal {
                 key_zone: zone.clone(),
+                by: by.clone(),
                 goal,
             }),
             _ => None,

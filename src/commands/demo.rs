@@ -16,11 +16,11 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::Args;
-use firefleet_protocol::ZoneId;
 use firefleet_protocol::bus::{Bus, Connect, Mode, free_loopback_port};
 use firefleet_protocol::msg::{GoalAck, GoalKind, SimTruth, TruthFireState, UnitState, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Validate;
+use firefleet_protocol::{CommanderId, ZoneId};
 use serde::Serialize;
 use tokio::process::{Child, Command};
 
@@ -55,6 +55,9 @@ pub struct DemoArgs {
     #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = non_negative_f64)]
     goals_at: f64,
 }
+
+/// The commander the demo issues its `--goal`s as.
+const DEMO_COMMANDER: &str = "demo";
 
 /// A `--goal` argument as a goal for `scenario`'s zones.
 fn parse_goal(arg: &str, scenario: &Scenario) -> anyhow::Result<ZoneGoal> {
@@ -99,7 +102,7 @@ fn parse_goal(arg: &str, scenario: &Scenario) -> anyhow::Result<ZoneGoal> {
         priority,
         before_m,
         expires_s: None,
-        issued_by: "firefleet demo".into(),
+        issued_by: DEMO_COMMANDER.into(),
         rail_allowed,
     };
     g.validate().with_context(|| format!("--goal {arg}"))?;
@@ -168,6 +171,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let states = bus.subscribe::<UnitState>(&keys.every_unit_state()).await?;
     let acks = bus.subscribe::<GoalAck>(&keys.every_zone_ack()).await?;
     let mut goals_to_issue = Some(goals.clone());
+    let commander = CommanderId::new(DEMO_COMMANDER)?;
     // The goals the coordinator accepted: fires where one bars attack may be left burning.
     let mut in_force: Vec<ZoneGoal> = Vec::new();
 
@@ -265,7 +269,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
                 let due = goals_to_issue.take_if(|_| truth.t >= a.goals_at);
                 for g in due.unwrap_or_default() {
                     println!("t={:.1} s: issuing goal '{}': {:?} on zone {} (priority {})", truth.t, g.id, g.goal, g.zone, g.priority);
-                    bus.put(&keys.zone_goal(&g.zone), &g).await?;
+                    bus.put(&keys.zone_goal(&g.zone, &commander), &g).await?;
                 }
                 let out = truth.fires_out();
                 if truth.t >= next_print || out != last_out {

@@ -1,7 +1,8 @@
 //! `firefleet goal`: issue, list and clear incident commanders' zone goals.
 //!
-//! A goal is JSON on `ff/<site>/zone/<zone>/goal`; the coordinator answers every goal on
-//! `ff/<site>/zone/<zone>/ack`, and a delete on the goal key clears the zone. This command
+//! A goal is JSON on `ff/<site>/zone/<zone>/goal/<commander>`; the coordinator answers
+//! every goal on `ff/<site>/zone/<zone>/ack`, and a delete on the goal key clears that
+//! commander's goals on the zone. This command
 //! is one client of that API; any Zenoh client can do the same (see the README).
 //!
 //! Not here: how the coordinator applies goals (`firefleet_coordinator::goals`).
@@ -11,9 +12,9 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
-use firefleet_protocol::ZoneId;
 use firefleet_protocol::msg::{GoalAck, GoalKind, ZoneGoal};
 use firefleet_protocol::validate::Validate;
+use firefleet_protocol::{CommanderId, ZoneId};
 
 use super::status::print_goals;
 use super::{ScenarioArg, scenarios};
@@ -25,7 +26,7 @@ pub enum GoalCommand {
     Set(SetArgs),
     /// List the goals in force.
     List(Common),
-    /// Clear every goal of a zone.
+    /// Clear a commander's goals on a zone.
     Clear(ClearArgs),
 }
 
@@ -60,8 +61,21 @@ pub struct SetArgs {
     /// For keep-out and evacuate: monorail carriages may still run through the zone.
     #[arg(long)]
     rail_allowed: bool,
-    #[arg(long, default_value = "firefleet-cli")]
-    issued_by: String,
+    #[command(flatten)]
+    by: Issuer,
+}
+
+/// Who issues: the goal's key names the commander, and on a site with access rules the
+/// router lets a commander put only under the name in its certificate.
+#[derive(Args, Debug)]
+pub struct Issuer {
+    /// The commander's name (with --tls-dir: the NAME of its `commander:NAME` certificate).
+    #[arg(
+        long = "issued-by",
+        value_name = "NAME",
+        default_value = "firefleet-cli"
+    )]
+    name: CommanderId,
 }
 
 #[derive(Args, Debug)]
@@ -70,6 +84,8 @@ pub struct ClearArgs {
     common: Common,
     #[arg(long)]
     zone: ZoneId,
+    #[command(flatten)]
+    by: Issuer,
 }
 
 fn parse_kind(s: &str) -> Result<GoalKind, String> {
@@ -95,12 +111,12 @@ pub async fn run(cmd: GoalCommand) -> anyhow::Result<ExitCode> {
         GoalCommand::Clear(a) => {
             let scenario = scenarios::resolve(&a.common.scenario.scenario)?;
             let bus = open(&a.common.zenoh, &scenario).await?;
-            let key = bus.keys().zone_goal(&a.zone);
+            let key = bus.keys().zone_goal(&a.zone, &a.by.name);
             bus.session()
                 .delete(key.as_str())
                 .await
                 .map_err(|e| anyhow::anyhow!("clearing {}: {e}", key.as_str()))?;
-            println!("cleared the goals of zone {}", a.zone);
+            println!("cleared {}'s goals on zone {}", a.by.name, a.zone);
             bus.close().await;
             Ok(ExitCode::SUCCESS)
         }
@@ -120,7 +136,7 @@ async fn set(a: SetArgs) -> anyhow::Result<ExitCode> {
         priority: a.priority,
         before_m: a.before_m,
         expires_s: a.expires_s,
-        issued_by: a.issued_by,
+        issued_by: a.by.name.to_string(),
         rail_allowed: a.rail_allowed,
     };
     goal.validate()
@@ -129,7 +145,8 @@ async fn set(a: SetArgs) -> anyhow::Result<ExitCode> {
     let acks = bus
         .subscribe::<GoalAck>(&bus.keys().zone_ack(&a.zone))
         .await?;
-    bus.put(&bus.keys().zone_goal(&a.zone), &goal).await?;
+    bus.put(&bus.keys().zone_goal(&a.zone, &a.by.name), &goal)
+        .await?;
     let deadline = tokio::time::Instant::now() + ACK_TIMEOUT;
     let ack = loop {
         let (_, ack) = tokio::time::timeout_at(deadline, acks.recv())

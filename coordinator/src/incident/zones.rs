@@ -7,7 +7,7 @@
 use firefleet_protocol::msg::{
     BarredSpace, FireState, GoalAck, GoalKind, GoalsInForce, INSIDE_PORTAL_M, TaskKind, ZoneGoal,
 };
-use firefleet_protocol::{Chainage, Point2, UnitId, ZoneId};
+use firefleet_protocol::{Chainage, CommanderId, Point2, UnitId, ZoneId};
 
 use crate::assign::Mobility;
 use crate::goals::Active;
@@ -17,8 +17,14 @@ use super::{Decision, Incident, Output};
 impl Incident {
     /// A commander's goal arrived on zone `key_zone`'s key: the acknowledgement, and the
     /// decisions it leads to when accepted.
-    pub fn on_goal(&mut self, key_zone: &ZoneId, goal: ZoneGoal, t: f64) -> (GoalAck, Vec<Output>) {
-        let mut ack = self.goals.submit(key_zone, goal.clone(), t);
+    pub fn on_goal(
+        &mut self,
+        key_zone: &ZoneId,
+        by: &CommanderId,
+        goal: ZoneGoal,
+        t: f64,
+    ) -> (GoalAck, Vec<Output>) {
+        let mut ack = self.goals.submit(key_zone, by, goal.clone(), t);
         if ack.accepted
             && let (GoalKind::Contain, Some(line)) = (goal.goal, goal.before_m)
             && !self.fire_in_zone(&goal.id)
@@ -91,8 +97,8 @@ impl Incident {
     }
 
     /// Every goal on `zone` withdrawn by a commander.
-    pub fn clear_goals(&mut self, zone: &ZoneId, t: f64) -> Vec<Output> {
-        for g in self.goals.clear(zone) {
+    pub fn clear_goals(&mut self, zone: &ZoneId, by: &CommanderId, t: f64) -> Vec<Output> {
+        for g in self.goals.clear(zone, by) {
             self.log(
                 t,
                 Decision::GoalCleared {

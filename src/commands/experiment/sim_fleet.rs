@@ -19,11 +19,11 @@ use firefleet_coordinator::Incident;
 use firefleet_coordinator::assign::Strategy;
 use firefleet_coordinator::incident::Output;
 use firefleet_coordinator::invariants::{Event, Invariants, Violation};
-use firefleet_protocol::UnitId;
 use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitKind, UnitState, ZoneGoal};
 use firefleet_protocol::msg::{FireTrack, SimTruth};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::{GROUND, MONORAIL};
+use firefleet_protocol::{CommanderId, UnitId};
 use firefleet_sim::World;
 
 /// The simulator's step, s.
@@ -180,20 +180,21 @@ impl SimFleet {
     }
 
     /// A commander's goal arrives now (only a coordinator hears it).
-    pub fn goal(&mut self, goal: ZoneGoal) -> anyhow::Result<()> {
+    pub fn goal(&mut self, by: &CommanderId, goal: ZoneGoal) -> anyhow::Result<()> {
         let t = self.time();
         let zone = goal.zone.clone();
         self.invariants.observe(
             t,
             Event::Goal {
                 key_zone: zone.clone(),
+                by: by.clone(),
                 goal: goal.clone(),
             },
         );
         let Some(inc) = &mut self.incident else {
             return Ok(());
         };
-        let (ack, out) = inc.on_goal(&zone, goal, t);
+        let (ack, out) = inc.on_goal(&zone, by, goal, t);
         anyhow::ensure!(ack.accepted, "goal refused: {}", ack.reason);
         self.tell_barred(t)?;
         self.deliver(out);

@@ -16,9 +16,9 @@ use std::process::ExitCode;
 
 use clap::Args;
 use firefleet_coordinator::assign::Strategy;
-use firefleet_protocol::ZoneId;
 use firefleet_protocol::msg::{GoalKind, TruthFireState, ZoneGoal};
 use firefleet_protocol::scenario::{Scenario, Zone};
+use firefleet_protocol::{CommanderId, ZoneId};
 use serde::Serialize;
 
 use super::sim_fleet::{Command, SimFleet};
@@ -118,7 +118,7 @@ fn zone_run(
             if w.inside_at_goal > 0 {
                 w.last_inside = Some(at);
             }
-            fleet.goal(g)?;
+            fleet.goal(&CommanderId::new("experiment")?, g)?;
         }
         fleet.step()?;
         let truth = fleet.truth();
@@ -197,7 +197,7 @@ pub fn run(a: ZonesArgs) -> anyhow::Result<ExitCode> {
                         priority: 0,
                         before_m: None,
                         expires_s: None,
-                        issued_by: "firefleet experiment zones".into(),
+                        issued_by: String::new(),
                         rail_allowed: false,
                     };
                     let w = zone_run(&scenario, zone, Some((goal, at)), a.seed)?;

@@ -7,7 +7,7 @@ use firefleet_protocol::msg::{
     FireState, FlameReport, GoalAck, GoalKind, TaskProgress, UnitMode, ZoneGoal,
 };
 use firefleet_protocol::scenario::Zone;
-use firefleet_protocol::{Chainage, ZoneId};
+use firefleet_protocol::{Chainage, CommanderId, ZoneId};
 
 mod dispatch;
 mod events;
@@ -167,7 +167,8 @@ fn goal(
 }
 
 fn submit(i: &mut Incident, (zone, g): (ZoneId, ZoneGoal), t: f64) -> (GoalAck, Vec<Output>) {
-    i.on_goal(&zone, g, t)
+    let by = CommanderId::new(g.issued_by.as_str()).unwrap();
+    i.on_goal(&zone, &by, g, t)
 }
 
 /// The fire the first report of a test becomes.

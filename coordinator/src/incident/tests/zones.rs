@@ -11,7 +11,11 @@ fn no_fire_in_a_keep_out_zone_is_attacked_and_no_unit_crosses_it() {
     assert!(tasks(&i.on_report(&report("a", 60.0), 1.0).unwrap()).is_empty());
     // Both units are on the near side: the fire beyond the zone gets nobody.
     assert!(tasks(&i.on_report(&report("a", 150.0), 2.0).unwrap()).is_empty());
-    let out = i.clear_goals(&ZoneId::new("z1").unwrap(), 3.0);
+    let out = i.clear_goals(
+        &ZoneId::new("z1").unwrap(),
+        &CommanderId::new("ic-1").unwrap(),
+        3.0,
+    );
     assert_eq!(tasks(&out).len(), 2, "cleared: both fires are attacked");
 }
 
