@@ -59,6 +59,11 @@ enum Command {
     /// Make a site's certificates for mutual TLS.
     #[command(subcommand)]
     Pki(commands::pki::PkiCommand),
+    /// Render a site's Zenoh configurations with access rules.
+    #[command(subcommand)]
+    Deploy(commands::deploy::DeployCommand),
+    /// Run a site's Zenoh router (mutual TLS and access rules, unless --plain).
+    Router(commands::deploy::RouterArgs),
 }
 
 /// Log to stderr; `RUST_LOG` overrides `default`.
@@ -99,6 +104,8 @@ fn main() -> std::process::ExitCode {
             Command::Plan(c) => commands::plan::run(c),
             Command::Scenarios => commands::scenarios::list(),
             Command::Pki(c) => commands::pki::run(c),
+            Command::Deploy(c) => commands::deploy::run(c),
+            Command::Router(a) => commands::deploy::router(a).await,
             Command::Bt(c) => commands::bt::run(c),
             Command::Replay(a) => commands::replay::run(a),
             Command::Check(a) => commands::check::run(a),

@@ -115,28 +115,21 @@ impl Connect {
                     )));
                 }
             }
-            let file = |name: &str| {
-                let path = dir.join(name);
-                if path.is_file() {
-                    Ok(json_string(&path.display().to_string()))
-                } else {
-                    Err(BusError(format!(
-                        "TLS identity {}: no {name} (run firefleet pki init)",
-                        dir.display()
-                    )))
-                }
+            if let Some(missing) = ["ca.pem", "cert.pem", "key.pem"]
+                .iter()
+                .find(|f| !dir.join(f).is_file())
+            {
+                return Err(BusError(format!(
+                    "TLS identity {}: no {missing} (run firefleet pki init)",
+                    dir.display()
+                )));
+            }
+            let serde_json::Value::Object(fields) = tls_link(dir) else {
+                unreachable!("tls_link is an object")
             };
-            let (ca, cert, key) = (file("ca.pem")?, file("cert.pem")?, file("key.pem")?);
-            for (field, value) in [
-                ("root_ca_certificate", &ca),
-                ("listen_certificate", &cert),
-                ("listen_private_key", &key),
-                ("connect_certificate", &cert),
-                ("connect_private_key", &key),
-                ("enable_mtls", &"true".to_owned()),
-            ] {
+            for (field, value) in fields {
                 config
-                    .insert_json5(&format!("transport/link/tls/{field}"), value)
+                    .insert_json5(&format!("transport/link/tls/{field}"), &value.to_string())
                     .map_err(|e| BusError(format!("TLS {field}: {e}")))?;
             }
         }
@@ -152,6 +145,21 @@ impl Connect {
         }
         Ok(config)
     }
+}
+
+/// Zenoh's `transport/link/tls` section for mutual TLS as the identity whose PKI directory
+/// (`ca.pem`, `cert.pem`, `key.pem`, as `firefleet pki` writes them) is `dir`: the same
+/// certificate to listen and to connect, peers verified against the site CA both ways.
+pub fn tls_link(dir: &std::path::Path) -> serde_json::Value {
+    let file = |name: &str| dir.join(name).display().to_string();
+    serde_json::json!({
+        "root_ca_certificate": file("ca.pem"),
+        "listen_certificate": file("cert.pem"),
+        "listen_private_key": file("key.pem"),
+        "connect_certificate": file("cert.pem"),
+        "connect_private_key": file("key.pem"),
+        "enable_mtls": true,
+    })
 }
 
 /// A TCP port on 127.0.0.1 that nothing listens on right now, for a loopback fleet's

@@ -190,6 +190,11 @@ impl Keys {
     pub fn zone_goals_by(&self, by: &CommanderId) -> Pattern<ZoneGoal> {
         Pattern::new(format!("{ROOT}/{}/zone/*/goal/{by}", self.site))
     }
+    /// `ff/<site>/**/alive`: every liveliness token of the site (units' and the
+    /// coordinator's).
+    pub fn every_alive(&self) -> String {
+        format!("{ROOT}/{}/**/alive", self.site)
+    }
     /// `ff/<site>/unit/*/alive`: every unit's liveliness token.
     pub fn every_unit_alive(&self) -> String {
         format!("{ROOT}/{}/unit/*/alive", self.site)
@@ -245,6 +250,10 @@ typed_keys! {
         every_zone_goal -> ZoneGoal = "zone/*/goal/*";
         /// The coordinator's answers for every zone.
         every_zone_ack -> GoalAck = "zone/*/ack";
+        /// Sensor frames of every simulated ground unit.
+        every_sim_sensors -> UnitSensors = "sim/unit/*/sensors";
+        /// Sensor frames of every simulated monorail unit.
+        every_sim_rail_sensors -> RailSensors = "sim/rail/*/sensors";
         /// Actuator commands of every simulated ground unit.
         every_sim_cmd -> UnitCommand = "sim/unit/*/cmd";
         /// Joint set-points of every simulated monorail unit.

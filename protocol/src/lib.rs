@@ -12,6 +12,7 @@
 //! ([`codec`]); commander-facing messages (zone goals, the incident status) are JSON so any
 //! Zenoh client can speak them.
 
+pub mod access;
 pub mod bus;
 pub mod clock;
 pub mod codec;

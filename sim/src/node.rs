@@ -174,7 +174,7 @@ async fn wait_for_fleet(bus: &Bus, scenario: &Scenario, coordinator: bool, limit
     let deadline = Instant::now() + limit;
     loop {
         let mut alive = std::collections::HashSet::new();
-        if let Ok(replies) = bus.session().liveliness().get(keys.all()).await {
+        if let Ok(replies) = bus.session().liveliness().get(keys.every_alive()).await {
             while let Ok(reply) = replies.recv_async().await {
                 if let Ok(sample) = reply.result()
                     && let Ok((_, topic)) = keys::parse(sample.key_expr().as_str())

@@ -14,6 +14,7 @@ pub mod bt;
 pub mod check;
 pub mod coordinator;
 pub mod demo;
+pub mod deploy;
 pub mod experiment;
 pub mod goal;
 pub mod pki;

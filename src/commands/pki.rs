@@ -1,17 +1,20 @@
 //! `firefleet pki`: a site's certificates for mutual TLS.
 //!
 //! `init` makes a site CA and one certificate per identity of the site file (`unit:<id>`
-//! for each unit, `coordinator`, `recorder`, `sim`, and `commander:<name>` for each
-//! `--commander`); `issue` adds one later with the CA `init` kept. Each identity gets a
+//! for each unit, `coordinator`, `recorder`, `sim`, `router`, and `commander:<name>` for
+//! each `--commander`: `protocol::access::Identity`); `issue` adds one later with the CA
+//! `init` kept. Each identity gets a
 //! directory of its own, what a role's `--tls-dir` takes and all a robot needs copied to
 //! it: the CA's certificate (`ca.pem`), its certificate (`cert.pem`, the identity as its
 //! common name, which the router's access rules will match) and its key (`key.pem`).
 //! Keys are written 0600 and never printed.
 //!
 //! Rotation: run `init` again into a new directory and deploy it whole (a new CA: old
-//! certificates are worthless at once). Revocation of one identity: until access rules are
-//! rendered per identity, a new CA is the only revocation; with them, dropping the
-//! identity's rule shuts it out.
+//! certificates are worthless at once). Revocation of one identity: render the router's
+//! access rules without it (`deploy render` over the site file and commanders still
+//! trusted) and restart the router: its certificate still links, but default deny leaves
+//! it nothing to do. A unit's certificate is revoked that way only by taking the unit out
+//! of the site file; a stolen unit certificate is best answered by a new CA.
 //!
 //! Not here: the TLS links themselves (zenoh's, configured by `protocol::bus::Connect`).
 
@@ -26,6 +29,9 @@ use rcgen::{
     BasicConstraints, CertificateParams, DistinguishedName, DnType, ExtendedKeyUsagePurpose, IsCa,
     KeyPair, KeyUsagePurpose, SanType,
 };
+
+use firefleet_protocol::CommanderId;
+use firefleet_protocol::access::Identity;
 
 use super::{ScenarioArg, scenarios};
 
@@ -58,7 +64,7 @@ pub struct IssueArgs {
     /// The directory `init` wrote.
     #[arg(long, value_name = "DIR")]
     pki: PathBuf,
-    /// commander, unit, coordinator, recorder or sim.
+    /// commander, unit, coordinator, recorder, sim or router.
     #[arg(long)]
     role: Role,
     /// The commander's or the unit's name.
@@ -75,6 +81,7 @@ enum Role {
     Coordinator,
     Recorder,
     Sim,
+    Router,
 }
 
 /// Where the CA's own files live in the directory `init` writes.
@@ -97,15 +104,12 @@ fn init(a: InitArgs) -> anyhow::Result<ExitCode> {
             a.out.display()
         );
     }
-    let mut names: Vec<String> = scenario
-        .units
+    let commanders = a
+        .commander
         .iter()
-        .map(|u| format!("unit:{}", u.id))
-        .collect();
-    names.extend(["coordinator", "recorder", "sim"].map(String::from));
-    for c in &a.commander {
-        names.push(identity(Role::Commander, Some(c))?);
-    }
+        .map(|c| CommanderId::new(c.as_str()).with_context(|| format!("--commander {c}")))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let names = Identity::of_site(&scenario, &commanders);
     let key = KeyPair::generate().context("generating the CA key")?;
     let ca = ca_params().self_signed(&key).context("signing the CA")?;
     let ca_dir = a.out.join(CA_DIR);
@@ -119,7 +123,11 @@ fn init(a: InitArgs) -> anyhow::Result<ExitCode> {
         scenario.name,
         a.out.display(),
         names.len(),
-        names.join(", ")
+        names
+            .iter()
+            .map(Identity::to_string)
+            .collect::<Vec<_>>()
+            .join(", ")
     );
     Ok(ExitCode::SUCCESS)
 }
@@ -138,25 +146,19 @@ fn issue(a: IssueArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The identity (certificate common name) of `role`, named `name` where the role needs one.
-fn identity(role: Role, name: Option<&str>) -> anyhow::Result<String> {
-    let named = |prefix: &str| -> anyhow::Result<String> {
+/// The identity of `role`, named `name` where the role needs one.
+fn identity(role: Role, name: Option<&str>) -> anyhow::Result<Identity> {
+    let named = |prefix: &str| -> anyhow::Result<Identity> {
         let n = name.with_context(|| format!("--role {prefix} needs --name"))?;
-        let ok = !n.is_empty()
-            && n.len() <= 32
-            && n.chars()
-                .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-' || c == '_');
-        if !ok {
-            bail!("name '{n}': 1 to 32 of a-z, 0-9, '-' and '_'");
-        }
-        Ok(format!("{prefix}:{n}"))
+        Ok(format!("{prefix}:{n}").parse()?)
     };
     match role {
         Role::Commander => named("commander"),
         Role::Unit => named("unit"),
-        Role::Coordinator => Ok("coordinator".into()),
-        Role::Recorder => Ok("recorder".into()),
-        Role::Sim => Ok("sim".into()),
+        Role::Coordinator => Ok(Identity::Coordinator),
+        Role::Recorder => Ok(Identity::Recorder),
+        Role::Sim => Ok(Identity::Sim),
+        Role::Router => Ok(Identity::Router),
     }
 }
 
@@ -185,14 +187,15 @@ fn ca_params() -> CertificateParams {
 /// (server and client, valid for `hosts`) and key. The directory.
 fn leaf(
     out: &Path,
-    name: &str,
+    who: &Identity,
     hosts: &[String],
     ca: &rcgen::Certificate,
     ca_key: &KeyPair,
 ) -> anyhow::Result<PathBuf> {
     let mut p = CertificateParams::default();
     p.distinguished_name = DistinguishedName::new();
-    p.distinguished_name.push(DnType::CommonName, name);
+    p.distinguished_name
+        .push(DnType::CommonName, who.to_string());
     p.subject_alt_names = hosts
         .iter()
         .map(|h| match h.parse() {
@@ -215,8 +218,8 @@ fn leaf(
     let key = KeyPair::generate().context("generating a key")?;
     let cert = p
         .signed_by(&key, ca, ca_key)
-        .with_context(|| format!("signing {name}"))?;
-    let dir = out.join(name.replace(':', "-"));
+        .with_context(|| format!("signing {who}"))?;
+    let dir = out.join(who.dir_name());
     write(&dir, "ca.pem", &ca.pem(), false)?;
     write(&dir, "cert.pem", &cert.pem(), false)?;
     write(&dir, "key.pem", &key.serialize_pem(), true)?;

@@ -1,0 +1,533 @@
+//! Who may do what on a site's bus: the access rules, derived from the key table.
+//!
+//! Each process of a site holds one identity, the common name of its certificate
+//! (`firefleet pki`): `unit:<id>`, `coordinator`, `recorder`, `sim`, `commander:<name>`, and
+//! `router` for the site's router. [`grants`] lists what an identity may do, as
+//! [`Grant`]s of an [`Op`] on a key expression built by [`Keys`], so no key is written
+//! twice; [`zenoh_acl`] turns the grants of every identity into the `access_control`
+//! section of the router's Zenoh configuration, default deny, one subject per common name.
+//!
+//! Least privilege, by identity:
+//! - a unit puts only its own state, reports and behaviour-tree log, declares only its own
+//!   token, hears only its own tasks and what is barred, and (simulated sites) drives only
+//!   its own simulated body;
+//! - the coordinator puts tasks, fire tracks, its log, the barred space, the goals in
+//!   force and goal answers; it hears states, reports, goals and (simulated) the site clock;
+//! - a recorder hears everything and answers the coordinator's and the fire tracks'
+//!   queries on the coordinator's behalf;
+//! - a commander puts and deletes only goals under its own name (so a goal's issuer is the
+//!   router's word, not the goal's text), and reads what a commander follows;
+//! - the simulator speaks only `sim/` keys, and only on a simulated site.
+//!
+//! The rules stop an identity from touching another's keys; what an identity may send on
+//! its own keys is the application's to check (task fencing, validation, the coordinator's
+//! doubts). Not here: certificates (`firefleet pki`), enforcement (Zenoh's router).
+
+use std::fmt;
+use std::str::FromStr;
+
+use serde_json::{Value, json};
+
+use crate::ids::{CommanderId, IdError, UnitId};
+use crate::keys::{Keys, Topic};
+use crate::msg::UnitKind;
+use crate::scenario::Scenario;
+
+/// One identity of a site: a certificate's common name.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Identity {
+    Unit(UnitId),
+    Coordinator,
+    Recorder,
+    Sim,
+    Commander(CommanderId),
+    /// The site's router: it links everyone and is granted nothing (its own session is
+    /// not a remote face its rules apply to; it runs no role).
+    Router,
+}
+
+impl Identity {
+    /// The identity's directory in a site PKI (the common name, `:` made `-`).
+    pub fn dir_name(&self) -> String {
+        self.to_string().replace(':', "-")
+    }
+
+    /// Every identity of `scenario`'s site, with `commanders`, in a stable order.
+    pub fn of_site(scenario: &Scenario, commanders: &[CommanderId]) -> Vec<Identity> {
+        let mut all: Vec<Identity> = scenario
+            .units
+            .iter()
+            .map(|u| Identity::Unit(u.id.clone()))
+            .collect();
+        all.extend([
+            Identity::Coordinator,
+            Identity::Recorder,
+            Identity::Sim,
+            Identity::Router,
+        ]);
+        all.extend(commanders.iter().cloned().map(Identity::Commander));
+        all
+    }
+}
+
+impl fmt::Display for Identity {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Identity::Unit(u) => write!(f, "unit:{u}"),
+            Identity::Coordinator => f.write_str("coordinator"),
+            Identity::Recorder => f.write_str("recorder"),
+            Identity::Sim => f.write_str("sim"),
+            Identity::Commander(c) => write!(f, "commander:{c}"),
+            Identity::Router => f.write_str("router"),
+        }
+    }
+}
+
+/// A common name that is no identity of ours.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "'{name}' is not an identity (unit:<id>, coordinator, recorder, sim, commander:<name>, router): {reason}"
+)]
+pub struct IdentityError {
+    pub name: String,
+    pub reason: String,
+}
+
+impl FromStr for Identity {
+    type Err = IdentityError;
+    fn from_str(s: &str) -> Result<Self, IdentityError> {
+        let err = |reason: String| IdentityError {
+            name: s.to_owned(),
+            reason,
+        };
+        let named = |e: IdError| err(e.to_string());
+        match s.split_once(':') {
+            Some(("unit", u)) => Ok(Identity::Unit(UnitId::new(u).map_err(named)?)),
+            Some(("commander", c)) => Ok(Identity::Commander(CommanderId::new(c).map_err(named)?)),
+            Some(_) => Err(err("unknown kind".into())),
+            None => match s {
+                "coordinator" => Ok(Identity::Coordinator),
+                "recorder" => Ok(Identity::Recorder),
+                "sim" => Ok(Identity::Sim),
+                "router" => Ok(Identity::Router),
+                _ => Err(err("unknown".into())),
+            },
+        }
+    }
+}
+
+/// What an identity may do on a key expression.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Op {
+    /// Publish samples.
+    Put,
+    /// Publish deletes.
+    Delete,
+    /// Receive samples and deletes.
+    Subscribe,
+    /// Ask queryables and receive their replies.
+    Query,
+    /// Answer queries.
+    Answer,
+    /// Declare a liveliness token.
+    Token,
+    /// Follow and query liveliness tokens.
+    Watch,
+}
+
+impl Op {
+    pub const ALL: [Op; 7] = [
+        Op::Put,
+        Op::Delete,
+        Op::Subscribe,
+        Op::Query,
+        Op::Answer,
+        Op::Token,
+        Op::Watch,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Op::Put => "put",
+            Op::Delete => "delete",
+            Op::Subscribe => "subscribe",
+            Op::Query => "query",
+            Op::Answer => "answer",
+            Op::Token => "token",
+            Op::Watch => "watch",
+        }
+    }
+
+    /// The Zenoh messages the router must let through, as `(message, flow)` seen from the
+    /// router's face to the identity: ingress is what the identity sends, egress what it
+    /// is sent.
+    fn zenoh_messages(self) -> &'static [(&'static str, &'static str)] {
+        match self {
+            Op::Put => &[("put", "ingress")],
+            Op::Delete => &[("delete", "ingress")],
+            Op::Subscribe => &[
+                ("declare_subscriber", "ingress"),
+                ("put", "egress"),
+                ("delete", "egress"),
+            ],
+            Op::Query => &[("query", "ingress"), ("reply", "egress")],
+            Op::Answer => &[
+                ("declare_queryable", "ingress"),
+                ("query", "egress"),
+                ("reply", "ingress"),
+            ],
+            Op::Token => &[("liveliness_token", "ingress")],
+            Op::Watch => &[
+                ("declare_liveliness_subscriber", "ingress"),
+                ("liveliness_query", "ingress"),
+                ("liveliness_token", "egress"),
+            ],
+        }
+    }
+}
+
+/// One thing an identity may do.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Grant {
+    pub op: Op,
+    pub key_expr: String,
+}
+
+/// Why an identity has no rules on a site.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0} is not a unit of this site")]
+pub struct UnknownUnit(pub UnitId);
+
+/// What `who` may do on `scenario`'s site; `simulated` grants the simulator's keys (to the
+/// simulator and to each unit for its own body), which a real site does not have.
+pub fn grants(
+    scenario: &Scenario,
+    who: &Identity,
+    simulated: bool,
+) -> Result<Vec<Grant>, UnknownUnit> {
+    let keys = Keys::new(scenario.site.clone());
+    let mut g = Vec::new();
+    let mut grant = |op: Op, key_expr: &str| {
+        g.push(Grant {
+            op,
+            key_expr: key_expr.to_owned(),
+        })
+    };
+    match who {
+        Identity::Unit(u) => {
+            let spec = scenario
+                .units
+                .iter()
+                .find(|s| &s.id == u)
+                .ok_or_else(|| UnknownUnit(u.clone()))?;
+            grant(Op::Put, keys.unit_state(u).as_str());
+            grant(Op::Put, keys.unit_report(u).as_str());
+            grant(Op::Put, keys.unit_bt(u).as_str());
+            grant(Op::Token, &keys.expr(&Topic::UnitAlive(u.clone())));
+            grant(Op::Subscribe, keys.unit_task(u).as_str());
+            grant(Op::Subscribe, keys.coord_barred().as_str());
+            grant(Op::Query, keys.coord_barred().as_str());
+            grant(Op::Watch, &keys.expr(&Topic::CoordAlive));
+            if simulated {
+                match spec.kind {
+                    UnitKind::Ground => {
+                        grant(Op::Subscribe, keys.sim_sensors(u).as_str());
+                        grant(Op::Put, keys.sim_cmd(u).as_str());
+                    }
+                    UnitKind::Monorail => {
+                        grant(Op::Subscribe, keys.sim_rail_sensors(u).as_str());
+                        grant(Op::Put, keys.sim_rail_cmd(u).as_str());
+                    }
+                }
+            }
+        }
+        Identity::Coordinator => {
+            grant(Op::Put, keys.every_unit_task().as_str());
+            grant(Op::Put, keys.every_fire().as_str());
+            grant(Op::Put, keys.coord_log().as_str());
+            grant(Op::Put, keys.coord_barred().as_str());
+            grant(Op::Put, keys.coord_goals().as_str());
+            grant(Op::Put, keys.every_zone_ack().as_str());
+            grant(Op::Token, &keys.expr(&Topic::CoordAlive));
+            grant(Op::Subscribe, keys.every_unit_state().as_str());
+            grant(Op::Subscribe, keys.every_unit_report().as_str());
+            grant(Op::Subscribe, keys.every_zone_goal().as_str());
+            grant(Op::Watch, &keys.every_unit_alive());
+            grant(Op::Query, keys.every_fire().as_str());
+            grant(Op::Query, keys.coord_goals().as_str());
+            grant(Op::Answer, &keys.every_coord());
+            if simulated {
+                grant(Op::Subscribe, keys.sim_clock().as_str());
+            }
+        }
+        Identity::Recorder => {
+            grant(Op::Subscribe, &keys.all());
+            grant(Op::Watch, &keys.all());
+            grant(Op::Answer, keys.every_fire().as_str());
+            grant(Op::Answer, &keys.every_coord());
+        }
+        Identity::Commander(c) => {
+            grant(Op::Put, keys.zone_goals_by(c).as_str());
+            grant(Op::Delete, keys.zone_goals_by(c).as_str());
+            grant(Op::Subscribe, keys.every_zone_ack().as_str());
+            grant(Op::Subscribe, keys.every_fire().as_str());
+            grant(Op::Subscribe, keys.every_unit_state().as_str());
+            grant(Op::Subscribe, keys.coord_log().as_str());
+            grant(Op::Subscribe, keys.coord_goals().as_str());
+            grant(Op::Subscribe, keys.coord_barred().as_str());
+            grant(Op::Query, &keys.every_coord());
+            grant(Op::Watch, &keys.every_alive());
+        }
+        Identity::Sim if simulated => {
+            grant(Op::Put, keys.sim_clock().as_str());
+            grant(Op::Put, keys.sim_truth().as_str());
+            grant(Op::Put, keys.every_sim_sensors().as_str());
+            grant(Op::Put, keys.every_sim_rail_sensors().as_str());
+            grant(Op::Subscribe, keys.every_sim_cmd().as_str());
+            grant(Op::Subscribe, keys.every_sim_rail_cmd().as_str());
+            grant(Op::Watch, &keys.every_alive());
+        }
+        Identity::Sim | Identity::Router => {}
+    }
+    Ok(g)
+}
+
+/// Whether `grants` let their holder do `op` on the concrete key `key` (a grant's key
+/// expression includes it), the same test Zenoh's router applies.
+pub fn allows(grants: &[Grant], op: Op, key: &str) -> bool {
+    let Ok(key) = zenoh::key_expr::KeyExpr::try_from(key) else {
+        return false;
+    };
+    grants.iter().any(|g| {
+        g.op == op
+            && zenoh::key_expr::KeyExpr::try_from(g.key_expr.as_str())
+                .is_ok_and(|e| e.includes(&key))
+    })
+}
+
+/// The `access_control` section of the router's Zenoh configuration for `identities` of
+/// `scenario`'s site: default deny, one subject per common name (matched on the client's
+/// TLS certificate), one rule per identity and operation.
+pub fn zenoh_acl(
+    scenario: &Scenario,
+    identities: &[Identity],
+    simulated: bool,
+) -> Result<Value, UnknownUnit> {
+    let mut rules = Vec::new();
+    let mut subjects = Vec::new();
+    let mut policies = Vec::new();
+    for who in identities {
+        let granted = grants(scenario, who, simulated)?;
+        if granted.is_empty() {
+            continue;
+        }
+        let subject = who.to_string();
+        // Zenoh filters on the writer's side: a client publishes (or queries) only once the
+        // router has told it that someone listens, by passing it the listeners'
+        // declarations. Those carry the listener's key expression (the coordinator's
+        // `unit/*/state`, a recorder's `**`), not the writer's key, so they are let out on
+        // the whole site: an identity learns which key expressions are listened to, never
+        // a sample it may not read.
+        let routing = format!("{subject} routing");
+        rules.push(json!({
+            "id": routing,
+            "messages": ["declare_subscriber", "declare_queryable", "declare_liveliness_subscriber"],
+            "flows": ["egress"],
+            "permission": "allow",
+            "key_exprs": [Keys::new(scenario.site.clone()).all()],
+        }));
+        let mut rule_ids = vec![routing];
+        for op in Op::ALL {
+            let exprs: Vec<&str> = granted
+                .iter()
+                .filter(|g| g.op == op)
+                .map(|g| g.key_expr.as_str())
+                .collect();
+            if exprs.is_empty() {
+                continue;
+            }
+            for (message, flow) in op.zenoh_messages() {
+                let id = format!("{subject} {} {message} {flow}", op.as_str());
+                rules.push(json!({
+                    "id": id,
+                    "messages": [message],
+                    "flows": [flow],
+                    "permission": "allow",
+                    "key_exprs": exprs,
+                }));
+                rule_ids.push(id);
+            }
+        }
+        subjects.push(json!({ "id": subject, "cert_common_names": [subject] }));
+        policies.push(json!({ "id": subject, "rules": rule_ids, "subjects": [subject] }));
+    }
+    Ok(json!({
+        "enabled": true,
+        "default_permission": "deny",
+        "rules": rules,
+        "subjects": subjects,
+        "policies": policies,
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn site() -> Scenario {
+        Scenario::straight(200.0)
+            .ground("ugv-1", 10.0, 2.0)
+            .ground("ugv-2", 20.0, 2.0)
+            .rail("r", 0.0, 200.0, &[50.0])
+            .monorail("rail-1", "r", 30.0)
+            .build()
+    }
+
+    #[test]
+    fn identities_round_trip_through_their_common_names() {
+        let s = site();
+        for who in Identity::of_site(&s, &[CommanderId::new("rossi").unwrap()]) {
+            assert_eq!(who.to_string().parse::<Identity>().unwrap(), who);
+        }
+        for bad in ["unit:", "unit:UGV", "admin", "commander:a/b", "unit"] {
+            assert!(bad.parse::<Identity>().is_err(), "{bad}");
+        }
+    }
+
+    fn of(s: &Scenario, who: &str) -> Vec<Grant> {
+        grants(s, &who.parse().unwrap(), true).unwrap()
+    }
+
+    #[test]
+    fn a_unit_touches_only_its_own_keys() {
+        let s = site();
+        let ugv2 = of(&s, "unit:ugv-2");
+        let k = |tail: &str| format!("ff/{}/{tail}", s.site);
+        for (op, key) in [
+            (Op::Put, "unit/ugv-2/state"),
+            (Op::Put, "unit/ugv-2/report"),
+            (Op::Token, "unit/ugv-2/alive"),
+            (Op::Subscribe, "unit/ugv-2/task"),
+            (Op::Subscribe, "coord/barred"),
+            (Op::Query, "coord/barred"),
+            (Op::Watch, "coord/alive"),
+            (Op::Put, "sim/unit/ugv-2/cmd"),
+        ] {
+            assert!(allows(&ugv2, op, &k(key)), "{op:?} {key}");
+        }
+        for (op, key) in [
+            (Op::Put, "unit/ugv-1/state"),
+            (Op::Put, "unit/ugv-1/task"),
+            (Op::Put, "unit/ugv-2/task"),
+            (Op::Put, "fire/f1"),
+            (Op::Put, "zone/deep/goal/ugv-2"),
+            (Op::Delete, "zone/deep/goal/rossi"),
+            (Op::Put, "coord/barred"),
+            (Op::Put, "sim/unit/ugv-1/cmd"),
+            (Op::Put, "sim/rail/rail-1/cmd"),
+            (Op::Token, "coord/alive"),
+            (Op::Token, "unit/ugv-1/alive"),
+            (Op::Subscribe, "unit/ugv-1/task"),
+            (Op::Answer, "fire/f1"),
+            (Op::Answer, "coord/barred"),
+            (Op::Answer, "coord/status"),
+        ] {
+            assert!(!allows(&ugv2, op, &k(key)), "{op:?} {key}");
+        }
+    }
+
+    #[test]
+    fn a_commander_puts_and_clears_goals_only_under_its_own_name() {
+        let s = site();
+        let rossi = of(&s, "commander:rossi");
+        let k = |tail: &str| format!("ff/{}/{tail}", s.site);
+        assert!(allows(&rossi, Op::Put, &k("zone/deep/goal/rossi")));
+        assert!(allows(&rossi, Op::Delete, &k("zone/deep/goal/rossi")));
+        assert!(!allows(&rossi, Op::Put, &k("zone/deep/goal/bianchi")));
+        assert!(!allows(&rossi, Op::Delete, &k("zone/deep/goal/bianchi")));
+        assert!(!allows(&rossi, Op::Put, &k("unit/ugv-1/task")));
+        assert!(allows(&rossi, Op::Query, &k("coord/status")));
+        assert!(allows(&rossi, Op::Subscribe, &k("zone/deep/ack")));
+    }
+
+    #[test]
+    fn a_real_site_grants_no_simulator_keys() {
+        let s = site();
+        let k = |tail: &str| format!("ff/{}/{tail}", s.site);
+        let unit = grants(&s, &"unit:ugv-1".parse().unwrap(), false).unwrap();
+        assert!(!allows(&unit, Op::Put, &k("sim/unit/ugv-1/cmd")));
+        assert!(grants(&s, &Identity::Sim, false).unwrap().is_empty());
+        assert!(grants(&s, &"unit:ugv-9".parse().unwrap(), true).is_err());
+    }
+
+    #[test]
+    fn every_key_has_a_writer_and_a_reader_besides_the_recorder() {
+        let s = site();
+        let keys = Keys::new(s.site.clone());
+        let who = Identity::of_site(&s, &[CommanderId::new("rossi").unwrap()]);
+        let granted: Vec<(Identity, Vec<Grant>)> = who
+            .iter()
+            .map(|w| (w.clone(), grants(&s, w, true).unwrap()))
+            .collect();
+        let u = |s: &str| UnitId::new(s).unwrap();
+        let zone = crate::ZoneId::new("deep").unwrap();
+        let topics = [
+            (Op::Put, Topic::UnitState(u("ugv-1"))),
+            (Op::Token, Topic::UnitAlive(u("ugv-1"))),
+            (Op::Put, Topic::UnitReport(u("ugv-1"))),
+            (Op::Put, Topic::UnitTask(u("ugv-1"))),
+            (Op::Put, Topic::UnitBt(u("ugv-1"))),
+            (Op::Put, Topic::Fire(crate::FireId(3))),
+            (
+                Op::Put,
+                Topic::ZoneGoal(zone.clone(), CommanderId::new("rossi").unwrap()),
+            ),
+            (Op::Put, Topic::ZoneAck(zone)),
+            (Op::Token, Topic::CoordAlive),
+            (Op::Answer, Topic::CoordStatus),
+            (Op::Put, Topic::CoordLog),
+            (Op::Put, Topic::CoordBarred),
+            (Op::Put, Topic::CoordGoals),
+            (Op::Put, Topic::SimClock),
+            (Op::Put, Topic::SimTruth),
+            (Op::Put, Topic::SimSensors(u("ugv-1"))),
+            (Op::Put, Topic::SimCmd(u("ugv-1"))),
+            (Op::Put, Topic::SimRailSensors(u("rail-1"))),
+            (Op::Put, Topic::SimRailCmd(u("rail-1"))),
+        ];
+        for (write, topic) in topics {
+            let key = keys.expr(&topic);
+            let read = match write {
+                Op::Token => Op::Watch,
+                Op::Answer => Op::Query,
+                _ => Op::Subscribe,
+            };
+            let writers: Vec<&Identity> = granted
+                .iter()
+                .filter(|(_, g)| allows(g, write, &key))
+                .map(|(w, _)| w)
+                .collect();
+            // Recorders answer the coordinator's queries on its behalf (coord/*).
+            let expected = if write == Op::Answer { 2 } else { 1 };
+            assert_eq!(writers.len(), expected, "{key}: written by {writers:?}");
+            let readers = granted
+                .iter()
+                .filter(|(w, g)| *w != Identity::Recorder && allows(g, read, &key))
+                .count();
+            let recorded = allows(
+                &granted
+                    .iter()
+                    .find(|(w, _)| *w == Identity::Recorder)
+                    .unwrap()
+                    .1,
+                read,
+                &key,
+            ) || read == Op::Query;
+            assert!(
+                readers > 0 || topic == Topic::UnitBt(u("ugv-1")) || topic == Topic::SimTruth,
+                "{key}: read by nobody"
+            );
+            assert!(recorded, "{key}: not recorded");
+        }
+    }
+}
