@@ -837,7 +837,7 @@ fn mutual_tls_lets_in_only_the_site_s_identities() {
         "--commander",
         "rossi",
     ]);
-    assert_says(&out, 0, "CA and 7 identities");
+    assert_says(&out, 0, "CA and 8 identities");
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
@@ -918,4 +918,384 @@ fn mutual_tls_lets_in_only_the_site_s_identities() {
     // With an identity, a plain endpoint is refused before anything is sent.
     let out = status(Some(&rossi), &format!("tcp/127.0.0.1:{port}"));
     assert_says(&out, 2, "is not TLS");
+}
+
+/// A site deployed as `deploy/README.md` says: a PKI, the rendered access rules and a
+/// router process enforcing them on a free loopback port.
+struct SecureSite {
+    dir: tempfile::TempDir,
+    scenario: &'static str,
+    endpoint: String,
+    _router: Fleet,
+}
+
+impl SecureSite {
+    fn new(scenario: &'static str) -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        let path = |p: &str| dir.path().join(p).to_str().unwrap().to_owned();
+        let (pki, cfg) = (path("pki"), path("cfg"));
+        let out = support::firefleet(&[
+            "pki",
+            "init",
+            "--scenario",
+            scenario,
+            "--out",
+            &pki,
+            "--commander",
+            "rossi",
+        ]);
+        assert!(out.status.success(), "{}", text(&out));
+        let port = firefleet_protocol::bus::free_loopback_port().unwrap();
+        let endpoint = format!("tls/127.0.0.1:{port}");
+        let out = support::firefleet(&[
+            "deploy",
+            "render",
+            "--scenario",
+            scenario,
+            "--pki",
+            &pki,
+            "--out",
+            &cfg,
+            "--commander",
+            "rossi",
+            "--simulated",
+            "--listen",
+            &endpoint,
+            "--connect",
+            &endpoint,
+        ]);
+        assert!(out.status.success(), "{}", text(&out));
+        let router = Command::new(BIN)
+            .args(["router", "--scenario", scenario, "--zenoh-config"])
+            .arg(dir.path().join("cfg/router.json5"))
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        Self {
+            dir,
+            scenario,
+            endpoint,
+            _router: Fleet(vec![router]),
+        }
+    }
+
+    /// The client configuration of identity `who` (`unit-ugv-1`, `commander-rossi`, ...).
+    fn config(&self, who: &str) -> String {
+        let p = self.dir.path().join(format!("cfg/{who}.json5"));
+        p.to_str().unwrap().to_owned()
+    }
+
+    /// A role of the fleet as identity `who`.
+    fn spawn(&self, who: &str, args: &[&str]) -> std::process::Child {
+        Command::new(BIN)
+            .args(args)
+            .args([
+                "--scenario",
+                self.scenario,
+                "--zenoh-config",
+                &self.config(who),
+            ])
+            .env("RUST_LOG", "warn,zenoh=error")
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .unwrap()
+    }
+
+    /// A session in this test as identity `who`, once the router takes it.
+    async fn open(&self, who: &str) -> Bus {
+        let connect = firefleet_protocol::bus::Connect {
+            config_file: Some(self.config(who).into()),
+            ..Default::default()
+        };
+        let site = firefleet_protocol::SiteId::new("tunnel-a").unwrap();
+        let deadline = Instant::now() + Duration::from_secs(20);
+        loop {
+            match Bus::open(&connect, site.clone()).await {
+                Ok(bus) => return bus,
+                Err(e) if Instant::now() > deadline => panic!("{who} never got in: {e}"),
+                Err(_) => tokio::time::sleep(Duration::from_millis(200)).await,
+            }
+        }
+    }
+}
+
+/// Whether `seen` (everything a recorder received) holds a sample on a key ending in
+/// `tail` whose payload `is_forged` says is the attacker's.
+fn got_through(
+    seen: &[(String, zenoh::sample::SampleKind, Vec<u8>)],
+    tail: &str,
+    is_forged: impl Fn(&[u8]) -> bool,
+) -> bool {
+    seen.iter()
+        .any(|(k, _, bytes)| k.ends_with(tail) && is_forged(bytes))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stolen_unit_certificate_cannot_stop_a_secure_fleet() {
+    let site = SecureSite::new("vehicle-collision");
+    let ugv1 = UnitId::new("ugv-1").unwrap();
+    // What gets past the router is what a recorder hears.
+    let observer = site.open("recorder").await;
+    let keys = observer.keys().clone();
+    let seen = observer
+        .session()
+        .declare_subscriber(keys.all())
+        .with(zenoh::handlers::FifoChannel::new(1_000_000))
+        .await
+        .unwrap();
+    let truths = observer
+        .subscribe::<SimTruth>(&keys.sim_truth())
+        .await
+        .unwrap();
+    let thief = site.open("unit-ugv-2").await;
+    let session = thief.session();
+
+    // Impostor liveliness (zenoh#1562: tokens passing a deny-all policy): the
+    // coordinator's token and another unit's, before either exists.
+    let _coord_token = session
+        .liveliness()
+        .declare_token(keys.expr(&Topic::CoordAlive))
+        .await
+        .unwrap();
+    let _unit_token = session
+        .liveliness()
+        .declare_token(keys.expr(&Topic::UnitAlive(ugv1.clone())))
+        .await
+        .unwrap();
+    // Answers to the fire recall and the barred space, for whoever asks.
+    let fake_fires = session
+        .declare_queryable(keys.every_fire().as_str())
+        .await
+        .unwrap();
+    let fake_coord = session.declare_queryable(keys.every_coord()).await.unwrap();
+    let answer = tokio::spawn(async move {
+        loop {
+            tokio::select! {
+                Ok(q) = fake_fires.recv_async() => {
+                    let _ = q.reply(keys_fire99(), codec::encode(&forged_fire())).await;
+                }
+                Ok(q) = fake_coord.recv_async() => {
+                    let key = q.key_expr().to_string();
+                    let _ = q.reply(key, codec::encode(&BarredSpace { t: 1e6, spans: vec![] })).await;
+                }
+                else => break,
+            }
+        }
+    });
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    let tokens = observer
+        .session()
+        .liveliness()
+        .get(keys.every_alive())
+        .await
+        .unwrap();
+    let mut alive = Vec::new();
+    while let Ok(r) = tokens.recv_async().await {
+        if let Ok(s) = r.result() {
+            alive.push(s.key_expr().to_string());
+        }
+    }
+    assert!(alive.is_empty(), "impostor tokens got through: {alive:?}");
+
+    let mut fleet = Fleet(vec![
+        site.spawn("coordinator", &["coordinator", "--sim-clock"]),
+        site.spawn("unit-ugv-1", &["agent", "--unit", "ugv-1"]),
+        site.spawn("unit-ugv-2", &["agent", "--unit", "ugv-2"]),
+    ]);
+    fleet.0.push(site.spawn(
+        "sim",
+        &[
+            "sim",
+            "--time-scale",
+            "4",
+            "--wait-for-fleet",
+            "30",
+            "--wait-for-coordinator",
+        ],
+    ));
+    // Once the fleet runs, every attack of the issue from ugv-2's stolen certificate.
+    tokio::time::timeout(Duration::from_secs(60), truths.recv())
+        .await
+        .expect("the simulator never started");
+    let forged_task = Task {
+        unit: ugv1.clone(),
+        seq: u64::MAX,
+        t: 0.0,
+        kind: TaskKind::Standby,
+    };
+    thief
+        .put(&keys.unit_task(&ugv1), &forged_task)
+        .await
+        .unwrap();
+    let evil = r#"{"id": "evil", "zone": "core", "goal": "monitor", "priority": 255}"#;
+    for by in ["ugv-2", "rossi"] {
+        session
+            .put(format!("ff/tunnel-a/zone/core/goal/{by}"), evil)
+            .await
+            .unwrap();
+        session
+            .delete(format!("ff/tunnel-a/zone/core/goal/{by}"))
+            .await
+            .unwrap();
+    }
+    session
+        .put(keys_fire99(), codec::encode(&forged_fire()))
+        .await
+        .unwrap();
+    let mut spoofed = forged_state(&ugv1);
+    thief.put(&keys.unit_state(&ugv1), &spoofed).await.unwrap();
+    let drive = firefleet_protocol::msg::UnitCommand {
+        speed: 3.21,
+        steer: 0.5,
+        pan: 0.0,
+        tilt: 0.0,
+        valve_open: false,
+    };
+    for _ in 0..200 {
+        thief.put(&keys.sim_cmd(&ugv1), &drive).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    // Its own keys are the application's to check: a state with an impossible heading.
+    let ugv2 = UnitId::new("ugv-2").unwrap();
+    spoofed.unit = ugv2.clone();
+    spoofed.pose.yaw = 1e308;
+    session
+        .put(keys.unit_state(&ugv2).as_str(), codec::encode(&spoofed))
+        .await
+        .unwrap();
+    // A unit may not ask for the incident's status (of anyone but its own queryable).
+    let replies = session
+        .get(keys.expr(&Topic::CoordStatus))
+        .allowed_destination(zenoh::sample::Locality::Remote)
+        .timeout(Duration::from_secs(2))
+        .await
+        .unwrap();
+    assert!(
+        !matches!(replies.recv_async().await, Ok(r) if r.result().is_ok()),
+        "a unit was answered the status"
+    );
+
+    // A commander's certificate sets a goal under its own name; under another's, the
+    // router drops it and no coordinator answers.
+    let goal = |by: &str| {
+        Command::new(BIN)
+            .args(["goal", "set", "--scenario", site.scenario, "--zenoh-config"])
+            .arg(site.config("commander-rossi"))
+            .args(["--zone", "far", "--goal", "extinguish", "--priority", "1"])
+            .args(["--issued-by", by])
+            .output()
+            .unwrap()
+    };
+    assert_says(&goal("rossi"), 0, "accepted");
+    assert!(!goal("bianchi").status.success());
+    // No certificate: no link.
+    let plain = cli(
+        site.scenario,
+        &site.endpoint.replace("tls/", "tcp/"),
+        &["status"],
+    );
+    assert!(!plain.status.success());
+
+    let truth = outcome(&truths, Duration::from_secs(120)).await;
+    assert!(
+        truth.all_out(),
+        "the fleet lost to a stolen certificate: {truth:?}"
+    );
+    let mut seen_all = Vec::new();
+    while let Ok(Some(s)) = seen.try_recv() {
+        seen_all.push((
+            s.key_expr().to_string(),
+            s.kind(),
+            s.payload().to_bytes().to_vec(),
+        ));
+    }
+    assert!(!got_through(&seen_all, "unit/ugv-1/task", |b| {
+        codec::decode::<Task>(b).is_ok_and(|t| t.seq == u64::MAX)
+    }));
+    assert!(!got_through(&seen_all, "goal/ugv-2", |_| true));
+    assert!(!seen_all.iter().any(|(k, kind, _)| {
+        k.ends_with("goal/rossi") && *kind == zenoh::sample::SampleKind::Delete
+    }));
+    assert!(!got_through(&seen_all, "goal/rossi", |b| {
+        String::from_utf8_lossy(b).contains("evil")
+    }));
+    assert!(!got_through(&seen_all, "fire/f99", |_| true));
+    assert!(!got_through(&seen_all, "unit/ugv-1/state", |b| {
+        codec::decode::<UnitState>(b).is_ok_and(|s| s.water_l == 4321.0)
+    }));
+    assert!(!got_through(&seen_all, "sim/unit/ugv-1/cmd", |b| {
+        codec::decode::<firefleet_protocol::msg::UnitCommand>(b).is_ok_and(|c| c.speed == 3.21)
+    }));
+    assert!(
+        seen_all
+            .iter()
+            .any(|(k, _, _)| k.ends_with("unit/ugv-1/state")),
+        "the recorder heard nothing of the real fleet"
+    );
+    // The coordinator's recall and the units' barred space were answered only by those
+    // allowed to: the thief's queryables got no question.
+    let coordinator = site.open("coordinator").await;
+    let replies = coordinator
+        .session()
+        .get(keys.every_fire().as_str())
+        .consolidation(zenoh::query::ConsolidationMode::None)
+        .timeout(Duration::from_secs(2))
+        .await
+        .unwrap();
+    while let Ok(r) = replies.recv_async().await {
+        if let Ok(s) = r.result() {
+            assert!(
+                !s.key_expr().as_str().ends_with("f99"),
+                "a forged fire was answered"
+            );
+        }
+    }
+    let commander = site.open("commander-rossi").await;
+    let status = status_of(&commander, Duration::from_secs(10)).await;
+    assert!(
+        status["rejected"]["invalid"].as_u64().unwrap_or(0) >= 1,
+        "the impossible state of the thief's own unit was not refused: {status}"
+    );
+    assert!(!status["goals"].to_string().contains("evil"), "{status}");
+    answer.abort();
+    for b in [thief, observer, coordinator, commander] {
+        b.close().await;
+    }
+}
+
+fn keys_fire99() -> String {
+    "ff/tunnel-a/fire/f99".to_owned()
+}
+
+fn forged_fire() -> FireTrack {
+    FireTrack {
+        id: FireId(99),
+        t: 1e6,
+        position: Point2::new(150.0, 0.0),
+        cov: [0.3, 0.0, 0.3],
+        confidence: 1.0,
+        state: FireState::Out,
+        assigned: Vec::new(),
+        seen_by: vec![UnitId::new("ugv-2").unwrap()],
+        hrr_kw: None,
+    }
+}
+
+fn forged_state(unit: &UnitId) -> UnitState {
+    UnitState {
+        unit: unit.clone(),
+        kind: firefleet_protocol::msg::UnitKind::Ground,
+        t: 1.0,
+        pose: Pose2::new(20.0, 0.0, 0.0),
+        speed: 0.0,
+        mode: firefleet_protocol::msg::UnitMode::Idle,
+        water_l: 4321.0,
+        health: 1.0,
+        heat_flux_kw_m2: 0.0,
+        task: None,
+        autonomous: false,
+        task_seq: None,
+        refused: None,
+    }
 }
