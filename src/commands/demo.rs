@@ -7,6 +7,11 @@
 //! none outlives it. The demo follows the simulator's ground truth, prints progress, and
 //! exits 0 exactly when every fire is out before the scenario's time limit.
 //!
+//! With `--secure` the fleet runs as a site is deployed: a site PKI (`--pki DIR`, or one
+//! made for the run), the access rules rendered for it, the router taking mutual TLS
+//! only and enforcing the rules, every child on its identity's client configuration, and
+//! the demo's goals put by a `commander:demo` client of its own.
+//!
 //! Not here: any role's logic; it starts the processes, watches the truth and reports.
 
 use std::collections::BTreeMap;
@@ -16,6 +21,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::Args;
+use firefleet_protocol::access::Identity;
 use firefleet_protocol::bus::{Bus, Connect, Mode, free_loopback_port};
 use firefleet_protocol::msg::{GoalAck, GoalKind, SimTruth, TruthFireState, UnitState, ZoneGoal};
 use firefleet_protocol::scenario::Scenario;
@@ -24,6 +30,8 @@ use firefleet_protocol::{CommanderId, ZoneId};
 use serde::Serialize;
 use tokio::process::{Child, Command};
 
+use super::deploy::{Layout, render_site};
+use super::pki::site_pki;
 use super::{non_negative_f64, positive_f64, scenarios, write_json};
 use crate::net::shutdown_signal;
 
@@ -54,6 +62,13 @@ pub struct DemoArgs {
     /// start (mid-incident, with units already at work).
     #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = non_negative_f64)]
     goals_at: f64,
+    /// Run the fleet over mutual TLS through a router enforcing the site's access rules.
+    #[arg(long)]
+    secure: bool,
+    /// With --secure: the site PKI to use (`firefleet pki init --commander demo`; default:
+    /// one made for this run).
+    #[arg(long, value_name = "DIR", requires = "secure")]
+    pki: Option<PathBuf>,
 }
 
 /// The commander the demo issues its `--goal`s as.
@@ -137,6 +152,12 @@ struct Summary {
     processes: Vec<ProcessInfo>,
     units: Vec<UnitSummary>,
     recording: Option<PathBuf>,
+    /// The router's endpoint.
+    router: String,
+    /// With --secure: the site PKI and the rendered configurations (made for the run and
+    /// removed at its end, but for a PKI given with --pki).
+    pki: Option<PathBuf>,
+    configs: Option<PathBuf>,
 }
 
 /// How the run ended.
@@ -157,44 +178,60 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         .collect::<anyhow::Result<Vec<_>>>()?;
     let seed = a.seed.unwrap_or(scenario.seed);
     let port = free_loopback_port().context("finding a free loopback port")?;
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let router = Connect {
-        mode: Some(Mode::Router),
-        listen: vec![endpoint.clone()],
-        ..Connect::default()
+    let commander = CommanderId::new(DEMO_COMMANDER)?;
+    let site = a
+        .secure
+        .then(|| SecureSite::make(&scenario, a.pki.clone(), port, &commander))
+        .transpose()?;
+    let endpoint = match &site {
+        Some(_) => format!("tls/127.0.0.1:{port}"),
+        None => format!("tcp/127.0.0.1:{port}"),
+    };
+    let router = match &site {
+        Some(s) => Connect {
+            config_file: Some(s.configs.join("router.json5")),
+            ..Connect::default()
+        },
+        None => Connect {
+            mode: Some(Mode::Router),
+            listen: vec![endpoint.clone()],
+            ..Connect::default()
+        },
     };
     let bus = Bus::open(&router, scenario.site.clone())
         .await
         .context("starting the demo's Zenoh router")?;
     let keys = bus.keys().clone();
+    // Goals come from a commander: on a secure site, a client holding its certificate.
+    let commander_bus = match &site {
+        Some(s) => Some(
+            Bus::open(
+                &s.client(&Identity::Commander(commander.clone())),
+                scenario.site.clone(),
+            )
+            .await
+            .context("joining as commander:demo")?,
+        ),
+        None => None,
+    };
     let truths = bus.subscribe::<SimTruth>(&keys.sim_truth()).await?;
     let states = bus.subscribe::<UnitState>(&keys.every_unit_state()).await?;
     let acks = bus.subscribe::<GoalAck>(&keys.every_zone_ack()).await?;
     let mut goals_to_issue = Some(goals.clone());
-    let commander = CommanderId::new(DEMO_COMMANDER)?;
     // The goals the coordinator accepted: fires where one bars attack may be left burning.
     let mut in_force: Vec<ZoneGoal> = Vec::new();
 
     let exe = std::env::current_exe().context("locating the firefleet binary")?;
-    let common = [
-        "--scenario",
-        a.scenario.as_str(),
-        "--mode",
-        "client",
-        "--connect",
-        endpoint.as_str(),
-        "--die-with-parent",
-    ];
-    let mut roles: Vec<(String, Vec<String>)> = Vec::new();
+    let mut roles: Vec<(Identity, Vec<String>)> = Vec::new();
     if let Some(path) = &a.record {
         roles.push((
-            "recorder".into(),
+            Identity::Recorder,
             vec!["record".into(), "--out".into(), path.display().to_string()],
         ));
     }
     let wait = "30".to_string();
     roles.push((
-        "sim".into(),
+        Identity::Sim,
         vec![
             "sim".into(),
             "--seed".into(),
@@ -207,21 +244,31 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         ],
     ));
     roles.push((
-        "coordinator".into(),
+        Identity::Coordinator,
         vec!["coordinator".into(), "--sim-clock".into()],
     ));
     for u in &scenario.units {
         roles.push((
-            format!("agent:{}", u.id),
+            Identity::Unit(u.id.clone()),
             vec!["agent".into(), "--unit".into(), u.id.to_string()],
         ));
     }
     let mut children: Vec<(String, Child)> = Vec::new();
-    for (role, args) in roles {
+    for (who, args) in roles {
+        let role = match &who {
+            Identity::Unit(u) => format!("agent:{u}"),
+            other => other.to_string(),
+        };
         let mut cmd = Command::new(&exe);
         cmd.args(&args)
-            .args(common)
-            .stdin(Stdio::piped())
+            .args(["--scenario", a.scenario.as_str(), "--die-with-parent"]);
+        match &site {
+            Some(s) => cmd
+                .arg("--zenoh-config")
+                .arg(s.configs.join(format!("{}.json5", who.dir_name()))),
+            None => cmd.args(["--mode", "client", "--connect", endpoint.as_str()]),
+        };
+        cmd.stdin(Stdio::piped())
             .stdout(Stdio::null())
             .stderr(Stdio::inherit())
             .kill_on_drop(true);
@@ -269,7 +316,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
                 let due = goals_to_issue.take_if(|_| truth.t >= a.goals_at);
                 for g in due.unwrap_or_default() {
                     println!("t={:.1} s: issuing goal '{}': {:?} on zone {} (priority {})", truth.t, g.id, g.goal, g.zone, g.priority);
-                    bus.put(&keys.zone_goal(&g.zone, &commander), &g).await?;
+                    commander_bus.as_ref().unwrap_or(&bus).put(&keys.zone_goal(&g.zone, &commander), &g).await?;
                 }
                 let out = truth.fires_out();
                 if truth.t >= next_print || out != last_out {
@@ -391,6 +438,9 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             })
             .collect(),
         recording: a.record.clone(),
+        router: endpoint,
+        pki: site.as_ref().map(|s| s.pki.clone()),
+        configs: site.as_ref().map(|s| s.configs.clone()),
     };
     write_json(a.summary_json.as_deref(), &summary)?;
     Ok(match outcome {
@@ -398,6 +448,58 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         Outcome::Interrupted => ExitCode::from(130),
         _ => ExitCode::FAILURE,
     })
+}
+
+/// A secure demo site: its PKI and the configurations rendered for it.
+struct SecureSite {
+    pki: PathBuf,
+    configs: PathBuf,
+    /// Holds what was made for the run (configurations, a PKI) until the demo ends.
+    _made: tempfile::TempDir,
+}
+
+impl SecureSite {
+    /// Use `pki` (or make one) and render the site's configurations for a router on
+    /// loopback `port`, with `commander` among the identities.
+    fn make(
+        scenario: &Scenario,
+        pki: Option<PathBuf>,
+        port: u16,
+        commander: &CommanderId,
+    ) -> anyhow::Result<Self> {
+        let made = tempfile::Builder::new()
+            .prefix("firefleet-demo-")
+            .tempdir()
+            .context("a directory for the demo's site")?;
+        let pki = match pki {
+            Some(p) => p,
+            None => {
+                let p = made.path().join("pki");
+                site_pki(scenario, std::slice::from_ref(commander), &[], &p)?;
+                p
+            }
+        };
+        let configs = made.path().join("configs");
+        let endpoint = format!("tls/127.0.0.1:{port}");
+        render_site(
+            scenario,
+            &Layout::loopback(pki.clone(), configs.clone(), endpoint, commander.clone()),
+        )
+        .with_context(|| format!("rendering the site for the PKI in {}", pki.display()))?;
+        Ok(Self {
+            pki,
+            configs,
+            _made: made,
+        })
+    }
+
+    /// How identity `who` joins the site.
+    fn client(&self, who: &Identity) -> Connect {
+        Connect {
+            config_file: Some(self.configs.join(format!("{}.json5", who.dir_name()))),
+            ..Connect::default()
+        }
+    }
 }
 
 fn print_progress(truth: &SimTruth, modes: &BTreeMap<String, String>) {

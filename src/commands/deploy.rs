@@ -37,6 +37,13 @@ pub enum DeployCommand {
 pub struct RenderArgs {
     #[command(flatten)]
     scenario: ScenarioArg,
+    #[command(flatten)]
+    layout: Layout,
+}
+
+/// Where a site's files are and how its processes reach the router.
+#[derive(Args, Debug)]
+pub struct Layout {
     /// The site PKI `firefleet pki init` wrote.
     #[arg(long, value_name = "DIR")]
     pki: PathBuf,
@@ -81,12 +88,40 @@ pub fn run(cmd: DeployCommand) -> anyhow::Result<ExitCode> {
 
 fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let identities = render_site(&scenario, &a.layout)?;
+    println!(
+        "site '{}': router.json5, {} client configurations and ACCESS.md in {}",
+        scenario.site,
+        identities.len() - 1,
+        a.layout.out.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+impl Layout {
+    /// A simulated site on this machine: the router on `endpoint`, configurations for
+    /// `pki` written to `out` (what `demo --secure` runs).
+    pub fn loopback(pki: PathBuf, out: PathBuf, endpoint: String, commander: CommanderId) -> Self {
+        Self {
+            pki,
+            pki_at: None,
+            out,
+            commander: vec![commander],
+            listen: vec![endpoint.clone()],
+            connect: endpoint,
+            simulated: true,
+        }
+    }
+}
+
+/// Write the configurations `a` asks for, for `scenario`'s site; its identities.
+pub fn render_site(scenario: &Scenario, a: &Layout) -> anyhow::Result<Vec<Identity>> {
     for e in a.listen.iter().chain([&a.connect]) {
         if !e.starts_with("tls/") {
             bail!("endpoint '{e}': a site's links are tls/HOST:PORT");
         }
     }
-    let identities = Identity::of_site(&scenario, &a.commander);
+    let identities = Identity::of_site(scenario, &a.commander);
     let pki_at = match &a.pki_at {
         Some(p) => p.clone(),
         None => fs::canonicalize(&a.pki)
@@ -111,7 +146,7 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     };
     let mut router = base("router", &Identity::Router);
     router["listen"] = json!({ "endpoints": a.listen });
-    router["access_control"] = access::zenoh_acl(&scenario, &identities, a.simulated)?;
+    router["access_control"] = access::zenoh_acl(scenario, &identities, a.simulated)?;
     write_config(
         &a.out.join("router.json5"),
         &format!(
@@ -133,15 +168,9 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             &client,
         )?;
     }
-    let table = access_table(&scenario, &identities, a.simulated)?;
+    let table = access_table(scenario, &identities, a.simulated)?;
     fs::write(a.out.join("ACCESS.md"), &table).context("writing ACCESS.md")?;
-    println!(
-        "site '{}': router.json5, {} client configurations and ACCESS.md in {}",
-        scenario.site,
-        identities.len() - 1,
-        a.out.display()
-    );
-    Ok(ExitCode::SUCCESS)
+    Ok(identities)
 }
 
 fn write_config(path: &Path, comment: &str, value: &Value) -> anyhow::Result<()> {

@@ -32,6 +32,7 @@ use rcgen::{
 
 use firefleet_protocol::CommanderId;
 use firefleet_protocol::access::Identity;
+use firefleet_protocol::scenario::Scenario;
 
 use super::{ScenarioArg, scenarios};
 
@@ -98,26 +99,12 @@ pub fn run(cmd: PkiCommand) -> anyhow::Result<ExitCode> {
 
 fn init(a: InitArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
-    if a.out.exists() && fs::read_dir(&a.out)?.next().is_some() {
-        bail!(
-            "{} exists and is not empty: a site PKI is written whole",
-            a.out.display()
-        );
-    }
     let commanders = a
         .commander
         .iter()
         .map(|c| CommanderId::new(c.as_str()).with_context(|| format!("--commander {c}")))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let names = Identity::of_site(&scenario, &commanders);
-    let key = KeyPair::generate().context("generating the CA key")?;
-    let ca = ca_params().self_signed(&key).context("signing the CA")?;
-    let ca_dir = a.out.join(CA_DIR);
-    write(&ca_dir, "ca.pem", &ca.pem(), false)?;
-    write(&ca_dir, "ca.key", &key.serialize_pem(), true)?;
-    for name in &names {
-        leaf(&a.out, name, &hosts(&a.host), &ca, &key)?;
-    }
+    let names = site_pki(&scenario, &commanders, &a.host, &a.out)?;
     println!(
         "site PKI for '{}' in {}: CA and {} identities ({})",
         scenario.name,
@@ -130,6 +117,32 @@ fn init(a: InitArgs) -> anyhow::Result<ExitCode> {
             .join(", ")
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// Write a site CA and a certificate for every identity of `scenario`'s site and
+/// `commanders` (valid for `hosts`, default loopback) into `out`; the identities.
+pub fn site_pki(
+    scenario: &Scenario,
+    commanders: &[CommanderId],
+    hosts_given: &[String],
+    out: &Path,
+) -> anyhow::Result<Vec<Identity>> {
+    if out.exists() && fs::read_dir(out)?.next().is_some() {
+        bail!(
+            "{} exists and is not empty: a site PKI is written whole",
+            out.display()
+        );
+    }
+    let names = Identity::of_site(scenario, commanders);
+    let key = KeyPair::generate().context("generating the CA key")?;
+    let ca = ca_params().self_signed(&key).context("signing the CA")?;
+    let ca_dir = out.join(CA_DIR);
+    write(&ca_dir, "ca.pem", &ca.pem(), false)?;
+    write(&ca_dir, "ca.key", &key.serialize_pem(), true)?;
+    for name in &names {
+        leaf(out, name, &hosts(hosts_given), &ca, &key)?;
+    }
+    Ok(names)
 }
 
 fn issue(a: IssueArgs) -> anyhow::Result<ExitCode> {
