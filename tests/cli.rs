@@ -197,3 +197,63 @@ fn the_costmap_experiment_reports_the_papers_three_cases_in_its_order() {
         "heat in the cost keeps the path out of the heat: {v}"
     );
 }
+
+#[test]
+fn deploy_render_writes_the_documented_rules_and_a_site_router_refuses_plain_links() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |p: &str| dir.path().join(p).to_str().unwrap().to_owned();
+    let (pki, cfg) = (path("pki"), path("cfg"));
+    let init = [
+        "pki",
+        "init",
+        "--scenario",
+        "vehicle-collision",
+        "--out",
+        &pki,
+    ];
+    assert!(
+        firefleet(&[&init[..], &["--commander", "rossi"]].concat())
+            .status
+            .success()
+    );
+    let render = [
+        "deploy",
+        "render",
+        "--scenario",
+        "vehicle-collision",
+        "--pki",
+        &pki,
+        "--out",
+        &cfg,
+    ];
+    let out = firefleet(&[&render[..], &["--commander", "rossi"]].concat());
+    assert_says(&out, 0, "router.json5, 6 client configurations");
+    let table = std::fs::read_to_string(dir.path().join("cfg/ACCESS.md")).unwrap();
+    let readme = std::fs::read_to_string("deploy/README.md").unwrap();
+    assert!(
+        readme.contains(&table),
+        "deploy/README.md's table is not what deploy render writes:\n{table}"
+    );
+    // A commander without a certificate, and a plain endpoint, are refused by name.
+    let out = firefleet(&[&render[..], &["--commander", "verdi"]].concat());
+    assert_says(&out, 2, "commander:verdi has no certificate");
+    let out = firefleet(&[&render[..], &["--listen", "tcp/0.0.0.0:7447"]].concat());
+    assert_says(&out, 2, "a site's links are tls/");
+    // A site's router: TLS and access rules, or --plain said out loud.
+    let out = firefleet(&[
+        "router",
+        "--scenario",
+        "vehicle-collision",
+        "--listen",
+        "tcp/127.0.0.1:0",
+    ]);
+    assert_says(&out, 2, "takes TLS links only");
+    let out = firefleet(&[
+        "router",
+        "--scenario",
+        "vehicle-collision",
+        "--zenoh-config",
+        "deploy/router.json5",
+    ]);
+    assert_says(&out, 2, "takes TLS links only");
+}

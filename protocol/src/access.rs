@@ -313,11 +313,20 @@ pub fn zenoh_acl(
     identities: &[Identity],
     simulated: bool,
 ) -> Result<Value, UnknownUnit> {
+    let granted = identities
+        .iter()
+        .map(|who| Ok((who.clone(), grants(scenario, who, simulated)?)))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(zenoh_acl_of(&Keys::new(scenario.site.clone()), &granted))
+}
+
+/// The `access_control` section for identities granted as given, on the site of `keys`
+/// (what [`zenoh_acl`] renders; load tests grant a load generator more).
+pub fn zenoh_acl_of(keys: &Keys, granted: &[(Identity, Vec<Grant>)]) -> Value {
     let mut rules = Vec::new();
     let mut subjects = Vec::new();
     let mut policies = Vec::new();
-    for who in identities {
-        let granted = grants(scenario, who, simulated)?;
+    for (who, granted) in granted {
         if granted.is_empty() {
             continue;
         }
@@ -334,7 +343,7 @@ pub fn zenoh_acl(
             "messages": ["declare_subscriber", "declare_queryable", "declare_liveliness_subscriber"],
             "flows": ["egress"],
             "permission": "allow",
-            "key_exprs": [Keys::new(scenario.site.clone()).all()],
+            "key_exprs": [keys.all()],
         }));
         let mut rule_ids = vec![routing];
         for op in Op::ALL {
@@ -361,13 +370,13 @@ pub fn zenoh_acl(
         subjects.push(json!({ "id": subject, "cert_common_names": [subject] }));
         policies.push(json!({ "id": subject, "rules": rule_ids, "subjects": [subject] }));
     }
-    Ok(json!({
+    json!({
         "enabled": true,
         "default_permission": "deny",
         "rules": rules,
         "subjects": subjects,
         "policies": policies,
-    }))
+    })
 }
 
 #[cfg(test)]

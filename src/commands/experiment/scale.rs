@@ -10,6 +10,11 @@
 //! fire arrives (the whole path: the report over Zenoh, fusion, the assignment over every
 //! unit, the task back over Zenoh), and the coordinator process's CPU time over the run.
 //! The units do not move or act: this measures the coordinator, not the fleet.
+//!
+//! `--secure` runs the same load a second time over mutual TLS, the coordinator's router
+//! enforcing the site's access rules (`protocol::access`, every unit's own rules; the load
+//! generator, which speaks for every unit, holds the union of theirs), and prints the
+//! two side by side: the cost of the secure site, measured in one run.
 
 use std::io::Write as _;
 use std::path::PathBuf;
@@ -20,16 +25,19 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::Args;
-use firefleet_protocol::bus::{Bus, Connect, Mode, free_loopback_port};
+use firefleet_protocol::access::{self, Grant, Identity, Op};
+use firefleet_protocol::bus::{Bus, Connect, Mode, free_loopback_port, tls_link};
 use firefleet_protocol::codec;
-use firefleet_protocol::keys::Topic;
+use firefleet_protocol::keys::{Keys, Topic};
 use firefleet_protocol::msg::{
     FlameObservation, FlameReport, Task, TaskKind, UnitKind, UnitMode, UnitState,
 };
+use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::{Point2, Pose2, SiteId, UnitId};
 use serde::Serialize;
 
-use crate::commands::write_json;
+use crate::commands::pki::site_pki;
+use crate::commands::{scenarios, write_json};
 
 #[derive(Args, Debug)]
 pub struct ScaleArgs {
@@ -40,13 +48,18 @@ pub struct ScaleArgs {
     /// Time between two fires' reports, ms.
     #[arg(long, default_value_t = 50)]
     report_interval_ms: u64,
-    /// Also write the figures as JSON.
+    /// Run the load a second time over mutual TLS and access rules, and compare.
+    #[arg(long)]
+    secure: bool,
+    /// Also write the figures as JSON (a list: one entry per link).
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
 }
 
 #[derive(Serialize)]
 struct Figures {
+    /// `tcp`, or `mtls+acl`.
+    link: &'static str,
     units: usize,
     fires: usize,
     state_msgs_per_s: f64,
@@ -103,31 +116,127 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[k]
 }
 
+/// How the load reaches the coordinator.
+struct Link {
+    name: &'static str,
+    endpoint: String,
+    /// The coordinator's Zenoh arguments: it is the router.
+    coordinator: Vec<std::ffi::OsString>,
+    client: Connect,
+}
+
+impl Link {
+    fn plain() -> anyhow::Result<Self> {
+        let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+        Ok(Self {
+            name: "tcp",
+            coordinator: ["--mode", "router", "--listen", &endpoint]
+                .map(Into::into)
+                .into(),
+            client: Connect {
+                mode: Some(Mode::Client),
+                connect: vec![endpoint.clone()],
+                ..Connect::default()
+            },
+            endpoint,
+        })
+    }
+
+    /// Mutual TLS with a PKI made in `dir` for `scenario`'s site, and its access rules;
+    /// the load generator holds the simulator's certificate, granted what every unit may
+    /// do and what it reads itself (tasks, the status).
+    fn secure(dir: &std::path::Path, scenario: &Scenario) -> anyhow::Result<Self> {
+        let endpoint = format!("tls/127.0.0.1:{}", free_loopback_port()?);
+        let pki = dir.join("pki");
+        let identities = site_pki(scenario, &[], &[], &pki)?;
+        let keys = Keys::new(scenario.site.clone());
+        let mut granted = Vec::new();
+        let mut load = vec![
+            Grant {
+                op: Op::Subscribe,
+                key_expr: keys.every_unit_task().as_str().to_owned(),
+            },
+            Grant {
+                op: Op::Query,
+                key_expr: keys.every_coord(),
+            },
+        ];
+        for who in identities {
+            let g = access::grants(scenario, &who, false)?;
+            if matches!(who, Identity::Unit(_)) {
+                load.extend(g.iter().cloned());
+            }
+            granted.push((who, g));
+        }
+        granted.push((Identity::Sim, load));
+        let config = serde_json::json!({
+            "mode": "router",
+            "listen": { "endpoints": [endpoint] },
+            "scouting": { "multicast": { "enabled": false } },
+            "transport": { "link": { "tls": tls_link(&pki.join(Identity::Coordinator.dir_name())) } },
+            "access_control": access::zenoh_acl_of(&keys, &granted),
+        });
+        let path = dir.join("router.json5");
+        std::fs::write(&path, serde_json::to_vec(&config)?)?;
+        Ok(Self {
+            name: "mtls+acl",
+            coordinator: vec!["--zenoh-config".into(), path.into()],
+            client: Connect {
+                mode: Some(Mode::Client),
+                connect: vec![endpoint.clone()],
+                tls: Some(pki.join(Identity::Sim.dir_name())),
+                ..Connect::default()
+            },
+            endpoint,
+        })
+    }
+}
+
 pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(a.units >= 1 && a.units <= 20_000, "--units: 1 to 20000");
     anyhow::ensure!(a.fires >= 1 && a.fires <= a.units, "--fires: 1 to --units");
     let dir = tempfile::tempdir()?;
     let site = dir.path().join("scale.toml");
     std::fs::File::create(&site)?.write_all(site_file(a.units, a.fires).as_bytes())?;
+    let mut links = vec![Link::plain()?];
+    if a.secure {
+        let scenario = scenarios::resolve(&site.display().to_string())?;
+        links.push(Link::secure(dir.path(), &scenario)?);
+    }
+    let mut figures = Vec::new();
+    for link in &links {
+        figures.push(measure(&a, &site, link).await?);
+    }
+    print_table(&figures);
+    write_json(a.json.as_deref(), &figures)?;
+    let short: Vec<String> = figures
+        .iter()
+        .filter(|f| f.tasks_received < a.fires)
+        .map(|f| {
+            format!(
+                "{}: {} fires got no task",
+                f.link,
+                a.fires - f.tasks_received
+            )
+        })
+        .collect();
+    if short.is_empty() {
+        Ok(ExitCode::SUCCESS)
+    } else {
+        eprintln!("{}", short.join("; "));
+        Ok(ExitCode::FAILURE)
+    }
+}
 
-    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
-    let client = Connect {
-        mode: Some(Mode::Client),
-        connect: vec![endpoint.clone()],
-        ..Connect::default()
-    };
-
+/// One run of the load over `link` against a coordinator on site file `site`.
+async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::Result<Figures> {
+    let (endpoint, client) = (&link.endpoint, &link.client);
     let launched = Instant::now();
     let mut coordinator = tokio::process::Command::new(std::env::current_exe()?)
         .args(["coordinator", "--scenario"])
-        .arg(&site)
-        .args([
-            "--mode",
-            "router",
-            "--listen",
-            &endpoint,
-            "--die-with-parent",
-        ])
+        .arg(site)
+        .args(&link.coordinator)
+        .arg("--die-with-parent")
         .env("RUST_LOG", "warn,zenoh=error")
         .stdin(Stdio::piped())
         .stdout(Stdio::null())
@@ -139,7 +248,10 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
     // close it if the child still owned it.
     let stdin = coordinator.stdin.take();
     // Connect once the coordinator listens (Zenoh would log every refused attempt).
-    let addr = endpoint.trim_start_matches("tcp/").to_owned();
+    let addr = endpoint
+        .split_once('/')
+        .map_or(endpoint.as_str(), |(_, a)| a)
+        .to_owned();
     while tokio::net::TcpStream::connect(&addr).await.is_err() {
         anyhow::ensure!(
             launched.elapsed() < Duration::from_secs(20),
@@ -147,14 +259,14 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
         );
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
-    let fleet = Bus::open(&client, SiteId::new("scale")?)
+    let fleet = Bus::open(client, SiteId::new("scale")?)
         .await
         .context("connecting to the coordinator")?;
     let keys = fleet.keys().clone();
     // Reports go out, and tasks come in, on a session of their own, as on a unit's own
     // link: queued behind the thousand states this process sends every 100 ms they would
     // measure this process, not the coordinator.
-    let reporter = Bus::open(&client, SiteId::new("scale")?).await?;
+    let reporter = Bus::open(client, SiteId::new("scale")?).await?;
     let tasks = reporter.subscribe::<Task>(&keys.every_unit_task()).await?;
     // The fleet comes up once the coordinator answers status queries (its last step).
     while crate::net::query_status(&fleet).await.is_err() {
@@ -198,8 +310,8 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
     };
 
     println!(
-        "scale: {} units at 10 Hz, {} fires, coordinator pid {pid} on {endpoint}",
-        a.units, a.fires
+        "scale: {} units at 10 Hz, {} fires, coordinator pid {pid} on {endpoint} ({})",
+        a.units, a.fires, link.name
     );
     let start = Instant::now();
     let epoch = std::time::SystemTime::now()
@@ -316,7 +428,8 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
 
     let mut lat: Vec<f64> = latency_ms.iter().flatten().copied().collect();
     lat.sort_by(f64::total_cmp);
-    let f = Figures {
+    Ok(Figures {
+        link: link.name,
         units: a.units,
         fires: a.fires,
         state_msgs_per_s: (states - s0) as f64 / wall,
@@ -326,40 +439,47 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
         report_to_task_max_ms: lat.last().copied().unwrap_or(f64::NAN),
         coordinator_cpu_share: cpu / wall,
         wall_s: wall,
-    };
-    println!(
-        "{:<36} {:>10}",
-        "unit states published, per s",
-        format!("{:.0}", f.state_msgs_per_s)
-    );
-    println!(
-        "{:<36} {:>10}",
-        "fires answered with a task",
-        format!("{}/{}", f.tasks_received, a.fires)
-    );
-    println!(
-        "{:<36} {:>10.2}",
-        "report -> task p50, ms", f.report_to_task_p50_ms
-    );
-    println!(
-        "{:<36} {:>10.2}   (target 10 ms)",
-        "report -> task p99, ms", f.report_to_task_p99_ms
-    );
-    println!(
-        "{:<36} {:>10.2}",
-        "report -> task max, ms", f.report_to_task_max_ms
-    );
-    println!(
-        "{:<36} {:>9.0} %   of one core, over {:.1} s",
-        "coordinator CPU",
-        f.coordinator_cpu_share * 100.0,
-        f.wall_s
-    );
-    write_json(a.json.as_deref(), &f)?;
-    Ok(if f.tasks_received == a.fires {
-        ExitCode::SUCCESS
-    } else {
-        eprintln!("{} fires got no task", a.fires - f.tasks_received);
-        ExitCode::FAILURE
     })
+}
+
+fn print_table(figures: &[Figures]) {
+    let row = |label: &str, cell: &dyn Fn(&Figures) -> String, note: &str| {
+        let cells: String = figures
+            .iter()
+            .map(|f| format!(" {:>10}", cell(f)))
+            .collect();
+        println!("{label:<36}{cells}{note}");
+    };
+    row("link", &|f| f.link.to_owned(), "");
+    row(
+        "unit states published, per s",
+        &|f| format!("{:.0}", f.state_msgs_per_s),
+        "",
+    );
+    row(
+        "fires answered with a task",
+        &|f| format!("{}/{}", f.tasks_received, f.fires),
+        "",
+    );
+    row(
+        "report -> task p50, ms",
+        &|f| format!("{:.2}", f.report_to_task_p50_ms),
+        "",
+    );
+    row(
+        "report -> task p99, ms",
+        &|f| format!("{:.2}", f.report_to_task_p99_ms),
+        "   (target 10 ms)",
+    );
+    row(
+        "report -> task max, ms",
+        &|f| format!("{:.2}", f.report_to_task_max_ms),
+        "",
+    );
+    row(
+        "coordinator CPU, % of one core",
+        &|f| format!("{:.0}", f.coordinator_cpu_share * 100.0),
+        "",
+    );
+    row("measured over, s", &|f| format!("{:.1}", f.wall_s), "");
 }
