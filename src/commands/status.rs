@@ -90,8 +90,12 @@ fn print_status(s: &IncidentStatus) {
             .task
             .as_ref()
             .map_or("-".to_owned(), |t| t.kind.to_string());
+        let why = u
+            .lost
+            .as_ref()
+            .map_or(String::new(), |w| format!("  ({w})"));
         println!(
-            "  {:10} {:6} {:13} water {:6.0} L  task {task}",
+            "  {:10} {:6} {:13} water {:6.0} L  task {task}{why}",
             u.unit.as_str(),
             if u.alive { "alive" } else { "lost" },
             mode.as_deref().unwrap_or("-"),

@@ -16,6 +16,11 @@ pub enum Loss {
     TokenVanished,
     /// Nothing heard from it for longer than its lease.
     Silent,
+    /// Its states go on, but none has echoed the number of the task it was given for
+    /// [`super::Policy::deaf_after_s`]: it does not hear this coordinator (its task
+    /// subscription broke, a one-way partition, or a forged task it prefers), so its fire
+    /// is given to a unit that does.
+    Deaf,
 }
 
 impl fmt::Display for Loss {
@@ -23,6 +28,7 @@ impl fmt::Display for Loss {
         f.write_str(match self {
             Loss::TokenVanished => "its liveliness token vanished",
             Loss::Silent => "silent beyond its lease",
+            Loss::Deaf => "its states have stopped echoing its task",
         })
     }
 }
@@ -86,10 +92,12 @@ pub enum Decision {
     Joined {
         unit: UnitId,
     },
-    /// A unit lost for its silence was heard again after `silent_s`.
+    /// A unit lost for its silence was heard again, or one lost as deaf echoed its task
+    /// again, `after_s` after it was lost.
     Rejoined {
         unit: UnitId,
-        silent_s: f64,
+        was: Loss,
+        after_s: f64,
     },
     /// A unit is lost; the fire it was on, if any, needs another.
     Lost {
@@ -252,9 +260,13 @@ impl fmt::Display for Decision {
                 "{unit} took task {foreign}, which this coordinator never gave (its task was {ours}): given again above it"
             ),
             Decision::Joined { unit } => write!(f, "unit {unit} joined"),
-            Decision::Rejoined { unit, silent_s } => write!(
+            Decision::Rejoined { unit, was, after_s } => write!(
                 f,
-                "unit {unit} heard again after {silent_s:.1} s of silence: back in play"
+                "unit {unit} back in play {after_s:.1} s after it was lost ({was}): {}",
+                match was {
+                    Loss::Deaf => "it echoes its task again",
+                    Loss::Silent | Loss::TokenVanished => "it is heard again",
+                }
             ),
             Decision::Lost { unit, why, fire } => {
                 write!(f, "unit {unit} lost ({why})")?;

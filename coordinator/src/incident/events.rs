@@ -41,9 +41,10 @@ impl Incident {
     pub(super) fn lose(&mut self, unit: &UnitId, t: f64, why: Loss) -> Vec<Output> {
         let v = self.units.get_mut(unit).expect("known unit");
         v.alive = false;
-        v.lost = Some(why);
+        v.lost = Some((why, t));
         let fire = v.working_on();
         v.task = None;
+        v.unechoed = None;
         let mut out = Vec::new();
         self.log(
             t,
@@ -55,6 +56,10 @@ impl Incident {
         );
         if let Some(f) = fire {
             out.extend(self.release(f, t));
+        }
+        if why == Loss::Deaf {
+            // Kept asking: the echo of this standby is what brings the unit back.
+            out.push(self.standby(unit, t));
         }
         out.extend(self.solve(t));
         out
@@ -117,15 +122,39 @@ impl Incident {
         let mobility = self.view(&unit, "unit")?.mobility;
         let (from, to) = self.sight(mobility, st.pose);
         self.coverage.look(from, to, t);
+        let deaf_after_s = self.policy.deaf_after_s;
         let v = self.view(&unit, "unit")?;
-        let silent_s = t - v.last_heard;
         v.last_heard = t;
-        // Lost only for its silence (its token never went): heard again, it is back in
-        // play. A unit whose token vanished comes back with its token.
-        let back = v.lost == Some(Loss::Silent);
-        if back {
+        // The number of the task the unit holds; a state of a robot that reports only its
+        // progress echoes the task it works on.
+        let echoed = st.task_seq.max(st.task.map(|p| p.seq));
+        if let Some((seq, _)) = v.unechoed
+            && echoed >= Some(seq)
+        {
+            v.unechoed = v
+                .task
+                .as_ref()
+                .filter(|k| echoed < Some(k.seq))
+                .map(|k| (k.seq, k.t));
+        }
+        // Lost for its silence and heard again, or lost as deaf and echoing the task it
+        // was kept asked: back in play. A unit whose token vanished comes back with its
+        // token.
+        let back = match v.lost {
+            Some((was @ Loss::Silent, at)) => Some((was, at)),
+            Some((was @ Loss::Deaf, at)) if v.unechoed.is_none() => Some((was, at)),
+            _ => None,
+        };
+        if back.is_some() {
             v.alive = true;
             v.lost = None;
+        }
+        if v.alive
+            && v.unechoed
+                .is_some_and(|(_, since)| t - since > deaf_after_s)
+        {
+            v.state = Some(st);
+            return Ok(self.lose(&unit, t, Loss::Deaf));
         }
         let tasked = v.tasked;
         let current = v.task.clone();
@@ -136,18 +165,20 @@ impl Incident {
         // out; a moving unit's position is picked up by the periodic re-solve. Re-solving
         // on every state would cost a solve per message: 10 000 a second for 1000 units.
         let able = |s: &UnitState| s.mode != UnitMode::Fault && s.water_l > 0.0;
-        let mut relevant = back || v.state.as_ref().is_none_or(|old| able(old) != able(&st));
+        let mut relevant =
+            back.is_some() || v.state.as_ref().is_none_or(|old| able(old) != able(&st));
         v.state = Some(st);
         if let Some(p) = progress {
             self.heed_seq(p.seq, t);
         }
         let mut out = Vec::new();
-        if back {
+        if let Some((was, at)) = back {
             self.log(
                 t,
                 Decision::Rejoined {
                     unit: unit.clone(),
-                    silent_s,
+                    was,
+                    after_s: t - at,
                 },
             );
         }

@@ -66,8 +66,11 @@ struct UnitView {
     /// The task makes the unit a fire's second attacker: a new fire with nobody on it may
     /// take the unit while it is still on its way.
     backup: bool,
-    /// Why the unit was lost, while it is.
-    lost: Option<Loss>,
+    /// Why and when the unit was lost, while it is.
+    lost: Option<(Loss, f64)>,
+    /// The first task given that the unit's states have not echoed yet, and since when it
+    /// waits: the clock of [`Policy::deaf_after_s`].
+    unechoed: Option<(u64, f64)>,
     /// This coordinator has given the unit a task: what the unit reports working on is
     /// then this coordinator's business, never a task to adopt.
     tasked: bool,
@@ -83,6 +86,7 @@ impl UnitView {
             task: None,
             backup: false,
             lost: None,
+            unechoed: None,
             tasked: false,
         }
     }
@@ -249,6 +253,7 @@ impl Incident {
         let v = self.units.get_mut(unit).expect("known unit");
         v.task = Some(task.clone());
         v.tasked = true;
+        v.unechoed.get_or_insert((seq, t));
         Output::Task(task)
     }
 
@@ -269,11 +274,12 @@ impl Incident {
             .to_track(t, self.assigned_to(fire))
     }
 
-    /// Every current task, for periodic re-publication (late joiners, lost messages).
+    /// Every current task, for periodic re-publication (late joiners, lost messages): a
+    /// deaf unit's too, whose echo of it brings the unit back.
     pub fn tasks(&self) -> impl Iterator<Item = &Task> {
         self.units
             .values()
-            .filter(|v| v.alive)
+            .filter(|v| v.alive || matches!(v.lost, Some((Loss::Deaf, _))))
             .filter_map(|v| v.task.as_ref())
     }
 
@@ -303,6 +309,7 @@ impl Incident {
                     alive: v.alive,
                     state: v.state.clone(),
                     task: v.task.clone(),
+                    lost: v.lost.map(|(why, _)| why.to_string()),
                 })
                 .collect(),
             fires: self.fire_tracks(t),

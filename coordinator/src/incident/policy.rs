@@ -52,6 +52,11 @@ pub struct Policy {
     /// A ground unit takes in this much of the road behind it, m: its heat sensors feel a fire
     /// it stands next to, whichever way its camera looks.
     pub sight_behind_m: f64,
+    /// A unit whose states have not echoed the number of its task for this long is lost as
+    /// deaf, s ([`super::Loss::Deaf`]): tasks are re-sent every second, so ten seconds is ten
+    /// deliveries missed, beyond any congestion the fleet rides out, and short against the
+    /// minute a lone unit has to knock a fire down.
+    pub deaf_after_s: f64,
 }
 
 impl Policy {
@@ -70,6 +75,7 @@ impl Policy {
         search_goal_slack_m: 10.0,
         portal_m: 10.0,
         sight_behind_m: 5.0,
+        deaf_after_s: 10.0,
     };
 }
 

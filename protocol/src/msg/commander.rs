@@ -19,6 +19,9 @@ pub struct UnitStatus {
     pub alive: bool,
     pub state: Option<UnitState>,
     pub task: Option<Task>,
+    /// Why the coordinator counts the unit out, while it does.
+    #[serde(default)]
+    pub lost: Option<String>,
 }
 
 /// `ff/<site>/coord/status` (JSON, answered to queries): a snapshot of the incident.

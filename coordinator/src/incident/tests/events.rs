@@ -247,3 +247,69 @@ fn a_unit_heard_again_after_its_lease_is_back_in_play_and_its_old_task_not_adopt
         "{out:?}"
     );
 }
+
+#[test]
+fn a_unit_whose_states_stop_echoing_its_task_is_lost_as_deaf_and_its_fire_reassigned() {
+    let mut i = incident();
+    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let first = tasks(&out)[0].clone();
+    assert_eq!(first.unit.as_str(), "b");
+    // a hears its coordinator; b's states go on, still on the task before (none).
+    let deaf_after = Policy::DEFAULT.deaf_after_s;
+    let mut t = 1.0;
+    while t <= 1.0 + deaf_after {
+        i.on_state(echoing(&i, state("a", 10.0, None)), t).unwrap();
+        i.on_state(state("b", 40.0, None), t).unwrap();
+        assert!(
+            !decided(&i, |d| matches!(d, Decision::Lost { .. })),
+            "not before {deaf_after} s: at {t} s"
+        );
+        t += 0.5;
+    }
+    let out = i.on_state(state("b", 40.0, None), t).unwrap();
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Lost { unit, why: Loss::Deaf, fire: Some(_) } if unit == "b"
+    )));
+    assert_eq!(tasks(&out)[0].unit.as_str(), "a", "the fire goes to a");
+    // b is kept asked: a standby, re-sent with every task.
+    let ask = i.units[&u("b")].task.clone().expect("b is kept asked");
+    assert_eq!(ask.kind, TaskKind::Standby);
+    assert!(i.tasks().any(|k| k == &ask));
+    assert!(
+        i.status(t).units.iter().any(|s| s.unit.as_str() == "b"
+            && !s.alive
+            && s.lost.as_deref() == Some("its states have stopped echoing its task")),
+        "named in status"
+    );
+    // Deaf states keep it out; the echo of what it was asked brings it back.
+    i.on_state(state("b", 40.0, None), t + 5.0).unwrap();
+    assert!(!i.units[&u("b")].alive);
+    i.on_state(echoing(&i, state("b", 40.0, None)), t + 6.0)
+        .unwrap();
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Rejoined { unit, was: Loss::Deaf, .. } if unit == "b"
+    )));
+    assert!(i.units[&u("b")].alive);
+}
+
+#[test]
+fn a_unit_echoing_an_older_task_while_new_ones_keep_coming_is_not_deaf() {
+    // Re-tasked every 2 s, each echoed 1 s late: always one behind, never deaf.
+    let mut i = incident();
+    let mut t = 0.0;
+    let mut echo = None;
+    while t < 40.0 {
+        i.on_state(echoing(&i, state("a", 10.0, None)), t).unwrap();
+        let mut st = state("b", 40.0, None);
+        st.task_seq = echo;
+        i.on_state(st, t + 1.0).unwrap();
+        let out = i.give(&u("b"), TaskKind::Standby, t + 1.0);
+        let Output::Task(k) = out else { unreachable!() };
+        echo = Some(k.seq);
+        t += 2.0;
+    }
+    assert!(i.units[&u("b")].alive);
+    assert!(!decided(&i, |d| matches!(d, Decision::Lost { .. })));
+}

@@ -39,6 +39,15 @@ fn state(unit: &str, x: f64, task: Option<TaskProgress>) -> UnitState {
     }
 }
 
+/// `st` as a unit that hears the coordinator sends it: echoing the number of the task it
+/// was given last.
+fn echoing(i: &Incident, st: UnitState) -> UnitState {
+    UnitState {
+        task_seq: i.units[&st.unit].task.as_ref().map(|k| k.seq),
+        ..st
+    }
+}
+
 fn report(unit: &str, x: f64) -> FlameReport {
     FlameReport {
         unit: u(unit),

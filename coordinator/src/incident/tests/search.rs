@@ -30,13 +30,13 @@ fn search_goal(out: &[Output]) -> Option<f64> {
 #[test]
 fn a_free_monorail_unit_searches_its_rail_end_to_end_and_back() {
     let (mut i, mut st) = with_rail(30.0);
-    let out = i.on_state(st.clone(), 0.0).unwrap();
+    let out = i.on_state(echoing(&i, st.clone()), 0.0).unwrap();
     assert_eq!(search_goal(&out), Some(200.0), "the farther end first");
     st.pose.x = 120.0;
-    i.on_state(st.clone(), 10.0).unwrap();
+    i.on_state(echoing(&i, st.clone()), 10.0).unwrap();
     assert_eq!(search_goal(&i.tick(10.0)), None, "on its way: no new task");
     st.pose.x = 199.6;
-    i.on_state(st.clone(), 20.0).unwrap();
+    i.on_state(echoing(&i, st.clone()), 20.0).unwrap();
     assert_eq!(search_goal(&i.tick(20.0)), Some(0.0), "there: back again");
     // A fire it reaches takes it off the search; once out, the search resumes.
     let mut r = report("r", 150.0);
@@ -55,7 +55,7 @@ fn a_free_monorail_unit_searches_its_rail_end_to_end_and_back() {
         phase: TaskPhase::Extinguished,
         target: Point2::new(150.0, 1.0),
     });
-    let out = i.on_state(st, 40.0).unwrap();
+    let out = i.on_state(echoing(&i, st), 40.0).unwrap();
     assert_eq!(search_goal(&out), Some(0.0));
 }
 
@@ -99,8 +99,8 @@ fn units_from_both_portals_search_the_unseen_middle_from_both_ends() {
     let mut i = unsearched();
     i.on_alive(&u("a"), true, 0.0).unwrap();
     i.on_alive(&u("b"), true, 0.0).unwrap();
-    i.on_state(facing("a", 5.0, 0.0), 0.0).unwrap();
-    i.on_state(facing("b", 195.0, std::f64::consts::PI), 0.0)
+    i.on_state(echoing(&i, facing("a", 5.0, 0.0)), 0.0).unwrap();
+    i.on_state(echoing(&i, facing("b", 195.0, std::f64::consts::PI)), 0.0)
         .unwrap();
     // a sees 0-35 m, b 165-200 m: the unseen middle is 35-165, split at 100.
     assert_eq!(searching_to(&i, "a").map(|g| g.x), Some(100.0));
@@ -113,14 +113,16 @@ fn units_from_both_portals_search_the_unseen_middle_from_both_ends() {
     // As they look, the middle shrinks evenly: the goals stand, no new tasks.
     for k in 1..=8 {
         let (t, d) = (5.0 * f64::from(k), 7.5 * f64::from(k));
-        i.on_state(facing("a", 5.0 + d, 0.0), t).unwrap();
-        i.on_state(facing("b", 195.0 - d, std::f64::consts::PI), t)
+        i.on_state(echoing(&i, facing("a", 5.0 + d, 0.0)), t)
+            .unwrap();
+        i.on_state(echoing(&i, facing("b", 195.0 - d, std::f64::consts::PI)), t)
             .unwrap();
         assert!(all_tasks(&i.solve(t)).is_empty(), "at {t} s");
     }
     // Once all is seen they are released to patrol.
-    i.on_state(facing("a", 72.5, 0.0), 45.0).unwrap();
-    i.on_state(facing("b", 127.5, std::f64::consts::PI), 45.0)
+    i.on_state(echoing(&i, facing("a", 72.5, 0.0)), 45.0)
+        .unwrap();
+    i.on_state(echoing(&i, facing("b", 127.5, std::f64::consts::PI)), 45.0)
         .unwrap();
     let out = i.solve(45.0);
     assert_eq!(kinds_for(&out, "a"), vec![TaskKind::Standby]);
@@ -132,7 +134,7 @@ fn one_unit_searches_and_its_partner_takes_the_fire_it_finds() {
     let mut i = unsearched();
     for n in ["a", "b"] {
         i.on_alive(&u(n), true, 0.0).unwrap();
-        i.on_state(facing(n, 5.0, 0.0), 0.0).unwrap();
+        i.on_state(echoing(&i, facing(n, 5.0, 0.0)), 0.0).unwrap();
     }
     let searcher = ["a", "b"]
         .into_iter()
@@ -143,8 +145,10 @@ fn one_unit_searches_and_its_partner_takes_the_fire_it_finds() {
     assert_eq!(searching_to(&i, other), None, "one searcher per end");
     // The pair sees a fire at 60 m from 35 m: one attacks, the other searches on
     // beyond it rather than backing up a fire one unit can fight.
-    i.on_state(facing("a", 35.0, 0.0), 20.0).unwrap();
-    i.on_state(facing("b", 35.0, 0.0), 20.0).unwrap();
+    i.on_state(echoing(&i, facing("a", 35.0, 0.0)), 20.0)
+        .unwrap();
+    i.on_state(echoing(&i, facing("b", 35.0, 0.0)), 20.0)
+        .unwrap();
     let out = i.on_report(&report("a", 60.0), 20.0).unwrap();
     assert_eq!(tasks(&out).len(), 1, "{out:?}");
     let attacker = tasks(&out)[0].unit.as_str().to_owned();
