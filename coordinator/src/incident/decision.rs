@@ -9,6 +9,8 @@ use std::fmt;
 use firefleet_protocol::msg::{self, FireTrack, GoalKind, ZoneGoal};
 use firefleet_protocol::{Chainage, FireId, Point2, UnitId, ZoneId};
 
+use crate::fusion::witness::{CONTRADICT_AFTER_S, Record};
+
 /// Why a unit counts as lost.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Loss {
@@ -127,6 +129,22 @@ pub enum Decision {
     Confirmed {
         fire: FireId,
         at: Point2,
+    },
+    /// `by` had the fire `witness` alone claims in clear view and never saw it.
+    Contradicted {
+        fire: FireId,
+        witness: UnitId,
+        by: UnitId,
+    },
+    /// A unit's flame reports were contradicted often enough that its word alone no longer
+    /// confirms a fire ([`crate::fusion::witness`]).
+    Doubted {
+        unit: UnitId,
+        record: Record,
+    },
+    /// A fire only doubted units claim, contradicted, is tentative again: nobody is sent.
+    Disbelieved {
+        fire: FireId,
     },
     Reignited {
         fire: FireId,
@@ -303,6 +321,23 @@ impl fmt::Display for Decision {
             Decision::Confirmed { fire, at } => {
                 write!(f, "fire {fire} confirmed at ({:.1}, {:.1})", at.x, at.y)
             }
+            Decision::Contradicted { fire, witness, by } => write!(
+                f,
+                "fire {fire}: {by} had it in clear view for {CONTRADICT_AFTER_S:.0} s and never \
+                 saw it, only {witness} claims it"
+            ),
+            Decision::Doubted { unit, record } => write!(
+                f,
+                "unit {unit}'s flame reports doubted ({} contradicted, {} corroborated: weight \
+                 {:.2}): its word alone no longer confirms a fire",
+                record.contradicted,
+                record.corroborated,
+                record.weight()
+            ),
+            Decision::Disbelieved { fire } => write!(
+                f,
+                "fire {fire} back to tentative: only doubted units claim it, nobody is sent"
+            ),
             Decision::Reignited { fire } => write!(f, "fire {fire} reignited"),
             Decision::Merged { removed, kept } => {
                 write!(f, "fire {removed} is fire {kept} seen again: merged")

@@ -10,7 +10,7 @@ use firefleet_protocol::msg::{
 use firefleet_protocol::validate::{Invalid, Validate};
 use firefleet_protocol::{FireId, UnitId};
 
-use crate::fusion::Fused;
+use crate::fusion::{Contradiction, Fused};
 
 use super::{Decision, Incident, Loss, Output, Scope};
 
@@ -122,6 +122,7 @@ impl Incident {
         let mobility = self.view(&unit, "unit")?.mobility;
         let (from, to) = self.sight(mobility, st.pose);
         self.coverage.look(from, to, t);
+        let clear = self.clear_view(mobility, st.pose);
         let deaf_after_s = self.policy.deaf_after_s;
         let v = self.view(&unit, "unit")?;
         v.last_heard = t;
@@ -156,6 +157,10 @@ impl Incident {
             v.state = Some(st);
             return Ok(self.lose(&unit, t, Loss::Deaf));
         }
+        // At most a second of view per state: a unit heard again after a gap does not
+        // bring a long look it may not have had.
+        let looked_s = (t - v.state_at).clamp(0.0, 1.0);
+        v.state_at = t;
         let tasked = v.tasked;
         let current = v.task.clone();
         let progress = st.task;
@@ -172,6 +177,11 @@ impl Incident {
             self.heed_seq(p.seq, t);
         }
         let mut out = Vec::new();
+        let found = self.fusion.look(&unit, clear, looked_s, t);
+        if !found.is_empty() {
+            out.extend(self.contradicted(found, &unit, t));
+            relevant = true;
+        }
         if let Some((was, at)) = back {
             self.log(
                 t,
@@ -293,6 +303,40 @@ impl Incident {
             out.extend(self.solve(t));
         }
         Ok(out)
+    }
+
+    /// Claims `by` contradicted: logged, their witnesses doubted if it came to that, and
+    /// the fires only doubted units claim taken back from the units sent to them.
+    fn contradicted(&mut self, found: Vec<Contradiction>, by: &UnitId, t: f64) -> Vec<Output> {
+        for c in found {
+            self.log(
+                t,
+                Decision::Contradicted {
+                    fire: c.fire,
+                    witness: c.witness.clone(),
+                    by: by.clone(),
+                },
+            );
+            if c.doubted_now {
+                let record = self.fusion.witnesses().record(&c.witness);
+                self.log(
+                    t,
+                    Decision::Doubted {
+                        unit: c.witness,
+                        record,
+                    },
+                );
+            }
+        }
+        let mut out = Vec::new();
+        for fire in self.fusion.demote_doubted() {
+            self.log(t, Decision::Disbelieved { fire });
+            for u in self.assigned_to(fire) {
+                out.push(self.standby(&u, t));
+            }
+            out.push(Output::Fire(self.track(fire, t)));
+        }
+        out
     }
 
     /// A unit works on a task this coordinator did not give (it gave it before a restart):

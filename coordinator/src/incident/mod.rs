@@ -62,6 +62,8 @@ struct UnitView {
     state: Option<UnitState>,
     alive: bool,
     last_heard: f64,
+    /// When its last state came: the view a state describes lasts until the next.
+    state_at: f64,
     task: Option<Task>,
     /// The task makes the unit a fire's second attacker: a new fire with nobody on it may
     /// take the unit while it is still on its way.
@@ -83,6 +85,7 @@ impl UnitView {
             state: None,
             alive: false,
             last_heard: 0.0,
+            state_at: 0.0,
             task: None,
             backup: false,
             lost: None,
@@ -310,6 +313,7 @@ impl Incident {
                     state: v.state.clone(),
                     task: v.task.clone(),
                     lost: v.lost.map(|(why, _)| why.to_string()),
+                    report_weight: self.fusion.witnesses().weight(u),
                 })
                 .collect(),
             fires: self.fire_tracks(t),

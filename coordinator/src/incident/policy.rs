@@ -57,6 +57,12 @@ pub struct Policy {
     /// deliveries missed, beyond any congestion the fleet rides out, and short against the
     /// minute a lone unit has to knock a fire down.
     pub deaf_after_s: f64,
+    /// A flame this near a unit, and inside the middle three quarters of a ground unit's
+    /// camera field (a carriage's detector sees all round), is one its sensors cannot miss,
+    /// m: the simulated camera gives a car fire at 12 m a confidence of 0.74 in light smoke,
+    /// a third of its range. A unit that has such a flame in view and never reports it
+    /// contradicts the unit that claims it ([`crate::fusion::witness`]).
+    pub clear_view_m: f64,
 }
 
 impl Policy {
@@ -76,6 +82,7 @@ impl Policy {
         portal_m: 10.0,
         sight_behind_m: 5.0,
         deaf_after_s: 10.0,
+        clear_view_m: 12.0,
     };
 }
 

@@ -6,6 +6,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use firefleet_protocol::geometry::wrap_angle;
 use firefleet_protocol::msg::{TaskKind, UnitKind};
 use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::{Chainage, Point2, Pose2, UnitId};
@@ -31,6 +32,24 @@ impl Incident {
                 }
             }
         }
+    }
+
+    /// Whether a flame at a point is one a unit at `pose` cannot miss
+    /// ([`Policy::clear_view_m`]).
+    ///
+    /// [`Policy::clear_view_m`]: super::Policy::clear_view_m
+    pub(super) fn clear_view(
+        &self,
+        mobility: Mobility,
+        pose: Pose2,
+    ) -> impl Fn(Point2) -> bool + use<> {
+        let range = self.policy.clear_view_m;
+        let half_angle = match mobility {
+            Mobility::Rail { .. } => std::f64::consts::PI,
+            Mobility::Ground { .. } => 0.75 * GROUND.camera.hfov_rad() / 2.0,
+        };
+        let at = pose.position();
+        move |p| at.dist(p) <= range && wrap_angle(at.bearing_to(p) - pose.yaw).abs() <= half_angle
     }
 
     /// Free ground units search the stretches nobody has looked at for

@@ -22,6 +22,14 @@ pub struct UnitStatus {
     /// Why the coordinator counts the unit out, while it does.
     #[serde(default)]
     pub lost: Option<String>,
+    /// The weight the coordinator gives the unit's flame reports: 1 until another unit
+    /// contradicts one; below 0.5 its word alone no longer confirms a fire.
+    #[serde(default = "full_weight")]
+    pub report_weight: f64,
+}
+
+fn full_weight() -> f64 {
+    1.0
 }
 
 /// `ff/<site>/coord/status` (JSON, answered to queries): a snapshot of the incident.

@@ -313,3 +313,105 @@ fn a_unit_echoing_an_older_task_while_new_ones_keep_coming_is_not_deaf() {
     assert!(i.units[&u("b")].alive);
     assert!(!decided(&i, |d| matches!(d, Decision::Lost { .. })));
 }
+
+fn contradictions(i: &Incident) -> usize {
+    i.decisions()
+        .filter(|d| matches!(d.decision, Decision::Contradicted { .. }))
+        .count()
+}
+
+/// From `t0`, every half second, a claims a fire at `claim` while b stands at `b_at`
+/// looking up the tunnel at the spot, echoing its task, until b has contradicted the claim;
+/// returns the time.
+fn b_looks_at_a_s_claim(i: &mut Incident, claim: f64, b_at: f64, t0: f64) -> f64 {
+    let before = contradictions(i);
+    let mut t = t0;
+    while contradictions(i) == before {
+        t += 0.5;
+        assert!(t < t0 + 30.0, "never contradicted");
+        i.on_report(&report("a", claim), t).unwrap();
+        i.on_state(echoing(i, state("b", b_at, None)), t).unwrap();
+    }
+    t
+}
+
+#[test]
+fn a_unit_whose_fires_others_look_at_and_never_see_is_doubted_and_its_claims_disbelieved() {
+    let mut i = incident();
+    // a claims a fire at 100 m that is not there; b is sent, looks from 8 m short of it
+    // for ten seconds and sees nothing.
+    let out = i.on_report(&report("a", 100.0), 1.0).unwrap();
+    assert_eq!(tasks(&out)[0].unit.as_str(), "b");
+    let t = b_looks_at_a_s_claim(&mut i, 100.0, 92.0, 1.0);
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Contradicted { fire: FireId(1), witness, by } if witness == "a" && by == "b"
+    )));
+    assert!(
+        !decided(&i, |d| matches!(d, Decision::Doubted { .. })),
+        "one contradiction does not make a liar"
+    );
+    // b sprays where it was sent and, seeing no flame, reports the fire out (what the
+    // ground tree does); a's next claim, at 160 m, is still believed.
+    let task = i.units[&u("b")].task.clone().unwrap();
+    let done = TaskProgress {
+        seq: task.seq,
+        fire: FireId(1),
+        phase: TaskPhase::Extinguished,
+        target: Point2::new(100.0, 1.0),
+    };
+    i.on_state(echoing(&i, state("b", 92.0, Some(done))), t + 0.5)
+        .unwrap();
+    let t = b_looks_at_a_s_claim(&mut i, 160.0, 152.0, t);
+    assert!(
+        decided(&i, |d| matches!(
+            d,
+            Decision::Assign { unit, fire: FireId(2), .. } if unit == "b"
+        )),
+        "a's word at half weight still confirms a fire it holds"
+    );
+    // Contradicted twice: a is doubted, the fire only it claims is tentative again and b
+    // is taken off it.
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Doubted { unit, record } if unit == "a" && record.contradicted == 2
+    )));
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Disbelieved { fire: FireId(2) }
+    )));
+    assert_eq!(
+        i.units[&u("b")].task.as_ref().map(|k| k.kind),
+        Some(TaskKind::Standby)
+    );
+    let track = i.fusion.get(FireId(2)).unwrap();
+    assert_eq!(track.state, FireState::Tentative);
+    let status = i.status(t);
+    let a = status
+        .units
+        .iter()
+        .find(|s| s.unit.as_str() == "a")
+        .unwrap();
+    assert!(
+        a.report_weight < 0.5,
+        "named in status: {}",
+        a.report_weight
+    );
+    // a's word alone no longer confirms a fire, however long it claims one; b's does.
+    let confirmed = |i: &Incident| {
+        i.decisions()
+            .filter(|d| matches!(d.decision, Decision::Confirmed { .. }))
+            .count()
+    };
+    let before = confirmed(&i);
+    for k in 1..=20 {
+        let out = i
+            .on_report(&report("a", 30.0), t + 0.25 * f64::from(k))
+            .unwrap();
+        assert!(tasks(&out).is_empty(), "{out:?}");
+    }
+    assert_eq!(confirmed(&i), before);
+    let out = i.on_report(&report("b", 30.0), t + 6.0).unwrap();
+    assert_eq!(confirmed(&i), before + 1);
+    assert_eq!(tasks(&out).len(), 1, "{out:?}");
+}

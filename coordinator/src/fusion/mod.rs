@@ -13,12 +13,19 @@
 //! within the camera's range. Without that last rule a lone unit that stops short of a
 //! flame for the coordinator to decide (its detector gives about 0.6 at 20 m, in smoke)
 //! waits for a second unit that may never come.
+//!
+//! Each unit's sightings count with the weight its past claims earned ([`witness`]): a unit
+//! whose fires the others look at and never see loses the power to confirm one alone.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use firefleet_protocol::geometry::{Gaussian2, Point2};
 use firefleet_protocol::msg::{FireState, FireTrack, FlameObservation};
 use firefleet_protocol::{FireId, UnitId};
+
+pub mod witness;
+
+use witness::{CONTRADICT_AFTER_S, DOUBT_BELOW, Witnesses};
 
 /// Association gate, squared Mahalanobis distance (chi-square 2 dof, 99.9 %).
 const GATE2: f64 = 13.8;
@@ -49,12 +56,13 @@ const LOSE_AFTER_S: f64 = 60.0;
 /// Flames seen again at an extinguished fire after this long mean it reignited, s.
 const REIGNITE_AFTER_S: f64 = 5.0;
 
-/// One unit's view of a fire: its latest estimate and confidence, and since when it has
-/// seen the fire without a break.
+/// One unit's view of a fire: its latest estimate and confidence, the weight of the unit's
+/// word when it reported, and since when it has seen the fire without a break.
 #[derive(Debug, Clone, Copy)]
 struct Sighting {
     estimate: Gaussian2,
     confidence: f64,
+    weight: f64,
     since: f64,
     last: f64,
 }
@@ -64,14 +72,26 @@ impl Sighting {
         Self {
             estimate,
             confidence,
+            weight: 1.0,
             since: t,
             last: t,
         }
     }
 
-    /// Held long and confidently enough to confirm the fire alone.
+    fn credible(&self) -> bool {
+        self.weight >= DOUBT_BELOW
+    }
+
+    /// Held long and confidently enough, by a unit whose word counts, to confirm the fire
+    /// alone.
     fn held(&self) -> bool {
-        self.last - self.since >= CONFIRM_HELD_S && self.confidence >= CONFIRM_HELD_CONFIDENCE
+        self.credible()
+            && self.last - self.since >= CONFIRM_HELD_S
+            && self.confidence >= CONFIRM_HELD_CONFIDENCE
+    }
+
+    fn live(&self, t: f64) -> bool {
+        t - self.last <= SIGHTING_GAP_S
     }
 }
 
@@ -90,24 +110,54 @@ pub struct Fire {
     pub last_seen: f64,
     /// When it went out, for reignition.
     pub out_at: Option<f64>,
+    /// Witnesses already credited with corroborating it.
+    credited: BTreeSet<UnitId>,
+    /// How long each other unit has had it in clear view while one unit alone claimed it.
+    looks: BTreeMap<UnitId, f64>,
+    /// Its lone claim was contradicted (counted once).
+    contradicted: bool,
 }
 
 impl Fire {
-    /// A track first seen by `unit` at `t`, at `z` with confidence `c`.
-    fn new(id: FireId, unit: &UnitId, z: Gaussian2, c: f64, t: f64) -> Self {
+    /// A track first seen at `t` by `unit`.
+    fn new(id: FireId, unit: &UnitId, sighting: Sighting, t: f64) -> Self {
         let mut f = Fire {
             id,
             state: FireState::Tentative,
-            per_unit: BTreeMap::from([(unit.clone(), Sighting::new(z, c, t))]),
+            per_unit: BTreeMap::from([(unit.clone(), sighting)]),
             sizes: BTreeMap::new(),
-            estimate: z,
+            estimate: sighting.estimate,
             confidence: 0.0,
             first_seen: t,
             last_seen: t,
             out_at: None,
+            credited: BTreeSet::new(),
+            looks: BTreeMap::new(),
+            contradicted: false,
         };
         f.refuse();
         f
+    }
+
+    /// Credit every witness of a fire more than one unit reports, once.
+    fn credit(&mut self, witnesses: &mut Witnesses) {
+        if self.per_unit.len() < 2 {
+            return;
+        }
+        for u in self.per_unit.keys() {
+            if self.credited.insert(u.clone()) {
+                witnesses.corroborate(u);
+            }
+        }
+    }
+
+    /// The one unit claiming it, while a claim is live and nobody shares it.
+    fn lone_claim(&self, t: f64) -> Option<&UnitId> {
+        let mut it = self.per_unit.iter();
+        match (it.next(), it.next()) {
+            (Some((u, s)), None) if s.live(t) => Some(u),
+            _ => None,
+        }
     }
 
     fn refuse(&mut self) {
@@ -120,7 +170,7 @@ impl Fire {
             - self
                 .per_unit
                 .values()
-                .map(|s| 1.0 - s.confidence)
+                .map(|s| 1.0 - s.confidence * s.weight)
                 .product::<f64>();
     }
 
@@ -167,6 +217,16 @@ pub enum Fused {
     Reignited(FireId),
 }
 
+/// A lone claim another unit had in clear view too long without seeing it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Contradiction {
+    pub fire: FireId,
+    /// The unit that claimed it.
+    pub witness: UnitId,
+    /// This contradiction made the witness doubted.
+    pub doubted_now: bool,
+}
+
 /// All fire tracks of an incident.
 #[derive(Debug, Clone, Default)]
 pub struct Fusion {
@@ -174,6 +234,7 @@ pub struct Fusion {
     next_id: u32,
     /// Tracks merged into an older one: removed id -> kept id.
     aliases: BTreeMap<FireId, FireId>,
+    witnesses: Witnesses,
 }
 
 /// A duplicate track merged into an older one.
@@ -197,6 +258,10 @@ fn rank(s: FireState) -> u8 {
 impl Fusion {
     pub fn fires(&self) -> &[Fire] {
         &self.fires
+    }
+
+    pub fn witnesses(&self) -> &Witnesses {
+        &self.witnesses
     }
 
     /// The id a track goes by now (a merged track's id leads to the one it joined).
@@ -241,6 +306,7 @@ impl Fusion {
                     for (u, q) in &removed.sizes {
                         kept.sizes.entry(u.clone()).or_insert(*q);
                     }
+                    kept.credit(&mut self.witnesses);
                     kept.first_seen = kept.first_seen.min(removed.first_seen);
                     kept.last_seen = kept.last_seen.max(removed.last_seen);
                     if rank(removed.state) > rank(kept.state) {
@@ -276,7 +342,12 @@ impl Fusion {
             mean: at,
             cov: [ADOPT_VAR_M2, 0.0, ADOPT_VAR_M2],
         };
-        let mut f = Fire::new(FireId(self.next_id), unit, z, CONFIRM_CONFIDENCE, t);
+        let mut f = Fire::new(
+            FireId(self.next_id),
+            unit,
+            Sighting::new(z, CONFIRM_CONFIDENCE, t),
+            t,
+        );
         f.state = FireState::Confirmed;
         self.fires.push(f);
         FireId(self.next_id)
@@ -326,6 +397,9 @@ impl Fusion {
             first_seen: track.t,
             last_seen: track.t,
             out_at: (state == FireState::Out).then_some(track.t),
+            credited: BTreeSet::new(),
+            looks: BTreeMap::new(),
+            contradicted: false,
         };
         fire.refuse();
         self.next_id = self.next_id.max(track.id.0);
@@ -341,6 +415,7 @@ impl Fusion {
         };
         z.cov[0] = z.cov[0].max(MIN_VAR_M2);
         z.cov[2] = z.cov[2].max(MIN_VAR_M2);
+        let weight = self.witnesses.weight(unit);
         let best = self
             .fires
             .iter_mut()
@@ -351,7 +426,11 @@ impl Fusion {
         let Some((_, fire)) = best else {
             self.next_id += 1;
             let id = FireId(self.next_id);
-            let mut f = Fire::new(id, unit, z, obs.confidence, t);
+            let sighting = Sighting {
+                weight,
+                ..Sighting::new(z, obs.confidence, t)
+            };
+            let mut f = Fire::new(id, unit, sighting, t);
             if let Some(q) = obs.hrr_kw {
                 f.sizes.insert(unit.clone(), q);
             }
@@ -375,30 +454,96 @@ impl Fusion {
         let sighting = Sighting {
             estimate: z,
             confidence: obs.confidence,
+            weight,
             since,
             last: t,
         };
         fire.per_unit.insert(unit.clone(), sighting);
+        fire.looks.remove(unit);
         if let Some(q) = obs.hrr_kw {
             fire.sizes.insert(unit.clone(), q);
         }
         fire.refuse();
+        fire.credit(&mut self.witnesses);
+        let credible = fire.per_unit.values().filter(|s| s.credible()).count();
         match fire.state {
-            FireState::Out if fire.out_at.is_some_and(|o| t - o > REIGNITE_AFTER_S) => {
+            FireState::Out
+                if sighting.credible() && fire.out_at.is_some_and(|o| t - o > REIGNITE_AFTER_S) =>
+            {
                 fire.state = FireState::Confirmed;
                 fire.out_at = None;
                 Fused::Reignited(fire.id)
             }
             FireState::Tentative
-                if fire.confidence >= CONFIRM_CONFIDENCE
-                    || fire.per_unit.len() >= 2
-                    || sighting.held() =>
+                if fire.confidence >= CONFIRM_CONFIDENCE || credible >= 2 || sighting.held() =>
             {
                 fire.state = FireState::Confirmed;
                 Fused::Confirmed(fire.id)
             }
             _ => Fused::Updated(fire.id),
         }
+    }
+
+    /// `unit` has had every spot where `in_view` holds in clear view for the last `dt` s,
+    /// at `t`: count that against each live claim of one other unit alone there. Returns
+    /// the claims it contradicted ([`witness`]); a contradicted track whose every witness
+    /// is doubted goes back to tentative ([`Fusion::demote_doubted`]).
+    pub fn look(
+        &mut self,
+        unit: &UnitId,
+        in_view: impl Fn(Point2) -> bool,
+        dt: f64,
+        t: f64,
+    ) -> Vec<Contradiction> {
+        let mut found = Vec::new();
+        for f in &mut self.fires {
+            // In view first: it rules out all but a few tracks, without allocating.
+            if f.contradicted || f.state == FireState::Lost || !in_view(f.position()) {
+                continue;
+            }
+            let witness = match f.lone_claim(t) {
+                Some(w) if w != unit => w.clone(),
+                _ => continue,
+            };
+            let looked = f.looks.entry(unit.clone()).or_default();
+            *looked += dt;
+            if *looked >= CONTRADICT_AFTER_S {
+                f.contradicted = true;
+                found.push(Contradiction {
+                    fire: f.id,
+                    doubted_now: self.witnesses.contradict(&witness),
+                    witness,
+                });
+            }
+        }
+        found
+    }
+
+    /// Send back to tentative every contradicted track that only doubted units claim and
+    /// somebody was sent to (or put out); returns their ids.
+    pub fn demote_doubted(&mut self) -> Vec<FireId> {
+        let mut demoted = Vec::new();
+        for f in &mut self.fires {
+            if f.contradicted
+                && matches!(
+                    f.state,
+                    FireState::Confirmed
+                        | FireState::Assigned
+                        | FireState::Suppressing
+                        | FireState::Out
+                )
+                && f.per_unit.keys().all(|u| self.witnesses.doubted(u))
+            {
+                f.state = FireState::Tentative;
+                f.out_at = None;
+                for (u, s) in &mut f.per_unit {
+                    s.weight = self.witnesses.weight(u);
+                }
+                f.refuse();
+                demoted.push(f.id);
+            }
+        }
+        demoted
     }
 
     /// Mark tracks nobody works on and nobody sees as lost; returns their ids.
@@ -589,6 +734,112 @@ mod tests {
             panic!()
         };
         assert!(id > track.id);
+    }
+
+    /// Make `unit` doubted: two of its lone claims contradicted.
+    fn doubt(f: &mut Fusion, unit: &UnitId) {
+        f.witnesses.contradict(unit);
+        f.witnesses.contradict(unit);
+        assert!(f.witnesses.doubted(unit));
+    }
+
+    #[test]
+    fn a_doubted_unit_alone_neither_confirms_nor_reignites_but_adds_to_a_credible_witness() {
+        let mut f = Fusion::default();
+        doubt(&mut f, &u("liar"));
+        for k in 0..=20 {
+            let fused = f.observe(&u("liar"), &obs(50.0, 1.0, 0.3, 0.99), 0.25 * f64::from(k));
+            assert!(
+                matches!(fused, Fused::New(_) | Fused::Updated(_)),
+                "{fused:?}"
+            );
+        }
+        let fire = f.fires()[0].clone();
+        assert_eq!(fire.state, FireState::Tentative, "held 5 s at 0.99, alone");
+        assert!(fire.confidence < 0.34, "{}", fire.confidence);
+        // An honest unit's sightings there confirm it, and credit both.
+        assert_eq!(
+            f.observe(&u("b"), &obs(50.2, 1.0, 0.3, 0.6), 6.0),
+            Fused::Updated(fire.id),
+            "0.6 alone is not enough"
+        );
+        assert_eq!(
+            f.observe(&u("b"), &obs(50.2, 1.0, 0.3, 0.9), 6.1),
+            Fused::Confirmed(FireId(1))
+        );
+        assert_eq!(f.witnesses.record(&u("b")).corroborated, 1);
+        assert_eq!(f.witnesses.record(&u("liar")).corroborated, 1);
+        f.observe(&u("b"), &obs(50.2, 1.0, 0.3, 0.9), 6.2);
+        assert_eq!(f.witnesses.record(&u("b")).corroborated, 1, "once per fire");
+        // Put out, then claimed again by the doubted unit alone: not reignited.
+        let id = f.fires()[0].id;
+        let fire = f.get_mut(id).unwrap();
+        fire.state = FireState::Out;
+        fire.out_at = Some(7.0);
+        assert_eq!(
+            f.observe(&u("liar"), &obs(50.0, 1.0, 0.3, 0.99), 20.0),
+            Fused::Updated(id)
+        );
+    }
+
+    #[test]
+    fn a_lone_claim_another_unit_looks_at_for_long_without_seeing_it_is_contradicted_once() {
+        let mut f = Fusion::default();
+        f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 0.0);
+        f.observe(&u("a"), &obs(150.0, 1.0, 0.3, 0.9), 0.0);
+        let near_50 = |p: Point2| p.dist(Point2::new(45.0, 1.0)) < 12.0;
+        let mut t = 0.0;
+        let mut found = Vec::new();
+        while found.is_empty() {
+            t += 0.5;
+            f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), t);
+            f.observe(&u("a"), &obs(150.0, 1.0, 0.3, 0.9), t);
+            assert!(f.look(&u("a"), near_50, 0.5, t).is_empty(), "not by itself");
+            found = f.look(&u("b"), near_50, 0.5, t);
+            assert!(t < 20.0);
+        }
+        assert_eq!(t, CONTRADICT_AFTER_S);
+        assert_eq!(
+            found,
+            vec![Contradiction {
+                fire: FireId(1),
+                witness: u("a"),
+                doubted_now: false
+            }],
+            "the fire out of view is not contradicted"
+        );
+        assert_eq!(f.witnesses.record(&u("a")).contradicted, 1);
+        assert!(f.look(&u("b"), near_50, 60.0, t).is_empty(), "counted once");
+        assert!(
+            f.demote_doubted().is_empty(),
+            "one contradiction does not make a liar"
+        );
+
+        // A claim nobody keeps up (the claimant's sighting lapsed), or one two units
+        // share, is not contradicted.
+        let mut f = Fusion::default();
+        f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 0.0);
+        assert!(f.look(&u("b"), near_50, 30.0, 10.0).is_empty(), "lapsed");
+        f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 11.0);
+        f.observe(&u("c"), &obs(50.0, 1.0, 0.3, 0.9), 11.0);
+        assert!(f.look(&u("b"), near_50, 30.0, 11.0).is_empty(), "shared");
+    }
+
+    #[test]
+    fn a_contradicted_fire_only_doubted_units_claim_goes_back_to_tentative() {
+        let mut f = Fusion::default();
+        let Fused::Confirmed(id) = f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 0.0) else {
+            panic!()
+        };
+        f.get_mut(id).unwrap().state = FireState::Assigned;
+        let here = |p: Point2| p.x > 40.0 && p.x < 60.0;
+        assert_eq!(f.look(&u("b"), here, 10.0, 1.0).len(), 1);
+        assert!(f.demote_doubted().is_empty());
+        f.witnesses.contradict(&u("a"));
+        assert_eq!(f.demote_doubted(), vec![id]);
+        let fire = f.get(id).unwrap();
+        assert_eq!(fire.state, FireState::Tentative);
+        assert!(fire.confidence < 0.34, "re-weighted: {}", fire.confidence);
     }
 
     #[test]
