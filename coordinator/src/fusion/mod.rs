@@ -505,7 +505,10 @@ impl Fusion {
                 Some(w) if w != unit => w.clone(),
                 _ => continue,
             };
-            let looked = f.looks.entry(unit.clone()).or_default();
+            let looked = match f.looks.get_mut(unit) {
+                Some(s) => s,
+                None => f.looks.entry(unit.clone()).or_default(),
+            };
             *looked += dt;
             if *looked >= CONTRADICT_AFTER_S {
                 f.contradicted = true;

@@ -16,6 +16,7 @@
 //! generator, which speaks for every unit, holds the union of theirs), and prints the
 //! two side by side: the cost of the secure site, measured in one run.
 
+use std::collections::BTreeMap;
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::{ExitCode, Stdio};
@@ -293,7 +294,17 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
                 .map_err(|e| anyhow::anyhow!("liveliness: {e}"))?,
         );
     }
-    let state = |i: usize, id: &UnitId, t: f64| UnitState {
+    // Each unit's state echoes the number of the latest task it took, as a real unit's
+    // does: the coordinator counts a unit whose states stop echoing its task as deaf.
+    let echoed: Arc<Vec<AtomicU64>> = Arc::new((0..a.units).map(|_| AtomicU64::new(0)).collect());
+    let index: Arc<BTreeMap<UnitId, usize>> = Arc::new(
+        ids.iter()
+            .cloned()
+            .enumerate()
+            .map(|(i, id)| (id, i))
+            .collect(),
+    );
+    let state = |i: usize, id: &UnitId, t: f64, task_seq: Option<u64>| UnitState {
         unit: id.clone(),
         kind: UnitKind::Ground,
         t,
@@ -306,7 +317,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         task: None,
         autonomous: false,
         refused: None,
-        task_seq: None,
+        task_seq,
     };
 
     println!(
@@ -333,7 +344,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         );
     }
     let publisher = {
-        let (ids, published) = (ids.clone(), published.clone());
+        let (ids, published, echoed) = (ids.clone(), published.clone(), echoed.clone());
         let n = a.units;
         tokio::spawn(async move {
             let mut ticker = tokio::time::interval(Duration::from_millis(100));
@@ -341,7 +352,8 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
                 ticker.tick().await;
                 let t = now();
                 for (i, (id, publisher)) in ids.iter().zip(&publishers).enumerate() {
-                    let bytes = codec::encode(&state(i, id, t));
+                    let seq = echoed[i].load(Ordering::Relaxed);
+                    let bytes = codec::encode(&state(i, id, t, (seq > 0).then_some(seq)));
                     if publisher.put(bytes).await.is_err() {
                         return;
                     }
@@ -356,6 +368,9 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         let fires = a.fires;
         tokio::spawn(async move {
             while let Some((_, task)) = tasks.recv().await {
+                if let Some(&i) = index.get(&task.unit) {
+                    echoed[i].fetch_max(task.seq, Ordering::Relaxed);
+                }
                 if let TaskKind::Extinguish { target, .. } = task.kind {
                     let k = ((target.x - 55.0) / FIRE_SPACING_M).round();
                     if k >= 0.0 && (k as usize) < fires {
@@ -384,7 +399,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         let report = FlameReport {
             unit: ids[by].clone(),
             t: now(),
-            observer: state(by, &ids[by], 0.0).pose,
+            observer: state(by, &ids[by], 0.0, None).pose,
             observations: vec![FlameObservation {
                 position: at,
                 cov: [0.25, 0.0, 0.25],
