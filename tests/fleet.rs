@@ -14,7 +14,7 @@ use firefleet_protocol::msg::{
     TaskKind, TaskPhase, UnitState,
 };
 use firefleet_protocol::{FireId, Point2, Pose2, UnitId, ZoneId};
-use support::{BIN, Fleet, assert_says, cli, router, spawn_role, text};
+use support::{BIN, Fleet, assert_says, cli, free_endpoint, router, router_at, spawn_role, text};
 
 /// Run `firefleet demo` on `scenario` at 8x with `extra` arguments; its summary, after
 /// checking that it succeeded and that no process dropped a message (in a clean run a
@@ -1298,4 +1298,40 @@ fn forged_state(unit: &UnitId) -> UnitState {
         task_seq: None,
         refused: None,
     }
+}
+
+/// A robot powered up before the site's router: its agent waits, trying again, and joins
+/// once the router listens; a command a person waits on fails at once instead.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_unit_started_before_its_router_waits_and_joins_it() {
+    let endpoint = free_endpoint();
+    let mut fleet = Fleet(vec![spawn_role(
+        "vehicle-collision",
+        &endpoint,
+        &["agent", "--unit", "ugv-1"],
+    )]);
+    let status = cli("vehicle-collision", &endpoint, &["status"]);
+    assert_says(&status, 2, "joining the Zenoh network");
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    assert!(
+        fleet.0[0].try_wait().unwrap().is_none(),
+        "the agent gave up before its router came"
+    );
+    let router = router_at("tunnel-a", &endpoint).await;
+    let token = router
+        .keys()
+        .expr(&Topic::UnitAlive(UnitId::new("ugv-1").unwrap()));
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        let replies = router.session().liveliness().get(&token).await.unwrap();
+        if replies.recv_async().await.is_ok_and(|r| r.result().is_ok()) {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the agent never joined its router"
+        );
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+    router.close().await;
 }

@@ -16,7 +16,7 @@ use firefleet_protocol::msg::UnitKind;
 use firefleet_protocol::spec::{GROUND, MONORAIL};
 
 use super::{ScenarioArg, positive_f64, scenarios};
-use crate::net::{ZenohArgs, open, shutdown_signal};
+use crate::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
 pub struct AgentArgs {
@@ -48,7 +48,7 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let spec = scenario.unit(&a.unit).expect("checked above");
-    let bus = open(&a.zenoh, &scenario).await?;
+    let bus = join(&a.zenoh, &scenario).await?;
     let opts = AgentOptions {
         unit: a.unit.clone(),
         report_period_s: 0.25,

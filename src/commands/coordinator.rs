@@ -13,7 +13,7 @@ use firefleet_protocol::SiteId;
 use firefleet_protocol::msg::FireTrack;
 
 use super::{ScenarioArg, positive_f64, scenarios};
-use crate::net::{ZenohArgs, open, shutdown_signal};
+use crate::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
 pub struct CoordinatorArgs {
@@ -40,7 +40,7 @@ pub struct CoordinatorArgs {
 
 pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
-    let bus = open(&a.zenoh, &scenario).await?;
+    let bus = join(&a.zenoh, &scenario).await?;
     let resume = match &a.resume {
         Some(path) => recorded_fires(path, &scenario.site)?,
         None => Vec::new(),

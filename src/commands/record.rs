@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use clap::Args;
 
 use super::{ScenarioArg, scenarios};
-use crate::net::{ZenohArgs, open, shutdown_signal};
+use crate::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
 pub struct RecordArgs {
@@ -23,7 +23,7 @@ pub struct RecordArgs {
 
 pub async fn run(a: RecordArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
-    let bus = open(&a.zenoh, &scenario).await?;
+    let bus = join(&a.zenoh, &scenario).await?;
     let summary = firefleet_recorder::record(
         &bus,
         &scenario,

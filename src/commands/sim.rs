@@ -9,7 +9,7 @@ use clap::Args;
 use firefleet_sim::SimOptions;
 
 use super::{ScenarioArg, positive_f64, scenarios};
-use crate::net::{ZenohArgs, open, shutdown_signal};
+use crate::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
 pub struct SimArgs {
@@ -33,7 +33,7 @@ pub struct SimArgs {
 
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
-    let bus = open(&a.zenoh, &scenario).await?;
+    let bus = join(&a.zenoh, &scenario).await?;
     let opts = SimOptions {
         seed: a.seed.unwrap_or(scenario.seed),
         time_scale: a.time_scale,

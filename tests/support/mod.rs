@@ -73,16 +73,25 @@ pub fn cli(scenario: &str, endpoint: &str, args: &[&str]) -> Output {
 
 /// A Zenoh router owned by the test on a free loopback port for `site`, and its endpoint.
 pub async fn router(site: &str) -> (Bus, String) {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port().unwrap());
+    let endpoint = free_endpoint();
+    (router_at(site, &endpoint).await, endpoint)
+}
+
+/// `tcp/127.0.0.1:PORT` on a port nothing listens on.
+pub fn free_endpoint() -> String {
+    format!("tcp/127.0.0.1:{}", free_loopback_port().unwrap())
+}
+
+/// A Zenoh router owned by the test, listening on `endpoint` for `site`.
+pub async fn router_at(site: &str, endpoint: &str) -> Bus {
     let router = Connect {
         mode: Some(Mode::Router),
-        listen: vec![endpoint.clone()],
+        listen: vec![endpoint.to_owned()],
         ..Connect::default()
     };
-    let bus = Bus::open(&router, SiteId::new(site).unwrap())
+    Bus::open(&router, SiteId::new(site).unwrap())
         .await
-        .unwrap();
-    (bus, endpoint)
+        .unwrap()
 }
 
 /// Asserts that `out` exited with `code` and that what it printed says `needle`.
