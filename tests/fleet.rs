@@ -657,7 +657,7 @@ async fn barred_answer(bus: &Bus, within: Duration) -> BarredSpace {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn barred_space_reaches_the_units_and_outlives_the_coordinator() {
+async fn barred_space_reaches_the_units_and_outlives_the_coordinator_and_the_recorder() {
     let (bus, endpoint) = router("tunnel-r").await;
     let told = bus.subscribe(&bus.keys().coord_barred()).await.unwrap();
     let dir = tempfile::tempdir().unwrap();
@@ -750,14 +750,36 @@ async fn barred_space_reaches_the_units_and_outlives_the_coordinator() {
         .expect("the new coordinator never published the barred space")
         .expect("bus open");
     assert_eq!(first.spans, b.spans, "lifted by the restart");
-    let status = status_of(&bus, Duration::from_secs(10)).await;
-    assert_eq!(status["goals"][0]["id"], "deep-keep-out", "{status}");
-    assert!(
-        status["decisions"]
-            .to_string()
-            .contains("recall goal 'deep-keep-out' (KeepOut, priority 0) on zone deep"),
-        "{status}"
-    );
+    let recalled = |status: &serde_json::Value| {
+        assert_eq!(status["goals"][0]["id"], "deep-keep-out", "{status}");
+        assert!(
+            status["decisions"]
+                .to_string()
+                .contains("recall goal 'deep-keep-out' (KeepOut, priority 0) on zone deep"),
+            "{status}"
+        );
+    };
+    recalled(&status_of(&bus, Duration::from_secs(10)).await);
+    // The recorder is killed outright (its file never finished) and the coordinator
+    // stopped: one started with --resume on that file, no recorder running, still bars
+    // deep from its first word.
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    for k in [1, 2] {
+        fleet.0[k].kill().unwrap();
+        fleet.0[k].wait().unwrap();
+    }
+    while told.try_recv().is_some() {}
+    fleet.0.push(spawn_role(
+        "rail-tunnel",
+        &endpoint,
+        &["coordinator", "--resume", recording.to_str().unwrap()],
+    ));
+    let (_, first) = tokio::time::timeout(Duration::from_secs(20), told.recv())
+        .await
+        .expect("the resumed coordinator never published the barred space")
+        .expect("bus open");
+    assert_eq!(first.spans, b.spans, "lifted by a restart with no recorder");
+    recalled(&status_of(&bus, Duration::from_secs(10)).await);
     bus.close().await;
 }
 

@@ -53,8 +53,11 @@ pub struct CoordinatorOptions {
     pub sim_clock: bool,
     pub strategy: Strategy,
     /// Fire tracks to take back at start besides those recorders answer with (read from a
-    /// recording: `firefleet_recorder::reader::fire_tracks_in`); the newest of each fire wins.
+    /// recording: `firefleet_recorder::reader::incident_in`); the newest of each fire wins.
     pub resume: Vec<FireTrack>,
+    /// Goals in force to take back at start, read from a recording likewise; the newer of
+    /// these and what recorders answer with wins.
+    pub resume_goals: Option<GoalsInForce>,
 }
 
 /// Run the coordinator until `shutdown` completes.
@@ -103,7 +106,11 @@ pub async fn run(
 
     // Before anything else is heard: the goals and the tracks the previous coordinator
     // published, as a recorder kept them (none at a first start, or when nothing records).
-    if let Some(kept) = recall_goals(bus).await? {
+    let kept = match (recall_goals(bus).await?, opts.resume_goals.clone()) {
+        (Some(a), Some(b)) => Some(if a.t >= b.t { a } else { b }),
+        (a, b) => a.or(b),
+    };
+    if let Some(kept) = kept {
         let (out, refused) = incident.restore_goals(&kept, clock.now());
         for ack in refused {
             bus.rejects().count_invalid();

@@ -1,24 +1,27 @@
-//! Reading recordings back: the fire tracks a recording holds, for a coordinator resumed
-//! from the file of a recorder that is gone.
+//! Reading recordings back: the fire tracks and the commanders' goals a recording holds,
+//! for a coordinator resumed from the file of a recorder that is gone.
 //!
 //! A recording cut short (a recorder killed mid-write) is read up to the cut. Not here:
 //! the timeline for people ([`crate::replay`]).
 
 use firefleet_protocol::SiteId;
 use firefleet_protocol::keys::{self, Topic};
-use firefleet_protocol::msg::{FireTrack, latest_per_fire};
+use firefleet_protocol::msg::{FireTrack, GoalsInForce, latest_per_fire};
 
 /// Why a recording could not be read at all.
 #[derive(Debug, thiserror::Error)]
 #[error("not an MCAP recording: {0}")]
 pub struct NotARecording(#[from] mcap::McapError);
 
-/// The fire tracks a recording holds.
+/// What a coordinator resumes from a recording.
 #[derive(Debug, Clone, Default)]
 pub struct Recorded {
     /// The latest track of every fire, by its site time.
     pub tracks: Vec<FireTrack>,
-    /// Records on a fire channel that are not a fire track, with why.
+    /// The newest goals in force the coordinator published, by its site time: without
+    /// them a coordinator restarted with no recorder running would lift every keep-out.
+    pub goals: Option<GoalsInForce>,
+    /// Records on a fire or goals channel that do not decode as one, with why.
     pub refused: Vec<String>,
     /// Where the file stopped being readable, if it did before its end (a recorder
     /// killed before it could finish the file): what came before is still used.
@@ -26,8 +29,9 @@ pub struct Recorded {
 }
 
 /// The latest track of every fire of `site` in a recording made by [`crate::record()`] (a JSON
-/// record on each `ff/<site>/fire/f<n>` channel).
-pub fn fire_tracks_in(bytes: &[u8], site: &SiteId) -> Result<Recorded, NotARecording> {
+/// record on each `ff/<site>/fire/f<n>` channel), and the newest goals in force (on
+/// `ff/<site>/coord/goals`).
+pub fn incident_in(bytes: &[u8], site: &SiteId) -> Result<Recorded, NotARecording> {
     let mut out = Recorded::default();
     let mut tracks = Vec::new();
     for (k, m) in mcap::MessageStream::new(bytes)?.enumerate() {
@@ -41,14 +45,23 @@ pub fn fire_tracks_in(bytes: &[u8], site: &SiteId) -> Result<Recorded, NotARecor
                 break;
             }
         };
-        if !matches!(keys::parse(&m.channel.topic), Ok((s, Topic::Fire(_))) if s == *site) {
-            continue;
-        }
-        match serde_json::from_slice::<FireTrack>(&m.data) {
-            Ok(track) => tracks.push(track),
-            Err(e) => out
-                .refused
-                .push(format!("{} at {} ns: {e}", m.channel.topic, m.log_time)),
+        let refuse =
+            |e: serde_json::Error| format!("{} at {} ns: {e}", m.channel.topic, m.log_time);
+        match keys::parse(&m.channel.topic) {
+            Ok((s, Topic::Fire(_))) if s == *site => {
+                match serde_json::from_slice::<FireTrack>(&m.data) {
+                    Ok(track) => tracks.push(track),
+                    Err(e) => out.refused.push(refuse(e)),
+                }
+            }
+            Ok((s, Topic::CoordGoals)) if s == *site => {
+                match serde_json::from_slice::<GoalsInForce>(&m.data) {
+                    Ok(g) if out.goals.as_ref().is_none_or(|n| n.t <= g.t) => out.goals = Some(g),
+                    Ok(_) => {}
+                    Err(e) => out.refused.push(refuse(e)),
+                }
+            }
+            _ => {}
         }
     }
     out.tracks = latest_per_fire(tracks);
@@ -111,7 +124,7 @@ mod tests {
             ("ff/tunnel-a/unit/u1/state", b"{}".to_vec()),
             ("ff/tunnel-a/fire/f5", b"{\"id\": 5".to_vec()),
         ]);
-        let r = fire_tracks_in(&bytes, &site).unwrap();
+        let r = incident_in(&bytes, &site).unwrap();
         let got: Vec<(u32, f64)> = r.tracks.iter().map(|t| (t.id.0, t.t)).collect();
         assert_eq!(got, vec![(3, 20.0), (4, 5.0)]);
         assert_eq!(r.refused.len(), 1, "{:?}", r.refused);
@@ -124,6 +137,35 @@ mod tests {
     }
 
     #[test]
+    fn a_recording_gives_back_the_newest_goals_in_force_of_its_site() {
+        let site = SiteId::new("tunnel-a").unwrap();
+        let goals = |t: f64| {
+            serde_json::to_vec(&GoalsInForce {
+                t,
+                goals: Vec::new(),
+            })
+            .unwrap()
+        };
+        let bytes = recording(&[
+            ("ff/tunnel-a/coord/goals", goals(5.0)),
+            ("ff/tunnel-a/coord/goals", goals(9.0)),
+            // Late, another site's, and corrupt.
+            ("ff/tunnel-a/coord/goals", goals(7.0)),
+            ("ff/tunnel-b/coord/goals", goals(20.0)),
+            (
+                "ff/tunnel-a/coord/goals",
+                b"{\"t\": 30.0, \"goals\": 3}".to_vec(),
+            ),
+        ]);
+        let r = incident_in(&bytes, &site).unwrap();
+        assert_eq!(r.goals.map(|g| g.t), Some(9.0));
+        assert_eq!(r.refused.len(), 1, "{:?}", r.refused);
+        assert!(r.tracks.is_empty());
+        let none = recording(&[("ff/tunnel-a/fire/f1", json(&track(1, 1.0)))]);
+        assert!(incident_in(&none, &site).unwrap().goals.is_none());
+    }
+
+    #[test]
     fn a_recording_cut_short_gives_back_what_comes_before_the_cut() {
         let site = SiteId::new("tunnel-a").unwrap();
         let mut records: Vec<(&str, Vec<u8>)> = (0..200)
@@ -133,13 +175,13 @@ mod tests {
         let whole = recording(&records);
         // A recorder killed mid-write: no summary, no footer, half a chunk.
         let cut = &whole[..whole.len() / 2];
-        let r = fire_tracks_in(cut, &site).unwrap();
+        let r = incident_in(cut, &site).unwrap();
         assert!(r.cut_short.is_some());
         assert_eq!(r.tracks.len(), 1, "{:?}", r.tracks);
         assert!(r.tracks[0].t > 50.0, "up to the cut: {:?}", r.tracks);
         assert!(r.tracks.iter().all(|t| t.id == FireId(1)), "{:?}", r.tracks);
         assert!(
-            fire_tracks_in(b"not an mcap file", &site).is_err(),
+            incident_in(b"not an mcap file", &site).is_err(),
             "not a recording at all"
         );
     }

@@ -13,8 +13,8 @@
 //! It answers queries on `coord/barred` and `coord/goals` with the newest barred space and
 //! goals in force the same way, so that a unit restarted while the coordinator is gone
 //! still learns what commanders barred, and a restarted coordinator takes their goals back.
-//! With no recorder left running, [`crate::reader::fire_tracks_in`] reads the same tracks
-//! back from the file (the coordinator's `--resume`).
+//! With no recorder left running, [`crate::reader::incident_in`] reads the same tracks
+//! and goals back from the file (the coordinator's `--resume`).
 //!
 //! Chunks are not compressed: compression would pull C libraries into the build, and
 //! uncompressed MCAP is readable everywhere.

@@ -10,7 +10,7 @@ use anyhow::Context;
 use clap::Args;
 use firefleet_coordinator::CoordinatorOptions;
 use firefleet_protocol::SiteId;
-use firefleet_protocol::msg::FireTrack;
+use firefleet_recorder::reader::Recorded;
 
 use super::{ScenarioArg, positive_f64, scenarios};
 use crate::net::{ZenohArgs, join, shutdown_signal};
@@ -31,9 +31,10 @@ pub struct CoordinatorArgs {
     /// (nearest free unit first).
     #[arg(long, default_value = "optimal")]
     assignment: firefleet_coordinator::assign::Strategy,
-    /// Take back the fire tracks recorded in this MCAP file (a recording of this site by
-    /// `firefleet record` or `demo --record`), for a restart with no recorder left
-    /// running; a file cut short by a crash is read up to where it ends.
+    /// Take back the fire tracks and the commanders' goals in force recorded in this MCAP
+    /// file (a recording of this site by `firefleet record` or `demo --record`), for a
+    /// restart with no recorder left running; a file cut short by a crash is read up to
+    /// where it ends.
     #[arg(long, value_name = "FILE.mcap")]
     resume: Option<PathBuf>,
 }
@@ -41,15 +42,16 @@ pub struct CoordinatorArgs {
 pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
     let bus = join(&a.zenoh, &scenario).await?;
-    let resume = match &a.resume {
-        Some(path) => recorded_fires(path, &scenario.site)?,
-        None => Vec::new(),
+    let resumed = match &a.resume {
+        Some(path) => recorded(path, &scenario.site)?,
+        None => Recorded::default(),
     };
     let opts = CoordinatorOptions {
         lease_s: a.lease_s,
         sim_clock: a.sim_clock,
         strategy: a.assignment,
-        resume,
+        resume: resumed.tracks,
+        resume_goals: resumed.goals,
     };
     firefleet_coordinator::run(
         &bus,
@@ -62,17 +64,23 @@ pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The latest fire tracks of `site` recorded in `path`, for `coordinator --resume`.
-fn recorded_fires(path: &Path, site: &SiteId) -> anyhow::Result<Vec<FireTrack>> {
+/// The latest fire tracks and goals in force of `site` recorded in `path`, for
+/// `coordinator --resume`.
+fn recorded(path: &Path, site: &SiteId) -> anyhow::Result<Recorded> {
     let bytes = std::fs::read(path).with_context(|| format!("--resume {}", path.display()))?;
-    let r = firefleet_recorder::reader::fire_tracks_in(&bytes, site)
+    let r = firefleet_recorder::reader::incident_in(&bytes, site)
         .with_context(|| format!("--resume {}", path.display()))?;
     if let Some(why) = &r.cut_short {
         tracing::warn!(file = %path.display(), "the recording ends early ({why}); using what comes before");
     }
     for why in &r.refused {
-        tracing::warn!(file = %path.display(), "recorded fire track refused: {why}");
+        tracing::warn!(file = %path.display(), "recorded fire track or goals refused: {why}");
     }
-    tracing::info!(file = %path.display(), fires = r.tracks.len(), "fire tracks read from the recording");
-    Ok(r.tracks)
+    tracing::info!(
+        file = %path.display(),
+        fires = r.tracks.len(),
+        goals = r.goals.as_ref().map_or(0, |g| g.goals.len()),
+        "fire tracks and goals in force read from the recording"
+    );
+    Ok(r)
 }
