@@ -384,6 +384,76 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
     bus.close().await;
 }
 
+/// With nothing recorded, a coordinator restarted mid-incident waits for the site clock and
+/// hears the units' task numbers before its first decision: every task it gives is dated by
+/// the site clock and numbered at or above what the units hold (a unit ignores a lower one).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_coordinator_restarted_with_nothing_recorded_outnumbers_the_units_from_its_first_task() {
+    let (bus, endpoint) = router("handover").await;
+    let keys = bus.keys().clone();
+    let states = bus
+        .subscribe::<UnitState>(&keys.every_unit_state())
+        .await
+        .unwrap();
+    let tasks = bus
+        .subscribe::<Task>(&keys.every_unit_task())
+        .await
+        .unwrap();
+    let truths = bus.subscribe::<SimTruth>(&keys.sim_truth()).await.unwrap();
+    let mut fleet = handover_fleet(&endpoint, &["coordinator", "--sim-clock"]);
+    let mut held = 0;
+    tokio::time::timeout(Duration::from_secs(90), async {
+        loop {
+            let (_, st) = states.recv().await.expect("bus open");
+            held = held.max(st.task_seq.unwrap_or(0));
+            if st.task.is_some() {
+                return;
+            }
+        }
+    })
+    .await
+    .expect("no unit ever took the fire");
+    fleet.0[1].kill().unwrap();
+    fleet.0[1].wait().unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    while let Some((_, st)) = states.try_recv() {
+        held = held.max(st.task_seq.unwrap_or(0));
+    }
+    let mut now = 0.0;
+    while let Some((_, truth)) = truths.try_recv() {
+        now = truth.t;
+    }
+    while tasks.try_recv().is_some() {}
+    fleet.0.push(spawn_role(
+        HANDOVER,
+        &endpoint,
+        &["coordinator", "--sim-clock"],
+    ));
+    let (_, first) = tokio::time::timeout(Duration::from_secs(20), tasks.recv())
+        .await
+        .expect("the new coordinator gave no task")
+        .expect("bus open");
+    let until = Instant::now() + Duration::from_secs(3);
+    let mut given = vec![first];
+    while let Ok(Some((_, k))) = tokio::time::timeout_at(until.into(), tasks.recv()).await {
+        given.push(k);
+    }
+    for k in &given {
+        assert!(
+            k.t >= now,
+            "decided before the site clock (t = {now:.1} s): {k:?}"
+        );
+        assert!(
+            k.seq >= held,
+            "numbered below the {held} a unit holds: {k:?}"
+        );
+    }
+    let truth = outcome(&truths, Duration::from_secs(90)).await;
+    assert!(truth.all_out(), "{truth:?}");
+    drop(fleet);
+    bus.close().await;
+}
+
 /// The first answer to a query on `key` that `take` accepts, asking again until one comes
 /// (or `within` passes).
 async fn first_answer<T>(

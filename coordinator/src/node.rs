@@ -27,11 +27,13 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use firefleet_protocol::ZoneId;
-use firefleet_protocol::bus::{Bus, BusError};
+use firefleet_protocol::bus::{Bus, BusError, Inbox};
 use firefleet_protocol::clock::{Clock, ExternalClock, SystemClock};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::{self, Topic};
-use firefleet_protocol::msg::{FireTrack, GoalAck, GoalsInForce, ZoneGoal};
+use firefleet_protocol::msg::{
+    FireTrack, GoalAck, GoalsInForce, SimClock, UnitState, ZoneGoal, latest_per_fire,
+};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Invalid;
 use zenoh::query::ConsolidationMode;
@@ -39,7 +41,6 @@ use zenoh::sample::{Locality, SampleKind};
 
 use crate::assign::Strategy;
 use crate::incident::{Incident, Output};
-use firefleet_protocol::msg::latest_per_fire;
 
 /// Re-publication of tasks and tracks is spread over this many ticks a second.
 const REPUBLISH_SLICES: usize = 10;
@@ -104,7 +105,27 @@ pub async fn run(
         .declare_subscriber(keys.every_zone_goal().as_str())
         .await?;
 
-    // Before anything else is heard: the goals and the tracks the previous coordinator
+    // Before the first decision, the site clock: a coordinator restarted mid-incident that
+    // decided at t = 0 would number its tasks below those the units hold (and they would
+    // ignore them) and date every decision wrong. A running simulator sends it ten times
+    // a second.
+    let clocked = !opts.sim_clock || site_clock(&clock_msgs, &sim_time).await;
+    if !clocked {
+        tracing::warn!(
+            "no site clock within {CLOCK_WAIT:?}: starting at t = {:.1} s",
+            clock.now()
+        );
+    }
+    // Then the numbers of the tasks the units hold, from their states: the first task
+    // must outnumber them all. Those states only serve that; the next ones come within
+    // a fraction of a second.
+    let heard = heed_units(&states, &mut incident, scenario.units.len(), clock.now()).await;
+    tracing::info!(
+        units = heard,
+        t = clock.now(),
+        "task numbers of the units heard before the first decision"
+    );
+    // Before anything else is said: the goals and the tracks the previous coordinator
     // published, as a recorder kept them (none at a first start, or when nothing records).
     let kept = match (recall_goals(bus).await?, opts.resume_goals.clone()) {
         (Some(a), Some(b)) => Some(if a.t >= b.t { a } else { b }),
@@ -125,27 +146,13 @@ pub async fn run(
             .chain(opts.resume.clone()),
     );
     if !recalled.is_empty() {
-        // The site clock dates the recalled tracks (one dated ahead of it is refused); a
-        // running simulator sends it ten times a second. With no clock to go by (no
-        // simulator running) they cannot be dated, and are taken as they are.
-        if opts.sim_clock {
-            match tokio::time::timeout(CLOCK_WAIT, clock_msgs.recv()).await {
-                Ok(Some((_, c))) => {
-                    // The newest of those queued while the recorders answered.
-                    let mut t = c.t;
-                    while let Some((_, c)) = clock_msgs.try_recv() {
-                        t = t.max(c.t);
-                    }
-                    sim_time.set(t);
-                }
-                _ => {
-                    let newest = recalled.iter().map(|f| f.t).fold(0.0, f64::max);
-                    tracing::warn!(
-                        "no site clock within {CLOCK_WAIT:?}: recalled fire tracks taken undated (newest t = {newest:.1} s)"
-                    );
-                    sim_time.set(newest);
-                }
-            }
+        // The site clock dates the recalled tracks (one dated ahead of it is refused). With
+        // no clock to go by (no simulator running) they cannot be dated, and are taken as
+        // they are.
+        if !clocked {
+            let newest = recalled.iter().map(|f| f.t).fold(0.0, f64::max);
+            tracing::warn!("recalled fire tracks taken undated (newest t = {newest:.1} s)");
+            sim_time.set(newest);
         }
         let (out, refused) = incident.restore(&recalled, clock.now());
         for e in refused {
@@ -269,9 +276,49 @@ pub async fn run(
     Ok(())
 }
 
-/// How long a starting coordinator with recalled tracks waits for the simulator's clock to
-/// date them.
+/// How long a starting coordinator waits for the simulator's clock.
 const CLOCK_WAIT: Duration = Duration::from_secs(3);
+
+/// How long a starting coordinator listens to the units' states for the numbers of their
+/// tasks, at most: units send several a second.
+const HEED_WAIT: Duration = Duration::from_secs(1);
+
+/// Wait up to [`CLOCK_WAIT`] for the site clock and set `sim_time` to the newest heard;
+/// whether one came.
+async fn site_clock(clock_msgs: &Inbox<SimClock>, sim_time: &ExternalClock) -> bool {
+    let Ok(Some((_, c))) = tokio::time::timeout(CLOCK_WAIT, clock_msgs.recv()).await else {
+        return false;
+    };
+    let mut t = c.t;
+    while let Some((_, c)) = clock_msgs.try_recv() {
+        t = t.max(c.t);
+    }
+    sim_time.set(t);
+    true
+}
+
+/// Listen to the units' states until each of the site's `units` was heard or
+/// [`HEED_WAIT`] passes, numbering tasks above what each says it holds; how many units
+/// were heard.
+async fn heed_units(
+    states: &Inbox<UnitState>,
+    incident: &mut Incident,
+    units: usize,
+    t: f64,
+) -> usize {
+    let mut heard = std::collections::BTreeSet::new();
+    let _ = tokio::time::timeout(HEED_WAIT, async {
+        while heard.len() < units {
+            let Some((_, st)) = states.recv().await else {
+                return;
+            };
+            incident.heed(&st, t);
+            heard.insert(st.unit);
+        }
+    })
+    .await;
+    heard.len()
+}
 
 /// Which revision of its goals the coordinator last published (`None`: none yet).
 #[derive(Default)]

@@ -229,6 +229,14 @@ impl Incident {
         ok
     }
 
+    /// Before the first decision: number every task above what `st` says its unit holds
+    /// (unless the number is ahead of the clock, [`task_seq_ceiling`]).
+    pub fn heed(&mut self, st: &UnitState, t: f64) {
+        for seq in [st.task_seq, st.task.map(|p| p.seq)].into_iter().flatten() {
+            self.heed_seq(seq, t);
+        }
+    }
+
     /// Decisions made since the last call, for the bus (and so the recording).
     pub fn take_decisions(&mut self) -> Vec<Logged> {
         std::mem::take(&mut self.unpublished)
