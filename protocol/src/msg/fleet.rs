@@ -80,7 +80,9 @@ pub struct UnitState {
     /// True when the unit acts on its own because it has no coordinator.
     pub autonomous: bool,
     /// The number of the latest task the unit took, of any kind: a coordinator that sees
-    /// one above its own for the unit knows somebody else tasked it.
+    /// one above its own for the unit knows somebody else tasked it, and one whose tasks a
+    /// unit's states stop echoing for ten seconds counts the unit as deaf and gives its
+    /// fire to another. Every platform must fill it in.
     pub task_seq: Option<u64>,
     /// The unit's refusal of its latest task, because it would need barred space.
     pub refused: Option<Refusal>,
