@@ -1,5 +1,6 @@
 """Open a firefleet recording with the Python mcap reader: every channel has a schema,
-every message is JSON, and the Foxglove scene is there."""
+every message is JSON, the Foxglove scene is there, and the metadata record names the
+build and the site file."""
 import json
 import sys
 from collections import Counter
@@ -16,6 +17,10 @@ with open(sys.argv[1], "rb") as f:
     for schema, channel, message in reader.iter_messages():
         json.loads(message.data)
         counts[schema.name] += 1
+    described = [m for m in reader.iter_metadata() if m.name == "firefleet"]
+    assert described, "no firefleet metadata record"
+    for key in ("firefleet_version", "protocol_version", "site", "site_file"):
+        assert described[0].metadata.get(key), f"metadata without {key}"
 for name in ("foxglove.SceneUpdate", "firefleet.UnitState", "firefleet.Task", "firefleet.SimTruth", "firefleet.BtTransitions", "foxglove.Log"):
     assert counts[name] > 0, f"no {name} messages"
 print(f"mcap ok: {len(summary.channels)} channels, {sum(counts.values())} messages")

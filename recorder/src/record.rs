@@ -28,6 +28,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 use firefleet_protocol::FireId;
 use firefleet_protocol::bus::{Bus, BusError};
+use firefleet_protocol::codec::PROTOCOL_VERSION;
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{BarredSpace, GoalsInForce};
 use firefleet_protocol::scenario::Scenario;
@@ -49,7 +50,12 @@ pub enum RecordError {
     Mcap(#[from] mcap::McapError),
     #[error(transparent)]
     Bus(#[from] BusError),
+    #[error("the site file does not serialise as TOML: {0}")]
+    SiteFile(toml::ser::Error),
 }
+
+/// The name of the metadata record every recording starts with ([`McapSink::describe`]).
+pub const METADATA_NAME: &str = "firefleet";
 
 /// What a recording holds.
 #[derive(Debug, Clone, Default, Serialize)]
@@ -89,6 +95,27 @@ impl McapSink {
             channels: HashMap::new(),
             summary: RecordSummary::default(),
         })
+    }
+
+    /// The recording's metadata record (`firefleet`): the version of the build that made
+    /// it, the protocol version, the site and the site file as TOML, so that a recording
+    /// read years later says what it is of.
+    pub(crate) fn describe(&mut self, scenario: &Scenario) -> Result<(), RecordError> {
+        let site_file = toml::to_string(scenario).map_err(RecordError::SiteFile)?;
+        let metadata = BTreeMap::from([
+            (
+                "firefleet_version".to_owned(),
+                env!("CARGO_PKG_VERSION").to_owned(),
+            ),
+            ("protocol_version".to_owned(), PROTOCOL_VERSION.to_string()),
+            ("site".to_owned(), scenario.site.to_string()),
+            ("site_file".to_owned(), site_file),
+        ]);
+        self.writer.write_metadata(&mcap::records::Metadata {
+            name: METADATA_NAME.to_owned(),
+            metadata,
+        })?;
+        Ok(())
     }
 
     pub(crate) fn write(
@@ -161,6 +188,7 @@ pub async fn record(
     let keys = bus.keys().clone();
     let session = bus.session();
     let mut sink = McapSink::create(path)?;
+    sink.describe(scenario)?;
     let result = async {
         let samples = session.declare_subscriber(keys.all()).await.map_err(BusError::from)?;
         let tokens = session.liveliness().declare_subscriber(keys.all()).history(true).await.map_err(BusError::from)?;
@@ -259,4 +287,38 @@ pub async fn record(
     // Finish the file whatever happened above, so that what was recorded stays readable.
     let summary = sink.finish()?;
     result.map(|_| summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_recording_says_what_site_file_and_build_it_is_of() {
+        let dir = tempfile::tempdir().unwrap();
+        let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenarios");
+        let mut files: Vec<_> = std::fs::read_dir(&examples)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        files.sort();
+        assert!(files.len() >= 5, "{files:?}");
+        for file in files {
+            let scenario = Scenario::load(&file).unwrap();
+            let path = dir.path().join("run.mcap");
+            let mut sink = McapSink::create(&path).unwrap();
+            sink.describe(&scenario).unwrap();
+            sink.finish().unwrap();
+            let bytes = std::fs::read(&path).unwrap();
+            let summary = mcap::read::Summary::read(&bytes).unwrap().unwrap();
+            assert_eq!(summary.metadata_indexes.len(), 1);
+            let m = mcap::read::metadata(&bytes, &summary.metadata_indexes[0]).unwrap();
+            assert_eq!(m.name, METADATA_NAME);
+            assert_eq!(m.metadata["firefleet_version"], env!("CARGO_PKG_VERSION"));
+            assert_eq!(m.metadata["protocol_version"], PROTOCOL_VERSION.to_string());
+            assert_eq!(m.metadata["site"], scenario.site.to_string());
+            let back = Scenario::from_toml(&m.metadata["site_file"], "metadata").unwrap();
+            assert_eq!(back, scenario, "{}", file.display());
+        }
+    }
 }
