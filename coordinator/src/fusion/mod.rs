@@ -306,6 +306,7 @@ impl Fusion {
                     for (u, q) in &removed.sizes {
                         kept.sizes.entry(u.clone()).or_insert(*q);
                     }
+                    kept.credited.extend(removed.credited.iter().cloned());
                     kept.credit(&mut self.witnesses);
                     kept.first_seen = kept.first_seen.min(removed.first_seen);
                     kept.last_seen = kept.last_seen.max(removed.last_seen);
