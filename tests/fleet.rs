@@ -454,6 +454,68 @@ async fn a_coordinator_restarted_with_nothing_recorded_outnumbers_the_units_from
     bus.close().await;
 }
 
+/// A standby coordinator follows the incident, and when the coordinator in charge is
+/// killed takes over with no recorder running: it knows the fire, numbers above the units,
+/// and the fire goes out.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_standby_coordinator_takes_over_when_the_one_in_charge_is_killed() {
+    let (bus, endpoint) = router("handover").await;
+    let keys = bus.keys().clone();
+    let states = bus
+        .subscribe::<UnitState>(&keys.every_unit_state())
+        .await
+        .unwrap();
+    let truths = bus.subscribe::<SimTruth>(&keys.sim_truth()).await.unwrap();
+    let mut fleet = handover_fleet(&endpoint, &["coordinator", "--sim-clock"]);
+    fleet.0.push(spawn_role(
+        HANDOVER,
+        &endpoint,
+        &["coordinator", "--sim-clock", "--standby"],
+    ));
+    let fire = tokio::time::timeout(Duration::from_secs(90), async {
+        loop {
+            let (_, st) = states.recv().await.expect("bus open");
+            if let Some(p) = st.task {
+                return p.fire;
+            }
+        }
+    })
+    .await
+    .expect("no unit ever took the fire");
+    fleet.0[1].kill().unwrap();
+    fleet.0[1].wait().unwrap();
+    let killed = Instant::now();
+    let key = keys.expr(&Topic::CoordStatus);
+    let status = loop {
+        let replies = bus.session().get(&key).await.unwrap();
+        if let Ok(reply) = replies.recv_async().await
+            && let Ok(sample) = reply.result()
+        {
+            break serde_json::from_slice::<serde_json::Value>(&sample.payload().to_bytes())
+                .unwrap();
+        }
+        assert!(
+            killed.elapsed() < Duration::from_secs(10),
+            "no coordinator took over"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    };
+    eprintln!(
+        "standby took over {:.2} s after the kill",
+        killed.elapsed().as_secs_f64()
+    );
+    assert!(
+        status["decisions"]
+            .to_string()
+            .contains(&format!("recall fire {fire}")),
+        "the standby took the fire it followed: {status}"
+    );
+    let truth = outcome(&truths, Duration::from_secs(90)).await;
+    assert!(truth.all_out(), "{truth:?}");
+    drop(fleet);
+    bus.close().await;
+}
+
 /// The first answer to a query on `key` that `take` accepts, asking again until one comes
 /// (or `within` passes).
 async fn first_answer<T>(

@@ -11,7 +11,9 @@
 //!
 //! A restarted coordinator rebuilds its picture from the recorded fire tracks (a recorder
 //! answers `fire/*` with the latest of each; the tracks keep their ids), then from the
-//! units' states (adopting the tasks they still work on) and their new reports.
+//! units' states (adopting the tasks they still work on) and their new reports. A
+//! [`standby`] follows the tracks and goals itself and takes over when the coordinator in
+//! charge is gone.
 //!
 //! Not here: recording (the `firefleet-recorder` crate) or anything a robot runs
 //! (`firefleet-agent`).
@@ -24,6 +26,7 @@ pub mod incident;
 pub mod invariants;
 pub mod node;
 pub mod roads;
+pub mod standby;
 
 pub use incident::Incident;
 pub use node::{CoordinatorOptions, run};

@@ -127,11 +127,7 @@ pub async fn run(
     );
     // Before anything else is said: the goals and the tracks the previous coordinator
     // published, as a recorder kept them (none at a first start, or when nothing records).
-    let kept = match (recall_goals(bus).await?, opts.resume_goals.clone()) {
-        (Some(a), Some(b)) => Some(if a.t >= b.t { a } else { b }),
-        (a, b) => a.or(b),
-    };
-    if let Some(kept) = kept {
+    if let Some(kept) = newer(recall_goals(bus).await?, opts.resume_goals.clone()) {
         let (out, refused) = incident.restore_goals(&kept, clock.now());
         for ack in refused {
             bus.rejects().count_invalid();
@@ -376,6 +372,14 @@ async fn recall_goals(bus: &Bus) -> Result<Option<GoalsInForce>, BusError> {
         }
     }
     Ok(newest)
+}
+
+/// The newer of two sets of goals in force, by their site time.
+pub(crate) fn newer(a: Option<GoalsInForce>, b: Option<GoalsInForce>) -> Option<GoalsInForce> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(if a.t >= b.t { a } else { b }),
+        (a, b) => a.or(b),
+    }
 }
 
 /// How long a starting coordinator waits for recorders to answer with fire tracks.

@@ -256,6 +256,10 @@ pub fn grants(
             grant(Op::Query, keys.every_fire().as_str());
             grant(Op::Query, keys.coord_goals().as_str());
             grant(Op::Answer, &keys.every_coord());
+            // A standby follows the coordinator in charge (the same identity).
+            grant(Op::Subscribe, keys.every_fire().as_str());
+            grant(Op::Subscribe, keys.coord_goals().as_str());
+            grant(Op::Watch, &keys.expr(&Topic::CoordAlive));
             if simulated {
                 grant(Op::Subscribe, keys.sim_clock().as_str());
             }

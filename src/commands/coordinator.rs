@@ -37,6 +37,14 @@ pub struct CoordinatorArgs {
     /// where it ends.
     #[arg(long, value_name = "FILE.mcap")]
     resume: Option<PathBuf>,
+    /// Stand by: follow the incident (fire tracks, goals in force) while another
+    /// coordinator is in charge, and take over when it is gone. With several standbys, give
+    /// each a different --rank: rank k waits k x 0.5 s before it takes over.
+    #[arg(long)]
+    standby: bool,
+    /// This standby's rank (0 takes over first).
+    #[arg(long, default_value_t = 0, requires = "standby")]
+    rank: u32,
 }
 
 pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
@@ -53,13 +61,12 @@ pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
         resume: resumed.tracks,
         resume_goals: resumed.goals,
     };
-    firefleet_coordinator::run(
-        &bus,
-        &scenario,
-        &opts,
-        shutdown_signal(a.zenoh.die_with_parent),
-    )
-    .await?;
+    let shutdown = shutdown_signal(a.zenoh.die_with_parent);
+    if a.standby {
+        firefleet_coordinator::standby::stand_by(&bus, &scenario, &opts, a.rank, shutdown).await?;
+    } else {
+        firefleet_coordinator::run(&bus, &scenario, &opts, shutdown).await?;
+    }
     bus.close().await;
     Ok(ExitCode::SUCCESS)
 }

@@ -1,0 +1,104 @@
+//! A hot standby: a coordinator that follows the incident while another is in charge, and
+//! takes over when the one in charge is gone.
+//!
+//! Following means keeping what a starting coordinator would otherwise recall from a
+//! recorder: the latest track of every fire and the newest goals in force, both of which
+//! the coordinator in charge publishes (tracks on change and every second, goals likewise).
+//! Taking over is [`crate::node::run`] with those as what it resumes from, so a takeover
+//! needs no recorder and forgets no fire and no keep-out; the site clock and the units'
+//! task numbers come first, as at any start, so no task number goes back.
+//!
+//! Who takes over: each standby has a rank, given by the operator (0, 1, 2, ... on the
+//! site's coordinator machines). When the coordinator's liveliness token vanishes (or none
+//! is there when a standby starts), the standby of rank k waits `k x` [`RANK_STEP`] and
+//! takes over if no coordinator's token has appeared meanwhile: rank 0 takes over at once,
+//! and the next waits long enough to see it.
+//!
+//! Not here: fencing a deposed coordinator that comes back (tasks carry no epoch yet; one
+//! that returns while another is in charge should start as a standby), or what two sides of
+//! a partition each with a coordinator do; both are issue #20's.
+
+use std::collections::BTreeMap;
+use std::future::Future;
+use std::time::Duration;
+
+use firefleet_protocol::FireId;
+use firefleet_protocol::bus::{Bus, BusError};
+use firefleet_protocol::keys::Topic;
+use firefleet_protocol::msg::{FireTrack, GoalsInForce};
+use firefleet_protocol::scenario::Scenario;
+use tokio::time::Instant;
+use zenoh::sample::SampleKind;
+
+use crate::node::{CoordinatorOptions, newer, run};
+
+/// How much longer each rank waits than the one before it to take over: far longer than a
+/// liveliness token takes to reach every process of a site.
+pub const RANK_STEP: Duration = Duration::from_millis(500);
+
+/// How long a standby that starts listens for a coordinator in charge before it counts
+/// none: liveliness history arrives within milliseconds on a site's network.
+const START_GRACE: Duration = Duration::from_secs(1);
+
+/// Follow the incident as the standby of `rank` until the coordinator in charge is gone,
+/// then coordinate (as [`run`] does, resuming from what was followed) until `shutdown`.
+pub async fn stand_by(
+    bus: &Bus,
+    scenario: &Scenario,
+    opts: &CoordinatorOptions,
+    rank: u32,
+    shutdown: impl Future<Output = ()>,
+) -> Result<(), BusError> {
+    let keys = bus.keys().clone();
+    let fires = bus.subscribe(&keys.every_fire()).await?;
+    let goals = bus.subscribe(&keys.coord_goals()).await?;
+    let coordinator = bus
+        .session()
+        .liveliness()
+        .declare_subscriber(keys.expr(&Topic::CoordAlive))
+        .history(true)
+        .await?;
+    let mut tracks: BTreeMap<FireId, FireTrack> = BTreeMap::new();
+    let mut newest: Option<GoalsInForce> = None;
+    let mut in_charge = false;
+    // When the standby may take over if nobody is in charge by then.
+    let mut due = Instant::now() + START_GRACE + RANK_STEP * rank;
+    tracing::info!(rank, "standing by");
+    tokio::pin!(shutdown);
+    loop {
+        tokio::select! {
+            _ = &mut shutdown => return Ok(()),
+            Some((_, track)) = fires.recv() => {
+                if tracks.get(&track.id).is_none_or(|old| old.t <= track.t) {
+                    tracks.insert(track.id, track);
+                }
+            }
+            Some((_, g)) = goals.recv() => {
+                if newest.as_ref().is_none_or(|n| n.t <= g.t) {
+                    newest = Some(g);
+                }
+            }
+            Ok(token) = coordinator.recv_async() => {
+                in_charge = token.kind() == SampleKind::Put;
+                if !in_charge {
+                    tracing::warn!(rank, "the coordinator in charge is gone");
+                    due = Instant::now() + RANK_STEP * rank;
+                }
+            }
+            _ = tokio::time::sleep_until(due), if !in_charge => break,
+        }
+    }
+    tracing::warn!(
+        rank,
+        fires = tracks.len(),
+        goals = newest.as_ref().map_or(0, |g| g.goals.len()),
+        "taking over"
+    );
+    drop(coordinator);
+    let opts = CoordinatorOptions {
+        resume: tracks.into_values().chain(opts.resume.clone()).collect(),
+        resume_goals: newer(newest, opts.resume_goals.clone()),
+        ..opts.clone()
+    };
+    run(bus, scenario, &opts, shutdown).await
+}
