@@ -69,7 +69,16 @@ pub struct DemoArgs {
     /// one made for this run).
     #[arg(long, value_name = "DIR", requires = "secure")]
     pki: Option<PathBuf>,
+    /// Run a standby coordinator beside the one in charge (`coordinator --standby`).
+    #[arg(long)]
+    standby: bool,
+    /// Kill the coordinator in charge at this site time: the standby takes over.
+    #[arg(long, value_name = "SECONDS", requires = "standby", value_parser = non_negative_f64)]
+    kill_coordinator_at: Option<f64>,
 }
+
+/// The demo's label of the standby coordinator's process.
+const STANDBY_ROLE: &str = "coordinator:standby";
 
 /// The commander the demo issues its `--goal`s as.
 const DEMO_COMMANDER: &str = "demo";
@@ -247,6 +256,16 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         Identity::Coordinator,
         vec!["coordinator".into(), "--sim-clock".into()],
     ));
+    if a.standby {
+        roles.push((
+            Identity::Coordinator,
+            vec![
+                "coordinator".into(),
+                "--sim-clock".into(),
+                "--standby".into(),
+            ],
+        ));
+    }
     for u in &scenario.units {
         roles.push((
             Identity::Unit(u.id.clone()),
@@ -257,6 +276,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     for (who, args) in roles {
         let role = match &who {
             Identity::Unit(u) => format!("agent:{u}"),
+            Identity::Coordinator if args.iter().any(|a| a == "--standby") => STANDBY_ROLE.into(),
             other => other.to_string(),
         };
         let mut cmd = Command::new(&exe);
@@ -298,6 +318,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let mut watchdog = tokio::time::interval(Duration::from_millis(250));
     let shutdown = shutdown_signal(false);
     tokio::pin!(shutdown);
+    let mut kill_at = a.kill_coordinator_at;
     let outcome = loop {
         tokio::select! {
             _ = &mut shutdown => break Outcome::Interrupted,
@@ -313,6 +334,13 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             }
             Some((_, truth)) = truths.recv() => {
                 // The simulator starts once the coordinator is up: time to issue the goals.
+                if kill_at.take_if(|at| truth.t >= *at).is_some()
+                    && let Some(k) = children.iter().position(|(role, _)| role == "coordinator")
+                {
+                    let (_, mut c) = children.remove(k);
+                    c.kill().await?;
+                    println!("t={:.1} s: killed the coordinator in charge; the standby takes over", truth.t);
+                }
                 let due = goals_to_issue.take_if(|_| truth.t >= a.goals_at);
                 for g in due.unwrap_or_default() {
                     println!("t={:.1} s: issuing goal '{}': {:?} on zone {} (priority {})", truth.t, g.id, g.goal, g.zone, g.priority);
