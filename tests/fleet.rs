@@ -11,7 +11,7 @@ use firefleet_protocol::codec::{self, PROTOCOL_VERSION};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
     Bar, BarredSpace, FireState, FireTrack, FlameObservation, FlameReport, SimTruth, Task,
-    TaskKind, TaskPhase, UnitState,
+    TaskKind, TaskPhase, TaskProgress, UnitState,
 };
 use firefleet_protocol::{FireId, Point2, Pose2, UnitId, ZoneId};
 use support::{BIN, Fleet, assert_says, cli, free_endpoint, router, router_at, spawn_role, text};
@@ -175,6 +175,25 @@ fn handover_fleet(endpoint: &str, coordinator: &[&str]) -> Fleet {
     ])
 }
 
+/// The task progress of the first state that has one, within 90 s; `each` sees every
+/// state up to it.
+async fn first_at_work(
+    states: &Inbox<UnitState>,
+    mut each: impl FnMut(&UnitState),
+) -> TaskProgress {
+    tokio::time::timeout(Duration::from_secs(90), async {
+        loop {
+            let (_, st) = states.recv().await.expect("bus open");
+            each(&st);
+            if let Some(p) = st.task {
+                return p;
+            }
+        }
+    })
+    .await
+    .expect("no unit ever took the fire")
+}
+
 /// The ground truth once every fire is out or the time limit is reached.
 async fn outcome(truths: &Inbox<SimTruth>, within: Duration) -> SimTruth {
     tokio::time::timeout(within, async {
@@ -329,16 +348,8 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
     ));
 
     // Kill the coordinator as soon as a unit works on the fire, and start a new one.
-    let (old_seq, old_fire) = tokio::time::timeout(Duration::from_secs(90), async {
-        loop {
-            let (_, st) = near_state.recv().await.expect("bus open");
-            if let Some(p) = st.task {
-                return (p.seq, p.fire);
-            }
-        }
-    })
-    .await
-    .expect("no unit ever took the fire");
+    let p = first_at_work(&near_state, |_| {}).await;
+    let (old_seq, old_fire) = (p.seq, p.fire);
     fleet.0[1].kill().unwrap();
     fleet.0[1].wait().unwrap();
     tokio::time::sleep(Duration::from_millis(500)).await;
@@ -402,17 +413,7 @@ async fn a_coordinator_restarted_with_nothing_recorded_outnumbers_the_units_from
     let truths = bus.subscribe::<SimTruth>(&keys.sim_truth()).await.unwrap();
     let mut fleet = handover_fleet(&endpoint, &["coordinator", "--sim-clock"]);
     let mut held = 0;
-    tokio::time::timeout(Duration::from_secs(90), async {
-        loop {
-            let (_, st) = states.recv().await.expect("bus open");
-            held = held.max(st.task_seq.unwrap_or(0));
-            if st.task.is_some() {
-                return;
-            }
-        }
-    })
-    .await
-    .expect("no unit ever took the fire");
+    first_at_work(&states, |st| held = held.max(st.task_seq.unwrap_or(0))).await;
     fleet.0[1].kill().unwrap();
     fleet.0[1].wait().unwrap();
     tokio::time::sleep(Duration::from_millis(500)).await;
@@ -472,16 +473,7 @@ async fn a_standby_coordinator_takes_over_when_the_one_in_charge_is_killed() {
         &endpoint,
         &["coordinator", "--sim-clock", "--standby"],
     ));
-    let fire = tokio::time::timeout(Duration::from_secs(90), async {
-        loop {
-            let (_, st) = states.recv().await.expect("bus open");
-            if let Some(p) = st.task {
-                return p.fire;
-            }
-        }
-    })
-    .await
-    .expect("no unit ever took the fire");
+    let fire = first_at_work(&states, |_| {}).await.fire;
     fleet.0[1].kill().unwrap();
     fleet.0[1].wait().unwrap();
     let killed = Instant::now();
