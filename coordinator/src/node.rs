@@ -127,7 +127,7 @@ pub async fn run(
     );
     // Before anything else is said: the goals and the tracks the previous coordinator
     // published, as a recorder kept them (none at a first start, or when nothing records).
-    if let Some(kept) = newer(recall_goals(bus).await?, opts.resume_goals.clone()) {
+    if let Some(kept) = GoalsInForce::newer(recall_goals(bus).await?, opts.resume_goals.clone()) {
         let (out, refused) = incident.restore_goals(&kept, clock.now());
         for ack in refused {
             bus.rejects().count_invalid();
@@ -363,8 +363,7 @@ async fn recall_goals(bus: &Bus) -> Result<Option<GoalsInForce>, BusError> {
     while let Ok(reply) = replies.recv_async().await {
         let Ok(sample) = reply.result() else { continue };
         match codec::decode::<GoalsInForce>(&sample.payload().to_bytes()) {
-            Ok(g) if newest.as_ref().is_none_or(|n| n.t <= g.t) => newest = Some(g),
-            Ok(_) => {}
+            Ok(g) => newest = GoalsInForce::newer(Some(g), newest),
             Err(e) => {
                 bus.rejects().count(&e);
                 tracing::warn!(key = %sample.key_expr(), "recalled goals refused: {e}");
@@ -372,14 +371,6 @@ async fn recall_goals(bus: &Bus) -> Result<Option<GoalsInForce>, BusError> {
         }
     }
     Ok(newest)
-}
-
-/// The newer of two sets of goals in force, by their site time.
-pub(crate) fn newer(a: Option<GoalsInForce>, b: Option<GoalsInForce>) -> Option<GoalsInForce> {
-    match (a, b) {
-        (Some(a), Some(b)) => Some(if a.t >= b.t { a } else { b }),
-        (a, b) => a.or(b),
-    }
 }
 
 /// How long a starting coordinator waits for recorders to answer with fire tracks.

@@ -30,7 +30,7 @@ use firefleet_protocol::scenario::Scenario;
 use tokio::time::Instant;
 use zenoh::sample::SampleKind;
 
-use crate::node::{CoordinatorOptions, newer, run};
+use crate::node::{CoordinatorOptions, run};
 
 /// How much longer each rank waits than the one before it to take over: far longer than a
 /// liveliness token takes to reach every process of a site.
@@ -73,11 +73,7 @@ pub async fn stand_by(
                     tracks.insert(track.id, track);
                 }
             }
-            Some((_, g)) = goals.recv() => {
-                if newest.as_ref().is_none_or(|n| n.t <= g.t) {
-                    newest = Some(g);
-                }
-            }
+            Some((_, g)) = goals.recv() => newest = GoalsInForce::newer(Some(g), newest),
             Ok(token) = coordinator.recv_async() => {
                 in_charge = token.kind() == SampleKind::Put;
                 if !in_charge {
@@ -97,7 +93,7 @@ pub async fn stand_by(
     drop(coordinator);
     let opts = CoordinatorOptions {
         resume: tracks.into_values().chain(opts.resume.clone()).collect(),
-        resume_goals: newer(newest, opts.resume_goals.clone()),
+        resume_goals: GoalsInForce::newer(newest, opts.resume_goals.clone()),
         ..opts.clone()
     };
     run(bus, scenario, &opts, shutdown).await

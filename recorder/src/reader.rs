@@ -56,8 +56,7 @@ pub fn incident_in(bytes: &[u8], site: &SiteId) -> Result<Recorded, NotARecordin
             }
             Ok((s, Topic::CoordGoals)) if s == *site => {
                 match serde_json::from_slice::<GoalsInForce>(&m.data) {
-                    Ok(g) if out.goals.as_ref().is_none_or(|n| n.t <= g.t) => out.goals = Some(g),
-                    Ok(_) => {}
+                    Ok(g) => out.goals = GoalsInForce::newer(Some(g), out.goals.take()),
                     Err(e) => out.refused.push(refuse(e)),
                 }
             }

@@ -157,6 +157,16 @@ impl Validate for GoalInForce {
     }
 }
 
+impl GoalsInForce {
+    /// The newer of two sets, by their site time; `a` on a tie.
+    pub fn newer(a: Option<Self>, b: Option<Self>) -> Option<Self> {
+        match (a, b) {
+            (Some(a), Some(b)) => Some(if a.t >= b.t { a } else { b }),
+            (a, b) => a.or(b),
+        }
+    }
+}
+
 impl Validate for GoalsInForce {
     fn validate(&self) -> Result<(), Invalid> {
         finite("t", self.t)?;
