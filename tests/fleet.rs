@@ -921,19 +921,22 @@ async fn forged_tasks_do_not_leave_a_unit_deaf_to_its_coordinator() {
     // Once the near unit is on its way to the fire, an impostor tells it to stand by: once
     // numbered near u64::MAX (refused: ahead of the clock), once just above its task
     // (taken; the coordinator sees a number it never gave and tasks the unit again above).
-    let taken = tokio::time::timeout(Duration::from_secs(90), async {
+    let (epoch, taken) = tokio::time::timeout(Duration::from_secs(90), async {
         loop {
             let (_, st) = near_state.recv().await.expect("bus open");
             if st.task.is_some_and(|p| p.phase == TaskPhase::Travelling) {
-                return st.task_seq.expect("a unit on a task echoes its number");
+                let seq = st.task_seq.expect("a unit on a task echoes its number");
+                return (st.epoch.expect("and its epoch"), seq);
             }
         }
     })
     .await
     .expect("the near unit never set off");
+    // In the coordinator's own epoch: a task of an older one the unit refuses outright.
     for seq in [u64::MAX, taken + 500] {
         let forged = Task {
             unit: near.clone(),
+            epoch,
             seq,
             t: 0.0,
             kind: TaskKind::Standby,
@@ -1266,6 +1269,7 @@ async fn a_stolen_unit_certificate_cannot_stop_a_secure_fleet() {
         .expect("the simulator never started");
     let forged_task = Task {
         unit: ugv1.clone(),
+        epoch: u64::MAX,
         seq: u64::MAX,
         t: 0.0,
         kind: TaskKind::Standby,
@@ -1442,6 +1446,7 @@ fn forged_state(unit: &UnitId) -> UnitState {
         task: None,
         autonomous: false,
         task_seq: None,
+        epoch: None,
         refused: None,
     }
 }
@@ -1480,4 +1485,66 @@ async fn a_unit_started_before_its_router_waits_and_joins_it() {
         tokio::time::sleep(Duration::from_millis(200)).await;
     }
     router.close().await;
+}
+
+/// Two coordinators can hold `coord/alive` at once (both sides of a healed partition, or
+/// one in charge and one deposed that has not yet stepped down): the token must count as
+/// gone only when the last of them is, or a standby would take over beside a coordinator
+/// still in charge. Zenoh's routers keep twin tokens apart; this holds them to it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_coordinator_token_is_gone_only_when_every_holder_is() {
+    let (router, endpoint) = router("tunnel-a").await;
+    let client = || async {
+        let c = firefleet_protocol::bus::Connect {
+            mode: Some(firefleet_protocol::bus::Mode::Client),
+            connect: vec![endpoint.clone()],
+            ..Default::default()
+        };
+        Bus::open(&c, router.keys().site().clone()).await.unwrap()
+    };
+    let (a, b, watcher) = (client().await, client().await, client().await);
+    let key = router.keys().expr(&Topic::CoordAlive);
+    let seen = watcher
+        .session()
+        .liveliness()
+        .declare_subscriber(&key)
+        .history(true)
+        .await
+        .unwrap();
+    let ta = a.session().liveliness().declare_token(&key).await.unwrap();
+    let tb = b.session().liveliness().declare_token(&key).await.unwrap();
+    let first = tokio::time::timeout(Duration::from_secs(2), seen.recv_async())
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(first.kind(), zenoh::sample::SampleKind::Put);
+    ta.undeclare().await.unwrap();
+    a.close().await;
+    let after_one = tokio::time::timeout(Duration::from_secs(2), async {
+        loop {
+            let s = seen.recv_async().await.unwrap();
+            if s.kind() == zenoh::sample::SampleKind::Delete {
+                return s;
+            }
+        }
+    })
+    .await;
+    assert!(
+        after_one.is_err(),
+        "the token counted gone while b still holds it"
+    );
+    tb.undeclare().await.unwrap();
+    let gone = tokio::time::timeout(Duration::from_secs(2), async {
+        loop {
+            let s = seen.recv_async().await.unwrap();
+            if s.kind() == zenoh::sample::SampleKind::Delete {
+                return s;
+            }
+        }
+    })
+    .await;
+    assert!(gone.is_ok(), "the token never counted gone");
+    for bus in [b, watcher, router] {
+        bus.close().await;
+    }
 }

@@ -124,6 +124,7 @@ fn state() -> UnitState {
             zone: ZoneId::new("deep").unwrap(),
         }),
         task_seq: Some(12_001),
+        epoch: Some(11_000),
     }
 }
 
@@ -141,6 +142,7 @@ fn goal_json() -> Vec<Vec<u8>> {
 fn fleet_messages() {
     let task = Task {
         unit: unit(),
+        epoch: 11_000,
         seq: 12_001,
         t: 12.0,
         kind: TaskKind::Extinguish {

@@ -54,15 +54,20 @@ pub struct BarredAhead {
     pub now: f64,
 }
 
-/// A task numbered beyond what the site clock allows ([`task_seq_ceiling`]), refused.
+/// A task the unit refuses.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error(
-    "task {seq} is numbered ahead of the site clock (t = {t:.1} s takes at most {ceiling}): refused"
-)]
-pub struct TaskAhead {
-    pub seq: u64,
-    pub t: f64,
-    pub ceiling: u64,
+pub enum TaskRefused {
+    /// Numbered beyond what the site clock allows ([`task_seq_ceiling`]).
+    #[error(
+        "task {seq} is numbered ahead of the site clock (t = {t:.1} s takes at most {ceiling}): refused"
+    )]
+    Ahead { seq: u64, t: f64, ceiling: u64 },
+    /// From a coordinator term older than one the unit has taken a task from: a deposed
+    /// coordinator's.
+    #[error(
+        "task {seq} of epoch {epoch} comes from a deposed coordinator (the unit obeys epoch {obeyed}): refused"
+    )]
+    Fenced { seq: u64, epoch: u64, obeyed: u64 },
 }
 
 impl<U: Services> Controller<U> {
@@ -104,19 +109,23 @@ impl<U: Services> Controller<U> {
         self.tree.tick(t, &mut self.unit)
     }
 
-    /// A task arrived from the coordinator. Older or repeated tasks are ignored; one
-    /// numbered ahead of the site clock is refused.
-    pub fn on_task(&mut self, seq: u64, kind: TaskKind) -> Result<(), TaskAhead> {
+    /// A task of coordinator term `epoch` arrived. Older or repeated tasks are ignored;
+    /// one numbered ahead of the site clock, or from a term older than the newest the unit
+    /// obeys, is refused.
+    pub fn on_task(&mut self, epoch: u64, seq: u64, kind: TaskKind) -> Result<(), TaskRefused> {
         let now = self.now.unwrap_or(0.0);
         let ceiling = task_seq_ceiling(now);
         if seq > ceiling {
-            return Err(TaskAhead {
+            return Err(TaskRefused::Ahead {
                 seq,
                 t: now,
                 ceiling,
             });
         }
-        self.unit.mission().on_task(seq, kind);
+        self.unit
+            .mission()
+            .on_task(epoch, seq, kind)
+            .map_err(|obeyed| TaskRefused::Fenced { seq, epoch, obeyed })?;
         review(&mut self.unit);
         Ok(())
     }

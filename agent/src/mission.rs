@@ -38,6 +38,9 @@ pub struct Mission {
     pub leaving: bool,
     /// The coordinator's latest task.
     pub task: Option<(u64, TaskKind)>,
+    /// The epoch of the newest coordinator term a task came from: tasks of older terms
+    /// are a deposed coordinator's, and refused.
+    pub epoch: u64,
     /// The attack under way: coordinator task (seq, fire, where the fire is), or `None`
     /// when acting alone.
     pub job: Option<Option<(u64, FireId, Point2)>>,
@@ -46,13 +49,20 @@ pub struct Mission {
 }
 
 impl Mission {
-    /// A task arrived. Older or repeated tasks are ignored.
-    pub fn on_task(&mut self, seq: u64, kind: TaskKind) {
-        if self.task.is_some_and(|(s, _)| s >= seq) {
-            return;
+    /// A task arrived. Older or repeated tasks are ignored, and so is every task of a
+    /// term older than the newest heard (`Err` with that epoch): a deposed coordinator
+    /// commands nobody who has heard from its successor.
+    pub fn on_task(&mut self, epoch: u64, seq: u64, kind: TaskKind) -> Result<(), u64> {
+        if epoch < self.epoch {
+            return Err(self.epoch);
         }
+        if epoch == self.epoch && self.task.is_some_and(|(s, _)| s >= seq) {
+            return Ok(());
+        }
+        self.epoch = epoch;
         self.task = Some((seq, kind));
         self.refused = None;
+        Ok(())
     }
 
     /// A barred space arrived; true if it replaced the one kept (an older one, by site
@@ -354,7 +364,7 @@ mod tests {
     /// A unit attacking the fire of task 1.
     fn attacking() -> Mission {
         let mut m = Mission::default();
-        m.on_task(1, extinguish(1));
+        m.on_task(0, 1, extinguish(1)).unwrap();
         m.job = Some(m.assigned_fire());
         m
     }
@@ -409,7 +419,7 @@ mod tests {
     fn a_task_replaced_or_withdrawn_is_not_reported_failed() {
         for then in [extinguish(2), TaskKind::Standby] {
             let mut m = attacking();
-            m.on_task(2, then);
+            m.on_task(0, 2, then).unwrap();
             assert_eq!(m.stop_short(1), Some(Stopped::Withdrawn), "{then:?}");
             assert_eq!(m.progress(false), None, "{then:?}");
             assert!(m.job.is_none());

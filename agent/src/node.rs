@@ -140,7 +140,7 @@ where
             task = tasks.recv() => {
                 let Some((_, task)) = task else { break };
                 if &task.unit == unit {
-                    if let Err(e) = ctl.on_task(task.seq, task.kind) {
+                    if let Err(e) = ctl.on_task(task.epoch, task.seq, task.kind) {
                         bus.rejects().count_invalid();
                         tracing::warn!(%unit, "{e}");
                     }

@@ -3,6 +3,7 @@
 
 use std::sync::Arc;
 
+use firefleet_agent::controller::TaskRefused;
 use firefleet_agent::ground::GroundController;
 use firefleet_protocol::FireId;
 use firefleet_protocol::UnitId;
@@ -44,6 +45,7 @@ fn run(coordinator_task: Option<Point2>) -> Run {
     if let Some(target) = coordinator_task {
         ctl.set_coordinator_present(true);
         ctl.on_task(
+            0,
             1,
             TaskKind::Extinguish {
                 fire: FireId(1),
@@ -142,6 +144,7 @@ fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
         world.truth().units[0].pose.position()
     };
     ctl.on_task(
+        0,
         1,
         TaskKind::Cruise {
             goal: Point2::new(25.0, -2.5),
@@ -154,6 +157,7 @@ fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
         "held at the staging point: {at:?}"
     );
     ctl.on_task(
+        0,
         2,
         TaskKind::Cruise {
             goal: Point2::new(15.0, 2.5),
@@ -176,6 +180,7 @@ fn a_staged_unit_assigned_the_fire_puts_it_out() {
     let mut ctl = GroundController::new(id.clone(), GROUND, scenario.clone());
     ctl.set_coordinator_present(true);
     ctl.on_task(
+        0,
         1,
         TaskKind::Cruise {
             goal: Point2::new(30.0, 2.5),
@@ -188,6 +193,7 @@ fn a_staged_unit_assigned_the_fire_puts_it_out() {
     {
         if !assigned && world.time() > 30.0 {
             ctl.on_task(
+                0,
                 2,
                 TaskKind::Extinguish {
                     fire: FireId(1),
@@ -247,6 +253,7 @@ fn facing_away_in_a_narrow_bore_the_unit_turns_round_by_backing() {
     ctl.set_coordinator_present(true);
     let flame = scenario.fires[0].position();
     ctl.on_task(
+        0,
         1,
         TaskKind::Extinguish {
             fire: FireId(1),
@@ -289,13 +296,34 @@ fn a_task_numbered_ahead_of_the_clock_is_refused_and_the_coordinator_still_heard
     let forged = TaskKind::Cruise {
         goal: Point2::new(5.0, -2.5),
     };
-    let e = ctl.on_task(u64::MAX, forged).unwrap_err();
-    assert!((120_000..=121_000).contains(&e.ceiling), "{e}");
+    let e = ctl.on_task(0, u64::MAX, forged).unwrap_err();
+    let TaskRefused::Ahead { ceiling, .. } = e else {
+        panic!("{e}")
+    };
+    assert!((120_000..=121_000).contains(&ceiling), "{e}");
     assert!(e.to_string().contains("ahead of the site clock"), "{e}");
     assert_eq!(ctl.state().task_seq, None);
     let real = TaskKind::Cruise {
         goal: Point2::new(25.0, -2.5),
     };
-    ctl.on_task(1_001, real).unwrap();
+    ctl.on_task(0, 1_001, real).unwrap();
     assert_eq!(ctl.state().task_seq, Some(1_001));
+
+    // A coordinator taking office outranks the first at once, whatever its numbers; the
+    // deposed one then commands the unit no more, however high it numbers.
+    let new_term = TaskKind::Cruise {
+        goal: Point2::new(30.0, -2.5),
+    };
+    ctl.on_task(1_009, 1_009, new_term).unwrap();
+    assert_eq!(ctl.state().epoch, Some(1_009));
+    let e = ctl.on_task(0, 1_500, real).unwrap_err();
+    assert_eq!(
+        e,
+        TaskRefused::Fenced {
+            seq: 1_500,
+            epoch: 0,
+            obeyed: 1_009
+        }
+    );
+    assert_eq!(ctl.state().task_seq, Some(1_009));
 }

@@ -86,6 +86,7 @@ fn a_task_that_needs_barred_space_is_refused_with_the_reason() {
     drive(&mut ctl, &mut world, &id, 0.1);
     ctl.on_barred(barred(0.0, 50.0, 150.0, false)).unwrap();
     ctl.on_task(
+        0,
         1,
         TaskKind::Cruise {
             goal: Point2::new(180.0, -2.5),
@@ -101,6 +102,7 @@ fn a_task_that_needs_barred_space_is_refused_with_the_reason() {
     assert!(ctl.state().pose.x < 50.0, "crossed into barred space");
     // The next task, on this side, is taken and the refusal forgotten.
     ctl.on_task(
+        0,
         2,
         TaskKind::Cruise {
             goal: Point2::new(30.0, -2.5),
@@ -109,6 +111,7 @@ fn a_task_that_needs_barred_space_is_refused_with_the_reason() {
     .unwrap();
     assert_eq!(ctl.state().refused, None);
     ctl.on_task(
+        0,
         3,
         TaskKind::Extinguish {
             fire: FireId(1),
@@ -147,6 +150,7 @@ fn a_barred_space_dated_ahead_of_the_clock_is_refused_and_one_heard_before_the_f
     ctl.on_barred(barred(0.5, 50.0, 150.0, false)).unwrap();
     drive(&mut ctl, &mut world, &id, 1.0);
     ctl.on_task(
+        0,
         1,
         TaskKind::Cruise {
             goal: Point2::new(180.0, -2.5),
@@ -168,6 +172,7 @@ fn a_barred_space_dated_ahead_of_the_clock_is_refused_and_one_heard_before_the_f
     })
     .unwrap();
     ctl.on_task(
+        0,
         2,
         TaskKind::Cruise {
             goal: Point2::new(180.0, -2.5),

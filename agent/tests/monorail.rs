@@ -73,6 +73,7 @@ fn alone_it_finds_and_puts_out_a_fire_under_its_rail() {
 fn assign(ctl: &mut MonorailController, at: Point2) {
     ctl.set_coordinator_present(true);
     ctl.on_task(
+        0,
         1,
         TaskKind::Extinguish {
             fire: FireId(1),
@@ -124,6 +125,7 @@ fn sent_searching_it_runs_along_the_rail_reports_what_it_passes_and_stops_for_a_
     let mut ctl = controller(&s);
     ctl.set_coordinator_present(true);
     ctl.on_task(
+        0,
         1,
         TaskKind::Search {
             goal: Point2::new(195.0, 0.0),
@@ -150,6 +152,7 @@ fn sent_searching_it_runs_along_the_rail_reports_what_it_passes_and_stops_for_a_
     // Searching, it does not attack on its own: the coordinator decides. A fire task
     // stops the run and the attack starts from where the carriage is.
     ctl.on_task(
+        0,
         2,
         TaskKind::Extinguish {
             fire: FireId(1),
@@ -209,7 +212,7 @@ fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
     ctl.set_coordinator_present(true);
     ride(&mut ctl, &mut world, 1.0);
     ctl.on_barred(keep_out(world.time(), false)).unwrap();
-    ctl.on_task(1, attack).unwrap();
+    ctl.on_task(0, 1, attack).unwrap();
     assert_eq!(
         ctl.state().refused.map(|r| r.reason),
         Some(RefusalReason::DestinationBarred)
@@ -226,6 +229,7 @@ fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
     ctl.set_coordinator_present(true);
     ctl.on_barred(keep_out(0.0, true)).unwrap();
     ctl.on_task(
+        0,
         1,
         TaskKind::Search {
             goal: Point2::new(10.0, 0.0),
@@ -235,7 +239,7 @@ fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
     assert_eq!(ctl.state().refused, None);
     let at = ride(&mut ctl, &mut world, 30.0);
     assert!(at.iter().any(|&x| x < 20.0), "ran to {:?}", at.last());
-    ctl.on_task(2, attack).unwrap();
+    ctl.on_task(0, 2, attack).unwrap();
     assert_eq!(
         ctl.state().refused.map(|r| r.reason),
         Some(RefusalReason::DestinationBarred)

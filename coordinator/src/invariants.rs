@@ -381,6 +381,7 @@ mod tests {
             autonomous: false,
             refused: None,
             task_seq: None,
+            epoch: None,
         })
     }
 
@@ -499,6 +500,7 @@ mod tests {
         let task = |seq, x| {
             Event::Task(Task {
                 unit: u(),
+                epoch: 0,
                 seq,
                 t: 0.0,
                 kind: TaskKind::Cruise {

@@ -32,7 +32,7 @@ use firefleet_protocol::clock::{Clock, ExternalClock, SystemClock};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{
-    FireTrack, GoalAck, GoalsInForce, SimClock, UnitState, ZoneGoal, latest_per_fire,
+    FireTrack, GoalAck, GoalsInForce, SimClock, Task, UnitState, ZoneGoal, latest_per_fire,
 };
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Invalid;
@@ -59,15 +59,29 @@ pub struct CoordinatorOptions {
     /// Goals in force to take back at start, read from a recording likewise; the newer of
     /// these and what recorders answer with wins.
     pub resume_goals: Option<GoalsInForce>,
+    /// This coordinator's rank among the site's coordinators: the remainder of its epochs
+    /// ([`firefleet_protocol::msg::epoch_after`]) and, standing by, when it takes over.
+    pub rank: u32,
 }
 
-/// Run the coordinator until `shutdown` completes.
+/// Why [`run`] returned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ended {
+    /// The shutdown future completed.
+    Shutdown,
+    /// A coordinator of the newer epoch `by` commands: this one stepped down (see
+    /// [`crate::standby`] for what it does next).
+    Deposed { by: u64 },
+}
+
+/// Run the coordinator until `shutdown` completes or a coordinator of a newer epoch
+/// commands.
 pub async fn run(
     bus: &Bus,
     scenario: &Scenario,
     opts: &CoordinatorOptions,
     shutdown: impl Future<Output = ()>,
-) -> Result<(), BusError> {
+) -> Result<Ended, BusError> {
     let keys = bus.keys().clone();
     let session = bus.session();
     let sim_time = ExternalClock::new(0.0);
@@ -95,6 +109,11 @@ pub async fn run(
         )
         .await?;
     let reports = bus.subscribe(&keys.every_unit_report()).await?;
+    // Other coordinators' tasks: one of a newer epoch deposes this coordinator.
+    let rivals = session
+        .declare_subscriber(keys.every_unit_task().as_str())
+        .allowed_origin(Locality::Remote)
+        .await?;
     let clock_msgs = bus.subscribe(&keys.sim_clock()).await?;
     // `coord/status`, `coord/barred` and `coord/goals` are answered to queries.
     let coord_q = session.declare_queryable(keys.every_coord()).await?;
@@ -120,10 +139,12 @@ pub async fn run(
     // must outnumber them all. Those states only serve that; the next ones come within
     // a fraction of a second.
     let heard = heed_units(&states, &mut incident, scenario.units.len(), clock.now()).await;
+    let epoch = incident.take_office(opts.rank, clock.now());
     tracing::info!(
         units = heard,
+        epoch,
         t = clock.now(),
-        "task numbers of the units heard before the first decision"
+        "took office above the task numbers of the units heard"
     );
     // Before anything else is said: the goals and the tracks the previous coordinator
     // published, as a recorder kept them (none at a first start, or when nothing records).
@@ -176,6 +197,17 @@ pub async fn run(
         let outputs: Result<Vec<Output>, Invalid> = tokio::select! {
             biased;
             _ = &mut shutdown => break,
+            Ok(sample) = rivals.recv_async() => match codec::decode::<Task>(&sample.payload().to_bytes()) {
+                Ok(task) if incident.deposed_by(&task, clock.now()) => {
+                    for d in incident.take_decisions() {
+                        bus.put(&keys.coord_log(), &d.to_msg()).await?;
+                    }
+                    tracing::warn!(epoch, by = task.epoch, "deposed: stepping down");
+                    return Ok(Ended::Deposed { by: task.epoch });
+                }
+                Ok(_) => Ok(Vec::new()),
+                Err(e) => Err(Invalid::new("task", format!("another coordinator's task on '{}': {e}", sample.key_expr()))),
+            },
             Some((_, c)) = clock_msgs.recv() => { sim_time.set(c.t); Ok(Vec::new()) }
             Ok(sample) = alive.recv_async() => match keys::parse(sample.key_expr().as_str()) {
                 Ok((_, Topic::UnitAlive(unit))) => incident.on_alive(&unit, sample.kind() == SampleKind::Put, clock.now()),
@@ -269,7 +301,7 @@ pub async fn run(
             }
         }
     }
-    Ok(())
+    Ok(Ended::Shutdown)
 }
 
 /// How long a starting coordinator waits for the simulator's clock.

@@ -14,9 +14,20 @@
 //! takes over if no coordinator's token has appeared meanwhile: rank 0 takes over at once,
 //! and the next waits long enough to see it.
 //!
-//! Not here: fencing a deposed coordinator that comes back (tasks carry no epoch yet; one
-//! that returns while another is in charge should start as a standby), or what two sides of
-//! a partition each with a coordinator do; both are issue #20's.
+//! Fencing: every coordinator takes office in an epoch above every task number and epoch
+//! it heard ([`crate::Incident::take_office`]), tasks carry it, and units refuse tasks of
+//! an epoch older than one they took a task of. A coordinator that hears a task of a newer
+//! epoch steps down ([`crate::node::Ended::Deposed`]) and stands by again, whether or not it
+//! started as a standby.
+//!
+//! Split brain: a partition that leaves a coordinator on each side (the one in charge on
+//! one, a standby that took over on the other) leaves each side commanded by its own: on a
+//! fire ground a side with units and no coordinator would only wait, so availability wins
+//! over a single commander. When the partition heals the newest epoch commands: the units
+//! of the old side refuse the old coordinator's tasks from the first they take of the new
+//! one, and the old coordinator steps down at the first task of the new epoch it hears.
+//! Tracks the deposed coordinator made during the partition are not merged into the
+//! winner's (fire ids are each coordinator's own): its units' flame reports rebuild them.
 
 use std::collections::BTreeMap;
 use std::future::Future;
@@ -30,7 +41,7 @@ use firefleet_protocol::scenario::Scenario;
 use tokio::time::Instant;
 use zenoh::sample::SampleKind;
 
-use crate::node::{CoordinatorOptions, run};
+use crate::node::{CoordinatorOptions, Ended, run};
 
 /// How much longer each rank waits than the one before it to take over: far longer than a
 /// liveliness token takes to reach every process of a site.
@@ -40,15 +51,41 @@ pub const RANK_STEP: Duration = Duration::from_millis(500);
 /// none: liveliness history arrives within milliseconds on a site's network.
 const START_GRACE: Duration = Duration::from_secs(1);
 
-/// Follow the incident as the standby of `rank` until the coordinator in charge is gone,
-/// then coordinate (as [`run`] does, resuming from what was followed) until `shutdown`.
-pub async fn stand_by(
+/// Serve as one of the site's coordinators until `shutdown`: coordinate (as [`run`] does),
+/// first as a standby ([`follow`]) if `standby`; deposed, stand by again.
+pub async fn serve(
     bus: &Bus,
     scenario: &Scenario,
     opts: &CoordinatorOptions,
-    rank: u32,
+    standby: bool,
     shutdown: impl Future<Output = ()>,
 ) -> Result<(), BusError> {
+    tokio::pin!(shutdown);
+    let mut resumed = opts.clone();
+    let mut standing_by = standby;
+    loop {
+        if standing_by {
+            let Some(followed) = follow(bus, opts, shutdown.as_mut()).await? else {
+                return Ok(());
+            };
+            resumed = followed;
+        }
+        match run(bus, scenario, &resumed, shutdown.as_mut()).await? {
+            Ended::Shutdown => return Ok(()),
+            Ended::Deposed { .. } => standing_by = true,
+        }
+    }
+}
+
+/// Follow the incident as the standby of `opts.rank` until the coordinator in charge is
+/// gone; then the options to take over with (resuming from what was followed), or `None`
+/// if `shutdown` came first.
+async fn follow(
+    bus: &Bus,
+    opts: &CoordinatorOptions,
+    shutdown: impl Future<Output = ()>,
+) -> Result<Option<CoordinatorOptions>, BusError> {
+    let rank = opts.rank;
     let keys = bus.keys().clone();
     let fires = bus.subscribe(&keys.every_fire()).await?;
     let goals = bus.subscribe(&keys.coord_goals()).await?;
@@ -67,7 +104,7 @@ pub async fn stand_by(
     tokio::pin!(shutdown);
     loop {
         tokio::select! {
-            _ = &mut shutdown => return Ok(()),
+            _ = &mut shutdown => return Ok(None),
             Some((_, track)) = fires.recv() => {
                 if tracks.get(&track.id).is_none_or(|old| old.t <= track.t) {
                     tracks.insert(track.id, track);
@@ -90,11 +127,9 @@ pub async fn stand_by(
         goals = newest.as_ref().map_or(0, |g| g.goals.len()),
         "taking over"
     );
-    drop(coordinator);
-    let opts = CoordinatorOptions {
+    Ok(Some(CoordinatorOptions {
         resume: tracks.into_values().chain(opts.resume.clone()).collect(),
         resume_goals: GoalsInForce::newer(newest, opts.resume_goals.clone()),
         ..opts.clone()
-    };
-    run(bus, scenario, &opts, shutdown).await
+    }))
 }

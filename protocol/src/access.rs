@@ -256,6 +256,8 @@ pub fn grants(
             grant(Op::Query, keys.every_fire().as_str());
             grant(Op::Query, keys.coord_goals().as_str());
             grant(Op::Answer, &keys.every_coord());
+            // Another coordinator's tasks: one of a newer epoch deposes this one.
+            grant(Op::Subscribe, keys.every_unit_task().as_str());
             // A standby follows the coordinator in charge (the same identity).
             grant(Op::Subscribe, keys.every_fire().as_str());
             grant(Op::Subscribe, keys.coord_goals().as_str());

@@ -168,6 +168,7 @@ mod tests {
     fn task_round_trip() {
         let t = Task {
             unit: UnitId::new("u1").unwrap(),
+            epoch: 1,
             seq: 9,
             t: 3.0,
             kind: TaskKind::Extinguish {

@@ -10,6 +10,7 @@ use anyhow::Context;
 use clap::Args;
 use firefleet_coordinator::CoordinatorOptions;
 use firefleet_protocol::SiteId;
+use firefleet_protocol::msg::EPOCH_RANKS;
 use firefleet_recorder::reader::Recorded;
 
 use super::{ScenarioArg, positive_f64, scenarios};
@@ -42,8 +43,10 @@ pub struct CoordinatorArgs {
     /// each a different --rank: rank k waits k x 0.5 s before it takes over.
     #[arg(long)]
     standby: bool,
-    /// This standby's rank (0 takes over first).
-    #[arg(long, default_value_t = 0, requires = "standby")]
+    /// This coordinator's rank, 0 to 15, different for every coordinator of the site:
+    /// standbys take over in its order (0 first), and it is the remainder of the epochs
+    /// the coordinator takes office in, so two never share one.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..EPOCH_RANKS as i64))]
     rank: u32,
 }
 
@@ -60,13 +63,10 @@ pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
         strategy: a.assignment,
         resume: resumed.tracks,
         resume_goals: resumed.goals,
+        rank: a.rank,
     };
     let shutdown = shutdown_signal(a.zenoh.die_with_parent);
-    if a.standby {
-        firefleet_coordinator::standby::stand_by(&bus, &scenario, &opts, a.rank, shutdown).await?;
-    } else {
-        firefleet_coordinator::run(&bus, &scenario, &opts, shutdown).await?;
-    }
+    firefleet_coordinator::standby::serve(&bus, &scenario, &opts, a.standby, shutdown).await?;
     bus.close().await;
     Ok(ExitCode::SUCCESS)
 }

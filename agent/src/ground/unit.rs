@@ -762,6 +762,7 @@ impl Services for Unit {
             autonomous: !self.mission.coordinator_present,
             refused: self.mission.refused.clone(),
             task_seq: self.mission.task.map(|(seq, _)| seq),
+            epoch: self.mission.task.map(|_| self.mission.epoch),
         }
     }
 

@@ -492,6 +492,7 @@ impl Services for RailUnit {
             autonomous: !self.mission.coordinator_present,
             refused: self.mission.refused.clone(),
             task_seq: self.mission.task.map(|(seq, _)| seq),
+            epoch: self.mission.task.map(|_| self.mission.epoch),
         }
     }
 

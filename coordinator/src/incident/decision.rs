@@ -79,6 +79,16 @@ pub enum Decision {
         to: Chainage,
         goal: String,
     },
+    /// This coordinator took office in `epoch`, as the coordinator of `rank`.
+    TookOffice {
+        epoch: u64,
+        rank: u32,
+    },
+    /// A coordinator of epoch `by` commands: this one, of `epoch`, steps down.
+    Deposed {
+        epoch: u64,
+        by: u64,
+    },
     /// The unit took task `foreign`, which this coordinator never gave (its own for the
     /// unit was `ours`): the unit's task is given again above it.
     Superseded {
@@ -269,6 +279,14 @@ impl fmt::Display for Decision {
                 "evacuate {unit} from zone {zone} to chainage {to:.1}: goal '{goal}' (the unit leaves on its own, by the same way)"
             ),
             Decision::Refused { unit, refusal } => write!(f, "{unit} {refusal}"),
+            Decision::TookOffice { epoch, rank } => write!(
+                f,
+                "took office in epoch {epoch} (rank {rank}): tasks of every earlier epoch are refused by the units that take one of this"
+            ),
+            Decision::Deposed { epoch, by } => write!(
+                f,
+                "deposed: a coordinator of epoch {by} commands, and this one (epoch {epoch}) steps down"
+            ),
             Decision::Superseded {
                 unit,
                 foreign,

@@ -5,7 +5,7 @@
 //! Not here: what the solve decides (dispatch, search, staging, zones).
 
 use firefleet_protocol::msg::{
-    FireState, FireTrack, FlameReport, Task, TaskKind, TaskPhase, TaskProgress, UnitMode, UnitState,
+    FireState, FireTrack, FlameReport, TaskKind, TaskPhase, TaskProgress, UnitMode, UnitState,
 };
 use firefleet_protocol::validate::{Invalid, Validate};
 use firefleet_protocol::{FireId, UnitId};
@@ -126,17 +126,20 @@ impl Incident {
         let deaf_after_s = self.policy.deaf_after_s;
         let v = self.view(&unit, "unit")?;
         v.last_heard = t;
-        // The number of the task the unit holds; a state of a robot that reports only its
-        // progress echoes the task it works on.
-        let echoed = st.task_seq.max(st.task.map(|p| p.seq));
-        if let Some((seq, _)) = v.unechoed
-            && echoed >= Some(seq)
+        // Where the task the unit holds stands (epoch, number); a state of a robot that
+        // reports only its progress echoes the task it works on.
+        let echoed = st
+            .task_seq
+            .max(st.task.map(|p| p.seq))
+            .map(|seq| (st.epoch.unwrap_or(0), seq));
+        if let Some((order, _)) = v.unechoed
+            && echoed >= Some(order)
         {
             v.unechoed = v
                 .task
                 .as_ref()
-                .filter(|k| echoed < Some(k.seq))
-                .map(|k| (k.seq, k.t));
+                .filter(|k| echoed < Some(k.order()))
+                .map(|k| (k.order(), k.t));
         }
         // Lost for its silence and heard again, or lost as deaf and echoing the task it
         // was kept asked: back in play. A unit whose token vanished comes back with its
@@ -165,7 +168,7 @@ impl Incident {
         let current = v.task.clone();
         let progress = st.task;
         let refusal = st.refused.clone();
-        let taken = st.task_seq;
+        let taken = st.task_seq.map(|seq| (st.epoch.unwrap_or(0), seq));
         // A state changes the decisions only when it brings a unit into play or takes one
         // out; a moving unit's position is picked up by the periodic re-solve. Re-solving
         // on every state would cost a solve per message: 10 000 a second for 1000 units.
@@ -259,10 +262,13 @@ impl Incident {
                 TaskPhase::Travelling => {}
             }
         }
-        // The unit took a task numbered above the one this coordinator gave it: a task it
-        // never gave (forged, or another coordinator's). Give the unit its task again,
-        // numbered above, so that it hears this coordinator again.
-        if let (Some(taken), Some(task)) = (taken, self.units[&unit].task.clone())
+        // The unit took a task of this term numbered above the one this coordinator gave
+        // it: a task it never gave (forged). Give the unit its task again, numbered above,
+        // so that it hears this coordinator again. A task of a newer term is a newer
+        // coordinator's (or forged beside it): the unit refuses this one's now, and this
+        // one steps down when it hears that coordinator ([`Incident::deposed_by`]).
+        if let (Some((epoch, taken)), Some(task)) = (taken, self.units[&unit].task.clone())
+            && epoch == task.epoch
             && taken > task.seq
             && self.heed_seq(taken, t)
         {
@@ -343,6 +349,11 @@ impl Incident {
     /// take the task over rather than send the unit elsewhere. Its fire is the track the
     /// task names if that was recalled and is still burning, else the track within
     /// [`Policy::adopt_radius_m`] of where the unit believes it is, or a new track there.
+    ///
+    /// The task is given again in this coordinator's term: until a unit has taken a task
+    /// of the new term, the coordinator that gave the old one (deposed, perhaps only cut
+    /// off) could still command it. The unit takes up the attack again under the new
+    /// number, a pause of a second or two at a takeover.
     pub(super) fn adopt(&mut self, unit: &UnitId, p: TaskProgress, t: f64) -> Vec<Output> {
         let named = self
             .fusion
@@ -365,16 +376,6 @@ impl Incident {
                 FireState::Assigned
             };
         }
-        let task = Task {
-            unit: unit.clone(),
-            seq: p.seq,
-            t,
-            kind: TaskKind::Extinguish {
-                fire,
-                target: p.target,
-            },
-        };
-        self.units.get_mut(unit).expect("known unit").task = Some(task);
         self.log(
             t,
             Decision::Adopt {
@@ -384,7 +385,11 @@ impl Incident {
                 target: p.target,
             },
         );
-        vec![Output::Fire(self.track(fire, t))]
+        let kind = TaskKind::Extinguish {
+            fire,
+            target: p.target,
+        };
+        vec![Output::Fire(self.track(fire, t)), self.give(unit, kind, t)]
     }
 
     /// A unit's flame report.

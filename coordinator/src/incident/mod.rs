@@ -11,11 +11,11 @@ use std::collections::{BTreeMap, VecDeque};
 
 use firefleet_protocol::msg::{
     FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitKind, UnitState, UnitStatus,
-    task_seq_ceiling, task_seq_floor,
+    epoch_after, task_seq_ceiling, task_seq_floor,
 };
 use firefleet_protocol::scenario::{Scenario, Tunnel};
 use firefleet_protocol::spec::{GROUND, MONORAIL};
-use firefleet_protocol::validate::Invalid;
+use firefleet_protocol::validate::{Invalid, Validate};
 use firefleet_protocol::{FireId, UnitId};
 
 use crate::assign::{Mobility, Strategy};
@@ -72,7 +72,7 @@ struct UnitView {
     lost: Option<(Loss, f64)>,
     /// The first task given that the unit's states have not echoed yet, and since when it
     /// waits: the clock of [`Policy::deaf_after_s`].
-    unechoed: Option<(u64, f64)>,
+    unechoed: Option<((u64, u64), f64)>,
     /// This coordinator has given the unit a task: what the unit reports working on is
     /// then this coordinator's business, never a task to adopt.
     tasked: bool,
@@ -118,6 +118,8 @@ pub struct Incident {
     units: BTreeMap<UnitId, UnitView>,
     fusion: Fusion,
     seq: u64,
+    /// This coordinator's term ([`Incident::take_office`]); 0 until it takes office.
+    epoch: u64,
     lease_s: f64,
     strategy: Strategy,
     /// (unit, fire) pairs that failed, and until when not to retry them.
@@ -152,6 +154,7 @@ impl Incident {
                 .collect(),
             fusion: Fusion::default(),
             seq: 0,
+            epoch: 0,
             lease_s,
             strategy,
             failed: BTreeMap::new(),
@@ -232,9 +235,50 @@ impl Incident {
     /// Before the first decision: number every task above what `st` says its unit holds
     /// (unless the number is ahead of the clock, [`task_seq_ceiling`]).
     pub fn heed(&mut self, st: &UnitState, t: f64) {
-        for seq in [st.task_seq, st.task.map(|p| p.seq)].into_iter().flatten() {
+        for seq in [st.task_seq, st.task.map(|p| p.seq), st.epoch]
+            .into_iter()
+            .flatten()
+        {
             self.heed_seq(seq, t);
         }
+    }
+
+    /// Begin this coordinator's term as the coordinator of `rank` at site time `t`, after
+    /// heeding the units ([`Incident::heed`]) and before the first decision: its epoch is
+    /// above every task number and epoch heard and the clock's floor ([`epoch_after`]),
+    /// and its tasks are numbered from it. The epoch.
+    pub fn take_office(&mut self, rank: u32, t: f64) -> u64 {
+        self.epoch = epoch_after(self.seq.max(task_seq_floor(t)), rank);
+        self.seq = self.epoch - 1;
+        self.log(
+            t,
+            Decision::TookOffice {
+                epoch: self.epoch,
+                rank,
+            },
+        );
+        self.epoch
+    }
+
+    /// Whether `task`, heard on the bus from another coordinator, shows that this one has
+    /// been deposed (and if so the decision is logged): it is valid, not numbered ahead of
+    /// the clock, and of a newer term. Only coordinators may publish tasks (the site's
+    /// access rules), so one task is evidence enough; on a site without them a forged one
+    /// deposes this coordinator, and a standby takes office above it, as the units it
+    /// tasked report its epoch.
+    pub fn deposed_by(&mut self, task: &Task, t: f64) -> bool {
+        let deposed =
+            task.epoch > self.epoch && task.seq <= task_seq_ceiling(t) && task.validate().is_ok();
+        if deposed {
+            self.log(
+                t,
+                Decision::Deposed {
+                    epoch: self.epoch,
+                    by: task.epoch,
+                },
+            );
+        }
+        deposed
     }
 
     /// Decisions made since the last call, for the bus (and so the recording).
@@ -257,14 +301,15 @@ impl Incident {
         let seq = self.next_seq(t);
         let task = Task {
             unit: unit.clone(),
+            epoch: self.epoch,
             seq,
             t,
             kind,
         };
         let v = self.units.get_mut(unit).expect("known unit");
+        v.unechoed.get_or_insert((task.order(), t));
         v.task = Some(task.clone());
         v.tasked = true;
-        v.unechoed.get_or_insert((seq, t));
         Output::Task(task)
     }
 

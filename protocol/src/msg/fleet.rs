@@ -84,6 +84,9 @@ pub struct UnitState {
     /// unit's states stop echoing for ten seconds counts the unit as deaf and gives its
     /// fire to another. Every platform must fill it in.
     pub task_seq: Option<u64>,
+    /// The epoch of that task: the term of the coordinator the unit obeys. A coordinator
+    /// of an older term sees it has been deposed; one taking office starts above it.
+    pub epoch: Option<u64>,
     /// The unit's refusal of its latest task, because it would need barred space.
     pub refused: Option<Refusal>,
 }
@@ -194,12 +197,36 @@ pub fn task_seq_ceiling(t: f64) -> u64 {
     task_seq_floor(t).saturating_add(TASK_SEQ_LEAD_S * TASK_SEQ_PER_S)
 }
 
-/// `ff/<site>/unit/<id>/task`: a unit's current assignment. `seq` grows with every new
-/// decision, so a unit can ignore a stale or repeated one; see [`task_seq_ceiling`] for
-/// the ones it refuses.
+/// How many coordinators can stand ready for one site: an epoch's remainder modulo this
+/// is the rank of the coordinator that took office in it ([`epoch_after`]), so two never
+/// share an epoch.
+pub const EPOCH_RANKS: u64 = 16;
+
+/// The epoch a coordinator of `rank` takes office in: the first number above `above`
+/// whose remainder modulo [`EPOCH_RANKS`] is the rank.
+///
+/// An epoch is a task number, the first of the coordinator's term: one fencing mechanism
+/// with the task numbers, not two. Taken above everything the coordinator heard (the site
+/// clock's floor, every task number and epoch the units report), a new term outranks every
+/// term before it; and a deposed coordinator that comes back keeps its old epoch however
+/// high its task numbers climb, so a unit that has taken a task of the new term refuses
+/// it (units order tasks by epoch, then number).
+pub fn epoch_after(above: u64, rank: u32) -> u64 {
+    let rank = u64::from(rank) % EPOCH_RANKS;
+    let base = above.saturating_add(1);
+    let up = (rank + EPOCH_RANKS - base % EPOCH_RANKS) % EPOCH_RANKS;
+    base.saturating_add(up)
+}
+
+/// `ff/<site>/unit/<id>/task`: a unit's current assignment. A unit takes a task only if
+/// it outranks the last one it took: a newer epoch, or the same epoch and a higher
+/// number (`seq` grows with every decision), so it ignores stale and repeated tasks and
+/// every task of a deposed coordinator; see [`task_seq_ceiling`] for the ones it refuses.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct Task {
     pub unit: UnitId,
+    /// The term of the coordinator that gave it ([`epoch_after`]); never above `seq`.
+    pub epoch: u64,
     pub seq: u64,
     pub t: f64,
     pub kind: TaskKind,
@@ -218,9 +245,22 @@ impl fmt::Display for TaskKind {
     }
 }
 
+impl Task {
+    /// Where the task stands in a unit's order of tasks: epoch first, then number.
+    pub fn order(&self) -> (u64, u64) {
+        (self.epoch, self.seq)
+    }
+}
+
 impl Validate for Task {
     fn validate(&self) -> Result<(), Invalid> {
         finite("t", self.t)?;
+        if self.epoch > self.seq {
+            return Err(Invalid::new(
+                "epoch",
+                format!("{} is above the task's number {}", self.epoch, self.seq),
+            ));
+        }
         match self.kind {
             TaskKind::Standby => Ok(()),
             TaskKind::Cruise { goal } | TaskKind::Search { goal } => {
@@ -303,5 +343,36 @@ impl Validate for Decision {
         } else {
             Ok(())
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// An epoch is above what it was taken above, at most one round of ranks above
+        /// it, and names its rank: two ranks never share one.
+        #[test]
+        fn an_epoch_is_the_next_number_of_its_rank(above in 0u64..u64::MAX - 64, rank in 0u32..16) {
+            let e = epoch_after(above, rank);
+            prop_assert!(e > above && e <= above + EPOCH_RANKS);
+            prop_assert_eq!(e % EPOCH_RANKS, u64::from(rank));
+        }
+    }
+
+    #[test]
+    fn a_task_ranks_by_epoch_before_number() {
+        let task = |epoch, seq| Task {
+            unit: UnitId::new("ugv-1").unwrap(),
+            epoch,
+            seq,
+            t: 0.0,
+            kind: TaskKind::Standby,
+        };
+        assert!(task(32, 33).order() > task(16, 90_000).order());
+        assert!(task(16, 17).validate().is_ok());
+        assert!(task(17, 16).validate().is_err());
     }
 }

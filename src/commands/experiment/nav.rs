@@ -173,6 +173,7 @@ fn trial(s: &Scenario, seed: u64, lambda_m: Option<f64>) -> anyhow::Result<Trial
     }
     ctl.set_coordinator_present(true);
     ctl.on_task(
+        0,
         1,
         TaskKind::Extinguish {
             fire: FireId(1),

@@ -294,9 +294,11 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
                 .map_err(|e| anyhow::anyhow!("liveliness: {e}"))?,
         );
     }
-    // Each unit's state echoes the number of the latest task it took, as a real unit's
-    // does: the coordinator counts a unit whose states stop echoing its task as deaf.
+    // Each unit's state echoes the number and epoch of the latest task it took, as a real
+    // unit's does: the coordinator counts a unit whose states stop echoing its task as
+    // deaf. One coordinator, so one epoch.
     let echoed: Arc<Vec<AtomicU64>> = Arc::new((0..a.units).map(|_| AtomicU64::new(0)).collect());
+    let echoed_epoch = Arc::new(AtomicU64::new(0));
     let index: Arc<BTreeMap<UnitId, usize>> = Arc::new(
         ids.iter()
             .cloned()
@@ -304,7 +306,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
             .map(|(i, id)| (id, i))
             .collect(),
     );
-    let state = |i: usize, id: &UnitId, t: f64, task_seq: Option<u64>| UnitState {
+    let state = |i: usize, id: &UnitId, t: f64, task: Option<(u64, u64)>| UnitState {
         unit: id.clone(),
         kind: UnitKind::Ground,
         t,
@@ -317,7 +319,8 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         task: None,
         autonomous: false,
         refused: None,
-        task_seq,
+        task_seq: task.map(|(_, seq)| seq),
+        epoch: task.map(|(epoch, _)| epoch),
     };
 
     println!(
@@ -344,7 +347,8 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         );
     }
     let publisher = {
-        let (ids, published, echoed) = (ids.clone(), published.clone(), echoed.clone());
+        let (ids, published) = (ids.clone(), published.clone());
+        let (echoed, echoed_epoch) = (echoed.clone(), echoed_epoch.clone());
         let n = a.units;
         tokio::spawn(async move {
             let mut ticker = tokio::time::interval(Duration::from_millis(100));
@@ -353,7 +357,8 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
                 let t = now();
                 for (i, (id, publisher)) in ids.iter().zip(&publishers).enumerate() {
                     let seq = echoed[i].load(Ordering::Relaxed);
-                    let bytes = codec::encode(&state(i, id, t, (seq > 0).then_some(seq)));
+                    let epoch = echoed_epoch.load(Ordering::Relaxed);
+                    let bytes = codec::encode(&state(i, id, t, (seq > 0).then_some((epoch, seq))));
                     if publisher.put(bytes).await.is_err() {
                         return;
                     }
@@ -369,6 +374,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         tokio::spawn(async move {
             while let Some((_, task)) = tasks.recv().await {
                 if let Some(&i) = index.get(&task.unit) {
+                    echoed_epoch.fetch_max(task.epoch, Ordering::Relaxed);
                     echoed[i].fetch_max(task.seq, Ordering::Relaxed);
                 }
                 if let TaskKind::Extinguish { target, .. } = task.kind {

@@ -12,7 +12,7 @@
 use std::sync::Arc;
 
 use anyhow::Context;
-use firefleet_agent::controller::{BarredAhead, TaskAhead};
+use firefleet_agent::controller::{BarredAhead, TaskRefused};
 use firefleet_agent::ground::GroundController;
 use firefleet_agent::monorail::MonorailController;
 use firefleet_coordinator::Incident;
@@ -56,10 +56,10 @@ impl Unit {
         Ok(())
     }
 
-    fn on_task(&mut self, seq: u64, kind: TaskKind) -> Result<(), TaskAhead> {
+    fn on_task(&mut self, epoch: u64, seq: u64, kind: TaskKind) -> Result<(), TaskRefused> {
         match self {
-            Self::Ground(c) => c.on_task(seq, kind),
-            Self::Rail(c) => c.on_task(seq, kind),
+            Self::Ground(c) => c.on_task(epoch, seq, kind),
+            Self::Rail(c) => c.on_task(epoch, seq, kind),
         }
     }
 
@@ -249,7 +249,7 @@ impl SimFleet {
             if let Output::Task(task) = o {
                 self.invariants.observe(t, Event::Task(task.clone()));
                 if let Some((_, u)) = self.units.iter_mut().find(|(id, _)| *id == task.unit)
-                    && let Err(e) = u.on_task(task.seq, task.kind)
+                    && let Err(e) = u.on_task(task.epoch, task.seq, task.kind)
                 {
                     tracing::warn!(unit = %task.unit, "{e}");
                 }

@@ -1,6 +1,7 @@
 //! Liveness, fires going out, bad input, and a restarted coordinator.
 
 use super::*;
+use firefleet_protocol::msg::{EPOCH_RANKS, Task, epoch_after};
 
 #[test]
 fn a_lost_unit_s_fire_is_reassigned_at_once() {
@@ -63,11 +64,19 @@ fn a_restarted_coordinator_adopts_running_tasks_and_numbers_new_ones_above_them(
         phase: TaskPhase::Travelling,
         target: Point2::new(60.0, 1.0),
     };
+    // Heard before the first decision, as a starting coordinator does.
+    i.heed(&state("a", 10.0, Some(held)), 1.0);
+    let epoch = i.take_office(2, 1.0);
     let out = i.on_state(state("a", 10.0, Some(held)), 1.0).unwrap();
-    assert!(
-        all_tasks(&out).iter().all(|t| t.unit.as_str() != "a"),
-        "a keeps its task: {out:?}"
-    );
+    // a keeps its attack, given again in this coordinator's term: the deposed one may
+    // command it no more.
+    let again = tasks(&out);
+    assert_eq!(again.len(), 1, "{out:?}");
+    assert_eq!(again[0].unit.as_str(), "a");
+    assert!(matches!(again[0].kind, TaskKind::Extinguish { target, .. } if target == held.target));
+    assert_eq!(again[0].epoch, epoch);
+    assert!(again[0].seq >= epoch && epoch > 70_000, "{again:?}");
+    assert_eq!(epoch % EPOCH_RANKS, 2);
     assert!(decided(&i, |d| matches!(
         d,
         Decision::Adopt { unit, seq: 70000, .. } if unit == "a"
@@ -84,6 +93,7 @@ fn a_restarted_coordinator_adopts_running_tasks_and_numbers_new_ones_above_them(
     assert!(all_tasks(&out).iter().all(|t| t.seq > 70_000), "{out:?}");
     // a finishes the adopted task: its fire is out.
     let done = TaskProgress {
+        seq: again[0].seq,
         phase: TaskPhase::Extinguished,
         ..held
     };
@@ -414,4 +424,44 @@ fn a_unit_whose_fires_others_look_at_and_never_see_is_doubted_and_its_claims_dis
     let out = i.on_report(&report("b", 30.0), t + 6.0).unwrap();
     assert_eq!(confirmed(&i), before + 1);
     assert_eq!(tasks(&out).len(), 1, "{out:?}");
+}
+
+#[test]
+fn a_coordinator_of_a_newer_epoch_deposes_this_one_and_no_unit_is_fought_over() {
+    let mut i = incident();
+    let epoch = i.take_office(0, 1.0);
+    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let ours = tasks(&out)[0].clone();
+    assert_eq!(ours.epoch, epoch);
+    // The unit now obeys a coordinator that took office above this one: this one does not
+    // task it again (the unit would refuse), as it does a unit that took a forged task.
+    let newer = epoch_after(ours.seq + 10, 1);
+    let mut st = state(ours.unit.as_str(), 40.0, None);
+    st.task_seq = Some(newer);
+    st.epoch = Some(newer);
+    let out = i.on_state(st, 2.0).unwrap();
+    assert!(
+        all_tasks(&out).iter().all(|t| t.unit != ours.unit),
+        "{out:?}"
+    );
+    assert!(!decided(&i, |d| matches!(d, Decision::Superseded { .. })));
+    // That coordinator's task, heard on the bus, deposes this one; a task of this epoch or
+    // an older one, one numbered ahead of the clock and a malformed one do not.
+    let task = |epoch, seq| Task {
+        unit: ours.unit.clone(),
+        epoch,
+        seq,
+        t: 2.0,
+        kind: TaskKind::Standby,
+    };
+    assert!(!i.deposed_by(&task(epoch, epoch + 5), 2.0));
+    assert!(!i.deposed_by(&task(0, 5), 2.0));
+    assert!(!i.deposed_by(&task(u64::MAX, u64::MAX), 2.0));
+    assert!(!i.deposed_by(&task(newer + 1, newer), 2.0));
+    assert!(!decided(&i, |d| matches!(d, Decision::Deposed { .. })));
+    assert!(i.deposed_by(&task(newer, newer), 2.0));
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Deposed { epoch: e, by } if *e == epoch && *by == newer
+    )));
 }

@@ -36,6 +36,7 @@ fn state(unit: &str, x: f64, task: Option<TaskProgress>) -> UnitState {
         autonomous: false,
         refused: None,
         task_seq: None,
+        epoch: None,
     }
 }
 
@@ -44,6 +45,7 @@ fn state(unit: &str, x: f64, task: Option<TaskProgress>) -> UnitState {
 fn echoing(i: &Incident, st: UnitState) -> UnitState {
     UnitState {
         task_seq: i.units[&st.unit].task.as_ref().map(|k| k.seq),
+        epoch: i.units[&st.unit].task.as_ref().map(|k| k.epoch),
         ..st
     }
 }
