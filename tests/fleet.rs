@@ -508,6 +508,113 @@ async fn a_standby_coordinator_takes_over_when_the_one_in_charge_is_killed() {
     bus.close().await;
 }
 
+/// Send `signal` (`STOP`, `CONT`) to a child process.
+fn signal(child: &std::process::Child, signal: &str) {
+    let ok = Command::new("kill")
+        .args([format!("-{signal}"), child.id().to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill -{signal} {}", child.id());
+}
+
+/// The coordinator in charge paused (SIGSTOP, as a hung host or a cut link would leave it)
+/// until its lease lapses: the standby takes office in a newer epoch. Resumed, the old one
+/// still believes it commands, but no unit takes its tasks (units never go back an epoch),
+/// and it steps down at the first task of the new epoch it hears. The fire goes out.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_deposed_coordinator_that_comes_back_commands_nobody_and_steps_down() {
+    let (bus, endpoint) = router("handover").await;
+    let keys = bus.keys().clone();
+    let states = bus
+        .subscribe::<UnitState>(&keys.every_unit_state())
+        .await
+        .unwrap();
+    let tasks = bus
+        .subscribe::<Task>(&keys.every_unit_task())
+        .await
+        .unwrap();
+    let log = bus
+        .subscribe::<firefleet_protocol::msg::Decision>(&keys.coord_log())
+        .await
+        .unwrap();
+    let mut fleet = handover_fleet(&endpoint, &["coordinator", "--sim-clock"]);
+    fleet.0.push(spawn_role(
+        HANDOVER,
+        &endpoint,
+        &["coordinator", "--sim-clock", "--standby", "--rank", "1"],
+    ));
+    // Every unit's epoch, as its states say: it may only ever go up.
+    let mut obeyed: std::collections::BTreeMap<UnitId, u64> = Default::default();
+    let mut watch = |st: &UnitState| {
+        if let Some(e) = st.epoch {
+            let was = obeyed.insert(st.unit.clone(), e).unwrap_or(0);
+            assert!(e >= was, "{} went back from epoch {was} to {e}", st.unit);
+        }
+    };
+    first_at_work(&states, &mut watch).await;
+    let first = tokio::time::timeout(Duration::from_secs(10), tasks.recv())
+        .await
+        .unwrap()
+        .unwrap()
+        .1
+        .epoch;
+    signal(&fleet.0[1], "STOP");
+    // The standby's term begins once the paused coordinator's lease lapses. (Every inbox
+    // is read all along: a full one would hold up the test's whole session.)
+    let paused = Instant::now();
+    let second = tokio::time::timeout(Duration::from_secs(40), async {
+        loop {
+            tokio::select! {
+                Some((_, task)) = tasks.recv() => if task.epoch != first {
+                    return task.epoch;
+                },
+                Some((_, st)) = states.recv() => watch(&st),
+                Some(_) = log.recv() => {}
+            }
+        }
+    })
+    .await
+    .expect("the standby never took office");
+    assert!(second > first);
+    eprintln!(
+        "the standby took office {:.1} s after the pause",
+        paused.elapsed().as_secs_f64()
+    );
+    signal(&fleet.0[1], "CONT");
+    let deposed = tokio::time::timeout(Duration::from_secs(20), async {
+        loop {
+            tokio::select! {
+                Some((_, d)) = log.recv() => if d.text.starts_with("deposed") {
+                    return d.text;
+                },
+                Some((_, st)) = states.recv() => watch(&st),
+                Some(_) = tasks.recv() => {}
+            }
+        }
+    })
+    .await
+    .expect("the resumed coordinator never stepped down");
+    assert!(
+        deposed.contains(&format!("epoch {second} commands")),
+        "{deposed}"
+    );
+    // From its step-down on, nobody gives a task of the old term, and no unit goes back.
+    while tasks.try_recv().is_some() {}
+    let until = Instant::now() + Duration::from_secs(3);
+    while Instant::now() < until {
+        tokio::select! {
+            Some((_, task)) = tasks.recv() => assert_eq!(task.epoch, second, "{task:?}"),
+            Some((_, st)) = states.recv() => watch(&st),
+        }
+    }
+    let truths = bus.subscribe::<SimTruth>(&keys.sim_truth()).await.unwrap();
+    let truth = outcome(&truths, Duration::from_secs(90)).await;
+    assert!(truth.all_out(), "{truth:?}");
+    drop(fleet);
+    bus.close().await;
+}
+
 /// The first answer to a query on `key` that `take` accepts, asking again until one comes
 /// (or `within` passes).
 async fn first_answer<T>(

@@ -197,14 +197,22 @@ impl Incident {
         }
         // A task this coordinator did not give (it gave it before a restart) is adopted;
         // what a unit it tasked reports of an older task is not (a unit heard again after
-        // its lease lapsed may still be on a fire since given to another).
-        if current.is_none()
-            && !tasked
-            && let Some(p) = progress
-            && matches!(p.phase, TaskPhase::Travelling | TaskPhase::Spraying)
-        {
-            out.extend(self.adopt(&unit, p, t));
-            relevant = true;
+        // its lease lapsed may still be on a fire since given to another). A unit that
+        // holds any other task of an older term stands by in this one: until it takes a
+        // task of this term, the coordinator of that one (deposed, perhaps only cut off)
+        // could still command it.
+        if current.is_none() && !tasked {
+            match progress {
+                Some(p) if matches!(p.phase, TaskPhase::Travelling | TaskPhase::Spraying) => {
+                    out.extend(self.adopt(&unit, p, t));
+                    relevant = true;
+                }
+                _ if taken.is_some_and(|(epoch, _)| epoch < self.epoch) => {
+                    out.push(self.standby(&unit, t));
+                    relevant = true;
+                }
+                _ => {}
+            }
         }
         let current = self.units[&unit].task.clone();
         if let (Some(task), Some(p)) = (current, progress)

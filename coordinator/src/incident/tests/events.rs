@@ -465,3 +465,23 @@ fn a_coordinator_of_a_newer_epoch_deposes_this_one_and_no_unit_is_fought_over() 
         Decision::Deposed { epoch: e, by } if *e == epoch && *by == newer
     )));
 }
+
+#[test]
+fn a_unit_holding_an_older_term_s_task_is_brought_into_this_one_at_first_hearing() {
+    let mut i = incident();
+    let epoch = i.take_office(1, 30.0);
+    // b stands by under the coordinator this one replaced (epoch 16, task 2000).
+    let mut st = state("b", 40.0, None);
+    st.task_seq = Some(2_000);
+    st.epoch = Some(16);
+    let out = i.on_state(st.clone(), 30.5).unwrap();
+    let given = all_tasks(&out);
+    assert_eq!(given.len(), 1, "{out:?}");
+    assert_eq!(
+        (given[0].unit.as_str(), given[0].epoch, &given[0].kind),
+        ("b", epoch, &TaskKind::Standby)
+    );
+    // Once is enough: the next state (still echoing the old task) brings nothing new.
+    let out = i.on_state(st, 30.7).unwrap();
+    assert!(all_tasks(&out).is_empty(), "{out:?}");
+}
