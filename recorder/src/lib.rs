@@ -9,6 +9,7 @@
 //! Not here: deciding anything. The recorder never publishes but its answers to recall
 //! queries, so a fleet runs the same with or without it.
 
+pub mod parts;
 pub mod payload;
 pub mod reader;
 pub mod record;

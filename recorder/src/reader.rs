@@ -1,12 +1,15 @@
 //! Reading recordings back: the fire tracks and the commanders' goals a recording holds,
 //! for a coordinator resumed from the file of a recorder that is gone.
 //!
-//! A recording cut short (a recorder killed mid-write) is read up to the cut. Not here:
+//! A recording cut short (a recorder killed mid-write) is read up to the cut, and one the
+//! recorder did not live to merge from its parts, part by part ([`crate::parts`]). Not here:
 //! the timeline for people ([`crate::replay`]).
 
 use firefleet_protocol::SiteId;
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{FireTrack, GoalsInForce, latest_per_fire};
+
+use crate::parts::Recording;
 
 /// Why a recording could not be read at all.
 #[derive(Debug, thiserror::Error)]
@@ -31,18 +34,19 @@ pub struct Recorded {
 /// The latest track of every fire of `site` in a recording made by [`crate::record()`] (a JSON
 /// record on each `ff/<site>/fire/f<n>` channel), and the newest goals in force (on
 /// `ff/<site>/coord/goals`).
-pub fn incident_in(bytes: &[u8], site: &SiteId) -> Result<Recorded, NotARecording> {
+pub fn incident_in(recording: &Recording, site: &SiteId) -> Result<Recorded, NotARecording> {
     let mut out = Recorded::default();
     let mut tracks = Vec::new();
-    for (k, m) in mcap::MessageStream::new(bytes)?.enumerate() {
+    for (k, m) in recording.messages().enumerate() {
         let m = match m {
             Ok(m) => m,
             // Nothing readable at all: not a recording (a recording's first records are
             // the recorder's scene).
             Err(e) if k == 0 => return Err(NotARecording(e)),
+            // A file cut short ends there; the next part (if any) follows.
             Err(e) => {
                 out.cut_short = Some(e.to_string());
-                break;
+                continue;
             }
         };
         let refuse =
@@ -90,7 +94,7 @@ mod tests {
     }
 
     /// A recording as `record` writes it, of the given (topic, JSON) records.
-    fn recording(records: &[(&str, Vec<u8>)]) -> Vec<u8> {
+    fn recording(records: &[(&str, Vec<u8>)]) -> Recording {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("run.mcap");
         let mut sink = McapSink::create(&path).unwrap();
@@ -104,7 +108,7 @@ mod tests {
             }
         }
         sink.finish().unwrap();
-        std::fs::read(&path).unwrap()
+        Recording::load(&path).unwrap()
     }
 
     fn json(t: &FireTrack) -> Vec<u8> {
@@ -171,16 +175,16 @@ mod tests {
             .map(|k| ("ff/tunnel-a/fire/f1", json(&track(1, f64::from(k)))))
             .collect();
         records.push(("ff/tunnel-a/fire/f2", json(&track(2, 500.0))));
-        let whole = recording(&records);
+        let whole = &recording(&records).files[0].1;
         // A recorder killed mid-write: no summary, no footer, half a chunk.
-        let cut = &whole[..whole.len() / 2];
-        let r = incident_in(cut, &site).unwrap();
+        let cut = Recording::from_bytes(whole[..whole.len() / 2].to_vec());
+        let r = incident_in(&cut, &site).unwrap();
         assert!(r.cut_short.is_some());
         assert_eq!(r.tracks.len(), 1, "{:?}", r.tracks);
         assert!(r.tracks[0].t > 50.0, "up to the cut: {:?}", r.tracks);
         assert!(r.tracks.iter().all(|t| t.id == FireId(1)), "{:?}", r.tracks);
         assert!(
-            incident_in(b"not an mcap file", &site).is_err(),
+            incident_in(&Recording::from_bytes(b"not an mcap file".to_vec()), &site).is_err(),
             "not a recording at all"
         );
     }

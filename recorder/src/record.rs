@@ -19,13 +19,14 @@
 //! Chunks are zstd-compressed at its default level: a recording is JSON, about ten times
 //! smaller compressed, and every MCAP reader reads zstd. One compression thread: the
 //! recorder shares its machine with the fleet, and a second's chunk compresses in
-//! milliseconds.
+//! milliseconds. The file is written in parts that survive the recorder being killed at
+//! any instant, merged when it stops ([`crate::parts`]).
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::future::Future;
 use std::io::BufWriter;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use firefleet_protocol::FireId;
@@ -37,6 +38,7 @@ use firefleet_protocol::scenario::Scenario;
 use serde::Serialize;
 use zenoh::sample::SampleKind;
 
+use crate::parts::{Index, Part, Recording, part_path, parts_dir};
 use crate::payload::{GoalClear, Liveliness, Payload};
 use crate::scene;
 
@@ -54,6 +56,22 @@ pub enum RecordError {
     Bus(#[from] BusError),
     #[error("the site file does not serialise as TOML: {0}")]
     SiteFile(toml::ser::Error),
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error(
+        "{0} holds the parts of an earlier recording that was never merged: read it with `firefleet replay`, then move it away"
+    )]
+    PartsLeft(String),
+}
+
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RecordError + '_ {
+    move |source| RecordError::Io {
+        path: path.display().to_string(),
+        source,
+    }
 }
 
 /// The name of the metadata record every recording starts with ([`McapSink::describe`]).
@@ -76,7 +94,7 @@ const SCENE_PERIOD_S: f64 = 0.5;
 /// An MCAP file being written.
 pub(crate) struct McapSink {
     writer: mcap::Writer<BufWriter<File>>,
-    schemas: HashMap<&'static str, u16>,
+    schemas: HashMap<String, u16>,
     channels: HashMap<String, (u16, u32)>,
     summary: RecordSummary,
 }
@@ -124,17 +142,39 @@ impl McapSink {
     pub(crate) fn write(
         &mut self,
         topic: &str,
-        schema_name: &'static str,
+        schema_name: &str,
         schema: fn() -> schemars::Schema,
+        json: &[u8],
+        t_ns: u64,
+    ) -> Result<(), RecordError> {
+        let schema = || serde_json::to_vec(&schema()).expect("a schema serialises");
+        self.write_with(topic, schema_name, schema, json, t_ns)
+    }
+
+    /// Write `m`, read from another recording, on a channel of this one.
+    pub(crate) fn copy(&mut self, m: &mcap::Message) -> Result<(), RecordError> {
+        let (name, data) = match &m.channel.schema {
+            Some(s) => (s.name.as_str(), s.data.to_vec()),
+            None => ("", Vec::new()),
+        };
+        self.write_with(&m.channel.topic, name, || data, &m.data, m.log_time)
+    }
+
+    fn write_with(
+        &mut self,
+        topic: &str,
+        schema_name: &str,
+        schema: impl FnOnce() -> Vec<u8>,
         json: &[u8],
         t_ns: u64,
     ) -> Result<(), RecordError> {
         let schema_id = match self.schemas.get(schema_name) {
             Some(id) => *id,
             None => {
-                let data = serde_json::to_vec(&schema()).expect("a schema serialises");
-                let id = self.writer.add_schema(schema_name, "jsonschema", &data)?;
-                self.schemas.insert(schema_name, id);
+                let id = self
+                    .writer
+                    .add_schema(schema_name, "jsonschema", &schema())?;
+                self.schemas.insert(schema_name.to_owned(), id);
                 id
             }
         };
@@ -173,6 +213,110 @@ impl McapSink {
     }
 }
 
+/// The recording being written, in parts ([`crate::parts`]): every message goes to the
+/// current part, which is finished and replaced every [`PART_EVERY`].
+struct Parts<'a> {
+    out: PathBuf,
+    dir: PathBuf,
+    scenario: &'a Scenario,
+    /// The current part's number, and the part.
+    n: u32,
+    sink: McapSink,
+    index: Index,
+    skipped: u64,
+}
+
+impl<'a> Parts<'a> {
+    fn begin(out: &Path, scenario: &'a Scenario) -> Result<Self, RecordError> {
+        let dir = parts_dir(out);
+        if dir.exists() {
+            return Err(RecordError::PartsLeft(dir.display().to_string()));
+        }
+        std::fs::create_dir_all(&dir).map_err(io_error(&dir))?;
+        let sink = Self::part(&dir, 0, scenario)?;
+        Ok(Self {
+            out: out.to_owned(),
+            dir,
+            scenario,
+            n: 0,
+            sink,
+            index: Index::default(),
+            skipped: 0,
+        })
+    }
+
+    /// Part `n`, begun: what every part starts with, so that each stands alone.
+    fn part(dir: &Path, n: u32, scenario: &Scenario) -> Result<McapSink, RecordError> {
+        let mut sink = McapSink::create(&part_path(dir, n, false))?;
+        sink.describe(scenario)?;
+        let statics = scene::static_scene(scenario, scene::Time::from_nanos(now_ns()));
+        let json = serde_json::to_vec(&statics).expect("serialises");
+        sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &json, now_ns())?;
+        Ok(sink)
+    }
+
+    /// Finish the current part and begin the next.
+    fn rotate(&mut self) -> Result<(), RecordError> {
+        let next = Self::part(&self.dir, self.n + 1, self.scenario)?;
+        let done = std::mem::replace(&mut self.sink, next);
+        close(&self.dir, self.n, &mut self.index, done)?;
+        self.n += 1;
+        Ok(())
+    }
+
+    /// Finish the last part and merge the parts into the recording's one file (written
+    /// aside and renamed into place); the parts are removed once it is.
+    fn finish(self) -> Result<RecordSummary, RecordError> {
+        let Self {
+            out,
+            dir,
+            scenario,
+            n,
+            sink,
+            mut index,
+            skipped,
+        } = self;
+        close(&dir, n, &mut index, sink)?;
+        let mut aside = out.as_os_str().to_owned();
+        aside.push(".partial");
+        let aside = PathBuf::from(aside);
+        let mut merged = McapSink::create(&aside)?;
+        merged.describe(scenario)?;
+        let parts = Recording::load(&dir).map_err(|e| RecordError::Io {
+            path: dir.display().to_string(),
+            source: std::io::Error::other(e.to_string()),
+        })?;
+        for m in parts.messages() {
+            merged.copy(&m?)?;
+        }
+        let mut summary = merged.finish()?;
+        summary.skipped = skipped;
+        std::fs::rename(&aside, &out).map_err(io_error(&out))?;
+        std::fs::remove_dir_all(&dir).map_err(io_error(&dir))?;
+        Ok(summary)
+    }
+}
+
+/// Finish part `n` of `dir`, put it in place and list it in the index.
+fn close(dir: &Path, n: u32, index: &mut Index, sink: McapSink) -> Result<(), RecordError> {
+    let summary = sink.finish()?;
+    let (from, to) = (part_path(dir, n, false), part_path(dir, n, true));
+    std::fs::rename(&from, &to).map_err(io_error(&to))?;
+    index.parts.push(Part {
+        file: to
+            .file_name()
+            .expect("a part has a name")
+            .to_string_lossy()
+            .into_owned(),
+        messages: summary.messages,
+    });
+    index.store(dir).map_err(io_error(dir))
+}
+
+fn scene_schema() -> schemars::Schema {
+    schemars::schema_for!(scene::SceneUpdate)
+}
+
 fn now_ns() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
@@ -180,18 +324,19 @@ fn now_ns() -> u64 {
         .unwrap_or(0)
 }
 
-/// Record everything on the site until `shutdown` completes; the file is finished (summary
-/// and index written) however the recording ends.
+/// Record everything on the site until `shutdown` completes, in parts finished every
+/// `part_every` ([`crate::parts::PART_EVERY`] unless there is a reason), merged into the
+/// one file `path` when it does.
 pub async fn record(
     bus: &Bus,
     scenario: &Scenario,
     path: &Path,
+    part_every: std::time::Duration,
     shutdown: impl Future<Output = ()>,
 ) -> Result<RecordSummary, RecordError> {
     let keys = bus.keys().clone();
     let session = bus.session();
-    let mut sink = McapSink::create(path)?;
-    sink.describe(scenario)?;
+    let mut sink = Parts::begin(path, scenario)?;
     let result = async {
         let samples = session.declare_subscriber(keys.all()).await.map_err(BusError::from)?;
         let tokens = session.liveliness().declare_subscriber(keys.all()).history(true).await.map_err(BusError::from)?;
@@ -203,21 +348,20 @@ pub async fn record(
         let mut fires: BTreeMap<FireId, (f64, String, Vec<u8>)> = BTreeMap::new();
         // Newest by key: (its time, its bytes).
         let mut newest: BTreeMap<String, (f64, Vec<u8>)> = BTreeMap::new();
-        let scene_schema = || schemars::schema_for!(scene::SceneUpdate);
-        let statics = serde_json::to_vec(&scene::static_scene(scenario, scene::Time::from_nanos(now_ns()))).expect("serialises");
-        sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &statics, now_ns())?;
         let liveliness_topic = format!("{}/liveliness", keys.site());
         let mut next_scene = 0.0;
         let mut flush = tokio::time::interval(FLUSH_EVERY);
+        let mut rotate = tokio::time::interval_at(tokio::time::Instant::now() + part_every, part_every);
         tokio::pin!(shutdown);
         loop {
             tokio::select! {
                 _ = &mut shutdown => break,
-                _ = flush.tick() => sink.flush()?,
+                _ = flush.tick() => sink.sink.flush()?,
+                _ = rotate.tick() => sink.rotate()?,
                 Ok(s) = tokens.recv_async() => {
                     let l = Liveliness { key: s.key_expr().to_string(), alive: s.kind() == SampleKind::Put };
                     let json = serde_json::to_vec(&l).expect("serialises");
-                    sink.write(&liveliness_topic, Liveliness::NAME, || schemars::schema_for!(Liveliness), &json, now_ns())?;
+                    sink.sink.write(&liveliness_topic, Liveliness::NAME, || schemars::schema_for!(Liveliness), &json, now_ns())?;
                 }
                 Ok(query) = recall.recv_async() => {
                     for (_, key, bytes) in fires.values() {
@@ -240,7 +384,7 @@ pub async fn record(
                         && let Ok((_, Topic::ZoneGoal(zone, by))) = keys::parse(key)
                     {
                         let json = serde_json::to_vec(&GoalClear { zone, by }).expect("serialises");
-                        sink.write(key, GoalClear::NAME, || schemars::schema_for!(GoalClear), &json, now_ns())?;
+                        sink.sink.write(key, GoalClear::NAME, || schemars::schema_for!(GoalClear), &json, now_ns())?;
                         continue;
                     }
                     let bytes = s.payload().to_bytes();
@@ -249,27 +393,27 @@ pub async fn record(
                     let p = match parsed {
                         Ok(p) => p,
                         Err(reason) => {
-                            sink.summary.skipped += 1;
+                            sink.skipped += 1;
                             tracing::warn!(key, "not recorded: {reason}");
                             continue;
                         }
                     };
                     let t = now_ns();
-                    sink.write(key, p.name(), p.schema(), &p.to_json(), t)?;
+                    sink.sink.write(key, p.name(), p.schema(), &p.to_json(), t)?;
                     let log = |log: scene::Log| serde_json::to_vec(&log).expect("serialises");
                     match p {
                         Payload::SimTruth(truth) if truth.t >= next_scene => {
                             next_scene = truth.t + SCENE_PERIOD_S;
                             let update = scene::truth_scene(scenario, &truth, scene::Time::from_nanos(t));
-                            sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &serde_json::to_vec(&update).expect("serialises"), t)?;
+                            sink.sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &serde_json::to_vec(&update).expect("serialises"), t)?;
                         }
                         Payload::Decision(decision) => {
                             let entry = log(scene::Log::info("coordinator", &decision, scene::Time::from_nanos(t)));
-                            sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &entry, t)?;
+                            sink.sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &entry, t)?;
                         }
                         Payload::Ack(ack) => {
                             let entry = log(scene::Log::ack(&ack, scene::Time::from_nanos(t)));
-                            sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &entry, t)?;
+                            sink.sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &entry, t)?;
                         }
                         Payload::Barred(BarredSpace { t: at, .. }) | Payload::Goals(GoalsInForce { t: at, .. })
                             if newest.get(key).is_none_or(|(old, _)| *old <= at) =>

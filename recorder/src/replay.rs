@@ -15,6 +15,7 @@ use std::io::Write;
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::Bar;
 
+use crate::parts::Recording;
 use crate::payload::{GoalClear, Liveliness, Payload};
 
 /// Why a timeline could not be written.
@@ -22,27 +23,30 @@ use crate::payload::{GoalClear, Liveliness, Payload};
 pub enum ReplayError {
     #[error("not an MCAP file: {0}")]
     NotMcap(mcap::McapError),
-    #[error("corrupt MCAP record after {after} messages: {source}")]
-    Corrupt {
-        after: usize,
-        source: mcap::McapError,
-    },
     #[error(transparent)]
     Io(#[from] std::io::Error),
 }
 
-/// Write the timeline of the recording `bytes` to `out`.
-pub fn timeline(bytes: &[u8], out: &mut impl Write) -> Result<(), ReplayError> {
+/// Write the timeline of `recording` to `out`.
+pub fn timeline(recording: &Recording, out: &mut impl Write) -> Result<(), ReplayError> {
     let mut site_t = 0.0f64;
     let mut tracks: BTreeMap<String, String> = BTreeMap::new();
     let mut truth: BTreeMap<String, String> = BTreeMap::new();
     let mut barred = Vec::new();
     let (mut decisions, mut messages) = (0usize, 0usize);
-    for m in mcap::MessageStream::new(bytes).map_err(ReplayError::NotMcap)? {
-        let m = m.map_err(|source| ReplayError::Corrupt {
-            after: messages,
-            source,
-        })?;
+    for m in recording.messages() {
+        // A file cut short (the part a killed recorder was writing) is told up to the cut.
+        let m = match m {
+            Ok(m) => m,
+            Err(source) if messages == 0 => return Err(ReplayError::NotMcap(source)),
+            Err(e) => {
+                writeln!(
+                    out,
+                    "t={site_t:7.1} s  (the recording is cut short here: {e})"
+                )?;
+                continue;
+            }
+        };
         messages += 1;
         let schema = m.channel.schema.as_ref().map(|s| s.name.as_str());
         if schema == Some(Liveliness::NAME) {

@@ -8,17 +8,18 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
 use clap::Args;
 use firefleet_coordinator::invariants::{Event, Invariants};
 use firefleet_protocol::keys::{self, Topic};
+use firefleet_recorder::parts::Recording;
 use firefleet_recorder::payload::{GoalClear, Payload};
 
 use super::{ScenarioArg, scenarios};
 
 #[derive(Args, Debug)]
 pub struct CheckArgs {
-    /// The recording.
+    /// The recording: its MCAP file, or the parts a recorder killed before it could merge
+    /// them left (`FILE.mcap.parts/`; naming `FILE.mcap` finds them too).
     file: PathBuf,
     /// The site the recording is of.
     #[command(flatten)]
@@ -27,17 +28,21 @@ pub struct CheckArgs {
 
 pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
-    let bytes = std::fs::read(&a.file).with_context(|| format!("reading {}", a.file.display()))?;
+    let recording = Recording::load(&a.file)?;
     let mut inv = Invariants::new(&scenario);
     let (mut t, mut messages) = (0.0, 0usize);
-    let stream = mcap::MessageStream::new(&bytes)
-        .with_context(|| format!("{}: not an MCAP file", a.file.display()))?;
-    for m in stream {
+    for m in recording.messages() {
         let m = match m {
             Ok(m) => m,
+            Err(e) if messages == 0 => {
+                anyhow::bail!("{}: not an MCAP recording: {e}", a.file.display())
+            }
             Err(e) => {
-                eprintln!("{}: read up to a corrupt record: {e}", a.file.display());
-                break;
+                eprintln!(
+                    "{}: a file of the recording is cut short: {e}",
+                    a.file.display()
+                );
+                continue;
             }
         };
         let Ok((site, topic)) = keys::parse(&m.channel.topic) else {

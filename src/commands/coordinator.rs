@@ -11,6 +11,7 @@ use clap::Args;
 use firefleet_coordinator::CoordinatorOptions;
 use firefleet_protocol::SiteId;
 use firefleet_protocol::msg::EPOCH_RANKS;
+use firefleet_recorder::parts::Recording;
 use firefleet_recorder::reader::Recorded;
 
 use super::{ScenarioArg, positive_f64, scenarios};
@@ -74,8 +75,9 @@ pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
 /// The latest fire tracks and goals in force of `site` recorded in `path`, for
 /// `coordinator --resume`.
 fn recorded(path: &Path, site: &SiteId) -> anyhow::Result<Recorded> {
-    let bytes = std::fs::read(path).with_context(|| format!("--resume {}", path.display()))?;
-    let r = firefleet_recorder::reader::incident_in(&bytes, site)
+    let recording =
+        Recording::load(path).with_context(|| format!("--resume {}", path.display()))?;
+    let r = firefleet_recorder::reader::incident_in(&recording, site)
         .with_context(|| format!("--resume {}", path.display()))?;
     if let Some(why) = &r.cut_short {
         tracing::warn!(file = %path.display(), "the recording ends early ({why}); using what comes before");

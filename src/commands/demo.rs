@@ -558,21 +558,20 @@ async fn stop_children(children: Vec<(String, Child)>) {
     let (recorder, others): (Vec<_>, Vec<_>) = children
         .into_iter()
         .partition(|(role, _)| role == "recorder");
-    stop(others).await;
-    stop(recorder).await;
+    stop(others, Duration::from_secs(5)).await;
+    // The recorder merges its parts into one file as it stops: a minute of a long
+    // recording's compression, at most (and were it killed, the parts would stay).
+    stop(recorder, Duration::from_secs(120)).await;
 }
 
-/// Close the children's stdin (their signal to stop), wait a little, kill stragglers.
-async fn stop(mut children: Vec<(String, Child)>) {
+/// Close the children's stdin (their signal to stop), wait up to `grace`, kill stragglers.
+async fn stop(mut children: Vec<(String, Child)>, grace: Duration) {
     for (_, c) in &mut children {
         drop(c.stdin.take());
     }
     for (role, c) in &mut children {
-        if tokio::time::timeout(Duration::from_secs(5), c.wait())
-            .await
-            .is_err()
-        {
-            tracing::warn!(role, "did not stop in 5 s; killing it");
+        if tokio::time::timeout(grace, c.wait()).await.is_err() {
+            tracing::warn!(role, "did not stop in {grace:?}; killing it");
             let _ = c.kill().await;
         }
     }
