@@ -17,6 +17,12 @@
 //! - **attack where barred**: a unit spraying a fire in a zone whose goal forbids attack
 //!   (monitor, keep-out, evacuate), later than [`REACTION_S`] after the goal.
 //!
+//! - **epoch went back**: a unit's state reports a task of an older epoch than an earlier
+//!   state did: it obeyed a deposed coordinator (fencing failed).
+//! - **two commanders in one epoch**: a task to a unit numbered below one already given
+//!   to it in the same epoch. One coordinator's numbers to a unit only grow (it re-sends
+//!   the latest), so two coordinators shared the epoch.
+//!
 //! Goals are applied with the coordinator's own rules ([`crate::goals::Goals`]: ids
 //! replace, priorities, expiry), so a goal the coordinator refused binds nobody here
 //! either. Pure: no I/O; reading a recording into events is the caller's business.
@@ -92,6 +98,21 @@ pub enum Violation {
         zone: ZoneId,
         goal: String,
     },
+    /// `unit` reported a task of epoch `to` after one of the newer epoch `from`.
+    EpochWentBack {
+        unit: UnitId,
+        t: f64,
+        from: u64,
+        to: u64,
+    },
+    /// Task `seq` of `epoch` went to `unit` after task `after` of the same epoch.
+    TwoCommanders {
+        unit: UnitId,
+        t: f64,
+        epoch: u64,
+        seq: u64,
+        after: u64,
+    },
 }
 
 impl std::fmt::Display for Violation {
@@ -132,6 +153,20 @@ impl std::fmt::Display for Violation {
                 "t={t:.1} s: {unit} sprayed a fire at ({:.1}, {:.1}) in zone {zone}, where goal '{goal}' forbids attack",
                 target.x, target.y
             ),
+            Violation::EpochWentBack { unit, t, from, to } => write!(
+                f,
+                "t={t:.1} s: {unit} took a task of epoch {to} after one of epoch {from}: it obeyed a deposed coordinator"
+            ),
+            Violation::TwoCommanders {
+                unit,
+                t,
+                epoch,
+                seq,
+                after,
+            } => write!(
+                f,
+                "t={t:.1} s: task {seq} of epoch {epoch} went to {unit} after task {after} of that epoch: two coordinators commanded in one epoch"
+            ),
         }
     }
 }
@@ -149,6 +184,10 @@ pub struct Invariants {
     deadlines: BTreeMap<(UnitId, String), f64>,
     /// The open inside-barred violation of each (unit, goal id), to extend while it lasts.
     open: BTreeMap<(UnitId, String), usize>,
+    /// The newest epoch each unit's states reported.
+    epochs: BTreeMap<UnitId, u64>,
+    /// The highest task number given to each unit in each epoch.
+    issued: BTreeMap<(UnitId, u64), u64>,
     violations: Vec<Violation>,
 }
 
@@ -162,6 +201,8 @@ impl Invariants {
             units: BTreeMap::new(),
             deadlines: BTreeMap::new(),
             open: BTreeMap::new(),
+            epochs: BTreeMap::new(),
+            issued: BTreeMap::new(),
             violations: Vec::new(),
         }
     }
@@ -244,6 +285,24 @@ impl Invariants {
 
     fn check_state(&mut self, st: UnitState, t: f64) {
         let unit = st.unit.clone();
+        if let Some(epoch) = st.epoch {
+            let newest = self.epochs.entry(unit.clone()).or_insert(epoch);
+            let from = *newest;
+            *newest = from.max(epoch);
+            // Once per epoch gone back to: states come ten times a second.
+            if epoch < from
+                && !self.violations.iter().any(|w| {
+                    matches!(w, Violation::EpochWentBack { unit: u, to, .. } if *u == unit && *to == epoch)
+                })
+            {
+                self.violations.push(Violation::EpochWentBack {
+                    unit: unit.clone(),
+                    t,
+                    from,
+                    to: epoch,
+                });
+            }
+        }
         let p = st.pose.position();
         let barred = self.goals.barred_space(t);
         if let Some(b) = barred.entry_at(st.kind, self.tunnel.chainage(p)) {
@@ -311,6 +370,27 @@ impl Invariants {
     }
 
     fn check_task(&mut self, task: &Task, t: f64) {
+        let last = self
+            .issued
+            .entry((task.unit.clone(), task.epoch))
+            .or_insert(task.seq);
+        let after = *last;
+        *last = after.max(task.seq);
+        // Once per task: tasks are re-sent every second.
+        if task.seq < after
+            && !self.violations.iter().any(|w| {
+                matches!(w, Violation::TwoCommanders { unit, epoch, seq, .. }
+                    if *unit == task.unit && *epoch == task.epoch && *seq == task.seq)
+            })
+        {
+            self.violations.push(Violation::TwoCommanders {
+                unit: task.unit.clone(),
+                t,
+                epoch: task.epoch,
+                seq: task.seq,
+                after,
+            });
+        }
         let to = match task.kind {
             TaskKind::Cruise { goal } | TaskKind::Search { goal } => goal,
             TaskKind::Extinguish { target, .. } => target,
@@ -544,5 +624,63 @@ mod tests {
         }
         let v = check(vec![(1.0, g), (2.0, state(150.0, 2.0, None))]);
         assert!(v.is_empty(), "{v:?}");
+    }
+
+    #[test]
+    fn a_unit_going_back_an_epoch_and_two_commanders_in_one_epoch_are_violations() {
+        let mut inv = Invariants::new(&site());
+        let task = |epoch, seq| {
+            Event::Task(Task {
+                unit: u(),
+                epoch,
+                seq,
+                t: 0.0,
+                kind: TaskKind::Standby,
+            })
+        };
+        let with_epoch = |epoch, t| match state(10.0, t, None) {
+            Event::State(st) => Event::State(UnitState {
+                epoch: Some(epoch),
+                task_seq: Some(epoch),
+                ..st
+            }),
+            other => other,
+        };
+        // One coordinator re-sending, then a newer one: nothing wrong.
+        for (t, e) in [
+            (1.0, task(16, 16)),
+            (2.0, task(16, 16)),
+            (3.0, task(16, 20)),
+        ] {
+            inv.observe(t, e);
+        }
+        inv.observe(3.5, with_epoch(16, 3.5));
+        inv.observe(4.0, task(33, 33));
+        inv.observe(4.5, with_epoch(33, 4.5));
+        assert!(inv.violations().is_empty(), "{:?}", inv.violations());
+        // A second coordinator in epoch 16 (its numbers below the first's), and the unit
+        // obeying the deposed epoch again: each reported once.
+        for t in [5.0, 6.0] {
+            inv.observe(t, task(16, 18));
+            inv.observe(t, with_epoch(16, t));
+        }
+        assert_eq!(
+            inv.violations(),
+            [
+                Violation::TwoCommanders {
+                    unit: u(),
+                    t: 5.0,
+                    epoch: 16,
+                    seq: 18,
+                    after: 20
+                },
+                Violation::EpochWentBack {
+                    unit: u(),
+                    t: 5.0,
+                    from: 33,
+                    to: 16
+                }
+            ]
+        );
     }
 }
