@@ -8,9 +8,11 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context;
 use clap::Args;
-use firefleet_coordinator::invariants::{Event, Invariants};
+use firefleet_coordinator::invariants::{Event, Invariants, Violation};
 use firefleet_protocol::keys::{self, Topic};
+use firefleet_protocol::scenario::Scenario;
 use firefleet_recorder::parts::Recording;
 use firefleet_recorder::payload::{GoalClear, Payload};
 
@@ -29,19 +31,38 @@ pub struct CheckArgs {
 pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
     let recording = Recording::load(&a.file)?;
-    let mut inv = Invariants::new(&scenario);
+    let (violations, messages) =
+        violations(&recording, &scenario).with_context(|| a.file.display().to_string())?;
+    for v in &violations {
+        println!("{v}");
+    }
+    println!(
+        "{}: {messages} messages of site '{}', {} violations",
+        a.file.display(),
+        scenario.site,
+        violations.len()
+    );
+    Ok(if violations.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// The invariants' violations over `recording` of `scenario`'s site, and how many of its
+/// messages are of the site.
+pub fn violations(
+    recording: &Recording,
+    scenario: &Scenario,
+) -> anyhow::Result<(Vec<Violation>, usize)> {
+    let mut inv = Invariants::new(scenario);
     let (mut t, mut messages) = (0.0, 0usize);
     for m in recording.messages() {
         let m = match m {
             Ok(m) => m,
-            Err(e) if messages == 0 => {
-                anyhow::bail!("{}: not an MCAP recording: {e}", a.file.display())
-            }
+            Err(e) if messages == 0 => anyhow::bail!("not an MCAP recording: {e}"),
             Err(e) => {
-                eprintln!(
-                    "{}: a file of the recording is cut short: {e}",
-                    a.file.display()
-                );
+                eprintln!("a file of the recording is cut short: {e}");
                 continue;
             }
         };
@@ -85,19 +106,5 @@ pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
             inv.observe(t, e);
         }
     }
-    let violations = inv.violations();
-    for v in violations {
-        println!("{v}");
-    }
-    println!(
-        "{}: {messages} messages of site '{}', {} violations",
-        a.file.display(),
-        scenario.site,
-        violations.len()
-    );
-    Ok(if violations.is_empty() {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
+    Ok((inv.violations().to_vec(), messages))
 }

@@ -26,6 +26,7 @@ use crate::commands::write_json;
 mod costmap_ga;
 mod fleet;
 mod nav;
+mod nemesis;
 mod plot;
 mod robogat;
 mod scale;
@@ -48,6 +49,9 @@ pub enum ExperimentCommand {
     Nav(nav::NavArgs),
     /// Keep-out and evacuate goals issued mid-incident on the shipped scenarios.
     Zones(zones::ZonesArgs),
+    /// The fleet across Linux network namespaces under partitions, loss, kills and
+    /// pauses, one fault a run, checked over its recordings (needs root).
+    Nemesis(nemesis::NemesisArgs),
 }
 
 #[derive(Args, Debug)]
@@ -71,6 +75,7 @@ pub async fn run(cmd: ExperimentCommand) -> anyhow::Result<ExitCode> {
         ExperimentCommand::CostmapGa(a) => costmap_ga::run(a),
         ExperimentCommand::Nav(a) => nav::run(a),
         ExperimentCommand::Zones(a) => zones::run(a),
+        ExperimentCommand::Nemesis(a) => nemesis::run(a).await,
     }
 }
 

@@ -1,0 +1,677 @@
+//! `firefleet experiment nemesis`: the fleet as separate processes in separate Linux network
+//! namespaces, one fault injected per run, and checkers over what it recorded.
+//!
+//! Jepsen's method on a fire ground. Each process of a fleet (the coordinator, a standby,
+//! one agent per unit) runs in a network namespace of its own, joined to a router
+//! namespace by a veth pair; the router, the simulator (the world, not under test) and the
+//! recorder (the observer) share the router namespace, and the harness joins it over a
+//! veth of its own. Faults are iptables rules in the router namespace on one process's
+//! link (loss with `-m statistic`, a partition, one direction dropped) or signals (a
+//! process killed, paused, the router restarted). The fault hits the first unit to set
+//! out for a fire (or the coordinator in charge), at that moment, for [`FAULT`].
+//!
+//! Per run: the time from the fault's end until the coordinator sees every unit in play
+//! again, whether every fire went out, and the recording's invariants (`firefleet check`:
+//! barred space, no unit going back an epoch, no two coordinators in one epoch). The
+//! process exits 1 if any run fails one of them.
+//!
+//! What this kernel lacks: `tc netem`, so no delay or jitter is injected here (a delaying
+//! userspace proxy is the way; not built yet). In the simulator a unit's body is reached
+//! over the same link as its coordinator, so a fault on a unit's link also cuts its
+//! sensors and drive, which a robot's own machine would not. Needs root, `ip` and
+//! `iptables`; without them it says so and exits 2, never passing silently.
+
+use std::path::{Path, PathBuf};
+use std::process::{ExitCode, Stdio};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, bail};
+use clap::{Args, ValueEnum};
+use firefleet_protocol::UnitId;
+use firefleet_protocol::bus::{Bus, Connect, Mode};
+use firefleet_protocol::keys::{self, Topic};
+use firefleet_protocol::msg::{Decision, IncidentStatus, SimTruth, Task, UnitState};
+use firefleet_protocol::scenario::Scenario;
+use firefleet_recorder::parts::Recording;
+use serde::Serialize;
+use tokio::process::{Child, Command};
+
+use crate::commands::check::violations;
+use crate::commands::{positive_f64, scenarios, write_json};
+
+/// How long a fault that lasts (a partition, loss, a pause) lasts, wall-clock.
+const FAULT: Duration = Duration::from_secs(15);
+/// The Zenoh port the router listens on in its namespace.
+const PORT: u16 = 7447;
+
+#[derive(Args, Debug)]
+pub struct NemesisArgs {
+    /// A built-in scenario name or a scenario file.
+    #[arg(long, default_value = "vehicle-collision")]
+    scenario: String,
+    /// Simulated seconds per wall-clock second: slow enough that the scenario's time
+    /// limit comes well after a fault and the recovery from it (the simulator stops at
+    /// the limit, and its units with it).
+    #[arg(long, default_value_t = 4.0, value_parser = positive_f64)]
+    time_scale: f64,
+    /// The faults to run, one fleet each (default: all).
+    #[arg(long, value_delimiter = ',')]
+    faults: Vec<Fault>,
+    /// Where the runs' recordings go (default: a temporary directory, removed).
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Also write the table as JSON.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Fault {
+    /// 30 % of packets dropped both ways on the unit's link.
+    Loss,
+    /// The unit cut off, then healed.
+    Partition,
+    /// Nothing reaches the unit; what it sends still arrives.
+    OneWay,
+    /// The unit's agent paused (SIGSTOP), then resumed.
+    PauseUnit,
+    /// The coordinator in charge killed (SIGKILL); a standby runs beside it.
+    KillCoordinator,
+    /// The coordinator in charge cut off (split brain: the standby takes office on the
+    /// other side), then healed.
+    PartitionCoordinator,
+    /// The router killed and started again 2 s later.
+    RestartRouter,
+}
+
+impl Fault {
+    const ALL: [Fault; 7] = [
+        Fault::Loss,
+        Fault::Partition,
+        Fault::OneWay,
+        Fault::PauseUnit,
+        Fault::KillCoordinator,
+        Fault::PartitionCoordinator,
+        Fault::RestartRouter,
+    ];
+}
+
+/// One run's line of the table.
+#[derive(Debug, Serialize)]
+struct Row {
+    fault: Fault,
+    /// The unit or process the fault hit.
+    target: String,
+    /// From the fault's end until the coordinator had every unit in play, s.
+    recovered_s: Option<f64>,
+    all_out: bool,
+    /// Site time when the last fire went out.
+    out_at_s: Option<f64>,
+    violations: Vec<String>,
+    /// The coordinators' epochs the recorded tasks carry, in order of first use.
+    epochs: Vec<u64>,
+    /// Coordinators that stepped down, as they logged it.
+    deposed: usize,
+    /// From the fault's end until the deposed coordinator stepped down, s (a coordinator
+    /// cut off only).
+    stepped_down_s: Option<f64>,
+}
+
+impl Row {
+    fn ok(&self) -> bool {
+        // Cut off, the coordinator in charge is replaced, and healed, it steps down.
+        let fenced = self.fault != Fault::PartitionCoordinator
+            || (self.epochs.len() >= 2 && self.stepped_down_s.is_some());
+        self.recovered_s.is_some() && self.all_out && self.violations.is_empty() && fenced
+    }
+}
+
+/// The epochs the tasks of `recording` carry, in order of first use, and how many
+/// coordinators logged that they stepped down.
+fn terms(recording: &Recording) -> (Vec<u64>, usize) {
+    let (mut epochs, mut deposed) = (Vec::new(), 0);
+    for m in recording.messages().filter_map(Result::ok) {
+        match keys::parse(&m.channel.topic) {
+            Ok((_, Topic::UnitTask(_))) => {
+                if let Ok(task) = serde_json::from_slice::<Task>(&m.data)
+                    && !epochs.contains(&task.epoch)
+                {
+                    epochs.push(task.epoch);
+                }
+            }
+            Ok((_, Topic::CoordLog)) => {
+                if serde_json::from_slice::<Decision>(&m.data)
+                    .is_ok_and(|d| d.text.starts_with("deposed"))
+                {
+                    deposed += 1;
+                }
+            }
+            _ => {}
+        }
+    }
+    (epochs, deposed)
+}
+
+pub async fn run(a: NemesisArgs) -> anyhow::Result<ExitCode> {
+    if let Err(why) = preflight() {
+        eprintln!("SKIPPED: the nemesis needs network namespaces: {why}");
+        return Ok(ExitCode::from(2));
+    }
+    let scenario = scenarios::resolve(&a.scenario)?;
+    let faults = if a.faults.is_empty() {
+        Fault::ALL.to_vec()
+    } else {
+        a.faults.clone()
+    };
+    let temp = tempfile::tempdir()?;
+    let out = a.out.clone().unwrap_or_else(|| temp.path().to_owned());
+    std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
+    let mut rows = Vec::new();
+    for (run, fault) in faults.into_iter().enumerate() {
+        let recording = out.join(format!("nemesis-{}.mcap", fault_name(fault)));
+        // An earlier run's, merged or not.
+        let _ = std::fs::remove_file(&recording);
+        let _ = std::fs::remove_dir_all(firefleet_recorder::parts::parts_dir(&recording));
+        let row = one_run(run, &a, &scenario, fault, &recording)
+            .await
+            .with_context(|| format!("the {} run", fault_name(fault)))?;
+        println!(
+            "{:<22} {:<12} recovered {:>7}  all out {:<5} epochs {} deposed {}  {}",
+            fault_name(fault),
+            row.target,
+            row.recovered_s
+                .map_or("never".to_owned(), |s| format!("{s:.1} s")),
+            row.all_out,
+            row.epochs.len(),
+            row.stepped_down_s
+                .map_or(row.deposed.to_string(), |s| format!(
+                    "{} ({s:.1} s after)",
+                    row.deposed
+                )),
+            if row.violations.is_empty() {
+                "invariants hold".to_owned()
+            } else {
+                format!("{} violations", row.violations.len())
+            }
+        );
+        for v in &row.violations {
+            println!("    {v}");
+        }
+        rows.push(row);
+    }
+    write_json(a.json.as_deref(), &rows)?;
+    Ok(if rows.iter().all(Row::ok) {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+fn fault_name(f: Fault) -> String {
+    f.to_possible_value()
+        .expect("no variant is skipped")
+        .get_name()
+        .to_owned()
+}
+
+/// Root, `ip` and `iptables`, and a namespace made and removed.
+fn preflight() -> anyhow::Result<()> {
+    let probe = format!("ffprobe{}", std::process::id());
+    sh("ip", &["netns", "add", &probe])?;
+    let iptables = sh("ip", &["netns", "exec", &probe, "iptables", "-L", "-n"]);
+    sh("ip", &["netns", "del", &probe])?;
+    iptables.map(|_| ())
+}
+
+/// Run `cmd args`, failing with what it printed.
+fn sh(cmd: &str, args: &[&str]) -> anyhow::Result<String> {
+    let out = std::process::Command::new(cmd)
+        .args(args)
+        .output()
+        .with_context(|| format!("running {cmd}"))?;
+    if !out.status.success() {
+        bail!(
+            "{cmd} {}: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// The namespaces of one run: the router's, and one per process, each joined to the
+/// router's by a veth pair (10.200.i.2 on the process's side, 10.200.i.1 on the router's).
+/// Link 0 is the harness's own, from the initial namespace. Removed when dropped.
+struct Net {
+    tag: String,
+    links: u8,
+}
+
+impl Net {
+    /// The namespaces of run `run` of this process.
+    fn new(run: usize) -> anyhow::Result<Self> {
+        // Short (interface names take 15 characters at most), and new for every run: a
+        // namespace's removal completes in the background.
+        let tag = format!("ff{}x{run}", std::process::id() % 10_000);
+        let net = Self { tag, links: 0 };
+        sh("ip", &["netns", "add", &net.router()])?;
+        net.exec_in(&net.router(), &["ip", "link", "set", "lo", "up"])?;
+        Ok(net)
+    }
+
+    fn router(&self) -> String {
+        format!("{}r", self.tag)
+    }
+
+    fn exec_in(&self, ns: &str, args: &[&str]) -> anyhow::Result<String> {
+        let mut all = vec!["netns", "exec", ns];
+        all.extend_from_slice(args);
+        sh("ip", &all)
+    }
+
+    /// A new link; its process's namespace (`None` for the harness's, the initial one).
+    fn link(&mut self) -> anyhow::Result<(u8, Option<String>)> {
+        let i = self.links;
+        self.links += 1;
+        let (ours, theirs) = (format!("{}v{i}a", self.tag), self.router_side(i));
+        sh(
+            "ip",
+            &[
+                "link", "add", &ours, "type", "veth", "peer", "name", &theirs,
+            ],
+        )?;
+        sh("ip", &["link", "set", &theirs, "netns", &self.router()])?;
+        let r = self.router();
+        self.exec_in(
+            &r,
+            &[
+                "ip",
+                "addr",
+                "add",
+                &format!("10.200.{i}.1/30"),
+                "dev",
+                &theirs,
+            ],
+        )?;
+        self.exec_in(&r, &["ip", "link", "set", &theirs, "up"])?;
+        let ns = (i > 0).then(|| format!("{}n{i}", self.tag));
+        let addr = format!("10.200.{i}.2/30");
+        match &ns {
+            Some(ns) => {
+                sh("ip", &["netns", "add", ns])?;
+                sh("ip", &["link", "set", &ours, "netns", ns])?;
+                self.exec_in(ns, &["ip", "addr", "add", &addr, "dev", &ours])?;
+                self.exec_in(ns, &["ip", "link", "set", &ours, "up"])?;
+                self.exec_in(ns, &["ip", "link", "set", "lo", "up"])?;
+            }
+            None => {
+                sh("ip", &["addr", "add", &addr, "dev", &ours])?;
+                sh("ip", &["link", "set", &ours, "up"])?;
+            }
+        }
+        Ok((i, ns))
+    }
+
+    fn router_side(&self, link: u8) -> String {
+        format!("{}v{link}b", self.tag)
+    }
+
+    /// Drop what link `link` carries: `loss` of it at random, `both` ways or only
+    /// towards the process.
+    fn cut(&self, link: u8, loss: Option<f64>, both: bool) -> anyhow::Result<()> {
+        let dev = self.router_side(link);
+        let p = loss.map(|p| p.to_string());
+        let rule = |chain: &str, dir: &str| {
+            let mut args = vec!["iptables", "-A", chain, dir, dev.as_str()];
+            if let Some(p) = &p {
+                args.extend(["-m", "statistic", "--mode", "random", "--probability", p]);
+            }
+            args.extend(["-j", "DROP"]);
+            self.exec_in(&self.router(), &args).map(|_| ())
+        };
+        rule("OUTPUT", "-o")?;
+        if both {
+            rule("INPUT", "-i")?;
+        }
+        Ok(())
+    }
+
+    fn heal(&self) -> anyhow::Result<()> {
+        for chain in ["INPUT", "OUTPUT"] {
+            self.exec_in(&self.router(), &["iptables", "-F", chain])?;
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Net {
+    fn drop(&mut self) {
+        // Deleting a namespace deletes its veth ends, and so their peers, but in the
+        // background: the harness's end goes now.
+        let _ = sh("ip", &["link", "del", &format!("{}v0a", self.tag)]);
+        for i in 1..self.links {
+            let _ = sh("ip", &["netns", "del", &format!("{}n{i}", self.tag)]);
+        }
+        let _ = sh("ip", &["netns", "del", &self.router()]);
+    }
+}
+
+/// The fleet's processes, killed when dropped.
+struct Procs(Vec<(String, Child)>);
+
+impl Procs {
+    fn pid(&self, role: &str) -> Option<u32> {
+        self.0.iter().find(|(r, _)| r == role)?.1.id()
+    }
+
+    async fn kill(&mut self, role: &str) {
+        if let Some(i) = self.0.iter().position(|(r, _)| r == role) {
+            let (_, mut c) = self.0.remove(i);
+            let _ = c.kill().await;
+        }
+    }
+
+    /// Stop everyone (stdin closed), the recorder last so that it keeps what they say and
+    /// merges its parts.
+    async fn stop(mut self) {
+        let recorder = self
+            .0
+            .iter()
+            .position(|(r, _)| r == "recorder")
+            .map(|i| self.0.remove(i));
+        for (_, c) in &mut self.0 {
+            drop(c.stdin.take());
+        }
+        for (_, c) in &mut self.0 {
+            if tokio::time::timeout(Duration::from_secs(5), c.wait())
+                .await
+                .is_err()
+            {
+                let _ = c.kill().await;
+            }
+        }
+        if let Some((_, mut c)) = recorder {
+            drop(c.stdin.take());
+            if tokio::time::timeout(Duration::from_secs(60), c.wait())
+                .await
+                .is_err()
+            {
+                let _ = c.kill().await;
+            }
+        }
+    }
+}
+
+/// Start `args` of the firefleet binary in namespace `ns`, a client of the router at
+/// `connect` (or, with `connect` `None`, as given: the router itself).
+fn spawn(
+    ns: &str,
+    role: &str,
+    args: &[String],
+    scenario: &str,
+    connect: Option<&str>,
+) -> anyhow::Result<(String, Child)> {
+    let exe = std::env::current_exe().context("locating the firefleet binary")?;
+    let mut cmd = Command::new("ip");
+    cmd.args(["netns", "exec", ns]).arg(exe).args(args).args([
+        "--scenario",
+        scenario,
+        "--die-with-parent",
+    ]);
+    if let Some(c) = connect {
+        cmd.args(["--mode", "client", "--connect", c]);
+    }
+    cmd.stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::inherit())
+        .kill_on_drop(true);
+    if std::env::var_os("RUST_LOG").is_none() {
+        cmd.env("RUST_LOG", "error");
+    }
+    let child = cmd
+        .spawn()
+        .with_context(|| format!("starting {role} in {ns}"))?;
+    Ok((role.to_owned(), child))
+}
+
+fn strings(args: &[&str]) -> Vec<String> {
+    args.iter().map(|s| (*s).to_owned()).collect()
+}
+
+async fn one_run(
+    run: usize,
+    a: &NemesisArgs,
+    scenario: &Scenario,
+    fault: Fault,
+    recording: &Path,
+) -> anyhow::Result<Row> {
+    let mut net = Net::new(run)?;
+    let router_ns = net.router();
+    let listen = format!("tcp/0.0.0.0:{PORT}");
+    let router_args = strings(&["router", "--plain", "--listen", &listen]);
+    let mut procs = Procs(Vec::new());
+    procs.0.push(spawn(
+        &router_ns,
+        "router",
+        &router_args,
+        &a.scenario,
+        None,
+    )?);
+    let local = format!("tcp/127.0.0.1:{PORT}");
+    let record = strings(&["record", "--out", &recording.display().to_string()]);
+    let sim = strings(&[
+        "sim",
+        "--time-scale",
+        &a.time_scale.to_string(),
+        "--wait-for-fleet",
+        "60",
+        "--wait-for-coordinator",
+    ]);
+    procs.0.push(spawn(
+        &router_ns,
+        "recorder",
+        &record,
+        &a.scenario,
+        Some(&local),
+    )?);
+    procs
+        .0
+        .push(spawn(&router_ns, "sim", &sim, &a.scenario, Some(&local))?);
+    let (harness, _) = net.link()?;
+    let mut links = std::collections::BTreeMap::new();
+    let mut roles: Vec<(String, Vec<String>)> = vec![
+        (
+            "coordinator".into(),
+            strings(&["coordinator", "--sim-clock"]),
+        ),
+        (
+            "standby".into(),
+            strings(&["coordinator", "--sim-clock", "--standby", "--rank", "1"]),
+        ),
+    ];
+    for u in &scenario.units {
+        roles.push((
+            format!("agent:{}", u.id),
+            strings(&["agent", "--unit", u.id.as_str()]),
+        ));
+    }
+    for (role, args) in roles {
+        let (i, ns) = net.link()?;
+        let ns = ns.expect("a process's link has a namespace");
+        let connect = format!("tcp/10.200.{i}.1:{PORT}");
+        procs
+            .0
+            .push(spawn(&ns, &role, &args, &a.scenario, Some(&connect))?);
+        links.insert(role, i);
+    }
+    let bus = join_as_harness(&format!("tcp/10.200.{harness}.1:{PORT}"), scenario).await?;
+    let keys = bus.keys().clone();
+    let states = bus.subscribe::<UnitState>(&keys.every_unit_state()).await?;
+
+    // The unit first on its way to a fire.
+    let victim = tokio::time::timeout(Duration::from_secs(120), async {
+        loop {
+            let Some((_, st)) = states.recv().await else {
+                bail!("the bus closed")
+            };
+            if st.task.is_some() {
+                return Ok(st.unit);
+            }
+        }
+    })
+    .await
+    .context("no unit set out for a fire within 120 s")??;
+    // Not read from here on: a full inbox would hold up the harness's whole session.
+    drop(states);
+    // A decision or two a second: room enough until it is read.
+    let log = bus.subscribe::<Decision>(&keys.coord_log()).await?;
+    let agent = format!("agent:{victim}");
+    let target = match fault {
+        Fault::KillCoordinator | Fault::PartitionCoordinator => "coordinator".to_owned(),
+        Fault::RestartRouter => "router".to_owned(),
+        _ => victim.to_string(),
+    };
+    let ended = match fault {
+        Fault::Loss | Fault::Partition | Fault::OneWay | Fault::PartitionCoordinator => {
+            let role = if fault == Fault::PartitionCoordinator {
+                "coordinator"
+            } else {
+                agent.as_str()
+            };
+            let link = links[role];
+            let loss = (fault == Fault::Loss).then_some(0.3);
+            net.cut(link, loss, fault != Fault::OneWay)?;
+            tokio::time::sleep(FAULT).await;
+            net.heal()?;
+            Instant::now()
+        }
+        Fault::PauseUnit => {
+            let pid = procs.pid(&agent).context("the agent's pid")?;
+            sh("kill", &["-STOP", &pid.to_string()])?;
+            tokio::time::sleep(FAULT).await;
+            sh("kill", &["-CONT", &pid.to_string()])?;
+            Instant::now()
+        }
+        Fault::KillCoordinator => {
+            procs.kill("coordinator").await;
+            Instant::now()
+        }
+        Fault::RestartRouter => {
+            procs.kill("router").await;
+            tokio::time::sleep(Duration::from_secs(2)).await;
+            procs.0.push(spawn(
+                &router_ns,
+                "router",
+                &router_args,
+                &a.scenario,
+                None,
+            )?);
+            Instant::now()
+        }
+    };
+    let units: Vec<UnitId> = scenario.units.iter().map(|u| u.id.clone()).collect();
+    let recovered_s = recovered(&bus, &units, ended).await;
+    // Split brain healed: the coordinator cut off (its lease lapsed, a standby took office)
+    // reconnects still in charge of its term, and must step down once it hears the newer.
+    let stepped_down_s = match fault {
+        Fault::PartitionCoordinator => tokio::time::timeout(Duration::from_secs(60), async {
+            loop {
+                match log.recv().await {
+                    Some((_, d)) if d.text.starts_with("deposed") => {
+                        return Some(ended.elapsed().as_secs_f64());
+                    }
+                    Some(_) => {}
+                    None => return None,
+                }
+            }
+        })
+        .await
+        .ok()
+        .flatten(),
+        _ => None,
+    };
+    // The simulator goes on sending its truth after the last fire is out, up to the
+    // scenario's time limit: the next one says how it ended.
+    let truths = bus.subscribe::<SimTruth>(&keys.sim_truth()).await?;
+    let outcome = tokio::time::timeout(
+        Duration::from_secs_f64(scenario.time_limit_s / a.time_scale + 30.0),
+        async {
+            loop {
+                match truths.recv().await {
+                    Some((_, t)) if t.all_out() || t.t >= t.time_limit_s => return Some(t),
+                    Some(_) => {}
+                    None => return None,
+                }
+            }
+        },
+    )
+    .await
+    .ok()
+    .flatten();
+    bus.close().await;
+    procs.stop().await;
+    drop(net);
+    let all_out = outcome.as_ref().is_some_and(SimTruth::all_out);
+    let loaded = Recording::load(recording)?;
+    let (found, _) = violations(&loaded, scenario)?;
+    let (epochs, deposed) = terms(&loaded);
+    Ok(Row {
+        epochs,
+        deposed,
+        stepped_down_s,
+        fault,
+        target,
+        recovered_s,
+        all_out,
+        out_at_s: outcome.filter(SimTruth::all_out).map(|t| t.t),
+        violations: found.iter().map(ToString::to_string).collect(),
+    })
+}
+
+/// A client of the router at `endpoint`, retried while the router comes up.
+async fn join_as_harness(endpoint: &str, scenario: &Scenario) -> anyhow::Result<Bus> {
+    let connect = Connect {
+        mode: Some(Mode::Client),
+        connect: vec![endpoint.to_owned()],
+        ..Connect::default()
+    };
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        match Bus::open(&connect, scenario.site.clone()).await {
+            Ok(bus) => return Ok(bus),
+            Err(e) if Instant::now() > deadline => bail!("joining the router: {e}"),
+            Err(_) => tokio::time::sleep(Duration::from_millis(200)).await,
+        }
+    }
+}
+
+/// Seconds from `since` until the coordinator (whichever is in charge) answers that every
+/// one of `units` is in play; `None` if not within a minute.
+async fn recovered(bus: &Bus, units: &[UnitId], since: Instant) -> Option<f64> {
+    let key = bus.keys().expr(&Topic::CoordStatus);
+    let deadline = since + Duration::from_secs(60);
+    while Instant::now() < deadline {
+        if let Ok(replies) = bus.session().get(&key).await {
+            while let Ok(reply) = replies.recv_async().await {
+                let Ok(sample) = reply.result() else { continue };
+                let Ok(status) =
+                    serde_json::from_slice::<IncidentStatus>(&sample.payload().to_bytes())
+                else {
+                    continue;
+                };
+                let in_play = |u: &UnitId| {
+                    status
+                        .units
+                        .iter()
+                        .any(|s| &s.unit == u && s.alive && s.lost.is_none())
+                };
+                if units.iter().all(in_play) {
+                    return Some(since.elapsed().as_secs_f64());
+                }
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(250)).await;
+    }
+    None
+}
