@@ -140,12 +140,11 @@ fn terms(recording: &Recording) -> (Vec<u64>, usize) {
                     epochs.push(task.epoch);
                 }
             }
-            Ok((_, Topic::CoordLog)) => {
+            Ok((_, Topic::CoordLog))
                 if serde_json::from_slice::<Decision>(&m.data)
-                    .is_ok_and(|d| d.text.starts_with("deposed"))
-                {
-                    deposed += 1;
-                }
+                    .is_ok_and(|d| d.text.starts_with("deposed")) =>
+            {
+                deposed += 1;
             }
             _ => {}
         }
