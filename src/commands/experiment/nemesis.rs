@@ -449,14 +449,8 @@ async fn one_run(
     let router_ns = net.router();
     let listen = format!("tcp/0.0.0.0:{PORT}");
     let router_args = strings(&["router", "--plain", "--listen", &listen]);
-    let mut procs = Procs(Vec::new());
-    procs.0.push(spawn(
-        &router_ns,
-        "router",
-        &router_args,
-        &a.scenario,
-        None,
-    )?);
+    let router = || spawn(&router_ns, "router", &router_args, &a.scenario, None);
+    let mut procs = Procs(vec![router()?]);
     let local = format!("tcp/127.0.0.1:{PORT}");
     let record = strings(&["record", "--out", &recording.display().to_string()]);
     let sim = strings(&[
@@ -559,13 +553,7 @@ async fn one_run(
         Fault::RestartRouter => {
             procs.kill("router").await;
             tokio::time::sleep(Duration::from_secs(2)).await;
-            procs.0.push(spawn(
-                &router_ns,
-                "router",
-                &router_args,
-                &a.scenario,
-                None,
-            )?);
+            procs.0.push(router()?);
             Instant::now()
         }
     };
