@@ -51,6 +51,15 @@ pub const RANK_STEP: Duration = Duration::from_millis(500);
 /// none: liveliness history arrives within milliseconds on a site's network.
 const START_GRACE: Duration = Duration::from_secs(1);
 
+/// How often a standby cut off from the site looks whether it is linked again.
+const RELINK_POLL: Duration = Duration::from_millis(200);
+
+/// Whether this process is linked to the site: to a router, or (peer mode) to a peer.
+async fn linked(bus: &Bus) -> bool {
+    let info = bus.session().info();
+    info.routers_zid().await.next().is_some() || info.peers_zid().await.next().is_some()
+}
+
 /// Serve as one of the site's coordinators until `shutdown`: coordinate (as [`run`] does),
 /// first as a standby ([`follow`]) if `standby`; deposed, stand by again.
 pub async fn serve(
@@ -100,6 +109,8 @@ async fn follow(
     let mut in_charge = false;
     // When the standby may take over if nobody is in charge by then.
     let mut due = Instant::now() + START_GRACE + RANK_STEP * rank;
+    // Whether the standby found itself cut off from the site at the last due time.
+    let mut cut_off = false;
     tracing::info!(rank, "standing by");
     tokio::pin!(shutdown);
     loop {
@@ -118,7 +129,19 @@ async fn follow(
                     due = Instant::now() + RANK_STEP * rank;
                 }
             }
-            _ = tokio::time::sleep_until(due), if !in_charge => break,
+            _ = tokio::time::sleep_until(due), if !in_charge => {
+                // A token lost with this standby's own link (its router restarted, its
+                // cable cut) says nothing of the coordinator: take over only while linked
+                // to the site, and once linked again only after a starting standby's
+                // grace, in which the coordinator's token comes back if it is there.
+                let linked = linked(bus).await;
+                match (linked, cut_off) {
+                    (true, false) => break,
+                    (true, true) => due = Instant::now() + START_GRACE + RANK_STEP * rank,
+                    (false, _) => due = Instant::now() + RELINK_POLL,
+                }
+                cut_off = !linked;
+            }
         }
     }
     tracing::warn!(
