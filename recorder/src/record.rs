@@ -61,6 +61,8 @@ pub enum RecordError {
         path: String,
         source: std::io::Error,
     },
+    #[error("reading back the parts: {0}")]
+    Load(#[from] crate::parts::LoadError),
     #[error(
         "{0} holds the parts of an earlier recording that was never merged: read it with `firefleet replay`, then move it away"
     )]
@@ -282,10 +284,7 @@ impl<'a> Parts<'a> {
         let aside = PathBuf::from(aside);
         let mut merged = McapSink::create(&aside)?;
         merged.describe(scenario)?;
-        let parts = Recording::load(&dir).map_err(|e| RecordError::Io {
-            path: dir.display().to_string(),
-            source: std::io::Error::other(e.to_string()),
-        })?;
+        let parts = Recording::load(&dir)?;
         for m in parts.messages() {
             merged.copy(&m?)?;
         }

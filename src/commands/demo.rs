@@ -553,8 +553,9 @@ fn exited(children: &mut [(String, Child)]) -> Option<String> {
         .find_map(|(role, c)| matches!(c.try_wait(), Ok(Some(_))).then(|| role.clone()))
 }
 
-async fn stop_children(children: Vec<(String, Child)>) {
-    // The recorder goes last, so that it keeps everything the others say until they exit.
+/// Stop `children` (stdin closed, then killed if they linger), the recorder last and with
+/// time to merge its parts, so that it keeps what the others say until they exit.
+pub(crate) async fn stop_children(children: Vec<(String, Child)>) {
     let (recorder, others): (Vec<_>, Vec<_>) = children
         .into_iter()
         .partition(|(role, _)| role == "recorder");

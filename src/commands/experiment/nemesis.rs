@@ -37,6 +37,7 @@ use serde::Serialize;
 use tokio::process::{Child, Command};
 
 use crate::commands::check::violations;
+use crate::commands::demo::stop_children;
 use crate::commands::{positive_f64, scenarios, write_json};
 
 /// How long a fault that lasts (a partition, loss, a pause) lasts, wall-clock.
@@ -370,36 +371,6 @@ impl Procs {
             let _ = c.kill().await;
         }
     }
-
-    /// Stop everyone (stdin closed), the recorder last so that it keeps what they say and
-    /// merges its parts.
-    async fn stop(mut self) {
-        let recorder = self
-            .0
-            .iter()
-            .position(|(r, _)| r == "recorder")
-            .map(|i| self.0.remove(i));
-        for (_, c) in &mut self.0 {
-            drop(c.stdin.take());
-        }
-        for (_, c) in &mut self.0 {
-            if tokio::time::timeout(Duration::from_secs(5), c.wait())
-                .await
-                .is_err()
-            {
-                let _ = c.kill().await;
-            }
-        }
-        if let Some((_, mut c)) = recorder {
-            drop(c.stdin.take());
-            if tokio::time::timeout(Duration::from_secs(60), c.wait())
-                .await
-                .is_err()
-            {
-                let _ = c.kill().await;
-            }
-        }
-    }
 }
 
 /// Start `args` of the firefleet binary in namespace `ns`, a client of the router at
@@ -597,7 +568,7 @@ async fn one_run(
     .ok()
     .flatten();
     bus.close().await;
-    procs.stop().await;
+    stop_children(std::mem::take(&mut procs.0)).await;
     drop(net);
     let all_out = outcome.as_ref().is_some_and(SimTruth::all_out);
     let loaded = Recording::load(recording)?;
