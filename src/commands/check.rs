@@ -1,6 +1,7 @@
 //! `firefleet check FILE.mcap`: the incident's invariants over a recording (units out of
-//! barred zones in time, no task into barred space, no attack where a goal forbids it).
-//! Prints every violation and exits 1 if there is any.
+//! barred zones in time, no task into barred space, no attack where a goal forbids it,
+//! fencing, no fire abandoned with a lost unit or forgotten across a takeover). Prints
+//! every violation and exits 1 if there is any.
 //!
 //! Not here: the invariants themselves (`firefleet_coordinator::invariants`) or reading
 //! MCAP records (`firefleet_recorder::payload`); this command only feeds one to the other.
@@ -10,13 +11,15 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
+use firefleet_coordinator::incident::LEASE_S;
 use firefleet_coordinator::invariants::{Event, Invariants, Violation};
 use firefleet_protocol::keys::{self, Topic};
+use firefleet_protocol::msg::{SimTruth, TruthFireState};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_recorder::parts::Recording;
 use firefleet_recorder::payload::{GoalClear, Payload};
 
-use super::{ScenarioArg, scenarios};
+use super::{ScenarioArg, positive_f64, scenarios};
 
 #[derive(Args, Debug)]
 pub struct CheckArgs {
@@ -26,13 +29,16 @@ pub struct CheckArgs {
     /// The site the recording is of.
     #[command(flatten)]
     scenario: ScenarioArg,
+    /// The lease the coordinator counted units lost after, seconds of site time.
+    #[arg(long, default_value_t = LEASE_S, value_parser = positive_f64)]
+    lease_s: f64,
 }
 
 pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
     let recording = Recording::load(&a.file)?;
-    let (violations, messages) =
-        violations(&recording, &scenario).with_context(|| a.file.display().to_string())?;
+    let (violations, messages) = violations(&recording, &scenario, a.lease_s)
+        .with_context(|| a.file.display().to_string())?;
     for v in &violations {
         println!("{v}");
     }
@@ -49,13 +55,14 @@ pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
     })
 }
 
-/// The invariants' violations over `recording` of `scenario`'s site, and how many of its
-/// messages are of the site.
+/// The invariants' violations over `recording` of `scenario`'s site, whose coordinator
+/// counted units silent for `lease_s` lost, and how many of its messages are of the site.
 pub fn violations(
     recording: &Recording,
     scenario: &Scenario,
+    lease_s: f64,
 ) -> anyhow::Result<(Vec<Violation>, usize)> {
-    let mut inv = Invariants::new(scenario);
+    let mut inv = Invariants::with_lease(scenario, lease_s);
     let (mut t, mut messages) = (0.0, 0usize);
     for m in recording.messages() {
         let m = match m {
@@ -95,6 +102,10 @@ pub fn violations(
                 t = task.t;
                 Some(Event::Task(task))
             }
+            (_, Ok(Payload::SimTruth(truth))) => {
+                t = truth.t;
+                Some(burning(&truth))
+            }
             (Topic::ZoneGoal(zone, by), Ok(Payload::Goal(goal))) => Some(Event::Goal {
                 key_zone: zone.clone(),
                 by: by.clone(),
@@ -107,4 +118,16 @@ pub fn violations(
         }
     }
     Ok((inv.violations().to_vec(), messages))
+}
+
+/// Where `truth` has fires burning, for the checker.
+pub fn burning(truth: &SimTruth) -> Event {
+    Event::Burning(
+        truth
+            .fires
+            .iter()
+            .filter(|f| f.state == TruthFireState::Burning)
+            .map(|f| f.position)
+            .collect(),
+    )
 }

@@ -24,7 +24,7 @@ pub struct CoordinatorArgs {
     #[command(flatten)]
     zenoh: ZenohArgs,
     /// A unit silent this long is treated as lost, seconds of site time.
-    #[arg(long, default_value_t = 5.0, value_parser = positive_f64)]
+    #[arg(long, default_value_t = firefleet_coordinator::incident::LEASE_S, value_parser = positive_f64)]
     lease_s: f64,
     /// Follow the simulator's clock (`ff/<site>/sim/clock`) instead of the system clock.
     #[arg(long)]

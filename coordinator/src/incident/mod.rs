@@ -112,6 +112,11 @@ impl UnitView {
     }
 }
 
+/// How long a unit may stay silent before it counts as lost, s of site time, unless the
+/// operator says otherwise: states come ten times a second, so five seconds is fifty lost
+/// in a row, and a fire waits no longer than that for its relief.
+pub const LEASE_S: f64 = 5.0;
+
 /// The incident.
 pub struct Incident {
     tunnel: Tunnel,

@@ -27,6 +27,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
+use firefleet_coordinator::incident::LEASE_S;
 use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, Connect, Mode};
 use firefleet_protocol::keys::{self, Topic};
@@ -572,7 +573,7 @@ async fn one_run(
     drop(net);
     let all_out = outcome.as_ref().is_some_and(SimTruth::all_out);
     let loaded = Recording::load(recording)?;
-    let (found, _) = violations(&loaded, scenario)?;
+    let (found, _) = violations(&loaded, scenario, LEASE_S)?;
     let (epochs, deposed) = terms(&loaded);
     Ok(Row {
         epochs,

@@ -17,7 +17,7 @@ use firefleet_agent::ground::GroundController;
 use firefleet_agent::monorail::MonorailController;
 use firefleet_coordinator::Incident;
 use firefleet_coordinator::assign::Strategy;
-use firefleet_coordinator::incident::Output;
+use firefleet_coordinator::incident::{LEASE_S, Output};
 use firefleet_coordinator::invariants::{Event, Invariants, Violation};
 use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitKind, UnitState, ZoneGoal};
 use firefleet_protocol::msg::{FireTrack, SimTruth};
@@ -25,6 +25,8 @@ use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::{CommanderId, UnitId};
 use firefleet_sim::World;
+
+use crate::commands::check::burning;
 
 /// The simulator's step, s.
 const DT_S: f64 = 0.05;
@@ -145,7 +147,7 @@ impl SimFleet {
         let incident = match command {
             Command::Alone => None,
             Command::Coordinator(s) => {
-                let mut inc = Incident::from_scenario(scenario, 5.0, s);
+                let mut inc = Incident::from_scenario(scenario, LEASE_S, s);
                 if !known.is_empty() {
                     let (_, refused) = inc.restore(known, 0.0);
                     anyhow::ensure!(refused.is_empty(), "fires refused: {refused:?}");
@@ -220,6 +222,7 @@ impl SimFleet {
         }
         if self.step.is_multiple_of(EXCHANGE_EVERY) {
             let t = self.world.time();
+            self.invariants.observe(t, burning(&self.world.truth()));
             for (_, u) in &self.units {
                 self.invariants.observe(t, Event::State(u.state()));
             }

@@ -22,6 +22,7 @@
 //! - **two commanders in one epoch**: a task to a unit numbered below one already given
 //!   to it in the same epoch. One coordinator's numbers to a unit only grow (it re-sends
 //!   the latest), so two coordinators shared the epoch.
+//! - **fire abandoned**, **fire forgotten across a takeover**: see [`continuity`].
 //!
 //! Goals are applied with the coordinator's own rules ([`crate::goals::Goals`]: ids
 //! replace, priorities, expiry), so a goal the coordinator refused binds nobody here
@@ -40,6 +41,12 @@ use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::{Chainage, CommanderId, Point2, UnitId, ZoneId};
 
 use crate::goals::{Active, Goals};
+use crate::incident::LEASE_S;
+
+mod continuity;
+
+use continuity::Continuity;
+pub use continuity::{RELIEF_S, SAME_FIRE_M, TAKEOVER_S};
 
 /// Time to hear a goal and act on it, s: a state or task message comes at least once a
 /// second, and a plan takes up to half a second.
@@ -64,6 +71,8 @@ pub enum Event {
     },
     State(UnitState),
     Task(Task),
+    /// Where fires burn (burning, not smouldering), by the simulator's ground truth.
+    Burning(Vec<Point2>),
 }
 
 /// A broken invariant.
@@ -112,6 +121,22 @@ pub enum Violation {
         epoch: u64,
         seq: u64,
         after: u64,
+    },
+    /// `unit`, sent to the fire at `fire`, was last heard at `heard`; by `due` no other
+    /// unit was sent there, though one was free to go.
+    FireAbandoned {
+        unit: UnitId,
+        heard: f64,
+        due: f64,
+        fire: Point2,
+    },
+    /// A coordinator took office in `epoch` at `t`; by `due` it had sent nobody to the
+    /// fire at `fire`, which a unit of the old term was sent to.
+    FireForgotten {
+        epoch: u64,
+        t: f64,
+        due: f64,
+        fire: Point2,
     },
 }
 
@@ -167,6 +192,26 @@ impl std::fmt::Display for Violation {
                 f,
                 "t={t:.1} s: task {seq} of epoch {epoch} went to {unit} after task {after} of that epoch: two coordinators commanded in one epoch"
             ),
+            Violation::FireAbandoned {
+                unit,
+                heard,
+                due,
+                fire,
+            } => write!(
+                f,
+                "t={heard:.1} s: {unit} fell silent on its way to the fire at ({:.1}, {:.1}); at t={due:.1} s nobody else was sent there, though a unit was free",
+                fire.x, fire.y
+            ),
+            Violation::FireForgotten {
+                epoch,
+                t,
+                due,
+                fire,
+            } => write!(
+                f,
+                "t={t:.1} s: epoch {epoch} took office; at t={due:.1} s it had sent nobody to the fire at ({:.1}, {:.1}) that the old term was attacking",
+                fire.x, fire.y
+            ),
         }
     }
 }
@@ -188,11 +233,19 @@ pub struct Invariants {
     epochs: BTreeMap<UnitId, u64>,
     /// The highest task number given to each unit in each epoch.
     issued: BTreeMap<(UnitId, u64), u64>,
+    continuity: Continuity,
     violations: Vec<Violation>,
 }
 
 impl Invariants {
+    /// A checker of an incident at `scenario`'s site whose coordinator counts a unit
+    /// silent for [`LEASE_S`] as lost.
     pub fn new(scenario: &Scenario) -> Self {
+        Self::with_lease(scenario, LEASE_S)
+    }
+
+    /// [`Invariants::new`], for a coordinator whose lease is `lease_s`.
+    pub fn with_lease(scenario: &Scenario, lease_s: f64) -> Self {
         Self {
             tunnel: scenario.tunnel.clone(),
             goals: Goals::new(&scenario.zones),
@@ -203,6 +256,7 @@ impl Invariants {
             open: BTreeMap::new(),
             epochs: BTreeMap::new(),
             issued: BTreeMap::new(),
+            continuity: Continuity::new(lease_s),
             violations: Vec::new(),
         }
     }
@@ -215,6 +269,7 @@ impl Invariants {
         for g in self.goals.expire(t) {
             self.forget(&g.id);
         }
+        self.continuity.heard_anything(t);
         match event {
             Event::Goal { key_zone, by, goal } => {
                 let id = goal.id.clone();
@@ -229,9 +284,27 @@ impl Invariants {
                     self.forget(&g.id);
                 }
             }
-            Event::State(st) => self.check_state(st, t),
-            Event::Task(task) => self.check_task(&task, t),
+            Event::State(st) => {
+                self.continuity.state(&st, t);
+                self.check_state(st, t);
+            }
+            Event::Task(task) => {
+                self.continuity.task(&task, t);
+                self.check_task(&task, t);
+            }
+            Event::Burning(fires) => self.continuity.burning(fires),
         }
+        let goals = &self.goals;
+        let tunnel = &self.tunnel;
+        self.continuity.settle(
+            t,
+            |p| {
+                goals
+                    .at(tunnel.chainage(p))
+                    .is_some_and(Active::bars_attack)
+            },
+            &mut self.violations,
+        );
     }
 
     /// The violations found so far.
