@@ -52,6 +52,9 @@ pub enum ExperimentCommand {
     /// The fleet across Linux network namespaces under partitions, loss, kills and
     /// pauses, one fault a run, checked over its recordings (needs root).
     Nemesis(nemesis::NemesisArgs),
+    /// The nemesis's delaying TCP proxy, run in the router's namespace.
+    #[command(hide = true)]
+    DelayProxy(nemesis::proxy::ProxyArgs),
 }
 
 #[derive(Args, Debug)]
@@ -76,6 +79,7 @@ pub async fn run(cmd: ExperimentCommand) -> anyhow::Result<ExitCode> {
         ExperimentCommand::Nav(a) => nav::run(a),
         ExperimentCommand::Zones(a) => zones::run(a),
         ExperimentCommand::Nemesis(a) => nemesis::run(a).await,
+        ExperimentCommand::DelayProxy(a) => nemesis::proxy::run(a).await,
     }
 }
 

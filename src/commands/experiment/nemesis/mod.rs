@@ -6,17 +6,23 @@
 //! namespace by a veth pair; the router, the simulator (the world, not under test) and the
 //! recorder (the observer) share the router namespace, and the harness joins it over a
 //! veth of its own. Faults are iptables rules in the router namespace on one process's
-//! link (loss with `-m statistic`, a partition, one direction dropped) or signals (a
-//! process killed, paused, the router restarted). The fault hits the first unit to set
-//! out for a fire (or the coordinator in charge), at that moment, for [`FAULT`].
+//! link (loss with `-m statistic`, a partition, one direction dropped), a delaying proxy
+//! ([`proxy`]) between the units and the router, or signals (a process killed, paused,
+//! the router restarted). The fault hits the first unit to set out for a fire (or the
+//! coordinator in charge), at that moment, for [`FAULT`].
 //!
 //! Per run: the time from the fault's end until the coordinator sees every unit in play
 //! again, whether every fire went out, and the recording's invariants (`firefleet check`:
-//! barred space, no unit going back an epoch, no two coordinators in one epoch). The
-//! process exits 1 if any run fails one of them.
+//! barred space, no unit going back an epoch, no two coordinators in one epoch, no lost
+//! unit's fire left without a relief past its lease and a second, no fire forgotten across
+//! a takeover). The process exits 1 if any run fails one of them.
 //!
-//! What this kernel lacks: `tc netem`, so no delay or jitter is injected here (a delaying
-//! userspace proxy is the way; not built yet). In the simulator a unit's body is reached
+//! What this kernel lacks: `tc netem`. Delay and jitter come from a userspace TCP proxy in
+//! the router's namespace instead, which every unit reaches the router through in that
+//! run; it delays the byte stream, not packets (see [`proxy`]). Time is wall-clock there
+//! and site time runs `--time-scale` times faster, so 500 ms of delay is 2 s of site time
+//! at the default scale: harsher on a unit's control than on a real robot, whose body is
+//! not behind the delayed link. In the simulator a unit's body is reached
 //! over the same link as its coordinator, so a fault on a unit's link also cuts its
 //! sensors and drive, which a robot's own machine would not. Needs root, `ip` and
 //! `iptables`; without them it says so and exits 2, never passing silently.
@@ -35,6 +41,7 @@ use firefleet_protocol::msg::{Decision, IncidentStatus, SimTruth, Task, UnitStat
 use firefleet_protocol::scenario::Scenario;
 use firefleet_recorder::parts::Recording;
 use serde::Serialize;
+use tokio::io::AsyncWriteExt;
 use tokio::process::{Child, Command};
 
 use crate::commands::check::violations;
@@ -45,6 +52,13 @@ use crate::commands::{positive_f64, scenarios, write_json};
 const FAULT: Duration = Duration::from_secs(15);
 /// The Zenoh port the router listens on in its namespace.
 const PORT: u16 = 7447;
+/// The delaying proxy's port in the router's namespace, forwarding to [`PORT`].
+const PROXY_PORT: u16 = 7448;
+/// The delay the delay fault adds each way, and its jitter (uniform, plus or minus), ms.
+const DELAY_MS: u64 = 500;
+const JITTER_MS: u64 = 100;
+
+pub mod proxy;
 
 #[derive(Args, Debug)]
 pub struct NemesisArgs {
@@ -76,6 +90,8 @@ pub enum Fault {
     Partition,
     /// Nothing reaches the unit; what it sends still arrives.
     OneWay,
+    /// 500 ms, plus or minus 100 ms, added to everything to and from the unit.
+    Delay,
     /// The unit's agent paused (SIGSTOP), then resumed.
     PauseUnit,
     /// The coordinator in charge killed (SIGKILL); a standby runs beside it.
@@ -88,8 +104,9 @@ pub enum Fault {
 }
 
 impl Fault {
-    const ALL: [Fault; 7] = [
+    const ALL: [Fault; 8] = [
         Fault::Loss,
+        Fault::Delay,
         Fault::Partition,
         Fault::OneWay,
         Fault::PauseUnit,
@@ -366,6 +383,18 @@ impl Procs {
         self.0.iter().find(|(r, _)| r == role)?.1.id()
     }
 
+    /// Tell `role` `line` on its stdin.
+    async fn tell(&mut self, role: &str, line: &str) -> anyhow::Result<()> {
+        let stdin = self
+            .0
+            .iter_mut()
+            .find(|(r, _)| r == role)
+            .and_then(|(_, c)| c.stdin.as_mut())
+            .with_context(|| format!("{role}'s stdin"))?;
+        stdin.write_all(format!("{line}\n").as_bytes()).await?;
+        Ok(stdin.flush().await?)
+    }
+
     async fn kill(&mut self, role: &str) {
         if let Some(i) = self.0.iter().position(|(r, _)| r == role) {
             let (_, mut c) = self.0.remove(i);
@@ -383,16 +412,19 @@ fn spawn(
     scenario: &str,
     connect: Option<&str>,
 ) -> anyhow::Result<(String, Child)> {
+    let mut args = args.to_vec();
+    args.extend(strings(&["--scenario", scenario, "--die-with-parent"]));
+    if let Some(c) = connect {
+        args.extend(strings(&["--mode", "client", "--connect", c]));
+    }
+    spawn_as_given(ns, role, &args)
+}
+
+/// Start `args` of the firefleet binary in namespace `ns`, its stdin a pipe from here.
+fn spawn_as_given(ns: &str, role: &str, args: &[String]) -> anyhow::Result<(String, Child)> {
     let exe = std::env::current_exe().context("locating the firefleet binary")?;
     let mut cmd = Command::new("ip");
-    cmd.args(["netns", "exec", ns]).arg(exe).args(args).args([
-        "--scenario",
-        scenario,
-        "--die-with-parent",
-    ]);
-    if let Some(c) = connect {
-        cmd.args(["--mode", "client", "--connect", c]);
-    }
+    cmd.args(["netns", "exec", ns]).arg(exe).args(args);
     cmd.stdin(Stdio::piped())
         .stdout(Stdio::null())
         .stderr(Stdio::inherit())
@@ -445,6 +477,22 @@ async fn one_run(
         .push(spawn(&router_ns, "sim", &sim, &a.scenario, Some(&local))?);
     let (harness, _) = net.link()?;
     let mut links = std::collections::BTreeMap::new();
+    let unit_port = if fault == Fault::Delay {
+        let args = strings(&[
+            "experiment",
+            "delay-proxy",
+            "--listen",
+            &format!("0.0.0.0:{PROXY_PORT}"),
+            "--upstream",
+            &format!("127.0.0.1:{PORT}"),
+            "--seed",
+            &run.to_string(),
+        ]);
+        procs.0.push(spawn_as_given(&router_ns, "proxy", &args)?);
+        PROXY_PORT
+    } else {
+        PORT
+    };
     let mut roles: Vec<(String, Vec<String>)> = vec![
         (
             "coordinator".into(),
@@ -464,7 +512,12 @@ async fn one_run(
     for (role, args) in roles {
         let (i, ns) = net.link()?;
         let ns = ns.expect("a process's link has a namespace");
-        let connect = format!("tcp/10.200.{i}.1:{PORT}");
+        let port = if role.starts_with("agent:") {
+            unit_port
+        } else {
+            PORT
+        };
+        let connect = format!("tcp/10.200.{i}.1:{port}");
         procs
             .0
             .push(spawn(&ns, &role, &args, &a.scenario, Some(&connect))?);
@@ -509,6 +562,15 @@ async fn one_run(
             net.cut(link, loss, fault != Fault::OneWay)?;
             tokio::time::sleep(FAULT).await;
             net.heal()?;
+            Instant::now()
+        }
+        Fault::Delay => {
+            let peer = format!("10.200.{}.2", links[agent.as_str()]);
+            procs
+                .tell("proxy", &format!("delay {peer} {DELAY_MS} {JITTER_MS}"))
+                .await?;
+            tokio::time::sleep(FAULT).await;
+            procs.tell("proxy", "clear").await?;
             Instant::now()
         }
         Fault::PauseUnit => {
