@@ -12,7 +12,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 use firefleet_coordinator::incident::LEASE_S;
-use firefleet_coordinator::invariants::{Event, Invariants, Violation};
+use firefleet_coordinator::invariants::{Event, Invariants, Tally, Violation};
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{SimTruth, TruthFireState};
 use firefleet_protocol::scenario::Scenario;
@@ -37,31 +37,40 @@ pub struct CheckArgs {
 pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
     let scenario = scenarios::resolve(&a.scenario.scenario)?;
     let recording = Recording::load(&a.file)?;
-    let (violations, messages) = violations(&recording, &scenario, a.lease_s)
-        .with_context(|| a.file.display().to_string())?;
-    for v in &violations {
+    let checked =
+        check(&recording, &scenario, a.lease_s).with_context(|| a.file.display().to_string())?;
+    for v in &checked.violations {
         println!("{v}");
     }
+    let c = checked.continuity;
     println!(
-        "{}: {messages} messages of site '{}', {} violations",
+        "{}: {} messages of site '{}', {} violations; {} fires owed a unit (lost units', takeovers'): {} sent in time, {} needing none",
         a.file.display(),
+        checked.messages,
         scenario.site,
-        violations.len()
+        checked.violations.len(),
+        c.owed,
+        c.sent,
+        c.moot,
     );
-    Ok(if violations.is_empty() {
+    Ok(if checked.violations.is_empty() {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
     })
 }
 
-/// The invariants' violations over `recording` of `scenario`'s site, whose coordinator
-/// counted units silent for `lease_s` lost, and how many of its messages are of the site.
-pub fn violations(
-    recording: &Recording,
-    scenario: &Scenario,
-    lease_s: f64,
-) -> anyhow::Result<(Vec<Violation>, usize)> {
+/// What the checker found in a recording.
+pub struct Checked {
+    pub violations: Vec<Violation>,
+    /// How many of its messages are of the site.
+    pub messages: usize,
+    pub continuity: Tally,
+}
+
+/// The invariants over `recording` of `scenario`'s site, whose coordinator counted units
+/// silent for `lease_s` lost.
+pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow::Result<Checked> {
     let mut inv = Invariants::with_lease(scenario, lease_s);
     let (mut t, mut messages) = (0.0, 0usize);
     for m in recording.messages() {
@@ -117,7 +126,11 @@ pub fn violations(
             inv.observe(t, e);
         }
     }
-    Ok((inv.violations().to_vec(), messages))
+    Ok(Checked {
+        violations: inv.violations().to_vec(),
+        messages,
+        continuity: inv.continuity(),
+    })
 }
 
 /// Where `truth` has fires burning, for the checker.

@@ -64,12 +64,30 @@ struct Owed {
     due: f64,
 }
 
+enum Settled {
+    Sent,
+    Moot,
+}
+
 #[derive(Debug, Clone)]
 struct Heard {
     at: f64,
     kind: UnitKind,
     /// Its silence since `at` is already owed for.
     noted: bool,
+}
+
+/// How the fires owed a unit were settled: a checker that never had anything to judge
+/// proves nothing, so the count is shown beside the verdict.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Tally {
+    /// Fires that needed a unit sent (a lost unit's, or the old term's at a takeover).
+    pub owed: usize,
+    /// ... and had one in time.
+    pub sent: usize,
+    /// ... and needed none by then: out, barred to attack, the unit back, nobody free, or
+    /// no ground truth to judge by.
+    pub moot: usize,
 }
 
 /// The continuity checker's state; [`super::Invariants`] drives it.
@@ -87,6 +105,7 @@ pub(super) struct Continuity {
     /// The observer has heard the site without a gap since then.
     hearing_since: f64,
     last_event: Option<f64>,
+    tally: Tally,
 }
 
 impl Continuity {
@@ -100,6 +119,7 @@ impl Continuity {
             owed: Vec::new(),
             hearing_since: 0.0,
             last_event: None,
+            tally: Tally::default(),
         }
     }
 
@@ -196,8 +216,11 @@ impl Continuity {
             .partition(|o| o.due <= t);
         self.owed = later;
         for o in due {
-            if !self.discharged(&o, t, &attack_barred) {
-                violations.push(match o.cause {
+            self.tally.owed += 1;
+            match self.settled(&o, t, &attack_barred) {
+                Some(Settled::Sent) => self.tally.sent += 1,
+                Some(Settled::Moot) => self.tally.moot += 1,
+                None => violations.push(match o.cause {
                     Cause::Lost { unit, heard } => Violation::FireAbandoned {
                         unit,
                         heard,
@@ -210,23 +233,32 @@ impl Continuity {
                         due: o.due,
                         fire: o.fire,
                     },
-                });
+                }),
             }
         }
     }
 
-    /// Whether `o` needs nothing (any more) at `t`.
-    fn discharged(&self, o: &Owed, t: f64, attack_barred: &impl Fn(Point2) -> bool) -> bool {
+    pub(super) fn tally(&self) -> Tally {
+        self.tally
+    }
+
+    /// How `o` stands at `t`: `None` if it is broken.
+    fn settled(
+        &self,
+        o: &Owed,
+        t: f64,
+        attack_barred: &impl Fn(Point2) -> bool,
+    ) -> Option<Settled> {
         let Some(burning) = &self.burning else {
-            return true;
+            return Some(Settled::Moot);
         };
         if !burning.iter().any(|&f| same_fire(f, o.fire)) || attack_barred(o.fire) {
-            return true;
+            return Some(Settled::Moot);
         }
         let (lost, since_epoch) = match &o.cause {
             Cause::Lost { unit, heard } => {
                 if self.heard.get(unit).is_some_and(|h| h.at > *heard) {
-                    return true;
+                    return Some(Settled::Moot);
                 }
                 (Some(unit), 0)
             }
@@ -240,7 +272,7 @@ impl Continuity {
             match task.kind {
                 TaskKind::Extinguish { target, .. } if same_fire(target, o.fire) => {
                     if task.epoch >= since_epoch {
-                        return true;
+                        return Some(Settled::Sent);
                     }
                 }
                 TaskKind::Extinguish { .. } => {}
@@ -253,7 +285,7 @@ impl Continuity {
                 && t - h.at <= self.lease_s
                 && (h.kind == UnitKind::Ground || h.kind == o.kind)
         });
-        !free
+        (!free).then_some(Settled::Moot)
     }
 
     /// The kind of `unit` if it was heard within a lease of `t`.
@@ -328,7 +360,7 @@ mod tests {
         silent_from: f64,
         until: f64,
         then: Option<(f64, Event)>,
-    ) -> Vec<Violation> {
+    ) -> (Vec<Violation>, Tally) {
         let site = Scenario::straight(400.0)
             .ground("a", 5.0, -2.5)
             .ground("b", 10.0, -2.5)
@@ -351,13 +383,14 @@ mod tests {
             }
             inv.observe(t, state("b"));
         }
-        inv.violations().to_vec()
+        (inv.violations().to_vec(), inv.continuity())
     }
 
     #[test]
     fn a_silent_units_fire_must_go_to_a_free_unit_within_its_lease_and_a_second() {
-        let v = run(true, 2.0, 20.0, None);
+        let (v, tally) = run(true, 2.0, 20.0, None);
         assert_eq!(v.len(), 1, "{v:?}");
+        assert_eq!((tally.owed, tally.sent, tally.moot), (1, 0, 0));
         let Violation::FireAbandoned {
             unit, heard, due, ..
         } = &v[0]
@@ -369,23 +402,32 @@ mod tests {
 
         // Sent before the deadline: kept.
         let relief = task("b", 16, 102, attack(Point2::new(199.0, -1.0)));
-        assert!(run(true, 2.0, 20.0, Some((7.5, relief))).is_empty());
+        let (v, tally) = run(true, 2.0, 20.0, Some((7.5, relief)));
+        assert!(v.is_empty(), "{v:?}");
+        assert_eq!((tally.owed, tally.sent), (1, 1));
         // Heard again in time (and silent since for less than a lease), or the fire went
-        // out, or no truth to judge by.
-        assert!(run(true, 2.0, 12.0, Some((7.0, state("a")))).is_empty());
-        assert!(run(false, 2.0, 20.0, None).is_empty());
+        // out: nothing to send.
+        for (v, tally) in [
+            run(true, 2.0, 12.0, Some((7.5, state("a")))),
+            run(false, 2.0, 20.0, None),
+        ] {
+            assert!(v.is_empty(), "{v:?}");
+            assert_eq!((tally.owed, tally.moot), (1, 1));
+        }
     }
 
     #[test]
     fn with_no_unit_free_the_fire_waits_and_nothing_is_broken() {
         let busy = task("b", 16, 102, attack(Point2::new(300.0, 0.0)));
-        assert!(run(true, 2.0, 20.0, Some((1.0, busy))).is_empty());
+        let (v, tally) = run(true, 2.0, 20.0, Some((1.0, busy)));
+        assert!(v.is_empty(), "{v:?}");
+        assert_eq!((tally.owed, tally.moot), (1, 1));
     }
 
     #[test]
     fn a_new_term_must_send_somebody_to_every_fire_the_old_one_was_attacking() {
         // At 5 s epoch 33 takes office and stands `a` down: the fire is forgotten.
-        let v = run(
+        let (v, _) = run(
             true,
             99.0,
             10.0,
@@ -405,7 +447,9 @@ mod tests {
         );
         // It adopts the attack: nothing forgotten.
         let adopted = task("a", 33, 500, attack(Point2::new(201.0, 0.5)));
-        assert!(run(true, 99.0, 10.0, Some((5.0, adopted))).is_empty());
+        let (v, tally) = run(true, 99.0, 10.0, Some((5.0, adopted)));
+        assert!(v.is_empty(), "{v:?}");
+        assert_eq!((tally.owed, tally.sent), (1, 1));
     }
 
     #[test]

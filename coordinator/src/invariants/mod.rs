@@ -46,7 +46,7 @@ use crate::incident::LEASE_S;
 mod continuity;
 
 use continuity::Continuity;
-pub use continuity::{RELIEF_S, SAME_FIRE_M, TAKEOVER_S};
+pub use continuity::{RELIEF_S, SAME_FIRE_M, TAKEOVER_S, Tally};
 
 /// Time to hear a goal and act on it, s: a state or task message comes at least once a
 /// second, and a plan takes up to half a second.
@@ -310,6 +310,11 @@ impl Invariants {
     /// The violations found so far.
     pub fn violations(&self) -> &[Violation] {
         &self.violations
+    }
+
+    /// How the fires owed a unit (lost units', takeovers') were settled so far.
+    pub fn continuity(&self) -> Tally {
+        self.continuity.tally()
     }
 
     fn forget(&mut self, goal: &str) {

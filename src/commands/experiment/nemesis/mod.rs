@@ -11,6 +11,10 @@
 //! the router restarted). The fault hits the first unit to set out for a fire (or the
 //! coordinator in charge), at that moment, for [`FAULT`].
 //!
+//! Every run also has a commander's keep-out in force from the start, on the zone deepest
+//! in the tunnel with no fire in it (where searching units would otherwise go), so that
+//! "no unit in barred space" is checked against a goal that binds, across takeovers too.
+//!
 //! Per run: the time from the fault's end until the coordinator sees every unit in play
 //! again, whether every fire went out, and the recording's invariants (`firefleet check`:
 //! barred space, no unit going back an epoch, no two coordinators in one epoch, no lost
@@ -34,17 +38,19 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use firefleet_coordinator::incident::LEASE_S;
-use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, Connect, Mode};
 use firefleet_protocol::keys::{self, Topic};
-use firefleet_protocol::msg::{Decision, IncidentStatus, SimTruth, Task, UnitState};
+use firefleet_protocol::msg::{
+    Decision, GoalAck, GoalKind, IncidentStatus, SimTruth, Task, UnitState, ZoneGoal,
+};
 use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::{CommanderId, UnitId, ZoneId};
 use firefleet_recorder::parts::Recording;
 use serde::Serialize;
 use tokio::io::AsyncWriteExt;
 use tokio::process::{Child, Command};
 
-use crate::commands::check::violations;
+use crate::commands::check::check;
 use crate::commands::demo::stop_children;
 use crate::commands::{positive_f64, scenarios, write_json};
 
@@ -79,11 +85,17 @@ pub struct NemesisArgs {
     /// Also write the table as JSON.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
+    /// The zone a commander keeps units out of in every run (default: the deepest zone
+    /// with no fire in it; none if every zone has one).
+    #[arg(long, value_name = "ZONE")]
+    keep_out: Option<ZoneId>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Fault {
+    /// No fault: the control run the others are compared with.
+    None,
     /// 30 % of packets dropped both ways on the unit's link.
     Loss,
     /// The unit cut off, then healed.
@@ -104,7 +116,8 @@ pub enum Fault {
 }
 
 impl Fault {
-    const ALL: [Fault; 8] = [
+    const ALL: [Fault; 9] = [
+        Fault::None,
         Fault::Loss,
         Fault::Delay,
         Fault::Partition,
@@ -135,6 +148,10 @@ struct Row {
     /// From the fault's end until the deposed coordinator stepped down, s (a coordinator
     /// cut off only).
     stepped_down_s: Option<f64>,
+    /// Fires the checker found owed a unit (a lost unit's, the old term's at a takeover),
+    /// and how many had one sent in time (the rest needed none by then).
+    owed: usize,
+    sent: usize,
 }
 
 impl Row {
@@ -182,6 +199,20 @@ pub async fn run(a: NemesisArgs) -> anyhow::Result<ExitCode> {
     } else {
         a.faults.clone()
     };
+    let keep_out = match &a.keep_out {
+        Some(z) => {
+            anyhow::ensure!(
+                scenario.zones.iter().any(|k| &k.id == z),
+                "--keep-out {z}: the scenario has no such zone"
+            );
+            Some(z.clone())
+        }
+        None => quiet_zone(&scenario),
+    };
+    match &keep_out {
+        Some(z) => println!("every run: zone {z} kept out from the start"),
+        None => println!("every run: no zone free of fire to keep units out of"),
+    }
     let temp = tempfile::tempdir()?;
     let out = a.out.clone().unwrap_or_else(|| temp.path().to_owned());
     std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
@@ -191,11 +222,11 @@ pub async fn run(a: NemesisArgs) -> anyhow::Result<ExitCode> {
         // An earlier run's, merged or not.
         let _ = std::fs::remove_file(&recording);
         let _ = std::fs::remove_dir_all(firefleet_recorder::parts::parts_dir(&recording));
-        let row = one_run(run, &a, &scenario, fault, &recording)
+        let row = one_run(run, &a, &scenario, keep_out.as_ref(), fault, &recording)
             .await
             .with_context(|| format!("the {} run", fault_name(fault)))?;
         println!(
-            "{:<22} {:<12} recovered {:>7}  all out {:<5} epochs {} deposed {}  {}",
+            "{:<22} {:<12} recovered {:>7}  all out {:<5} epochs {} deposed {}  relieved {}/{}  {}",
             fault_name(fault),
             row.target,
             row.recovered_s
@@ -207,6 +238,8 @@ pub async fn run(a: NemesisArgs) -> anyhow::Result<ExitCode> {
                     "{} ({s:.1} s after)",
                     row.deposed
                 )),
+            row.sent,
+            row.owed,
             if row.violations.is_empty() {
                 "invariants hold".to_owned()
             } else {
@@ -446,6 +479,7 @@ async fn one_run(
     run: usize,
     a: &NemesisArgs,
     scenario: &Scenario,
+    keep_out: Option<&ZoneId>,
     fault: Fault,
     recording: &Path,
 ) -> anyhow::Result<Row> {
@@ -525,6 +559,19 @@ async fn one_run(
     }
     let bus = join_as_harness(&format!("tcp/10.200.{harness}.1:{PORT}"), scenario).await?;
     let keys = bus.keys().clone();
+    if let Some(zone) = keep_out {
+        let goal = ZoneGoal {
+            id: "nemesis-keep-out".into(),
+            zone: zone.clone(),
+            goal: GoalKind::KeepOut,
+            priority: 0,
+            before_m: None,
+            expires_s: None,
+            issued_by: COMMANDER.into(),
+            rail_allowed: false,
+        };
+        issue(&bus, &goal).await?;
+    }
     let states = bus.subscribe::<UnitState>(&keys.every_unit_state()).await?;
 
     // The unit first on its way to a fire.
@@ -548,6 +595,7 @@ async fn one_run(
     let target = match fault {
         Fault::KillCoordinator | Fault::PartitionCoordinator => "coordinator".to_owned(),
         Fault::RestartRouter => "router".to_owned(),
+        Fault::None => "-".to_owned(),
         _ => victim.to_string(),
     };
     let ended = match fault {
@@ -584,6 +632,7 @@ async fn one_run(
             procs.kill("coordinator").await;
             Instant::now()
         }
+        Fault::None => Instant::now(),
         Fault::RestartRouter => {
             procs.kill("router").await;
             tokio::time::sleep(Duration::from_secs(2)).await;
@@ -635,7 +684,7 @@ async fn one_run(
     drop(net);
     let all_out = outcome.as_ref().is_some_and(SimTruth::all_out);
     let loaded = Recording::load(recording)?;
-    let (found, _) = violations(&loaded, scenario, LEASE_S)?;
+    let checked = check(&loaded, scenario, LEASE_S)?;
     let (epochs, deposed) = terms(&loaded);
     Ok(Row {
         epochs,
@@ -646,8 +695,47 @@ async fn one_run(
         recovered_s,
         all_out,
         out_at_s: outcome.filter(SimTruth::all_out).map(|t| t.t),
-        violations: found.iter().map(ToString::to_string).collect(),
+        violations: checked.violations.iter().map(ToString::to_string).collect(),
+        owed: checked.continuity.owed,
+        sent: checked.continuity.sent,
     })
+}
+
+/// The commander the harness issues its goal as.
+const COMMANDER: &str = "nemesis";
+
+/// The deepest zone of `scenario` with no fire in it.
+fn quiet_zone(scenario: &Scenario) -> Option<ZoneId> {
+    let fires: Vec<_> = scenario
+        .fires
+        .iter()
+        .map(|f| scenario.tunnel.chainage(f.position()))
+        .collect();
+    scenario
+        .zones
+        .iter()
+        .filter(|z| !fires.iter().any(|&s| z.start_m <= s && s <= z.end_m))
+        .max_by(|a, b| a.end_m.total_cmp(&b.end_m))
+        .map(|z| z.id.clone())
+}
+
+/// Put `goal` until the coordinator acknowledges it (it may not be up yet); an error if
+/// it refuses it or says nothing for a minute.
+async fn issue(bus: &Bus, goal: &ZoneGoal) -> anyhow::Result<()> {
+    let keys = bus.keys();
+    let by = CommanderId::new(COMMANDER)?;
+    let acks = bus.subscribe::<GoalAck>(&keys.zone_ack(&goal.zone)).await?;
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while Instant::now() < deadline {
+        bus.put(&keys.zone_goal(&goal.zone, &by), goal).await?;
+        if let Ok(Some((_, ack))) = tokio::time::timeout(Duration::from_secs(1), acks.recv()).await
+            && ack.id == goal.id
+        {
+            anyhow::ensure!(ack.accepted, "the keep-out was refused: {}", ack.reason);
+            return Ok(());
+        }
+    }
+    bail!("no coordinator acknowledged the keep-out within a minute")
 }
 
 /// A client of the router at `endpoint`, retried while the router comes up.
