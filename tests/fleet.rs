@@ -707,7 +707,7 @@ async fn until_recorded(bus: &Bus, track: &FireTrack) {
 fn assert_f7_recalled(status: &serde_json::Value) {
     let fires = status["fires"].as_array().unwrap();
     assert_eq!(fires.len(), 1, "{status}");
-    assert_eq!(fires[0]["id"], 7, "the fire keeps its id: {status}");
+    assert_eq!(fires[0]["id"], "f7", "the fire keeps its id: {status}");
     assert_eq!(fires[0]["state"], "confirmed", "{status}");
     assert!(
         status["decisions"].to_string().contains("recall fire f7"),

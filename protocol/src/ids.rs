@@ -120,11 +120,55 @@ chunk_id!(
 );
 
 /// A fused fire track, numbered by the coordinator that created it.
-#[derive(
-    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize, JsonSchema,
-)]
-#[serde(transparent)]
+///
+/// One form wherever a person or another language reads it: `f7` in key expressions, on
+/// the command line, in logs and in JSON. Compact encodings (postcard on the bus) carry
+/// the bare number. JSON from before this form (a bare number) is still read, so older
+/// recordings keep loading.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct FireId(pub u32);
+
+impl Serialize for FireId {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        if s.is_human_readable() {
+            s.collect_str(self)
+        } else {
+            s.serialize_u32(self.0)
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for FireId {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Form {
+            Text(String),
+            Number(u32),
+        }
+        if !d.is_human_readable() {
+            return u32::deserialize(d).map(FireId);
+        }
+        match Form::deserialize(d)? {
+            Form::Text(s) => s.parse().map_err(serde::de::Error::custom),
+            Form::Number(n) => Ok(FireId(n)),
+        }
+    }
+}
+
+impl JsonSchema for FireId {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "FireId".into()
+    }
+
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        schemars::json_schema!({
+            "type": "string",
+            "pattern": "^f[0-9]+$",
+            "description": "A fire track's id: 'f' and the coordinator's number for it, as in the key ff/<site>/fire/<id>."
+        })
+    }
+}
 
 impl fmt::Display for FireId {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -171,5 +215,20 @@ mod tests {
         assert_eq!("f12".parse::<FireId>().unwrap(), FireId(12));
         assert_eq!(FireId(7).to_string(), "f7");
         assert!("12".parse::<FireId>().is_err());
+    }
+
+    #[test]
+    fn a_fire_id_is_f7_in_json_a_number_in_postcard_and_old_json_still_reads() {
+        assert_eq!(serde_json::to_string(&FireId(7)).unwrap(), "\"f7\"");
+        assert_eq!(serde_json::from_str::<FireId>("\"f7\"").unwrap(), FireId(7));
+        assert_eq!(serde_json::from_str::<FireId>("7").unwrap(), FireId(7));
+        let e = serde_json::from_str::<FireId>("\"7\"").unwrap_err();
+        assert!(
+            e.to_string().contains("expected 'f' followed by a number"),
+            "{e}"
+        );
+        let bytes = postcard::to_allocvec(&FireId(7)).unwrap();
+        assert_eq!(bytes, [7]);
+        assert_eq!(postcard::from_bytes::<FireId>(&bytes).unwrap(), FireId(7));
     }
 }
