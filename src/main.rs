@@ -48,6 +48,8 @@ enum Command {
     Check(commands::check::CheckArgs),
     /// Print the timeline of a recorded incident.
     Replay(commands::replay::ReplayArgs),
+    /// The JSON Schema of every message, for tools in other languages.
+    Schema(commands::schema::SchemaArgs),
     /// Validate, show or dry-run behavior-tree XML files.
     #[command(subcommand)]
     Bt(commands::bt::BtCommand),
@@ -85,6 +87,7 @@ fn main() -> std::process::ExitCode {
             | Command::Bt(_)
             | Command::Replay(_)
             | Command::Check(_)
+            | Command::Schema(_)
             | Command::Plan(_)
     );
     init_logging(if quiet { "warn" } else { "info,zenoh=warn" });
@@ -109,6 +112,7 @@ fn main() -> std::process::ExitCode {
             Command::Bt(c) => commands::bt::run(c),
             Command::Replay(a) => commands::replay::run(a),
             Command::Check(a) => commands::check::run(a),
+            Command::Schema(a) => commands::schema::run(a),
             Command::Experiment(c) => commands::experiment::run(c).await,
         }
     });

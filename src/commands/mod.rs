@@ -22,6 +22,7 @@ pub mod plan;
 pub mod record;
 pub mod replay;
 pub mod scenarios;
+pub mod schema;
 pub mod sim;
 pub mod status;
 

@@ -32,14 +32,41 @@ pub trait Message:
     const NAME: &'static str;
 }
 
-macro_rules! message {
-    ($enc:ident: $($t:ident),*) => { $(impl Message for $t {
-        const ENCODING: Encoding = Encoding::$enc;
-        const NAME: &'static str = concat!("firefleet.", stringify!($t));
-    })* };
+/// A message type's JSON Schema, for tools outside Rust (`firefleet schema`).
+#[derive(Debug, Clone)]
+pub struct MessageSchema {
+    /// [`Message::NAME`].
+    pub name: &'static str,
+    /// How it travels on the bus. Recordings carry every message as JSON, in this form.
+    pub encoding: Encoding,
+    pub schema: schemars::Schema,
 }
-message!(Postcard: Decision, BarredSpace, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions);
-message!(Json: ZoneGoal, GoalAck, GoalsInForce, IncidentStatus);
+
+fn schema_of<M: Message>() -> MessageSchema {
+    MessageSchema {
+        name: M::NAME,
+        encoding: M::ENCODING,
+        schema: schemars::schema_for!(M),
+    }
+}
+
+macro_rules! messages {
+    ($($enc:ident: $($t:ident),*;)*) => {
+        $($(impl Message for $t {
+            const ENCODING: Encoding = Encoding::$enc;
+            const NAME: &'static str = concat!("firefleet.", stringify!($t));
+        })*)*
+
+        /// The JSON Schema of every message type, in the order declared.
+        pub fn schemas() -> Vec<MessageSchema> {
+            vec![$($(schema_of::<$t>(),)*)*]
+        }
+    };
+}
+messages! {
+    Postcard: Decision, BarredSpace, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions;
+    Json: ZoneGoal, GoalAck, GoalsInForce, IncidentStatus;
+}
 
 /// Longest list any fleet message may carry; bounds the work one message can cause.
 pub const MAX_LIST: usize = 64;
