@@ -1,5 +1,5 @@
 //! A scenario builder for tests and benchmarks: the sites they need, said in a line
-//! each instead of a pasted TOML file.
+//! each instead of a pasted TOML file; and a unit's state to start a test's from.
 //!
 //! ```
 //! use firefleet_protocol::scenario::Scenario;
@@ -12,9 +12,30 @@
 //! wrong (a test's own mistake). Not for production: site files are TOML, read with
 //! [`Scenario::load`].
 
-use crate::UnitId;
-use crate::msg::UnitKind;
+use crate::msg::{UnitKind, UnitMode, UnitState};
 use crate::scenario::{FireSpec, Growth, Obstacle, Rail, Scenario, Tunnel, UnitSpec};
+use crate::{Pose2, UnitId};
+
+/// An idle ground unit at (`x_m`, `y_m`) facing into the tunnel at t = 0: full tank,
+/// intact, no task, never tasked. Tests change what they are about with `..`.
+pub fn ground_state(unit: &str, x_m: f64, y_m: f64) -> UnitState {
+    UnitState {
+        unit: UnitId::new(unit).expect("a test's unit id is valid"),
+        kind: UnitKind::Ground,
+        t: 0.0,
+        pose: Pose2::new(x_m, y_m, 0.0),
+        speed: 0.0,
+        mode: UnitMode::Idle,
+        water_l: 1000.0,
+        health: 1.0,
+        heat_flux_kw_m2: 0.0,
+        task: None,
+        autonomous: false,
+        refused: None,
+        task_seq: None,
+        epoch: None,
+    }
+}
 
 /// A scenario under construction; see the module doc.
 #[derive(Debug, Clone)]

@@ -288,13 +288,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
                 .arg(s.configs.join(format!("{}.json5", who.dir_name()))),
             None => cmd.args(["--mode", "client", "--connect", endpoint.as_str()]),
         };
-        cmd.stdin(Stdio::piped())
-            .stdout(Stdio::null())
-            .stderr(Stdio::inherit())
-            .kill_on_drop(true);
-        if std::env::var_os("RUST_LOG").is_none() {
-            cmd.env("RUST_LOG", "warn,zenoh=error");
-        }
+        as_child(&mut cmd, "warn,zenoh=error");
         let child = cmd
             .spawn()
             .with_context(|| format!("starting the {role} process"))?;
@@ -551,6 +545,19 @@ fn exited(children: &mut [(String, Child)]) -> Option<String> {
     children
         .iter_mut()
         .find_map(|(role, c)| matches!(c.try_wait(), Ok(Some(_))).then(|| role.clone()))
+}
+
+/// Make `cmd` a child of this process: stdin a pipe from here (its `--die-with-parent`
+/// watches it), stdout quiet, stderr shared, killed if dropped; logging at `log` unless
+/// `RUST_LOG` says otherwise.
+pub(crate) fn as_child(cmd: &mut Command, log: &str) {
+    cmd.stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::inherit())
+        .kill_on_drop(true);
+    if std::env::var_os("RUST_LOG").is_none() {
+        cmd.env("RUST_LOG", log);
+    }
 }
 
 /// Stop `children` (stdin closed, then killed if they linger), the recorder last and with

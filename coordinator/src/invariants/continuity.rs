@@ -303,12 +303,12 @@ fn same_fire(a: Point2, b: Point2) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use firefleet_protocol::msg::{UnitMode, UnitState};
+    use firefleet_protocol::FireId;
     use firefleet_protocol::scenario::Scenario;
-    use firefleet_protocol::{FireId, Pose2};
 
     use super::*;
     use crate::incident::LEASE_S;
+    use crate::invariants::tests::state_of;
     use crate::invariants::{Event, Invariants};
 
     const FIRE: Point2 = Point2 { x: 200.0, y: 0.0 };
@@ -318,22 +318,7 @@ mod tests {
     }
 
     fn state(id: &str) -> Event {
-        Event::State(UnitState {
-            unit: unit(id),
-            kind: UnitKind::Ground,
-            t: 0.0,
-            pose: Pose2::new(50.0, -2.5, 0.0),
-            speed: 1.0,
-            mode: UnitMode::Navigating,
-            water_l: 500.0,
-            health: 1.0,
-            heat_flux_kw_m2: 0.0,
-            task: None,
-            autonomous: false,
-            refused: None,
-            task_seq: None,
-            epoch: None,
-        })
+        state_of(&unit(id), 50.0, 0.0, None)
     }
 
     fn task(id: &str, epoch: u64, seq: u64, kind: TaskKind) -> Event {

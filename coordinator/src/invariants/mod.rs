@@ -502,8 +502,9 @@ impl Invariants {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firefleet_protocol::Pose2;
-    use firefleet_protocol::msg::{GoalKind, TaskProgress, UnitMode};
+    use firefleet_protocol::msg::{GoalKind, TaskProgress};
+    use firefleet_protocol::testing::ground_state;
+
     use firefleet_protocol::{FireId, scenario::Zone};
 
     fn site() -> Scenario {
@@ -525,21 +526,15 @@ mod tests {
     }
 
     fn state(x: f64, t: f64, task: Option<TaskProgress>) -> Event {
+        state_of(&u(), x, t, task)
+    }
+
+    /// A ground unit's state at `x` along the tunnel, 2.5 m right of the axis.
+    pub(super) fn state_of(unit: &UnitId, x: f64, t: f64, task: Option<TaskProgress>) -> Event {
         Event::State(UnitState {
-            unit: u(),
-            kind: UnitKind::Ground,
             t,
-            pose: Pose2::new(x, -2.5, 0.0),
-            speed: 1.0,
-            mode: UnitMode::Navigating,
-            water_l: 500.0,
-            health: 1.0,
-            heat_flux_kw_m2: 0.0,
             task,
-            autonomous: false,
-            refused: None,
-            task_seq: None,
-            epoch: None,
+            ..ground_state(unit.as_str(), x, -2.5)
         })
     }
 

@@ -7,6 +7,7 @@ use firefleet_protocol::msg::{
     FireState, FlameReport, GoalAck, GoalKind, TaskProgress, UnitMode, ZoneGoal,
 };
 use firefleet_protocol::scenario::Zone;
+use firefleet_protocol::testing::ground_state;
 use firefleet_protocol::{Chainage, CommanderId, ZoneId};
 
 mod dispatch;
@@ -23,20 +24,8 @@ fn u(s: &str) -> UnitId {
 
 fn state(unit: &str, x: f64, task: Option<TaskProgress>) -> UnitState {
     UnitState {
-        unit: u(unit),
-        kind: UnitKind::Ground,
-        t: 0.0,
-        pose: Pose2::new(x, -2.0, 0.0),
-        speed: 0.0,
-        mode: UnitMode::Idle,
-        water_l: 1000.0,
-        health: 1.0,
-        heat_flux_kw_m2: 0.0,
         task,
-        autonomous: false,
-        refused: None,
-        task_seq: None,
-        epoch: None,
+        ..ground_state(unit, x, -2.0)
     }
 }
 

@@ -32,7 +32,7 @@
 //! `iptables`; without them it says so and exits 2, never passing silently.
 
 use std::path::{Path, PathBuf};
-use std::process::{ExitCode, Stdio};
+use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
@@ -51,7 +51,7 @@ use tokio::io::AsyncWriteExt;
 use tokio::process::{Child, Command};
 
 use crate::commands::check::check;
-use crate::commands::demo::stop_children;
+use crate::commands::demo::{as_child, stop_children};
 use crate::commands::{positive_f64, scenarios, write_json};
 
 /// How long a fault that lasts (a partition, loss, a pause) lasts, wall-clock.
@@ -458,13 +458,7 @@ fn spawn_as_given(ns: &str, role: &str, args: &[String]) -> anyhow::Result<(Stri
     let exe = std::env::current_exe().context("locating the firefleet binary")?;
     let mut cmd = Command::new("ip");
     cmd.args(["netns", "exec", ns]).arg(exe).args(args);
-    cmd.stdin(Stdio::piped())
-        .stdout(Stdio::null())
-        .stderr(Stdio::inherit())
-        .kill_on_drop(true);
-    if std::env::var_os("RUST_LOG").is_none() {
-        cmd.env("RUST_LOG", "error");
-    }
+    as_child(&mut cmd, "error");
     let child = cmd
         .spawn()
         .with_context(|| format!("starting {role} in {ns}"))?;
