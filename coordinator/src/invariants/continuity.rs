@@ -44,6 +44,9 @@ pub const TAKEOVER_S: f64 = 1.0;
 pub const SAME_FIRE_M: f64 = 6.0;
 /// A stretch this long with no event at all is the observer's own silence, site s.
 const OBSERVER_GAP_S: f64 = 1.0;
+/// How often the units are looked over for silence, site s: events come thousands a
+/// second in a large fleet, and a silence is measured against a lease of seconds.
+const SCAN_EVERY_S: f64 = 0.1;
 
 /// What made a fire's unit owed.
 #[derive(Debug, Clone, PartialEq)]
@@ -105,6 +108,7 @@ pub(super) struct Continuity {
     /// The observer has heard the site without a gap since then.
     hearing_since: f64,
     last_event: Option<f64>,
+    scanned_at: f64,
     tally: Tally,
 }
 
@@ -119,6 +123,7 @@ impl Continuity {
             owed: Vec::new(),
             hearing_since: 0.0,
             last_event: None,
+            scanned_at: f64::NEG_INFINITY,
             tally: Tally::default(),
         }
     }
@@ -156,7 +161,8 @@ impl Continuity {
                 let Some(kind) = self.in_play(unit, t) else {
                     continue;
                 };
-                if old.epoch < task.epoch && !owed.iter().any(|o| same_fire(o.fire, target)) {
+                // Every task held is of an older epoch: this one is the newest yet.
+                if !owed.iter().any(|o| same_fire(o.fire, target)) {
                     owed.push(Owed {
                         cause: Cause::Takeover {
                             epoch: task.epoch,
@@ -188,28 +194,12 @@ impl Continuity {
         attack_barred: impl Fn(Point2) -> bool,
         violations: &mut Vec<Violation>,
     ) {
-        let lease = self.lease_s;
-        let since = self.hearing_since;
-        for (unit, h) in &mut self.heard {
-            if h.noted || t - h.at.max(since) <= lease {
-                continue;
-            }
-            h.noted = true;
-            if let Some(Task {
-                kind: TaskKind::Extinguish { target, .. },
-                ..
-            }) = self.given.get(unit)
-            {
-                self.owed.push(Owed {
-                    cause: Cause::Lost {
-                        unit: unit.clone(),
-                        heard: h.at,
-                    },
-                    fire: *target,
-                    kind: h.kind,
-                    due: h.at.max(since) + lease + RELIEF_S,
-                });
-            }
+        if t - self.scanned_at >= SCAN_EVERY_S {
+            self.scanned_at = t;
+            self.note_silences(t);
+        }
+        if self.owed.iter().all(|o| o.due > t) {
+            return;
         }
         let (due, later): (Vec<_>, Vec<_>) = std::mem::take(&mut self.owed)
             .into_iter()
@@ -240,6 +230,33 @@ impl Continuity {
 
     pub(super) fn tally(&self) -> Tally {
         self.tally
+    }
+
+    /// Owe a relief for every unit sent to a fire that fell silent by `t`.
+    fn note_silences(&mut self, t: f64) {
+        let lease = self.lease_s;
+        let since = self.hearing_since;
+        for (unit, h) in &mut self.heard {
+            if h.noted || t - h.at.max(since) <= lease {
+                continue;
+            }
+            h.noted = true;
+            if let Some(Task {
+                kind: TaskKind::Extinguish { target, .. },
+                ..
+            }) = self.given.get(unit)
+            {
+                self.owed.push(Owed {
+                    cause: Cause::Lost {
+                        unit: unit.clone(),
+                        heard: h.at,
+                    },
+                    fire: *target,
+                    kind: h.kind,
+                    due: h.at.max(since) + lease + RELIEF_S,
+                });
+            }
+        }
     }
 
     /// How `o` stands at `t`: `None` if it is broken.
