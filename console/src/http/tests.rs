@@ -1,0 +1,208 @@
+//! The API as a page uses it, without a network: requests through the router.
+
+use super::*;
+use crate::site::SiteMap;
+use axum::body::Body;
+use axum::http::Request;
+use firefleet_protocol::scenario::Scenario;
+use tower::ServiceExt;
+
+struct Fixture {
+    console: Arc<Console>,
+    requests: mpsc::Receiver<GoalRequest>,
+    _dir: tempfile::TempDir,
+}
+
+fn fixture() -> Fixture {
+    let text = include_str!("../../../examples/scenarios/rail-tunnel.toml");
+    let scenario = Scenario::from_toml(text, "rail-tunnel.toml").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("users.toml");
+    Users::add(&path, CommanderId::new("rossi").unwrap(), "correct horse").unwrap();
+    let users = Users::load(&path).unwrap();
+    let (console, requests) = Console::new(
+        Picture::new(SiteMap::new(&scenario)),
+        users,
+        Sessions::new(Duration::from_secs(3600)),
+        false,
+    );
+    Fixture {
+        console,
+        requests,
+        _dir: dir,
+    }
+}
+
+async fn call(
+    c: &Arc<Console>,
+    method: &str,
+    uri: &str,
+    cookie: Option<&str>,
+    body: Option<serde_json::Value>,
+) -> (StatusCode, HeaderMap, serde_json::Value) {
+    let mut req = Request::builder().method(method).uri(uri);
+    if let Some(cookie) = cookie {
+        req = req.header(header::COOKIE, cookie);
+    }
+    let req = match body {
+        Some(b) => req
+            .header(header::CONTENT_TYPE, "application/json")
+            .body(Body::from(b.to_string())),
+        None => req.body(Body::empty()),
+    }
+    .unwrap();
+    let response = c.clone().router().oneshot(req).await.unwrap();
+    let (parts, body) = response.into_parts();
+    let bytes = axum::body::to_bytes(body, 1 << 24).await.unwrap();
+    let json = serde_json::from_slice(&bytes).unwrap_or(serde_json::Value::Null);
+    (parts.status, parts.headers, json)
+}
+
+async fn log_in(c: &Arc<Console>) -> String {
+    let (status, headers, body) = call(
+        c,
+        "POST",
+        "/api/login",
+        None,
+        Some(json!({"name": "rossi", "password": "correct horse"})),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK, "{body}");
+    let set = headers[header::SET_COOKIE].to_str().unwrap();
+    assert!(
+        set.contains("HttpOnly") && set.contains("SameSite=Strict"),
+        "{set}"
+    );
+    set.split(';').next().unwrap().to_owned()
+}
+
+#[tokio::test]
+async fn the_page_and_the_picture_are_served_without_a_login() {
+    let f = fixture();
+    let (status, _, incident) = call(&f.console, "GET", "/api/incident", None, None).await;
+    assert_eq!(status, StatusCode::OK);
+    assert_eq!(incident["site"]["scenario"], "rail-tunnel");
+    assert!(incident["units"].as_array().unwrap().len() >= 2);
+    let req = Request::get("/").body(Body::empty()).unwrap();
+    let page = f.console.clone().router().oneshot(req).await.unwrap();
+    assert_eq!(page.status(), StatusCode::OK);
+    let req = Request::get("/console.js").body(Body::empty()).unwrap();
+    let script = f.console.clone().router().oneshot(req).await.unwrap();
+    assert_eq!(
+        script.headers()[header::CONTENT_TYPE],
+        "text/javascript; charset=utf-8"
+    );
+}
+
+#[tokio::test]
+async fn a_wrong_password_is_refused_and_steering_needs_a_login() {
+    let f = fixture();
+    let wrong = json!({"name": "rossi", "password": "wrong horse!"});
+    let (status, headers, body) = call(&f.console, "POST", "/api/login", None, Some(wrong)).await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED);
+    assert!(headers.get(header::SET_COOKIE).is_none());
+    assert_eq!(body["error"], "wrong name or password");
+    let goal = json!({"zone": "deep", "goal": "keep-out"});
+    let (status, _, _) = call(&f.console, "POST", "/api/goals", None, Some(goal.clone())).await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED);
+    let forged = "ff_session=00112233";
+    let (status, _, _) = call(&f.console, "POST", "/api/goals", Some(forged), Some(goal)).await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED);
+    let (status, _, _) = call(&f.console, "GET", "/api/me", None, None).await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED);
+}
+
+#[tokio::test]
+async fn a_goal_is_issued_under_the_login_and_answered_with_the_ack() {
+    let mut f = fixture();
+    let cookie = log_in(&f.console).await;
+    let (_, _, me) = call(&f.console, "GET", "/api/me", Some(&cookie), None).await;
+    assert_eq!(me["name"], "rossi");
+    let coordinator = tokio::spawn(async move {
+        let Some(GoalRequest::Set { goal, reply }) = f.requests.recv().await else {
+            panic!("a goal was expected");
+        };
+        let ack = GoalAck {
+            id: goal.id.clone(),
+            zone: goal.zone.clone(),
+            accepted: true,
+            reason: format!("keep-out by {}", goal.issued_by),
+        };
+        reply.send(Ok(ack)).unwrap();
+        goal
+    });
+    let form = json!({"zone": "deep", "goal": "keep-out"});
+    let (status, _, ack) = call(&f.console, "POST", "/api/goals", Some(&cookie), Some(form)).await;
+    assert_eq!(status, StatusCode::OK, "{ack}");
+    assert_eq!(ack["accepted"], true);
+    assert_eq!(ack["id"], "deep-keep-out");
+    let goal = coordinator.await.unwrap();
+    assert_eq!(goal.issued_by, "rossi");
+}
+
+#[tokio::test]
+async fn a_bad_goal_is_refused_naming_what_is_wrong() {
+    let f = fixture();
+    let cookie = log_in(&f.console).await;
+    let cases = [
+        (json!({"zone": "nowhere", "goal": "keep-out"}), "nowhere"),
+        (json!({"zone": "deep", "goal": "bonfire"}), "goal"),
+        (
+            json!({"zone": "deep", "goal": "keep-out", "issued_by": "verdi"}),
+            "issued_by",
+        ),
+        (
+            json!({"zone": "deep", "goal": "contain", "before_m": "far"}),
+            "before_m",
+        ),
+    ];
+    for (form, names) in cases {
+        let (status, _, body) = call(
+            &f.console,
+            "POST",
+            "/api/goals",
+            Some(&cookie),
+            Some(form.clone()),
+        )
+        .await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "{form}");
+        let e = body["error"].as_str().unwrap();
+        assert!(e.contains(names), "{form}: {e}");
+    }
+    let (status, _, _) = call(
+        &f.console,
+        "DELETE",
+        "/api/goals/nowhere",
+        Some(&cookie),
+        None,
+    )
+    .await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+}
+
+#[tokio::test]
+async fn an_alert_is_acknowledged_by_the_login() {
+    let f = fixture();
+    let cookie = log_in(&f.console).await;
+    let unit = firefleet_protocol::UnitId::new("ugv-1").unwrap();
+    f.console.observe(Event::UnitAlive(unit.clone(), true));
+    f.console.observe(Event::UnitAlive(unit, false));
+    let (_, _, incident) = call(&f.console, "GET", "/api/incident", None, None).await;
+    let id = incident["alerts"][0]["id"].as_u64().unwrap();
+    let uri = format!("/api/alerts/{id}/ack");
+    let (status, _, _) = call(&f.console, "POST", &uri, None, None).await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED);
+    let (status, _, body) = call(&f.console, "POST", &uri, Some(&cookie), None).await;
+    assert_eq!(status, StatusCode::OK, "{body}");
+    let (_, _, incident) = call(&f.console, "GET", "/api/incident", None, None).await;
+    assert_eq!(incident["alerts"][0]["acked_by"], "rossi");
+    let (status, _, _) = call(
+        &f.console,
+        "POST",
+        "/api/alerts/77/ack",
+        Some(&cookie),
+        None,
+    )
+    .await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+}
