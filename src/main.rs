@@ -38,6 +38,8 @@ enum Command {
     Record(commands::record::RecordArgs),
     /// Print the incident as the coordinator sees it.
     Status(commands::status::StatusArgs),
+    /// The incident commander's web console (a live map, goals, alerts), or add a login.
+    Console(commands::console::ConsoleArgs),
     /// Issue, list or clear incident commanders' zone goals.
     #[command(subcommand)]
     Goal(commands::goal::GoalCommand),
@@ -104,6 +106,7 @@ fn main() -> std::process::ExitCode {
             Command::Record(a) => commands::record::run(a).await,
             Command::Status(a) => commands::status::run(a).await,
             Command::Goal(c) => commands::goal::run(c).await,
+            Command::Console(a) => commands::console::run(a).await,
             Command::Plan(c) => commands::plan::run(c),
             Command::Scenarios => commands::scenarios::list(),
             Command::Pki(c) => commands::pki::run(c),

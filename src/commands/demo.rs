@@ -72,6 +72,17 @@ pub struct DemoArgs {
     /// Run a standby coordinator beside the one in charge (`coordinator --standby`).
     #[arg(long)]
     standby: bool,
+    /// Serve the incident commander's console here too (`firefleet console --http ADDR`),
+    /// e.g. 127.0.0.1:8080.
+    #[arg(long, value_name = "ADDR:PORT")]
+    console: Option<std::net::SocketAddr>,
+    /// With --console: the commanders who may log in (`firefleet console add-user`).
+    #[arg(long, value_name = "FILE", requires = "console")]
+    console_users: Option<PathBuf>,
+    /// Keep the fleet up this many seconds after the incident ends (to look at it on the
+    /// console, or steer the units still patrolling).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = non_negative_f64)]
+    linger: f64,
     /// Kill the coordinator in charge at this site time: the standby takes over.
     #[arg(long, value_name = "SECONDS", requires = "standby", value_parser = non_negative_f64)]
     kill_coordinator_at: Option<f64>,
@@ -294,6 +305,36 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("starting the {role} process"))?;
         children.push((role, child));
     }
+    if let Some(addr) = a.console {
+        // A console would need an identity of its own on a secure site, allowed to put goals
+        // under the names of the commanders it logs in; the access rules have none yet.
+        anyhow::ensure!(
+            site.is_none(),
+            "--console with --secure: the access rules have no console identity yet"
+        );
+        let mut cmd = Command::new(&exe);
+        cmd.args([
+            "console",
+            "--http",
+            &addr.to_string(),
+            "--scenario",
+            a.scenario.as_str(),
+        ])
+        .args([
+            "--die-with-parent",
+            "--mode",
+            "client",
+            "--connect",
+            endpoint.as_str(),
+        ]);
+        if let Some(users) = &a.console_users {
+            cmd.arg("--users").arg(users);
+        }
+        as_child(&mut cmd, "warn,zenoh=error");
+        let child = cmd.spawn().context("starting the console process")?;
+        children.push(("console".into(), child));
+        println!("the incident commander's console: http://{addr}/");
+    }
     println!(
         "firefleet demo: scenario '{}' (seed {seed}), {} fires, {} units, {} processes on {endpoint}, time x{}",
         scenario.name,
@@ -361,6 +402,25 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         }
     };
     let wall = started.elapsed().as_secs_f64();
+    if a.linger > 0.0 && matches!(outcome, Outcome::AllOut | Outcome::TimeLimit) {
+        println!(
+            "the fleet stays up {:.0} s more (--linger); Ctrl-C ends it",
+            a.linger
+        );
+        // This process is the router: its inboxes must keep draining, or a full one stalls
+        // every session routed through it.
+        let until = tokio::time::sleep(Duration::from_secs_f64(a.linger));
+        tokio::pin!(until);
+        loop {
+            tokio::select! {
+                _ = &mut until => break,
+                _ = &mut shutdown => break,
+                Some(_) = states.recv() => {}
+                Some(_) = truths.recv() => {}
+                Some(_) = acks.recv() => {}
+            }
+        }
+    }
     let processes: Vec<ProcessInfo> = children
         .iter()
         .map(|(role, c)| ProcessInfo {

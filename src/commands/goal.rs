@@ -10,8 +10,8 @@
 use std::process::ExitCode;
 use std::time::Duration;
 
-use anyhow::Context;
 use clap::{Args, Subcommand};
+use firefleet_protocol::bus::Bus;
 use firefleet_protocol::msg::{GoalAck, GoalKind, ZoneGoal};
 use firefleet_protocol::validate::Validate;
 use firefleet_protocol::{CommanderId, ZoneId};
@@ -95,7 +95,35 @@ fn parse_kind(s: &str) -> Result<GoalKind, String> {
 }
 
 /// How long to wait for the coordinator's answer.
-const ACK_TIMEOUT: Duration = Duration::from_secs(5);
+pub const ACK_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// Put `goal` under commander `by` and wait up to `within` for the coordinator's answer,
+/// putting it again every second meanwhile: a goal is idempotent (the same id amends),
+/// and a coordinator that was taking over or a link that dropped the first put still
+/// hears it.
+pub async fn issue(
+    bus: &Bus,
+    goal: &ZoneGoal,
+    by: &CommanderId,
+    within: Duration,
+) -> anyhow::Result<GoalAck> {
+    let keys = bus.keys();
+    let acks = bus.subscribe::<GoalAck>(&keys.zone_ack(&goal.zone)).await?;
+    let deadline = tokio::time::Instant::now() + within;
+    while tokio::time::Instant::now() < deadline {
+        bus.put(&keys.zone_goal(&goal.zone, by), goal).await?;
+        let resend = (tokio::time::Instant::now() + Duration::from_secs(1)).min(deadline);
+        while let Ok(Some((_, ack))) = tokio::time::timeout_at(resend, acks.recv()).await {
+            if ack.id == goal.id {
+                return Ok(ack);
+            }
+        }
+    }
+    anyhow::bail!(
+        "no answer from a coordinator within {:.0} s",
+        within.as_secs_f64()
+    )
+}
 
 pub async fn run(cmd: GoalCommand) -> anyhow::Result<ExitCode> {
     match cmd {
@@ -142,23 +170,9 @@ async fn set(a: SetArgs) -> anyhow::Result<ExitCode> {
     goal.validate()
         .map_err(|e| anyhow::anyhow!("the goal is not valid: {e}"))?;
     let bus = open(&a.common.zenoh, &scenario).await?;
-    let acks = bus
-        .subscribe::<GoalAck>(&bus.keys().zone_ack(&a.zone))
-        .await?;
-    bus.put(&bus.keys().zone_goal(&a.zone, &a.by.name), &goal)
-        .await?;
-    let deadline = tokio::time::Instant::now() + ACK_TIMEOUT;
-    let ack = loop {
-        let (_, ack) = tokio::time::timeout_at(deadline, acks.recv())
-            .await
-            .ok()
-            .flatten()
-            .context("no answer from a coordinator within 5 s")?;
-        if ack.id == goal.id {
-            break ack;
-        }
-    };
+    let ack = issue(&bus, &goal, &a.by.name, ACK_TIMEOUT).await;
     bus.close().await;
+    let ack = ack?;
     if ack.accepted {
         println!("goal '{}' on zone {}: {}", ack.id, ack.zone, ack.reason);
         Ok(ExitCode::SUCCESS)

@@ -12,6 +12,7 @@ use serde::Serialize;
 pub mod agent;
 pub mod bt;
 pub mod check;
+pub mod console;
 pub mod coordinator;
 pub mod demo;
 pub mod deploy;

@@ -187,10 +187,8 @@ impl Console {
         Some((token, who))
     }
 
-    fn commander(&self, headers: &HeaderMap) -> Result<CommanderId, Response> {
-        self.session(headers)
-            .map(|(_, who)| who)
-            .ok_or_else(|| error(StatusCode::UNAUTHORIZED, "log in to steer the incident"))
+    fn commander(&self, headers: &HeaderMap) -> Option<CommanderId> {
+        self.session(headers).map(|(_, who)| who)
     }
 }
 
@@ -211,6 +209,10 @@ fn asset(content_type: &'static str, body: &'static str) -> Response {
 
 fn error(status: StatusCode, message: impl Into<String>) -> Response {
     (status, Json(json!({ "error": message.into() }))).into_response()
+}
+
+fn unauthorized() -> Response {
+    error(StatusCode::UNAUTHORIZED, "log in to steer the incident")
 }
 
 fn bad_json(e: JsonRejection) -> Response {
@@ -312,8 +314,8 @@ async fn logout(State(c): State<Arc<Console>>, headers: HeaderMap) -> Response {
 
 async fn me(State(c): State<Arc<Console>>, headers: HeaderMap) -> Response {
     match c.commander(&headers) {
-        Ok(who) => Json(json!({ "name": who })).into_response(),
-        Err(e) => e,
+        Some(who) => Json(json!({ "name": who })).into_response(),
+        None => unauthorized(),
     }
 }
 
@@ -322,9 +324,8 @@ async fn set_goal(
     headers: HeaderMap,
     body: Result<Json<GoalForm>, JsonRejection>,
 ) -> Response {
-    let who = match c.commander(&headers) {
-        Ok(w) => w,
-        Err(e) => return e,
+    let Some(who) = c.commander(&headers) else {
+        return unauthorized();
     };
     let Json(form) = match body {
         Ok(b) => b,
@@ -388,9 +389,8 @@ async fn clear_goals(
     headers: HeaderMap,
     Path(zone): Path<String>,
 ) -> Response {
-    let who = match c.commander(&headers) {
-        Ok(w) => w,
-        Err(e) => return e,
+    let Some(who) = c.commander(&headers) else {
+        return unauthorized();
     };
     let zone = match ZoneId::new(zone.as_str()) {
         Ok(z) if c.picture().site().zones.iter().any(|s| s.id == z) => z,
@@ -426,9 +426,8 @@ async fn ack_alert(
     headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Response {
-    let who = match c.commander(&headers) {
-        Ok(w) => w,
-        Err(e) => return e,
+    let Some(who) = c.commander(&headers) else {
+        return unauthorized();
     };
     let Ok(id) = id.parse::<u64>() else {
         return error(StatusCode::NOT_FOUND, format!("no alert '{id}'"));

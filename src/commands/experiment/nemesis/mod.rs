@@ -41,7 +41,7 @@ use firefleet_coordinator::incident::LEASE_S;
 use firefleet_protocol::bus::{Bus, Connect, Mode};
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{
-    Decision, GoalAck, GoalKind, IncidentStatus, SimTruth, Task, UnitState, ZoneGoal,
+    Decision, GoalKind, IncidentStatus, SimTruth, Task, UnitState, ZoneGoal,
 };
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::{CommanderId, UnitId, ZoneId};
@@ -716,20 +716,10 @@ fn quiet_zone(scenario: &Scenario) -> Option<ZoneId> {
 /// Put `goal` until the coordinator acknowledges it (it may not be up yet); an error if
 /// it refuses it or says nothing for a minute.
 async fn issue(bus: &Bus, goal: &ZoneGoal) -> anyhow::Result<()> {
-    let keys = bus.keys();
     let by = CommanderId::new(COMMANDER)?;
-    let acks = bus.subscribe::<GoalAck>(&keys.zone_ack(&goal.zone)).await?;
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while Instant::now() < deadline {
-        bus.put(&keys.zone_goal(&goal.zone, &by), goal).await?;
-        if let Ok(Some((_, ack))) = tokio::time::timeout(Duration::from_secs(1), acks.recv()).await
-            && ack.id == goal.id
-        {
-            anyhow::ensure!(ack.accepted, "the keep-out was refused: {}", ack.reason);
-            return Ok(());
-        }
-    }
-    bail!("no coordinator acknowledged the keep-out within a minute")
+    let ack = crate::commands::goal::issue(bus, goal, &by, Duration::from_secs(60)).await?;
+    anyhow::ensure!(ack.accepted, "the keep-out was refused: {}", ack.reason);
+    Ok(())
 }
 
 /// A client of the router at `endpoint`, retried while the router comes up.

@@ -1,0 +1,222 @@
+//! `firefleet console`: the incident commander's web console, a Zenoh client like any other
+//! role; `firefleet console add-user` makes its logins.
+//!
+//! This is the edge of `firefleet_console`: it hears everything on the site's bus (unit
+//! states, fire tracks, goals in force, decisions, answers, tokens), decodes and validates
+//! it with the recorder's one decoder, feeds the picture, ticks the stream, and carries
+//! commanders' goals to the bus and their answers back.
+//!
+//! Not here: the picture, the page or logins (`firefleet_console`).
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Context;
+use clap::{Args, Subcommand};
+use firefleet_console::auth::{Sessions, Users};
+use firefleet_console::http::{Console, GoalRequest, TICK};
+use firefleet_console::picture::{Event, Picture};
+use firefleet_console::site::SiteMap;
+use firefleet_protocol::CommanderId;
+use firefleet_protocol::bus::Bus;
+use firefleet_protocol::keys::{self, Topic};
+use firefleet_recorder::payload::Payload;
+use tokio::sync::mpsc;
+
+use super::goal::{ACK_TIMEOUT, issue};
+use super::{ScenarioArg, positive_f64, scenarios};
+use crate::net::{ZenohArgs, join, shutdown_signal};
+
+#[derive(Args, Debug)]
+#[command(args_conflicts_with_subcommands = true)]
+pub struct ConsoleArgs {
+    #[command(subcommand)]
+    command: Option<ConsoleCommand>,
+    #[command(flatten)]
+    serve: ServeArgs,
+}
+
+#[derive(Subcommand, Debug)]
+enum ConsoleCommand {
+    /// Add a commander to a users file, or set their password (read from standard input,
+    /// one line, at least 8 characters).
+    AddUser(AddUserArgs),
+}
+
+#[derive(Args, Debug)]
+struct AddUserArgs {
+    /// The users file (made if missing, readable by its owner only).
+    #[arg(long, value_name = "FILE")]
+    users: PathBuf,
+    /// The commander's name: the name goals are issued under.
+    name: CommanderId,
+}
+
+#[derive(Args, Debug)]
+struct ServeArgs {
+    #[command(flatten)]
+    scenario: ScenarioArg,
+    #[command(flatten)]
+    zenoh: ZenohArgs,
+    /// Where the page is served. Loopback by default: serving it wider is a site's decision.
+    #[arg(long, value_name = "ADDR:PORT", default_value = "127.0.0.1:8080")]
+    http: SocketAddr,
+    /// The commanders who may log in (`firefleet console add-user`); without it the
+    /// console is read-only.
+    #[arg(long, value_name = "FILE")]
+    users: Option<PathBuf>,
+    /// Hours a login lasts.
+    #[arg(long, default_value_t = 8.0, value_parser = positive_f64)]
+    session_hours: f64,
+}
+
+pub async fn run(a: ConsoleArgs) -> anyhow::Result<ExitCode> {
+    match a.command {
+        Some(ConsoleCommand::AddUser(u)) => add_user(u),
+        None => serve(a.serve).await,
+    }
+}
+
+fn add_user(a: AddUserArgs) -> anyhow::Result<ExitCode> {
+    let mut password = String::new();
+    std::io::stdin()
+        .read_line(&mut password)
+        .context("reading the password from standard input")?;
+    let password = password.trim_end_matches(['\r', '\n']);
+    Users::add(&a.users, a.name.clone(), password)?;
+    println!("{} may log in ({})", a.name, a.users.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
+    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let users = match &a.users {
+        Some(path) => Users::load(path)?,
+        None => {
+            tracing::warn!("no --users file: the console is read-only, nobody can log in");
+            Users::default()
+        }
+    };
+    let listener = tokio::net::TcpListener::bind(a.http)
+        .await
+        .with_context(|| format!("serving the console on {}", a.http))?;
+    let bus = join(&a.zenoh, &scenario).await?;
+    let (console, requests) = Console::new(
+        Picture::new(SiteMap::new(&scenario)),
+        users,
+        Sessions::new(Duration::from_secs_f64(a.session_hours * 3600.0)),
+        false,
+    );
+    let bus = Arc::new(bus);
+    let feed = {
+        let (bus, console) = (bus.clone(), console.clone());
+        tokio::spawn(async move {
+            if let Err(e) = feed(bus, console).await {
+                tracing::error!("the console no longer hears the bus: {e:#}");
+            }
+        })
+    };
+    let goals = tokio::spawn(carry_goals(bus.clone(), requests));
+    let (feed, goals) = (feed.abort_handle(), goals.abort_handle());
+    let ticker = {
+        let console = console.clone();
+        tokio::spawn(async move {
+            let mut every = tokio::time::interval(TICK);
+            every.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+            loop {
+                every.tick().await;
+                console.tick();
+            }
+        })
+    };
+    tracing::info!("console on http://{}", listener.local_addr()?);
+    let stop = shutdown_signal(a.zenoh.die_with_parent);
+    let served = axum::serve(listener, console.router())
+        .with_graceful_shutdown(stop)
+        .await;
+    for task in [feed, goals, ticker.abort_handle()] {
+        task.abort();
+    }
+    if let Ok(bus) = Arc::try_unwrap(bus) {
+        bus.close().await;
+    }
+    served.context("serving the console")?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Everything the site says, into the picture. Undecodable samples are counted by the
+/// decoder's callers elsewhere; here they are logged and dropped, the console keeps going.
+async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> anyhow::Result<()> {
+    let keys = bus.keys();
+    let session = bus.session();
+    let samples = session
+        .declare_subscriber(keys.all())
+        .await
+        .map_err(|e| anyhow::anyhow!("subscribing to {}: {e}", keys.all()))?;
+    let tokens = session
+        .liveliness()
+        .declare_subscriber(keys.all())
+        .history(true)
+        .await
+        .map_err(|e| anyhow::anyhow!("following tokens: {e}"))?;
+    loop {
+        tokio::select! {
+            Ok(s) = tokens.recv_async() => {
+                let alive = s.kind() == zenoh::sample::SampleKind::Put;
+                match keys::parse(s.key_expr().as_str()) {
+                    Ok((_, Topic::UnitAlive(unit))) => console.observe(Event::UnitAlive(unit, alive)),
+                    Ok((_, Topic::CoordAlive)) => console.observe(Event::CoordinatorAlive(alive)),
+                    _ => {}
+                }
+            }
+            Ok(s) = samples.recv_async() => {
+                if s.kind() != zenoh::sample::SampleKind::Put {
+                    continue;
+                }
+                let key = s.key_expr().as_str();
+                let bytes = s.payload().to_bytes();
+                match keys::parse(key) {
+                    Ok((_, topic)) => match Payload::from_wire(&topic, &bytes) {
+                        Ok(payload) => console.observe(Event::Message(payload)),
+                        Err(e) => tracing::debug!("{key}: dropped ({e})"),
+                    },
+                    Err(e) => tracing::debug!("{key}: dropped ({e})"),
+                }
+            }
+            else => anyhow::bail!("the bus closed"),
+        }
+    }
+}
+
+/// Commanders' goals to the bus, each answered on its own task so a slow answer holds up
+/// no other commander.
+async fn carry_goals(bus: Arc<Bus>, mut requests: mpsc::Receiver<GoalRequest>) {
+    while let Some(request) = requests.recv().await {
+        let bus = bus.clone();
+        tokio::spawn(async move {
+            match request {
+                GoalRequest::Set { goal, reply } => {
+                    let answer = match CommanderId::new(goal.issued_by.as_str()) {
+                        Ok(by) => issue(&bus, &goal, &by, ACK_TIMEOUT)
+                            .await
+                            .map_err(|e| e.to_string()),
+                        Err(e) => Err(e.to_string()),
+                    };
+                    let _ = reply.send(answer);
+                }
+                GoalRequest::Clear { zone, by, reply } => {
+                    let key = bus.keys().zone_goal(&zone, &by);
+                    let answer = bus
+                        .session()
+                        .delete(key.as_str())
+                        .await
+                        .map_err(|e| format!("clearing {}: {e}", key.as_str()));
+                    let _ = reply.send(answer);
+                }
+            }
+        });
+    }
+}
