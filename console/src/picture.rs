@@ -559,6 +559,25 @@ mod tests {
     }
 
     #[test]
+    fn a_decision_reaches_a_page_once_whether_it_joined_before_or_after_it() {
+        let mut p = picture();
+        let d = |t: f64| Decision {
+            t,
+            text: format!("decided at {t}"),
+        };
+        p.observe(0, Event::Message(Payload::Decision(d(1.0))));
+        p.delta(0).unwrap();
+        p.observe(0, Event::Message(Payload::Decision(d(2.0))));
+        // A page joining now gets the first in the picture and the second in the next delta.
+        let joined = p.incident();
+        assert_eq!(joined.decisions, [d(1.0)]);
+        let next = p.delta(0).unwrap();
+        assert_eq!(next.seq, joined.seq + 1);
+        assert_eq!(next.decisions, [d(2.0)]);
+        assert_eq!(p.incident().decisions, [d(1.0), d(2.0)]);
+    }
+
+    #[test]
     fn a_vanished_token_is_a_lost_unit_and_an_alert_until_acknowledged() {
         let mut p = picture();
         let u = unit("ugv-9");
