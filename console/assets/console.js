@@ -311,7 +311,7 @@ function drawHeader() {
 
 function applyIncident(inc) {
   state.seq = inc.seq; state.t = inc.t; state.coordinator = inc.coordinator;
-  if (!state.site || JSON.stringify(state.site.stations_m.length) !== JSON.stringify(inc.site.stations_m.length) || state.site.scenario !== inc.site.scenario) {
+  if (!state.site || state.site.stations_m.length !== inc.site.stations_m.length || state.site.scenario !== inc.site.scenario) {
     state.site = inc.site; drawSite();
   }
   state.units = new Map(inc.units.map((u) => [u.id, u]));

@@ -147,15 +147,35 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Everything the site says, into the picture. Undecodable samples are counted by the
-/// decoder's callers elsewhere; here they are logged and dropped, the console keeps going.
+/// What the picture is made of, into it: unit states, fire tracks, goals in force,
+/// decisions, goal answers and the site clock (not the simulator's sensors and commands,
+/// the bulk of a large fleet's traffic), and the tokens. A sample that does not decode or
+/// validate is logged and dropped; the console keeps going.
 async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> anyhow::Result<()> {
     let keys = bus.keys();
     let session = bus.session();
-    let samples = session
-        .declare_subscriber(keys.all())
-        .await
-        .map_err(|e| anyhow::anyhow!("subscribing to {}: {e}", keys.all()))?;
+    let wanted = [
+        keys.every_unit_state().as_str().to_owned(),
+        keys.every_fire().as_str().to_owned(),
+        keys.every_zone_ack().as_str().to_owned(),
+        keys.expr(&Topic::CoordGoals),
+        keys.expr(&Topic::CoordLog),
+        keys.expr(&Topic::SimClock),
+    ];
+    // One queue for all of them, drained below: a full Zenoh inbox would stall the session.
+    let (tx, mut samples) = mpsc::unbounded_channel::<zenoh::sample::Sample>();
+    let mut subscribers = Vec::new();
+    for key in wanted {
+        let tx = tx.clone();
+        let subscriber = session
+            .declare_subscriber(key.as_str())
+            .callback(move |s| {
+                let _ = tx.send(s);
+            })
+            .await
+            .map_err(|e| anyhow::anyhow!("subscribing to {key}: {e}"))?;
+        subscribers.push(subscriber);
+    }
     let tokens = session
         .liveliness()
         .declare_subscriber(keys.all())
@@ -172,17 +192,18 @@ async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> anyhow::Result<()> {
                     _ => {}
                 }
             }
-            Ok(s) = samples.recv_async() => {
+            Some(s) = samples.recv() => {
                 if s.kind() != zenoh::sample::SampleKind::Put {
                     continue;
                 }
                 let key = s.key_expr().as_str();
-                let bytes = s.payload().to_bytes();
-                match keys::parse(key) {
-                    Ok((_, topic)) => match Payload::from_wire(&topic, &bytes) {
-                        Ok(payload) => console.observe(Event::Message(payload)),
-                        Err(e) => tracing::debug!("{key}: dropped ({e})"),
-                    },
+                let decoded = keys::parse(key)
+                    .map_err(|e| e.to_string())
+                    .and_then(|(_, topic)| {
+                        Payload::from_wire(&topic, &s.payload().to_bytes()).map_err(|e| e.to_string())
+                    });
+                match decoded {
+                    Ok(payload) => console.observe(Event::Message(payload)),
                     Err(e) => tracing::debug!("{key}: dropped ({e})"),
                 }
             }

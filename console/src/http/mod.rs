@@ -263,7 +263,9 @@ async fn stream(State(c): State<Arc<Console>>) -> Response {
 
 /// The whole picture as a stream event.
 fn whole(c: &Console) -> SseEvent {
-    let json = serde_json::to_string(&c.picture().incident()).expect("a picture serialises");
+    // Copied under the lock, serialised outside it.
+    let incident = c.picture().incident();
+    let json = serde_json::to_string(&incident).expect("a picture serialises");
     SseEvent::default().event("incident").data(json)
 }
 
