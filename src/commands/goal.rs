@@ -113,9 +113,12 @@ pub async fn issue(
     while tokio::time::Instant::now() < deadline {
         bus.put(&keys.zone_goal(&goal.zone, by), goal).await?;
         let resend = (tokio::time::Instant::now() + Duration::from_secs(1)).min(deadline);
-        while let Ok(Some((_, ack))) = tokio::time::timeout_at(resend, acks.recv()).await {
-            if ack.id == goal.id {
-                return Ok(ack);
+        loop {
+            match tokio::time::timeout_at(resend, acks.recv()).await {
+                Ok(Some((_, ack))) if ack.id == goal.id => return Ok(ack),
+                Ok(Some(_)) => {}
+                Ok(None) => anyhow::bail!("the bus closed before the coordinator answered"),
+                Err(_) => break,
             }
         }
     }
