@@ -47,8 +47,6 @@ use crate::picture::{Event, Picture};
 /// How often changes are sent to pages: a unit's move shows within this, and a thousand
 /// units' states coalesce into one message per unit per tick.
 pub const TICK: Duration = Duration::from_millis(100);
-/// How long a goal waits for the coordinator's answer.
-pub const ACK_TIMEOUT: Duration = Duration::from_secs(5);
 /// The session cookie.
 const COOKIE: &str = "ff_session";
 /// Deltas a slow page may fall behind before it is sent the whole picture again.
@@ -361,19 +359,11 @@ async fn set_goal(
         goal.id,
         goal.zone
     );
-    let (reply, answer) = oneshot::channel();
-    if c.goals
-        .send(GoalRequest::Set { goal, reply })
-        .await
-        .is_err()
-    {
-        return error(
-            StatusCode::SERVICE_UNAVAILABLE,
-            "the console is shutting down",
-        );
-    }
-    match answer.await {
-        Ok(Ok(ack)) => {
+    let Some(answer) = ask(&c, |reply| GoalRequest::Set { goal, reply }).await else {
+        return shutting_down();
+    };
+    match answer {
+        Ok(ack) => {
             let status = if ack.accepted {
                 StatusCode::OK
             } else {
@@ -381,9 +371,26 @@ async fn set_goal(
             };
             (status, Json(ack)).into_response()
         }
-        Ok(Err(why)) => error(StatusCode::GATEWAY_TIMEOUT, why),
-        Err(_) => error(StatusCode::SERVICE_UNAVAILABLE, "the goal was dropped"),
+        Err(why) => error(StatusCode::GATEWAY_TIMEOUT, why),
     }
+}
+
+/// Hand a request to whoever carries goals to the bus and wait for the answer; none if the
+/// console is going away.
+async fn ask<T>(
+    c: &Console,
+    request: impl FnOnce(oneshot::Sender<Result<T, String>>) -> GoalRequest,
+) -> Option<Result<T, String>> {
+    let (reply, answer) = oneshot::channel();
+    c.goals.send(request(reply)).await.ok()?;
+    answer.await.ok()
+}
+
+fn shutting_down() -> Response {
+    error(
+        StatusCode::SERVICE_UNAVAILABLE,
+        "the console is shutting down",
+    )
 }
 
 async fn clear_goals(
@@ -404,22 +411,17 @@ async fn clear_goals(
         }
     };
     tracing::info!("console: {who} clears their goals on zone {zone}");
-    let (reply, answer) = oneshot::channel();
-    let request = GoalRequest::Clear {
+    let request = |reply| GoalRequest::Clear {
         zone: zone.clone(),
         by: who.clone(),
         reply,
     };
-    if c.goals.send(request).await.is_err() {
-        return error(
-            StatusCode::SERVICE_UNAVAILABLE,
-            "the console is shutting down",
-        );
-    }
-    match answer.await {
-        Ok(Ok(())) => Json(json!({ "zone": zone, "cleared_by": who })).into_response(),
-        Ok(Err(why)) => error(StatusCode::BAD_GATEWAY, why),
-        Err(_) => error(StatusCode::SERVICE_UNAVAILABLE, "the request was dropped"),
+    let Some(answer) = ask(&c, request).await else {
+        return shutting_down();
+    };
+    match answer {
+        Ok(()) => Json(json!({ "zone": zone, "cleared_by": who })).into_response(),
+        Err(why) => error(StatusCode::BAD_GATEWAY, why),
     }
 }
 
