@@ -456,13 +456,7 @@ impl Picture {
         let sources: Vec<HeatSource> = self
             .fires
             .values()
-            .filter(|f| f.state != FireState::Out)
-            .filter_map(|f| {
-                f.hrr_kw.map(|hrr_kw| HeatSource {
-                    at: f.position,
-                    hrr_kw,
-                })
-            })
+            .filter_map(HeatSource::of_track)
             .collect();
         let site = &self.site;
         let columns = site.lateral_m.len();

@@ -5,10 +5,13 @@
 //! restarted coordinator's query for the fire tracks it holds. [`reader`] takes the same
 //! tracks back from a file, [`replay`] tells a recording's story on site time, and
 //! [`payload`] is the one typed decoder all of them read the fleet's messages through.
+//! [`live`] serves the same channels over the Foxglove WebSocket protocol while the
+//! incident happens.
 //!
 //! Not here: deciding anything. The recorder never publishes but its answers to recall
 //! queries, so a fleet runs the same with or without it.
 
+pub mod live;
 pub mod parts;
 pub mod payload;
 pub mod reader;

@@ -3,9 +3,11 @@
 //! Every message on `ff/<site>/**` is decoded by its key's type and written as JSON on a
 //! channel named after its key, with a JSON Schema per message type, so any MCAP reader
 //! (Foxglove, Lichtblick, the `mcap` CLI and libraries) can open and decode the file.
-//! Liveliness changes go to `<site>/liveliness`. A Foxglove scene (`/scene`) shows the
-//! tunnel, the parked vehicles, the units and the fires. Undecodable messages are counted
-//! and skipped, never written as garbage.
+//! Liveliness changes go to `<site>/liveliness`. A Foxglove scene ([`crate::scene`]) shows
+//! the tunnel, the units and fires as the fleet knows them, zones by their goals, the heat
+//! field, and the simulator's truth as a layer of its own. Undecodable messages are counted
+//! and skipped, never written as garbage. The same channels can be served live
+//! ([`crate::live`]), with or without a file.
 //!
 //! The recorder also keeps the latest track of every fire and answers queries on
 //! `fire/*` with them: that is how a restarted coordinator recalls the fires the previous
@@ -27,6 +29,7 @@ use std::fs::File;
 use std::future::Future;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use firefleet_protocol::FireId;
@@ -38,9 +41,10 @@ use firefleet_protocol::scenario::Scenario;
 use serde::Serialize;
 use zenoh::sample::SampleKind;
 
+use crate::live::Live;
 use crate::parts::{Index, Part, Recording, part_path, parts_dir};
 use crate::payload::{GoalClear, Liveliness, Payload};
-use crate::scene;
+use crate::scene::{self, Fleet};
 
 /// Why recording failed.
 #[derive(Debug, thiserror::Error)]
@@ -90,8 +94,10 @@ pub struct RecordSummary {
 /// How often the recording is written out (a chunk closed): what a recorder killed
 /// outright loses at most.
 const FLUSH_EVERY: std::time::Duration = std::time::Duration::from_secs(1);
-/// Simulated seconds between two scene updates.
+/// Simulated seconds between two updates of the truth layer.
 const SCENE_PERIOD_S: f64 = 0.5;
+/// How often the fleet's layer and its heat field are redrawn when they changed.
+const FLEET_PERIOD: std::time::Duration = std::time::Duration::from_millis(500);
 
 /// An MCAP file being written.
 pub(crate) struct McapSink {
@@ -225,7 +231,6 @@ struct Parts<'a> {
     n: u32,
     sink: McapSink,
     index: Index,
-    skipped: u64,
 }
 
 impl<'a> Parts<'a> {
@@ -243,7 +248,6 @@ impl<'a> Parts<'a> {
             n: 0,
             sink,
             index: Index::default(),
-            skipped: 0,
         })
     }
 
@@ -251,9 +255,14 @@ impl<'a> Parts<'a> {
     fn part(dir: &Path, n: u32, scenario: &Scenario) -> Result<McapSink, RecordError> {
         let mut sink = McapSink::create(&part_path(dir, n, false))?;
         sink.describe(scenario)?;
-        let statics = scene::static_scene(scenario, scene::Time::from_nanos(now_ns()));
-        let json = serde_json::to_vec(&statics).expect("serialises");
-        sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &json, now_ns())?;
+        let (json, t) = site_scene(scenario);
+        sink.write(
+            scene::SITE_TOPIC,
+            scene::SCHEMA_NAME,
+            scene_schema,
+            &json,
+            t,
+        )?;
         Ok(sink)
     }
 
@@ -276,7 +285,6 @@ impl<'a> Parts<'a> {
             n,
             sink,
             mut index,
-            skipped,
         } = self;
         close(&dir, n, &mut index, sink)?;
         let mut aside = out.as_os_str().to_owned();
@@ -288,8 +296,7 @@ impl<'a> Parts<'a> {
         for m in parts.messages() {
             merged.copy(&m?)?;
         }
-        let mut summary = merged.finish()?;
-        summary.skipped = skipped;
+        let summary = merged.finish()?;
         std::fs::rename(&aside, &out).map_err(io_error(&out))?;
         std::fs::remove_dir_all(&dir).map_err(io_error(&dir))?;
         Ok(summary)
@@ -316,6 +323,91 @@ fn scene_schema() -> schemars::Schema {
     schemars::schema_for!(scene::SceneUpdate)
 }
 
+/// The site's geometry as a scene update, and its time.
+fn site_scene(scenario: &Scenario) -> (Vec<u8>, u64) {
+    let t = now_ns();
+    let statics = scene::static_scene(scenario, scene::Time::from_nanos(t));
+    (serde_json::to_vec(&statics).expect("serialises"), t)
+}
+
+/// Where the recording goes: a file in parts, the live server, or both.
+struct Out<'a> {
+    file: Option<Parts<'a>>,
+    live: Option<Arc<Live>>,
+    messages: u64,
+    skipped: u64,
+}
+
+impl<'a> Out<'a> {
+    fn begin(
+        file: Option<&Path>,
+        live: Option<Arc<Live>>,
+        scenario: &'a Scenario,
+    ) -> Result<Self, RecordError> {
+        let file = file.map(|path| Parts::begin(path, scenario)).transpose()?;
+        if let Some(live) = &live {
+            let (json, t) = site_scene(scenario);
+            live.publish(
+                scene::SITE_TOPIC,
+                scene::SCHEMA_NAME,
+                scene_schema,
+                &json,
+                t,
+            );
+        }
+        Ok(Self {
+            file,
+            live,
+            messages: 0,
+            skipped: 0,
+        })
+    }
+
+    fn write(
+        &mut self,
+        topic: &str,
+        schema_name: &str,
+        schema: fn() -> schemars::Schema,
+        json: &[u8],
+        t_ns: u64,
+    ) -> Result<(), RecordError> {
+        if let Some(file) = &mut self.file {
+            file.sink.write(topic, schema_name, schema, json, t_ns)?;
+        }
+        if let Some(live) = &self.live {
+            live.publish(topic, schema_name, schema, json, t_ns);
+        }
+        self.messages += 1;
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), RecordError> {
+        self.file.as_mut().map_or(Ok(()), |f| f.sink.flush())
+    }
+
+    /// Begin the file's next part; true if there is a file.
+    fn rotate(&mut self) -> Result<bool, RecordError> {
+        self.file
+            .as_mut()
+            .map(Parts::rotate)
+            .transpose()
+            .map(|r| r.is_some())
+    }
+
+    fn finish(self) -> Result<RecordSummary, RecordError> {
+        let mut summary = match self.file {
+            Some(file) => file.finish()?,
+            None => RecordSummary {
+                messages: self.messages,
+                channels: 0,
+                skipped: 0,
+            },
+        };
+        summary.skipped = self.skipped;
+        Ok(summary)
+    }
+}
+
 fn now_ns() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
@@ -323,19 +415,21 @@ fn now_ns() -> u64 {
         .unwrap_or(0)
 }
 
-/// Record everything on the site until `shutdown` completes, in parts finished every
-/// `part_every` ([`crate::parts::PART_EVERY`] unless there is a reason), merged into the
-/// one file `path` when it does.
+/// Record everything on the site until `shutdown` completes: to the file `path` if there
+/// is one (in parts finished every `part_every`, [`crate::parts::PART_EVERY`] unless there
+/// is a reason, merged into the one file when it does), and to `live`'s clients if there
+/// is a live server.
 pub async fn record(
     bus: &Bus,
     scenario: &Scenario,
-    path: &Path,
+    path: Option<&Path>,
+    live: Option<Arc<Live>>,
     part_every: std::time::Duration,
     shutdown: impl Future<Output = ()>,
 ) -> Result<RecordSummary, RecordError> {
     let keys = bus.keys().clone();
     let session = bus.session();
-    let mut sink = Parts::begin(path, scenario)?;
+    let mut sink = Out::begin(path, live, scenario)?;
     let result = async {
         let samples = session.declare_subscriber(keys.all()).await.map_err(BusError::from)?;
         let tokens = session.liveliness().declare_subscriber(keys.all()).history(true).await.map_err(BusError::from)?;
@@ -349,18 +443,41 @@ pub async fn record(
         let mut newest: BTreeMap<String, (f64, Vec<u8>)> = BTreeMap::new();
         let liveliness_topic = format!("{}/liveliness", keys.site());
         let mut next_scene = 0.0;
+        let mut fleet = Fleet::default();
         let mut flush = tokio::time::interval(FLUSH_EVERY);
         let mut rotate = tokio::time::interval_at(tokio::time::Instant::now() + part_every, part_every);
+        let mut redraw = tokio::time::interval(FLEET_PERIOD);
+        // A new part stands alone: it gets the fleet's layer and heat whether they changed
+        // or not.
+        let mut new_part = false;
         tokio::pin!(shutdown);
         loop {
             tokio::select! {
                 _ = &mut shutdown => break,
-                _ = flush.tick() => sink.sink.flush()?,
-                _ = rotate.tick() => sink.rotate()?,
+                _ = flush.tick() => sink.flush()?,
+                _ = rotate.tick() => new_part |= sink.rotate()?,
+                _ = redraw.tick() => {
+                    let (drawn, heat) = fleet.take_changes();
+                    let t = now_ns();
+                    let ts = scene::Time::from_nanos(t);
+                    if drawn || new_part {
+                        let update = serde_json::to_vec(&scene::fleet_scene(scenario, &fleet, ts)).expect("serialises");
+                        sink.write(scene::SCENE_TOPIC, scene::SCHEMA_NAME, scene_schema, &update, t)?;
+                    }
+                    if heat || new_part {
+                        let grid = serde_json::to_vec(&scene::heat_grid(scenario, &fleet, ts)).expect("serialises");
+                        sink.write(scene::HEAT_TOPIC, scene::GRID_SCHEMA_NAME, || schemars::schema_for!(scene::Grid), &grid, t)?;
+                    }
+                    new_part = false;
+                }
                 Ok(s) = tokens.recv_async() => {
-                    let l = Liveliness { key: s.key_expr().to_string(), alive: s.kind() == SampleKind::Put };
+                    let alive = s.kind() == SampleKind::Put;
+                    if let Ok((_, Topic::UnitAlive(unit))) = keys::parse(s.key_expr().as_str()) {
+                        fleet.token(unit, alive);
+                    }
+                    let l = Liveliness { key: s.key_expr().to_string(), alive };
                     let json = serde_json::to_vec(&l).expect("serialises");
-                    sink.sink.write(&liveliness_topic, Liveliness::NAME, || schemars::schema_for!(Liveliness), &json, now_ns())?;
+                    sink.write(&liveliness_topic, Liveliness::NAME, || schemars::schema_for!(Liveliness), &json, now_ns())?;
                 }
                 Ok(query) = recall.recv_async() => {
                     for (_, key, bytes) in fires.values() {
@@ -383,7 +500,7 @@ pub async fn record(
                         && let Ok((_, Topic::ZoneGoal(zone, by))) = keys::parse(key)
                     {
                         let json = serde_json::to_vec(&GoalClear { zone, by }).expect("serialises");
-                        sink.sink.write(key, GoalClear::NAME, || schemars::schema_for!(GoalClear), &json, now_ns())?;
+                        sink.write(key, GoalClear::NAME, || schemars::schema_for!(GoalClear), &json, now_ns())?;
                         continue;
                     }
                     let bytes = s.payload().to_bytes();
@@ -398,21 +515,22 @@ pub async fn record(
                         }
                     };
                     let t = now_ns();
-                    sink.sink.write(key, p.name(), p.schema(), &p.to_json(), t)?;
+                    sink.write(key, p.name(), p.schema(), &p.to_json(), t)?;
+                    fleet.observe(&p);
                     let log = |log: scene::Log| serde_json::to_vec(&log).expect("serialises");
                     match p {
                         Payload::SimTruth(truth) if truth.t >= next_scene => {
                             next_scene = truth.t + SCENE_PERIOD_S;
                             let update = scene::truth_scene(scenario, &truth, scene::Time::from_nanos(t));
-                            sink.sink.write("/scene", scene::SCHEMA_NAME, scene_schema, &serde_json::to_vec(&update).expect("serialises"), t)?;
+                            sink.write(scene::TRUTH_TOPIC, scene::SCHEMA_NAME, scene_schema, &serde_json::to_vec(&update).expect("serialises"), t)?;
                         }
                         Payload::Decision(decision) => {
                             let entry = log(scene::Log::info("coordinator", &decision, scene::Time::from_nanos(t)));
-                            sink.sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &entry, t)?;
+                            sink.write(scene::LOG_TOPIC, scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &entry, t)?;
                         }
                         Payload::Ack(ack) => {
                             let entry = log(scene::Log::ack(&ack, scene::Time::from_nanos(t)));
-                            sink.sink.write("/log", scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &entry, t)?;
+                            sink.write(scene::LOG_TOPIC, scene::LOG_SCHEMA_NAME, || schemars::schema_for!(scene::Log), &entry, t)?;
                         }
                         Payload::Barred(BarredSpace { t: at, .. }) | Payload::Goals(GoalsInForce { t: at, .. })
                             if newest.get(key).is_none_or(|(old, _)| *old <= at) =>

@@ -1,19 +1,53 @@
-//! A Foxglove 3D scene of the tunnel, built from the site file and the simulator's truth.
+//! A Foxglove 3D scene of the tunnel, built from what the fleet knows.
 //!
-//! The types mirror the fields of Foxglove's well-known `foxglove.SceneUpdate` and
-//! `foxglove.Log` messages that we use, serialised as JSON (Foxglove decodes JSON messages by schema name). Their JSON
-//! Schemas are derived from these types.
+//! Four layers, each its own topic so a viewer can switch them on and off:
+//! - [`SITE_TOPIC`]: road, walls, rails and parked vehicles from the site file, drawn once;
+//! - [`SCENE_TOPIC`]: units from their own state reports, fires from the coordinator's
+//!   tracks, zones coloured by the commanders' goals in force ([`Fleet`], [`fleet_scene`]).
+//!   With real robots this is all there is, so it never reads the simulator;
+//! - [`HEAT_TOPIC`]: a `foxglove.Grid` of the radiant flux the fleet's fire tracks imply
+//!   (the planners' model, [`heat_grid`]);
+//! - [`TRUTH_TOPIC`]: the simulator's ground truth, for demos and experiments only.
 //!
-//! Not here: writing the file ([`crate::record`](mod@crate::record)).
+//! The types mirror the fields of Foxglove's well-known `foxglove.SceneUpdate`,
+//! `foxglove.Grid` and `foxglove.Log` messages that we use, serialised as JSON (Foxglove
+//! decodes JSON messages by schema name). Their JSON Schemas are derived from these types.
+//!
+//! Not here: writing the file ([`crate::record`](mod@crate::record)) or serving it live
+//! ([`crate::live`]).
 
-use firefleet_protocol::Chainage;
-use firefleet_protocol::msg::{Decision, GoalAck, SimTruth, TruthFireState};
+use std::collections::BTreeMap;
+
+use base64::Engine;
+use base64::engine::general_purpose::STANDARD as BASE64;
+
+use firefleet_nav::hybrid_astar::{HeatSource, radiant_flux_kw_m2};
+use firefleet_protocol::msg::{
+    Decision, FireState, FireTrack, GoalAck, GoalKind, GoalsInForce, SimTruth, TruthFireState,
+    UnitKind, UnitMode, UnitState,
+};
 use firefleet_protocol::scenario::{Scenario, Tunnel};
+use firefleet_protocol::spec::GROUND;
+use firefleet_protocol::{Chainage, FireId, Point2, UnitId};
 use schemars::JsonSchema;
 use serde::Serialize;
 
+use crate::payload::Payload;
+
 /// Schema name Foxglove recognises.
 pub const SCHEMA_NAME: &str = "foxglove.SceneUpdate";
+/// Schema name of Foxglove's grid message.
+pub const GRID_SCHEMA_NAME: &str = "foxglove.Grid";
+/// The site's fixed geometry.
+pub const SITE_TOPIC: &str = "/scene/site";
+/// Units, fires and zones as the fleet knows them.
+pub const SCENE_TOPIC: &str = "/scene";
+/// The heat field the fleet's fire tracks imply.
+pub const HEAT_TOPIC: &str = "/heat";
+/// The simulator's ground truth.
+pub const TRUTH_TOPIC: &str = "/truth/scene";
+/// Coordinator decisions and goal answers.
+pub const LOG_TOPIC: &str = "/log";
 /// The frame every entity is drawn in.
 pub const FRAME: &str = "site";
 
@@ -164,6 +198,40 @@ impl Log {
     }
 }
 
+#[derive(Debug, Clone, Copy, Serialize, JsonSchema)]
+pub struct Vector2 {
+    pub x: f64,
+    pub y: f64,
+}
+
+/// One field of a grid cell (`foxglove.PackedElementField`).
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+pub struct PackedElementField {
+    pub name: String,
+    pub offset: u32,
+    /// `foxglove.NumericType`: 7 is FLOAT32.
+    #[serde(rename = "type")]
+    pub numeric_type: u8,
+}
+
+const FLOAT32: u8 = 7;
+
+/// A raster over the site (`foxglove.Grid`): cell (column `j`, row `i`) has its corner at
+/// `pose` + (`j`, `i`) * `cell_size`; rows follow the site's y axis.
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+pub struct Grid {
+    pub timestamp: Time,
+    pub frame_id: String,
+    pub pose: Pose,
+    pub column_count: u32,
+    pub cell_size: Vector2,
+    pub row_stride: u32,
+    pub cell_stride: u32,
+    pub fields: Vec<PackedElementField>,
+    /// The cells, little-endian, base64 as Foxglove's JSON encoding of bytes.
+    pub data: String,
+}
+
 fn entity(id: String, ts: Time) -> SceneEntity {
     SceneEntity {
         timestamp: ts,
@@ -183,12 +251,7 @@ fn label(x: f64, y: f64, z: f64, text: String) -> TextPrimitive {
         billboard: true,
         font_size: 14.0,
         scale_invariant: true,
-        color: Color {
-            r: 1.0,
-            g: 1.0,
-            b: 1.0,
-            a: 1.0,
-        },
+        color: WHITE,
         text,
     }
 }
@@ -224,7 +287,7 @@ fn band(
     })
 }
 
-/// Road, walls and parked vehicles: drawn once.
+/// Road, walls, rails and parked vehicles: drawn once.
 pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
     let t = &s.tunnel;
     let mut tunnel = entity("tunnel".into(), ts);
@@ -269,26 +332,6 @@ pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
         });
         entities.push(e);
     }
-    for z in &s.zones {
-        let mut e = entity(format!("zone/{}", z.id), ts);
-        let mid = z.start_m.midpoint(z.end_m);
-        e.cubes.extend(band(
-            t,
-            (z.start_m, z.end_m),
-            (0.0, t.width_m),
-            (0.01, 0.02),
-            Color {
-                r: 0.2,
-                g: 0.5,
-                b: 1.0,
-                a: 0.15,
-            },
-        ));
-        let at = t.point_at(mid, t.width_m / 2.0);
-        e.texts
-            .push(label(at.x, at.y, 0.5, format!("zone {}", z.id)));
-        entities.push(e);
-    }
     for r in &s.rails {
         let mut e = entity(format!("rail/{}", r.id), ts);
         e.cubes.push(CubePrimitive {
@@ -308,11 +351,11 @@ pub fn static_scene(s: &Scenario, ts: Time) -> SceneUpdate {
     }
 }
 
-/// Units and fires as the simulator sees them now.
+/// Units and fires as the simulator sees them now: the truth layer, beside the fleet's.
 pub fn truth_scene(s: &Scenario, truth: &SimTruth, ts: Time) -> SceneUpdate {
     let mut entities = Vec::new();
     for u in &truth.units {
-        let mut e = entity(format!("unit/{}", u.id), ts);
+        let mut e = entity(format!("truth/unit/{}", u.id), ts);
         e.cubes.push(CubePrimitive {
             pose: Pose::at(u.pose.x, u.pose.y, 0.5, u.pose.yaw),
             size: Vector3 {
@@ -332,7 +375,7 @@ pub fn truth_scene(s: &Scenario, truth: &SimTruth, ts: Time) -> SceneUpdate {
         entities.push(e);
     }
     for (f, spec) in truth.fires.iter().zip(&s.fires) {
-        let mut e = entity(format!("fire/{}", f.name), ts);
+        let mut e = entity(format!("truth/fire/{}", f.name), ts);
         let burning = f.state == TruthFireState::Burning;
         let h = if burning {
             0.5 + 3.0 * (f.hrr_kw / spec.peak_kw).min(1.0)
@@ -376,5 +419,490 @@ pub fn truth_scene(s: &Scenario, truth: &SimTruth, ts: Time) -> SceneUpdate {
     SceneUpdate {
         deletions: Vec::new(),
         entities,
+    }
+}
+
+/// What the fleet knows, as a listener on the bus hears it: each unit's newest state and
+/// whether its token is alive, each fire's newest track, the goals in force. Newest by the
+/// sender's site time, so that a sample arriving late does not roll a unit back.
+#[derive(Debug, Default)]
+pub struct Fleet {
+    units: BTreeMap<UnitId, UnitState>,
+    /// Units whose liveliness token vanished: their last state stays, drawn as lost.
+    gone: BTreeMap<UnitId, bool>,
+    fires: BTreeMap<FireId, FireTrack>,
+    goals: GoalsInForce,
+    changed: bool,
+    fires_changed: bool,
+}
+
+impl Fleet {
+    /// Take in a message; only unit states, fire tracks and goals in force matter here.
+    pub fn observe(&mut self, p: &Payload) {
+        match p {
+            Payload::UnitState(s) if self.units.get(&s.unit).is_none_or(|o| o.t <= s.t) => {
+                self.units.insert(s.unit.clone(), s.clone());
+                self.changed = true;
+            }
+            Payload::Fire(f) if self.fires.get(&f.id).is_none_or(|o| o.t <= f.t) => {
+                self.fires.insert(f.id, f.clone());
+                self.changed = true;
+                self.fires_changed = true;
+            }
+            Payload::Goals(g) if self.goals.t <= g.t => {
+                self.changed |= self.goals.goals != g.goals;
+                self.goals = g.clone();
+            }
+            _ => {}
+        }
+    }
+
+    /// A unit's liveliness token appeared or vanished.
+    pub fn token(&mut self, unit: UnitId, alive: bool) {
+        if self.gone.insert(unit, !alive) != Some(!alive) {
+            self.changed = true;
+        }
+    }
+
+    /// Whether anything drawn changed since the last call, and whether the heat did.
+    pub fn take_changes(&mut self) -> (bool, bool) {
+        let changes = (self.changed, self.fires_changed);
+        self.changed = false;
+        self.fires_changed = false;
+        changes
+    }
+}
+
+const WHITE: Color = Color {
+    r: 1.0,
+    g: 1.0,
+    b: 1.0,
+    a: 1.0,
+};
+
+/// A unit variant's name as the JSON messages spell it (`keep-out`, `extinguishing`).
+fn name(v: impl Serialize) -> String {
+    match serde_json::to_value(v) {
+        Ok(serde_json::Value::String(s)) => s,
+        _ => String::new(),
+    }
+}
+
+const fn rgba(r: f64, g: f64, b: f64, a: f64) -> Color {
+    Color { r, g, b, a }
+}
+
+/// A zone's colour by the goal in force on it: keep-out is the one a commander must never
+/// mistake, so it is the only opaque red.
+fn zone_color(goal: Option<GoalKind>) -> Color {
+    match goal {
+        None => rgba(0.2, 0.5, 1.0, 0.12),
+        Some(GoalKind::Extinguish) => rgba(1.0, 0.55, 0.0, 0.25),
+        Some(GoalKind::Contain) => rgba(1.0, 0.85, 0.0, 0.3),
+        Some(GoalKind::Monitor) => rgba(0.0, 0.8, 0.8, 0.25),
+        Some(GoalKind::Evacuate) => rgba(0.6, 0.2, 0.9, 0.35),
+        Some(GoalKind::KeepOut) => rgba(0.9, 0.0, 0.0, 0.6),
+    }
+}
+
+fn fire_color(state: FireState) -> Color {
+    match state {
+        FireState::Tentative => rgba(1.0, 0.85, 0.0, 0.6),
+        FireState::Confirmed | FireState::Assigned => rgba(1.0, 0.35, 0.0, 0.85),
+        FireState::Suppressing => rgba(0.95, 0.45, 0.6, 0.85),
+        FireState::Out => rgba(0.2, 0.2, 0.2, 0.8),
+        FireState::Lost => rgba(0.5, 0.3, 0.6, 0.6),
+    }
+}
+
+/// Units, fires and zones as the fleet knows them: the whole layer, each entity replacing
+/// its previous self by id.
+pub fn fleet_scene(s: &Scenario, fleet: &Fleet, ts: Time) -> SceneUpdate {
+    let t = &s.tunnel;
+    let mut entities = Vec::new();
+    for z in &s.zones {
+        // Of several goals on one zone the coordinator obeys the highest priority, then
+        // the newest; the drawing says the same.
+        let goal = fleet
+            .goals
+            .goals
+            .iter()
+            .filter(|g| g.goal.zone == z.id)
+            .max_by(|a, b| {
+                (a.goal.priority, a.since)
+                    .partial_cmp(&(b.goal.priority, b.since))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            });
+        let mut e = entity(format!("zone/{}", z.id), ts);
+        e.cubes.extend(band(
+            t,
+            (z.start_m, z.end_m),
+            (0.0, t.width_m),
+            (0.01, 0.02),
+            zone_color(goal.map(|g| g.goal.goal)),
+        ));
+        let text = match goal {
+            Some(g) => format!(
+                "zone {}: {} (by {})",
+                z.id,
+                name(g.goal.goal),
+                g.goal.issued_by
+            ),
+            None => format!("zone {}", z.id),
+        };
+        let at = t.point_at(z.start_m.midpoint(z.end_m), t.width_m / 2.0);
+        e.texts.push(label(at.x, at.y, 0.5, text));
+        entities.push(e);
+    }
+    for u in fleet.units.values() {
+        entities.push(unit_entity(
+            s,
+            u,
+            fleet.gone.get(&u.unit) == Some(&true),
+            ts,
+        ));
+    }
+    for f in fleet.fires.values() {
+        let mut e = entity(format!("fire/{}", f.id), ts);
+        // Height grows with the log of the heat release: a 5 MW car and a 100 MW lorry
+        // both read at a glance (1.9 m and 4.2 m) without the lorry hiding the tunnel.
+        let h = match (f.state, f.hrr_kw) {
+            (FireState::Out, _) => 0.05,
+            (_, Some(q)) => 0.5 + 0.8 * (1.0 + q / 1000.0).ln(),
+            (_, None) => 1.0,
+        };
+        // Two standard deviations of the track's position, at least half a metre.
+        let r = 2.0 * f.cov[0].max(f.cov[2]).max(0.0).sqrt();
+        let d = 2.0 * r.max(0.5);
+        e.cylinders.push(CylinderPrimitive {
+            pose: Pose::at(f.position.x, f.position.y, h / 2.0, 0.0),
+            size: Vector3 { x: d, y: d, z: h },
+            bottom_scale: 1.0,
+            top_scale: if f.state == FireState::Out { 1.0 } else { 0.3 },
+            color: fire_color(f.state),
+        });
+        let mut text = format!("{} {}", f.id, name(f.state));
+        if let Some(q) = f.hrr_kw {
+            text.push_str(&format!(" {:.1} MW", q / 1000.0));
+        }
+        if !f.assigned.is_empty() {
+            let units: Vec<String> = f.assigned.iter().map(ToString::to_string).collect();
+            text.push_str(&format!(" <- {}", units.join(", ")));
+        }
+        e.texts
+            .push(label(f.position.x, f.position.y, h + 0.5, text));
+        entities.push(e);
+    }
+    SceneUpdate {
+        deletions: Vec::new(),
+        entities,
+    }
+}
+
+/// A unit where it says it is: a ground vehicle on the road, a monorail carriage hanging
+/// under its rail (the rail the site file gives it, else the nearest).
+fn unit_entity(s: &Scenario, u: &UnitState, gone: bool, ts: Time) -> SceneEntity {
+    let mut e = entity(format!("unit/{}", u.unit), ts);
+    let color = if gone {
+        rgba(0.5, 0.5, 0.5, 0.4)
+    } else {
+        match u.mode {
+            UnitMode::Fault => rgba(0.9, 0.1, 0.1, 1.0),
+            UnitMode::Extinguishing => rgba(0.1, 0.8, 1.0, 1.0),
+            _ => rgba(0.1, 0.4, 0.9, 1.0),
+        }
+    };
+    let p = u.pose;
+    let (z, size) = match u.kind {
+        UnitKind::Ground => (
+            0.5,
+            Vector3 {
+                x: GROUND.length_m,
+                y: GROUND.width_m,
+                z: 1.0,
+            },
+        ),
+        UnitKind::Monorail => {
+            let named = s
+                .units
+                .iter()
+                .find(|spec| spec.id == u.unit)
+                .and_then(|spec| spec.rail.as_deref())
+                .and_then(|id| s.rails.iter().find(|r| r.id == id));
+            let rail = named.or_else(|| {
+                s.rails
+                    .iter()
+                    .min_by(|a, b| (a.y_m - p.y).abs().total_cmp(&(b.y_m - p.y).abs()))
+            });
+            let height = rail.map_or(s.tunnel.height_m, |r| r.height_m);
+            (
+                height - 0.4,
+                Vector3 {
+                    x: 1.2,
+                    y: 0.6,
+                    z: 0.6,
+                },
+            )
+        }
+    };
+    e.cubes.push(CubePrimitive {
+        pose: Pose::at(p.x, p.y, z, p.yaw),
+        size,
+        color,
+    });
+    let mut text = format!("{} {}", u.unit, name(u.mode));
+    if let Some(task) = &u.task {
+        text.push_str(&format!(" on {}", task.fire));
+    }
+    text.push_str(&format!(" {:.0} L", u.water_l));
+    if gone {
+        text.push_str(" LOST");
+    }
+    e.texts.push(label(p.x, p.y, z + 1.1, text));
+    e
+}
+
+/// At most this many cells in the heat grid: a 2 km tunnel at 1 m, a curved one coarser.
+const MAX_HEAT_CELLS: f64 = 40_000.0;
+
+/// The radiant flux, kW/m^2, that the fleet's fire tracks imply over the site (the
+/// planners' model, [`radiant_flux_kw_m2`]): square cells of at least 0.5 m over the
+/// tunnel's bounding box; cells outside the tunnel are 0.
+pub fn heat_grid(s: &Scenario, fleet: &Fleet, ts: Time) -> Grid {
+    let sources: Vec<HeatSource> = fleet
+        .fires
+        .values()
+        .filter_map(HeatSource::of_track)
+        .collect();
+    let t = &s.tunnel;
+    let (lo, hi) = t.bounds();
+    let (w, h) = ((hi.x - lo.x).max(0.5), (hi.y - lo.y).max(0.5));
+    let cell = (w * h / MAX_HEAT_CELLS).sqrt().max(0.5);
+    let (columns, rows) = ((w / cell).ceil() as u32, (h / cell).ceil() as u32);
+    let mut bytes = Vec::with_capacity((columns * rows * 4) as usize);
+    for i in 0..rows {
+        for j in 0..columns {
+            let p = Point2::new(
+                lo.x + (j as f64 + 0.5) * cell,
+                lo.y + (i as f64 + 0.5) * cell,
+            );
+            let q = if sources.is_empty() || !t.contains(p, 0.0) {
+                0.0
+            } else {
+                radiant_flux_kw_m2(&sources, p)
+            };
+            bytes.extend_from_slice(&(q as f32).to_le_bytes());
+        }
+    }
+    Grid {
+        timestamp: ts,
+        frame_id: FRAME.into(),
+        pose: Pose::at(lo.x, lo.y, 0.05, 0.0),
+        column_count: columns,
+        cell_size: Vector2 { x: cell, y: cell },
+        row_stride: columns * 4,
+        cell_stride: 4,
+        fields: vec![PackedElementField {
+            name: "flux_kw_m2".into(),
+            offset: 0,
+            numeric_type: FLOAT32,
+        }],
+        data: BASE64.encode(bytes),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use base64::Engine;
+    use firefleet_protocol::msg::{GoalInForce, ZoneGoal};
+    use firefleet_protocol::testing::ground_state;
+
+    use super::*;
+
+    fn rail_tunnel() -> Scenario {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenarios/rail-tunnel.toml");
+        Scenario::load(&path).unwrap()
+    }
+
+    fn unit(id: &str) -> UnitId {
+        UnitId::new(id).unwrap()
+    }
+
+    fn burning(id: u32, x: f64, hrr_kw: Option<f64>, state: FireState) -> FireTrack {
+        FireTrack {
+            id: FireId(id),
+            t: 1.0,
+            position: Point2::new(x, 1.0),
+            cov: [0.25, 0.0, 0.25],
+            confidence: 0.9,
+            state,
+            assigned: vec![unit("ugv-1")],
+            seen_by: vec![unit("ugv-1")],
+            hrr_kw,
+        }
+    }
+
+    fn drawn<'a>(u: &'a SceneUpdate, id: &str) -> &'a SceneEntity {
+        u.entities
+            .iter()
+            .find(|e| e.id == id)
+            .unwrap_or_else(|| panic!("no entity {id}"))
+    }
+
+    #[test]
+    fn units_are_drawn_where_they_say_they_are_the_monorail_under_its_rail() {
+        let s = rail_tunnel();
+        let mut fleet = Fleet::default();
+        fleet.observe(&Payload::UnitState(ground_state("ugv-1", 30.0, -1.75)));
+        let mut carriage = ground_state("rail-1", 60.0, 0.0);
+        carriage.kind = UnitKind::Monorail;
+        fleet.observe(&Payload::UnitState(carriage));
+        let scene = fleet_scene(&s, &fleet, Time::from_nanos(0));
+
+        let ugv = &drawn(&scene, "unit/ugv-1").cubes[0];
+        assert_eq!((ugv.pose.position.x, ugv.pose.position.y), (30.0, -1.75));
+        assert!(ugv.pose.position.z - ugv.size.z / 2.0 >= 0.0, "on the road");
+        let rail = s.rails.iter().find(|r| r.id == "rail-1").unwrap();
+        let carriage = &drawn(&scene, "unit/rail-1").cubes[0];
+        assert_eq!(carriage.pose.position.x, 60.0);
+        let top = carriage.pose.position.z + carriage.size.z / 2.0;
+        assert!(
+            top <= rail.height_m && top > rail.height_m - 0.5,
+            "hangs under the rail: top {top}"
+        );
+        // Units the fleet has not heard from are not drawn: the scene is what it knows.
+        assert!(!scene.entities.iter().any(|e| e.id == "unit/ugv-2"));
+    }
+
+    #[test]
+    fn a_unit_whose_token_vanished_stays_where_it_was_last_heard_marked_lost() {
+        let s = rail_tunnel();
+        let mut fleet = Fleet::default();
+        fleet.observe(&Payload::UnitState(ground_state("ugv-1", 30.0, -1.75)));
+        fleet.take_changes();
+        fleet.token(unit("ugv-1"), false);
+        assert_eq!(fleet.take_changes(), (true, false));
+        let scene = fleet_scene(&s, &fleet, Time::from_nanos(0));
+        let e = drawn(&scene, "unit/ugv-1");
+        assert!(e.texts[0].text.ends_with("LOST"), "{}", e.texts[0].text);
+        assert!(e.cubes[0].color.a < 1.0);
+        // An older state arriving late does not move it back.
+        let mut old = ground_state("ugv-1", 10.0, -1.75);
+        old.t = -1.0;
+        fleet.observe(&Payload::UnitState(old));
+        assert_eq!(fleet.take_changes(), (false, false));
+    }
+
+    #[test]
+    fn a_keep_out_zone_is_unmistakable_and_says_who_barred_it() {
+        let s = rail_tunnel();
+        let mut fleet = Fleet::default();
+        let before = fleet_scene(&s, &fleet, Time::from_nanos(0));
+        let goal = ZoneGoal {
+            id: "g1".into(),
+            zone: "deep".parse().unwrap(),
+            goal: GoalKind::KeepOut,
+            priority: 0,
+            before_m: None,
+            expires_s: None,
+            issued_by: "chief".into(),
+            rail_allowed: false,
+        };
+        fleet.observe(&Payload::Goals(GoalsInForce {
+            t: 1.0,
+            goals: vec![GoalInForce {
+                goal,
+                since: 1.0,
+                until: None,
+            }],
+        }));
+        assert_eq!(fleet.take_changes(), (true, false));
+        let after = fleet_scene(&s, &fleet, Time::from_nanos(0));
+        let deep = drawn(&after, "zone/deep");
+        assert_eq!(deep.texts[0].text, "zone deep: keep-out (by chief)");
+        let red = deep.cubes[0].color;
+        assert!(red.r > 0.8 && red.g < 0.1 && red.a >= 0.5, "{red:?}");
+        // Only keep-out is that red, and the zone without a goal is not.
+        for kind in [
+            None,
+            Some(GoalKind::Extinguish),
+            Some(GoalKind::Contain),
+            Some(GoalKind::Monitor),
+            Some(GoalKind::Evacuate),
+        ] {
+            let c = zone_color(kind);
+            assert!(!(c.r > 0.8 && c.g < 0.1 && c.a >= 0.5), "{kind:?}");
+        }
+        assert_eq!(drawn(&before, "zone/deep").texts[0].text, "zone deep");
+        assert_eq!(drawn(&after, "zone/portal").texts[0].text, "zone portal");
+    }
+
+    #[test]
+    fn fires_are_sized_by_their_heat_and_the_grid_is_hottest_at_a_burning_one() {
+        let s = rail_tunnel();
+        let mut fleet = Fleet::default();
+        fleet.observe(&Payload::Fire(burning(
+            1,
+            50.0,
+            Some(1000.0),
+            FireState::Suppressing,
+        )));
+        fleet.observe(&Payload::Fire(burning(
+            2,
+            190.0,
+            Some(3000.0),
+            FireState::Confirmed,
+        )));
+        assert_eq!(fleet.take_changes(), (true, true));
+        let scene = fleet_scene(&s, &fleet, Time::from_nanos(0));
+        let (small, large) = (
+            &drawn(&scene, "fire/f1").cylinders[0],
+            &drawn(&scene, "fire/f2").cylinders[0],
+        );
+        assert!(large.size.z > small.size.z);
+        assert!(
+            drawn(&scene, "fire/f1").texts[0]
+                .text
+                .starts_with("f1 suppressing 1.0 MW <- ugv-1")
+        );
+
+        let grid = heat_grid(&s, &fleet, Time::from_nanos(0));
+        let bytes = BASE64.decode(&grid.data).unwrap();
+        let cells: Vec<f32> = bytes
+            .chunks(4)
+            .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+            .collect();
+        let columns = grid.column_count as usize;
+        assert_eq!(cells.len() % columns, 0);
+        assert_eq!(grid.row_stride as usize, columns * 4);
+        let (hottest, _) = cells
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap();
+        let x = grid.pose.position.x + ((hottest % columns) as f64 + 0.5) * grid.cell_size.x;
+        let y = grid.pose.position.y + ((hottest / columns) as f64 + 0.5) * grid.cell_size.y;
+        // The model is flat within a metre of a source (and capped at 100 kW/m^2).
+        assert!(
+            Point2::new(x, y).dist(Point2::new(190.0, 1.0)) <= 1.0 + grid.cell_size.x,
+            "hottest at ({x}, {y})"
+        );
+
+        // Out: no heat, drawn flat.
+        fleet.observe(&Payload::Fire(FireTrack {
+            t: 2.0,
+            ..burning(2, 190.0, Some(30_000.0), FireState::Out)
+        }));
+        fleet.observe(&Payload::Fire(FireTrack {
+            t: 2.0,
+            ..burning(1, 50.0, Some(3000.0), FireState::Out)
+        }));
+        let grid = heat_grid(&s, &fleet, Time::from_nanos(0));
+        assert!(BASE64.decode(&grid.data).unwrap().iter().all(|&b| b == 0));
+        let scene = fleet_scene(&s, &fleet, Time::from_nanos(0));
+        assert!(drawn(&scene, "fire/f2").cylinders[0].size.z < 0.1);
     }
 }

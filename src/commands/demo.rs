@@ -76,6 +76,10 @@ pub struct DemoArgs {
     /// e.g. 127.0.0.1:8080.
     #[arg(long, value_name = "ADDR:PORT")]
     console: Option<std::net::SocketAddr>,
+    /// Serve the recording live over the Foxglove WebSocket protocol here (the recorder's
+    /// `--foxglove`; with or without --record): open `ws://ADDR` in Foxglove.
+    #[arg(long, value_name = "ADDR:PORT")]
+    foxglove: Option<std::net::SocketAddr>,
     /// With --console: the commanders who may log in (`firefleet console add-user`).
     #[arg(long, value_name = "FILE", requires = "console")]
     console_users: Option<PathBuf>,
@@ -243,11 +247,16 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
 
     let exe = std::env::current_exe().context("locating the firefleet binary")?;
     let mut roles: Vec<(Identity, Vec<String>)> = Vec::new();
-    if let Some(path) = &a.record {
-        roles.push((
-            Identity::Recorder,
-            vec!["record".into(), "--out".into(), path.display().to_string()],
-        ));
+    if a.record.is_some() || a.foxglove.is_some() {
+        let mut args = vec!["record".to_string()];
+        if let Some(path) = &a.record {
+            args.extend(["--out".into(), path.display().to_string()]);
+        }
+        if let Some(addr) = a.foxglove {
+            args.extend(["--foxglove".into(), addr.to_string()]);
+            println!("Foxglove live: ws://{addr}");
+        }
+        roles.push((Identity::Recorder, args));
     }
     let wait = "30".to_string();
     roles.push((

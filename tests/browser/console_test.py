@@ -8,6 +8,11 @@ a zone on the map where units are, sets keep-out, sees the coordinator's ack, an
 the units leave the zone on the map. Prints the page's update latency (the console
 hearing a unit's state -> the page having drawn it) and saves a screenshot.
 
+Foxglove live rides along: the demo's recorder serves its channels over the Foxglove
+WebSocket protocol, and a client of the protocol (below, on websocket-client, which
+Selenium installs) follows the scene: every unit drawn from its own reports, the fires,
+and the commander's keep-out drawn on the zone with the commander's name.
+
     python3 tests/browser/console_test.py target/debug/firefleet [--screenshot FILE]
 
 Needs: chromium and chromium-driver (Debian), selenium (PyPI).
@@ -17,11 +22,15 @@ import argparse
 import json
 import os
 import socket
+import struct
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import urllib.request
+
+import websocket
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
@@ -48,6 +57,62 @@ def wait_for(what, check, timeout=60.0, every=0.25):
     sys.exit(f"FAILED: {what} (waited {timeout:.0f} s)")
 
 
+class Foxglove:
+    """A client of the Foxglove WebSocket protocol (foxglove.websocket.v1) that subscribes
+    to every channel and keeps the newest message of each topic, decoded from JSON."""
+
+    def __init__(self, url):
+        self.ws = websocket.create_connection(url, subprotocols=["foxglove.websocket.v1"],
+                                              timeout=30)
+        self.channels = {}   # id -> advertised channel
+        self.by_sub = {}     # subscription id -> topic
+        self.latest = {}     # topic -> newest message
+        self.counts = {}     # topic -> messages received
+        self.errors = []
+        self.lock = threading.Lock()
+        info = json.loads(self.ws.recv())
+        assert info["op"] == "serverInfo", info
+        threading.Thread(target=self.run, daemon=True).start()
+
+    def run(self):
+        while True:
+            try:
+                opcode, data = self.ws.recv_data()
+            except Exception:
+                return
+            if opcode == websocket.ABNF.OPCODE_TEXT:
+                m = json.loads(data)
+                if m["op"] == "advertise":
+                    subs = []
+                    for c in m["channels"]:
+                        assert c["encoding"] == "json" and c["schemaEncoding"] == "jsonschema", c
+                        json.loads(c["schema"])
+                        self.channels[c["id"]] = c
+                        self.by_sub[c["id"]] = c["topic"]
+                        subs.append({"id": c["id"], "channelId": c["id"]})
+                    self.ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+                elif m["op"] == "status" and m["level"] == 2:
+                    self.errors.append(m["message"])
+            elif opcode == websocket.ABNF.OPCODE_BINARY:
+                assert data[0] == 1, data[:1]
+                sub, _t = struct.unpack_from("<IQ", data, 1)
+                topic = self.by_sub[sub]
+                with self.lock:
+                    self.latest[topic] = json.loads(data[13:])
+                    self.counts[topic] = self.counts.get(topic, 0) + 1
+
+    def get(self, topic):
+        with self.lock:
+            return self.latest.get(topic)
+
+    def entities(self, prefix):
+        scene = self.get("/scene") or {"entities": []}
+        return {e["id"]: e for e in scene["entities"] if e["id"].startswith(prefix)}
+
+    def close(self):
+        self.ws.close()
+
+
 def incident(base):
     with urllib.request.urlopen(f"{base}/api/incident", timeout=5) as r:
         return json.load(r)
@@ -63,13 +128,15 @@ def main():
     users = os.path.join(tmp, "users.toml")
     subprocess.run([args.firefleet, "console", "add-user", "--users", users, "rossi"],
                    input=PASSWORD + "\n", text=True, check=True)
-    port = free_port()
+    port, fox_port = free_port(), free_port()
     base = f"http://127.0.0.1:{port}"
     demo = subprocess.Popen(
         [args.firefleet, "demo", "--scenario", SCENARIO, "--time-scale", "2",
-         "--console", f"127.0.0.1:{port}", "--console-users", users, "--linger", "240"],
+         "--console", f"127.0.0.1:{port}", "--console-users", users, "--linger", "240",
+         "--foxglove", f"127.0.0.1:{fox_port}"],
         stdout=open(os.path.join(tmp, "demo.log"), "w"), stderr=subprocess.STDOUT)
     driver = None
+    fox = None
     try:
         def up():
             try:
@@ -77,6 +144,13 @@ def main():
             except OSError:
                 return None
         first = wait_for("the console answers", up, timeout=60)
+
+        def fox_up():
+            try:
+                return Foxglove(f"ws://127.0.0.1:{fox_port}/")
+            except OSError:
+                return None
+        fox = wait_for("Foxglove live answers", fox_up, timeout=60)
         units = [u["id"] for u in first["site"]["units"]]
         zones = {z["id"]: z for z in first["site"]["zones"]}
         with open(os.path.join(os.path.dirname(__file__), "..", "..", "examples",
@@ -102,6 +176,13 @@ def main():
                  >= fires, timeout=90)
         assert driver.find_element(By.ID, "link").text == "live"
         print(f"map: {len(units)} units, {fires} fires drawn")
+        wait_for("Foxglove live draws every unit and fire from the fleet's reports",
+                 lambda: sorted(fox.entities("unit/")) == sorted(f"unit/{u}" for u in units)
+                 and len(fox.entities("fire/")) >= fires, timeout=30)
+        for topic in ("/scene/site", "/heat", "/truth/scene", "/log"):
+            wait_for(f"Foxglove live serves {topic}", lambda: fox.get(topic), timeout=30)
+        print(f"Foxglove live: {len(fox.channels)} channels; scene has "
+              f"{len(fox.entities('unit/'))} units, {len(fox.entities('fire/'))} fires")
 
         # A wrong password is refused.
         driver.find_element(By.ID, "login-name").send_keys("rossi")
@@ -144,10 +225,23 @@ def main():
         wait_for("the zone is drawn as keep-out",
                  lambda: js("return document.querySelector(`polygon.zone[data-zone='${arguments[0]}']`)"
                             ".dataset.goal", zone) == "keep-out", timeout=10)
+        wait_for("Foxglove live draws the keep-out with the commander's name",
+                 lambda: any(t["text"] == f"zone {zone}: keep-out (by rossi)"
+                             for t in fox.entities(f"zone/{zone}").get(f"zone/{zone}", {})
+                             .get("texts", [])), timeout=10)
+        print("Foxglove live: keep-out drawn")
         t0 = time.monotonic()
         wait_for(f"every unit leaves zone {zone} on the map",
                  lambda: not inside(zone), timeout=120)
         print(f"units out of zone {zone} {time.monotonic() - t0:.1f} s after the ack")
+        z = zones[zone]
+        wait_for(f"every unit leaves zone {zone} in Foxglove",
+                 lambda: all(not (z["start_m"] <= e["cubes"][0]["pose"]["position"]["x"] <= z["end_m"])
+                             for e in fox.entities("unit/").values()), timeout=30)
+        assert not fox.errors, fox.errors
+        print(f"Foxglove live: units out of zone {zone}; messages received by topic: "
+              f"/scene {fox.counts.get('/scene')}, /heat {fox.counts.get('/heat')}, "
+              f"/truth/scene {fox.counts.get('/truth/scene')}, all {sum(fox.counts.values())}")
 
         # Steady state, then the figures.
         time.sleep(5)
@@ -161,6 +255,8 @@ def main():
             print(f"screenshot: {args.screenshot}")
         print("PASSED")
     finally:
+        if fox is not None:
+            fox.close()
         if driver is not None:
             driver.quit()
         demo.terminate()

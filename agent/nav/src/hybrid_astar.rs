@@ -40,6 +40,7 @@ use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
 
 use firefleet_protocol::geometry::wrap_angle;
+use firefleet_protocol::msg::{FireState, FireTrack};
 use firefleet_protocol::{Point2, Pose2};
 
 use super::grid::Grid;
@@ -150,6 +151,20 @@ fn arc(from: Pose2, turn: Turn, length: f64, radius: f64, res: f64) -> impl Iter
 pub struct HeatSource {
     pub at: Point2,
     pub hrr_kw: f64,
+}
+
+impl HeatSource {
+    /// What the fleet knows of a fire as a heat source: a track not yet out whose flame
+    /// some unit sized. A track nobody sized radiates nothing here rather than a guess.
+    pub fn of_track(track: &FireTrack) -> Option<Self> {
+        match (track.state, track.hrr_kw) {
+            (FireState::Out, _) | (_, None) => None,
+            (_, Some(hrr_kw)) => Some(Self {
+                at: track.position,
+                hrr_kw,
+            }),
+        }
+    }
 }
 
 /// Radiant flux from `sources` at `p`, kW/m^2: point sources radiating 30 % of their heat
