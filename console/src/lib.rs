@@ -6,7 +6,7 @@
 //! is testable message by message; [`site`] is the tunnel drawn to scale from the site
 //! file; [`auth`] the commanders' logins; [`http`] the web page, its API and the stream of
 //! changes, over a [`http::Console`] that the binary feeds from the bus and that sends
-//! goals back through it.
+//! goals back through it; [`tls`] serves them over HTTPS.
 //!
 //! The picture is built from what the fleet says, never from the simulator's truth: with
 //! real robots there is no truth to read, and a commander must see what the coordinator
@@ -19,3 +19,4 @@ pub mod auth;
 pub mod http;
 pub mod picture;
 pub mod site;
+pub mod tls;

@@ -1,8 +1,8 @@
 //! Who may do what on a site's bus: the access rules, derived from the key table.
 //!
 //! Each process of a site holds one identity, the common name of its certificate
-//! (`firefleet pki`): `unit:<id>`, `coordinator`, `recorder`, `sim`, `commander:<name>`, and
-//! `router` for the site's router. [`grants`] lists what an identity may do, as
+//! (`firefleet pki`): `unit:<id>`, `coordinator`, `recorder`, `sim`, `commander:<name>`,
+//! `console` for the commanders' web console, and `router` for the site's router. [`grants`] lists what an identity may do, as
 //! [`Grant`]s of an [`Op`] on a key expression built by [`Keys`], so no key is written
 //! twice; [`zenoh_acl`] turns the grants of every identity into the `access_control`
 //! section of the router's Zenoh configuration, default deny, one subject per common name.
@@ -17,6 +17,11 @@
 //!   queries on the coordinator's behalf;
 //! - a commander puts and deletes only goals under its own name (so a goal's issuer is the
 //!   router's word, not the goal's text), and reads what a commander follows;
+//! - the console reads what a commander follows and puts and deletes goals under any
+//!   commander's name: it speaks for the commanders who log in to it, and its login (an
+//!   Argon2id password per commander) is what vouches for the issuer of those goals, not
+//!   a certificate per commander. A site that wants the router's word for every issuer
+//!   gives each commander a certificate and no console;
 //! - the simulator speaks only `sim/` keys, and only on a simulated site.
 //!
 //! The rules stop an identity from touching another's keys; what an identity may send on
@@ -41,6 +46,8 @@ pub enum Identity {
     Recorder,
     Sim,
     Commander(CommanderId),
+    /// The commanders' web console (`firefleet console`).
+    Console,
     /// The site's router: it links everyone and is granted nothing (its own session is
     /// not a remote face its rules apply to; it runs no role).
     Router,
@@ -63,6 +70,7 @@ impl Identity {
             Identity::Coordinator,
             Identity::Recorder,
             Identity::Sim,
+            Identity::Console,
             Identity::Router,
         ]);
         all.extend(commanders.iter().cloned().map(Identity::Commander));
@@ -78,6 +86,7 @@ impl fmt::Display for Identity {
             Identity::Recorder => f.write_str("recorder"),
             Identity::Sim => f.write_str("sim"),
             Identity::Commander(c) => write!(f, "commander:{c}"),
+            Identity::Console => f.write_str("console"),
             Identity::Router => f.write_str("router"),
         }
     }
@@ -86,7 +95,7 @@ impl fmt::Display for Identity {
 /// A common name that is no identity of ours.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error(
-    "'{name}' is not an identity (unit:<id>, coordinator, recorder, sim, commander:<name>, router): {reason}"
+    "'{name}' is not an identity (unit:<id>, coordinator, recorder, sim, commander:<name>, console, router): {reason}"
 )]
 pub struct IdentityError {
     pub name: String,
@@ -109,6 +118,7 @@ impl FromStr for Identity {
                 "coordinator" => Ok(Identity::Coordinator),
                 "recorder" => Ok(Identity::Recorder),
                 "sim" => Ok(Identity::Sim),
+                "console" => Ok(Identity::Console),
                 "router" => Ok(Identity::Router),
                 _ => Err(err("unknown".into())),
             },
@@ -272,9 +282,13 @@ pub fn grants(
             grant(Op::Answer, keys.every_fire().as_str());
             grant(Op::Answer, &keys.every_coord());
         }
-        Identity::Commander(c) => {
-            grant(Op::Put, keys.zone_goals_by(c).as_str());
-            grant(Op::Delete, keys.zone_goals_by(c).as_str());
+        Identity::Commander(_) | Identity::Console => {
+            let goals = match who {
+                Identity::Commander(c) => keys.zone_goals_by(c),
+                _ => keys.every_zone_goal(),
+            };
+            grant(Op::Put, goals.as_str());
+            grant(Op::Delete, goals.as_str());
             grant(Op::Subscribe, keys.every_zone_ack().as_str());
             grant(Op::Subscribe, keys.every_fire().as_str());
             grant(Op::Subscribe, keys.every_unit_state().as_str());
@@ -283,6 +297,10 @@ pub fn grants(
             grant(Op::Subscribe, keys.coord_barred().as_str());
             grant(Op::Query, &keys.every_coord());
             grant(Op::Watch, &keys.every_alive());
+            // The console's picture runs on site time.
+            if simulated && *who == Identity::Console {
+                grant(Op::Subscribe, keys.sim_clock().as_str());
+            }
         }
         Identity::Sim if simulated => {
             grant(Op::Put, keys.sim_clock().as_str());
@@ -466,6 +484,42 @@ mod tests {
     }
 
     #[test]
+    fn the_console_speaks_for_any_commander_and_commands_no_unit() {
+        let s = site();
+        let console = grants(&s, &"console".parse().unwrap(), true).unwrap();
+        let k = |tail: &str| format!("ff/{}/{tail}", s.site);
+        for key in ["zone/deep/goal/rossi", "zone/portal/goal/bianchi"] {
+            assert!(allows(&console, Op::Put, &k(key)), "{key}");
+            assert!(allows(&console, Op::Delete, &k(key)), "{key}");
+        }
+        for (op, key) in [
+            (Op::Subscribe, "unit/ugv-1/state"),
+            (Op::Subscribe, "fire/f1"),
+            (Op::Subscribe, "zone/deep/ack"),
+            (Op::Subscribe, "coord/log"),
+            (Op::Subscribe, "coord/goals"),
+            (Op::Subscribe, "sim/clock"),
+            (Op::Watch, "unit/ugv-1/alive"),
+        ] {
+            assert!(allows(&console, op, &k(key)), "{op:?} {key}");
+        }
+        for (op, key) in [
+            (Op::Put, "unit/ugv-1/task"),
+            (Op::Put, "coord/barred"),
+            (Op::Put, "coord/goals"),
+            (Op::Put, "zone/deep/ack"),
+            (Op::Put, "fire/f1"),
+            (Op::Put, "sim/unit/ugv-1/cmd"),
+            (Op::Token, "coord/alive"),
+            (Op::Subscribe, "sim/unit/ugv-1/sensors"),
+        ] {
+            assert!(!allows(&console, op, &k(key)), "{op:?} {key}");
+        }
+        let real = grants(&s, &Identity::Console, false).unwrap();
+        assert!(!allows(&real, Op::Subscribe, &k("sim/clock")));
+    }
+
+    #[test]
     fn a_real_site_grants_no_simulator_keys() {
         let s = site();
         let k = |tail: &str| format!("ff/{}/{tail}", s.site);
@@ -522,8 +576,12 @@ mod tests {
                 .filter(|(_, g)| allows(g, write, &key))
                 .map(|(w, _)| w)
                 .collect();
-            // Recorders answer the coordinator's queries on its behalf (coord/*).
-            let expected = if write == Op::Answer { 2 } else { 1 };
+            // Recorders answer the coordinator's queries on its behalf (coord/*); the
+            // console speaks for the commanders who log in to it.
+            let expected = match (write, &topic) {
+                (Op::Answer, _) | (Op::Put, Topic::ZoneGoal(..)) => 2,
+                _ => 1,
+            };
             assert_eq!(writers.len(), expected, "{key}: written by {writers:?}");
             let readers = granted
                 .iter()

@@ -20,6 +20,7 @@ use firefleet_console::auth::{Sessions, Users};
 use firefleet_console::http::{Console, GoalRequest, TICK};
 use firefleet_console::picture::{Event, Picture};
 use firefleet_console::site::SiteMap;
+use firefleet_console::tls::{TlsListener, server_config};
 use firefleet_protocol::CommanderId;
 use firefleet_protocol::bus::Bus;
 use firefleet_protocol::keys::{self, Topic};
@@ -68,6 +69,14 @@ struct ServeArgs {
     /// console is read-only.
     #[arg(long, value_name = "FILE")]
     users: Option<PathBuf>,
+    /// Serve the page over HTTPS with this certificate (PEM, the chain from the leaf):
+    /// on a site, the console's own from the site PKI (`firefleet pki`), whose CA the
+    /// commanders' browsers trust. Without it the page is plain HTTP, for loopback.
+    #[arg(long, value_name = "FILE", requires = "https_key")]
+    https_cert: Option<PathBuf>,
+    /// The private key of --https-cert (PEM).
+    #[arg(long, value_name = "FILE", requires = "https_cert")]
+    https_key: Option<PathBuf>,
     /// Hours a login lasts.
     #[arg(long, default_value_t = 8.0, value_parser = positive_f64)]
     session_hours: f64,
@@ -100,6 +109,10 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
             Users::default()
         }
     };
+    let tls = match (&a.https_cert, &a.https_key) {
+        (Some(cert), Some(key)) => Some(server_config(cert, key)?),
+        _ => None,
+    };
     let listener = tokio::net::TcpListener::bind(a.http)
         .await
         .with_context(|| format!("serving the console on {}", a.http))?;
@@ -108,7 +121,7 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
         Picture::new(SiteMap::new(&scenario)),
         users,
         Sessions::new(Duration::from_secs_f64(a.session_hours * 3600.0)),
-        false,
+        tls.is_some(),
     );
     let bus = Arc::new(bus);
     let feed = {
@@ -132,11 +145,22 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
             }
         })
     };
-    tracing::info!("console on http://{}", listener.local_addr()?);
     let stop = shutdown_signal(a.zenoh.die_with_parent);
-    let served = axum::serve(listener, console.router())
-        .with_graceful_shutdown(stop)
-        .await;
+    let served = match tls {
+        Some(config) => {
+            tracing::info!("console on https://{}", listener.local_addr()?);
+            let listener = TlsListener::new(listener, config)?;
+            axum::serve(listener, console.router())
+                .with_graceful_shutdown(stop)
+                .await
+        }
+        None => {
+            tracing::info!("console on http://{}", listener.local_addr()?);
+            axum::serve(listener, console.router())
+                .with_graceful_shutdown(stop)
+                .await
+        }
+    };
     for task in [feed, goals, ticker.abort_handle()] {
         task.abort();
     }

@@ -293,6 +293,33 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         ));
     }
     let mut children: Vec<(String, Child)> = Vec::new();
+    if let Some(addr) = a.console {
+        let mut args = vec!["console".to_string(), "--http".into(), addr.to_string()];
+        if let Some(users) = &a.console_users {
+            args.extend(["--users".into(), users.display().to_string()]);
+        }
+        // On a secure site the page is HTTPS with the console's certificate from the site
+        // PKI (valid for loopback): commanders' browsers trust the site CA.
+        let scheme = match &site {
+            Some(s) => {
+                let dir = s.pki.join(Identity::Console.dir_name());
+                args.extend([
+                    "--https-cert".into(),
+                    dir.join("cert.pem").display().to_string(),
+                    "--https-key".into(),
+                    dir.join("key.pem").display().to_string(),
+                ]);
+                println!(
+                    "the console's certificate is signed by the site CA: {}",
+                    dir.join("ca.pem").display()
+                );
+                "https"
+            }
+            None => "http",
+        };
+        println!("the incident commander's console: {scheme}://{addr}/");
+        roles.push((Identity::Console, args));
+    }
     for (who, args) in roles {
         let role = match &who {
             Identity::Unit(u) => format!("agent:{u}"),
@@ -313,36 +340,6 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             .spawn()
             .with_context(|| format!("starting the {role} process"))?;
         children.push((role, child));
-    }
-    if let Some(addr) = a.console {
-        // A console would need an identity of its own on a secure site, allowed to put goals
-        // under the names of the commanders it logs in; the access rules have none yet.
-        anyhow::ensure!(
-            site.is_none(),
-            "--console with --secure: the access rules have no console identity yet"
-        );
-        let mut cmd = Command::new(&exe);
-        cmd.args([
-            "console",
-            "--http",
-            &addr.to_string(),
-            "--scenario",
-            a.scenario.as_str(),
-        ])
-        .args([
-            "--die-with-parent",
-            "--mode",
-            "client",
-            "--connect",
-            endpoint.as_str(),
-        ]);
-        if let Some(users) = &a.console_users {
-            cmd.arg("--users").arg(users);
-        }
-        as_child(&mut cmd, "warn,zenoh=error");
-        let child = cmd.spawn().context("starting the console process")?;
-        children.push(("console".into(), child));
-        println!("the incident commander's console: http://{addr}/");
     }
     println!(
         "firefleet demo: scenario '{}' (seed {seed}), {} fires, {} units, {} processes on {endpoint}, time x{}",

@@ -65,7 +65,7 @@ pub struct IssueArgs {
     /// The directory `init` wrote.
     #[arg(long, value_name = "DIR")]
     pki: PathBuf,
-    /// commander, unit, coordinator, recorder, sim or router.
+    /// commander, unit, coordinator, recorder, sim, console or router.
     #[arg(long)]
     role: Role,
     /// The commander's or the unit's name.
@@ -82,6 +82,7 @@ enum Role {
     Coordinator,
     Recorder,
     Sim,
+    Console,
     Router,
 }
 
@@ -171,6 +172,7 @@ fn identity(role: Role, name: Option<&str>) -> anyhow::Result<Identity> {
         Role::Coordinator => Ok(Identity::Coordinator),
         Role::Recorder => Ok(Identity::Recorder),
         Role::Sim => Ok(Identity::Sim),
+        Role::Console => Ok(Identity::Console),
         Role::Router => Ok(Identity::Router),
     }
 }
