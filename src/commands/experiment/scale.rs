@@ -15,6 +15,10 @@
 //! enforcing the site's access rules (`protocol::access`, every unit's own rules; the load
 //! generator, which speaks for every unit, holds the union of theirs), and prints the
 //! two side by side: the cost of the secure site, measured in one run.
+//!
+//! `--console` runs it once more with the commanders' console attached (a `firefleet
+//! console` process on the plain link, one page following its stream), and adds the
+//! console's own CPU share: the console's cost on the coordinator, measured in one run.
 
 use std::collections::BTreeMap;
 use std::io::Write as _;
@@ -52,6 +56,9 @@ pub struct ScaleArgs {
     /// Run the load a second time over mutual TLS and access rules, and compare.
     #[arg(long)]
     secure: bool,
+    /// Run the load once more with a console and one page following it, and compare.
+    #[arg(long)]
+    console: bool,
     /// Also write the figures as JSON (a list: one entry per link).
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
@@ -59,7 +66,7 @@ pub struct ScaleArgs {
 
 #[derive(Serialize)]
 struct Figures {
-    /// `tcp`, or `mtls+acl`.
+    /// `tcp`, `mtls+acl`, or `tcp+console`.
     link: &'static str,
     units: usize,
     fires: usize,
@@ -69,6 +76,10 @@ struct Figures {
     report_to_task_p99_ms: f64,
     report_to_task_max_ms: f64,
     coordinator_cpu_share: f64,
+    /// The console process's CPU share, with a console attached.
+    console_cpu_share: Option<f64>,
+    /// What the console's stream sent its one page, bytes per second.
+    page_bytes_per_s: Option<f64>,
     wall_s: f64,
 }
 
@@ -124,6 +135,8 @@ struct Link {
     /// The coordinator's Zenoh arguments: it is the router.
     coordinator: Vec<std::ffi::OsString>,
     client: Connect,
+    /// Whether a console and a page follow the fleet.
+    console: bool,
 }
 
 impl Link {
@@ -140,6 +153,16 @@ impl Link {
                 ..Connect::default()
             },
             endpoint,
+            console: false,
+        })
+    }
+
+    /// The plain link with a console attached.
+    fn with_console() -> anyhow::Result<Self> {
+        Ok(Self {
+            name: "tcp+console",
+            console: true,
+            ..Self::plain()?
         })
     }
 
@@ -189,6 +212,7 @@ impl Link {
                 ..Connect::default()
             },
             endpoint,
+            console: false,
         })
     }
 }
@@ -203,6 +227,9 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
     if a.secure {
         let scenario = scenarios::resolve(&site.display().to_string())?;
         links.push(Link::secure(dir.path(), &scenario)?);
+    }
+    if a.console {
+        links.push(Link::with_console()?);
     }
     let mut figures = Vec::new();
     for link in &links {
@@ -260,6 +287,10 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         );
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
+    let console = match link.console {
+        true => Some(Console::attach(site, endpoint).await?),
+        false => None,
+    };
     let fleet = Bus::open(client, SiteId::new("scale")?)
         .await
         .context("connecting to the coordinator")?;
@@ -389,6 +420,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
     };
     tokio::time::sleep(WARM_UP).await;
     let cpu0 = cpu_time_s(pid)?;
+    let console0 = console.as_ref().map(Console::sample).transpose()?;
     let (t0, s0) = (Instant::now(), published.load(Ordering::Relaxed));
     let mut sent = Vec::with_capacity(a.fires);
     // The unit nearest fire `k` reports it.
@@ -441,6 +473,14 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
     let states = published.load(Ordering::Relaxed);
     let cpu = cpu_time_s(pid)? - cpu0;
     let wall = t0.elapsed().as_secs_f64();
+    let console_figures = match (&console, console0) {
+        (Some(c), Some((cpu0, bytes0))) => {
+            let (cpu, bytes) = c.sample()?;
+            Some(((cpu - cpu0) / wall, (bytes - bytes0) as f64 / wall))
+        }
+        _ => None,
+    };
+    drop(console);
     drop(stdin);
     let _ = tokio::time::timeout(Duration::from_secs(5), coordinator.wait()).await;
     drop(tokens);
@@ -459,8 +499,90 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         report_to_task_p99_ms: percentile(&lat, 99.0),
         report_to_task_max_ms: lat.last().copied().unwrap_or(f64::NAN),
         coordinator_cpu_share: cpu / wall,
+        console_cpu_share: console_figures.map(|(cpu, _)| cpu),
+        page_bytes_per_s: console_figures.map(|(_, bytes)| bytes),
         wall_s: wall,
     })
+}
+
+/// A `firefleet console` process on the site, and one page following its stream.
+struct Console {
+    process: tokio::process::Child,
+    pid: u32,
+    /// Bytes of the stream the page has read.
+    read: Arc<AtomicU64>,
+    page: tokio::task::JoinHandle<()>,
+}
+
+impl Console {
+    async fn attach(site: &std::path::Path, endpoint: &str) -> anyhow::Result<Self> {
+        let http = format!("127.0.0.1:{}", free_loopback_port()?);
+        let process = tokio::process::Command::new(std::env::current_exe()?)
+            .args(["console", "--http", &http, "--scenario"])
+            .arg(site)
+            .args([
+                "--mode",
+                "client",
+                "--connect",
+                endpoint,
+                "--die-with-parent",
+            ])
+            .env("RUST_LOG", "warn,zenoh=error")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::null())
+            .kill_on_drop(true)
+            .spawn()
+            .context("starting the console")?;
+        let pid = process.id().context("the console's pid")?;
+        let launched = Instant::now();
+        let mut stream = loop {
+            if let Ok(s) = tokio::net::TcpStream::connect(&http).await {
+                break s;
+            }
+            anyhow::ensure!(
+                launched.elapsed() < Duration::from_secs(20),
+                "the console did not listen on {http} within 20 s"
+            );
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        };
+        use tokio::io::{AsyncReadExt, AsyncWriteExt};
+        stream
+            .write_all(
+                format!(
+                    "GET /api/stream HTTP/1.1\r\nHost: {http}\r\nAccept: text/event-stream\r\n\r\n"
+                )
+                .as_bytes(),
+            )
+            .await?;
+        let read = Arc::new(AtomicU64::new(0));
+        let page = {
+            let read = read.clone();
+            tokio::spawn(async move {
+                let mut buf = vec![0u8; 1 << 16];
+                while let Ok(n @ 1..) = stream.read(&mut buf).await {
+                    read.fetch_add(n as u64, Ordering::Relaxed);
+                }
+            })
+        };
+        Ok(Self {
+            process,
+            pid,
+            read,
+            page,
+        })
+    }
+
+    /// The console's CPU time so far, s, and the bytes its page has read.
+    fn sample(&self) -> anyhow::Result<(f64, u64)> {
+        Ok((cpu_time_s(self.pid)?, self.read.load(Ordering::Relaxed)))
+    }
+}
+
+impl Drop for Console {
+    fn drop(&mut self) {
+        self.page.abort();
+        let _ = self.process.start_kill();
+    }
 }
 
 fn print_table(figures: &[Figures]) {
@@ -502,5 +624,18 @@ fn print_table(figures: &[Figures]) {
         &|f| format!("{:.0}", f.coordinator_cpu_share * 100.0),
         "",
     );
+    if figures.iter().any(|f| f.console_cpu_share.is_some()) {
+        let or_dash = |v: Option<String>| v.unwrap_or_else(|| "-".into());
+        row(
+            "console CPU, % of one core",
+            &|f| or_dash(f.console_cpu_share.map(|c| format!("{:.0}", c * 100.0))),
+            "",
+        );
+        row(
+            "console -> page stream, kB/s",
+            &|f| or_dash(f.page_bytes_per_s.map(|b| format!("{:.0}", b / 1e3))),
+            "",
+        );
+    }
     row("measured over, s", &|f| format!("{:.1}", f.wall_s), "");
 }
