@@ -227,7 +227,7 @@ fn deploy_render_writes_the_documented_rules_and_a_site_router_refuses_plain_lin
         &cfg,
     ];
     let out = firefleet(&[&render[..], &["--commander", "rossi"]].concat());
-    assert_says(&out, 0, "router.json5, 6 client configurations");
+    assert_says(&out, 0, "router.json5, 7 client configurations");
     let table = std::fs::read_to_string(dir.path().join("cfg/ACCESS.md")).unwrap();
     let readme = std::fs::read_to_string("deploy/README.md").unwrap();
     assert!(

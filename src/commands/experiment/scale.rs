@@ -260,15 +260,8 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
 async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::Result<Figures> {
     let (endpoint, client) = (&link.endpoint, &link.client);
     let launched = Instant::now();
-    let mut coordinator = tokio::process::Command::new(std::env::current_exe()?)
-        .args(["coordinator", "--scenario"])
-        .arg(site)
+    let mut coordinator = child("coordinator", site)?
         .args(&link.coordinator)
-        .arg("--die-with-parent")
-        .env("RUST_LOG", "warn,zenoh=error")
-        .stdin(Stdio::piped())
-        .stdout(Stdio::null())
-        .kill_on_drop(true)
         .spawn()
         .context("starting the coordinator")?;
     let pid = coordinator.id().context("the coordinator's pid")?;
@@ -280,13 +273,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         .split_once('/')
         .map_or(endpoint.as_str(), |(_, a)| a)
         .to_owned();
-    while tokio::net::TcpStream::connect(&addr).await.is_err() {
-        anyhow::ensure!(
-            launched.elapsed() < Duration::from_secs(20),
-            "the coordinator did not listen on {endpoint} within 20 s"
-        );
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
+    listening(&addr, "the coordinator", launched).await?;
     let console = match link.console {
         true => Some(Console::attach(site, endpoint).await?),
         false => None,
@@ -505,6 +492,37 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
     })
 }
 
+/// `firefleet <role> --scenario <site>`, quiet, a child of this process that ends with it.
+fn child(role: &str, site: &std::path::Path) -> anyhow::Result<tokio::process::Command> {
+    let mut cmd = tokio::process::Command::new(std::env::current_exe()?);
+    cmd.args([role, "--scenario"])
+        .arg(site)
+        .arg("--die-with-parent")
+        .env("RUST_LOG", "warn,zenoh=error")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .kill_on_drop(true);
+    Ok(cmd)
+}
+
+/// A connection to `addr` once `who`, launched at `launched`, listens there (within 20 s).
+async fn listening(
+    addr: &str,
+    who: &str,
+    launched: Instant,
+) -> anyhow::Result<tokio::net::TcpStream> {
+    loop {
+        if let Ok(s) = tokio::net::TcpStream::connect(addr).await {
+            return Ok(s);
+        }
+        anyhow::ensure!(
+            launched.elapsed() < Duration::from_secs(20),
+            "{who} did not listen on {addr} within 20 s"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
 /// A `firefleet console` process on the site, and one page following its stream.
 struct Console {
     process: tokio::process::Child,
@@ -517,34 +535,13 @@ struct Console {
 impl Console {
     async fn attach(site: &std::path::Path, endpoint: &str) -> anyhow::Result<Self> {
         let http = format!("127.0.0.1:{}", free_loopback_port()?);
-        let process = tokio::process::Command::new(std::env::current_exe()?)
-            .args(["console", "--http", &http, "--scenario"])
-            .arg(site)
-            .args([
-                "--mode",
-                "client",
-                "--connect",
-                endpoint,
-                "--die-with-parent",
-            ])
-            .env("RUST_LOG", "warn,zenoh=error")
-            .stdin(Stdio::piped())
-            .stdout(Stdio::null())
-            .kill_on_drop(true)
+        let process = child("console", site)?
+            .args(["--http", &http, "--mode", "client", "--connect", endpoint])
             .spawn()
             .context("starting the console")?;
         let pid = process.id().context("the console's pid")?;
         let launched = Instant::now();
-        let mut stream = loop {
-            if let Ok(s) = tokio::net::TcpStream::connect(&http).await {
-                break s;
-            }
-            anyhow::ensure!(
-                launched.elapsed() < Duration::from_secs(20),
-                "the console did not listen on {http} within 20 s"
-            );
-            tokio::time::sleep(Duration::from_millis(50)).await;
-        };
+        let mut stream = listening(&http, "the console", launched).await?;
         use tokio::io::{AsyncReadExt, AsyncWriteExt};
         stream
             .write_all(
