@@ -1093,7 +1093,7 @@ fn mutual_tls_lets_in_only_the_site_s_identities() {
         "--commander",
         "rossi",
     ]);
-    assert_says(&out, 0, "CA and 8 identities");
+    assert_says(&out, 0, "CA and 9 identities");
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
