@@ -3,18 +3,16 @@
 //! The localization node of the BT paper (section 3.3.2): the box centre `(u, v)` and the
 //! depth there give the flame's position in the camera frame by equation 7 (with the
 //! paper's typo fixed: y uses c_y and f_y), then the camera's mount and the unit's pose
-//! take it to the site frame. Depth is taken robustly: the median of the valid pixels of
-//! the window around the box centre, with too few valid pixels meaning no position.
+//! take it to the site frame. Depth is taken robustly ([`FlameDetection::depth_m`]): the
+//! median of the valid pixels of the window around the box centre, with too few valid
+//! pixels meaning no position.
 //!
 //! Not here: tracking flames over time ([`crate::ground::tracker`]) or any image processing before
 //! the detector's boxes.
 
 use firefleet_protocol::geometry::{Gaussian2, Point2, Pose2};
-use firefleet_protocol::msg::{DEPTH_WINDOW, FlameDetection};
+use firefleet_protocol::msg::FlameDetection;
 use firefleet_protocol::spec::CameraSpec;
-
-/// Fewest valid depth pixels for a position (a third of the window).
-const MIN_VALID_DEPTH: usize = DEPTH_WINDOW * DEPTH_WINDOW / 3;
 
 /// A detection placed in the site frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,29 +40,9 @@ impl Located {
     }
 }
 
-/// Median of the valid (non-zero, finite) depths, or `None` with too few of them.
-pub fn robust_depth(window: &[f32]) -> Option<f64> {
-    let mut valid = [0.0f32; DEPTH_WINDOW * DEPTH_WINDOW];
-    let mut n = 0;
-    for z in window.iter().copied().filter(|z| z.is_finite() && *z > 0.0) {
-        valid[n] = z;
-        n += 1;
-    }
-    if n < MIN_VALID_DEPTH {
-        return None;
-    }
-    let v = &mut valid[..n];
-    v.sort_unstable_by(f32::total_cmp);
-    Some(f64::from(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) / 2.0
-    }))
-}
-
 /// Place detection `d` seen by a camera `cam` on a unit at `pose`.
 pub fn locate(d: &FlameDetection, cam: &CameraSpec, pose: &Pose2) -> Option<Located> {
-    let z = robust_depth(&d.depth)?;
+    let z = d.depth_m()?;
     let (u, v) = ((d.bbox[0] + d.bbox[2]) / 2.0, (d.bbox[1] + d.bbox[3]) / 2.0);
     let [forward, left, up] = cam.camera_to_body(cam.back_project(u, v, z));
     let mean = pose.to_site(Point2::new(forward, left));
@@ -117,21 +95,6 @@ mod tests {
             bbox: [u - 20.0, v - 30.0, u + 20.0, v + 30.0],
             depth: [depth; 25],
         }
-    }
-
-    #[test]
-    fn robust_depth_ignores_dropouts_and_outliers() {
-        let mut w = [0.0f32; 25];
-        for (i, z) in w.iter_mut().enumerate().take(12) {
-            *z = 8.0 + 0.01 * i as f32;
-        }
-        w[12] = 80.0;
-        let z = robust_depth(&w).unwrap();
-        assert!((z - 8.065).abs() < 0.01, "{z}");
-        assert_eq!(robust_depth(&[0.0; 25]), None);
-        let mut sparse = [0.0f32; 25];
-        sparse[..7].fill(5.0);
-        assert_eq!(robust_depth(&sparse), None, "fewer than a third valid");
     }
 
     proptest! {

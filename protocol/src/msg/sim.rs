@@ -48,6 +48,33 @@ pub struct FlameDetection {
     pub depth: [f32; DEPTH_WINDOW * DEPTH_WINDOW],
 }
 
+/// Fewest valid depth pixels for a depth (a third of the window).
+const MIN_VALID_DEPTH: usize = DEPTH_WINDOW * DEPTH_WINDOW / 3;
+
+impl FlameDetection {
+    /// The flame's depth, m: the median of the window's valid (non-zero, finite) pixels,
+    /// robust to the dropouts and outliers a flame gives a depth camera; `None` with fewer
+    /// than a third of them valid.
+    pub fn depth_m(&self) -> Option<f64> {
+        let mut valid = [0.0f32; DEPTH_WINDOW * DEPTH_WINDOW];
+        let mut n = 0;
+        for z in self.depth.iter().copied().filter(|z| z.is_finite() && *z > 0.0) {
+            valid[n] = z;
+            n += 1;
+        }
+        if n < MIN_VALID_DEPTH {
+            return None;
+        }
+        let v = &mut valid[..n];
+        v.sort_unstable_by(f32::total_cmp);
+        Some(f64::from(if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            (v[n / 2 - 1] + v[n / 2]) / 2.0
+        }))
+    }
+}
+
 impl Validate for FlameDetection {
     fn validate(&self) -> Result<(), Invalid> {
         in_range("confidence", self.confidence, 0.0, 1.0)?;
@@ -293,5 +320,31 @@ impl Validate for SimTruth {
         finite("time_limit_s", self.time_limit_s)?;
         max_len("fires", &self.fires, 4096)?;
         max_len("units", &self.units, 4096)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn depth_ignores_dropouts_and_outliers() {
+        let at = |depth| FlameDetection {
+            class: ObjectClass::Fire,
+            confidence: 0.9,
+            bbox: [0.0, 0.0, 1.0, 1.0],
+            depth,
+        };
+        let mut w = [0.0f32; 25];
+        for (i, z) in w.iter_mut().enumerate().take(12) {
+            *z = 8.0 + 0.01 * i as f32;
+        }
+        w[12] = 80.0;
+        let z = at(w).depth_m().unwrap();
+        assert!((z - 8.065).abs() < 0.01, "{z}");
+        assert_eq!(at([0.0; 25]).depth_m(), None);
+        let mut sparse = [0.0f32; 25];
+        sparse[..7].fill(5.0);
+        assert_eq!(at(sparse).depth_m(), None, "fewer than a third valid");
     }
 }

@@ -1,0 +1,270 @@
+//! What our simulator's body and our agent put on the wire, checked by an independent ROS 2
+//! implementation (Python `rosbags`): type hashes, every field of every message, the bytes.
+//!
+//! The body and the robot run on real Zenoh sessions (a router and a client on loopback
+//! TCP); a plain Zenoh subscriber records every sample under the robot's namespace, as any
+//! rmw_zenoh subscription would see it, and `tests/rosbags_check.py` gets the recording.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use firefleet_protocol::UnitId;
+use firefleet_protocol::bus::{Connect, Mode, free_loopback_port};
+use firefleet_protocol::geometry::Pose2;
+use firefleet_protocol::msg::{CannonState, FlameDetection, ObjectClass, UnitCommand, UnitSensors};
+use firefleet_protocol::spec::GROUND;
+use firefleet_ros2::graph::{Attachment, Domain, Namespace};
+use firefleet_ros2::ground::{Body, Robot};
+use firefleet_ros2::msg::*;
+use firefleet_ros2::node::Node;
+use firefleet_ros2::{cdr, idl};
+use serde_json::{Value, json};
+
+/// Whether Python's `rosbags` is importable. CI installs it and sets
+/// `FIREFLEET_REQUIRE_PYTHON_ROSBAGS`, so there a missing package fails the test.
+fn python_rosbags() -> bool {
+    let ok = Command::new("python3")
+        .args(["-c", "import rosbags.typesys"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !ok {
+        assert!(
+            std::env::var_os("FIREFLEET_REQUIRE_PYTHON_ROSBAGS").is_none(),
+            "python3 with the rosbags package is required here (pip install 'rosbags>=0.10')"
+        );
+        eprintln!("SKIPPED: python3 with rosbags is not installed; nothing was checked independently");
+    }
+    ok
+}
+
+async fn open(connect: &Connect) -> zenoh::Session {
+    zenoh::open(connect.to_config().unwrap()).await.unwrap()
+}
+
+fn sensors(unit: &UnitId) -> UnitSensors {
+    let cam = GROUND.camera;
+    let c = cam.body_to_camera([14.0, 1.0, 1.3]);
+    let [u, v] = cam.project(c).unwrap();
+    UnitSensors {
+        unit: unit.clone(),
+        t: 73.45,
+        pose: Pose2::new(112.5, -2.25, 0.3),
+        speed: 1.25,
+        steer: -0.125,
+        heat_flux_kw_m2: 2.5,
+        water_l: 1234.5,
+        cannon: CannonState {
+            pan: 0.5,
+            tilt: 0.25,
+            valve_open: false,
+            flow_l_s: 0.0,
+        },
+        detections: vec![FlameDetection {
+            class: ObjectClass::Fire,
+            confidence: 0.75,
+            bbox: [u - 30.0, v - 45.0, u + 30.0, v + 45.0],
+            depth: [c[2] as f32; 25],
+        }],
+        collided: true,
+    }
+}
+
+/// `pkg::msg::dds_::Type_` back to `pkg/msg/Type`.
+fn ros_type(dds: &str) -> String {
+    dds.trim_end_matches('_').replace("::dds_::", "/").replace("::", "/")
+}
+
+fn value_of(ty: &str, bytes: &[u8]) -> Value {
+    fn v<M: RosMessage>(b: &[u8]) -> Value {
+        serde_json::to_value(cdr::decode::<M>(b).unwrap()).unwrap()
+    }
+    match ty {
+        Odometry::TYPE => v::<Odometry>(bytes),
+        JointState::TYPE => v::<JointState>(bytes),
+        Detection3DArray::TYPE => v::<Detection3DArray>(bytes),
+        Float64::TYPE => v::<Float64>(bytes),
+        Bool::TYPE => v::<Bool>(bytes),
+        TwistStamped::TYPE => v::<TwistStamped>(bytes),
+        Float64MultiArray::TYPE => v::<Float64MultiArray>(bytes),
+        other => panic!("unexpected type {other} on the wire"),
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_wire_is_ros_2_by_an_independent_reader() {
+    let port = free_loopback_port().unwrap();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let router = open(&Connect {
+        mode: Some(Mode::Router),
+        listen: vec![endpoint.clone()],
+        ..Connect::default()
+    })
+    .await;
+    let client = open(&Connect {
+        mode: Some(Mode::Client),
+        connect: vec![endpoint],
+        ..Connect::default()
+    })
+    .await;
+
+    let seen: Arc<Mutex<Vec<(String, Vec<u8>, Option<Vec<u8>>)>>> = Arc::default();
+    let recorder = seen.clone();
+    let _wire = router
+        .declare_subscriber("0/ugv_1/**")
+        .callback(move |s| {
+            recorder.lock().unwrap().push((
+                s.key_expr().to_string(),
+                s.payload().to_bytes().to_vec(),
+                s.attachment().map(|a| a.to_bytes().to_vec()),
+            ))
+        })
+        .await
+        .unwrap();
+
+    let unit = UnitId::new("ugv-1").unwrap();
+    let ns = Namespace::of_unit(&unit);
+    let domain = Domain::new(0).unwrap();
+    let body_node = Node::new(&router, domain, ns.clone(), "firefleet_sim").await.unwrap();
+    let agent_node = Node::new(&client, domain, ns, "firefleet_agent").await.unwrap();
+    let body = Body::new(&body_node, unit.clone(), GROUND).await.unwrap();
+    let mut robot = Robot::new(&agent_node, unit.clone(), GROUND).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+
+    // Both ends of the fleet's ROS 2 link, through real sessions.
+    let sent = sensors(&unit);
+    body.publish(&sent).unwrap();
+    let got = tokio::time::timeout(Duration::from_secs(5), robot.sense())
+        .await
+        .expect("a frame within 5 s")
+        .unwrap();
+    assert_eq!(got.pose.x, sent.pose.x);
+    assert!((got.pose.yaw - sent.pose.yaw).abs() < 1e-12);
+    assert!((got.t - sent.t).abs() < 1e-9);
+    assert_eq!((got.speed, got.steer), (sent.speed, sent.steer));
+    assert_eq!((got.water_l, got.heat_flux_kw_m2, got.collided), (1234.5, 2.5, true));
+    assert_eq!((got.cannon.pan, got.cannon.tilt), (0.5, 0.25));
+    assert_eq!(got.detections.len(), 1);
+    assert!((got.detections[0].depth_m().unwrap() - sent.detections[0].depth_m().unwrap()).abs() < 1e-5);
+    let cmd = UnitCommand {
+        speed: 1.5,
+        steer: 0.25,
+        pan: -0.5,
+        tilt: 0.125,
+        valve_open: true,
+    };
+    robot.actuate(&cmd).unwrap();
+    let mut applied = None;
+    for _ in 0..50 {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        if let Some(c) = body.take_command(&UnitCommand::halt(&CannonState::default())) {
+            applied = Some(c);
+            break;
+        }
+    }
+    let applied = applied.expect("set-points reach the body");
+    assert!((applied.steer - cmd.steer).abs() < 1e-12 && applied.speed == cmd.speed);
+    tokio::time::sleep(Duration::from_millis(300)).await;
+
+    let seen = seen.lock().unwrap().clone();
+    let mut hashes = BTreeMap::new();
+    let mut messages = Vec::new();
+    let mut topics = Vec::new();
+    for (key, bytes, attachment) in &seen {
+        let parts: Vec<&str> = key.split('/').collect();
+        let [.., dds, hash] = parts[..] else { panic!("{key}") };
+        let ty = ros_type(dds);
+        assert_eq!(hash, idl::type_hash(&ty).unwrap(), "{key}");
+        let a = Attachment::decode(attachment.as_deref().expect("every sample has one")).unwrap();
+        assert!(a.sequence >= 1 && a.timestamp_ns > 1_600_000_000_000_000_000, "{a:?}");
+        topics.push(parts[1..parts.len() - 2].join("/"));
+        hashes.insert(ty.clone(), hash.to_owned());
+        messages.push(json!({"type": ty, "cdr": hex(bytes), "value": value_of(&ty, bytes)}));
+    }
+    topics.sort();
+    assert_eq!(
+        topics,
+        [
+            "ugv_1/bumper",
+            "ugv_1/cannon/valve",
+            "ugv_1/cannon_controller/commands",
+            "ugv_1/cmd_vel",
+            "ugv_1/flame_detections",
+            "ugv_1/heat_flux",
+            "ugv_1/joint_states",
+            "ugv_1/odom",
+            "ugv_1/tank_level",
+        ]
+    );
+    // The type std_msgs/String too: its hash is the one rmw_zenoh's design document shows.
+    hashes.insert(
+        "std_msgs/msg/String".into(),
+        idl::type_hash("std_msgs/msg/String").unwrap(),
+    );
+
+    // The robot shows up as ROS 2 does: a node token, and one per publisher and subscription.
+    let tokens = client.liveliness().get("@ros2_lv/0/**").await.unwrap();
+    let mut keys = std::collections::BTreeSet::new();
+    while let Ok(reply) = tokens.recv_async().await {
+        keys.insert(reply.result().unwrap().key_expr().to_string());
+    }
+    let mut kinds = BTreeMap::<String, usize>::new();
+    for key in &keys {
+        *kinds.entry(key.split('/').nth(5).unwrap().to_owned()).or_default() += 1;
+    }
+    assert_eq!(kinds.get("NN"), Some(&2), "{keys:#?}");
+    assert_eq!(kinds.get("MP"), Some(&9), "{kinds:?}");
+    assert_eq!(kinds.get("MS"), Some(&9), "{kinds:?}");
+
+    if !python_rosbags() {
+        return;
+    }
+    let request = json!({"hashes": hashes, "messages": messages});
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/rosbags_check.py");
+    let mut child = Command::new("python3")
+        .arg(script)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(request.to_string().as_bytes())
+        .unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "rosbags disagrees:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // rosbags' own bytes decode to the same values with our decoder.
+    let reply: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let theirs = reply["rosbags_cdr"].as_array().unwrap();
+    assert_eq!(theirs.len(), messages.len());
+    for (m, t) in messages.iter().zip(theirs) {
+        let ty = m["type"].as_str().unwrap();
+        let bytes = unhex(t.as_str().unwrap());
+        assert_eq!(value_of(ty, &bytes), m["value"], "{ty}");
+    }
+    eprintln!(
+        "rosbags agreed on {} type hashes and {} messages",
+        hashes.len(),
+        messages.len()
+    );
+}
+
+fn hex(b: &[u8]) -> String {
+    b.iter().map(|x| format!("{x:02x}")).collect()
+}
+
+fn unhex(s: &str) -> Vec<u8> {
+    (0..s.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap())
+        .collect()
+}
