@@ -23,4 +23,4 @@ pub mod platform;
 
 pub use controller::{Controller, Services};
 pub use node::{AgentOptions, run};
-pub use platform::{Platform, SimPlatform};
+pub use platform::{Platform, Ros2Platform, SimPlatform};

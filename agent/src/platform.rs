@@ -4,7 +4,9 @@
 //! state, tank level, heat flux, flame detections; for a monorail unit: joints, fire
 //! detector, temperature, thermal camera) and accepts actuator set-points.
 //! A real robot implements it over its drivers; [`SimPlatform`] implements it over the
-//! simulator's `ff/<site>/sim/unit/<id>/...` keys, so the agent code is the same for both.
+//! simulator's `ff/<site>/sim/unit/<id>/...` keys, and [`Ros2Platform`] over a ROS 2
+//! robot's topics (rmw_zenoh's conventions, `firefleet_ros2::ground`), which the simulator
+//! can serve too. The agent code is the same for all of them.
 //!
 //! Not here: what the unit does with its body (the controllers) or the bus to the
 //! coordinator ([`crate::node`]).
@@ -15,6 +17,10 @@ use firefleet_protocol::UnitId;
 use firefleet_protocol::bus::{Bus, BusError, Inbox};
 use firefleet_protocol::keys::Key;
 use firefleet_protocol::msg::{Message, RailCommand, RailSensors, UnitCommand, UnitSensors};
+use firefleet_protocol::spec::GroundSpec;
+use firefleet_ros2::graph::{Domain, Namespace};
+use firefleet_ros2::ground::Robot;
+use firefleet_ros2::node::{Node, NodeError};
 
 /// A robot body: sensor frames in, set-points out.
 pub trait Platform {
@@ -76,5 +82,45 @@ impl<S: Message, C: Message> Platform for SimPlatform<S, C> {
 
     async fn actuate(&mut self, cmd: C) -> Result<(), BusError> {
         self.bus.put(&self.cmd_key, &cmd).await
+    }
+}
+
+/// A ground robot running ROS 2 over rmw_zenoh: odometry, joint states, 3D flame
+/// detections, tank and heat in; `cmd_vel`, cannon commands and valve out (the topic table
+/// is in `firefleet_ros2::ground`). The agent is a ROS 2 node, `firefleet_agent`, in the
+/// robot's namespace.
+pub struct Ros2Platform {
+    robot: Robot,
+    _node: Node,
+}
+
+impl Ros2Platform {
+    /// The ground robot in `namespace` on `domain`, reached through `session` (the robot's
+    /// rmw_zenoh router, or any Zenoh network that routes its keys).
+    pub async fn ground(
+        session: &zenoh::Session,
+        domain: Domain,
+        namespace: Namespace,
+        unit: &UnitId,
+        spec: GroundSpec,
+    ) -> Result<Self, NodeError> {
+        let node = Node::new(session, domain, namespace, "firefleet_agent").await?;
+        Ok(Self {
+            robot: Robot::new(&node, unit.clone(), spec).await?,
+            _node: node,
+        })
+    }
+}
+
+impl Platform for Ros2Platform {
+    type Sensors = UnitSensors;
+    type Command = UnitCommand;
+
+    async fn sense(&mut self) -> Option<UnitSensors> {
+        self.robot.sense().await
+    }
+
+    async fn actuate(&mut self, cmd: UnitCommand) -> Result<(), BusError> {
+        self.robot.actuate(&cmd).map_err(BusError::new)
     }
 }

@@ -36,6 +36,10 @@ impl BusError {
     fn from_zenoh(e: impl std::fmt::Display) -> Self {
         Self(e.to_string())
     }
+    /// An error of a transport built on a session (a ROS 2 node's, say).
+    pub fn new(e: impl std::fmt::Display) -> Self {
+        Self(e.to_string())
+    }
 }
 
 impl From<zenoh::Error> for BusError {

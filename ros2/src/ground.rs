@@ -12,6 +12,7 @@
 //! | `bumper` | std_msgs/Bool | robot -> agent | the body touched something since the last message |
 //! | `cmd_vel` | geometry_msgs/TwistStamped | agent -> robot | `linear.x` m/s, `angular.z` rad/s |
 //! | `cannon_controller/commands` | std_msgs/Float64MultiArray | agent -> robot | `[pan, tilt]` rad, a ros2_control forward command controller |
+//! | `steering/command` | std_msgs/Float64 | agent -> robot | steering angle to turn the wheels to at a standstill, rad |
 //! | `cannon/valve` | std_msgs/Bool | agent -> robot | open the monitor's valve |
 //!
 //! Choices, and why:
@@ -19,8 +20,12 @@
 //!   and Nav2 sends it from Kilted on (`enable_stamped_cmd_vel`, false by default in Jazzy,
 //!   where Nav2 still sends `Twist`); a Jazzy Nav2 stack is set to stamped to match.
 //! - Our units steer like a bicycle: the agent's steering angle `delta` goes out as the yaw
-//!   rate `v tan(delta) / L` a car-like controller turns back into an angle; below
-//!   [`MIN_STEER_SPEED`] the rate carries no angle, so the body holds its steering.
+//!   rate `v tan(delta) / L` a car-like controller turns back into an angle. Below
+//!   [`MIN_STEER_SPEED`] the rate carries no angle, yet at a cusp the agent stops and turns
+//!   its wheels to the next run's lock before it drives on (a Twist cannot say that: the
+//!   first fleet run on ROS 2 stalled there, a unit waiting for wheels that never turned).
+//!   So the angle also goes out on `steering/command`, which the body follows at a
+//!   standstill only; while moving, `cmd_vel` alone steers.
 //! - Detections are 3D (vision_msgs), the output of a detector plus depth localizer on the
 //!   robot. The agent's tracker reads pixel boxes with depth, so the agent projects each 3D
 //!   box through the camera model of its profile (an exact inverse of the localizer: the
@@ -53,6 +58,7 @@ pub const BUMPER: &str = "bumper";
 pub const CMD_VEL: &str = "cmd_vel";
 pub const CANNON: &str = "cannon_controller/commands";
 pub const VALVE: &str = "cannon/valve";
+pub const STEERING: &str = "steering/command";
 
 pub const STEERING_JOINT: &str = "steering_joint";
 pub const PAN_JOINT: &str = "cannon_pan_joint";
@@ -160,7 +166,7 @@ pub struct Body {
     heat: Publisher<Float64>,
     bumper: Publisher<Bool>,
     commands: Arc<Mutex<Received>>,
-    _subscriptions: [Subscription; 3],
+    _subscriptions: [Subscription; 4],
 }
 
 /// Set-points received since the body last took them.
@@ -169,12 +175,19 @@ struct Received {
     drive: Option<Twist>,
     cannon: Option<[f64; 2]>,
     valve: Option<bool>,
+    /// The newest standstill steering angle (kept: it applies whenever the body stops).
+    standstill_steer: Option<f64>,
 }
 
 impl Body {
     pub async fn new(node: &Node, unit: UnitId, spec: GroundSpec) -> Result<Self, NodeError> {
         let commands = Arc::new(Mutex::new(Received::default()));
-        let (c1, c2, c3) = (commands.clone(), commands.clone(), commands.clone());
+        let (c1, c2, c3, c4) = (
+            commands.clone(),
+            commands.clone(),
+            commands.clone(),
+            commands.clone(),
+        );
         let subscriptions = [
             node.subscribe(CMD_VEL, move |m: TwistStamped| {
                 c1.lock().expect("not poisoned").drive = Some(m.twist);
@@ -190,6 +203,10 @@ impl Body {
             .await?,
             node.subscribe(VALVE, move |m: Bool| {
                 c3.lock().expect("not poisoned").valve = Some(m.data);
+            })
+            .await?,
+            node.subscribe(STEERING, move |m: Float64| {
+                c4.lock().expect("not poisoned").standstill_steer = Some(m.data);
             })
             .await?,
         ];
@@ -271,7 +288,8 @@ impl Body {
         }
         let mut cmd = *last;
         if let Some(t) = r.drive.take() {
-            (cmd.speed, cmd.steer) = drive_from_twist(&t, &self.spec, last.steer);
+            let standstill = r.standstill_steer.unwrap_or(last.steer);
+            (cmd.speed, cmd.steer) = drive_from_twist(&t, &self.spec, standstill);
         }
         if let Some([pan, tilt]) = r.cannon.take() {
             (cmd.pan, cmd.tilt) = (pan, tilt);
@@ -324,6 +342,7 @@ pub struct Robot {
     valve: bool,
     last_t: f64,
     cmd_vel: Publisher<TwistStamped>,
+    steering_cmd: Publisher<Float64>,
     cannon_cmd: Publisher<Float64MultiArray>,
     valve_cmd: Publisher<Bool>,
     _subscriptions: Vec<Subscription>,
@@ -354,6 +373,7 @@ impl Robot {
             valve: false,
             last_t: 0.0,
             cmd_vel: node.publisher(CMD_VEL).await?,
+            steering_cmd: node.publisher(STEERING).await?,
             cannon_cmd: node.publisher(CANNON).await?,
             valve_cmd: node.publisher(VALVE).await?,
             _subscriptions: subscriptions,
@@ -435,6 +455,8 @@ impl Robot {
     /// Send set-points, stamped with the newest frame's time.
     pub fn actuate(&mut self, cmd: &UnitCommand) -> Result<(), NodeError> {
         let header = Header::new(self.last_t, "");
+        // Before the twist: the body reads the standstill angle when the twist arrives.
+        self.steering_cmd.put(&Float64 { data: cmd.steer })?;
         self.cmd_vel.put(&TwistStamped {
             header,
             twist: Twist {

@@ -195,6 +195,7 @@ async fn the_wire_is_ros_2_by_an_independent_reader() {
             "ugv_1/heat_flux",
             "ugv_1/joint_states",
             "ugv_1/odom",
+            "ugv_1/steering/command",
             "ugv_1/tank_level",
         ]
     );
@@ -215,8 +216,8 @@ async fn the_wire_is_ros_2_by_an_independent_reader() {
         *kinds.entry(key.split('/').nth(5).unwrap().to_owned()).or_default() += 1;
     }
     assert_eq!(kinds.get("NN"), Some(&2), "{keys:#?}");
-    assert_eq!(kinds.get("MP"), Some(&9), "{kinds:?}");
-    assert_eq!(kinds.get("MS"), Some(&9), "{kinds:?}");
+    assert_eq!(kinds.get("MP"), Some(&10), "{kinds:?}");
+    assert_eq!(kinds.get("MS"), Some(&10), "{kinds:?}");
 
     if !python_rosbags() {
         return;

@@ -6,6 +6,11 @@
 //! [`physics::COMMAND_WATCHDOG`] of wall time is halted with its valve shut, as real drive
 //! controllers do when their computer dies.
 //!
+//! With [`SimOptions::ros2`], every ground unit's body is a ROS 2 robot instead
+//! ([`firefleet_ros2::ground::Body`], a node `firefleet_sim` in the unit's namespace,
+//! `ugv-1` -> `/ugv_1`): its frames go out on its ROS 2 topics and its set-points come
+//! from them, with no firefleet key between agent and body.
+//!
 //! Not here: the world itself ([`crate::world`]); this loop only paces it and carries its
 //! messages.
 
@@ -18,6 +23,9 @@ use firefleet_protocol::bus::{Bus, BusError, Inbox};
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{Message, SimClock, SimTruth};
 use firefleet_protocol::scenario::Scenario;
+use firefleet_ros2::graph::{Domain, Namespace};
+use firefleet_ros2::ground::Body;
+use firefleet_ros2::node::{Node, NodeError};
 use tokio::time::MissedTickBehavior;
 
 use crate::physics;
@@ -35,6 +43,8 @@ pub struct SimOptions {
     /// a coordinator, if `wait_for_coordinator`) to be alive on the bus.
     pub wait_for_fleet: Option<Duration>,
     pub wait_for_coordinator: bool,
+    /// Serve ground units as ROS 2 robots on this domain.
+    pub ros2: Option<Domain>,
 }
 
 impl Default for SimOptions {
@@ -45,6 +55,7 @@ impl Default for SimOptions {
             step_s: 0.05,
             wait_for_fleet: None,
             wait_for_coordinator: false,
+            ros2: None,
         }
     }
 }
@@ -60,6 +71,12 @@ pub async fn run(
     let mut world = World::new(scenario, opts.seed);
     let commands = bus.subscribe(&keys.every_sim_cmd()).await?;
     let rail_commands = bus.subscribe(&keys.every_sim_rail_cmd()).await?;
+    let ros_bodies = match opts.ros2 {
+        Some(domain) => ros_bodies(bus, &world, domain)
+            .await
+            .map_err(BusError::new)?,
+        None => HashMap::new(),
+    };
     tokio::pin!(shutdown);
 
     if let Some(limit) = opts.wait_for_fleet {
@@ -105,6 +122,13 @@ pub async fn run(
                 _ => None,
             },
         );
+        for (id, (_, body)) in &ros_bodies {
+            let (_, last) = world.ground_unit(id).expect("a body per ground unit");
+            if let Some(cmd) = body.take_command(&last) {
+                world.command(id, cmd);
+                last_command.insert(id.clone(), Instant::now());
+            }
+        }
         let now = Instant::now();
         for id in ids.iter().chain(&rail_ids) {
             if last_command
@@ -127,7 +151,10 @@ pub async fn run(
         .await?;
         for id in &ids {
             if let Some(s) = world.sensors(id) {
-                bus.put(&keys.sim_sensors(id), &s).await?;
+                match ros_bodies.get(id) {
+                    Some((_, body)) => body.publish(&s).map_err(BusError::new)?,
+                    None => bus.put(&keys.sim_sensors(id), &s).await?,
+                }
             }
         }
         for id in &rail_ids {
@@ -143,6 +170,22 @@ pub async fn run(
     let truth = world.truth();
     bus.put(&keys.sim_truth(), &truth).await?;
     Ok(truth)
+}
+
+/// A ROS 2 body for every ground unit of `world`, each a node of its own namespace.
+async fn ros_bodies(
+    bus: &Bus,
+    world: &World,
+    domain: Domain,
+) -> Result<HashMap<UnitId, (Node, Body)>, NodeError> {
+    let mut bodies = HashMap::new();
+    for id in world.unit_ids() {
+        let (spec, _) = world.ground_unit(id).expect("listed");
+        let node = Node::new(bus.session(), domain, Namespace::of_unit(id), "firefleet_sim").await?;
+        let body = Body::new(&node, id.clone(), spec).await?;
+        bodies.insert(id.clone(), (node, body));
+    }
+    Ok(bodies)
 }
 
 /// Hand every queued command to `apply`, which returns the unit it commanded; a command

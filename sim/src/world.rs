@@ -326,6 +326,12 @@ impl World {
         unit.map(|c| c.cmd = cmd).is_some()
     }
 
+    /// A ground unit's specification and the set-points it is following.
+    pub fn ground_unit(&self, id: &UnitId) -> Option<(GroundSpec, UnitCommand)> {
+        let b = self.bodies.iter().find(|b| &b.id == id)?;
+        Some((b.spec, b.cmd))
+    }
+
     /// Set a unit's actuator set-points; `false` if there is no such unit.
     pub fn command(&mut self, id: &UnitId, cmd: UnitCommand) -> bool {
         let unit = self.bodies.iter_mut().find(|b| &b.id == id);

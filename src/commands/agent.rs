@@ -1,4 +1,4 @@
-//! `firefleet agent`: one unit's agent, on the simulator's platform.
+//! `firefleet agent`: one unit's agent, on the simulator's platform or a ROS 2 robot.
 //!
 //! Not here: the unit's behaviour (`firefleet_agent`).
 
@@ -7,10 +7,12 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use anyhow::Context;
-use clap::Args;
+use clap::{Args, ValueEnum};
 use firefleet_agent::ground::GroundController;
 use firefleet_agent::monorail::MonorailController;
-use firefleet_agent::{AgentOptions, SimPlatform};
+use firefleet_agent::{AgentOptions, Ros2Platform, SimPlatform};
+use firefleet_protocol::bus::{Connect, Mode};
+use firefleet_ros2::graph::{Domain, Namespace};
 use firefleet_protocol::UnitId;
 use firefleet_protocol::msg::UnitKind;
 use firefleet_protocol::spec::{GROUND, MONORAIL};
@@ -36,6 +38,36 @@ pub struct AgentArgs {
     /// Print the tree with live statuses to stderr about once a second of site time.
     #[arg(long)]
     print_tree: bool,
+    /// The body this agent drives.
+    #[arg(long, value_enum, default_value_t = PlatformKind::Sim)]
+    platform: PlatformKind,
+    #[command(flatten)]
+    ros: RosArgs,
+}
+
+/// Which body an agent drives.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlatformKind {
+    /// The simulator's unit, over the site's `sim/` keys.
+    Sim,
+    /// A ROS 2 robot over rmw_zenoh (ground units): `firefleet sim --ros2`, or a real one.
+    Ros2,
+}
+
+/// Where a ROS 2 robot is.
+#[derive(Args, Debug)]
+struct RosArgs {
+    /// With --platform ros2: the robot's namespace (default: from the unit id, `ugv-1` ->
+    /// `/ugv_1`).
+    #[arg(long, value_name = "/NS")]
+    ros_namespace: Option<String>,
+    /// With --platform ros2: the robot's ROS_DOMAIN_ID.
+    #[arg(long, value_name = "ID", default_value_t = 0)]
+    ros_domain: u32,
+    /// With --platform ros2: the robot's Zenoh router (rmw_zenohd), e.g.
+    /// tcp/127.0.0.1:7447; by default the robot's topics are reached on the fleet's session.
+    #[arg(long, value_name = "ENDPOINT")]
+    ros_router: Option<String>,
 }
 
 pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
@@ -64,10 +96,36 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
             };
             let ctl =
                 GroundController::with_tree(a.unit.clone(), GROUND, shared, &doc, 1.0 / a.tick_hz)?;
-            let platform = SimPlatform::ground(&bus, &a.unit).await?;
-            firefleet_agent::run(&bus, platform, ctl, &opts, shutdown).await?;
+            match a.platform {
+                PlatformKind::Sim => {
+                    let platform = SimPlatform::ground(&bus, &a.unit).await?;
+                    firefleet_agent::run(&bus, platform, ctl, &opts, shutdown).await?;
+                }
+                PlatformKind::Ros2 => {
+                    let (domain, namespace) = a.ros.place(&a.unit)?;
+                    let own = match &a.ros.ros_router {
+                        Some(router) => Some(ros_session(router).await?),
+                        None => None,
+                    };
+                    let session = own.as_ref().unwrap_or(bus.session());
+                    tracing::info!(%namespace, %domain, "driving a ROS 2 robot");
+                    let platform =
+                        Ros2Platform::ground(session, domain, namespace, &a.unit, GROUND).await?;
+                    firefleet_agent::run(&bus, platform, ctl, &opts, shutdown).await?;
+                    if let Some(s) = own {
+                        s.close().await.ok();
+                    }
+                }
+            }
         }
         UnitKind::Monorail => {
+            if a.platform == PlatformKind::Ros2 {
+                anyhow::bail!(
+                    "--platform ros2: unit {} is a monorail unit; only ground units run on ROS 2 \
+                     so far (the monorail's mapping is in deploy/ros2.md, not built)",
+                    a.unit
+                );
+            }
             let doc = match &a.tree {
                 Some(path) => firefleet_bt::xml::load_file(path)?,
                 None => firefleet_agent::monorail::default_tree(),
@@ -80,4 +138,28 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
     }
     bus.close().await;
     Ok(ExitCode::SUCCESS)
+}
+
+impl RosArgs {
+    fn place(&self, unit: &UnitId) -> anyhow::Result<(Domain, Namespace)> {
+        let domain = Domain::new(self.ros_domain).context("--ros-domain")?;
+        let namespace = match &self.ros_namespace {
+            Some(ns) => Namespace::new(ns).context("--ros-namespace")?,
+            None => Namespace::of_unit(unit),
+        };
+        Ok((domain, namespace))
+    }
+}
+
+/// A session of the robot's own: a peer of its rmw_zenoh router, as ROS 2 nodes are.
+async fn ros_session(router: &str) -> anyhow::Result<zenoh::Session> {
+    let config = Connect {
+        mode: Some(Mode::Peer),
+        connect: vec![router.to_owned()],
+        ..Connect::default()
+    }
+    .to_config()?;
+    zenoh::open(config)
+        .await
+        .map_err(|e| anyhow::anyhow!("--ros-router {router}: {e}"))
 }

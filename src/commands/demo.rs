@@ -23,13 +23,16 @@ use anyhow::Context;
 use clap::Args;
 use firefleet_protocol::access::Identity;
 use firefleet_protocol::bus::{Bus, Connect, Mode, free_loopback_port};
-use firefleet_protocol::msg::{GoalAck, GoalKind, SimTruth, TruthFireState, UnitState, ZoneGoal};
+use firefleet_protocol::msg::{
+    GoalAck, GoalKind, SimTruth, TruthFireState, UnitKind, UnitState, ZoneGoal,
+};
 use firefleet_protocol::scenario::Scenario;
 use firefleet_protocol::validate::Validate;
 use firefleet_protocol::{CommanderId, ZoneId};
 use serde::Serialize;
 use tokio::process::{Child, Command};
 
+use super::agent::PlatformKind;
 use super::deploy::{Layout, render_site};
 use super::pki::site_pki;
 use super::{non_negative_f64, positive_f64, scenarios, write_json};
@@ -87,6 +90,12 @@ pub struct DemoArgs {
     /// console, or steer the units still patrolling).
     #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = non_negative_f64)]
     linger: f64,
+    /// The bodies the ground agents drive: the simulator's units over the site's `sim/`
+    /// keys, or ROS 2 robots (the simulator serving each on rmw_zenoh topics in its unit's
+    /// namespace, each agent on `--platform ros2`). Not with --secure: the site's access
+    /// rules cover the fleet's keys; a robot's ROS 2 topics stay on the robot's own router.
+    #[arg(long, value_enum, default_value_t = PlatformKind::Sim, conflicts_with = "secure")]
+    platform: PlatformKind,
     /// Kill the coordinator in charge at this site time: the standby takes over.
     #[arg(long, value_name = "SECONDS", requires = "standby", value_parser = non_negative_f64)]
     kill_coordinator_at: Option<f64>,
@@ -270,7 +279,10 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             "--wait-for-fleet".into(),
             wait,
             "--wait-for-coordinator".into(),
-        ],
+        ]
+        .into_iter()
+        .chain((a.platform == PlatformKind::Ros2).then(|| "--ros2".into()))
+        .collect(),
     ));
     roles.push((
         Identity::Coordinator,
@@ -287,10 +299,11 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         ));
     }
     for u in &scenario.units {
-        roles.push((
-            Identity::Unit(u.id.clone()),
-            vec!["agent".into(), "--unit".into(), u.id.to_string()],
-        ));
+        let mut args = vec!["agent".into(), "--unit".into(), u.id.to_string()];
+        if a.platform == PlatformKind::Ros2 && u.kind == UnitKind::Ground {
+            args.extend(["--platform".into(), "ros2".into()]);
+        }
+        roles.push((Identity::Unit(u.id.clone()), args));
     }
     let mut children: Vec<(String, Child)> = Vec::new();
     if let Some(addr) = a.console {

@@ -5,7 +5,9 @@
 use std::process::ExitCode;
 use std::time::Duration;
 
+use anyhow::Context;
 use clap::Args;
+use firefleet_ros2::graph::Domain;
 use firefleet_sim::SimOptions;
 
 use super::{ScenarioArg, positive_f64, scenarios};
@@ -29,6 +31,14 @@ pub struct SimArgs {
     /// With --wait-for-fleet, wait for a coordinator too.
     #[arg(long)]
     wait_for_coordinator: bool,
+    /// Serve every ground unit as a ROS 2 robot over rmw_zenoh's conventions (topics in
+    /// the unit's namespace, `ugv-1` -> `/ugv_1`) instead of the site's `sim/` keys: its
+    /// agent runs with `--platform ros2`.
+    #[arg(long)]
+    ros2: bool,
+    /// With --ros2: the ROS_DOMAIN_ID to serve on.
+    #[arg(long, value_name = "ID", default_value_t = 0, requires = "ros2")]
+    ros_domain: u32,
 }
 
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
@@ -39,6 +49,11 @@ pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
         time_scale: a.time_scale,
         wait_for_fleet: a.wait_for_fleet.map(Duration::from_secs_f64),
         wait_for_coordinator: a.wait_for_coordinator,
+        ros2: a
+            .ros2
+            .then(|| Domain::new(a.ros_domain))
+            .transpose()
+            .context("--ros-domain")?,
         ..SimOptions::default()
     };
     let truth = firefleet_sim::run(
