@@ -19,7 +19,7 @@ const TUNNEL: Tunnel = Tunnel {
 
 /// Solve within the cannon's limits and under a ceiling `ceiling_m` high, then fly the jet.
 fn shoot_under(ceiling_m: f64, d: f64, bearing: f64) -> Result<Landing, NoSolution> {
-    let (h, spec) = (GROUND.cannon_height_m, GROUND);
+    let (h, spec) = (GROUND.cannon_height_m, *GROUND);
     let shot = aim::solve(&spec.nozzle, d, -h, |th, v| {
         (spec.cannon_tilt_min_rad..=spec.cannon_tilt_max_rad).contains(&th)
             && h + (v * th.sin()).max(0.0).powi(2) / (2.0 * 9.81) < ceiling_m - 0.3

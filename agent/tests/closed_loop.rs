@@ -41,7 +41,7 @@ fn run(coordinator_task: Option<Point2>) -> Run {
     let scenario = site();
     let mut world = World::new(&scenario, 11);
     let id = UnitId::new("u1").unwrap();
-    let mut ctl = GroundController::new(id.clone(), GROUND, scenario.clone());
+    let mut ctl = GroundController::new(id.clone(), *GROUND, scenario.clone());
     if let Some(target) = coordinator_task {
         ctl.set_coordinator_present(true);
         ctl.on_task(
@@ -134,7 +134,7 @@ fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
     let scenario = site();
     let mut world = World::new(&scenario, 3);
     let id = UnitId::new("u1").unwrap();
-    let mut ctl = GroundController::new(id.clone(), GROUND, scenario);
+    let mut ctl = GroundController::new(id.clone(), *GROUND, scenario);
     ctl.set_coordinator_present(true);
     let drive = |ctl: &mut GroundController, world: &mut World, seconds: f64| {
         let end = world.time() + seconds;
@@ -177,7 +177,7 @@ fn a_staged_unit_assigned_the_fire_puts_it_out() {
     let scenario = site();
     let mut world = World::new(&scenario, 5);
     let id = UnitId::new("u1").unwrap();
-    let mut ctl = GroundController::new(id.clone(), GROUND, scenario.clone());
+    let mut ctl = GroundController::new(id.clone(), *GROUND, scenario.clone());
     ctl.set_coordinator_present(true);
     ctl.on_task(
         0,
@@ -249,7 +249,7 @@ fn facing_away_in_a_narrow_bore_the_unit_turns_round_by_backing() {
     );
     let mut world = World::new(&scenario, 3);
     let id = UnitId::new("u1").unwrap();
-    let mut ctl = GroundController::new(id.clone(), GROUND, scenario.clone());
+    let mut ctl = GroundController::new(id.clone(), *GROUND, scenario.clone());
     ctl.set_coordinator_present(true);
     let flame = scenario.fires[0].position();
     ctl.on_task(
@@ -287,7 +287,7 @@ fn a_task_numbered_ahead_of_the_clock_is_refused_and_the_coordinator_still_heard
     let scenario = site();
     let mut world = World::new(&scenario, 11);
     let id = UnitId::new("u1").unwrap();
-    let mut ctl = GroundController::new(id.clone(), GROUND, scenario);
+    let mut ctl = GroundController::new(id.clone(), *GROUND, scenario);
     ctl.set_coordinator_present(true);
     for _ in 0..20 {
         world.step_unit(&id, 0.05, |s| ctl.step(s)).unwrap();

@@ -32,7 +32,7 @@ fn ground(scenario: Scenario) -> (GroundController, World, UnitId) {
     let scenario = Arc::new(scenario);
     let id = UnitId::new("u1").unwrap();
     let world = World::new(&scenario, 3);
-    let ctl = GroundController::new(id.clone(), GROUND, scenario);
+    let ctl = GroundController::new(id.clone(), *GROUND, scenario);
     (ctl, world, id)
 }
 

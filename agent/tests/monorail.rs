@@ -50,7 +50,7 @@ fn run(ctl: &mut MonorailController, world: &mut World, limit_s: f64) -> Option<
 fn controller(scenario: &Arc<Scenario>) -> MonorailController {
     MonorailController::with_tree(
         UnitId::new("m").unwrap(),
-        MONORAIL,
+        *MONORAIL,
         scenario.clone(),
         &default_tree(),
     )

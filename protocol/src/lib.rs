@@ -20,6 +20,7 @@ pub mod geometry;
 pub mod ids;
 pub mod keys;
 pub mod msg;
+pub mod profile;
 pub mod scenario;
 pub mod spec;
 #[cfg(any(test, feature = "testing"))]

@@ -68,7 +68,7 @@
 //! Not here: simulating the site (`firefleet-sim`) or the tunnel's geometry
 //! ([`crate::tunnel`]).
 
-use std::collections::HashSet;
+use std::collections::{BTreeMap, HashSet};
 use std::f64::consts::TAU;
 use std::path::Path;
 
@@ -77,9 +77,11 @@ use serde::{Deserialize, Serialize};
 use crate::geometry::{Point2, Pose2};
 use crate::ids::{SiteId, UnitId, ZoneId};
 use crate::msg::UnitKind;
+use crate::profile::{self, Profile};
+use crate::spec::{GroundSpec, MonorailSpec};
 use crate::tunnel::Chainage;
 pub use crate::tunnel::{Segment, Station, Tunnel};
-use crate::validate::{Invalid, in_range};
+use crate::validate::{Invalid, Validate, in_range};
 
 /// Why a scenario was rejected.
 #[derive(Debug, thiserror::Error)]
@@ -121,6 +123,10 @@ pub struct Scenario {
     pub zones: Vec<Zone>,
     #[serde(default)]
     pub rails: Vec<Rail>,
+    /// Robot profiles of this site's own, by name, beside the shipped ones
+    /// ([`crate::profile`]).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub profiles: BTreeMap<String, Profile>,
 }
 
 /// `name` is not in `seen` yet (and is now); else the error names `field()`.
@@ -221,6 +227,10 @@ pub struct UnitSpec {
     /// The rail a monorail unit runs on.
     #[serde(default)]
     pub rail: Option<String>,
+    /// The robot model: a profile of `[profiles]` or a shipped one (default: `luf60` for
+    /// ground units, `robogat` for monorail units).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub profile: Option<String>,
 }
 
 impl UnitSpec {
@@ -272,6 +282,7 @@ impl Scenario {
             units: Vec::new(),
             zones: Vec::new(),
             rails: Vec::new(),
+            profiles: BTreeMap::new(),
         }
     }
 
@@ -304,6 +315,57 @@ impl Scenario {
 
     pub fn unit(&self, id: &UnitId) -> Option<&UnitSpec> {
         self.units.iter().find(|u| &u.id == id)
+    }
+
+    /// The profile unit `u` names (this site's, else a shipped one), or its kind's default.
+    pub fn profile_of(&self, u: &UnitSpec) -> Result<Profile, Invalid> {
+        let name = u.profile.as_deref().unwrap_or(match u.kind {
+            UnitKind::Ground => profile::DEFAULT_GROUND,
+            UnitKind::Monorail => profile::DEFAULT_MONORAIL,
+        });
+        let p = self
+            .profiles
+            .get(name)
+            .copied()
+            .or_else(|| profile::shipped(name))
+            .ok_or_else(|| {
+                let shipped: Vec<&str> = profile::shipped_names().collect();
+                Invalid::new(
+                    "profile",
+                    format!(
+                        "no profile '{name}' in [profiles] or shipped ({})",
+                        shipped.join(", ")
+                    ),
+                )
+            })?;
+        if p.kind() != u.kind {
+            return Err(Invalid::new(
+                "profile",
+                format!(
+                    "'{name}' is a {:?} profile, the unit a {:?} unit",
+                    p.kind(),
+                    u.kind
+                ),
+            ));
+        }
+        Ok(p)
+    }
+
+    /// Ground unit `id`'s body, from its profile; `None` for no such ground unit.
+    pub fn ground_spec(&self, id: &UnitId) -> Option<GroundSpec> {
+        match self.profile_of(self.unit(id)?) {
+            Ok(Profile::Ground(g)) => Some(g),
+            _ => None,
+        }
+    }
+
+    /// Monorail unit `id`'s carriage and monitor, from its profile; `None` for no such
+    /// monorail unit.
+    pub fn monorail_spec(&self, id: &UnitId) -> Option<MonorailSpec> {
+        match self.profile_of(self.unit(id)?) {
+            Ok(Profile::Monorail(m)) => Some(m),
+            _ => None,
+        }
     }
 
     /// Every semantic check a TOML parser cannot make.
@@ -379,10 +441,16 @@ impl Scenario {
             }
         }
 
+        for (name, p) in &self.profiles {
+            p.validate()
+                .map_err(|e| e.within(&format!("profiles.{name}")))?;
+        }
         let mut ids = HashSet::new();
         for (i, u) in self.units.iter().enumerate() {
             let f = |n: &str| format!("units[{i}].{n}");
             once(&mut ids, u.id.as_str(), || f("id"))?;
+            self.profile_of(u)
+                .map_err(|e| e.within(&format!("units[{i}]")))?;
             match (u.kind, &u.rail) {
                 (UnitKind::Monorail, None) => {
                     return Err(Invalid::new(

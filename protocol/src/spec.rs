@@ -1,14 +1,22 @@
 //! Physical specification of the ground and monorail units.
 //!
 //! The simulator moves bodies with these limits and the agent plans with them, the way a
-//! real vehicle's datasheet serves both its firmware and its planners. Values are stated
-//! assumptions for a mid-size tunnel firefighting robot (LUF 60 / Thermite class), not
-//! tuned to any experiment.
+//! real vehicle's datasheet serves both its firmware and its planners. A robot model's
+//! values come from its profile ([`crate::profile`]); [`GROUND`] and [`MONORAIL`] are the
+//! shipped profiles every scenario's units use unless they name another. The field docs
+//! below say why the shipped values are what they are: stated assumptions for a mid-size
+//! tunnel firefighting robot (LUF 60 / Thermite class), not tuned to any experiment.
+
+use std::sync::LazyLock;
+
+use serde::{Deserialize, Serialize};
 
 use crate::geometry::Pose2;
+use crate::profile::{self, Profile};
 
 /// Limits and geometry of a ground unit.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct GroundSpec {
     /// Axle-to-axle distance of the bicycle model, m.
     pub wheelbase_m: f64,
@@ -51,7 +59,8 @@ pub struct GroundSpec {
 /// (turbulent flow in a smooth pipe). The paper gives no gamma; 0.001 makes the reach at 45
 /// degrees about 26 m, the order of small robot monitors' published reach. Flow at 6 bar:
 /// `C_d A v_e(0)` = 0.97 x 4.9 cm^2 x 22.7 m/s, about 11 L/s.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct NozzleSpec {
     pub pressure_pa: f64,
     pub discharge_coeff: f64,
@@ -79,7 +88,8 @@ impl NozzleSpec {
 /// Frames: the camera frame has x right, y down, z forward along the optical axis (the
 /// OpenCV / RealSense convention); the body frame has x forward, y left, z up. Depth is
 /// z-depth (along the optical axis), as depth cameras report it.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CameraSpec {
     pub width_px: f64,
     pub height_px: f64,
@@ -175,53 +185,17 @@ impl GroundSpec {
     }
 }
 
-/// The ground unit every scenario uses.
-pub const GROUND: GroundSpec = GroundSpec {
-    wheelbase_m: 1.0,
-    length_m: 1.6,
-    width_m: 1.0,
-    max_speed_m_s: 1.5,
-    max_accel_m_s2: 0.8,
-    max_steer_rad: 0.5,
-    max_steer_rate_rad_s: 1.0,
-    tank_l: 1500.0,
-    cannon_flow_l_s: 10.0,
-    nozzle: NozzleSpec {
-        pressure_pa: 6.0e5,
-        discharge_coeff: 0.97,
-        friction_factor: 0.02,
-        pipe_length_m: 1.5,
-        diameter_m: 0.025,
-        dispersion_gamma: 0.001,
-    },
-    cannon_height_m: 1.2,
-    cannon_pan_limit_rad: 170.0 * std::f64::consts::PI / 180.0,
-    cannon_tilt_min_rad: -15.0 * std::f64::consts::PI / 180.0,
-    cannon_tilt_max_rad: 60.0 * std::f64::consts::PI / 180.0,
-    cannon_pan_rate_rad_s: 0.52,
-    cannon_tilt_rate_rad_s: 0.35,
-    camera: CameraSpec {
-        // 640 x 480 with a 69 deg horizontal field of view (RealSense D435 colour): fx =
-        // 320 / tan(34.5 deg).
-        width_px: 640.0,
-        height_px: 480.0,
-        fx: 465.6,
-        fy: 465.6,
-        cx: 320.0,
-        cy: 240.0,
-        pans_with_cannon: true,
-        mount_forward_m: 0.6,
-        mount_height_m: 1.0,
-        range_m: 30.0,
-        depth_sigma_a_m: 0.02,
-        depth_sigma_b_per_m: 0.002,
-        depth_dropout: 0.1,
-        box_sigma_px: 2.0,
-    },
-};
+/// The ground unit every scenario uses unless a unit names another profile: the shipped
+/// `luf60` profile.
+pub static GROUND: LazyLock<GroundSpec> =
+    LazyLock::new(|| match profile::shipped(profile::DEFAULT_GROUND) {
+        Some(Profile::Ground(g)) => g,
+        _ => unreachable!("the shipped ground profile is a valid ground profile (tested)"),
+    });
 
 /// Limits and geometry of a monorail unit: the ROBOGAT carriage and monitor.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct MonorailSpec {
     /// Length of the monitor's second link, m (the paper's `l`).
     pub link_m: f64,
@@ -257,24 +231,12 @@ pub struct MonorailSpec {
 }
 
 /// The paper's monorail unit (section IV), with our stated assumptions for its sensors and
-/// hose coupling.
-pub const MONORAIL: MonorailSpec = MonorailSpec {
-    link_m: 0.8,
-    theta1_limit_rad: std::f64::consts::FRAC_PI_3,
-    theta2_min_rad: -std::f64::consts::FRAC_PI_2,
-    theta2_max_rad: 0.0,
-    v0_min_m_s: 2.6,
-    v0_max_m_s: 26.6,
-    carriage_speed_m_s: 10.0,
-    monitor_rate_rad_s: 0.3,
-    nozzle_rate_m_s2: 20.0,
-    flow_l_s: 8.0,
-    hose_reach_m: 15.0,
-    detector_range_m: 40.0,
-    hot_spot_sigma_a_m: 0.1,
-    hot_spot_sigma_b: 0.01,
-    working_reach_m: 15.0,
-};
+/// hose coupling: the shipped `robogat` profile.
+pub static MONORAIL: LazyLock<MonorailSpec> =
+    LazyLock::new(|| match profile::shipped(profile::DEFAULT_MONORAIL) {
+        Some(Profile::Monorail(m)) => m,
+        _ => unreachable!("the shipped monorail profile is a valid monorail profile (tested)"),
+    });
 
 /// What a monorail unit reports as its water, L: it draws from the tunnel's main, which a
 /// unit cannot run dry, so it reports a volume no incident uses up.

@@ -135,7 +135,25 @@ impl ScenarioBuilder {
             y_m,
             yaw_rad: 0.0,
             rail: rail.map(str::to_owned),
+            profile: None,
         });
+        self
+    }
+
+    /// The last unit added is of profile `name` (shipped, or added with
+    /// [`ScenarioBuilder::with_profile`]).
+    pub fn profile(mut self, name: &str) -> Self {
+        self.0
+            .units
+            .last_mut()
+            .expect("profile() follows a unit")
+            .profile = Some(name.into());
+        self
+    }
+
+    /// A profile of this site's own.
+    pub fn with_profile(mut self, name: &str, p: crate::profile::Profile) -> Self {
+        self.0.profiles.insert(name.into(), p);
         self
     }
 

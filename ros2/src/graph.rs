@@ -111,7 +111,8 @@ impl Namespace {
             .collect();
         // Unit ids are lowercase alphanumerics, '-' and '_' and start alphanumeric; a
         // leading digit or a '__' still needs a prefix to be a ROS name.
-        Self::new(&format!("/{name}")).unwrap_or_else(|_| Self(format!("/unit_{}", name.replace("__", "_"))))
+        Self::new(&format!("/{name}"))
+            .unwrap_or_else(|_| Self(format!("/unit_{}", name.replace("__", "_"))))
     }
 
     fn mangled(&self) -> String {
@@ -300,9 +301,8 @@ impl Attachment {
         if b[16] != 16 {
             return Err(AttachmentError("GID length is not 16"));
         }
-        let int = |r: std::ops::Range<usize>| {
-            i64::from_le_bytes(b[r].try_into().expect("eight bytes"))
-        };
+        let int =
+            |r: std::ops::Range<usize>| i64::from_le_bytes(b[r].try_into().expect("eight bytes"));
         let mut gid = [0; 16];
         gid.copy_from_slice(&b[17..]);
         Ok(Self {
@@ -358,12 +358,17 @@ mod tests {
         );
         let ns = Namespace::new("/ugv_1").unwrap();
         let odom = Topic::new(&ns, "cannon_controller/commands", STRING).unwrap();
-        let n = NodeName::new(Domain::new(0).unwrap(), "ab".into(), 0, ns, "firefleet_agent")
-            .unwrap();
-        assert!(
-            n.entity_token(3, Entity::Subscription, &odom)
-                .starts_with("@ros2_lv/0/ab/0/3/MS/%/%ugv_1/firefleet_agent/%ugv_1%cannon_controller%commands/")
-        );
+        let n = NodeName::new(
+            Domain::new(0).unwrap(),
+            "ab".into(),
+            0,
+            ns,
+            "firefleet_agent",
+        )
+        .unwrap();
+        assert!(n.entity_token(3, Entity::Subscription, &odom).starts_with(
+            "@ros2_lv/0/ab/0/3/MS/%/%ugv_1/firefleet_agent/%ugv_1%cannon_controller%commands/"
+        ));
     }
 
     #[test]

@@ -75,7 +75,11 @@ fn frame(ns: &str, frame: &str) -> String {
 /// A flame detection as the robot's 3D localizer publishes it: the box's centre at the
 /// detection's robust depth, its size from the box's pixels at that depth. `None` where
 /// the depth camera had too little on the flame to place it.
-pub fn detection_to_ros(d: &FlameDetection, cam: &CameraSpec, frame_id: &str) -> Option<Detection3D> {
+pub fn detection_to_ros(
+    d: &FlameDetection,
+    cam: &CameraSpec,
+    frame_id: &str,
+) -> Option<Detection3D> {
     let z = d.depth_m()?;
     let (u, v) = ((d.bbox[0] + d.bbox[2]) / 2.0, (d.bbox[1] + d.bbox[3]) / 2.0);
     let [x, y, z] = cam.back_project(u, v, z);
@@ -124,7 +128,9 @@ pub fn detection_from_ros(d: &Detection3D, cam: &CameraSpec) -> Option<FlameDete
         .iter()
         .filter(|r| r.hypothesis.class_id == FIRE_CLASS)
         .map(|r| r.hypothesis.score)
-        .fold(None, |best: Option<f64>, s| Some(best.map_or(s, |b| b.max(s))))?;
+        .fold(None, |best: Option<f64>, s| {
+            Some(best.map_or(s, |b| b.max(s)))
+        })?;
     let p = d.bbox.center.position;
     let [u, v] = cam.project([p.x, p.y, p.z])?;
     let (hw, hh) = (
@@ -230,7 +236,9 @@ impl Body {
         let header = |f: &str| Header::new(s.t, frame(&self.ns, f));
         self.joints.put(&JointState {
             header: header("base_link"),
-            name: [STEERING_JOINT, PAN_JOINT, TILT_JOINT].map(String::from).to_vec(),
+            name: [STEERING_JOINT, PAN_JOINT, TILT_JOINT]
+                .map(String::from)
+                .to_vec(),
             position: vec![s.steer, s.cannon.pan, s.cannon.tilt],
             velocity: vec![],
             effort: vec![],
@@ -310,7 +318,7 @@ impl Body {
 /// What arrives on a robot's topics, in arrival order.
 #[derive(Debug)]
 enum Incoming {
-    Odom(Odometry),
+    Odom(Box<Odometry>),
     Joints(JointState),
     Detections(Detection3DArray),
     Tank(f64),
@@ -353,12 +361,18 @@ impl Robot {
         // Unbounded, so Zenoh's callbacks never wait; `sense` drains it every frame.
         let (tx, incoming) = mpsc::unbounded_channel();
         let subscriptions = vec![
-            node.subscribe(JOINT_STATES, feed(&tx, Incoming::Joints)).await?,
-            node.subscribe(DETECTIONS, feed(&tx, Incoming::Detections)).await?,
-            node.subscribe(TANK, feed(&tx, |m: Float64| Incoming::Tank(m.data))).await?,
-            node.subscribe(HEAT_FLUX, feed(&tx, |m: Float64| Incoming::Heat(m.data))).await?,
-            node.subscribe(BUMPER, feed(&tx, |m: Bool| Incoming::Bumper(m.data))).await?,
-            node.subscribe(ODOM, feed(&tx, Incoming::Odom)).await?,
+            node.subscribe(JOINT_STATES, feed(&tx, Incoming::Joints))
+                .await?,
+            node.subscribe(DETECTIONS, feed(&tx, Incoming::Detections))
+                .await?,
+            node.subscribe(TANK, feed(&tx, |m: Float64| Incoming::Tank(m.data)))
+                .await?,
+            node.subscribe(HEAT_FLUX, feed(&tx, |m: Float64| Incoming::Heat(m.data)))
+                .await?,
+            node.subscribe(BUMPER, feed(&tx, |m: Bool| Incoming::Bumper(m.data)))
+                .await?,
+            node.subscribe(ODOM, feed(&tx, |m| Incoming::Odom(Box::new(m))))
+                .await?,
         ];
         Ok(Self {
             unit,
@@ -398,7 +412,9 @@ impl Robot {
                         self.last_t = f.t;
                         return Some(f);
                     }
-                    Err(e) => tracing::warn!(unit = %self.unit, "dropped a ROS 2 sensor frame: {e}"),
+                    Err(e) => {
+                        tracing::warn!(unit = %self.unit, "dropped a ROS 2 sensor frame: {e}")
+                    }
                 }
             }
         }
@@ -442,7 +458,11 @@ impl Robot {
                         tilt,
                         // The robot reports no valve state of its own; what we asked for.
                         valve_open: self.valve,
-                        flow_l_s: if self.valve { self.spec.cannon_flow_l_s } else { 0.0 },
+                        flow_l_s: if self.valve {
+                            self.spec.cannon_flow_l_s
+                        } else {
+                            0.0
+                        },
                     },
                     detections: std::mem::take(&mut self.detections),
                     collided: std::mem::take(&mut self.bumped),
@@ -510,7 +530,12 @@ mod tests {
         let back = detection_from_ros(&ros, &cam).unwrap();
         assert_eq!(back.confidence, 0.8);
         for k in 0..4 {
-            assert!((back.bbox[k] - d.bbox[k]).abs() < 1e-6, "{:?} {:?}", back.bbox, d.bbox);
+            assert!(
+                (back.bbox[k] - d.bbox[k]).abs() < 1e-6,
+                "{:?} {:?}",
+                back.bbox,
+                d.bbox
+            );
         }
         assert!((back.depth_m().unwrap() - c[2]).abs() < 1e-5);
         let mut other = ros.clone();
@@ -523,11 +548,14 @@ mod tests {
 
     #[test]
     fn steering_survives_the_yaw_rate() {
-        let spec = GROUND;
+        let spec = *GROUND;
         for steer in [-0.5, -0.2, 0.0, 0.3, 0.5] {
             for v in [-0.4, 0.5, 1.5] {
                 let t = Twist {
-                    linear: Vector3 { x: v, ..Vector3::default() },
+                    linear: Vector3 {
+                        x: v,
+                        ..Vector3::default()
+                    },
                     angular: Vector3 {
                         z: v * f64::tan(steer) / spec.wheelbase_m,
                         ..Vector3::default()

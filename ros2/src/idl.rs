@@ -60,7 +60,10 @@ const DEFINITIONS: &[(&str, &str)] = &[
         "MultiArrayLayout layout\nfloat64[] data",
     ),
     ("geometry_msgs/msg/Point", "float64 x\nfloat64 y\nfloat64 z"),
-    ("geometry_msgs/msg/Vector3", "float64 x\nfloat64 y\nfloat64 z"),
+    (
+        "geometry_msgs/msg/Vector3",
+        "float64 x\nfloat64 y\nfloat64 z",
+    ),
     (
         "geometry_msgs/msg/Quaternion",
         "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1",
@@ -200,18 +203,21 @@ fn parse_field(type_spec: &str, name: &str, package: &str) -> Result<Field, Stri
         Some((b, n)) => (b, number(n)?),
         None => (base, 0),
     };
-    let (mut type_id, nested_type_name) =
-        match PRIMITIVES.iter().find(|(p, _)| *p == base).map(|(_, id)| *id) {
-            Some(17) if string_capacity > 0 => (BOUNDED_STRING, String::new()),
-            Some(id) => (id, String::new()),
-            None => {
-                let qualified = match base.split_once('/') {
-                    Some((pkg, ty)) => format!("{pkg}/msg/{ty}"),
-                    None => format!("{package}/msg/{base}"),
-                };
-                (NESTED_TYPE, qualified)
-            }
-        };
+    let (mut type_id, nested_type_name) = match PRIMITIVES
+        .iter()
+        .find(|(p, _)| *p == base)
+        .map(|(_, id)| *id)
+    {
+        Some(17) if string_capacity > 0 => (BOUNDED_STRING, String::new()),
+        Some(id) => (id, String::new()),
+        None => {
+            let qualified = match base.split_once('/') {
+                Some((pkg, ty)) => format!("{pkg}/msg/{ty}"),
+                None => format!("{package}/msg/{base}"),
+            };
+            (NESTED_TYPE, qualified)
+        }
+    };
     let capacity = match array {
         None => 0,
         Some("") => {

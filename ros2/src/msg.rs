@@ -312,7 +312,10 @@ mod tests {
     fn yaw_survives_a_quaternion() {
         for k in -31..=31 {
             let yaw = k as f64 * 0.1;
-            assert!((Quaternion::from_yaw(yaw).yaw() - yaw).abs() < 1e-12, "{yaw}");
+            assert!(
+                (Quaternion::from_yaw(yaw).yaw() - yaw).abs() < 1e-12,
+                "{yaw}"
+            );
         }
     }
 

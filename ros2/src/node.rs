@@ -19,7 +19,9 @@ use zenoh::pubsub::{Publisher as ZPublisher, Subscriber};
 use zenoh::sample::SampleKind;
 
 use crate::cdr;
-use crate::graph::{Attachment, Domain, Entity, Gid, NameError, Namespace, NodeName, Topic, gid_of};
+use crate::graph::{
+    Attachment, Domain, Entity, Gid, NameError, Namespace, NodeName, Topic, gid_of,
+};
 use crate::msg::RosMessage;
 
 /// Why a node or one of its entities could not be declared.
@@ -76,7 +78,11 @@ impl Node {
         self.rejected.load(Ordering::Relaxed)
     }
 
-    async fn announce(&self, kind: Entity, topic: &Topic) -> Result<(String, LivelinessToken), NodeError> {
+    async fn announce(
+        &self,
+        kind: Entity,
+        topic: &Topic,
+    ) -> Result<(String, LivelinessToken), NodeError> {
         let id = self.next_entity.fetch_add(1, Ordering::Relaxed);
         let token = self.name.entity_token(id, kind, topic);
         let declared = self
@@ -128,7 +134,7 @@ impl Node {
                     Ok(m) => on(m),
                     Err(e) => {
                         // Counted, and logged once per hundred so a flood cannot flood the log.
-                        if rejected.fetch_add(1, Ordering::Relaxed) % 100 == 0 {
+                        if rejected.fetch_add(1, Ordering::Relaxed).is_multiple_of(100) {
                             tracing::warn!(topic = %name, "dropped a sample that is not {}: {e}", M::TYPE);
                         }
                     }

@@ -35,7 +35,9 @@ fn python_rosbags() -> bool {
             std::env::var_os("FIREFLEET_REQUIRE_PYTHON_ROSBAGS").is_none(),
             "python3 with the rosbags package is required here (pip install 'rosbags>=0.10')"
         );
-        eprintln!("SKIPPED: python3 with rosbags is not installed; nothing was checked independently");
+        eprintln!(
+            "SKIPPED: python3 with rosbags is not installed; nothing was checked independently"
+        );
     }
     ok
 }
@@ -72,9 +74,14 @@ fn sensors(unit: &UnitId) -> UnitSensors {
     }
 }
 
+/// A sample as the wire carried it: key, payload, attachment.
+type Sample = (String, Vec<u8>, Option<Vec<u8>>);
+
 /// `pkg::msg::dds_::Type_` back to `pkg/msg/Type`.
 fn ros_type(dds: &str) -> String {
-    dds.trim_end_matches('_').replace("::dds_::", "/").replace("::", "/")
+    dds.trim_end_matches('_')
+        .replace("::dds_::", "/")
+        .replace("::", "/")
 }
 
 fn value_of(ty: &str, bytes: &[u8]) -> Value {
@@ -110,7 +117,7 @@ async fn the_wire_is_ros_2_by_an_independent_reader() {
     })
     .await;
 
-    let seen: Arc<Mutex<Vec<(String, Vec<u8>, Option<Vec<u8>>)>>> = Arc::default();
+    let seen: Arc<Mutex<Vec<Sample>>> = Arc::default();
     let recorder = seen.clone();
     let _wire = router
         .declare_subscriber("0/ugv_1/**")
@@ -127,10 +134,16 @@ async fn the_wire_is_ros_2_by_an_independent_reader() {
     let unit = UnitId::new("ugv-1").unwrap();
     let ns = Namespace::of_unit(&unit);
     let domain = Domain::new(0).unwrap();
-    let body_node = Node::new(&router, domain, ns.clone(), "firefleet_sim").await.unwrap();
-    let agent_node = Node::new(&client, domain, ns, "firefleet_agent").await.unwrap();
-    let body = Body::new(&body_node, unit.clone(), GROUND).await.unwrap();
-    let mut robot = Robot::new(&agent_node, unit.clone(), GROUND).await.unwrap();
+    let body_node = Node::new(&router, domain, ns.clone(), "firefleet_sim")
+        .await
+        .unwrap();
+    let agent_node = Node::new(&client, domain, ns, "firefleet_agent")
+        .await
+        .unwrap();
+    let body = Body::new(&body_node, unit.clone(), *GROUND).await.unwrap();
+    let mut robot = Robot::new(&agent_node, unit.clone(), *GROUND)
+        .await
+        .unwrap();
     tokio::time::sleep(Duration::from_millis(500)).await;
 
     // Both ends of the fleet's ROS 2 link, through real sessions.
@@ -144,10 +157,15 @@ async fn the_wire_is_ros_2_by_an_independent_reader() {
     assert!((got.pose.yaw - sent.pose.yaw).abs() < 1e-12);
     assert!((got.t - sent.t).abs() < 1e-9);
     assert_eq!((got.speed, got.steer), (sent.speed, sent.steer));
-    assert_eq!((got.water_l, got.heat_flux_kw_m2, got.collided), (1234.5, 2.5, true));
+    assert_eq!(
+        (got.water_l, got.heat_flux_kw_m2, got.collided),
+        (1234.5, 2.5, true)
+    );
     assert_eq!((got.cannon.pan, got.cannon.tilt), (0.5, 0.25));
     assert_eq!(got.detections.len(), 1);
-    assert!((got.detections[0].depth_m().unwrap() - sent.detections[0].depth_m().unwrap()).abs() < 1e-5);
+    assert!(
+        (got.detections[0].depth_m().unwrap() - sent.detections[0].depth_m().unwrap()).abs() < 1e-5
+    );
     let cmd = UnitCommand {
         speed: 1.5,
         steer: 0.25,
@@ -174,11 +192,16 @@ async fn the_wire_is_ros_2_by_an_independent_reader() {
     let mut topics = Vec::new();
     for (key, bytes, attachment) in &seen {
         let parts: Vec<&str> = key.split('/').collect();
-        let [.., dds, hash] = parts[..] else { panic!("{key}") };
+        let [.., dds, hash] = parts[..] else {
+            panic!("{key}")
+        };
         let ty = ros_type(dds);
         assert_eq!(hash, idl::type_hash(&ty).unwrap(), "{key}");
         let a = Attachment::decode(attachment.as_deref().expect("every sample has one")).unwrap();
-        assert!(a.sequence >= 1 && a.timestamp_ns > 1_600_000_000_000_000_000, "{a:?}");
+        assert!(
+            a.sequence >= 1 && a.timestamp_ns > 1_600_000_000_000_000_000,
+            "{a:?}"
+        );
         topics.push(parts[1..parts.len() - 2].join("/"));
         hashes.insert(ty.clone(), hash.to_owned());
         messages.push(json!({"type": ty, "cdr": hex(bytes), "value": value_of(&ty, bytes)}));
@@ -213,7 +236,9 @@ async fn the_wire_is_ros_2_by_an_independent_reader() {
     }
     let mut kinds = BTreeMap::<String, usize>::new();
     for key in &keys {
-        *kinds.entry(key.split('/').nth(5).unwrap().to_owned()).or_default() += 1;
+        *kinds
+            .entry(key.split('/').nth(5).unwrap().to_owned())
+            .or_default() += 1;
     }
     assert_eq!(kinds.get("NN"), Some(&2), "{keys:#?}");
     assert_eq!(kinds.get("MP"), Some(&10), "{kinds:?}");

@@ -162,7 +162,7 @@ mod tests {
             height_m: 5.5,
             hose_points_m: vec![20.0, 50.0],
         };
-        Carriage::new(UnitId::new("m").unwrap(), MONORAIL, rail, 20.0)
+        Carriage::new(UnitId::new("m").unwrap(), *MONORAIL, rail, 20.0)
     }
 
     #[test]

@@ -181,7 +181,13 @@ async fn ros_bodies(
     let mut bodies = HashMap::new();
     for id in world.unit_ids() {
         let (spec, _) = world.ground_unit(id).expect("listed");
-        let node = Node::new(bus.session(), domain, Namespace::of_unit(id), "firefleet_sim").await?;
+        let node = Node::new(
+            bus.session(),
+            domain,
+            Namespace::of_unit(id),
+            "firefleet_sim",
+        )
+        .await?;
         let body = Body::new(&node, id.clone(), spec).await?;
         bodies.insert(id.clone(), (node, body));
     }

@@ -12,7 +12,7 @@ use firefleet_protocol::msg::{
     UnitCommand, UnitKind, UnitSensors,
 };
 use firefleet_protocol::scenario::{FireSpec, Obstacle, Scenario, Tunnel};
-use firefleet_protocol::spec::{GROUND, GroundSpec, MONORAIL};
+use firefleet_protocol::spec::GroundSpec;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -110,6 +110,9 @@ impl Fire {
         }
     }
 }
+
+/// Every unit of a validated scenario has a profile of its kind.
+const VALIDATED: &str = "a validated scenario's units have profiles of their kind";
 
 /// A simulated ground vehicle with its cannon.
 #[derive(Debug, Clone)]
@@ -257,21 +260,26 @@ impl World {
             .filter(|u| u.kind == UnitKind::Monorail)
             .filter_map(|u| {
                 let rail = scenario.rail(u.rail.as_deref()?)?;
-                Some(Carriage::new(u.id.clone(), MONORAIL, rail.clone(), u.x_m))
+                let spec = scenario.monorail_spec(&u.id).expect(VALIDATED);
+                Some(Carriage::new(u.id.clone(), spec, rail.clone(), u.x_m))
             })
             .collect();
         let bodies = scenario
             .units
             .iter()
             .filter(|u| u.kind == UnitKind::Ground)
-            .map(|u| Body {
+            .map(|u| {
+                let spec = scenario.ground_spec(&u.id).expect(VALIDATED);
+                (u, spec)
+            })
+            .map(|(u, spec)| Body {
                 id: u.id.clone(),
-                spec: GROUND,
+                spec,
                 pose: u.pose(),
                 speed: 0.0,
                 steer: 0.0,
                 cannon: CannonState::default(),
-                water_l: GROUND.tank_l,
+                water_l: spec.tank_l,
                 cmd: UnitCommand::halt(&CannonState::default()),
                 heat_flux: 0.0,
                 heat_dose: 0.0,

@@ -11,11 +11,10 @@ use clap::{Args, ValueEnum};
 use firefleet_agent::ground::GroundController;
 use firefleet_agent::monorail::MonorailController;
 use firefleet_agent::{AgentOptions, Ros2Platform, SimPlatform};
-use firefleet_protocol::bus::{Connect, Mode};
-use firefleet_ros2::graph::{Domain, Namespace};
 use firefleet_protocol::UnitId;
+use firefleet_protocol::bus::{Connect, Mode};
 use firefleet_protocol::msg::UnitKind;
-use firefleet_protocol::spec::{GROUND, MONORAIL};
+use firefleet_ros2::graph::{Domain, Namespace};
 
 use super::{ScenarioArg, positive_f64, scenarios};
 use crate::net::{ZenohArgs, join, shutdown_signal};
@@ -90,12 +89,15 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
     let shutdown = shutdown_signal(a.zenoh.die_with_parent);
     match spec.kind {
         UnitKind::Ground => {
+            let body = scenario
+                .ground_spec(&a.unit)
+                .context("the unit's ground profile")?;
             let doc = match &a.tree {
                 Some(path) => firefleet_bt::xml::load_file(path)?,
                 None => firefleet_agent::ground::default_tree(),
             };
             let ctl =
-                GroundController::with_tree(a.unit.clone(), GROUND, shared, &doc, 1.0 / a.tick_hz)?;
+                GroundController::with_tree(a.unit.clone(), body, shared, &doc, 1.0 / a.tick_hz)?;
             match a.platform {
                 PlatformKind::Sim => {
                     let platform = SimPlatform::ground(&bus, &a.unit).await?;
@@ -110,7 +112,7 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
                     let session = own.as_ref().unwrap_or(bus.session());
                     tracing::info!(%namespace, %domain, "driving a ROS 2 robot");
                     let platform =
-                        Ros2Platform::ground(session, domain, namespace, &a.unit, GROUND).await?;
+                        Ros2Platform::ground(session, domain, namespace, &a.unit, body).await?;
                     firefleet_agent::run(&bus, platform, ctl, &opts, shutdown).await?;
                     if let Some(s) = own {
                         s.close().await.ok();
@@ -126,11 +128,14 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
                     a.unit
                 );
             }
+            let carriage = scenario
+                .monorail_spec(&a.unit)
+                .context("the unit's monorail profile")?;
             let doc = match &a.tree {
                 Some(path) => firefleet_bt::xml::load_file(path)?,
                 None => firefleet_agent::monorail::default_tree(),
             };
-            let ctl = MonorailController::with_tree(a.unit.clone(), MONORAIL, shared, &doc)?
+            let ctl = MonorailController::with_tree(a.unit.clone(), carriage, shared, &doc)?
                 .context("the unit's rail is not in the scenario")?;
             let platform = SimPlatform::monorail(&bus, &a.unit).await?;
             firefleet_agent::run(&bus, platform, ctl, &opts, shutdown).await?;

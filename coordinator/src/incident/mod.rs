@@ -10,11 +10,12 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use firefleet_protocol::msg::{
-    FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitKind, UnitState, UnitStatus,
-    epoch_after, task_seq_ceiling, task_seq_floor,
+    FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitState, UnitStatus, epoch_after,
+    task_seq_ceiling, task_seq_floor,
 };
+use firefleet_protocol::profile::Profile;
 use firefleet_protocol::scenario::{Scenario, Tunnel};
-use firefleet_protocol::spec::{GROUND, MONORAIL};
+use firefleet_protocol::spec::GROUND;
 use firefleet_protocol::validate::{Invalid, Validate};
 use firefleet_protocol::{FireId, UnitId};
 
@@ -185,13 +186,17 @@ impl Incident {
     pub fn from_scenario(scenario: &Scenario, lease_s: f64, strategy: Strategy) -> Self {
         let units = scenario.units.iter().map(|u| {
             let rail = u.rail.as_deref().and_then(|r| scenario.rail(r));
-            let mobility = match (u.kind, rail) {
-                (UnitKind::Monorail, Some(r)) => Mobility::Rail {
+            // Each unit as fast and far-reaching as its own profile says.
+            let mobility = match (scenario.profile_of(u), rail) {
+                (Ok(Profile::Monorail(m)), Some(r)) => Mobility::Rail {
                     start_m: r.start_m,
                     end_m: r.end_m,
                     y_m: r.y_m,
-                    speed_m_s: MONORAIL.carriage_speed_m_s,
-                    reach_m: MONORAIL.working_reach_m,
+                    speed_m_s: m.carriage_speed_m_s,
+                    reach_m: m.working_reach_m,
+                },
+                (Ok(Profile::Ground(g)), _) => Mobility::Ground {
+                    speed_m_s: g.max_speed_m_s,
                 },
                 _ => Mobility::Ground {
                     speed_m_s: GROUND.max_speed_m_s,

@@ -58,7 +58,12 @@ impl FlameDetection {
     pub fn depth_m(&self) -> Option<f64> {
         let mut valid = [0.0f32; DEPTH_WINDOW * DEPTH_WINDOW];
         let mut n = 0;
-        for z in self.depth.iter().copied().filter(|z| z.is_finite() && *z > 0.0) {
+        for z in self
+            .depth
+            .iter()
+            .copied()
+            .filter(|z| z.is_finite() && *z > 0.0)
+        {
             valid[n] = z;
             n += 1;
         }

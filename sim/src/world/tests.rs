@@ -2,6 +2,7 @@
 
 use super::*;
 use firefleet_protocol::scenario::Growth;
+use firefleet_protocol::spec::GROUND;
 use firefleet_protocol::testing::ScenarioBuilder;
 
 /// A 100 m tunnel with a car, a 3 MW fire just short of it, and unit u1.

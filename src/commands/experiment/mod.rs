@@ -156,6 +156,7 @@ fn trial(angle_deg: f64, seed: u64) -> anyhow::Result<(usize, usize, Option<f64>
             y_m: robot.y,
             yaw_rad: 0.0,
             rail: None,
+            profile: None,
         }],
         ..Scenario::empty(
             "cannon-experiment",
@@ -170,7 +171,7 @@ fn trial(angle_deg: f64, seed: u64) -> anyhow::Result<(usize, usize, Option<f64>
     let mut world = World::new(&scenario, seed);
     let mut ctl = GroundController::with_tree(
         unit.clone(),
-        GROUND,
+        *GROUND,
         Arc::new(scenario.clone()),
         &cannon_experiment_tree(),
         0.0,

@@ -144,6 +144,7 @@ fn scenario(seed: u64) -> anyhow::Result<Scenario> {
             y_m: start.y,
             yaw_rad: 0.0,
             rail: None,
+            profile: None,
         }],
         ..Scenario::empty("nav-experiment", SiteId::new("nav")?, t, TRIAL_LIMIT_S)
     };
@@ -167,7 +168,7 @@ fn trial(s: &Scenario, seed: u64, lambda_m: Option<f64>) -> anyhow::Result<Trial
     let id = s.units[0].id.clone();
     let flame = s.fires[0].position();
     let mut world = World::new(s, seed);
-    let mut ctl = GroundController::new(id.clone(), GROUND, Arc::new(s.clone()));
+    let mut ctl = GroundController::new(id.clone(), *GROUND, Arc::new(s.clone()));
     if let Some(l) = lambda_m {
         ctl.set_visibility_weight(l);
     }

@@ -22,7 +22,6 @@ use firefleet_coordinator::invariants::{Event, Invariants, Violation};
 use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitKind, UnitState, ZoneGoal};
 use firefleet_protocol::msg::{FireTrack, SimTruth};
 use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::spec::{GROUND, MONORAIL};
 use firefleet_protocol::{CommanderId, UnitId};
 use firefleet_sim::World;
 
@@ -129,12 +128,15 @@ impl SimFleet {
             .map(|u| {
                 let ctl = match u.kind {
                     UnitKind::Ground => {
-                        Unit::Ground(GroundController::new(u.id.clone(), GROUND, shared.clone()))
+                        let spec = scenario.ground_spec(&u.id).context("a ground profile")?;
+                        Unit::Ground(GroundController::new(u.id.clone(), spec, shared.clone()))
                     }
                     UnitKind::Monorail => Unit::Rail(
                         MonorailController::with_tree(
                             u.id.clone(),
-                            MONORAIL,
+                            scenario
+                                .monorail_spec(&u.id)
+                                .context("a monorail profile")?,
                             shared.clone(),
                             &monorail,
                         )?

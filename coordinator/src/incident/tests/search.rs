@@ -1,6 +1,7 @@
 //! Searching the tunnel and the rails.
 
 use super::*;
+use firefleet_protocol::msg::UnitKind;
 
 /// A monorail unit "r" on a rail over the whole tunnel, at chainage `x`, and its
 /// state there.
