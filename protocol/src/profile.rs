@@ -14,13 +14,11 @@
 //!
 //! Not here: what the values mean physically ([`crate::spec`]).
 
-use std::path::Path;
-
 use serde::{Deserialize, Serialize};
 
 use crate::msg::UnitKind;
 use crate::spec::{CameraSpec, GroundSpec, MonorailSpec, NozzleSpec};
-use crate::validate::{Invalid, Validate, in_range};
+use crate::validate::{self, FileError, Invalid, Validate, in_range};
 
 /// The profile of a ground unit that names none.
 pub const DEFAULT_GROUND: &str = "luf60";
@@ -43,44 +41,12 @@ pub enum Profile {
 }
 
 /// Why a profile was rejected.
-#[derive(Debug, thiserror::Error)]
-pub enum ProfileError {
-    #[error("{origin}: cannot read: {source}")]
-    Io {
-        origin: String,
-        source: std::io::Error,
-    },
-    #[error("{origin}: {source}")]
-    Syntax {
-        origin: String,
-        source: Box<toml::de::Error>,
-    },
-    #[error("{origin}: {invalid}")]
-    Invalid { origin: String, invalid: Invalid },
-}
+pub type ProfileError = FileError;
 
 impl Profile {
     /// Parse and validate profile text; `origin` (a file name) prefixes every error.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ProfileError> {
-        let p: Profile = toml::from_str(text).map_err(|e| ProfileError::Syntax {
-            origin: origin.to_owned(),
-            source: Box::new(e),
-        })?;
-        p.validate().map_err(|invalid| ProfileError::Invalid {
-            origin: origin.to_owned(),
-            invalid,
-        })?;
-        Ok(p)
-    }
-
-    /// Read, parse and validate a profile file.
-    pub fn load(path: &Path) -> Result<Self, ProfileError> {
-        let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ProfileError::Io {
-            origin: origin.clone(),
-            source,
-        })?;
-        Self::from_toml(&text, &origin)
+        validate::from_toml(text, origin, Self::validate)
     }
 
     pub fn kind(&self) -> UnitKind {

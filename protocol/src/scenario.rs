@@ -81,24 +81,10 @@ use crate::profile::{self, Profile};
 use crate::spec::{GroundSpec, MonorailSpec};
 use crate::tunnel::Chainage;
 pub use crate::tunnel::{Segment, Station, Tunnel};
-use crate::validate::{Invalid, Validate, in_range};
+use crate::validate::{self, FileError, Invalid, Validate, in_range};
 
 /// Why a scenario was rejected.
-#[derive(Debug, thiserror::Error)]
-pub enum ScenarioError {
-    #[error("{origin}: cannot read: {source}")]
-    Io {
-        origin: String,
-        source: std::io::Error,
-    },
-    #[error("{origin}: {source}")]
-    Syntax {
-        origin: String,
-        source: Box<toml::de::Error>,
-    },
-    #[error("{origin}: {invalid}")]
-    Invalid { origin: String, invalid: Invalid },
-}
+pub type ScenarioError = FileError;
 
 /// A whole scenario.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -292,25 +278,12 @@ impl Scenario {
 
     /// Parse and validate scenario text; `origin` (a file name) prefixes every error.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ScenarioError> {
-        let s: Scenario = toml::from_str(text).map_err(|e| ScenarioError::Syntax {
-            origin: origin.to_owned(),
-            source: Box::new(e),
-        })?;
-        s.validate().map_err(|invalid| ScenarioError::Invalid {
-            origin: origin.to_owned(),
-            invalid,
-        })?;
-        Ok(s)
+        validate::from_toml(text, origin, Self::validate)
     }
 
     /// Read, parse and validate a scenario file.
     pub fn load(path: &Path) -> Result<Self, ScenarioError> {
-        let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
-            origin: origin.clone(),
-            source,
-        })?;
-        Self::from_toml(&text, &origin)
+        validate::load_toml(path, Self::validate)
     }
 
     pub fn unit(&self, id: &UnitId) -> Option<&UnitSpec> {

@@ -102,3 +102,50 @@ mod tests {
         assert_eq!(Invalid::new("x", "r").within("p").field, "p.x");
     }
 }
+
+/// Why a TOML file (a site, a robot profile) was rejected: the file, then what.
+#[derive(Debug, thiserror::Error)]
+pub enum FileError {
+    #[error("{origin}: cannot read: {source}")]
+    Io {
+        origin: String,
+        source: std::io::Error,
+    },
+    #[error("{origin}: {source}")]
+    Syntax {
+        origin: String,
+        source: Box<toml::de::Error>,
+    },
+    #[error("{origin}: {invalid}")]
+    Invalid { origin: String, invalid: Invalid },
+}
+
+/// Parse TOML `text` and `check` it; `origin` (a file name) prefixes every error.
+pub fn from_toml<T: serde::de::DeserializeOwned>(
+    text: &str,
+    origin: &str,
+    check: impl FnOnce(&T) -> Result<(), Invalid>,
+) -> Result<T, FileError> {
+    let t: T = toml::from_str(text).map_err(|e| FileError::Syntax {
+        origin: origin.to_owned(),
+        source: Box::new(e),
+    })?;
+    check(&t).map_err(|invalid| FileError::Invalid {
+        origin: origin.to_owned(),
+        invalid,
+    })?;
+    Ok(t)
+}
+
+/// Read, parse and `check` a TOML file.
+pub fn load_toml<T: serde::de::DeserializeOwned>(
+    path: &std::path::Path,
+    check: impl FnOnce(&T) -> Result<(), Invalid>,
+) -> Result<T, FileError> {
+    let origin = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| FileError::Io {
+        origin: origin.clone(),
+        source,
+    })?;
+    from_toml(&text, &origin, check)
+}
