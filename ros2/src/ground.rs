@@ -92,6 +92,7 @@ pub fn detection_to_ros(
         y: (d.bbox[3] - d.bbox[1]) * z / cam.fy,
         z: (d.bbox[2] - d.bbox[0]) * z / cam.fx,
     };
+    let var = cam.depth_sigma_m(z).powi(2);
     Some(Detection3D {
         header: Header {
             frame_id: frame_id.to_owned(),
@@ -104,14 +105,7 @@ pub fn detection_to_ros(
             },
             pose: PoseWithCovariance {
                 pose: center,
-                covariance: Covariance::diagonal([
-                    cam.depth_sigma_m(z).powi(2),
-                    cam.depth_sigma_m(z).powi(2),
-                    cam.depth_sigma_m(z).powi(2),
-                    0.0,
-                    0.0,
-                    0.0,
-                ]),
+                covariance: Covariance::diagonal([var, var, var, 0.0, 0.0, 0.0]),
             },
         }],
         bbox: BoundingBox3D { center, size },
