@@ -8,11 +8,11 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use firefleet_protocol::bus::{Bus, Connect, Mode};
+use firefleet_bus::{Ask, Bus, Connect, Mode};
+use firefleet_model::scenario::Scenario;
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::IncidentStatus;
-use firefleet_protocol::scenario::Scenario;
 use tokio::io::AsyncReadExt;
 
 /// Zenoh's roles for a session.
@@ -168,8 +168,7 @@ pub async fn join(zenoh: &ZenohArgs, scenario: &Scenario) -> anyhow::Result<Bus>
     if peer && endpoints {
         // A peer's links come up in the background: give them a moment.
         tokio::time::sleep(Duration::from_millis(500)).await;
-        let info = bus.session().info();
-        if info.routers_zid().await.next().is_none() && info.peers_zid().await.next().is_none() {
+        if !bus.connected().await {
             tracing::error!(
                 "reached none of {:?}: running alone until one answers (Zenoh keeps trying)",
                 zenoh.connect
@@ -182,20 +181,14 @@ pub async fn join(zenoh: &ZenohArgs, scenario: &Scenario) -> anyhow::Result<Bus>
 /// The coordinator's snapshot of the incident, decoded and as sent.
 pub async fn query_status(bus: &Bus) -> anyhow::Result<(IncidentStatus, Vec<u8>)> {
     let key = bus.keys().expr(&Topic::CoordStatus);
-    let replies = bus
-        .session()
-        .get(&key)
-        .timeout(Duration::from_secs(3))
+    let answers = bus
+        .ask(&key, Ask::within(Duration::from_secs(3)))
         .await
-        .map_err(|e| anyhow::anyhow!("querying {key}: {e}"))?;
-    let reply = replies
-        .recv_async()
+        .with_context(|| format!("querying {key}"))?;
+    let answer = answers
+        .recv()
         .await
-        .map_err(|_| anyhow::anyhow!("no coordinator answered on {key}"))?;
-    let sample = reply
-        .result()
-        .map_err(|e| anyhow::anyhow!("the coordinator answered with an error: {e:?}"))?;
-    let bytes = sample.payload().to_bytes().to_vec();
-    let status = codec::decode(&bytes).context("the coordinator's status")?;
-    Ok((status, bytes))
+        .ok_or_else(|| anyhow::anyhow!("no coordinator answered on {key}"))?;
+    let status = codec::decode(&answer.bytes).context("the coordinator's status")?;
+    Ok((status, answer.bytes))
 }

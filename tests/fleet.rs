@@ -6,14 +6,14 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use firefleet_protocol::bus::{Bus, Inbox};
+use firefleet_bus::{Ask, Bus, Inbox};
+use firefleet_model::{FireId, Point2, Pose2, UnitId, ZoneId};
 use firefleet_protocol::codec::{self, PROTOCOL_VERSION};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
     Bar, BarredSpace, FireState, FireTrack, FlameObservation, FlameReport, SimTruth, Task,
     TaskKind, TaskPhase, TaskProgress, UnitState,
 };
-use firefleet_protocol::{FireId, Point2, Pose2, UnitId, ZoneId};
 use support::{BIN, Fleet, assert_says, cli, free_endpoint, router, router_at, spawn_role, text};
 
 /// Run `firefleet demo` on `scenario` at 8x with `extra` arguments; its summary, after
@@ -265,29 +265,24 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
         }],
         ..bad_report.clone()
     };
-    let session = bus.session();
-    session
-        .put(
-            report_key.as_str(),
-            vec![PROTOCOL_VERSION, 0xff, 0xff, 0xff],
-        )
+    bus.put_raw(
+        report_key.as_str(),
+        vec![PROTOCOL_VERSION, 0xff, 0xff, 0xff],
+    )
+    .await
+    .unwrap();
+    bus.put_raw(report_key.as_str(), codec::encode(&bad_report))
         .await
         .unwrap();
-    session
-        .put(report_key.as_str(), codec::encode(&bad_report))
+    bus.put_raw(report_key.as_str(), stale_version)
         .await
         .unwrap();
-    session
-        .put(report_key.as_str(), stale_version)
-        .await
-        .unwrap();
-    session
-        .put(
-            keys.unit_report(&UnitId::new("ghost").unwrap()).as_str(),
-            codec::encode(&ghost),
-        )
-        .await
-        .unwrap();
+    bus.put_raw(
+        keys.unit_report(&UnitId::new("ghost").unwrap()).as_str(),
+        codec::encode(&ghost),
+    )
+    .await
+    .unwrap();
 
     fleet.0[2].kill().unwrap();
     fleet.0[2].wait().unwrap();
@@ -479,12 +474,12 @@ async fn a_standby_coordinator_takes_over_when_the_one_in_charge_is_killed() {
     let killed = Instant::now();
     let key = keys.expr(&Topic::CoordStatus);
     let status = loop {
-        let replies = bus.session().get(&key).await.unwrap();
-        if let Ok(reply) = replies.recv_async().await
-            && let Ok(sample) = reply.result()
-        {
-            break serde_json::from_slice::<serde_json::Value>(&sample.payload().to_bytes())
-                .unwrap();
+        let answers = bus
+            .ask(&key, Ask::within(Duration::from_secs(10)))
+            .await
+            .unwrap();
+        if let Some(answer) = answers.recv().await {
+            break serde_json::from_slice::<serde_json::Value>(&answer.bytes).unwrap();
         }
         assert!(
             killed.elapsed() < Duration::from_secs(10),
@@ -625,11 +620,12 @@ async fn first_answer<T>(
 ) -> T {
     tokio::time::timeout(within, async {
         loop {
-            let replies = bus.session().get(key).await.unwrap();
-            while let Ok(reply) = replies.recv_async().await {
-                if let Ok(sample) = reply.result()
-                    && let Some(v) = take(&sample.payload().to_bytes())
-                {
+            let answers = bus
+                .ask(key, Ask::within(Duration::from_secs(10)))
+                .await
+                .unwrap();
+            while let Some(answer) = answers.recv().await {
+                if let Some(v) = take(&answer.bytes) {
                     return v;
                 }
             }
@@ -690,10 +686,14 @@ async fn until_recorded(bus: &Bus, track: &FireTrack) {
     tokio::time::timeout(Duration::from_secs(30), async {
         loop {
             bus.put(&keys.fire(track.id), track).await.unwrap();
-            let replies = bus.session().get(keys.every_fire().as_str()).await.unwrap();
-            if let Ok(reply) = replies.recv_async().await
-                && reply.result().is_ok()
-            {
+            let answers = bus
+                .ask(
+                    keys.every_fire().as_str(),
+                    Ask::within(Duration::from_secs(10)),
+                )
+                .await
+                .unwrap();
+            if answers.recv().await.is_some() {
                 return;
             }
             tokio::time::sleep(Duration::from_millis(200)).await;
@@ -810,7 +810,7 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
         .subscribe(&bus.keys().zone_ack(&ZoneId::new("deep").unwrap()))
         .await
         .unwrap();
-    let put = |key: &'static str, json: &'static str| bus.session().put(key, json);
+    let put = |key: &'static str, json: &'static str| bus.put_raw(key, json.into());
     put(
         "ff/tunnel-r/zone/deep/goal/x",
         r#"{"id": "x", "zone": "deep", "goal": "flood"}"#,
@@ -939,18 +939,14 @@ async fn barred_space_reaches_the_units_and_outlives_the_coordinator_and_the_rec
     let key = bus.keys().coord_barred();
     let deadline = Instant::now() + Duration::from_secs(10);
     loop {
-        let replies = bus
-            .session()
-            .get(key.as_str())
-            .consolidation(zenoh::query::ConsolidationMode::None)
-            .await
-            .unwrap();
+        let every = Ask {
+            every_answer: true,
+            ..Ask::within(Duration::from_secs(10))
+        };
+        let answers = bus.ask(key.as_str(), every).await.unwrap();
         let mut barring = 0;
-        while let Ok(reply) = replies.recv_async().await {
-            if let Ok(sample) = reply.result()
-                && codec::decode::<BarredSpace>(&sample.payload().to_bytes())
-                    .is_ok_and(|a| a.spans == b.spans)
-            {
+        while let Some(answer) = answers.recv().await {
+            if codec::decode::<BarredSpace>(&answer.bytes).is_ok_and(|a| a.spans == b.spans) {
                 barring += 1;
             }
         }
@@ -1105,7 +1101,7 @@ fn mutual_tls_lets_in_only_the_site_s_identities() {
             assert_eq!(mode & 0o777, 0o600, "{key}");
         }
     }
-    let port = firefleet_protocol::bus::free_loopback_port().unwrap();
+    let port = firefleet_bus::free_loopback_port().unwrap();
     let endpoint = format!("tls/127.0.0.1:{port}");
     let id = |name: &str| pki.join(name).to_str().unwrap().to_owned();
     let _router = Fleet(vec![
@@ -1201,7 +1197,7 @@ impl SecureSite {
             "rossi",
         ]);
         assert!(out.status.success(), "{}", text(&out));
-        let port = firefleet_protocol::bus::free_loopback_port().unwrap();
+        let port = firefleet_bus::free_loopback_port().unwrap();
         let endpoint = format!("tls/127.0.0.1:{port}");
         let out = support::firefleet(&[
             "deploy",
@@ -1260,11 +1256,11 @@ impl SecureSite {
 
     /// A session in this test as identity `who`, once the router takes it.
     async fn open(&self, who: &str) -> Bus {
-        let connect = firefleet_protocol::bus::Connect {
+        let connect = firefleet_bus::Connect {
             config_file: Some(self.config(who).into()),
             ..Default::default()
         };
-        let site = firefleet_protocol::SiteId::new("tunnel-a").unwrap();
+        let site = firefleet_model::SiteId::new("tunnel-a").unwrap();
         let deadline = Instant::now() + Duration::from_secs(20);
         loop {
             match Bus::open(&connect, site.clone()).await {
@@ -1295,7 +1291,7 @@ async fn a_stolen_unit_certificate_cannot_stop_a_secure_fleet() {
     let observer = site.open("recorder").await;
     let keys = observer.keys().clone();
     let seen = observer
-        .session()
+        .zenoh_session()
         .declare_subscriber(keys.all())
         .with(zenoh::handlers::FifoChannel::new(1_000_000))
         .await
@@ -1305,7 +1301,7 @@ async fn a_stolen_unit_certificate_cannot_stop_a_secure_fleet() {
         .await
         .unwrap();
     let thief = site.open("unit-ugv-2").await;
-    let session = thief.session();
+    let session = thief.zenoh_session();
 
     // Impostor liveliness (zenoh#1562: tokens passing a deny-all policy): the
     // coordinator's token and another unit's, before either exists.
@@ -1340,18 +1336,7 @@ async fn a_stolen_unit_certificate_cannot_stop_a_secure_fleet() {
         }
     });
     tokio::time::sleep(Duration::from_secs(1)).await;
-    let tokens = observer
-        .session()
-        .liveliness()
-        .get(keys.every_alive())
-        .await
-        .unwrap();
-    let mut alive = Vec::new();
-    while let Ok(r) = tokens.recv_async().await {
-        if let Ok(s) = r.result() {
-            alive.push(s.key_expr().to_string());
-        }
-    }
+    let alive = observer.tokens_alive(&keys.every_alive()).await.unwrap();
     assert!(alive.is_empty(), "impostor tokens got through: {alive:?}");
 
     let mut fleet = Fleet(vec![
@@ -1493,20 +1478,16 @@ async fn a_stolen_unit_certificate_cannot_stop_a_secure_fleet() {
     // The coordinator's recall and the units' barred space were answered only by those
     // allowed to: the thief's queryables got no question.
     let coordinator = site.open("coordinator").await;
-    let replies = coordinator
-        .session()
-        .get(keys.every_fire().as_str())
-        .consolidation(zenoh::query::ConsolidationMode::None)
-        .timeout(Duration::from_secs(2))
+    let every = Ask {
+        every_answer: true,
+        ..Ask::within(Duration::from_secs(2))
+    };
+    let answers = coordinator
+        .ask(keys.every_fire().as_str(), every)
         .await
         .unwrap();
-    while let Ok(r) = replies.recv_async().await {
-        if let Ok(s) = r.result() {
-            assert!(
-                !s.key_expr().as_str().ends_with("f99"),
-                "a forged fire was answered"
-            );
-        }
+    while let Some(answer) = answers.recv().await {
+        assert!(!answer.key.ends_with("f99"), "a forged fire was answered");
     }
     let commander = site.open("commander-rossi").await;
     let status = status_of(&commander, Duration::from_secs(10)).await;
@@ -1542,7 +1523,7 @@ fn forged_fire() -> FireTrack {
 fn forged_state(unit: &UnitId) -> UnitState {
     UnitState {
         unit: unit.clone(),
-        kind: firefleet_protocol::msg::UnitKind::Ground,
+        kind: firefleet_model::UnitKind::Ground,
         t: 1.0,
         pose: Pose2::new(20.0, 0.0, 0.0),
         speed: 0.0,
@@ -1581,8 +1562,7 @@ async fn a_unit_started_before_its_router_waits_and_joins_it() {
         .expr(&Topic::UnitAlive(UnitId::new("ugv-1").unwrap()));
     let deadline = Instant::now() + Duration::from_secs(20);
     loop {
-        let replies = router.session().liveliness().get(&token).await.unwrap();
-        if replies.recv_async().await.is_ok_and(|r| r.result().is_ok()) {
+        if !router.tokens_alive(&token).await.unwrap().is_empty() {
             break;
         }
         assert!(
@@ -1602,8 +1582,8 @@ async fn a_unit_started_before_its_router_waits_and_joins_it() {
 async fn the_coordinator_token_is_gone_only_when_every_holder_is() {
     let (router, endpoint) = router("tunnel-a").await;
     let client = || async {
-        let c = firefleet_protocol::bus::Connect {
-            mode: Some(firefleet_protocol::bus::Mode::Client),
+        let c = firefleet_bus::Connect {
+            mode: Some(firefleet_bus::Mode::Client),
             connect: vec![endpoint.clone()],
             ..Default::default()
         };
@@ -1611,27 +1591,21 @@ async fn the_coordinator_token_is_gone_only_when_every_holder_is() {
     };
     let (a, b, watcher) = (client().await, client().await, client().await);
     let key = router.keys().expr(&Topic::CoordAlive);
-    let seen = watcher
-        .session()
-        .liveliness()
-        .declare_subscriber(&key)
-        .history(true)
-        .await
-        .unwrap();
-    let ta = a.session().liveliness().declare_token(&key).await.unwrap();
-    let tb = b.session().liveliness().declare_token(&key).await.unwrap();
-    let first = tokio::time::timeout(Duration::from_secs(2), seen.recv_async())
+    let seen = watcher.watch_tokens(&key).await.unwrap();
+    let ta = a.token(&Topic::CoordAlive).await.unwrap();
+    let tb = b.token(&Topic::CoordAlive).await.unwrap();
+    let (_, alive) = tokio::time::timeout(Duration::from_secs(2), seen.recv())
         .await
         .unwrap()
         .unwrap();
-    assert_eq!(first.kind(), zenoh::sample::SampleKind::Put);
-    ta.undeclare().await.unwrap();
+    assert!(alive);
+    drop(ta);
     a.close().await;
     let after_one = tokio::time::timeout(Duration::from_secs(2), async {
         loop {
-            let s = seen.recv_async().await.unwrap();
-            if s.kind() == zenoh::sample::SampleKind::Delete {
-                return s;
+            let (topic, alive) = seen.recv().await.unwrap();
+            if !alive {
+                return topic;
             }
         }
     })
@@ -1640,12 +1614,12 @@ async fn the_coordinator_token_is_gone_only_when_every_holder_is() {
         after_one.is_err(),
         "the token counted gone while b still holds it"
     );
-    tb.undeclare().await.unwrap();
+    drop(tb);
     let gone = tokio::time::timeout(Duration::from_secs(2), async {
         loop {
-            let s = seen.recv_async().await.unwrap();
-            if s.kind() == zenoh::sample::SampleKind::Delete {
-                return s;
+            let (topic, alive) = seen.recv().await.unwrap();
+            if !alive {
+                return topic;
             }
         }
     })

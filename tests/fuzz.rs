@@ -13,10 +13,10 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use firefleet_bt::xml;
+use firefleet_model::scenario::Scenario;
+use firefleet_model::{FireId, Point2, Pose2, UnitId, UnitKind, ZoneId};
 use firefleet_protocol::codec::{decode, encode};
 use firefleet_protocol::msg::*;
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::{FireId, Point2, Pose2, UnitId, ZoneId};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -166,8 +166,8 @@ fn fleet_messages() {
         spans: vec![BarredSpan {
             goal: "ko".into(),
             zone: ZoneId::new("deep").unwrap(),
-            start: firefleet_protocol::Chainage::new(100.0),
-            end: firefleet_protocol::Chainage::new(300.0),
+            start: firefleet_model::Chainage::new(100.0),
+            end: firefleet_model::Chainage::new(300.0),
             bar: Bar::Entry,
             rail_allowed: false,
         }],
@@ -211,8 +211,8 @@ fn commander_json() {
 #[test]
 fn scenario_toml() {
     let seeds: Vec<Vec<u8>> = [
-        include_str!("../examples/scenarios/rail-tunnel.toml"),
-        include_str!("../examples/scenarios/pileup.toml"),
+        include_str!("../model/scenarios/rail-tunnel.toml"),
+        include_str!("../model/scenarios/pileup.toml"),
     ]
     .map(|s| s.as_bytes().to_vec())
     .to_vec();

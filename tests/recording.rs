@@ -8,8 +8,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use firefleet_protocol::msg::{SimClock, UnitKind, UnitMode, UnitState};
-use firefleet_protocol::{Pose2, UnitId};
+use firefleet_model::UnitKind;
+use firefleet_model::{Pose2, UnitId};
+use firefleet_protocol::msg::{SimClock, UnitMode, UnitState};
 use firefleet_recorder::parts::{INDEX, Index, Recording, parts_dir};
 use rand::{Rng, SeedableRng};
 use support::{firefleet, router, spawn_role, text};
@@ -73,8 +74,7 @@ async fn a_recorder_killed_at_any_instant_leaves_files_every_mcap_reader_opens()
     let keys = bus.keys().clone();
     // The traffic: two units' states at 50 Hz and the site clock, as a fleet sends them.
     let traffic = {
-        let bus_keys = keys.clone();
-        let session = bus.session().clone();
+        let (bus_keys, bus) = (keys.clone(), bus.clone());
         tokio::spawn(async move {
             let units = [UnitId::new("ugv-1").unwrap(), UnitId::new("ugv-2").unwrap()];
             let start = Instant::now();
@@ -83,11 +83,10 @@ async fn a_recorder_killed_at_any_instant_leaves_files_every_mcap_reader_opens()
                 tick.tick().await;
                 let t = start.elapsed().as_secs_f64();
                 for u in &units {
-                    let bytes = firefleet_protocol::codec::encode(&state(u, t));
-                    let _ = session.put(bus_keys.unit_state(u).as_str(), bytes).await;
+                    let _ = bus.put(&bus_keys.unit_state(u), &state(u, t)).await;
                 }
-                let clock = firefleet_protocol::codec::encode(&SimClock { t, time_scale: 1.0 });
-                let _ = session.put(bus_keys.sim_clock().as_str(), clock).await;
+                let clock = SimClock { t, time_scale: 1.0 };
+                let _ = bus.put(&bus_keys.sim_clock(), &clock).await;
             }
         })
     };

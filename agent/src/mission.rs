@@ -22,9 +22,10 @@
 
 use firefleet_bt::node::Io;
 use firefleet_bt::{Port, Registry, Status};
-use firefleet_protocol::msg::{BarredSpace, Refusal, TaskKind, TaskPhase, TaskProgress, UnitKind};
-use firefleet_protocol::scenario::Tunnel;
-use firefleet_protocol::{FireId, Point2, UnitId};
+use firefleet_model::UnitKind;
+use firefleet_model::scenario::Tunnel;
+use firefleet_model::{FireId, Point2, UnitId};
+use firefleet_protocol::msg::{BarredSpace, Refusal, TaskKind, TaskPhase, TaskProgress};
 
 /// The coordinator link's state on the unit.
 #[derive(Debug, Clone, Default)]
@@ -375,9 +376,9 @@ mod tests {
             t,
             spans: vec![firefleet_protocol::msg::BarredSpan {
                 goal: "g".into(),
-                zone: firefleet_protocol::ZoneId::new("z").unwrap(),
-                start: firefleet_protocol::Chainage::new(10.0),
-                end: firefleet_protocol::Chainage::new(end),
+                zone: firefleet_model::ZoneId::new("z").unwrap(),
+                start: firefleet_model::Chainage::new(10.0),
+                end: firefleet_model::Chainage::new(end),
                 bar: firefleet_protocol::msg::Bar::Entry,
                 rail_allowed: false,
             }],

@@ -16,13 +16,10 @@ use std::rc::Rc;
 use std::time::Duration;
 
 use firefleet_bt::{Status, Transition};
-use firefleet_protocol::UnitId;
-use firefleet_protocol::bus::{Bus, BusError};
-use firefleet_protocol::codec;
+use firefleet_bus::{Ask, Bus, BusError};
+use firefleet_model::UnitId;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{BarredSpace, BtTransition, BtTransitions, NodeStatus};
-use zenoh::query::ConsolidationMode;
-use zenoh::sample::SampleKind;
 
 use crate::controller::{Controller, Services};
 use crate::platform::Platform;
@@ -80,27 +77,17 @@ where
         })
         .collect();
 
-    let _token = bus
-        .session()
-        .liveliness()
-        .declare_token(keys.expr(&Topic::UnitAlive(unit.clone())))
-        .await?;
-    let coord = bus
-        .session()
-        .liveliness()
-        .declare_subscriber(keys.expr(&Topic::CoordAlive))
-        .history(true)
-        .await?;
+    let _token = bus.token(&Topic::UnitAlive(unit.clone())).await?;
+    let coord = bus.watch_tokens(&keys.expr(&Topic::CoordAlive)).await?;
     let tasks = bus.subscribe(&keys.unit_task(unit)).await?;
     let barred = bus.subscribe(&keys.coord_barred()).await?;
     // Asked, not awaited: the answers come in with everything else.
-    let barred_answers = bus
-        .session()
-        .get(keys.coord_barred().as_str())
-        // Every answer (the coordinator's, each recorder's): the newest is kept.
-        .consolidation(ConsolidationMode::None)
-        .timeout(BARRED_QUERY_TIMEOUT)
-        .await?;
+    // Every answer (the coordinator's, each recorder's): the newest is kept.
+    let ask = Ask {
+        every_answer: true,
+        ..Ask::within(BARRED_QUERY_TIMEOUT)
+    };
+    let barred_answers = bus.ask(keys.coord_barred().as_str(), ask).await?;
     let state_key = keys.unit_state(unit);
     let report_key = keys.unit_report(unit);
     let bt_key = keys.unit_bt(unit);
@@ -155,25 +142,16 @@ where
                     tracing::warn!(%unit, "{e}");
                 }
             }
-            Ok(reply) = barred_answers.recv_async() => {
-                let Ok(sample) = reply.result() else { continue };
-                let refused = match codec::decode::<BarredSpace>(&sample.payload().to_bytes()) {
-                    Ok(b) => ctl.on_barred(b).map_err(|e| {
-                        bus.rejects().count_invalid();
-                        e.to_string()
-                    }),
-                    Err(e) => {
-                        bus.rejects().count(&e);
-                        Err(e.to_string())
-                    }
-                };
-                if let Err(e) = refused {
+            Some(answer) = barred_answers.recv() => {
+                if let Some(b) = bus.decode::<BarredSpace>(&answer, "barred space answer")
+                    && let Err(e) = ctl.on_barred(b)
+                {
+                    bus.rejects().count_invalid();
                     tracing::warn!(%unit, "barred space answer refused: {e}");
                 }
             }
-            sample = coord.recv_async() => {
-                let Ok(sample) = sample else { break };
-                let present = sample.kind() == SampleKind::Put;
+            change = coord.recv() => {
+                let Some((_, present)) = change else { break };
                 tracing::info!(%unit, present, "coordinator presence changed");
                 ctl.set_coordinator_present(present);
             }

@@ -13,11 +13,11 @@
 
 use std::future::Future;
 
-use firefleet_protocol::UnitId;
-use firefleet_protocol::bus::{Bus, BusError, Inbox};
+use firefleet_bus::{Bus, BusError, Inbox};
+use firefleet_model::UnitId;
+use firefleet_model::spec::GroundSpec;
 use firefleet_protocol::keys::Key;
 use firefleet_protocol::msg::{Message, RailCommand, RailSensors, UnitCommand, UnitSensors};
-use firefleet_protocol::spec::GroundSpec;
 use firefleet_ros2::graph::{Domain, Namespace};
 use firefleet_ros2::ground::Robot;
 use firefleet_ros2::node::{Node, NodeError};

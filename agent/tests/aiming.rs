@@ -3,9 +3,9 @@
 //! explicit "no firing solution".
 
 use firefleet_agent::ground::aim::{self, NoSolution};
-use firefleet_protocol::Point2;
-use firefleet_protocol::scenario::Tunnel;
-use firefleet_protocol::spec::GROUND;
+use firefleet_model::Point2;
+use firefleet_model::profile::GROUND;
+use firefleet_model::scenario::Tunnel;
 use firefleet_sim::jet::{self, Landing};
 use proptest::prelude::*;
 

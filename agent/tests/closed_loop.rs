@@ -5,12 +5,12 @@ use std::sync::Arc;
 
 use firefleet_agent::controller::TaskRefused;
 use firefleet_agent::ground::GroundController;
-use firefleet_protocol::FireId;
-use firefleet_protocol::UnitId;
-use firefleet_protocol::geometry::{Point2, wrap_angle};
+use firefleet_model::FireId;
+use firefleet_model::UnitId;
+use firefleet_model::geometry::{Point2, wrap_angle};
+use firefleet_model::profile::GROUND;
+use firefleet_model::scenario::Scenario;
 use firefleet_protocol::msg::{TaskKind, TaskPhase, TruthFireState, UnitMode};
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::spec::GROUND;
 use firefleet_sim::World;
 
 /// What a closed-loop run did.

@@ -6,10 +6,10 @@
 use std::sync::Arc;
 
 use firefleet_agent::ground::GroundController;
+use firefleet_model::profile::GROUND;
+use firefleet_model::scenario::Scenario;
+use firefleet_model::{Chainage, FireId, Point2, UnitId, ZoneId};
 use firefleet_protocol::msg::{Bar, BarredSpace, BarredSpan, RefusalReason, TaskKind};
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::spec::GROUND;
-use firefleet_protocol::{Chainage, FireId, Point2, UnitId, ZoneId};
 use firefleet_sim::World;
 
 /// Chainages `start`-`end` barred to every unit (to ground units only if `rail_allowed`).

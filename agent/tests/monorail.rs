@@ -4,12 +4,12 @@
 use std::sync::Arc;
 
 use firefleet_agent::monorail::{MonorailController, default_tree};
+use firefleet_model::profile::MONORAIL;
+use firefleet_model::scenario::Scenario;
+use firefleet_model::{Chainage, FireId, Point2, UnitId, ZoneId};
 use firefleet_protocol::msg::{
     Bar, BarredSpace, BarredSpan, RefusalReason, TaskKind, TaskPhase, TruthFireState, UnitMode,
 };
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::spec::MONORAIL;
-use firefleet_protocol::{Chainage, FireId, Point2, UnitId, ZoneId};
 use firefleet_sim::World;
 
 fn scenario(fire_x: f64, fire_y: f64, rail_end: f64) -> Arc<Scenario> {

@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 use argon2::Argon2;
 use argon2::password_hash::rand_core::OsRng;
 use argon2::password_hash::{PasswordHash, PasswordHasher, PasswordVerifier, SaltString};
-use firefleet_protocol::CommanderId;
+use firefleet_model::CommanderId;
 use rand::RngCore;
 use serde::{Deserialize, Serialize};
 

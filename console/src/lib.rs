@@ -5,18 +5,19 @@
 //! decisions, alerts), built from the bus's messages with no I/O, so what the page shows
 //! is testable message by message; [`site`] is the tunnel drawn to scale from the site
 //! file; [`auth`] the commanders' logins; [`http`] the web page, its API and the stream of
-//! changes, over a [`http::Console`] that the binary feeds from the bus and that sends
-//! goals back through it; [`tls`] serves them over HTTPS.
+//! changes, over a [`http::Console`] that [`node`] feeds from the bus and that sends goals
+//! back through it; [`tls`] serves them over HTTPS.
 //!
 //! The picture is built from what the fleet says, never from the simulator's truth: with
 //! real robots there is no truth to read, and a commander must see what the coordinator
 //! decides on.
 //!
-//! Not here: Zenoh. The `firefleet console` command subscribes and forwards (the same split
-//! as the coordinator's `Incident`).
+//! Only [`node`] touches the bus (the same split as the coordinator's `Incident` and
+//! `node`): the picture and the HTTP API are tested without one.
 
 pub mod auth;
 pub mod http;
+pub mod node;
 pub mod picture;
 pub mod site;
 pub mod tls;

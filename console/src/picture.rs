@@ -11,19 +11,19 @@
 //!
 //! The heat field is the fleet's estimate, not the simulator's: each fire track's
 //! estimated heat release radiating as the planners charge for it
-//! ([`firefleet_nav::hybrid_astar::radiant_flux_kw_m2`]), on the site map's stations.
+//! ([`firefleet_model::heat::radiant_flux_kw_m2`]), on the site map's stations.
 //!
 //! Not here: the simulator's truth (a commander with real robots has none), transport.
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 
-use firefleet_nav::hybrid_astar::{HeatSource, radiant_flux_kw_m2};
+use firefleet_model::heat::{HeatSource, radiant_flux_kw_m2};
+use firefleet_model::{FireId, Point2, UnitId};
 use firefleet_protocol::msg::{
     Decision, FireState, FireTrack, GoalAck, GoalInForce, GoalsInForce, UnitState,
 };
-use firefleet_protocol::{FireId, Point2, UnitId};
-use firefleet_recorder::payload::Payload;
+use firefleet_protocol::payload::Payload;
 use serde::Serialize;
 
 use crate::site::SiteMap;
@@ -456,7 +456,7 @@ impl Picture {
         let sources: Vec<HeatSource> = self
             .fires
             .values()
-            .filter_map(HeatSource::of_track)
+            .filter_map(FireTrack::heat_source)
             .collect();
         let site = &self.site;
         let columns = site.lateral_m.len();
@@ -491,12 +491,12 @@ impl UnitView {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use firefleet_model::scenario::Scenario;
     use firefleet_protocol::msg::{GoalKind, ZoneGoal};
-    use firefleet_protocol::scenario::Scenario;
     use firefleet_protocol::testing::ground_state;
 
     fn picture() -> Picture {
-        let text = include_str!("../../examples/scenarios/rail-tunnel.toml");
+        let text = include_str!("../../model/scenarios/rail-tunnel.toml");
         Picture::new(SiteMap::new(
             &Scenario::from_toml(text, "rail-tunnel.toml").unwrap(),
         ))
@@ -645,7 +645,7 @@ mod tests {
         let mut p = picture();
         let ack = |accepted| GoalAck {
             id: "g".into(),
-            zone: firefleet_protocol::ZoneId::new("z1").unwrap(),
+            zone: firefleet_model::ZoneId::new("z1").unwrap(),
             accepted,
             reason: "because".into(),
         };
@@ -666,12 +666,12 @@ mod tests {
         let goal = GoalInForce {
             goal: ZoneGoal {
                 id: "g".into(),
-                zone: firefleet_protocol::ZoneId::new("z1").unwrap(),
+                zone: firefleet_model::ZoneId::new("z1").unwrap(),
                 goal: GoalKind::KeepOut,
                 priority: 0,
                 before_m: None,
                 expires_s: None,
-                issued_by: "ic".into(),
+                issued_by: Some(firefleet_model::CommanderId::new("ic").unwrap()),
                 rail_allowed: false,
             },
             since: 1.0,

@@ -8,8 +8,8 @@
 //!
 //! Not here: anything that moves (units, fires, goals are the picture's).
 
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::{Chainage, ZoneId};
+use firefleet_model::scenario::Scenario;
+use firefleet_model::{Chainage, ZoneId};
 use serde::Serialize;
 
 /// The most stations a centreline is sampled at: 1 m for a tunnel up to 2 km.
@@ -72,7 +72,7 @@ pub struct RailMap {
 #[derive(Debug, Clone, Serialize)]
 pub struct UnitSlot {
     pub id: String,
-    pub kind: firefleet_protocol::msg::UnitKind,
+    pub kind: firefleet_model::UnitKind,
     pub rail: Option<String>,
 }
 
@@ -174,11 +174,11 @@ fn round_cm(v: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firefleet_protocol::scenario::Scenario;
-    use firefleet_protocol::tunnel::Segment;
+    use firefleet_model::scenario::Scenario;
+    use firefleet_model::tunnel::Segment;
 
     fn rail_tunnel() -> Scenario {
-        let text = include_str!("../../examples/scenarios/rail-tunnel.toml");
+        let text = include_str!("../../model/scenarios/rail-tunnel.toml");
         Scenario::from_toml(text, "rail-tunnel.toml").unwrap()
     }
 

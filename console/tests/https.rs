@@ -11,8 +11,8 @@ use firefleet_console::http::Console;
 use firefleet_console::picture::Picture;
 use firefleet_console::site::SiteMap;
 use firefleet_console::tls::{TlsListener, server_config};
-use firefleet_protocol::CommanderId;
-use firefleet_protocol::scenario::Scenario;
+use firefleet_model::CommanderId;
+use firefleet_model::scenario::Scenario;
 use rcgen::{BasicConstraints, CertificateParams, DnType, IsCa, KeyPair, SanType};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
@@ -59,7 +59,7 @@ async fn a_login_over_https_sets_a_secure_cookie_and_plain_http_gets_nothing() {
         "correct horse",
     )
     .unwrap();
-    let text = include_str!("../../examples/scenarios/rail-tunnel.toml");
+    let text = include_str!("../../model/scenarios/rail-tunnel.toml");
     let scenario = Scenario::from_toml(text, "rail-tunnel.toml").unwrap();
     let (console, _requests) = Console::new(
         Picture::new(SiteMap::new(&scenario)),

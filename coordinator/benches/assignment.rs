@@ -9,7 +9,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use firefleet_coordinator::assign::{self, Candidate, Mobility, Need, Place, Site};
-use firefleet_protocol::{FireId, UnitId};
+use firefleet_model::profile::GROUND;
+use firefleet_model::{FireId, UnitId};
 use pathfinding::matrix::Matrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -22,7 +23,7 @@ fn instance(units: usize, fires: usize) -> (Vec<Candidate>, Vec<Need>) {
         .map(|i| Candidate {
             unit: UnitId::new(format!("u{i}")).unwrap(),
             at: p(),
-            mobility: Mobility::Ground { speed_m_s: 1.5 },
+            mobility: Mobility::Ground(*GROUND),
             water_l: 1500.0,
             heading_for: None,
         })

@@ -19,9 +19,10 @@
 //! has [`KEEP_S`] off its cost for its own fire, so it is replaced only for a real gain
 //! (hysteresis). Units spraying take no part: nobody is pulled off a fire it is spraying.
 
-use firefleet_protocol::msg::UnitKind;
-use firefleet_protocol::scenario::Tunnel;
-use firefleet_protocol::{Chainage, FireId, Point2, UnitId};
+use firefleet_model::UnitKind;
+use firefleet_model::scenario::Tunnel;
+use firefleet_model::spec::GroundSpec;
+use firefleet_model::{Chainage, FireId, Point2, UnitId};
 
 /// How the coordinator pairs units with fires.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -56,19 +57,22 @@ impl std::str::FromStr for Strategy {
     }
 }
 
-/// How a unit gets to a fire.
+/// How a unit gets to a fire, and what it brings: each unit as its own profile says.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Mobility {
-    /// Drives anywhere in the tunnel at up to `speed_m_s`.
-    Ground { speed_m_s: f64 },
+    /// Drives anywhere in the tunnel its body fits, as its profile says (speed, width,
+    /// cannon flow, camera).
+    Ground(GroundSpec),
     /// Runs along a rail from chainage `start_m` to `end_m` at lateral offset `y_m`, at up
-    /// to `speed_m_s`, and works fires within `reach_m` of the carriage.
+    /// to `speed_m_s`, works fires within `reach_m` of the carriage and sees them within
+    /// `detector_range_m` along the rail.
     Rail {
         start_m: f64,
         end_m: f64,
         y_m: f64,
         speed_m_s: f64,
         reach_m: f64,
+        detector_range_m: f64,
     },
 }
 
@@ -76,8 +80,16 @@ impl Mobility {
     /// The kind of unit that moves so.
     pub fn kind(&self) -> UnitKind {
         match self {
-            Mobility::Ground { .. } => UnitKind::Ground,
+            Mobility::Ground(_) => UnitKind::Ground,
             Mobility::Rail { .. } => UnitKind::Monorail,
+        }
+    }
+
+    /// A ground unit's cannon flow, L/s: what it adds to an attack on a fire.
+    pub fn cannon_flow_l_s(&self) -> Option<f64> {
+        match self {
+            Mobility::Ground(g) => Some(g.cannon_flow_l_s),
+            Mobility::Rail { .. } => None,
         }
     }
 
@@ -85,13 +97,14 @@ impl Mobility {
     /// never can.
     pub fn travel_s(&self, from: Point2, to: Point2) -> Option<f64> {
         match *self {
-            Mobility::Ground { speed_m_s } => Some(from.dist(to) / speed_m_s.max(0.1)),
+            Mobility::Ground(g) => Some(from.dist(to) / g.max_speed_m_s.max(0.1)),
             Mobility::Rail {
                 start_m,
                 end_m,
                 y_m,
                 speed_m_s,
                 reach_m,
+                ..
             } => {
                 let lateral = (to.y - y_m).abs();
                 if lateral > reach_m {
@@ -166,9 +179,9 @@ pub enum Road {
 
 /// Driving distances from anywhere to each fire (the coordinator's road map).
 pub trait Roads {
-    /// The road from `from` to `fire`. Called for every (unit, fire) pair of a solve, so
-    /// it should be a lookup.
-    fn road(&self, fire: FireId, from: &Place) -> Road;
+    /// The road from `from` to `fire` for a unit `width_m` wide: a wider body has fewer
+    /// roads. Called for every (unit, fire) pair of a solve, so it should be a lookup.
+    fn road(&self, fire: FireId, from: &Place, width_m: f64) -> Road;
 }
 
 /// What the site imposes on every pairing.
@@ -219,18 +232,36 @@ pub const KNOCKED_DOWN_KW: f64 = 20.0;
 /// way (and the tunnel cross-section has room for about three).
 pub const MAX_ATTACKERS: usize = 3;
 
-/// How many ground cannons of `flow_l_s` a fire of `hrr_kw` needs (1 if its size is
-/// unknown): enough water on its burning area that Evans' suppression correlation
+/// The water a fire of `hrr_kw` needs, L/s (`None` if its size is unknown or it is all
+/// but out): enough on its burning area that Evans' suppression correlation
 /// (`Q(t) = Q0 exp(-t / tau)`, `tau = 3 w''^-1.85` s for a spray density `w''` in mm/s;
 /// NISTIR 5254) brings it down to [`KNOCKED_DOWN_KW`] within [`KNOCKDOWN_S`].
-pub fn attackers_needed(hrr_kw: Option<f64>, flow_l_s: f64) -> usize {
-    let Some(q) = hrr_kw.filter(|q| *q > KNOCKED_DOWN_KW) else {
-        return 1;
-    };
+pub fn flow_needed_l_s(hrr_kw: Option<f64>) -> Option<f64> {
+    let q = hrr_kw.filter(|q| *q > KNOCKED_DOWN_KW)?;
     let tau = KNOCKDOWN_S / (q / KNOCKED_DOWN_KW).ln();
     let density_mm_s = (3.0 / tau).powf(1.0 / 1.85);
-    let flow = density_mm_s * q / HRR_PER_AREA_KW_M2;
-    ((flow / flow_l_s.max(0.1)).ceil() as usize).clamp(1, MAX_ATTACKERS)
+    Some(density_mm_s * q / HRR_PER_AREA_KW_M2)
+}
+
+/// How many ground cannons of `flow_l_s` a fire of `hrr_kw` needs (1 if its size is
+/// unknown), at most [`MAX_ATTACKERS`].
+pub fn attackers_needed(hrr_kw: Option<f64>, flow_l_s: f64) -> usize {
+    flow_needed_l_s(hrr_kw).map_or(1, |flow| {
+        ((flow / flow_l_s.max(0.1)).ceil() as usize).clamp(1, MAX_ATTACKERS)
+    })
+}
+
+/// Whether a fire of `hrr_kw` that `attackers` (their cannon flows, L/s) are on should
+/// get one more: fewer than `units_per_fire`, or less water than it needs, and never more
+/// than [`MAX_ATTACKERS`]. Counted in water, not heads, so one heavy cannon can do the
+/// work of three small ones.
+pub fn wants_another(hrr_kw: Option<f64>, attackers: &[f64], units_per_fire: usize) -> bool {
+    let n = attackers.len();
+    if n >= MAX_ATTACKERS.max(units_per_fire) {
+        return false;
+    }
+    let flow: f64 = attackers.iter().sum();
+    n < units_per_fire.max(1) || flow_needed_l_s(hrr_kw).is_some_and(|need| flow < need)
 }
 
 /// Travel time one level of zone priority outweighs, s: more than any trip in a tunnel.
@@ -295,15 +326,15 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f
         u.at.chainage.max(n.at.chainage),
     );
     let barred = match u.mobility {
-        Mobility::Ground { .. } => site.barred,
+        Mobility::Ground(_) => site.barred,
         Mobility::Rail { .. } => site.barred_rail,
     };
     if barred.iter().any(|&(s, e)| a < e && b > s) {
         return INFEASIBLE;
     }
     let road = match (u.mobility, site.roads) {
-        (Mobility::Ground { speed_m_s }, Some(roads)) => match roads.road(n.fire, &u.at) {
-            Road::Metres(d) => Some(Some(d / speed_m_s.max(0.1))),
+        (Mobility::Ground(g), Some(roads)) => match roads.road(n.fire, &u.at, g.width_m) {
+            Road::Metres(d) => Some(Some(d / g.max_speed_m_s.max(0.1))),
             Road::Blocked => Some(None),
             Road::Unmapped => None,
         },
@@ -315,7 +346,7 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f
     let passed = match u.mobility {
         // A carriage runs under the ceiling, over the fires.
         Mobility::Rail { .. } => 0,
-        Mobility::Ground { .. } => hazards_between,
+        Mobility::Ground(_) => hazards_between,
     };
     let thirsty = if u.water_l < WATER_NEEDED_L {
         LOW_WATER_S

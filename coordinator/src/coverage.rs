@@ -12,7 +12,7 @@
 //! and a fire can start in a stretch after it was seen; stretches go stale after a while
 //! and are searched again.
 
-use firefleet_protocol::Chainage;
+use firefleet_model::Chainage;
 
 /// Width of a coverage bin along the chainage, m.
 pub const BIN_M: f64 = 5.0;

@@ -23,12 +23,13 @@
 //!
 //! Pure: no I/O, no clock of its own.
 
+use firefleet_model::UnitKind;
+use firefleet_model::scenario::Zone;
+use firefleet_model::{Chainage, CommanderId, ZoneId};
 use firefleet_protocol::msg::{
-    Bar, BarredSpace, BarredSpan, GoalAck, GoalInForce, GoalKind, GoalsInForce, UnitKind, ZoneGoal,
+    Bar, BarredSpace, BarredSpan, GoalAck, GoalInForce, GoalKind, GoalsInForce, ZoneGoal,
     nearest_allowed,
 };
-use firefleet_protocol::scenario::Zone;
-use firefleet_protocol::{Chainage, CommanderId, ZoneId};
 
 /// A goal in force.
 #[derive(Debug, Clone, PartialEq)]
@@ -105,29 +106,31 @@ impl Goals {
                 format!("names zone '{}' but was sent on zone '{key_zone}'", g.zone),
             );
         }
-        if g.issued_by.is_empty() {
-            g.issued_by = by.to_string();
-        } else if by != g.issued_by.as_str() {
-            return ack(
-                &g,
-                false,
-                format!(
-                    "says it is issued by '{}' but was sent on commander '{by}''s key",
-                    g.issued_by
-                ),
-            );
+        match &g.issued_by {
+            None => g.issued_by = Some(by.clone()),
+            Some(named) if named != by => {
+                return ack(
+                    &g,
+                    false,
+                    format!(
+                        "says it is issued by '{named}' but was sent on commander '{by}''s key"
+                    ),
+                );
+            }
+            Some(_) => {}
         }
         if let Some(a) = self
             .active
             .iter()
-            .find(|a| a.goal.id == g.id && by != a.goal.issued_by.as_str())
+            .find(|a| a.goal.id == g.id && a.goal.issued_by.as_ref() != Some(by))
         {
             return ack(
                 &g,
                 false,
                 format!(
                     "goal '{}' in force was issued by '{}': only its issuer amends it",
-                    g.id, a.goal.issued_by
+                    g.id,
+                    a.goal.issuer()
                 ),
             );
         }
@@ -194,7 +197,7 @@ impl Goals {
         if g.until.is_some_and(|u| u <= t) {
             return ack(&g.goal, false, "lapsed while no coordinator ran");
         }
-        let Ok(by) = CommanderId::new(g.goal.issued_by.as_str()) else {
+        let Some(by) = g.goal.issued_by.clone() else {
             return ack(&g.goal, false, "names no commander as its issuer");
         };
         let a = self.submit(&g.goal.zone.clone(), &by, g.goal.clone(), g.since);
@@ -227,7 +230,7 @@ impl Goals {
         let (gone, kept): (Vec<Active>, _) = self
             .active
             .drain(..)
-            .partition(|a| &a.goal.zone == zone && by == a.goal.issued_by.as_str());
+            .partition(|a| &a.goal.zone == zone && a.goal.issued_by.as_ref() == Some(by));
         self.active = kept;
         self.revision += u64::from(!gone.is_empty());
         gone.into_iter().map(|a: Active| a.goal).collect()
@@ -335,7 +338,7 @@ mod tests {
             priority,
             before_m: (kind == GoalKind::Contain).then_some(60.0),
             expires_s: None,
-            issued_by: "ic".into(),
+            issued_by: Some(CommanderId::new("ic").unwrap()),
             rail_allowed: false,
         }
     }
@@ -426,21 +429,21 @@ mod tests {
         let rossi = CommanderId::new("rossi").unwrap();
         let mallory = CommanderId::new("mallory").unwrap();
         let mut unsigned = goal("k", "b", GoalKind::KeepOut, 0);
-        unsigned.issued_by = String::new();
+        unsigned.issued_by = None;
         assert!(g.submit(&zid("b"), &rossi, unsigned, 0.0).accepted);
         assert_eq!(
             g.active()[0].goal.issued_by,
-            "rossi",
+            Some(rossi.clone()),
             "filled in from the key"
         );
 
         let mut lie = goal("m", "a", GoalKind::Monitor, 0);
-        lie.issued_by = "rossi".into();
+        lie.issued_by = Some(rossi.clone());
         let a = g.submit(&zid("a"), &mallory, lie, 0.0);
         assert!(!a.accepted && a.reason.contains("'mallory''s key"), "{a:?}");
 
         let mut amend = goal("k", "b", GoalKind::Extinguish, 0);
-        amend.issued_by = String::new();
+        amend.issued_by = None;
         let a = g.submit(&zid("b"), &mallory, amend, 0.0);
         assert!(!a.accepted && a.reason.contains("only its issuer"), "{a:?}");
         assert!(g.clear(&zid("b"), &mallory).is_empty());

@@ -26,18 +26,16 @@ use std::future::Future;
 use std::sync::Arc;
 use std::time::Duration;
 
-use firefleet_protocol::ZoneId;
-use firefleet_protocol::bus::{Bus, BusError, Inbox};
-use firefleet_protocol::clock::{Clock, ExternalClock, SystemClock};
+use firefleet_bus::{Ask, Bus, BusError, Inbox};
+use firefleet_model::ZoneId;
+use firefleet_model::clock::{Clock, ExternalClock, SystemClock};
+use firefleet_model::scenario::Scenario;
+use firefleet_model::validate::Invalid;
 use firefleet_protocol::codec;
-use firefleet_protocol::keys::{self, Topic};
+use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
     FireTrack, GoalAck, GoalsInForce, SimClock, Task, UnitState, ZoneGoal, latest_per_fire,
 };
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::validate::Invalid;
-use zenoh::query::ConsolidationMode;
-use zenoh::sample::{Locality, SampleKind};
 
 use crate::assign::Strategy;
 use crate::incident::{Incident, Output};
@@ -83,24 +81,17 @@ pub async fn run(
     shutdown: impl Future<Output = ()>,
 ) -> Result<Ended, BusError> {
     let keys = bus.keys().clone();
-    let session = bus.session();
     let sim_time = ExternalClock::new(0.0);
     let clock: Arc<dyn Clock> = if opts.sim_clock {
         Arc::new(sim_time.clone())
     } else {
         Arc::new(SystemClock)
     };
-    let mut incident = Incident::from_scenario(scenario, opts.lease_s, opts.strategy);
+    let mut incident =
+        Incident::from_scenario(scenario, opts.lease_s, opts.strategy).map_err(BusError::new)?;
 
-    let _token = session
-        .liveliness()
-        .declare_token(keys.expr(&Topic::CoordAlive))
-        .await?;
-    let alive = session
-        .liveliness()
-        .declare_subscriber(keys.every_unit_alive())
-        .history(true)
-        .await?;
+    let _token = bus.token(&Topic::CoordAlive).await?;
+    let alive = bus.watch_tokens(&keys.every_unit_alive()).await?;
     // Room for two states of every unit: units publish in bursts.
     let states = bus
         .subscribe_with_capacity(
@@ -110,18 +101,17 @@ pub async fn run(
         .await?;
     let reports = bus.subscribe(&keys.every_unit_report()).await?;
     // Other coordinators' tasks: one of a newer epoch deposes this coordinator.
-    let rivals = session
-        .declare_subscriber(keys.every_unit_task().as_str())
-        .allowed_origin(Locality::Remote)
+    let mut rivals = bus
+        .subscribe_raw(&[keys.every_unit_task().as_str()], true)
         .await?;
     let clock_msgs = bus.subscribe(&keys.sim_clock()).await?;
     // `coord/status`, `coord/barred` and `coord/goals` are answered to queries.
-    let coord_q = session.declare_queryable(keys.every_coord()).await?;
+    let coord_q = bus.serve(&keys.every_coord()).await?;
     let mut told = Told::default();
     // Goals are read raw, not through the bus's typed inbox: a malformed goal must still
     // be answered, and a delete on a zone's goal key clears the zone.
-    let goals = session
-        .declare_subscriber(keys.every_zone_goal().as_str())
+    let mut goals = bus
+        .subscribe_raw(&[keys.every_zone_goal().as_str()], false)
         .await?;
 
     // Before the first decision, the site clock: a coordinator restarted mid-incident that
@@ -197,7 +187,7 @@ pub async fn run(
         let outputs: Result<Vec<Output>, Invalid> = tokio::select! {
             biased;
             _ = &mut shutdown => break,
-            Ok(sample) = rivals.recv_async() => match codec::decode::<Task>(&sample.payload().to_bytes()) {
+            Some(sample) = rivals.recv() => match codec::decode::<Task>(&sample.bytes) {
                 Ok(task) if incident.deposed_by(&task, clock.now()) => {
                     for d in incident.take_decisions() {
                         bus.put(&keys.coord_log(), &d.to_msg()).await?;
@@ -206,12 +196,12 @@ pub async fn run(
                     return Ok(Ended::Deposed { by: task.epoch });
                 }
                 Ok(_) => Ok(Vec::new()),
-                Err(e) => Err(Invalid::new("task", format!("another coordinator's task on '{}': {e}", sample.key_expr()))),
+                Err(e) => Err(Invalid::new("task", format!("another coordinator's task on '{}': {e}", sample.key))),
             },
             Some((_, c)) = clock_msgs.recv() => { sim_time.set(c.t); Ok(Vec::new()) }
-            Ok(sample) = alive.recv_async() => match keys::parse(sample.key_expr().as_str()) {
-                Ok((_, Topic::UnitAlive(unit))) => incident.on_alive(&unit, sample.kind() == SampleKind::Put, clock.now()),
-                _ => Err(Invalid::new("key", format!("'{}' is not a unit token", sample.key_expr()))),
+            Some((topic, up)) = alive.recv() => match topic {
+                Topic::UnitAlive(unit) => incident.on_alive(&unit, up, clock.now()),
+                other => Err(Invalid::new("key", format!("'{other}' is not a unit token"))),
             },
             Some((topic, r)) = reports.recv() => {
                 if topic == Topic::UnitReport(r.unit.clone()) {
@@ -220,19 +210,19 @@ pub async fn run(
                     Err(Invalid::new("unit", format!("report on '{topic}' names unit '{}'", r.unit)))
                 }
             }
-            Ok(sample) = goals.recv_async() => match keys::parse(sample.key_expr().as_str()) {
-                Ok((_, Topic::ZoneGoal(zone, by))) => {
+            Some(sample) = goals.recv() => match sample.topic() {
+                Some(Topic::ZoneGoal(zone, by)) => {
                     let t = clock.now();
-                    if sample.kind() == SampleKind::Delete {
+                    if sample.deleted {
                         Ok(incident.clear_goals(&zone, &by, t))
                     } else {
-                        let bytes = sample.payload().to_bytes();
-                        let (ack, out) = match codec::decode::<ZoneGoal>(&bytes) {
+                        let bytes = &sample.bytes;
+                        let (ack, out) = match codec::decode::<ZoneGoal>(bytes) {
                             Ok(goal) => incident.on_goal(&zone, &by, goal, t),
                             Err(e) => {
                                 bus.rejects().count_invalid();
                                 tracing::warn!(%zone, "malformed zone goal: {e}");
-                                (malformed(&bytes, &zone, &e), Vec::new())
+                                (malformed(bytes, &zone, &e), Vec::new())
                             }
                         };
                         bus.put(&keys.zone_ack(&zone), &ack).await?;
@@ -241,15 +231,15 @@ pub async fn run(
                 }
                 // Not a zone id or a commander at all (`zone/WEST/goal/x`): there is no ack key to answer
                 // on; refused and counted like any other bad message.
-                _ => Err(Invalid::new("key", format!("'{}' names no zone", sample.key_expr()))),
+                _ => Err(Invalid::new("key", format!("'{}' names no zone", sample.key))),
             },
-            Ok(query) = coord_q.recv_async() => {
+            Some(query) = coord_q.recv() => {
                 let t = clock.now();
-                let key = query.key_expr().as_str().to_owned();
-                let body = match keys::parse(&key) {
-                    Ok((_, Topic::CoordBarred)) => Some(codec::encode(&incident.barred_space(t))),
-                    Ok((_, Topic::CoordGoals)) => Some(codec::encode(&incident.goals_in_force(t))),
-                    Ok((_, Topic::CoordStatus)) => {
+                let key = query.key().to_owned();
+                let body = match query.topic() {
+                    Some(Topic::CoordBarred) => Some(codec::encode(&incident.barred_space(t))),
+                    Some(Topic::CoordGoals) => Some(codec::encode(&incident.goals_in_force(t))),
+                    Some(Topic::CoordStatus) => {
                         let mut body = incident.status(t);
                         body.rejected = bus.rejects().snapshot().into_iter().map(|(k, v)| (k.to_owned(), v)).collect();
                         Some(codec::encode(&body))
@@ -257,7 +247,7 @@ pub async fn run(
                     _ => None,
                 };
                 if let Some(body) = body
-                    && let Err(e) = query.reply(key.as_str(), body).await
+                    && let Err(e) = query.answer(&key, body).await
                 {
                     tracing::warn!(key, "reply failed: {e}");
                 }
@@ -381,25 +371,18 @@ impl Told {
 /// The newest goals in force anyone on `coord/goals` answers with (recorders do, for a
 /// coordinator that is gone); answers that do not decode are counted and logged.
 async fn recall_goals(bus: &Bus) -> Result<Option<GoalsInForce>, BusError> {
-    let replies = bus
-        .session()
-        .get(bus.keys().coord_goals().as_str())
-        // Not this coordinator's own queryable, which answers only once it runs: asked,
-        // it would hold the question open for the whole timeout.
-        .allowed_destination(Locality::Remote)
-        // Every recorder's answer, not one of them: the newest wins below.
-        .consolidation(ConsolidationMode::None)
-        .timeout(RECALL_TIMEOUT)
-        .await?;
+    // Not this coordinator's own queryable, which answers only once it runs; every
+    // recorder's answer, not one of them: the newest wins below.
+    let ask = Ask {
+        remote_only: true,
+        every_answer: true,
+        ..Ask::within(RECALL_TIMEOUT)
+    };
+    let answers = bus.ask(bus.keys().coord_goals().as_str(), ask).await?;
     let mut newest: Option<GoalsInForce> = None;
-    while let Ok(reply) = replies.recv_async().await {
-        let Ok(sample) = reply.result() else { continue };
-        match codec::decode::<GoalsInForce>(&sample.payload().to_bytes()) {
-            Ok(g) => newest = GoalsInForce::newer(Some(g), newest),
-            Err(e) => {
-                bus.rejects().count(&e);
-                tracing::warn!(key = %sample.key_expr(), "recalled goals refused: {e}");
-            }
+    for a in answers.all().await {
+        if let Some(g) = bus.decode::<GoalsInForce>(&a, "recalled goals") {
+            newest = GoalsInForce::newer(Some(g), newest);
         }
     }
     Ok(newest)
@@ -412,22 +395,18 @@ const RECALL_TIMEOUT: Duration = Duration::from_secs(2);
 /// with several answers for one fire, the newest wins. Answers that do not decode are
 /// counted and logged, never taken.
 async fn recall_fires(bus: &Bus) -> Result<Vec<FireTrack>, BusError> {
-    let replies = bus
-        .session()
-        .get(bus.keys().every_fire().as_str())
-        .timeout(RECALL_TIMEOUT)
+    let answers = bus
+        .ask(
+            bus.keys().every_fire().as_str(),
+            Ask::within(RECALL_TIMEOUT),
+        )
         .await?;
-    let mut tracks = Vec::new();
-    while let Ok(reply) = replies.recv_async().await {
-        let Ok(sample) = reply.result() else { continue };
-        match codec::decode::<FireTrack>(&sample.payload().to_bytes()) {
-            Ok(f) => tracks.push(f),
-            Err(e) => {
-                bus.rejects().count(&e);
-                tracing::warn!(key = %sample.key_expr(), "recalled fire track refused: {e}");
-            }
-        }
-    }
+    let tracks: Vec<FireTrack> = answers
+        .all()
+        .await
+        .iter()
+        .filter_map(|a| bus.decode::<FireTrack>(a, "recalled fire track"))
+        .collect();
     Ok(latest_per_fire(tracks))
 }
 

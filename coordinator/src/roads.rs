@@ -26,12 +26,11 @@
 
 use std::collections::BTreeMap;
 
+use firefleet_model::scenario::{Scenario, Tunnel};
+use firefleet_model::{Chainage, FireId, Point2};
 use firefleet_nav::Grid;
 use firefleet_nav::grid::NEIGHBOURS;
 use firefleet_nav::grid_search::CostGrid;
-use firefleet_protocol::scenario::{Scenario, Tunnel};
-use firefleet_protocol::spec::GROUND;
-use firefleet_protocol::{Chainage, FireId, Point2};
 
 use crate::assign::{Place, Road, Roads};
 
@@ -75,9 +74,9 @@ pub struct RoadMap {
 }
 
 impl RoadMap {
-    /// The road map of a site: its walls and parked vehicles.
-    pub fn from_scenario(scenario: &Scenario) -> Self {
-        let grid = Grid::from_scenario(scenario, RES_M, GROUND.width_m / 2.0);
+    /// The road map of a site for a unit `width_m` wide: its walls and parked vehicles.
+    pub fn from_scenario(scenario: &Scenario, width_m: f64) -> Self {
+        let grid = Grid::from_scenario(scenario, RES_M, width_m / 2.0);
         let component = components(&grid);
         Self {
             tunnel: scenario.tunnel.clone(),
@@ -266,8 +265,53 @@ fn components(grid: &Grid) -> Vec<u32> {
     label
 }
 
-impl Roads for RoadMap {
-    fn road(&self, fire: FireId, from: &Place) -> Road {
+/// A road map for each body width of a site's ground units: a 2.5 m robot has no road
+/// through a gap a 1 m one threads. Without maps (an incident built without a site file),
+/// every road is [`Road::Unmapped`] and straight lines stand in.
+#[derive(Debug, Clone, Default)]
+pub struct RoadMaps {
+    /// By width, m, ascending.
+    maps: Vec<(f64, RoadMap)>,
+}
+
+impl RoadMaps {
+    /// A map per distinct width in `widths_m`.
+    pub fn from_scenario(scenario: &Scenario, widths_m: impl IntoIterator<Item = f64>) -> Self {
+        let mut widths: Vec<f64> = widths_m.into_iter().collect();
+        widths.sort_by(f64::total_cmp);
+        widths.dedup();
+        Self {
+            maps: widths
+                .into_iter()
+                .map(|w| (w, RoadMap::from_scenario(scenario, w)))
+                .collect(),
+        }
+    }
+
+    /// Keep every map's fields for `fires` ([`RoadMap::track`]).
+    pub fn track(&mut self, fires: &[(FireId, Point2)]) {
+        for (_, m) in &mut self.maps {
+            m.track(fires);
+        }
+    }
+}
+
+impl Roads for RoadMaps {
+    fn road(&self, fire: FireId, from: &Place, width_m: f64) -> Road {
+        // The narrowest map at least as wide as the unit; a unit wider than every map
+        // (not one of the site's) gets the widest, the most cautious there is.
+        let map = self
+            .maps
+            .iter()
+            .find(|(w, _)| *w >= width_m)
+            .or(self.maps.last());
+        map.map_or(Road::Unmapped, |(_, m)| m.road(fire, from))
+    }
+}
+
+impl RoadMap {
+    /// The road from `from` to `fire` on this map.
+    pub fn road(&self, fire: FireId, from: &Place) -> Road {
         let Some(f) = self.fields.get(&fire) else {
             return Road::Unmapped;
         };
@@ -299,6 +343,8 @@ impl Roads for RoadMap {
 
 #[cfg(test)]
 mod tests {
+    use firefleet_model::profile::GROUND;
+
     use super::*;
 
     /// A 100 m two-lane tunnel with `extra` TOML (obstacles).
@@ -332,7 +378,7 @@ mod tests {
 
     #[test]
     fn on_an_open_road_the_distance_is_the_straight_line() {
-        let mut roads = RoadMap::from_scenario(&site(""));
+        let mut roads = RoadMap::from_scenario(&site(""), GROUND.width_m);
         let fire = (FireId(1), Point2::new(80.0, 1.0));
         roads.track(&[fire]);
         let d = metres(roads.road(fire.0, &here(20.0, -2.0)));
@@ -348,7 +394,7 @@ mod tests {
     fn a_fire_in_a_vehicle_is_reached_round_the_vehicles_in_the_way() {
         // The fire is in a car; a bus fills the near lane between it and the unit.
         let extra = obstacle("car", 80.0, 2.2, 4.5, 1.8) + &obstacle("bus", 50.0, -2.0, 12.0, 2.6);
-        let mut roads = RoadMap::from_scenario(&site(&extra));
+        let mut roads = RoadMap::from_scenario(&site(&extra), GROUND.width_m);
         let fire = (FireId(1), Point2::new(80.0, 2.2));
         roads.track(&[fire]);
         let from = Point2::new(30.0, -2.5);
@@ -364,7 +410,7 @@ mod tests {
     fn a_fire_behind_a_truck_across_the_tunnel_has_no_road() {
         // A jack-knifed truck leaves 0.6 m at the wall: no unit gets through.
         let extra = obstacle("truck", 50.0, 0.3, 3.0, 8.4);
-        let mut roads = RoadMap::from_scenario(&site(&extra));
+        let mut roads = RoadMap::from_scenario(&site(&extra), GROUND.width_m);
         let fire = (FireId(1), Point2::new(70.0, 0.0));
         roads.track(&[fire]);
         assert_eq!(roads.road(fire.0, &here(30.0, 0.0)), Road::Blocked);
@@ -379,7 +425,7 @@ mod tests {
         // 1 km: a fire at 100 m, a unit 700 m further on, and a truck across the road at
         // 900 m with a unit behind it.
         let extra = obstacle("truck", 900.0, 0.3, 3.0, 8.4);
-        let mut roads = RoadMap::from_scenario(&long_site(1000.0, &extra));
+        let mut roads = RoadMap::from_scenario(&long_site(1000.0, &extra), GROUND.width_m);
         let fire = (FireId(1), Point2::new(100.0, 1.0));
         roads.track(&[fire]);
         let far = Point2::new(800.0, -2.0);

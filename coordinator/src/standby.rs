@@ -33,13 +33,12 @@ use std::collections::BTreeMap;
 use std::future::Future;
 use std::time::Duration;
 
-use firefleet_protocol::FireId;
-use firefleet_protocol::bus::{Bus, BusError};
+use firefleet_bus::{Bus, BusError};
+use firefleet_model::FireId;
+use firefleet_model::scenario::Scenario;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{FireTrack, GoalsInForce};
-use firefleet_protocol::scenario::Scenario;
 use tokio::time::Instant;
-use zenoh::sample::SampleKind;
 
 use crate::node::{CoordinatorOptions, Ended, run};
 
@@ -53,12 +52,6 @@ const START_GRACE: Duration = Duration::from_secs(1);
 
 /// How often a standby cut off from the site looks whether it is linked again.
 const RELINK_POLL: Duration = Duration::from_millis(200);
-
-/// Whether this process is linked to the site: to a router, or (peer mode) to a peer.
-async fn linked(bus: &Bus) -> bool {
-    let info = bus.session().info();
-    info.routers_zid().await.next().is_some() || info.peers_zid().await.next().is_some()
-}
 
 /// Serve as one of the site's coordinators until `shutdown`: coordinate (as [`run`] does),
 /// first as a standby ([`follow`]) if `standby`; deposed, stand by again.
@@ -98,12 +91,7 @@ async fn follow(
     let keys = bus.keys().clone();
     let fires = bus.subscribe(&keys.every_fire()).await?;
     let goals = bus.subscribe(&keys.coord_goals()).await?;
-    let coordinator = bus
-        .session()
-        .liveliness()
-        .declare_subscriber(keys.expr(&Topic::CoordAlive))
-        .history(true)
-        .await?;
+    let coordinator = bus.watch_tokens(&keys.expr(&Topic::CoordAlive)).await?;
     let mut tracks: BTreeMap<FireId, FireTrack> = BTreeMap::new();
     let mut newest: Option<GoalsInForce> = None;
     let mut in_charge = false;
@@ -122,8 +110,8 @@ async fn follow(
                 }
             }
             Some((_, g)) = goals.recv() => newest = GoalsInForce::newer(Some(g), newest),
-            Ok(token) = coordinator.recv_async() => {
-                in_charge = token.kind() == SampleKind::Put;
+            Some((_, alive)) = coordinator.recv() => {
+                in_charge = alive;
                 if !in_charge {
                     tracing::warn!(rank, "the coordinator in charge is gone");
                     due = Instant::now() + RANK_STEP * rank;
@@ -134,7 +122,7 @@ async fn follow(
                 // cable cut) says nothing of the coordinator: take over only while linked
                 // to the site, and once linked again only after a starting standby's
                 // grace, in which the coordinator's token comes back if it is there.
-                let linked = linked(bus).await;
+                let linked = bus.connected().await;
                 match (linked, cut_off) {
                     (true, false) => break,
                     (true, true) => due = Instant::now() + START_GRACE + RANK_STEP * rank,

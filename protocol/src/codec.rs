@@ -6,7 +6,7 @@
 //! adding optional fields.
 
 use crate::msg::{Encoding, Message};
-use crate::validate::Invalid;
+use firefleet_model::validate::Invalid;
 
 /// Version of the postcard wire format. Bump on any incompatible change to a postcard
 /// message.
@@ -81,9 +81,9 @@ pub fn decode<M: Message>(bytes: &[u8]) -> Result<M, CodecError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{Point2, Pose2};
-    use crate::ids::{FireId, UnitId};
     use crate::msg::*;
+    use firefleet_model::geometry::{Point2, Pose2};
+    use firefleet_model::ids::{FireId, UnitId};
     use proptest::prelude::*;
 
     fn report(x: f64, conf: f64) -> FlameReport {

@@ -40,12 +40,12 @@
 use std::fmt;
 use std::marker::PhantomData;
 
-use crate::ids::{CommanderId, FireId, SiteId, UnitId, ZoneId};
 use crate::msg::{
     BarredSpace, BtTransitions, Decision, FireTrack, FlameReport, GoalAck, GoalsInForce, Message,
     RailCommand, RailSensors, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState,
     ZoneGoal,
 };
+use firefleet_model::ids::{CommanderId, FireId, SiteId, UnitId, ZoneId};
 
 const ROOT: &str = "ff";
 
@@ -290,7 +290,7 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
         ["unit", u, "bt"] => Topic::UnitBt(unit(u)?),
         ["fire", id] => Topic::Fire(
             id.parse()
-                .map_err(|e: crate::ids::IdError| err(e.to_string()))?,
+                .map_err(|e: firefleet_model::ids::IdError| err(e.to_string()))?,
         ),
         ["zone", z, "goal", by] => Topic::ZoneGoal(
             zone(z)?,

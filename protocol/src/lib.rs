@@ -1,35 +1,21 @@
-//! The contract between firefleet processes.
+//! The contract between firefleet processes: what travels between them and how.
 //!
-//! Everything two processes must agree on lives here and nowhere else: identifiers,
-//! message types, the key expressions they travel on, how they are encoded, what makes a
-//! message valid, the scenario (site) file format, and how time is read.
+//! Message types by direction ([`msg`]), the key expressions they travel on with the one
+//! table of which message goes on which key ([`keys`]), and how they are encoded and
+//! validated on the way in ([`codec`]); and [`payload`], the one typed decoder a recorder,
+//! a console or a checker reads any message of the fleet through, by its key. Robot-to-robot traffic is postcard behind a one-byte
+//! protocol version; commander-facing messages (zone goals, the incident status) are JSON
+//! so any Zenoh client can speak them.
 //!
-//! What this crate does not do: decide anything. It has no fleet logic; the simulator,
-//! the agents and the coordinator are built on top of it. The only I/O it owns is the thin
-//! [`bus`] wrapper that puts typed, validated messages on a Zenoh session.
-//!
-//! Encoding: robot-to-robot traffic is postcard behind a one-byte protocol version
-//! ([`codec`]); commander-facing messages (zone goals, the incident status) are JSON so any
-//! Zenoh client can speak them.
+//! Not here: what a site is (ids, geometry, tunnel, site file, profiles: `firefleet-model`)
+//! or how bytes reach the network (`firefleet-bus`). This crate does no I/O and has no
+//! Zenoh, so a reader of recordings or a console can decode messages without a transport.
 
-pub mod access;
-pub mod bus;
-pub mod clock;
 pub mod codec;
-pub mod geometry;
-pub mod ids;
 pub mod keys;
 pub mod msg;
-pub mod profile;
-pub mod scenario;
-pub mod spec;
+pub mod payload;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
-pub mod tunnel;
-pub mod validate;
 
 pub use codec::{CodecError, PROTOCOL_VERSION};
-pub use geometry::{Gaussian2, Point2, Pose2};
-pub use ids::{CommanderId, FireId, SiteId, UnitId, ZoneId};
-pub use tunnel::Chainage;
-pub use validate::{Invalid, Validate};

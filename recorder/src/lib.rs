@@ -3,8 +3,8 @@
 //! [`record`](mod@record) writes everything on a site's bus to an MCAP file (JSON messages with their
 //! JSON Schemas, liveliness changes, a Foxglove [`scene`] and log), and answers a
 //! restarted coordinator's query for the fire tracks it holds. [`reader`] takes the same
-//! tracks back from a file, [`replay`] tells a recording's story on site time, and
-//! [`payload`] is the one typed decoder all of them read the fleet's messages through.
+//! tracks back from a file, [`replay`] tells a recording's story on site time, all
+//! reading the fleet's messages through `firefleet_protocol::payload`.
 //! [`live`] serves the same channels over the Foxglove WebSocket protocol while the
 //! incident happens.
 //!
@@ -13,7 +13,6 @@
 
 pub mod live;
 pub mod parts;
-pub mod payload;
 pub mod reader;
 pub mod record;
 pub mod replay;

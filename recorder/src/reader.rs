@@ -5,7 +5,7 @@
 //! recorder did not live to merge from its parts, part by part ([`crate::parts`]). Not here:
 //! the timeline for people ([`crate::replay`]).
 
-use firefleet_protocol::SiteId;
+use firefleet_model::SiteId;
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{FireTrack, GoalsInForce, latest_per_fire};
 
@@ -75,8 +75,8 @@ pub fn incident_in(recording: &Recording, site: &SiteId) -> Result<Recorded, Not
 mod tests {
     use super::*;
     use crate::record::McapSink;
-    use firefleet_protocol::FireId;
-    use firefleet_protocol::geometry::Point2;
+    use firefleet_model::FireId;
+    use firefleet_model::geometry::Point2;
     use firefleet_protocol::msg::FireState;
 
     fn track(id: u32, t: f64) -> FireTrack {

@@ -32,19 +32,18 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{SystemTime, UNIX_EPOCH};
 
-use firefleet_protocol::FireId;
-use firefleet_protocol::bus::{Bus, BusError};
+use firefleet_bus::{Bus, BusError};
+use firefleet_model::FireId;
+use firefleet_model::scenario::Scenario;
 use firefleet_protocol::codec::PROTOCOL_VERSION;
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{BarredSpace, GoalsInForce};
-use firefleet_protocol::scenario::Scenario;
 use serde::Serialize;
-use zenoh::sample::SampleKind;
 
 use crate::live::Live;
 use crate::parts::{Index, Part, Recording, part_path, parts_dir};
-use crate::payload::{GoalClear, Liveliness, Payload};
 use crate::scene::{self, Fleet};
+use firefleet_protocol::payload::{GoalClear, Liveliness, Payload};
 
 /// Why recording failed.
 #[derive(Debug, thiserror::Error)]
@@ -428,15 +427,14 @@ pub async fn record(
     shutdown: impl Future<Output = ()>,
 ) -> Result<RecordSummary, RecordError> {
     let keys = bus.keys().clone();
-    let session = bus.session();
     let mut sink = Out::begin(path, live, scenario)?;
     let result = async {
-        let samples = session.declare_subscriber(keys.all()).await.map_err(BusError::from)?;
-        let tokens = session.liveliness().declare_subscriber(keys.all()).history(true).await.map_err(BusError::from)?;
-        let recall = session.declare_queryable(keys.every_fire().as_str()).await.map_err(BusError::from)?;
+        let mut samples = bus.subscribe_raw(&[&keys.all()], false).await?;
+        let tokens = bus.watch_tokens(&keys.all()).await?;
+        let recall = bus.serve(keys.every_fire().as_str()).await?;
         // The coordinator's state that outlives it: `coord/*` queries are answered with the
         // newest of `coord/barred` and `coord/goals` seen (by their site time).
-        let coord_q = session.declare_queryable(keys.every_coord()).await.map_err(BusError::from)?;
+        let coord_q = bus.serve(&keys.every_coord()).await?;
         // The latest track of every fire, as received: (its time, its key, its bytes).
         let mut fires: BTreeMap<FireId, (f64, String, Vec<u8>)> = BTreeMap::new();
         // Newest by key: (its time, its bytes).
@@ -470,40 +468,40 @@ pub async fn record(
                     }
                     new_part = false;
                 }
-                Ok(s) = tokens.recv_async() => {
-                    let alive = s.kind() == SampleKind::Put;
-                    if let Ok((_, Topic::UnitAlive(unit))) = keys::parse(s.key_expr().as_str()) {
+                Some((topic, alive)) = tokens.recv() => {
+                    let key = keys.expr(&topic);
+                    if let Topic::UnitAlive(unit) = topic {
                         fleet.token(unit, alive);
                     }
-                    let l = Liveliness { key: s.key_expr().to_string(), alive };
+                    let l = Liveliness { key, alive };
                     let json = serde_json::to_vec(&l).expect("serialises");
                     sink.write(&liveliness_topic, Liveliness::NAME, || schemars::schema_for!(Liveliness), &json, now_ns())?;
                 }
-                Ok(query) = recall.recv_async() => {
+                Some(query) = recall.recv() => {
                     for (_, key, bytes) in fires.values() {
-                        if let Err(e) = query.reply(key, bytes.clone()).await {
+                        if let Err(e) = query.answer(key, bytes.clone()).await {
                             tracing::warn!("fire track reply failed: {e}");
                         }
                     }
                 }
-                Ok(query) = coord_q.recv_async() => {
-                    let key = query.key_expr().as_str().to_owned();
+                Some(query) = coord_q.recv() => {
+                    let key = query.key().to_owned();
                     if let Some((_, bytes)) = newest.get(&key)
-                        && let Err(e) = query.reply(key.as_str(), bytes.clone()).await
+                        && let Err(e) = query.answer(&key, bytes.clone()).await
                     {
                         tracing::warn!(key, "reply failed: {e}");
                     }
                 }
-                Ok(s) = samples.recv_async() => {
-                    let key = s.key_expr().as_str();
-                    if s.kind() == SampleKind::Delete
-                        && let Ok((_, Topic::ZoneGoal(zone, by))) = keys::parse(key)
+                Some(s) = samples.recv() => {
+                    let key = s.key.as_str();
+                    if s.deleted
+                        && let Some(Topic::ZoneGoal(zone, by)) = s.topic()
                     {
                         let json = serde_json::to_vec(&GoalClear { zone, by }).expect("serialises");
                         sink.write(key, GoalClear::NAME, || schemars::schema_for!(GoalClear), &json, now_ns())?;
                         continue;
                     }
-                    let bytes = s.payload().to_bytes();
+                    let bytes = &s.bytes;
                     let parsed = keys::parse(key).map_err(|e| e.to_string())
                         .and_then(|(_, topic)| Payload::from_wire(&topic, &bytes).map_err(|e| e.to_string()));
                     let p = match parsed {
@@ -560,7 +558,7 @@ mod tests {
     #[test]
     fn every_recording_says_what_site_file_and_build_it_is_of() {
         let dir = tempfile::tempdir().unwrap();
-        let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenarios");
+        let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/scenarios");
         let mut files: Vec<_> = std::fs::read_dir(&examples)
             .unwrap()
             .map(|e| e.unwrap().path())

@@ -4,7 +4,7 @@
 //! decisions with their reasons, fire tracks changing state, what units were told is
 //! barred (when it changes), and (in a simulated run) the
 //! simulator's truth about each fire. Any MCAP file written by the recorder works. Records
-//! are read through the one typed decoder ([`crate::payload`]); a record that does not
+//! are read through the one typed decoder ([`firefleet_protocol::payload`]); a record that does not
 //! decode is passed over.
 //!
 //! Not here: reading the file from disk or printing to a terminal (the CLI's `replay`).
@@ -16,7 +16,7 @@ use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::Bar;
 
 use crate::parts::Recording;
-use crate::payload::{GoalClear, Liveliness, Payload};
+use firefleet_protocol::payload::{GoalClear, Liveliness, Payload};
 
 /// Why a timeline could not be written.
 #[derive(Debug, thiserror::Error)]

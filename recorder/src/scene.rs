@@ -21,18 +21,19 @@ use std::collections::BTreeMap;
 use base64::Engine;
 use base64::engine::general_purpose::STANDARD as BASE64;
 
-use firefleet_nav::hybrid_astar::{HeatSource, radiant_flux_kw_m2};
+use firefleet_model::UnitKind;
+use firefleet_model::heat::{HeatSource, radiant_flux_kw_m2};
+use firefleet_model::profile::GROUND;
+use firefleet_model::scenario::{Scenario, Tunnel};
+use firefleet_model::{Chainage, FireId, Point2, UnitId};
 use firefleet_protocol::msg::{
     Decision, FireState, FireTrack, GoalAck, GoalKind, GoalsInForce, SimTruth, TruthFireState,
-    UnitKind, UnitMode, UnitState,
+    UnitMode, UnitState,
 };
-use firefleet_protocol::scenario::{Scenario, Tunnel};
-use firefleet_protocol::spec::GROUND;
-use firefleet_protocol::{Chainage, FireId, Point2, UnitId};
 use schemars::JsonSchema;
 use serde::Serialize;
 
-use crate::payload::Payload;
+use firefleet_protocol::payload::Payload;
 
 /// Schema name Foxglove recognises.
 pub const SCHEMA_NAME: &str = "foxglove.SceneUpdate";
@@ -480,14 +481,6 @@ const WHITE: Color = Color {
     a: 1.0,
 };
 
-/// A unit variant's name as the JSON messages spell it (`keep-out`, `extinguishing`).
-fn name(v: impl Serialize) -> String {
-    match serde_json::to_value(v) {
-        Ok(serde_json::Value::String(s)) => s,
-        _ => String::new(),
-    }
-}
-
 const fn rgba(r: f64, g: f64, b: f64, a: f64) -> Color {
     Color { r, g, b, a }
 }
@@ -542,12 +535,7 @@ pub fn fleet_scene(s: &Scenario, fleet: &Fleet, ts: Time) -> SceneUpdate {
             zone_color(goal.map(|g| g.goal.goal)),
         ));
         let text = match goal {
-            Some(g) => format!(
-                "zone {}: {} (by {})",
-                z.id,
-                name(g.goal.goal),
-                g.goal.issued_by
-            ),
+            Some(g) => format!("zone {}: {} (by {})", z.id, g.goal.goal, g.goal.issuer()),
             None => format!("zone {}", z.id),
         };
         let at = t.point_at(z.start_m.midpoint(z.end_m), t.width_m / 2.0);
@@ -581,7 +569,7 @@ pub fn fleet_scene(s: &Scenario, fleet: &Fleet, ts: Time) -> SceneUpdate {
             top_scale: if f.state == FireState::Out { 1.0 } else { 0.3 },
             color: fire_color(f.state),
         });
-        let mut text = format!("{} {}", f.id, name(f.state));
+        let mut text = format!("{} {}", f.id, f.state);
         if let Some(q) = f.hrr_kw {
             text.push_str(&format!(" {:.1} MW", q / 1000.0));
         }
@@ -650,7 +638,7 @@ fn unit_entity(s: &Scenario, u: &UnitState, gone: bool, ts: Time) -> SceneEntity
         size,
         color,
     });
-    let mut text = format!("{} {}", u.unit, name(u.mode));
+    let mut text = format!("{} {}", u.unit, u.mode);
     if let Some(task) = &u.task {
         text.push_str(&format!(" on {}", task.fire));
     }
@@ -672,7 +660,7 @@ pub fn heat_grid(s: &Scenario, fleet: &Fleet, ts: Time) -> Grid {
     let sources: Vec<HeatSource> = fleet
         .fires
         .values()
-        .filter_map(HeatSource::of_track)
+        .filter_map(FireTrack::heat_source)
         .collect();
     let t = &s.tunnel;
     let (lo, hi) = t.bounds();
@@ -723,7 +711,7 @@ mod tests {
 
     fn rail_tunnel() -> Scenario {
         let path =
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenarios/rail-tunnel.toml");
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/scenarios/rail-tunnel.toml");
         Scenario::load(&path).unwrap()
     }
 
@@ -808,7 +796,7 @@ mod tests {
             priority: 0,
             before_m: None,
             expires_s: None,
-            issued_by: "chief".into(),
+            issued_by: Some(firefleet_model::CommanderId::new("chief").unwrap()),
             rail_allowed: false,
         };
         fleet.observe(&Payload::Goals(GoalsInForce {

@@ -103,7 +103,7 @@ impl Namespace {
     }
 
     /// The namespace of a firefleet unit: `ugv-1` -> `/ugv_1` (ROS names have no `-`).
-    pub fn of_unit(unit: &firefleet_protocol::UnitId) -> Self {
+    pub fn of_unit(unit: &firefleet_model::UnitId) -> Self {
         let name: String = unit
             .as_str()
             .chars()
@@ -380,7 +380,7 @@ mod tests {
         assert!(Domain::new(233).is_err());
         assert!(Topic::new(&Namespace::new("/a").unwrap(), "odom/", STRING).is_err());
         assert!(Topic::new(&Namespace::new("/a").unwrap(), "odom", "x/msg/Y").is_err());
-        let unit = |s| firefleet_protocol::UnitId::new(s).unwrap();
+        let unit = |s| firefleet_model::UnitId::new(s).unwrap();
         assert_eq!(Namespace::of_unit(&unit("ugv-1")).to_string(), "/ugv_1");
         assert_eq!(Namespace::of_unit(&unit("7")).to_string(), "/unit_7");
     }

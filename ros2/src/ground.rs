@@ -37,13 +37,13 @@
 
 use std::sync::{Arc, Mutex};
 
-use firefleet_protocol::UnitId;
-use firefleet_protocol::geometry::Pose2;
+use firefleet_model::UnitId;
+use firefleet_model::geometry::Pose2;
+use firefleet_model::spec::{CameraSpec, GroundSpec};
+use firefleet_model::validate::Validate;
 use firefleet_protocol::msg::{
     CannonState, DEPTH_WINDOW, FlameDetection, ObjectClass, UnitCommand, UnitSensors,
 };
-use firefleet_protocol::spec::{CameraSpec, GroundSpec};
-use firefleet_protocol::validate::Validate;
 use tokio::sync::mpsc;
 
 use crate::msg::*;
@@ -505,7 +505,7 @@ impl Robot {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firefleet_protocol::spec::GROUND;
+    use firefleet_model::profile::GROUND;
 
     #[test]
     fn a_detection_goes_through_ros_and_back_to_the_same_flame() {

@@ -37,6 +37,22 @@ fn zenoh_err(e: zenoh::Error) -> NodeError {
     NodeError::Zenoh(e.to_string())
 }
 
+/// A session of the robot's own: a peer of its rmw_zenoh router at `router` (e.g.
+/// `tcp/127.0.0.1:7447`), as ROS 2 nodes are, with multicast scouting off.
+pub async fn robot_session(router: &str) -> Result<Session, NodeError> {
+    let mut config = zenoh::Config::default();
+    let set = |c: &mut zenoh::Config, key: &str, value: &str| {
+        c.insert_json5(key, value)
+            .map_err(|e| NodeError::Zenoh(format!("{key}: {e}")))
+    };
+    set(&mut config, "mode", "\"peer\"")?;
+    set(&mut config, "scouting/multicast/enabled", "false")?;
+    let endpoints =
+        serde_json::to_string(&[router]).map_err(|e| NodeError::Zenoh(e.to_string()))?;
+    set(&mut config, "connect/endpoints", &endpoints)?;
+    zenoh::open(config).await.map_err(zenoh_err)
+}
+
 /// A ROS 2 node: announced while it lives.
 pub struct Node {
     session: Session,

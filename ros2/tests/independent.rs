@@ -11,11 +11,11 @@ use std::process::{Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use firefleet_protocol::UnitId;
-use firefleet_protocol::bus::{Connect, Mode, free_loopback_port};
-use firefleet_protocol::geometry::Pose2;
+use firefleet_bus::{Connect, Mode, free_loopback_port};
+use firefleet_model::UnitId;
+use firefleet_model::geometry::Pose2;
+use firefleet_model::profile::GROUND;
 use firefleet_protocol::msg::{CannonState, FlameDetection, ObjectClass, UnitCommand, UnitSensors};
-use firefleet_protocol::spec::GROUND;
 use firefleet_ros2::graph::{Attachment, Domain, Namespace};
 use firefleet_ros2::ground::{Body, Robot};
 use firefleet_ros2::msg::*;

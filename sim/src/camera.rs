@@ -7,11 +7,11 @@
 //! outside the image, or behind parked vehicles. A real detector replaces this stream and
 //! the agent cannot tell the difference.
 
-use firefleet_protocol::Point2;
-use firefleet_protocol::geometry::Pose2;
+use firefleet_model::Point2;
+use firefleet_model::geometry::Pose2;
+use firefleet_model::scenario::{Obstacle, Tunnel};
+use firefleet_model::spec::CameraSpec;
 use firefleet_protocol::msg::{DEPTH_WINDOW, FlameDetection, ObjectClass};
-use firefleet_protocol::scenario::{Obstacle, Tunnel};
-use firefleet_protocol::spec::CameraSpec;
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
 
@@ -203,7 +203,7 @@ pub fn detect(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firefleet_protocol::spec::GROUND;
+    use firefleet_model::profile::GROUND;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
@@ -324,7 +324,7 @@ mod tests {
 
     #[test]
     fn every_detection_is_a_valid_message() {
-        use firefleet_protocol::Validate;
+        use firefleet_model::Validate;
         let mut rng = ChaCha8Rng::seed_from_u64(4);
         // Small flames far away (boxes a few pixels high) and close ones.
         let flames = [

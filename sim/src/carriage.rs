@@ -9,11 +9,11 @@
 //! Not here: the monitor's control (the agent's CLIK) or water suppression
 //! ([`crate::world`]).
 
-use firefleet_protocol::UnitId;
-use firefleet_protocol::geometry::Pose2;
+use firefleet_model::UnitId;
+use firefleet_model::geometry::Pose2;
+use firefleet_model::scenario::Rail;
+use firefleet_model::spec::MonorailSpec;
 use firefleet_protocol::msg::{RailCommand, RailJoints};
-use firefleet_protocol::scenario::Rail;
-use firefleet_protocol::spec::MonorailSpec;
 
 use crate::camera::P3;
 
@@ -151,7 +151,7 @@ impl Carriage {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firefleet_protocol::spec::MONORAIL;
+    use firefleet_model::profile::MONORAIL;
 
     fn carriage() -> Carriage {
         let rail = Rail {

@@ -6,9 +6,9 @@
 //! flies at the fixed point of the two. The jet is stopped by the tunnel ceiling, the walls
 //! and parked vehicles; only water that reaches the road can land on a fire.
 
-use firefleet_protocol::Point2;
-use firefleet_protocol::scenario::{Obstacle, Tunnel};
-use firefleet_protocol::spec::NozzleSpec;
+use firefleet_model::Point2;
+use firefleet_model::scenario::{Obstacle, Tunnel};
+use firefleet_model::spec::NozzleSpec;
 
 use crate::camera::{P3, segment_hits};
 use crate::physics::G;
@@ -106,7 +106,7 @@ pub fn trace_at_speed(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firefleet_protocol::spec::GROUND;
+    use firefleet_model::profile::GROUND;
 
     const TUNNEL: Tunnel = Tunnel::straight(200.0, 10.0, 6.0, 2);
 

@@ -18,11 +18,11 @@ use std::collections::HashMap;
 use std::future::Future;
 use std::time::{Duration, Instant};
 
-use firefleet_protocol::UnitId;
-use firefleet_protocol::bus::{Bus, BusError, Inbox};
-use firefleet_protocol::keys::{self, Topic};
+use firefleet_bus::{Bus, BusError, Inbox};
+use firefleet_model::UnitId;
+use firefleet_model::scenario::Scenario;
+use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{Message, SimClock, SimTruth};
-use firefleet_protocol::scenario::Scenario;
 use firefleet_ros2::graph::{Domain, Namespace};
 use firefleet_ros2::ground::Body;
 use firefleet_ros2::node::{Node, NodeError};
@@ -182,7 +182,7 @@ async fn ros_bodies(
     for id in world.unit_ids() {
         let (spec, _) = world.ground_unit(id).expect("listed");
         let node = Node::new(
-            bus.session(),
+            bus.zenoh_session(),
             domain,
             Namespace::of_unit(id),
             "firefleet_sim",
@@ -222,16 +222,12 @@ async fn wait_for_fleet(bus: &Bus, scenario: &Scenario, coordinator: bool, limit
     let keys = bus.keys();
     let deadline = Instant::now() + limit;
     loop {
-        let mut alive = std::collections::HashSet::new();
-        if let Ok(replies) = bus.session().liveliness().get(keys.every_alive()).await {
-            while let Ok(reply) = replies.recv_async().await {
-                if let Ok(sample) = reply.result()
-                    && let Ok((_, topic)) = keys::parse(sample.key_expr().as_str())
-                {
-                    alive.insert(topic);
-                }
-            }
-        }
+        let alive: std::collections::HashSet<Topic> = bus
+            .tokens_alive(&keys.every_alive())
+            .await
+            .unwrap_or_default()
+            .into_iter()
+            .collect();
         let missing: Vec<String> = scenario
             .units
             .iter()

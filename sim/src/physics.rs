@@ -3,7 +3,7 @@
 //!
 //! Not here: state or time stepping ([`crate::world`]).
 
-use firefleet_protocol::scenario::Growth;
+use firefleet_model::scenario::Growth;
 
 /// Gravity, m/s^2.
 pub const G: f64 = 9.81;
@@ -67,7 +67,7 @@ pub fn jet_spread_radius_m(travel_m: f64) -> f64 {
 
 /// Probability that the flame detector misses a visible flame in one frame (a YOLOv8
 /// flame detector's recall is about 0.9 to 0.95 per frame; the BT paper reports over 90 %
-/// accuracy). Bearing and depth noise are the camera's, in [`GroundSpec`](firefleet_protocol::spec::GroundSpec).
+/// accuracy). Bearing and depth noise are the camera's, in [`GroundSpec`](firefleet_model::spec::GroundSpec).
 pub const DETECT_MISS_PROB: f64 = 0.05;
 
 /// Probability of a false alarm per frame (hot surfaces, headlights and reflections that a

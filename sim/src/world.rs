@@ -5,14 +5,15 @@
 //!
 //! Not here: the bus ([`crate::node`]) or wall-clock pacing.
 
-use firefleet_protocol::UnitId;
-use firefleet_protocol::geometry::{Point2, Pose2, wrap_angle};
+use firefleet_model::UnitId;
+use firefleet_model::UnitKind;
+use firefleet_model::geometry::{Point2, Pose2, wrap_angle};
+use firefleet_model::scenario::{FireSpec, Obstacle, Scenario, Tunnel};
+use firefleet_model::spec::GroundSpec;
 use firefleet_protocol::msg::{
     CannonState, HotSpot, RailCommand, RailSensors, SimTruth, TruthFire, TruthFireState, TruthUnit,
-    UnitCommand, UnitKind, UnitSensors,
+    UnitCommand, UnitSensors,
 };
-use firefleet_protocol::scenario::{FireSpec, Obstacle, Scenario, Tunnel};
-use firefleet_protocol::spec::GroundSpec;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -505,7 +506,7 @@ impl World {
                 name: format!("{}-spread", o.name),
                 x_m: o.x_m,
                 y_m: o.y_m,
-                growth: firefleet_protocol::scenario::Growth::Fast,
+                growth: firefleet_model::scenario::Growth::Fast,
                 peak_kw: (physics::VEHICLE_PEAK_KW_PER_M2 * area)
                     .clamp(physics::VEHICLE_PEAK_MIN_KW, physics::VEHICLE_PEAK_MAX_KW),
                 ignition_s: self.t,
@@ -626,7 +627,7 @@ impl World {
             let r = f
                 .spec
                 .position()
-                .dist(firefleet_protocol::Point2::new(m[0], m[1]));
+                .dist(firefleet_model::Point2::new(m[0], m[1]));
             temperature_c += physics::ceiling_jet_rise_c(f.hrr_kw, r, m[2]);
             let centre = f.flame_centre();
             let range = (r * r + (m[2] - centre[2]).powi(2)).sqrt();
@@ -640,7 +641,7 @@ impl World {
             let sigma = spec.hot_spot_sigma_a_m + spec.hot_spot_sigma_b * range;
             let noise = Normal::new(0.0, sigma).expect("sigma is positive");
             hot_spots.push(HotSpot {
-                position: firefleet_protocol::Point2::new(
+                position: firefleet_model::Point2::new(
                     f.spec.x_m + noise.sample(&mut self.rng),
                     f.spec.y_m + noise.sample(&mut self.rng),
                 ),

@@ -11,12 +11,13 @@ use clap::{Args, ValueEnum};
 use firefleet_agent::ground::GroundController;
 use firefleet_agent::monorail::MonorailController;
 use firefleet_agent::{AgentOptions, Ros2Platform, SimPlatform};
-use firefleet_protocol::UnitId;
-use firefleet_protocol::bus::{Connect, Mode};
-use firefleet_protocol::msg::UnitKind;
+use firefleet_model::UnitId;
+use firefleet_model::builtin;
+
+use firefleet_model::UnitKind;
 use firefleet_ros2::graph::{Domain, Namespace};
 
-use super::{ScenarioArg, positive_f64, scenarios};
+use super::{ScenarioArg, positive_f64};
 use crate::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
@@ -70,7 +71,7 @@ struct RosArgs {
 }
 
 pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let scenario = builtin::resolve(&a.scenario.scenario)?;
     if scenario.unit(&a.unit).is_none() {
         anyhow::bail!(
             "--unit {}: the scenario '{}' has no such unit",
@@ -106,10 +107,14 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
                 PlatformKind::Ros2 => {
                     let (domain, namespace) = a.ros.place(&a.unit)?;
                     let own = match &a.ros.ros_router {
-                        Some(router) => Some(ros_session(router).await?),
+                        Some(router) => Some(
+                            firefleet_ros2::node::robot_session(router)
+                                .await
+                                .with_context(|| format!("--ros-router {router}"))?,
+                        ),
                         None => None,
                     };
-                    let session = own.as_ref().unwrap_or(bus.session());
+                    let session = own.as_ref().unwrap_or(bus.zenoh_session());
                     tracing::info!(%namespace, %domain, "driving a ROS 2 robot");
                     let platform =
                         Ros2Platform::ground(session, domain, namespace, &a.unit, body).await?;
@@ -154,17 +159,4 @@ impl RosArgs {
         };
         Ok((domain, namespace))
     }
-}
-
-/// A session of the robot's own: a peer of its rmw_zenoh router, as ROS 2 nodes are.
-async fn ros_session(router: &str) -> anyhow::Result<zenoh::Session> {
-    let config = Connect {
-        mode: Some(Mode::Peer),
-        connect: vec![router.to_owned()],
-        ..Connect::default()
-    }
-    .to_config()?;
-    zenoh::open(config)
-        .await
-        .map_err(|e| anyhow::anyhow!("--ros-router {router}: {e}"))
 }

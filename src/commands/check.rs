@@ -4,7 +4,7 @@
 //! every violation and exits 1 if there is any.
 //!
 //! Not here: the invariants themselves (`firefleet_coordinator::invariants`) or reading
-//! MCAP records (`firefleet_recorder::payload`); this command only feeds one to the other.
+//! MCAP records (`firefleet_protocol::payload`); this command only feeds one to the other.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -13,13 +13,14 @@ use anyhow::Context;
 use clap::Args;
 use firefleet_coordinator::incident::LEASE_S;
 use firefleet_coordinator::invariants::{Event, Invariants, Tally, Violation};
+use firefleet_model::builtin;
+use firefleet_model::scenario::Scenario;
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{SimTruth, TruthFireState};
-use firefleet_protocol::scenario::Scenario;
+use firefleet_protocol::payload::{GoalClear, Payload};
 use firefleet_recorder::parts::Recording;
-use firefleet_recorder::payload::{GoalClear, Payload};
 
-use super::{ScenarioArg, positive_f64, scenarios};
+use super::{ScenarioArg, positive_f64};
 
 #[derive(Args, Debug)]
 pub struct CheckArgs {
@@ -35,7 +36,7 @@ pub struct CheckArgs {
 }
 
 pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let scenario = builtin::resolve(&a.scenario.scenario)?;
     let recording = Recording::load(&a.file)?;
     let checked =
         check(&recording, &scenario, a.lease_s).with_context(|| a.file.display().to_string())?;

@@ -1,12 +1,10 @@
 //! `firefleet console`: the incident commander's web console, a Zenoh client like any other
 //! role; `firefleet console add-user` makes its logins.
 //!
-//! This is the edge of `firefleet_console`: it hears everything on the site's bus (unit
-//! states, fire tracks, goals in force, decisions, answers, tokens), decodes and validates
-//! it with the recorder's one decoder, feeds the picture, ticks the stream, and carries
-//! commanders' goals to the bus and their answers back.
+//! This command joins the bus, binds the page's port and starts the console's parts: its
+//! bus edge (`firefleet_console::node`), the stream's ticker and the HTTP server.
 //!
-//! Not here: the picture, the page or logins (`firefleet_console`).
+//! Not here: the picture, the page, logins or the bus edge (`firefleet_console`).
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -14,22 +12,18 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
 
+use super::{ScenarioArg, positive_f64};
+use crate::net::{ZenohArgs, join, shutdown_signal};
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use firefleet_console::auth::{Sessions, Users};
-use firefleet_console::http::{Console, GoalRequest, TICK};
-use firefleet_console::picture::{Event, Picture};
+use firefleet_console::http::{Console, TICK};
+use firefleet_console::node;
+use firefleet_console::picture::Picture;
 use firefleet_console::site::SiteMap;
 use firefleet_console::tls::{TlsListener, server_config};
-use firefleet_protocol::CommanderId;
-use firefleet_protocol::bus::Bus;
-use firefleet_protocol::keys::{self, Topic};
-use firefleet_recorder::payload::Payload;
-use tokio::sync::mpsc;
-
-use super::goal::{ACK_TIMEOUT, issue};
-use super::{ScenarioArg, positive_f64, scenarios};
-use crate::net::{ZenohArgs, join, shutdown_signal};
+use firefleet_model::CommanderId;
+use firefleet_model::builtin;
 
 #[derive(Args, Debug)]
 #[command(args_conflicts_with_subcommands = true)]
@@ -101,7 +95,7 @@ fn add_user(a: AddUserArgs) -> anyhow::Result<ExitCode> {
 }
 
 async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let scenario = builtin::resolve(&a.scenario.scenario)?;
     let users = match &a.users {
         Some(path) => Users::load(path)?,
         None => {
@@ -127,12 +121,12 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
     let feed = {
         let (bus, console) = (bus.clone(), console.clone());
         tokio::spawn(async move {
-            if let Err(e) = feed(bus, console).await {
-                tracing::error!("the console no longer hears the bus: {e:#}");
+            if let Err(e) = node::feed(&bus, &console).await {
+                tracing::error!("the console no longer hears the bus: {e}");
             }
         })
     };
-    let goals = tokio::spawn(carry_goals(bus.clone(), requests));
+    let goals = tokio::spawn(node::carry_goals(bus.clone(), requests));
     let (feed, goals) = (feed.abort_handle(), goals.abort_handle());
     let ticker = {
         let console = console.clone();
@@ -169,99 +163,4 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
     }
     served.context("serving the console")?;
     Ok(ExitCode::SUCCESS)
-}
-
-/// What the picture is made of, into it: unit states, fire tracks, goals in force,
-/// decisions, goal answers and the site clock (not the simulator's sensors and commands,
-/// the bulk of a large fleet's traffic), and the tokens. A sample that does not decode or
-/// validate is logged and dropped; the console keeps going.
-async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> anyhow::Result<()> {
-    let keys = bus.keys();
-    let session = bus.session();
-    let wanted = [
-        keys.every_unit_state().as_str().to_owned(),
-        keys.every_fire().as_str().to_owned(),
-        keys.every_zone_ack().as_str().to_owned(),
-        keys.expr(&Topic::CoordGoals),
-        keys.expr(&Topic::CoordLog),
-        keys.expr(&Topic::SimClock),
-    ];
-    // One queue for all of them, drained below: a full Zenoh inbox would stall the session.
-    let (tx, mut samples) = mpsc::unbounded_channel::<zenoh::sample::Sample>();
-    let mut subscribers = Vec::new();
-    for key in wanted {
-        let tx = tx.clone();
-        let subscriber = session
-            .declare_subscriber(key.as_str())
-            .callback(move |s| {
-                let _ = tx.send(s);
-            })
-            .await
-            .map_err(|e| anyhow::anyhow!("subscribing to {key}: {e}"))?;
-        subscribers.push(subscriber);
-    }
-    let tokens = session
-        .liveliness()
-        .declare_subscriber(keys.all())
-        .history(true)
-        .await
-        .map_err(|e| anyhow::anyhow!("following tokens: {e}"))?;
-    loop {
-        tokio::select! {
-            Ok(s) = tokens.recv_async() => {
-                let alive = s.kind() == zenoh::sample::SampleKind::Put;
-                match keys::parse(s.key_expr().as_str()) {
-                    Ok((_, Topic::UnitAlive(unit))) => console.observe(Event::UnitAlive(unit, alive)),
-                    Ok((_, Topic::CoordAlive)) => console.observe(Event::CoordinatorAlive(alive)),
-                    _ => {}
-                }
-            }
-            Some(s) = samples.recv() => {
-                if s.kind() != zenoh::sample::SampleKind::Put {
-                    continue;
-                }
-                let key = s.key_expr().as_str();
-                let decoded = keys::parse(key)
-                    .map_err(|e| e.to_string())
-                    .and_then(|(_, topic)| {
-                        Payload::from_wire(&topic, &s.payload().to_bytes()).map_err(|e| e.to_string())
-                    });
-                match decoded {
-                    Ok(payload) => console.observe(Event::Message(payload)),
-                    Err(e) => tracing::debug!("{key}: dropped ({e})"),
-                }
-            }
-            else => anyhow::bail!("the bus closed"),
-        }
-    }
-}
-
-/// Commanders' goals to the bus, each answered on its own task so a slow answer holds up
-/// no other commander.
-async fn carry_goals(bus: Arc<Bus>, mut requests: mpsc::Receiver<GoalRequest>) {
-    while let Some(request) = requests.recv().await {
-        let bus = bus.clone();
-        tokio::spawn(async move {
-            match request {
-                GoalRequest::Set { goal, reply } => {
-                    let answer = match CommanderId::new(goal.issued_by.as_str()) {
-                        Ok(by) => issue(&bus, &goal, &by, ACK_TIMEOUT)
-                            .await
-                            .map_err(|e| e.to_string()),
-                        Err(e) => Err(e.to_string()),
-                    };
-                    let _ = reply.send(answer);
-                }
-                GoalRequest::Clear { zone, by, reply } => {
-                    let key = bus.keys().zone_goal(&zone, &by);
-                    let answer = bus
-                        .session()
-                        .delete(key.as_str())
-                        .await
-                        .map_err(|e| format!("clearing {}: {e}", key.as_str()));
-                    let _ = reply.send(answer);
-                }
-            }
-        });
-    }
 }

@@ -9,12 +9,13 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 use firefleet_coordinator::CoordinatorOptions;
-use firefleet_protocol::SiteId;
+use firefleet_model::SiteId;
+use firefleet_model::builtin;
 use firefleet_protocol::msg::EPOCH_RANKS;
 use firefleet_recorder::parts::Recording;
 use firefleet_recorder::reader::Recorded;
 
-use super::{ScenarioArg, positive_f64, scenarios};
+use super::{ScenarioArg, positive_f64};
 use crate::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
@@ -52,7 +53,7 @@ pub struct CoordinatorArgs {
 }
 
 pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let scenario = builtin::resolve(&a.scenario.scenario)?;
     let bus = join(&a.zenoh, &scenario).await?;
     let resumed = match &a.resume {
         Some(path) => recorded(path, &scenario.site)?,

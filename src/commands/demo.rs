@@ -21,21 +21,22 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::Args;
-use firefleet_protocol::access::Identity;
-use firefleet_protocol::bus::{Bus, Connect, Mode, free_loopback_port};
+use firefleet_bus::access::Identity;
+use firefleet_bus::{Bus, Connect, Mode, free_loopback_port};
+use firefleet_model::UnitKind;
+use firefleet_model::builtin;
+use firefleet_model::scenario::Scenario;
+use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::msg::{
-    GoalAck, GoalKind, SimTruth, TruthFireState, UnitKind, UnitState, ZoneGoal,
+    GoalAck, GoalForm, GoalKind, SimTruth, TruthFireState, UnitState, ZoneGoal,
 };
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::validate::Validate;
-use firefleet_protocol::{CommanderId, ZoneId};
 use serde::Serialize;
 use tokio::process::{Child, Command};
 
 use super::agent::PlatformKind;
 use super::deploy::{Layout, render_site};
 use super::pki::site_pki;
-use super::{non_negative_f64, positive_f64, scenarios, write_json};
+use super::{non_negative_f64, positive_f64, write_json};
 use crate::net::shutdown_signal;
 
 #[derive(Args, Debug)]
@@ -105,7 +106,9 @@ pub struct DemoArgs {
 const STANDBY_ROLE: &str = "coordinator:standby";
 
 /// The commander the demo issues its `--goal`s as.
-const DEMO_COMMANDER: &str = "demo";
+fn demo_commander() -> CommanderId {
+    CommanderId::new("demo").expect("a valid commander name")
+}
 
 /// A `--goal` argument as a goal for `scenario`'s zones.
 fn parse_goal(arg: &str, scenario: &Scenario) -> anyhow::Result<ZoneGoal> {
@@ -131,8 +134,9 @@ fn parse_goal(arg: &str, scenario: &Scenario) -> anyhow::Result<ZoneGoal> {
         scenario.zones.iter().any(|z| z.id == zone),
         "--goal {arg}: the scenario has no zone '{zone}'"
     );
-    let goal: GoalKind = serde_json::from_value(serde_json::Value::String(kind.to_owned()))
-        .map_err(|_| anyhow::anyhow!("--goal {arg}: '{kind}' is not a goal (extinguish, contain@CHAINAGE, monitor, keep-out, evacuate)"))?;
+    let goal: GoalKind = kind
+        .parse()
+        .map_err(|e| anyhow::anyhow!("--goal {arg}: {e}; contain takes @CHAINAGE"))?;
     anyhow::ensure!(
         goal != GoalKind::Contain || before_m.is_some(),
         "--goal {arg}: contain needs the line the front must not pass: {zone}:contain@CHAINAGE"
@@ -143,18 +147,15 @@ fn parse_goal(arg: &str, scenario: &Scenario) -> anyhow::Result<ZoneGoal> {
         })?,
         None => 0,
     };
-    let g = ZoneGoal {
-        id: format!("demo-{zone}-{kind}"),
-        zone,
-        goal,
+    let form = GoalForm {
+        id: Some(format!("demo-{zone}-{goal}")),
         priority,
         before_m,
-        expires_s: None,
-        issued_by: DEMO_COMMANDER.into(),
         rail_allowed,
+        ..GoalForm::new(zone, goal)
     };
-    g.validate().with_context(|| format!("--goal {arg}"))?;
-    Ok(g)
+    form.issued_by(demo_commander())
+        .with_context(|| format!("--goal {arg}"))
 }
 
 #[derive(Serialize)]
@@ -203,7 +204,7 @@ enum Outcome {
 }
 
 pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.scenario)?;
+    let scenario = builtin::resolve(&a.scenario)?;
     let goals = a
         .goal
         .iter()
@@ -211,7 +212,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         .collect::<anyhow::Result<Vec<_>>>()?;
     let seed = a.seed.unwrap_or(scenario.seed);
     let port = free_loopback_port().context("finding a free loopback port")?;
-    let commander = CommanderId::new(DEMO_COMMANDER)?;
+    let commander = demo_commander();
     let site = a
         .secure
         .then(|| SecureSite::make(&scenario, a.pki.clone(), port, &commander))
@@ -377,7 +378,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         tokio::select! {
             _ = &mut shutdown => break Outcome::Interrupted,
             Some((_, st)) = states.recv() => {
-                modes.insert(st.unit.to_string(), serde_json::to_value(st.mode)?.as_str().unwrap_or("?").to_owned());
+                modes.insert(st.unit.to_string(), st.mode.as_str().to_owned());
             }
             Some((_, ack)) = acks.recv() => {
                 if ack.accepted && let Some(g) = goals.iter().find(|g| g.id == ack.id && g.zone == ack.zone) {

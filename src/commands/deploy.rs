@@ -10,7 +10,7 @@
 //! that would take plain links or has no access rules, unless told `--plain` (the
 //! loopback demo and tests that do not test security).
 //!
-//! Not here: the rules themselves (`firefleet_protocol::access`), certificates (`pki`).
+//! Not here: the rules themselves (`firefleet_bus::access`), certificates (`pki`).
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -18,13 +18,14 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
-use firefleet_protocol::CommanderId;
-use firefleet_protocol::access::{self, Identity, Op};
-use firefleet_protocol::bus::{Bus, Connect, Mode, tls_link};
-use firefleet_protocol::scenario::Scenario;
+use firefleet_bus::access::{self, Identity, Op};
+use firefleet_bus::{Bus, Connect, Mode, tls_link};
+use firefleet_model::CommanderId;
+use firefleet_model::builtin;
+use firefleet_model::scenario::Scenario;
 use serde_json::{Value, json};
 
-use super::{ScenarioArg, scenarios};
+use super::ScenarioArg;
 use crate::net::{ZenohArgs, shutdown_signal};
 
 #[derive(Subcommand, Debug)]
@@ -87,7 +88,7 @@ pub fn run(cmd: DeployCommand) -> anyhow::Result<ExitCode> {
 }
 
 fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let scenario = builtin::resolve(&a.scenario.scenario)?;
     let identities = render_site(&scenario, &a.layout)?;
     println!(
         "site '{}': router.json5, {} client configurations and ACCESS.md in {}",
@@ -218,7 +219,7 @@ pub fn access_table(
 }
 
 pub async fn router(a: RouterArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let scenario = builtin::resolve(&a.scenario.scenario)?;
     let mut connect: Connect = a.zenoh.connect();
     connect.mode = Some(Mode::Router);
     let config = connect.to_config()?;

@@ -2,22 +2,21 @@
 //!
 //! A goal is JSON on `ff/<site>/zone/<zone>/goal/<commander>`; the coordinator answers
 //! every goal on `ff/<site>/zone/<zone>/ack`, and a delete on the goal key clears that
-//! commander's goals on the zone. This command
-//! is one client of that API; any Zenoh client can do the same (see the README).
+//! commander's goals on the zone. This command is one client of that API
+//! (`firefleet_bus::goal`); any Zenoh client can do the same (see the README).
 //!
 //! Not here: how the coordinator applies goals (`firefleet_coordinator::goals`).
 
 use std::process::ExitCode;
-use std::time::Duration;
 
+use anyhow::Context;
 use clap::{Args, Subcommand};
-use firefleet_protocol::bus::Bus;
-use firefleet_protocol::msg::{GoalAck, GoalKind, ZoneGoal};
-use firefleet_protocol::validate::Validate;
-use firefleet_protocol::{CommanderId, ZoneId};
+use firefleet_bus::goal;
+use firefleet_model::builtin;
+use firefleet_model::{CommanderId, ZoneId};
+use firefleet_protocol::msg::{GoalForm, GoalKind};
 
-use super::status::print_goals;
-use super::{ScenarioArg, scenarios};
+use super::ScenarioArg;
 use crate::net::{ZenohArgs, open, query_status};
 
 #[derive(Subcommand, Debug)]
@@ -45,7 +44,7 @@ pub struct SetArgs {
     #[arg(long)]
     zone: ZoneId,
     /// extinguish, contain, monitor, keep-out or evacuate.
-    #[arg(long, value_parser = parse_kind)]
+    #[arg(long)]
     goal: GoalKind,
     /// The goal's id (default: the zone and the goal, e.g. `z3-keep-out`).
     #[arg(long)]
@@ -88,65 +87,28 @@ pub struct ClearArgs {
     by: Issuer,
 }
 
-fn parse_kind(s: &str) -> Result<GoalKind, String> {
-    serde_json::from_value(serde_json::Value::String(s.to_owned())).map_err(|_| {
-        format!("'{s}' is not a goal (extinguish, contain, monitor, keep-out, evacuate)")
-    })
-}
-
-/// How long to wait for the coordinator's answer.
-pub const ACK_TIMEOUT: Duration = Duration::from_secs(5);
-
-/// Put `goal` under commander `by` and wait up to `within` for the coordinator's answer,
-/// putting it again every second meanwhile: a goal is idempotent (the same id amends),
-/// and a coordinator that was taking over or a link that dropped the first put still
-/// hears it.
-pub async fn issue(
-    bus: &Bus,
-    goal: &ZoneGoal,
-    by: &CommanderId,
-    within: Duration,
-) -> anyhow::Result<GoalAck> {
-    let keys = bus.keys();
-    let acks = bus.subscribe::<GoalAck>(&keys.zone_ack(&goal.zone)).await?;
-    let deadline = tokio::time::Instant::now() + within;
-    while tokio::time::Instant::now() < deadline {
-        bus.put(&keys.zone_goal(&goal.zone, by), goal).await?;
-        let resend = (tokio::time::Instant::now() + Duration::from_secs(1)).min(deadline);
-        loop {
-            match tokio::time::timeout_at(resend, acks.recv()).await {
-                Ok(Some((_, ack))) if ack.id == goal.id => return Ok(ack),
-                Ok(Some(_)) => {}
-                Ok(None) => anyhow::bail!("the bus closed before the coordinator answered"),
-                Err(_) => break,
-            }
-        }
-    }
-    anyhow::bail!(
-        "no answer from a coordinator within {:.0} s",
-        within.as_secs_f64()
-    )
-}
-
 pub async fn run(cmd: GoalCommand) -> anyhow::Result<ExitCode> {
     match cmd {
         GoalCommand::Set(a) => set(a).await,
         GoalCommand::List(a) => {
-            let scenario = scenarios::resolve(&a.scenario.scenario)?;
+            let scenario = builtin::resolve(&a.scenario.scenario)?;
             let bus = open(&a.zenoh, &scenario).await?;
             let (status, _) = query_status(&bus).await?;
-            print_goals(&status.goals);
+            if status.goals.is_empty() {
+                println!("  (none)");
+            }
+            for g in &status.goals {
+                println!("  {g}");
+            }
             bus.close().await;
             Ok(ExitCode::SUCCESS)
         }
         GoalCommand::Clear(a) => {
-            let scenario = scenarios::resolve(&a.common.scenario.scenario)?;
+            let scenario = builtin::resolve(&a.common.scenario.scenario)?;
             let bus = open(&a.common.zenoh, &scenario).await?;
-            let key = bus.keys().zone_goal(&a.zone, &a.by.name);
-            bus.session()
-                .delete(key.as_str())
+            goal::clear(&bus, &a.zone, &a.by.name)
                 .await
-                .map_err(|e| anyhow::anyhow!("clearing {}: {e}", key.as_str()))?;
+                .with_context(|| format!("clearing {}'s goals on zone {}", a.by.name, a.zone))?;
             println!("cleared {}'s goals on zone {}", a.by.name, a.zone);
             bus.close().await;
             Ok(ExitCode::SUCCESS)
@@ -155,25 +117,20 @@ pub async fn run(cmd: GoalCommand) -> anyhow::Result<ExitCode> {
 }
 
 async fn set(a: SetArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.common.scenario.scenario)?;
-    let kind = serde_json::to_value(a.goal)?
-        .as_str()
-        .unwrap_or_default()
-        .to_owned();
-    let goal = ZoneGoal {
-        id: a.id.unwrap_or_else(|| format!("{}-{kind}", a.zone)),
-        zone: a.zone.clone(),
-        goal: a.goal,
+    let scenario = builtin::resolve(&a.common.scenario.scenario)?;
+    let form = GoalForm {
+        id: a.id,
         priority: a.priority,
         before_m: a.before_m,
         expires_s: a.expires_s,
-        issued_by: a.by.name.to_string(),
         rail_allowed: a.rail_allowed,
+        ..GoalForm::new(a.zone, a.goal)
     };
-    goal.validate()
+    let goal = form
+        .issued_by(a.by.name.clone())
         .map_err(|e| anyhow::anyhow!("the goal is not valid: {e}"))?;
     let bus = open(&a.common.zenoh, &scenario).await?;
-    let ack = issue(&bus, &goal, &a.by.name, ACK_TIMEOUT).await;
+    let ack = goal::issue(&bus, &goal, &a.by.name, goal::ACK_TIMEOUT).await;
     bus.close().await;
     let ack = ack?;
     if ack.accepted {

@@ -30,11 +30,12 @@ use rcgen::{
     KeyPair, KeyUsagePurpose, SanType,
 };
 
-use firefleet_protocol::CommanderId;
-use firefleet_protocol::access::Identity;
-use firefleet_protocol::scenario::Scenario;
+use firefleet_bus::access::Identity;
+use firefleet_model::CommanderId;
+use firefleet_model::builtin;
+use firefleet_model::scenario::Scenario;
 
-use super::{ScenarioArg, scenarios};
+use super::ScenarioArg;
 
 #[derive(Subcommand, Debug)]
 pub enum PkiCommand {
@@ -99,7 +100,7 @@ pub fn run(cmd: PkiCommand) -> anyhow::Result<ExitCode> {
 }
 
 fn init(a: InitArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let scenario = builtin::resolve(&a.scenario.scenario)?;
     let commanders = a
         .commander
         .iter()

@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
+use firefleet_model::builtin;
 use firefleet_nav::costmap::{Ga, Terrain, TimeModel};
 use firefleet_nav::movingai;
 use serde::Serialize;
@@ -68,7 +69,7 @@ fn tune(a: TuneArgs) -> anyhow::Result<ExitCode> {
         "--res-m {}: must be within [0.1, 5] m",
         a.res_m
     );
-    let s = crate::commands::scenarios::resolve(&a.scenario)?;
+    let s = builtin::resolve(&a.scenario)?;
     let unit = s.units.first().context("the scenario has no unit")?;
     let terrain = Terrain::from_scenario(&s, a.res_m);
     let t = &s.tunnel;

@@ -8,10 +8,11 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::Args;
+use firefleet_model::builtin;
 use firefleet_recorder::live::Live;
 use firefleet_recorder::parts::PART_EVERY;
 
-use super::{ScenarioArg, positive_f64, scenarios};
+use super::{ScenarioArg, positive_f64};
 use crate::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
@@ -45,7 +46,7 @@ fn part_seconds(s: &str) -> Result<f64, String> {
 }
 
 pub async fn run(a: RecordArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let scenario = builtin::resolve(&a.scenario.scenario)?;
     let live = match a.foxglove {
         Some(addr) => {
             let listener = tokio::net::TcpListener::bind(addr)

@@ -65,8 +65,8 @@ pub fn run(a: SchemaArgs) -> anyhow::Result<ExitCode> {
 
 #[cfg(test)]
 mod tests {
-    use firefleet_protocol::FireId;
-    use firefleet_protocol::Point2;
+    use firefleet_model::FireId;
+    use firefleet_model::Point2;
     use firefleet_protocol::msg::{FireState, FireTrack};
 
     use super::*;

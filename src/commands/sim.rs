@@ -7,10 +7,11 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::Args;
+use firefleet_model::builtin;
 use firefleet_ros2::graph::Domain;
 use firefleet_sim::SimOptions;
 
-use super::{ScenarioArg, positive_f64, scenarios};
+use super::{ScenarioArg, positive_f64};
 use crate::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
@@ -42,7 +43,7 @@ pub struct SimArgs {
 }
 
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let scenario = builtin::resolve(&a.scenario.scenario)?;
     let bus = join(&a.zenoh, &scenario).await?;
     let opts = SimOptions {
         seed: a.seed.unwrap_or(scenario.seed),

@@ -5,9 +5,10 @@
 use std::process::ExitCode;
 
 use clap::Args;
-use firefleet_protocol::msg::{IncidentStatus, ZoneGoal};
+use firefleet_model::builtin;
+use firefleet_protocol::msg::IncidentStatus;
 
-use super::{ScenarioArg, scenarios};
+use super::ScenarioArg;
 use crate::net::{ZenohArgs, open, query_status};
 
 #[derive(Args, Debug)]
@@ -22,7 +23,7 @@ pub struct StatusArgs {
 }
 
 pub async fn run(a: StatusArgs) -> anyhow::Result<ExitCode> {
-    let scenario = scenarios::resolve(&a.scenario.scenario)?;
+    let scenario = builtin::resolve(&a.scenario.scenario)?;
     let bus = open(&a.zenoh, &scenario).await?;
     let (status, bytes) = query_status(&bus).await?;
     if a.json {
@@ -34,45 +35,15 @@ pub async fn run(a: StatusArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The goals in force, one a line.
-pub fn print_goals(goals: &[ZoneGoal]) {
-    if goals.is_empty() {
-        println!("  (none)");
-    }
-    for g in goals {
-        let kind = serde_json::to_value(g.goal)
-            .ok()
-            .and_then(|v| v.as_str().map(str::to_owned))
-            .unwrap_or_default();
-        let before = g
-            .before_m
-            .map_or(String::new(), |b| format!(" before {b:.1} m"));
-        let expires = g
-            .expires_s
-            .map_or(String::new(), |e| format!(", expires after {e:.0} s"));
-        println!(
-            "  {:12} zone {:8} {kind}{before}  priority {}  by '{}'{expires}",
-            g.id,
-            g.zone.as_str(),
-            g.priority,
-            g.issued_by
-        );
-    }
-}
-
 fn print_status(s: &IncidentStatus) {
     println!("site time {:.1} s", s.t);
     println!("fires:");
     for f in &s.fires {
         let assigned: Vec<String> = f.assigned.iter().map(ToString::to_string).collect();
-        let state = serde_json::to_value(f.state)
-            .ok()
-            .and_then(|v| v.as_str().map(str::to_owned))
-            .unwrap_or_default();
         println!(
             "  {:5} {:11} at ({:6.1}, {:5.1})  confidence {:.2}  assigned [{}]",
             f.id.to_string(),
-            state,
+            f.state.as_str(),
             f.position.x,
             f.position.y,
             f.confidence,
@@ -81,11 +52,7 @@ fn print_status(s: &IncidentStatus) {
     }
     println!("units:");
     for u in &s.units {
-        let mode = u
-            .state
-            .as_ref()
-            .and_then(|st| serde_json::to_value(st.mode).ok())
-            .and_then(|v| v.as_str().map(str::to_owned));
+        let mode = u.state.as_ref().map(|st| st.mode.as_str());
         let task = u
             .task
             .as_ref()
@@ -98,12 +65,17 @@ fn print_status(s: &IncidentStatus) {
             "  {:10} {:6} {:13} water {:6.0} L  task {task}{why}",
             u.unit.as_str(),
             if u.alive { "alive" } else { "lost" },
-            mode.as_deref().unwrap_or("-"),
+            mode.unwrap_or("-"),
             u.state.as_ref().map_or(0.0, |st| st.water_l),
         );
     }
     println!("goals:");
-    print_goals(&s.goals);
+    if s.goals.is_empty() {
+        println!("  (none)");
+    }
+    for g in &s.goals {
+        println!("  {g}");
+    }
     if s.rejected.values().any(|n| *n > 0) {
         println!("rejected messages: {:?}", s.rejected);
     }

@@ -6,8 +6,8 @@
 
 use std::process::{Child, Command, Output, Stdio};
 
-use firefleet_protocol::SiteId;
-use firefleet_protocol::bus::{Bus, Connect, Mode, free_loopback_port};
+use firefleet_bus::{Bus, Connect, Mode, free_loopback_port};
+use firefleet_model::SiteId;
 
 pub const BIN: &str = env!("CARGO_BIN_EXE_firefleet");
 

@@ -15,7 +15,7 @@
 //! (1.5 deg at 2 m, 0.75 deg at 18 m): good enough to aim, but the exact solution costs
 //! nothing more. `equation_12_against_the_exact_solution` prints the table.
 
-use firefleet_protocol::spec::NozzleSpec;
+use firefleet_model::spec::NozzleSpec;
 
 /// Gravity, m/s^2.
 const G: f64 = 9.81;
@@ -107,7 +107,7 @@ pub fn equation_12(nozzle: &NozzleSpec, d: f64, dz: f64, sign: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firefleet_protocol::spec::GROUND;
+    use firefleet_model::profile::GROUND;
     use proptest::prelude::*;
 
     proptest! {

@@ -14,9 +14,9 @@ pub mod unit;
 use std::sync::Arc;
 
 use firefleet_bt::xml::{self, Document, XmlErrors};
-use firefleet_protocol::UnitId;
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::spec::GroundSpec;
+use firefleet_model::UnitId;
+use firefleet_model::scenario::Scenario;
+use firefleet_model::spec::GroundSpec;
 
 use crate::controller::Controller;
 use unit::Unit;

@@ -10,9 +10,9 @@
 //! Not here: tracking flames over time ([`crate::ground::tracker`]) or any image processing before
 //! the detector's boxes.
 
-use firefleet_protocol::geometry::{Gaussian2, Point2, Pose2};
+use firefleet_model::geometry::{Gaussian2, Point2, Pose2};
+use firefleet_model::spec::CameraSpec;
 use firefleet_protocol::msg::FlameDetection;
-use firefleet_protocol::spec::CameraSpec;
 
 /// A detection placed in the site frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,8 +61,8 @@ pub fn locate(d: &FlameDetection, cam: &CameraSpec, pose: &Pose2) -> Option<Loca
 #[cfg(test)]
 mod tests {
     use super::*;
+    use firefleet_model::profile::GROUND;
     use firefleet_protocol::msg::ObjectClass;
-    use firefleet_protocol::spec::GROUND;
     use proptest::prelude::*;
 
     #[test]

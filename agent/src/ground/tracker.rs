@@ -5,9 +5,9 @@
 //! fused into it. Tracks not seen for [`STALE_S`] are dropped. A track is confirmed after
 //! [`CONFIRM_HITS`] hits, which suppresses one-frame false alarms.
 
-use firefleet_protocol::geometry::{Gaussian2, Point2};
+use firefleet_model::geometry::{Gaussian2, Point2};
+use firefleet_model::spec::GroundSpec;
 use firefleet_protocol::msg::{FlameObservation, MAX_HRR_KW, UnitSensors};
-use firefleet_protocol::spec::GroundSpec;
 
 use crate::ground::perception;
 
@@ -124,10 +124,10 @@ impl FlameTracker {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firefleet_protocol::UnitId;
-    use firefleet_protocol::geometry::Pose2;
+    use firefleet_model::UnitId;
+    use firefleet_model::geometry::Pose2;
+    use firefleet_model::profile::GROUND;
     use firefleet_protocol::msg::{CannonState, FlameDetection, ObjectClass};
-    use firefleet_protocol::spec::GROUND;
 
     fn frame(t: f64, pose: Pose2, dets: Vec<FlameDetection>) -> UnitSensors {
         UnitSensors {

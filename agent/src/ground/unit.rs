@@ -21,21 +21,23 @@
 
 use std::sync::Arc;
 
-use firefleet_protocol::geometry::{Point2, Pose2, wrap_angle};
+use firefleet_model::UnitKind;
+use firefleet_model::geometry::{Point2, Pose2, wrap_angle};
+use firefleet_model::scenario::{Scenario, Tunnel};
+use firefleet_model::spec::GroundSpec;
+use firefleet_model::{Chainage, UnitId};
 use firefleet_protocol::msg::{
-    CLEAR_OF_BARRED_M, FlameReport, INSIDE_PORTAL_M, TaskKind, UnitCommand, UnitKind, UnitMode,
-    UnitSensors, UnitState, nearest_allowed,
+    CLEAR_OF_BARRED_M, FlameReport, INSIDE_PORTAL_M, TaskKind, UnitCommand, UnitMode, UnitSensors,
+    UnitState, nearest_allowed,
 };
-use firefleet_protocol::scenario::{Scenario, Tunnel};
-use firefleet_protocol::spec::GroundSpec;
-use firefleet_protocol::{Chainage, UnitId};
 
 use crate::controller::Services;
 use crate::mission::{Mission, Responder};
 
 use crate::ground::aim;
 use crate::ground::tracker::FlameTracker;
-use firefleet_nav::hybrid_astar::{Footprint, HeatSource, HybridAStar, Params};
+use firefleet_model::heat::HeatSource;
+use firefleet_nav::hybrid_astar::{Footprint, HybridAStar, Params};
 use firefleet_nav::{self as nav, Follow, Grid, PurePursuit, Route};
 
 /// Preferred distances from a fire to fire from, m, in order of preference. 5 to 6 m keeps

@@ -4,7 +4,7 @@
 //!
 //! Not here: the kinematics themselves ([`super::kinematics`]).
 
-use firefleet_protocol::Point2;
+use firefleet_model::Point2;
 use nalgebra::Vector2;
 
 /// Where a rail's base frame sits in the site: the rail runs along +x from `(x0, y0)`, with

@@ -6,7 +6,7 @@
 
 use firefleet_bt::node::Io;
 use firefleet_bt::{Port, Registry, StatefulAction, Status};
-use firefleet_protocol::Point2;
+use firefleet_model::Point2;
 use firefleet_protocol::msg::TaskKind;
 
 use super::RailUnit;

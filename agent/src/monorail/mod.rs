@@ -37,14 +37,15 @@ pub mod planner;
 use std::sync::Arc;
 
 use firefleet_bt::xml::{self, Document, XmlErrors};
-use firefleet_protocol::Chainage;
+use firefleet_model::Chainage;
+use firefleet_model::UnitKind;
+use firefleet_model::scenario::{Rail, Scenario, Tunnel};
+use firefleet_model::spec::{MAINS_WATER_L, MonorailSpec};
+use firefleet_model::{Point2, Pose2, UnitId};
 use firefleet_protocol::msg::{
     CLEAR_OF_BARRED_M, FlameObservation, FlameReport, RailCommand, RailJoints, RailSensors,
-    UnitKind, UnitMode, UnitState, nearest_allowed,
+    UnitMode, UnitState, nearest_allowed,
 };
-use firefleet_protocol::scenario::{Rail, Scenario, Tunnel};
-use firefleet_protocol::spec::{MAINS_WATER_L, MonorailSpec};
-use firefleet_protocol::{Point2, Pose2, UnitId};
 
 use crate::controller::{Controller, Services};
 use crate::mission::{Mission, Responder};
@@ -556,7 +557,7 @@ pub fn registry() -> firefleet_bt::Registry<RailUnit> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firefleet_protocol::spec::MONORAIL;
+    use firefleet_model::profile::MONORAIL;
 
     #[test]
     fn the_working_reach_is_within_the_jets_range_at_two_thirds_of_full_speed() {

@@ -4,9 +4,9 @@
 use std::sync::Arc;
 
 use firefleet_agent::ground::GroundController;
-use firefleet_protocol::UnitId;
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::spec::GROUND;
+use firefleet_model::UnitId;
+use firefleet_model::scenario::Scenario;
+use firefleet_model::profile::GROUND;
 use firefleet_sim::World;
 
 

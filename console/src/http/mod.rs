@@ -10,7 +10,7 @@
 //! POST   /api/login             {"name", "password"} -> a session cookie
 //! POST   /api/logout
 //! GET    /api/me                who is logged in (401 if nobody)
-//! POST   /api/goals             a goal (GoalForm) -> the coordinator's ack   [login]
+//! POST   /api/goals             a goal (`firefleet_protocol::msg::GoalForm`) -> the ack   [login]
 //! DELETE /api/goals/{zone}      clear the login's goals on the zone          [login]
 //! POST   /api/alerts/{id}/ack   acknowledge an alert                         [login]
 //! ```
@@ -34,9 +34,8 @@ use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{delete, get, post};
 use axum::{Json, Router};
-use firefleet_protocol::msg::{GoalAck, GoalKind, ZoneGoal};
-use firefleet_protocol::validate::Validate;
-use firefleet_protocol::{CommanderId, ZoneId};
+use firefleet_model::{CommanderId, ZoneId};
+use firefleet_protocol::msg::{GoalAck, GoalForm, ZoneGoal};
 use serde::Deserialize;
 use serde_json::json;
 use tokio::sync::{broadcast, mpsc, oneshot};
@@ -66,25 +65,6 @@ pub enum GoalRequest {
         by: CommanderId,
         reply: oneshot::Sender<Result<(), String>>,
     },
-}
-
-/// A goal as the page sends it: a [`ZoneGoal`] without its issuer.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct GoalForm {
-    pub zone: ZoneId,
-    pub goal: GoalKind,
-    /// Default: `<zone>-<goal>`.
-    #[serde(default)]
-    pub id: Option<String>,
-    #[serde(default)]
-    pub priority: u8,
-    #[serde(default)]
-    pub before_m: Option<f64>,
-    #[serde(default)]
-    pub expires_s: Option<f64>,
-    #[serde(default)]
-    pub rail_allowed: bool,
 }
 
 #[derive(Debug, Deserialize)]
@@ -337,23 +317,10 @@ async fn set_goal(
             format!("zone: the site has no zone '{}'", form.zone),
         );
     }
-    let kind = serde_json::to_value(form.goal)
-        .ok()
-        .and_then(|v| v.as_str().map(str::to_owned))
-        .unwrap_or_default();
-    let goal = ZoneGoal {
-        id: form.id.unwrap_or_else(|| format!("{}-{kind}", form.zone)),
-        zone: form.zone,
-        goal: form.goal,
-        priority: form.priority,
-        before_m: form.before_m,
-        expires_s: form.expires_s,
-        issued_by: who.to_string(),
-        rail_allowed: form.rail_allowed,
+    let goal = match form.issued_by(who.clone()) {
+        Ok(g) => g,
+        Err(e) => return error(StatusCode::BAD_REQUEST, e.to_string()),
     };
-    if let Err(e) = goal.validate() {
-        return error(StatusCode::BAD_REQUEST, e.to_string());
-    }
     tracing::info!(
         "console: {who} sets goal '{}' on zone {}",
         goal.id,

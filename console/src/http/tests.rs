@@ -4,7 +4,7 @@ use super::*;
 use crate::site::SiteMap;
 use axum::body::Body;
 use axum::http::Request;
-use firefleet_protocol::scenario::Scenario;
+use firefleet_model::scenario::Scenario;
 use tower::ServiceExt;
 
 struct Fixture {
@@ -14,7 +14,7 @@ struct Fixture {
 }
 
 fn fixture() -> Fixture {
-    let text = include_str!("../../../examples/scenarios/rail-tunnel.toml");
+    let text = include_str!("../../../model/scenarios/rail-tunnel.toml");
     let scenario = Scenario::from_toml(text, "rail-tunnel.toml").unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("users.toml");
@@ -126,7 +126,7 @@ async fn a_goal_is_issued_under_the_login_and_answered_with_the_ack() {
             id: goal.id.clone(),
             zone: goal.zone.clone(),
             accepted: true,
-            reason: format!("keep-out by {}", goal.issued_by),
+            reason: format!("keep-out by {}", goal.issuer()),
         };
         reply.send(Ok(ack)).unwrap();
         goal
@@ -137,7 +137,7 @@ async fn a_goal_is_issued_under_the_login_and_answered_with_the_ack() {
     assert_eq!(ack["accepted"], true);
     assert_eq!(ack["id"], "deep-keep-out");
     let goal = coordinator.await.unwrap();
-    assert_eq!(goal.issued_by, "rossi");
+    assert_eq!(goal.issuer(), "rossi");
 }
 
 #[tokio::test]
@@ -184,7 +184,7 @@ async fn a_bad_goal_is_refused_naming_what_is_wrong() {
 async fn an_alert_is_acknowledged_by_the_login() {
     let f = fixture();
     let cookie = log_in(&f.console).await;
-    let unit = firefleet_protocol::UnitId::new("ugv-1").unwrap();
+    let unit = firefleet_model::UnitId::new("ugv-1").unwrap();
     f.console.observe(Event::UnitAlive(unit.clone(), true));
     f.console.observe(Event::UnitAlive(unit, false));
     let (_, _, incident) = call(&f.console, "GET", "/api/incident", None, None).await;

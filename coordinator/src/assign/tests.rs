@@ -1,12 +1,17 @@
 //! The parent module's tests.
 
+use firefleet_model::profile::GROUND;
+
 use super::*;
 
 fn cand(id: &str, x: f64) -> Candidate {
     Candidate {
         unit: UnitId::new(id).unwrap(),
         at: Place::straight(x, 0.0),
-        mobility: Mobility::Ground { speed_m_s: 1.0 },
+        mobility: Mobility::Ground(GroundSpec {
+            max_speed_m_s: 1.0,
+            ..*GROUND
+        }),
         water_l: 1500.0,
         heading_for: None,
     }
@@ -83,7 +88,10 @@ fn at(id: &str, x: f64, y: f64) -> Candidate {
     Candidate {
         unit: UnitId::new(id).unwrap(),
         at: Place::straight(x, y),
-        mobility: Mobility::Ground { speed_m_s: 1.0 },
+        mobility: Mobility::Ground(GroundSpec {
+            max_speed_m_s: 1.0,
+            ..*GROUND
+        }),
         water_l: 1500.0,
         heading_for: None,
     }
@@ -215,6 +223,7 @@ fn rail(id: &str, x: f64) -> Candidate {
             y_m: 0.0,
             speed_m_s: 10.0,
             reach_m: 15.0,
+            detector_range_m: 30.0,
         },
         water_l: 1e5,
         heading_for: None,

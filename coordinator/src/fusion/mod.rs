@@ -19,9 +19,9 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use firefleet_protocol::geometry::{Gaussian2, Point2};
+use firefleet_model::geometry::{Gaussian2, Point2};
+use firefleet_model::{FireId, UnitId};
 use firefleet_protocol::msg::{FireState, FireTrack, FlameObservation};
-use firefleet_protocol::{FireId, UnitId};
 
 pub mod witness;
 

@@ -29,7 +29,7 @@
 
 use std::collections::BTreeMap;
 
-use firefleet_protocol::UnitId;
+use firefleet_model::UnitId;
 
 /// Seconds in all that another unit must have a claimed flame in clear view, without
 /// reporting it, to contradict the claim: a flame in clear view is reported within a

@@ -6,8 +6,8 @@
 
 use std::fmt;
 
+use firefleet_model::{Chainage, FireId, Point2, UnitId, ZoneId};
 use firefleet_protocol::msg::{self, FireTrack, GoalKind, ZoneGoal};
-use firefleet_protocol::{Chainage, FireId, Point2, UnitId, ZoneId};
 
 use crate::fusion::witness::{CONTRADICT_AFTER_S, Record};
 
@@ -237,7 +237,11 @@ impl fmt::Display for Decision {
                 write!(
                     f,
                     "goal '{}' ({:?}, priority {}) on zone {} from '{}'",
-                    g.id, g.goal, g.priority, g.zone, g.issued_by
+                    g.id,
+                    g.goal,
+                    g.priority,
+                    g.zone,
+                    g.issuer()
                 )?;
                 if *accepted {
                     write!(f, ": {reason}")

@@ -6,11 +6,11 @@
 
 use std::collections::BTreeSet;
 
-use firefleet_protocol::msg::{FireState, TaskKind, UnitKind, UnitMode};
-use firefleet_protocol::spec::GROUND;
-use firefleet_protocol::{FireId, Point2, UnitId};
+use firefleet_model::UnitKind;
+use firefleet_model::{FireId, Point2, UnitId};
+use firefleet_protocol::msg::{FireState, TaskKind, UnitMode};
 
-use crate::assign::{Candidate, Mobility, Need, Pick, Place, Roads, Site, attackers_needed};
+use crate::assign::{Candidate, Mobility, Need, Pick, Place, Roads, Site, wants_another};
 use crate::fusion::Fire;
 
 use super::{Decision, Incident, Output, Scope};
@@ -73,7 +73,9 @@ impl Incident {
             let Some(taker) = picks.iter().find(|p| p.fire == fire) else {
                 continue;
             };
-            let v = &self.units[&unit];
+            let Some(v) = self.units.get(&unit) else {
+                continue;
+            };
             if taker.unit == unit || v.working_on().map(|f| self.fusion.resolve(f)) != Some(fire) {
                 continue;
             }
@@ -83,12 +85,13 @@ impl Incident {
                 .zip(to)
                 .and_then(|(a, b)| v.mobility.travel_s(a, b))
                 .unwrap_or(f64::INFINITY);
-            let wanted = self.policy.units_per_fire.max(attackers_needed(
-                self.fusion.get(fire).and_then(|f| f.hrr_kw()),
-                GROUND.cannon_flow_l_s,
-            ));
-            let as_backup =
-                away <= self.policy.help_within_s && self.assigned_to(fire).len() <= wanted;
+            // Kept as a backup if the fire, without this unit, would want one more.
+            let as_backup = away <= self.policy.help_within_s
+                && wants_another(
+                    self.fusion.get(fire).and_then(|f| f.hrr_kw()),
+                    &self.attack_flows(fire, Some(&unit)),
+                    self.policy.units_per_fire,
+                );
             self.log(
                 t,
                 Decision::Relieved {
@@ -101,7 +104,9 @@ impl Incident {
                 },
             );
             if as_backup {
-                self.units.get_mut(&unit).expect("known unit").backup = true;
+                if let Some(v) = self.units.get_mut(&unit) {
+                    v.backup = true;
+                }
             } else {
                 out.push(self.standby(&unit, t));
             }
@@ -119,12 +124,25 @@ impl Incident {
         out
     }
 
+    /// The cannon flows of the ground units on `fire` (but `except`), L/s: each its own
+    /// profile's.
+    fn attack_flows(&self, fire: FireId, except: Option<&UnitId>) -> Vec<f64> {
+        self.assigned_to(fire)
+            .iter()
+            .filter(|u| Some(*u) != except)
+            .filter_map(|u| self.units.get(u)?.mobility.cannon_flow_l_s())
+            .collect()
+    }
+
     /// Ground units not working on a fire, less those in `busy`.
     pub(super) fn free_ground_units(&self, busy: &BTreeSet<UnitId>) -> Vec<Candidate> {
         let mut candidates = self.candidates();
         candidates.retain(|c| {
-            matches!(c.mobility, Mobility::Ground { .. })
-                && self.units[&c.unit].working_on().is_none()
+            matches!(c.mobility, Mobility::Ground(_))
+                && self
+                    .units
+                    .get(&c.unit)
+                    .is_some_and(|v| v.working_on().is_none())
                 && !busy.contains(&c.unit)
         });
         candidates
@@ -164,8 +182,11 @@ impl Incident {
             .iter()
             .filter(|f| matches!(f.state, FireState::Assigned | FireState::Suppressing))
             .filter(|f| {
-                let needed = attackers_needed(f.hrr_kw(), GROUND.cannon_flow_l_s);
-                self.assigned_to(f.id).len() < self.policy.units_per_fire.max(needed)
+                wants_another(
+                    f.hrr_kw(),
+                    &self.attack_flows(f.id, None),
+                    self.policy.units_per_fire,
+                )
             })
             .filter_map(|f| self.need(f))
             .collect();
@@ -200,15 +221,13 @@ impl Incident {
             .map(|(_, p)| Place::in_tunnel(&self.tunnel, *p))
             .collect();
         // Out of `self` while decisions are dispatched below; put back at the end.
-        let mut roads = self.roads.take();
-        if let Some(r) = &mut roads {
-            r.track(&burning);
-        }
+        let mut roads = std::mem::take(&mut self.roads);
+        roads.track(&burning);
         let site = Site {
             barred: &barred,
             barred_rail: &barred_rail,
             hazards: &hazards,
-            roads: roads.as_ref().map(|r| r as &dyn Roads),
+            roads: Some(&roads as &dyn Roads),
         };
         let picks = self.strategy.solve(candidates, needs, &site);
         self.roads = roads;
@@ -221,8 +240,15 @@ impl Incident {
         if self.failed.contains_key(&(p.unit.clone(), p.fire)) {
             return Vec::new();
         }
-        let view = self.units.get_mut(&p.unit).expect("candidate is known");
-        if view.working_on().map(|f| self.fusion.resolve(f)) == Some(p.fire) {
+        let resolved = self
+            .units
+            .get(&p.unit)
+            .and_then(|v| v.working_on())
+            .map(|f| self.fusion.resolve(f));
+        let Some(view) = self.view_mut(&p.unit) else {
+            return Vec::new();
+        };
+        if resolved == Some(p.fire) {
             // Already on its way there: no new task. A backup chosen as the first
             // attacker becomes it.
             if view.backup && !backup {
@@ -244,8 +270,11 @@ impl Incident {
             fire.state = FireState::Assigned;
         }
         let target = fire.position();
-        if let Some(old) = self.units[&p.unit].working_on() {
-            let was_backup = self.units[&p.unit].backup;
+        if let Some((old, was_backup)) = self
+            .units
+            .get(&p.unit)
+            .and_then(|v| Some((v.working_on()?, v.backup)))
+        {
             self.log(
                 t,
                 Decision::Leaves {
@@ -264,10 +293,9 @@ impl Incident {
             },
             t,
         );
-        self.units
-            .get_mut(&p.unit)
-            .expect("candidate is known")
-            .backup = backup;
+        if let Some(v) = self.view_mut(&p.unit) {
+            v.backup = backup;
+        }
         self.log(
             t,
             Decision::Assign {

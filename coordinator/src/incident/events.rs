@@ -4,11 +4,11 @@
 //!
 //! Not here: what the solve decides (dispatch, search, staging, zones).
 
+use firefleet_model::validate::{Invalid, Validate};
+use firefleet_model::{FireId, UnitId};
 use firefleet_protocol::msg::{
     FireState, FireTrack, FlameReport, TaskKind, TaskPhase, TaskProgress, UnitMode, UnitState,
 };
-use firefleet_protocol::validate::{Invalid, Validate};
-use firefleet_protocol::{FireId, UnitId};
 
 use crate::fusion::{Contradiction, Fused};
 
@@ -39,7 +39,9 @@ impl Incident {
     }
 
     pub(super) fn lose(&mut self, unit: &UnitId, t: f64, why: Loss) -> Vec<Output> {
-        let v = self.units.get_mut(unit).expect("known unit");
+        let Some(v) = self.view_mut(unit) else {
+            return Vec::new();
+        };
         v.alive = false;
         v.lost = Some((why, t));
         let fire = v.working_on();
@@ -214,7 +216,7 @@ impl Incident {
                 _ => {}
             }
         }
-        let current = self.units[&unit].task.clone();
+        let current = self.units.get(&unit).and_then(|v| v.task.clone());
         if let (Some(task), Some(p)) = (current, progress)
             && task.seq == p.seq
             && let TaskKind::Extinguish { fire, .. } = task.kind
@@ -275,7 +277,8 @@ impl Incident {
         // so that it hears this coordinator again. A task of a newer term is a newer
         // coordinator's (or forged beside it): the unit refuses this one's now, and this
         // one steps down when it hears that coordinator ([`Incident::deposed_by`]).
-        if let (Some((epoch, taken)), Some(task)) = (taken, self.units[&unit].task.clone())
+        if let (Some((epoch, taken)), Some(task)) =
+            (taken, self.units.get(&unit).and_then(|v| v.task.clone()))
             && epoch == task.epoch
             && taken > task.seq
             && self.heed_seq(taken, t)
@@ -291,7 +294,7 @@ impl Incident {
             out.push(self.give(&unit, task.kind, t));
         }
         if let Some(r) = refusal
-            && let Some(task) = self.units[&unit].task.clone()
+            && let Some(task) = self.units.get(&unit).and_then(|v| v.task.clone())
             && task.seq == r.seq
         {
             // The unit holds a barred space the coordinator did not (one of them is late,

@@ -9,21 +9,20 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
+use firefleet_model::profile::Profile;
+use firefleet_model::scenario::{Scenario, Tunnel};
+use firefleet_model::validate::{Invalid, Validate};
+use firefleet_model::{FireId, UnitId};
 use firefleet_protocol::msg::{
     FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitState, UnitStatus, epoch_after,
     task_seq_ceiling, task_seq_floor,
 };
-use firefleet_protocol::profile::Profile;
-use firefleet_protocol::scenario::{Scenario, Tunnel};
-use firefleet_protocol::spec::GROUND;
-use firefleet_protocol::validate::{Invalid, Validate};
-use firefleet_protocol::{FireId, UnitId};
 
 use crate::assign::{Mobility, Strategy};
 use crate::coverage::Coverage;
 use crate::fusion::Fusion;
 use crate::goals::Goals;
-use crate::roads::RoadMap;
+use crate::roads::RoadMaps;
 
 mod decision;
 mod dispatch;
@@ -50,6 +49,14 @@ enum Scope {
 }
 
 /// What to publish after an event.
+/// A site file's unit the coordinator cannot plan for.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("unit {unit}: {reason}")]
+pub struct UnitProfileError {
+    pub unit: UnitId,
+    pub reason: String,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub enum Output {
     Task(Task),
@@ -137,11 +144,13 @@ pub struct Incident {
     policy: Policy,
     /// Driving distances to fires; straight lines without (an incident built without a
     /// site file).
-    roads: Option<RoadMap>,
+    roads: RoadMaps,
     /// Where units have looked.
     coverage: Coverage,
     /// When the whole assignment was last solved.
     solved_all_at: f64,
+    /// Changes skipped for want of a unit's view ([`Incident::view_mut`]).
+    inconsistencies: u64,
 }
 
 impl Incident {
@@ -168,9 +177,10 @@ impl Incident {
             unpublished: Vec::new(),
             goals: Goals::default(),
             policy: Policy::DEFAULT,
-            roads: None,
+            roads: RoadMaps::default(),
             coverage: Coverage::new(tunnel.length_m),
             solved_all_at: f64::NEG_INFINITY,
+            inconsistencies: 0,
             tunnel,
         }
     }
@@ -181,33 +191,50 @@ impl Incident {
         self.policy.units_per_fire = n.max(1);
     }
 
-    /// The incident of a site file: its tunnel, and its units with their mobility (ground
-    /// units at the ground unit's top speed, monorail units on their rails).
-    pub fn from_scenario(scenario: &Scenario, lease_s: f64, strategy: Strategy) -> Self {
-        let units = scenario.units.iter().map(|u| {
-            let rail = u.rail.as_deref().and_then(|r| scenario.rail(r));
-            // Each unit as fast and far-reaching as its own profile says.
-            let mobility = match (scenario.profile_of(u), rail) {
-                (Ok(Profile::Monorail(m)), Some(r)) => Mobility::Rail {
-                    start_m: r.start_m,
-                    end_m: r.end_m,
-                    y_m: r.y_m,
-                    speed_m_s: m.carriage_speed_m_s,
-                    reach_m: m.working_reach_m,
-                },
-                (Ok(Profile::Ground(g)), _) => Mobility::Ground {
-                    speed_m_s: g.max_speed_m_s,
-                },
-                _ => Mobility::Ground {
-                    speed_m_s: GROUND.max_speed_m_s,
-                },
+    /// The incident of a site file: its tunnel, and its units each with its own profile
+    /// (speed, body width, cannon flow, camera; a carriage's rail, speed, reach and
+    /// detector), and the road map for each body width among its ground units. A unit
+    /// whose profile is unknown or of the wrong kind, or a carriage without its rail, is
+    /// an error: a fallback would send a heavy robot down roads only a light one fits.
+    pub fn from_scenario(
+        scenario: &Scenario,
+        lease_s: f64,
+        strategy: Strategy,
+    ) -> Result<Self, UnitProfileError> {
+        let mut units = Vec::new();
+        for u in &scenario.units {
+            let error = |reason: String| UnitProfileError {
+                unit: u.id.clone(),
+                reason,
             };
-            (u.id.clone(), mobility)
+            let mobility = match scenario.profile_of(u).map_err(|e| error(e.to_string()))? {
+                Profile::Ground(g) => Mobility::Ground(g),
+                Profile::Monorail(m) => {
+                    let name = u.rail.as_deref().unwrap_or_default();
+                    let r = scenario
+                        .rail(name)
+                        .ok_or_else(|| error(format!("no rail '{name}' for the carriage")))?;
+                    Mobility::Rail {
+                        start_m: r.start_m,
+                        end_m: r.end_m,
+                        y_m: r.y_m,
+                        speed_m_s: m.carriage_speed_m_s,
+                        reach_m: m.working_reach_m,
+                        detector_range_m: m.detector_range_m,
+                    }
+                }
+            };
+            units.push((u.id.clone(), mobility));
+        }
+        let widths = units.iter().filter_map(|(_, m)| match m {
+            Mobility::Ground(g) => Some(g.width_m),
+            Mobility::Rail { .. } => None,
         });
+        let roads = RoadMaps::from_scenario(scenario, widths);
         let mut incident = Self::new(scenario.tunnel.clone(), units, lease_s, strategy);
         incident.goals = Goals::new(&scenario.zones);
-        incident.roads = Some(RoadMap::from_scenario(scenario));
-        incident
+        incident.roads = roads;
+        Ok(incident)
     }
 
     fn log(&mut self, t: f64, decision: Decision) {
@@ -316,11 +343,30 @@ impl Incident {
             t,
             kind,
         };
-        let v = self.units.get_mut(unit).expect("known unit");
-        v.unechoed.get_or_insert((task.order(), t));
-        v.task = Some(task.clone());
-        v.tasked = true;
+        if let Some(v) = self.view_mut(unit) {
+            v.unechoed.get_or_insert((task.order(), t));
+            v.task = Some(task.clone());
+            v.tasked = true;
+        }
         Output::Task(task)
+    }
+
+    /// A unit's view, for a change: `None`, logged and counted, for a unit the site file
+    /// does not declare. Every path here starts from a declared unit, so a miss is a bug
+    /// in the incident, never the input; the coordinator keeps running past it.
+    fn view_mut(&mut self, unit: &UnitId) -> Option<&mut UnitView> {
+        if !self.units.contains_key(unit) {
+            self.inconsistencies += 1;
+            tracing::error!(%unit, "no view of this unit; the change is skipped");
+            return None;
+        }
+        self.units.get_mut(unit)
+    }
+
+    /// How many changes were skipped for want of a unit's view ([`Incident::view_mut`]):
+    /// zero unless the incident has a bug.
+    pub fn inconsistencies(&self) -> u64 {
+        self.inconsistencies
     }
 
     fn assigned_to(&self, fire: FireId) -> Vec<UnitId> {

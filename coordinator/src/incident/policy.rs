@@ -3,7 +3,7 @@
 //! experiment can try another.
 //!
 //! Not here: the physics these numbers come from (units' speeds, ranges and flows are in
-//! `firefleet_protocol::spec`).
+//! `firefleet_model::spec`).
 
 use firefleet_protocol::msg::CLEAR_OF_BARRED_M;
 

@@ -6,10 +6,10 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use firefleet_protocol::geometry::wrap_angle;
-use firefleet_protocol::msg::{TaskKind, UnitKind};
-use firefleet_protocol::spec::{GROUND, MONORAIL};
-use firefleet_protocol::{Chainage, Point2, Pose2, UnitId};
+use firefleet_model::UnitKind;
+use firefleet_model::geometry::wrap_angle;
+use firefleet_model::{Chainage, Point2, Pose2, UnitId};
+use firefleet_protocol::msg::TaskKind;
 
 use crate::assign::Mobility;
 
@@ -22,9 +22,11 @@ impl Incident {
     pub(super) fn sight(&self, mobility: Mobility, pose: Pose2) -> (Chainage, Chainage) {
         let s = self.tunnel.chainage(pose.position());
         match mobility {
-            Mobility::Rail { .. } => (s - MONORAIL.detector_range_m, s + MONORAIL.detector_range_m),
-            Mobility::Ground { .. } => {
-                let range = GROUND.camera.range_m;
+            Mobility::Rail {
+                detector_range_m, ..
+            } => (s - detector_range_m, s + detector_range_m),
+            Mobility::Ground(g) => {
+                let range = g.camera.range_m;
                 if (pose.yaw - self.tunnel.heading_at(s)).cos() >= 0.0 {
                     (s - self.policy.sight_behind_m, s + range)
                 } else {
@@ -46,7 +48,7 @@ impl Incident {
         let range = self.policy.clear_view_m;
         let half_angle = match mobility {
             Mobility::Rail { .. } => std::f64::consts::PI,
-            Mobility::Ground { .. } => 0.75 * GROUND.camera.hfov_rad() / 2.0,
+            Mobility::Ground(g) => 0.75 * g.camera.hfov_rad() / 2.0,
         };
         let at = pose.position();
         move |p| at.dist(p) <= range && wrap_angle(at.bearing_to(p) - pose.yaw).abs() <= half_angle

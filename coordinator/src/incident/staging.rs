@@ -6,8 +6,8 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use firefleet_model::{Chainage, FireId, Point2, UnitId};
 use firefleet_protocol::msg::{FireState, GoalKind, TaskKind};
-use firefleet_protocol::{Chainage, FireId, Point2, UnitId};
 
 use crate::assign::Mobility;
 
@@ -44,7 +44,7 @@ impl Incident {
             .iter()
             .filter(|(u, v)| v.alive && v.working_on().is_none() && !searching.contains(*u))
             // Monorail units wait where they are: their carriages reach a fire in seconds.
-            .filter(|(_, v)| matches!(v.mobility, Mobility::Ground { .. }))
+            .filter(|(_, v)| matches!(v.mobility, Mobility::Ground(_)))
             .filter_map(|(u, v)| {
                 Some((
                     u.clone(),

@@ -4,10 +4,10 @@
 //!
 //! Which goal governs where is [`crate::goals`]' business; this module only acts on it.
 
+use firefleet_model::{Chainage, CommanderId, Point2, UnitId, ZoneId};
 use firefleet_protocol::msg::{
     BarredSpace, FireState, GoalAck, GoalKind, GoalsInForce, INSIDE_PORTAL_M, TaskKind, ZoneGoal,
 };
-use firefleet_protocol::{Chainage, CommanderId, Point2, UnitId, ZoneId};
 
 use crate::assign::Mobility;
 use crate::goals::Active;
@@ -159,7 +159,7 @@ impl Incident {
                 out.push(self.standby(&u, t));
             }
             let v = &self.units[&u];
-            let (Some(st), Mobility::Ground { .. }) = (&v.state, v.mobility) else {
+            let (Some(st), Mobility::Ground(_)) = (&v.state, v.mobility) else {
                 continue;
             };
             let at = self.tunnel.station(st.pose.position());

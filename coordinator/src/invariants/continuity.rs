@@ -27,8 +27,9 @@
 
 use std::collections::BTreeMap;
 
-use firefleet_protocol::msg::{Task, TaskKind, UnitKind, UnitState};
-use firefleet_protocol::{Point2, UnitId};
+use firefleet_model::UnitKind;
+use firefleet_model::{Point2, UnitId};
+use firefleet_protocol::msg::{Task, TaskKind, UnitState};
 
 use super::Violation;
 
@@ -320,8 +321,8 @@ fn same_fire(a: Point2, b: Point2) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use firefleet_protocol::FireId;
-    use firefleet_protocol::scenario::Scenario;
+    use firefleet_model::FireId;
+    use firefleet_model::scenario::Scenario;
 
     use super::*;
     use crate::incident::LEASE_S;

@@ -33,12 +33,13 @@
 
 use std::collections::BTreeMap;
 
+use firefleet_model::UnitKind;
+use firefleet_model::profile::{GROUND, MONORAIL, Profile};
+use firefleet_model::scenario::{Scenario, Tunnel};
+use firefleet_model::{Chainage, CommanderId, Point2, UnitId, ZoneId};
 use firefleet_protocol::msg::{
-    INSIDE_PORTAL_M, Task, TaskKind, TaskPhase, UnitKind, UnitState, ZoneGoal, nearest_allowed,
+    INSIDE_PORTAL_M, Task, TaskKind, TaskPhase, UnitState, ZoneGoal, nearest_allowed,
 };
-use firefleet_protocol::scenario::{Scenario, Tunnel};
-use firefleet_protocol::spec::{GROUND, MONORAIL};
-use firefleet_protocol::{Chainage, CommanderId, Point2, UnitId, ZoneId};
 
 use crate::goals::{Active, Goals};
 use crate::incident::LEASE_S;
@@ -235,6 +236,9 @@ pub struct Invariants {
     issued: BTreeMap<(UnitId, u64), u64>,
     continuity: Continuity,
     violations: Vec<Violation>,
+    /// Each declared unit's top speed, m/s, from its own profile: the time it is given to
+    /// leave a zone.
+    speeds: BTreeMap<UnitId, f64>,
 }
 
 impl Invariants {
@@ -248,6 +252,17 @@ impl Invariants {
     pub fn with_lease(scenario: &Scenario, lease_s: f64) -> Self {
         Self {
             tunnel: scenario.tunnel.clone(),
+            speeds: scenario
+                .units
+                .iter()
+                .filter_map(|u| {
+                    let speed = match scenario.profile_of(u).ok()? {
+                        Profile::Ground(g) => g.max_speed_m_s,
+                        Profile::Monorail(m) => m.carriage_speed_m_s,
+                    };
+                    Some((u.id.clone(), speed))
+                })
+                .collect(),
             goals: Goals::new(&scenario.zones),
             t: 0.0,
             since: BTreeMap::new(),
@@ -346,10 +361,12 @@ impl Invariants {
                     .insert((unit.clone(), id.to_owned()), f64::INFINITY);
                 continue;
             };
-            let speed = match st.kind {
+            // The unit's own top speed; one the site file does not declare is judged as
+            // its kind's shipped profile.
+            let speed = self.speeds.get(unit).copied().unwrap_or(match st.kind {
                 UnitKind::Ground => GROUND.max_speed_m_s,
                 UnitKind::Monorail => MONORAIL.carriage_speed_m_s,
-            };
+            });
             let deadline = t + REACTION_S + DETOUR * (out - s).abs() / speed;
             self.deadlines
                 .insert((unit.clone(), id.to_owned()), deadline);
@@ -505,7 +522,7 @@ mod tests {
     use firefleet_protocol::msg::{GoalKind, TaskProgress};
     use firefleet_protocol::testing::ground_state;
 
-    use firefleet_protocol::{FireId, scenario::Zone};
+    use firefleet_model::{FireId, scenario::Zone};
 
     fn site() -> Scenario {
         let mut s = Scenario::straight(300.0).ground("u1", 5.0, -2.5).build();
@@ -549,7 +566,7 @@ mod tests {
                 priority: 0,
                 before_m: None,
                 expires_s: None,
-                issued_by: "ic".into(),
+                issued_by: Some(CommanderId::new("ic").unwrap()),
                 rail_allowed: false,
             },
         }

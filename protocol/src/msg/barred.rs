@@ -21,10 +21,10 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::*;
-use crate::geometry::MAX_COORD_M;
-use crate::ids::ZoneId;
-use crate::tunnel::{Chainage, Tunnel};
-use crate::validate::{Invalid, Validate, each, finite, in_range, max_len};
+use firefleet_model::geometry::MAX_COORD_M;
+use firefleet_model::ids::ZoneId;
+use firefleet_model::tunnel::{Chainage, Tunnel};
+use firefleet_model::validate::{Invalid, Validate, each, finite, in_range, max_len};
 
 /// How far clear of barred space a unit leaving it stops, and how far short of it a unit
 /// is sent, m: a vehicle's length beyond the edge, so that the whole unit is out with room

@@ -5,8 +5,8 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::ids::UnitId;
-use crate::validate::{Invalid, Validate, finite, max_len};
+use firefleet_model::ids::UnitId;
+use firefleet_model::validate::{Invalid, Validate, finite, max_len};
 
 /// Status of a behavior-tree node, for recordings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]

@@ -4,13 +4,14 @@
 //! Not here: how goals are applied (the coordinator's zones) or the commander's tools.
 
 use std::collections::BTreeMap;
+use std::fmt;
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::*;
-use crate::ids::{UnitId, ZoneId};
-use crate::validate::{Invalid, Validate, each, finite, in_range, max_len};
+use firefleet_model::ids::{CommanderId, UnitId, ZoneId};
+use firefleet_model::validate::{Invalid, Validate, each, finite, in_range, max_len};
 
 /// What the coordinator knows of one unit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -65,6 +66,14 @@ pub enum GoalKind {
     Evacuate,
 }
 
+firefleet_model::names!(GoalKind, "a goal" {
+    Extinguish => "extinguish",
+    Contain => "contain",
+    Monitor => "monitor",
+    KeepOut => "keep-out",
+    Evacuate => "evacuate",
+});
+
 /// `ff/<site>/zone/<zone>/goal` (JSON): an incident commander's zone goal.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -81,8 +90,11 @@ pub struct ZoneGoal {
     /// Seconds of site time after which the goal lapses.
     #[serde(default)]
     pub expires_s: Option<f64>,
-    #[serde(default)]
-    pub issued_by: String,
+    /// The commander the goal is from. The key it was put on names the commander too; a
+    /// goal that leaves this out is taken as that commander's, one that names another is
+    /// refused. An empty string (older clients) reads as left out.
+    #[serde(default, deserialize_with = "issuer")]
+    pub issued_by: Option<CommanderId>,
     /// For `keep-out` and `evacuate`: monorail carriages may still run through the zone
     /// (a search with their cameras, the way to a fire beyond), though not attack in it.
     /// A carriage runs on the ceiling rail, above the firefighters, but it drips, sprays
@@ -91,13 +103,110 @@ pub struct ZoneGoal {
     pub rail_allowed: bool,
 }
 
+impl ZoneGoal {
+    /// Goal `goal` on `zone` from commander `by`, with the default id (`<zone>-<goal>`),
+    /// priority 0, no expiry; the other fields are for the caller to set.
+    pub fn new(zone: ZoneId, goal: GoalKind, by: CommanderId) -> Self {
+        Self {
+            id: format!("{zone}-{goal}"),
+            zone,
+            goal,
+            priority: 0,
+            before_m: None,
+            expires_s: None,
+            issued_by: Some(by),
+            rail_allowed: false,
+        }
+    }
+
+    /// The issuer's name for people to read; `?` for a goal that names none (one the
+    /// coordinator has not taken in: it fills the issuer in from the key).
+    pub fn issuer(&self) -> &str {
+        self.issued_by.as_ref().map_or("?", CommanderId::as_str)
+    }
+}
+
+/// One line: id, zone, goal, priority, issuer, expiry.
+impl fmt::Display for ZoneGoal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{:12} zone {:8} {}",
+            self.id,
+            self.zone.as_str(),
+            self.goal
+        )?;
+        if let Some(b) = self.before_m {
+            write!(f, " before {b:.1} m")?;
+        }
+        write!(f, "  priority {}", self.priority)?;
+        write!(f, "  by '{}'", self.issuer())?;
+        if let Some(e) = self.expires_s {
+            write!(f, ", expires after {e:.0} s")?;
+        }
+        if self.rail_allowed {
+            write!(f, ", rail units allowed")?;
+        }
+        Ok(())
+    }
+}
+
+/// A goal as a commander's tool states it (the console's form, `firefleet goal set`, a
+/// demo's `--goal`): a [`ZoneGoal`] whose issuer is the tool's login or identity, not a
+/// field, and whose id may be left to its default. [`GoalForm::issued_by`] makes the goal, so
+/// every tool checks it alike.
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct GoalForm {
+    pub zone: ZoneId,
+    pub goal: GoalKind,
+    /// Default: `<zone>-<goal>`.
+    #[serde(default)]
+    pub id: Option<String>,
+    #[serde(default, deserialize_with = "priority")]
+    pub priority: u8,
+    #[serde(default)]
+    pub before_m: Option<f64>,
+    #[serde(default)]
+    pub expires_s: Option<f64>,
+    #[serde(default)]
+    pub rail_allowed: bool,
+}
+
+impl GoalForm {
+    /// Goal `goal` on `zone`, everything else by default.
+    pub fn new(zone: ZoneId, goal: GoalKind) -> Self {
+        Self {
+            zone,
+            goal,
+            id: None,
+            priority: 0,
+            before_m: None,
+            expires_s: None,
+            rail_allowed: false,
+        }
+    }
+
+    /// The goal this form states, issued by `by`, validated.
+    pub fn issued_by(self, by: CommanderId) -> Result<ZoneGoal, Invalid> {
+        let default = ZoneGoal::new(self.zone, self.goal, by);
+        let g = ZoneGoal {
+            id: self.id.unwrap_or(default.id.clone()),
+            priority: self.priority,
+            before_m: self.before_m,
+            expires_s: self.expires_s,
+            rail_allowed: self.rail_allowed,
+            ..default
+        };
+        g.validate()?;
+        Ok(g)
+    }
+}
+
 impl Validate for ZoneGoal {
     fn validate(&self) -> Result<(), Invalid> {
         if self.id.is_empty() || self.id.len() > 64 {
             return Err(Invalid::new("id", "must have 1 to 64 characters"));
-        }
-        if self.issued_by.len() > 64 {
-            return Err(Invalid::new("issued_by", "longer than 64 characters"));
         }
         if let Some(b) = self.before_m {
             finite("before_m", b)?;
@@ -192,7 +301,81 @@ impl Validate for GoalAck {
 
 /// A goal's priority, 0 to 255, said so when it is not (serde's own message for a JSON
 /// 999 is "number too large to fit in target type").
+fn issuer<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<CommanderId>, D::Error> {
+    match Option::<String>::deserialize(d)? {
+        None => Ok(None),
+        Some(s) if s.is_empty() => Ok(None),
+        Some(s) => CommanderId::new(&s)
+            .map(Some)
+            .map_err(|e| serde::de::Error::custom(format!("issued_by: {e}"))),
+    }
+}
+
 fn priority<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u8, D::Error> {
     let p = i64::deserialize(d)?;
     u8::try_from(p).map_err(|_| serde::de::Error::custom(format!("priority {p} is outside 0-255")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The names tools print and parse are the names on the wire.
+    fn named_as_on_the_wire<T>(all: &[T])
+    where
+        T: Copy + PartialEq + fmt::Debug + fmt::Display + Serialize + std::str::FromStr,
+        <T as std::str::FromStr>::Err: fmt::Debug,
+    {
+        for v in all {
+            assert_eq!(serde_json::to_value(v).unwrap(), v.to_string());
+            assert_eq!(v.to_string().parse::<T>().unwrap(), *v);
+        }
+    }
+
+    #[test]
+    fn enums_are_named_as_on_the_wire() {
+        named_as_on_the_wire(GoalKind::ALL);
+        named_as_on_the_wire(UnitMode::ALL);
+        named_as_on_the_wire(FireState::ALL);
+        let e = "douse".parse::<GoalKind>().unwrap_err();
+        assert!(e.contains("keep-out"), "{e}");
+    }
+
+    fn zone(z: &str) -> ZoneId {
+        ZoneId::new(z).unwrap()
+    }
+
+    fn rossi() -> CommanderId {
+        CommanderId::new("rossi").unwrap()
+    }
+
+    #[test]
+    fn a_form_becomes_a_goal_by_its_issuer_checked_like_any() {
+        let g = GoalForm::new(zone("deep"), GoalKind::KeepOut)
+            .issued_by(rossi())
+            .unwrap();
+        assert_eq!(g.id, "deep-keep-out");
+        assert_eq!(g.issued_by, Some(rossi()));
+        let contain = GoalForm::new(zone("deep"), GoalKind::Contain);
+        let e = contain.issued_by(rossi()).unwrap_err();
+        assert_eq!(e.field, "before_m");
+        // The console's JSON: priority in range, no issuer field.
+        let form: Result<GoalForm, _> =
+            serde_json::from_str(r#"{"zone": "deep", "goal": "monitor", "priority": 300}"#);
+        assert!(form.unwrap_err().to_string().contains("outside 0-255"));
+        let form: Result<GoalForm, _> =
+            serde_json::from_str(r#"{"zone": "deep", "goal": "monitor", "issued_by": "x"}"#);
+        assert!(form.is_err());
+    }
+
+    #[test]
+    fn an_empty_issuer_reads_as_none_and_a_bad_one_is_refused() {
+        let old = r#"{"id": "a", "zone": "deep", "goal": "monitor", "issued_by": ""}"#;
+        assert_eq!(
+            serde_json::from_str::<ZoneGoal>(old).unwrap().issued_by,
+            None
+        );
+        let bad = r#"{"id": "a", "zone": "deep", "goal": "monitor", "issued_by": "Bad Name"}"#;
+        assert!(serde_json::from_str::<ZoneGoal>(bad).is_err());
+    }
 }

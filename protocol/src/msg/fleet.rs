@@ -10,17 +10,11 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::*;
-use crate::geometry::{Point2, Pose2};
-use crate::ids::{FireId, UnitId};
-use crate::validate::{Invalid, Validate, each, finite, in_range, max_len};
-
-/// Ground vehicle or ceiling-rail carriage.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
-#[serde(rename_all = "kebab-case")]
-pub enum UnitKind {
-    Ground,
-    Monorail,
-}
+use firefleet_model::UnitKind;
+use firefleet_model::geometry::{Point2, Pose2};
+use firefleet_model::heat::HeatSource;
+use firefleet_model::ids::{FireId, UnitId};
+use firefleet_model::validate::{Invalid, Validate, each, finite, in_range, max_len};
 
 /// What a unit is doing, as it reports it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -37,6 +31,14 @@ pub enum UnitMode {
     /// Cannot act (no water, damaged, stuck).
     Fault,
 }
+
+firefleet_model::names!(UnitMode, "a unit mode" {
+    Idle => "idle",
+    Cruising => "cruising",
+    Navigating => "navigating",
+    Extinguishing => "extinguishing",
+    Fault => "fault",
+});
 
 /// Where a unit is in carrying out its task.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -287,6 +289,15 @@ pub enum FireState {
     Lost,
 }
 
+firefleet_model::names!(FireState, "a fire state" {
+    Tentative => "tentative",
+    Confirmed => "confirmed",
+    Assigned => "assigned",
+    Suppressing => "suppressing",
+    Out => "out",
+    Lost => "lost",
+});
+
 /// `ff/<site>/fire/<fire_id>`: a fused fire track.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct FireTrack {
@@ -301,6 +312,20 @@ pub struct FireTrack {
     pub seen_by: Vec<UnitId>,
     /// Estimated heat release, kW, when some unit could size the flame.
     pub hrr_kw: Option<f64>,
+}
+
+impl FireTrack {
+    /// What the fleet knows of this fire as a heat source: a track not yet out whose flame
+    /// some unit sized. A track nobody sized radiates nothing here rather than a guess.
+    pub fn heat_source(&self) -> Option<HeatSource> {
+        match (self.state, self.hrr_kw) {
+            (FireState::Out, _) | (_, None) => None,
+            (_, Some(hrr_kw)) => Some(HeatSource {
+                at: self.position,
+                hrr_kw,
+            }),
+        }
+    }
 }
 
 impl Validate for FireTrack {

@@ -6,13 +6,14 @@
 //! wrong one.
 //!
 //! Times `t` are site time in seconds: simulator time in the simulator, system time on real
-//! hardware (see [`crate::clock`]).
+//! hardware (see [`firefleet_model::clock`]).
 
 use schemars::JsonSchema;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
-use crate::validate::Validate;
+use firefleet_model::UnitKind;
+use firefleet_model::validate::Validate;
 
 /// How a message type is put on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -7,9 +7,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::*;
-use crate::geometry::{Point2, Pose2};
-use crate::ids::UnitId;
-use crate::validate::{Invalid, Validate, each, finite, in_range, max_len};
+use firefleet_model::geometry::{Point2, Pose2};
+use firefleet_model::ids::UnitId;
+use firefleet_model::validate::{Invalid, Validate, each, finite, in_range, max_len};
 
 /// `ff/<site>/sim/clock`: simulator time, the ROS `/clock` convention.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]

@@ -1,9 +1,9 @@
 //! The parent module's tests.
 
 use super::*;
-use firefleet_protocol::scenario::Growth;
-use firefleet_protocol::spec::GROUND;
-use firefleet_protocol::testing::ScenarioBuilder;
+use firefleet_model::profile::GROUND;
+use firefleet_model::scenario::Growth;
+use firefleet_model::testing::ScenarioBuilder;
 
 /// A 100 m tunnel with a car, a 3 MW fire just short of it, and unit u1.
 fn site() -> ScenarioBuilder {

@@ -13,9 +13,10 @@ use std::process::ExitCode;
 
 use clap::Args;
 use firefleet_coordinator::assign::Strategy;
-use firefleet_protocol::FireId;
+use firefleet_model::FireId;
+use firefleet_model::builtin;
+use firefleet_model::scenario::Scenario;
 use firefleet_protocol::msg::{FireState, FireTrack};
-use firefleet_protocol::scenario::Scenario;
 use serde::Serialize;
 
 use super::sim_fleet::{self, SimFleet};
@@ -157,7 +158,7 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
         "violations"
     );
     for name in FLEET_SCENARIOS {
-        let scenario = crate::commands::scenarios::resolve(name)?;
+        let scenario = builtin::resolve(name)?;
         for (label, command) in ROWS {
             let (mut time, mut unfinished, mut dose, mut water, mut never, mut violations) =
                 (0.0, 0, 0.0, 0.0, 0.0, 0);

@@ -26,13 +26,12 @@ use std::sync::Arc;
 use anyhow::Context;
 use clap::Args;
 use firefleet_agent::ground::GroundController;
-use firefleet_protocol::geometry::wrap_angle;
-use firefleet_protocol::msg::{TaskKind, UnitKind, UnitMode};
-use firefleet_protocol::scenario::{
-    FireSpec, Growth, Obstacle, Scenario, Segment, Tunnel, UnitSpec,
-};
-use firefleet_protocol::spec::GROUND;
-use firefleet_protocol::{Chainage, FireId, SiteId, UnitId};
+use firefleet_model::UnitKind;
+use firefleet_model::geometry::wrap_angle;
+use firefleet_model::profile::GROUND;
+use firefleet_model::scenario::{FireSpec, Growth, Obstacle, Scenario, Segment, Tunnel, UnitSpec};
+use firefleet_model::{Chainage, FireId, SiteId, UnitId};
+use firefleet_protocol::msg::{TaskKind, UnitMode};
 use firefleet_sim::World;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

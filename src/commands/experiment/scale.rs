@@ -30,19 +30,18 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::Args;
-use firefleet_protocol::access::{self, Grant, Identity, Op};
-use firefleet_protocol::bus::{Bus, Connect, Mode, free_loopback_port, tls_link};
-use firefleet_protocol::codec;
+use firefleet_bus::access::{self, Grant, Identity, Op};
+use firefleet_bus::{Bus, Connect, Mode, free_loopback_port, tls_link};
+use firefleet_model::UnitKind;
+use firefleet_model::builtin;
+use firefleet_model::scenario::Scenario;
+use firefleet_model::{Point2, Pose2, SiteId, UnitId};
 use firefleet_protocol::keys::{Keys, Topic};
-use firefleet_protocol::msg::{
-    FlameObservation, FlameReport, Task, TaskKind, UnitKind, UnitMode, UnitState,
-};
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::{Point2, Pose2, SiteId, UnitId};
+use firefleet_protocol::msg::{FlameObservation, FlameReport, Task, TaskKind, UnitMode, UnitState};
 use serde::Serialize;
 
 use crate::commands::pki::site_pki;
-use crate::commands::{scenarios, write_json};
+use crate::commands::write_json;
 
 #[derive(Args, Debug)]
 pub struct ScaleArgs {
@@ -225,7 +224,7 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
     std::fs::File::create(&site)?.write_all(site_file(a.units, a.fires).as_bytes())?;
     let mut links = vec![Link::plain()?];
     if a.secure {
-        let scenario = scenarios::resolve(&site.display().to_string())?;
+        let scenario = builtin::resolve(&site.display().to_string())?;
         links.push(Link::secure(dir.path(), &scenario)?);
     }
     if a.console {
@@ -303,14 +302,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         .collect::<Result<_, _>>()?;
     let mut tokens = Vec::with_capacity(ids.len());
     for id in &ids {
-        tokens.push(
-            fleet
-                .session()
-                .liveliness()
-                .declare_token(keys.expr(&Topic::UnitAlive(id.clone())))
-                .await
-                .map_err(|e| anyhow::anyhow!("liveliness: {e}"))?,
-        );
+        tokens.push(fleet.token(&Topic::UnitAlive(id.clone())).await?);
     }
     // Each unit's state echoes the number and epoch of the latest task it took, as a real
     // unit's does: the coordinator counts a unit whose states stop echoing its task as
@@ -353,31 +345,23 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
     // Unit states go out from their own task, tasks are taken in by another, so that
     // neither waits on the reports.
     let published = Arc::new(AtomicU64::new(0));
-    // One declared publisher per unit: what a unit's state publisher would be.
-    let mut publishers = Vec::with_capacity(ids.len());
-    for id in &ids {
-        publishers.push(
-            fleet
-                .session()
-                .declare_publisher(keys.unit_state(id).as_str().to_owned())
-                .await
-                .map_err(|e| anyhow::anyhow!("declaring a publisher: {e}"))?,
-        );
-    }
+    // Each unit's state on its own key, as a unit puts it (the bus declares a publisher
+    // per key on its first put).
+    let state_keys: Vec<_> = ids.iter().map(|id| keys.unit_state(id)).collect();
     let publisher = {
         let (ids, published) = (ids.clone(), published.clone());
         let (echoed, echoed_epoch) = (echoed.clone(), echoed_epoch.clone());
-        let n = a.units;
+        let (n, fleet) = (a.units, fleet.clone());
         tokio::spawn(async move {
             let mut ticker = tokio::time::interval(Duration::from_millis(100));
             loop {
                 ticker.tick().await;
                 let t = now();
-                for (i, (id, publisher)) in ids.iter().zip(&publishers).enumerate() {
+                for (i, (id, key)) in ids.iter().zip(&state_keys).enumerate() {
                     let seq = echoed[i].load(Ordering::Relaxed);
                     let epoch = echoed_epoch.load(Ordering::Relaxed);
-                    let bytes = codec::encode(&state(i, id, t, (seq > 0).then_some((epoch, seq))));
-                    if publisher.put(bytes).await.is_err() {
+                    let st = state(i, id, t, (seq > 0).then_some((epoch, seq)));
+                    if fleet.put(key, &st).await.is_err() {
                         return;
                     }
                 }

@@ -19,10 +19,11 @@ use firefleet_coordinator::Incident;
 use firefleet_coordinator::assign::Strategy;
 use firefleet_coordinator::incident::{LEASE_S, Output};
 use firefleet_coordinator::invariants::{Event, Invariants, Violation};
-use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitKind, UnitState, ZoneGoal};
+use firefleet_model::UnitKind;
+use firefleet_model::scenario::Scenario;
+use firefleet_model::{CommanderId, UnitId};
+use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitState, ZoneGoal};
 use firefleet_protocol::msg::{FireTrack, SimTruth};
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::{CommanderId, UnitId};
 use firefleet_sim::World;
 
 use crate::commands::check::burning;
@@ -149,7 +150,7 @@ impl SimFleet {
         let incident = match command {
             Command::Alone => None,
             Command::Coordinator(s) => {
-                let mut inc = Incident::from_scenario(scenario, LEASE_S, s);
+                let mut inc = Incident::from_scenario(scenario, LEASE_S, s)?;
                 if !known.is_empty() {
                     let (_, refused) = inc.restore(known, 0.0);
                     anyhow::ensure!(refused.is_empty(), "fires refused: {refused:?}");

@@ -16,9 +16,10 @@ use std::process::ExitCode;
 
 use clap::Args;
 use firefleet_coordinator::assign::Strategy;
+use firefleet_model::builtin;
+use firefleet_model::scenario::{Scenario, Zone};
+use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::msg::{GoalKind, TruthFireState, ZoneGoal};
-use firefleet_protocol::scenario::{Scenario, Zone};
-use firefleet_protocol::{CommanderId, ZoneId};
 use serde::Serialize;
 
 use super::sim_fleet::{Command, SimFleet};
@@ -118,7 +119,7 @@ fn zone_run(
             if w.inside_at_goal > 0 {
                 w.last_inside = Some(at);
             }
-            fleet.goal(&CommanderId::new("experiment")?, g)?;
+            fleet.goal(&experimenter(), g)?;
         }
         fleet.step()?;
         let truth = fleet.truth();
@@ -177,10 +178,10 @@ pub fn run(a: ZonesArgs) -> anyhow::Result<ExitCode> {
         if !a.scenario.is_empty() && !a.scenario.iter().any(|s| s == name) {
             continue;
         }
-        let scenario = crate::commands::scenarios::resolve(name)?;
+        let scenario = builtin::resolve(name)?;
         for zone in &scenario.zones {
             let t = &scenario.tunnel;
-            let burning_inside = |f: &&firefleet_protocol::scenario::FireSpec| {
+            let burning_inside = |f: &&firefleet_model::scenario::FireSpec| {
                 (zone.start_m..=zone.end_m).contains(&t.chainage(f.position()))
             };
             // A zone holding every fire leaves nothing to measure outside it.
@@ -192,13 +193,7 @@ pub fn run(a: ZonesArgs) -> anyhow::Result<ExitCode> {
                 for &at in &a.at {
                     let goal = ZoneGoal {
                         id: format!("exp-{}", zone.id),
-                        zone: zone.id.clone(),
-                        goal: kind,
-                        priority: 0,
-                        before_m: None,
-                        expires_s: None,
-                        issued_by: String::new(),
-                        rail_allowed: false,
+                        ..ZoneGoal::new(zone.id.clone(), kind, experimenter())
                     };
                     let w = zone_run(&scenario, zone, Some((goal, at)), a.seed)?;
                     let run = ZoneRun {
@@ -223,7 +218,7 @@ pub fn run(a: ZonesArgs) -> anyhow::Result<ExitCode> {
                         "{:<18} {:<8} {:<9} {:>6.0} {:>7} {:>13} {:>10} {:>12} {:>16} {:>13}",
                         run.scenario,
                         run.zone.as_str(),
-                        serde_json::to_value(run.goal)?.as_str().unwrap_or_default(),
+                        run.goal.as_str(),
                         run.at_s,
                         run.inside_at_goal,
                         fmt(run.all_out_after_s),
@@ -243,4 +238,9 @@ pub fn run(a: ZonesArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::FAILURE);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The commander the experiment issues its goals as.
+fn experimenter() -> CommanderId {
+    CommanderId::new("experiment").expect("a valid commander name")
 }

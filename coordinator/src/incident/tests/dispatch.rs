@@ -41,7 +41,7 @@ fn the_nearer_unit_behind_a_truck_across_the_road_is_not_sent() {
         .ground("a", 45.0, -2.0)
         .ground("b", 100.0, -2.0)
         .build();
-    let mut i = Incident::from_scenario(&scenario, 5.0, Strategy::Optimal);
+    let mut i = Incident::from_scenario(&scenario, 5.0, Strategy::Optimal).unwrap();
     i.set_units_per_fire(1);
     for (n, x) in [("a", 45.0), ("b", 100.0)] {
         i.on_alive(&u(n), true, 0.0).unwrap();
@@ -159,4 +159,66 @@ fn a_spraying_backup_stays_on_its_fire_and_the_unit_still_on_its_way_takes_a_new
     assert_eq!(t.len(), 1, "{out:?}");
     assert_eq!(t[0].unit.as_str(), "b");
     assert!(matches!(t[0].kind, TaskKind::Extinguish { target, .. } if target.x > 100.0));
+}
+
+/// Each unit is dispatched as its own profile says: `heavy-ugv` (2.5 m wide, 30 L/s) and
+/// `luf60` (1.0 m, 10 L/s) in one site.
+mod profiles {
+    use super::*;
+    use crate::assign::{Place, Road, Roads};
+
+    /// A heavy unit at `heavy_x` and a light one at `light_x` on the near lane, both heard
+    /// at t = 0, in the tunnel `b` builds, searched; one unit per fire unless its heat
+    /// release needs more water.
+    fn site(b: firefleet_model::testing::ScenarioBuilder, heavy_x: f64, light_x: f64) -> Incident {
+        let scenario = b
+            .ground("heavy", heavy_x, -2.0)
+            .profile("heavy-ugv")
+            .ground("light", light_x, -2.0)
+            .build();
+        let mut i = Incident::from_scenario(&scenario, 5.0, Strategy::Optimal).unwrap();
+        i.set_units_per_fire(1);
+        // Searched already: these tests are about fires.
+        let end = i.tunnel.end();
+        i.coverage.look(Chainage::ZERO, end, 0.0);
+        for (n, x) in [("heavy", heavy_x), ("light", light_x)] {
+            i.on_alive(&u(n), true, 0.0).unwrap();
+            i.on_state(state(n, x, None), 0.0).unwrap();
+        }
+        i
+    }
+
+    #[test]
+    fn a_gap_the_light_unit_threads_is_no_road_for_the_heavy_one() {
+        // A truck leaves 2 m at the right-hand wall: wide enough for 1 m, not for 2.5 m.
+        let b = Scenario::straight(200.0).section(10.0, 6.0).obstacle(
+            "truck",
+            (52.0, 1.0),
+            [3.0, 8.0, 3.0],
+        );
+        // The heavy unit is nearer the fire (14 m against 24 m), with the gap between.
+        let mut i = site(b, 48.0, 38.0);
+        let out = i.on_report(&report("light", 62.0), 1.0).unwrap();
+        let sent: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
+        assert_eq!(sent, ["light"], "{out:?}");
+        // The same roads, asked for each body.
+        let fire = i.fusion.fires()[0].id;
+        let at = Place::straight(40.0, -4.0);
+        assert!(matches!(i.roads.road(fire, &at, 1.0), Road::Metres(_)));
+        assert_eq!(i.roads.road(fire, &at, 2.5), Road::Blocked);
+    }
+
+    #[test]
+    fn one_heavy_cannon_does_the_work_of_two_light_ones() {
+        // 20 MW needs two 10 L/s cannons (the first test above) but one 30 L/s cannon.
+        for (heavy_x, light_x, sent) in [(55.0, 50.0, 1), (20.0, 50.0, 2)] {
+            let mut i = site(Scenario::straight(200.0), heavy_x, light_x);
+            let mut r = report("light", 62.0);
+            r.observations[0].hrr_kw = Some(20_000.0);
+            let mut out = i.on_report(&r, 1.0).unwrap();
+            out.extend(i.tick(1.2));
+            let units: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
+            assert_eq!(units.len(), sent, "heavy at {heavy_x}: {units:?}");
+        }
+    }
 }

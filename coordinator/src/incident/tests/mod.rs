@@ -1,14 +1,15 @@
 //! The incident's tests, by concern, and the fixtures they share.
 
 use super::*;
-use firefleet_protocol::geometry::{Point2, Pose2};
+use firefleet_model::geometry::{Point2, Pose2};
+use firefleet_model::profile::GROUND;
+use firefleet_model::scenario::Zone;
+use firefleet_model::{Chainage, CommanderId, ZoneId};
 use firefleet_protocol::msg::FlameObservation;
 use firefleet_protocol::msg::{
     FireState, FlameReport, GoalAck, GoalKind, TaskProgress, UnitMode, ZoneGoal,
 };
-use firefleet_protocol::scenario::Zone;
 use firefleet_protocol::testing::ground_state;
-use firefleet_protocol::{Chainage, CommanderId, ZoneId};
 
 mod dispatch;
 mod events;
@@ -110,7 +111,7 @@ fn incident() -> Incident {
 /// Ground units a and b, neither heard from yet, in a tunnel searched at t = 0 (these
 /// tests are about fires; searching has tests of its own).
 fn unheard() -> Incident {
-    let ground = Mobility::Ground { speed_m_s: 1.5 };
+    let ground = Mobility::Ground(*GROUND);
     let mut i = Incident::new(
         TUNNEL,
         [(u("a"), ground), (u("b"), ground)],
@@ -160,14 +161,14 @@ fn goal(
         priority,
         before_m,
         expires_s: None,
-        issued_by: "ic-1".into(),
+        issued_by: Some(CommanderId::new("ic-1").unwrap()),
         rail_allowed: false,
     };
     (zone, g)
 }
 
 fn submit(i: &mut Incident, (zone, g): (ZoneId, ZoneGoal), t: f64) -> (GoalAck, Vec<Output>) {
-    let by = CommanderId::new(g.issued_by.as_str()).unwrap();
+    let by = g.issued_by.clone().unwrap();
     i.on_goal(&zone, &by, g, t)
 }
 

@@ -1,7 +1,7 @@
 //! Searching the tunnel and the rails.
 
 use super::*;
-use firefleet_protocol::msg::UnitKind;
+use firefleet_model::UnitKind;
 
 /// A monorail unit "r" on a rail over the whole tunnel, at chainage `x`, and its
 /// state there.
@@ -12,6 +12,7 @@ fn with_rail(x: f64) -> (Incident, UnitState) {
         y_m: 0.0,
         speed_m_s: 10.0,
         reach_m: 12.0,
+        detector_range_m: firefleet_model::profile::MONORAIL.detector_range_m,
     };
     let mut i = Incident::new(TUNNEL, [(u("r"), rail)], 5.0, Strategy::Optimal);
     i.on_alive(&u("r"), true, 0.0).unwrap();

@@ -27,8 +27,8 @@ fn free_units_are_staged_short_of_the_fire_and_released_when_it_is_out() {
 /// attack.
 #[test]
 fn in_a_bend_staging_finds_a_fire_s_zone_by_its_chainage() {
+    use firefleet_model::scenario::Segment;
     use firefleet_protocol::msg::FlameObservation;
-    use firefleet_protocol::scenario::Segment;
     let tunnel = Tunnel {
         centerline: vec![
             Segment::Straight { length_m: 60.0 },
@@ -48,7 +48,7 @@ fn in_a_bend_staging_finds_a_fire_s_zone_by_its_chainage() {
         (fire.x - 99.0).abs() < 1e-6,
         "x is not the chainage: {fire:?}"
     );
-    let ground = Mobility::Ground { speed_m_s: 1.5 };
+    let ground = Mobility::Ground(*GROUND);
     let mut i = Incident::new(
         tunnel.clone(),
         [(u("a"), ground), (u("b"), ground)],

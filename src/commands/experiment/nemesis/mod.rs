@@ -37,14 +37,15 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
+use firefleet_bus::{Ask, Bus, Connect, Mode};
 use firefleet_coordinator::incident::LEASE_S;
-use firefleet_protocol::bus::{Bus, Connect, Mode};
+use firefleet_model::builtin;
+use firefleet_model::scenario::Scenario;
+use firefleet_model::{CommanderId, UnitId, ZoneId};
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{
     Decision, GoalKind, IncidentStatus, SimTruth, Task, UnitState, ZoneGoal,
 };
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::{CommanderId, UnitId, ZoneId};
 use firefleet_recorder::parts::Recording;
 use serde::Serialize;
 use tokio::io::AsyncWriteExt;
@@ -52,7 +53,7 @@ use tokio::process::{Child, Command};
 
 use crate::commands::check::check;
 use crate::commands::demo::{as_child, stop_children};
-use crate::commands::{positive_f64, scenarios, write_json};
+use crate::commands::{positive_f64, write_json};
 
 /// How long a fault that lasts (a partition, loss, a pause) lasts, wall-clock.
 const FAULT: Duration = Duration::from_secs(15);
@@ -193,7 +194,7 @@ pub async fn run(a: NemesisArgs) -> anyhow::Result<ExitCode> {
         eprintln!("SKIPPED: the nemesis needs network namespaces: {why}");
         return Ok(ExitCode::from(2));
     }
-    let scenario = scenarios::resolve(&a.scenario)?;
+    let scenario = builtin::resolve(&a.scenario)?;
     let faults = if a.faults.is_empty() {
         Fault::ALL.to_vec()
     } else {
@@ -556,13 +557,7 @@ async fn one_run(
     if let Some(zone) = keep_out {
         let goal = ZoneGoal {
             id: "nemesis-keep-out".into(),
-            zone: zone.clone(),
-            goal: GoalKind::KeepOut,
-            priority: 0,
-            before_m: None,
-            expires_s: None,
-            issued_by: COMMANDER.into(),
-            rail_allowed: false,
+            ..ZoneGoal::new(zone.clone(), GoalKind::KeepOut, commander())
         };
         issue(&bus, &goal).await?;
     }
@@ -696,7 +691,10 @@ async fn one_run(
 }
 
 /// The commander the harness issues its goal as.
-const COMMANDER: &str = "nemesis";
+/// The commander the nemesis issues its keep-out as.
+fn commander() -> CommanderId {
+    CommanderId::new("nemesis").expect("a valid commander name")
+}
 
 /// The deepest zone of `scenario` with no fire in it.
 fn quiet_zone(scenario: &Scenario) -> Option<ZoneId> {
@@ -716,8 +714,7 @@ fn quiet_zone(scenario: &Scenario) -> Option<ZoneId> {
 /// Put `goal` until the coordinator acknowledges it (it may not be up yet); an error if
 /// it refuses it or says nothing for a minute.
 async fn issue(bus: &Bus, goal: &ZoneGoal) -> anyhow::Result<()> {
-    let by = CommanderId::new(COMMANDER)?;
-    let ack = crate::commands::goal::issue(bus, goal, &by, Duration::from_secs(60)).await?;
+    let ack = firefleet_bus::goal::issue(bus, goal, &commander(), Duration::from_secs(60)).await?;
     anyhow::ensure!(ack.accepted, "the keep-out was refused: {}", ack.reason);
     Ok(())
 }
@@ -745,12 +742,9 @@ async fn recovered(bus: &Bus, units: &[UnitId], since: Instant) -> Option<f64> {
     let key = bus.keys().expr(&Topic::CoordStatus);
     let deadline = since + Duration::from_secs(60);
     while Instant::now() < deadline {
-        if let Ok(replies) = bus.session().get(&key).await {
-            while let Ok(reply) = replies.recv_async().await {
-                let Ok(sample) = reply.result() else { continue };
-                let Ok(status) =
-                    serde_json::from_slice::<IncidentStatus>(&sample.payload().to_bytes())
-                else {
+        if let Ok(answers) = bus.ask(&key, Ask::within(Duration::from_secs(10))).await {
+            while let Some(answer) = answers.recv().await {
+                let Ok(status) = serde_json::from_slice::<IncidentStatus>(&answer.bytes) else {
                     continue;
                 };
                 let in_play = |u: &UnitId| {

@@ -1,7 +1,7 @@
 //! The parent module's tests.
 
 use super::*;
-use firefleet_protocol::scenario::Scenario;
+use firefleet_model::scenario::Scenario;
 
 const R: f64 = 1.83; // the ground unit's turning radius (1 m wheelbase, 0.5 rad)
 

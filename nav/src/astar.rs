@@ -6,7 +6,7 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use firefleet_protocol::Point2;
+use firefleet_model::Point2;
 
 use super::grid::{Grid, NEIGHBOURS};
 

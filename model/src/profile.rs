@@ -6,7 +6,7 @@
 //! its carriage and monitor. `kind = "ground"` or `"monorail"`, then the fields of
 //! [`GroundSpec`] or [`MonorailSpec`] (units in the names, angles in radians).
 //!
-//! Profiles ship with firefleet (`protocol/profiles/*.toml`: `luf60`, the small unit every
+//! Profiles ship with firefleet (`model/profiles/*.toml`: `luf60`, the small unit every
 //! shipped scenario uses; `heavy-ugv`; `robogat`, the paper's monorail unit), and a site
 //! file may define its own under `[profiles.<name>]`; a unit names its profile with
 //! `profile = "<name>"`. Every profile is validated like the site file: the error names the
@@ -16,8 +16,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::msg::UnitKind;
-use crate::spec::{CameraSpec, GroundSpec, MonorailSpec, NozzleSpec};
+use std::sync::LazyLock;
+
+use crate::spec::{CameraSpec, GroundSpec, MonorailSpec, NozzleSpec, UnitKind};
 use crate::validate::{self, FileError, Invalid, Validate, in_range};
 
 /// The profile of a ground unit that names none.
@@ -68,6 +69,20 @@ pub fn shipped(name: &str) -> Option<Profile> {
 pub fn shipped_names() -> impl Iterator<Item = &'static str> {
     SHIPPED.iter().map(|(n, _)| *n)
 }
+
+/// The ground unit every scenario uses unless a unit names another profile: the shipped
+/// `luf60` profile.
+pub static GROUND: LazyLock<GroundSpec> = LazyLock::new(|| match shipped(DEFAULT_GROUND) {
+    Some(Profile::Ground(g)) => g,
+    _ => unreachable!("the shipped ground profile is a valid ground profile (tested)"),
+});
+
+/// The paper's monorail unit (section IV), with our stated assumptions for its sensors and
+/// hose coupling: the shipped `robogat` profile.
+pub static MONORAIL: LazyLock<MonorailSpec> = LazyLock::new(|| match shipped(DEFAULT_MONORAIL) {
+    Some(Profile::Monorail(m)) => m,
+    _ => unreachable!("the shipped monorail profile is a valid monorail profile (tested)"),
+});
 
 impl Validate for Profile {
     fn validate(&self) -> Result<(), Invalid> {

@@ -17,11 +17,11 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use firefleet_protocol::Point2;
-use firefleet_protocol::scenario::{Scenario, Tunnel};
+use firefleet_model::Point2;
+use firefleet_model::scenario::{Scenario, Tunnel};
 
 use super::grid_search::{Cell, CostGrid};
-use super::hybrid_astar::{HeatSource, radiant_flux_kw_m2};
+use firefleet_model::heat::{HeatSource, radiant_flux_kw_m2};
 
 /// A 2.5-D grid: per cell, obstacle height (m), roughness (dimensionless, 1 = smooth road)
 /// and temperature (C); row-major.

@@ -2,17 +2,29 @@
 //!
 //! The simulator moves bodies with these limits and the agent plans with them, the way a
 //! real vehicle's datasheet serves both its firmware and its planners. A robot model's
-//! values come from its profile ([`crate::profile`]); [`GROUND`] and [`MONORAIL`] are the
-//! shipped profiles every scenario's units use unless they name another. The field docs
+//! values come from its profile ([`crate::profile`], where the shipped defaults
+//! [`crate::profile::GROUND`] and [`crate::profile::MONORAIL`] are read). This module has the
+//! types only, so profiles (data) depend on specs (shapes) and not the other way round. The field docs
 //! below say why the shipped values are what they are: stated assumptions for a mid-size
 //! tunnel firefighting robot (LUF 60 / Thermite class), not tuned to any experiment.
 
-use std::sync::LazyLock;
-
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::Pose2;
-use crate::profile::{self, Profile};
+
+/// Ground vehicle or ceiling-rail carriage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum UnitKind {
+    Ground,
+    Monorail,
+}
+
+crate::names!(UnitKind, "a kind of unit" {
+    Ground => "ground",
+    Monorail => "monorail",
+});
 
 /// Limits and geometry of a ground unit.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -185,14 +197,6 @@ impl GroundSpec {
     }
 }
 
-/// The ground unit every scenario uses unless a unit names another profile: the shipped
-/// `luf60` profile.
-pub static GROUND: LazyLock<GroundSpec> =
-    LazyLock::new(|| match profile::shipped(profile::DEFAULT_GROUND) {
-        Some(Profile::Ground(g)) => g,
-        _ => unreachable!("the shipped ground profile is a valid ground profile (tested)"),
-    });
-
 /// Limits and geometry of a monorail unit: the ROBOGAT carriage and monitor.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -230,21 +234,25 @@ pub struct MonorailSpec {
     pub working_reach_m: f64,
 }
 
-/// The paper's monorail unit (section IV), with our stated assumptions for its sensors and
-/// hose coupling: the shipped `robogat` profile.
-pub static MONORAIL: LazyLock<MonorailSpec> =
-    LazyLock::new(|| match profile::shipped(profile::DEFAULT_MONORAIL) {
-        Some(Profile::Monorail(m)) => m,
-        _ => unreachable!("the shipped monorail profile is a valid monorail profile (tested)"),
-    });
-
 /// What a monorail unit reports as its water, L: it draws from the tunnel's main, which a
 /// unit cannot run dry, so it reports a volume no incident uses up.
 pub const MAINS_WATER_L: f64 = 100_000.0;
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use crate::profile::GROUND;
+
+    use super::UnitKind;
+
+    #[test]
+    fn unit_kinds_are_named_as_on_the_wire() {
+        for k in UnitKind::ALL {
+            assert_eq!(serde_json::to_value(k).unwrap(), k.as_str());
+            assert_eq!(k.as_str().parse::<UnitKind>(), Ok(*k));
+        }
+        let e = "tracked".parse::<UnitKind>().unwrap_err();
+        assert_eq!(e, "'tracked' is not a kind of unit (ground, monorail)");
+    }
 
     #[test]
     fn camera_projection_and_equation_7_are_inverse() {

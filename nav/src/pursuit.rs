@@ -15,8 +15,8 @@
 //! Not here: the choice of path (the planners) or any obstacle check; the follower trusts
 //! its path and the unit replans when it touches something.
 
-use firefleet_protocol::geometry::{Point2, Pose2};
-use firefleet_protocol::spec::GroundSpec;
+use firefleet_model::geometry::{Point2, Pose2};
+use firefleet_model::spec::GroundSpec;
 
 /// Top speed when backing, m/s.
 pub const REVERSE_SPEED_M_S: f64 = 0.6;
@@ -308,8 +308,8 @@ fn lerp(a: Point2, b: Point2, t: f64) -> Point2 {
 mod tests {
     use super::*;
     use crate::reeds_shepp;
-    use firefleet_protocol::geometry::wrap_angle;
-    use firefleet_protocol::spec::GROUND;
+    use firefleet_model::geometry::wrap_angle;
+    use firefleet_model::profile::GROUND;
 
     /// How a drive under the follower went.
     struct Drive {

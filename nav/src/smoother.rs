@@ -20,8 +20,8 @@
 //! each with a fixed ghost vertex beyond it along the search's heading, so the start pose,
 //! the goal pose and the heading at every reversal stay exactly as planned. Pure: no I/O.
 
-use firefleet_protocol::geometry::wrap_angle;
-use firefleet_protocol::{Point2, Pose2};
+use firefleet_model::geometry::wrap_angle;
+use firefleet_model::{Point2, Pose2};
 
 /// How hard the smoother pulls.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -5,8 +5,8 @@
 //! Not here: search over it ([`crate::astar`], [`crate::hybrid_astar`]) or costs beyond
 //! free and blocked ([`crate::costmap`]).
 
-use firefleet_protocol::Point2;
-use firefleet_protocol::scenario::Scenario;
+use firefleet_model::Point2;
+use firefleet_model::scenario::Scenario;
 
 /// A cell index (column along x, row along y).
 pub type Cell = (usize, usize);

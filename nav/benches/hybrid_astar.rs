@@ -4,11 +4,11 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use firefleet_model::profile::GROUND;
+use firefleet_model::scenario::Scenario;
+use firefleet_model::{Point2, Pose2};
 use firefleet_nav::Grid;
 use firefleet_nav::hybrid_astar::{Footprint, HybridAStar, Params};
-use firefleet_protocol::scenario::Scenario;
-use firefleet_protocol::spec::GROUND;
-use firefleet_protocol::{Point2, Pose2};
 
 fn hybrid_astar(c: &mut Criterion) {
     let site = Scenario::straight(200.0)

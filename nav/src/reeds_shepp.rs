@@ -18,7 +18,7 @@
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
-use firefleet_protocol::Pose2;
+use firefleet_model::Pose2;
 
 /// How one segment turns.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -80,7 +80,7 @@ pub fn advance(p: Pose2, turn: Turn, length: f64, radius: f64) -> Pose2 {
             Pose2::new(
                 p.x + k * radius * (yaw.sin() - s),
                 p.y - k * radius * (yaw.cos() - c),
-                firefleet_protocol::geometry::wrap_angle(yaw),
+                firefleet_model::geometry::wrap_angle(yaw),
             )
         }
     }

@@ -76,9 +76,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::geometry::{Point2, Pose2};
 use crate::ids::{SiteId, UnitId, ZoneId};
-use crate::msg::UnitKind;
 use crate::profile::{self, Profile};
-use crate::spec::{GroundSpec, MonorailSpec};
+use crate::spec::{GroundSpec, MonorailSpec, UnitKind};
 use crate::tunnel::Chainage;
 pub use crate::tunnel::{Segment, Station, Tunnel};
 use crate::validate::{self, FileError, Invalid, Validate, in_range};

@@ -19,7 +19,7 @@
 //! the flame in view; as printed that would penalise visibility, so the term charges
 //! losing sight instead.
 //!
-//! Heat: given the fires' positions and heat releases ([`HeatSource`]), each primitive
+//! Heat: given the fires' positions and heat releases ([`HeatSource`], [`firefleet_model::heat`]), each primitive
 //! also costs `w_heat q ds`, `q` the radiant flux at its end (point source radiating 30 %
 //! of the heat release, capped at 100 kW/m^2): the path keeps its distance from fires
 //! where that is cheap, which is the heat-exposure term of the Dijkstra+GA paper's cost
@@ -39,9 +39,9 @@
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
 
-use firefleet_protocol::geometry::wrap_angle;
-use firefleet_protocol::msg::{FireState, FireTrack};
-use firefleet_protocol::{Point2, Pose2};
+use firefleet_model::geometry::wrap_angle;
+use firefleet_model::heat::{HeatSource, radiant_flux_kw_m2};
+use firefleet_model::{Point2, Pose2};
 
 use super::grid::Grid;
 use super::grid_search::CostGrid;
@@ -144,40 +144,6 @@ struct Node {
 fn arc(from: Pose2, turn: Turn, length: f64, radius: f64, res: f64) -> impl Iterator<Item = Pose2> {
     let n = (length.abs() / res).ceil().max(1.0) as usize;
     (1..=n).map(move |k| reeds_shepp::advance(from, turn, length * k as f64 / n as f64, radius))
-}
-
-/// A fire the path should keep away from.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HeatSource {
-    pub at: Point2,
-    pub hrr_kw: f64,
-}
-
-impl HeatSource {
-    /// What the fleet knows of a fire as a heat source: a track not yet out whose flame
-    /// some unit sized. A track nobody sized radiates nothing here rather than a guess.
-    pub fn of_track(track: &FireTrack) -> Option<Self> {
-        match (track.state, track.hrr_kw) {
-            (FireState::Out, _) | (_, None) => None,
-            (_, Some(hrr_kw)) => Some(Self {
-                at: track.position,
-                hrr_kw,
-            }),
-        }
-    }
-}
-
-/// Radiant flux from `sources` at `p`, kW/m^2: point sources radiating 30 % of their heat
-/// release, no closer than 1 m, capped at 100 kW/m^2.
-pub fn radiant_flux_kw_m2(sources: &[HeatSource], p: Point2) -> f64 {
-    sources
-        .iter()
-        .map(|s| {
-            let r = s.at.dist(p).max(1.0);
-            0.3 * s.hrr_kw / (4.0 * std::f64::consts::PI * r * r)
-        })
-        .sum::<f64>()
-        .min(100.0)
 }
 
 /// The planner for one map.

@@ -118,6 +118,9 @@ pub enum FileError {
     },
     #[error("{origin}: {invalid}")]
     Invalid { origin: String, invalid: Invalid },
+    /// A name that is neither a file nor one of the shipped ones.
+    #[error("{0}")]
+    Unknown(String),
 }
 
 /// Parse TOML `text` and `check` it; `origin` (a file name) prefixes every error.

@@ -3,19 +3,19 @@
 //! [`Payload::from_json`]), becomes a [`Payload`] of the topic's message type.
 //!
 //! The recorder and the replay both read through it, so the topic-to-type table exists
-//! once here (beside the key builders of `firefleet_protocol::keys`, which fix the same
+//! once here (beside the key builders of `crate::keys`, which fix the same
 //! pairs for senders) and schema names come from `Message::NAME`.
 //!
 //! Not here: liveliness tokens and the status queryable, which carry no message.
 
-use firefleet_protocol::codec::{self, CodecError};
-use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{
+use crate::codec::{self, CodecError};
+use crate::keys::Topic;
+use crate::msg::{
     BarredSpace, BtTransitions, Decision, FireTrack, FlameReport, GoalAck, GoalsInForce, Message,
     RailCommand, RailSensors, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState,
     ZoneGoal,
 };
-use firefleet_protocol::{CommanderId, ZoneId};
+use firefleet_model::{CommanderId, ZoneId};
 use serde::{Deserialize, Serialize};
 
 /// Why a record or a sample could not be decoded.
@@ -126,8 +126,8 @@ impl GoalClear {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firefleet_protocol::UnitId;
-    use firefleet_protocol::msg::SimClock;
+    use crate::msg::SimClock;
+    use firefleet_model::UnitId;
 
     #[test]
     fn wire_and_recording_forms_decode_to_the_same_payload() {

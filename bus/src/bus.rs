@@ -22,10 +22,10 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::{Session, Wait};
 
-use crate::codec::{self, CodecError};
-use crate::ids::SiteId;
-use crate::keys::{self, Key, Keys, Subscribable, Topic};
-use crate::msg::Message;
+use firefleet_model::ids::SiteId;
+use firefleet_protocol::codec::{self, CodecError};
+use firefleet_protocol::keys::{self, Key, Keys, Subscribable, Topic};
+use firefleet_protocol::msg::Message;
 
 /// A bus error: Zenoh refused something.
 #[derive(Debug, thiserror::Error)]
@@ -185,6 +185,8 @@ pub struct RejectCounts {
     undecodable: AtomicU64,
     version: AtomicU64,
     invalid: AtomicU64,
+    /// Taken off the bus but dropped: the reader was behind ([`crate::RawInbox`]).
+    overflow: AtomicU64,
 }
 
 impl RejectCounts {
@@ -202,17 +204,20 @@ impl RejectCounts {
     pub fn count_invalid(&self) {
         self.invalid.fetch_add(1, Ordering::Relaxed);
     }
+    /// Count a message dropped because its reader was behind.
+    pub fn count_overflow(&self) {
+        self.overflow.fetch_add(1, Ordering::Relaxed);
+    }
     pub fn total(&self) -> u64 {
-        self.undecodable.load(Ordering::Relaxed)
-            + self.version.load(Ordering::Relaxed)
-            + self.invalid.load(Ordering::Relaxed)
+        self.snapshot().iter().map(|(_, n)| n).sum()
     }
     /// `(class, count)` pairs, for status reports.
-    pub fn snapshot(&self) -> [(&'static str, u64); 3] {
+    pub fn snapshot(&self) -> [(&'static str, u64); 4] {
         [
             ("undecodable", self.undecodable.load(Ordering::Relaxed)),
             ("version", self.version.load(Ordering::Relaxed)),
             ("invalid", self.invalid.load(Ordering::Relaxed)),
+            ("overflow", self.overflow.load(Ordering::Relaxed)),
         ]
     }
 }
@@ -246,8 +251,15 @@ impl Bus {
     pub fn keys(&self) -> &Keys {
         &self.keys
     }
-    /// The underlying session, for liveliness and queryables.
-    pub fn session(&self) -> &Session {
+    /// The session, for this crate's own edges ([`crate::exchange`]).
+    pub(crate) fn zenoh(&self) -> &Session {
+        &self.session
+    }
+
+    /// The Zenoh session itself: for the other Zenoh edge (`firefleet-ros2` speaks
+    /// rmw_zenoh's keys and types on it, not the site's) and for tests that play an
+    /// attacker, who does what no role does. Roles use the typed methods.
+    pub fn zenoh_session(&self) -> &Session {
         &self.session
     }
     pub fn rejects(&self) -> &Arc<RejectCounts> {

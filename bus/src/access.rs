@@ -33,10 +33,10 @@ use std::str::FromStr;
 
 use serde_json::{Value, json};
 
-use crate::ids::{CommanderId, IdError, UnitId};
-use crate::keys::{Keys, Topic};
-use crate::msg::UnitKind;
-use crate::scenario::Scenario;
+use firefleet_model::UnitKind;
+use firefleet_model::scenario::Scenario;
+use firefleet_model::{ids::CommanderId, ids::IdError, ids::UnitId};
+use firefleet_protocol::keys::{Keys, Topic};
 
 /// One identity of a site: a certificate's common name.
 #[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -539,14 +539,14 @@ mod tests {
             .map(|w| (w.clone(), grants(&s, w, true).unwrap()))
             .collect();
         let u = |s: &str| UnitId::new(s).unwrap();
-        let zone = crate::ZoneId::new("deep").unwrap();
+        let zone = firefleet_model::ZoneId::new("deep").unwrap();
         let topics = [
             (Op::Put, Topic::UnitState(u("ugv-1"))),
             (Op::Token, Topic::UnitAlive(u("ugv-1"))),
             (Op::Put, Topic::UnitReport(u("ugv-1"))),
             (Op::Put, Topic::UnitTask(u("ugv-1"))),
             (Op::Put, Topic::UnitBt(u("ugv-1"))),
-            (Op::Put, Topic::Fire(crate::FireId(3))),
+            (Op::Put, Topic::Fire(firefleet_model::FireId(3))),
             (
                 Op::Put,
                 Topic::ZoneGoal(zone.clone(), CommanderId::new("rossi").unwrap()),

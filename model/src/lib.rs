@@ -1,0 +1,29 @@
+//! The firefleet world as data: what every process agrees a site *is*, with no transport.
+//!
+//! Identifiers, the site frame and its geometry, the tunnel and its chainage, the site
+//! (scenario) file format and its validation, robot profiles and the specs they carry,
+//! how time is read, and the radiant heat model the planners and the console share.
+//!
+//! Not here: messages, keys and encodings (`firefleet-protocol`), or anything that talks
+//! to a network (`firefleet-bus`). This crate has no Zenoh and no tokio, so the pure
+//! algorithms (`firefleet-nav`, the coordinator's incident core) build on it alone.
+
+pub mod builtin;
+pub mod clock;
+pub mod geometry;
+pub mod heat;
+pub mod ids;
+mod names;
+pub mod profile;
+pub mod scenario;
+pub mod spec;
+#[cfg(any(test, feature = "testing"))]
+pub mod testing;
+pub mod tunnel;
+pub mod validate;
+
+pub use geometry::{Gaussian2, Point2, Pose2};
+pub use ids::{CommanderId, FireId, SiteId, UnitId, ZoneId};
+pub use spec::UnitKind;
+pub use tunnel::Chainage;
+pub use validate::{Invalid, Validate};

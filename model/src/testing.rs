@@ -1,0 +1,179 @@
+//! A scenario builder for tests and benchmarks: the sites they need, said in a line
+//! each instead of a pasted TOML file.
+//!
+//! ```
+//! use firefleet_model::scenario::Scenario;
+//! let s = Scenario::straight(120.0).car("car", 40.0, -2.5).fire("fire", 60.0, -2.0, 5000.0)
+//!     .ground("u1", 5.0, -2.5).build();
+//! assert_eq!(s.units.len(), 1);
+//! ```
+//!
+//! Built sites are validated like a site file; an invalid one panics, naming what is
+//! wrong (a test's own mistake). Not for production: site files are TOML, read with
+//! [`Scenario::load`].
+
+use crate::scenario::{FireSpec, Growth, Obstacle, Rail, Scenario, Tunnel, UnitSpec};
+use crate::{UnitId, UnitKind};
+
+/// A scenario under construction; see the module doc.
+#[derive(Debug, Clone)]
+pub struct ScenarioBuilder(Scenario);
+
+impl Scenario {
+    /// A straight tunnel `length_m` long, 10 m wide, 6.3 m high, two lanes, with a
+    /// 300 s time limit and nothing in it yet.
+    pub fn straight(length_m: f64) -> ScenarioBuilder {
+        ScenarioBuilder(Scenario::empty(
+            "test",
+            crate::SiteId::new("tunnel").expect("valid literal"),
+            Tunnel::straight(length_m, 10.0, 6.3, 2),
+            300.0,
+        ))
+    }
+}
+
+impl ScenarioBuilder {
+    pub fn name(mut self, name: &str) -> Self {
+        self.0.name = name.into();
+        self
+    }
+
+    pub fn time_limit(mut self, s: f64) -> Self {
+        self.0.time_limit_s = s;
+        self
+    }
+
+    /// The tunnel's cross-section.
+    pub fn section(mut self, width_m: f64, height_m: f64) -> Self {
+        self.0.tunnel.width_m = width_m;
+        self.0.tunnel.height_m = height_m;
+        self
+    }
+
+    /// A box on the road, `length_m` x `width_m` x `height_m`, centred at (x, y).
+    pub fn obstacle(mut self, name: &str, (x_m, y_m): (f64, f64), size: [f64; 3]) -> Self {
+        let [length_m, width_m, height_m] = size;
+        self.0.obstacles.push(Obstacle {
+            name: name.into(),
+            x_m,
+            y_m,
+            length_m,
+            width_m,
+            height_m,
+            yaw_rad: 0.0,
+        });
+        self
+    }
+
+    /// A parked car (4.5 x 1.8 x 1.5 m) at (x, y).
+    pub fn car(self, name: &str, x_m: f64, y_m: f64) -> Self {
+        self.obstacle(name, (x_m, y_m), [4.5, 1.8, 1.5])
+    }
+
+    /// A fast-growing fire of `peak_kw` at (x, y), burning since well before the start
+    /// (ignition 120 s before; [`ScenarioBuilder::ignition`] changes it).
+    pub fn fire(mut self, name: &str, x_m: f64, y_m: f64, peak_kw: f64) -> Self {
+        self.0.fires.push(FireSpec {
+            name: name.into(),
+            x_m,
+            y_m,
+            growth: Growth::Fast,
+            peak_kw,
+            ignition_s: -120.0,
+            radius_m: 1.0,
+        });
+        self
+    }
+
+    /// The ignition time of the last fire added, s of site time.
+    pub fn ignition(mut self, s: f64) -> Self {
+        self.0
+            .fires
+            .last_mut()
+            .expect("ignition() follows fire()")
+            .ignition_s = s;
+        self
+    }
+
+    /// The t-squared growth class of the last fire added.
+    pub fn growth(mut self, growth: Growth) -> Self {
+        self.0
+            .fires
+            .last_mut()
+            .expect("growth() follows fire()")
+            .growth = growth;
+        self
+    }
+
+    fn unit(mut self, id: &str, kind: UnitKind, x_m: f64, y_m: f64, rail: Option<&str>) -> Self {
+        self.0.units.push(UnitSpec {
+            id: UnitId::new(id).expect("a valid unit id"),
+            kind,
+            x_m,
+            y_m,
+            yaw_rad: 0.0,
+            rail: rail.map(str::to_owned),
+            profile: None,
+        });
+        self
+    }
+
+    /// The last unit added is of profile `name` (shipped, or added with
+    /// [`ScenarioBuilder::with_profile`]).
+    pub fn profile(mut self, name: &str) -> Self {
+        self.0
+            .units
+            .last_mut()
+            .expect("profile() follows a unit")
+            .profile = Some(name.into());
+        self
+    }
+
+    /// A profile of this site's own.
+    pub fn with_profile(mut self, name: &str, p: crate::profile::Profile) -> Self {
+        self.0.profiles.insert(name.into(), p);
+        self
+    }
+
+    /// A ground unit at (x, y), facing +x.
+    pub fn ground(self, id: &str, x_m: f64, y_m: f64) -> Self {
+        self.unit(id, UnitKind::Ground, x_m, y_m, None)
+    }
+
+    /// A ceiling rail from `start_m` to `end_m` on the centreline, its monitor 5.8 m up,
+    /// with hose points at `hose_points_m`.
+    pub fn rail(mut self, id: &str, start_m: f64, end_m: f64, hose_points_m: &[f64]) -> Self {
+        self.0.rails.push(Rail {
+            id: id.into(),
+            start_m,
+            end_m,
+            y_m: 0.0,
+            height_m: 5.8,
+            hose_points_m: hose_points_m.to_vec(),
+        });
+        self
+    }
+
+    /// The monitor's pivot height above the road of the last rail added, m.
+    pub fn rail_height(mut self, height_m: f64) -> Self {
+        self.0
+            .rails
+            .last_mut()
+            .expect("rail_height() follows rail()")
+            .height_m = height_m;
+        self
+    }
+
+    /// A monorail unit on `rail`, at chainage `x_m`.
+    pub fn monorail(self, id: &str, rail: &str, x_m: f64) -> Self {
+        self.unit(id, UnitKind::Monorail, x_m, 0.0, Some(rail))
+    }
+
+    /// The scenario; panics if it would not pass as a site file.
+    pub fn build(self) -> Scenario {
+        if let Err(e) = self.0.validate() {
+            panic!("test scenario '{}': {e}", self.0.name);
+        }
+        self.0
+    }
+}
