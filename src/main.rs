@@ -5,9 +5,13 @@
 //! subcommands run one role each and join a Zenoh network given on the command line, so
 //! the same binary deploys onto several machines.
 //!
-//! Not here: any role's work; each subcommand lives in `commands/`, the bus plumbing in
-//! `net`.
+//! Each subcommand lives in `commands/` and only parses, calls and prints; what several
+//! share is beside them: `net` (joining the bus, signals, the status query), `children`
+//! (the processes a command starts), `checking` (a recording through the invariants).
+//! Not here: any role's work (the library crates).
 
+mod checking;
+mod children;
 mod commands;
 mod net;
 

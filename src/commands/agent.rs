@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use anyhow::Context;
-use clap::{Args, ValueEnum};
+use clap::Args;
 use firefleet_agent::ground::GroundController;
 use firefleet_agent::monorail::MonorailController;
 use firefleet_agent::{AgentOptions, Ros2Platform, SimPlatform};
@@ -17,7 +17,7 @@ use firefleet_model::builtin;
 use firefleet_model::UnitKind;
 use firefleet_ros2::graph::{Domain, Namespace};
 
-use super::{ScenarioArg, positive_f64};
+use super::{PlatformKind, ScenarioArg, positive_f64};
 use crate::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
@@ -43,15 +43,6 @@ pub struct AgentArgs {
     platform: PlatformKind,
     #[command(flatten)]
     ros: RosArgs,
-}
-
-/// Which body an agent drives.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PlatformKind {
-    /// The simulator's unit, over the site's `sim/` keys.
-    Sim,
-    /// A ROS 2 robot over rmw_zenoh (ground units): `firefleet sim --ros2`, or a real one.
-    Ros2,
 }
 
 /// Where a ROS 2 robot is.

@@ -16,12 +16,14 @@
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::process::{ExitCode, Stdio};
+use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::Args;
 use firefleet_bus::access::Identity;
+use firefleet_bus::pki;
+use firefleet_bus::render::{Layout, render_site};
 use firefleet_bus::{Bus, Connect, Mode, free_loopback_port};
 use firefleet_model::UnitKind;
 use firefleet_model::builtin;
@@ -33,10 +35,8 @@ use firefleet_protocol::msg::{
 use serde::Serialize;
 use tokio::process::{Child, Command};
 
-use super::agent::PlatformKind;
-use super::deploy::{Layout, render_site};
-use super::pki::site_pki;
-use super::{non_negative_f64, positive_f64, write_json};
+use super::{PlatformKind, non_negative_f64, positive_f64, write_json};
+use crate::children::{as_child, exited, stop_children};
 use crate::net::shutdown_signal;
 
 #[derive(Args, Debug)]
@@ -577,7 +577,7 @@ impl SecureSite {
             Some(p) => p,
             None => {
                 let p = made.path().join("pki");
-                site_pki(scenario, std::slice::from_ref(commander), &[], &p)?;
+                pki::make_site(scenario, std::slice::from_ref(commander), &[], &p)?;
                 p
             }
         };
@@ -618,49 +618,4 @@ fn print_progress(truth: &SimTruth, modes: &BTreeMap<String, String>) {
         truth.fires.len(),
         units.join(", ")
     );
-}
-
-/// The role of the first child that has exited, if any.
-fn exited(children: &mut [(String, Child)]) -> Option<String> {
-    children
-        .iter_mut()
-        .find_map(|(role, c)| matches!(c.try_wait(), Ok(Some(_))).then(|| role.clone()))
-}
-
-/// Make `cmd` a child of this process: stdin a pipe from here (its `--die-with-parent`
-/// watches it), stdout quiet, stderr shared, killed if dropped; logging at `log` unless
-/// `RUST_LOG` says otherwise.
-pub(crate) fn as_child(cmd: &mut Command, log: &str) {
-    cmd.stdin(Stdio::piped())
-        .stdout(Stdio::null())
-        .stderr(Stdio::inherit())
-        .kill_on_drop(true);
-    if std::env::var_os("RUST_LOG").is_none() {
-        cmd.env("RUST_LOG", log);
-    }
-}
-
-/// Stop `children` (stdin closed, then killed if they linger), the recorder last and with
-/// time to merge its parts, so that it keeps what the others say until they exit.
-pub(crate) async fn stop_children(children: Vec<(String, Child)>) {
-    let (recorder, others): (Vec<_>, Vec<_>) = children
-        .into_iter()
-        .partition(|(role, _)| role == "recorder");
-    stop(others, Duration::from_secs(5)).await;
-    // The recorder merges its parts into one file as it stops: a minute of a long
-    // recording's compression, at most (and were it killed, the parts would stay).
-    stop(recorder, Duration::from_secs(120)).await;
-}
-
-/// Close the children's stdin (their signal to stop), wait up to `grace`, kill stragglers.
-async fn stop(mut children: Vec<(String, Child)>, grace: Duration) {
-    for (_, c) in &mut children {
-        drop(c.stdin.take());
-    }
-    for (role, c) in &mut children {
-        if tokio::time::timeout(grace, c.wait()).await.is_err() {
-            tracing::warn!(role, "did not stop in {grace:?}; killing it");
-            let _ = c.kill().await;
-        }
-    }
 }

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use anyhow::Context;
-use clap::Args;
+use clap::{Args, ValueEnum};
 use serde::Serialize;
 
 pub mod agent;
@@ -33,6 +33,15 @@ pub struct ScenarioArg {
     /// A built-in scenario name (see `firefleet scenarios`) or a scenario file.
     #[arg(long, default_value = "vehicle-collision")]
     pub scenario: String,
+}
+
+/// Which body an agent drives.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlatformKind {
+    /// The simulator's unit, over the site's `sim/` keys.
+    Sim,
+    /// A ROS 2 robot over rmw_zenoh (ground units): `firefleet sim --ros2`, or a real one.
+    Ros2,
 }
 
 pub fn positive_f64(s: &str) -> Result<f64, String> {

@@ -40,7 +40,6 @@ use firefleet_protocol::keys::{Keys, Topic};
 use firefleet_protocol::msg::{FlameObservation, FlameReport, Task, TaskKind, UnitMode, UnitState};
 use serde::Serialize;
 
-use crate::commands::pki::site_pki;
 use crate::commands::write_json;
 
 #[derive(Args, Debug)]
@@ -171,7 +170,7 @@ impl Link {
     fn secure(dir: &std::path::Path, scenario: &Scenario) -> anyhow::Result<Self> {
         let endpoint = format!("tls/127.0.0.1:{}", free_loopback_port()?);
         let pki = dir.join("pki");
-        let identities = site_pki(scenario, &[], &[], &pki)?;
+        let identities = firefleet_bus::pki::make_site(scenario, &[], &[], &pki)?;
         let keys = Keys::new(scenario.site.clone());
         let mut granted = Vec::new();
         let mut load = vec![

@@ -26,7 +26,7 @@ use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitState, Zon
 use firefleet_protocol::msg::{FireTrack, SimTruth};
 use firefleet_sim::World;
 
-use crate::commands::check::burning;
+use crate::checking::burning;
 
 /// The simulator's step, s.
 const DT_S: f64 = 0.05;

@@ -51,8 +51,8 @@ use serde::Serialize;
 use tokio::io::AsyncWriteExt;
 use tokio::process::{Child, Command};
 
-use crate::commands::check::check;
-use crate::commands::demo::{as_child, stop_children};
+use crate::checking::check;
+use crate::children::{as_child, stop_children};
 use crate::commands::{positive_f64, write_json};
 
 /// How long a fault that lasts (a partition, loss, a pause) lasts, wall-clock.
