@@ -85,6 +85,7 @@ fn init_logging(default: &str) {
 }
 
 fn main() -> std::process::ExitCode {
+    end_quietly_on_a_closed_pipe();
     let cli = Cli::parse();
     // Experiments and tree tools print tables; per-event logs are noise there.
     let quiet = matches!(
@@ -129,5 +130,18 @@ fn main() -> std::process::ExitCode {
             eprintln!("error: {e:#}");
             std::process::ExitCode::from(2)
         }
+    }
+}
+
+/// A reader that stops reading (`firefleet status | head`) ends this process the way it
+/// ends `cat`, instead of making the next `println!` panic: Rust starts programs with
+/// SIGPIPE ignored, so a write to a closed pipe fails and `println!` panics on it. Only
+/// pipes raise SIGPIPE: sockets (Zenoh's links, the console's HTTP) are written with
+/// MSG_NOSIGNAL by std and tokio on Linux and still see an error.
+fn end_quietly_on_a_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to its default, before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }

@@ -106,76 +106,17 @@ pub async fn open(zenoh: &ZenohArgs, scenario: &Scenario) -> anyhow::Result<Bus>
         .context("joining the Zenoh network")
 }
 
-/// The wait before attempt `n + 1` to join (`n` failed so far): half a second, doubling,
-/// at most [`JOIN_RETRY_MAX`].
-fn join_backoff(failed: u32) -> Duration {
-    (Duration::from_millis(500) * 2u32.saturating_pow(failed.saturating_sub(1))).min(JOIN_RETRY_MAX)
-}
-
-/// The longest wait between two attempts to join: a robot powered up before the site's
-/// router is up should be on the bus within seconds of it.
-const JOIN_RETRY_MAX: Duration = Duration::from_secs(8);
-
 /// Join the Zenoh network for a role that runs until stopped (agent, coordinator,
-/// recorder, simulator): a client whose router does not answer yet (a robot powered up
-/// before the site's network) waits and tries again, saying so each time, until it joins
-/// or is stopped; a peer that reaches none of its `--connect` endpoints says so loudly
-/// (Zenoh opens a peer anyway and keeps trying in the background). A configuration that
-/// can never work (a bad endpoint, a missing certificate) fails at once.
+/// recorder, simulator), trying again while the network is not there yet
+/// ([`Bus::join`]), until joined or stopped by a signal.
 pub async fn join(zenoh: &ZenohArgs, scenario: &Scenario) -> anyhow::Result<Bus> {
-    let connect = zenoh.connect();
-    let config = connect.to_config().context("joining the Zenoh network")?;
-    let mut failed = 0u32;
-    let bus = loop {
-        match Bus::open(&connect, scenario.site.clone()).await {
-            Ok(bus) => break bus,
-            Err(e) => {
-                failed += 1;
-                let wait = join_backoff(failed);
-                tracing::warn!(
-                    "cannot join the Zenoh network ({e}); attempt {failed}, trying again in {:.1} s",
-                    wait.as_secs_f64()
-                );
-                tokio::select! {
-                    _ = tokio::time::sleep(wait) => {}
-                    _ = shutdown_signal(zenoh.die_with_parent) => {
-                        anyhow::bail!("stopped before joining the Zenoh network");
-                    }
-                }
-            }
-        }
-    };
-    if failed > 0 {
-        tracing::info!("joined the Zenoh network after {failed} failed attempts");
-    }
-    let json = |key: &str| -> serde_json::Value {
-        config
-            .get_json(key)
-            .ok()
-            .and_then(|j| serde_json::from_str(&j).ok())
-            .unwrap_or_default()
-    };
-    let peer = json("mode").as_str().is_none_or(|m| m == "peer");
-    // A list, or one list per mode.
-    let endpoints = match json("connect/endpoints") {
-        serde_json::Value::Array(list) => !list.is_empty(),
-        serde_json::Value::Object(per_mode) => per_mode
-            .get("peer")
-            .and_then(|l| l.as_array())
-            .is_some_and(|l| !l.is_empty()),
-        _ => false,
-    };
-    if peer && endpoints {
-        // A peer's links come up in the background: give them a moment.
-        tokio::time::sleep(Duration::from_millis(500)).await;
-        if !bus.connected().await {
-            tracing::error!(
-                "reached none of {:?}: running alone until one answers (Zenoh keeps trying)",
-                zenoh.connect
-            );
-        }
-    }
-    Ok(bus)
+    Bus::join(
+        &zenoh.connect(),
+        scenario.site.clone(),
+        shutdown_signal(zenoh.die_with_parent),
+    )
+    .await
+    .context("joining the Zenoh network")
 }
 
 /// The coordinator's snapshot of the incident, decoded and as sent.

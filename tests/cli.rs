@@ -95,6 +95,33 @@ fn bad_scenarios_and_arguments_are_refused_with_the_reason() {
 
     let out = firefleet(&["sim", "--time-scale", "0"]);
     assert_says(&out, 2, "0 is not a positive number");
+    // Used to panic in the simulator's timer.
+    let out = firefleet(&["demo", "--time-scale", "1e9"]);
+    assert_says(&out, 2, "1000000000 is faster than the fleet can follow");
+}
+
+/// A reader that stops reading ends the command the way it ends `cat`: no panic, no
+/// message (`firefleet status | head` used to panic on the first line after).
+#[cfg(unix)]
+#[test]
+fn a_closed_pipe_ends_a_command_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_firefleet"))
+        .args(["schema", "FireTrack"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Nobody reads: the first write fails on a closed pipe.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{:?}", out.status);
+    assert!(
+        !text(&out.stderr).contains("panicked"),
+        "{}",
+        text(&out.stderr)
+    );
 }
 
 #[test]

@@ -248,6 +248,72 @@ impl Bus {
         })
     }
 
+    /// Join the network for a role that runs until stopped (agent, coordinator, recorder,
+    /// simulator): a client whose router does not answer yet (a robot powered up before
+    /// the site's network) waits and tries again, saying so each time, until it joins or
+    /// `stop` completes; a peer that reaches none of its endpoints says so loudly (Zenoh
+    /// opens a peer anyway and keeps trying in the background). A configuration that can
+    /// never work (a bad endpoint, a missing certificate) fails at once.
+    pub async fn join(
+        connect: &Connect,
+        site: SiteId,
+        stop: impl std::future::Future<Output = ()>,
+    ) -> Result<Self, BusError> {
+        let config = connect.to_config()?;
+        tokio::pin!(stop);
+        let mut failed = 0u32;
+        let bus = loop {
+            match Self::open(connect, site.clone()).await {
+                Ok(bus) => break bus,
+                Err(e) => {
+                    failed += 1;
+                    let wait = join_backoff(failed);
+                    tracing::warn!(
+                        "cannot join the Zenoh network ({e}); attempt {failed}, trying again in {:.1} s",
+                        wait.as_secs_f64()
+                    );
+                    tokio::select! {
+                        _ = tokio::time::sleep(wait) => {}
+                        _ = &mut stop => {
+                            return Err(BusError::new("stopped before joining the Zenoh network"));
+                        }
+                    }
+                }
+            }
+        };
+        if failed > 0 {
+            tracing::info!("joined the Zenoh network after {failed} failed attempts");
+        }
+        let json = |key: &str| -> serde_json::Value {
+            config
+                .get_json(key)
+                .ok()
+                .and_then(|j| serde_json::from_str(&j).ok())
+                .unwrap_or_default()
+        };
+        let peer = json("mode").as_str().is_none_or(|m| m == "peer");
+        // A list, or one list per mode.
+        let endpoints = match json("connect/endpoints") {
+            serde_json::Value::Array(list) => !list.is_empty(),
+            serde_json::Value::Object(per_mode) => per_mode
+                .get("peer")
+                .and_then(|l| l.as_array())
+                .is_some_and(|l| !l.is_empty()),
+            _ => false,
+        };
+        if peer && endpoints {
+            // A peer's links come up in the background: give them a moment.
+            tokio::time::sleep(std::time::Duration::from_millis(500)).await;
+            if !bus.connected().await {
+                tracing::error!(
+                    "reached none of {:?}: running alone until one answers (Zenoh keeps trying)",
+                    connect.connect
+                );
+            }
+        }
+        Ok(bus)
+    }
+
     pub fn keys(&self) -> &Keys {
         &self.keys
     }
@@ -322,6 +388,17 @@ impl Bus {
     }
 }
 
+/// The wait before attempt `n + 1` to join (`n` failed so far): half a second, doubling,
+/// at most [`JOIN_RETRY_MAX`].
+fn join_backoff(failed: u32) -> std::time::Duration {
+    (std::time::Duration::from_millis(500) * 2u32.saturating_pow(failed.saturating_sub(1)))
+        .min(JOIN_RETRY_MAX)
+}
+
+/// The longest wait between two attempts to join: a robot powered up before the site's
+/// router is up should be on the bus within seconds of it.
+const JOIN_RETRY_MAX: std::time::Duration = std::time::Duration::from_secs(8);
+
 /// Zenoh's default inbox size.
 const DEFAULT_INBOX: usize = 256;
 
@@ -380,6 +457,14 @@ impl<M: Message> Inbox<M> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn joining_backs_off_to_a_ceiling() {
+        let waits: Vec<u64> = (1..=6)
+            .map(|n| join_backoff(n).as_millis() as u64)
+            .collect();
+        assert_eq!(waits, [500, 1000, 2000, 4000, 8000, 8000]);
+    }
 
     #[test]
     fn connect_options_become_zenoh_config() {

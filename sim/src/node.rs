@@ -67,6 +67,16 @@ pub async fn run(
     opts: &SimOptions,
     shutdown: impl Future<Output = ()>,
 ) -> Result<SimTruth, BusError> {
+    // A step period Zenoh's timers can keep: no shorter than a microsecond.
+    let period = Duration::try_from_secs_f64(opts.step_s / opts.time_scale)
+        .ok()
+        .filter(|p| *p >= Duration::from_micros(1))
+        .ok_or_else(|| {
+            BusError::new(format!(
+                "a step of {} s at time scale {} is no period a clock can keep",
+                opts.step_s, opts.time_scale
+            ))
+        })?;
     let keys = bus.keys().clone();
     let mut world = World::new(scenario, opts.seed);
     let commands = bus.subscribe(&keys.every_sim_cmd()).await?;
@@ -86,7 +96,6 @@ pub async fn run(
         }
     }
 
-    let period = Duration::from_secs_f64(opts.step_s / opts.time_scale);
     let mut ticker = tokio::time::interval(period);
     ticker.set_missed_tick_behavior(MissedTickBehavior::Delay);
     let mut last_command: HashMap<UnitId, Instant> = HashMap::new();

@@ -35,7 +35,7 @@ use firefleet_protocol::msg::{
 use serde::Serialize;
 use tokio::process::{Child, Command};
 
-use super::{PlatformKind, non_negative_f64, positive_f64, write_json};
+use super::{PlatformKind, non_negative_f64, time_scale, write_json};
 use crate::children::{as_child, exited, stop_children};
 use crate::net::shutdown_signal;
 
@@ -48,7 +48,7 @@ pub struct DemoArgs {
     #[arg(long)]
     seed: Option<u64>,
     /// Simulated seconds per wall-clock second.
-    #[arg(long, default_value_t = 4.0, value_parser = positive_f64)]
+    #[arg(long, default_value_t = 4.0, value_parser = time_scale)]
     time_scale: f64,
     /// Record all fleet traffic to this MCAP file.
     #[arg(long, value_name = "FILE.mcap")]

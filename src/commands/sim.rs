@@ -11,7 +11,7 @@ use firefleet_model::builtin;
 use firefleet_ros2::graph::Domain;
 use firefleet_sim::SimOptions;
 
-use super::{ScenarioArg, positive_f64};
+use super::{ScenarioArg, positive_f64, time_scale};
 use crate::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
@@ -24,7 +24,7 @@ pub struct SimArgs {
     #[arg(long)]
     seed: Option<u64>,
     /// Simulated seconds per wall-clock second.
-    #[arg(long, default_value_t = 1.0, value_parser = positive_f64)]
+    #[arg(long, default_value_t = 1.0, value_parser = time_scale)]
     time_scale: f64,
     /// Wait up to this many seconds for every unit to be alive before starting the clock.
     #[arg(long, value_name = "SECONDS", value_parser = positive_f64)]

@@ -53,7 +53,7 @@ use tokio::process::{Child, Command};
 
 use crate::checking::check;
 use crate::children::{as_child, stop_children};
-use crate::commands::{positive_f64, write_json};
+use crate::commands::{time_scale, write_json};
 
 /// How long a fault that lasts (a partition, loss, a pause) lasts, wall-clock.
 const FAULT: Duration = Duration::from_secs(15);
@@ -75,7 +75,7 @@ pub struct NemesisArgs {
     /// Simulated seconds per wall-clock second: slow enough that the scenario's time
     /// limit comes well after a fault and the recovery from it (the simulator stops at
     /// the limit, and its units with it).
-    #[arg(long, default_value_t = 4.0, value_parser = positive_f64)]
+    #[arg(long, default_value_t = 4.0, value_parser = time_scale)]
     time_scale: f64,
     /// The faults to run, one fleet each (default: all).
     #[arg(long, value_delimiter = ',')]
