@@ -10,6 +10,12 @@
 //! (the processes a command starts), `checking` (a recording through the invariants).
 //! Not here: any role's work (the library crates).
 
+#![allow(
+    clippy::print_stdout,
+    clippy::print_stderr,
+    reason = "a CLI prints what a person reads"
+)]
+
 mod checking;
 mod children;
 mod commands;
@@ -138,6 +144,10 @@ fn main() -> std::process::ExitCode {
 /// SIGPIPE ignored, so a write to a closed pipe fails and `println!` panics on it. Only
 /// pipes raise SIGPIPE: sockets (Zenoh's links, the console's HTTP) are written with
 /// MSG_NOSIGNAL by std and tokio on Linux and still see an error.
+#[allow(
+    unsafe_code,
+    reason = "libc's signal is the only way to restore SIGPIPE"
+)]
 fn end_quietly_on_a_closed_pipe() {
     #[cfg(unix)]
     // SAFETY: setting a signal's disposition to its default, before any thread starts.

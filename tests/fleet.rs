@@ -1,5 +1,11 @@
 //! End-to-end: the real `firefleet` binary as separate processes over loopback Zenoh.
 
+#![allow(
+    clippy::print_stdout,
+    clippy::print_stderr,
+    reason = "tests print what a person running them reads"
+)]
+
 mod support;
 
 use std::path::Path;

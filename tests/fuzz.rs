@@ -10,6 +10,12 @@
 //! `cargo test --test fuzz` runs a short pass of every decoder (CI). The documented long run
 //! is `FUZZ_CASES=1000000 cargo test --release --test fuzz`, a million inputs per decoder.
 
+#![allow(
+    clippy::print_stdout,
+    clippy::print_stderr,
+    reason = "tests print what a person running them reads"
+)]
+
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use firefleet_bt::xml;

@@ -2,6 +2,12 @@
 //! fleet's traffic flows leaves files that the standard Python `mcap` reader opens, and
 //! that `firefleet replay` reads up to where the recorder died.
 
+#![allow(
+    clippy::print_stdout,
+    clippy::print_stderr,
+    reason = "tests print what a person running them reads"
+)]
+
 mod support;
 
 use std::path::{Path, PathBuf};

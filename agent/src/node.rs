@@ -114,7 +114,10 @@ where
                 }
                 if opts.print_tree && t >= next_print {
                     next_print = t + 1.0;
-                    eprintln!("{unit} t={t:.1}\n{}", ctl.tree().render());
+                    #[allow(clippy::print_stderr, reason = "--print-tree asks for the tree on stderr")]
+                    {
+                        eprintln!("{unit} t={t:.1}\n{}", ctl.tree().render());
+                    }
                 }
                 if t >= next_report {
                     next_report = t + opts.report_period_s;

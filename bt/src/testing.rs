@@ -36,6 +36,7 @@ thread_local! {
 
 // SAFETY: every call is forwarded unchanged to the system allocator; counting touches
 // only an atomic and a thread-local flag, neither of which allocates.
+#[allow(unsafe_code, reason = "a global allocator is an unsafe trait")]
 unsafe impl GlobalAlloc for CountingAlloc {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         if COUNTING.with(Cell::get) {

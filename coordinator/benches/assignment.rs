@@ -8,7 +8,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use firefleet_coordinator::assign::{self, Candidate, Mobility, Need, Place, Site};
+use firefleet_coordinator::assign::{self, Candidate, GroundBody, Mobility, Need, Place, Site};
 use firefleet_model::profile::GROUND;
 use firefleet_model::{FireId, UnitId};
 use pathfinding::matrix::Matrix;
@@ -23,7 +23,7 @@ fn instance(units: usize, fires: usize) -> (Vec<Candidate>, Vec<Need>) {
         .map(|i| Candidate {
             unit: UnitId::new(format!("u{i}")).unwrap(),
             at: p(),
-            mobility: Mobility::Ground(*GROUND),
+            mobility: Mobility::Ground(GroundBody::of(&GROUND)),
             water_l: 1500.0,
             heading_for: None,
         })

@@ -57,12 +57,38 @@ impl std::str::FromStr for Strategy {
     }
 }
 
+/// What the coordinator needs of a ground unit's profile to send it somewhere.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GroundBody {
+    /// Top speed, m/s.
+    pub speed_m_s: f64,
+    /// Body width, m: which roads it fits.
+    pub width_m: f64,
+    /// Its cannon's flow, L/s: what it adds to an attack.
+    pub cannon_flow_l_s: f64,
+    /// How far and how wide its camera sees: what a search by it covers.
+    pub camera_range_m: f64,
+    pub camera_hfov_rad: f64,
+}
+
+impl GroundBody {
+    /// The body a ground profile describes.
+    pub fn of(spec: &GroundSpec) -> Self {
+        Self {
+            speed_m_s: spec.max_speed_m_s,
+            width_m: spec.width_m,
+            cannon_flow_l_s: spec.cannon_flow_l_s,
+            camera_range_m: spec.camera.range_m,
+            camera_hfov_rad: spec.camera.hfov_rad(),
+        }
+    }
+}
+
 /// How a unit gets to a fire, and what it brings: each unit as its own profile says.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Mobility {
-    /// Drives anywhere in the tunnel its body fits, as its profile says (speed, width,
-    /// cannon flow, camera).
-    Ground(GroundSpec),
+    /// Drives anywhere in the tunnel its body fits.
+    Ground(GroundBody),
     /// Runs along a rail from chainage `start_m` to `end_m` at lateral offset `y_m`, at up
     /// to `speed_m_s`, works fires within `reach_m` of the carriage and sees them within
     /// `detector_range_m` along the rail.
@@ -97,7 +123,7 @@ impl Mobility {
     /// never can.
     pub fn travel_s(&self, from: Point2, to: Point2) -> Option<f64> {
         match *self {
-            Mobility::Ground(g) => Some(from.dist(to) / g.max_speed_m_s.max(0.1)),
+            Mobility::Ground(g) => Some(from.dist(to) / g.speed_m_s.max(0.1)),
             Mobility::Rail {
                 start_m,
                 end_m,
@@ -334,7 +360,7 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f
     }
     let road = match (u.mobility, site.roads) {
         (Mobility::Ground(g), Some(roads)) => match roads.road(n.fire, &u.at, g.width_m) {
-            Road::Metres(d) => Some(Some(d / g.max_speed_m_s.max(0.1))),
+            Road::Metres(d) => Some(Some(d / g.speed_m_s.max(0.1))),
             Road::Blocked => Some(None),
             Road::Unmapped => None,
         },

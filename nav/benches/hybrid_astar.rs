@@ -1,6 +1,12 @@
 //! Hybrid A* in a 200 m x 10 m tunnel at 0.1 m (200 000 cells), 72 heading bins, two
 //! parked vehicles between the start and the flame, the visibility term on.
 
+#![allow(
+    clippy::print_stdout,
+    clippy::print_stderr,
+    reason = "a bench prints its figures"
+)]
+
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};

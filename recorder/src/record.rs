@@ -503,7 +503,7 @@ pub async fn record(
                     }
                     let bytes = &s.bytes;
                     let parsed = keys::parse(key).map_err(|e| e.to_string())
-                        .and_then(|(_, topic)| Payload::from_wire(&topic, &bytes).map_err(|e| e.to_string()));
+                        .and_then(|(_, topic)| Payload::from_wire(&topic, bytes).map_err(|e| e.to_string()));
                     let p = match parsed {
                         Ok(p) => p,
                         Err(reason) => {

@@ -5,6 +5,12 @@
 //! TCP); a plain Zenoh subscriber records every sample under the robot's namespace, as any
 //! rmw_zenoh subscription would see it, and `tests/rosbags_check.py` gets the recording.
 
+#![allow(
+    clippy::print_stdout,
+    clippy::print_stderr,
+    reason = "tests print what a person running them reads"
+)]
+
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::process::{Command, Stdio};

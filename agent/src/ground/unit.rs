@@ -19,6 +19,8 @@
 //! and drives out by the shortest way, [`CLEAR_OF_BARRED_M`] past the edge, before the
 //! tree may act again.
 
+mod keep_out;
+
 use std::sync::Arc;
 
 use firefleet_model::UnitKind;
@@ -254,109 +256,6 @@ impl Unit {
         }
     }
 
-    /// How far the keep-out layer reaches beyond barred chainage, m: the vehicle's
-    /// half-diagonal, so that no part of it enters.
-    fn keepout_growth_m(&self) -> f64 {
-        self.spec.circumradius_m()
-    }
-
-    /// Whether any part of the vehicle at `p` would be in barred space. Read off the
-    /// spans as they are: this runs on every frame, and allocates nothing.
-    fn in_barred(&self, p: Point2) -> bool {
-        let grow = self.keepout_growth_m();
-        let s = self.scenario.tunnel.chainage(p);
-        self.mission.barred.as_ref().is_some_and(|b| {
-            b.spans.iter().any(|span| {
-                span.bars_entry(UnitKind::Ground)
-                    && (span.start - grow..=span.end + grow).contains(&s)
-            })
-        })
-    }
-
-    /// The chainage ranges barred to this unit, as it last heard.
-    fn barred_ranges(&self) -> Vec<(Chainage, Chainage)> {
-        self.mission
-            .barred
-            .as_ref()
-            .map(|b| b.ranges(UnitKind::Ground))
-            .unwrap_or_default()
-    }
-
-    /// Lay the keep-out layer of the barred space kept on the planners' grids.
-    fn lay_keepout(&mut self) {
-        let t = &self.scenario.tunnel;
-        let grow = self.keepout_growth_m();
-        let ranges = self.barred_ranges();
-        let barred = |by: f64| {
-            let ranges = &ranges;
-            move |p: Point2| {
-                let s = t.chainage(p);
-                ranges.iter().any(|&(a, b)| (a - by..=b + by).contains(&s))
-            }
-        };
-        self.nav_grid = self.open_nav_grid.with_keepout(barred(grow));
-        self.hybrid_grid = self.open_hybrid_grid.with_keepout(barred(0.0));
-        self.prepared = None;
-    }
-
-    /// Inside barred space: suspend the attack and drive out by the shortest way. Out (or
-    /// the space lifted): the tree may act again.
-    fn keep_out(&mut self) {
-        let pose = self.pose();
-        if !self.in_barred(pose.position()) {
-            if self.mission.leaving {
-                self.mission.leaving = false;
-                self.stop_navigation(NavPurpose::Leave);
-                tracing::info!(unit = %self.id, "out of barred space");
-            }
-            return;
-        }
-        let leaving_now = self
-            .nav
-            .as_ref()
-            .is_some_and(|n| n.purpose == NavPurpose::Leave && !n.arrived && !n.failed);
-        if leaving_now || self.now() < self.leave_retry_at {
-            return;
-        }
-        if !self.mission.leaving {
-            tracing::warn!(unit = %self.id, at = ?pose.position(), "inside barred space: leaving by the shortest way");
-            self.mission.leaving = true;
-            self.stand_down();
-            self.stop_navigation(NavPurpose::Cruise);
-            self.cruising_to = None;
-        }
-        let t = &self.scenario.tunnel;
-        let at = t.station(pose.position());
-        let ranges = self.barred_ranges();
-        let exit = nearest_allowed(
-            &ranges,
-            at.s,
-            CLEAR_OF_BARRED_M,
-            Chainage::new(INSIDE_PORTAL_M),
-            t.end() - INSIDE_PORTAL_M,
-        );
-        let path = exit.and_then(|x| {
-            let goal = t.point_at(x, t.lane_nearest(at.d));
-            Some((goal, self.exit_route(goal, x)?))
-        });
-        match path {
-            Some((goal, route)) => {
-                self.nav = Some(Navigation {
-                    purpose: NavPurpose::Leave,
-                    goal,
-                    follow: PurePursuit::new(route),
-                    arrived: false,
-                    recover_until: None,
-                    failed: false,
-                });
-            }
-            None => {
-                tracing::warn!(unit = %self.id, "inside barred space and no way out; holding");
-                self.leave_retry_at = self.now() + LEAVE_RETRY_S;
-            }
-        }
-    }
-
     /// Start driving to `goal`; false if no path exists. A goal on a blocked cell (a
     /// cruise goal the coordinator set in a lane a parked car stands in) is moved to the
     /// nearest free point within `GOAL_SHIFT_M`.
@@ -475,23 +374,6 @@ impl Unit {
             })
             .collect();
         HybridAStar::new(grid, footprint, params).with_heat(heat)
-    }
-
-    /// The way out of barred space to `goal` (chainage `x`): Hybrid A* over the grid
-    /// without the keep-out layer, to the goal facing either way along the road, so that a
-    /// unit driving deeper when the goal came may back straight out rather than wrestle a
-    /// U-turn between the walls (the search weighs which is quicker); else the grid path.
-    fn exit_route(&self, goal: Point2, x: Chainage) -> Option<Route> {
-        let axis = self.scenario.tunnel.heading_at(x);
-        let ends = [0.0, std::f64::consts::PI].map(|turn| Pose2::new(goal.x, goal.y, axis + turn));
-        self.hybrid_planner(&self.open_hybrid_grid)
-            .plan_any(self.pose(), &ends, None)
-            .ok()
-            .map(|plan| Route::from_poses(&plan.poses, &plan.reverse, 2))
-            .or_else(|| {
-                let goal = self.open_nav_grid.nearest_free(goal, GOAL_SHIFT_M)?;
-                nav::plan(&self.open_nav_grid, self.pose().position(), goal).map(Route::forward)
-            })
     }
 
     /// Choose a firing position for a fire at `target` and prepare the path to it: free for
@@ -795,21 +677,4 @@ impl Services for Unit {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_unit_patrols_to_the_far_end_from_where_it_starts_in_its_lane() {
-        let t = Tunnel::straight(300.0, 10.0, 6.3, 2);
-        let (right, left) = (t.lane_center_y(0), t.lane_center_y(1));
-        assert_eq!(
-            patrol_goal(&t, Point2::new(5.0, right)),
-            t.point_at(Chainage::new(290.0), right)
-        );
-        assert_eq!(
-            patrol_goal(&t, Point2::new(295.0, left + 0.4)),
-            t.point_at(Chainage::new(10.0), left),
-            "in from the east portal, it patrols west"
-        );
-    }
-}
+mod tests;

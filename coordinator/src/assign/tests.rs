@@ -8,9 +8,9 @@ fn cand(id: &str, x: f64) -> Candidate {
     Candidate {
         unit: UnitId::new(id).unwrap(),
         at: Place::straight(x, 0.0),
-        mobility: Mobility::Ground(GroundSpec {
-            max_speed_m_s: 1.0,
-            ..*GROUND
+        mobility: Mobility::Ground(GroundBody {
+            speed_m_s: 1.0,
+            ..GroundBody::of(&GROUND)
         }),
         water_l: 1500.0,
         heading_for: None,
@@ -88,9 +88,9 @@ fn at(id: &str, x: f64, y: f64) -> Candidate {
     Candidate {
         unit: UnitId::new(id).unwrap(),
         at: Place::straight(x, y),
-        mobility: Mobility::Ground(GroundSpec {
-            max_speed_m_s: 1.0,
-            ..*GROUND
+        mobility: Mobility::Ground(GroundBody {
+            speed_m_s: 1.0,
+            ..GroundBody::of(&GROUND)
         }),
         water_l: 1500.0,
         heading_for: None,

@@ -18,7 +18,7 @@ use firefleet_protocol::msg::{
     task_seq_ceiling, task_seq_floor,
 };
 
-use crate::assign::{Mobility, Strategy};
+use crate::assign::{GroundBody, Mobility, Strategy};
 use crate::coverage::Coverage;
 use crate::fusion::Fusion;
 use crate::goals::Goals;
@@ -208,7 +208,7 @@ impl Incident {
                 reason,
             };
             let mobility = match scenario.profile_of(u).map_err(|e| error(e.to_string()))? {
-                Profile::Ground(g) => Mobility::Ground(g),
+                Profile::Ground(g) => Mobility::Ground(GroundBody::of(&g)),
                 Profile::Monorail(m) => {
                     let name = u.rail.as_deref().unwrap_or_default();
                     let r = scenario

@@ -26,7 +26,7 @@ impl Incident {
                 detector_range_m, ..
             } => (s - detector_range_m, s + detector_range_m),
             Mobility::Ground(g) => {
-                let range = g.camera.range_m;
+                let range = g.camera_range_m;
                 if (pose.yaw - self.tunnel.heading_at(s)).cos() >= 0.0 {
                     (s - self.policy.sight_behind_m, s + range)
                 } else {
@@ -48,7 +48,7 @@ impl Incident {
         let range = self.policy.clear_view_m;
         let half_angle = match mobility {
             Mobility::Rail { .. } => std::f64::consts::PI,
-            Mobility::Ground(g) => 0.75 * g.camera.hfov_rad() / 2.0,
+            Mobility::Ground(g) => 0.75 * g.camera_hfov_rad / 2.0,
         };
         let at = pose.position();
         move |p| at.dist(p) <= range && wrap_angle(at.bearing_to(p) - pose.yaw).abs() <= half_angle

@@ -111,7 +111,7 @@ fn incident() -> Incident {
 /// Ground units a and b, neither heard from yet, in a tunnel searched at t = 0 (these
 /// tests are about fires; searching has tests of its own).
 fn unheard() -> Incident {
-    let ground = Mobility::Ground(*GROUND);
+    let ground = Mobility::Ground(GroundBody::of(&GROUND));
     let mut i = Incident::new(
         TUNNEL,
         [(u("a"), ground), (u("b"), ground)],

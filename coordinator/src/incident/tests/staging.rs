@@ -48,7 +48,7 @@ fn in_a_bend_staging_finds_a_fire_s_zone_by_its_chainage() {
         (fire.x - 99.0).abs() < 1e-6,
         "x is not the chainage: {fire:?}"
     );
-    let ground = Mobility::Ground(*GROUND);
+    let ground = Mobility::Ground(GroundBody::of(&GROUND));
     let mut i = Incident::new(
         tunnel.clone(),
         [(u("a"), ground), (u("b"), ground)],

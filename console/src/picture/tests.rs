@@ -1,0 +1,227 @@
+use super::*;
+use firefleet_model::scenario::Scenario;
+use firefleet_protocol::msg::{GoalKind, ZoneGoal};
+use firefleet_protocol::testing::ground_state;
+
+fn picture() -> Picture {
+    let text = include_str!("../../../model/scenarios/rail-tunnel.toml");
+    Picture::new(SiteMap::new(
+        &Scenario::from_toml(text, "rail-tunnel.toml").unwrap(),
+    ))
+}
+
+fn track(id: u32, t: f64, x: f64, state: FireState) -> FireTrack {
+    FireTrack {
+        id: FireId(id),
+        t,
+        position: Point2::new(x, 1.0),
+        cov: [0.1, 0.0, 0.1],
+        confidence: 0.9,
+        state,
+        assigned: vec![],
+        seen_by: vec![],
+        hrr_kw: Some(3000.0),
+    }
+}
+
+fn unit(id: &str) -> UnitId {
+    UnitId::new(id).unwrap()
+}
+
+#[test]
+fn every_unit_of_the_site_is_accounted_for_before_it_is_heard() {
+    let p = picture();
+    let inc = p.incident();
+    assert_eq!(inc.units.len(), inc.site.units.len());
+    assert!(inc.units.iter().all(|u| u.state.is_none() && !u.alive));
+}
+
+#[test]
+fn a_delta_carries_each_changed_unit_once_with_its_newest_state() {
+    let mut p = picture();
+    let id = p.site.units[0].id.clone();
+    let mut s = ground_state(&id, 10.0, 0.0);
+    s.t = 1.0;
+    p.observe(100, Event::Message(Payload::UnitState(s.clone())));
+    s.t = 2.0;
+    s.pose.x = 12.0;
+    p.observe(200, Event::Message(Payload::UnitState(s.clone())));
+    // A late sample does not move the unit back.
+    s.t = 1.5;
+    s.pose.x = 11.0;
+    p.observe(300, Event::Message(Payload::UnitState(s)));
+    let d = p.delta(300).unwrap();
+    assert_eq!(d.units.len(), 1);
+    let u = &d.units[0];
+    assert_eq!(u.state.as_ref().unwrap().pose.x, 12.0);
+    assert_eq!(u.heard_ms, Some(300));
+    assert_eq!(d.t, 2.0);
+    assert!(p.delta(400).is_none(), "nothing changed since");
+    assert_eq!(p.incident().seq, d.seq);
+}
+
+#[test]
+fn a_decision_reaches_a_page_once_whether_it_joined_before_or_after_it() {
+    let mut p = picture();
+    let d = |t: f64| Decision {
+        t,
+        text: format!("decided at {t}"),
+    };
+    p.observe(0, Event::Message(Payload::Decision(d(1.0))));
+    p.delta(0).unwrap();
+    p.observe(0, Event::Message(Payload::Decision(d(2.0))));
+    // A page joining now gets the first in the picture and the second in the next delta.
+    let joined = p.incident();
+    assert_eq!(joined.decisions, [d(1.0)]);
+    let next = p.delta(0).unwrap();
+    assert_eq!(next.seq, joined.seq + 1);
+    assert_eq!(next.decisions, [d(2.0)]);
+    assert_eq!(p.incident().decisions, [d(1.0), d(2.0)]);
+}
+
+#[test]
+fn a_vanished_token_is_a_lost_unit_and_an_alert_until_acknowledged() {
+    let mut p = picture();
+    let u = unit("ugv-9");
+    p.observe(0, Event::UnitAlive(u.clone(), false));
+    assert!(p.incident().alerts.is_empty(), "never alive: not lost");
+    p.observe(0, Event::UnitAlive(u.clone(), true));
+    p.observe(0, Event::UnitAlive(u.clone(), false));
+    let d = p.delta(0).unwrap();
+    assert!(d.units.iter().any(|v| v.id == u && v.lost));
+    assert_eq!(d.alerts.len(), 1);
+    let id = d.alerts[0].id;
+    assert!(matches!(&d.alerts[0].kind, AlertKind::UnitLost { unit } if *unit == u));
+    assert!(p.acknowledge(id, "rossi"));
+    assert!(p.acknowledge(id, "bianchi"));
+    let d = p.delta(0).unwrap();
+    assert_eq!(d.alerts[0].acked_by.as_deref(), Some("rossi"));
+    assert!(!p.acknowledge(99, "rossi"));
+    p.observe(0, Event::UnitAlive(u.clone(), true));
+    assert!(
+        p.delta(0)
+            .unwrap()
+            .units
+            .iter()
+            .any(|v| v.id == u && !v.lost)
+    );
+}
+
+#[test]
+fn a_fire_burning_after_it_was_out_raises_an_alert() {
+    let mut p = picture();
+    p.observe(
+        0,
+        Event::Message(Payload::Fire(track(1, 1.0, 50.0, FireState::Suppressing))),
+    );
+    p.observe(
+        0,
+        Event::Message(Payload::Fire(track(1, 2.0, 50.0, FireState::Out))),
+    );
+    assert!(p.incident().alerts.is_empty());
+    // The same track again, and a new track at the same place.
+    p.observe(
+        0,
+        Event::Message(Payload::Fire(track(1, 3.0, 50.0, FireState::Confirmed))),
+    );
+    p.observe(
+        0,
+        Event::Message(Payload::Fire(track(1, 4.0, 50.0, FireState::Out))),
+    );
+    p.observe(
+        0,
+        Event::Message(Payload::Fire(track(2, 5.0, 53.0, FireState::Confirmed))),
+    );
+    // A new fire elsewhere is no re-ignition.
+    p.observe(
+        0,
+        Event::Message(Payload::Fire(track(3, 5.0, 120.0, FireState::Confirmed))),
+    );
+    let alerts = p.incident().alerts;
+    let fires: Vec<FireId> = alerts
+        .iter()
+        .filter_map(|a| match a.kind {
+            AlertKind::FireReignited { fire } => Some(fire),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(fires, [FireId(1), FireId(2)]);
+}
+
+#[test]
+fn a_rejected_goal_and_a_lost_coordinator_are_alerts() {
+    let mut p = picture();
+    let ack = |accepted| GoalAck {
+        id: "g".into(),
+        zone: firefleet_model::ZoneId::new("z1").unwrap(),
+        accepted,
+        reason: "because".into(),
+    };
+    p.observe(0, Event::Message(Payload::Ack(ack(true))));
+    p.observe(0, Event::Message(Payload::Ack(ack(false))));
+    p.observe(0, Event::CoordinatorAlive(true));
+    p.observe(0, Event::CoordinatorAlive(false));
+    let d = p.delta(0).unwrap();
+    assert_eq!(d.acks.len(), 2);
+    assert_eq!(d.coordinator, Some(false));
+    assert!(matches!(d.alerts[0].kind, AlertKind::GoalRejected { .. }));
+    assert!(matches!(d.alerts[1].kind, AlertKind::CoordinatorLost));
+}
+
+#[test]
+fn goals_change_only_when_the_goals_in_force_do() {
+    let mut p = picture();
+    let goal = GoalInForce {
+        goal: ZoneGoal {
+            id: "g".into(),
+            zone: firefleet_model::ZoneId::new("z1").unwrap(),
+            goal: GoalKind::KeepOut,
+            priority: 0,
+            before_m: None,
+            expires_s: None,
+            issued_by: Some(firefleet_model::CommanderId::new("ic").unwrap()),
+            rail_allowed: false,
+        },
+        since: 1.0,
+        until: None,
+    };
+    let g = |t| GoalsInForce {
+        t,
+        goals: vec![goal.clone()],
+    };
+    p.observe(0, Event::Message(Payload::Goals(g(1.0))));
+    assert_eq!(p.delta(0).unwrap().goals.unwrap().len(), 1);
+    p.observe(0, Event::Message(Payload::Goals(g(2.0))));
+    assert!(p.delta(0).is_none(), "the same goals a second later");
+}
+
+#[test]
+fn the_heat_field_is_hottest_at_a_burning_fire_and_gone_once_it_is_out() {
+    let mut p = picture();
+    p.observe(
+        0,
+        Event::Message(Payload::Fire(track(1, 1.0, 50.0, FireState::Suppressing))),
+    );
+    let heat = p.delta(0).unwrap().heat.unwrap();
+    let site = p.site().clone();
+    let (hot, _) = heat
+        .kw_m2
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .unwrap();
+    let s = site.stations_m[hot / heat.columns];
+    assert!((s - 50.0).abs() <= 1.5, "hottest at chainage {s}");
+    p.observe(
+        10,
+        Event::Message(Payload::Fire(track(1, 2.0, 50.0, FireState::Out))),
+    );
+    let d = p.delta(10).unwrap();
+    assert!(d.heat.is_none(), "at most once a second");
+    p.observe(
+        1500,
+        Event::Message(Payload::Fire(track(1, 3.0, 50.0, FireState::Out))),
+    );
+    let heat = p.delta(1500).unwrap().heat.unwrap();
+    assert!(heat.kw_m2.iter().all(|&q| q == 0.0));
+}

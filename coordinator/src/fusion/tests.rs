@@ -1,0 +1,303 @@
+use super::*;
+
+fn u(s: &str) -> UnitId {
+    UnitId::new(s).unwrap()
+}
+fn obs(x: f64, y: f64, var: f64, c: f64) -> FlameObservation {
+    FlameObservation {
+        position: Point2::new(x, y),
+        cov: [var, 0.0, var],
+        confidence: c,
+        hrr_kw: None,
+    }
+}
+
+#[test]
+fn the_same_flame_seen_by_three_units_is_one_fire() {
+    let mut f = Fusion::default();
+    assert!(matches!(
+        f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.6), 0.0),
+        Fused::New(_)
+    ));
+    assert!(matches!(
+        f.observe(&u("b"), &obs(50.6, 1.3, 0.4, 0.6), 0.1),
+        Fused::Confirmed(_)
+    ));
+    f.observe(&u("c"), &obs(49.7, 0.8, 0.2, 0.7), 0.2);
+    assert_eq!(f.fires().len(), 1);
+    let fire = &f.fires()[0];
+    assert_eq!(fire.seen_by().count(), 3);
+    assert!(fire.position().dist(Point2::new(50.0, 1.0)) < 0.4);
+    assert!(fire.confidence > 0.9);
+}
+
+#[test]
+fn overconfident_reports_of_one_fire_from_two_sides_are_one_fire() {
+    let mut f = Fusion::default();
+    f.observe(&u("a"), &obs(87.6, -2.5, 0.02, 0.9), 0.0);
+    f.observe(&u("b"), &obs(86.4, -2.4, 0.02, 0.9), 0.5);
+    assert_eq!(f.fires().len(), 1);
+}
+
+#[test]
+fn two_tracks_of_one_fire_are_merged_into_the_older() {
+    let mut f = Fusion::default();
+    // Seen from far away by a, and by b with a biased first look: two tracks.
+    f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 0.0);
+    f.observe(&u("b"), &obs(54.0, 1.0, 0.3, 0.9), 0.1);
+    assert_eq!(f.fires().len(), 2);
+    assert!(
+        f.merge_duplicates().is_empty(),
+        "4 m apart: two fires so far"
+    );
+    // b's view converges on the same fire.
+    f.get_mut(FireId(2)).unwrap().state = FireState::Assigned;
+    f.observe(&u("b"), &obs(54.0, 1.0, 0.3, 0.9), 0.2);
+    let fire2 = f.get_mut(FireId(2)).unwrap();
+    fire2.per_unit.insert(
+        u("b"),
+        Sighting::new(
+            Gaussian2 {
+                mean: Point2::new(50.4, 1.0),
+                cov: [0.3, 0.0, 0.3],
+            },
+            0.9,
+            0.2,
+        ),
+    );
+    fire2.refuse();
+    let merges = f.merge_duplicates();
+    assert_eq!(merges.len(), 1);
+    assert_eq!(
+        (merges[0].kept, merges[0].removed.id),
+        (FireId(1), FireId(2))
+    );
+    assert_eq!(f.fires().len(), 1);
+    let kept = f.get(FireId(2)).expect("the old id still finds the fire");
+    assert_eq!(kept.id, FireId(1));
+    assert_eq!(kept.state, FireState::Assigned, "the further-along state");
+    assert_eq!(kept.seen_by().count(), 2);
+}
+
+#[test]
+fn close_but_distinct_fires_stay_apart() {
+    let mut f = Fusion::default();
+    f.observe(&u("a"), &obs(50.0, 2.5, 0.05, 0.9), 0.0);
+    f.observe(&u("a"), &obs(50.0, -2.5, 0.05, 0.9), 0.0);
+    assert_eq!(f.fires().len(), 2);
+}
+
+#[test]
+fn repeated_reports_of_one_unit_do_not_inflate_confidence() {
+    let mut f = Fusion::default();
+    for k in 0..20 {
+        f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.45), k as f64);
+    }
+    assert!((f.fires()[0].confidence - 0.45).abs() < 1e-9);
+    assert_eq!(
+        f.fires()[0].state,
+        FireState::Tentative,
+        "held, but no more confident than a false alarm"
+    );
+}
+
+#[test]
+fn one_unit_that_keeps_seeing_a_flame_confirms_it() {
+    let mut f = Fusion::default();
+    let mut confirmed_at = None;
+    for k in 0..=12 {
+        let t = 0.25 * f64::from(k);
+        if f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.6), t) == Fused::Confirmed(FireId(1)) {
+            confirmed_at = Some(t);
+        }
+    }
+    assert_eq!(confirmed_at, Some(CONFIRM_HELD_S));
+    assert!((f.fires()[0].confidence - 0.6).abs() < 1e-9, "not inflated");
+}
+
+#[test]
+fn sightings_with_gaps_do_not_add_up_to_a_held_one() {
+    let mut f = Fusion::default();
+    for t in [0.0, 1.5, 5.0, 6.5, 10.0, 11.5] {
+        f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.6), t);
+    }
+    assert_eq!(f.fires()[0].state, FireState::Tentative);
+}
+
+#[test]
+fn a_restored_track_keeps_its_id_estimate_and_confidence_and_takes_new_reports() {
+    let mut old = Fusion::default();
+    old.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.7), 0.0);
+    old.observe(&u("b"), &obs(50.5, 1.2, 0.5, 0.6), 0.5);
+    old.fires[0].sizes.insert(u("a"), 4000.0);
+    old.fires[0].state = FireState::Suppressing;
+    let track = old.fires()[0].to_track(9.0, vec![u("a")]);
+
+    let mut new = Fusion::default();
+    assert!(new.restore(&track));
+    assert!(
+        !new.restore(&track),
+        "an id already known is not taken twice"
+    );
+    let fire = new.get(track.id).unwrap();
+    assert_eq!(
+        fire.state,
+        FireState::Confirmed,
+        "the assignment is not restored"
+    );
+    assert!(fire.position().dist(track.position) < 1e-9);
+    for (got, want) in fire.estimate.cov.iter().zip(track.cov) {
+        assert!(
+            (got - want).abs() < 1e-9,
+            "{:?} vs {:?}",
+            fire.estimate.cov,
+            track.cov
+        );
+    }
+    assert!((fire.confidence - track.confidence).abs() < 1e-9);
+    assert_eq!(fire.hrr_kw(), Some(4000.0));
+    assert_eq!(fire.last_seen, 9.0);
+
+    // A unit's next report of it lands on the restored track, and a new fire is
+    // numbered above every restored one.
+    assert_eq!(
+        new.observe(&u("b"), &obs(50.3, 1.1, 0.3, 0.9), 10.0),
+        Fused::Updated(track.id)
+    );
+    assert_eq!(new.fires().len(), 1);
+    let Fused::Confirmed(id) = new.observe(&u("a"), &obs(150.0, 1.0, 0.3, 0.9), 11.0) else {
+        panic!()
+    };
+    assert!(id > track.id);
+}
+
+/// Make `unit` doubted: two of its lone claims contradicted.
+fn doubt(f: &mut Fusion, unit: &UnitId) {
+    f.witnesses.contradict(unit);
+    f.witnesses.contradict(unit);
+    assert!(f.witnesses.doubted(unit));
+}
+
+#[test]
+fn a_doubted_unit_alone_neither_confirms_nor_reignites_but_adds_to_a_credible_witness() {
+    let mut f = Fusion::default();
+    doubt(&mut f, &u("liar"));
+    for k in 0..=20 {
+        let fused = f.observe(&u("liar"), &obs(50.0, 1.0, 0.3, 0.99), 0.25 * f64::from(k));
+        assert!(
+            matches!(fused, Fused::New(_) | Fused::Updated(_)),
+            "{fused:?}"
+        );
+    }
+    let fire = f.fires()[0].clone();
+    assert_eq!(fire.state, FireState::Tentative, "held 5 s at 0.99, alone");
+    assert!(fire.confidence < 0.34, "{}", fire.confidence);
+    // An honest unit's sightings there confirm it, and credit both.
+    assert_eq!(
+        f.observe(&u("b"), &obs(50.2, 1.0, 0.3, 0.6), 6.0),
+        Fused::Updated(fire.id),
+        "0.6 alone is not enough"
+    );
+    assert_eq!(
+        f.observe(&u("b"), &obs(50.2, 1.0, 0.3, 0.9), 6.1),
+        Fused::Confirmed(FireId(1))
+    );
+    assert_eq!(f.witnesses.record(&u("b")).corroborated, 1);
+    assert_eq!(f.witnesses.record(&u("liar")).corroborated, 1);
+    f.observe(&u("b"), &obs(50.2, 1.0, 0.3, 0.9), 6.2);
+    assert_eq!(f.witnesses.record(&u("b")).corroborated, 1, "once per fire");
+    // Put out, then claimed again by the doubted unit alone: not reignited.
+    let id = f.fires()[0].id;
+    let fire = f.get_mut(id).unwrap();
+    fire.state = FireState::Out;
+    fire.out_at = Some(7.0);
+    assert_eq!(
+        f.observe(&u("liar"), &obs(50.0, 1.0, 0.3, 0.99), 20.0),
+        Fused::Updated(id)
+    );
+}
+
+#[test]
+fn a_lone_claim_another_unit_looks_at_for_long_without_seeing_it_is_contradicted_once() {
+    let mut f = Fusion::default();
+    f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 0.0);
+    f.observe(&u("a"), &obs(150.0, 1.0, 0.3, 0.9), 0.0);
+    let near_50 = |p: Point2| p.dist(Point2::new(45.0, 1.0)) < 12.0;
+    let mut t = 0.0;
+    let mut found = Vec::new();
+    while found.is_empty() {
+        t += 0.5;
+        f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), t);
+        f.observe(&u("a"), &obs(150.0, 1.0, 0.3, 0.9), t);
+        assert!(f.look(&u("a"), near_50, 0.5, t).is_empty(), "not by itself");
+        found = f.look(&u("b"), near_50, 0.5, t);
+        assert!(t < 20.0);
+    }
+    assert_eq!(t, CONTRADICT_AFTER_S);
+    assert_eq!(
+        found,
+        vec![Contradiction {
+            fire: FireId(1),
+            witness: u("a"),
+            doubted_now: false
+        }],
+        "the fire out of view is not contradicted"
+    );
+    assert_eq!(f.witnesses.record(&u("a")).contradicted, 1);
+    assert!(f.look(&u("b"), near_50, 60.0, t).is_empty(), "counted once");
+    assert!(
+        f.demote_doubted().is_empty(),
+        "one contradiction does not make a liar"
+    );
+
+    // A claim nobody keeps up (the claimant's sighting lapsed), or one two units
+    // share, is not contradicted.
+    let mut f = Fusion::default();
+    f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 0.0);
+    assert!(f.look(&u("b"), near_50, 30.0, 10.0).is_empty(), "lapsed");
+    f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 11.0);
+    f.observe(&u("c"), &obs(50.0, 1.0, 0.3, 0.9), 11.0);
+    assert!(f.look(&u("b"), near_50, 30.0, 11.0).is_empty(), "shared");
+}
+
+#[test]
+fn a_contradicted_fire_only_doubted_units_claim_goes_back_to_tentative() {
+    let mut f = Fusion::default();
+    let Fused::Confirmed(id) = f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 0.0) else {
+        panic!()
+    };
+    f.get_mut(id).unwrap().state = FireState::Assigned;
+    let here = |p: Point2| p.x > 40.0 && p.x < 60.0;
+    assert_eq!(f.look(&u("b"), here, 10.0, 1.0).len(), 1);
+    assert!(f.demote_doubted().is_empty());
+    f.witnesses.contradict(&u("a"));
+    assert_eq!(f.demote_doubted(), vec![id]);
+    let fire = f.get(id).unwrap();
+    assert_eq!(fire.state, FireState::Tentative);
+    assert!(fire.confidence < 0.34, "re-weighted: {}", fire.confidence);
+}
+
+#[test]
+fn unworked_unseen_tracks_are_lost_and_out_fires_can_reignite() {
+    let mut f = Fusion::default();
+    f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 0.0);
+    assert!(f.expire(30.0).is_empty());
+    assert_eq!(f.expire(61.0).len(), 1);
+
+    let mut f = Fusion::default();
+    let Fused::Confirmed(id) = f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 0.0) else {
+        panic!()
+    };
+    let fire = f.get_mut(id).unwrap();
+    fire.state = FireState::Out;
+    fire.out_at = Some(10.0);
+    assert_eq!(
+        f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 12.0),
+        Fused::Updated(id),
+        "stale report"
+    );
+    assert_eq!(
+        f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 20.0),
+        Fused::Reignited(id)
+    );
+}
