@@ -1,5 +1,43 @@
 //! A behavior-tree engine faithful to BehaviorTree.CPP v4.
 //!
+//! ```
+//! use firefleet_bt::node::Io;
+//! use firefleet_bt::{Port, Registry, Status, xml};
+//!
+//! /// What the leaves act on: here, how much water is left.
+//! struct Robot {
+//!     water_l: f64,
+//! }
+//!
+//! const LITRES: Port<f64> = Port::input("litres", "water one spray takes");
+//!
+//! let mut leaves = Registry::<Robot>::new();
+//! leaves.register_condition("HasWater", vec![], || {
+//!     |_: &mut Io<'_>, r: &mut Robot| {
+//!         if r.water_l > 0.0 { Status::Success } else { Status::Failure }
+//!     }
+//! });
+//! leaves.register_action("Spray", vec![LITRES.spec()], || {
+//!     |io: &mut Io<'_>, r: &mut Robot| {
+//!         r.water_l -= io.get(&LITRES).unwrap_or(0.0);
+//!         Status::Success
+//!     }
+//! });
+//! let doc = xml::parse_str(
+//!     r#"<root BTCPP_format="4"><BehaviorTree ID="Main">
+//!          <Sequence><HasWater/><Spray litres="40"/></Sequence>
+//!        </BehaviorTree></root>"#,
+//!     "example.xml",
+//! )
+//! .unwrap();
+//! let mut tree = xml::build(&doc, &leaves).unwrap();
+//! let mut robot = Robot { water_l: 50.0 };
+//! // The caller ticks and passes the time; the tree has no clock of its own.
+//! assert_eq!(tree.tick(0.0, &mut robot), Status::Success);
+//! assert_eq!(tree.tick(0.1, &mut robot), Status::Success);
+//! assert_eq!(tree.tick(0.2, &mut robot), Status::Failure, "the tank ran dry");
+//! ```
+//!
 //! Trees are built once (from XML, see the `xml` module, or in code) into a flat arena:
 //! nodes in one vector, children as index ranges, every port bound at build time to a
 //! literal or a blackboard slot. Ticking walks the arena with enum dispatch and allocates

@@ -1,5 +1,35 @@
 //! The firefleet bus: the one edge between firefleet processes and Zenoh.
 //!
+//! ```
+//! use firefleet_bus::{Bus, Connect, Mode};
+//! use firefleet_model::SiteId;
+//! use firefleet_protocol::keys::Topic;
+//! use firefleet_protocol::msg::SimClock;
+//!
+//! # #[tokio::main(flavor = "multi_thread", worker_threads = 1)]
+//! # async fn main() -> Result<(), firefleet_bus::BusError> {
+//! // A peer on its own: it hears its own puts, as every process on a site hears the others'.
+//! let connect = Connect { mode: Some(Mode::Peer), ..Connect::default() };
+//! let bus = Bus::open(&connect, SiteId::new("tunnel-a").unwrap()).await?;
+//! let keys = bus.keys().clone();
+//!
+//! // Typed: a message goes on its key, validated, and comes back decoded.
+//! let clock = bus.subscribe(&keys.sim_clock()).await?;
+//! bus.put(&keys.sim_clock(), &SimClock { t: 1.5, time_scale: 4.0 }).await?;
+//! let (topic, tick) = clock.recv().await.expect("the bus is open");
+//! assert_eq!((topic, tick.t), (Topic::SimClock, 1.5));
+//!
+//! // A liveliness token says a process is there for as long as it holds it.
+//! let coordinators = bus.watch_tokens(&keys.expr(&Topic::CoordAlive)).await?;
+//! let alive = bus.token(&Topic::CoordAlive).await?;
+//! assert_eq!(coordinators.recv().await, Some((Topic::CoordAlive, true)));
+//! drop(alive);
+//! assert_eq!(coordinators.recv().await, Some((Topic::CoordAlive, false)));
+//! bus.close().await;
+//! # Ok(())
+//! # }
+//! ```
+//!
 //! A [`Bus`] is a Zenoh session bound to one site: it puts typed, validated messages on
 //! their keys and hands back typed inboxes, counting and dropping what does not decode.
 //! [`Connect`] says how a role joins the network (mode, endpoints, a config file, the

@@ -1,5 +1,46 @@
 //! The coordinator's picture of the incident, and how it reacts to events.
 //!
+//! ```
+//! use firefleet_coordinator::assign::Strategy;
+//! use firefleet_coordinator::incident::{Decision, Incident, Output};
+//! use firefleet_model::scenario::Scenario;
+//! use firefleet_model::{Point2, Pose2, UnitId};
+//! use firefleet_protocol::msg::{FlameObservation, FlameReport, TaskKind};
+//! use firefleet_protocol::testing::ground_state;
+//!
+//! let site = Scenario::straight(200.0)
+//!     .ground("ugv-1", 20.0, -2.0)
+//!     .ground("ugv-2", 190.0, -2.0)
+//!     .build();
+//! let mut incident = Incident::from_scenario(&site, 5.0, Strategy::Optimal).unwrap();
+//! let unit = |s: &str| UnitId::new(s).unwrap();
+//! // Events in: the units appear and say where they are...
+//! for (u, x) in [("ugv-1", 20.0), ("ugv-2", 190.0)] {
+//!     incident.on_alive(&unit(u), true, 0.0).unwrap();
+//!     incident.on_state(ground_state(u, x, -2.0), 0.0).unwrap();
+//! }
+//! // ...and ugv-1 sees a flame 40 m ahead of it.
+//! let report = FlameReport {
+//!     unit: unit("ugv-1"),
+//!     t: 1.0,
+//!     observer: Pose2::new(20.0, -2.0, 0.0),
+//!     observations: vec![FlameObservation {
+//!         position: Point2::new(60.0, 1.0),
+//!         cov: [0.2, 0.0, 0.2],
+//!         confidence: 0.9,
+//!         hrr_kw: None,
+//!     }],
+//! };
+//! // Decisions out: the nearest free unit is sent, and why is logged.
+//! let out = incident.on_report(&report, 1.0).unwrap();
+//! let first = out.iter().find_map(|o| match o {
+//!     Output::Task(t) if matches!(t.kind, TaskKind::Extinguish { .. }) => Some(&t.unit),
+//!     _ => None,
+//! });
+//! assert_eq!(first, Some(&unit("ugv-1")));
+//! assert!(incident.decisions().any(|d| matches!(&d.decision, Decision::Assign { unit: u, .. } if *u == unit("ugv-1"))));
+//! ```
+//!
 //! Every event (a unit's state, a flame report, a unit appearing or vanishing, time
 //! passing) updates the picture and returns the messages to publish: new tasks and changed
 //! fire tracks. Every decision is logged with its reason and kept in [`Incident::decisions`].
