@@ -20,7 +20,9 @@ use firefleet_protocol::msg::{
     Bar, BarredSpace, FireState, FireTrack, FlameObservation, FlameReport, SimTruth, Task,
     TaskKind, TaskPhase, TaskProgress, UnitState,
 };
-use support::{BIN, Fleet, assert_says, cli, free_endpoint, router, router_at, spawn_role, text};
+use support::{
+    BIN, Fleet, assert_says, cli, free_endpoint, patient, router, router_at, spawn_role, text,
+};
 
 /// Run `firefleet demo` on `scenario` at 8x with `extra` arguments; its summary, after
 /// checking that it succeeded and that no process dropped a message (in a clean run a
@@ -187,7 +189,7 @@ async fn first_at_work(
     states: &Inbox<UnitState>,
     mut each: impl FnMut(&UnitState),
 ) -> TaskProgress {
-    tokio::time::timeout(Duration::from_secs(90), async {
+    tokio::time::timeout(patient(Duration::from_secs(90)), async {
         loop {
             let (_, st) = states.recv().await.expect("bus open");
             each(&st);
@@ -202,7 +204,7 @@ async fn first_at_work(
 
 /// The ground truth once every fire is out or the time limit is reached.
 async fn outcome(truths: &Inbox<SimTruth>, within: Duration) -> SimTruth {
-    tokio::time::timeout(within, async {
+    tokio::time::timeout(patient(within), async {
         loop {
             let (_, t) = truths.recv().await.expect("bus open");
             if t.all_out() || t.t >= t.time_limit_s {
@@ -229,10 +231,10 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
 
     let mut fleet = handover_fleet(&endpoint, &["coordinator", "--sim-clock", "--lease-s", "3"]);
 
-    let deadline = Instant::now() + Duration::from_secs(120);
+    let deadline = Instant::now() + patient(Duration::from_secs(120));
 
     // The near unit takes the fire and sets off: kill it on its way.
-    let fire = tokio::time::timeout(Duration::from_secs(90), async {
+    let fire = tokio::time::timeout(patient(Duration::from_secs(90)), async {
         loop {
             let (_, st) = near_state.recv().await.expect("bus open");
             if let Some(p) = st.task
@@ -295,7 +297,7 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
     let killed_at = Instant::now();
 
     // The far unit is sent to the same fire.
-    let reassigned = tokio::time::timeout(Duration::from_secs(30), async {
+    let reassigned = tokio::time::timeout(patient(Duration::from_secs(30)), async {
         loop {
             let (_, task) = far_tasks.recv().await.expect("bus open");
             if let TaskKind::Extinguish { fire: f, .. } = task.kind {
@@ -431,7 +433,7 @@ async fn a_coordinator_restarted_with_nothing_recorded_outnumbers_the_units_from
         &endpoint,
         &["coordinator", "--sim-clock"],
     ));
-    let (_, first) = tokio::time::timeout(Duration::from_secs(20), tasks.recv())
+    let (_, first) = tokio::time::timeout(patient(Duration::from_secs(20)), tasks.recv())
         .await
         .expect("the new coordinator gave no task")
         .expect("bus open");
@@ -554,7 +556,7 @@ async fn a_deposed_coordinator_that_comes_back_commands_nobody_and_steps_down() 
         }
     };
     first_at_work(&states, &mut watch).await;
-    let first = tokio::time::timeout(Duration::from_secs(10), tasks.recv())
+    let first = tokio::time::timeout(patient(Duration::from_secs(10)), tasks.recv())
         .await
         .unwrap()
         .unwrap()
@@ -564,7 +566,7 @@ async fn a_deposed_coordinator_that_comes_back_commands_nobody_and_steps_down() 
     // The standby's term begins once the paused coordinator's lease lapses. (Every inbox
     // is read all along: a full one would hold up the test's whole session.)
     let paused = Instant::now();
-    let second = tokio::time::timeout(Duration::from_secs(40), async {
+    let second = tokio::time::timeout(patient(Duration::from_secs(40)), async {
         loop {
             tokio::select! {
                 Some((_, task)) = tasks.recv() => if task.epoch != first {
@@ -583,7 +585,7 @@ async fn a_deposed_coordinator_that_comes_back_commands_nobody_and_steps_down() 
         paused.elapsed().as_secs_f64()
     );
     signal(&fleet.0[1], "CONT");
-    let deposed = tokio::time::timeout(Duration::from_secs(20), async {
+    let deposed = tokio::time::timeout(patient(Duration::from_secs(20)), async {
         loop {
             tokio::select! {
                 Some((_, d)) = log.recv() => if d.text.starts_with("deposed") {
@@ -624,7 +626,7 @@ async fn first_answer<T>(
     within: Duration,
     take: impl Fn(&[u8]) -> Option<T>,
 ) -> T {
-    tokio::time::timeout(within, async {
+    tokio::time::timeout(patient(within), async {
         loop {
             let answers = bus
                 .ask(key, Ask::within(Duration::from_secs(10)))
@@ -689,7 +691,7 @@ fn f7() -> FireTrack {
 /// Publish `track` until the recorder on the bus answers a recall query with it.
 async fn until_recorded(bus: &Bus, track: &FireTrack) {
     let keys = bus.keys().clone();
-    tokio::time::timeout(Duration::from_secs(30), async {
+    tokio::time::timeout(patient(Duration::from_secs(30)), async {
         loop {
             bus.put(&keys.fire(track.id), track).await.unwrap();
             let answers = bus
@@ -759,7 +761,7 @@ async fn set_goal(endpoint: &str, args: &[&str]) -> std::process::Output {
         .chain(args)
         .copied()
         .collect();
-    let deadline = Instant::now() + Duration::from_secs(20);
+    let deadline = Instant::now() + patient(Duration::from_secs(20));
     loop {
         let out = cli("rail-tunnel", endpoint, &set);
         if out.status.success() || Instant::now() > deadline {
@@ -823,7 +825,7 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
     )
     .await
     .unwrap();
-    let (_, ack) = tokio::time::timeout(Duration::from_secs(5), acks.recv())
+    let (_, ack) = tokio::time::timeout(patient(Duration::from_secs(5)), acks.recv())
         .await
         .unwrap()
         .unwrap();
@@ -840,7 +842,7 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
     )
     .await
     .unwrap();
-    let deadline = Instant::now() + Duration::from_secs(5);
+    let deadline = Instant::now() + patient(Duration::from_secs(5));
     while invalid(&status_of(&bus, Duration::from_secs(5)).await) == before {
         assert!(
             Instant::now() < deadline,
@@ -870,7 +872,7 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
         .status
         .success()
     );
-    let deadline = Instant::now() + Duration::from_secs(5);
+    let deadline = Instant::now() + patient(Duration::from_secs(5));
     loop {
         let out = cli("rail-tunnel", &endpoint, &["goal", "list"]);
         if text(&out).contains("(none)") {
@@ -910,7 +912,7 @@ async fn barred_space_reaches_the_units_and_outlives_the_coordinator_and_the_rec
     let out = set_goal(&endpoint, &["--goal", "keep-out", "--rail-allowed"]).await;
     assert_says(&out, 0, "accepted");
     // Every unit hears it on the fleet-wide key.
-    let b = tokio::time::timeout(Duration::from_secs(5), async {
+    let b = tokio::time::timeout(patient(Duration::from_secs(5)), async {
         loop {
             let (_, b) = told.recv().await.expect("bus open");
             if !b.spans.is_empty() {
@@ -943,7 +945,7 @@ async fn barred_space_reaches_the_units_and_outlives_the_coordinator_and_the_rec
     // was published; the re-send reaches it within a second). Answers on one key are
     // consolidated into one unless asked otherwise.
     let key = bus.keys().coord_barred();
-    let deadline = Instant::now() + Duration::from_secs(10);
+    let deadline = Instant::now() + patient(Duration::from_secs(10));
     loop {
         let every = Ask {
             every_answer: true,
@@ -978,7 +980,7 @@ async fn barred_space_reaches_the_units_and_outlives_the_coordinator_and_the_rec
     fleet
         .0
         .push(spawn_role("rail-tunnel", &endpoint, &["coordinator"]));
-    let (_, first) = tokio::time::timeout(Duration::from_secs(20), told.recv())
+    let (_, first) = tokio::time::timeout(patient(Duration::from_secs(20)), told.recv())
         .await
         .expect("the new coordinator never published the barred space")
         .expect("bus open");
@@ -1007,7 +1009,7 @@ async fn barred_space_reaches_the_units_and_outlives_the_coordinator_and_the_rec
         &endpoint,
         &["coordinator", "--resume", recording.to_str().unwrap()],
     ));
-    let (_, first) = tokio::time::timeout(Duration::from_secs(20), told.recv())
+    let (_, first) = tokio::time::timeout(patient(Duration::from_secs(20)), told.recv())
         .await
         .expect("the resumed coordinator never published the barred space")
         .expect("bus open");
@@ -1030,7 +1032,7 @@ async fn forged_tasks_do_not_leave_a_unit_deaf_to_its_coordinator() {
     // Once the near unit is on its way to the fire, an impostor tells it to stand by: once
     // numbered near u64::MAX (refused: ahead of the clock), once just above its task
     // (taken; the coordinator sees a number it never gave and tasks the unit again above).
-    let (epoch, taken) = tokio::time::timeout(Duration::from_secs(90), async {
+    let (epoch, taken) = tokio::time::timeout(patient(Duration::from_secs(90)), async {
         loop {
             let (_, st) = near_state.recv().await.expect("bus open");
             if st.task.is_some_and(|p| p.phase == TaskPhase::Travelling) {
@@ -1054,7 +1056,7 @@ async fn forged_tasks_do_not_leave_a_unit_deaf_to_its_coordinator() {
     }
     // The near unit itself is back on the coordinator's numbering (not only the far one
     // covering for it).
-    tokio::time::timeout(Duration::from_secs(30), async {
+    tokio::time::timeout(patient(Duration::from_secs(30)), async {
         loop {
             let (_, st) = near_state.recv().await.expect("bus open");
             if st.task_seq.is_some_and(|s| s > taken + 500 && s < u64::MAX) {
@@ -1135,7 +1137,7 @@ fn mutual_tls_lets_in_only_the_site_s_identities() {
         c.output().unwrap()
     };
     // A commander of this site gets the status once the router is up.
-    let deadline = Instant::now() + Duration::from_secs(20);
+    let deadline = Instant::now() + patient(Duration::from_secs(20));
     let rossi = id("commander-rossi");
     while !status(Some(&rossi), &endpoint).status.success() {
         assert!(
@@ -1267,7 +1269,7 @@ impl SecureSite {
             ..Default::default()
         };
         let site = firefleet_model::SiteId::new("tunnel-a").unwrap();
-        let deadline = Instant::now() + Duration::from_secs(20);
+        let deadline = Instant::now() + patient(Duration::from_secs(60));
         loop {
             match Bus::open(&connect, site.clone()).await {
                 Ok(bus) => return bus,
@@ -1362,7 +1364,7 @@ async fn a_stolen_unit_certificate_cannot_stop_a_secure_fleet() {
         ],
     ));
     // Once the fleet runs, every attack of the issue from ugv-2's stolen certificate.
-    tokio::time::timeout(Duration::from_secs(60), truths.recv())
+    tokio::time::timeout(patient(Duration::from_secs(60)), truths.recv())
         .await
         .expect("the simulator never started");
     let forged_task = Task {
@@ -1566,7 +1568,7 @@ async fn a_unit_started_before_its_router_waits_and_joins_it() {
     let token = router
         .keys()
         .expr(&Topic::UnitAlive(UnitId::new("ugv-1").unwrap()));
-    let deadline = Instant::now() + Duration::from_secs(20);
+    let deadline = Instant::now() + patient(Duration::from_secs(20));
     loop {
         if !router.tokens_alive(&token).await.unwrap().is_empty() {
             break;
@@ -1600,7 +1602,7 @@ async fn the_coordinator_token_is_gone_only_when_every_holder_is() {
     let seen = watcher.watch_tokens(&key).await.unwrap();
     let ta = a.token(&Topic::CoordAlive).await.unwrap();
     let tb = b.token(&Topic::CoordAlive).await.unwrap();
-    let (_, alive) = tokio::time::timeout(Duration::from_secs(2), seen.recv())
+    let (_, alive) = tokio::time::timeout(patient(Duration::from_secs(2)), seen.recv())
         .await
         .unwrap()
         .unwrap();
@@ -1621,7 +1623,7 @@ async fn the_coordinator_token_is_gone_only_when_every_holder_is() {
         "the token counted gone while b still holds it"
     );
     drop(tb);
-    let gone = tokio::time::timeout(Duration::from_secs(2), async {
+    let gone = tokio::time::timeout(patient(Duration::from_secs(2)), async {
         loop {
             let (topic, alive) = seen.recv().await.unwrap();
             if !alive {

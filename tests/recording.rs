@@ -15,6 +15,7 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use firefleet_model::UnitKind;
+use firefleet_model::testing::python_package;
 use firefleet_model::{Pose2, UnitId};
 use firefleet_protocol::msg::{SimClock, UnitMode, UnitState};
 use firefleet_recorder::parts::{INDEX, Index, Recording, parts_dir};
@@ -28,20 +29,7 @@ const SEED: u64 = 20;
 /// `FIREFLEET_REQUIRE_PYTHON_MCAP`, so there a missing package fails the test; elsewhere
 /// the test says loudly that it checked nothing.
 fn python_mcap() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import mcap"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !ok {
-        assert!(
-            std::env::var_os("FIREFLEET_REQUIRE_PYTHON_MCAP").is_none(),
-            "python3 with the mcap package is required here (pip install 'mcap>=1,<2')"
-        );
-        eprintln!(
-            "SKIPPED: python3 with the mcap package is not installed; the recordings were not checked with an independent reader"
-        );
-    }
-    ok
+    python_package("mcap", "mcap>=1,<2", "FIREFLEET_REQUIRE_PYTHON_MCAP")
 }
 
 fn state(unit: &UnitId, t: f64) -> UnitState {

@@ -1,5 +1,6 @@
 //! A scenario builder for tests and benchmarks: the sites they need, said in a line
-//! each instead of a pasted TOML file.
+//! each instead of a pasted TOML file; and [`python_package`], how a test that checks our
+//! output with an independent Python reader finds it or says it could not.
 //!
 //! ```
 //! use firefleet_model::scenario::Scenario;
@@ -176,4 +177,51 @@ impl ScenarioBuilder {
         }
         self.0
     }
+}
+
+/// Whether `python3` can import `module` (pip package `pip`), for a test that checks our
+/// output with an independent reader. Where the environment variable `required_by` is set
+/// (CI sets it), a missing package fails the test. Elsewhere the test goes on without the
+/// check and says so where a person will see it: cargo captures a passing test's output,
+/// so the line also goes to the file `FIREFLEET_SKIPPED` names (default `target/SKIPPED`),
+/// which CI prints after the tests.
+pub fn python_package(module: &str, pip: &str, required_by: &str) -> bool {
+    // Quiet: a missing package is said below in one line, not as Python's traceback.
+    let found = std::process::Command::new("python3")
+        .args(["-c", &format!("import {module}")])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if found {
+        return true;
+    }
+    assert!(
+        std::env::var_os(required_by).is_none(),
+        "python3 with {pip} is required here ({required_by} is set): pip install '{pip}'"
+    );
+    let line = format!(
+        "SKIPPED: {}: python3 cannot import {module} (pip install '{pip}'); checked without the independent reader\n",
+        std::thread::current().name().unwrap_or("a test")
+    );
+    #[allow(clippy::print_stderr, reason = "a skipped check says so")]
+    {
+        eprint!("{line}");
+    }
+    let file = std::env::var_os("FIREFLEET_SKIPPED").map_or_else(
+        || std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/SKIPPED"),
+        std::path::PathBuf::from,
+    );
+    let appended = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&file)
+        .and_then(|mut f| std::io::Write::write_all(&mut f, line.as_bytes()));
+    if let Err(e) = appended {
+        #[allow(clippy::print_stderr, reason = "a skipped check says so")]
+        {
+            eprintln!("(could not note the skip in {}: {e})", file.display());
+        }
+    }
+    false
 }

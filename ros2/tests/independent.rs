@@ -21,6 +21,7 @@ use firefleet_bus::{Connect, Mode, free_loopback_port};
 use firefleet_model::UnitId;
 use firefleet_model::geometry::Pose2;
 use firefleet_model::profile::GROUND;
+use firefleet_model::testing::python_package;
 use firefleet_protocol::msg::{CannonState, FlameDetection, ObjectClass, UnitCommand, UnitSensors};
 use firefleet_ros2::graph::{Attachment, Domain, Namespace};
 use firefleet_ros2::ground::{Body, Robot};
@@ -32,20 +33,11 @@ use serde_json::{Value, json};
 /// Whether Python's `rosbags` is importable. CI installs it and sets
 /// `FIREFLEET_REQUIRE_PYTHON_ROSBAGS`, so there a missing package fails the test.
 fn python_rosbags() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import rosbags.typesys"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !ok {
-        assert!(
-            std::env::var_os("FIREFLEET_REQUIRE_PYTHON_ROSBAGS").is_none(),
-            "python3 with the rosbags package is required here (pip install 'rosbags>=0.10')"
-        );
-        eprintln!(
-            "SKIPPED: python3 with rosbags is not installed; nothing was checked independently"
-        );
-    }
-    ok
+    python_package(
+        "rosbags.typesys",
+        "rosbags>=0.10,<0.12",
+        "FIREFLEET_REQUIRE_PYTHON_ROSBAGS",
+    )
 }
 
 async fn open(connect: &Connect) -> zenoh::Session {

@@ -116,3 +116,17 @@ pub fn assert_numbers(v: &serde_json::Value, keys: &[&str]) {
         assert!(v[key].is_number(), "{key} in {v}");
     }
 }
+
+/// A wall-clock wait for something the fleet's processes must do (join, answer, put a fire
+/// out), times `FIREFLEET_TEST_PATIENCE` (a number, default 1): on a loaded machine (two
+/// cores, every test binary at once) the processes take longer, and a deadline that only
+/// guards against a hang can be given more without weakening any test. Windows in which
+/// something must *not* happen are not scaled.
+pub fn patient(d: std::time::Duration) -> std::time::Duration {
+    let factor = std::env::var("FIREFLEET_TEST_PATIENCE")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .filter(|f| f.is_finite() && *f >= 1.0)
+        .unwrap_or(1.0);
+    d.mul_f64(factor)
+}
