@@ -93,8 +93,13 @@ pub fn make_site(
     write(&ca_dir, "ca.pem", &ca.pem(), false)?;
     write(&ca_dir, "ca.key", &key.serialize_pem(), true)?;
     let hosts = hosts(hosts_given);
+    let signer = Signer {
+        ca: &ca,
+        key: &key,
+        pem: &ca.pem(),
+    };
     for name in &names {
-        leaf(out, name, &hosts, &ca, &key)?;
+        leaf(out, name, &hosts, &signer)?;
     }
     Ok(names)
 }
@@ -107,9 +112,27 @@ pub fn issue(pki: &Path, who: &Identity, hosts_given: &[String]) -> Result<PathB
         .map_err(io(format!("reading the CA key in {}", ca_dir.display())))?;
     let key = KeyPair::from_pem(&key_pem).map_err(cert("the CA key"))?;
     // The issuer of a certificate is the CA's name and key: the same parameters signed by
-    // the same key stand for the CA the site PKI was made with.
+    // the same key stand for the CA the site PKI was made with. The identity gets the
+    // site's own CA certificate, not this stand-in (whose signature differs).
     let ca = ca_params().self_signed(&key).map_err(cert("the CA"))?;
-    leaf(pki, who, &hosts(hosts_given), &ca, &key)
+    let pem = fs::read_to_string(ca_dir.join("ca.pem")).map_err(io(format!(
+        "reading the CA certificate in {}",
+        ca_dir.display()
+    )))?;
+    let signer = Signer {
+        ca: &ca,
+        key: &key,
+        pem: &pem,
+    };
+    leaf(pki, who, &hosts(hosts_given), &signer)
+}
+
+/// What signs a site's certificates: the CA, its key, and the CA certificate every
+/// identity is given.
+struct Signer<'a> {
+    ca: &'a rcgen::Certificate,
+    key: &'a KeyPair,
+    pem: &'a str,
 }
 
 fn ca_params() -> CertificateParams {
@@ -131,8 +154,7 @@ fn leaf(
     out: &Path,
     who: &Identity,
     hosts: &[String],
-    ca: &rcgen::Certificate,
-    ca_key: &KeyPair,
+    by: &Signer<'_>,
 ) -> Result<PathBuf, PkiError> {
     let mut p = CertificateParams::default();
     p.distinguished_name = DistinguishedName::new();
@@ -157,10 +179,10 @@ fn leaf(
     ];
     let key = KeyPair::generate().map_err(cert("generating a key"))?;
     let signed = p
-        .signed_by(&key, ca, ca_key)
+        .signed_by(&key, by.ca, by.key)
         .map_err(cert(format!("signing {who}")))?;
     let dir = out.join(who.dir_name());
-    write(&dir, "ca.pem", &ca.pem(), false)?;
+    write(&dir, "ca.pem", by.pem, false)?;
     write(&dir, "cert.pem", &signed.pem(), false)?;
     write(&dir, "key.pem", &key.serialize_pem(), true)?;
     Ok(dir)
@@ -215,7 +237,11 @@ mod tests {
         }
         let again = make_site(&site, &[], &[], &out).unwrap_err();
         assert!(again.to_string().contains("not empty"), "{again}");
-        let added = issue(&out, &Identity::Console, &[]).unwrap();
+        // A commander who joins later gets a certificate of the same CA.
+        let bianchi = Identity::Commander(CommanderId::new("bianchi").unwrap());
+        let added = issue(&out, &bianchi, &[]).unwrap();
         assert!(added.join("cert.pem").is_file());
+        let ca = |d: &Path| fs::read_to_string(d.join("ca.pem")).unwrap();
+        assert_eq!(ca(&added), ca(&out.join(CA_DIR)));
     }
 }

@@ -242,6 +242,8 @@ pub async fn run(
                     Some(Topic::CoordStatus) => {
                         let mut body = incident.status(t);
                         body.rejected = bus.rejects().snapshot().into_iter().map(|(k, v)| (k.to_owned(), v)).collect();
+                        // Changes the incident skipped for want of a unit's view: zero unless it has a bug.
+                        body.rejected.insert("inconsistent".to_owned(), incident.inconsistencies());
                         Some(codec::encode(&body))
                     }
                     _ => None,

@@ -44,7 +44,9 @@ pub struct IncidentStatus {
     /// Commanders' zone goals in force.
     #[serde(default)]
     pub goals: Vec<ZoneGoal>,
-    /// Messages the coordinator dropped, by class (undecodable, version, invalid).
+    /// Messages the coordinator dropped, by class (undecodable, version, invalid, overflow),
+    /// and `inconsistent`: changes it skipped for want of a unit's view (zero unless it has
+    /// a bug).
     pub rejected: BTreeMap<String, u64>,
 }
 

@@ -12,7 +12,7 @@
 //! The units do not move or act: this measures the coordinator, not the fleet.
 //!
 //! `--secure` runs the same load a second time over mutual TLS, the coordinator's router
-//! enforcing the site's access rules (`protocol::access`, every unit's own rules; the load
+//! enforcing the site's access rules (`firefleet_bus::access`, every unit's own rules; the load
 //! generator, which speaks for every unit, holds the union of theirs), and prints the
 //! two side by side: the cost of the secure site, measured in one run.
 //!
