@@ -208,6 +208,10 @@ impl RejectCounts {
     pub fn count_overflow(&self) {
         self.overflow.fetch_add(1, Ordering::Relaxed);
     }
+    /// Messages dropped because their reader was behind.
+    pub fn overflow(&self) -> u64 {
+        self.overflow.load(Ordering::Relaxed)
+    }
     pub fn total(&self) -> u64 {
         self.snapshot().iter().map(|(_, n)| n).sum()
     }

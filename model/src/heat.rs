@@ -23,6 +23,9 @@ pub struct HeatSource {
 
 /// Radiant flux from `sources` at `p`, kW/m^2: point sources radiating 30 % of their heat
 /// release, no closer than 1 m, capped at 100 kW/m^2.
+///
+/// Inline: Hybrid A* calls it for every primitive it expands, from another crate.
+#[inline]
 pub fn radiant_flux_kw_m2(sources: &[HeatSource], p: Point2) -> f64 {
     sources
         .iter()

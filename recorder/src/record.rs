@@ -88,6 +88,9 @@ pub struct RecordSummary {
     pub messages: u64,
     pub channels: usize,
     pub skipped: u64,
+    /// Samples that arrived faster than the recorder could take them and were dropped
+    /// before it saw them (`firefleet_bus::RawInbox`).
+    pub dropped: u64,
 }
 
 /// How often the recording is written out (a chunk closed): what a recorder killed
@@ -398,8 +401,7 @@ impl<'a> Out<'a> {
             Some(file) => file.finish()?,
             None => RecordSummary {
                 messages: self.messages,
-                channels: 0,
-                skipped: 0,
+                ..RecordSummary::default()
             },
         };
         summary.skipped = self.skipped;
@@ -547,7 +549,8 @@ pub async fn record(
     }
     .await;
     // Finish the file whatever happened above, so that what was recorded stays readable.
-    let summary = sink.finish()?;
+    let mut summary = sink.finish()?;
+    summary.dropped = bus.rejects().overflow();
     result.map(|_| summary)
 }
 
