@@ -269,14 +269,6 @@ pub fn flow_needed_l_s(hrr_kw: Option<f64>) -> Option<f64> {
     Some(density_mm_s * q / HRR_PER_AREA_KW_M2)
 }
 
-/// How many ground cannons of `flow_l_s` a fire of `hrr_kw` needs (1 if its size is
-/// unknown), at most [`MAX_ATTACKERS`].
-pub fn attackers_needed(hrr_kw: Option<f64>, flow_l_s: f64) -> usize {
-    flow_needed_l_s(hrr_kw).map_or(1, |flow| {
-        ((flow / flow_l_s.max(0.1)).ceil() as usize).clamp(1, MAX_ATTACKERS)
-    })
-}
-
 /// Whether a fire of `hrr_kw` that `attackers` (their cannon flows, L/s) are on should
 /// get one more: fewer than `units_per_fire`, or less water than it needs, and never more
 /// than [`MAX_ATTACKERS`]. Counted in water, not heads, so one heavy cannon can do the

@@ -153,7 +153,7 @@ def main():
         fox = wait_for("Foxglove live answers", fox_up, timeout=60)
         units = [u["id"] for u in first["site"]["units"]]
         zones = {z["id"]: z for z in first["site"]["zones"]}
-        with open(os.path.join(os.path.dirname(__file__), "..", "..", "examples",
+        with open(os.path.join(os.path.dirname(__file__), "..", "..", "model",
                                "scenarios", f"{SCENARIO}.toml")) as f:
             fires = f.read().count("[[fires]]")
 

@@ -17,9 +17,36 @@ fn cand(id: &str, x: f64) -> Candidate {
     }
 }
 
+/// How many cannons of `flow_l_s` a fire of `hrr_kw` is given, one at a time while it
+/// wants another, with one unit per fire otherwise.
+fn attackers(hrr_kw: Option<f64>, flow_l_s: f64) -> usize {
+    let mut on = Vec::new();
+    while wants_another(hrr_kw, &on, 1) {
+        on.push(flow_l_s);
+    }
+    on.len()
+}
+
+#[test]
+fn a_fire_wants_units_per_fire_or_the_water_it_needs_whichever_is_more() {
+    assert!(wants_another(None, &[10.0], 2), "two per fire: one more");
+    assert!(!wants_another(None, &[10.0, 10.0], 2));
+    // 20 MW needs about 19 L/s: two small cannons, or one heavy one.
+    assert_eq!(attackers(Some(20_000.0), 10.0), 2);
+    assert_eq!(attackers(Some(20_000.0), 30.0), 1);
+    assert!(
+        wants_another(Some(20_000.0), &[30.0], 2),
+        "units_per_fire still counts"
+    );
+    assert!(
+        !wants_another(Some(1e6), &[10.0; 3], 1),
+        "never more than three"
+    );
+}
+
 #[test]
 fn bigger_fires_need_more_cannons() {
-    let n = |q| attackers_needed(q, 10.0);
+    let n = |q| attackers(q, 10.0);
     assert_eq!(n(None), 1, "unknown size: one");
     assert_eq!(n(Some(5.0)), 1);
     // 5 MW (a car): 8.3 m^2 at 0.50 mm/s, 4.2 L/s.

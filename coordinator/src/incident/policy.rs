@@ -15,7 +15,7 @@ pub struct Policy {
     /// under 0.2 kW/m^2.
     pub stage_offset_m: f64,
     /// Ground units sent to one fire while units are free (more if its heat release needs
-    /// them, [`crate::assign::attackers_needed`]): alone, every unit that sees a fire attacks
+    /// them, [`crate::assign::wants_another`]): alone, every unit that sees a fire attacks
     /// it, and two cannons knock a fire down in less than half the time of one (Evans: tau ~
     /// density^-1.85).
     pub units_per_fire: usize,
