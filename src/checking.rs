@@ -1,5 +1,6 @@
 //! A recording through the incident's invariants: what `firefleet check` prints and the
-//! nemesis and the zones experiment judge their runs by.
+//! nemesis judges its runs by; and the simulator's burning fires as the invariants' event,
+//! which the in-process experiments feed them too.
 //!
 //! Not here: the invariants themselves (`firefleet_coordinator::invariants`) or reading MCAP
 //! records (`firefleet_recorder::parts`, `firefleet_protocol::payload`); this feeds one to

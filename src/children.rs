@@ -1,6 +1,6 @@
-//! The child processes a command starts (the demo's fleet, the nemesis's hosts, the scale
-//! test's coordinator): how each is started so none outlives its parent, and how they are
-//! stopped so the recorder keeps what the others say until they exit.
+//! The child processes a command starts (the demo's fleet, the nemesis's processes): how
+//! each is started so none outlives its parent, and how they are stopped so the recorder
+//! keeps what the others say until they exit.
 
 use std::process::Stdio;
 use std::time::Duration;
