@@ -44,18 +44,10 @@ impl Strategy {
     }
 }
 
-impl std::str::FromStr for Strategy {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "greedy" => Ok(Strategy::Greedy),
-            "optimal" => Ok(Strategy::Optimal),
-            other => Err(format!(
-                "'{other}' is not an assignment strategy (greedy, optimal)"
-            )),
-        }
-    }
-}
+firefleet_model::names!(Strategy, "an assignment strategy" {
+    Greedy => "greedy",
+    Optimal => "optimal",
+});
 
 /// What the coordinator needs of a ground unit's profile to send it somewhere.
 #[derive(Debug, Clone, Copy, PartialEq)]
