@@ -139,19 +139,28 @@ fn main() -> std::process::ExitCode {
     }
 }
 
-/// A reader that stops reading (`firefleet status | head`) ends this process the way it
-/// ends `cat`, instead of making the next `println!` panic: Rust starts programs with
-/// SIGPIPE ignored, so a write to a closed pipe fails and `println!` panics on it. Only
-/// pipes raise SIGPIPE: sockets (Zenoh's links, the console's HTTP) are written with
-/// MSG_NOSIGNAL by std and tokio on Linux and still see an error.
-#[allow(
-    unsafe_code,
-    reason = "libc's signal is the only way to restore SIGPIPE"
-)]
+/// A reader that stops reading (`firefleet status | head`) ends this process quietly with
+/// the status a shell gives a program a closed pipe stopped (141), instead of a panic on
+/// the next `println!`. Not by restoring SIGPIPE's default: then a TLS link whose peer went
+/// away (rustls writes with `writev`, which cannot ask for no signal) would kill a role
+/// mid-incident; with SIGPIPE ignored, as Rust starts programs, a socket write fails with
+/// an error its owner handles, and only printing to a closed stdout ends the process.
 fn end_quietly_on_a_closed_pipe() {
-    #[cfg(unix)]
-    // SAFETY: setting a signal's disposition to its default, before any thread starts.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
-    }
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or_default();
+        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+            std::process::exit(CLOSED_PIPE);
+        }
+        default(info);
+    }));
 }
+
+/// The exit status of a program stopped by a closed pipe, as shells report it (128 +
+/// SIGPIPE).
+const CLOSED_PIPE: i32 = 141;
