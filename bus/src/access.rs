@@ -35,7 +35,7 @@ use serde_json::{Value, json};
 
 use firefleet_model::UnitKind;
 use firefleet_model::scenario::Scenario;
-use firefleet_model::{ids::CommanderId, ids::IdError, ids::UnitId};
+use firefleet_model::{ids::CommanderId, ids::IdError, ids::RouterId, ids::UnitId};
 use firefleet_protocol::keys::{Keys, Topic};
 
 /// One identity of a site: a certificate's common name.
@@ -48,15 +48,53 @@ pub enum Identity {
     Commander(CommanderId),
     /// The commanders' web console (`firefleet console`).
     Console,
-    /// The site's router: it links everyone and is granted nothing (its own session is
-    /// not a remote face its rules apply to; it runs no role).
+    /// A router of the site: `router` for its first, `router:<name>` for any other. It
+    /// links everyone and is granted nothing (its own session is not a remote face its
+    /// rules apply to; it runs no role). Only a router's certificate may serve TLS.
+    Router(Option<RouterId>),
+}
+
+/// What kind of process an identity is; the part of its common name before `:`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Role {
+    Unit,
+    Coordinator,
+    Recorder,
+    Sim,
+    Commander,
+    Console,
     Router,
 }
+
+firefleet_model::names!(Role, "role" {
+    Unit => "unit",
+    Coordinator => "coordinator",
+    Recorder => "recorder",
+    Sim => "sim",
+    Commander => "commander",
+    Console => "console",
+    Router => "router",
+});
 
 impl Identity {
     /// The identity's directory in a site PKI (the common name, `:` made `-`).
     pub fn dir_name(&self) -> String {
         self.to_string().replace(':', "-")
+    }
+
+    /// The site's first router.
+    pub const ROUTER: Identity = Identity::Router(None);
+
+    pub fn role(&self) -> Role {
+        match self {
+            Identity::Unit(_) => Role::Unit,
+            Identity::Coordinator => Role::Coordinator,
+            Identity::Recorder => Role::Recorder,
+            Identity::Sim => Role::Sim,
+            Identity::Commander(_) => Role::Commander,
+            Identity::Console => Role::Console,
+            Identity::Router(_) => Role::Router,
+        }
     }
 
     /// Every identity of `scenario`'s site, with `commanders`, in a stable order.
@@ -71,7 +109,7 @@ impl Identity {
             Identity::Recorder,
             Identity::Sim,
             Identity::Console,
-            Identity::Router,
+            Identity::ROUTER,
         ]);
         all.extend(commanders.iter().cloned().map(Identity::Commander));
         all
@@ -87,7 +125,8 @@ impl fmt::Display for Identity {
             Identity::Sim => f.write_str("sim"),
             Identity::Commander(c) => write!(f, "commander:{c}"),
             Identity::Console => f.write_str("console"),
-            Identity::Router => f.write_str("router"),
+            Identity::Router(None) => f.write_str("router"),
+            Identity::Router(Some(r)) => write!(f, "router:{r}"),
         }
     }
 }
@@ -95,7 +134,7 @@ impl fmt::Display for Identity {
 /// A common name that is no identity of ours.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error(
-    "'{name}' is not an identity (unit:<id>, coordinator, recorder, sim, commander:<name>, console, router): {reason}"
+    "'{name}' is not an identity (unit:<id>, coordinator, recorder, sim, commander:<name>, console, router, router:<name>): {reason}"
 )]
 pub struct IdentityError {
     pub name: String,
@@ -113,13 +152,14 @@ impl FromStr for Identity {
         match s.split_once(':') {
             Some(("unit", u)) => Ok(Identity::Unit(UnitId::new(u).map_err(named)?)),
             Some(("commander", c)) => Ok(Identity::Commander(CommanderId::new(c).map_err(named)?)),
+            Some(("router", r)) => Ok(Identity::Router(Some(RouterId::new(r).map_err(named)?))),
             Some(_) => Err(err("unknown kind".into())),
             None => match s {
                 "coordinator" => Ok(Identity::Coordinator),
                 "recorder" => Ok(Identity::Recorder),
                 "sim" => Ok(Identity::Sim),
                 "console" => Ok(Identity::Console),
-                "router" => Ok(Identity::Router),
+                "router" => Ok(Identity::ROUTER),
                 _ => Err(err("unknown".into())),
             },
         }
@@ -311,7 +351,7 @@ pub fn grants(
             grant(Op::Subscribe, keys.every_sim_rail_cmd().as_str());
             grant(Op::Watch, &keys.every_alive());
         }
-        Identity::Sim | Identity::Router => {}
+        Identity::Sim | Identity::Router(_) => {}
     }
     Ok(g)
 }

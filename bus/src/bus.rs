@@ -27,6 +27,8 @@ use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::{self, Key, Keys, Subscribable, Topic};
 use firefleet_protocol::msg::Message;
 
+use crate::pki::{self, Expect};
+
 /// A bus error: Zenoh refused something.
 #[derive(Debug, thiserror::Error)]
 #[error("zenoh: {0}")]
@@ -79,8 +81,12 @@ pub struct Connect {
     pub listen: Vec<String>,
     /// Mutual TLS with this identity: a directory holding the site CA (`ca.pem`) and the
     /// identity's certificate and key (`cert.pem`, `key.pem`), as `firefleet pki` writes
-    /// them. Every link is then TLS both ways, and a plain `tcp/` endpoint is refused.
+    /// them. Every link is then QUIC with mutual TLS, and any other endpoint is refused.
     pub tls: Option<PathBuf>,
+    /// Who this process must be: with a TLS identity (from `tls` or the config file),
+    /// files of another identity, or ones that can never link (expired, another site's,
+    /// a key not its certificate's), are refused before anything is tried.
+    pub expect: Option<Expect>,
 }
 
 impl Connect {
@@ -110,26 +116,28 @@ impl Connect {
                     .join(",")
             )
         };
+        if let Some(e) = self
+            .connect
+            .iter()
+            .chain(&self.listen)
+            .find(|e| e.starts_with("tls/"))
+        {
+            return Err(BusError(format!(
+                "endpoint '{e}': secure links are quic/HOST:PORT (Zenoh's TLS link can \
+                 corrupt its stream under load, eclipse-zenoh/zenoh#2557)"
+            )));
+        }
         if let Some(dir) = &self.tls {
             for e in self.connect.iter().chain(&self.listen) {
-                if !e.starts_with("tls/") {
+                if !e.starts_with("quic/") {
                     return Err(BusError(format!(
-                        "endpoint '{e}' is not TLS: with a TLS identity ({}) every link is tls/...",
+                        "endpoint '{e}' is not QUIC: with a TLS identity ({}) every link is quic/...",
                         dir.display()
                     )));
                 }
             }
-            if let Some(missing) = ["ca.pem", "cert.pem", "key.pem"]
-                .iter()
-                .find(|f| !dir.join(f).is_file())
-            {
-                return Err(BusError(format!(
-                    "TLS identity {}: no {missing} (run firefleet pki init)",
-                    dir.display()
-                )));
-            }
-            let serde_json::Value::Object(fields) = tls_link(dir) else {
-                unreachable!("tls_link is an object")
+            let serde_json::Value::Object(fields) = mtls_link(dir) else {
+                unreachable!("mtls_link is an object")
             };
             for (field, value) in fields {
                 config
@@ -147,14 +155,58 @@ impl Connect {
                 .insert_json5("listen/endpoints", &list(&self.listen))
                 .map_err(|e| BusError(format!("--listen: {e}")))?;
         }
+        self.check_identity(&config)?;
         Ok(config)
+    }
+
+    /// Refuse, with the file and the reason, a TLS identity that can never link: what
+    /// `config` will present (the listening certificate for a router, else the
+    /// connecting one).
+    fn check_identity(&self, config: &zenoh::Config) -> Result<(), BusError> {
+        let get = |field: &str| -> Option<PathBuf> {
+            config
+                .get_json(&format!("transport/link/tls/{field}"))
+                .ok()
+                .and_then(|s| serde_json::from_str::<Option<String>>(&s).ok().flatten())
+                .map(PathBuf::from)
+        };
+        let router = config
+            .get_json("mode")
+            .is_ok_and(|m| m.contains("router"));
+        let (cert, key) = if router {
+            ("listen_certificate", "listen_private_key")
+        } else {
+            ("connect_certificate", "connect_private_key")
+        };
+        let (Some(ca), Some(cert), Some(key)) = (get("root_ca_certificate"), get(cert), get(key))
+        else {
+            return if quic_endpoints(config) {
+                Err(BusError(
+                    "a QUIC link needs a TLS identity: --tls-dir, or a configuration from firefleet deploy render".into(),
+                ))
+            } else {
+                Ok(())
+            };
+        };
+        pki::check(&pki::TlsFiles { ca, cert, key }, self.expect.as_ref())
+            .map(drop)
+            .map_err(|e| BusError(format!("TLS identity: {e}")))
     }
 }
 
-/// Zenoh's `transport/link/tls` section for mutual TLS as the identity whose PKI directory
-/// (`ca.pem`, `cert.pem`, `key.pem`, as `firefleet pki` writes them) is `dir`: the same
-/// certificate to listen and to connect, peers verified against the site CA both ways.
-pub fn tls_link(dir: &std::path::Path) -> serde_json::Value {
+fn quic_endpoints(config: &zenoh::Config) -> bool {
+    ["connect/endpoints", "listen/endpoints"]
+        .iter()
+        .filter_map(|f| config.get_json(f).ok())
+        .any(|s| s.contains("quic/"))
+}
+
+/// Zenoh's `transport/link/tls` section (which its QUIC link reads) for mutual TLS as the
+/// identity whose PKI directory (`ca.pem`, `cert.pem`, `key.pem`, as `firefleet pki` writes
+/// them) is `dir`: the same certificate to listen and to connect, peers verified against
+/// the site CA both ways, a router also by the name it is reached at, and a link closed
+/// when a certificate on it expires.
+pub fn mtls_link(dir: &std::path::Path) -> serde_json::Value {
     let file = |name: &str| dir.join(name).display().to_string();
     serde_json::json!({
         "root_ca_certificate": file("ca.pem"),
@@ -163,16 +215,23 @@ pub fn tls_link(dir: &std::path::Path) -> serde_json::Value {
         "connect_certificate": file("cert.pem"),
         "connect_private_key": file("key.pem"),
         "enable_mtls": true,
+        "verify_name_on_connect": true,
+        "close_link_on_expiration": true,
     })
 }
 
-/// A TCP port on 127.0.0.1 that nothing listens on right now, for a loopback fleet's
-/// router (the OS hands out a free one; another process could take it before we bind it,
-/// which on a test machine does not happen in practice).
+/// A port on 127.0.0.1 that nothing uses right now over TCP or UDP, for a loopback
+/// fleet's router on `tcp/` or `quic/` (the OS hands out a free one; another process could
+/// take it before we bind it, which on a test machine does not happen in practice).
 pub fn free_loopback_port() -> std::io::Result<u16> {
-    Ok(std::net::TcpListener::bind("127.0.0.1:0")?
-        .local_addr()?
-        .port())
+    for _ in 0..64 {
+        let tcp = std::net::TcpListener::bind("127.0.0.1:0")?;
+        let port = tcp.local_addr()?.port();
+        if std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
+            return Ok(port);
+        }
+    }
+    Err(std::io::Error::other("no port free for both TCP and UDP"))
 }
 
 fn json_string(s: &str) -> String {

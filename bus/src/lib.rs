@@ -37,8 +37,10 @@
 //! tokens, asks and answers questions, reads samples undecoded and deletes
 //! (`exchange`). [`goal`] issues and clears commanders' goals. [`access`] derives the
 //! router's access rules from the same key table the messages travel on, so what a
-//! certificate may touch is derived, not written; [`pki`] makes the site's certificates
-//! and [`render`] the configurations that carry them and the rules.
+//! certificate may touch is derived, not written; [`limits`] bounds how fast and how large
+//! a unit may send on its own keys; [`pki`] makes the site's role-bound certificates and
+//! checks an identity's files before a link is tried; [`render`] writes the configurations
+//! that carry them, the rules and the bounds.
 //!
 //! Not here: the messages and keys themselves (`firefleet-protocol`), or what any role does
 //! with them (the role crates). Besides `firefleet-ros2`, this is the only crate that
@@ -48,8 +50,9 @@ pub mod access;
 mod bus;
 mod exchange;
 pub mod goal;
+pub mod limits;
 pub mod pki;
 pub mod render;
 
-pub use bus::{Bus, BusError, Connect, Inbox, Mode, RejectCounts, free_loopback_port, tls_link};
+pub use bus::{Bus, BusError, Connect, Inbox, Mode, RejectCounts, free_loopback_port, mtls_link};
 pub use exchange::{Answers, Ask, Question, Questions, Raw, RawInbox, Token, Tokens};

@@ -1,4 +1,5 @@
-//! A site's certificates for mutual TLS: a site CA and one certificate per identity.
+//! A site's certificates for mutual TLS: a site CA and one certificate per identity, each
+//! bound to its role and valid for a limited time.
 //!
 //! Each identity ([`Identity`]) gets a directory of its own, what a role's `--tls-dir`
 //! takes and all a robot needs copied to it: the CA's certificate (`ca.pem`), its
@@ -6,12 +7,31 @@
 //! rules match) and its key (`key.pem`). Keys are written 0600, created so (never readable
 //! by others, not even for a moment), and never printed.
 //!
-//! Rotation: make a new site PKI into a new directory and deploy it whole (a new CA: old
-//! certificates are worthless at once). Revocation of one identity: render the router's
-//! access rules without it ([`crate::render`]) and restart the router: its certificate
-//! still links, but default deny leaves it nothing to do.
+//! **Roles.** Only a router's certificate may serve: it alone carries the server-auth
+//! purpose and the host names the router is reached by, and clients check both (the name
+//! they connect to, Zenoh's `verify_name_on_connect`), so a unit's stolen certificate
+//! cannot stand in for the router. Every other certificate is for clients only and names
+//! no host. A router's certificate also carries client-auth: a router linking to another
+//! router is that router's client.
 //!
-//! Not here: the TLS links themselves (Zenoh's, configured by [`crate::Connect`]).
+//! **Validity.** Leaves are valid for [`DEFAULT_VALID_DAYS`] unless told otherwise (never
+//! past the CA's own end, [`CA_VALID_DAYS`]); links close when a certificate expires
+//! (`close_link_on_expiration`), and [`check`] refuses an expired one before a process
+//! even tries. [`issue`] renews an identity in place (a new key, the old files replaced
+//! whole) without touching the CA.
+//!
+//! **Revocation.** Zenoh's TLS and QUIC links check no revocation list, and its access
+//! rules match a certificate by common name only, so revoking one certificate of a name
+//! while another of the same name stays good is not something the router can do. [`revoke`]
+//! therefore takes a *name* off the site: it is recorded in the PKI's `revoked` file and its
+//! directory removed; [`crate::render`] gives a revoked name no rule (default deny: its
+//! certificate still links, but may do nothing) and no configuration; the router applies
+//! the rendered rules when it restarts. [`issue`] refuses a revoked name, since a new
+//! certificate under it would give the stolen one its rules back. A robot whose
+//! certificate was stolen rejoins under a new site CA (rotation: `pki init` into a new
+//! directory, deployed whole; old certificates are worthless at once).
+//!
+//! Not here: the links themselves (Zenoh's, configured by [`crate::Connect`]).
 
 use std::fs;
 use std::io::Write;
@@ -23,15 +43,24 @@ use rcgen::{
     BasicConstraints, CertificateParams, DistinguishedName, DnType, ExtendedKeyUsagePurpose, IsCa,
     KeyPair, KeyUsagePurpose, SanType,
 };
+use time::OffsetDateTime;
+use x509_parser::prelude::{FromDer, GeneralName, ParsedExtension, X509Certificate};
 
-use crate::access::Identity;
+use crate::access::{Identity, Role};
 
 /// Where the CA's own files live in a site PKI's directory.
 pub const CA_DIR: &str = "ca";
+/// The file listing the names taken off the site, one `<identity> <date>` a line.
+const REVOKED: &str = "revoked";
 /// The CA's common name.
 const CA_NAME: &str = "firefleet site CA";
+/// How long a leaf certificate is valid unless told otherwise: a year, so a lost robot's
+/// certificate does not outlive the next yearly inspection.
+pub const DEFAULT_VALID_DAYS: u32 = 365;
+/// How long a site CA is valid: ten years, the service life of the robots it serves.
+pub const CA_VALID_DAYS: u32 = 3650;
 
-/// Why a PKI could not be made or extended.
+/// Why a PKI could not be made, extended or read, or an identity's files cannot work.
 #[derive(Debug, thiserror::Error)]
 pub enum PkiError {
     #[error("{what}: {source}")]
@@ -55,22 +84,45 @@ fn cert(what: impl Into<String>) -> impl FnOnce(rcgen::Error) -> PkiError {
     |source| PkiError::Certificate { what, source }
 }
 
-/// The hosts certificates are valid for: `given`, or loopback.
-fn hosts(given: &[String]) -> Vec<String> {
-    if given.is_empty() {
-        vec!["localhost".into(), "127.0.0.1".into()]
-    } else {
-        given.to_vec()
+fn refused(why: impl Into<String>) -> PkiError {
+    PkiError::Refused(why.into())
+}
+
+/// What a new certificate is for beyond its identity.
+#[derive(Debug, Clone)]
+pub struct Terms {
+    /// The hosts a router is reached by (default: localhost and 127.0.0.1); only a
+    /// router's certificate names hosts.
+    pub hosts: Vec<String>,
+    /// Days from now until it expires.
+    pub valid_days: u32,
+}
+
+impl Default for Terms {
+    fn default() -> Self {
+        Self {
+            hosts: Vec::new(),
+            valid_days: DEFAULT_VALID_DAYS,
+        }
+    }
+}
+
+impl Terms {
+    fn hosts(&self) -> Vec<String> {
+        if self.hosts.is_empty() {
+            vec!["localhost".into(), "127.0.0.1".into()]
+        } else {
+            self.hosts.clone()
+        }
     }
 }
 
 /// Write a site CA and a certificate for every identity of `scenario`'s site and
-/// `commanders` (valid for `hosts`, default loopback) into `out`, which must not exist or
-/// be empty; the identities.
+/// `commanders` into `out`, which must not exist or be empty; the identities.
 pub fn make_site(
     scenario: &Scenario,
     commanders: &[CommanderId],
-    hosts_given: &[String],
+    terms: &Terms,
     out: &Path,
 ) -> Result<Vec<Identity>, PkiError> {
     let occupied = out.exists()
@@ -79,60 +131,346 @@ pub fn make_site(
             .next()
             .is_some();
     if occupied {
-        return Err(PkiError::Refused(format!(
+        return Err(refused(format!(
             "{} exists and is not empty: a site PKI is written whole",
             out.display()
         )));
     }
     let names = Identity::of_site(scenario, commanders);
     let key = KeyPair::generate().map_err(cert("generating the CA key"))?;
-    let ca = ca_params()
-        .self_signed(&key)
-        .map_err(cert("signing the CA"))?;
+    let now = OffsetDateTime::now_utc();
+    let mut params = ca_params();
+    params.not_before = now - time::Duration::hours(1);
+    params.not_after = now + time::Duration::days(CA_VALID_DAYS.into());
+    let ca_ends = params.not_after;
+    let ca = params.self_signed(&key).map_err(cert("signing the CA"))?;
     let ca_dir = out.join(CA_DIR);
     write(&ca_dir, "ca.pem", &ca.pem(), false)?;
     write(&ca_dir, "ca.key", &key.serialize_pem(), true)?;
-    let hosts = hosts(hosts_given);
     let signer = Signer {
         ca: &ca,
         key: &key,
         pem: &ca.pem(),
+        not_after: ca_ends,
     };
     for name in &names {
-        leaf(out, name, &hosts, &signer)?;
+        leaf(out, name, terms, &signer)?;
     }
     Ok(names)
 }
 
-/// Add a certificate for `who` (valid for `hosts`, default loopback) to the site PKI in
-/// `pki`, signed by its CA; the identity's directory.
-pub fn issue(pki: &Path, who: &Identity, hosts_given: &[String]) -> Result<PathBuf, PkiError> {
+/// Add a certificate for `who` to the site PKI in `pki`, signed by its CA, or renew the
+/// one it has (a new key; the old files are replaced whole); the identity's directory.
+/// A revoked name is refused (see the module doc).
+pub fn issue(pki: &Path, who: &Identity, terms: &Terms) -> Result<PathBuf, PkiError> {
+    if let Some((_, when)) = revoked(pki)?.into_iter().find(|(r, _)| r == who) {
+        return Err(refused(format!(
+            "{who} was revoked on {when}: a new certificate under that name would get the \
+             revoked one's rules back (the router matches common names); re-admit it under a \
+             new site CA (firefleet pki init into a new directory)"
+        )));
+    }
     let ca_dir = pki.join(CA_DIR);
     let key_pem = fs::read_to_string(ca_dir.join("ca.key"))
         .map_err(io(format!("reading the CA key in {}", ca_dir.display())))?;
     let key = KeyPair::from_pem(&key_pem).map_err(cert("the CA key"))?;
-    // The issuer of a certificate is the CA's name and key: the same parameters signed by
-    // the same key stand for the CA the site PKI was made with. The identity gets the
-    // site's own CA certificate, not this stand-in (whose signature differs).
-    let ca = ca_params().self_signed(&key).map_err(cert("the CA"))?;
     let pem = fs::read_to_string(ca_dir.join("ca.pem")).map_err(io(format!(
         "reading the CA certificate in {}",
         ca_dir.display()
     )))?;
+    let (_, ca_cert) = parse(&ca_dir.join("ca.pem"))?;
+    // The issuer of a certificate is the CA's name and key: the same parameters signed by
+    // the same key stand for the CA the site PKI was made with. The identity gets the
+    // site's own CA certificate, not this stand-in (whose signature differs).
+    let ca = ca_params().self_signed(&key).map_err(cert("the CA"))?;
     let signer = Signer {
         ca: &ca,
         key: &key,
         pem: &pem,
+        not_after: ca_cert.not_after,
     };
-    leaf(pki, who, &hosts(hosts_given), &signer)
+    leaf(pki, who, terms, &signer)
 }
 
-/// What signs a site's certificates: the CA, its key, and the CA certificate every
-/// identity is given.
+/// Take `who`'s name off the site in `pki`: record it as revoked today and remove its
+/// directory. Takes effect when the rules are rendered again and the router restarts.
+pub fn revoke(pki: &Path, who: &Identity) -> Result<(), PkiError> {
+    if who.role() == Role::Router && *who == Identity::ROUTER {
+        return Err(refused(
+            "the site's first router cannot be revoked: make a new site CA",
+        ));
+    }
+    if !pki.join(CA_DIR).join("ca.pem").is_file() {
+        return Err(refused(format!("{} is no site PKI", pki.display())));
+    }
+    if revoked(pki)?.iter().any(|(r, _)| r == who) {
+        return Err(refused(format!("{who} is revoked already")));
+    }
+    let mut f = fs::OpenOptions::new()
+        .append(true)
+        .create(true)
+        .open(pki.join(REVOKED))
+        .map_err(io(format!("opening {}", pki.join(REVOKED).display())))?;
+    writeln!(f, "{who} {}", date(OffsetDateTime::now_utc()))
+        .map_err(io(format!("writing {}", pki.join(REVOKED).display())))?;
+    let dir = pki.join(who.dir_name());
+    if dir.exists() {
+        fs::remove_dir_all(&dir).map_err(io(format!("removing {}", dir.display())))?;
+    }
+    Ok(())
+}
+
+/// The names taken off the site in `pki`, with the day each was.
+pub fn revoked(pki: &Path) -> Result<Vec<(Identity, String)>, PkiError> {
+    let path = pki.join(REVOKED);
+    let text = match fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(io(format!("reading {}", path.display()))(e)),
+    };
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| {
+            let (name, when) = l.split_once(' ').unwrap_or((l, "?"));
+            let who = name.parse().map_err(|e| {
+                refused(format!("{} line {}: {e}", path.display(), i + 1))
+            })?;
+            Ok((who, when.trim().to_owned()))
+        })
+        .collect()
+}
+
+/// One identity of a site PKI as [`list`] shows it.
+#[derive(Debug, Clone)]
+pub struct Listed {
+    pub identity: Identity,
+    /// Its certificate, or why it has none (revoked, and when).
+    pub certificate: Result<Certified, String>,
+}
+
+/// Every identity of the site PKI in `pki`, revoked ones included, in a stable order.
+pub fn list(pki: &Path) -> Result<Vec<Listed>, PkiError> {
+    let mut out = Vec::new();
+    let entries = fs::read_dir(pki).map_err(io(format!("reading {}", pki.display())))?;
+    for e in entries {
+        let e = e.map_err(io(format!("reading {}", pki.display())))?;
+        let path = e.path().join("cert.pem");
+        if e.file_name() == CA_DIR || !path.is_file() {
+            continue;
+        }
+        let c = Certified::read(&path)?;
+        out.push(Listed {
+            identity: c.identity.clone(),
+            certificate: Ok(c),
+        });
+    }
+    for (who, when) in revoked(pki)? {
+        out.push(Listed {
+            identity: who,
+            certificate: Err(format!("revoked on {when}")),
+        });
+    }
+    out.sort_by(|a, b| a.identity.cmp(&b.identity));
+    Ok(out)
+}
+
+/// What a certificate says, as far as a site cares.
+#[derive(Debug, Clone)]
+pub struct Certified {
+    pub identity: Identity,
+    pub not_before: OffsetDateTime,
+    pub not_after: OffsetDateTime,
+    /// It may serve TLS (server-auth).
+    pub server: bool,
+    /// The host names and addresses it is valid for.
+    pub hosts: Vec<String>,
+    /// Its public key (SubjectPublicKeyInfo, DER).
+    spki: Vec<u8>,
+    der: Vec<u8>,
+}
+
+impl Certified {
+    /// Read the certificate of a site identity in PEM file `path`.
+    pub fn read(path: &Path) -> Result<Self, PkiError> {
+        let (cn, c) = parse(path)?;
+        let identity = cn
+            .parse()
+            .map_err(|e| refused(format!("{}: common name: {e}", path.display())))?;
+        Ok(Self { identity, ..c })
+    }
+
+    /// Whole days from `now` until it expires (negative: expired).
+    pub fn days_left(&self, now: OffsetDateTime) -> i64 {
+        (self.not_after - now).whole_days()
+    }
+}
+
+/// The certificate in PEM file `path` and its common name, whatever that is (the CA's is
+/// no identity; it stands in the result as the first router, never read).
+fn parse(path: &Path) -> Result<(String, Certified), PkiError> {
+    let bad = |why: String| refused(format!("{}: {why}", path.display()));
+    let text = fs::read(path).map_err(io(format!("reading {}", path.display())))?;
+    let (_, pem) = x509_parser::pem::parse_x509_pem(&text)
+        .map_err(|e| bad(format!("not a PEM certificate ({e})")))?;
+    let (_, c) = X509Certificate::from_der(&pem.contents)
+        .map_err(|e| bad(format!("not an X.509 certificate ({e})")))?;
+    let cn = c
+        .subject()
+        .iter_common_name()
+        .next()
+        .and_then(|n| n.as_str().ok())
+        .ok_or_else(|| bad("no common name".into()))?
+        .to_owned();
+    let mut server = false;
+    let mut hosts = Vec::new();
+    for ext in c.extensions() {
+        match ext.parsed_extension() {
+            ParsedExtension::ExtendedKeyUsage(u) => server = u.server_auth,
+            ParsedExtension::SubjectAlternativeName(san) => {
+                hosts.extend(san.general_names.iter().filter_map(|n| match n {
+                    GeneralName::DNSName(d) => Some((*d).to_owned()),
+                    GeneralName::IPAddress(b) => ip(b).map(|a| a.to_string()),
+                    _ => None,
+                }))
+            }
+            _ => {}
+        }
+    }
+    let parsed = Certified {
+        identity: Identity::ROUTER,
+        not_before: c.validity().not_before.to_datetime(),
+        not_after: c.validity().not_after.to_datetime(),
+        server,
+        hosts,
+        spki: c.public_key().raw.to_vec(),
+        der: pem.contents.clone(),
+    };
+    Ok((cn, parsed))
+}
+
+fn ip(bytes: &[u8]) -> Option<std::net::IpAddr> {
+    match bytes.len() {
+        4 => <[u8; 4]>::try_from(bytes).ok().map(Into::into),
+        16 => <[u8; 16]>::try_from(bytes).ok().map(Into::into),
+        _ => None,
+    }
+}
+
+/// The expiry date as `pki list` and messages show it.
+pub fn date(t: OffsetDateTime) -> String {
+    format!("{}-{:02}-{:02}", t.year(), u8::from(t.month()), t.day())
+}
+
+/// The three files a TLS identity runs on.
+#[derive(Debug, Clone)]
+pub struct TlsFiles {
+    pub ca: PathBuf,
+    pub cert: PathBuf,
+    pub key: PathBuf,
+}
+
+impl TlsFiles {
+    /// The files of an identity directory as `pki` writes it.
+    pub fn in_dir(dir: &Path) -> Self {
+        Self {
+            ca: dir.join("ca.pem"),
+            cert: dir.join("cert.pem"),
+            key: dir.join("key.pem"),
+        }
+    }
+}
+
+/// Who a process must be to run: a role, or one identity exactly.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Expect {
+    Role(Role),
+    Identity(Identity),
+}
+
+/// Check, before any link is tried, that `files` can ever work for a process that must be
+/// `expect`: every file readable, the certificate signed by the CA, the key its own, valid
+/// now, of the right role (and, for a router, able to serve). The identity.
+pub fn check(files: &TlsFiles, expect: Option<&Expect>) -> Result<Identity, PkiError> {
+    let (_, ca) = parse(&files.ca)?;
+    let c = Certified::read(&files.cert)?;
+    let key_pem =
+        fs::read_to_string(&files.key).map_err(io(format!("reading {}", files.key.display())))?;
+    let key = KeyPair::from_pem(&key_pem).map_err(|e| {
+        refused(format!("{}: not a private key ({e})", files.key.display()))
+    })?;
+    if key.public_key_der() != c.spki {
+        return Err(refused(format!(
+            "{}: not the key of {} ({})",
+            files.key.display(),
+            files.cert.display(),
+            c.identity
+        )));
+    }
+    let signed = X509Certificate::from_der(&c.der)
+        .ok()
+        .zip(X509Certificate::from_der(&ca.der).ok())
+        .is_some_and(|((_, leaf), (_, ca))| {
+            leaf.verify_signature(Some(ca.public_key())).is_ok()
+        });
+    if !signed {
+        return Err(refused(format!(
+            "{}: not signed by the CA in {} (a certificate of another site?)",
+            files.cert.display(),
+            files.ca.display()
+        )));
+    }
+    let now = OffsetDateTime::now_utc();
+    if now > c.not_after {
+        return Err(refused(format!(
+            "{}: {}'s certificate expired on {} (renew it: firefleet pki issue)",
+            files.cert.display(),
+            c.identity,
+            date(c.not_after)
+        )));
+    }
+    if now < c.not_before {
+        return Err(refused(format!(
+            "{}: {}'s certificate is valid only from {} (is this machine's clock right?)",
+            files.cert.display(),
+            c.identity,
+            date(c.not_before)
+        )));
+    }
+    let fits = match expect {
+        None => true,
+        Some(Expect::Role(r)) => c.identity.role() == *r,
+        Some(Expect::Identity(i)) => c.identity == *i,
+    };
+    if !fits {
+        let wanted = match expect {
+            Some(Expect::Role(r)) => format!("a {r}"),
+            Some(Expect::Identity(i)) => i.to_string(),
+            None => unreachable!("anyone fits"),
+        };
+        return Err(refused(format!(
+            "{}: {}'s certificate, but this process runs as {wanted}",
+            files.cert.display(),
+            c.identity
+        )));
+    }
+    if c.identity.role() == Role::Router && !c.server {
+        return Err(refused(format!(
+            "{}: {} cannot serve TLS (no server-auth): issue it again with firefleet pki issue --role router",
+            files.cert.display(),
+            c.identity
+        )));
+    }
+    Ok(c.identity)
+}
+
+/// What signs a site's certificates: the CA, its key, the CA certificate every identity
+/// is given, and the day it ends (no leaf outlives it).
 struct Signer<'a> {
     ca: &'a rcgen::Certificate,
     key: &'a KeyPair,
     pem: &'a str,
+    not_after: OffsetDateTime,
 }
 
 fn ca_params() -> CertificateParams {
@@ -148,47 +486,75 @@ fn ca_params() -> CertificateParams {
     p
 }
 
-/// Write identity `who`'s directory under `out`: the CA's certificate, its certificate
-/// (server and client, valid for `hosts`) and key. The directory.
+/// Write identity `who`'s directory under `out`: the CA's certificate, its certificate and
+/// key, replacing what was there whole. The directory.
 fn leaf(
     out: &Path,
     who: &Identity,
-    hosts: &[String],
+    terms: &Terms,
     by: &Signer<'_>,
 ) -> Result<PathBuf, PkiError> {
+    let now = OffsetDateTime::now_utc();
+    let not_after = now + time::Duration::days(terms.valid_days.into());
+    if terms.valid_days == 0 {
+        return Err(refused("a certificate must be valid for at least a day"));
+    }
+    if not_after > by.not_after {
+        return Err(refused(format!(
+            "{who} would outlive the site CA (valid until {}): fewer days, or a new CA",
+            date(by.not_after)
+        )));
+    }
     let mut p = CertificateParams::default();
     p.distinguished_name = DistinguishedName::new();
     p.distinguished_name
         .push(DnType::CommonName, who.to_string());
-    p.subject_alt_names = hosts
-        .iter()
-        .map(|h| match h.parse() {
-            Ok(ip) => Ok(SanType::IpAddress(ip)),
-            Err(_) => Ok(SanType::DnsName(
-                h.clone().try_into().map_err(cert(format!("host {h}")))?,
-            )),
-        })
-        .collect::<Result<_, PkiError>>()?;
+    // An hour's grace for clocks a little behind the one that issued it.
+    p.not_before = now - time::Duration::hours(1);
+    p.not_after = not_after;
     p.key_usages = vec![
         KeyUsagePurpose::DigitalSignature,
         KeyUsagePurpose::KeyEncipherment,
     ];
-    p.extended_key_usages = vec![
-        ExtendedKeyUsagePurpose::ServerAuth,
-        ExtendedKeyUsagePurpose::ClientAuth,
-    ];
+    p.extended_key_usages = vec![ExtendedKeyUsagePurpose::ClientAuth];
+    if who.role() == Role::Router {
+        p.extended_key_usages.push(ExtendedKeyUsagePurpose::ServerAuth);
+        p.subject_alt_names = terms
+            .hosts()
+            .iter()
+            .map(|h| match h.parse() {
+                Ok(ip) => Ok(SanType::IpAddress(ip)),
+                Err(_) => Ok(SanType::DnsName(
+                    h.clone().try_into().map_err(cert(format!("host {h}")))?,
+                )),
+            })
+            .collect::<Result<_, PkiError>>()?;
+    } else if !terms.hosts.is_empty() {
+        return Err(refused(format!(
+            "{who} is no router: only a router's certificate names hosts"
+        )));
+    }
     let key = KeyPair::generate().map_err(cert("generating a key"))?;
     let signed = p
         .signed_by(&key, by.ca, by.key)
         .map_err(cert(format!("signing {who}")))?;
     let dir = out.join(who.dir_name());
-    write(&dir, "ca.pem", by.pem, false)?;
-    write(&dir, "cert.pem", &signed.pem(), false)?;
-    write(&dir, "key.pem", &key.serialize_pem(), true)?;
+    replace(&dir, "ca.pem", by.pem, false)?;
+    replace(&dir, "key.pem", &key.serialize_pem(), true)?;
+    replace(&dir, "cert.pem", &signed.pem(), false)?;
     Ok(dir)
 }
 
-/// Write `text` to `dir/file`, creating `dir`; a secret is created 0600.
+/// Write `text` to `dir/file` whole (a new file renamed over the old one), creating `dir`.
+fn replace(dir: &Path, file: &str, text: &str, secret: bool) -> Result<(), PkiError> {
+    let tmp = format!(".{file}.new");
+    let _ = fs::remove_file(dir.join(&tmp));
+    write(dir, &tmp, text, secret)?;
+    fs::rename(dir.join(&tmp), dir.join(file))
+        .map_err(io(format!("replacing {}", dir.join(file).display())))
+}
+
+/// Write `text` to the new file `dir/file`, creating `dir`; a secret is created 0600.
 fn write(dir: &Path, file: &str, text: &str, secret: bool) -> Result<(), PkiError> {
     fs::create_dir_all(dir).map_err(io(format!("creating {}", dir.display())))?;
     let path = dir.join(file);
@@ -207,41 +573,4 @@ fn write(dir: &Path, file: &str, text: &str, secret: bool) -> Result<(), PkiErro
 }
 
 #[cfg(test)]
-mod tests {
-    use firefleet_model::scenario::Scenario;
-
-    use super::*;
-
-    #[test]
-    fn a_site_pki_has_a_key_only_its_owner_reads_per_identity() {
-        let dir = tempfile::tempdir().unwrap();
-        let site = Scenario::straight(100.0).ground("ugv-1", 5.0, -2.0).build();
-        let rossi = CommanderId::new("rossi").unwrap();
-        let out = dir.path().join("pki");
-        let names = make_site(&site, std::slice::from_ref(&rossi), &[], &out).unwrap();
-        assert!(names.contains(&Identity::Commander(rossi)));
-        for who in &names {
-            let d = out.join(who.dir_name());
-            for f in ["ca.pem", "cert.pem", "key.pem"] {
-                assert!(d.join(f).is_file(), "{who}: {f}");
-            }
-            #[cfg(unix)]
-            {
-                use std::os::unix::fs::PermissionsExt;
-                let mode = fs::metadata(d.join("key.pem"))
-                    .unwrap()
-                    .permissions()
-                    .mode();
-                assert_eq!(mode & 0o777, 0o600, "{who}");
-            }
-        }
-        let again = make_site(&site, &[], &[], &out).unwrap_err();
-        assert!(again.to_string().contains("not empty"), "{again}");
-        // A commander who joins later gets a certificate of the same CA.
-        let bianchi = Identity::Commander(CommanderId::new("bianchi").unwrap());
-        let added = issue(&out, &bianchi, &[]).unwrap();
-        assert!(added.join("cert.pem").is_file());
-        let ca = |d: &Path| fs::read_to_string(d.join("ca.pem")).unwrap();
-        assert_eq!(ca(&added), ca(&out.join(CA_DIR)));
-    }
-}
+mod tests;

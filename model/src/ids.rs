@@ -118,6 +118,11 @@ chunk_id!(
     CommanderId,
     "commander name"
 );
+chunk_id!(
+    /// A router of a site beyond its first: the name in its certificate (`router:<name>`).
+    RouterId,
+    "router name"
+);
 
 /// A fused fire track, numbered by the coordinator that created it.
 ///

@@ -23,7 +23,7 @@ pub mod tunnel;
 pub mod validate;
 
 pub use geometry::{Gaussian2, Point2, Pose2};
-pub use ids::{CommanderId, FireId, SiteId, UnitId, ZoneId};
+pub use ids::{CommanderId, FireId, RouterId, SiteId, UnitId, ZoneId};
 pub use spec::UnitKind;
 pub use tunnel::Chainage;
 pub use validate::{Invalid, Validate};
