@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
+use firefleet_bus::pki::Expect;
 use firefleet_bus::{Ask, Bus, Connect, Mode};
 use firefleet_model::scenario::Scenario;
 use firefleet_protocol::codec;
@@ -42,14 +43,15 @@ pub struct ZenohArgs {
     /// Zenoh mode (default: peer, or the config file's).
     #[arg(long, value_enum)]
     pub mode: Option<ZenohMode>,
-    /// Endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable).
+    /// Endpoint to connect to, e.g. tcp/127.0.0.1:7447, or quic/HOST:7447 with --tls-dir
+    /// (repeatable).
     #[arg(long, value_name = "ENDPOINT")]
     pub connect: Vec<String>,
     /// Endpoint to listen on (repeatable).
     #[arg(long, value_name = "ENDPOINT")]
     pub listen: Vec<String>,
     /// Mutual TLS as the identity in DIR (ca.pem, cert.pem, key.pem, as `firefleet pki init`
-    /// writes them); every endpoint must then be tls/HOST:PORT.
+    /// writes them); every endpoint must then be quic/HOST:PORT.
     #[arg(long, value_name = "DIR")]
     pub tls_dir: Option<PathBuf>,
     /// Exit when standard input closes (used by `demo` so no child outlives it).
@@ -58,13 +60,16 @@ pub struct ZenohArgs {
 }
 
 impl ZenohArgs {
-    pub fn connect(&self) -> Connect {
+    /// How to join as a process that must be `expect` when it has a TLS identity (`None`:
+    /// any identity of the site).
+    pub fn connect(&self, expect: Option<Expect>) -> Connect {
         Connect {
             config_file: self.zenoh_config.clone(),
             mode: self.mode.map(Mode::from),
             connect: self.connect.clone(),
             listen: self.listen.clone(),
             tls: self.tls_dir.clone(),
+            expect,
         }
     }
 }
@@ -101,17 +106,18 @@ pub async fn shutdown_signal(die_with_parent: bool) {
 /// Join the Zenoh network as `zenoh` says, for `scenario`'s site, once: for commands a
 /// person waits on (`status`, `goal`), which should fail at once and say why.
 pub async fn open(zenoh: &ZenohArgs, scenario: &Scenario) -> anyhow::Result<Bus> {
-    Bus::open(&zenoh.connect(), scenario.site.clone())
+    Bus::open(&zenoh.connect(None), scenario.site.clone())
         .await
         .context("joining the Zenoh network")
 }
 
 /// Join the Zenoh network for a role that runs until stopped (agent, coordinator,
 /// recorder, simulator), trying again while the network is not there yet
-/// ([`Bus::join`]), until joined or stopped by a signal.
-pub async fn join(zenoh: &ZenohArgs, scenario: &Scenario) -> anyhow::Result<Bus> {
+/// ([`Bus::join`]), until joined or stopped by a signal. With a TLS identity it must be
+/// `who`: files that can never link end the process at once, naming the file and why.
+pub async fn join(zenoh: &ZenohArgs, scenario: &Scenario, who: Expect) -> anyhow::Result<Bus> {
     Bus::join(
-        &zenoh.connect(),
+        &zenoh.connect(Some(who)),
         scenario.site.clone(),
         shutdown_signal(zenoh.die_with_parent),
     )

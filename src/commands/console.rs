@@ -16,6 +16,8 @@ use super::{ScenarioArg, positive_f64};
 use crate::net::{ZenohArgs, join, shutdown_signal};
 use anyhow::Context;
 use clap::{Args, Subcommand};
+use firefleet_bus::access::Identity;
+use firefleet_bus::pki::Expect;
 use firefleet_console::auth::{Sessions, Users};
 use firefleet_console::http::{Console, TICK};
 use firefleet_console::node;
@@ -110,7 +112,7 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
     let listener = tokio::net::TcpListener::bind(a.http)
         .await
         .with_context(|| format!("serving the console on {}", a.http))?;
-    let bus = join(&a.zenoh, &scenario).await?;
+    let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Console)).await?;
     let (console, requests) = Console::new(
         Picture::new(SiteMap::new(&scenario)),
         users,

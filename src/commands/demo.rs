@@ -215,10 +215,10 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let commander = demo_commander();
     let site = a
         .secure
-        .then(|| SecureSite::make(&scenario, a.pki.clone(), port, &commander))
+        .then(|| SecureSite::make(&scenario, a.pki.clone(), port, &commander, a.time_scale))
         .transpose()?;
     let endpoint = match &site {
-        Some(_) => format!("tls/127.0.0.1:{port}"),
+        Some(_) => format!("quic/127.0.0.1:{port}"),
         None => format!("tcp/127.0.0.1:{port}"),
     };
     let router = match &site {
@@ -568,6 +568,7 @@ impl SecureSite {
         pki: Option<PathBuf>,
         port: u16,
         commander: &CommanderId,
+        time_scale: f64,
     ) -> anyhow::Result<Self> {
         let made = tempfile::Builder::new()
             .prefix("firefleet-demo-")
@@ -577,16 +578,18 @@ impl SecureSite {
             Some(p) => p,
             None => {
                 let p = made.path().join("pki");
-                pki::make_site(scenario, std::slice::from_ref(commander), &[], &p)?;
+                let terms = pki::Terms::default();
+                pki::make_site(scenario, std::slice::from_ref(commander), &terms, &p)?;
                 p
             }
         };
         let configs = made.path().join("configs");
-        let endpoint = format!("tls/127.0.0.1:{port}");
-        render_site(
-            scenario,
-            &Layout::loopback(pki.clone(), configs.clone(), endpoint, commander.clone()),
-        )
+        let endpoint = format!("quic/127.0.0.1:{port}");
+        let layout = Layout {
+            time_scale,
+            ..Layout::loopback(pki.clone(), configs.clone(), endpoint, commander.clone())
+        };
+        render_site(scenario, &layout)
         .with_context(|| format!("rendering the site for the PKI in {}", pki.display()))?;
         Ok(Self {
             pki,

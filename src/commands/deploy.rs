@@ -15,9 +15,11 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
+use firefleet_bus::access::Role;
+use firefleet_bus::pki::Expect;
 use firefleet_bus::render::{Layout, render_site};
 use firefleet_bus::{Bus, Connect, Mode};
-use firefleet_model::CommanderId;
+use firefleet_model::{CommanderId, RouterId};
 use firefleet_model::builtin;
 use serde_json::{Value, json};
 
@@ -54,12 +56,22 @@ pub struct LayoutArgs {
     /// A commander to give rules (repeatable; one without rules can link but do nothing).
     #[arg(long, value_name = "NAME")]
     commander: Vec<CommanderId>,
-    /// The router's TLS endpoint (repeatable).
-    #[arg(long, value_name = "ENDPOINT", default_value = "tls/0.0.0.0:7447")]
+    /// The router's QUIC endpoint (repeatable).
+    #[arg(long, value_name = "ENDPOINT", default_value = "quic/0.0.0.0:7447")]
     listen: Vec<String>,
-    /// The endpoint clients reach the router at (its host must be in the certificates).
-    #[arg(long, value_name = "ENDPOINT", default_value = "tls/localhost:7447")]
+    /// The endpoint clients reach the router at (its host must be in the router's
+    /// certificate: `pki init --host`).
+    #[arg(long, value_name = "ENDPOINT", default_value = "quic/localhost:7447")]
     connect: String,
+    /// A further router, NAME=ENDPOINT: it listens on ENDPOINT (whose host is in its
+    /// certificate, `pki issue --role router --name NAME --host HOST`) and links to the
+    /// first; clients try it when the first is gone (repeatable).
+    #[arg(long, value_name = "NAME=ENDPOINT", value_parser = router_at)]
+    router: Vec<(RouterId, String)>,
+    /// How much faster than real time a simulated site runs: the rate bounds scale with
+    /// it (a real site: 1).
+    #[arg(long, default_value_t = 1.0, value_parser = super::time_scale)]
+    time_scale: f64,
     /// A simulated site: grant the simulator's keys (to the simulator, and to each unit
     /// for its own body). A real site has none.
     #[arg(long)]
@@ -94,21 +106,38 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         commanders: l.commander,
         listen: l.listen,
         connect: l.connect,
+        routers: l.router,
+        time_scale: l.time_scale,
         simulated: l.simulated,
     };
     let identities = render_site(&scenario, &layout)?;
+    let routers = identities
+        .iter()
+        .filter(|w| w.role() == Role::Router)
+        .count();
     println!(
-        "site '{}': router.json5, {} client configurations and ACCESS.md in {}",
+        "site '{}': {routers} router configuration(s), {} client configurations and ACCESS.md in {}",
         scenario.site,
-        identities.len() - 1,
+        identities.len() - routers,
         layout.out.display()
     );
     Ok(ExitCode::SUCCESS)
 }
 
+/// `NAME=ENDPOINT` of `--router`.
+fn router_at(s: &str) -> Result<(RouterId, String), String> {
+    let (name, endpoint) = s
+        .split_once('=')
+        .ok_or_else(|| format!("'{s}': NAME=ENDPOINT"))?;
+    Ok((
+        RouterId::new(name).map_err(|e| e.to_string())?,
+        endpoint.to_owned(),
+    ))
+}
+
 pub async fn router(a: RouterArgs) -> anyhow::Result<ExitCode> {
     let scenario = builtin::resolve(&a.scenario.scenario)?;
-    let mut connect: Connect = a.zenoh.connect();
+    let mut connect: Connect = a.zenoh.connect(Some(Expect::Role(Role::Router)));
     connect.mode = Some(Mode::Router);
     let config = connect.to_config()?;
     if !a.plain {
@@ -119,13 +148,13 @@ pub async fn router(a: RouterArgs) -> anyhow::Result<ExitCode> {
                 .unwrap_or_else(|_| "[]".into()),
         )
         .unwrap_or_default();
-        if let Some(e) = listen.iter().find(|e| !e.starts_with("tls/")) {
+        if let Some(e) = listen.iter().find(|e| !e.starts_with("quic/")) {
             bail!(
-                "the router would listen on '{e}': a site's router takes TLS links only (--plain for a loopback demo)"
+                "the router would listen on '{e}': a site's router takes QUIC links with mutual TLS only (--plain for a loopback demo)"
             );
         }
         if listen.is_empty() {
-            bail!("the router listens nowhere: give --listen tls/HOST:PORT or a configuration");
+            bail!("the router listens nowhere: give --listen quic/HOST:PORT or a configuration");
         }
         let acl: Value = config
             .get_json("access_control")

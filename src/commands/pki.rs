@@ -2,9 +2,10 @@
 //!
 //! `init` makes a site CA and one certificate per identity of the site file (`unit:<id>`
 //! for each unit, `coordinator`, `recorder`, `sim`, `console`, `router`, and
-//! `commander:<name>` for each `--commander`); `issue` adds one later with the CA `init`
-//! kept. A unit's certificate is revoked only by taking the unit out of the site file and
-//! rendering the rules again; a stolen unit certificate is best answered by a new CA.
+//! `commander:<name>` for each `--commander`); `issue` adds one later (a further router,
+//! a commander) or renews one, with the CA `init` kept; `list` shows every identity, its
+//! role and expiry; `revoke` takes a name off the site (the rules rendered again and the
+//! router restarted enforce it; see `firefleet_bus::pki` for why by name).
 //!
 //! Not here: the certificates' contents, files and rotation (`firefleet_bus::pki`).
 
@@ -13,9 +14,8 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
-use firefleet_bus::pki;
-
-use firefleet_bus::access::Identity;
+use firefleet_bus::access::{Identity, Role};
+use firefleet_bus::pki::{self, Terms};
 use firefleet_model::CommanderId;
 use firefleet_model::builtin;
 
@@ -25,8 +25,12 @@ use super::ScenarioArg;
 pub enum PkiCommand {
     /// Make a site CA and a certificate for every identity of the site file.
     Init(InitArgs),
-    /// Add a certificate signed by a site CA made by `init`.
+    /// Add a certificate signed by a site CA made by `init`, or renew one.
     Issue(IssueArgs),
+    /// Every identity of a site PKI: role, expiry, hosts, revoked names.
+    List(ListArgs),
+    /// Take a name off the site: no rules once rendered again and the router restarted.
+    Revoke(RevokeArgs),
 }
 
 #[derive(Args, Debug)]
@@ -39,10 +43,13 @@ pub struct InitArgs {
     /// An incident commander to issue a certificate for (repeatable).
     #[arg(long, value_name = "NAME")]
     commander: Vec<String>,
-    /// A host name or address routers are reached by, put in every certificate (default:
-    /// localhost and 127.0.0.1; repeatable).
+    /// A host name or address the router is reached by, put in its certificate (default:
+    /// localhost and 127.0.0.1; repeatable). Only a router's certificate names hosts.
     #[arg(long, value_name = "HOST")]
     host: Vec<String>,
+    /// Days every identity's certificate is valid (the CA: ten years).
+    #[arg(long, default_value_t = pki::DEFAULT_VALID_DAYS, value_parser = clap::value_parser!(u32).range(1..=3650))]
+    valid_days: u32,
 }
 
 #[derive(Args, Debug)]
@@ -53,28 +60,39 @@ pub struct IssueArgs {
     /// commander, unit, coordinator, recorder, sim, console or router.
     #[arg(long)]
     role: Role,
-    /// The commander's or the unit's name.
+    /// The commander's or the unit's name; a further router's name (none: the first).
     #[arg(long)]
     name: Option<String>,
+    /// A router's host name or address (repeatable; default localhost and 127.0.0.1).
     #[arg(long, value_name = "HOST")]
     host: Vec<String>,
+    /// Days the certificate is valid.
+    #[arg(long, default_value_t = pki::DEFAULT_VALID_DAYS, value_parser = clap::value_parser!(u32).range(1..=3650))]
+    valid_days: u32,
 }
 
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-enum Role {
-    Commander,
-    Unit,
-    Coordinator,
-    Recorder,
-    Sim,
-    Console,
-    Router,
+#[derive(Args, Debug)]
+pub struct ListArgs {
+    /// The directory `init` wrote.
+    #[arg(long, value_name = "DIR")]
+    pki: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub struct RevokeArgs {
+    /// The directory `init` wrote.
+    #[arg(long, value_name = "DIR")]
+    pki: PathBuf,
+    /// The identity: unit:<id>, commander:<name>, router:<name>, console, ...
+    name: Identity,
 }
 
 pub fn run(cmd: PkiCommand) -> anyhow::Result<ExitCode> {
     match cmd {
         PkiCommand::Init(a) => init(a),
         PkiCommand::Issue(a) => issue(a),
+        PkiCommand::List(a) => list(a),
+        PkiCommand::Revoke(a) => revoke(a),
     }
 }
 
@@ -85,7 +103,11 @@ fn init(a: InitArgs) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|c| CommanderId::new(c.as_str()).with_context(|| format!("--commander {c}")))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let names = pki::make_site(&scenario, &commanders, &a.host, &a.out)?;
+    let terms = Terms {
+        hosts: a.host,
+        valid_days: a.valid_days,
+    };
+    let names = pki::make_site(&scenario, &commanders, &terms, &a.out)?;
     println!(
         "site PKI for '{}' in {}: CA and {} identities ({})",
         scenario.name,
@@ -102,8 +124,52 @@ fn init(a: InitArgs) -> anyhow::Result<ExitCode> {
 
 fn issue(a: IssueArgs) -> anyhow::Result<ExitCode> {
     let name = identity(a.role, a.name.as_deref())?;
-    let dir = pki::issue(&a.pki, &name, &a.host)?;
-    println!("{name}: {}", dir.display());
+    let terms = Terms {
+        hosts: a.host,
+        valid_days: a.valid_days,
+    };
+    let dir = pki::issue(&a.pki, &name, &terms)?;
+    let c = pki::Certified::read(&dir.join("cert.pem"))?;
+    println!(
+        "{name}: {} (valid until {})",
+        dir.display(),
+        pki::date(c.not_after)
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn list(a: ListArgs) -> anyhow::Result<ExitCode> {
+    let now = time::OffsetDateTime::now_utc();
+    println!(
+        "{:<28} {:<12} {:<12} {:>9}  hosts",
+        "identity", "role", "expires", "days left"
+    );
+    for l in pki::list(&a.pki)? {
+        match &l.certificate {
+            Ok(c) => println!(
+                "{:<28} {:<12} {:<12} {:>9}  {}",
+                l.identity.to_string(),
+                l.identity.role().as_str(),
+                pki::date(c.not_after),
+                c.days_left(now),
+                c.hosts.join(" ")
+            ),
+            Err(why) => println!(
+                "{:<28} {:<12} {why}",
+                l.identity.to_string(),
+                l.identity.role().as_str()
+            ),
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn revoke(a: RevokeArgs) -> anyhow::Result<ExitCode> {
+    pki::revoke(&a.pki, &a.name)?;
+    println!(
+        "{} revoked. Enforce it: firefleet deploy render (the same arguments as before), then restart the router with the new router.json5",
+        a.name
+    );
     Ok(ExitCode::SUCCESS)
 }
 
@@ -116,10 +182,11 @@ fn identity(role: Role, name: Option<&str>) -> anyhow::Result<Identity> {
     match role {
         Role::Commander => named("commander"),
         Role::Unit => named("unit"),
+        Role::Router if name.is_some() => named("router"),
+        Role::Router => Ok(Identity::ROUTER),
         Role::Coordinator => Ok(Identity::Coordinator),
         Role::Recorder => Ok(Identity::Recorder),
         Role::Sim => Ok(Identity::Sim),
         Role::Console => Ok(Identity::Console),
-        Role::Router => Ok(Identity::Router),
     }
 }

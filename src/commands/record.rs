@@ -8,6 +8,8 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::Args;
+use firefleet_bus::access::Identity;
+use firefleet_bus::pki::Expect;
 use firefleet_model::builtin;
 use firefleet_recorder::live::Live;
 use firefleet_recorder::parts::PART_EVERY;
@@ -60,7 +62,7 @@ pub async fn run(a: RecordArgs) -> anyhow::Result<ExitCode> {
         }
         None => None,
     };
-    let bus = join(&a.zenoh, &scenario).await?;
+    let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Recorder)).await?;
     let summary = firefleet_recorder::record(
         &bus,
         &scenario,

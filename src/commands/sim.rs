@@ -7,6 +7,8 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::Args;
+use firefleet_bus::access::Identity;
+use firefleet_bus::pki::Expect;
 use firefleet_model::builtin;
 use firefleet_ros2::graph::Domain;
 use firefleet_sim::SimOptions;
@@ -44,7 +46,7 @@ pub struct SimArgs {
 
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
     let scenario = builtin::resolve(&a.scenario.scenario)?;
-    let bus = join(&a.zenoh, &scenario).await?;
+    let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Sim)).await?;
     let opts = SimOptions {
         seed: a.seed.unwrap_or(scenario.seed),
         time_scale: a.time_scale,

@@ -11,8 +11,9 @@
 //! unit, the task back over Zenoh), and the coordinator process's CPU time over the run.
 //! The units do not move or act: this measures the coordinator, not the fleet.
 //!
-//! `--secure` runs the same load a second time over mutual TLS, the coordinator's router
-//! enforcing the site's access rules (`firefleet_bus::access`, every unit's own rules; the load
+//! `--secure` runs the same load a second time over QUIC with mutual TLS, the coordinator's
+//! router (holding the router's certificate) enforcing the site's access rules and rate and
+//! size bounds (`firefleet_bus::access`, every unit's own rules; the load
 //! generator, which speaks for every unit, holds the union of theirs), and prints the
 //! two side by side: the cost of the secure site, measured in one run.
 //!
@@ -31,7 +32,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use clap::Args;
 use firefleet_bus::access::{self, Grant, Identity, Op};
-use firefleet_bus::{Bus, Connect, Mode, free_loopback_port, tls_link};
+use firefleet_bus::{Bus, Connect, Mode, free_loopback_port, limits, mtls_link};
 use firefleet_model::UnitKind;
 use firefleet_model::builtin;
 use firefleet_model::scenario::Scenario;
@@ -64,7 +65,7 @@ pub struct ScaleArgs {
 
 #[derive(Serialize)]
 struct Figures {
-    /// `tcp`, `mtls+acl`, or `tcp+console`.
+    /// `tcp`, `quic+mtls+acl`, or `tcp+console`.
     link: &'static str,
     units: usize,
     fires: usize,
@@ -164,13 +165,14 @@ impl Link {
         })
     }
 
-    /// Mutual TLS with a PKI made in `dir` for `scenario`'s site, and its access rules;
+    /// QUIC with mutual TLS and a PKI made in `dir` for `scenario`'s site, its access rules and bounds;
     /// the load generator holds the simulator's certificate, granted what every unit may
     /// do and what it reads itself (tasks, the status).
     fn secure(dir: &std::path::Path, scenario: &Scenario) -> anyhow::Result<Self> {
-        let endpoint = format!("tls/127.0.0.1:{}", free_loopback_port()?);
+        let endpoint = format!("quic/127.0.0.1:{}", free_loopback_port()?);
         let pki = dir.join("pki");
-        let identities = firefleet_bus::pki::make_site(scenario, &[], &[], &pki)?;
+        let terms = firefleet_bus::pki::Terms::default();
+        let identities = firefleet_bus::pki::make_site(scenario, &[], &terms, &pki)?;
         let keys = Keys::new(scenario.site.clone());
         let mut granted = Vec::new();
         let mut load = vec![
@@ -191,17 +193,21 @@ impl Link {
             granted.push((who, g));
         }
         granted.push((Identity::Sim, load));
+        let units: Vec<UnitId> = scenario.units.iter().map(|u| u.id.clone()).collect();
+        let (downsampling, low_pass) = limits::zenoh_limits(&keys, &units, 1.0);
         let config = serde_json::json!({
             "mode": "router",
             "listen": { "endpoints": [endpoint] },
             "scouting": { "multicast": { "enabled": false } },
-            "transport": { "link": { "tls": tls_link(&pki.join(Identity::Coordinator.dir_name())) } },
+            "transport": { "link": { "tls": mtls_link(&pki.join(Identity::ROUTER.dir_name())) } },
             "access_control": access::zenoh_acl_of(&keys, &granted),
+            "downsampling": downsampling,
+            "low_pass_filter": low_pass,
         });
         let path = dir.join("router.json5");
         std::fs::write(&path, serde_json::to_vec(&config)?)?;
         Ok(Self {
-            name: "mtls+acl",
+            name: "quic+mtls+acl",
             coordinator: vec!["--zenoh-config".into(), path.into()],
             client: Connect {
                 mode: Some(Mode::Client),
