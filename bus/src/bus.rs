@@ -170,9 +170,7 @@ impl Connect {
                 .and_then(|s| serde_json::from_str::<Option<String>>(&s).ok().flatten())
                 .map(PathBuf::from)
         };
-        let router = config
-            .get_json("mode")
-            .is_ok_and(|m| m.contains("router"));
+        let router = config.get_json("mode").is_ok_and(|m| m.contains("router"));
         let (cert, key) = if router {
             ("listen_certificate", "listen_private_key")
         } else {
@@ -444,12 +442,21 @@ impl Bus {
         })
     }
 
+    /// Close the session, waiting [`CLOSE_WAIT`] at most: a router's QUIC links whose
+    /// clients have left can hold Zenoh's close for its whole ten-second timeout and an
+    /// ERROR line (eclipse-zenoh/zenoh#1267), on the way out of a process that no longer
+    /// needs them.
     pub async fn close(self) {
-        if let Err(e) = self.session.close().await {
-            tracing::debug!("closing zenoh session: {e}");
+        match tokio::time::timeout(CLOSE_WAIT, self.session.close()).await {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => tracing::debug!("closing zenoh session: {e}"),
+            Err(_) => tracing::debug!("closing zenoh session: gave up after {CLOSE_WAIT:?}"),
         }
     }
 }
+
+/// How long [`Bus::close`] waits for Zenoh to close the session.
+const CLOSE_WAIT: std::time::Duration = std::time::Duration::from_secs(2);
 
 /// The wait before attempt `n + 1` to join (`n` failed so far): half a second, doubling,
 /// at most [`JOIN_RETRY_MAX`].

@@ -112,9 +112,9 @@ pub fn zenoh_limits(keys: &Keys, units: &[UnitId], time_scale: f64) -> (Value, V
     let rules: Vec<Value> = LIMITS
         .iter()
         .flat_map(|l| {
-            units.iter().map(move |u| {
-                json!({ "key_expr": l.key.expr(keys, u), "freq": l.rate_hz * time_scale })
-            })
+            units.iter().map(
+                move |u| json!({ "key_expr": l.key.expr(keys, u), "freq": l.rate_hz * time_scale }),
+            )
         })
         .collect();
     let downsampling = json!([{
@@ -160,7 +160,9 @@ pub fn table(time_scale: f64) -> String {
             l.honest
         ));
     }
-    out.push_str(&format!("| goal (commanders) | - | {MAX_GOAL_BYTES} | rare |\n"));
+    out.push_str(&format!(
+        "| goal (commanders) | - | {MAX_GOAL_BYTES} | rare |\n"
+    ));
     out
 }
 
@@ -179,7 +181,10 @@ mod tests {
         assert!(rules.contains(&json!({"key_expr": "ff/s/unit/b/state", "freq": 80.0})));
         let state = &lp[0];
         assert_eq!(state["size_limit"], 2048);
-        assert_eq!(state["key_exprs"], json!(["ff/s/unit/a/state", "ff/s/unit/b/state"]));
+        assert_eq!(
+            state["key_exprs"],
+            json!(["ff/s/unit/a/state", "ff/s/unit/b/state"])
+        );
         // Zenoh reads them as its own configuration.
         let mut c = zenoh::Config::default();
         c.insert_json5("downsampling", &ds.to_string()).unwrap();

@@ -233,9 +233,9 @@ pub fn revoked(pki: &Path) -> Result<Vec<(Identity, String)>, PkiError> {
         .filter(|(_, l)| !l.trim().is_empty())
         .map(|(i, l)| {
             let (name, when) = l.split_once(' ').unwrap_or((l, "?"));
-            let who = name.parse().map_err(|e| {
-                refused(format!("{} line {}: {e}", path.display(), i + 1))
-            })?;
+            let who = name
+                .parse()
+                .map_err(|e| refused(format!("{} line {}: {e}", path.display(), i + 1)))?;
             Ok((who, when.trim().to_owned()))
         })
         .collect()
@@ -396,9 +396,8 @@ pub fn check(files: &TlsFiles, expect: Option<&Expect>) -> Result<Identity, PkiE
     let c = Certified::read(&files.cert)?;
     let key_pem =
         fs::read_to_string(&files.key).map_err(io(format!("reading {}", files.key.display())))?;
-    let key = KeyPair::from_pem(&key_pem).map_err(|e| {
-        refused(format!("{}: not a private key ({e})", files.key.display()))
-    })?;
+    let key = KeyPair::from_pem(&key_pem)
+        .map_err(|e| refused(format!("{}: not a private key ({e})", files.key.display())))?;
     if key.public_key_der() != c.spki {
         return Err(refused(format!(
             "{}: not the key of {} ({})",
@@ -410,9 +409,7 @@ pub fn check(files: &TlsFiles, expect: Option<&Expect>) -> Result<Identity, PkiE
     let signed = X509Certificate::from_der(&c.der)
         .ok()
         .zip(X509Certificate::from_der(&ca.der).ok())
-        .is_some_and(|((_, leaf), (_, ca))| {
-            leaf.verify_signature(Some(ca.public_key())).is_ok()
-        });
+        .is_some_and(|((_, leaf), (_, ca))| leaf.verify_signature(Some(ca.public_key())).is_ok());
     if !signed {
         return Err(refused(format!(
             "{}: not signed by the CA in {} (a certificate of another site?)",
@@ -488,12 +485,7 @@ fn ca_params() -> CertificateParams {
 
 /// Write identity `who`'s directory under `out`: the CA's certificate, its certificate and
 /// key, replacing what was there whole. The directory.
-fn leaf(
-    out: &Path,
-    who: &Identity,
-    terms: &Terms,
-    by: &Signer<'_>,
-) -> Result<PathBuf, PkiError> {
+fn leaf(out: &Path, who: &Identity, terms: &Terms, by: &Signer<'_>) -> Result<PathBuf, PkiError> {
     let now = OffsetDateTime::now_utc();
     let not_after = now + time::Duration::days(terms.valid_days.into());
     if terms.valid_days == 0 {
@@ -518,7 +510,8 @@ fn leaf(
     ];
     p.extended_key_usages = vec![ExtendedKeyUsagePurpose::ClientAuth];
     if who.role() == Role::Router {
-        p.extended_key_usages.push(ExtendedKeyUsagePurpose::ServerAuth);
+        p.extended_key_usages
+            .push(ExtendedKeyUsagePurpose::ServerAuth);
         p.subject_alt_names = terms
             .hosts()
             .iter()

@@ -120,7 +120,9 @@ pub fn render_site(scenario: &Scenario, a: &Layout) -> Result<Vec<Identity>, Ren
     );
     identities.retain(|who| !revoked.contains(who));
     if !identities.contains(&Identity::ROUTER) {
-        return Err(RenderError::Refused("the site's first router is revoked".into()));
+        return Err(RenderError::Refused(
+            "the site's first router is revoked".into(),
+        ));
     }
     let pki_at = match &a.pki_at {
         Some(p) => p.clone(),
@@ -137,6 +139,14 @@ pub fn render_site(scenario: &Scenario, a: &Layout) -> Result<Vec<Identity>, Ren
         }
     }
     fs::create_dir_all(&a.out).map_err(io(format!("creating {}", a.out.display())))?;
+    // A configuration rendered for a name before it was revoked would mislead whoever
+    // finds it: it goes.
+    for who in &revoked {
+        let stale = a.out.join(format!("{}.json5", who.dir_name()));
+        if stale.exists() {
+            fs::remove_file(&stale).map_err(io(format!("removing {}", stale.display())))?;
+        }
+    }
     let base = |mode: &str, who: &Identity| {
         json!({
             "mode": mode,

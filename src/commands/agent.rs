@@ -8,11 +8,11 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use clap::Args;
-use firefleet_bus::access::Identity;
-use firefleet_bus::pki::Expect;
 use firefleet_agent::ground::GroundController;
 use firefleet_agent::monorail::MonorailController;
 use firefleet_agent::{AgentOptions, Ros2Platform, SimPlatform};
+use firefleet_bus::access::Identity;
+use firefleet_bus::pki::Expect;
 use firefleet_model::UnitId;
 use firefleet_model::builtin;
 
@@ -73,7 +73,12 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let spec = scenario.unit(&a.unit).expect("checked above");
-    let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Unit(a.unit.clone()))).await?;
+    let bus = join(
+        &a.zenoh,
+        &scenario,
+        Expect::Identity(Identity::Unit(a.unit.clone())),
+    )
+    .await?;
     let opts = AgentOptions {
         unit: a.unit.clone(),
         report_period_s: 0.25,

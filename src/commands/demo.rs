@@ -590,7 +590,7 @@ impl SecureSite {
             ..Layout::loopback(pki.clone(), configs.clone(), endpoint, commander.clone())
         };
         render_site(scenario, &layout)
-        .with_context(|| format!("rendering the site for the PKI in {}", pki.display()))?;
+            .with_context(|| format!("rendering the site for the PKI in {}", pki.display()))?;
         Ok(Self {
             pki,
             configs,

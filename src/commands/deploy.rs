@@ -19,8 +19,8 @@ use firefleet_bus::access::Role;
 use firefleet_bus::pki::Expect;
 use firefleet_bus::render::{Layout, render_site};
 use firefleet_bus::{Bus, Connect, Mode};
-use firefleet_model::{CommanderId, RouterId};
 use firefleet_model::builtin;
+use firefleet_model::{CommanderId, RouterId};
 use serde_json::{Value, json};
 
 use super::ScenarioArg;

@@ -6,8 +6,12 @@
 
 use std::process::{Child, Command, Output, Stdio};
 
-use firefleet_bus::{Bus, Connect, Mode, free_loopback_port};
+use std::time::Duration;
+
+use firefleet_bus::{Ask, Bus, Connect, Inbox, Mode, free_loopback_port};
 use firefleet_model::SiteId;
+use firefleet_protocol::keys::Topic;
+use firefleet_protocol::msg::SimTruth;
 
 pub const BIN: &str = env!("CARGO_BIN_EXE_firefleet");
 
@@ -129,4 +133,50 @@ pub fn patient(d: std::time::Duration) -> std::time::Duration {
         .filter(|f| f.is_finite() && *f >= 1.0)
         .unwrap_or(1.0);
     d.mul_f64(factor)
+}
+
+/// The ground truth once every fire is out or the time limit is reached.
+pub async fn outcome(truths: &Inbox<SimTruth>, within: Duration) -> SimTruth {
+    tokio::time::timeout(patient(within), async {
+        loop {
+            let (_, t) = truths.recv().await.expect("bus open");
+            if t.all_out() || t.t >= t.time_limit_s {
+                return t;
+            }
+        }
+    })
+    .await
+    .expect("no outcome before the wall-clock deadline")
+}
+
+/// The first answer to a query on `key` that `take` accepts, asking again until one comes
+/// (or `within` passes).
+pub async fn first_answer<T>(
+    bus: &Bus,
+    key: &str,
+    within: Duration,
+    take: impl Fn(&[u8]) -> Option<T>,
+) -> T {
+    tokio::time::timeout(patient(within), async {
+        loop {
+            let answers = bus
+                .ask(key, Ask::within(Duration::from_secs(10)))
+                .await
+                .unwrap();
+            while let Some(answer) = answers.recv().await {
+                if let Some(v) = take(&answer.bytes) {
+                    return v;
+                }
+            }
+            tokio::time::sleep(Duration::from_millis(200)).await;
+        }
+    })
+    .await
+    .unwrap_or_else(|_| panic!("no answer on {key}"))
+}
+
+/// The coordinator's status, queried over the bus until one answers (or `within` passes).
+pub async fn status_of(bus: &Bus, within: Duration) -> serde_json::Value {
+    let key = bus.keys().expr(&Topic::CoordStatus);
+    first_answer(bus, &key, within, |b| serde_json::from_slice(b).ok()).await
 }

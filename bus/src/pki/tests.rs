@@ -60,7 +60,11 @@ fn only_a_router_certificate_serves_and_names_hosts() {
     }
     // A year by default, and never past the CA.
     let now = OffsetDateTime::now_utc();
-    assert!((364..=365).contains(&router.days_left(now)), "{}", router.days_left(now));
+    assert!(
+        (364..=365).contains(&router.days_left(now)),
+        "{}",
+        router.days_left(now)
+    );
     let terms = Terms {
         valid_days: CA_VALID_DAYS + 1,
         ..Terms::default()
@@ -93,17 +97,31 @@ fn issue_adds_routers_and_renews_without_touching_the_ca() {
     assert_eq!(c.identity, b);
     assert_eq!(c.hosts, ["router-b.site", "10.0.0.2"]);
     assert_eq!(c.days_left(OffsetDateTime::now_utc()), 29);
-    assert_eq!(check(&TlsFiles::in_dir(&dir), Some(&Expect::Role(Role::Router))).unwrap(), b);
+    assert_eq!(
+        check(&TlsFiles::in_dir(&dir), Some(&Expect::Role(Role::Router))).unwrap(),
+        b
+    );
     // Renewal: a new key and certificate, the same CA.
     let ugv = out.join("unit-ugv-1");
-    let (cert0, key0) = (fs::read(ugv.join("cert.pem")).unwrap(), fs::read(ugv.join("key.pem")).unwrap());
+    let (cert0, key0) = (
+        fs::read(ugv.join("cert.pem")).unwrap(),
+        fs::read(ugv.join("key.pem")).unwrap(),
+    );
     issue(&out, &unit("ugv-1"), &Terms::default()).unwrap();
     assert_ne!(fs::read(ugv.join("cert.pem")).unwrap(), cert0);
     assert_ne!(fs::read(ugv.join("key.pem")).unwrap(), key0);
     assert_eq!(fs::read(ugv.join("ca.pem")).unwrap(), ca_before);
     assert_eq!(fs::read(out.join("ca/ca.pem")).unwrap(), ca_before);
-    check(&TlsFiles::in_dir(&ugv), Some(&Expect::Identity(unit("ugv-1")))).unwrap();
-    let names: Vec<String> = list(&out).unwrap().iter().map(|l| l.identity.to_string()).collect();
+    check(
+        &TlsFiles::in_dir(&ugv),
+        Some(&Expect::Identity(unit("ugv-1"))),
+    )
+    .unwrap();
+    let names: Vec<String> = list(&out)
+        .unwrap()
+        .iter()
+        .map(|l| l.identity.to_string())
+        .collect();
     assert!(names.contains(&"router:b".to_owned()), "{names:?}");
 }
 
@@ -122,7 +140,11 @@ fn a_revoked_name_is_listed_and_never_issued_again() {
     assert!(revoke(&out, &Identity::ROUTER).is_err());
     let listed = list(&out).unwrap();
     let l = listed.iter().find(|l| l.identity == unit("ugv-2")).unwrap();
-    assert!(l.certificate.as_ref().is_err_and(|e| e.starts_with("revoked on")));
+    assert!(
+        l.certificate
+            .as_ref()
+            .is_err_and(|e| e.starts_with("revoked on"))
+    );
 }
 
 #[test]
@@ -137,25 +159,50 @@ fn files_that_can_never_work_are_refused_naming_the_file() {
     let e = check(&swapped, None).unwrap_err().to_string();
     assert!(e.contains("unit-ugv-2/key.pem: not the key of"), "{e}");
     // The wrong identity or role for the process.
-    let e = check(&ugv1, Some(&Expect::Identity(unit("ugv-2")))).unwrap_err().to_string();
-    assert!(e.contains("unit:ugv-1's certificate, but this process runs as unit:ugv-2"), "{e}");
-    let e = check(&ugv1, Some(&Expect::Role(Role::Router))).unwrap_err().to_string();
+    let e = check(&ugv1, Some(&Expect::Identity(unit("ugv-2"))))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("unit:ugv-1's certificate, but this process runs as unit:ugv-2"),
+        "{e}"
+    );
+    let e = check(&ugv1, Some(&Expect::Role(Role::Router)))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("runs as a router"), "{e}");
     // Unreadable, or not a key at all.
-    let e = check(&TlsFiles { key: d.path().join("nothing.pem"), ..ugv1.clone() }, None)
-        .unwrap_err()
-        .to_string();
+    let e = check(
+        &TlsFiles {
+            key: d.path().join("nothing.pem"),
+            ..ugv1.clone()
+        },
+        None,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("nothing.pem"), "{e}");
-    let e = check(&TlsFiles { key: ugv1.cert.clone(), ..ugv1.clone() }, None)
-        .unwrap_err()
-        .to_string();
+    let e = check(
+        &TlsFiles {
+            key: ugv1.cert.clone(),
+            ..ugv1.clone()
+        },
+        None,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("not a private key"), "{e}");
     // Another site's CA.
     let other = d.path().join("other");
     make_site(&site(), &[], &Terms::default(), &other).unwrap();
-    let e = check(&TlsFiles { ca: other.join("ca/ca.pem"), ..ugv1.clone() }, None)
-        .unwrap_err()
-        .to_string();
+    let e = check(
+        &TlsFiles {
+            ca: other.join("ca/ca.pem"),
+            ..ugv1.clone()
+        },
+        None,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("not signed by the CA"), "{e}");
     // Expired: a certificate whose validity ended yesterday, signed by the site CA.
     let ca_key = KeyPair::from_pem(&fs::read_to_string(out.join("ca/ca.key")).unwrap()).unwrap();
@@ -170,8 +217,14 @@ fn files_that_can_never_work_are_refused_naming_the_file() {
     let stale = d.path().join("stale");
     write(&stale, "cert.pem", &old.pem(), false).unwrap();
     write(&stale, "key.pem", &key.serialize_pem(), true).unwrap();
-    let e = check(&TlsFiles { ca: ugv1.ca.clone(), ..TlsFiles::in_dir(&stale) }, None)
-        .unwrap_err()
-        .to_string();
+    let e = check(
+        &TlsFiles {
+            ca: ugv1.ca.clone(),
+            ..TlsFiles::in_dir(&stale)
+        },
+        None,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("unit:ugv-1's certificate expired on"), "{e}");
 }
