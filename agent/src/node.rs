@@ -131,26 +131,22 @@ where
                 let Some((_, task)) = task else { break };
                 if &task.unit == unit {
                     if let Err(e) = ctl.on_task(task.epoch, task.seq, task.kind) {
-                        bus.rejects().count_invalid();
-                        tracing::warn!(%unit, "{e}");
+                        bus.rejects().refuse_invalid("tasks", &e);
                     }
                 } else {
-                    bus.rejects().count_invalid();
-                    tracing::warn!(%unit, other = %task.unit, "dropped a task addressed to another unit");
+                    bus.rejects().refuse_invalid("tasks", &format_args!("a task addressed to {}", task.unit));
                 }
             }
             Some((_, b)) = barred.recv() => {
                 if let Err(e) = ctl.on_barred(b) {
-                    bus.rejects().count_invalid();
-                    tracing::warn!(%unit, "{e}");
+                    bus.rejects().refuse_invalid("barred space", &e);
                 }
             }
             Some(answer) = barred_answers.recv() => {
                 if let Some(b) = bus.decode::<BarredSpace>(&answer, "barred space answer")
                     && let Err(e) = ctl.on_barred(b)
                 {
-                    bus.rejects().count_invalid();
-                    tracing::warn!(%unit, "barred space answer refused: {e}");
+                    bus.rejects().refuse_invalid("barred space answer", &e);
                 }
             }
             change = coord.recv() => {

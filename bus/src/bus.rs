@@ -28,6 +28,7 @@ use firefleet_protocol::keys::{self, Key, Keys, Subscribable, Topic};
 use firefleet_protocol::msg::Message;
 
 use crate::pki::{self, Expect};
+use crate::refusals::Refusals;
 
 /// A bus error: Zenoh refused something.
 #[derive(Debug, thiserror::Error)]
@@ -236,7 +237,8 @@ fn json_string(s: &str) -> String {
     serde_json::Value::String(s.to_owned()).to_string()
 }
 
-/// Counts of messages dropped on receipt, by failure class.
+/// Counts of messages dropped on receipt, by failure class, and their log: counted
+/// summaries per sender and class ([`crate::refusals`]), never a line per message.
 #[derive(Debug, Default)]
 pub struct RejectCounts {
     undecodable: AtomicU64,
@@ -244,9 +246,36 @@ pub struct RejectCounts {
     invalid: AtomicU64,
     /// Taken off the bus but dropped: the reader was behind ([`crate::RawInbox`]).
     overflow: AtomicU64,
+    log: Mutex<Refusals>,
 }
 
 impl RejectCounts {
+    /// Count and log a message from `from` (the key it came on, or what sent it) that
+    /// did not decode.
+    pub fn refuse(&self, from: &str, e: &CodecError) {
+        self.count(e);
+        self.log(from, e.class(), e);
+    }
+    /// Count and log a message from `from` that decoded but its receiver refused.
+    pub fn refuse_invalid(&self, from: &str, reason: &dyn std::fmt::Display) {
+        self.count_invalid();
+        self.log(from, "invalid", reason);
+    }
+    /// Count and log a message from `from` dropped because its reader was behind.
+    pub fn refuse_overflow(&self, from: &str) {
+        self.count_overflow();
+        self.log(from, "overflow", &"the reader was behind");
+    }
+    fn log(&self, from: &str, class: &'static str, reason: &dyn std::fmt::Display) {
+        let line = self
+            .log
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .note(from, class, reason, std::time::Instant::now());
+        if let Some(line) = line {
+            tracing::warn!("{line}");
+        }
+    }
     /// Count a message that did not decode, by why.
     pub fn count(&self, e: &CodecError) {
         let c = match e.class() {
@@ -508,16 +537,14 @@ impl<M: Message> Inbox<M> {
         let topic = match keys::parse(key) {
             Ok((_, topic)) => topic,
             Err(e) => {
-                self.rejects.count_invalid();
-                tracing::warn!(key, "dropped message: {e}");
+                self.rejects.refuse_invalid(key, &e);
                 return None;
             }
         };
         match codec::decode::<M>(&sample.payload().to_bytes()) {
             Ok(m) => Some((topic, m)),
             Err(e) => {
-                self.rejects.count(&e);
-                tracing::warn!(key, "dropped message: {e}");
+                self.rejects.refuse(key, &e);
                 None
             }
         }

@@ -92,10 +92,7 @@ impl Tokens {
             let key = s.key_expr().as_str();
             match keys::parse(key) {
                 Ok((_, topic)) => return Some((topic, s.kind() == SampleKind::Put)),
-                Err(e) => {
-                    self.bus.rejects().count_invalid();
-                    tracing::warn!(key, "token refused: {e}");
-                }
+                Err(e) => self.bus.rejects().refuse_invalid(key, &e),
             }
         }
     }
@@ -240,8 +237,7 @@ impl Bus {
                 .allowed_origin(origin)
                 .callback(move |s| {
                     if tx.try_send(Raw::of(&s)).is_err() {
-                        rejects.count_overflow();
-                        tracing::warn!(key = %s.key_expr(), "reader behind: sample dropped");
+                        rejects.refuse_overflow(s.key_expr().as_str());
                     }
                 })
                 .await?;
@@ -304,8 +300,7 @@ impl Bus {
         match codec::decode::<M>(&raw.bytes) {
             Ok(m) => Some(m),
             Err(e) => {
-                self.rejects().count(&e);
-                tracing::warn!(key = raw.key, "{what} refused: {e}");
+                self.rejects().refuse(&format!("{} ({what})", raw.key), &e);
                 None
             }
         }

@@ -52,6 +52,7 @@ mod exchange;
 pub mod goal;
 pub mod limits;
 pub mod pki;
+pub mod refusals;
 pub mod render;
 
 pub use bus::{Bus, BusError, Connect, Inbox, Mode, RejectCounts, free_loopback_port, mtls_link};

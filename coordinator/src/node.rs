@@ -184,7 +184,8 @@ pub async fn run(
         // among them would make a report wait behind a burst of states). States come
         // last, as each only refreshes the picture; the timers before them are ready only
         // when due, so nothing starves.
-        let outputs: Result<Vec<Output>, Invalid> = tokio::select! {
+        // A refusal names what it came on, so its log is summed per sender.
+        let outputs: Result<Vec<Output>, (String, Invalid)> = tokio::select! {
             biased;
             _ = &mut shutdown => break,
             Some(sample) = rivals.recv() => match codec::decode::<Task>(&sample.bytes) {
@@ -196,19 +197,19 @@ pub async fn run(
                     return Ok(Ended::Deposed { by: task.epoch });
                 }
                 Ok(_) => Ok(Vec::new()),
-                Err(e) => Err(Invalid::new("task", format!("another coordinator's task on '{}': {e}", sample.key))),
+                Err(e) => Err((sample.key.clone(), Invalid::new("task", format!("another coordinator's task: {e}")))),
             },
             Some((_, c)) = clock_msgs.recv() => { sim_time.set(c.t); Ok(Vec::new()) }
-            Some((topic, up)) = alive.recv() => match topic {
-                Topic::UnitAlive(unit) => incident.on_alive(&unit, up, clock.now()),
+            Some((topic, up)) = alive.recv() => match &topic {
+                Topic::UnitAlive(unit) => incident.on_alive(unit, up, clock.now()),
                 other => Err(Invalid::new("key", format!("'{other}' is not a unit token"))),
-            },
+            }.map_err(|e| (topic.to_string(), e)),
             Some((topic, r)) = reports.recv() => {
                 if topic == Topic::UnitReport(r.unit.clone()) {
                     incident.on_report(&r, clock.now())
                 } else {
-                    Err(Invalid::new("unit", format!("report on '{topic}' names unit '{}'", r.unit)))
-                }
+                    Err(Invalid::new("unit", format!("report names unit '{}'", r.unit)))
+                }.map_err(|e| (topic.to_string(), e))
             }
             Some(sample) = goals.recv() => match sample.topic() {
                 Some(Topic::ZoneGoal(zone, by)) => {
@@ -220,8 +221,7 @@ pub async fn run(
                         let (ack, out) = match codec::decode::<ZoneGoal>(bytes) {
                             Ok(goal) => incident.on_goal(&zone, &by, goal, t),
                             Err(e) => {
-                                bus.rejects().count_invalid();
-                                tracing::warn!(%zone, "malformed zone goal: {e}");
+                                bus.rejects().refuse(&sample.key, &e);
                                 (malformed(bytes, &zone, &e), Vec::new())
                             }
                         };
@@ -231,7 +231,7 @@ pub async fn run(
                 }
                 // Not a zone id or a commander at all (`zone/WEST/goal/x`): there is no ack key to answer
                 // on; refused and counted like any other bad message.
-                _ => Err(Invalid::new("key", format!("'{}' names no zone", sample.key))),
+                _ => Err((sample.key.clone(), Invalid::new("key", "names no zone"))),
             },
             Some(query) = coord_q.recv() => {
                 let t = clock.now();
@@ -244,6 +244,8 @@ pub async fn run(
                         body.rejected = bus.rejects().snapshot().into_iter().map(|(k, v)| (k.to_owned(), v)).collect();
                         // Changes the incident skipped for want of a unit's view: zero unless it has a bug.
                         body.rejected.insert("inconsistent".to_owned(), incident.inconsistencies());
+                        // Sightings past what one unit's word may hold (a liar's flood).
+                        body.rejected.insert("lone_tracks".to_owned(), incident.lone_refused());
                         Some(codec::encode(&body))
                     }
                     _ => None,
@@ -276,8 +278,8 @@ pub async fn run(
                 if topic == Topic::UnitState(st.unit.clone()) {
                     incident.on_state(st, clock.now())
                 } else {
-                    Err(Invalid::new("unit", format!("state on '{topic}' names unit '{}'", st.unit)))
-                }
+                    Err(Invalid::new("unit", format!("state names unit '{}'", st.unit)))
+                }.map_err(|e| (topic.to_string(), e))
             }
         };
         for d in incident.take_decisions() {
@@ -287,10 +289,7 @@ pub async fn run(
         told.tell(bus, &incident, clock.now(), false).await?;
         match outputs {
             Ok(outputs) => publish(bus, outputs).await?,
-            Err(e) => {
-                bus.rejects().count_invalid();
-                tracing::warn!("refused message: {e}");
-            }
+            Err((from, e)) => bus.rejects().refuse_invalid(&from, &e),
         }
     }
     Ok(Ended::Shutdown)

@@ -11,6 +11,7 @@
 //! Not here: deciding anything. The recorder never publishes but its answers to recall
 //! queries, so a fleet runs the same with or without it.
 
+pub mod budget;
 pub mod live;
 pub mod parts;
 pub mod reader;

@@ -40,6 +40,7 @@ use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{BarredSpace, GoalsInForce};
 use serde::Serialize;
 
+use crate::budget::{BYTES_PER_CHANNEL_S, Budget};
 use crate::live::Live;
 use crate::parts::{Index, Part, Recording, part_path, parts_dir};
 use crate::scene::{self, Fleet};
@@ -91,6 +92,9 @@ pub struct RecordSummary {
     /// Samples that arrived faster than the recorder could take them and were dropped
     /// before it saw them (`firefleet_bus::RawInbox`).
     pub dropped: u64,
+    /// Samples not written for being over their channel's byte budget
+    /// ([`crate::budget::BYTES_PER_CHANNEL_S`]).
+    pub over_budget: u64,
 }
 
 /// How often the recording is written out (a chunk closed): what a recorder killed
@@ -430,6 +434,7 @@ pub async fn record(
 ) -> Result<RecordSummary, RecordError> {
     let keys = bus.keys().clone();
     let mut sink = Out::begin(path, live, scenario)?;
+    let mut budget = Budget::new(BYTES_PER_CHANNEL_S);
     let result = async {
         let mut samples = bus.subscribe_raw(&[&keys.all()], false).await?;
         let tokens = bus.watch_tokens(&keys.all()).await?;
@@ -510,12 +515,17 @@ pub async fn record(
                         Ok(p) => p,
                         Err(reason) => {
                             sink.skipped += 1;
-                            tracing::warn!(key, "not recorded: {reason}");
+                            bus.rejects().refuse_invalid(key, &format_args!("not recorded: {reason}"));
                             continue;
                         }
                     };
                     let t = now_ns();
-                    sink.write(key, p.name(), p.schema(), &p.to_json(), t)?;
+                    let json = p.to_json();
+                    // Over its channel's budget, a message is not written, but still
+                    // counts for what the recorder answers and draws.
+                    if budget.admit(key, json.len(), std::time::Instant::now()) {
+                        sink.write(key, p.name(), p.schema(), &json, t)?;
+                    }
                     fleet.observe(&p);
                     let log = |log: scene::Log| serde_json::to_vec(&log).expect("serialises");
                     match p {
@@ -551,6 +561,7 @@ pub async fn record(
     // Finish the file whatever happened above, so that what was recorded stays readable.
     let mut summary = sink.finish()?;
     summary.dropped = bus.rejects().overflow();
+    summary.over_budget = budget.dropped();
     result.map(|_| summary)
 }
 

@@ -216,13 +216,10 @@ fn drain<T: Message>(
             Some(unit) => {
                 last_command.insert(unit, Instant::now());
             }
-            None => {
-                bus.rejects().count_invalid();
-                tracing::warn!(
-                    %topic,
-                    "dropped command for a unit this simulation does not have"
-                );
-            }
+            None => bus.rejects().refuse_invalid(
+                &topic.to_string(),
+                &"a command for a unit this simulation does not have",
+            ),
         }
     }
 }

@@ -72,7 +72,7 @@ pub async fn run(a: RecordArgs) -> anyhow::Result<ExitCode> {
         shutdown_signal(a.zenoh.die_with_parent),
     )
     .await?;
-    tracing::info!(messages = summary.messages, channels = summary.channels, skipped = summary.skipped, dropped = summary.dropped, out = ?a.out, "recording finished");
+    tracing::info!(messages = summary.messages, channels = summary.channels, skipped = summary.skipped, dropped = summary.dropped, over_budget = summary.over_budget, out = ?a.out, "recording finished");
     bus.close().await;
     Ok(ExitCode::SUCCESS)
 }

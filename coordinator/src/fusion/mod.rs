@@ -55,6 +55,12 @@ const ADOPT_VAR_M2: f64 = 1.0;
 const LOSE_AFTER_S: f64 = 60.0;
 /// Flames seen again at an extinguished fire after this long mean it reignited, s.
 const REIGNITE_AFTER_S: f64 = 5.0;
+/// Live tracks one unit's word alone may hold (seen by nobody else). A tunnel incident
+/// has a handful of fires in any one camera's view; a unit reporting more is lying or
+/// broken, and each track costs every later observation a gate test, so past this its
+/// new sightings are refused ([`Fused::Refused`]) until others see its tracks or they
+/// are lost. Its sightings of tracks it already holds still count.
+pub const MAX_LONE_TRACKS: usize = 8;
 
 /// One unit's view of a fire: its latest estimate and confidence, the weight of the unit's
 /// word when it reported, and since when it has seen the fire without a break.
@@ -215,6 +221,8 @@ pub enum Fused {
     Updated(FireId),
     Confirmed(FireId),
     Reignited(FireId),
+    /// A new track refused: the unit holds [`MAX_LONE_TRACKS`] on its word alone.
+    Refused,
 }
 
 /// A lone claim another unit had in clear view too long without seeing it.
@@ -425,6 +433,15 @@ impl Fusion {
             .filter(|(m2, _)| *m2 < GATE2)
             .min_by(|a, b| a.0.total_cmp(&b.0));
         let Some((_, fire)) = best else {
+            let lone = self
+                .fires
+                .iter()
+                .filter(|f| matches!(f.state, FireState::Tentative | FireState::Confirmed))
+                .filter(|f| f.per_unit.len() == 1 && f.per_unit.contains_key(unit))
+                .count();
+            if lone >= MAX_LONE_TRACKS {
+                return Fused::Refused;
+            }
             self.next_id += 1;
             let id = FireId(self.next_id);
             let sighting = Sighting {

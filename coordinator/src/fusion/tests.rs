@@ -301,3 +301,31 @@ fn unworked_unseen_tracks_are_lost_and_out_fires_can_reignite() {
         Fused::Reignited(id)
     );
 }
+
+#[test]
+fn one_unit_alone_holds_a_bounded_number_of_tracks() {
+    let mut f = Fusion::default();
+    let mut refused = 0;
+    // A liar's report: fires a metre apart everywhere, each seen only by it.
+    for i in 0..100 {
+        let fused = f.observe(
+            &u("liar"),
+            &obs(10.0 + 3.0 * f64::from(i), 1.0, 0.3, 0.6),
+            1.0,
+        );
+        if fused == Fused::Refused {
+            refused += 1;
+        }
+    }
+    assert_eq!(f.fires().len(), MAX_LONE_TRACKS);
+    assert_eq!(refused, 100 - MAX_LONE_TRACKS);
+    // Another unit's fires are its own business, and the liar still updates what it holds.
+    assert!(matches!(
+        f.observe(&u("b"), &obs(280.0, 1.0, 0.3, 0.6), 1.0),
+        Fused::New(_)
+    ));
+    assert!(matches!(
+        f.observe(&u("liar"), &obs(10.0, 1.0, 0.3, 0.6), 1.5),
+        Fused::Updated(_)
+    ));
+}

@@ -414,6 +414,7 @@ impl Incident {
         for o in &r.observations {
             match self.fusion.observe(&r.unit, o, t) {
                 Fused::New(_) | Fused::Updated(_) => {}
+                Fused::Refused => self.lone_refused += 1,
                 Fused::Confirmed(id) => {
                     self.log(
                         t,

@@ -192,6 +192,9 @@ pub struct Incident {
     solved_all_at: f64,
     /// Changes skipped for want of a unit's view ([`Incident::view_mut`]).
     inconsistencies: u64,
+    /// Flame observations refused for starting a track past a unit's
+    /// [`crate::fusion::MAX_LONE_TRACKS`].
+    lone_refused: u64,
 }
 
 impl Incident {
@@ -222,6 +225,7 @@ impl Incident {
             coverage: Coverage::new(tunnel.length_m),
             solved_all_at: f64::NEG_INFINITY,
             inconsistencies: 0,
+            lone_refused: 0,
             tunnel,
         }
     }
@@ -408,6 +412,12 @@ impl Incident {
     /// zero unless the incident has a bug.
     pub fn inconsistencies(&self) -> u64 {
         self.inconsistencies
+    }
+
+    /// How many flame observations were refused for starting a track past a unit's
+    /// [`crate::fusion::MAX_LONE_TRACKS`].
+    pub fn lone_refused(&self) -> u64 {
+        self.lone_refused
     }
 
     fn assigned_to(&self, fire: FireId) -> Vec<UnitId> {
