@@ -26,6 +26,9 @@ use crate::platform::Platform;
 
 /// How long the agent's start-up question for the barred space stays open.
 const BARRED_QUERY_TIMEOUT: Duration = Duration::from_secs(2);
+/// Site seconds between two batches of behaviour-tree transitions: 5 Hz, a tenth of the
+/// router's bound on a unit's `bt` key (`firefleet_bus::limits`).
+const BT_BATCH_S: f64 = 0.2;
 
 /// How an agent runs.
 #[derive(Debug, Clone)]
@@ -92,6 +95,7 @@ where
     let report_key = keys.unit_report(unit);
     let bt_key = keys.unit_bt(unit);
     let mut next_report = f64::NEG_INFINITY;
+    let mut next_bt = f64::NEG_INFINITY;
     let mut next_print = f64::NEG_INFINITY;
     tracing::info!(%unit, nodes = ctl.tree().len(), "agent started");
     tokio::pin!(shutdown);
@@ -104,12 +108,16 @@ where
                 platform.actuate(cmd).await?;
                 let t = U::time(&s);
                 halt = Some(U::halt(&s));
-                let batch: Vec<BtTransition> = transitions
-                    .borrow_mut()
-                    .drain(..)
-                    .map(|t| BtTransition { node: t.node, name: labels[t.node as usize].clone(), t: t.t, from: status(t.from), to: status(t.to) })
-                    .collect();
-                if !batch.is_empty() {
+                // The tree's transitions go out in batches, at most every BT_BATCH_S, so a
+                // unit stays far inside the router's rate bound on its `bt` key
+                // (`firefleet_bus::limits`) however fast its platform's frames come.
+                if t >= next_bt && !transitions.borrow().is_empty() {
+                    next_bt = t + BT_BATCH_S;
+                    let batch: Vec<BtTransition> = transitions
+                        .borrow_mut()
+                        .drain(..)
+                        .map(|t| BtTransition { node: t.node, name: labels[t.node as usize].clone(), t: t.t, from: status(t.from), to: status(t.to) })
+                        .collect();
                     bus.put(&bt_key, &BtTransitions { unit: unit.clone(), transitions: batch }).await?;
                 }
                 if opts.print_tree && t >= next_print {
