@@ -253,7 +253,11 @@ fn deploy_render_writes_the_documented_rules_and_a_site_router_refuses_plain_lin
         &cfg,
     ];
     let out = firefleet(&[&render[..], &["--commander", "rossi"]].concat());
-    assert_says(&out, 0, "router.json5, 7 client configurations");
+    assert_says(
+        &out,
+        0,
+        "1 router configuration(s), 7 client configurations",
+    );
     let table = std::fs::read_to_string(dir.path().join("cfg/ACCESS.md")).unwrap();
     let readme = std::fs::read_to_string("deploy/README.md").unwrap();
     assert!(
@@ -264,8 +268,8 @@ fn deploy_render_writes_the_documented_rules_and_a_site_router_refuses_plain_lin
     let out = firefleet(&[&render[..], &["--commander", "verdi"]].concat());
     assert_says(&out, 2, "commander:verdi has no certificate");
     let out = firefleet(&[&render[..], &["--listen", "tcp/0.0.0.0:7447"]].concat());
-    assert_says(&out, 2, "a site's links are tls/");
-    // A site's router: TLS and access rules, or --plain said out loud.
+    assert_says(&out, 2, "a site's links are quic/");
+    // A site's router: QUIC with mutual TLS and access rules, or --plain said out loud.
     let out = firefleet(&[
         "router",
         "--scenario",
@@ -273,7 +277,7 @@ fn deploy_render_writes_the_documented_rules_and_a_site_router_refuses_plain_lin
         "--listen",
         "tcp/127.0.0.1:0",
     ]);
-    assert_says(&out, 2, "takes TLS links only");
+    assert_says(&out, 2, "takes QUIC links with mutual TLS only");
     let out = firefleet(&[
         "router",
         "--scenario",
@@ -281,5 +285,5 @@ fn deploy_render_writes_the_documented_rules_and_a_site_router_refuses_plain_lin
         "--zenoh-config",
         "deploy/router.json5",
     ]);
-    assert_says(&out, 2, "takes TLS links only");
+    assert_says(&out, 2, "takes QUIC links with mutual TLS only");
 }

@@ -56,13 +56,13 @@ pub const LIMITS: [Limit; 5] = [
         key: UnitKey::State,
         rate_hz: 40.0,
         max_bytes: 2048,
-        honest: "4 Hz, ~150 B",
+        honest: "4 Hz, ~120 B",
     },
     Limit {
         key: UnitKey::Report,
         rate_hz: 40.0,
         max_bytes: 4096,
-        honest: "4 Hz, 64 observations at most (~2.2 kB)",
+        honest: "4 Hz, 64 observations at most (3.7 kB)",
     },
     Limit {
         key: UnitKey::Bt,
@@ -216,9 +216,17 @@ mod tests {
                 MAX_LIST
             ],
         };
-        assert!(encode(&report).len() <= limit(UnitKey::Report), "{}", encode(&report).len());
+        assert!(
+            encode(&report).len() <= limit(UnitKey::Report),
+            "{}",
+            encode(&report).len()
+        );
         let state = firefleet_protocol::testing::ground_state(&id, -1e3, 1e3);
         // A state with all its options set stays a quarter of its bound.
-        assert!(encode(&state).len() * 4 <= limit(UnitKey::State), "{}", encode(&state).len());
+        assert!(
+            encode(&state).len() * 4 <= limit(UnitKey::State),
+            "{}",
+            encode(&state).len()
+        );
     }
 }
