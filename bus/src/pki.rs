@@ -50,6 +50,10 @@ use crate::access::{Identity, Role};
 
 /// Where the CA's own files live in a site PKI's directory.
 pub const CA_DIR: &str = "ca";
+/// Where the web CA's files live: it signs only the console's page (its `https-cert.pem`),
+/// for the commanders' browsers to trust.
+pub const WEB_CA_DIR: &str = "web-ca";
+const WEB_CA_NAME: &str = "firefleet site web CA";
 /// The file listing the names taken off the site, one `<identity> <date>` a line.
 const REVOKED: &str = "revoked";
 /// The CA's common name.
@@ -137,24 +141,10 @@ pub fn make_site(
         )));
     }
     let names = Identity::of_site(scenario, commanders);
-    let key = KeyPair::generate().map_err(cert("generating the CA key"))?;
-    let now = OffsetDateTime::now_utc();
-    let mut params = ca_params();
-    params.not_before = now - time::Duration::hours(1);
-    params.not_after = now + time::Duration::days(CA_VALID_DAYS.into());
-    let ca_ends = params.not_after;
-    let ca = params.self_signed(&key).map_err(cert("signing the CA"))?;
-    let ca_dir = out.join(CA_DIR);
-    write(&ca_dir, "ca.pem", &ca.pem(), false)?;
-    write(&ca_dir, "ca.key", &key.serialize_pem(), true)?;
-    let signer = Signer {
-        ca: &ca,
-        key: &key,
-        pem: &ca.pem(),
-        not_after: ca_ends,
-    };
+    let site = Signer::create(&out.join(CA_DIR), CA_NAME)?;
+    let web = Signer::create(&out.join(WEB_CA_DIR), WEB_CA_NAME)?;
     for name in &names {
-        leaf(out, name, terms, &signer)?;
+        leaf(out, name, terms, &site, &web)?;
     }
     Ok(names)
 }
@@ -170,26 +160,15 @@ pub fn issue(pki: &Path, who: &Identity, terms: &Terms) -> Result<PathBuf, PkiEr
              new site CA (firefleet pki init into a new directory)"
         )));
     }
-    let ca_dir = pki.join(CA_DIR);
-    let key_pem = fs::read_to_string(ca_dir.join("ca.key"))
-        .map_err(io(format!("reading the CA key in {}", ca_dir.display())))?;
-    let key = KeyPair::from_pem(&key_pem).map_err(cert("the CA key"))?;
-    let pem = fs::read_to_string(ca_dir.join("ca.pem")).map_err(io(format!(
-        "reading the CA certificate in {}",
-        ca_dir.display()
-    )))?;
-    let (_, ca_cert) = parse(&ca_dir.join("ca.pem"))?;
-    // The issuer of a certificate is the CA's name and key: the same parameters signed by
-    // the same key stand for the CA the site PKI was made with. The identity gets the
-    // site's own CA certificate, not this stand-in (whose signature differs).
-    let ca = ca_params().self_signed(&key).map_err(cert("the CA"))?;
-    let signer = Signer {
-        ca: &ca,
-        key: &key,
-        pem: &pem,
-        not_after: ca_cert.not_after,
+    let site = Signer::load(&pki.join(CA_DIR), CA_NAME)?;
+    // A PKI from before the console had a web certificate gets its web CA now.
+    let web_dir = pki.join(WEB_CA_DIR);
+    let web = if web_dir.join("ca.key").is_file() {
+        Signer::load(&web_dir, WEB_CA_NAME)?
+    } else {
+        Signer::create(&web_dir, WEB_CA_NAME)?
     };
-    leaf(pki, who, terms, &signer)
+    leaf(pki, who, terms, &site, &web)
 }
 
 /// Take `who`'s name off the site in `pki`: record it as revoked today and remove its
@@ -256,7 +235,7 @@ pub fn list(pki: &Path) -> Result<Vec<Listed>, PkiError> {
     for e in entries {
         let e = e.map_err(io(format!("reading {}", pki.display())))?;
         let path = e.path().join("cert.pem");
-        if e.file_name() == CA_DIR || !path.is_file() {
+        if e.file_name() == CA_DIR || e.file_name() == WEB_CA_DIR || !path.is_file() {
             continue;
         }
         let c = Certified::read(&path)?;
@@ -461,19 +440,92 @@ pub fn check(files: &TlsFiles, expect: Option<&Expect>) -> Result<Identity, PkiE
     Ok(c.identity)
 }
 
-/// What signs a site's certificates: the CA, its key, the CA certificate every identity
-/// is given, and the day it ends (no leaf outlives it).
-struct Signer<'a> {
-    ca: &'a rcgen::Certificate,
-    key: &'a KeyPair,
-    pem: &'a str,
+/// A CA that signs certificates: its certificate (as a signer), its key, its certificate
+/// as every holder is given it, and the day it ends (no certificate outlives it).
+struct Signer {
+    ca: rcgen::Certificate,
+    key: KeyPair,
+    pem: String,
     not_after: OffsetDateTime,
 }
 
-fn ca_params() -> CertificateParams {
+impl Signer {
+    /// A new CA named `name`, written to `dir` (`ca.pem`, and `ca.key` 0600).
+    fn create(dir: &Path, name: &str) -> Result<Self, PkiError> {
+        let key = KeyPair::generate().map_err(cert(format!("generating the key of {name}")))?;
+        let now = OffsetDateTime::now_utc();
+        let mut params = ca_params(name);
+        params.not_before = now - time::Duration::hours(1);
+        params.not_after = now + time::Duration::days(CA_VALID_DAYS.into());
+        let not_after = params.not_after;
+        let ca = params
+            .self_signed(&key)
+            .map_err(cert(format!("signing {name}")))?;
+        write(dir, "ca.pem", &ca.pem(), false)?;
+        write(dir, "ca.key", &key.serialize_pem(), true)?;
+        Ok(Self {
+            pem: ca.pem(),
+            ca,
+            key,
+            not_after,
+        })
+    }
+
+    /// The CA named `name` that `create` wrote to `dir`.
+    fn load(dir: &Path, name: &str) -> Result<Self, PkiError> {
+        let key_pem = fs::read_to_string(dir.join("ca.key"))
+            .map_err(io(format!("reading the CA key in {}", dir.display())))?;
+        let key = KeyPair::from_pem(&key_pem).map_err(cert("the CA key"))?;
+        let pem = fs::read_to_string(dir.join("ca.pem")).map_err(io(format!(
+            "reading the CA certificate in {}",
+            dir.display()
+        )))?;
+        let (_, written) = parse(&dir.join("ca.pem"))?;
+        // The issuer of a certificate is the CA's name and key: the same parameters signed
+        // by the same key stand for the CA as it was made. Holders get the CA's own
+        // certificate (`pem`), not this stand-in (whose signature differs).
+        let ca = ca_params(name).self_signed(&key).map_err(cert("the CA"))?;
+        Ok(Self {
+            ca,
+            key,
+            pem,
+            not_after: written.not_after,
+        })
+    }
+
+    /// Sign `p` for a new key; the certificate and the key.
+    fn sign(
+        &self,
+        mut p: CertificateParams,
+        valid_days: u32,
+        what: &str,
+    ) -> Result<(rcgen::Certificate, KeyPair), PkiError> {
+        if valid_days == 0 {
+            return Err(refused("a certificate must be valid for at least a day"));
+        }
+        let now = OffsetDateTime::now_utc();
+        let not_after = now + time::Duration::days(valid_days.into());
+        if not_after > self.not_after {
+            return Err(refused(format!(
+                "{what} would outlive its CA (valid until {}): fewer days, or a new CA",
+                date(self.not_after)
+            )));
+        }
+        // An hour's grace for clocks a little behind the one that issued it.
+        p.not_before = now - time::Duration::hours(1);
+        p.not_after = not_after;
+        let key = KeyPair::generate().map_err(cert("generating a key"))?;
+        let signed = p
+            .signed_by(&key, &self.ca, &self.key)
+            .map_err(cert(format!("signing {what}")))?;
+        Ok((signed, key))
+    }
+}
+
+fn ca_params(name: &str) -> CertificateParams {
     let mut p = CertificateParams::default();
     p.distinguished_name = DistinguishedName::new();
-    p.distinguished_name.push(DnType::CommonName, CA_NAME);
+    p.distinguished_name.push(DnType::CommonName, name);
     p.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
     p.key_usages = vec![
         KeyUsagePurpose::KeyCertSign,
@@ -483,56 +535,75 @@ fn ca_params() -> CertificateParams {
     p
 }
 
-/// Write identity `who`'s directory under `out`: the CA's certificate, its certificate and
-/// key, replacing what was there whole. The directory.
-fn leaf(out: &Path, who: &Identity, terms: &Terms, by: &Signer<'_>) -> Result<PathBuf, PkiError> {
-    let now = OffsetDateTime::now_utc();
-    let not_after = now + time::Duration::days(terms.valid_days.into());
-    if terms.valid_days == 0 {
-        return Err(refused("a certificate must be valid for at least a day"));
-    }
-    if not_after > by.not_after {
-        return Err(refused(format!(
-            "{who} would outlive the site CA (valid until {}): fewer days, or a new CA",
-            date(by.not_after)
-        )));
-    }
+/// Subject alternative names for `hosts`.
+fn sans(hosts: &[String]) -> Result<Vec<SanType>, PkiError> {
+    hosts
+        .iter()
+        .map(|h| match h.parse() {
+            Ok(ip) => Ok(SanType::IpAddress(ip)),
+            Err(_) => Ok(SanType::DnsName(
+                h.clone().try_into().map_err(cert(format!("host {h}")))?,
+            )),
+        })
+        .collect()
+}
+
+/// Write identity `who`'s directory under `out`: the site CA's certificate, its
+/// certificate and key, replacing what was there whole; for the console, also its web
+/// server's certificate and key, signed by the `web` CA. The directory.
+fn leaf(
+    out: &Path,
+    who: &Identity,
+    terms: &Terms,
+    site: &Signer,
+    web: &Signer,
+) -> Result<PathBuf, PkiError> {
     let mut p = CertificateParams::default();
     p.distinguished_name = DistinguishedName::new();
     p.distinguished_name
         .push(DnType::CommonName, who.to_string());
-    // An hour's grace for clocks a little behind the one that issued it.
-    p.not_before = now - time::Duration::hours(1);
-    p.not_after = not_after;
     p.key_usages = vec![
         KeyUsagePurpose::DigitalSignature,
         KeyUsagePurpose::KeyEncipherment,
     ];
     p.extended_key_usages = vec![ExtendedKeyUsagePurpose::ClientAuth];
-    if who.role() == Role::Router {
-        p.extended_key_usages
-            .push(ExtendedKeyUsagePurpose::ServerAuth);
-        p.subject_alt_names = terms
-            .hosts()
-            .iter()
-            .map(|h| match h.parse() {
-                Ok(ip) => Ok(SanType::IpAddress(ip)),
-                Err(_) => Ok(SanType::DnsName(
-                    h.clone().try_into().map_err(cert(format!("host {h}")))?,
-                )),
-            })
-            .collect::<Result<_, PkiError>>()?;
-    } else if !terms.hosts.is_empty() {
-        return Err(refused(format!(
-            "{who} is no router: only a router's certificate names hosts"
-        )));
+    match who.role() {
+        Role::Router => {
+            p.extended_key_usages
+                .push(ExtendedKeyUsagePurpose::ServerAuth);
+            p.subject_alt_names = sans(&terms.hosts())?;
+        }
+        Role::Console => {}
+        _ if !terms.hosts.is_empty() => {
+            return Err(refused(format!(
+                "{who} is no router: only a router's certificate (and the console's web page) names hosts"
+            )));
+        }
+        _ => {}
     }
-    let key = KeyPair::generate().map_err(cert("generating a key"))?;
-    let signed = p
-        .signed_by(&key, by.ca, by.key)
-        .map_err(cert(format!("signing {who}")))?;
+    let (signed, key) = site.sign(p, terms.valid_days, &who.to_string())?;
     let dir = out.join(who.dir_name());
-    replace(&dir, "ca.pem", by.pem, false)?;
+    if who.role() == Role::Console {
+        // The console's page is a web server for the commanders' browsers. Its certificate
+        // comes from a CA of its own, which the browsers trust and Zenoh's links do not:
+        // were it the site CA's, a stolen console key on the router's host would pass
+        // for the router.
+        let mut page = CertificateParams::default();
+        page.distinguished_name = DistinguishedName::new();
+        page.distinguished_name
+            .push(DnType::CommonName, "firefleet console");
+        page.key_usages = vec![
+            KeyUsagePurpose::DigitalSignature,
+            KeyUsagePurpose::KeyEncipherment,
+        ];
+        page.extended_key_usages = vec![ExtendedKeyUsagePurpose::ServerAuth];
+        page.subject_alt_names = sans(&terms.hosts())?;
+        let (https, https_key) = web.sign(page, terms.valid_days, "the console's page")?;
+        replace(&dir, "web-ca.pem", &web.pem, false)?;
+        replace(&dir, "https-key.pem", &https_key.serialize_pem(), true)?;
+        replace(&dir, "https-cert.pem", &https.pem(), false)?;
+    }
+    replace(&dir, "ca.pem", &site.pem, false)?;
     replace(&dir, "key.pem", &key.serialize_pem(), true)?;
     replace(&dir, "cert.pem", &signed.pem(), false)?;
     Ok(dir)

@@ -312,20 +312,20 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         if let Some(users) = &a.console_users {
             args.extend(["--users".into(), users.display().to_string()]);
         }
-        // On a secure site the page is HTTPS with the console's certificate from the site
-        // PKI (valid for loopback): commanders' browsers trust the site CA.
+        // On a secure site the page is HTTPS with the console's web certificate from the
+        // site PKI (valid for loopback): commanders' browsers trust the site's web CA.
         let scheme = match &site {
             Some(s) => {
                 let dir = s.pki.join(Identity::Console.dir_name());
                 args.extend([
                     "--https-cert".into(),
-                    dir.join("cert.pem").display().to_string(),
+                    dir.join("https-cert.pem").display().to_string(),
                     "--https-key".into(),
-                    dir.join("key.pem").display().to_string(),
+                    dir.join("https-key.pem").display().to_string(),
                 ]);
                 println!(
-                    "the console's certificate is signed by the site CA: {}",
-                    dir.join("ca.pem").display()
+                    "the console's page is signed by the site's web CA: {}",
+                    dir.join("web-ca.pem").display()
                 );
                 "https"
             }

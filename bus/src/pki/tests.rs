@@ -70,7 +70,7 @@ fn only_a_router_certificate_serves_and_names_hosts() {
         ..Terms::default()
     };
     let e = issue(&out, &unit("ugv-1"), &terms).unwrap_err();
-    assert!(e.to_string().contains("outlive the site CA"), "{e}");
+    assert!(e.to_string().contains("outlive its CA"), "{e}");
     let e = issue(
         &out,
         &unit("ugv-1"),
@@ -206,7 +206,7 @@ fn files_that_can_never_work_are_refused_naming_the_file() {
     assert!(e.contains("not signed by the CA"), "{e}");
     // Expired: a certificate whose validity ended yesterday, signed by the site CA.
     let ca_key = KeyPair::from_pem(&fs::read_to_string(out.join("ca/ca.key")).unwrap()).unwrap();
-    let ca = ca_params().self_signed(&ca_key).unwrap();
+    let ca = ca_params(CA_NAME).self_signed(&ca_key).unwrap();
     let mut p = CertificateParams::default();
     p.distinguished_name.push(DnType::CommonName, "unit:ugv-1");
     let now = OffsetDateTime::now_utc();
@@ -227,4 +227,34 @@ fn files_that_can_never_work_are_refused_naming_the_file() {
     .unwrap_err()
     .to_string();
     assert!(e.contains("unit:ugv-1's certificate expired on"), "{e}");
+}
+
+#[test]
+fn the_console_page_has_a_web_certificate_the_links_do_not_trust() {
+    let (_d, out) = made();
+    let console = out.join("console");
+    let page = Certified::read(&console.join("https-cert.pem"));
+    // Its common name is no identity of the site: it cannot be read as one.
+    assert!(page.is_err());
+    let (_, page) = parse(&console.join("https-cert.pem")).unwrap();
+    assert!(page.server);
+    assert_eq!(page.hosts, ["localhost", "127.0.0.1"]);
+    // Signed by the web CA, not the site CA the links check.
+    let files = TlsFiles {
+        ca: console.join("ca.pem"),
+        cert: console.join("https-cert.pem"),
+        key: console.join("https-key.pem"),
+    };
+    assert!(check(&files, None).is_err());
+    let web = TlsFiles {
+        ca: console.join("web-ca.pem"),
+        ..files
+    };
+    assert!(
+        check(&web, None).is_err(),
+        "its name is no identity: refused as one"
+    );
+    let (_, web_ca) = parse(&console.join("web-ca.pem")).unwrap();
+    let (_, site_ca) = parse(&console.join("ca.pem")).unwrap();
+    assert_ne!(web_ca.spki, site_ca.spki);
 }

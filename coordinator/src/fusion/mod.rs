@@ -61,6 +61,13 @@ const REIGNITE_AFTER_S: f64 = 5.0;
 /// new sightings are refused ([`Fused::Refused`]) until others see its tracks or they
 /// are lost. Its sightings of tracks it already holds still count.
 pub const MAX_LONE_TRACKS: usize = 8;
+/// New tracks one unit's word alone may start in a burst ...
+pub const LONE_STARTS_BURST: f64 = 4.0;
+/// ... and then one every this many seconds of site time. A unit arriving at a pile-up
+/// sees its fires at once (the burst); after that a real incident shows a unit a new fire
+/// now and then, while a liar reporting fires everywhere would, without this, send the
+/// fleet after a new one each time one of its eight is found out.
+pub const LONE_START_EVERY_S: f64 = 5.0;
 
 /// One unit's view of a fire: its latest estimate and confidence, the weight of the unit's
 /// word when it reported, and since when it has seen the fire without a break.
@@ -221,7 +228,8 @@ pub enum Fused {
     Updated(FireId),
     Confirmed(FireId),
     Reignited(FireId),
-    /// A new track refused: the unit holds [`MAX_LONE_TRACKS`] on its word alone.
+    /// A new track refused: the unit holds [`MAX_LONE_TRACKS`] on its word alone, or has
+    /// started tracks faster than [`LONE_START_EVERY_S`] allows.
     Refused,
 }
 
@@ -243,6 +251,9 @@ pub struct Fusion {
     /// Tracks merged into an older one: removed id -> kept id.
     aliases: BTreeMap<FireId, FireId>,
     witnesses: Witnesses,
+    /// Per unit, the new tracks it may still start alone and when that was counted: a
+    /// bucket of [`LONE_STARTS_BURST`] refilled one per [`LONE_START_EVERY_S`].
+    starts: BTreeMap<UnitId, (f64, f64)>,
 }
 
 /// A duplicate track merged into an older one.
@@ -439,9 +450,16 @@ impl Fusion {
                 .filter(|f| matches!(f.state, FireState::Tentative | FireState::Confirmed))
                 .filter(|f| f.per_unit.len() == 1 && f.per_unit.contains_key(unit))
                 .count();
-            if lone >= MAX_LONE_TRACKS {
+            let (tokens, at) = self
+                .starts
+                .entry(unit.clone())
+                .or_insert((LONE_STARTS_BURST, t));
+            *tokens = (*tokens + (t - *at).max(0.0) / LONE_START_EVERY_S).min(LONE_STARTS_BURST);
+            *at = t;
+            if lone >= MAX_LONE_TRACKS || *tokens < 1.0 {
                 return Fused::Refused;
             }
+            *tokens -= 1.0;
             self.next_id += 1;
             let id = FireId(self.next_id);
             let sighting = Sighting {

@@ -303,29 +303,27 @@ fn unworked_unseen_tracks_are_lost_and_out_fires_can_reignite() {
 }
 
 #[test]
-fn one_unit_alone_holds_a_bounded_number_of_tracks() {
+fn one_unit_alone_holds_and_starts_a_bounded_number_of_tracks() {
     let mut f = Fusion::default();
-    let mut refused = 0;
-    // A liar's report: fires a metre apart everywhere, each seen only by it.
-    for i in 0..100 {
-        let fused = f.observe(
-            &u("liar"),
-            &obs(10.0 + 3.0 * f64::from(i), 1.0, 0.3, 0.6),
-            1.0,
-        );
-        if fused == Fused::Refused {
-            refused += 1;
-        }
-    }
+    let liar = |i: i32| obs(10.0 + 3.0 * f64::from(i), 1.0, 0.3, 0.6);
+    // A liar's report: fires three metres apart everywhere, each seen only by it. A burst
+    // of four starts, then one every five seconds, never more than eight held.
+    let started = |f: &mut Fusion, t: f64, from: i32| {
+        (from..from + 100)
+            .filter(|&i| matches!(f.observe(&u("liar"), &liar(i), t), Fused::New(_)))
+            .count()
+    };
+    assert_eq!(started(&mut f, 1.0, 0), LONE_STARTS_BURST as usize);
+    assert_eq!(started(&mut f, 1.0 + LONE_START_EVERY_S, 0), 1);
+    assert_eq!(started(&mut f, 1000.0, 0), MAX_LONE_TRACKS - 5);
     assert_eq!(f.fires().len(), MAX_LONE_TRACKS);
-    assert_eq!(refused, 100 - MAX_LONE_TRACKS);
     // Another unit's fires are its own business, and the liar still updates what it holds.
     assert!(matches!(
-        f.observe(&u("b"), &obs(280.0, 1.0, 0.3, 0.6), 1.0),
+        f.observe(&u("b"), &obs(280.0, 1.0, 0.3, 0.6), 1000.0),
         Fused::New(_)
     ));
     assert!(matches!(
-        f.observe(&u("liar"), &obs(10.0, 1.0, 0.3, 0.6), 1.5),
+        f.observe(&u("liar"), &liar(0), 1000.5),
         Fused::Updated(_)
     ));
 }

@@ -26,6 +26,7 @@ use crate::commands::write_json;
 
 mod costmap_ga;
 mod fleet;
+mod flood;
 mod nav;
 mod nemesis;
 mod plot;
@@ -44,6 +45,8 @@ pub enum ExperimentCommand {
     Robogat(robogat::RobogatArgs),
     /// A real coordinator process under a large simulated fleet over loopback Zenoh.
     Scale(scale::ScaleArgs),
+    /// A secure demo site under a flood from one stolen unit certificate, measured.
+    Flood(flood::FloodArgs),
     /// The Dijkstra+GA paper's heat-aware cost map: no heat, w1 = w2 = 1, GA-tuned.
     CostmapGa(costmap_ga::CostmapGaArgs),
     /// The BT paper's navigation trials in a curved tunnel, visibility term on and off.
@@ -76,6 +79,7 @@ pub async fn run(cmd: ExperimentCommand) -> anyhow::Result<ExitCode> {
         ExperimentCommand::Fleet(a) => fleet::run(a),
         ExperimentCommand::Robogat(a) => robogat::run(a),
         ExperimentCommand::Scale(a) => scale::run(a).await,
+        ExperimentCommand::Flood(a) => flood::run(a).await,
         ExperimentCommand::CostmapGa(a) => costmap_ga::run(a),
         ExperimentCommand::Nav(a) => nav::run(a),
         ExperimentCommand::Zones(a) => zones::run(a),
