@@ -55,5 +55,7 @@ pub mod pki;
 pub mod refusals;
 pub mod render;
 
-pub use bus::{Bus, BusError, Connect, Inbox, Mode, RejectCounts, free_loopback_port, mtls_link};
+pub use bus::{
+    Bus, BusError, Connect, Inbox, Mode, RejectCounts, free_loopback_port, mtls_link, one_stream,
+};
 pub use exchange::{Answers, Ask, Question, Questions, Raw, RawInbox, Token, Tokens};

@@ -24,7 +24,7 @@ use serde_json::{Value, json};
 
 use crate::access::{self, Grant, Identity, Op, Role, UnknownUnit};
 use crate::pki::{self, PkiError};
-use crate::{limits, mtls_link};
+use crate::{limits, mtls_link, one_stream};
 
 /// Where a site's files are and how its processes reach the router.
 #[derive(Debug, Clone)]
@@ -180,8 +180,10 @@ pub fn render_site(scenario: &Scenario, a: &Layout) -> Result<Vec<Identity>, Ren
     let (downsampling, low_pass) = limits::zenoh_limits(&keys, &units, a.time_scale);
     let router_config = |who: &Identity, listen: &[String], connect: &[&String]| {
         let mut r = base("router", who);
+        let listen: Vec<String> = listen.iter().map(|e| one_stream(e)).collect();
         r["listen"] = json!({ "endpoints": listen });
         if !connect.is_empty() {
+            let connect: Vec<String> = connect.iter().map(|e| one_stream(e)).collect();
             r["connect"] = json!({ "endpoints": connect });
         }
         r["access_control"] = acl.clone();
@@ -213,8 +215,11 @@ pub fn render_site(scenario: &Scenario, a: &Layout) -> Result<Vec<Identity>, Ren
             &router_config(&who, std::slice::from_ref(endpoint), &[&a.connect]),
         )?;
     }
-    let mut connect = vec![a.connect.clone()];
-    connect.extend(a.routers.iter().map(|(_, e)| e.clone()));
+    let connect: Vec<String> = [&a.connect]
+        .into_iter()
+        .chain(a.routers.iter().map(|(_, e)| e))
+        .map(|e| one_stream(e))
+        .collect();
     for who in identities.iter().filter(|w| w.role() != Role::Router) {
         let mut client = base("client", who);
         client["connect"] = json!({ "endpoints": connect });

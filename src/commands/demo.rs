@@ -449,6 +449,11 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         })
         .collect();
     stop_children(children).await;
+    // The commander's client first: closed after its router, it would wait out Zenoh's
+    // ten-second close for a link whose other end is gone.
+    if let Some(c) = commander_bus {
+        c.close().await;
+    }
     bus.close().await;
 
     let truth = last_truth.unwrap_or(SimTruth {
