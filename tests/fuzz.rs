@@ -1,5 +1,6 @@
 //! Fuzzing every decoder of external input, on stable Rust: postcard messages, the
-//! commanders' JSON, scenario TOML and behavior-tree XML.
+//! commanders' JSON, scenario TOML, behavior-tree XML, and what a secure site reads of a
+//! certificate (PEM, X.509, the identity in its common name).
 //!
 //! Inputs are made two ways from a seeded generator (a failure names its seed and input,
 //! so it replays): random bytes, and mutations of valid inputs (bytes flipped, inserted,
@@ -19,6 +20,8 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use firefleet_bt::xml;
+use firefleet_bus::access::Identity;
+use firefleet_bus::pki::Certified;
 use firefleet_model::scenario::Scenario;
 use firefleet_model::{FireId, Point2, Pose2, UnitId, UnitKind, ZoneId};
 use firefleet_protocol::codec::{decode, encode};
@@ -250,6 +253,37 @@ fn behavior_tree_xml() {
             return false;
         }
         xml::build(&doc, &ground).expect("a document that validates builds");
+        true
+    });
+}
+
+#[test]
+fn site_certificates() {
+    let dir = tempfile::tempdir().unwrap();
+    let site = Scenario::straight(100.0).ground("ugv-1", 5.0, -2.0).build();
+    let rossi = firefleet_model::CommanderId::new("rossi").unwrap();
+    let pki = dir.path().join("pki");
+    firefleet_bus::pki::make_site(&site, &[rossi], &Default::default(), &pki).unwrap();
+    let seeds: Vec<Vec<u8>> = ["router", "unit-ugv-1", "commander-rossi", "console"]
+        .iter()
+        .map(|who| std::fs::read(pki.join(who).join("cert.pem")).unwrap())
+        .collect();
+    fuzz("certificate", 10, &seeds, |b| {
+        let Ok(c) = Certified::from_pem(b, "fuzz.pem") else {
+            return false;
+        };
+        // What is accepted names an identity of the site, which reads back the same.
+        assert_eq!(c.identity.to_string().parse::<Identity>().unwrap(), c.identity);
+        true
+    });
+    let names: Vec<Vec<u8>> = ["unit:ugv-1", "commander:rossi", "router:b", "router", "console"]
+        .map(|s| s.as_bytes().to_vec())
+        .to_vec();
+    fuzz("identity", 11, &names, |b| {
+        let Ok(who) = String::from_utf8_lossy(b).parse::<Identity>() else {
+            return false;
+        };
+        assert_eq!(who.to_string().parse::<Identity>().unwrap(), who);
         true
     });
 }

@@ -272,10 +272,17 @@ pub struct Certified {
 impl Certified {
     /// Read the certificate of a site identity in PEM file `path`.
     pub fn read(path: &Path) -> Result<Self, PkiError> {
-        let (cn, c) = parse(path)?;
+        let text = fs::read(path).map_err(io(format!("reading {}", path.display())))?;
+        Self::from_pem(&text, &path.display().to_string())
+    }
+
+    /// The certificate of a site identity in PEM text `pem`, which `source` names in
+    /// errors.
+    pub fn from_pem(pem: &[u8], source: &str) -> Result<Self, PkiError> {
+        let (cn, c) = parse_pem(pem, source)?;
         let identity = cn
             .parse()
-            .map_err(|e| refused(format!("{}: common name: {e}", path.display())))?;
+            .map_err(|e| refused(format!("{source}: common name: {e}")))?;
         Ok(Self { identity, ..c })
     }
 
@@ -288,9 +295,14 @@ impl Certified {
 /// The certificate in PEM file `path` and its common name, whatever that is (the CA's is
 /// no identity; it stands in the result as the first router, never read).
 fn parse(path: &Path) -> Result<(String, Certified), PkiError> {
-    let bad = |why: String| refused(format!("{}: {why}", path.display()));
     let text = fs::read(path).map_err(io(format!("reading {}", path.display())))?;
-    let (_, pem) = x509_parser::pem::parse_x509_pem(&text)
+    parse_pem(&text, &path.display().to_string())
+}
+
+/// [`parse`] of the PEM text `text`, which `source` names in errors.
+fn parse_pem(text: &[u8], source: &str) -> Result<(String, Certified), PkiError> {
+    let bad = |why: String| refused(format!("{source}: {why}"));
+    let (_, pem) = x509_parser::pem::parse_x509_pem(text)
         .map_err(|e| bad(format!("not a PEM certificate ({e})")))?;
     let (_, c) = X509Certificate::from_der(&pem.contents)
         .map_err(|e| bad(format!("not an X.509 certificate ({e})")))?;

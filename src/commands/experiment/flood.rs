@@ -139,12 +139,15 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
     let started = Instant::now();
     let mut demo = demo.spawn().context("starting the demo")?;
     let mut lines = BufReader::new(demo.stdout.take().context("the demo's output")?).lines();
-    let first = lines.next().context("the demo said nothing")??;
-    let endpoint = first
-        .split_whitespace()
-        .find(|w| w.starts_with("quic/"))
-        .map(|w| w.trim_end_matches(',').to_owned())
-        .with_context(|| format!("no endpoint in the demo's first line: {first}"))?;
+    // The line that names the router's endpoint ("... processes on quic/...").
+    let endpoint = loop {
+        let line = lines
+            .next()
+            .context("the demo ended before it named its endpoint")??;
+        if let Some(e) = line.split_whitespace().find(|w| w.starts_with("quic/")) {
+            break e.trim_end_matches(',').to_owned();
+        }
+    };
     // The rest of its output is read so it never blocks on a full pipe.
     std::thread::spawn(move || lines.for_each(drop));
 
