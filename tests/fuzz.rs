@@ -273,12 +273,21 @@ fn site_certificates() {
             return false;
         };
         // What is accepted names an identity of the site, which reads back the same.
-        assert_eq!(c.identity.to_string().parse::<Identity>().unwrap(), c.identity);
+        assert_eq!(
+            c.identity.to_string().parse::<Identity>().unwrap(),
+            c.identity
+        );
         true
     });
-    let names: Vec<Vec<u8>> = ["unit:ugv-1", "commander:rossi", "router:b", "router", "console"]
-        .map(|s| s.as_bytes().to_vec())
-        .to_vec();
+    let names: Vec<Vec<u8>> = [
+        "unit:ugv-1",
+        "commander:rossi",
+        "router:b",
+        "router",
+        "console",
+    ]
+    .map(|s| s.as_bytes().to_vec())
+    .to_vec();
     fuzz("identity", 11, &names, |b| {
         let Ok(who) = String::from_utf8_lossy(b).parse::<Identity>() else {
             return false;

@@ -27,6 +27,7 @@ use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::{self, Key, Keys, Subscribable, Topic};
 use firefleet_protocol::msg::Message;
 
+use crate::access::Role;
 use crate::pki::{self, Expect};
 use crate::refusals::Refusals;
 
@@ -189,7 +190,14 @@ impl Connect {
                 Ok(())
             };
         };
-        pki::check(&pki::TlsFiles { ca, cert, key }, self.expect.as_ref())
+        // A process that routes serves the others' links: whatever role it runs, it holds a
+        // router's certificate (the scale experiment's coordinator is its own router).
+        let expect = if router {
+            Some(Expect::Role(Role::Router))
+        } else {
+            self.expect.clone()
+        };
+        pki::check(&pki::TlsFiles { ca, cert, key }, expect.as_ref())
             .map(drop)
             .map_err(|e| BusError(format!("TLS identity: {e}")))
     }

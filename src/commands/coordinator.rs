@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
-use firefleet_bus::access::{Identity, Role};
+use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
 use firefleet_coordinator::CoordinatorOptions;
 use firefleet_model::SiteId;
@@ -56,14 +56,7 @@ pub struct CoordinatorArgs {
 
 pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
     let scenario = builtin::resolve(&a.scenario.scenario)?;
-    // A coordinator that is also the router (the scale experiment's) serves with the
-    // router's certificate; otherwise it is the coordinator.
-    let who = if a.zenoh.mode == Some(crate::net::ZenohMode::Router) {
-        Expect::Role(Role::Router)
-    } else {
-        Expect::Identity(Identity::Coordinator)
-    };
-    let bus = join(&a.zenoh, &scenario, who).await?;
+    let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Coordinator)).await?;
     let resumed = match &a.resume {
         Some(path) => recorded(path, &scenario.site)?,
         None => Recorded::default(),

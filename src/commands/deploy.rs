@@ -16,7 +16,6 @@ use std::process::ExitCode;
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
 use firefleet_bus::access::Role;
-use firefleet_bus::pki::Expect;
 use firefleet_bus::render::{Layout, render_site};
 use firefleet_bus::{Bus, Connect, Mode};
 use firefleet_model::builtin;
@@ -137,7 +136,7 @@ fn router_at(s: &str) -> Result<(RouterId, String), String> {
 
 pub async fn router(a: RouterArgs) -> anyhow::Result<ExitCode> {
     let scenario = builtin::resolve(&a.scenario.scenario)?;
-    let mut connect: Connect = a.zenoh.connect(Some(Expect::Role(Role::Router)));
+    let mut connect: Connect = a.zenoh.connect(None);
     connect.mode = Some(Mode::Router);
     let config = connect.to_config()?;
     if !a.plain {
