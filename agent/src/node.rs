@@ -96,6 +96,9 @@ where
     let bt_key = keys.unit_bt(unit);
     let mut next_report = f64::NEG_INFINITY;
     let mut next_bt = f64::NEG_INFINITY;
+    // What a refusal is logged under: the key, and which unit refused it.
+    let tasks_from = keys.unit_task(unit).as_str().to_owned();
+    let barred_from = format!("{} (at {unit})", keys.coord_barred().as_str());
     let mut next_print = f64::NEG_INFINITY;
     tracing::info!(%unit, nodes = ctl.tree().len(), "agent started");
     tokio::pin!(shutdown);
@@ -139,22 +142,22 @@ where
                 let Some((_, task)) = task else { break };
                 if &task.unit == unit {
                     if let Err(e) = ctl.on_task(task.epoch, task.seq, task.kind) {
-                        bus.rejects().refuse_invalid("tasks", &e);
+                        bus.rejects().refuse_invalid(&tasks_from, &e);
                     }
                 } else {
-                    bus.rejects().refuse_invalid("tasks", &format_args!("a task addressed to {}", task.unit));
+                    bus.rejects().refuse_invalid(&tasks_from, &format_args!("a task addressed to {}", task.unit));
                 }
             }
             Some((_, b)) = barred.recv() => {
                 if let Err(e) = ctl.on_barred(b) {
-                    bus.rejects().refuse_invalid("barred space", &e);
+                    bus.rejects().refuse_invalid(&barred_from, &e);
                 }
             }
             Some(answer) = barred_answers.recv() => {
                 if let Some(b) = bus.decode::<BarredSpace>(&answer, "barred space answer")
                     && let Err(e) = ctl.on_barred(b)
                 {
-                    bus.rejects().refuse_invalid("barred space answer", &e);
+                    bus.rejects().refuse_invalid(&barred_from, &format_args!("an answer: {e}"));
                 }
             }
             change = coord.recv() => {
