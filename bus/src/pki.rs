@@ -174,7 +174,7 @@ pub fn issue(pki: &Path, who: &Identity, terms: &Terms) -> Result<PathBuf, PkiEr
 /// Take `who`'s name off the site in `pki`: record it as revoked today and remove its
 /// directory. Takes effect when the rules are rendered again and the router restarts.
 pub fn revoke(pki: &Path, who: &Identity) -> Result<(), PkiError> {
-    if who.role() == Role::Router && *who == Identity::ROUTER {
+    if *who == Identity::ROUTER {
         return Err(refused(
             "the site's first router cannot be revoked: make a new site CA",
         ));
@@ -279,11 +279,19 @@ impl Certified {
     /// The certificate of a site identity in PEM text `pem`, which `source` names in
     /// errors.
     pub fn from_pem(pem: &[u8], source: &str) -> Result<Self, PkiError> {
-        let (cn, c) = parse_pem(pem, source)?;
-        let identity = cn
-            .parse()
-            .map_err(|e| refused(format!("{source}: common name: {e}")))?;
-        Ok(Self { identity, ..c })
+        let p = parse_pem(pem, source)?;
+        let identity =
+            p.cn.parse()
+                .map_err(|e| refused(format!("{source}: common name: {e}")))?;
+        Ok(Self {
+            identity,
+            not_before: p.not_before,
+            not_after: p.not_after,
+            server: p.server,
+            hosts: p.hosts,
+            spki: p.spki,
+            der: p.der,
+        })
     }
 
     /// Whole days from `now` until it expires (negative: expired).
@@ -292,15 +300,26 @@ impl Certified {
     }
 }
 
-/// The certificate in PEM file `path` and its common name, whatever that is (the CA's is
-/// no identity; it stands in the result as the first router, never read).
-fn parse(path: &Path) -> Result<(String, Certified), PkiError> {
+/// Any certificate as read, its common name whatever it is (a CA's is no identity).
+#[derive(Debug, Clone)]
+struct Parsed {
+    cn: String,
+    not_before: OffsetDateTime,
+    not_after: OffsetDateTime,
+    server: bool,
+    hosts: Vec<String>,
+    spki: Vec<u8>,
+    der: Vec<u8>,
+}
+
+/// The certificate in PEM file `path`.
+fn parse(path: &Path) -> Result<Parsed, PkiError> {
     let text = fs::read(path).map_err(io(format!("reading {}", path.display())))?;
     parse_pem(&text, &path.display().to_string())
 }
 
 /// [`parse`] of the PEM text `text`, which `source` names in errors.
-fn parse_pem(text: &[u8], source: &str) -> Result<(String, Certified), PkiError> {
+fn parse_pem(text: &[u8], source: &str) -> Result<Parsed, PkiError> {
     let bad = |why: String| refused(format!("{source}: {why}"));
     let (_, pem) = x509_parser::pem::parse_x509_pem(text)
         .map_err(|e| bad(format!("not a PEM certificate ({e})")))?;
@@ -328,16 +347,15 @@ fn parse_pem(text: &[u8], source: &str) -> Result<(String, Certified), PkiError>
             _ => {}
         }
     }
-    let parsed = Certified {
-        identity: Identity::ROUTER,
+    Ok(Parsed {
+        cn,
         not_before: c.validity().not_before.to_datetime(),
         not_after: c.validity().not_after.to_datetime(),
         server,
         hosts,
         spki: c.public_key().raw.to_vec(),
         der: pem.contents.clone(),
-    };
-    Ok((cn, parsed))
+    })
 }
 
 fn ip(bytes: &[u8]) -> Option<std::net::IpAddr> {
@@ -383,7 +401,7 @@ pub enum Expect {
 /// `expect`: every file readable, the certificate signed by the CA, the key its own, valid
 /// now, of the right role (and, for a router, able to serve). The identity.
 pub fn check(files: &TlsFiles, expect: Option<&Expect>) -> Result<Identity, PkiError> {
-    let (_, ca) = parse(&files.ca)?;
+    let ca = parse(&files.ca)?;
     let c = Certified::read(&files.cert)?;
     let key_pem =
         fs::read_to_string(&files.key).map_err(io(format!("reading {}", files.key.display())))?;
@@ -492,7 +510,7 @@ impl Signer {
             "reading the CA certificate in {}",
             dir.display()
         )))?;
-        let (_, written) = parse(&dir.join("ca.pem"))?;
+        let written = parse(&dir.join("ca.pem"))?;
         // The issuer of a certificate is the CA's name and key: the same parameters signed
         // by the same key stand for the CA as it was made. Holders get the CA's own
         // certificate (`pem`), not this stand-in (whose signature differs).

@@ -236,7 +236,7 @@ fn the_console_page_has_a_web_certificate_the_links_do_not_trust() {
     let page = Certified::read(&console.join("https-cert.pem"));
     // Its common name is no identity of the site: it cannot be read as one.
     assert!(page.is_err());
-    let (_, page) = parse(&console.join("https-cert.pem")).unwrap();
+    let page = parse(&console.join("https-cert.pem")).unwrap();
     assert!(page.server);
     assert_eq!(page.hosts, ["localhost", "127.0.0.1"]);
     // Signed by the web CA, not the site CA the links check.
@@ -254,7 +254,7 @@ fn the_console_page_has_a_web_certificate_the_links_do_not_trust() {
         check(&web, None).is_err(),
         "its name is no identity: refused as one"
     );
-    let (_, web_ca) = parse(&console.join("web-ca.pem")).unwrap();
-    let (_, site_ca) = parse(&console.join("ca.pem")).unwrap();
+    let web_ca = parse(&console.join("web-ca.pem")).unwrap();
+    let site_ca = parse(&console.join("ca.pem")).unwrap();
     assert_ne!(web_ca.spki, site_ca.spki);
 }
