@@ -408,18 +408,9 @@ impl SecureSite {
     fn new(scenario: &'static str) -> Self {
         let dir = tempfile::tempdir().unwrap();
         let path = |p: &str| dir.path().join(p).to_str().unwrap().to_owned();
-        let (pki, cfg) = (path("pki"), path("cfg"));
-        let out = support::firefleet(&[
-            "pki",
-            "init",
-            "--scenario",
-            scenario,
-            "--out",
-            &pki,
-            "--commander",
-            "rossi",
-        ]);
-        assert!(out.status.success(), "{}", text(&out));
+        let cfg = path("cfg");
+        let pki = pki_init(dir.path(), scenario);
+        let pki = pki.to_str().unwrap();
         let port = firefleet_bus::free_loopback_port().unwrap();
         let endpoint = format!("quic/127.0.0.1:{port}");
         let out = support::firefleet(&[
@@ -428,7 +419,7 @@ impl SecureSite {
             "--scenario",
             scenario,
             "--pki",
-            &pki,
+            pki,
             "--out",
             &cfg,
             "--commander",
@@ -745,19 +736,12 @@ fn forged_fire() -> FireTrack {
 
 fn forged_state(unit: &UnitId) -> UnitState {
     UnitState {
-        unit: unit.clone(),
-        kind: firefleet_model::UnitKind::Ground,
         t: 1.0,
-        pose: Pose2::new(20.0, 0.0, 0.0),
-        speed: 0.0,
-        mode: firefleet_protocol::msg::UnitMode::Idle,
-        water_l: 4321.0,
-        health: 1.0,
-        heat_flux_kw_m2: 0.0,
-        task: None,
-        autonomous: false,
-        task_seq: None,
-        epoch: None,
-        refused: None,
+        ..UnitState::idle(
+            unit.clone(),
+            firefleet_model::UnitKind::Ground,
+            Pose2::new(20.0, 0.0, 0.0),
+            4321.0,
+        )
     }
 }

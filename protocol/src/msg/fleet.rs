@@ -93,6 +93,29 @@ pub struct UnitState {
     pub refused: Option<Refusal>,
 }
 
+impl UnitState {
+    /// A unit at `pose` at t = 0 with `water_l` in its tank, idle, intact, never tasked:
+    /// a unit as it powers up (and a state to start a test or a load from).
+    pub fn idle(unit: UnitId, kind: UnitKind, pose: Pose2, water_l: f64) -> Self {
+        Self {
+            unit,
+            kind,
+            t: 0.0,
+            pose,
+            speed: 0.0,
+            mode: UnitMode::Idle,
+            water_l,
+            health: 1.0,
+            heat_flux_kw_m2: 0.0,
+            task: None,
+            autonomous: false,
+            refused: None,
+            task_seq: None,
+            epoch: None,
+        }
+    }
+}
+
 impl Validate for UnitState {
     fn validate(&self) -> Result<(), Invalid> {
         finite("t", self.t)?;

@@ -28,7 +28,7 @@ use firefleet_bus::{Ask, Bus, Connect, Mode};
 use firefleet_model::{CommanderId, Pose2, UnitId, UnitKind, builtin};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{FlameObservation, FlameReport, MAX_LIST, UnitMode, UnitState};
+use firefleet_protocol::msg::{FlameObservation, FlameReport, MAX_LIST, UnitState};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -293,22 +293,12 @@ async fn attack(
 ) {
     let keys = thief.keys().clone();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut state = UnitState {
-        unit: unit.clone(),
-        kind: UnitKind::Ground,
-        t: 0.0,
-        pose: Pose2::new(60.0, -2.0, 0.0),
-        speed: 0.0,
-        mode: UnitMode::Idle,
-        water_l: 1000.0,
-        health: 1.0,
-        heat_flux_kw_m2: 0.0,
-        task: None,
-        autonomous: false,
-        task_seq: None,
-        epoch: None,
-        refused: None,
-    };
+    let mut state = UnitState::idle(
+        unit.clone(),
+        UnitKind::Ground,
+        Pose2::new(60.0, -2.0, 0.0),
+        1000.0,
+    );
     let big = vec![0xA5u8; 1 << 20];
     while !stop.load(Ordering::Relaxed) {
         let (key, bytes) = match attack {
