@@ -100,6 +100,20 @@ where
     let tasks_from = keys.unit_task(unit).as_str().to_owned();
     let barred_from = format!("{} (at {unit})", keys.coord_barred().as_str());
     let mut next_print = f64::NEG_INFINITY;
+    let batch = || BtTransitions {
+        unit: unit.clone(),
+        transitions: transitions
+            .borrow_mut()
+            .drain(..)
+            .map(|t| BtTransition {
+                node: t.node,
+                name: labels[t.node as usize].clone(),
+                t: t.t,
+                from: status(t.from),
+                to: status(t.to),
+            })
+            .collect(),
+    };
     tracing::info!(%unit, nodes = ctl.tree().len(), "agent started");
     tokio::pin!(shutdown);
     let mut halt = None;
@@ -116,12 +130,7 @@ where
                 // (`firefleet_bus::limits`) however fast its platform's frames come.
                 if t >= next_bt && !transitions.borrow().is_empty() {
                     next_bt = t + BT_BATCH_S;
-                    let batch: Vec<BtTransition> = transitions
-                        .borrow_mut()
-                        .drain(..)
-                        .map(|t| BtTransition { node: t.node, name: labels[t.node as usize].clone(), t: t.t, from: status(t.from), to: status(t.to) })
-                        .collect();
-                    bus.put(&bt_key, &BtTransitions { unit: unit.clone(), transitions: batch }).await?;
+                    bus.put(&bt_key, &batch()).await?;
                 }
                 if opts.print_tree && t >= next_print {
                     next_print = t + 1.0;
@@ -167,6 +176,10 @@ where
             }
             _ = &mut shutdown => break,
         }
+    }
+    // What the tree did since the last batch goes out before the agent does.
+    if !transitions.borrow().is_empty() {
+        bus.put(&bt_key, &batch()).await?;
     }
     if let Some(cmd) = halt {
         platform.actuate(cmd).await?;
