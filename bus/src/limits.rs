@@ -121,12 +121,18 @@ pub fn zenoh_limits(keys: &Keys, units: &[UnitId], time_scale: f64) -> (Value, V
             )
         })
         .collect();
-    let downsampling = json!([{
-        "id": "unit keys",
-        "messages": ["put", "delete"],
-        "flows": ["ingress"],
-        "rules": rules,
-    }]);
+    // Zenoh refuses a downsampler or filter with no rules or keys: a site without units
+    // gets none of them.
+    let downsampling = if units.is_empty() {
+        json!([])
+    } else {
+        json!([{
+            "id": "unit keys",
+            "messages": ["put", "delete"],
+            "flows": ["ingress"],
+            "rules": rules,
+        }])
+    };
     let mut low_pass: Vec<Value> = LIMITS
         .iter()
         .filter(|_| !units.is_empty())
@@ -191,6 +197,9 @@ mod tests {
         );
         // Zenoh reads them as its own configuration.
         let mut c = zenoh::Config::default();
+        c.insert_json5("downsampling", &ds.to_string()).unwrap();
+        c.insert_json5("low_pass_filter", &lp.to_string()).unwrap();
+        let (ds, lp) = zenoh_limits(&keys, &[], 1.0);
         c.insert_json5("downsampling", &ds.to_string()).unwrap();
         c.insert_json5("low_pass_filter", &lp.to_string()).unwrap();
     }
