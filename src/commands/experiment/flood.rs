@@ -211,7 +211,11 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
             .as_str()
             .unwrap_or("no summary")
             .to_owned(),
-        aborted: aborted(&status, &log_text),
+        // A child that died ends the demo with these words.
+        aborted: aborted(&status, &log_text)
+            || summary["outcome"]
+                .as_str()
+                .is_some_and(|o| o.contains("exited unexpectedly")),
         fires_out: summary["fires_out"].as_u64().unwrap_or(0),
         fires_total: summary["fires_total"].as_u64().unwrap_or(0),
         wall_s,
@@ -415,13 +419,8 @@ fn aborted(status: &std::process::ExitStatus, log: &str) -> bool {
             return true;
         }
     }
-    [
-        "memory allocation of",
-        "panicked at",
-        "SIGSEGV",
-        "segfault",
-        "died of signal",
-    ]
-    .iter()
-    .any(|s| log.contains(s))
+    // Rust's abort on a failed allocation, and a panic, in any process of the demo.
+    ["memory allocation of", "panicked at"]
+        .iter()
+        .any(|s| log.contains(s))
 }
