@@ -121,6 +121,7 @@ impl Incident {
     pub fn on_state(&mut self, st: UnitState, t: f64) -> Result<Vec<Output>, Invalid> {
         let unit = st.unit.clone();
         self.tunnel.check_inside("pose", st.pose.position())?;
+        self.view(&unit, "unit")?.newest_state.admit(st.t, t)?;
         let mobility = self.view(&unit, "unit")?.mobility;
         let (from, to) = self.sight(mobility, st.pose);
         self.coverage.look(from, to, t);
@@ -405,11 +406,13 @@ impl Incident {
 
     /// A unit's flame report.
     pub fn on_report(&mut self, r: &FlameReport, t: f64) -> Result<Vec<Output>, Invalid> {
-        self.view(&r.unit, "unit")?.last_heard = t;
         for (i, o) in r.observations.iter().enumerate() {
             self.tunnel
                 .check_inside(&format!("observations[{i}].position"), o.position)?;
         }
+        let v = self.view(&r.unit, "unit")?;
+        v.newest_report.admit(r.t, t)?;
+        v.last_heard = t;
         let mut out = Vec::new();
         for o in &r.observations {
             match self.fusion.observe(&r.unit, o, t) {

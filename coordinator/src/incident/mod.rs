@@ -68,12 +68,14 @@ use crate::roads::RoadMaps;
 mod decision;
 mod dispatch;
 mod events;
+mod freshness;
 mod policy;
 mod search;
 mod staging;
 mod zones;
 
 pub use decision::{Decision, Logged, Loss};
+pub use freshness::{AHEAD_S, BEHIND_S};
 pub use policy::Policy;
 
 /// How many decisions the incident remembers for status queries.
@@ -125,6 +127,9 @@ struct UnitView {
     /// This coordinator has given the unit a task: what the unit reports working on is
     /// then this coordinator's business, never a task to adopt.
     tasked: bool,
+    /// The newest state and report taken from the unit: older ones are replays.
+    newest_state: freshness::Newest,
+    newest_report: freshness::Newest,
 }
 
 impl UnitView {
@@ -140,6 +145,8 @@ impl UnitView {
             lost: None,
             unechoed: None,
             tasked: false,
+            newest_state: freshness::Newest::default(),
+            newest_report: freshness::Newest::default(),
         }
     }
 

@@ -8,7 +8,7 @@ fn a_fire_whose_heat_release_needs_two_cannons_gets_two_units() {
         let mut i = incident();
         let mut r = report("a", 60.0);
         r.observations[0].hrr_kw = hrr_kw;
-        let mut out = i.on_report(&r, 1.0).unwrap();
+        let mut out = i.report_at(&r, 1.0).unwrap();
         out.extend(i.tick(1.2));
         assert_eq!(tasks(&out).len(), attackers, "{hrr_kw:?} kW");
         let fire = i.fusion.fires()[0].id;
@@ -19,7 +19,7 @@ fn a_fire_whose_heat_release_needs_two_cannons_gets_two_units() {
 #[test]
 fn a_confirmed_fire_goes_to_the_nearest_free_unit() {
     let mut i = incident();
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     let t = tasks(&out);
     assert_eq!(t.len(), 1);
     assert_eq!(t[0].unit.as_str(), "b");
@@ -45,9 +45,9 @@ fn the_nearer_unit_behind_a_truck_across_the_road_is_not_sent() {
     i.set_units_per_fire(1);
     for (n, x) in [("a", 45.0), ("b", 100.0)] {
         i.on_alive(&u(n), true, 0.0).unwrap();
-        i.on_state(state(n, x, None), 0.0).unwrap();
+        i.state_at(state(n, x, None), 0.0).unwrap();
     }
-    let out = i.on_report(&report("b", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("b", 60.0), 1.0).unwrap();
     let sent: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
     assert_eq!(sent, ["b"], "{out:?}");
 }
@@ -56,8 +56,8 @@ fn the_nearer_unit_behind_a_truck_across_the_road_is_not_sent() {
 fn no_backup_or_reserve_is_sent_from_more_than_a_minute_away() {
     let mut i = incident_with_backups();
     // b drives to 150 m: 90 m from a fire at 60 m is a minute at 1.5 m/s, and more.
-    i.on_state(state("b", 155.0, None), 0.5).unwrap();
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    i.state_at(state("b", 155.0, None), 0.5).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     assert_eq!(tasks(&out).len(), 1, "{out:?}");
     assert_eq!(tasks(&out)[0].unit.as_str(), "a");
     assert!(kinds_for(&out, "b").is_empty(), "{out:?}");
@@ -66,7 +66,7 @@ fn no_backup_or_reserve_is_sent_from_more_than_a_minute_away() {
 #[test]
 fn a_second_free_unit_backs_up_and_leaves_for_a_fire_nobody_attacks() {
     let mut i = incident_with_backups();
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     let t = tasks(&out);
     assert_eq!(t.len(), 2, "{out:?}");
     assert_eq!((t[0].unit.as_str(), t[1].unit.as_str()), ("b", "a"));
@@ -75,7 +75,7 @@ fn a_second_free_unit_backs_up_and_leaves_for_a_fire_nobody_attacks() {
         Decision::Assign { unit, fire: F1, backup: true, .. } if unit == "a"
     )));
     // A new fire, nobody on it: the backup (still on its way) takes it.
-    let out = i.on_report(&report("b", 150.0), 2.0).unwrap();
+    let out = i.report_at(&report("b", 150.0), 2.0).unwrap();
     let t = tasks(&out);
     assert_eq!(t.len(), 1, "{out:?}");
     assert_eq!(t[0].unit.as_str(), "a");
@@ -97,11 +97,11 @@ fn broken(x: f64) -> UnitState {
 #[test]
 fn a_unit_come_free_near_a_fire_takes_it_over_from_one_far_away() {
     let mut i = incident();
-    i.on_state(broken(140.0), 0.5).unwrap();
-    let out = i.on_report(&report("a", 150.0), 1.0).unwrap();
+    i.state_at(broken(140.0), 0.5).unwrap();
+    let out = i.report_at(&report("a", 150.0), 1.0).unwrap();
     assert_eq!(tasks(&out)[0].unit.as_str(), "a", "{out:?}");
     // b is repaired 10 m from the fire: a, 90 s away, is released.
-    let out = i.on_state(state("b", 140.0, None), 2.0).unwrap();
+    let out = i.state_at(state("b", 140.0, None), 2.0).unwrap();
     assert_eq!(tasks(&out).len(), 1, "{out:?}");
     assert_eq!(tasks(&out)[0].unit.as_str(), "b");
     assert_eq!(kinds_for(&out, "a"), vec![TaskKind::Standby]);
@@ -115,16 +115,16 @@ fn a_unit_come_free_near_a_fire_takes_it_over_from_one_far_away() {
 #[test]
 fn a_unit_on_its_way_keeps_its_fire_against_a_marginal_gain_and_stays_as_backup_otherwise() {
     let mut i = incident_with_backups();
-    i.on_state(broken(100.0), 0.5).unwrap();
-    i.on_state(state("a", 40.0, None), 0.5).unwrap();
-    i.on_report(&report("a", 80.0), 1.0).unwrap();
+    i.state_at(broken(100.0), 0.5).unwrap();
+    i.state_at(state("a", 40.0, None), 0.5).unwrap();
+    i.report_at(&report("a", 80.0), 1.0).unwrap();
     // b 10 s nearer (15 m against 40 m): not worth a change; b backs a up.
-    i.on_state(state("b", 95.0, None), 2.0).unwrap();
+    i.state_at(state("b", 95.0, None), 2.0).unwrap();
     assert!(!i.units[&u("a")].backup);
     assert!(i.units[&u("b")].backup);
     // b next to the fire, 25 s sooner: b takes it over without a new task, and a
     // (27 s away) stays on as its backup.
-    i.on_state(state("b", 82.0, None), 4.0).unwrap();
+    i.state_at(state("b", 82.0, None), 4.0).unwrap();
     let out = i.tick(4.0);
     assert!(all_tasks(&out).is_empty(), "{out:?}");
     assert!(i.units[&u("a")].backup && !i.units[&u("b")].backup);
@@ -141,7 +141,7 @@ fn a_unit_on_its_way_keeps_its_fire_against_a_marginal_gain_and_stays_as_backup_
 #[test]
 fn a_spraying_backup_stays_on_its_fire_and_the_unit_still_on_its_way_takes_a_new_one() {
     let mut i = incident_with_backups();
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     let backup = tasks(&out)[1].clone();
     let TaskKind::Extinguish { fire, target } = backup.kind else {
         panic!()
@@ -152,8 +152,8 @@ fn a_spraying_backup_stays_on_its_fire_and_the_unit_still_on_its_way_takes_a_new
         phase: TaskPhase::Spraying,
         target,
     };
-    i.on_state(state("a", 50.0, Some(spraying)), 1.5).unwrap();
-    let out = i.on_report(&report("b", 150.0), 2.0).unwrap();
+    i.state_at(state("a", 50.0, Some(spraying)), 1.5).unwrap();
+    let out = i.report_at(&report("b", 150.0), 2.0).unwrap();
     assert!(kinds_for(&out, "a").is_empty(), "{out:?}");
     let t = tasks(&out);
     assert_eq!(t.len(), 1, "{out:?}");
@@ -183,7 +183,7 @@ mod profiles {
         i.coverage.look(Chainage::ZERO, end, 0.0);
         for (n, x) in [("heavy", heavy_x), ("light", light_x)] {
             i.on_alive(&u(n), true, 0.0).unwrap();
-            i.on_state(state(n, x, None), 0.0).unwrap();
+            i.state_at(state(n, x, None), 0.0).unwrap();
         }
         i
     }
@@ -198,7 +198,7 @@ mod profiles {
         );
         // The heavy unit is nearer the fire (14 m against 24 m), with the gap between.
         let mut i = site(b, 48.0, 38.0);
-        let out = i.on_report(&report("light", 62.0), 1.0).unwrap();
+        let out = i.report_at(&report("light", 62.0), 1.0).unwrap();
         let sent: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
         assert_eq!(sent, ["light"], "{out:?}");
         // The same roads, asked for each body.
@@ -215,7 +215,7 @@ mod profiles {
             let mut i = site(Scenario::straight(200.0), heavy_x, light_x);
             let mut r = report("light", 62.0);
             r.observations[0].hrr_kw = Some(20_000.0);
-            let mut out = i.on_report(&r, 1.0).unwrap();
+            let mut out = i.report_at(&r, 1.0).unwrap();
             out.extend(i.tick(1.2));
             let units: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
             assert_eq!(units.len(), sent, "heavy at {heavy_x}: {units:?}");

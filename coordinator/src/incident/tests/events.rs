@@ -6,7 +6,7 @@ use firefleet_protocol::msg::{EPOCH_RANKS, Task, epoch_after};
 #[test]
 fn a_lost_unit_s_fire_is_reassigned_at_once() {
     let mut i = incident();
-    i.on_report(&report("a", 60.0), 1.0).unwrap();
+    i.report_at(&report("a", 60.0), 1.0).unwrap();
     let out = i.on_alive(&u("b"), false, 2.0).unwrap();
     let t = tasks(&out);
     assert_eq!(t.len(), 1, "{out:?}");
@@ -16,8 +16,8 @@ fn a_lost_unit_s_fire_is_reassigned_at_once() {
 #[test]
 fn a_silent_unit_is_lost_after_its_lease() {
     let mut i = incident();
-    i.on_report(&report("a", 60.0), 1.0).unwrap();
-    i.on_state(state("a", 10.0, None), 5.5).unwrap();
+    i.report_at(&report("a", 60.0), 1.0).unwrap();
+    i.state_at(state("a", 10.0, None), 5.5).unwrap();
     assert!(tasks(&i.tick(4.0)).is_empty());
     let out = i.tick(6.0);
     assert_eq!(tasks(&out)[0].unit.as_str(), "a");
@@ -26,7 +26,7 @@ fn a_silent_unit_is_lost_after_its_lease() {
 #[test]
 fn extinguished_fire_is_out_and_the_unit_stands_by() {
     let mut i = incident();
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     let (fire, out) = b_puts_out_the_first_fire(&mut i, &out);
     assert!(
         out.iter()
@@ -40,18 +40,50 @@ fn extinguished_fire_is_out_and_the_unit_stands_by() {
 }
 
 #[test]
+fn a_replayed_report_of_a_fire_since_out_is_refused_and_does_not_reignite_it() {
+    let mut i = incident();
+    let recorded = FlameReport {
+        t: 1.0,
+        ..report("a", 60.0)
+    };
+    let out = i.on_report(&recorded, 1.0).unwrap();
+    let (fire, _) = b_puts_out_the_first_fire(&mut i, &out);
+    i.report_at(&report("a", 100.0), 25.0).unwrap();
+    for now in [26.0, 40.0] {
+        let e = i.on_report(&recorded, now).unwrap_err();
+        assert_eq!(e.field, "t", "{e}");
+    }
+    let e = i
+        .on_state(
+            UnitState {
+                t: 19.0,
+                ..state("b", 55.0, None)
+            },
+            21.0,
+        )
+        .unwrap_err();
+    assert!(e.reason.contains("older than the sender's last"), "{e}");
+    let track = i
+        .fire_tracks(40.0)
+        .into_iter()
+        .find(|f| f.id == fire)
+        .unwrap();
+    assert_eq!(track.state, FireState::Out, "no re-ignition from a replay");
+}
+
+#[test]
 fn bad_input_is_refused_and_changes_nothing() {
     let mut i = incident();
     assert!(
-        i.on_report(&report("zz", 60.0), 1.0)
+        i.report_at(&report("zz", 60.0), 1.0)
             .unwrap_err()
             .reason
             .contains("unknown unit")
     );
-    let e = i.on_report(&report("a", 260.0), 1.0).unwrap_err();
+    let e = i.report_at(&report("a", 260.0), 1.0).unwrap_err();
     assert_eq!(e.field, "observations[0].position");
     assert!(i.fire_tracks(1.0).is_empty());
-    assert!(i.on_state(state("a", -30.0, None), 1.0).is_err());
+    assert!(i.state_at(state("a", -30.0, None), 1.0).is_err());
 }
 
 #[test]
@@ -67,7 +99,7 @@ fn a_restarted_coordinator_adopts_running_tasks_and_numbers_new_ones_above_them(
     // Heard before the first decision, as a starting coordinator does.
     i.heed(&state("a", 10.0, Some(held)), 1.0);
     let epoch = i.take_office(2, 1.0);
-    let out = i.on_state(state("a", 10.0, Some(held)), 1.0).unwrap();
+    let out = i.state_at(state("a", 10.0, Some(held)), 1.0).unwrap();
     // a keeps its attack, given again in this coordinator's term: the deposed one may
     // command it no more.
     let again = tasks(&out);
@@ -82,13 +114,13 @@ fn a_restarted_coordinator_adopts_running_tasks_and_numbers_new_ones_above_them(
         Decision::Adopt { unit, seq: 70000, .. } if unit == "a"
     )));
     // The fire, reported again, is a's: nobody else is sent.
-    let out = i.on_report(&report("b", 60.0), 2.0).unwrap();
+    let out = i.report_at(&report("b", 60.0), 2.0).unwrap();
     assert!(tasks(&out).is_empty(), "{out:?}");
     let fires = i.fire_tracks(2.0);
     assert_eq!(fires.len(), 1);
     assert_eq!(fires[0].assigned, [u("a")]);
     // A new fire gets a new task, numbered above the adopted one.
-    let out = i.on_report(&report("b", 150.0), 3.0).unwrap();
+    let out = i.report_at(&report("b", 150.0), 3.0).unwrap();
     assert!(!all_tasks(&out).is_empty());
     assert!(all_tasks(&out).iter().all(|t| t.seq > 70_000), "{out:?}");
     // a finishes the adopted task: its fire is out.
@@ -97,7 +129,7 @@ fn a_restarted_coordinator_adopts_running_tasks_and_numbers_new_ones_above_them(
         phase: TaskPhase::Extinguished,
         ..held
     };
-    let out = i.on_state(state("a", 45.0, Some(done)), 4.0).unwrap();
+    let out = i.state_at(state("a", 45.0, Some(done)), 4.0).unwrap();
     assert!(
         out.iter()
             .any(|o| matches!(o, Output::Fire(f) if f.state == FireState::Out)),
@@ -162,9 +194,9 @@ fn a_restarted_coordinator_recalls_recorded_fires_under_their_ids() {
         target: Point2::new(60.3, 1.1),
     };
     i.on_alive(&u("a"), true, 42.0).unwrap();
-    i.on_state(state("a", 55.0, Some(held)), 42.0).unwrap();
+    i.state_at(state("a", 55.0, Some(held)), 42.0).unwrap();
     i.on_alive(&u("b"), true, 42.0).unwrap();
-    let out = i.on_state(state("b", 100.0, None), 42.0).unwrap();
+    let out = i.state_at(state("b", 100.0, None), 42.0).unwrap();
     assert_eq!(
         kinds_for(&out, "b"),
         [TaskKind::Extinguish {
@@ -181,13 +213,13 @@ fn a_restarted_coordinator_recalls_recorded_fires_under_their_ids() {
 #[test]
 fn a_task_the_coordinator_never_gave_is_superseded_and_forged_numbers_are_not_heeded() {
     let mut i = incident();
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     let ours = tasks(&out)[0].clone();
     assert_eq!(ours.unit.as_str(), "b");
     // b took a task numbered above ours: somebody else's.
     let mut st = state("b", 40.0, None);
     st.task_seq = Some(ours.seq + 50);
-    let out = i.on_state(st, 2.0).unwrap();
+    let out = i.state_at(st, 2.0).unwrap();
     let again = all_tasks(&out)
         .into_iter()
         .find(|t| t.unit.as_str() == "b")
@@ -207,22 +239,22 @@ fn a_task_the_coordinator_never_gave_is_superseded_and_forged_numbers_are_not_he
         phase: TaskPhase::Travelling,
         target: Point2::new(10.0, 1.0),
     });
-    i.on_state(st, 3.0).unwrap();
-    let out = i.on_report(&report("a", 150.0), 4.0).unwrap();
+    i.state_at(st, 3.0).unwrap();
+    let out = i.report_at(&report("a", 150.0), 4.0).unwrap();
     assert!(all_tasks(&out).iter().all(|t| t.seq < 1_000_000), "{out:?}");
 }
 
 #[test]
 fn a_unit_heard_again_after_its_lease_is_back_in_play_and_its_old_task_not_adopted() {
     let mut i = incident();
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     let first = tasks(&out)[0].clone();
     assert_eq!(first.unit.as_str(), "b");
     let TaskKind::Extinguish { fire, target } = first.kind else {
         unreachable!()
     };
     // b falls silent past its lease (its token stays): lost, its fire goes to a.
-    i.on_state(state("a", 10.0, None), 5.5).unwrap();
+    i.state_at(state("a", 10.0, None), 5.5).unwrap();
     let out = i.tick(6.5);
     assert_eq!(tasks(&out)[0].unit.as_str(), "a");
     // b is heard again, still reporting its old task: back in play, the old task not
@@ -233,7 +265,7 @@ fn a_unit_heard_again_after_its_lease_is_back_in_play_and_its_old_task_not_adopt
         phase: TaskPhase::Travelling,
         target,
     };
-    let out = i.on_state(state("b", 40.0, Some(old)), 7.0).unwrap();
+    let out = i.state_at(state("b", 40.0, Some(old)), 7.0).unwrap();
     assert!(decided(
         &i,
         |d| matches!(d, Decision::Rejoined { unit, .. } if unit == "b")
@@ -251,7 +283,7 @@ fn a_unit_heard_again_after_its_lease_is_back_in_play_and_its_old_task_not_adopt
         "b is usable again"
     );
     // It is given work again: a new fire nearer b than a goes to b.
-    let out = i.on_report(&report("b", 45.0), 8.0).unwrap();
+    let out = i.report_at(&report("b", 45.0), 8.0).unwrap();
     assert!(
         tasks(&out).iter().any(|t| t.unit.as_str() == "b"),
         "{out:?}"
@@ -261,22 +293,22 @@ fn a_unit_heard_again_after_its_lease_is_back_in_play_and_its_old_task_not_adopt
 #[test]
 fn a_unit_whose_states_stop_echoing_its_task_is_lost_as_deaf_and_its_fire_reassigned() {
     let mut i = incident();
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     let first = tasks(&out)[0].clone();
     assert_eq!(first.unit.as_str(), "b");
     // a hears its coordinator; b's states go on, still on the task before (none).
     let deaf_after = Policy::DEFAULT.deaf_after_s;
     let mut t = 1.0;
     while t <= 1.0 + deaf_after {
-        i.on_state(echoing(&i, state("a", 10.0, None)), t).unwrap();
-        i.on_state(state("b", 40.0, None), t).unwrap();
+        i.state_at(echoing(&i, state("a", 10.0, None)), t).unwrap();
+        i.state_at(state("b", 40.0, None), t).unwrap();
         assert!(
             !decided(&i, |d| matches!(d, Decision::Lost { .. })),
             "not before {deaf_after} s: at {t} s"
         );
         t += 0.5;
     }
-    let out = i.on_state(state("b", 40.0, None), t).unwrap();
+    let out = i.state_at(state("b", 40.0, None), t).unwrap();
     assert!(decided(&i, |d| matches!(
         d,
         Decision::Lost { unit, why: Loss::Deaf, fire: Some(_) } if unit == "b"
@@ -293,9 +325,9 @@ fn a_unit_whose_states_stop_echoing_its_task_is_lost_as_deaf_and_its_fire_reassi
         "named in status"
     );
     // Deaf states keep it out; the echo of what it was asked brings it back.
-    i.on_state(state("b", 40.0, None), t + 5.0).unwrap();
+    i.state_at(state("b", 40.0, None), t + 5.0).unwrap();
     assert!(!i.units[&u("b")].alive);
-    i.on_state(echoing(&i, state("b", 40.0, None)), t + 6.0)
+    i.state_at(echoing(&i, state("b", 40.0, None)), t + 6.0)
         .unwrap();
     assert!(decided(&i, |d| matches!(
         d,
@@ -311,10 +343,10 @@ fn a_unit_echoing_an_older_task_while_new_ones_keep_coming_is_not_deaf() {
     let mut t = 0.0;
     let mut echo = None;
     while t < 40.0 {
-        i.on_state(echoing(&i, state("a", 10.0, None)), t).unwrap();
+        i.state_at(echoing(&i, state("a", 10.0, None)), t).unwrap();
         let mut st = state("b", 40.0, None);
         st.task_seq = echo;
-        i.on_state(st, t + 1.0).unwrap();
+        i.state_at(st, t + 1.0).unwrap();
         let out = i.give(&u("b"), TaskKind::Standby, t + 1.0);
         let Output::Task(k) = out else { unreachable!() };
         echo = Some(k.seq);
@@ -339,8 +371,8 @@ fn b_looks_at_a_s_claim(i: &mut Incident, claim: f64, b_at: f64, t0: f64) -> f64
     while contradictions(i) == before {
         t += 0.5;
         assert!(t < t0 + 30.0, "never contradicted");
-        i.on_report(&report("a", claim), t).unwrap();
-        i.on_state(echoing(i, state("b", b_at, None)), t).unwrap();
+        i.report_at(&report("a", claim), t).unwrap();
+        i.state_at(echoing(i, state("b", b_at, None)), t).unwrap();
     }
     t
 }
@@ -350,7 +382,7 @@ fn a_unit_whose_fires_others_look_at_and_never_see_is_doubted_and_its_claims_dis
     let mut i = incident();
     // a claims a fire at 100 m that is not there; b is sent, looks from 8 m short of it
     // for ten seconds and sees nothing.
-    let out = i.on_report(&report("a", 100.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 100.0), 1.0).unwrap();
     assert_eq!(tasks(&out)[0].unit.as_str(), "b");
     let t = b_looks_at_a_s_claim(&mut i, 100.0, 92.0, 1.0);
     assert!(decided(&i, |d| matches!(
@@ -370,7 +402,7 @@ fn a_unit_whose_fires_others_look_at_and_never_see_is_doubted_and_its_claims_dis
         phase: TaskPhase::Extinguished,
         target: Point2::new(100.0, 1.0),
     };
-    i.on_state(echoing(&i, state("b", 92.0, Some(done))), t + 0.5)
+    i.state_at(echoing(&i, state("b", 92.0, Some(done))), t + 0.5)
         .unwrap();
     let t = b_looks_at_a_s_claim(&mut i, 160.0, 152.0, t);
     assert!(
@@ -416,12 +448,12 @@ fn a_unit_whose_fires_others_look_at_and_never_see_is_doubted_and_its_claims_dis
     let before = confirmed(&i);
     for k in 1..=20 {
         let out = i
-            .on_report(&report("a", 30.0), t + 0.25 * f64::from(k))
+            .report_at(&report("a", 30.0), t + 0.25 * f64::from(k))
             .unwrap();
         assert!(tasks(&out).is_empty(), "{out:?}");
     }
     assert_eq!(confirmed(&i), before);
-    let out = i.on_report(&report("b", 30.0), t + 6.0).unwrap();
+    let out = i.report_at(&report("b", 30.0), t + 6.0).unwrap();
     assert_eq!(confirmed(&i), before + 1);
     assert_eq!(tasks(&out).len(), 1, "{out:?}");
 }
@@ -430,7 +462,7 @@ fn a_unit_whose_fires_others_look_at_and_never_see_is_doubted_and_its_claims_dis
 fn a_coordinator_of_a_newer_epoch_deposes_this_one_and_no_unit_is_fought_over() {
     let mut i = incident();
     let epoch = i.take_office(0, 1.0);
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     let ours = tasks(&out)[0].clone();
     assert_eq!(ours.epoch, epoch);
     // The unit now obeys a coordinator that took office above this one: this one does not
@@ -439,7 +471,7 @@ fn a_coordinator_of_a_newer_epoch_deposes_this_one_and_no_unit_is_fought_over() 
     let mut st = state(ours.unit.as_str(), 40.0, None);
     st.task_seq = Some(newer);
     st.epoch = Some(newer);
-    let out = i.on_state(st, 2.0).unwrap();
+    let out = i.state_at(st, 2.0).unwrap();
     assert!(
         all_tasks(&out).iter().all(|t| t.unit != ours.unit),
         "{out:?}"
@@ -474,7 +506,7 @@ fn a_unit_holding_an_older_term_s_task_is_brought_into_this_one_at_first_hearing
     let mut st = state("b", 40.0, None);
     st.task_seq = Some(2_000);
     st.epoch = Some(16);
-    let out = i.on_state(st.clone(), 30.5).unwrap();
+    let out = i.state_at(st.clone(), 30.5).unwrap();
     let given = all_tasks(&out);
     assert_eq!(given.len(), 1, "{out:?}");
     assert_eq!(
@@ -482,6 +514,6 @@ fn a_unit_holding_an_older_term_s_task_is_brought_into_this_one_at_first_hearing
         ("b", epoch, &TaskKind::Standby)
     );
     // Once is enough: the next state (still echoing the old task) brings nothing new.
-    let out = i.on_state(st, 30.7).unwrap();
+    let out = i.state_at(st, 30.7).unwrap();
     assert!(all_tasks(&out).is_empty(), "{out:?}");
 }

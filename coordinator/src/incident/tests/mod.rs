@@ -19,6 +19,23 @@ mod zones;
 
 const TUNNEL: Tunnel = Tunnel::straight(200.0, 10.0, 6.0, 2);
 
+/// Events dated as the units would date them: at the site time they arrive (the
+/// freshness rules have tests of their own).
+trait Dated {
+    fn state_at(&mut self, st: UnitState, t: f64) -> Result<Vec<Output>, Invalid>;
+    fn report_at(&mut self, r: &FlameReport, t: f64) -> Result<Vec<Output>, Invalid>;
+}
+
+impl Dated for Incident {
+    fn state_at(&mut self, st: UnitState, t: f64) -> Result<Vec<Output>, Invalid> {
+        self.on_state(UnitState { t, ..st }, t)
+    }
+
+    fn report_at(&mut self, r: &FlameReport, t: f64) -> Result<Vec<Output>, Invalid> {
+        self.on_report(&FlameReport { t, ..r.clone() }, t)
+    }
+}
+
 fn u(s: &str) -> UnitId {
     UnitId::new(s).unwrap()
 }
@@ -97,7 +114,7 @@ fn b_puts_out_the_first_fire(i: &mut Incident, out: &[Output]) -> (FireId, Vec<O
     };
     (
         fire,
-        i.on_state(state("b", 55.0, Some(done)), 20.0).unwrap(),
+        i.state_at(state("b", 55.0, Some(done)), 20.0).unwrap(),
     )
 }
 
@@ -126,7 +143,7 @@ fn incident_with_backups() -> Incident {
     let mut i = unheard();
     for (n, x) in [("a", 10.0), ("b", 40.0)] {
         i.on_alive(&u(n), true, 0.0).unwrap();
-        i.on_state(state(n, x, None), 0.0).unwrap();
+        i.state_at(state(n, x, None), 0.0).unwrap();
     }
     i
 }

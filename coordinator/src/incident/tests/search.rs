@@ -32,18 +32,18 @@ fn search_goal(out: &[Output]) -> Option<f64> {
 #[test]
 fn a_free_monorail_unit_searches_its_rail_end_to_end_and_back() {
     let (mut i, mut st) = with_rail(30.0);
-    let out = i.on_state(echoing(&i, st.clone()), 0.0).unwrap();
+    let out = i.state_at(echoing(&i, st.clone()), 0.0).unwrap();
     assert_eq!(search_goal(&out), Some(200.0), "the farther end first");
     st.pose.x = 120.0;
-    i.on_state(echoing(&i, st.clone()), 10.0).unwrap();
+    i.state_at(echoing(&i, st.clone()), 10.0).unwrap();
     assert_eq!(search_goal(&i.tick(10.0)), None, "on its way: no new task");
     st.pose.x = 199.6;
-    i.on_state(echoing(&i, st.clone()), 20.0).unwrap();
+    i.state_at(echoing(&i, st.clone()), 20.0).unwrap();
     assert_eq!(search_goal(&i.tick(20.0)), Some(0.0), "there: back again");
     // A fire it reaches takes it off the search; once out, the search resumes.
     let mut r = report("r", 150.0);
     r.observer = Pose2::new(150.0, 0.0, 0.0);
-    let out = i.on_report(&r, 21.0).unwrap();
+    let out = i.report_at(&r, 21.0).unwrap();
     let fire = tasks(&out)[0].clone();
     assert_eq!(fire.unit.as_str(), "r");
     assert_eq!(search_goal(&out), None);
@@ -57,7 +57,7 @@ fn a_free_monorail_unit_searches_its_rail_end_to_end_and_back() {
         phase: TaskPhase::Extinguished,
         target: Point2::new(150.0, 1.0),
     });
-    let out = i.on_state(echoing(&i, st), 40.0).unwrap();
+    let out = i.state_at(echoing(&i, st), 40.0).unwrap();
     assert_eq!(search_goal(&out), Some(0.0));
 }
 
@@ -67,7 +67,7 @@ fn a_monorail_search_turns_short_of_a_keep_out_zone() {
     i.goals = Goals::new(&[zone("z1", 100.0, 150.0)]);
     let (ack, _) = submit(&mut i, goal("g1", "z1", GoalKind::KeepOut, 0, None), 0.0);
     assert!(ack.accepted, "{ack:?}");
-    let out = i.on_state(st, 0.5).unwrap();
+    let out = i.state_at(st, 0.5).unwrap();
     assert_eq!(
         search_goal(&out),
         Some(100.0 - Policy::DEFAULT.evacuate_margin_m)
@@ -101,8 +101,8 @@ fn units_from_both_portals_search_the_unseen_middle_from_both_ends() {
     let mut i = unsearched();
     i.on_alive(&u("a"), true, 0.0).unwrap();
     i.on_alive(&u("b"), true, 0.0).unwrap();
-    i.on_state(echoing(&i, facing("a", 5.0, 0.0)), 0.0).unwrap();
-    i.on_state(echoing(&i, facing("b", 195.0, std::f64::consts::PI)), 0.0)
+    i.state_at(echoing(&i, facing("a", 5.0, 0.0)), 0.0).unwrap();
+    i.state_at(echoing(&i, facing("b", 195.0, std::f64::consts::PI)), 0.0)
         .unwrap();
     // a sees 0-35 m, b 165-200 m: the unseen middle is 35-165, split at 100.
     assert_eq!(searching_to(&i, "a").map(|g| g.x), Some(100.0));
@@ -115,16 +115,16 @@ fn units_from_both_portals_search_the_unseen_middle_from_both_ends() {
     // As they look, the middle shrinks evenly: the goals stand, no new tasks.
     for k in 1..=8 {
         let (t, d) = (5.0 * f64::from(k), 7.5 * f64::from(k));
-        i.on_state(echoing(&i, facing("a", 5.0 + d, 0.0)), t)
+        i.state_at(echoing(&i, facing("a", 5.0 + d, 0.0)), t)
             .unwrap();
-        i.on_state(echoing(&i, facing("b", 195.0 - d, std::f64::consts::PI)), t)
+        i.state_at(echoing(&i, facing("b", 195.0 - d, std::f64::consts::PI)), t)
             .unwrap();
         assert!(all_tasks(&i.solve(t)).is_empty(), "at {t} s");
     }
     // Once all is seen they are released to patrol.
-    i.on_state(echoing(&i, facing("a", 72.5, 0.0)), 45.0)
+    i.state_at(echoing(&i, facing("a", 72.5, 0.0)), 45.0)
         .unwrap();
-    i.on_state(echoing(&i, facing("b", 127.5, std::f64::consts::PI)), 45.0)
+    i.state_at(echoing(&i, facing("b", 127.5, std::f64::consts::PI)), 45.0)
         .unwrap();
     let out = i.solve(45.0);
     assert_eq!(kinds_for(&out, "a"), vec![TaskKind::Standby]);
@@ -136,7 +136,7 @@ fn one_unit_searches_and_its_partner_takes_the_fire_it_finds() {
     let mut i = unsearched();
     for n in ["a", "b"] {
         i.on_alive(&u(n), true, 0.0).unwrap();
-        i.on_state(echoing(&i, facing(n, 5.0, 0.0)), 0.0).unwrap();
+        i.state_at(echoing(&i, facing(n, 5.0, 0.0)), 0.0).unwrap();
     }
     let searcher = ["a", "b"]
         .into_iter()
@@ -147,11 +147,11 @@ fn one_unit_searches_and_its_partner_takes_the_fire_it_finds() {
     assert_eq!(searching_to(&i, other), None, "one searcher per end");
     // The pair sees a fire at 60 m from 35 m: one attacks, the other searches on
     // beyond it rather than backing up a fire one unit can fight.
-    i.on_state(echoing(&i, facing("a", 35.0, 0.0)), 20.0)
+    i.state_at(echoing(&i, facing("a", 35.0, 0.0)), 20.0)
         .unwrap();
-    i.on_state(echoing(&i, facing("b", 35.0, 0.0)), 20.0)
+    i.state_at(echoing(&i, facing("b", 35.0, 0.0)), 20.0)
         .unwrap();
-    let out = i.on_report(&report("a", 60.0), 20.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 20.0).unwrap();
     assert_eq!(tasks(&out).len(), 1, "{out:?}");
     let attacker = tasks(&out)[0].unit.as_str().to_owned();
     let other = if attacker == "a" { "b" } else { "a" };
@@ -169,7 +169,7 @@ fn unsearched_keeping_out_of(zone: &str) -> Incident {
 #[test]
 fn search_stops_short_of_a_keep_out_zone() {
     let mut i = unsearched_keeping_out_of("z2");
-    i.on_state(facing("a", 10.0, 0.0), 1.0).unwrap();
+    i.state_at(facing("a", 10.0, 0.0), 1.0).unwrap();
     let g = searching_to(&i, "a").expect("a searches");
     assert_eq!(g.x, 100.0 - Policy::DEFAULT.evacuate_margin_m);
 }
@@ -177,8 +177,8 @@ fn search_stops_short_of_a_keep_out_zone() {
 #[test]
 fn nobody_searches_a_stretch_beyond_a_keep_out_zone() {
     let mut i = unsearched_keeping_out_of("z1");
-    i.on_state(facing("a", 10.0, 0.0), 1.0).unwrap();
-    i.on_state(facing("b", 40.0, 0.0), 1.0).unwrap();
+    i.state_at(facing("a", 10.0, 0.0), 1.0).unwrap();
+    i.state_at(facing("b", 40.0, 0.0), 1.0).unwrap();
     i.solve(1.0);
     // Up to 70 m is seen (b looks 30 m ahead); 105-190 lies beyond the zone.
     assert_eq!(searching_to(&i, "a"), None);
@@ -189,18 +189,18 @@ fn nobody_searches_a_stretch_beyond_a_keep_out_zone() {
 fn a_stretch_not_seen_for_two_minutes_is_searched_again() {
     let mut i = incident();
     assert_eq!(searching_to(&i, "a"), None);
-    i.on_state(
+    i.state_at(
         facing("a", 10.0, 0.0),
         Policy::DEFAULT.search_again_after_s - 1.0,
     )
     .unwrap();
     assert!(all_tasks(&i.solve(Policy::DEFAULT.search_again_after_s - 1.0)).is_empty());
-    i.on_state(
+    i.state_at(
         facing("a", 10.0, 0.0),
         Policy::DEFAULT.search_again_after_s + 1.0,
     )
     .unwrap();
-    i.on_state(
+    i.state_at(
         facing("b", 40.0, 0.0),
         Policy::DEFAULT.search_again_after_s + 1.0,
     )
@@ -213,7 +213,7 @@ fn a_stretch_not_seen_for_two_minutes_is_searched_again() {
 fn past_a_fire_left_burning_free_units_search_on() {
     let mut i = zoned();
     submit(&mut i, goal("g1", "z1", GoalKind::Monitor, 0, None), 0.5);
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     let kinds: Vec<TaskKind> = all_tasks(&out).iter().map(|t| t.kind).collect();
     assert_eq!(kinds.len(), 2, "{out:?}");
     assert!(

@@ -5,7 +5,7 @@ use super::*;
 #[test]
 fn free_units_are_staged_short_of_the_fire_and_released_when_it_is_out() {
     let mut i = incident();
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     assert_eq!(
         kinds_for(&out, "a"),
         [TaskKind::Cruise {
@@ -64,7 +64,7 @@ fn in_a_bend_staging_finds_a_fire_s_zone_by_its_chainage() {
         let p = at(s, -2.5);
         st.pose = Pose2::new(p.x, p.y, tunnel.heading_at(Chainage::new(s)));
         i.on_alive(&u(n), true, 0.0).unwrap();
-        i.on_state(st, 0.0).unwrap();
+        i.state_at(st, 0.0).unwrap();
     }
     let observer = at(130.0, -2.5);
     let r = FlameReport {
@@ -82,7 +82,7 @@ fn in_a_bend_staging_finds_a_fire_s_zone_by_its_chainage() {
             hrr_kw: None,
         }],
     };
-    let mut out = i.on_report(&r, 1.0).unwrap();
+    let mut out = i.report_at(&r, 1.0).unwrap();
     out.extend(i.tick(3.5));
     for unit in ["a", "b"] {
         let kinds = kinds_for(&out, unit);

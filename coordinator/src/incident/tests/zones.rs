@@ -8,9 +8,9 @@ fn no_fire_in_a_keep_out_zone_is_attacked_and_no_unit_crosses_it() {
     let mut i = zoned();
     let (ack, _) = submit(&mut i, goal("g1", "z1", GoalKind::KeepOut, 0, None), 0.5);
     assert!(ack.accepted, "{ack:?}");
-    assert!(tasks(&i.on_report(&report("a", 60.0), 1.0).unwrap()).is_empty());
+    assert!(tasks(&i.report_at(&report("a", 60.0), 1.0).unwrap()).is_empty());
     // Both units are on the near side: the fire beyond the zone gets nobody.
-    assert!(tasks(&i.on_report(&report("a", 150.0), 2.0).unwrap()).is_empty());
+    assert!(tasks(&i.report_at(&report("a", 150.0), 2.0).unwrap()).is_empty());
     let out = i.clear_goals(
         &ZoneId::new("z1").unwrap(),
         &CommanderId::new("ic-1").unwrap(),
@@ -22,7 +22,7 @@ fn no_fire_in_a_keep_out_zone_is_attacked_and_no_unit_crosses_it() {
 #[test]
 fn a_monitor_goal_withdraws_the_unit_and_leaves_the_fire_burning() {
     let mut i = zoned();
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     assert_eq!(tasks(&out)[0].unit.as_str(), "b");
     let (ack, out) = submit(&mut i, goal("g1", "z1", GoalKind::Monitor, 0, None), 2.0);
     assert!(ack.accepted);
@@ -44,7 +44,7 @@ fn a_monitor_goal_withdraws_the_unit_and_leaves_the_fire_burning() {
 #[test]
 fn evacuate_sends_units_out_of_the_zone_now() {
     let mut i = zoned();
-    i.on_state(state("b", 55.0, None), 0.5).unwrap();
+    i.state_at(state("b", 55.0, None), 0.5).unwrap();
     let (_, out) = submit(&mut i, goal("g1", "z1", GoalKind::Evacuate, 0, None), 1.0);
     let b = kinds_for(&out, "b");
     assert_eq!(
@@ -70,7 +70,7 @@ fn a_priority_zone_s_fire_is_served_first() {
         confidence: 0.9,
         hrr_kw: None,
     });
-    let out = i.on_report(&r, 1.0).unwrap();
+    let out = i.report_at(&r, 1.0).unwrap();
     let t = tasks(&out);
     assert_eq!(t.len(), 1);
     assert!(
@@ -87,7 +87,7 @@ fn under_contain_reserves_hold_the_line() {
         goal("g1", "z2", GoalKind::Contain, 0, Some(110.0)),
         0.5,
     );
-    let out = i.on_report(&report("a", 150.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 150.0), 1.0).unwrap();
     let a = kinds_for(&out, "a");
     assert_eq!(
         a,
@@ -111,7 +111,7 @@ fn a_contain_goal_on_a_zone_without_fire_says_what_it_will_do() {
         ack.reason.contains("no fire in zone z2 yet") && ack.reason.contains("110.0 m"),
         "{ack:?}"
     );
-    i.on_report(&report("a", 150.0), 1.0).unwrap();
+    i.report_at(&report("a", 150.0), 1.0).unwrap();
     let (ack, _) = submit(
         &mut i,
         goal("g1", "z2", GoalKind::Contain, 0, Some(120.0)),
@@ -132,7 +132,7 @@ fn a_rejected_goal_changes_nothing() {
         Decision::Goal { accepted: false, reason, .. } if reason.starts_with("unknown zone 'z9'")
     )));
     assert_eq!(
-        tasks(&i.on_report(&report("a", 60.0), 1.0).unwrap()).len(),
+        tasks(&i.report_at(&report("a", 60.0), 1.0).unwrap()).len(),
         1
     );
 }
@@ -140,7 +140,7 @@ fn a_rejected_goal_changes_nothing() {
 #[test]
 fn a_unit_s_refusal_is_logged_and_its_task_withdrawn() {
     let mut i = zoned();
-    let out = i.on_report(&report("a", 60.0), 1.0).unwrap();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     let task = tasks(&out)[0].clone();
     assert_eq!(task.unit.as_str(), "b");
     let TaskKind::Extinguish { fire, .. } = task.kind else {
@@ -154,7 +154,7 @@ fn a_unit_s_refusal_is_logged_and_its_task_withdrawn() {
         goal: "ko".into(),
         zone: ZoneId::new("z1").unwrap(),
     });
-    let out = i.on_state(st.clone(), 2.0).unwrap();
+    let out = i.state_at(st.clone(), 2.0).unwrap();
     assert_eq!(kinds_for(&out, "b")[0], TaskKind::Standby, "{out:?}");
     assert!(decided(&i, |d| matches!(
         d,
@@ -171,7 +171,7 @@ fn a_unit_s_refusal_is_logged_and_its_task_withdrawn() {
         tasks(&out).iter().all(|t| t.unit.as_str() != "b"),
         "{out:?}"
     );
-    let again = i.on_state(st, 3.0).unwrap();
+    let again = i.state_at(st, 3.0).unwrap();
     assert!(
         !kinds_for(&again, "b")
             .iter()
