@@ -48,6 +48,10 @@ const CONFIRM_HELD_CONFIDENCE: f64 = 0.5;
 /// Reports of one unit further apart than this are separate sightings, s (the unit's
 /// tracker drops a flame unseen for 3 s).
 const SIGHTING_GAP_S: f64 = 3.0;
+/// A unit whose last sighting of a fire is this recent still sees it, s: four of a unit's
+/// report periods (0.25 s), while a unit that reports a fire out has seen no flame for
+/// longer than that.
+pub const STILL_SEEN_S: f64 = 1.0;
 /// Position variance of a track adopted from a unit's task, m^2: the unit's own estimate
 /// carries no covariance on the wire; (1 m)^2 lets the first report refine it.
 const ADOPT_VAR_M2: f64 = 1.0;
@@ -200,6 +204,19 @@ impl Fire {
     /// Still burning as far as the coordinator knows.
     pub fn active(&self) -> bool {
         !matches!(self.state, FireState::Out | FireState::Lost)
+    }
+
+    /// The units that see it burning at `t`: a sighting within [`STILL_SEEN_S`], by a unit
+    /// whose word counts. A lone claim an eyewitness contradicted sees nothing.
+    pub fn seen_now_by(&self, t: f64) -> Vec<UnitId> {
+        if self.contradicted {
+            return Vec::new();
+        }
+        self.per_unit
+            .iter()
+            .filter(|(_, s)| s.credible() && t - s.last <= STILL_SEEN_S)
+            .map(|(u, _)| u.clone())
+            .collect()
     }
 
     pub fn seen_by(&self) -> impl Iterator<Item = &UnitId> {

@@ -125,6 +125,14 @@ pub enum Decision {
         fire: FireId,
         by: UnitId,
     },
+    /// A unit attacking a fire reported it out while another still sees it burning or
+    /// sprays it: the claimant is freed, nobody else.
+    OutDisputed {
+        fire: FireId,
+        by: UnitId,
+        /// The units that still see it or spray it.
+        against: Vec<UnitId>,
+    },
     GaveUp {
         unit: UnitId,
         fire: FireId,
@@ -316,7 +324,6 @@ impl fmt::Display for Decision {
                 }
             }
             Decision::Recall { track } => {
-                let seen_by: Vec<&str> = track.seen_by.iter().map(|u| u.as_str()).collect();
                 write!(
                     f,
                     "recall fire {} at ({:.1}, {:.1}), {:?} at t = {:.1} s, seen by [{}]: tracked before this coordinator started",
@@ -325,10 +332,15 @@ impl fmt::Display for Decision {
                     track.position.y,
                     track.state,
                     track.t,
-                    seen_by.join(", ")
+                    names(&track.seen_by)
                 )
             }
             Decision::FireOut { fire, by } => write!(f, "fire {fire} out, reported by {by}"),
+            Decision::OutDisputed { fire, by, against } => write!(
+                f,
+                "{by} reports fire {fire} out, but {} still see or spray it: only {by} is freed",
+                names(against)
+            ),
             Decision::GaveUp { unit, fire } => write!(f, "unit {unit} gave up fire {fire}"),
             Decision::Adopt {
                 unit,
@@ -462,4 +474,10 @@ impl Logged {
             text: self.decision.to_string(),
         }
     }
+}
+
+/// Units as a list for a sentence: `ugv-1, ugv-2`.
+fn names(units: &[UnitId]) -> String {
+    let names: Vec<&str> = units.iter().map(UnitId::as_str).collect();
+    names.join(", ")
 }

@@ -227,25 +227,44 @@ impl Incident {
             match p.phase {
                 TaskPhase::Extinguished => {
                     relevant = true;
-                    if let Some(f) = self.fusion.get_mut(fire) {
-                        f.state = FireState::Out;
-                        f.out_at = Some(t);
-                    }
-                    self.log(
-                        t,
-                        Decision::FireOut {
-                            fire,
-                            by: unit.clone(),
-                        },
-                    );
-                    out.push(Output::Fire(self.track(fire, t)));
-                    // Everyone on that fire is free again (after a merge, more than one).
-                    let mut free = self.assigned_to(fire);
-                    if !free.contains(&unit) {
-                        free.push(unit.clone());
-                    }
-                    for u in free {
-                        out.push(self.standby(&u, t));
+                    // A claim, not yet a fact, while another unit still sees the fire
+                    // or sprays it: a unit lying (or whose detector lost the flame in
+                    // steam) frees itself, not the units still at work.
+                    let against = self.still_burning_for(fire, &unit, t);
+                    if !against.is_empty() {
+                        self.log(
+                            t,
+                            Decision::OutDisputed {
+                                fire,
+                                by: unit.clone(),
+                                against,
+                            },
+                        );
+                        // Not sent straight back to a fire it says is out.
+                        self.failed
+                            .insert((unit.clone(), fire), t + self.policy.retry_after_s);
+                        out.push(self.standby(&unit, t));
+                    } else {
+                        if let Some(f) = self.fusion.get_mut(fire) {
+                            f.state = FireState::Out;
+                            f.out_at = Some(t);
+                        }
+                        self.log(
+                            t,
+                            Decision::FireOut {
+                                fire,
+                                by: unit.clone(),
+                            },
+                        );
+                        out.push(Output::Fire(self.track(fire, t)));
+                        // Everyone on that fire is free again (after a merge, more than one).
+                        let mut free = self.assigned_to(fire);
+                        if !free.contains(&unit) {
+                            free.push(unit.clone());
+                        }
+                        for u in free {
+                            out.push(self.standby(&u, t));
+                        }
                     }
                 }
                 TaskPhase::Failed => {
@@ -321,6 +340,31 @@ impl Incident {
             out.extend(self.solve(t));
         }
         Ok(out)
+    }
+
+    /// The units other than `claimant` that still see fire `fire` burning
+    /// ([`crate::fusion::Fire::seen_now_by`]) or spray it.
+    fn still_burning_for(&self, fire: FireId, claimant: &UnitId, t: f64) -> Vec<UnitId> {
+        let seeing = self
+            .fusion
+            .get(fire)
+            .map(|f| f.seen_now_by(t))
+            .unwrap_or_default();
+        let mut against: Vec<UnitId> = self
+            .assigned_to(fire)
+            .into_iter()
+            .filter(|u| {
+                self.units[u]
+                    .state
+                    .as_ref()
+                    .is_some_and(|s| s.task.is_some_and(|p| p.phase == TaskPhase::Spraying))
+            })
+            .chain(seeing)
+            .filter(|u| u != claimant)
+            .collect();
+        against.sort();
+        against.dedup();
+        against
     }
 
     /// Claims `by` contradicted: logged, their witnesses doubted if it came to that, and

@@ -517,3 +517,75 @@ fn a_unit_holding_an_older_term_s_task_is_brought_into_this_one_at_first_hearing
     let out = i.state_at(st, 30.7).unwrap();
     assert!(all_tasks(&out).is_empty(), "{out:?}");
 }
+
+#[test]
+fn an_out_claim_while_another_attacker_still_sees_the_fire_frees_only_the_claimant() {
+    let mut i = incident_with_backups();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
+    let on_fire: Vec<Task> = tasks(&out).into_iter().cloned().collect();
+    assert_eq!(on_fire.len(), 2, "both units attack: {out:?}");
+    let progress = |task: &Task, phase| {
+        let TaskKind::Extinguish { fire, target } = task.kind else {
+            unreachable!()
+        };
+        TaskProgress {
+            seq: task.seq,
+            fire,
+            phase,
+            target,
+        }
+    };
+    let (a_task, b_task) = if on_fire[0].unit == u("a") {
+        (&on_fire[0], &on_fire[1])
+    } else {
+        (&on_fire[1], &on_fire[0])
+    };
+    let fire = FireId(1);
+    // a sprays and still sees the flame; b, beside it, says it is out.
+    i.state_at(
+        state("a", 50.0, Some(progress(a_task, TaskPhase::Spraying))),
+        10.0,
+    )
+    .unwrap();
+    i.report_at(&report("a", 60.0), 10.0).unwrap();
+    let out = i
+        .state_at(
+            state("b", 52.0, Some(progress(b_task, TaskPhase::Extinguished))),
+            10.2,
+        )
+        .unwrap();
+    let b_next = kinds_for(&out, "b");
+    assert_eq!(b_next[0], TaskKind::Standby, "{out:?}");
+    assert!(
+        !b_next
+            .iter()
+            .any(|k| matches!(k, TaskKind::Extinguish { .. })),
+        "not sent back to a fire it says is out: {out:?}"
+    );
+    assert!(
+        kinds_for(&out, "a").is_empty(),
+        "a keeps its attack: {out:?}"
+    );
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::OutDisputed { by, against, .. } if by == "b" && against == &[u("a")]
+    )));
+    let burning = i
+        .fire_tracks(10.2)
+        .into_iter()
+        .find(|f| f.id == fire)
+        .unwrap();
+    assert_ne!(burning.state, FireState::Out);
+    // a, which attacks it, sees it go out: now it is.
+    let out = i
+        .state_at(
+            state("a", 50.0, Some(progress(a_task, TaskPhase::Extinguished))),
+            14.0,
+        )
+        .unwrap();
+    assert!(
+        out.iter()
+            .any(|o| matches!(o, Output::Fire(f) if f.id == fire && f.state == FireState::Out)),
+        "{out:?}"
+    );
+}
