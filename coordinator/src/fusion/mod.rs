@@ -72,6 +72,11 @@ pub const LONE_STARTS_BURST: f64 = 4.0;
 /// now and then, while a liar reporting fires everywhere would, without this, send the
 /// fleet after a new one each time one of its eight is found out.
 pub const LONE_START_EVERY_S: f64 = 5.0;
+/// Fires one unit's word alone may have confirmed at once ([`Fire::corroborated`] not yet):
+/// past this its further lone sightings stay tentative until another source sees one. A
+/// unit arriving at a pile-up confirms the fires in front of it; a liar's fakes each
+/// take one unit away, so fewer than a fleet.
+pub const MAX_PROVISIONAL: usize = 3;
 
 /// One unit's view of a fire: its latest estimate and confidence, the weight of the unit's
 /// word when it reported, and since when it has seen the fire without a break.
@@ -204,6 +209,13 @@ impl Fire {
     /// Still burning as far as the coordinator knows.
     pub fn active(&self) -> bool {
         !matches!(self.state, FireState::Out | FireState::Lost)
+    }
+
+    /// Seen by two sources whose word counts. Until then a confirmed fire is provisional:
+    /// it gets one unit (the reporter or a verifier), no backups and no reserves, because
+    /// one unit's word, from a detector gone wrong or a stolen certificate, is all there is.
+    pub fn corroborated(&self) -> bool {
+        self.per_unit.values().filter(|s| s.credible()).count() >= 2
     }
 
     /// The units that see it burning at `t`: a sighting within [`STILL_SEEN_S`], by a unit
@@ -444,6 +456,15 @@ impl Fusion {
         true
     }
 
+    /// Confirmed fires only `unit` has seen.
+    fn provisional(&self, unit: &UnitId) -> usize {
+        self.fires
+            .iter()
+            .filter(|f| f.active() && f.state != FireState::Tentative)
+            .filter(|f| f.per_unit.len() == 1 && f.per_unit.contains_key(unit))
+            .count()
+    }
+
     /// Fold in one observation by `unit` at time `t`.
     pub fn observe(&mut self, unit: &UnitId, obs: &FlameObservation, t: f64) -> Fused {
         let mut z = Gaussian2 {
@@ -487,7 +508,8 @@ impl Fusion {
             if let Some(q) = obs.hrr_kw {
                 f.sizes.insert(unit.clone(), q);
             }
-            let confirmed = f.confidence >= CONFIRM_CONFIDENCE;
+            let confirmed =
+                f.confidence >= CONFIRM_CONFIDENCE && self.provisional(unit) < MAX_PROVISIONAL;
             if confirmed {
                 f.state = FireState::Confirmed;
             }
@@ -519,6 +541,11 @@ impl Fusion {
         fire.refuse();
         fire.credit(&mut self.witnesses);
         let credible = fire.per_unit.values().filter(|s| s.credible()).count();
+        let id = fire.id;
+        let room = credible >= 2 || self.provisional(unit) < MAX_PROVISIONAL;
+        let Some(fire) = self.fires.iter_mut().find(|f| f.id == id) else {
+            return Fused::Updated(id);
+        };
         match fire.state {
             FireState::Out
                 if sighting.credible() && fire.out_at.is_some_and(|o| t - o > REIGNITE_AFTER_S) =>
@@ -528,7 +555,10 @@ impl Fusion {
                 Fused::Reignited(fire.id)
             }
             FireState::Tentative
-                if fire.confidence >= CONFIRM_CONFIDENCE || credible >= 2 || sighting.held() =>
+                if room
+                    && (fire.confidence >= CONFIRM_CONFIDENCE
+                        || credible >= 2
+                        || sighting.held()) =>
             {
                 fire.state = FireState::Confirmed;
                 Fused::Confirmed(fire.id)

@@ -14,12 +14,20 @@
 //!   nothing.
 //!
 //! A unit's weight is `(PRIOR + corroborated) / (PRIOR + corroborated + PENALTY x
-//! contradicted)`: 1 until anything contradicts it, a half after one contradiction (a flame
-//! hidden behind a parked car can cost an honest unit that once), a third after two. Its
-//! reports' confidences are scaled by the weight; below [`DOUBT_BELOW`] the unit is
-//! *doubted*: its word alone no longer confirms or reignites a fire, and a fire only it
-//! claims, once contradicted, goes back to tentative (nobody is sent to it). Its reports are
-//! still fused: a doubted unit that reports a fire somebody else also sees adds to it.
+//! contradicted)`: 1 until anything contradicts it. Its reports' confidences are scaled by
+//! the weight; below [`DOUBT_BELOW`] the unit is *doubted*: its word alone no longer
+//! confirms or reignites a fire, and a fire only it claims, once contradicted, goes back to
+//! tentative (nobody is sent to it). Its reports are still fused: a doubted unit that
+//! reports a fire somebody else also sees adds to it.
+//!
+//! How fast: a unit none of whose fires anyone else has seen is doubted at its first
+//! contradiction (weight 0.4): one look by the unit sent to verify its claim. A liar with a
+//! stolen certificate would otherwise send a unit to a second fake, and a third, each
+//! costing the fleet a unit for the time a look takes. A unit one of whose fires another
+//! has seen survives one contradiction (0.5: a flame hidden behind a parked car from where
+//! the other looked); with two borne out, two. The price is an honest unit's first lone
+//! claim behind such a car before anything it said was borne out: its word then needs a
+//! second unit until a fire it reports is seen by another.
 //!
 //! What this does not stop: a liar that repeats the real fires the others report earns
 //! corroboration for them, and so buys `PENALTY` contradictions' worth of credit per real
@@ -41,7 +49,7 @@ pub const DOUBT_BELOW: f64 = 0.5;
 /// The credit every unit starts with, in corroborations.
 const PRIOR: f64 = 2.0;
 /// How many corroborations one contradiction undoes.
-const PENALTY: f64 = 2.0;
+const PENALTY: f64 = 3.0;
 
 /// How a unit's claims have fared.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -103,24 +111,26 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_unit_is_believed_until_contradicted_and_doubted_after_two_uncorroborated_contradictions() {
+    fn a_unit_is_believed_until_contradicted_and_doubted_by_one_look_unless_borne_out_before() {
         let r = |corroborated, contradicted| Record {
             corroborated,
             contradicted,
         };
         assert_eq!(r(0, 0).weight(), 1.0);
         assert_eq!(r(5, 0).weight(), 1.0);
-        assert_eq!(r(0, 1).weight(), 0.5);
-        assert!(!r(0, 1).doubted(), "one hidden flame does not make a liar");
-        assert!(r(0, 2).doubted());
-        assert!(!r(2, 2).doubted(), "corroboration buys credit back");
-        assert!(r(2, 3).doubted());
+        assert!((r(0, 1).weight() - 0.4).abs() < 1e-12);
+        assert!(r(0, 1).doubted(), "nothing borne out: one look");
+        assert!(!r(1, 1).doubted(), "one hidden flame does not make a liar");
+        assert!(r(1, 2).doubted());
+        assert!(!r(4, 2).doubted(), "corroboration buys credit back");
+        assert!(r(4, 3).doubted());
     }
 
     #[test]
     fn contradiction_says_when_it_tips_a_unit_into_doubt() {
         let mut w = Witnesses::default();
         let liar = UnitId::new("ugv-2").unwrap();
+        w.corroborate(&liar);
         assert!(!w.contradict(&liar));
         assert!(w.contradict(&liar), "the second tips it");
         assert!(!w.contradict(&liar), "already doubted");

@@ -87,6 +87,7 @@ impl Incident {
                 .unwrap_or(f64::INFINITY);
             // Kept as a backup if the fire, without this unit, would want one more.
             let as_backup = away <= self.policy.help_within_s
+                && self.fusion.get(fire).is_some_and(Fire::corroborated)
                 && wants_another(
                     self.fusion.get(fire).and_then(|f| f.hrr_kw()),
                     &self.attack_flows(fire, Some(&unit)),
@@ -172,8 +173,8 @@ impl Incident {
             .collect()
     }
 
-    /// Second wave: ground units still free (and not in `busy`) join fires that have
-    /// fewer attackers than `units_per_fire` or than their heat release needs, nearest
+    /// Second wave: ground units still free (and not in `busy`) join corroborated fires
+    /// ([`Fire::corroborated`]) that have fewer attackers than `units_per_fire` or than their heat release needs, nearest
     /// first, one more per fire and solve.
     pub(super) fn back_up(&mut self, busy: &BTreeSet<UnitId>, t: f64) -> Vec<Output> {
         let backups: Vec<Need> = self
@@ -181,6 +182,8 @@ impl Incident {
             .fires()
             .iter()
             .filter(|f| matches!(f.state, FireState::Assigned | FireState::Suppressing))
+            // A provisional fire has its one unit until another source sees it.
+            .filter(|f| f.corroborated())
             .filter(|f| {
                 wants_another(
                     f.hrr_kw(),

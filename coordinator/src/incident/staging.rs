@@ -29,6 +29,9 @@ impl Incident {
             .fires()
             .iter()
             .filter(burning)
+            // Reserves wait for fires two sources have seen: one unit's word alone
+            // (perhaps a liar's) does not draw the fleet.
+            .filter(|f| f.corroborated())
             .filter(|f| !self.attack_barred_at(f.position()))
             .map(|f| (f.id, f.position()))
             .collect();

@@ -8,7 +8,7 @@ fn a_fire_whose_heat_release_needs_two_cannons_gets_two_units() {
         let mut i = incident();
         let mut r = report("a", 60.0);
         r.observations[0].hrr_kw = hrr_kw;
-        let mut out = i.report_at(&r, 1.0).unwrap();
+        let mut out = corroborated(&mut i, &r, &["b"], 1.0);
         out.extend(i.tick(1.2));
         assert_eq!(tasks(&out).len(), attackers, "{hrr_kw:?} kW");
         let fire = i.fusion.fires()[0].id;
@@ -66,7 +66,7 @@ fn no_backup_or_reserve_is_sent_from_more_than_a_minute_away() {
 #[test]
 fn a_second_free_unit_backs_up_and_leaves_for_a_fire_nobody_attacks() {
     let mut i = incident_with_backups();
-    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
+    let out = corroborated(&mut i, &report("a", 60.0), &["b"], 1.0);
     let t = tasks(&out);
     assert_eq!(t.len(), 2, "{out:?}");
     assert_eq!((t[0].unit.as_str(), t[1].unit.as_str()), ("b", "a"));
@@ -117,7 +117,7 @@ fn a_unit_on_its_way_keeps_its_fire_against_a_marginal_gain_and_stays_as_backup_
     let mut i = incident_with_backups();
     i.state_at(broken(100.0), 0.5).unwrap();
     i.state_at(state("a", 40.0, None), 0.5).unwrap();
-    i.report_at(&report("a", 80.0), 1.0).unwrap();
+    corroborated(&mut i, &report("a", 80.0), &["b"], 1.0);
     // b 10 s nearer (15 m against 40 m): not worth a change; b backs a up.
     i.state_at(state("b", 95.0, None), 2.0).unwrap();
     assert!(!i.units[&u("a")].backup);
@@ -141,7 +141,7 @@ fn a_unit_on_its_way_keeps_its_fire_against_a_marginal_gain_and_stays_as_backup_
 #[test]
 fn a_spraying_backup_stays_on_its_fire_and_the_unit_still_on_its_way_takes_a_new_one() {
     let mut i = incident_with_backups();
-    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
+    let out = corroborated(&mut i, &report("a", 60.0), &["b"], 1.0);
     let backup = tasks(&out)[1].clone();
     let TaskKind::Extinguish { fire, target } = backup.kind else {
         panic!()
@@ -215,7 +215,7 @@ mod profiles {
             let mut i = site(Scenario::straight(200.0), heavy_x, light_x);
             let mut r = report("light", 62.0);
             r.observations[0].hrr_kw = Some(20_000.0);
-            let mut out = i.report_at(&r, 1.0).unwrap();
+            let mut out = corroborated(&mut i, &r, &["heavy"], 1.0);
             out.extend(i.tick(1.2));
             let units: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
             assert_eq!(units.len(), sent, "heavy at {heavy_x}: {units:?}");

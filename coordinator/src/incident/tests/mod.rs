@@ -71,6 +71,20 @@ fn report(unit: &str, x: f64) -> FlameReport {
     }
 }
 
+/// `r` and the same flame reported by every unit in `also` at time `t`: a fire seen by two
+/// sources is no longer provisional, and gets backups and reserves. The outputs of all.
+fn corroborated(i: &mut Incident, r: &FlameReport, also: &[&str], t: f64) -> Vec<Output> {
+    let mut out = i.report_at(r, t).unwrap();
+    for other in also {
+        let again = FlameReport {
+            unit: u(other),
+            ..r.clone()
+        };
+        out.extend(i.report_at(&again, t).unwrap());
+    }
+    out
+}
+
 /// Extinguish tasks only.
 fn tasks(out: &[Output]) -> Vec<&Task> {
     all_tasks(out)

@@ -5,7 +5,7 @@ use super::*;
 #[test]
 fn free_units_are_staged_short_of_the_fire_and_released_when_it_is_out() {
     let mut i = incident();
-    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
+    let out = corroborated(&mut i, &report("a", 60.0), &["b"], 1.0);
     assert_eq!(
         kinds_for(&out, "a"),
         [TaskKind::Cruise {

@@ -87,7 +87,7 @@ fn under_contain_reserves_hold_the_line() {
         goal("g1", "z2", GoalKind::Contain, 0, Some(110.0)),
         0.5,
     );
-    let out = i.report_at(&report("a", 150.0), 1.0).unwrap();
+    let out = corroborated(&mut i, &report("a", 150.0), &["b"], 1.0);
     let a = kinds_for(&out, "a");
     assert_eq!(
         a,
