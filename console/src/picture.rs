@@ -80,6 +80,12 @@ pub enum AlertKind {
         zone: String,
         reason: String,
     },
+    /// A goal in force leaves a burning fire with no unit allowed to reach or attack it.
+    FireStranded {
+        fire: FireId,
+        goal: String,
+        issued_by: Option<String>,
+    },
     CoordinatorLost,
 }
 
@@ -167,6 +173,8 @@ pub struct Picture {
     units: BTreeMap<UnitId, UnitView>,
     fires: BTreeMap<FireId, FireTrack>,
     goals: Vec<GoalInForce>,
+    /// The (fire, goal) pairs stranded as last told: each raised once while it lasts.
+    stranded: BTreeSet<(FireId, String)>,
     decisions: VecDeque<Decision>,
     alerts: BTreeMap<u64, Alert>,
     acks: VecDeque<GoalAck>,
@@ -192,6 +200,7 @@ impl Picture {
             units,
             fires: BTreeMap::new(),
             goals: Vec::new(),
+            stranded: BTreeSet::new(),
             decisions: VecDeque::new(),
             alerts: BTreeMap::new(),
             acks: VecDeque::new(),
@@ -328,6 +337,24 @@ impl Picture {
 
     fn goals(&mut self, g: GoalsInForce) {
         self.advance(g.t);
+        let now: BTreeSet<(FireId, String)> = g
+            .stranded
+            .iter()
+            .map(|s| (s.fire, s.goal.clone()))
+            .collect();
+        for s in &g.stranded {
+            if !self.stranded.contains(&(s.fire, s.goal.clone())) {
+                self.raise(
+                    AlertKind::FireStranded {
+                        fire: s.fire,
+                        goal: s.goal.clone(),
+                        issued_by: s.issued_by.as_ref().map(|c| c.to_string()),
+                    },
+                    s.to_string(),
+                );
+            }
+        }
+        self.stranded = now;
         if g.goals != self.goals {
             self.goals = g.goals;
             self.changes.goals = true;

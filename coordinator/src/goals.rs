@@ -7,15 +7,26 @@
 //! expire. Every submission is answered: accepted, or rejected with the reason.
 //!
 //! Rules:
+//! - Commanders have a rank from the site file ([`Rank`]: the incident commander above
+//!   sector commanders; one not listed is a sector commander). A goal of a higher rank
+//!   governs wherever it overlaps one of a lower rank, whatever the priorities; within a
+//!   rank, the higher priority. A commander may amend, override or clear the goals of any
+//!   lower rank, never those of an equal one: a sector commander's stolen certificate can
+//!   bar the tunnel, and the incident commander can lift it.
 //! - A goal's issuer is the commander named by the key it arrived on (which the site's
 //!   access rules let only that commander put): `issued_by` is filled in from it, and a
 //!   goal whose `issued_by` names someone else is rejected rather than believed.
 //! - A goal with the id of one in force replaces it (a commander amends a goal); a goal
-//!   in force is amended or cleared only by its issuer.
+//!   in force is amended or cleared only by its issuer or a higher rank.
 //! - A zone holds one goal per priority: a different goal at a priority already taken on
-//!   that zone is a conflict, rejected with the goal in the way; a goal at another priority
-//!   stands beside it and the higher priority wins.
-//! - Where zones overlap, the highest-priority goal covering a chainage governs it, for
+//!   that zone is a conflict, rejected with the goal in the way, unless the new goal's
+//!   issuer outranks that goal's, whose goal it then overrides; a goal at another priority
+//!   stands beside it.
+//! - Goals are bounded: [`MAX_GOALS_PER_COMMANDER`] per commander, [`MAX_GOALS_IN_FORCE`]
+//!   in all (what one `coord/goals` message carries, so the goals in force are always
+//!   stored and recalled whole).
+//! - Where zones overlap, the governing goal covering a chainage (rank, then priority)
+//!   governs it, for
 //!   what it bars as for what it asks: a keep-out under a higher-priority extinguish goal is
 //!   open where the two overlap ([`Goals::barred_space`] is what units are told).
 //! - A keep-out or evacuate goal bars monorail carriages too unless it says
@@ -24,12 +35,17 @@
 //! Pure: no I/O, no clock of its own.
 
 use firefleet_model::UnitKind;
-use firefleet_model::scenario::Zone;
+use firefleet_model::scenario::{CommanderSpec, Rank, Zone, rank_of};
 use firefleet_model::{Chainage, CommanderId, ZoneId};
 use firefleet_protocol::msg::{
-    Bar, BarredSpace, BarredSpan, GoalAck, GoalInForce, GoalKind, GoalsInForce, ZoneGoal,
-    nearest_allowed,
+    Bar, BarredSpace, BarredSpan, GoalAck, GoalInForce, GoalKind, GoalsInForce, MAX_GOALS_IN_FORCE,
+    ZoneGoal, nearest_allowed,
 };
+
+/// Goals one commander may hold in force: a goal or two for each of a site's zones is
+/// what command needs; a stolen certificate past this is refused rather than crowding out
+/// everyone else's.
+pub const MAX_GOALS_PER_COMMANDER: usize = 16;
 
 /// A goal in force.
 #[derive(Debug, Clone, PartialEq)]
@@ -41,9 +57,16 @@ pub struct Active {
     pub since: f64,
     /// Site time it lapses, if ever.
     pub until: Option<f64>,
+    /// Its issuer's rank.
+    pub rank: Rank,
 }
 
 impl Active {
+    /// What orders it against the others covering a chainage: rank, then priority.
+    pub fn precedence(&self) -> (Rank, u8) {
+        (self.rank, self.goal.priority)
+    }
+
     pub fn covers(&self, s: Chainage) -> bool {
         (self.start..=self.end).contains(&s)
     }
@@ -66,6 +89,7 @@ impl Active {
 #[derive(Debug, Clone, Default)]
 pub struct Goals {
     zones: Vec<Zone>,
+    commanders: Vec<CommanderSpec>,
     active: Vec<Active>,
     /// Grows with every change to the goals in force: what depends on them only (what is
     /// barred, the goals published) need not be worked out again while it stands.
@@ -82,9 +106,11 @@ fn ack(g: &ZoneGoal, accepted: bool, reason: impl Into<String>) -> GoalAck {
 }
 
 impl Goals {
-    pub fn new(zones: &[Zone]) -> Self {
+    /// The goals of a site with `zones`, whose commanders rank as `commanders` lists.
+    pub fn new(zones: &[Zone], commanders: &[CommanderSpec]) -> Self {
         Self {
             zones: zones.to_vec(),
+            commanders: commanders.to_vec(),
             active: Vec::new(),
             revision: 0,
         }
@@ -119,17 +145,19 @@ impl Goals {
             }
             Some(_) => {}
         }
+        let rank = rank_of(&self.commanders, by);
         if let Some(a) = self
             .active
             .iter()
-            .find(|a| a.goal.id == g.id && a.goal.issued_by.as_ref() != Some(by))
+            .find(|a| a.goal.id == g.id && a.goal.issued_by.as_ref() != Some(by) && a.rank >= rank)
         {
             return ack(
                 &g,
                 false,
                 format!(
-                    "goal '{}' in force was issued by '{}': only its issuer amends it",
+                    "goal '{}' in force was issued by {} commander '{}': only its issuer or a higher rank amends it",
                     g.id,
+                    a.rank,
                     a.goal.issuer()
                 ),
             );
@@ -154,39 +182,81 @@ impl Goals {
                 ),
             );
         }
-        if let Some(other) = self
-            .active
-            .iter()
-            .find(|a| a.goal.zone == g.zone && a.goal.priority == g.priority && a.goal.id != g.id)
+        let in_the_way = self.active.iter().position(|a| {
+            a.goal.zone == g.zone && a.goal.priority == g.priority && a.goal.id != g.id
+        });
+        if let Some(other) = in_the_way.map(|i| &self.active[i])
+            && other.rank >= rank
         {
             return ack(
                 &g,
                 false,
                 format!(
-                    "conflicts with goal '{}' ({:?}) on zone '{}' at priority {}: clear it or use another priority",
-                    other.goal.id, other.goal.goal, g.zone, g.priority
+                    "conflicts with goal '{}' ({}) of {} commander '{}' on zone '{}' at priority {}: clear it or use another priority",
+                    other.goal.id,
+                    other.goal.goal,
+                    other.rank,
+                    other.goal.issuer(),
+                    g.zone,
+                    g.priority
                 ),
             );
         }
         let replaced = self.active.iter().position(|a| a.goal.id == g.id);
+        if replaced.is_none() {
+            let held = self
+                .active
+                .iter()
+                .filter(|a| a.goal.issued_by.as_ref() == Some(by))
+                .count();
+            if held >= MAX_GOALS_PER_COMMANDER {
+                return ack(
+                    &g,
+                    false,
+                    format!(
+                        "commander '{by}' holds {held} goals in force, the most one commander may: amend or clear one first"
+                    ),
+                );
+            }
+            if self.active.len() - usize::from(in_the_way.is_some()) >= MAX_GOALS_IN_FORCE {
+                return ack(
+                    &g,
+                    false,
+                    format!(
+                        "the site holds {MAX_GOALS_IN_FORCE} goals in force, the most it may: clear some first"
+                    ),
+                );
+            }
+        }
         self.revision += 1;
         let active = Active {
             start: zone.start_m,
             end: zone.end_m,
             since: t,
             until: g.expires_s.map(|e| t + e),
+            rank,
             goal: g,
         };
-        let reason = match replaced {
+        let mut reason = match replaced {
             Some(i) => {
                 self.active[i] = active.clone();
-                "accepted, replacing the goal with the same id"
+                "accepted, replacing the goal with the same id".to_owned()
             }
             None => {
                 self.active.push(active.clone());
-                "accepted"
+                "accepted".to_owned()
             }
         };
+        if let Some(i) = in_the_way {
+            let gone = self.active.remove(i);
+            reason = format!(
+                "{reason}, overriding goal '{}' ({}) of {} commander '{}'",
+                gone.goal.id,
+                gone.goal.goal,
+                gone.rank,
+                gone.goal.issuer()
+            );
+        }
         ack(&active.goal, true, reason)
     }
 
@@ -222,15 +292,17 @@ impl Goals {
                     until: a.until,
                 })
                 .collect(),
+            stranded: Vec::new(),
         }
     }
 
-    /// Clear commander `by`'s goals on `zone`; the goals cleared.
+    /// Clear commander `by`'s goals on `zone`, and those of every lower rank there; the
+    /// goals cleared.
     pub fn clear(&mut self, zone: &ZoneId, by: &CommanderId) -> Vec<ZoneGoal> {
-        let (gone, kept): (Vec<Active>, _) = self
-            .active
-            .drain(..)
-            .partition(|a| &a.goal.zone == zone && a.goal.issued_by.as_ref() == Some(by));
+        let rank = rank_of(&self.commanders, by);
+        let (gone, kept): (Vec<Active>, _) = self.active.drain(..).partition(|a| {
+            &a.goal.zone == zone && (a.goal.issued_by.as_ref() == Some(by) || a.rank < rank)
+        });
         self.active = kept;
         self.revision += u64::from(!gone.is_empty());
         gone.into_iter().map(|a: Active| a.goal).collect()
@@ -261,7 +333,7 @@ impl Goals {
         self.active
             .iter()
             .filter(|a| a.covers(s))
-            .max_by_key(|a| a.goal.priority)
+            .max_by_key(|a| a.precedence())
     }
 
     /// What the goals in force bar, stretch by stretch, as units are told at site time
@@ -343,12 +415,26 @@ mod tests {
         }
     }
 
+    /// A goal naming no issuer: the key it is sent on names them.
+    fn unsigned(id: &str, zone: &str, kind: GoalKind, priority: u8) -> ZoneGoal {
+        ZoneGoal {
+            issued_by: None,
+            ..goal(id, zone, kind, priority)
+        }
+    }
+
     fn goals() -> Goals {
-        Goals::new(&[
-            z("a", 0.0, 100.0),
-            z("b", 100.0, 200.0),
-            z("c", 50.0, 150.0),
-        ])
+        Goals::new(
+            &[
+                z("a", 0.0, 100.0),
+                z("b", 100.0, 200.0),
+                z("c", 50.0, 150.0),
+            ],
+            &[CommanderSpec {
+                id: CommanderId::new("chief").unwrap(),
+                rank: Rank::Incident,
+            }],
+        )
     }
 
     fn zid(s: &str) -> ZoneId {
@@ -449,6 +535,149 @@ mod tests {
         assert!(g.clear(&zid("b"), &mallory).is_empty());
         assert_eq!(g.active()[0].goal.goal, GoalKind::KeepOut);
         assert_eq!(g.clear(&zid("b"), &rossi).len(), 1);
+    }
+
+    #[test]
+    fn a_higher_rank_governs_overrides_and_clears_a_lower_one_and_equal_ranks_cannot() {
+        let mut g = goals();
+        let chief = CommanderId::new("chief").unwrap();
+        let rossi = CommanderId::new("rossi").unwrap();
+        let bianchi = CommanderId::new("bianchi").unwrap();
+        // A sector commander (a stolen certificate, say) bars both zones at the top
+        // priority.
+        for (id, zone) in [("x", "a"), ("y", "b")] {
+            let a = g.submit(
+                &zid(zone),
+                &rossi,
+                unsigned(id, zone, GoalKind::KeepOut, 255),
+                0.0,
+            );
+            assert!(a.accepted, "{a:?}");
+        }
+        // Another sector commander can neither amend, override nor clear them.
+        let a = g.submit(
+            &zid("a"),
+            &bianchi,
+            unsigned("x", "a", GoalKind::Extinguish, 255),
+            1.0,
+        );
+        assert!(
+            !a.accepted && a.reason.contains("sector commander 'rossi'"),
+            "{a:?}"
+        );
+        let a = g.submit(
+            &zid("a"),
+            &bianchi,
+            unsigned("z", "a", GoalKind::Extinguish, 255),
+            1.0,
+        );
+        assert!(
+            !a.accepted && a.reason.contains("conflicts with goal 'x'"),
+            "{a:?}"
+        );
+        assert!(g.clear(&zid("a"), &bianchi).is_empty());
+        // The incident commander's extinguish goal at priority 0 governs zone a over the
+        // keep-out at 255; at the same priority it overrides the keep-out on b.
+        let a = g.submit(
+            &zid("a"),
+            &chief,
+            unsigned("open-a", "a", GoalKind::Extinguish, 0),
+            2.0,
+        );
+        assert!(a.accepted, "{a:?}");
+        assert_eq!(g.at(c(20.0)).unwrap().goal.id, "open-a");
+        let a = g.submit(
+            &zid("b"),
+            &chief,
+            unsigned("open-b", "b", GoalKind::Extinguish, 255),
+            2.0,
+        );
+        assert!(
+            a.accepted && a.reason.contains("overriding goal 'y'"),
+            "{a:?}"
+        );
+        assert!(
+            g.barred(UnitKind::Ground).is_empty(),
+            "{:?}",
+            g.barred_space(2.0)
+        );
+        // The sector commander cannot put it back over the incident commander's.
+        let a = g.submit(
+            &zid("b"),
+            &rossi,
+            unsigned("y", "b", GoalKind::KeepOut, 255),
+            3.0,
+        );
+        assert!(
+            !a.accepted && a.reason.contains("incident commander 'chief'"),
+            "{a:?}"
+        );
+        // Clearing a zone, the incident commander clears the lower ranks' goals there too.
+        let cleared: Vec<String> = g
+            .clear(&zid("a"), &chief)
+            .into_iter()
+            .map(|x| x.id)
+            .collect();
+        assert_eq!(cleared, ["x", "open-a"]);
+        assert!(g.clear(&zid("b"), &rossi).is_empty(), "not the chief's");
+    }
+
+    #[test]
+    fn goals_are_bounded_per_commander_and_the_goals_in_force_fit_one_message() {
+        let mut g = goals();
+        let rossi = CommanderId::new("rossi").unwrap();
+        for p in 0..MAX_GOALS_PER_COMMANDER {
+            let id = format!("g{p}");
+            let a = g.submit(
+                &zid("a"),
+                &rossi,
+                unsigned(&id, "a", GoalKind::Monitor, p as u8),
+                0.0,
+            );
+            assert!(a.accepted, "{a:?}");
+        }
+        let a = g.submit(
+            &zid("a"),
+            &rossi,
+            unsigned("one-more", "a", GoalKind::Monitor, 200),
+            0.0,
+        );
+        assert!(!a.accepted && a.reason.contains("holds 16 goals"), "{a:?}");
+        let a = g.submit(
+            &zid("a"),
+            &rossi,
+            unsigned("g3", "a", GoalKind::Extinguish, 3),
+            0.0,
+        );
+        assert!(a.accepted, "amending is not adding: {a:?}");
+        // Every other commander still has room, up to what one message carries.
+        // Each goal its own zone and priority: 3 zones x priorities above rossi's.
+        let mut n = MAX_GOALS_PER_COMMANDER;
+        let mut slot = 3 * MAX_GOALS_PER_COMMANDER;
+        'commanders: for k in 0.. {
+            let by = CommanderId::new(&format!("c{k}")).unwrap();
+            for p in 0..MAX_GOALS_PER_COMMANDER {
+                let zone = ["a", "b", "c"][slot % 3];
+                let prio = u8::try_from(slot / 3).unwrap();
+                slot += 1;
+                let id = format!("{by}-{p}");
+                let a = g.submit(
+                    &zid(zone),
+                    &by,
+                    unsigned(&id, zone, GoalKind::Monitor, prio),
+                    0.0,
+                );
+                if !a.accepted {
+                    assert!(a.reason.contains("the site holds 256"), "{a:?}");
+                    break 'commanders;
+                }
+                n += 1;
+            }
+        }
+        assert_eq!(n, MAX_GOALS_IN_FORCE);
+        let all = g.in_force(1.0);
+        assert_eq!(all.goals.len(), MAX_GOALS_IN_FORCE);
+        firefleet_model::validate::Validate::validate(&all).expect("stored and recalled whole");
     }
 
     #[test]

@@ -34,7 +34,8 @@ use firefleet_model::validate::Invalid;
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    FireTrack, GoalAck, GoalsInForce, SimClock, Task, UnitState, ZoneGoal, latest_per_fire,
+    FireTrack, GoalAck, GoalsInForce, SimClock, Stranded, Task, UnitState, ZoneGoal,
+    latest_per_fire,
 };
 
 use crate::assign::Strategy;
@@ -263,6 +264,8 @@ pub async fn run(
                 slice = (slice + 1) % REPUBLISH_SLICES;
                 if slice == 0 {
                     told.tell(bus, &incident, t, true).await?;
+                } else {
+                    told.strands(bus, &incident, t).await?;
                 }
                 Ok(incident
                     .tasks()
@@ -343,6 +346,8 @@ async fn heed_units(
 #[derive(Default)]
 struct Told {
     revision: Option<u64>,
+    /// The fires the goals stranded, as last told.
+    stranded: Vec<Stranded>,
 }
 
 impl Told {
@@ -361,9 +366,22 @@ impl Told {
             let keys = bus.keys();
             bus.put(&keys.coord_barred(), &incident.barred_space(t))
                 .await?;
-            bus.put(&keys.coord_goals(), &incident.goals_in_force(t))
-                .await?;
+            let goals = incident.goals_in_force(t);
+            bus.put(&keys.coord_goals(), &goals).await?;
+            self.stranded = goals.stranded;
             self.revision = Some(revision);
+        }
+        Ok(())
+    }
+
+    /// Publish the goals in force again if the fires they strand changed since last told:
+    /// fires and units move without the goals changing. Checked ten times a second, so a
+    /// console raises the alert well within two seconds.
+    async fn strands(&mut self, bus: &Bus, incident: &Incident, t: f64) -> Result<(), BusError> {
+        let goals = incident.goals_in_force(t);
+        if goals.stranded != self.stranded {
+            bus.put(&bus.keys().coord_goals(), &goals).await?;
+            self.stranded = goals.stranded;
         }
         Ok(())
     }

@@ -47,6 +47,10 @@
 //! start_m = 0.0
 //! end_m = 100.0
 //!
+//! [[commanders]]             # who may set zone goals above whom (optional)
+//! id = "chief"
+//! rank = "incident"          # incident (the incident commander) or sector (the default)
+//!
 //! [[rails]]                  # a ceiling rail with a water main (monorail units)
 //! id = "rail-1"
 //! start_m = 0.0              # chainage range the carriage can reach
@@ -75,7 +79,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{Point2, Pose2};
-use crate::ids::{SiteId, UnitId, ZoneId};
+use crate::ids::{CommanderId, SiteId, UnitId, ZoneId};
 use crate::profile::{self, Profile};
 use crate::spec::{GroundSpec, MonorailSpec, UnitKind};
 use crate::tunnel::Chainage;
@@ -108,10 +112,21 @@ pub struct Scenario {
     pub zones: Vec<Zone>,
     #[serde(default)]
     pub rails: Vec<Rail>,
+    /// Commanders and their ranks; one not listed is a sector commander.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub commanders: Vec<CommanderSpec>,
     /// Robot profiles of this site's own, by name, beside the shipped ones
     /// ([`crate::profile`]).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub profiles: BTreeMap<String, Profile>,
+}
+
+/// The rank of commander `c` among `commanders`: as listed, else [`Rank::Sector`].
+pub fn rank_of(commanders: &[CommanderSpec], c: &CommanderId) -> Rank {
+    commanders
+        .iter()
+        .find(|s| &s.id == c)
+        .map_or(Rank::Sector, |s| s.rank)
 }
 
 /// `name` is not in `seen` yet (and is now); else the error names `field()`.
@@ -233,6 +248,31 @@ pub struct Zone {
     pub end_m: Chainage,
 }
 
+/// A commander the site names, with the rank that orders their goals.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CommanderSpec {
+    pub id: CommanderId,
+    pub rank: Rank,
+}
+
+/// A commander's authority over zone goals, lowest first: a goal of a higher rank governs
+/// wherever it overlaps one of a lower rank, whatever their priorities, and a commander
+/// may amend or clear the goals of any lower rank; equal ranks cannot override each
+/// other. Incident command as fire services run it: one incident commander, sector
+/// commanders under them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Rank {
+    Sector,
+    Incident,
+}
+
+crate::names!(Rank, "a commander's rank" {
+    Sector => "sector",
+    Incident => "incident",
+});
+
 /// A ceiling rail along the tunnel, with a water main and hose points.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -267,8 +307,14 @@ impl Scenario {
             units: Vec::new(),
             zones: Vec::new(),
             rails: Vec::new(),
+            commanders: Vec::new(),
             profiles: BTreeMap::new(),
         }
+    }
+
+    /// The rank of commander `c`: as listed, else [`Rank::Sector`].
+    pub fn rank_of(&self, c: &CommanderId) -> Rank {
+        rank_of(&self.commanders, c)
     }
 
     pub fn rail(&self, id: &str) -> Option<&Rail> {
@@ -483,6 +529,10 @@ impl Scenario {
                 return Err(Invalid::new(f("end_m"), "must be greater than start_m"));
             }
         }
+        let mut ids = HashSet::new();
+        for (i, c) in self.commanders.iter().enumerate() {
+            once(&mut ids, c.id.as_str(), || format!("commanders[{i}].id"))?;
+        }
         Ok(())
     }
 }
@@ -525,6 +575,26 @@ mod tests {
 
     fn err(text: &str) -> String {
         Scenario::from_toml(text, "s.toml").unwrap_err().to_string()
+    }
+
+    #[test]
+    fn commanders_are_ranked_as_listed_and_sector_otherwise() {
+        let text = format!(
+            "{OK}\n[[commanders]]\nid = \"chief\"\nrank = \"incident\"\n[[commanders]]\nid = \"rossi\"\nrank = \"sector\"\n"
+        );
+        let s = Scenario::from_toml(&text, "s.toml").unwrap();
+        let c = |n: &str| CommanderId::new(n).unwrap();
+        assert_eq!(s.rank_of(&c("chief")), Rank::Incident);
+        assert_eq!(s.rank_of(&c("rossi")), Rank::Sector);
+        assert_eq!(s.rank_of(&c("unlisted")), Rank::Sector);
+        assert!(Rank::Incident > Rank::Sector);
+        for r in Rank::ALL {
+            assert_eq!(serde_json::to_value(r).unwrap(), r.as_str());
+        }
+        let twice = text.replace("\"rossi\"", "\"chief\"");
+        assert!(err(&twice).contains("commanders[1].id"), "{}", err(&twice));
+        let bad = text.replace("\"sector\"", "\"general\"");
+        assert!(err(&bad).contains("general"), "{}", err(&bad));
     }
 
     #[test]

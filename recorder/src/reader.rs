@@ -145,7 +145,7 @@ mod tests {
         let goals = |t: f64| {
             serde_json::to_vec(&GoalsInForce {
                 t,
-                goals: Vec::new(),
+                ..GoalsInForce::default()
             })
             .unwrap()
         };

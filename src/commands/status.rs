@@ -61,8 +61,14 @@ fn print_status(s: &IncidentStatus) {
             .lost
             .as_ref()
             .map_or(String::new(), |w| format!("  ({w})"));
+        // A unit whose reports no longer confirm a fire alone is named as such.
+        let doubted = if u.report_weight < 0.5 {
+            format!("  DOUBTED: reports weighed {:.2}", u.report_weight)
+        } else {
+            String::new()
+        };
         println!(
-            "  {:10} {:6} {:13} water {:6.0} L  task {task}{why}",
+            "  {:10} {:6} {:13} water {:6.0} L  task {task}{why}{doubted}",
             u.unit.as_str(),
             if u.alive { "alive" } else { "lost" },
             mode.unwrap_or("-"),
@@ -75,6 +81,9 @@ fn print_status(s: &IncidentStatus) {
     }
     for g in &s.goals {
         println!("  {g}");
+    }
+    for x in &s.stranded {
+        println!("ALERT {x}");
     }
     if s.rejected.values().any(|n| *n > 0) {
         println!("rejected messages: {:?}", s.rejected);

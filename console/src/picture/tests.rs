@@ -188,6 +188,7 @@ fn goals_change_only_when_the_goals_in_force_do() {
     let g = |t| GoalsInForce {
         t,
         goals: vec![goal.clone()],
+        stranded: Vec::new(),
     };
     p.observe(0, Event::Message(Payload::Goals(g(1.0))));
     assert_eq!(p.delta(0).unwrap().goals.unwrap().len(), 1);
@@ -224,4 +225,40 @@ fn the_heat_field_is_hottest_at_a_burning_fire_and_gone_once_it_is_out() {
     );
     let heat = p.delta(1500).unwrap().heat.unwrap();
     assert!(heat.kw_m2.iter().all(|&q| q == 0.0));
+}
+
+#[test]
+fn a_fire_a_goal_strands_raises_one_alert_naming_the_goal_and_its_issuer() {
+    use firefleet_protocol::msg::Stranded;
+    let mut p = picture();
+    let stranded = Stranded {
+        fire: FireId(3),
+        at: Point2::new(120.0, 1.0),
+        goal: "east-keep-out".into(),
+        zone: firefleet_model::ZoneId::new("east").unwrap(),
+        issued_by: Some(firefleet_model::CommanderId::new("rossi").unwrap()),
+        inside: true,
+    };
+    let told = |t, stranded: Vec<Stranded>| {
+        Event::Message(Payload::Goals(GoalsInForce {
+            t,
+            goals: Vec::new(),
+            stranded,
+        }))
+    };
+    p.observe(0, told(1.0, vec![stranded.clone()]));
+    p.observe(0, told(2.0, vec![stranded.clone()]));
+    let alerts = p.delta(0).unwrap().alerts;
+    assert_eq!(alerts.len(), 1, "raised once while it lasts: {alerts:?}");
+    assert!(
+        alerts[0].text.contains("fire f3")
+            && alerts[0].text.contains("east-keep-out")
+            && alerts[0].text.contains("rossi"),
+        "{}",
+        alerts[0].text
+    );
+    // Lifted, then stranded again: a new alert.
+    p.observe(0, told(3.0, Vec::new()));
+    p.observe(0, told(4.0, vec![stranded]));
+    assert_eq!(p.incident().alerts.len(), 2);
 }

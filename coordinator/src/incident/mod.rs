@@ -284,7 +284,7 @@ impl Incident {
         });
         let roads = RoadMaps::from_scenario(scenario, widths);
         let mut incident = Self::new(scenario.tunnel.clone(), units, lease_s, strategy);
-        incident.goals = Goals::new(&scenario.zones);
+        incident.goals = Goals::new(&scenario.zones, &scenario.commanders);
         incident.roads = roads;
         Ok(incident)
     }
@@ -492,6 +492,7 @@ impl Incident {
                 .map(Logged::to_msg)
                 .collect(),
             goals: self.goals().cloned().collect(),
+            stranded: self.stranded(),
             rejected: Default::default(),
         }
     }

@@ -4,9 +4,10 @@
 //!
 //! Which goal governs where is [`crate::goals`]' business; this module only acts on it.
 
-use firefleet_model::{Chainage, CommanderId, Point2, UnitId, ZoneId};
+use firefleet_model::{Chainage, CommanderId, Point2, UnitId, UnitKind, ZoneId};
 use firefleet_protocol::msg::{
-    BarredSpace, FireState, GoalAck, GoalKind, GoalsInForce, INSIDE_PORTAL_M, TaskKind, ZoneGoal,
+    BarredSpace, FireState, GoalAck, GoalKind, GoalsInForce, INSIDE_PORTAL_M, MAX_LIST, Stranded,
+    TaskKind, ZoneGoal,
 };
 
 use crate::assign::Mobility;
@@ -86,9 +87,85 @@ impl Incident {
         (self.enforce(t), refused)
     }
 
-    /// The goals in force as of `t`, for `coord/goals`.
+    /// The goals in force as of `t`, with the fires they strand, for `coord/goals`.
     pub fn goals_in_force(&self, t: f64) -> GoalsInForce {
-        self.goals.in_force(t)
+        GoalsInForce {
+            stranded: self.stranded(),
+            ..self.goals.in_force(t)
+        }
+    }
+
+    /// Burning fires the goals in force leave with no unit allowed to reach or attack them:
+    /// for each, the goal in the way of the nearest unit (the goal barring attack where it
+    /// burns, if one does). A fire no unit could reach anyway (no unit alive) is not a
+    /// goal's doing and is not listed. The first [`MAX_LIST`] fires, oldest first.
+    ///
+    /// Every unit is asked as the units themselves judge a task ([`BarredSpace::refuses`]);
+    /// where nothing is barred, nothing is asked.
+    pub fn stranded(&self) -> Vec<Stranded> {
+        let barred = self.goals.barred_space(0.0);
+        if barred.spans.is_empty() {
+            return Vec::new();
+        }
+        let units: Vec<(UnitKind, Chainage)> = self
+            .units
+            .values()
+            .filter(|v| v.alive)
+            .filter_map(|v| {
+                let st = v.state.as_ref()?;
+                Some((v.mobility.kind(), self.tunnel.chainage(st.pose.position())))
+            })
+            .collect();
+        if units.is_empty() {
+            return Vec::new();
+        }
+        let mut out = Vec::new();
+        for f in self.fusion.fires() {
+            if !matches!(
+                f.state,
+                FireState::Confirmed | FireState::Assigned | FireState::Suppressing
+            ) {
+                continue;
+            }
+            let at = self.tunnel.chainage(f.position());
+            let mut nearest: Option<(f64, &firefleet_protocol::msg::BarredSpan)> = None;
+            let mut reachable = false;
+            for &(kind, from) in &units {
+                match barred.refuses(&self.tunnel, kind, from, at, true) {
+                    None => {
+                        reachable = true;
+                        break;
+                    }
+                    Some((_, span)) => {
+                        let d = (from.m() - at.m()).abs();
+                        if nearest.is_none_or(|(best, _)| d < best) {
+                            nearest = Some((d, span));
+                        }
+                    }
+                }
+            }
+            let Some((_, span)) = nearest.filter(|_| !reachable) else {
+                continue;
+            };
+            let issued_by = self
+                .goals
+                .active()
+                .iter()
+                .find(|a| a.goal.id == span.goal)
+                .and_then(|a| a.goal.issued_by.clone());
+            out.push(Stranded {
+                fire: f.id,
+                at: f.position(),
+                goal: span.goal.clone(),
+                zone: span.zone.clone(),
+                issued_by,
+                inside: span.covers(at),
+            });
+            if out.len() == MAX_LIST {
+                break;
+            }
+        }
+        out
     }
 
     /// Grows with every change to the goals in force (and so to what they bar).

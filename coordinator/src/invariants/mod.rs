@@ -263,7 +263,7 @@ impl Invariants {
                     Some((u.id.clone(), speed))
                 })
                 .collect(),
-            goals: Goals::new(&scenario.zones),
+            goals: Goals::new(&scenario.zones, &scenario.commanders),
             t: 0.0,
             since: BTreeMap::new(),
             units: BTreeMap::new(),

@@ -10,7 +10,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::*;
-use firefleet_model::ids::{CommanderId, UnitId, ZoneId};
+use firefleet_model::geometry::Point2;
+use firefleet_model::ids::{CommanderId, FireId, UnitId, ZoneId};
 use firefleet_model::validate::{Invalid, Validate, each, finite, in_range, max_len};
 
 /// What the coordinator knows of one unit.
@@ -44,6 +45,9 @@ pub struct IncidentStatus {
     /// Commanders' zone goals in force.
     #[serde(default)]
     pub goals: Vec<ZoneGoal>,
+    /// Burning fires the goals in force leave with no unit allowed to reach or attack them.
+    #[serde(default)]
+    pub stranded: Vec<Stranded>,
     /// Messages the coordinator dropped, by class (undecodable, version, invalid, overflow),
     /// and `inconsistent`: changes it skipped for want of a unit's view (zero unless it has
     /// a bug).
@@ -55,6 +59,9 @@ impl Validate for IncidentStatus {
         finite("t", self.t)
     }
 }
+
+/// Longest goal id, bytes.
+pub const MAX_GOAL_ID: usize = 64;
 
 /// A commander's instruction for a zone.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -207,8 +214,11 @@ impl GoalForm {
 
 impl Validate for ZoneGoal {
     fn validate(&self) -> Result<(), Invalid> {
-        if self.id.is_empty() || self.id.len() > 64 {
-            return Err(Invalid::new("id", "must have 1 to 64 characters"));
+        if self.id.is_empty() || self.id.len() > MAX_GOAL_ID {
+            return Err(Invalid::new(
+                "id",
+                format!("must have 1 to {MAX_GOAL_ID} characters"),
+            ));
         }
         if let Some(b) = self.before_m {
             finite("before_m", b)?;
@@ -246,6 +256,10 @@ pub struct GoalInForce {
     pub until: Option<f64>,
 }
 
+/// The most goals a site holds in force: every one of them fits one `coord/goals` message
+/// (some 50 kB), so the goals in force are stored and recalled whole.
+pub const MAX_GOALS_IN_FORCE: usize = 256;
+
 /// `ff/<site>/coord/goals` (JSON): every goal in force as of `t`, published by the
 /// coordinator on every change and every second. Recorders keep the newest and answer
 /// queries with it, so that a restarted (or standby) coordinator takes the commanders'
@@ -255,6 +269,58 @@ pub struct GoalInForce {
 pub struct GoalsInForce {
     pub t: f64,
     pub goals: Vec<GoalInForce>,
+    /// The burning fires these goals strand, as of `t`: every console raises an alert for
+    /// each. Not taken back by a coordinator (it works them out again).
+    #[serde(default)]
+    pub stranded: Vec<Stranded>,
+}
+
+/// A burning fire that a goal in force leaves with no unit allowed to reach or attack it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Stranded {
+    pub fire: FireId,
+    pub at: Point2,
+    /// The goal that strands it (for a fire several goals cut off, the one in the way of
+    /// the nearest unit), its zone and its issuer.
+    pub goal: String,
+    pub zone: ZoneId,
+    pub issued_by: Option<CommanderId>,
+    /// The fire burns where the goal bars attack; otherwise the goal bars every unit's
+    /// way to it.
+    pub inside: bool,
+}
+
+impl Validate for Stranded {
+    fn validate(&self) -> Result<(), Invalid> {
+        self.at.validate().map_err(|e| e.within("at"))?;
+        if self.goal.len() > MAX_GOAL_ID {
+            return Err(Invalid::new(
+                "goal",
+                format!("must have at most {MAX_GOAL_ID} characters"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl fmt::Display for Stranded {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let issuer = self.issued_by.as_ref().map_or("?", CommanderId::as_str);
+        write!(
+            f,
+            "fire {} at ({:.0}, {:.0}) is stranded: goal '{}' on zone {} by {issuer} {}",
+            self.fire,
+            self.at.x,
+            self.at.y,
+            self.goal,
+            self.zone,
+            if self.inside {
+                "bars attacking it"
+            } else {
+                "bars every unit's way to it"
+            }
+        )
+    }
 }
 
 impl Validate for GoalInForce {
@@ -281,8 +347,10 @@ impl GoalsInForce {
 impl Validate for GoalsInForce {
     fn validate(&self) -> Result<(), Invalid> {
         finite("t", self.t)?;
-        max_len("goals", &self.goals, MAX_LIST)?;
-        each("goals", &self.goals)
+        max_len("goals", &self.goals, MAX_GOALS_IN_FORCE)?;
+        each("goals", &self.goals)?;
+        max_len("stranded", &self.stranded, MAX_LIST)?;
+        each("stranded", &self.stranded)
     }
 }
 

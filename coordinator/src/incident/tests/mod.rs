@@ -173,7 +173,7 @@ fn zone(id: &str, a: f64, b: f64) -> Zone {
 
 fn zoned() -> Incident {
     let mut i = incident();
-    i.goals = Goals::new(&[zone("z1", 50.0, 100.0), zone("z2", 100.0, 200.0)]);
+    i.goals = Goals::new(&[zone("z1", 50.0, 100.0), zone("z2", 100.0, 200.0)], &[]);
     i
 }
 

@@ -64,7 +64,7 @@ fn a_free_monorail_unit_searches_its_rail_end_to_end_and_back() {
 #[test]
 fn a_monorail_search_turns_short_of_a_keep_out_zone() {
     let (mut i, st) = with_rail(30.0);
-    i.goals = Goals::new(&[zone("z1", 100.0, 150.0)]);
+    i.goals = Goals::new(&[zone("z1", 100.0, 150.0)], &[]);
     let (ack, _) = submit(&mut i, goal("g1", "z1", GoalKind::KeepOut, 0, None), 0.0);
     assert!(ack.accepted, "{ack:?}");
     let out = i.state_at(st, 0.5).unwrap();

@@ -56,7 +56,7 @@ fn in_a_bend_staging_finds_a_fire_s_zone_by_its_chainage() {
         Strategy::Optimal,
     );
     i.coverage.look(Chainage::ZERO, tunnel.end(), 0.0);
-    i.goals = Goals::new(&[zone("end", 140.0, 180.0)]);
+    i.goals = Goals::new(&[zone("end", 140.0, 180.0)], &[]);
     let (ack, _) = submit(&mut i, goal("g1", "end", GoalKind::Monitor, 0, None), 0.0);
     assert!(ack.accepted, "{ack:?}");
     for (n, s) in [("a", 90.0), ("b", 20.0)] {

@@ -20,6 +20,34 @@ fn no_fire_in_a_keep_out_zone_is_attacked_and_no_unit_crosses_it() {
 }
 
 #[test]
+fn fires_a_keep_out_cuts_off_are_stranded_naming_the_goal_and_its_issuer() {
+    let mut i = zoned();
+    i.report_at(&report("a", 60.0), 1.0).unwrap();
+    i.report_at(&report("a", 150.0), 1.0).unwrap();
+    assert!(i.stranded().is_empty(), "nothing barred");
+    submit(&mut i, goal("g1", "z1", GoalKind::KeepOut, 0, None), 2.0);
+    let stranded: Vec<(FireId, String, bool)> = i
+        .stranded()
+        .into_iter()
+        .map(|s| {
+            assert_eq!(s.issued_by, Some(CommanderId::new("ic-1").unwrap()));
+            (s.fire, s.goal, s.inside)
+        })
+        .collect();
+    // Fire 1 burns inside the zone; fire 2 beyond it, with both units on the near side.
+    assert_eq!(
+        stranded,
+        [(FireId(1), "g1".into(), true), (FireId(2), "g1".into(), false)]
+    );
+    assert_eq!(i.status(2.0).stranded.len(), 2);
+    assert_eq!(i.goals_in_force(2.0).stranded.len(), 2, "what consoles are told");
+    // A unit beyond the zone can reach fire 2: only fire 1 is stranded.
+    i.state_at(state("b", 180.0, None), 3.0).unwrap();
+    let left: Vec<FireId> = i.stranded().into_iter().map(|s| s.fire).collect();
+    assert_eq!(left, [FireId(1)]);
+}
+
+#[test]
 fn a_monitor_goal_withdraws_the_unit_and_leaves_the_fire_burning() {
     let mut i = zoned();
     let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
