@@ -18,6 +18,9 @@ pub struct Checked {
     pub violations: Vec<Violation>,
     /// How many of its messages are of the site.
     pub messages: usize,
+    /// States and tasks naming a unit other than the one their key belongs to: set aside,
+    /// not judged as that unit's.
+    pub forged: usize,
     pub continuity: Tally,
 }
 
@@ -25,7 +28,7 @@ pub struct Checked {
 /// silent for `lease_s` lost.
 pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow::Result<Checked> {
     let mut inv = Invariants::with_lease(scenario, lease_s);
-    let (mut t, mut messages) = (0.0, 0usize);
+    let (mut t, mut messages, mut forged) = (0.0, 0usize, 0usize);
     for m in recording.messages() {
         let m = match m {
             Ok(m) => m,
@@ -42,11 +45,9 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
             continue;
         }
         messages += 1;
+        let schema = m.channel.schema.as_ref().map(|s| s.name.as_str());
         let event = match (&topic, Payload::from_json(&topic, &m.data)) {
-            // A clear is told apart by its schema: a goal's JSON would parse as one too.
-            (Topic::ZoneGoal(zone, by), _)
-                if m.channel.schema.as_ref().map(|s| s.name.as_str()) == Some(GoalClear::NAME) =>
-            {
+            (Topic::ZoneGoal(zone, by), _) if GoalClear::of_record(schema, &m.data).is_some() => {
                 Some(Event::Clear {
                     zone: zone.clone(),
                     by: by.clone(),
@@ -56,11 +57,22 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
                 t = c.t;
                 None
             }
-            (_, Ok(Payload::UnitState(s))) => {
+            // The unit a message belongs to is the one its key names: the router lets only
+            // that unit put there. A state or task naming another unit is forged (or a
+            // bug) and says nothing about the unit it names.
+            (Topic::UnitState(owner), Ok(Payload::UnitState(s))) => {
+                if &s.unit != owner {
+                    forged += 1;
+                    continue;
+                }
                 t = s.t;
                 Some(Event::State(s))
             }
-            (_, Ok(Payload::Task(task))) => {
+            (Topic::UnitTask(owner), Ok(Payload::Task(task))) => {
+                if &task.unit != owner {
+                    forged += 1;
+                    continue;
+                }
                 t = task.t;
                 Some(Event::Task(task))
             }
@@ -82,6 +94,7 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
     Ok(Checked {
         violations: inv.violations().to_vec(),
         messages,
+        forged,
         continuity: inv.continuity(),
     })
 }
@@ -96,4 +109,141 @@ pub fn burning(truth: &SimTruth) -> Event {
             .map(|f| f.position)
             .collect(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+    use std::io::Cursor;
+
+    use firefleet_model::{CommanderId, Pose2, UnitId, UnitKind, ZoneId, builtin};
+    use firefleet_protocol::msg::{GoalKind, UnitState, ZoneGoal};
+
+    use super::*;
+
+    /// An MCAP recording of `records` (topic, schema name, JSON), as a recorder writes
+    /// them, a channel per topic and schema.
+    fn recording(records: &[(String, &str, Vec<u8>)]) -> Recording {
+        let mut w = mcap::Writer::new(Cursor::new(Vec::new())).unwrap();
+        let mut channels = BTreeMap::new();
+        for (k, (topic, schema, json)) in records.iter().enumerate() {
+            let key = (topic.clone(), schema.to_string());
+            let id = match channels.get(&key) {
+                Some(id) => *id,
+                None => {
+                    let s = w.add_schema(schema, "jsonschema", b"{}").unwrap();
+                    let id = w.add_channel(s, topic, "json", &BTreeMap::new()).unwrap();
+                    channels.insert(key, id);
+                    id
+                }
+            };
+            let header = mcap::records::MessageHeader {
+                channel_id: id,
+                sequence: k as u32,
+                log_time: k as u64,
+                publish_time: k as u64,
+            };
+            w.write_to_known_channel(&header, json).unwrap();
+        }
+        w.finish().unwrap();
+        Recording::from_bytes(w.into_inner().into_inner())
+    }
+
+    fn state(key_unit: &str, named: &str, x: f64, t: f64) -> (String, &'static str, Vec<u8>) {
+        let named = UnitId::new(named).unwrap();
+        let st = UnitState {
+            t,
+            ..UnitState::idle(named, UnitKind::Ground, Pose2::new(x, -2.5, 0.0), 1000.0)
+        };
+        (
+            format!("ff/tunnel-a/unit/{key_unit}/state"),
+            "firefleet.UnitState",
+            serde_json::to_vec(&st).unwrap(),
+        )
+    }
+
+    fn keep_out_core() -> (String, &'static str, Vec<u8>) {
+        let g = ZoneGoal::new(
+            ZoneId::new("core").unwrap(),
+            GoalKind::KeepOut,
+            CommanderId::new("rossi").unwrap(),
+        );
+        (
+            "ff/tunnel-a/zone/core/goal/rossi".into(),
+            "firefleet.ZoneGoal",
+            serde_json::to_vec(&g).unwrap(),
+        )
+    }
+
+    /// ugv-1 at 100 m, in the core zone, every second from `from` to `to`, on the key of
+    /// `key_unit`.
+    fn in_core(key_unit: &str, from: u32, to: u32) -> Vec<(String, &'static str, Vec<u8>)> {
+        (from..to)
+            .map(|s| state(key_unit, "ugv-1", 100.0, f64::from(s)))
+            .collect()
+    }
+
+    #[test]
+    fn a_state_is_judged_as_its_key_s_unit_and_a_clear_is_seen_on_either_channel() {
+        let scenario = builtin::resolve("vehicle-collision").unwrap();
+        let ugv1 = UnitId::new("ugv-1").unwrap();
+        let judge = |records: Vec<(String, &'static str, Vec<u8>)>| {
+            check(&recording(&records), &scenario, 5.0).unwrap()
+        };
+        // ugv-1 itself inside a keep-out for 200 s: a violation.
+        let mut honest = vec![keep_out_core()];
+        honest.extend(in_core("ugv-1", 0, 200));
+        let c = judge(honest);
+        assert!(
+            c.violations
+                .iter()
+                .any(|v| v.to_string().contains(ugv1.as_str())),
+            "the check still sees the real thing: {:?}",
+            c.violations
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+        );
+        // The same states on ugv-2's key (a thief with ugv-2's certificate naming ugv-1):
+        // set aside, no false violation.
+        let mut forged = vec![keep_out_core()];
+        forged.extend(in_core("ugv-2", 0, 200));
+        let c = judge(forged);
+        assert!(
+            c.violations.is_empty(),
+            "{:?}",
+            c.violations
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+        );
+        assert_eq!(c.forged, 200);
+        // The goal cleared at once, the clear kept on the goal's own channel (as recorders
+        // before clears had a channel of their own did) or on its own: ugv-1 may be there.
+        let clear = serde_json::to_vec(&GoalClear {
+            zone: ZoneId::new("core").unwrap(),
+            by: CommanderId::new("rossi").unwrap(),
+        })
+        .unwrap();
+        for schema in ["firefleet.ZoneGoal", GoalClear::NAME] {
+            let mut cleared = vec![
+                keep_out_core(),
+                (
+                    "ff/tunnel-a/zone/core/goal/rossi".into(),
+                    schema,
+                    clear.clone(),
+                ),
+            ];
+            cleared.extend(in_core("ugv-1", 0, 200));
+            let c = judge(cleared);
+            assert!(
+                c.violations.is_empty(),
+                "clear under {schema}: {:?}",
+                c.violations
+                    .iter()
+                    .map(ToString::to_string)
+                    .collect::<Vec<_>>()
+            );
+        }
+    }
 }

@@ -655,7 +655,7 @@ mod tests {
         let mut n = MAX_GOALS_PER_COMMANDER;
         let mut slot = 3 * MAX_GOALS_PER_COMMANDER;
         'commanders: for k in 0.. {
-            let by = CommanderId::new(&format!("c{k}")).unwrap();
+            let by = CommanderId::new(format!("c{k}")).unwrap();
             for p in 0..MAX_GOALS_PER_COMMANDER {
                 let zone = ["a", "b", "c"][slot % 3];
                 let prio = u8::try_from(slot / 3).unwrap();

@@ -121,6 +121,18 @@ pub struct GoalClear {
 
 impl GoalClear {
     pub const NAME: &'static str = "firefleet.GoalClear";
+
+    /// The clear a record on a goal key holds, if it is one: by its schema, or, in
+    /// recordings made before clears had a channel of their own (the goal's channel, under
+    /// the goal's schema), by its JSON, which no goal has (a goal has no `by`).
+    pub fn of_record(schema: Option<&str>, json: &[u8]) -> Option<GoalClear> {
+        let clear = serde_json::from_slice::<GoalClear>(json).ok();
+        match schema {
+            Some(Self::NAME) => clear,
+            _ if serde_json::from_slice::<crate::msg::ZoneGoal>(json).is_ok() => None,
+            _ => clear,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -109,7 +109,9 @@ const FLEET_PERIOD: std::time::Duration = std::time::Duration::from_millis(500);
 pub(crate) struct McapSink {
     writer: mcap::Writer<BufWriter<File>>,
     schemas: HashMap<String, u16>,
-    channels: HashMap<String, (u16, u32)>,
+    /// By topic and schema: a key can carry two kinds of record (a goal, and a
+    /// commander's delete as [`GoalClear`]), and a reader tells them apart by the schema.
+    channels: HashMap<(String, u16), (u16, u32)>,
     summary: RecordSummary,
 }
 
@@ -192,13 +194,14 @@ impl McapSink {
                 id
             }
         };
-        let (channel_id, seq) = match self.channels.get_mut(topic) {
+        let key = (topic.to_owned(), schema_id);
+        let (channel_id, seq) = match self.channels.get_mut(&key) {
             Some(c) => c,
             None => {
                 let id = self
                     .writer
                     .add_channel(schema_id, topic, "json", &BTreeMap::new())?;
-                self.channels.entry(topic.to_owned()).or_insert((id, 0))
+                self.channels.entry(key).or_insert((id, 0))
             }
         };
         *seq += 1;

@@ -61,10 +61,12 @@ pub fn timeline(recording: &Recording, out: &mut impl Write) -> Result<(), Repla
             writeln!(out, "t={site_t:7.1} s  {who} {what}")?;
             continue;
         }
-        if schema == Some(GoalClear::NAME) {
-            if let Ok(c) = serde_json::from_slice::<GoalClear>(&m.data) {
-                writeln!(out, "t={site_t:7.1} s  zone {} goals cleared", c.zone)?;
-            }
+        if let Some(c) = GoalClear::of_record(schema, &m.data) {
+            writeln!(
+                out,
+                "t={site_t:7.1} s  zone {} goals cleared by {}",
+                c.zone, c.by
+            )?;
             continue;
         }
         let Ok((_, topic)) = keys::parse(&m.channel.topic) else {

@@ -50,6 +50,12 @@ pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
         c.sent,
         c.moot,
     );
+    if checked.forged > 0 {
+        println!(
+            "{} states or tasks named a unit other than their key's: set aside as forged, not judged as the named unit's",
+            checked.forged
+        );
+    }
     Ok(if checked.violations.is_empty() {
         ExitCode::SUCCESS
     } else {

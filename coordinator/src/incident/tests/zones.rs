@@ -37,10 +37,17 @@ fn fires_a_keep_out_cuts_off_are_stranded_naming_the_goal_and_its_issuer() {
     // Fire 1 burns inside the zone; fire 2 beyond it, with both units on the near side.
     assert_eq!(
         stranded,
-        [(FireId(1), "g1".into(), true), (FireId(2), "g1".into(), false)]
+        [
+            (FireId(1), "g1".into(), true),
+            (FireId(2), "g1".into(), false)
+        ]
     );
     assert_eq!(i.status(2.0).stranded.len(), 2);
-    assert_eq!(i.goals_in_force(2.0).stranded.len(), 2, "what consoles are told");
+    assert_eq!(
+        i.goals_in_force(2.0).stranded.len(),
+        2,
+        "what consoles are told"
+    );
     // A unit beyond the zone can reach fire 2: only fire 1 is stranded.
     i.state_at(state("b", 180.0, None), 3.0).unwrap();
     let left: Vec<FireId> = i.stranded().into_iter().map(|s| s.fire).collect();
