@@ -7,8 +7,8 @@ standard library: the console's JSON API (see the README's console section).
 
 The password is read from the FIREFLEET_PASSWORD environment variable (or asked for).
 It prints fires as their state changes, units as their mode or task changes, and every
-decision with its reason; after --after seconds it logs in, issues the goal, and prints
-the coordinator's answer.
+decision with its reason; with --zone, after --after seconds it issues the goal and
+prints the coordinator's answer. It logs in first: the console's reads need a login.
 """
 
 import argparse
@@ -22,9 +22,9 @@ import urllib.error
 import urllib.request
 
 
-def events(url):
+def events(opener, url):
     """Server-sent events of the console's stream, as (event, data) pairs."""
-    with urllib.request.urlopen(url + "/api/stream") as stream:
+    with opener.open(url + "/api/stream") as stream:
         event, data = None, []
         for raw in stream:
             line = raw.decode().rstrip("\n")
@@ -71,24 +71,29 @@ class Follower:
                 print(f"ALERT {a['id']}: {a['text']}")
 
 
-def issue(url, user, password, zone, goal):
+def post(opener, url, path, body):
+    req = urllib.request.Request(url + path, data=json.dumps(body).encode(),
+                                 headers={"content-type": "application/json"})
+    try:
+        with opener.open(req) as r:
+            return r.status, json.load(r)
+    except urllib.error.HTTPError as e:
+        return e.code, json.load(e)
+
+
+def log_in(url, user, password):
+    """An opener holding the session cookie of `user`; None if the login is refused."""
     jar = http.cookiejar.CookieJar()
     opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor(jar))
-
-    def post(path, body):
-        req = urllib.request.Request(url + path, data=json.dumps(body).encode(),
-                                     headers={"content-type": "application/json"})
-        try:
-            with opener.open(req) as r:
-                return r.status, json.load(r)
-        except urllib.error.HTTPError as e:
-            return e.code, json.load(e)
-
-    status, body = post("/api/login", {"name": user, "password": password})
+    status, body = post(opener, url, "/api/login", {"name": user, "password": password})
     if status != 200:
         print(f"login refused: {body['error']}")
-        return
-    status, ack = post("/api/goals", {"zone": zone, "goal": goal})
+        return None
+    return opener
+
+
+def issue(opener, url, zone, goal):
+    status, ack = post(opener, url, "/api/goals", {"zone": zone, "goal": goal})
     if "accepted" in ack:
         verdict = "accepted" if ack["accepted"] else "REJECTED"
         print(f"goal {ack['id']} on zone {ack['zone']} {verdict}: {ack['reason']}")
@@ -106,15 +111,20 @@ def main():
     ap.add_argument("--for", dest="duration", type=float, default=60.0,
                     help="seconds to follow the incident")
     a = ap.parse_args()
-    password = None
-    if a.user and a.zone:
+    # Reads need a login too (a console with no users file on loopback excepted).
+    opener = urllib.request.build_opener()
+    if a.user:
         password = os.environ.get("FIREFLEET_PASSWORD") or getpass.getpass()
-        timer = threading.Timer(a.after, issue, (a.url, a.user, password, a.zone, a.goal))
+        opener = log_in(a.url, a.user, password)
+        if opener is None:
+            return
+    if a.user and a.zone:
+        timer = threading.Timer(a.after, issue, (opener, a.url, a.zone, a.goal))
         timer.daemon = True
         timer.start()
     follower = Follower()
     until = time.monotonic() + a.duration
-    for event, body in events(a.url):
+    for event, body in events(opener, a.url):
         if event == "incident":
             site = body["site"]
             print(f"following {site['scenario']} (site {site['site']}, "

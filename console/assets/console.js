@@ -280,7 +280,7 @@ function drawAlerts() {
     li.textContent = `t=${fmt(a.t, 0)} s ${a.text}` + (a.acked_by ? ` (acknowledged by ${a.acked_by})` : " ");
     if (!a.acked_by) {
       const b = document.createElement("button");
-      b.textContent = "Acknowledge"; b.disabled = !state.me;
+      b.textContent = "Acknowledge"; b.disabled = !state.steers;
       b.onclick = () => command("POST", `/api/alerts/${a.id}/ack`).then((r) => { if (!r.ok) $("ack").textContent = r.body.error; });
       li.appendChild(b);
     }
@@ -356,16 +356,22 @@ function applyDelta(d) {
   }
 }
 
+let source = null;
+
+// The stream: the console refuses it (401) to a page nobody has logged in on when reads
+// need a login; a refused EventSource closes for good, and logging in opens it again.
 function connect() {
+  if (source) source.close();
   const es = new EventSource("/api/stream");
+  source = es;
   es.addEventListener("incident", (ev) => { applyIncident(JSON.parse(ev.data)); link(true); });
   es.addEventListener("delta", (ev) => applyDelta(JSON.parse(ev.data)));
-  es.onerror = () => link(false);
+  es.onerror = () => link(false, es.readyState === EventSource.CLOSED && !state.me);
 }
 
-function link(up) {
+function link(up, loginNeeded) {
   const l = $("link");
-  l.textContent = up ? "live" : "NO LINK to the console";
+  l.textContent = up ? "live" : loginNeeded ? "log in to see the incident" : "NO LINK to the console";
   l.className = "badge " + (up ? "ok" : "bad");
 }
 
@@ -392,11 +398,13 @@ async function command(method, url, body) {
   return { ok: r.ok, status: r.status, body: json };
 }
 
-function loggedIn(name) {
+function loggedIn(name, role) {
   state.me = name;
+  const steers = !!name && role === "commander";
+  state.steers = steers;
   $("login").hidden = !!name; $("who").hidden = !name;
-  $("who-name").textContent = name ? `commander ${name}` : "";
-  $("goal-issue").disabled = !name; $("goal-clear").disabled = !name;
+  $("who-name").textContent = name ? `${steers ? "commander" : "viewer"} ${name}` : "";
+  $("goal-issue").disabled = !steers; $("goal-clear").disabled = !steers;
   drawAlerts();
 }
 
@@ -406,7 +414,7 @@ function setupCommands() {
     $("login-error").textContent = "";
     const r = await command("POST", "/api/login", { name: $("login-name").value, password: $("login-password").value });
     $("login-password").value = "";
-    if (r.ok) loggedIn(r.body.name); else $("login-error").textContent = r.body.error || "refused";
+    if (r.ok) { loggedIn(r.body.name, r.body.role); connect(); } else $("login-error").textContent = r.body.error || "refused";
   });
   $("logout").addEventListener("click", async () => { await command("POST", "/api/logout"); loggedIn(null); });
   const kind = $("goal-kind");
@@ -433,5 +441,4 @@ function setupCommands() {
 
 setupPanZoom();
 setupCommands();
-command("GET", "/api/me").then((r) => loggedIn(r.ok ? r.body.name : null));
-connect();
+command("GET", "/api/me").then((r) => { loggedIn(r.ok ? r.body.name : null, r.ok ? r.body.role : null); connect(); });

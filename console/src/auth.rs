@@ -4,9 +4,15 @@
 //! file that `firefleet console add-user` writes:
 //!
 //! ```toml
-//! [users]
+//! [users]                   # commanders: they read the incident and steer it
 //! rossi = "$argon2id$v=19$m=19456,t=2,p=1$..."
+//! [viewers]                 # they read it only (a control room's wall, a liaison)
+//! ferri = "$argon2id$v=19$m=19456,t=2,p=1$..."
 //! ```
+//!
+//! Checking a password costs one Argon2 verification whether the name is known or not (an
+//! unknown name is checked against a hash made at start with the same parameters), so the
+//! answer's time does not tell which names exist.
 //!
 //! A login opens a [`Sessions`] entry named by a random 256-bit token (the page's cookie),
 //! which expires a fixed time after the login whatever happens in between: a console left
@@ -41,12 +47,27 @@ pub enum AuthError {
     Hash(String),
 }
 
-/// The users file: commander name to password hash.
+/// What a login may do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Role {
+    /// Reads the incident and steers it: goals, alert acknowledgements.
+    Commander,
+    /// Reads the incident only.
+    Viewer,
+}
+
+/// The users file: name to password hash, commanders and viewers.
 #[derive(Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Users {
     #[serde(default)]
     users: BTreeMap<CommanderId, String>,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    viewers: BTreeMap<CommanderId, String>,
+    /// What an unknown name is checked against: the same work as a known one.
+    #[serde(skip)]
+    decoy: std::sync::OnceLock<String>,
 }
 
 impl Users {
@@ -59,22 +80,38 @@ impl Users {
         };
         let text = std::fs::read_to_string(path).map_err(|e| err(e.to_string()))?;
         let users: Users = toml::from_str(&text).map_err(|e| err(e.to_string()))?;
-        for (name, hash) in &users.users {
-            PasswordHash::new(hash)
-                .map_err(|e| err(format!("users.{name}: not a password hash ({e})")))?;
+        for (table, list) in [("users", &users.users), ("viewers", &users.viewers)] {
+            for (name, hash) in list {
+                PasswordHash::new(hash)
+                    .map_err(|e| err(format!("{table}.{name}: not a password hash ({e})")))?;
+            }
+        }
+        if let Some(name) = users.users.keys().find(|n| users.viewers.contains_key(*n)) {
+            return Err(err(format!("{name} is both a commander and a viewer")));
         }
         Ok(users)
     }
 
-    /// Read `path` if it exists (else start empty), set `name`'s password, write it back
-    /// readable by its owner only.
-    pub fn add(path: &Path, name: CommanderId, password: &str) -> Result<(), AuthError> {
+    /// Read `path` if it exists (else start empty), set `name`'s password and role, write
+    /// it back readable by its owner only.
+    pub fn add(
+        path: &Path,
+        name: CommanderId,
+        password: &str,
+        role: Role,
+    ) -> Result<(), AuthError> {
         let mut users = if path.exists() {
             Self::load(path)?
         } else {
             Self::default()
         };
-        users.users.insert(name, hash(password)?);
+        let hash = hash(password)?;
+        users.users.remove(&name);
+        users.viewers.remove(&name);
+        match role {
+            Role::Commander => users.users.insert(name, hash),
+            Role::Viewer => users.viewers.insert(name, hash),
+        };
         let text = toml::to_string(&users).map_err(|e| AuthError::Hash(e.to_string()))?;
         write_private(path, &text).map_err(|e| AuthError::File {
             path: path.to_owned(),
@@ -83,32 +120,35 @@ impl Users {
     }
 
     pub fn len(&self) -> usize {
-        self.users.len()
+        self.users.len() + self.viewers.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.users.is_empty()
+        self.len() == 0
     }
 
-    /// The commander, if `password` is theirs. An unknown name costs a hash too, so the
-    /// answer's time does not tell which names exist.
-    pub fn verify(&self, name: &str, password: &str) -> Option<CommanderId> {
-        let known = CommanderId::new(name)
-            .ok()
-            .and_then(|id| self.users.get_key_value(&id));
-        match known {
-            Some((id, hash)) => {
-                let hash = PasswordHash::new(hash).ok()?;
-                Argon2::default()
-                    .verify_password(password.as_bytes(), &hash)
-                    .ok()
-                    .map(|()| id.clone())
-            }
-            None => {
-                let _ = hash(password);
-                None
-            }
-        }
+    /// Who logs in, and as what, if `password` is theirs. Exactly one Argon2 verification
+    /// whatever the name and password (a short password included), so the time it takes
+    /// does not tell a known name from an unknown one.
+    pub fn verify(&self, name: &str, password: &str) -> Option<(CommanderId, Role)> {
+        let known = CommanderId::new(name).ok().and_then(|id| {
+            let commander = self.users.get(&id).map(|h| (h, Role::Commander));
+            commander
+                .or_else(|| self.viewers.get(&id).map(|h| (h, Role::Viewer)))
+                .map(|(h, role)| (id, h, role))
+        });
+        let decoy = self
+            .decoy
+            .get_or_init(|| hash("a decoy nobody can log in with").unwrap_or_default());
+        let checked = known
+            .as_ref()
+            .map_or(decoy.as_str(), |(_, h, _)| h.as_str());
+        let ok = PasswordHash::new(checked).ok().is_some_and(|h| {
+            Argon2::default()
+                .verify_password(password.as_bytes(), &h)
+                .is_ok()
+        });
+        known.filter(|_| ok).map(|(id, _, role)| (id, role))
     }
 }
 
@@ -131,11 +171,24 @@ fn write_private(path: &Path, text: &str) -> std::io::Result<()> {
     std::io::Write::write_all(&mut options.open(path)?, text.as_bytes())
 }
 
+/// Sessions one name may hold open: a commander's tablet, laptop and the control room's
+/// screen, not a thief's thousand.
+pub const MAX_SESSIONS_PER_NAME: usize = 8;
+
+/// One open session.
+#[derive(Debug, Clone)]
+struct Session {
+    who: CommanderId,
+    role: Role,
+    opened: Instant,
+    expires: Instant,
+}
+
 /// Open sessions, by token.
 #[derive(Debug)]
 pub struct Sessions {
     ttl: Duration,
-    open: Mutex<HashMap<String, (CommanderId, Instant)>>,
+    open: Mutex<HashMap<String, Session>>,
 }
 
 impl Sessions {
@@ -151,22 +204,39 @@ impl Sessions {
         self.ttl
     }
 
-    /// A new session for `who`; its token.
-    pub fn open(&self, who: CommanderId, now: Instant) -> String {
+    /// A new session for `who` as `role`; its token. Past [`MAX_SESSIONS_PER_NAME`] the
+    /// name's oldest session is closed.
+    pub fn open(&self, who: CommanderId, role: Role, now: Instant) -> String {
         let mut bytes = [0u8; 32];
         rand::rng().fill_bytes(&mut bytes);
         let token: String = bytes.iter().map(|b| format!("{b:02x}")).collect();
         let mut open = self.open.lock().expect("sessions lock");
-        open.retain(|_, (_, expires)| *expires > now);
-        open.insert(token.clone(), (who, now + self.ttl));
+        open.retain(|_, s| s.expires > now);
+        let mut theirs: Vec<(Instant, String)> = open
+            .iter()
+            .filter(|(_, s)| s.who == who)
+            .map(|(t, s)| (s.opened, t.clone()))
+            .collect();
+        theirs.sort();
+        let over = (theirs.len() + 1).saturating_sub(MAX_SESSIONS_PER_NAME);
+        for (_, old) in theirs.into_iter().take(over) {
+            open.remove(&old);
+        }
+        let session = Session {
+            who,
+            role,
+            opened: now,
+            expires: now + self.ttl,
+        };
+        open.insert(token.clone(), session);
         token
     }
 
-    /// Who holds `token`, if the session is open and not expired.
-    pub fn who(&self, token: &str, now: Instant) -> Option<CommanderId> {
+    /// Who holds `token` and as what, if the session is open and not expired.
+    pub fn who(&self, token: &str, now: Instant) -> Option<(CommanderId, Role)> {
         let mut open = self.open.lock().expect("sessions lock");
         match open.get(token) {
-            Some((who, expires)) if *expires > now => Some(who.clone()),
+            Some(s) if s.expires > now => Some((s.who.clone(), s.role)),
             Some(_) => {
                 open.remove(token);
                 None
@@ -189,11 +259,12 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("users.toml");
         let rossi = CommanderId::new("rossi").unwrap();
-        Users::add(&path, rossi.clone(), "correct horse").unwrap();
+        Users::add(&path, rossi.clone(), "correct horse", Role::Commander).unwrap();
         Users::add(
             &path,
             CommanderId::new("bianchi").unwrap(),
             "battery staple",
+            Role::Viewer,
         )
         .unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
@@ -206,14 +277,35 @@ mod tests {
         }
         let users = Users::load(&path).unwrap();
         assert_eq!(users.len(), 2);
-        assert_eq!(users.verify("rossi", "correct horse"), Some(rossi));
+        assert_eq!(
+            users.verify("rossi", "correct horse"),
+            Some((rossi.clone(), Role::Commander))
+        );
+        assert_eq!(
+            users.verify("bianchi", "battery staple"),
+            Some((CommanderId::new("bianchi").unwrap(), Role::Viewer))
+        );
         assert_eq!(users.verify("rossi", "battery staple"), None);
+        assert_eq!(users.verify("rossi", "short"), None);
         assert_eq!(users.verify("verdi", "correct horse"), None);
         assert_eq!(users.verify("not a name!", "correct horse"), None);
         assert!(matches!(
-            Users::add(&path, CommanderId::new("verdi").unwrap(), "short"),
+            Users::add(
+                &path,
+                CommanderId::new("verdi").unwrap(),
+                "short",
+                Role::Commander
+            ),
             Err(AuthError::ShortPassword)
         ));
+        // Made a viewer, rossi is no longer a commander.
+        Users::add(&path, rossi.clone(), "correct horse", Role::Viewer).unwrap();
+        let users = Users::load(&path).unwrap();
+        assert_eq!(users.len(), 2);
+        assert_eq!(
+            users.verify("rossi", "correct horse"),
+            Some((rossi, Role::Viewer))
+        );
     }
 
     #[test]
@@ -230,14 +322,23 @@ mod tests {
         let sessions = Sessions::new(Duration::from_secs(60));
         let t0 = Instant::now();
         let rossi = CommanderId::new("rossi").unwrap();
-        let a = sessions.open(rossi.clone(), t0);
-        let b = sessions.open(rossi.clone(), t0);
+        let a = sessions.open(rossi.clone(), Role::Commander, t0);
+        let b = sessions.open(rossi.clone(), Role::Commander, t0);
         assert_ne!(a, b);
         assert_eq!(a.len(), 64);
-        assert_eq!(sessions.who(&a, t0 + Duration::from_secs(59)), Some(rossi));
+        assert_eq!(
+            sessions.who(&a, t0 + Duration::from_secs(59)),
+            Some((rossi.clone(), Role::Commander))
+        );
         assert_eq!(sessions.who(&a, t0 + Duration::from_secs(60)), None);
         assert_eq!(sessions.who("nope", t0), None);
         sessions.close(&b);
         assert_eq!(sessions.who(&b, t0), None);
+        // One name holds a bounded number of sessions: the oldest goes.
+        let tokens: Vec<String> = (0..=MAX_SESSIONS_PER_NAME as u64)
+            .map(|k| sessions.open(rossi.clone(), Role::Viewer, t0 + Duration::from_millis(k)))
+            .collect();
+        assert_eq!(sessions.who(&tokens[0], t0), None, "the oldest closed");
+        assert!(tokens[1..].iter().all(|t| sessions.who(t, t0).is_some()));
     }
 }

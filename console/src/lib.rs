@@ -4,7 +4,8 @@
 //! [`picture`] is the incident as the fleet knows it (unit states, fire tracks, goals,
 //! decisions, alerts), built from the bus's messages with no I/O, so what the page shows
 //! is testable message by message; [`site`] is the tunnel drawn to scale from the site
-//! file; [`auth`] the commanders' logins; [`http`] the web page, its API and the stream of
+//! file; [`auth`] the commanders' logins and [`throttle`] what failing one costs; [`http`]
+//! the web page, its API and the stream of
 //! changes, over a [`http::Console`] that [`node`] feeds from the bus and that sends goals
 //! back through it; [`tls`] serves them over HTTPS.
 //!
@@ -20,4 +21,5 @@ pub mod http;
 pub mod node;
 pub mod picture;
 pub mod site;
+pub mod throttle;
 pub mod tls;

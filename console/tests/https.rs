@@ -6,8 +6,8 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
 
-use firefleet_console::auth::{Sessions, Users};
-use firefleet_console::http::Console;
+use firefleet_console::auth::{Role, Sessions, Users};
+use firefleet_console::http::{Console, Peer, Serving};
 use firefleet_console::picture::Picture;
 use firefleet_console::site::SiteMap;
 use firefleet_console::tls::{TlsListener, server_config};
@@ -57,6 +57,7 @@ async fn a_login_over_https_sets_a_secure_cookie_and_plain_http_gets_nothing() {
         &users_file,
         CommanderId::new("rossi").unwrap(),
         "correct horse",
+        Role::Commander,
     )
     .unwrap();
     let text = include_str!("../../model/scenarios/rail-tunnel.toml");
@@ -65,13 +66,19 @@ async fn a_login_over_https_sets_a_secure_cookie_and_plain_http_gets_nothing() {
         Picture::new(SiteMap::new(&scenario)),
         Users::load(&users_file).unwrap(),
         Sessions::new(Duration::from_secs(3600)),
-        true,
+        Serving {
+            secure: true,
+            open_reads: false,
+        },
     );
     let config = server_config(&dir.path().join("cert.pem"), &dir.path().join("key.pem")).unwrap();
     let tcp = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let addr = tcp.local_addr().unwrap();
     let listener = TlsListener::new(tcp, config).unwrap();
-    tokio::spawn(async move { axum::serve(listener, Console::router(Arc::clone(&console))).await });
+    tokio::spawn(async move {
+        let app = Console::router(Arc::clone(&console));
+        axum::serve(listener, app.into_make_service_with_connect_info::<Peer>()).await
+    });
 
     // A client that opens a socket and says nothing holds up nobody.
     let _silent = TcpStream::connect(addr).await.unwrap();
@@ -106,8 +113,13 @@ async fn a_login_over_https_sets_a_secure_cookie_and_plain_http_gets_nothing() {
         "GET /api/incident HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n",
     )
     .await;
-    assert!(incident.starts_with("HTTP/1.1 200"), "{incident}");
-    assert!(incident.contains("\"units\""));
+    assert!(incident.starts_with("HTTP/1.1 401"), "{incident}");
+    assert!(
+        incident
+            .to_ascii_lowercase()
+            .contains("strict-transport-security: max-age="),
+        "{incident}"
+    );
 
     let body = r#"{"name":"rossi","password":"correct horse"}"#;
     let login = request(
@@ -126,6 +138,20 @@ async fn a_login_over_https_sets_a_secure_cookie_and_plain_http_gets_nothing() {
         .expect("a session cookie");
     assert!(cookie.contains("; Secure"), "{cookie}");
     assert!(cookie.contains("HttpOnly"), "{cookie}");
+    let session = cookie
+        .split_once(':')
+        .and_then(|(_, v)| v.trim().split(';').next())
+        .unwrap();
+    let incident = request(
+        &connector,
+        addr,
+        &format!(
+            "GET /api/incident HTTP/1.1\r\nHost: 127.0.0.1\r\nCookie: {session}\r\nConnection: close\r\n\r\n"
+        ),
+    )
+    .await;
+    assert!(incident.starts_with("HTTP/1.1 200"), "{incident}");
+    assert!(incident.contains("\"units\""));
 }
 
 #[test]

@@ -18,8 +18,8 @@ use anyhow::Context;
 use clap::{Args, Subcommand};
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
-use firefleet_console::auth::{Sessions, Users};
-use firefleet_console::http::{Console, TICK};
+use firefleet_console::auth::{Role, Sessions, Users};
+use firefleet_console::http::{Console, Peer, Serving, TICK};
 use firefleet_console::node;
 use firefleet_console::picture::Picture;
 use firefleet_console::site::SiteMap;
@@ -50,6 +50,9 @@ struct AddUserArgs {
     users: PathBuf,
     /// The commander's name: the name goals are issued under.
     name: CommanderId,
+    /// A viewer: reads the incident, steers nothing.
+    #[arg(long)]
+    viewer: bool,
 }
 
 #[derive(Args, Debug)]
@@ -91,8 +94,18 @@ fn add_user(a: AddUserArgs) -> anyhow::Result<ExitCode> {
         .read_line(&mut password)
         .context("reading the password from standard input")?;
     let password = password.trim_end_matches(['\r', '\n']);
-    Users::add(&a.users, a.name.clone(), password)?;
-    println!("{} may log in ({})", a.name, a.users.display());
+    let role = if a.viewer {
+        Role::Viewer
+    } else {
+        Role::Commander
+    };
+    Users::add(&a.users, a.name.clone(), password, role)?;
+    println!(
+        "{} may log in as a {} ({})",
+        a.name,
+        if a.viewer { "viewer" } else { "commander" },
+        a.users.display()
+    );
     Ok(ExitCode::SUCCESS)
 }
 
@@ -100,11 +113,18 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
     let scenario = builtin::resolve(&a.scenario.scenario)?;
     let users = match &a.users {
         Some(path) => Users::load(path)?,
-        None => {
-            tracing::warn!("no --users file: the console is read-only, nobody can log in");
+        None if a.http.ip().is_loopback() => {
+            tracing::warn!(
+                "no --users file: nobody can log in, and anyone on this host reads the incident"
+            );
             Users::default()
         }
+        None => anyhow::bail!(
+            "--http {}: a console served beyond loopback needs --users (reads show the whole incident)",
+            a.http
+        ),
     };
+    let open_reads = users.is_empty();
     let tls = match (&a.https_cert, &a.https_key) {
         (Some(cert), Some(key)) => Some(server_config(cert, key)?),
         _ => None,
@@ -117,7 +137,10 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
         Picture::new(SiteMap::new(&scenario)),
         users,
         Sessions::new(Duration::from_secs_f64(a.session_hours * 3600.0)),
-        tls.is_some(),
+        Serving {
+            secure: tls.is_some(),
+            open_reads,
+        },
     );
     let bus = Arc::new(bus);
     let feed = {
@@ -146,15 +169,25 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
         Some(config) => {
             tracing::info!("console on https://{}", listener.local_addr()?);
             let listener = TlsListener::new(listener, config)?;
-            axum::serve(listener, console.router())
-                .with_graceful_shutdown(stop)
-                .await
+            axum::serve(
+                listener,
+                console
+                    .router()
+                    .into_make_service_with_connect_info::<Peer>(),
+            )
+            .with_graceful_shutdown(stop)
+            .await
         }
         None => {
             tracing::info!("console on http://{}", listener.local_addr()?);
-            axum::serve(listener, console.router())
-                .with_graceful_shutdown(stop)
-                .await
+            axum::serve(
+                listener,
+                console
+                    .router()
+                    .into_make_service_with_connect_info::<Peer>(),
+            )
+            .with_graceful_shutdown(stop)
+            .await
         }
     };
     for task in [feed, goals, ticker.abort_handle()] {

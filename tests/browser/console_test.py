@@ -2,8 +2,9 @@
 """The incident commander's console in a real browser (issue #18).
 
 Starts a demo fleet with its console, drives the page in headless Chromium through
-chromedriver (Selenium), and checks what a commander relies on: the map shows every unit
-and every fire of the scenario, a wrong password is refused, a commander logs in, picks
+chromedriver (Selenium), and checks what a commander relies on: the page shows nothing of
+the incident before a login (reads need one), a wrong password is refused, a commander
+logs in, the map shows every unit and every fire of the scenario, the commander picks
 a zone on the map where units are, sets keep-out, sees the coordinator's ack, and sees
 the units leave the zone on the map. Prints the page's update latency (the console
 hearing a unit's state -> the page having drawn it) and saves a screenshot.
@@ -28,6 +29,8 @@ import sys
 import tempfile
 import threading
 import time
+import http.cookiejar
+import urllib.error
 import urllib.request
 
 import websocket
@@ -114,7 +117,14 @@ class Foxglove:
 
 
 def incident(base):
-    with urllib.request.urlopen(f"{base}/api/incident", timeout=5) as r:
+    """The whole picture, read as the commander: reads need a login."""
+    opener = urllib.request.build_opener(
+        urllib.request.HTTPCookieProcessor(http.cookiejar.CookieJar()))
+    login = urllib.request.Request(
+        f"{base}/api/login", data=json.dumps({"name": "rossi", "password": PASSWORD}).encode(),
+        headers={"content-type": "application/json"})
+    opener.open(login, timeout=5).close()
+    with opener.open(f"{base}/api/incident", timeout=5) as r:
         return json.load(r)
 
 
@@ -143,7 +153,19 @@ def main():
                 return incident(base)
             except OSError:
                 return None
+        try:
+            urllib.request.urlopen(f"{base}/api/incident", timeout=5)
+        except urllib.error.HTTPError as e:
+            assert e.code == 401, e
+        except OSError:
+            pass
         first = wait_for("the console answers", up, timeout=60)
+        try:
+            urllib.request.urlopen(f"{base}/api/incident", timeout=5)
+            raise AssertionError("the incident was read without a login")
+        except urllib.error.HTTPError as e:
+            assert e.code == 401, e
+        print("the API: 401 without a login")
 
         def fox_up():
             try:
@@ -167,6 +189,27 @@ def main():
         driver.get(base + "/")
         js = driver.execute_script
 
+        # Before a login the page shows nothing of the incident, and says why.
+        wait_for("the page asks for a login",
+                 lambda: driver.find_element(By.ID, "link").text == "log in to see the incident")
+        assert js("return document.querySelectorAll('#fires g.fire').length") == 0
+        print("before a login: no incident on the page")
+
+        # A wrong password is refused.
+        driver.find_element(By.ID, "login-name").send_keys("rossi")
+        driver.find_element(By.ID, "login-password").send_keys("wrong password")
+        driver.find_element(By.ID, "login-button").click()
+        wait_for("a wrong password is refused",
+                 lambda: "wrong name or password" in driver.find_element(By.ID, "login-error").text)
+        assert not driver.find_element(By.ID, "goal-issue").is_enabled()
+        print("wrong password: refused")
+
+        # The right one is not.
+        driver.find_element(By.ID, "login-password").send_keys(PASSWORD)
+        driver.find_element(By.ID, "login-button").click()
+        wait_for("the commander is logged in",
+                 lambda: driver.find_element(By.ID, "who-name").text == "commander rossi")
+
         # Every unit and every fire of the scenario on the map.
         wait_for(f"the map shows all {len(units)} units",
                  lambda: sorted(js("return [...document.querySelectorAll('#units g.unit')]"
@@ -183,21 +226,6 @@ def main():
             wait_for(f"Foxglove live serves {topic}", lambda: fox.get(topic), timeout=30)
         print(f"Foxglove live: {len(fox.channels)} channels; scene has "
               f"{len(fox.entities('unit/'))} units, {len(fox.entities('fire/'))} fires")
-
-        # A wrong password is refused.
-        driver.find_element(By.ID, "login-name").send_keys("rossi")
-        driver.find_element(By.ID, "login-password").send_keys("wrong password")
-        driver.find_element(By.ID, "login-button").click()
-        wait_for("a wrong password is refused",
-                 lambda: "wrong name or password" in driver.find_element(By.ID, "login-error").text)
-        assert not driver.find_element(By.ID, "goal-issue").is_enabled()
-        print("wrong password: refused")
-
-        # The right one is not.
-        driver.find_element(By.ID, "login-password").send_keys(PASSWORD)
-        driver.find_element(By.ID, "login-button").click()
-        wait_for("the commander is logged in",
-                 lambda: driver.find_element(By.ID, "who-name").text == "commander rossi")
 
         # The zone with the most units in it, picked on the map.
         def inside(zone):

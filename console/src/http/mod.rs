@@ -15,21 +15,38 @@
 //! POST   /api/alerts/{id}/ack   acknowledge an alert                         [login]
 //! ```
 //!
-//! Reading needs no login (the console binds to loopback unless told otherwise; a site
-//! that serves it wider puts TLS in front); steering does. A goal's `issued_by` is the
-//! session's commander: the form has no such field, and one sent is refused.
+//! Who may do what. With a users file, reading needs a login (a viewer's or a
+//! commander's) and steering a commander's; without one nobody can log in, and the console
+//! serves reads to anyone only if it is bound to loopback (a developer's machine: the
+//! `serve` command refuses anything wider). A goal's `issued_by` is the session's
+//! commander: the form has no such field, and one sent is refused.
 //! Errors are JSON `{"error": "..."}` naming what was wrong.
+//!
+//! Under attack, as the console must hold during an incident:
+//! - logins are throttled per client address and per name ([`crate::throttle`]); password
+//!   checks run [`HASHING`] at a time (Argon2 takes 19 MiB each: 64 at once took the console
+//!   to 5.9 GB), and cost the same for unknown names ([`crate::auth`]);
+//! - each login holds at most [`MAX_STREAMS_PER_LOGIN`] streams;
+//! - a state-changing request whose `Origin` (or `Sec-Fetch-Site`) says another site made
+//!   it is refused (403): the cookie is `SameSite=Strict` too, but an old browser or a
+//!   sibling subdomain is not stopped by that alone;
+//! - every answer carries a Content-Security-Policy that allows nothing but this console's
+//!   own script and style, no framing (`frame-ancestors 'none'`, `X-Frame-Options: DENY`),
+//!   `nosniff`, no referrer, and, over HTTPS, HSTS.
 //!
 //! Goals leave through [`GoalRequest`]s that the binary carries to the bus and answers,
 //! so this module never touches Zenoh and its tests run without one.
 
+use std::collections::HashMap;
 use std::convert::Infallible;
+use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use axum::extract::rejection::JsonRejection;
-use axum::extract::{Path, State};
-use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
+use axum::extract::{ConnectInfo, FromRequestParts, Path, State};
+use axum::http::request::Parts;
+use axum::http::{HeaderMap, HeaderValue, Method, StatusCode, header};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{delete, get, post};
@@ -38,10 +55,11 @@ use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::msg::{GoalAck, GoalForm, ZoneGoal};
 use serde::Deserialize;
 use serde_json::json;
-use tokio::sync::{broadcast, mpsc, oneshot};
+use tokio::sync::{Semaphore, broadcast, mpsc, oneshot};
 
-use crate::auth::{Sessions, Users};
+use crate::auth::{Role, Sessions, Users};
 use crate::picture::{Event, Picture};
+use crate::throttle::Throttle;
 
 /// How often changes are sent to pages: a unit's move shows within this, and a thousand
 /// units' states coalesce into one message per unit per tick.
@@ -50,6 +68,14 @@ pub const TICK: Duration = Duration::from_millis(100);
 const COOKIE: &str = "ff_session";
 /// Deltas a slow page may fall behind before it is sent the whole picture again.
 const BACKLOG: usize = 64;
+/// Streams one login may hold open at once: a page in a few tabs.
+pub const MAX_STREAMS_PER_LOGIN: usize = 4;
+/// Password checks at once: each takes Argon2's 19 MiB and a core for some 50 ms, so a
+/// crowd of logins queues instead of taking the memory.
+pub const HASHING: usize = 2;
+/// The page's Content-Security-Policy: its own script, style and API, nothing else, never
+/// in a frame. Images are the SVG the script draws, which is markup, not a fetch.
+const CSP: &str = "default-src 'none'; script-src 'self'; style-src 'self'; connect-src 'self'; img-src 'self' data:; base-uri 'none'; form-action 'self'; frame-ancestors 'none'";
 
 /// A goal on its way to the coordinator, answered by whoever carries it to the bus.
 #[derive(Debug)]
@@ -81,8 +107,23 @@ pub struct Console {
     users: Users,
     sessions: Sessions,
     goals: mpsc::Sender<GoalRequest>,
-    /// Whether the page is served over TLS (the cookie is then `Secure`).
+    /// Whether the page is served over TLS (the cookie is then `Secure`, and HSTS sent).
     secure: bool,
+    /// Reads need no login (no users file, on loopback).
+    open_reads: bool,
+    throttle: Throttle,
+    hashing: Semaphore,
+    /// Streams open, by session token.
+    streams: Mutex<HashMap<String, usize>>,
+}
+
+/// How a console is served.
+#[derive(Debug, Clone, Copy)]
+pub struct Serving {
+    /// Over TLS.
+    pub secure: bool,
+    /// Reads need no login: only for a console with no users file bound to loopback.
+    pub open_reads: bool,
 }
 
 /// Wall time, ms since the Unix epoch: what a page compares freshness against.
@@ -98,7 +139,7 @@ impl Console {
         picture: Picture,
         users: Users,
         sessions: Sessions,
-        secure: bool,
+        serving: Serving,
     ) -> (Arc<Self>, mpsc::Receiver<GoalRequest>) {
         let (goals, requests) = mpsc::channel(16);
         let (deltas, _) = broadcast::channel(BACKLOG);
@@ -108,7 +149,11 @@ impl Console {
             users,
             sessions,
             goals,
-            secure,
+            secure: serving.secure,
+            open_reads: serving.open_reads,
+            throttle: Throttle::default(),
+            hashing: Semaphore::new(HASHING),
+            streams: Mutex::new(HashMap::new()),
         });
         (console, requests)
     }
@@ -156,17 +201,136 @@ impl Console {
             .route("/api/goals", post(set_goal))
             .route("/api/goals/{zone}", delete(clear_goals))
             .route("/api/alerts/{id}/ack", post(ack_alert))
+            .layer(axum::middleware::from_fn_with_state(self.clone(), guard))
             .with_state(self)
     }
 
-    fn session(&self, headers: &HeaderMap) -> Option<(String, CommanderId)> {
+    fn session(&self, headers: &HeaderMap) -> Option<(String, CommanderId, Role)> {
         let token = cookie(headers, COOKIE)?;
-        let who = self.sessions.who(&token, Instant::now())?;
-        Some((token, who))
+        let (who, role) = self.sessions.who(&token, Instant::now())?;
+        Some((token, who, role))
     }
 
+    /// The commander logged in, if a commander is (a viewer steers nothing).
     fn commander(&self, headers: &HeaderMap) -> Option<CommanderId> {
-        self.session(headers).map(|(_, who)| who)
+        self.session(headers)
+            .filter(|(_, _, role)| *role == Role::Commander)
+            .map(|(_, who, _)| who)
+    }
+
+    /// Whether the request may read the incident.
+    fn may_read(&self, headers: &HeaderMap) -> bool {
+        self.open_reads || self.session(headers).is_some()
+    }
+}
+
+/// Every request: a state-changing one from another site is refused; every answer gets the
+/// security headers.
+async fn guard(
+    State(c): State<Arc<Console>>,
+    request: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> Response {
+    let changes = !matches!(
+        *request.method(),
+        Method::GET | Method::HEAD | Method::OPTIONS
+    );
+    let mut response = match foreign(request.headers()) {
+        Some(why) if changes => {
+            tracing::warn!(
+                "console: refused a {} from another site: {why}",
+                request.method()
+            );
+            error(
+                StatusCode::FORBIDDEN,
+                format!("cross-site request refused: {why}"),
+            )
+        }
+        _ => next.run(request).await,
+    };
+    let h = response.headers_mut();
+    h.insert(
+        header::CONTENT_SECURITY_POLICY,
+        HeaderValue::from_static(CSP),
+    );
+    h.insert(header::X_FRAME_OPTIONS, HeaderValue::from_static("DENY"));
+    h.insert(
+        header::X_CONTENT_TYPE_OPTIONS,
+        HeaderValue::from_static("nosniff"),
+    );
+    h.insert(
+        header::REFERRER_POLICY,
+        HeaderValue::from_static("no-referrer"),
+    );
+    if c.secure {
+        h.insert(
+            header::STRICT_TRANSPORT_SECURITY,
+            HeaderValue::from_static("max-age=31536000"),
+        );
+    }
+    response
+}
+
+/// Why a request comes from another site, if its headers say it does: an `Origin` whose
+/// host is not the `Host` it was sent to, or `Sec-Fetch-Site: cross-site`. A request with
+/// neither (curl, a script on the console's host) is not a browser's cross-site request.
+fn foreign(headers: &HeaderMap) -> Option<String> {
+    let text = |name| {
+        headers
+            .get(name)
+            .and_then(|v: &HeaderValue| v.to_str().ok())
+    };
+    if let Some(site) = text(header::HeaderName::from_static("sec-fetch-site"))
+        && site == "cross-site"
+    {
+        return Some("Sec-Fetch-Site: cross-site".into());
+    }
+    let origin = text(header::ORIGIN)?;
+    let host = text(header::HOST).unwrap_or("");
+    let origin_host = origin
+        .split_once("://")
+        .map_or("", |(_, rest)| rest.trim_end_matches('/'));
+    (origin == "null" || origin_host != host).then(|| format!("Origin {origin} is not {host}"))
+}
+
+/// The peer address of a connection, as the server hands it to the router
+/// (`Console::router().into_make_service_with_connect_info::<Peer>()`), over plain TCP or
+/// TLS alike.
+#[derive(Debug, Clone, Copy)]
+pub struct Peer(pub SocketAddr);
+
+impl
+    axum::extract::connect_info::Connected<axum::serve::IncomingStream<'_, tokio::net::TcpListener>>
+    for Peer
+{
+    fn connect_info(stream: axum::serve::IncomingStream<'_, tokio::net::TcpListener>) -> Self {
+        Peer(*stream.remote_addr())
+    }
+}
+
+impl
+    axum::extract::connect_info::Connected<axum::serve::IncomingStream<'_, crate::tls::TlsListener>>
+    for Peer
+{
+    fn connect_info(stream: axum::serve::IncomingStream<'_, crate::tls::TlsListener>) -> Self {
+        Peer(*stream.remote_addr())
+    }
+}
+
+/// The client's address, where the server knows it (not in tests that call the router
+/// directly).
+struct Client(Option<std::net::IpAddr>);
+
+impl<S: Send + Sync> FromRequestParts<S> for Client {
+    type Rejection = Infallible;
+
+    async fn from_request_parts(parts: &mut Parts, _: &S) -> Result<Self, Self::Rejection> {
+        Ok(Client(
+            parts
+                .extensions
+                .get::<ConnectInfo<Peer>>()
+                .map(|c| c.0.0.ip()),
+        ))
     }
 }
 
@@ -190,7 +354,14 @@ fn error(status: StatusCode, message: impl Into<String>) -> Response {
 }
 
 fn unauthorized() -> Response {
-    error(StatusCode::UNAUTHORIZED, "log in to steer the incident")
+    error(
+        StatusCode::UNAUTHORIZED,
+        "log in as a commander to steer the incident",
+    )
+}
+
+fn login_to_read() -> Response {
+    error(StatusCode::UNAUTHORIZED, "log in to see the incident")
 }
 
 fn bad_json(e: JsonRejection) -> Response {
@@ -209,29 +380,82 @@ fn cookie(headers: &HeaderMap, name: &str) -> Option<String> {
         .map(|(_, v)| v.to_owned())
 }
 
-async fn incident(State(c): State<Arc<Console>>) -> Response {
+async fn incident(State(c): State<Arc<Console>>, headers: HeaderMap) -> Response {
+    if !c.may_read(&headers) {
+        return login_to_read();
+    }
     let incident = c.picture().incident();
     Json(incident).into_response()
 }
 
-async fn stream(State(c): State<Arc<Console>>) -> Response {
+/// One stream counted against its login while it is open.
+struct StreamSlot {
+    console: Arc<Console>,
+    token: Option<String>,
+}
+
+impl StreamSlot {
+    /// A slot for a stream of session `token` (none for open reads without a login); none
+    /// if the login holds [`MAX_STREAMS_PER_LOGIN`] already.
+    fn take(console: &Arc<Console>, token: Option<String>) -> Option<Self> {
+        if let Some(t) = &token {
+            let mut open = console.streams.lock().expect("streams lock");
+            let n = open.entry(t.clone()).or_insert(0);
+            if *n >= MAX_STREAMS_PER_LOGIN {
+                return None;
+            }
+            *n += 1;
+        }
+        Some(Self {
+            console: console.clone(),
+            token,
+        })
+    }
+}
+
+impl Drop for StreamSlot {
+    fn drop(&mut self) {
+        if let Some(t) = &self.token {
+            let mut open = self.console.streams.lock().expect("streams lock");
+            if let Some(n) = open.get_mut(t) {
+                *n -= 1;
+                if *n == 0 {
+                    open.remove(t);
+                }
+            }
+        }
+    }
+}
+
+async fn stream(State(c): State<Arc<Console>>, headers: HeaderMap) -> Response {
+    let token = match c.session(&headers) {
+        Some((token, ..)) => Some(token),
+        None if c.open_reads => None,
+        None => return login_to_read(),
+    };
+    let Some(slot) = StreamSlot::take(&c, token) else {
+        return error(
+            StatusCode::TOO_MANY_REQUESTS,
+            format!("this login has {MAX_STREAMS_PER_LOGIN} streams open already"),
+        );
+    };
     // Subscribe before taking the picture: a delta made in between is then both in the
     // picture and in the stream, which the page applies harmlessly (it skips deltas the
     // picture's number already covers).
     let deltas = c.deltas.subscribe();
     let first = whole(&c);
     let events = futures_util::stream::unfold(
-        (Some(first), deltas, c),
-        |(first, mut deltas, c)| async move {
+        (Some(first), deltas, slot),
+        |(first, mut deltas, slot)| async move {
             if let Some(first) = first {
-                return Some((Ok::<_, Infallible>(first), (None, deltas, c)));
+                return Some((Ok::<_, Infallible>(first), (None, deltas, slot)));
             }
             let event = match deltas.recv().await {
                 Ok(json) => SseEvent::default().event("delta").data(&*json),
-                Err(broadcast::error::RecvError::Lagged(_)) => whole(&c),
+                Err(broadcast::error::RecvError::Lagged(_)) => whole(&slot.console),
                 Err(broadcast::error::RecvError::Closed) => return None,
             };
-            Some((Ok(event), (None, deltas, c)))
+            Some((Ok(event), (None, deltas, slot)))
         },
     );
     Sse::new(events)
@@ -249,30 +473,54 @@ fn whole(c: &Console) -> SseEvent {
 
 async fn login(
     State(c): State<Arc<Console>>,
+    Client(ip): Client,
     body: Result<Json<Login>, JsonRejection>,
 ) -> Response {
     let Json(form) = match body {
         Ok(b) => b,
         Err(e) => return bad_json(e),
     };
-    // Argon2 is deliberately slow: off the async workers.
+    // Keyed by the name as sent, known or not: a closed name tells nothing either way.
+    let name: String = form.name.chars().take(64).collect();
+    let mut keys = vec![format!("name:{name}")];
+    if let Some(ip) = ip {
+        keys.push(format!("ip:{ip}"));
+    }
+    if let Some(wait) = c.throttle.closed_for(&keys, Instant::now()) {
+        let secs = wait.as_secs_f64().ceil() as u64;
+        let mut r = error(
+            StatusCode::TOO_MANY_REQUESTS,
+            format!("too many failed logins: try again in {secs} s"),
+        );
+        if let Ok(v) = HeaderValue::from_str(&secs.to_string()) {
+            r.headers_mut().insert(header::RETRY_AFTER, v);
+        }
+        return r;
+    }
+    // Argon2 is deliberately slow and large: off the async workers, a few at a time.
+    let Ok(_permit) = c.hashing.acquire().await else {
+        return shutting_down();
+    };
     let console = c.clone();
-    let who = tokio::task::spawn_blocking(move || console.users.verify(&form.name, &form.password))
-        .await
-        .ok()
-        .flatten();
-    let Some(who) = who else {
-        tracing::warn!("console: a failed login");
+    let verified =
+        tokio::task::spawn_blocking(move || console.users.verify(&form.name, &form.password))
+            .await
+            .ok()
+            .flatten();
+    let Some((who, role)) = verified else {
+        c.throttle.failed(&keys, Instant::now());
+        tracing::warn!(ip = ?ip, "console: a failed login");
         return error(StatusCode::UNAUTHORIZED, "wrong name or password");
     };
-    tracing::info!("console: {who} logged in");
-    let token = c.sessions.open(who.clone(), Instant::now());
+    c.throttle.succeeded(&keys);
+    tracing::info!("console: {who} logged in as {role:?}");
+    let token = c.sessions.open(who.clone(), role, Instant::now());
     let cookie = format!(
         "{COOKIE}={token}; HttpOnly; SameSite=Strict; Path=/; Max-Age={}{}",
         c.sessions.ttl().as_secs(),
         if c.secure { "; Secure" } else { "" }
     );
-    let mut response = Json(json!({ "name": who })).into_response();
+    let mut response = Json(json!({ "name": who, "role": role })).into_response();
     if let Ok(v) = HeaderValue::from_str(&cookie) {
         response.headers_mut().insert(header::SET_COOKIE, v);
     }
@@ -280,7 +528,7 @@ async fn login(
 }
 
 async fn logout(State(c): State<Arc<Console>>, headers: HeaderMap) -> Response {
-    if let Some((token, who)) = c.session(&headers) {
+    if let Some((token, who, _)) = c.session(&headers) {
         c.sessions.close(&token);
         tracing::info!("console: {who} logged out");
     }
@@ -293,9 +541,16 @@ async fn logout(State(c): State<Arc<Console>>, headers: HeaderMap) -> Response {
 }
 
 async fn me(State(c): State<Arc<Console>>, headers: HeaderMap) -> Response {
-    match c.commander(&headers) {
-        Some(who) => Json(json!({ "name": who })).into_response(),
-        None => unauthorized(),
+    match c.session(&headers) {
+        Some((_, who, role)) => Json(json!({ "name": who, "role": role })).into_response(),
+        None => error(
+            StatusCode::UNAUTHORIZED,
+            if c.open_reads {
+                "nobody is logged in"
+            } else {
+                "log in to see the incident"
+            },
+        ),
     }
 }
 

@@ -14,17 +14,29 @@ struct Fixture {
 }
 
 fn fixture() -> Fixture {
+    fixture_serving(Serving {
+        secure: false,
+        open_reads: false,
+    })
+}
+
+/// A console with commander rossi and viewer ferri, served as `serving` says.
+fn fixture_serving(serving: Serving) -> Fixture {
     let text = include_str!("../../../model/scenarios/rail-tunnel.toml");
     let scenario = Scenario::from_toml(text, "rail-tunnel.toml").unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("users.toml");
-    Users::add(&path, CommanderId::new("rossi").unwrap(), "correct horse").unwrap();
+    let add = |name, password, role| {
+        Users::add(&path, CommanderId::new(name).unwrap(), password, role).unwrap();
+    };
+    add("rossi", "correct horse", Role::Commander);
+    add("ferri", "battery staple", Role::Viewer);
     let users = Users::load(&path).unwrap();
     let (console, requests) = Console::new(
         Picture::new(SiteMap::new(&scenario)),
         users,
         Sessions::new(Duration::from_secs(3600)),
-        false,
+        serving,
     );
     Fixture {
         console,
@@ -40,7 +52,22 @@ async fn call(
     cookie: Option<&str>,
     body: Option<serde_json::Value>,
 ) -> (StatusCode, HeaderMap, serde_json::Value) {
+    call_with(c, method, uri, cookie, body, &[]).await
+}
+
+/// [`call`] with extra request headers.
+async fn call_with(
+    c: &Arc<Console>,
+    method: &str,
+    uri: &str,
+    cookie: Option<&str>,
+    body: Option<serde_json::Value>,
+    extra: &[(&str, &str)],
+) -> (StatusCode, HeaderMap, serde_json::Value) {
     let mut req = Request::builder().method(method).uri(uri);
+    for (k, v) in extra {
+        req = req.header(*k, *v);
+    }
     if let Some(cookie) = cookie {
         req = req.header(header::COOKIE, cookie);
     }
@@ -59,12 +86,16 @@ async fn call(
 }
 
 async fn log_in(c: &Arc<Console>) -> String {
+    log_in_as(c, "rossi", "correct horse").await
+}
+
+async fn log_in_as(c: &Arc<Console>, name: &str, password: &str) -> String {
     let (status, headers, body) = call(
         c,
         "POST",
         "/api/login",
         None,
-        Some(json!({"name": "rossi", "password": "correct horse"})),
+        Some(json!({"name": name, "password": password})),
     )
     .await;
     assert_eq!(status, StatusCode::OK, "{body}");
@@ -77,9 +108,15 @@ async fn log_in(c: &Arc<Console>) -> String {
 }
 
 #[tokio::test]
-async fn the_page_and_the_picture_are_served_without_a_login() {
+async fn the_page_is_served_to_anyone_and_the_picture_to_a_login() {
     let f = fixture();
-    let (status, _, incident) = call(&f.console, "GET", "/api/incident", None, None).await;
+    for uri in ["/api/incident", "/api/stream"] {
+        let (status, _, body) = call(&f.console, "GET", uri, None, None).await;
+        assert_eq!(status, StatusCode::UNAUTHORIZED, "{uri}");
+        assert_eq!(body["error"], "log in to see the incident");
+    }
+    let viewer = log_in_as(&f.console, "ferri", "battery staple").await;
+    let (status, _, incident) = call(&f.console, "GET", "/api/incident", Some(&viewer), None).await;
     assert_eq!(status, StatusCode::OK);
     assert_eq!(incident["site"]["scenario"], "rail-tunnel");
     assert!(incident["units"].as_array().unwrap().len() >= 2);
@@ -92,6 +129,128 @@ async fn the_page_and_the_picture_are_served_without_a_login() {
         script.headers()[header::CONTENT_TYPE],
         "text/javascript; charset=utf-8"
     );
+    // A viewer reads and steers nothing.
+    let (_, _, me) = call(&f.console, "GET", "/api/me", Some(&viewer), None).await;
+    assert_eq!(me["role"], "viewer");
+    let goal = json!({"zone": "deep", "goal": "keep-out"});
+    let (status, _, _) = call(&f.console, "POST", "/api/goals", Some(&viewer), Some(goal)).await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED);
+    // A console with no users file on loopback serves reads to anyone.
+    let open = fixture_serving(Serving {
+        secure: false,
+        open_reads: true,
+    });
+    let (status, _, _) = call(&open.console, "GET", "/api/incident", None, None).await;
+    assert_eq!(status, StatusCode::OK);
+}
+
+#[tokio::test]
+async fn every_answer_forbids_framing_and_foreign_code_and_https_adds_hsts() {
+    for secure in [false, true] {
+        let f = fixture_serving(Serving {
+            secure,
+            open_reads: false,
+        });
+        for uri in ["/", "/api/incident"] {
+            let (_, h, _) = call(&f.console, "GET", uri, None, None).await;
+            let csp = h[header::CONTENT_SECURITY_POLICY].to_str().unwrap();
+            assert!(csp.contains("frame-ancestors 'none'") && csp.contains("script-src 'self'"));
+            assert_eq!(h[header::X_FRAME_OPTIONS], "DENY");
+            assert_eq!(h[header::X_CONTENT_TYPE_OPTIONS], "nosniff");
+            assert_eq!(
+                h.contains_key(header::STRICT_TRANSPORT_SECURITY),
+                secure,
+                "{uri}"
+            );
+        }
+    }
+}
+
+#[tokio::test]
+async fn a_goal_from_another_site_is_refused_even_with_the_cookie() {
+    let f = fixture();
+    let cookie = log_in(&f.console).await;
+    let goal = json!({"zone": "deep", "goal": "keep-out"});
+    for extra in [
+        [
+            ("host", "console.site:8443"),
+            ("origin", "https://evil.example"),
+        ],
+        [
+            ("host", "console.site:8443"),
+            ("sec-fetch-site", "cross-site"),
+        ],
+    ] {
+        let (status, _, body) = call_with(
+            &f.console,
+            "POST",
+            "/api/goals",
+            Some(&cookie),
+            Some(goal.clone()),
+            &extra,
+        )
+        .await;
+        assert_eq!(status, StatusCode::FORBIDDEN, "{extra:?}");
+        assert!(body["error"].as_str().unwrap().contains("cross-site"));
+    }
+    // The page's own origin passes the guard (and, logged in, reaches the handler).
+    let (status, _, _) = call_with(
+        &f.console,
+        "DELETE",
+        "/api/goals/nowhere",
+        Some(&cookie),
+        None,
+        &[
+            ("host", "console.site:8443"),
+            ("origin", "https://console.site:8443"),
+        ],
+    )
+    .await;
+    assert_eq!(
+        status,
+        StatusCode::NOT_FOUND,
+        "past the guard to the zone check"
+    );
+}
+
+#[tokio::test]
+async fn failed_logins_are_throttled_and_a_login_holds_a_bounded_number_of_streams() {
+    let f = fixture();
+    let wrong = json!({"name": "rossi", "password": "wrong horse!"});
+    let mut statuses = Vec::new();
+    for _ in 0..6 {
+        let (status, h, _) =
+            call(&f.console, "POST", "/api/login", None, Some(wrong.clone())).await;
+        if status == StatusCode::TOO_MANY_REQUESTS {
+            assert!(h.contains_key(header::RETRY_AFTER));
+        }
+        statuses.push(status.as_u16());
+    }
+    assert_eq!(statuses, [401, 401, 401, 401, 429, 429]);
+    // Closed for the name: the right password waits too.
+    let right = json!({"name": "rossi", "password": "correct horse"});
+    let (status, _, _) = call(&f.console, "POST", "/api/login", None, Some(right)).await;
+    assert_eq!(status, StatusCode::TOO_MANY_REQUESTS);
+
+    let viewer = log_in_as(&f.console, "ferri", "battery staple").await;
+    let open = |c: Arc<Console>, cookie: String| async move {
+        let req = Request::get("/api/stream")
+            .header(header::COOKIE, cookie)
+            .body(Body::empty())
+            .unwrap();
+        c.router().oneshot(req).await.unwrap()
+    };
+    let mut held = Vec::new();
+    for _ in 0..MAX_STREAMS_PER_LOGIN {
+        let r = open(f.console.clone(), viewer.clone()).await;
+        assert_eq!(r.status(), StatusCode::OK);
+        held.push(r);
+    }
+    let r = open(f.console.clone(), viewer.clone()).await;
+    assert_eq!(r.status(), StatusCode::TOO_MANY_REQUESTS);
+    held.pop();
+    let r = open(f.console.clone(), viewer.clone()).await;
+    assert_eq!(r.status(), StatusCode::OK, "a closed stream frees its slot");
 }
 
 #[tokio::test]
@@ -187,14 +346,14 @@ async fn an_alert_is_acknowledged_by_the_login() {
     let unit = firefleet_model::UnitId::new("ugv-1").unwrap();
     f.console.observe(Event::UnitAlive(unit.clone(), true));
     f.console.observe(Event::UnitAlive(unit, false));
-    let (_, _, incident) = call(&f.console, "GET", "/api/incident", None, None).await;
+    let (_, _, incident) = call(&f.console, "GET", "/api/incident", Some(&cookie), None).await;
     let id = incident["alerts"][0]["id"].as_u64().unwrap();
     let uri = format!("/api/alerts/{id}/ack");
     let (status, _, _) = call(&f.console, "POST", &uri, None, None).await;
     assert_eq!(status, StatusCode::UNAUTHORIZED);
     let (status, _, body) = call(&f.console, "POST", &uri, Some(&cookie), None).await;
     assert_eq!(status, StatusCode::OK, "{body}");
-    let (_, _, incident) = call(&f.console, "GET", "/api/incident", None, None).await;
+    let (_, _, incident) = call(&f.console, "GET", "/api/incident", Some(&cookie), None).await;
     assert_eq!(incident["alerts"][0]["acked_by"], "rossi");
     let (status, _, _) = call(
         &f.console,
