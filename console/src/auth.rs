@@ -29,7 +29,7 @@ use std::time::{Duration, Instant};
 
 use argon2::Argon2;
 use argon2::password_hash::rand_core::OsRng;
-use argon2::password_hash::{PasswordHash, PasswordHasher, PasswordVerifier, SaltString};
+use argon2::password_hash::{self, PasswordHash, PasswordHasher, SaltString};
 use firefleet_model::CommanderId;
 use rand::RngCore;
 use serde::{Deserialize, Serialize};
@@ -131,6 +131,19 @@ impl Users {
     /// whatever the name and password (a short password included), so the time it takes
     /// does not tell a known name from an unknown one.
     pub fn verify(&self, name: &str, password: &str) -> Option<(CommanderId, Role)> {
+        self.verify_in(&mut Vec::new(), name, password)
+    }
+
+    /// [`Users::verify`] with Argon2's working memory in `memory`, grown to what a hash
+    /// needs and kept for the next check: Argon2 allocating its 19 MiB afresh every time
+    /// grew a process by some 10 MB a check under glibc (a crowd of logins took a console
+    /// to 5.9 GB).
+    pub fn verify_in(
+        &self,
+        memory: &mut Vec<argon2::Block>,
+        name: &str,
+        password: &str,
+    ) -> Option<(CommanderId, Role)> {
         let known = CommanderId::new(name).ok().and_then(|id| {
             let commander = self.users.get(&id).map(|h| (h, Role::Commander));
             commander
@@ -143,13 +156,54 @@ impl Users {
         let checked = known
             .as_ref()
             .map_or(decoy.as_str(), |(_, h, _)| h.as_str());
-        let ok = PasswordHash::new(checked).ok().is_some_and(|h| {
-            Argon2::default()
-                .verify_password(password.as_bytes(), &h)
-                .is_ok()
-        });
+        let ok = matches_hash(memory, checked, password.as_bytes());
         known.filter(|_| ok).map(|(id, _, role)| (id, role))
     }
+}
+
+/// The most memory a stored hash may ask a check for, KiB: 64 MiB, three times what
+/// `add-user` uses. A users file is the site's own, but a hash asking for gigabytes would
+/// take them at every login.
+const MAX_M_COST_KIB: u32 = 64 * 1024;
+
+/// Whether `password` hashes to the PHC string `phc`, with Argon2's blocks in `memory`.
+fn matches_hash(memory: &mut Vec<argon2::Block>, phc: &str, password: &[u8]) -> bool {
+    let Ok(hash) = PasswordHash::new(phc) else {
+        return false;
+    };
+    let (Ok(params), Ok(algorithm)) = (
+        argon2::Params::try_from(&hash),
+        argon2::Algorithm::try_from(hash.algorithm),
+    ) else {
+        return false;
+    };
+    let version = match hash.version.map(argon2::Version::try_from) {
+        Some(Ok(v)) => v,
+        Some(Err(_)) => return false,
+        None => argon2::Version::default(),
+    };
+    let (Some(salt), Some(expected)) = (hash.salt, hash.hash) else {
+        return false;
+    };
+    if params.m_cost() > MAX_M_COST_KIB {
+        return false;
+    }
+    let mut salt_bytes = [0u8; 64];
+    let Ok(salt) = salt.decode_b64(&mut salt_bytes) else {
+        return false;
+    };
+    let blocks = params.block_count();
+    if memory.len() < blocks {
+        memory.resize(blocks, argon2::Block::default());
+    }
+    let mut out = [0u8; 64];
+    let Some(out) = out.get_mut(..expected.len()) else {
+        return false;
+    };
+    Argon2::new(algorithm, version, params)
+        .hash_password_into_with_memory(password, salt, out, &mut memory[..blocks])
+        .is_ok()
+        && password_hash::Output::new(out).is_ok_and(|o| o == expected)
 }
 
 fn hash(password: &str) -> Result<String, AuthError> {
@@ -182,6 +236,84 @@ struct Session {
     role: Role,
     opened: Instant,
     expires: Instant,
+}
+
+/// Password checks on a few threads of their own, with a bounded queue.
+///
+/// Argon2 takes 19 MiB a check. On tokio's blocking pool a crowd of logins ran on ever new
+/// threads, each of which kept its own malloc arena full of freed 19 MiB blocks (glibc raises
+/// its mmap threshold after the first such free, so the next ones come from the arenas): a
+/// console checking two at a time still grew to 820 MB. Here the same `threads` threads
+/// check every password, so memory stays at a few blocks per thread, and a login finding
+/// [`CHECKS_QUEUED`] others waiting is told to try again rather than queued.
+#[derive(Debug)]
+pub struct Checker {
+    jobs: std::sync::mpsc::SyncSender<Check>,
+}
+
+type Check = (
+    String,
+    String,
+    tokio::sync::oneshot::Sender<Option<(CommanderId, Role)>>,
+);
+
+/// Logins that may wait for a password check.
+pub const CHECKS_QUEUED: usize = 64;
+
+/// Why a password was not checked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum CheckRefused {
+    #[error("{CHECKS_QUEUED} logins are waiting already: try again in a moment")]
+    Busy,
+    #[error("the console is shutting down")]
+    Gone,
+}
+
+impl Checker {
+    /// `threads` threads checking passwords against `users`; they end with the checker.
+    pub fn new(users: Users, threads: usize) -> Self {
+        let (jobs, queue) = std::sync::mpsc::sync_channel::<Check>(CHECKS_QUEUED);
+        let queue = std::sync::Arc::new(Mutex::new(queue));
+        let users = std::sync::Arc::new(users);
+        for i in 0..threads.max(1) {
+            let (queue, users) = (queue.clone(), users.clone());
+            let spawned = std::thread::Builder::new()
+                .name(format!("password-check-{i}"))
+                .spawn(move || {
+                    let mut memory = Vec::new();
+                    loop {
+                        let next = queue
+                            .lock()
+                            .map_err(|_| ())
+                            .and_then(|q| q.recv().map_err(|_| ()));
+                        let Ok((name, password, reply)) = next else {
+                            return;
+                        };
+                        let _ = reply.send(users.verify_in(&mut memory, &name, &password));
+                    }
+                });
+            if let Err(e) = spawned {
+                tracing::error!("no password-check thread: {e}");
+            }
+        }
+        Self { jobs }
+    }
+
+    /// Who logs in, and as what, if `password` is `name`'s ([`Users::verify`]).
+    pub async fn verify(
+        &self,
+        name: String,
+        password: String,
+    ) -> Result<Option<(CommanderId, Role)>, CheckRefused> {
+        let (reply, answer) = tokio::sync::oneshot::channel();
+        self.jobs
+            .try_send((name, password, reply))
+            .map_err(|e| match e {
+                std::sync::mpsc::TrySendError::Full(_) => CheckRefused::Busy,
+                std::sync::mpsc::TrySendError::Disconnected(_) => CheckRefused::Gone,
+            })?;
+        answer.await.map_err(|_| CheckRefused::Gone)
+    }
 }
 
 /// Open sessions, by token.

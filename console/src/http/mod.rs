@@ -24,8 +24,9 @@
 //!
 //! Under attack, as the console must hold during an incident:
 //! - logins are throttled per client address and per name ([`crate::throttle`]); password
-//!   checks run [`HASHING`] at a time (Argon2 takes 19 MiB each: 64 at once took the console
-//!   to 5.9 GB), and cost the same for unknown names ([`crate::auth`]);
+//!   checks run [`HASHING`] at a time on threads of their own with a bounded queue (Argon2
+//!   takes 19 MiB each: 64 at once took the console to 5.9 GB; see [`Checker`]), and cost
+//!   the same for unknown names ([`crate::auth`]);
 //! - each login holds at most [`MAX_STREAMS_PER_LOGIN`] streams;
 //! - a state-changing request whose `Origin` (or `Sec-Fetch-Site`) says another site made
 //!   it is refused (403): the cookie is `SameSite=Strict` too, but an old browser or a
@@ -55,9 +56,9 @@ use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::msg::{GoalAck, GoalForm, ZoneGoal};
 use serde::Deserialize;
 use serde_json::json;
-use tokio::sync::{Semaphore, broadcast, mpsc, oneshot};
+use tokio::sync::{broadcast, mpsc, oneshot};
 
-use crate::auth::{Role, Sessions, Users};
+use crate::auth::{CheckRefused, Checker, Role, Sessions, Users};
 use crate::picture::{Event, Picture};
 use crate::throttle::Throttle;
 
@@ -70,8 +71,8 @@ const COOKIE: &str = "ff_session";
 const BACKLOG: usize = 64;
 /// Streams one login may hold open at once: a page in a few tabs.
 pub const MAX_STREAMS_PER_LOGIN: usize = 4;
-/// Password checks at once: each takes Argon2's 19 MiB and a core for some 50 ms, so a
-/// crowd of logins queues instead of taking the memory.
+/// Password checks at once ([`Checker`]): each takes Argon2's 19 MiB and a core for some
+/// 20 ms, so a crowd of logins queues instead of taking the memory.
 pub const HASHING: usize = 2;
 /// The page's Content-Security-Policy: its own script, style and API, nothing else, never
 /// in a frame. Images are the SVG the script draws, which is markup, not a fetch.
@@ -104,7 +105,7 @@ struct Login {
 pub struct Console {
     picture: Mutex<Picture>,
     deltas: broadcast::Sender<Arc<str>>,
-    users: Users,
+    passwords: Checker,
     sessions: Sessions,
     goals: mpsc::Sender<GoalRequest>,
     /// Whether the page is served over TLS (the cookie is then `Secure`, and HSTS sent).
@@ -112,7 +113,6 @@ pub struct Console {
     /// Reads need no login (no users file, on loopback).
     open_reads: bool,
     throttle: Throttle,
-    hashing: Semaphore,
     /// Streams open, by session token.
     streams: Mutex<HashMap<String, usize>>,
 }
@@ -146,13 +146,12 @@ impl Console {
         let console = Arc::new(Self {
             picture: Mutex::new(picture),
             deltas,
-            users,
+            passwords: Checker::new(users, HASHING),
             sessions,
             goals,
             secure: serving.secure,
             open_reads: serving.open_reads,
             throttle: Throttle::default(),
-            hashing: Semaphore::new(HASHING),
             streams: Mutex::new(HashMap::new()),
         });
         (console, requests)
@@ -497,16 +496,17 @@ async fn login(
         }
         return r;
     }
-    // Argon2 is deliberately slow and large: off the async workers, a few at a time.
-    let Ok(_permit) = c.hashing.acquire().await else {
-        return shutting_down();
+    // Argon2 is deliberately slow and large: on the checker's threads, a few at a time.
+    let verified = match c.passwords.verify(form.name, form.password).await {
+        Ok(v) => v,
+        Err(e @ CheckRefused::Busy) => {
+            let mut r = error(StatusCode::SERVICE_UNAVAILABLE, e.to_string());
+            r.headers_mut()
+                .insert(header::RETRY_AFTER, HeaderValue::from_static("1"));
+            return r;
+        }
+        Err(CheckRefused::Gone) => return shutting_down(),
     };
-    let console = c.clone();
-    let verified =
-        tokio::task::spawn_blocking(move || console.users.verify(&form.name, &form.password))
-            .await
-            .ok()
-            .flatten();
     let Some((who, role)) = verified else {
         c.throttle.failed(&keys, Instant::now());
         tracing::warn!(ip = ?ip, "console: a failed login");
