@@ -14,6 +14,8 @@
 //!
 //! Prints a table; no timed assertions.
 
+#![allow(clippy::print_stdout, reason = "a bench binary prints its table")]
+
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
