@@ -97,7 +97,8 @@ impl Identity {
         }
     }
 
-    /// Every identity of `scenario`'s site, with `commanders`, in a stable order.
+    /// Every identity of `scenario`'s site, with `commanders` and the commanders its site
+    /// file names (once each), in a stable order.
     pub fn of_site(scenario: &Scenario, commanders: &[CommanderId]) -> Vec<Identity> {
         let mut all: Vec<Identity> = scenario
             .units
@@ -111,7 +112,13 @@ impl Identity {
             Identity::Console,
             Identity::ROUTER,
         ]);
-        all.extend(commanders.iter().cloned().map(Identity::Commander));
+        let mut named: Vec<CommanderId> = commanders.to_vec();
+        for c in &scenario.commanders {
+            if !named.contains(&c.id) {
+                named.push(c.id.clone());
+            }
+        }
+        all.extend(named.into_iter().map(Identity::Commander));
         all
     }
 }
@@ -454,6 +461,24 @@ mod tests {
             .rail("r", 0.0, 200.0, &[50.0])
             .monorail("rail-1", "r", 30.0)
             .build()
+    }
+
+    #[test]
+    fn the_site_file_s_commanders_are_identities_of_the_site_once_each() {
+        use firefleet_model::scenario::{CommanderSpec, Rank};
+        let mut s = site();
+        for (name, rank) in [("chief", Rank::Incident), ("rossi", Rank::Sector)] {
+            s.commanders.push(CommanderSpec {
+                id: CommanderId::new(name).unwrap(),
+                rank,
+            });
+        }
+        let commanders: Vec<String> = Identity::of_site(&s, &[CommanderId::new("rossi").unwrap()])
+            .into_iter()
+            .filter(|w| w.role() == Role::Commander)
+            .map(|w| w.to_string())
+            .collect();
+        assert_eq!(commanders, ["commander:rossi", "commander:chief"]);
     }
 
     #[test]

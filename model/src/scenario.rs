@@ -321,6 +321,12 @@ impl Scenario {
         self.rails.iter().find(|r| r.id == id)
     }
 
+    /// The scenario as a site file: what [`Scenario::from_toml`] reads back the same (a
+    /// tool that adds to a site, e.g. its commanders, writes it for every process to read).
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).expect("a scenario is plain data and serialises")
+    }
+
     /// Parse and validate scenario text; `origin` (a file name) prefixes every error.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ScenarioError> {
         validate::from_toml(text, origin, Self::validate)
@@ -591,6 +597,8 @@ mod tests {
         for r in Rank::ALL {
             assert_eq!(serde_json::to_value(r).unwrap(), r.as_str());
         }
+        let back = Scenario::from_toml(&s.to_toml(), "written.toml").unwrap();
+        assert_eq!(back, s, "written and read back the same");
         let twice = text.replace("\"rossi\"", "\"chief\"");
         assert!(err(&twice).contains("commanders[1].id"), "{}", err(&twice));
         let bad = text.replace("\"sector\"", "\"general\"");

@@ -173,11 +173,14 @@ impl Fire {
         }
     }
 
-    /// The one unit claiming it, while a claim is live and nobody shares it.
+    /// The one unit claiming it, while nobody shares the claim: a confirmed fire stays
+    /// claimed after its reporter drove on (units are sent to it on that word), a
+    /// tentative one only while the reporter still sees it (a detector's passing false
+    /// alarm is the unit's tracker's to drop, not a lie).
     fn lone_claim(&self, t: f64) -> Option<&UnitId> {
         let mut it = self.per_unit.iter();
         match (it.next(), it.next()) {
-            (Some((u, s)), None) if s.live(t) => Some(u),
+            (Some((u, s)), None) if s.live(t) || self.state != FireState::Tentative => Some(u),
             _ => None,
         }
     }
@@ -581,7 +584,10 @@ impl Fusion {
         let mut found = Vec::new();
         for f in &mut self.fires {
             // In view first: it rules out all but a few tracks, without allocating.
-            if f.contradicted || f.state == FireState::Lost || !in_view(f.position()) {
+            if f.contradicted
+                || matches!(f.state, FireState::Lost | FireState::Out)
+                || !in_view(f.position())
+            {
                 continue;
             }
             let witness = match f.lone_claim(t) {
@@ -603,6 +609,25 @@ impl Fusion {
             }
         }
         found
+    }
+
+    /// `unit`, sent to fire `id` that one other unit alone claims, reports it out without
+    /// ever having reported a flame there: it looked and saw nothing, which contradicts the
+    /// claim at once (a unit sprays only where its own camera found the flame, and
+    /// reports what it sees). Returns the contradiction, if this was one.
+    pub fn found_nothing(&mut self, id: FireId, unit: &UnitId, t: f64) -> Option<Contradiction> {
+        let id = self.resolve(id);
+        let f = self.fires.iter_mut().find(|f| f.id == id)?;
+        if f.contradicted || f.per_unit.contains_key(unit) {
+            return None;
+        }
+        let witness = f.lone_claim(t)?.clone();
+        f.contradicted = true;
+        Some(Contradiction {
+            fire: f.id,
+            doubted_now: self.witnesses.contradict(&witness),
+            witness,
+        })
     }
 
     /// Send back to tentative every contradicted track that only doubted units claim and

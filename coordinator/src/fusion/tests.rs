@@ -246,11 +246,19 @@ fn a_lone_claim_another_unit_looks_at_for_long_without_seeing_it_is_contradicted
     assert_eq!(f.witnesses.record(&u("a")).contradicted, 1);
     assert!(f.look(&u("b"), near_50, 60.0, t).is_empty(), "counted once");
 
-    // A claim nobody keeps up (the claimant's sighting lapsed), or one two units
-    // share, is not contradicted.
+    // A tentative claim nobody keeps up (a passing false alarm), or one two units share,
+    // is not contradicted; a confirmed one is, though its claimant drove on.
+    let mut f = Fusion::default();
+    f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.4), 0.0);
+    assert!(f.look(&u("b"), near_50, 30.0, 10.0).is_empty(), "lapsed");
     let mut f = Fusion::default();
     f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 0.0);
-    assert!(f.look(&u("b"), near_50, 30.0, 10.0).is_empty(), "lapsed");
+    assert_eq!(
+        f.look(&u("b"), near_50, 30.0, 10.0).len(),
+        1,
+        "confirmed, then left"
+    );
+    let mut f = Fusion::default();
     f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 11.0);
     f.observe(&u("c"), &obs(50.0, 1.0, 0.3, 0.9), 11.0);
     assert!(f.look(&u("b"), near_50, 30.0, 11.0).is_empty(), "shared");

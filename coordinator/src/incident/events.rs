@@ -227,6 +227,10 @@ impl Incident {
             match p.phase {
                 TaskPhase::Extinguished => {
                     relevant = true;
+                    // Sent to a fire one other unit alone claims, it saw nothing there.
+                    if let Some(c) = self.fusion.found_nothing(fire, &unit, t) {
+                        out.extend(self.contradicted(vec![c], &unit, t));
+                    }
                     // A claim, not yet a fact, while another unit still sees the fire
                     // or sprays it: a unit lying (or whose detector lost the flame in
                     // steam) frees itself, not the units still at work.

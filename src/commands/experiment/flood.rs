@@ -1,17 +1,29 @@
-//! `firefleet experiment flood`: a secure site under attack from one stolen unit
-//! certificate, measured from outside.
+//! `firefleet experiment flood`: a secure site under attack from one stolen certificate,
+//! measured from outside.
 //!
-//! A `firefleet demo --secure` runs in a child process on a PKI made here; a thief holding
-//! `unit:ugv-2`'s certificate sends on ugv-2's own keys (what the access rules allow it)
-//! for the whole incident: valid states as fast as it can, random bytes, fake flame reports
-//! (64 random observations each, 94 a second), or 1 MB behaviour-tree messages; optionally
-//! HTTPS clients hammer the console. A commander's session asks for the status every
-//! 100 ms. Measured: whether every process lived and every fire went out, the status
-//! probe's latency, how fast the logs (the demo's standard error) and the recording grew,
-//! how many messages the thief got out, and the link drops Zenoh logged.
+//! A `firefleet demo --secure` runs in a child process on a PKI made here, its site file
+//! naming commander `chief` the incident commander and `rossi` a sector commander. Each
+//! `--attack` is its own run, of the same seed:
+//! - floods from a thief holding `unit:ugv-2`'s certificate, on ugv-2's own keys (what the
+//!   access rules allow it), for the whole incident: valid states as fast as it can, random
+//!   bytes, fake flame reports (64 random observations each, 94 a second), or 1 MB
+//!   behaviour-tree messages;
+//! - lies from the same thief at a unit's pace: three fake fires held in place, three fake
+//!   fires moved every 12 s, "extinguished" on every fire ugv-2 is sent to, and reports of
+//!   the site's real fires replayed 30 s late;
+//! - a stolen sector commander's certificate (`rossi`) putting keep-out at priority 255
+//!   on every zone and 70 goals more, and the incident commander (`chief`) clearing them
+//!   as soon as the stranded-fire alert shows in the status (its delay is printed).
 //!
-//! Not here: the rules and bounds that hold against the flood (`firefleet_bus::access`,
-//! `limits`), or attacks across identities (`tests/secure.rs`).
+//! Optionally HTTPS clients hammer the console. A commander's session asks for the status
+//! every 100 ms. Measured: whether every process lived and every fire went out and when,
+//! the status probe's latency, how fast the logs (the demo's standard error) and the
+//! recording grew, how many messages the thief got out, and the link drops Zenoh logged.
+//! With `none` among the attacks, a table sets each run's all-out time beside it.
+//!
+//! Not here: the rules and bounds that hold against the attacks (`firefleet_bus::access`,
+//! `limits`, the coordinator's trust in reports and goals), or attacks across identities
+//! (`tests/secure.rs`).
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -24,11 +36,15 @@ use anyhow::Context;
 use clap::{Args, ValueEnum};
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::{self, Terms};
-use firefleet_bus::{Ask, Bus, Connect, Mode};
-use firefleet_model::{CommanderId, Pose2, UnitId, UnitKind, builtin};
+use firefleet_bus::{Ask, Bus, Connect, Mode, goal};
+use firefleet_model::scenario::{CommanderSpec, Rank};
+use firefleet_model::{CommanderId, Point2, Pose2, UnitId, UnitKind, ZoneId, builtin};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{FlameObservation, FlameReport, MAX_LIST, UnitState};
+use firefleet_protocol::msg::{
+    FlameObservation, FlameReport, GoalKind, IncidentStatus, MAX_LIST, TaskPhase, TaskProgress,
+    UnitState, ZoneGoal,
+};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -49,6 +65,24 @@ pub enum Attack {
     Reports,
     /// 1 MB messages on ugv-2's behaviour-tree key, as fast as the link takes them.
     BigBt,
+    /// Three fake fires reported at confidence 0.95, each where it was, at a unit's pace.
+    FakeFires,
+    /// Three fake fires reported at confidence 0.95, moved every 12 s.
+    MovingFakes,
+    /// "Extinguished" on every fire ugv-2 is sent to, three times a task.
+    FalseOut,
+    /// Reports of the site's real fires as ugv-2 saw them 30 s before, replayed.
+    Replay,
+    /// A stolen sector commander's keep-out on every zone, and 70 goals more.
+    Commander,
+}
+
+/// What makes a run: its attack.
+impl Attack {
+    /// Whether the thief holds a unit's certificate (else a commander's).
+    fn by_unit(self) -> bool {
+        self != Attack::Commander
+    }
 }
 
 #[derive(Args, Debug)]
@@ -58,13 +92,15 @@ pub struct FloodArgs {
     scenario: String,
     #[arg(long, default_value_t = 4.0, value_parser = time_scale)]
     time_scale: f64,
-    #[arg(long, value_enum, default_value_t = Attack::States)]
-    attack: Attack,
+    /// The attacks, one run each (comma-separated); with `none` among them, a table sets
+    /// each run's all-out time beside the unattacked one's.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "states")]
+    attack: Vec<Attack>,
     /// HTTPS clients asking the console for the incident without pause, each request
     /// bounded to 2 s (curl; 0: no console).
     #[arg(long, default_value_t = 0)]
     https_clients: usize,
-    /// The thief's seed.
+    /// The run's seed: the site's and the thief's.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Also write the figures as JSON.
@@ -84,6 +120,11 @@ struct Figures {
     aborted: bool,
     fires_out: u64,
     fires_total: u64,
+    /// Site time when the last fire went out, s (none if not every fire did).
+    all_out_s: Option<f64>,
+    /// From the stolen commander's keep-outs being accepted to the stranded-fire alert in
+    /// the status, site s.
+    alert_delay_s: Option<f64>,
     wall_s: f64,
     sent: u64,
     sent_per_s: f64,
@@ -98,19 +139,66 @@ struct Figures {
 }
 
 pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
-    let scenario = builtin::resolve(&a.scenario)?;
+    let mut all = Vec::new();
+    for &attack in &a.attack {
+        all.push(run_one(&a, attack).await?);
+    }
+    if let Some(control) = all.iter().find(|f| f.attack == Attack::None) {
+        println!();
+        println!("attack          all out (site s)   x unattacked   alert (site s)");
+        for f in &all {
+            let cell = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:.1}"));
+            let ratio = f.all_out_s.zip(control.all_out_s).map(|(x, c)| x / c);
+            println!(
+                "{:15} {:>16}   {:>12}   {:>14}",
+                format!("{:?}", f.attack),
+                cell(f.all_out_s),
+                ratio.map_or("-".to_owned(), |r| format!("{r:.2}")),
+                cell(f.alert_delay_s),
+            );
+        }
+    }
+    write_json(a.json.as_deref(), &all)?;
+    let ok = all
+        .iter()
+        .all(|f| !f.aborted && f.demo_status == Some(0) && f.fires_out == f.fires_total);
+    Ok(if ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// The incident commander and the sector commander whose certificate is stolen.
+const CHIEF: &str = "chief";
+const SECTOR: &str = "rossi";
+
+/// One run under `attack`.
+async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
+    let mut scenario = builtin::resolve(&a.scenario)?;
     let ugv2 = UnitId::new("ugv-2")?;
     anyhow::ensure!(
         scenario.unit(&ugv2).is_some(),
         "--scenario {}: no unit ugv-2 to steal",
         a.scenario
     );
+    let (chief, sector) = (CommanderId::new(CHIEF)?, CommanderId::new(SECTOR)?);
+    for (id, rank) in [(&chief, Rank::Incident), (&sector, Rank::Sector)] {
+        scenario.commanders.retain(|c| &c.id != id);
+        scenario.commanders.push(CommanderSpec {
+            id: id.clone(),
+            rank,
+        });
+    }
     let dir = tempfile::tempdir()?;
+    // The site file every process of the run reads: the scenario with its commanders.
+    let site_file = dir.path().join("site.toml");
+    std::fs::write(&site_file, scenario.to_toml())?;
     let pki_dir = dir.path().join("pki");
     let commander = CommanderId::new("demo")?;
     pki::make_site(
         &scenario,
-        std::slice::from_ref(&commander),
+        &[commander.clone(), chief.clone(), sector.clone()],
         &Terms::default(),
         &pki_dir,
     )?;
@@ -123,7 +211,9 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
         .then(|| firefleet_bus::free_loopback_port().map(|p| format!("127.0.0.1:{p}")))
         .transpose()?;
     let mut demo = std::process::Command::new(std::env::current_exe()?);
-    demo.args(["demo", "--secure", "--scenario", &a.scenario])
+    demo.args(["demo", "--secure", "--scenario"])
+        .arg(&site_file)
+        .args(["--seed", &a.seed.to_string()])
         .args(["--time-scale", &a.time_scale.to_string()])
         .arg("--pki")
         .arg(&pki_dir)
@@ -159,16 +249,47 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
         tls: Some(pki_dir.join(who.dir_name())),
         ..Connect::default()
     };
-    let thief = join(&as_who(&Identity::Unit(ugv2.clone())), &scenario.site).await?;
     let probe = join(&as_who(&Identity::Commander(commander)), &scenario.site).await?;
-    let flood = tokio::spawn(attack(
-        thief,
-        ugv2,
-        a.attack,
-        a.seed,
-        stop.clone(),
-        sent.clone(),
-    ));
+    let alert_delay = Arc::new(std::sync::Mutex::new(None));
+    let flood = if attack.by_unit() {
+        let thief = join(&as_who(&Identity::Unit(ugv2.clone())), &scenario.site).await?;
+        let lie = Lie {
+            unit: ugv2,
+            fires: scenario
+                .fires
+                .iter()
+                .map(|f| Point2::new(f.x_m, f.y_m))
+                .collect(),
+            time_scale: a.time_scale,
+        };
+        tokio::spawn(flood_as_unit(
+            thief,
+            lie,
+            attack,
+            a.seed,
+            stop.clone(),
+            sent.clone(),
+        ))
+    } else {
+        let thief = join(
+            &as_who(&Identity::Commander(sector.clone())),
+            &scenario.site,
+        )
+        .await?;
+        let chief = (
+            join(&as_who(&Identity::Commander(chief.clone())), &scenario.site).await?,
+            chief,
+        );
+        let zones: Vec<ZoneId> = scenario.zones.iter().map(|z| z.id.clone()).collect();
+        tokio::spawn(bar_every_zone(
+            (thief, sector),
+            chief,
+            zones,
+            stop.clone(),
+            sent.clone(),
+            alert_delay.clone(),
+        ))
+    };
     let curls: Vec<std::process::Child> = match &console {
         Some(c) => (0..a.https_clients)
             .map(|_| {
@@ -203,8 +324,10 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
     let log_text = std::fs::read_to_string(&log).unwrap_or_default();
     let recorded = recording_bytes(&recording);
     let answered: Vec<f64> = latencies.iter().flatten().copied().collect();
+    let fires_out = summary["fires_out"].as_u64().unwrap_or(0);
+    let fires_total = summary["fires_total"].as_u64().unwrap_or(0);
     let f = Figures {
-        attack: a.attack,
+        attack,
         https_clients: a.https_clients,
         demo_status: status.code(),
         outcome: summary["outcome"]
@@ -216,8 +339,12 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
             || summary["outcome"]
                 .as_str()
                 .is_some_and(|o| o.contains("exited unexpectedly")),
-        fires_out: summary["fires_out"].as_u64().unwrap_or(0),
-        fires_total: summary["fires_total"].as_u64().unwrap_or(0),
+        fires_out,
+        fires_total,
+        all_out_s: summary["sim_time_s"]
+            .as_f64()
+            .filter(|_| fires_total > 0 && fires_out == fires_total),
+        alert_delay_s: *alert_delay.lock().expect("not poisoned"),
         wall_s,
         sent: sent.load(Ordering::Relaxed),
         sent_per_s: sent.load(Ordering::Relaxed) as f64 / wall_s,
@@ -234,7 +361,7 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
             .count(),
     };
     println!(
-        "attack {:?}, {} HTTPS clients: demo status {:?} ({}){}, fires out {}/{}, wall {:.1} s",
+        "attack {:?}, {} HTTPS clients: demo status {:?} ({}){}, fires out {}/{} (all out at {}), wall {:.1} s",
         f.attack,
         f.https_clients,
         f.demo_status,
@@ -242,8 +369,14 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
         if f.aborted { ", a process ABORTED" } else { "" },
         f.fires_out,
         f.fires_total,
+        f.all_out_s.map_or("-".to_owned(), |t| format!("{t:.1} s")),
         f.wall_s
     );
+    if let Some(d) = f.alert_delay_s {
+        println!(
+            "  stranded-fire alert in the status {d:.1} site s after the keep-outs were accepted"
+        );
+    }
     println!(
         "  thief sent {} ({:.0}/s); status probe every 100 ms: p50 {:.1} ms, p99 {:.1} ms, max {:.1} ms, {} of {} unanswered",
         f.sent,
@@ -265,13 +398,7 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
     {
         println!("    {l}");
     }
-    write_json(a.json.as_deref(), &f)?;
-    let ok = !f.aborted && f.demo_status == Some(0) && f.fires_out == f.fires_total;
-    Ok(if ok {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
+    Ok(f)
 }
 
 /// A session as `connect` says, once the site's router takes it.
@@ -286,17 +413,86 @@ async fn join(connect: &Connect, site: &firefleet_model::SiteId) -> anyhow::Resu
     }
 }
 
-/// Send `attack` on `unit`'s keys until `stop`, counting in `sent`.
-async fn attack(
-    thief: Bus,
+/// What a lying unit needs to know: who it speaks for, where the site's real fires are
+/// (a thief knows the site), and how fast site time runs.
+struct Lie {
     unit: UnitId,
+    fires: Vec<Point2>,
+    time_scale: f64,
+}
+
+/// The site's time as the thief hears it: ugv-2's own simulated sensors carry it.
+#[derive(Clone, Default)]
+struct SiteClock(Arc<AtomicU64>);
+
+impl SiteClock {
+    fn now(&self) -> f64 {
+        f64::from_bits(self.0.load(Ordering::Relaxed))
+    }
+
+    fn set(&self, t: f64) {
+        self.0.store(t.to_bits(), Ordering::Relaxed);
+    }
+}
+
+/// Fake fires: three, `seed`ed, none within 15 m of a real one.
+fn fakes(rng: &mut ChaCha8Rng, real: &[Point2]) -> Vec<Point2> {
+    let mut out: Vec<Point2> = Vec::new();
+    while out.len() < 3 {
+        let p = Point2::new(rng.random_range(10.0..290.0), rng.random_range(-3.0..3.0));
+        if real.iter().chain(&out).all(|r| r.dist(p) > 15.0) {
+            out.push(p);
+        }
+    }
+    out
+}
+
+/// One report of flames at `at`, dated `t`, by `unit`, as its camera would place them.
+fn report(unit: &UnitId, t: f64, at: &[Point2]) -> FlameReport {
+    FlameReport {
+        unit: unit.clone(),
+        t,
+        observer: Pose2::new(
+            at.first().map_or(60.0, |p| (p.x - 15.0).max(1.0)),
+            -2.0,
+            0.0,
+        ),
+        observations: at
+            .iter()
+            .map(|&position| FlameObservation {
+                position,
+                cov: [0.3, 0.0, 0.3],
+                confidence: 0.95,
+                hrr_kw: Some(5000.0),
+            })
+            .collect(),
+    }
+}
+
+/// Send `attack` on `lie.unit`'s keys until `stop`, counting in `sent`.
+async fn flood_as_unit(
+    thief: Bus,
+    lie: Lie,
     attack: Attack,
     seed: u64,
     stop: Arc<AtomicBool>,
     sent: Arc<AtomicU64>,
 ) {
+    let unit = lie.unit.clone();
     let keys = thief.keys().clone();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let clock = SiteClock::default();
+    if let Ok(sensors) = thief.subscribe(&keys.sim_sensors(&unit)).await {
+        let clock = clock.clone();
+        tokio::spawn(async move {
+            while let Some((_, s)) = sensors.recv().await {
+                clock.set(s.t);
+            }
+        });
+    }
+    let tasks = thief.subscribe(&keys.unit_task(&unit)).await.ok();
+    // A unit's pace: a report every 0.25 s of site time.
+    let pace = Duration::from_secs_f64(0.25 / lie.time_scale);
     let mut state = UnitState::idle(
         unit.clone(),
         UnitKind::Ground,
@@ -304,9 +500,13 @@ async fn attack(
         1000.0,
     );
     let big = vec![0xA5u8; 1 << 20];
+    let mut fake = fakes(&mut rng, &lie.fires);
+    let mut moved_at = 0.0;
+    let mut claimed: Option<(u64, u32)> = None;
     while !stop.load(Ordering::Relaxed) {
+        let now = clock.now();
         let (key, bytes) = match attack {
-            Attack::None => {
+            Attack::None | Attack::Commander => {
                 tokio::time::sleep(Duration::from_millis(100)).await;
                 continue;
             }
@@ -326,28 +526,84 @@ async fn attack(
             }
             Attack::Reports => {
                 tokio::time::sleep(Duration::from_micros(1_000_000 / 94)).await;
-                let report = FlameReport {
-                    unit: unit.clone(),
-                    t: state.t,
-                    observer: Pose2::new(60.0, -2.0, 0.0),
-                    observations: (0..MAX_LIST)
-                        .map(|_| FlameObservation {
-                            position: firefleet_model::Point2::new(
-                                rng.random_range(0.0..300.0),
-                                rng.random_range(-4.0..4.0),
-                            ),
-                            cov: [0.3, 0.0, 0.3],
-                            confidence: 0.95,
-                            hrr_kw: Some(5000.0),
-                        })
-                        .collect(),
-                };
+                let at: Vec<Point2> = (0..MAX_LIST)
+                    .map(|_| Point2::new(rng.random_range(0.0..300.0), rng.random_range(-4.0..4.0)))
+                    .collect();
                 (
                     keys.unit_report(&unit).as_str().to_owned(),
-                    codec::encode(&report),
+                    codec::encode(&report(&unit, state.t, &at)),
                 )
             }
             Attack::BigBt => (keys.unit_bt(&unit).as_str().to_owned(), big.clone()),
+            Attack::FakeFires | Attack::MovingFakes => {
+                tokio::time::sleep(pace).await;
+                if attack == Attack::MovingFakes && now - moved_at >= 12.0 {
+                    fake = fakes(&mut rng, &lie.fires);
+                    moved_at = now;
+                }
+                (
+                    keys.unit_report(&unit).as_str().to_owned(),
+                    codec::encode(&report(&unit, now, &fake)),
+                )
+            }
+            Attack::Replay => {
+                tokio::time::sleep(pace).await;
+                // What ugv-2 reported of the real fires 30 s ago, once there is a past.
+                if now < 40.0 {
+                    continue;
+                }
+                (
+                    keys.unit_report(&unit).as_str().to_owned(),
+                    codec::encode(&report(&unit, now - 30.0, &lie.fires)),
+                )
+            }
+            Attack::FalseOut => {
+                tokio::time::sleep(Duration::from_secs_f64(0.5 / lie.time_scale)).await;
+                let Some(task) = tasks.as_ref().and_then(|t| {
+                    let mut newest = None;
+                    while let Some((_, task)) = t.try_recv() {
+                        newest = Some(task);
+                    }
+                    newest
+                }) else {
+                    continue;
+                };
+                let firefleet_protocol::msg::TaskKind::Extinguish { fire, target } = task.kind
+                else {
+                    continue;
+                };
+                // Three claims a task, dated a little ahead so that the unit's own states
+                // do not shadow them.
+                let times = match claimed {
+                    Some((seq, n)) if seq == task.seq => n,
+                    _ => 0,
+                };
+                if times >= 3 {
+                    continue;
+                }
+                claimed = Some((task.seq, times + 1));
+                let forged = UnitState {
+                    t: now + 0.5,
+                    task: Some(TaskProgress {
+                        seq: task.seq,
+                        fire,
+                        phase: TaskPhase::Extinguished,
+                        target,
+                    }),
+                    task_seq: Some(task.seq),
+                    epoch: Some(task.epoch),
+                    ..UnitState::idle(
+                        unit.clone(),
+                        UnitKind::Ground,
+                        Pose2::new((target.x - 8.0).max(1.0), target.y, 0.0),
+                        500.0,
+                    )
+                };
+                (
+                    keys.unit_state(&unit).as_str().to_owned(),
+                    codec::encode(&forged),
+                )
+            }
         };
         if thief.put_raw(&key, bytes).await.is_ok() {
             sent.fetch_add(1, Ordering::Relaxed);
@@ -358,6 +614,94 @@ async fn attack(
         }
     }
     thief.close().await;
+}
+
+/// The stolen sector commander's attack: keep-out at priority 255 on every zone as soon as
+/// a coordinator answers, then 70 goals more; the incident commander, asking the status
+/// every 100 ms, clears every zone once it names a stranded fire. The alert's delay (site
+/// s) goes to `alert_delay`.
+async fn bar_every_zone(
+    (thief, sector): (Bus, CommanderId),
+    (chief_bus, chief): (Bus, CommanderId),
+    zones: Vec<ZoneId>,
+    stop: Arc<AtomicBool>,
+    sent: Arc<AtomicU64>,
+    alert_delay: Arc<std::sync::Mutex<Option<f64>>>,
+) {
+    let status = |bus: Bus| async move {
+        let key = bus.keys().expr(&Topic::CoordStatus);
+        let answers = bus
+            .ask(&key, Ask::within(Duration::from_secs(1)))
+            .await
+            .ok()?;
+        let sample = answers.recv().await?;
+        let status = codec::decode::<IncidentStatus>(&sample.bytes).ok()?;
+        Some((bus, status))
+    };
+    // Wait for the fleet.
+    let mut chief_bus = chief_bus;
+    loop {
+        if stop.load(Ordering::Relaxed) {
+            return;
+        }
+        match status(chief_bus.clone()).await {
+            Some((b, s)) if !s.fires.is_empty() || s.t > 5.0 => {
+                chief_bus = b;
+                break;
+            }
+            Some((b, _)) => chief_bus = b,
+            None => {}
+        }
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+    let mut accepted_at = None;
+    for zone in &zones {
+        let goal = ZoneGoal {
+            priority: 255,
+            ..ZoneGoal::new(zone.clone(), GoalKind::KeepOut, sector.clone())
+        };
+        if let Ok(ack) = goal::issue(&thief, &goal, &sector, goal::ACK_TIMEOUT).await {
+            sent.fetch_add(1, Ordering::Relaxed);
+            if ack.accepted && accepted_at.is_none() {
+                accepted_at = status(chief_bus.clone()).await.map(|(_, s)| s.t);
+            }
+        }
+    }
+    for k in 0..70u32 {
+        let zone = &zones[k as usize % zones.len()];
+        let goal = ZoneGoal {
+            id: format!("flood-{k}"),
+            priority: u8::try_from(k % 200).unwrap_or(0),
+            ..ZoneGoal::new(zone.clone(), GoalKind::Monitor, sector.clone())
+        };
+        if thief
+            .put(&thief.keys().zone_goal(zone, &sector), &goal)
+            .await
+            .is_ok()
+        {
+            sent.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+    // The incident commander: clear the zones the alert names, the moment it shows.
+    while !stop.load(Ordering::Relaxed) {
+        if let Some((_, s)) = status(chief_bus.clone()).await
+            && !s.stranded.is_empty()
+        {
+            if let Some(at) = accepted_at {
+                *alert_delay.lock().expect("not poisoned") = Some(s.t - at);
+            }
+            let mut named: Vec<ZoneId> = s.stranded.iter().map(|x| x.zone.clone()).collect();
+            named.sort();
+            named.dedup();
+            for zone in named {
+                let _ = goal::clear(&chief_bus, &zone, &chief).await;
+            }
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    thief.close().await;
+    chief_bus.close().await;
 }
 
 /// Ask for the status every 100 ms until `stop`: each question's latency, ms (`None`: no

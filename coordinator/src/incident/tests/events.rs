@@ -605,3 +605,35 @@ fn an_out_claim_while_another_attacker_still_sees_the_fire_frees_only_the_claima
         "{out:?}"
     );
 }
+
+#[test]
+fn a_unit_sent_to_a_lone_claim_that_finds_nothing_there_contradicts_it_at_once() {
+    let mut i = incident();
+    let out = i.report_at(&report("a", 100.0), 1.0).unwrap();
+    let task = tasks(&out)[0].clone();
+    assert_eq!(task.unit.as_str(), "b");
+    // b gets there, sees no flame (it reports none), and says so: the fire is out.
+    let done = TaskProgress {
+        seq: task.seq,
+        fire: FireId(1),
+        phase: TaskPhase::Extinguished,
+        target: Point2::new(100.0, 1.0),
+    };
+    i.state_at(echoing(&i, state("b", 92.0, Some(done))), 30.0)
+        .unwrap();
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Contradicted { fire: FireId(1), witness, by } if witness == "a" && by == "b"
+    )));
+    assert!(
+        i.fusion.witnesses().doubted(&u("a")),
+        "nothing a said was borne out: one look"
+    );
+    // a's next fake is not believed.
+    for k in 1..=12 {
+        let out = i
+            .report_at(&report("a", 150.0), 30.0 + 0.25 * f64::from(k))
+            .unwrap();
+        assert!(tasks(&out).is_empty(), "{out:?}");
+    }
+}

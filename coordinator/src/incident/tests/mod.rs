@@ -126,6 +126,8 @@ fn b_puts_out_the_first_fire(i: &mut Incident, out: &[Output]) -> (FireId, Vec<O
         phase: TaskPhase::Extinguished,
         target: Point2::new(60.0, 1.0),
     };
+    // b saw the flame it sprayed.
+    i.report_at(&report("b", 60.0), 15.0).unwrap();
     (
         fire,
         i.state_at(state("b", 55.0, Some(done)), 20.0).unwrap(),
