@@ -658,10 +658,15 @@ impl Fusion {
     }
 
     /// Mark tracks nobody works on and nobody sees as lost; returns their ids.
-    pub fn expire(&mut self, t: f64) -> Vec<FireId> {
+    ///
+    /// A confirmed fire where `left_burning` holds (a commander's goal bars attacking it)
+    /// is kept: nobody may go and look, and it burns on all the same.
+    pub fn expire(&mut self, t: f64, left_burning: impl Fn(Point2) -> bool) -> Vec<FireId> {
         let mut lost = Vec::new();
         for f in &mut self.fires {
+            let kept = f.state == FireState::Confirmed && left_burning(f.position());
             if matches!(f.state, FireState::Tentative | FireState::Confirmed)
+                && !kept
                 && t - f.last_seen > LOSE_AFTER_S
             {
                 f.state = FireState::Lost;

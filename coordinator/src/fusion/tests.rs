@@ -287,8 +287,12 @@ fn a_contradicted_fire_only_doubted_units_claim_goes_back_to_tentative() {
 fn unworked_unseen_tracks_are_lost_and_out_fires_can_reignite() {
     let mut f = Fusion::default();
     f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.9), 0.0);
-    assert!(f.expire(30.0).is_empty());
-    assert_eq!(f.expire(61.0).len(), 1);
+    assert!(f.expire(30.0, |_| false).is_empty());
+    assert!(
+        f.expire(61.0, |_| true).is_empty(),
+        "a fire a goal leaves burning is kept"
+    );
+    assert_eq!(f.expire(61.0, |_| false).len(), 1);
 
     let mut f = Fusion::default();
     let Fused::Confirmed(id) = f.observe(&u("a"), &obs(20.0, 1.0, 0.3, 0.9), 0.0) else {

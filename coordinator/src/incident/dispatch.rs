@@ -8,7 +8,7 @@ use std::collections::BTreeSet;
 
 use firefleet_model::UnitKind;
 use firefleet_model::{FireId, Point2, UnitId};
-use firefleet_protocol::msg::{FireState, TaskKind, UnitMode};
+use firefleet_protocol::msg::{FireState, TaskKind, TaskPhase, UnitMode};
 
 use crate::assign::{Candidate, Mobility, Need, Pick, Place, Roads, Site, wants_another};
 use crate::fusion::Fire;
@@ -125,6 +125,23 @@ impl Incident {
         out
     }
 
+    /// Whether a provisional fire's one reporter is spraying it alone: it drove there and
+    /// still sees it, which a detector's false alarm does not survive. One backup may then
+    /// join, and see it for itself (a liar's fake costs that unit a trip and the liar its
+    /// credit: [`crate::fusion::Fusion::found_nothing`]).
+    fn sprayed_by_its_lone_reporter(&self, f: &Fire) -> bool {
+        let mut seen = f.seen_by();
+        let (Some(reporter), None) = (seen.next(), seen.next()) else {
+            return false;
+        };
+        self.assigned_to(f.id) == [reporter.clone()]
+            && self.units.get(reporter).is_some_and(|v| {
+                v.state.as_ref().and_then(|s| s.task).is_some_and(|p| {
+                    p.phase == TaskPhase::Spraying && self.fusion.resolve(p.fire) == f.id
+                })
+            })
+    }
+
     /// The cannon flows of the ground units on `fire` (but `except`), L/s: each its own
     /// profile's.
     fn attack_flows(&self, fire: FireId, except: Option<&UnitId>) -> Vec<f64> {
@@ -182,8 +199,9 @@ impl Incident {
             .fires()
             .iter()
             .filter(|f| matches!(f.state, FireState::Assigned | FireState::Suppressing))
-            // A provisional fire has its one unit until another source sees it.
-            .filter(|f| f.corroborated())
+            // A provisional fire has its one unit until another source sees it, or one
+            // backup once that unit sprays it: the backup is then its verifier.
+            .filter(|f| f.corroborated() || self.sprayed_by_its_lone_reporter(f))
             .filter(|f| {
                 wants_another(
                     f.hrr_kw(),

@@ -511,7 +511,10 @@ impl Incident {
         for u in silent {
             out.extend(self.lose(&u, t, Loss::Silent));
         }
-        for id in self.fusion.expire(t) {
+        let barred = self.goals.barred_space(0.0);
+        let tunnel = &self.tunnel;
+        let left_burning = |p| barred.attack_at(tunnel.chainage(p)).is_some();
+        for id in self.fusion.expire(t, left_burning) {
             self.log(t, Decision::FireLost { fire: id });
             out.push(Output::Fire(self.track(id, t)));
         }

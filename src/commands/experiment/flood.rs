@@ -42,7 +42,7 @@ use firefleet_model::{CommanderId, Point2, Pose2, UnitId, UnitKind, ZoneId, buil
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    FlameObservation, FlameReport, GoalKind, IncidentStatus, MAX_LIST, TaskPhase, TaskProgress,
+    FireState, FlameObservation, FlameReport, GoalKind, IncidentStatus, MAX_LIST, TaskPhase, TaskProgress,
     UnitState, ZoneGoal,
 };
 use rand::{Rng, SeedableRng};
@@ -106,6 +106,14 @@ pub struct FloodArgs {
     /// Also write the figures as JSON.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
+    /// Keep each run's site file, recording and log in DIR/<attack>/ (for `firefleet
+    /// check`); by default they go with a temporary directory.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Fail unless every attacked run put every fire out within this many times the
+    /// unattacked run's all-out time (needs `none` among the attacks).
+    #[arg(long, value_name = "X")]
+    max_slowdown: Option<f64>,
 }
 
 /// One run's figures.
@@ -159,9 +167,26 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
         }
     }
     write_json(a.json.as_deref(), &all)?;
-    let ok = all
+    let mut ok = all
         .iter()
         .all(|f| !f.aborted && f.demo_status == Some(0) && f.fires_out == f.fires_total);
+    if let Some(max) = a.max_slowdown {
+        let control = all
+            .iter()
+            .find(|f| f.attack == Attack::None)
+            .and_then(|f| f.all_out_s)
+            .context("--max-slowdown needs an unattacked run (--attack none,...) that put every fire out")?;
+        for f in &all {
+            let slow = f.all_out_s.map_or(f64::INFINITY, |t| t / control);
+            if slow > max {
+                println!(
+                    "FAILED: {:?} put every fire out {slow:.2} times as late as the unattacked run (at most {max})",
+                    f.attack
+                );
+                ok = false;
+            }
+        }
+    }
     Ok(if ok {
         ExitCode::SUCCESS
     } else {
@@ -190,11 +215,24 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
             rank,
         });
     }
-    let dir = tempfile::tempdir()?;
+    let tmp = tempfile::tempdir()?;
+    let dir = match &a.out {
+        Some(out) => {
+            let d = out.join(attack.to_possible_value().map_or("run".into(), |v| v.get_name().to_owned()));
+            std::fs::create_dir_all(&d)?;
+            // A run of its own: no PKI or recording of an earlier one.
+            for old in ["pki", "run.mcap", "run.mcap.parts"] {
+                let p = d.join(old);
+                let _ = std::fs::remove_dir_all(&p).or_else(|_| std::fs::remove_file(&p));
+            }
+            d
+        }
+        None => tmp.path().to_owned(),
+    };
     // The site file every process of the run reads: the scenario with its commanders.
-    let site_file = dir.path().join("site.toml");
+    let site_file = dir.join("site.toml");
     std::fs::write(&site_file, scenario.to_toml())?;
-    let pki_dir = dir.path().join("pki");
+    let pki_dir = dir.join("pki");
     let commander = CommanderId::new("demo")?;
     pki::make_site(
         &scenario,
@@ -203,9 +241,9 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
         &pki_dir,
     )?;
     let (recording, summary, log) = (
-        dir.path().join("run.mcap"),
-        dir.path().join("summary.json"),
-        dir.path().join("stderr.log"),
+        dir.join("run.mcap"),
+        dir.join("summary.json"),
+        dir.join("stderr.log"),
     );
     let console = (a.https_clients > 0)
         .then(|| firefleet_bus::free_loopback_port().map(|p| format!("127.0.0.1:{p}")))
@@ -638,21 +676,23 @@ async fn bar_every_zone(
         let status = codec::decode::<IncidentStatus>(&sample.bytes).ok()?;
         Some((bus, status))
     };
-    // Wait for the fleet.
+    // Strike once the firefighting is under way: a fire confirmed. (A keep-out before any
+    // fire is known strands nothing the coordinator knows of, and raises no alert: see the
+    // README's zone goals.)
     let mut chief_bus = chief_bus;
     loop {
         if stop.load(Ordering::Relaxed) {
             return;
         }
         match status(chief_bus.clone()).await {
-            Some((b, s)) if !s.fires.is_empty() || s.t > 5.0 => {
+            Some((b, s)) if s.fires.iter().any(|f| f.state != FireState::Tentative) => {
                 chief_bus = b;
                 break;
             }
             Some((b, _)) => chief_bus = b,
             None => {}
         }
-        tokio::time::sleep(Duration::from_millis(200)).await;
+        tokio::time::sleep(Duration::from_millis(100)).await;
     }
     let mut accepted_at = None;
     for zone in &zones {
@@ -682,21 +722,29 @@ async fn bar_every_zone(
             sent.fetch_add(1, Ordering::Relaxed);
         }
     }
-    // The incident commander: clear the zones the alert names, the moment it shows.
+    // The incident commander: the moment the alert shows, clear every zone the stolen
+    // certificate holds goals on (a delete on the chief's own goal key of a zone clears the
+    // lower ranks' goals there), and again should it strand a fire later.
     while !stop.load(Ordering::Relaxed) {
         if let Some((_, s)) = status(chief_bus.clone()).await
             && !s.stranded.is_empty()
         {
-            if let Some(at) = accepted_at {
-                *alert_delay.lock().expect("not poisoned") = Some(s.t - at);
-            }
-            let mut named: Vec<ZoneId> = s.stranded.iter().map(|x| x.zone.clone()).collect();
+            alert_delay
+                .lock()
+                .expect("not poisoned")
+                .get_or_insert_with(|| accepted_at.map_or(f64::NAN, |at| s.t - at));
+            let mut named: Vec<ZoneId> = s
+                .goals
+                .iter()
+                .filter(|g| g.issued_by.as_ref() == Some(&sector))
+                .map(|g| g.zone.clone())
+                .chain(s.stranded.iter().map(|x| x.zone.clone()))
+                .collect();
             named.sort();
             named.dedup();
             for zone in named {
                 let _ = goal::clear(&chief_bus, &zone, &chief).await;
             }
-            break;
         }
         tokio::time::sleep(Duration::from_millis(100)).await;
     }

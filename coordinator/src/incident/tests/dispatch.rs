@@ -222,3 +222,29 @@ mod profiles {
         }
     }
 }
+
+#[test]
+fn a_fire_one_unit_alone_reports_gets_no_backup_until_that_unit_sprays_it() {
+    let mut i = incident_with_backups();
+    let out = i.report_at(&report("b", 60.0), 1.0).unwrap();
+    let t = tasks(&out);
+    assert_eq!(t.len(), 1, "provisional: one unit, no backup: {out:?}");
+    assert_eq!(t[0].unit.as_str(), "b");
+    let TaskKind::Extinguish { fire, target } = t[0].kind else {
+        panic!()
+    };
+    let spraying = TaskProgress {
+        seq: t[0].seq,
+        fire,
+        phase: TaskPhase::Spraying,
+        target,
+    };
+    // b got there and still sees it: one backup may come and see for itself.
+    let mut out = i
+        .state_at(echoing(&i, state("b", 52.0, Some(spraying))), 8.0)
+        .unwrap();
+    out.extend(i.state_at(state("a", 10.0, None), 8.0).unwrap());
+    out.extend(i.tick(8.2));
+    let backups: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
+    assert_eq!(backups, ["a"], "{out:?}");
+}
