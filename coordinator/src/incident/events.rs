@@ -519,6 +519,10 @@ impl Incident {
             out.push(Output::Fire(self.track(id, t)));
         }
         self.failed.retain(|_, until| *until > t);
+        if self.goals.revision() != self.failed_under {
+            self.failed.clear();
+            self.failed_under = self.goals.revision();
+        }
         for g in self.goals.expire(t) {
             self.log(
                 t,

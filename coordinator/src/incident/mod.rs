@@ -183,8 +183,12 @@ pub struct Incident {
     epoch: u64,
     lease_s: f64,
     strategy: Strategy,
-    /// (unit, fire) pairs that failed, and until when not to retry them.
+    /// (unit, fire) pairs that failed, and until when not to retry them; and the goals'
+    /// revision they failed under: a unit that refused a fire for barred space, or gave up
+    /// on a way a goal closed, may go again once the goals change (a keep-out lifted a
+    /// minute early would otherwise still hold the fleet back).
     failed: BTreeMap<(UnitId, FireId), f64>,
+    failed_under: u64,
     decisions: VecDeque<Logged>,
     /// Decisions not yet handed out for publication.
     unpublished: Vec<Logged>,
@@ -224,6 +228,7 @@ impl Incident {
             lease_s,
             strategy,
             failed: BTreeMap::new(),
+            failed_under: 0,
             decisions: VecDeque::new(),
             unpublished: Vec::new(),
             goals: Goals::default(),
