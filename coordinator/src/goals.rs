@@ -94,7 +94,13 @@ pub struct Goals {
     /// Grows with every change to the goals in force: what depends on them only (what is
     /// barred, the goals published) need not be worked out again while it stands.
     revision: u64,
+    /// Ids of goals lately lifted (cleared, lapsed, overridden), newest last: a unit that
+    /// refuses a task for one of them has not heard yet.
+    lifted: std::collections::VecDeque<String>,
 }
+
+/// Lifted goal ids remembered.
+const LIFTED_KEPT: usize = 64;
 
 fn ack(g: &ZoneGoal, accepted: bool, reason: impl Into<String>) -> GoalAck {
     GoalAck {
@@ -113,6 +119,23 @@ impl Goals {
             commanders: commanders.to_vec(),
             active: Vec::new(),
             revision: 0,
+            lifted: std::collections::VecDeque::new(),
+        }
+    }
+
+    fn note_lifted(&mut self, id: &str) {
+        if self.lifted.len() == LIFTED_KEPT {
+            self.lifted.pop_front();
+        }
+        self.lifted.push_back(id.to_owned());
+    }
+
+    /// Whether goal `id` was lately in force and bars nothing now (lifted, or amended to a
+    /// goal that bars nothing).
+    pub fn lifted(&self, id: &str) -> bool {
+        match self.active.iter().find(|a| a.goal.id == id) {
+            Some(a) => !a.bars_attack(),
+            None => self.lifted.iter().any(|l| l == id),
         }
     }
 
@@ -249,6 +272,7 @@ impl Goals {
         };
         if let Some(i) = in_the_way {
             let gone = self.active.remove(i);
+            self.note_lifted(&gone.goal.id);
             reason = format!(
                 "{reason}, overriding goal '{}' ({}) of {} commander '{}'",
                 gone.goal.id,
@@ -305,6 +329,9 @@ impl Goals {
         });
         self.active = kept;
         self.revision += u64::from(!gone.is_empty());
+        for a in &gone {
+            self.note_lifted(&a.goal.id);
+        }
         gone.into_iter().map(|a: Active| a.goal).collect()
     }
 
@@ -316,6 +343,9 @@ impl Goals {
             .partition(|a| a.until.is_some_and(|u| u <= t));
         self.active = kept;
         self.revision += u64::from(!gone.is_empty());
+        for a in &gone {
+            self.note_lifted(&a.goal.id);
+        }
         gone.into_iter().map(|a: Active| a.goal).collect()
     }
 

@@ -323,11 +323,16 @@ impl Incident {
         {
             // The unit holds a barred space the coordinator did not (one of them is late,
             // or the two disagree): the unit's word stands. Standby replaces the task, so
-            // the refusal is logged once.
+            // the refusal is logged once. A refusal for a goal no longer in force is the
+            // unit's late news (the lifted bar reaches it within a second): the fire may
+            // be given again at once, not after a minute.
+            let lifted = self.goals.lifted(&r.goal);
             if let TaskKind::Extinguish { fire, .. } = task.kind {
                 let fire = self.fusion.resolve(fire);
-                self.failed
-                    .insert((unit.clone(), fire), t + self.policy.retry_after_s);
+                if !lifted {
+                    self.failed
+                        .insert((unit.clone(), fire), t + self.policy.retry_after_s);
+                }
                 out.extend(self.release(fire, t));
             }
             self.log(

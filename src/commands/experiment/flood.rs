@@ -42,8 +42,8 @@ use firefleet_model::{CommanderId, Point2, Pose2, UnitId, UnitKind, ZoneId, buil
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    FireState, FlameObservation, FlameReport, GoalKind, IncidentStatus, MAX_LIST, TaskPhase, TaskProgress,
-    UnitState, ZoneGoal,
+    FireState, FlameObservation, FlameReport, GoalKind, IncidentStatus, MAX_LIST, TaskPhase,
+    TaskProgress, UnitState, ZoneGoal,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -218,7 +218,11 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
     let tmp = tempfile::tempdir()?;
     let dir = match &a.out {
         Some(out) => {
-            let d = out.join(attack.to_possible_value().map_or("run".into(), |v| v.get_name().to_owned()));
+            let d = out.join(
+                attack
+                    .to_possible_value()
+                    .map_or("run".into(), |v| v.get_name().to_owned()),
+            );
             std::fs::create_dir_all(&d)?;
             // A run of its own: no PKI or recording of an earlier one.
             for old in ["pki", "run.mcap", "run.mcap.parts"] {

@@ -219,3 +219,30 @@ fn a_unit_s_refusal_is_logged_and_its_task_withdrawn() {
             .any(|d| matches!(d.decision, Decision::Refused { .. }))
     );
 }
+
+#[test]
+fn a_refusal_for_a_goal_since_lifted_is_late_news_and_the_fire_is_given_again_at_once() {
+    let mut i = zoned();
+    submit(&mut i, goal("ko", "z1", GoalKind::KeepOut, 0, None), 0.5);
+    assert!(tasks(&i.report_at(&report("a", 60.0), 1.0).unwrap()).is_empty());
+    let out = i.clear_goals(
+        &ZoneId::new("z1").unwrap(),
+        &CommanderId::new("ic-1").unwrap(),
+        2.0,
+    );
+    let task = tasks(&out)[0].clone();
+    // The unit has not heard of the lift yet and refuses.
+    let mut st = echoing(&i, state(task.unit.as_str(), 40.0, None));
+    st.refused = Some(Refusal {
+        seq: task.seq,
+        reason: RefusalReason::DestinationBarred,
+        goal: "ko".into(),
+        zone: ZoneId::new("z1").unwrap(),
+    });
+    let mut out = i.state_at(st, 2.5).unwrap();
+    out.extend(i.tick(2.7));
+    assert!(
+        out.iter().any(|o| matches!(o, Output::Task(t) if t.unit == task.unit && matches!(t.kind, TaskKind::Extinguish { .. }))),
+        "sent again, not held back a minute: {out:?}"
+    );
+}
