@@ -338,8 +338,13 @@ impl fmt::Display for Decision {
             Decision::FireOut { fire, by } => write!(f, "fire {fire} out, reported by {by}"),
             Decision::OutDisputed { fire, by, against } => write!(
                 f,
-                "{by} reports fire {fire} out, but {} still see or spray it: only {by} is freed",
-                names(against)
+                "{by} reports fire {fire} out, but {} still {} it: only {by} is freed",
+                names(against),
+                if against.len() == 1 {
+                    "sees or sprays"
+                } else {
+                    "see or spray"
+                }
             ),
             Decision::GaveUp { unit, fire } => write!(f, "unit {unit} gave up fire {fire}"),
             Decision::Adopt {
