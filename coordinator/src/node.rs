@@ -267,15 +267,20 @@ pub async fn run(
                 } else {
                     told.strands(bus, &incident, t).await?;
                 }
-                Ok(incident
-                    .tasks()
-                    .cloned()
-                    .map(Output::Task)
-                    .chain(incident.fire_tracks(t).into_iter().map(Output::Fire))
-                    .enumerate()
-                    .filter(|(i, _)| i % REPUBLISH_SLICES == slice)
-                    .map(|(_, o)| o)
-                    .collect())
+                // A unit silent past its lease is lost within a tenth of a second, not at
+                // the next tick: its fire waits for a new unit meanwhile.
+                let mut out = incident.lapse(t);
+                out.extend(
+                    incident
+                        .tasks()
+                        .cloned()
+                        .map(Output::Task)
+                        .chain(incident.fire_tracks(t).into_iter().map(Output::Fire))
+                        .enumerate()
+                        .filter(|(i, _)| i % REPUBLISH_SLICES == slice)
+                        .map(|(_, o)| o),
+                );
+                Ok(out)
             }
             Some((topic, st)) = states.recv() => {
                 if topic == Topic::UnitState(st.unit.clone()) {
