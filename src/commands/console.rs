@@ -169,25 +169,11 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
         Some(config) => {
             tracing::info!("console on https://{}", listener.local_addr()?);
             let listener = TlsListener::new(listener, config)?;
-            axum::serve(
-                listener,
-                console
-                    .router()
-                    .into_make_service_with_connect_info::<Peer>(),
-            )
-            .with_graceful_shutdown(stop)
-            .await
+            serve_on(listener, console, stop).await
         }
         None => {
             tracing::info!("console on http://{}", listener.local_addr()?);
-            axum::serve(
-                listener,
-                console
-                    .router()
-                    .into_make_service_with_connect_info::<Peer>(),
-            )
-            .with_graceful_shutdown(stop)
-            .await
+            serve_on(listener, console, stop).await
         }
     };
     for task in [feed, goals, ticker.abort_handle()] {
@@ -198,4 +184,26 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
     }
     served.context("serving the console")?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// Serve `console` on `listener` until `stop`, each request knowing its client's address
+/// (the login throttle keys on it).
+async fn serve_on<L>(
+    listener: L,
+    console: Arc<Console>,
+    stop: impl std::future::Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()>
+where
+    L: axum::serve::Listener,
+    L::Addr: std::fmt::Debug,
+    Peer: for<'a> axum::extract::connect_info::Connected<axum::serve::IncomingStream<'a, L>>,
+{
+    axum::serve(
+        listener,
+        console
+            .router()
+            .into_make_service_with_connect_info::<Peer>(),
+    )
+    .with_graceful_shutdown(stop)
+    .await
 }
