@@ -477,6 +477,9 @@ impl Fusion {
         z.cov[0] = z.cov[0].max(MIN_VAR_M2);
         z.cov[2] = z.cov[2].max(MIN_VAR_M2);
         let weight = self.witnesses.weight(unit);
+        // Room for one more fire on this unit's word alone (the track this observation
+        // joins is not among them while it is tentative).
+        let room = self.provisional(unit) < MAX_PROVISIONAL;
         let best = self
             .fires
             .iter_mut()
@@ -511,8 +514,7 @@ impl Fusion {
             if let Some(q) = obs.hrr_kw {
                 f.sizes.insert(unit.clone(), q);
             }
-            let confirmed =
-                f.confidence >= CONFIRM_CONFIDENCE && self.provisional(unit) < MAX_PROVISIONAL;
+            let confirmed = f.confidence >= CONFIRM_CONFIDENCE && room;
             if confirmed {
                 f.state = FireState::Confirmed;
             }
@@ -544,11 +546,7 @@ impl Fusion {
         fire.refuse();
         fire.credit(&mut self.witnesses);
         let credible = fire.per_unit.values().filter(|s| s.credible()).count();
-        let id = fire.id;
-        let room = credible >= 2 || self.provisional(unit) < MAX_PROVISIONAL;
-        let Some(fire) = self.fires.iter_mut().find(|f| f.id == id) else {
-            return Fused::Updated(id);
-        };
+        let room = room || credible >= 2;
         match fire.state {
             FireState::Out
                 if sighting.credible() && fire.out_at.is_some_and(|o| t - o > REIGNITE_AFTER_S) =>
