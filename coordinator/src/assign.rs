@@ -103,6 +103,14 @@ impl Mobility {
         }
     }
 
+    /// The fastest the unit moves, m/s.
+    pub fn top_speed_m_s(&self) -> f64 {
+        match self {
+            Mobility::Ground(g) => g.speed_m_s,
+            Mobility::Rail { speed_m_s, .. } => *speed_m_s,
+        }
+    }
+
     /// A ground unit's cannon flow, L/s: what it adds to an attack on a fire.
     pub fn cannon_flow_l_s(&self) -> Option<f64> {
         match self {

@@ -17,6 +17,9 @@ use super::{Decision, Incident, Loss, Output, Scope};
 /// How far ahead of the site clock a recalled track may be dated, s: clock skew between the
 /// hosts of the coordinator that published it and of this one.
 pub const RECALL_AHEAD_S: f64 = 5.0;
+/// How far a report's observer may stand from where the unit's state puts it, m: the
+/// drift between two estimates of the unit's pose.
+pub const OBSERVER_SLACK_M: f64 = 10.0;
 
 impl Incident {
     /// A unit's liveliness token appeared or vanished.
@@ -458,12 +461,39 @@ impl Incident {
     }
 
     /// A unit's flame report.
+    ///
+    /// Besides its shape and freshness, a report must be seen from where the unit's own
+    /// latest state puts it (within [`OBSERVER_SLACK_M`] plus what it can have driven
+    /// since). A stolen certificate can speak on the unit's key, but it is not the unit:
+    /// the rules let it hear the unit's tasks, not its states, and on a real site nothing
+    /// else tells it where the unit is; a report from anywhere else is refused. (On a
+    /// simulated site the unit's simulated sensors would.)
     pub fn on_report(&mut self, r: &FlameReport, t: f64) -> Result<Vec<Output>, Invalid> {
         for (i, o) in r.observations.iter().enumerate() {
             self.tunnel
                 .check_inside(&format!("observations[{i}].position"), o.position)?;
         }
         let v = self.view(&r.unit, "unit")?;
+        let observer = r.observer.position();
+        let Some(st) = &v.state else {
+            // Reports repeat four times a second: one before the unit's first state is no
+            // loss, and a thief's would be unchecked.
+            return Err(Invalid::new(
+                "unit",
+                "no state from this unit yet: where it saw this from cannot be checked",
+            ));
+        };
+        let moved = v.mobility.top_speed_m_s() * (r.t - st.t).abs();
+        let off = st.pose.position().dist(observer);
+        if off > OBSERVER_SLACK_M + moved {
+            return Err(Invalid::new(
+                "observer",
+                format!(
+                    "({:.1}, {:.1}) is {off:.0} m from where the unit's state of t = {:.1} s puts it ({:.1}, {:.1})",
+                    observer.x, observer.y, st.t, st.pose.x, st.pose.y
+                ),
+            ));
+        }
         v.newest_report.admit(r.t, t)?;
         v.last_heard = t;
         let mut out = Vec::new();

@@ -44,6 +44,7 @@ fn a_replayed_report_of_a_fire_since_out_is_refused_and_does_not_reignite_it() {
     let mut i = incident();
     let recorded = FlameReport {
         t: 1.0,
+        observer: Pose2::new(10.0, -2.0, 0.0),
         ..report("a", 60.0)
     };
     let out = i.on_report(&recorded, 1.0).unwrap();
@@ -636,4 +637,25 @@ fn a_unit_sent_to_a_lone_claim_that_finds_nothing_there_contradicts_it_at_once()
             .unwrap();
         assert!(tasks(&out).is_empty(), "{out:?}");
     }
+}
+
+#[test]
+fn a_report_seen_from_where_the_unit_is_not_is_refused() {
+    let mut i = incident();
+    // a stands at 10 m (its state); a report "from" 85 m, 75 m off, is not a's.
+    let forged = FlameReport {
+        t: 1.0,
+        observer: Pose2::new(85.0, -2.0, 0.0),
+        ..report("a", 100.0)
+    };
+    let e = i.on_report(&forged, 1.0).unwrap_err();
+    assert_eq!(e.field, "observer", "{e}");
+    assert!(e.reason.contains("75 m from where the unit's state"), "{e}");
+    assert!(i.fire_tracks(1.0).is_empty());
+    // From where a is, or where it can have driven since its state, the report stands.
+    let honest = FlameReport {
+        observer: Pose2::new(14.0, -2.0, 0.0),
+        ..forged
+    };
+    assert!(i.on_report(&honest, 1.0).is_ok());
 }

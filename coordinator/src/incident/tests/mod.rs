@@ -32,7 +32,20 @@ impl Dated for Incident {
     }
 
     fn report_at(&mut self, r: &FlameReport, t: f64) -> Result<Vec<Output>, Invalid> {
-        self.on_report(&FlameReport { t, ..r.clone() }, t)
+        // Seen from where the unit is.
+        let observer = self
+            .units
+            .get(&r.unit)
+            .and_then(|v| v.state.as_ref())
+            .map_or(r.observer, |s| s.pose);
+        self.on_report(
+            &FlameReport {
+                t,
+                observer,
+                ..r.clone()
+            },
+            t,
+        )
     }
 }
 
