@@ -181,3 +181,33 @@ fn a_barred_space_dated_ahead_of_the_clock_is_refused_and_one_heard_before_the_f
     .unwrap();
     assert_eq!(ctl.state().refused, None);
 }
+
+/// Issue #35's idle units: a keep-out that catches a unit on its way, lifted a moment
+/// later, left it idle for good (its cruise was stopped under the tree, which kept waiting
+/// for an arrival that could never come).
+#[test]
+fn a_unit_whose_cruise_a_keep_out_interrupted_cruises_on_once_it_is_lifted() {
+    let s = Scenario::straight(200.0).ground("u1", 20.0, -2.5).build();
+    let (mut ctl, mut world, id) = ground(s);
+    ctl.set_coordinator_present(true);
+    drive(&mut ctl, &mut world, &id, 0.1);
+    let goal = Point2::new(180.0, -2.5);
+    ctl.on_task(0, 1, TaskKind::Search { goal }).unwrap();
+    drive(&mut ctl, &mut world, &id, 25.0);
+    let x0 = ctl.state().pose.x;
+    assert!((50.0..150.0).contains(&x0), "on its way at {x0}");
+    ctl.on_barred(barred(world.time(), 0.0, 200.0, false))
+        .unwrap();
+    drive(&mut ctl, &mut world, &id, 1.0);
+    ctl.on_barred(BarredSpace {
+        t: world.time(),
+        spans: Vec::new(),
+    })
+    .unwrap();
+    drive(&mut ctl, &mut world, &id, 120.0);
+    let x = ctl.state().pose.x;
+    assert!(
+        x > 170.0,
+        "still short of its goal at {x} two minutes after the keep-out was lifted"
+    );
+}

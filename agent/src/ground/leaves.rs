@@ -130,10 +130,13 @@ pub fn registry() -> Registry<Unit> {
     r.register_condition("IsArrival", vec![], || {
         |_: &mut Io<'_>, u: &mut Unit| ok(u.arrived())
     });
+    // No cruise under way is a change too: a keep-out that stopped the cruise under the
+    // tree (the unit leaving barred space) left the tree waiting for an arrival that
+    // could never come, and the unit idle for good once the keep-out was lifted.
     r.register_condition("CruiseGoalUnchanged", vec![], || {
         |_: &mut Io<'_>, u: &mut Unit| {
             ok(u.cruising_to()
-                .is_none_or(|g| g.dist(u.cruise_goal()) < 0.5))
+                .is_some_and(|g| g.dist(u.cruise_goal()) < 0.5))
         }
     });
     r.register_condition("IsSearching", vec![], || {

@@ -77,7 +77,6 @@ pub enum Attack {
     Commander,
 }
 
-/// What makes a run: its attack.
 impl Attack {
     /// Whether the thief holds a unit's certificate (else a commander's).
     fn by_unit(self) -> bool {
