@@ -103,6 +103,17 @@ impl Mobility {
         }
     }
 
+    /// How far the unit's flame sensors see, m: a ground unit's camera range, a carriage's
+    /// detector range along its rail.
+    pub fn sensor_range_m(&self) -> f64 {
+        match self {
+            Mobility::Ground(g) => g.camera_range_m,
+            Mobility::Rail {
+                detector_range_m, ..
+            } => *detector_range_m,
+        }
+    }
+
     /// The fastest the unit moves, m/s.
     pub fn top_speed_m_s(&self) -> f64 {
         match self {

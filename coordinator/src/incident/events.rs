@@ -494,6 +494,17 @@ impl Incident {
                 ),
             ));
         }
+        let reach = v.mobility.sensor_range_m() + self.policy.report_reach_slack_m;
+        for (i, o) in r.observations.iter().enumerate() {
+            let d = o.position.dist(observer);
+            if d > reach {
+                return Err(Invalid::new(
+                    format!("observations[{i}].position"),
+                    format!("{d:.0} m from the observer, beyond the unit's sensors ({reach:.0} m)"),
+                ));
+            }
+        }
+        let v = self.view(&r.unit, "unit")?;
         v.newest_report.admit(r.t, t)?;
         v.last_heard = t;
         let mut out = Vec::new();

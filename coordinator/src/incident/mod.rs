@@ -19,13 +19,13 @@
 //!     incident.on_alive(&unit(u), true, 0.0).unwrap();
 //!     incident.on_state(ground_state(u, x, -2.0), 0.0).unwrap();
 //! }
-//! // ...and ugv-1 sees a flame 40 m ahead of it.
+//! // ...and ugv-1 sees a flame 30 m ahead of it.
 //! let report = FlameReport {
 //!     unit: unit("ugv-1"),
 //!     t: 1.0,
 //!     observer: Pose2::new(20.0, -2.0, 0.0),
 //!     observations: vec![FlameObservation {
-//!         position: Point2::new(60.0, 1.0),
+//!         position: Point2::new(50.0, 1.0),
 //!         cov: [0.2, 0.0, 0.2],
 //!         confidence: 0.9,
 //!         hrr_kw: None,

@@ -63,11 +63,16 @@ pub struct Policy {
     /// a third of its range. A unit that has such a flame in view and never reports it
     /// contradicts the unit that claims it ([`crate::fusion::witness`]).
     pub clear_view_m: f64,
+    /// A flame further from its report's observer than the unit's sensors reach plus this
+    /// is not the unit's to report, m: the spread of a flame's estimated position. (What a
+    /// stolen certificate's report can claim: within sight of where the unit is.)
+    pub report_reach_slack_m: f64,
 }
 
 impl Policy {
     /// The policy the coordinator runs with.
     pub const DEFAULT: Policy = Policy {
+        report_reach_slack_m: 10.0,
         stage_offset_m: 25.0,
         units_per_fire: 2,
         reserves_per_fire: 3,

@@ -42,9 +42,10 @@ fn extinguished_fire_is_out_and_the_unit_stands_by() {
 #[test]
 fn a_replayed_report_of_a_fire_since_out_is_refused_and_does_not_reignite_it() {
     let mut i = incident();
+    i.state_at(state("a", 30.0, None), 0.5).unwrap();
     let recorded = FlameReport {
         t: 1.0,
-        observer: Pose2::new(10.0, -2.0, 0.0),
+        observer: Pose2::new(30.0, -2.0, 0.0),
         ..report("a", 60.0)
     };
     let out = i.on_report(&recorded, 1.0).unwrap();
@@ -652,10 +653,20 @@ fn a_report_seen_from_where_the_unit_is_not_is_refused() {
     assert_eq!(e.field, "observer", "{e}");
     assert!(e.reason.contains("75 m from where the unit's state"), "{e}");
     assert!(i.fire_tracks(1.0).is_empty());
-    // From where a is, or where it can have driven since its state, the report stands.
-    let honest = FlameReport {
+    // From where a is, a flame beyond its camera is not a's to report either.
+    let far = FlameReport {
         observer: Pose2::new(14.0, -2.0, 0.0),
         ..forged
     };
+    let e = i.on_report(&far, 1.0).unwrap_err();
+    assert_eq!(e.field, "observations[0].position", "{e}");
+    assert!(e.reason.contains("beyond the unit's sensors"), "{e}");
+    // From where a is, or where it can have driven since its state, of a flame in its
+    // camera's range, the report stands.
+    let honest = FlameReport {
+        observer: Pose2::new(14.0, -2.0, 0.0),
+        ..report("a", 40.0)
+    };
     assert!(i.on_report(&honest, 1.0).is_ok());
+    assert_eq!(i.fire_tracks(1.0).len(), 1);
 }

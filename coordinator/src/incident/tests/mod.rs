@@ -19,8 +19,9 @@ mod zones;
 
 const TUNNEL: Tunnel = Tunnel::straight(200.0, 10.0, 6.0, 2);
 
-/// Events dated as the units would date them: at the site time they arrive (the
-/// freshness rules have tests of their own).
+/// Events dated as the units would date them: at the site time they arrive, and reports
+/// seen from where their unit is, of flames at any distance (these tests place fires for
+/// the decisions they test; freshness and a report's placement have tests of their own).
 trait Dated {
     fn state_at(&mut self, st: UnitState, t: f64) -> Result<Vec<Output>, Invalid>;
     fn report_at(&mut self, r: &FlameReport, t: f64) -> Result<Vec<Output>, Invalid>;
@@ -38,14 +39,18 @@ impl Dated for Incident {
             .get(&r.unit)
             .and_then(|v| v.state.as_ref())
             .map_or(r.observer, |s| s.pose);
-        self.on_report(
+        let slack = self.policy.report_reach_slack_m;
+        self.policy.report_reach_slack_m = f64::INFINITY;
+        let out = self.on_report(
             &FlameReport {
                 t,
                 observer,
                 ..r.clone()
             },
             t,
-        )
+        );
+        self.policy.report_reach_slack_m = slack;
+        out
     }
 }
 
