@@ -464,7 +464,9 @@ impl Incident {
     ///
     /// Besides its shape and freshness, a report must be seen from where the unit's own
     /// latest state puts it (within [`OBSERVER_SLACK_M`] plus what it can have driven
-    /// since). A stolen certificate can speak on the unit's key, but it is not the unit:
+    /// since), of flames within its sensors' range of there (plus
+    /// [`super::Policy::report_reach_slack_m`]). A stolen certificate can speak on the
+    /// unit's key, but it is not the unit:
     /// the rules let it hear the unit's tasks, not its states, and on a real site nothing
     /// else tells it where the unit is; a report from anywhere else is refused. (On a
     /// simulated site the unit's simulated sensors would.)
