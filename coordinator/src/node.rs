@@ -383,8 +383,9 @@ impl Told {
     /// fires and units move without the goals changing. Checked ten times a second, so a
     /// console raises the alert well within two seconds.
     async fn strands(&mut self, bus: &Bus, incident: &Incident, t: f64) -> Result<(), BusError> {
-        let goals = incident.goals_in_force(t);
-        if goals.stranded != self.stranded {
+        // The goals themselves are copied only when there is something to tell.
+        if incident.stranded() != self.stranded {
+            let goals = incident.goals_in_force(t);
             bus.put(&bus.keys().coord_goals(), &goals).await?;
             self.stranded = goals.stranded;
         }
