@@ -31,7 +31,9 @@ pub async fn feed(bus: &Bus, console: &Console) -> Result<(), BusError> {
     ];
     let wanted: Vec<&str> = wanted.iter().map(String::as_str).collect();
     let mut samples = bus.subscribe_raw(&wanted, false).await?;
-    let tokens = bus.watch_tokens(&keys.all()).await?;
+    // Only the tokens: on a site with access rules the console may watch `**/alive` and
+    // nothing wider, and a watch on the whole site is refused there (the page was blind).
+    let tokens = bus.watch_tokens(&keys.every_alive()).await?;
     loop {
         tokio::select! {
             Some((topic, alive)) = tokens.recv() => match topic {

@@ -377,6 +377,11 @@ impl Fusion {
         }
     }
 
+    /// Number new tracks above `floor` from now on (ids already given stay).
+    pub fn number_above(&mut self, floor: u32) {
+        self.next_id = self.next_id.max(floor);
+    }
+
     /// The active track nearest `at`, within `radius` metres.
     pub fn nearest_active(&self, at: Point2, radius: f64) -> Option<FireId> {
         self.fires

@@ -173,6 +173,18 @@ impl UnitView {
 /// in a row, and a fire waits no longer than that for its relief.
 pub const LEASE_S: f64 = 5.0;
 
+/// Fire ids a successor coordinator leaves room for, per second of site time.
+pub const FIRE_IDS_PER_S: f64 = 10.0;
+
+/// The first fire id a coordinator that took office after another may give at site time
+/// `t`: ten per second of site time, so an id meets one its predecessor gave only if that
+/// one numbered more than ten tracks a second for its whole term. On a real site the
+/// clock is Unix time and the ids wrap around `u32`: they read as nine or ten digits there
+/// once a coordinator was replaced, which is the price of never naming two fires alike.
+pub fn fire_id_floor(t: f64) -> u32 {
+    ((t.max(0.0) * FIRE_IDS_PER_S) as u64 % u64::from(u32::MAX)) as u32
+}
+
 /// The incident.
 pub struct Incident {
     tunnel: Tunnel,
@@ -341,7 +353,15 @@ impl Incident {
     /// heeding the units ([`Incident::heed`]) and before the first decision: its epoch is
     /// above every task number and epoch heard and the clock's floor ([`epoch_after`]),
     /// and its tasks are numbered from it. The epoch.
+    ///
+    /// When a unit held a task, some coordinator ran before this one and numbered fires
+    /// this one may not know (restarted with nothing recording, or the other side of a
+    /// split): its own fires are then numbered from [`fire_id_floor`], so no id names two
+    /// fires on the bus, in recordings or on a console.
     pub fn take_office(&mut self, rank: u32, t: f64) -> u64 {
+        if self.seq > 0 {
+            self.fusion.number_above(fire_id_floor(t));
+        }
         self.epoch = epoch_after(self.seq.max(task_seq_floor(t)), rank);
         self.seq = self.epoch - 1;
         self.log(

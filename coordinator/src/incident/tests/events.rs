@@ -670,3 +670,27 @@ fn a_report_seen_from_where_the_unit_is_not_is_refused() {
     assert!(i.on_report(&honest, 1.0).is_ok());
     assert_eq!(i.fire_tracks(1.0).len(), 1);
 }
+
+#[test]
+fn a_coordinator_after_another_numbers_its_fires_where_that_one_could_not_have() {
+    // The first coordinator of a site numbers from 1.
+    let mut first = incident();
+    first.take_office(0, 0.5);
+    first.report_at(&report("a", 60.0), 1.0).unwrap();
+    assert_eq!(first.fire_tracks(1.0)[0].id, FireId(1));
+    // One restarted at 130 s with nothing recording, whose units held tasks: its first
+    // fire is not f1 (a console or recording would take it for the first one's f1), nor
+    // any number the first could have given in its 130 s at ten a second.
+    let mut next = incident();
+    let mut st = state("a", 10.0, None);
+    st.task_seq = Some(2_000);
+    st.epoch = Some(16);
+    next.heed(&st, 130.0);
+    next.take_office(1, 130.0);
+    next.report_at(&report("b", 150.0), 131.0).unwrap();
+    let ids: Vec<FireId> = next.fire_tracks(131.0).iter().map(|f| f.id).collect();
+    assert_eq!(ids, [FireId(1301)]);
+    assert_eq!(fire_id_floor(130.0), 1300);
+    // On a real site's Unix clock the ids wrap around u32 rather than overflow.
+    assert!(fire_id_floor(1.8e9) < u32::MAX);
+}
