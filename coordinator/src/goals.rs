@@ -317,6 +317,7 @@ impl Goals {
                 })
                 .collect(),
             stranded: Vec::new(),
+            trapped: Vec::new(),
         }
     }
 

@@ -34,7 +34,7 @@ use firefleet_model::validate::Invalid;
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    FireTrack, GoalAck, GoalsInForce, SimClock, Stranded, Task, UnitState, ZoneGoal,
+    FireTrack, GoalAck, GoalsInForce, SimClock, Stranded, Task, Trapped, UnitState, ZoneGoal,
     latest_per_fire,
 };
 
@@ -351,8 +351,9 @@ async fn heed_units(
 #[derive(Default)]
 struct Told {
     revision: Option<u64>,
-    /// The fires the goals stranded, as last told.
+    /// The fires the goals stranded and the units they trapped, as last told.
     stranded: Vec<Stranded>,
+    trapped: Vec<Trapped>,
 }
 
 impl Told {
@@ -374,20 +375,22 @@ impl Told {
             let goals = incident.goals_in_force(t);
             bus.put(&keys.coord_goals(), &goals).await?;
             self.stranded = goals.stranded;
+            self.trapped = goals.trapped;
             self.revision = Some(revision);
         }
         Ok(())
     }
 
-    /// Publish the goals in force again if the fires they strand changed since last told:
-    /// fires and units move without the goals changing. Checked ten times a second, so a
-    /// console raises the alert well within two seconds.
+    /// Publish the goals in force again if the fires they strand or the units they trap
+    /// changed since last told: fires and units move without the goals changing. Checked
+    /// ten times a second, so a console raises the alert well within two seconds.
     async fn strands(&mut self, bus: &Bus, incident: &Incident, t: f64) -> Result<(), BusError> {
         // The goals themselves are copied only when there is something to tell.
-        if incident.stranded() != self.stranded {
+        if incident.stranded() != self.stranded || incident.trapped() != self.trapped {
             let goals = incident.goals_in_force(t);
             bus.put(&bus.keys().coord_goals(), &goals).await?;
             self.stranded = goals.stranded;
+            self.trapped = goals.trapped;
         }
         Ok(())
     }

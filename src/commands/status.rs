@@ -85,6 +85,9 @@ fn print_status(s: &IncidentStatus) {
     for x in &s.stranded {
         println!("ALERT {x}");
     }
+    for x in &s.trapped {
+        println!("ALERT {x}");
+    }
     if s.rejected.values().any(|n| *n > 0) {
         println!("rejected messages: {:?}", s.rejected);
     }

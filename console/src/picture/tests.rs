@@ -188,7 +188,7 @@ fn goals_change_only_when_the_goals_in_force_do() {
     let g = |t| GoalsInForce {
         t,
         goals: vec![goal.clone()],
-        stranded: Vec::new(),
+        ..Default::default()
     };
     p.observe(0, Event::Message(Payload::Goals(g(1.0))));
     assert_eq!(p.delta(0).unwrap().goals.unwrap().len(), 1);
@@ -242,8 +242,8 @@ fn a_fire_a_goal_strands_raises_one_alert_naming_the_goal_and_its_issuer() {
     let told = |t, stranded: Vec<Stranded>| {
         Event::Message(Payload::Goals(GoalsInForce {
             t,
-            goals: Vec::new(),
             stranded,
+            ..Default::default()
         }))
     };
     p.observe(0, told(1.0, vec![stranded.clone()]));

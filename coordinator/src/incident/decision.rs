@@ -70,6 +70,7 @@ pub enum Decision {
     Trapped {
         unit: UnitId,
         zone: ZoneId,
+        goal: String,
     },
     /// The unit is inside a zone it may not be in: it leaves on its own, and is told
     /// where to hold once out.
@@ -278,9 +279,11 @@ impl fmt::Display for Decision {
                 f,
                 "withdraw {unit} from fire {fire}: goal '{goal}' ({kind:?}) on zone {zone}"
             ),
-            Decision::Trapped { unit, zone } => {
-                write!(f, "{unit} cannot leave zone {zone}: no chainage outside it")
-            }
+            Decision::Trapped { unit, zone, goal } => write!(
+                f,
+                "{unit} cannot obey goal '{goal}' on zone {zone}: no chainage it could leave \
+                 to is free; it holds where it is"
+            ),
             Decision::Evacuate {
                 unit,
                 zone,

@@ -218,6 +218,9 @@ pub struct Incident {
     /// Flame observations refused for starting a track past a unit's
     /// [`crate::fusion::MAX_LONE_TRACKS`].
     lone_refused: u64,
+    /// Units a goal holds in a zone with nowhere to go, as of the last enforcement: the
+    /// decision is logged once when a unit becomes trapped, not at every enforcement.
+    trapped: BTreeMap<UnitId, firefleet_protocol::msg::Trapped>,
 }
 
 impl Incident {
@@ -247,6 +250,7 @@ impl Incident {
             policy: Policy::DEFAULT,
             roads: RoadMaps::default(),
             coverage: Coverage::new(tunnel.length_m),
+            trapped: BTreeMap::new(),
             solved_all_at: f64::NEG_INFINITY,
             inconsistencies: 0,
             lone_refused: 0,
@@ -518,6 +522,7 @@ impl Incident {
                 .collect(),
             goals: self.goals().cloned().collect(),
             stranded: self.stranded(),
+            trapped: self.trapped(),
             rejected: Default::default(),
         }
     }

@@ -4,10 +4,12 @@
 //!
 //! Which goal governs where is [`crate::goals`]' business; this module only acts on it.
 
+use std::collections::BTreeMap;
+
 use firefleet_model::{Chainage, CommanderId, Point2, UnitId, UnitKind, ZoneId};
 use firefleet_protocol::msg::{
     BarredSpace, FireState, GoalAck, GoalKind, GoalsInForce, INSIDE_PORTAL_M, MAX_LIST, Stranded,
-    TaskKind, ZoneGoal,
+    TaskKind, Trapped, ZoneGoal,
 };
 
 use crate::assign::Mobility;
@@ -91,8 +93,15 @@ impl Incident {
     pub fn goals_in_force(&self, t: f64) -> GoalsInForce {
         GoalsInForce {
             stranded: self.stranded(),
+            trapped: self.trapped(),
             ..self.goals.in_force(t)
         }
+    }
+
+    /// Units inside a zone they may not be in with nowhere to go, as of the last
+    /// enforcement of the goals; the first [`MAX_LIST`].
+    pub fn trapped(&self) -> Vec<Trapped> {
+        self.trapped.values().take(MAX_LIST).cloned().collect()
     }
 
     /// Burning fires the goals in force leave with no unit allowed to reach or attack them:
@@ -211,6 +220,7 @@ impl Incident {
     /// attack, move units out of zones they may not be in, then re-solve.
     pub(super) fn enforce(&mut self, t: f64) -> Vec<Output> {
         let mut out = Vec::new();
+        let mut trapped = BTreeMap::new();
         let units: Vec<UnitId> = self.units.keys().cloned().collect();
         for u in units {
             let v = &self.units[&u];
@@ -250,7 +260,24 @@ impl Incident {
                 Chainage::new(INSIDE_PORTAL_M),
                 self.tunnel.end() - INSIDE_PORTAL_M,
             ) else {
-                self.log(t, Decision::Trapped { unit: u, zone });
+                let held = Trapped {
+                    unit: u.clone(),
+                    goal: id,
+                    zone,
+                    issued_by: g.goal.issued_by.clone(),
+                };
+                // Said once while it lasts: every enforcement finds it again.
+                if self.trapped.get(&u) != Some(&held) {
+                    self.log(
+                        t,
+                        Decision::Trapped {
+                            unit: u.clone(),
+                            zone: held.zone.clone(),
+                            goal: held.goal.clone(),
+                        },
+                    );
+                }
+                trapped.insert(u, held);
                 continue;
             };
             let goal = self.tunnel.point_at(x, at.d);
@@ -269,6 +296,7 @@ impl Incident {
                 },
             );
         }
+        self.trapped = trapped;
         out.extend(self.solve(t));
         out
     }

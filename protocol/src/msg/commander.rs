@@ -48,6 +48,9 @@ pub struct IncidentStatus {
     /// Burning fires the goals in force leave with no unit allowed to reach or attack them.
     #[serde(default)]
     pub stranded: Vec<Stranded>,
+    /// Units inside a zone they were told to leave that have nowhere to go.
+    #[serde(default)]
+    pub trapped: Vec<Trapped>,
     /// Messages the coordinator dropped, by class (undecodable, version, invalid, overflow),
     /// and `inconsistent`: changes it skipped for want of a unit's view (zero unless it has
     /// a bug).
@@ -273,6 +276,49 @@ pub struct GoalsInForce {
     /// each. Not taken back by a coordinator (it works them out again).
     #[serde(default)]
     pub stranded: Vec<Stranded>,
+    /// The units these goals trap, as of `t`: every console raises an alert for each.
+    #[serde(default)]
+    pub trapped: Vec<Trapped>,
+}
+
+/// A ground unit inside a zone a goal bars it from that cannot obey: no chainage outside
+/// barred space is left to send it to (say, a keep-out on one side and an evacuate on
+/// the other covering the whole tunnel). It holds where it is.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Trapped {
+    pub unit: UnitId,
+    /// The goal it cannot obey, its zone and its issuer.
+    pub goal: String,
+    pub zone: ZoneId,
+    pub issued_by: Option<CommanderId>,
+}
+
+impl Validate for Trapped {
+    fn validate(&self) -> Result<(), Invalid> {
+        goal_id("goal", &self.goal)
+    }
+}
+
+impl fmt::Display for Trapped {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let issuer = self.issued_by.as_ref().map_or("?", CommanderId::as_str);
+        write!(
+            f,
+            "{} cannot obey goal '{}' on zone {} by {issuer}: every chainage it could leave to \
+             is barred too, so it holds where it is",
+            self.unit, self.goal, self.zone
+        )
+    }
+}
+
+fn goal_id(field: &str, id: &str) -> Result<(), Invalid> {
+    if id.len() > MAX_GOAL_ID {
+        return Err(Invalid::new(
+            field,
+            format!("must have at most {MAX_GOAL_ID} characters"),
+        ));
+    }
+    Ok(())
 }
 
 /// A burning fire that a goal in force leaves with no unit allowed to reach or attack it.
@@ -293,13 +339,7 @@ pub struct Stranded {
 impl Validate for Stranded {
     fn validate(&self) -> Result<(), Invalid> {
         self.at.validate().map_err(|e| e.within("at"))?;
-        if self.goal.len() > MAX_GOAL_ID {
-            return Err(Invalid::new(
-                "goal",
-                format!("must have at most {MAX_GOAL_ID} characters"),
-            ));
-        }
-        Ok(())
+        goal_id("goal", &self.goal)
     }
 }
 
@@ -350,7 +390,9 @@ impl Validate for GoalsInForce {
         max_len("goals", &self.goals, MAX_GOALS_IN_FORCE)?;
         each("goals", &self.goals)?;
         max_len("stranded", &self.stranded, MAX_LIST)?;
-        each("stranded", &self.stranded)
+        each("stranded", &self.stranded)?;
+        max_len("trapped", &self.trapped, MAX_LIST)?;
+        each("trapped", &self.trapped)
     }
 }
 

@@ -102,7 +102,7 @@ fn a_keep_out_zone_is_unmistakable_and_says_who_barred_it() {
             since: 1.0,
             until: None,
         }],
-        stranded: Vec::new(),
+        ..Default::default()
     }));
     assert_eq!(fleet.take_changes(), (true, false));
     let after = fleet_scene(&s, &fleet, Time::from_nanos(0));

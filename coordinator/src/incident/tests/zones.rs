@@ -246,3 +246,33 @@ fn a_refusal_for_a_goal_since_lifted_is_late_news_and_the_fire_is_given_again_at
         "sent again, not held back a minute: {out:?}"
     );
 }
+
+#[test]
+fn a_unit_no_goal_leaves_a_way_out_is_trapped_said_once_and_freed_when_cleared() {
+    let mut i = incident();
+    let end = TUNNEL.end().m();
+    i.goals = Goals::new(&[zone("w", 0.0, 100.0), zone("e", 100.0, end)], &[]);
+    i.state_at(state("b", 55.0, None), 0.5).unwrap();
+    submit(&mut i, goal("k1", "e", GoalKind::KeepOut, 0, None), 1.0);
+    submit(&mut i, goal("v1", "w", GoalKind::Evacuate, 0, None), 1.2);
+    for t in [1.4, 1.6, 1.8, 2.0] {
+        i.state_at(state("b", 55.0, None), t).unwrap();
+        i.tick(t);
+    }
+    let trapped = i.trapped();
+    assert_eq!(trapped.len(), 2, "a at 10 m and b at 55 m: {trapped:?}");
+    assert!(
+        trapped
+            .iter()
+            .all(|x| x.goal == "v1" && x.zone.as_str() == "w" && x.issued_by.is_some())
+    );
+    assert_eq!(i.goals_in_force(2.0).trapped, trapped);
+    let said = i
+        .decisions()
+        .filter(|d| matches!(&d.decision, Decision::Trapped { unit, .. } if unit == "b"))
+        .count();
+    assert_eq!(said, 1, "said once while it lasts, not at every enforcement");
+    // The evacuate cleared: nothing traps them.
+    i.clear_goals(&ZoneId::new("w").unwrap(), &CommanderId::new("ic-1").unwrap(), 3.0);
+    assert!(i.trapped().is_empty());
+}
