@@ -339,6 +339,8 @@ pub fn grants(
             grant(Op::Subscribe, keys.every_zone_ack().as_str());
             grant(Op::Subscribe, keys.every_fire().as_str());
             grant(Op::Subscribe, keys.every_unit_state().as_str());
+            // What each unit was ordered, beside what it does.
+            grant(Op::Subscribe, keys.every_unit_task().as_str());
             grant(Op::Subscribe, keys.coord_log().as_str());
             grant(Op::Subscribe, keys.coord_goals().as_str());
             grant(Op::Subscribe, keys.coord_barred().as_str());

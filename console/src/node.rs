@@ -5,24 +5,33 @@
 //! this module is its one contact with the site, like the coordinator's `node`.
 
 use std::sync::Arc;
+use std::time::Duration;
 
 use firefleet_bus::goal::{self, ACK_TIMEOUT};
-use firefleet_bus::{Bus, BusError};
+use firefleet_bus::{Ask, Bus, BusError};
 use firefleet_protocol::keys::Topic;
+use firefleet_protocol::msg::IncidentStatus;
 use firefleet_protocol::payload::Payload;
 use tokio::sync::mpsc;
 
 use crate::http::{Console, GoalRequest};
 use crate::picture::Event;
 
-/// Feed `console` from `bus` until the bus closes: unit states, fire tracks, goals in
-/// force, decisions, goal answers and the site clock (not the simulator's sensors and
-/// commands, the bulk of a large fleet's traffic), and the tokens. A sample that does not
-/// decode or validate is logged and dropped; the console keeps going.
-pub async fn feed(bus: &Bus, console: &Console) -> Result<(), BusError> {
+/// How often the console checks its link to the site: "site lost" shows within this and
+/// a tick of the page's stream.
+const LINK_CHECK: Duration = Duration::from_millis(500);
+
+/// Feed `console` from `bus` until the bus closes: unit states and tasks, fire tracks,
+/// goals in force, decisions, goal answers and the site clock (not the simulator's sensors
+/// and commands, the bulk of a large fleet's traffic), the tokens, and the console's own
+/// link. At start, and whenever the link or a coordinator comes back, the coordinator's
+/// status fills in what the console missed. A sample that does not decode or validate is
+/// logged and dropped; the console keeps going.
+pub async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> Result<(), BusError> {
     let keys = bus.keys();
     let wanted = [
         keys.every_unit_state().as_str().to_owned(),
+        keys.every_unit_task().as_str().to_owned(),
         keys.every_fire().as_str().to_owned(),
         keys.every_zone_ack().as_str().to_owned(),
         keys.expr(&Topic::CoordGoals),
@@ -34,13 +43,38 @@ pub async fn feed(bus: &Bus, console: &Console) -> Result<(), BusError> {
     // Only the tokens: on a site with access rules the console may watch `**/alive` and
     // nothing wider, and a watch on the whole site is refused there (the page was blind).
     let tokens = bus.watch_tokens(&keys.every_alive()).await?;
+    let mut link = tokio::time::interval(LINK_CHECK);
+    let mut linked = None;
     loop {
         tokio::select! {
-            Some((topic, alive)) = tokens.recv() => match topic {
-                Topic::UnitAlive(unit) => console.observe(Event::UnitAlive(unit, alive)),
-                Topic::CoordAlive => console.observe(Event::CoordinatorAlive(alive)),
-                _ => {}
-            },
+            _ = link.tick() => {
+                let now = bus.connected().await;
+                if linked != Some(now) {
+                    console.observe(Event::Link(now));
+                    if now {
+                        tokio::spawn(fill_in(bus.clone(), console.clone()));
+                    }
+                    linked = Some(now);
+                }
+            }
+            Some((topic, alive)) = tokens.recv() => {
+                // Every token vanishes with the console's own link: say that first, so
+                // the picture does not take it for every unit dying.
+                if !alive && !bus.connected().await {
+                    console.observe(Event::Link(false));
+                    linked = Some(false);
+                }
+                match topic {
+                    Topic::UnitAlive(unit) => console.observe(Event::UnitAlive(unit, alive)),
+                    Topic::CoordAlive => {
+                        console.observe(Event::CoordinatorAlive(alive));
+                        if alive {
+                            tokio::spawn(fill_in(bus.clone(), console.clone()));
+                        }
+                    }
+                    _ => {}
+                }
+            }
             Some(s) = samples.recv() => {
                 if s.deleted {
                     continue;
@@ -58,6 +92,28 @@ pub async fn feed(bus: &Bus, console: &Console) -> Result<(), BusError> {
         }
     }
 }
+
+/// Ask the coordinator for the incident so far; nothing if none answers. On a task of its
+/// own: the feed must not wait on it while a thousand states a second arrive.
+async fn fill_in(bus: Arc<Bus>, console: Arc<Console>) {
+    let key = bus.keys().expr(&Topic::CoordStatus);
+    let answers = match bus.ask(&key, Ask::within(STATUS_WAIT)).await {
+        Ok(answers) => answers,
+        Err(e) => {
+            tracing::debug!("asking {key}: {e}");
+            return;
+        }
+    };
+    if let Some(answer) = answers.recv().await {
+        match bus.decode::<IncidentStatus>(&answer, "coordinator status") {
+            Some(status) => console.observe(Event::Status(Box::new(status))),
+            None => tracing::debug!("the coordinator's status did not decode"),
+        }
+    }
+}
+
+/// How long the console waits for the coordinator's status.
+const STATUS_WAIT: Duration = Duration::from_secs(2);
 
 /// Commanders' goals to the bus, each answered on its own task so a slow answer holds up
 /// no other commander.

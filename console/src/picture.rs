@@ -9,6 +9,15 @@
 //! it on its own clock between updates, so a console or page cut off shows every unit
 //! going stale instead of a frozen, confident map.
 //!
+//! The page is told what changed, at a bounded rate: a unit's move at most every
+//! [`UNIT_PERIOD_MS`] (what it does, whether it lives, at once), numbers rounded to what a
+//! map shows, so a thousand units cost a page some 300 kB/s, not megabytes. Repeated
+//! decisions fold into one line with a count. A fire the coordinator in charge no longer
+//! republishes (a duplicate it merged, or the tracks of a coordinator that was replaced
+//! without a recorder) is dropped: the page must not show two fires where there is one.
+//! Losing the site is not losing the units: while the console has no link to the site,
+//! tokens that vanish raise nothing, and the page says the site is lost.
+//!
 //! The heat field is the fleet's estimate, not the simulator's: each fire track's
 //! estimated heat release radiating as the planners charge for it
 //! ([`firefleet_model::heat::radiant_flux_kw_m2`]), on the site map's stations.
@@ -21,7 +30,8 @@ use std::sync::Arc;
 use firefleet_model::heat::{HeatSource, radiant_flux_kw_m2};
 use firefleet_model::{FireId, Point2, UnitId};
 use firefleet_protocol::msg::{
-    Decision, FireState, FireTrack, GoalAck, GoalInForce, GoalsInForce, UnitState,
+    Decision, FireState, FireTrack, GoalAck, GoalInForce, GoalsInForce, IncidentStatus, Task,
+    TaskPhase, UnitState,
 };
 use firefleet_protocol::payload::Payload;
 use serde::Serialize;
@@ -40,6 +50,14 @@ pub const SAME_FIRE_M: f64 = 6.0;
 /// The heat field is recomputed at most this often, ms: fire tracks change every
 /// coordinator cycle, a commander reads heat over seconds.
 pub const HEAT_PERIOD_MS: u64 = 1000;
+/// A unit's move is sent to pages at most this often, ms; a change of what it does (mode,
+/// task, refusal) or of its liveness goes at the next tick.
+pub const UNIT_PERIOD_MS: u64 = 1000;
+/// A fire track not republished for this long while the coordinator republishes others
+/// (every second) is no longer one it knows: dropped, ms.
+pub const FIRE_ORPHAN_MS: u64 = 5000;
+/// Below this flow a unit is not spraying: no time left is shown, L/s.
+const SPRAYING_L_S: f64 = 0.5;
 
 /// What the console heard.
 #[derive(Debug, Clone)]
@@ -50,6 +68,11 @@ pub enum Event {
     UnitAlive(UnitId, bool),
     /// The coordinator's token appeared or vanished.
     CoordinatorAlive(bool),
+    /// The console's link to the site (a router) is up, or gone.
+    Link(bool),
+    /// The coordinator's answer to a status query: the incident so far, for a console
+    /// started mid-incident.
+    Status(Box<IncidentStatus>),
 }
 
 /// A unit as the page shows it.
@@ -64,6 +87,33 @@ pub struct UnitView {
     pub alive: bool,
     /// Its token vanished after it had been present.
     pub lost: bool,
+    /// The task its coordinator last gave it (what it was ordered; its state's task and
+    /// mode are what it does).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ordered: Option<String>,
+    /// Its tank, % full; none on the tunnel's water main.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tank_pct: Option<f64>,
+    /// Water it draws, L/s (smoothed over its states).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flow_l_s: Option<f64>,
+    /// Seconds until its tank is empty at that flow, while it sprays.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_left_s: Option<f64>,
+    /// Seconds to its task's target, straight, at its current speed, while it drives.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eta_s: Option<f64>,
+}
+
+/// A line of the decision list: one decision, or a decision repeated `count` times (the
+/// first at `first_t`, the latest at `t`).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct DecisionLine {
+    pub id: u64,
+    pub t: f64,
+    pub first_t: f64,
+    pub count: u32,
+    pub text: String,
 }
 
 #[derive(Debug, Clone, Serialize, PartialEq)]
@@ -86,7 +136,26 @@ pub enum AlertKind {
         goal: String,
         issued_by: Option<String>,
     },
+    /// A unit inside a zone it was told to leave with nowhere to go.
+    UnitTrapped {
+        unit: UnitId,
+        goal: String,
+        issued_by: Option<String>,
+    },
     CoordinatorLost,
+}
+
+impl AlertKind {
+    /// How urgent, 1 (highest) to 3: what leaves a fire or a unit without help first.
+    pub fn priority(&self) -> u8 {
+        match self {
+            AlertKind::CoordinatorLost
+            | AlertKind::FireStranded { .. }
+            | AlertKind::UnitTrapped { .. } => 1,
+            AlertKind::UnitLost { .. } | AlertKind::FireReignited { .. } => 2,
+            AlertKind::GoalRejected { .. } => 3,
+        }
+    }
 }
 
 /// Something a commander must acknowledge.
@@ -97,6 +166,8 @@ pub struct Alert {
     pub t: f64,
     #[serde(flatten)]
     pub kind: AlertKind,
+    /// [`AlertKind::priority`].
+    pub priority: u8,
     pub text: String,
     /// The commander who acknowledged it.
     pub acked_by: Option<String>,
@@ -117,15 +188,17 @@ pub struct Incident {
     pub t: f64,
     pub site: Arc<SiteMap>,
     pub coordinator: Option<bool>,
+    /// The console's link to the site; none until known.
+    pub link: Option<bool>,
     pub units: Vec<UnitView>,
     pub fires: Vec<FireTrack>,
     pub goals: Vec<GoalInForce>,
-    pub decisions: Vec<Decision>,
+    pub decisions: Vec<DecisionLine>,
     pub alerts: Vec<Alert>,
     pub acks: Vec<GoalAck>,
     pub heat: Option<Heat>,
     /// The number of the last delta this picture includes: the stream's deltas after it
-    /// apply on top.
+    /// apply on top (entities and decision lines by id, so one shown twice is harmless).
     pub seq: u64,
 }
 
@@ -136,14 +209,20 @@ pub struct Delta {
     pub t: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub coordinator: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub link: Option<bool>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub units: Vec<UnitView>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub fires: Vec<FireTrack>,
+    /// Fires dropped: no longer known to the coordinator in charge.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub fires_gone: Vec<FireId>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub goals: Option<Vec<GoalInForce>>,
+    /// New or changed lines (a repeat counted), by id.
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub decisions: Vec<Decision>,
+    pub decisions: Vec<DecisionLine>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub alerts: Vec<Alert>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -156,9 +235,11 @@ pub struct Delta {
 struct Changes {
     units: BTreeSet<UnitId>,
     fires: BTreeSet<FireId>,
+    fires_gone: Vec<FireId>,
     goals: bool,
     coordinator: bool,
-    decisions: Vec<Decision>,
+    link: bool,
+    decisions: BTreeSet<u64>,
     alerts: BTreeSet<u64>,
     acks: Vec<GoalAck>,
     heat: bool,
@@ -170,12 +251,21 @@ pub struct Picture {
     site: Arc<SiteMap>,
     t: f64,
     coordinator: Option<bool>,
+    link: Option<bool>,
     units: BTreeMap<UnitId, UnitView>,
+    /// Per unit: its tank, L, and what its page was last sent (when, and what it did).
+    tanks: BTreeMap<UnitId, f64>,
+    sent: BTreeMap<UnitId, (u64, Doing)>,
     fires: BTreeMap<FireId, FireTrack>,
+    /// When each fire's track was last heard, ms.
+    fire_heard: BTreeMap<FireId, u64>,
     goals: Vec<GoalInForce>,
     /// The (fire, goal) pairs stranded as last told: each raised once while it lasts.
     stranded: BTreeSet<(FireId, String)>,
-    decisions: VecDeque<Decision>,
+    /// The (unit, goal) pairs trapped as last told, likewise.
+    trapped: BTreeSet<(UnitId, String)>,
+    decisions: VecDeque<DecisionLine>,
+    next_line: u64,
     alerts: BTreeMap<u64, Alert>,
     acks: VecDeque<GoalAck>,
     heat: Option<Heat>,
@@ -187,21 +277,32 @@ pub struct Picture {
 impl Picture {
     /// An empty picture of `site`: every unit it lists, none heard yet.
     pub fn new(site: SiteMap) -> Self {
-        let units = site
+        let slots: Vec<(UnitId, Option<f64>)> = site
             .units
             .iter()
-            .filter_map(|u| UnitId::new(u.id.as_str()).ok())
-            .map(|id| (id.clone(), UnitView::unheard(id)))
+            .filter_map(|u| Some((UnitId::new(u.id.as_str()).ok()?, u.tank_l)))
             .collect();
         Self {
             site: Arc::new(site),
             t: 0.0,
             coordinator: None,
-            units,
+            link: None,
+            units: slots
+                .iter()
+                .map(|(id, _)| (id.clone(), UnitView::unheard(id.clone())))
+                .collect(),
+            tanks: slots
+                .into_iter()
+                .filter_map(|(id, tank)| Some((id, tank.filter(|l| *l > 0.0)?)))
+                .collect(),
+            sent: BTreeMap::new(),
             fires: BTreeMap::new(),
+            fire_heard: BTreeMap::new(),
             goals: Vec::new(),
             stranded: BTreeSet::new(),
+            trapped: BTreeSet::new(),
             decisions: VecDeque::new(),
+            next_line: 1,
             alerts: BTreeMap::new(),
             acks: VecDeque::new(),
             heat: None,
@@ -219,16 +320,10 @@ impl Picture {
     pub fn observe(&mut self, now_ms: u64, event: Event) {
         match event {
             Event::Message(Payload::UnitState(s)) => self.state(now_ms, s),
-            Event::Message(Payload::Fire(f)) => self.fire(f),
+            Event::Message(Payload::Task(task)) => self.ordered(task),
+            Event::Message(Payload::Fire(f)) => self.fire(now_ms, f),
             Event::Message(Payload::Goals(g)) => self.goals(g),
-            Event::Message(Payload::Decision(d)) => {
-                self.advance(d.t);
-                self.decisions.push_back(d.clone());
-                if self.decisions.len() > DECISIONS_KEPT {
-                    self.decisions.pop_front();
-                }
-                self.changes.decisions.push(d);
-            }
+            Event::Message(Payload::Decision(d)) => self.decision(d),
             Event::Message(Payload::Ack(a)) => {
                 if !a.accepted {
                     self.raise(
@@ -249,8 +344,17 @@ impl Picture {
             Event::Message(Payload::SimClock(c)) => self.advance(c.t),
             Event::Message(_) => {}
             Event::UnitAlive(id, alive) => self.unit_alive(id, alive),
+            Event::Link(up) => {
+                if self.link != Some(up) {
+                    self.link = Some(up);
+                    self.changes.link = true;
+                }
+            }
+            Event::Status(status) => self.fill_in(now_ms, *status),
             Event::CoordinatorAlive(alive) => {
-                if self.coordinator == Some(true) && !alive {
+                // Every token vanishes with the console's own link: that is no news of the
+                // coordinator.
+                if self.coordinator == Some(true) && !alive && self.link != Some(false) {
                     self.raise(
                         AlertKind::CoordinatorLost,
                         "the coordinator's token vanished: no one is assigning fires until a \
@@ -273,6 +377,7 @@ impl Picture {
     fn state(&mut self, now_ms: u64, s: UnitState) {
         self.advance(s.t);
         let id = s.unit.clone();
+        let tank = self.tanks.get(&id).copied();
         let view = self
             .units
             .entry(id.clone())
@@ -280,10 +385,92 @@ impl Picture {
         // A state older than the one shown (a late sample, a recall) does not move the unit
         // back; it still says the unit is heard.
         if view.state.as_ref().is_none_or(|old| old.t <= s.t) {
-            view.state = Some(s);
+            view.follow(shown(s), tank);
         }
         view.heard_ms = Some(now_ms);
         self.changes.units.insert(id);
+    }
+
+    fn ordered(&mut self, task: Task) {
+        let Some(view) = self.units.get_mut(&task.unit) else {
+            return;
+        };
+        let ordered = Some(task.kind.to_string());
+        if view.ordered != ordered {
+            view.ordered = ordered;
+            self.changes.units.insert(task.unit);
+        }
+    }
+
+    fn decision(&mut self, d: Decision) {
+        self.advance(d.t);
+        // A repeat of a line still kept is counted on it, not listed again.
+        if let Some(line) = self.decisions.iter_mut().find(|l| l.text == d.text) {
+            line.count += 1;
+            line.t = line.t.max(d.t);
+            self.changes.decisions.insert(line.id);
+            return;
+        }
+        let id = self.next_line;
+        self.next_line += 1;
+        self.decisions.push_back(DecisionLine {
+            id,
+            t: d.t,
+            first_t: d.t,
+            count: 1,
+            text: d.text,
+        });
+        if self.decisions.len() > DECISIONS_KEPT {
+            self.decisions.pop_front();
+        }
+        self.changes.decisions.insert(id);
+    }
+
+    /// What a coordinator's status says that this picture missed (a console started or
+    /// relinked mid-incident): fires not heard, the decisions before the first heard, the
+    /// goals when none are known. Newer news is never replaced.
+    fn fill_in(&mut self, now_ms: u64, status: IncidentStatus) {
+        self.advance(status.t);
+        if self.coordinator.is_none() {
+            self.coordinator = Some(true);
+            self.changes.coordinator = true;
+        }
+        for f in status.fires {
+            if !self.fires.contains_key(&f.id) {
+                self.fire(now_ms, f);
+            }
+        }
+        let first = self.decisions.front().map_or(f64::INFINITY, |l| l.first_t);
+        let mut earlier: Vec<Decision> = status
+            .decisions
+            .into_iter()
+            .filter(|d| d.t < first)
+            .collect();
+        earlier.sort_by(|a, b| a.t.total_cmp(&b.t));
+        let kept = std::mem::take(&mut self.decisions);
+        for d in earlier {
+            self.decision(d);
+        }
+        self.decisions.extend(kept);
+        while self.decisions.len() > DECISIONS_KEPT {
+            self.decisions.pop_front();
+        }
+        if self.goals.is_empty() && !status.goals.is_empty() {
+            self.goals(GoalsInForce {
+                t: status.t,
+                goals: status
+                    .goals
+                    .into_iter()
+                    .map(|goal| GoalInForce {
+                        goal,
+                        since: status.t,
+                        until: None,
+                    })
+                    .collect(),
+                stranded: status.stranded,
+                trapped: status.trapped,
+            });
+        }
     }
 
     fn unit_alive(&mut self, id: UnitId, alive: bool) {
@@ -295,7 +482,7 @@ impl Picture {
         view.alive = alive;
         if alive {
             view.lost = false;
-        } else if was {
+        } else if was && self.link != Some(false) {
             view.lost = true;
             self.raise(
                 AlertKind::UnitLost { unit: id.clone() },
@@ -305,8 +492,9 @@ impl Picture {
         self.changes.units.insert(id);
     }
 
-    fn fire(&mut self, f: FireTrack) {
+    fn fire(&mut self, now_ms: u64, f: FireTrack) {
         self.advance(f.t);
+        self.fire_heard.insert(f.id, now_ms);
         let burning = !matches!(
             f.state,
             FireState::Out | FireState::Lost | FireState::Tentative
@@ -355,6 +543,24 @@ impl Picture {
             }
         }
         self.stranded = now;
+        let now: BTreeSet<(UnitId, String)> = g
+            .trapped
+            .iter()
+            .map(|x| (x.unit.clone(), x.goal.clone()))
+            .collect();
+        for x in &g.trapped {
+            if !self.trapped.contains(&(x.unit.clone(), x.goal.clone())) {
+                self.raise(
+                    AlertKind::UnitTrapped {
+                        unit: x.unit.clone(),
+                        goal: x.goal.clone(),
+                        issued_by: x.issued_by.as_ref().map(|c| c.to_string()),
+                    },
+                    x.to_string(),
+                );
+            }
+        }
+        self.trapped = now;
         if g.goals != self.goals {
             self.goals = g.goals;
             self.changes.goals = true;
@@ -368,6 +574,7 @@ impl Picture {
             Alert {
                 id,
                 t: self.t,
+                priority: kind.priority(),
                 kind,
                 text,
                 acked_by: None,
@@ -408,19 +615,16 @@ impl Picture {
     /// is harmless), decisions and answers only up to that delta (the next one appends the
     /// rest, so they are never shown twice).
     pub fn incident(&self) -> Incident {
-        let decisions = self
-            .decisions
-            .len()
-            .saturating_sub(self.changes.decisions.len());
         let acks = self.acks.len().saturating_sub(self.changes.acks.len());
         Incident {
             t: self.t,
             site: self.site.clone(),
             coordinator: self.coordinator,
+            link: self.link,
             units: self.units.values().cloned().collect(),
             fires: self.fires.values().cloned().collect(),
             goals: self.goals.clone(),
-            decisions: self.decisions.iter().take(decisions).cloned().collect(),
+            decisions: self.decisions.iter().cloned().collect(),
             alerts: self.alerts.values().cloned().collect(),
             acks: self.acks.iter().take(acks).cloned().collect(),
             heat: self.heat.clone(),
@@ -439,11 +643,33 @@ impl Picture {
             self.heat_at_ms = Some(now_ms);
             self.changes.heat = false;
         }
+        self.drop_orphans();
+        // Units whose only change is a move wait for their period; the rest go now.
+        let mut units = Vec::new();
+        let mut waiting = BTreeSet::new();
+        for id in std::mem::take(&mut self.changes.units) {
+            let Some(view) = self.units.get(&id) else {
+                continue;
+            };
+            let doing = Doing::of(view);
+            let due = self.sent.get(&id).is_none_or(|(at, was)| {
+                *was != doing || now_ms >= at.saturating_add(UNIT_PERIOD_MS)
+            });
+            if due {
+                units.push(view.clone());
+                self.sent.insert(id, (now_ms, doing));
+            } else {
+                waiting.insert(id);
+            }
+        }
         let c = &mut self.changes;
-        let nothing = c.units.is_empty()
+        c.units = waiting;
+        let nothing = units.is_empty()
             && c.fires.is_empty()
+            && c.fires_gone.is_empty()
             && !c.goals
             && !c.coordinator
+            && !c.link
             && c.decisions.is_empty()
             && c.alerts.is_empty()
             && c.acks.is_empty()
@@ -451,24 +677,28 @@ impl Picture {
         if nothing {
             return None;
         }
-        let c = std::mem::take(c);
+        let mut c = std::mem::take(c);
+        self.changes.units = std::mem::take(&mut c.units);
         self.seq += 1;
         Some(Delta {
             seq: self.seq,
             t: self.t,
             coordinator: c.coordinator.then_some(self.coordinator).flatten(),
-            units: c
-                .units
-                .iter()
-                .filter_map(|u| self.units.get(u).cloned())
-                .collect(),
+            link: c.link.then_some(self.link).flatten(),
+            units,
             fires: c
                 .fires
                 .iter()
                 .filter_map(|f| self.fires.get(f).cloned())
                 .collect(),
+            fires_gone: c.fires_gone,
             goals: c.goals.then(|| self.goals.clone()),
-            decisions: c.decisions,
+            decisions: self
+                .decisions
+                .iter()
+                .filter(|l| c.decisions.contains(&l.id))
+                .cloned()
+                .collect(),
             alerts: c
                 .alerts
                 .iter()
@@ -477,6 +707,26 @@ impl Picture {
             acks: c.acks,
             heat: if heat_due { self.heat.clone() } else { None },
         })
+    }
+
+    /// Drop the fires the coordinator stopped republishing while it republishes others.
+    fn drop_orphans(&mut self) {
+        let Some(&newest) = self.fire_heard.values().max() else {
+            return;
+        };
+        let gone: Vec<FireId> = self
+            .fire_heard
+            .iter()
+            .filter(|&(_, &at)| at.saturating_add(FIRE_ORPHAN_MS) <= newest)
+            .map(|(&id, _)| id)
+            .collect();
+        for id in gone {
+            self.fire_heard.remove(&id);
+            self.fires.remove(&id);
+            self.changes.fires.remove(&id);
+            self.changes.fires_gone.push(id);
+            self.changes.heat = true;
+        }
     }
 
     fn heat_field(&self) -> Heat {
@@ -511,8 +761,84 @@ impl UnitView {
             heard_ms: None,
             alive: false,
             lost: false,
+            ordered: None,
+            tank_pct: None,
+            flow_l_s: None,
+            time_left_s: None,
+            eta_s: None,
         }
     }
+
+    /// Take `s` as its newest state, with what follows from it and the one before.
+    fn follow(&mut self, s: UnitState, tank_l: Option<f64>) {
+        if let Some(old) = &self.state {
+            let dt = s.t - old.t;
+            if dt > 0.0 {
+                let drawn = ((old.water_l - s.water_l) / dt).max(0.0);
+                // Smoothed: a state's water is rounded, and agents sample at their own rate.
+                let flow = self.flow_l_s.map_or(drawn, |f| 0.7 * f + 0.3 * drawn);
+                self.flow_l_s = Some(round(flow, 10.0));
+            }
+        }
+        self.tank_pct = tank_l.map(|tank| round(100.0 * s.water_l / tank, 1.0).min(100.0));
+        self.time_left_s = match (tank_l, self.flow_l_s) {
+            (Some(_), Some(flow)) if flow >= SPRAYING_L_S => Some(round(s.water_l / flow, 1.0)),
+            _ => None,
+        };
+        self.eta_s = s
+            .task
+            .as_ref()
+            .filter(|_| s.speed.abs() > 0.2)
+            .map(|task| round(task.target.dist(s.pose.position()) / s.speed.abs(), 1.0));
+        self.state = Some(s);
+    }
+}
+
+/// What a unit does, as far as its page must hear at once (its pose may wait).
+#[derive(Debug, Clone, PartialEq)]
+struct Doing {
+    alive: bool,
+    lost: bool,
+    mode: Option<String>,
+    task: Option<(FireId, TaskPhase)>,
+    refused: bool,
+    autonomous: bool,
+    ordered: Option<String>,
+}
+
+impl Doing {
+    fn of(v: &UnitView) -> Self {
+        let s = v.state.as_ref();
+        Self {
+            alive: v.alive,
+            lost: v.lost,
+            mode: s.map(|s| s.mode.to_string()),
+            task: s.and_then(|s| s.task.as_ref()).map(|t| (t.fire, t.phase)),
+            refused: s.is_some_and(|s| s.refused.is_some()),
+            autonomous: s.is_some_and(|s| s.autonomous),
+            ordered: v.ordered.clone(),
+        }
+    }
+}
+
+fn round(v: f64, per_unit: f64) -> f64 {
+    (v * per_unit).round() / per_unit
+}
+
+/// A state as a page shows it: numbers rounded to what a map or a table shows (a third of
+/// the JSON), the task numbers only the coordinator needs left out.
+fn shown(mut s: UnitState) -> UnitState {
+    s.t = round(s.t, 100.0);
+    s.pose.x = round(s.pose.x, 100.0);
+    s.pose.y = round(s.pose.y, 100.0);
+    s.pose.yaw = round(s.pose.yaw, 1000.0);
+    s.speed = round(s.speed, 100.0);
+    s.water_l = round(s.water_l, 10.0);
+    s.health = round(s.health, 100.0);
+    s.heat_flux_kw_m2 = round(s.heat_flux_kw_m2, 10.0);
+    s.task_seq = None;
+    s.epoch = None;
+    s
 }
 
 #[cfg(test)]

@@ -74,6 +74,8 @@ pub struct UnitSlot {
     pub id: String,
     pub kind: firefleet_model::UnitKind,
     pub rail: Option<String>,
+    /// Its tank, L; none for a unit on the tunnel's water main (a carriage).
+    pub tank_l: Option<f64>,
 }
 
 impl SiteMap {
@@ -150,6 +152,10 @@ impl SiteMap {
                     id: u.id.to_string(),
                     kind: u.kind,
                     rail: u.rail.clone(),
+                    tank_l: match scenario.profile_of(u) {
+                        Ok(firefleet_model::profile::Profile::Ground(g)) => Some(g.tank_l),
+                        _ => None,
+                    },
                 })
                 .collect(),
         }

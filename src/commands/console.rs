@@ -146,7 +146,7 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
     let feed = {
         let (bus, console) = (bus.clone(), console.clone());
         tokio::spawn(async move {
-            if let Err(e) = node::feed(&bus, &console).await {
+            if let Err(e) = node::feed(bus, console).await {
                 tracing::error!("the console no longer hears the bus: {e}");
             }
         })

@@ -61,22 +61,178 @@ fn a_delta_carries_each_changed_unit_once_with_its_newest_state() {
 }
 
 #[test]
-fn a_decision_reaches_a_page_once_whether_it_joined_before_or_after_it() {
+fn a_repeated_decision_is_one_line_with_a_count_and_pages_get_lines_by_id() {
     let mut p = picture();
-    let d = |t: f64| Decision {
-        t,
-        text: format!("decided at {t}"),
+    let d = |t: f64, text: &str| {
+        Event::Message(Payload::Decision(Decision {
+            t,
+            text: text.into(),
+        }))
     };
-    p.observe(0, Event::Message(Payload::Decision(d(1.0))));
-    p.delta(0).unwrap();
-    p.observe(0, Event::Message(Payload::Decision(d(2.0))));
-    // A page joining now gets the first in the picture and the second in the next delta.
-    let joined = p.incident();
-    assert_eq!(joined.decisions, [d(1.0)]);
+    p.observe(0, d(1.0, "ugv-1 cannot obey goal 'v1'"));
+    p.observe(0, d(1.1, "assign ugv-2 to f1"));
+    let first = p.delta(0).unwrap();
+    assert_eq!(first.decisions.len(), 2);
+    for t in [1.2, 1.4, 1.6] {
+        p.observe(0, d(t, "ugv-1 cannot obey goal 'v1'"));
+    }
+    // The repeats change the one line: its count and latest time, under its id.
     let next = p.delta(0).unwrap();
-    assert_eq!(next.seq, joined.seq + 1);
-    assert_eq!(next.decisions, [d(2.0)]);
-    assert_eq!(p.incident().decisions, [d(1.0), d(2.0)]);
+    assert_eq!(next.decisions.len(), 1);
+    let line = &next.decisions[0];
+    assert_eq!(
+        (line.id, line.count, line.first_t, line.t),
+        (first.decisions[0].id, 4, 1.0, 1.6)
+    );
+    let lines = p.incident().decisions;
+    assert_eq!(lines.len(), 2, "{lines:?}");
+}
+
+#[test]
+fn a_unit_s_moves_reach_pages_at_a_bounded_rate_and_what_it_does_at_once() {
+    let mut p = picture();
+    let id = p.site.units[0].id.clone();
+    let mut s = ground_state(&id, 10.0, 0.0);
+    let mut sent = 0;
+    // Ten states a second for two seconds, moving: at most one a period reaches the page.
+    for k in 0..20u64 {
+        s.t = k as f64 / 10.0;
+        s.pose.x = 10.0 + 0.1 * k as f64;
+        p.observe(k * 100, Event::Message(Payload::UnitState(s.clone())));
+        sent += p.delta(k * 100).map_or(0, |d| d.units.len());
+    }
+    assert_eq!(sent as u64, 2000 / UNIT_PERIOD_MS, "moves only");
+    // A change of mode goes at the next tick.
+    s.mode = firefleet_protocol::msg::UnitMode::Fault;
+    s.t = 2.0;
+    p.observe(2_000, Event::Message(Payload::UnitState(s.clone())));
+    let d = p.delta(2_050).unwrap();
+    assert_eq!(d.units.len(), 1);
+    // The move that waited is sent once its period is up, newest.
+    s.mode = firefleet_protocol::msg::UnitMode::Fault;
+    s.pose.x = 30.0;
+    s.t = 2.1;
+    p.observe(2_100, Event::Message(Payload::UnitState(s)));
+    assert!(p.delta(2_100).is_none());
+    let d = p.delta(3_050).unwrap();
+    assert_eq!(d.units[0].state.as_ref().unwrap().pose.x, 30.0);
+}
+
+#[test]
+fn fires_the_coordinator_no_longer_republishes_are_dropped() {
+    let mut p = picture();
+    p.observe(
+        0,
+        Event::Message(Payload::Fire(track(1, 1.0, 50.0, FireState::Assigned))),
+    );
+    p.observe(
+        0,
+        Event::Message(Payload::Fire(track(2, 1.0, 90.0, FireState::Assigned))),
+    );
+    p.delta(0);
+    // Only f2 is republished: f1 was merged, or its coordinator replaced.
+    for ms in (1_000..=FIRE_ORPHAN_MS).step_by(1_000) {
+        p.observe(
+            ms,
+            Event::Message(Payload::Fire(track(
+                2,
+                ms as f64 / 1e3,
+                90.0,
+                FireState::Assigned,
+            ))),
+        );
+    }
+    let d = p.delta(FIRE_ORPHAN_MS).unwrap();
+    assert_eq!(d.fires_gone, [FireId(1)]);
+    assert_eq!(p.incident().fires.len(), 1);
+}
+
+#[test]
+fn losing_the_site_is_not_losing_the_units() {
+    let mut p = picture();
+    let u = unit("ugv-1");
+    p.observe(0, Event::Link(true));
+    p.observe(0, Event::UnitAlive(u.clone(), true));
+    p.observe(0, Event::CoordinatorAlive(true));
+    p.delta(0);
+    p.observe(10, Event::Link(false));
+    p.observe(10, Event::UnitAlive(u.clone(), false));
+    p.observe(10, Event::CoordinatorAlive(false));
+    let d = p.delta(10).unwrap();
+    assert_eq!(d.link, Some(false));
+    assert!(d.alerts.is_empty(), "{:?}", d.alerts);
+    assert!(d.units.iter().all(|v| !v.lost && !v.alive));
+}
+
+#[test]
+fn a_console_started_mid_incident_fills_in_from_the_coordinator_s_status() {
+    let mut p = picture();
+    p.observe(
+        0,
+        Event::Message(Payload::Decision(Decision {
+            t: 50.0,
+            text: "heard live".into(),
+        })),
+    );
+    let status = IncidentStatus {
+        t: 50.0,
+        units: Vec::new(),
+        fires: vec![track(3, 40.0, 70.0, FireState::Out)],
+        decisions: vec![
+            Decision {
+                t: 30.0,
+                text: "assign ugv-1 to f3".into(),
+            },
+            Decision {
+                t: 20.0,
+                text: "fire f3 confirmed".into(),
+            },
+        ],
+        goals: Vec::new(),
+        stranded: Vec::new(),
+        trapped: Vec::new(),
+        rejected: Default::default(),
+    };
+    p.observe(0, Event::Status(Box::new(status)));
+    let inc = p.incident();
+    assert_eq!(inc.coordinator, Some(true));
+    assert_eq!(inc.fires.len(), 1);
+    let texts: Vec<&str> = inc.decisions.iter().map(|l| l.text.as_str()).collect();
+    assert_eq!(
+        texts,
+        ["fire f3 confirmed", "assign ugv-1 to f3", "heard live"]
+    );
+}
+
+#[test]
+fn a_trapped_unit_raises_one_alert_while_it_lasts() {
+    let mut p = picture();
+    let x = firefleet_protocol::msg::Trapped {
+        unit: unit("ugv-1"),
+        goal: "v1".into(),
+        zone: firefleet_model::ZoneId::new("portal").unwrap(),
+        issued_by: Some(firefleet_model::CommanderId::new("rossi").unwrap()),
+    };
+    let told = |t, trapped| {
+        Event::Message(Payload::Goals(GoalsInForce {
+            t,
+            trapped,
+            ..Default::default()
+        }))
+    };
+    for t in [1.0, 1.1, 1.2] {
+        p.observe(0, told(t, vec![x.clone()]));
+    }
+    let alerts = p.incident().alerts;
+    assert_eq!(alerts.len(), 1);
+    assert!(
+        matches!(&alerts[0].kind, AlertKind::UnitTrapped { unit, goal, .. } if unit == "ugv-1" && goal == "v1")
+    );
+    assert_eq!(alerts[0].priority, 1);
+    assert!(alerts[0].text.contains("rossi"), "{}", alerts[0].text);
+    p.observe(0, told(2.0, vec![]));
+    p.observe(0, told(3.0, vec![x]));
+    assert_eq!(p.incident().alerts.len(), 2, "trapped again: raised again");
 }
 
 #[test]

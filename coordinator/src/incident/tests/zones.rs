@@ -271,8 +271,15 @@ fn a_unit_no_goal_leaves_a_way_out_is_trapped_said_once_and_freed_when_cleared()
         .decisions()
         .filter(|d| matches!(&d.decision, Decision::Trapped { unit, .. } if unit == "b"))
         .count();
-    assert_eq!(said, 1, "said once while it lasts, not at every enforcement");
+    assert_eq!(
+        said, 1,
+        "said once while it lasts, not at every enforcement"
+    );
     // The evacuate cleared: nothing traps them.
-    i.clear_goals(&ZoneId::new("w").unwrap(), &CommanderId::new("ic-1").unwrap(), 3.0);
+    i.clear_goals(
+        &ZoneId::new("w").unwrap(),
+        &CommanderId::new("ic-1").unwrap(),
+        3.0,
+    );
     assert!(i.trapped().is_empty());
 }
