@@ -731,7 +731,11 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
     let (bus, endpoint) = router("tunnel-r").await;
     let _fleet = Fleet(vec![spawn_role("rail-tunnel", &endpoint, &["coordinator"])]);
     let out = set_goal(&endpoint, &["--goal", "keep-out", "--priority", "1"]).await;
-    assert_says(&out, 0, "goal 'deep-keep-out' on zone deep: accepted");
+    assert_says(
+        &out,
+        0,
+        "goal 'firefleet-cli-deep-keep-out' on zone deep: accepted",
+    );
 
     let out = cli(
         "rail-tunnel",
@@ -755,7 +759,7 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
             "m",
         ],
     );
-    assert_says(&out, 1, "conflicts with goal 'deep-keep-out'");
+    assert_says(&out, 1, "conflicts with goal 'firefleet-cli-deep-keep-out'");
     let out = cli(
         "rail-tunnel",
         &endpoint,
@@ -808,13 +812,13 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
 
     let out = cli("rail-tunnel", &endpoint, &["goal", "list"]);
     assert!(
-        text(&out).contains("deep-keep-out") && text(&out).contains("keep-out"),
+        text(&out).contains("firefleet-cli-deep-keep-out") && text(&out).contains("keep-out"),
         "{}",
         text(&out)
     );
     let out = cli("rail-tunnel", &endpoint, &["status"]);
     assert!(
-        text(&out).contains("goals:") && text(&out).contains("deep-keep-out"),
+        text(&out).contains("goals:") && text(&out).contains("firefleet-cli-deep-keep-out"),
         "{}",
         text(&out)
     );
@@ -887,7 +891,14 @@ async fn barred_space_reaches_the_units_and_outlives_the_coordinator_and_the_rec
             s.bar,
             s.rail_allowed
         ),
-        ("deep-keep-out", "deep", 100.0, 300.0, Bar::Entry, true),
+        (
+            "firefleet-cli-deep-keep-out",
+            "deep",
+            100.0,
+            300.0,
+            Bar::Entry,
+            true
+        ),
         "{b:?}"
     );
     // A unit starting now asks, and the coordinator answers; with the coordinator gone,
@@ -941,11 +952,14 @@ async fn barred_space_reaches_the_units_and_outlives_the_coordinator_and_the_rec
         .expect("bus open");
     assert_eq!(first.spans, b.spans, "lifted by the restart");
     let recalled = |status: &serde_json::Value| {
-        assert_eq!(status["goals"][0]["id"], "deep-keep-out", "{status}");
+        assert_eq!(
+            status["goals"][0]["id"], "firefleet-cli-deep-keep-out",
+            "{status}"
+        );
         assert!(
-            status["decisions"]
-                .to_string()
-                .contains("recall goal 'deep-keep-out' (KeepOut, priority 0) on zone deep"),
+            status["decisions"].to_string().contains(
+                "recall goal 'firefleet-cli-deep-keep-out' (KeepOut, priority 0) on zone deep"
+            ),
             "{status}"
         );
     };

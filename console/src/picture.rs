@@ -128,6 +128,8 @@ pub enum AlertKind {
     GoalRejected {
         id: String,
         zone: String,
+        /// Whose goal it was.
+        issued_by: Option<String>,
         reason: String,
     },
     /// A goal in force leaves a burning fire with no unit allowed to reach or attack it.
@@ -326,13 +328,21 @@ impl Picture {
             Event::Message(Payload::Decision(d)) => self.decision(d),
             Event::Message(Payload::Ack(a)) => {
                 if !a.accepted {
+                    let whose = a
+                        .issued_by
+                        .as_ref()
+                        .map_or_else(|| "a".to_owned(), |c| format!("{c}'s"));
                     self.raise(
                         AlertKind::GoalRejected {
                             id: a.id.clone(),
                             zone: a.zone.to_string(),
+                            issued_by: a.issued_by.as_ref().map(|c| c.to_string()),
                             reason: a.reason.clone(),
                         },
-                        format!("goal '{}' on zone {} rejected: {}", a.id, a.zone, a.reason),
+                        format!(
+                            "{whose} goal '{}' on zone {} rejected: {}",
+                            a.id, a.zone, a.reason
+                        ),
                     );
                 }
                 self.acks.push_back(a.clone());

@@ -18,8 +18,8 @@
 //!   goal whose `issued_by` names someone else is rejected rather than believed.
 //! - A goal with the id of one in force replaces it (a commander amends a goal); a goal
 //!   in force is amended or cleared only by its issuer or a higher rank.
-//! - A zone holds one goal per priority: a different goal at a priority already taken on
-//!   that zone is a conflict, rejected with the goal in the way, unless the new goal's
+//! - A zone holds one ask per priority: a different goal at a priority already taken on
+//!   that zone is a conflict (the same ask from another commander stands beside it), rejected with the goal in the way, unless the new goal's
 //!   issuer outranks that goal's, whose goal it then overrides; a goal at another priority
 //!   stands beside it.
 //! - Goals are bounded: [`MAX_GOALS_PER_COMMANDER`] per commander, [`MAX_GOALS_IN_FORCE`]
@@ -102,10 +102,16 @@ pub struct Goals {
 /// Lifted goal ids remembered.
 const LIFTED_KEPT: usize = 64;
 
+/// Whether two goals ask the fleet for the same thing.
+fn same_ask(a: &ZoneGoal, b: &ZoneGoal) -> bool {
+    a.goal == b.goal && a.before_m == b.before_m && a.rail_allowed == b.rail_allowed
+}
+
 fn ack(g: &ZoneGoal, accepted: bool, reason: impl Into<String>) -> GoalAck {
     GoalAck {
         id: g.id.clone(),
         zone: g.zone.clone(),
+        issued_by: g.issued_by.clone(),
         accepted,
         reason: reason.into(),
     }
@@ -205,8 +211,13 @@ impl Goals {
                 ),
             );
         }
+        // Another commander's goal asking the same at the same priority is concurrence,
+        // not a conflict: both stand, and either may clear theirs.
         let in_the_way = self.active.iter().position(|a| {
-            a.goal.zone == g.zone && a.goal.priority == g.priority && a.goal.id != g.id
+            a.goal.zone == g.zone
+                && a.goal.priority == g.priority
+                && a.goal.id != g.id
+                && !same_ask(&a.goal, &g)
         });
         if let Some(other) = in_the_way.map(|i| &self.active[i])
             && other.rank >= rank
@@ -651,6 +662,37 @@ mod tests {
             .collect();
         assert_eq!(cleared, ["x", "open-a"]);
         assert!(g.clear(&zid("b"), &rossi).is_empty(), "not the chief's");
+    }
+
+    #[test]
+    fn two_commanders_asking_the_same_each_hold_their_goal_under_their_own_id() {
+        let mut g = goals();
+        let rossi = CommanderId::new("rossi").unwrap();
+        let bianchi = CommanderId::new("bianchi").unwrap();
+        let form = |by: &CommanderId| ZoneGoal::new(zid("a"), GoalKind::KeepOut, by.clone());
+        let a = g.submit(&zid("a"), &rossi, form(&rossi), 0.0);
+        assert!(a.accepted && a.id == "rossi-a-keep-out", "{a:?}");
+        let b = g.submit(&zid("a"), &bianchi, form(&bianchi), 1.0);
+        assert!(b.accepted && b.id == "bianchi-a-keep-out", "{b:?}");
+        assert_eq!(b.issued_by.as_ref(), Some(&bianchi));
+        assert_eq!(g.active().len(), 2);
+        // Either clearing theirs leaves the other's in force.
+        g.clear(&zid("a"), &rossi);
+        assert_eq!(g.active().len(), 1);
+        assert_eq!(g.active()[0].goal.issuer(), "bianchi");
+        // A different ask at that priority is still a conflict, named with its issuer.
+        let c = g.submit(
+            &zid("a"),
+            &rossi,
+            ZoneGoal::new(zid("a"), GoalKind::Extinguish, rossi.clone()),
+            2.0,
+        );
+        assert!(
+            !c.accepted
+                && c.issued_by.as_ref() == Some(&rossi)
+                && c.reason.contains("conflicts with goal 'bianchi-a-keep-out' (keep-out) of sector commander 'bianchi'"),
+            "{c:?}"
+        );
     }
 
     #[test]

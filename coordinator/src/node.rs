@@ -27,15 +27,15 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use firefleet_bus::{Ask, Bus, BusError, Inbox};
-use firefleet_model::ZoneId;
 use firefleet_model::clock::{Clock, ExternalClock, SystemClock};
 use firefleet_model::scenario::Scenario;
 use firefleet_model::validate::Invalid;
+use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    FireTrack, GoalAck, GoalsInForce, SimClock, Stranded, Task, Trapped, UnitState, ZoneGoal,
-    latest_per_fire,
+    FireTrack, GoalAck, GoalsInForce, MAX_GOAL_ID, SimClock, Stranded, Task, Trapped, UnitState,
+    ZoneGoal, latest_per_fire,
 };
 
 use crate::assign::Strategy;
@@ -223,7 +223,7 @@ pub async fn run(
                             Ok(goal) => incident.on_goal(&zone, &by, goal, t),
                             Err(e) => {
                                 bus.rejects().refuse(&sample.key, &e);
-                                (malformed(bytes, &zone, &e), Vec::new())
+                                (malformed(bytes, &zone, &by, &e), Vec::new())
                             }
                         };
                         bus.put(&keys.zone_ack(&zone), &ack).await?;
@@ -440,14 +440,19 @@ async fn recall_fires(bus: &Bus) -> Result<Vec<FireTrack>, BusError> {
 
 /// The answer to a goal that does not decode: rejected, with the id if the JSON has one
 /// so that the sender can tell it is theirs.
-fn malformed(bytes: &[u8], zone: &ZoneId, e: &codec::CodecError) -> GoalAck {
+fn malformed(bytes: &[u8], zone: &ZoneId, by: &CommanderId, e: &codec::CodecError) -> GoalAck {
     let id = serde_json::from_slice::<serde_json::Value>(bytes)
         .ok()
-        .and_then(|v| v.get("id")?.as_str().map(|s| s.chars().take(64).collect()))
+        .and_then(|v| {
+            v.get("id")?
+                .as_str()
+                .map(|s| s.chars().take(MAX_GOAL_ID).collect())
+        })
         .unwrap_or_default();
     GoalAck {
         id,
         zone: zone.clone(),
+        issued_by: Some(by.clone()),
         accepted: false,
         reason: format!("malformed: {e}"),
     }

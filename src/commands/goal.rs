@@ -46,7 +46,7 @@ pub struct SetArgs {
     /// extinguish, contain, monitor, keep-out or evacuate.
     #[arg(long)]
     goal: GoalKind,
-    /// The goal's id (default: the zone and the goal, e.g. `z3-keep-out`).
+    /// The goal's id (default: the commander, the zone and the goal, e.g. `rossi-z3-keep-out`).
     #[arg(long)]
     id: Option<String>,
     #[arg(long, default_value_t = 0)]

@@ -284,6 +284,7 @@ async fn a_goal_is_issued_under_the_login_and_answered_with_the_ack() {
         let ack = GoalAck {
             id: goal.id.clone(),
             zone: goal.zone.clone(),
+            issued_by: goal.issued_by.clone(),
             accepted: true,
             reason: format!("keep-out by {}", goal.issuer()),
         };
@@ -294,7 +295,7 @@ async fn a_goal_is_issued_under_the_login_and_answered_with_the_ack() {
     let (status, _, ack) = call(&f.console, "POST", "/api/goals", Some(&cookie), Some(form)).await;
     assert_eq!(status, StatusCode::OK, "{ack}");
     assert_eq!(ack["accepted"], true);
-    assert_eq!(ack["id"], "deep-keep-out");
+    assert_eq!(ack["id"], "rossi-deep-keep-out");
     let goal = coordinator.await.unwrap();
     assert_eq!(goal.issuer(), "rossi");
 }

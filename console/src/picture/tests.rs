@@ -310,6 +310,7 @@ fn a_rejected_goal_and_a_lost_coordinator_are_alerts() {
     let ack = |accepted| GoalAck {
         id: "g".into(),
         zone: firefleet_model::ZoneId::new("z1").unwrap(),
+        issued_by: Some(firefleet_model::CommanderId::new("bianchi").unwrap()),
         accepted,
         reason: "because".into(),
     };
@@ -320,7 +321,13 @@ fn a_rejected_goal_and_a_lost_coordinator_are_alerts() {
     let d = p.delta(0).unwrap();
     assert_eq!(d.acks.len(), 2);
     assert_eq!(d.coordinator, Some(false));
-    assert!(matches!(d.alerts[0].kind, AlertKind::GoalRejected { .. }));
+    assert!(
+        matches!(&d.alerts[0].kind, AlertKind::GoalRejected { issued_by, .. } if issued_by.as_deref() == Some("bianchi"))
+    );
+    assert_eq!(
+        d.alerts[0].text,
+        "bianchi's goal 'g' on zone z1 rejected: because"
+    );
     assert!(matches!(d.alerts[1].kind, AlertKind::CoordinatorLost));
 }
 

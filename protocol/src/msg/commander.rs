@@ -63,8 +63,9 @@ impl Validate for IncidentStatus {
     }
 }
 
-/// Longest goal id, bytes.
-pub const MAX_GOAL_ID: usize = 64;
+/// Longest goal id, bytes: room for the default id of the longest commander and zone
+/// names (48 each, `<commander>-<zone>-extinguish`).
+pub const MAX_GOAL_ID: usize = 112;
 
 /// A commander's instruction for a zone.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -116,11 +117,13 @@ pub struct ZoneGoal {
 }
 
 impl ZoneGoal {
-    /// Goal `goal` on `zone` from commander `by`, with the default id (`<zone>-<goal>`),
-    /// priority 0, no expiry; the other fields are for the caller to set.
+    /// Goal `goal` on `zone` from commander `by`, with the default id
+    /// (`<by>-<zone>-<goal>`: two commanders' goals never share one, so the second is not
+    /// taken for an attempt to amend the first), priority 0, no expiry; the other fields
+    /// are for the caller to set.
     pub fn new(zone: ZoneId, goal: GoalKind, by: CommanderId) -> Self {
         Self {
-            id: format!("{zone}-{goal}"),
+            id: format!("{by}-{zone}-{goal}"),
             zone,
             goal,
             priority: 0,
@@ -172,7 +175,7 @@ impl fmt::Display for ZoneGoal {
 pub struct GoalForm {
     pub zone: ZoneId,
     pub goal: GoalKind,
-    /// Default: `<zone>-<goal>`.
+    /// Default: `<commander>-<zone>-<goal>`.
     #[serde(default)]
     pub id: Option<String>,
     #[serde(default, deserialize_with = "priority")]
@@ -401,6 +404,10 @@ impl Validate for GoalsInForce {
 pub struct GoalAck {
     pub id: String,
     pub zone: ZoneId,
+    /// Whose goal it answers: the commander whose key it came on (none for an answer from
+    /// before this field).
+    #[serde(default)]
+    pub issued_by: Option<CommanderId>,
     pub accepted: bool,
     pub reason: String,
 }
@@ -466,7 +473,7 @@ mod tests {
         let g = GoalForm::new(zone("deep"), GoalKind::KeepOut)
             .issued_by(rossi())
             .unwrap();
-        assert_eq!(g.id, "deep-keep-out");
+        assert_eq!(g.id, "rossi-deep-keep-out");
         assert_eq!(g.issued_by, Some(rossi()));
         let contain = GoalForm::new(zone("deep"), GoalKind::Contain);
         let e = contain.issued_by(rossi()).unwrap_err();
