@@ -42,6 +42,8 @@ pub struct SiteMap {
     pub rails: Vec<RailMap>,
     /// The units the site file lists: the page accounts for every one, heard or not.
     pub units: Vec<UnitSlot>,
+    /// The portals' names, at chainage 0 and at the end.
+    pub portals: [String; 2],
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -145,6 +147,7 @@ impl SiteMap {
                 })
                 .collect(),
             rails,
+            portals: scenario.portal_names(),
             units: scenario
                 .units
                 .iter()

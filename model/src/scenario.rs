@@ -10,6 +10,8 @@
 //! site = "tunnel-a"          # optional, default "tunnel"
 //! seed = 7                   # optional, default 0
 //! time_limit_s = 240
+//! portals = ["north", "south"] # optional: the portals' names at chainage 0 and at the
+//!                            # end, as crews call them (default "portal A", "portal B")
 //!
 //! [tunnel]
 //! length_m = 200.0
@@ -89,6 +91,9 @@ use crate::validate::{self, FileError, Invalid, Validate, in_range};
 /// Why a scenario was rejected.
 pub type ScenarioError = FileError;
 
+/// Longest portal name, characters: a map label.
+pub const MAX_PORTAL_NAME: usize = 32;
+
 /// A whole scenario.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -119,6 +124,9 @@ pub struct Scenario {
     /// ([`crate::profile`]).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub profiles: BTreeMap<String, Profile>,
+    /// The portals' names, at chainage 0 and at the tunnel's end ([`Scenario::portal_names`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub portals: Option<[String; 2]>,
 }
 
 /// The rank of commander `c` among `commanders`: as listed, else [`Rank::Sector`].
@@ -309,6 +317,7 @@ impl Scenario {
             rails: Vec::new(),
             commanders: Vec::new(),
             profiles: BTreeMap::new(),
+            portals: None,
         }
     }
 
@@ -392,10 +401,31 @@ impl Scenario {
         }
     }
 
+    /// The portals' names, at chainage 0 and at the end: the site file's, else "portal A"
+    /// and "portal B".
+    pub fn portal_names(&self) -> [String; 2] {
+        self.portals
+            .clone()
+            .unwrap_or_else(|| ["portal A".into(), "portal B".into()])
+    }
+
     /// Every semantic check a TOML parser cannot make.
     pub fn validate(&self) -> Result<(), Invalid> {
         if self.name.trim().is_empty() {
             return Err(Invalid::new("name", "must not be empty"));
+        }
+        if let Some(portals) = &self.portals {
+            for (i, p) in portals.iter().enumerate() {
+                if p.trim().is_empty() || p.chars().count() > MAX_PORTAL_NAME {
+                    return Err(Invalid::new(
+                        format!("portals[{i}]"),
+                        format!("must have 1 to {MAX_PORTAL_NAME} characters"),
+                    ));
+                }
+            }
+            if portals[0] == portals[1] {
+                return Err(Invalid::new("portals", "the two portals need two names"));
+            }
         }
         in_range("time_limit_s", self.time_limit_s, 1.0, 7.0 * 86400.0)?;
         let t = &self.tunnel;
@@ -634,6 +664,23 @@ mod tests {
         assert!(
             e.contains("tunnel.length_m: is 100 but the centerline adds up to 91.416"),
             "{e}"
+        );
+    }
+
+    #[test]
+    fn portals_are_named_by_the_site_file_or_by_letter() {
+        let s = Scenario::from_toml(OK, "s.toml").unwrap();
+        assert_eq!(s.portal_names(), ["portal A", "portal B"]);
+        let named = OK.replace("time_limit_s", "portals = [\"north\", \"south\"]\ntime_limit_s");
+        let s = Scenario::from_toml(&named, "n.toml").unwrap();
+        assert_eq!(s.portal_names(), ["north", "south"]);
+        refused(
+            &named,
+            &[
+                ("\"south\"", "\"north\"", "portals: the two portals need two names"),
+                ("\"south\"", "\" \"", "portals[1]: must have 1 to 32 characters"),
+                ("\"north\", \"south\"", "\"north\"", "portals"),
+            ],
         );
     }
 
