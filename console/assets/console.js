@@ -2,23 +2,37 @@
 // Plain JavaScript, no framework and no build: the console binary serves this file as is.
 //
 // The stream opens with the whole picture (`incident`) and then sends what changed
-// (`delta`), whole entities each time, so applying a delta is replacing entries by id.
-// Freshness is aged here, on this page's clock: a page or console cut off shows every
-// unit going stale rather than a map that looks current.
+// (`delta`): whole entities and decision lines, replaced by id. Freshness is aged here, on
+// this page's clock: a page or console cut off shows every unit going stale rather than a
+// map that looks current.
+//
+// The map is drawn in screen pixels over a world transform of our own (not an SVG
+// viewBox): the tunnel's shapes scale with the zoom, while markers and labels keep a size
+// a commander reads at arm's length, and labels are placed so that no two overlap (one
+// that finds no free place is left out, and the count of those is shown). A 300 x 10 m
+// tunnel fitted to a 1920 px window would be a band 47 px tall, so the view opens on the
+// incident (its units and fires) and follows it until the commander pans or zooms; the
+// strip above the map is the whole tunnel, with the view marked on it.
+//
+// The timeline keeps a snapshot of the map every second of site time; dragging it shows
+// the incident as it was, decisions after that time dimmed.
 
 const STALE_MS = 2000;
 const SVG = "http://www.w3.org/2000/svg";
+const LABEL_FONT_PX = 12;
+const MAX_SNAPSHOTS = 3600;
 const $ = (id) => document.getElementById(id);
 
 const state = {
-  seq: -1, t: 0, site: null, coordinator: null, me: null, selectedZone: null,
-  units: new Map(), fires: new Map(), goals: [], decisions: [], alerts: new Map(),
-  heat: null, clockSkew: 0,
+  seq: -1, t: 0, site: null, coordinator: null, link: null, me: null, steers: false,
+  selectedZone: null, selectedUnit: null, units: new Map(), fires: new Map(), goals: [],
+  decisions: new Map(), alerts: new Map(), heat: null, clockSkew: 0,
 };
 
 // What the browser test and the latency measurement read: update latency from the
-// console hearing a unit's state to this page having drawn it.
-window.ffStats = { latency_ms: [], deltas: 0, incidents: 0 };
+// console hearing a unit's state to this page having drawn it, and the labels' boxes.
+window.ffStats = { latency_ms: [], deltas: 0, incidents: 0, labels_hidden: 0 };
+window.ffState = state;
 
 const el = (tag, attrs = {}, parent = null) => {
   const e = document.createElementNS(SVG, tag);
@@ -26,104 +40,206 @@ const el = (tag, attrs = {}, parent = null) => {
   if (parent) parent.appendChild(e);
   return e;
 };
-const pt = ([x, y]) => `${x},${-y}`;
+const html = (tag, props = {}, parent = null) => {
+  const e = Object.assign(document.createElement(tag), props);
+  if (parent) parent.appendChild(e);
+  return e;
+};
 const fmt = (v, d = 1) => (v == null ? "-" : Number(v).toFixed(d));
+function dur(s) {
+  if (s == null) return "-";
+  if (s < 90) return `${Math.round(s)} s`;
+  const m = Math.floor(s / 60);
+  return m < 90 ? `${m} min ${Math.round(s - 60 * m)} s` : `${(s / 3600).toFixed(1)} h`;
+}
+const title = (text) => { const t = document.createElementNS(SVG, "title"); t.textContent = text; return t; };
 
-// ---- the map -------------------------------------------------------------------------
+// ---- the site's geometry -------------------------------------------------------------
 
-let view = { x: 0, y: 0, w: 100, h: 20 };
-
-function fitView() {
+// The chainage of a site point: the nearest centreline station (the site map has one a
+// metre, or fewer on a very long tunnel). Fires keep still: theirs are remembered.
+const chainages = new Map();
+function chainageOf(x, y) {
+  const key = `${x},${y}`;
+  if (chainages.has(key)) return chainages.get(key);
+  if (chainages.size > 5000) chainages.clear();
   const s = state.site;
-  const xs = [...s.left_wall, ...s.right_wall].map((p) => p[0]);
-  const ys = [...s.left_wall, ...s.right_wall].map((p) => -p[1]);
-  const pad = 3;
-  const x0 = Math.min(...xs) - pad, x1 = Math.max(...xs) + pad;
-  const y0 = Math.min(...ys) - pad, y1 = Math.max(...ys) + pad;
-  const box = $("map").getBoundingClientRect();
-  const aspect = box.width / Math.max(box.height, 1);
-  let w = x1 - x0, h = y1 - y0;
-  if (w / h > aspect) h = w / aspect; else w = h * aspect;
-  view = { x: (x0 + x1 - w) / 2, y: (y0 + y1 - h) / 2, w, h };
-  applyView();
+  let best = 0, bd = Infinity;
+  for (let i = 0; i < s.centre.length; i++) {
+    const dx = s.centre[i][0] - x, dy = s.centre[i][1] - y, d = dx * dx + dy * dy;
+    if (d < bd) { bd = d; best = i; }
+  }
+  chainages.set(key, s.stations_m[best]);
+  return s.stations_m[best];
 }
 
-function applyView() {
-  $("map").setAttribute("viewBox", `${view.x} ${view.y} ${view.w} ${view.h}`);
+function stationIndex(m) {
+  const st = state.site.stations_m;
+  let lo = 0, hi = st.length - 1;
+  while (lo < hi) { const mid = (lo + hi) >> 1; if (st[mid] < m) lo = mid + 1; else hi = mid; }
+  return lo;
+}
+
+// ---- the view: world metres to screen pixels ----------------------------------------
+
+// `k` px a metre along x, `ky` along y: a tunnel is long and narrow, so its width may be
+// drawn up to MAX_STRETCH times its length's scale to fill the pane's height (said on the
+// map whenever it is), as a control room's schematic does.
+const MAX_STRETCH = 6;
+const view = { k: 5, ky: 5, cx: 0, cy: 0, w: 100, h: 100, follow: true, fittedAt: 0 };
+
+function measure() {
+  const box = $("map").getBoundingClientRect();
+  view.w = Math.max(box.width, 1); view.h = Math.max(box.height, 1);
+}
+const sx = (x) => view.w / 2 + (x - view.cx) * view.k;
+const sy = (y) => view.h / 2 - (y - view.cy) * view.ky;
+const wx = (px) => view.cx + (px - view.w / 2) / view.k;
+const wy = (py) => view.cy - (py - view.h / 2) / view.ky;
+// A heading on screen, degrees clockwise, with the stretch applied.
+const screenDeg = (yaw) => Math.atan2(-Math.sin(yaw) * view.ky, Math.cos(yaw) * view.k) * 180 / Math.PI;
+
+// Look at the box [x0, x1] x [y0, y1] of the site, whole, as large as the pane allows.
+function look(x0, x1, y0, y1) {
+  measure();
+  view.cx = (x0 + x1) / 2; view.cy = (y0 + y1) / 2;
+  const fitY = view.h / Math.max(y1 - y0, 1);
+  view.k = Math.min(view.w / Math.max(x1 - x0, 1), fitY, 60);
+  view.ky = Math.max(view.k, Math.min(fitY, view.k * MAX_STRETCH));
+  scheduleRender();
+}
+
+function wholeTunnel() {
+  const s = state.site, pts = [...s.left_wall, ...s.right_wall];
+  const xs = pts.map((p) => p[0]), ys = pts.map((p) => p[1]);
+  view.follow = false;
+  look(Math.min(...xs) - 5, Math.max(...xs) + 5, Math.min(...ys) - 4, Math.max(...ys) + 4);
+}
+
+// The incident's extent: live units and fires not out, 15 m around, at least 60 m of
+// tunnel and its whole width.
+function fitIncident() {
+  const s = state.site;
+  const pts = [];
+  for (const u of state.units.values()) if (u.state && !u.lost) pts.push([u.state.pose.x, u.state.pose.y]);
+  for (const f of state.fires.values()) if (f.state !== "out") pts.push([f.position.x, f.position.y]);
+  if (!pts.length) { wholeTunnel(); view.follow = true; return; }
+  let x0 = Math.min(...pts.map((p) => p[0])) - 15, x1 = Math.max(...pts.map((p) => p[0])) + 15;
+  if (x1 - x0 < 60) { const c = (x0 + x1) / 2; x0 = c - 30; x1 = c + 30; }
+  const wall = [...s.left_wall, ...s.right_wall].filter((p) => p[0] >= x0 && p[0] <= x1).map((p) => p[1]);
+  const ys = wall.length ? wall : pts.map((p) => p[1]);
+  look(x0, x1, Math.min(...ys) - 3, Math.max(...ys) + 3);
+  view.follow = true;
+  view.fittedAt = Date.now();
+}
+
+// While following, look again when something of the incident left the view (or every
+// ten seconds), not at every update: a map that jumps cannot be read.
+function follow() {
+  if (!view.follow || !state.site) return;
+  const out = (x, y) => sx(x) < 0 || sx(x) > view.w || sy(y) < 0 || sy(y) > view.h;
+  const left = [...state.units.values()].some((u) => u.state && !u.lost && out(u.state.pose.x, u.state.pose.y))
+    || [...state.fires.values()].some((f) => f.state !== "out" && out(f.position.x, f.position.y));
+  if (left || Date.now() - view.fittedAt > 10000) fitIncident();
 }
 
 function setupPanZoom() {
   const svg = $("map");
+  const zoomAt = (px, py, factor) => {
+    const x = wx(px), y = wy(py);
+    const k = Math.min(Math.max(view.k * factor, 0.05), 200);
+    view.ky *= k / view.k; view.k = k;
+    view.cx = x - (px - view.w / 2) / view.k; view.cy = y + (py - view.h / 2) / view.ky;
+    view.follow = false;
+    scheduleRender();
+  };
   svg.addEventListener("wheel", (ev) => {
     ev.preventDefault();
     const box = svg.getBoundingClientRect();
-    const fx = (ev.clientX - box.left) / box.width, fy = (ev.clientY - box.top) / box.height;
-    const k = ev.deltaY > 0 ? 1.2 : 1 / 1.2;
-    const w = view.w * k, h = view.h * k;
-    view = { x: view.x + (view.w - w) * fx, y: view.y + (view.h - h) * fy, w, h };
-    applyView();
+    zoomAt(ev.clientX - box.left, ev.clientY - box.top, ev.deltaY > 0 ? 1 / 1.2 : 1.2);
   }, { passive: false });
-  let drag = null;
-  svg.addEventListener("pointerdown", (ev) => { drag = { x: ev.clientX, y: ev.clientY, moved: false }; });
-  svg.addEventListener("pointermove", (ev) => {
-    if (!drag) return;
-    const box = svg.getBoundingClientRect();
-    const dx = (ev.clientX - drag.x) * view.w / box.width, dy = (ev.clientY - drag.y) * view.h / box.height;
-    if (Math.abs(ev.clientX - drag.x) + Math.abs(ev.clientY - drag.y) > 3) drag.moved = true;
-    if (drag.moved) {
-      view.x -= dx; view.y -= dy; drag.x = ev.clientX; drag.y = ev.clientY; applyView();
-    }
+  // One pointer pans, two pinch; a press that did not move is a click.
+  const pointers = new Map();
+  let moved = false, pinch = null;
+  svg.addEventListener("pointerdown", (ev) => {
+    pointers.set(ev.pointerId, { x: ev.clientX, y: ev.clientY });
+    if (pointers.size === 1) moved = false;
+    if (pointers.size === 2) { const [a, b] = [...pointers.values()]; pinch = { d: Math.hypot(a.x - b.x, a.y - b.y) }; }
   });
-  svg.addEventListener("pointerup", () => { setTimeout(() => { drag = null; }, 0); });
-  svg.addEventListener("click", (ev) => { if (drag && drag.moved) ev.stopPropagation(); }, true);
-  window.addEventListener("resize", () => state.site && fitView());
+  svg.addEventListener("pointermove", (ev) => {
+    const p = pointers.get(ev.pointerId);
+    if (!p) return;
+    const box = svg.getBoundingClientRect();
+    if (pointers.size === 2 && pinch) {
+      p.x = ev.clientX; p.y = ev.clientY;
+      const [a, b] = [...pointers.values()];
+      const d = Math.hypot(a.x - b.x, a.y - b.y);
+      if (pinch.d > 0) zoomAt((a.x + b.x) / 2 - box.left, (a.y + b.y) / 2 - box.top, d / pinch.d);
+      pinch.d = d; moved = true;
+      return;
+    }
+    const dx = ev.clientX - p.x, dy = ev.clientY - p.y;
+    if (!moved && Math.abs(dx) + Math.abs(dy) < 4) return;
+    moved = true;
+    view.cx -= dx / view.k; view.cy += dy / view.ky; view.follow = false;
+    p.x = ev.clientX; p.y = ev.clientY;
+    scheduleRender();
+  });
+  const up = (ev) => { pointers.delete(ev.pointerId); if (pointers.size < 2) pinch = null; };
+  svg.addEventListener("pointerup", up);
+  svg.addEventListener("pointercancel", up);
+  svg.addEventListener("click", (ev) => { if (moved) { ev.stopPropagation(); moved = false; } }, true);
+  $("overview").addEventListener("click", (ev) => {
+    const box = $("overview").getBoundingClientRect();
+    const [x0, x1] = overviewSpan();
+    view.cx = x0 + (ev.clientX - box.left) / box.width * (x1 - x0);
+    view.follow = false;
+    scheduleRender();
+  });
+  $("fit-incident").addEventListener("click", fitIncident);
+  $("fit-tunnel").addEventListener("click", wholeTunnel);
+  window.addEventListener("resize", () => { if (state.site) { measure(); view.follow ? fitIncident() : scheduleRender(); } });
 }
+
+// ---- the site, drawn once ------------------------------------------------------------
 
 function drawSite() {
   const s = state.site;
   $("scenario").textContent = `${s.scenario} (site ${s.site}, ${fmt(s.length_m, 0)} m)`;
-  for (const id of ["heat", "zones", "walls", "rails", "obstacles", "fires", "units"]) $(id).replaceChildren();
-  unitEls.clear(); fireEls.clear();
-  const defs = el("defs", {}, $("zones"));
-  const hatch = el("pattern", { id: "hatch-keep-out", width: 1.2, height: 1.2, patternUnits: "userSpaceOnUse", patternTransform: "rotate(45)" }, defs);
-  el("rect", { width: 1.2, height: 1.2, fill: "rgba(255,77,79,0.18)" }, hatch);
-  el("rect", { width: 0.5, height: 1.2, fill: "rgba(255,77,79,0.55)" }, hatch);
+  for (const id of ["heat", "zones", "walls", "rails", "obstacles", "fires", "units", "tasks", "labels"]) $(id).replaceChildren();
+  unitEls.clear(); fireEls.clear(); taskEls.clear();
+  const pts = (list) => list.map((p) => `${p[0]},${p[1]}`).join(" ");
   for (const z of s.zones) {
-    const g = el("g", { "data-zone": z.id }, $("zones"));
-    const poly = el("polygon", { class: "zone", points: z.outline.map(pt).join(" "), "data-zone": z.id }, g);
+    const poly = el("polygon", { class: "zone", points: pts(z.outline), "data-zone": z.id }, $("zones"));
     poly.addEventListener("click", () => selectZone(z.id));
-    el("text", { class: "zone-label", x: z.label[0], y: -z.label[1] + 4 }, g).textContent = z.id;
-    el("text", { class: "zone-goal", x: z.label[0], y: -z.label[1] - 3 }, g);
+    poly.appendChild(title(`zone ${z.id}: ${fmt(z.start_m, 0)} to ${fmt(z.end_m, 0)} m`));
   }
-  el("polyline", { class: "wall", points: s.left_wall.map(pt).join(" ") }, $("walls"));
-  el("polyline", { class: "wall", points: s.right_wall.map(pt).join(" ") }, $("walls"));
-  el("polyline", { class: "centre", points: s.centre.map(pt).join(" ") }, $("walls"));
+  el("polyline", { class: "wall", points: pts(s.left_wall) }, $("walls"));
+  el("polyline", { class: "wall", points: pts(s.right_wall) }, $("walls"));
+  el("polyline", { class: "centre", points: pts(s.centre) }, $("walls"));
   for (const r of s.rails) {
-    el("polyline", { class: "rail", points: r.line.map(pt).join(" ") }, $("rails"));
-    for (const h of r.hose_points) el("circle", { class: "hose", cx: h[0], cy: -h[1], r: 0.3 }, $("rails"));
+    el("polyline", { class: "rail", points: pts(r.line) }, $("rails"));
+    for (const h of r.hose_points) el("circle", { class: "hose", cx: h[0], cy: h[1], r: 0.3 }, $("rails"));
   }
-  for (const o of s.obstacles) {
-    el("polygon", { class: "obstacle", points: o.corners.map(pt).join(" ") }, $("obstacles")).appendChild(title(o.name));
-  }
+  for (const o of s.obstacles) el("polygon", { class: "obstacle", points: pts(o.corners) }, $("obstacles")).appendChild(title(o.name));
   const select = $("goal-zone");
   select.replaceChildren(...s.zones.map((z) => new Option(`${z.id} (${fmt(z.start_m, 0)}-${fmt(z.end_m, 0)} m)`, z.id)));
   select.onchange = () => selectZone(select.value);
-  fitView();
-}
-
-function title(text) {
-  const t = document.createElementNS(SVG, "title");
-  t.textContent = text;
-  return t;
+  drawOverviewSite();
+  measure();
+  fitIncident();
 }
 
 function selectZone(id) {
   state.selectedZone = id;
   $("goal-zone").value = id;
   for (const p of document.querySelectorAll("polygon.zone")) p.classList.toggle("selected", p.dataset.zone === id);
+  showTab("goal-pane");
 }
 
-// The goal a zone shows: the highest priority in force there.
+// The goal a zone shows: the governing one, as the coordinator ranks them (the incident
+// commander's above a sector commander's is not known here: the highest priority, which
+// the list below spells out in full).
 function zoneGoals() {
   const by = new Map();
   for (const g of state.goals) {
@@ -135,23 +251,22 @@ function zoneGoals() {
 
 function drawGoals() {
   const by = zoneGoals();
-  for (const g of document.querySelectorAll("#zones g[data-zone]")) {
-    const goal = by.get(g.dataset.zone);
+  for (const poly of document.querySelectorAll("polygon.zone")) {
+    const goal = by.get(poly.dataset.zone);
     const kind = goal ? goal.goal.goal : "";
-    const poly = g.querySelector("polygon");
-    poly.setAttribute("class", `zone ${kind}` + (state.selectedZone === g.dataset.zone ? " selected" : ""));
+    poly.setAttribute("class", `zone ${kind}` + (state.selectedZone === poly.dataset.zone ? " selected" : ""));
     poly.dataset.goal = kind;
-    g.querySelector(".zone-goal").textContent = goal ? `${kind.toUpperCase()} (${goal.goal.issued_by})` : "";
   }
   const list = $("goals");
   list.replaceChildren(...state.goals.map((g) => {
-    const li = document.createElement("li");
     const until = g.until != null ? `, until t=${fmt(g.until, 0)} s` : "";
-    li.textContent = `${g.goal.zone}: ${g.goal.goal} p${g.goal.priority} by ${g.goal.issued_by} since t=${fmt(g.since, 0)} s${until}`;
+    const li = html("li", { textContent: `${g.goal.zone}: ${g.goal.goal} p${g.goal.priority} by ${g.goal.issued_by} since t=${fmt(g.since, 0)} s${until} (${g.goal.id})` });
     li.dataset.zone = g.goal.zone; li.dataset.goal = g.goal.goal;
     return li;
   }));
-  if (!state.goals.length) list.replaceChildren(Object.assign(document.createElement("li"), { textContent: "none" }));
+  if (!state.goals.length) list.replaceChildren(html("li", { textContent: "none" }));
+  drawOverviewSite();
+  scheduleRender();
 }
 
 function offset(i, d) {
@@ -172,36 +287,61 @@ function drawHeat() {
       const v = (q(i, j) + q(i + step, j) + q(i, j + 1) + q(i + step, j + 1)) / 4;
       if (v < 0.2) continue;
       const a = Math.min(1, v / 10);
-      const pts = [offset(i, s.lateral_m[j]), offset(i + step, s.lateral_m[j]), offset(i + step, s.lateral_m[j + 1]), offset(i, s.lateral_m[j + 1])];
-      el("polygon", { points: pts.map(pt).join(" "), fill: `rgba(255,${Math.round(160 - 120 * a)},0,${0.15 + 0.55 * a})` }, layer);
+      const p = [offset(i, s.lateral_m[j]), offset(i + step, s.lateral_m[j]), offset(i + step, s.lateral_m[j + 1]), offset(i, s.lateral_m[j + 1])];
+      el("polygon", { points: p.map((x) => `${x[0]},${x[1]}`).join(" "), fill: `rgba(255,${Math.round(160 - 120 * a)},0,${0.15 + 0.55 * a})` }, layer);
     }
   }
 }
 
-const fireEls = new Map();
-const fireClass = (f) => ({ tentative: "tentative", confirmed: "burning", assigned: "burning", suppressing: "suppressing", out: "out", lost: "tentative" }[f.state] || "burning");
+// ---- the overview strip: the whole tunnel, the view on it ----------------------------
 
-function drawFire(f) {
-  let g = fireEls.get(f.id);
-  if (!g) {
-    g = el("g", { "data-fire": f.id }, $("fires"));
-    el("circle", {}, g); el("text", {}, g); g.appendChild(title(""));
-    fireEls.set(f.id, g);
-  }
-  // Area proportional to the heat release: 1 MW is a 1 m radius.
-  const r = Math.max(0.5, Math.sqrt((f.hrr_kw || 500) / 1000));
-  g.setAttribute("class", `fire ${fireClass(f)}`);
-  g.dataset.state = f.state;
-  const c = g.querySelector("circle");
-  c.setAttribute("cx", f.position.x); c.setAttribute("cy", -f.position.y); c.setAttribute("r", r);
-  const t = g.querySelector("text");
-  t.setAttribute("x", f.position.x + r + 0.3); t.setAttribute("y", -f.position.y - r);
-  t.textContent = `${f.id} ${f.state}`;
-  g.querySelector("title").textContent = `${f.id}: ${f.state}, ${fmt((f.hrr_kw || 0) / 1000, 1)} MW, units ${f.assigned.join(", ") || "none"}`;
+function overviewSpan() {
+  const xs = [...state.site.left_wall, ...state.site.right_wall].map((p) => p[0]);
+  return [Math.min(...xs), Math.max(...xs)];
 }
 
-const unitEls = new Map();
-const unitRows = new Map();
+function drawOverviewSite() {
+  const ov = $("overview"), s = state.site;
+  if (!s) return;
+  const [x0, x1] = overviewSpan();
+  const ys = [...s.left_wall, ...s.right_wall].map((p) => p[1]);
+  const y0 = Math.min(...ys), y1 = Math.max(...ys);
+  // Stretched to the strip: the strip is for where along the tunnel, not for shapes.
+  ov.setAttribute("viewBox", `${x0} ${-y1} ${x1 - x0} ${y1 - y0}`);
+  ov.setAttribute("preserveAspectRatio", "none");
+  ov.replaceChildren();
+  const by = zoneGoals();
+  for (const z of s.zones) {
+    const g = by.get(z.id);
+    el("polygon", { class: `zone ${g ? g.goal.goal : ""}`, points: z.outline.map((p) => `${p[0]},${-p[1]}`).join(" ") }, ov);
+  }
+  for (const w of [s.left_wall, s.right_wall]) el("polyline", { class: "ov-wall", points: w.map((p) => `${p[0]},${-p[1]}`).join(" "), "vector-effect": "non-scaling-stroke" }, ov);
+  el("g", { id: "ov-items" }, ov);
+  el("rect", { id: "ov-view", class: "view-box", "vector-effect": "non-scaling-stroke" }, ov);
+}
+
+function drawOverviewItems(units, fires) {
+  const g = $("ov-items");
+  if (!g) return;
+  g.replaceChildren();
+  const s = state.site, half = s.width_m / 2;
+  for (const f of fires) {
+    if (f.state === "out") continue;
+    el("rect", { x: f.position.x - 1, y: -half, width: 2, height: s.width_m, fill: f.state === "suppressing" ? "#1890ff" : "#ff4d00" }, g);
+  }
+  for (const u of units) {
+    el("rect", { x: u.x - 0.4, y: -u.y - 1, width: 0.8, height: 2, fill: u.lost ? "#ff4d4f" : u.kind === "monorail" ? "#b37feb" : "#52c41a" }, g);
+  }
+  const v = $("ov-view");
+  v.setAttribute("x", wx(0)); v.setAttribute("width", view.w / view.k);
+  v.setAttribute("y", -wy(0)); v.setAttribute("height", view.h / view.ky);
+}
+
+// ---- markers and labels, in screen pixels --------------------------------------------
+
+const unitEls = new Map(), fireEls = new Map(), taskEls = new Map();
+const fireClass = (state) => ({ tentative: "tentative", confirmed: "burning", assigned: "burning", suppressing: "suppressing", out: "out", lost: "tentative" }[state] || "burning");
+const ACTIVE_PHASES = new Set(["travelling", "spraying"]);
 
 function unitStatus(u, now) {
   if (u.lost) return "lost";
@@ -209,122 +349,431 @@ function unitStatus(u, now) {
   return now - (u.heard_ms - state.clockSkew) > STALE_MS ? "stale" : "fresh";
 }
 
-function drawUnit(u, now) {
-  const s = u.state;
-  let g = unitEls.get(u.id);
-  if (!s) { if (g) g.remove(); unitEls.delete(u.id); return; }
-  if (!g) {
-    g = el("g", { "data-unit": u.id }, $("units"));
-    el("line", { class: "task" }, g);
-    const body = el("g", {}, g);
-    el("path", { d: s.kind === "monorail" ? "M 1 0 L 0 0.8 L -1 0 L 0 -0.8 Z" : "M 1.2 0 L -0.8 0.7 L -0.8 -0.7 Z" }, body);
-    el("text", {}, g); g.appendChild(title(""));
-    unitEls.set(u.id, g);
+// What the map shows now: live, or a snapshot of the timeline.
+function shownItems(now) {
+  const snap = timeline.shown();
+  if (snap) return snap;
+  const units = [];
+  for (const u of state.units.values()) {
+    const s = u.state;
+    if (!s) continue;
+    const task = s.task && ACTIVE_PHASES.has(s.task.phase) ? s.task : null;
+    units.push({ id: u.id, kind: s.kind, x: s.pose.x, y: s.pose.y, yaw: s.pose.yaw, status: unitStatus(u, now), lost: u.lost,
+      autonomous: s.autonomous, fault: s.mode === "fault", task: task && { fire: task.fire, x: task.target.x, y: task.target.y } });
   }
-  const status = unitStatus(u, now);
-  g.setAttribute("class", `unit ${s.kind} ${status}` + (s.autonomous ? " autonomous" : "") + (s.mode === "fault" ? " fault" : ""));
-  g.dataset.status = status;
-  g.dataset.x = s.pose.x; g.dataset.y = s.pose.y;
-  const deg = -s.pose.yaw * 180 / Math.PI;
-  g.children[1].setAttribute("transform", `translate(${s.pose.x},${-s.pose.y}) rotate(${deg})`);
-  const line = g.querySelector("line");
-  if (s.task) {
-    line.setAttribute("x1", s.pose.x); line.setAttribute("y1", -s.pose.y);
-    line.setAttribute("x2", s.task.target.x); line.setAttribute("y2", -s.task.target.y);
-    line.style.display = "";
-  } else line.style.display = "none";
-  const t = g.querySelector("text");
-  t.setAttribute("x", s.pose.x + 1); t.setAttribute("y", -s.pose.y + 2);
-  t.textContent = u.id;
-  g.querySelector("title").textContent = `${u.id}: ${s.mode}${s.task ? ` on ${s.task.fire} (${s.task.phase})` : ""}, ${fmt(s.water_l, 0)} L`;
+  const fires = [...state.fires.values()].map((f) => ({ id: f.id, state: f.state, position: f.position, hrr_kw: f.state === "out" ? null : f.hrr_kw, assigned: f.assigned }));
+  return { units, fires };
 }
+
+let renderQueued = false;
+function scheduleRender() {
+  if (renderQueued) return;
+  renderQueued = true;
+  requestAnimationFrame(() => { renderQueued = false; render(); });
+}
+
+function render() {
+  if (!state.site) return;
+  measure();
+  follow();
+  $("world").setAttribute("transform", `translate(${view.w / 2 - view.cx * view.k} ${view.h / 2 + view.cy * view.ky}) scale(${view.k} ${-view.ky})`);
+  const now = Date.now();
+  const { units, fires } = shownItems(now);
+  const fireState = new Map(fires.map((f) => [f.id, f.state]));
+  // Fires.
+  const seenF = new Set();
+  for (const f of fires) {
+    seenF.add(f.id);
+    let g = fireEls.get(f.id);
+    if (!g) { g = el("g", { "data-fire": f.id }, $("fires")); el("circle", {}, g); g.appendChild(title("")); fireEls.set(f.id, g); }
+    // Area proportional to the heat release (1 MW: 1 m radius), never under 7 px.
+    const r = f.state === "out" ? 5 : Math.max(7, Math.sqrt((f.hrr_kw || 500) / 1000) * view.k);
+    g.setAttribute("class", `fire ${fireClass(f.state)}`);
+    g.dataset.state = f.state;
+    const c = g.firstChild;
+    c.setAttribute("cx", sx(f.position.x)); c.setAttribute("cy", sy(f.position.y)); c.setAttribute("r", r);
+    g.dataset.r = r;
+    g.lastChild.textContent = `${f.id}: ${f.state}${f.hrr_kw != null ? `, ${fmt(f.hrr_kw / 1000, 1)} MW` : ""}, units ${(f.assigned || []).join(", ") || "none"}`;
+  }
+  for (const [id, g] of fireEls) if (!seenF.has(id)) { g.remove(); fireEls.delete(id); }
+  // Units and their task lines (only to a fire that still burns).
+  const seenU = new Set();
+  for (const u of units) {
+    seenU.add(u.id);
+    let g = unitEls.get(u.id);
+    if (!g) {
+      g = el("g", { "data-unit": u.id }, $("units"));
+      el("path", { d: u.kind === "monorail" ? "M 9 0 L 0 7 L -9 0 L 0 -7 Z" : "M 11 0 L -7 7 L -7 -7 Z" }, g);
+      g.appendChild(title(u.id));
+      g.addEventListener("click", () => selectUnit(u.id));
+      unitEls.set(u.id, g);
+    }
+    g.setAttribute("class", `unit ${u.kind} ${u.status}` + (u.autonomous ? " autonomous" : "") + (u.fault ? " fault" : "") + (state.selectedUnit === u.id ? " selected" : ""));
+    g.dataset.status = u.status; g.dataset.x = u.x; g.dataset.y = u.y;
+    g.setAttribute("transform", `translate(${sx(u.x)} ${sy(u.y)}) rotate(${screenDeg(u.yaw)})`);
+    let line = taskEls.get(u.id);
+    const fs = u.task && fireState.get(u.task.fire);
+    if (u.task && fs && fs !== "out" && u.status !== "lost") {
+      if (!line) { line = el("line", { class: "task", "data-unit": u.id }, $("tasks")); taskEls.set(u.id, line); }
+      line.setAttribute("x1", sx(u.x)); line.setAttribute("y1", sy(u.y));
+      line.setAttribute("x2", sx(u.task.x)); line.setAttribute("y2", sy(u.task.y));
+    } else if (line) { line.remove(); taskEls.delete(u.id); }
+  }
+  for (const [id, g] of unitEls) if (!seenU.has(id)) { g.remove(); unitEls.delete(id); }
+  for (const [id, l] of taskEls) if (!seenU.has(id)) { l.remove(); taskEls.delete(id); }
+  placeLabels(units, fires, drawScale());
+  drawOverviewItems(units, fires);
+  const span = `${fmt(Math.max(0, chainageOf(wx(0), view.cy)), 0)} to ${fmt(chainageOf(wx(view.w), view.cy), 0)} m`;
+  const stretch = view.ky / view.k;
+  $("view-span").textContent = `showing ${span}` + (stretch > 1.05 ? `, width drawn \u00d7${fmt(stretch, 1)}` : "") +
+    (view.follow ? ", following the incident" : "") +
+    (window.ffStats.labels_hidden ? `, ${window.ffStats.labels_hidden} labels hidden: zoom in` : "");
+}
+
+// A chainage scale along the right-hand wall, on screen; the boxes its labels take.
+function drawScale() {
+  const g = $("scale"), s = state.site, boxes = [];
+  g.replaceChildren();
+  const step = [5, 10, 20, 50, 100, 200, 500, 1000, 2000].find((m) => m * view.k >= 80) || 5000;
+  const half = s.width_m / 2;
+  for (let m = 0; m <= s.length_m + 1e-6; m += step) {
+    const i = stationIndex(m);
+    const [x, y] = offset(i, -half);
+    const px = sx(x), py = sy(y);
+    if (px < -20 || px > view.w + 20 || py < -20 || py > view.h + 20) continue;
+    el("line", { class: "tick", x1: px, y1: py, x2: px, y2: py + 8 }, g);
+    const text = `${m} m`;
+    el("text", { class: "tick-label", x: px, y: py + 21 }, g).textContent = text;
+    boxes.push({ x: px - text.length * 4, y: py, w: text.length * 8, h: 24 });
+  }
+  return boxes;
+}
+
+// Labels: fires first (their state is what a commander looks for), then units, each at
+// the first of its candidate places that overlaps no label placed before it; zone and
+// portal names are placed first, where they belong. A grid of 64 px cells keeps the test
+// near-linear for a thousand units.
+function placeLabels(units, fires, taken) {
+  const layer = $("labels");
+  layer.replaceChildren();
+  const cells = new Map(), CELL = 64;
+  const keys = (b) => {
+    const out = [];
+    for (let i = Math.floor(b.x / CELL); i <= Math.floor((b.x + b.w) / CELL); i++)
+      for (let j = Math.floor(b.y / CELL); j <= Math.floor((b.y + b.h) / CELL); j++) out.push(`${i},${j}`);
+    return out;
+  };
+  const hits = (b) => keys(b).some((k) => (cells.get(k) || []).some((o) => b.x < o.x + o.w && o.x < b.x + b.w && b.y < o.y + o.h && o.y < b.y + b.h));
+  const take = (b) => { for (const k of keys(b)) { if (!cells.has(k)) cells.set(k, []); cells.get(k).push(b); } };
+  for (const b of taken) take(b);
+  const charW = LABEL_FONT_PX * 0.62, lineH = LABEL_FONT_PX + 3;
+  const onScreen = (x, y) => x >= -40 && x <= view.w + 40 && y >= -40 && y <= view.h + 40;
+  const put = (text, cls, b, forId) => {
+    const t = el("text", { class: `label ${cls}`, x: b.x + 1, y: b.y + LABEL_FONT_PX }, layer);
+    t.textContent = text;
+    if (forId) t.dataset.for = forId;
+    return t;
+  };
+  // Zones' names and goals at the tunnel's left wall, portals at its ends.
+  const by = zoneGoals(), s = state.site;
+  for (const z of s.zones) {
+    const g = by.get(z.id);
+    const i = stationIndex((z.start_m + z.end_m) / 2);
+    const [x, y] = offset(i, s.width_m / 2);
+    const px = sx(x), py = sy(y) - 6;
+    if (!onScreen(px, py)) continue;
+    const text = g ? `${z.id}: ${g.goal.goal.toUpperCase()} (${g.goal.issued_by})` : z.id;
+    const b = { x: px - text.length * charW / 2, y: py - lineH, w: text.length * charW + 2, h: lineH };
+    if (hits(b)) continue;
+    take(b);
+    put(text, g ? "zone-goal" : "zone-name", b);
+  }
+  const ends = [[0, s.portals[0]], [s.length_m, s.portals[1]]];
+  for (const [m, name] of ends) {
+    const [x, y] = offset(stationIndex(m), 0);
+    const px = sx(x), py = sy(y);
+    if (!onScreen(px, py)) continue;
+    const text = `${name} portal`.replace(/ portal portal$/, " portal");
+    const w = text.length * charW + 2;
+    const b = { x: m === 0 ? px - w - 8 : px + 8, y: py - lineH / 2, w, h: lineH };
+    take(b);
+    put(text, "portal", b);
+  }
+  const items = [];
+  for (const f of fires) {
+    const r = f.state === "out" ? 5 : Math.max(7, Math.sqrt((f.hrr_kw || 500) / 1000) * view.k);
+    items.push({ id: f.id, text: f.state === "out" ? `${f.id} out` : `${f.id} ${f.hrr_kw != null ? `${fmt(f.hrr_kw / 1000, 1)} MW` : f.state}`, cls: `fire-label ${f.state === "out" ? "out" : ""}`, x: sx(f.position.x), y: sy(f.position.y), r, rank: f.state === "out" ? 2 : 0 });
+  }
+  for (const u of units) items.push({ id: u.id, text: u.id, cls: "unit-label", x: sx(u.x), y: sy(u.y), r: 11, rank: 1 });
+  items.sort((a, b) => a.rank - b.rank);
+  // Markers are obstacles too: a label must not hide a unit or a fire.
+  for (const it of items) if (onScreen(it.x, it.y)) take({ x: it.x - it.r * 0.7, y: it.y - it.r * 0.7, w: it.r * 1.4, h: it.r * 1.4 });
+  let hidden = 0;
+  for (const it of items) {
+    if (!onScreen(it.x, it.y)) continue;
+    const w = it.text.length * charW + 2, h = lineH;
+    let placed = null;
+    for (const ring of [0, 1, 2]) {
+      const d = it.r + 3 + ring * 16;
+      const cands = [[d, -h / 2], [-d - w, -h / 2], [-w / 2, -d - h], [-w / 2, d], [d, -d - h], [-d - w, -d - h], [d, d], [-d - w, d]];
+      for (const [dx, dy] of cands) {
+        const b = { x: it.x + dx, y: it.y + dy, w, h };
+        if (b.x < 0 || b.y < 0 || b.x + w > view.w || b.y + h > view.h || hits(b)) continue;
+        placed = b; break;
+      }
+      if (placed) {
+        if (ring > 0) el("line", { class: "leader", x1: it.x, y1: it.y, x2: placed.x + (placed.x > it.x ? 0 : w), y2: placed.y + h / 2 }, layer);
+        break;
+      }
+    }
+    if (!placed) { hidden++; continue; }
+    take(placed);
+    put(it.text, it.cls, placed, it.id);
+  }
+  window.ffStats.labels_hidden = hidden;
+}
+
+// ---- the side panes ------------------------------------------------------------------
+
+const unitRows = new Map();
+
+function doing(s) {
+  if (!s) return "-";
+  const task = s.task && ACTIVE_PHASES.has(s.task.phase) ? (s.task.phase === "spraying" ? ` spraying ${s.task.fire}` : ` to ${s.task.fire}`) : "";
+  return s.mode + task + (s.autonomous ? " (alone)" : "") + (s.refused ? " REFUSED" : "");
+}
+
+// A task in the coordinator's words, its coordinates as chainage: "(80.0, -1.9)" -> "80 m".
+const ordered = (text) => text ? text.replace(/\((-?\d+(?:\.\d+)?), (-?\d+(?:\.\d+)?)\)/g, (_, x, y) => `${fmt(chainageOf(Number(x), Number(y)), 0)} m`) : "-";
 
 function unitRow(u, now) {
   let tr = unitRows.get(u.id);
   if (!tr) {
-    tr = document.createElement("tr");
+    tr = html("tr");
     tr.dataset.unit = u.id;
-    for (let i = 0; i < 6; i++) tr.appendChild(document.createElement("td"));
+    for (let i = 0; i < 8; i++) tr.appendChild(html("td"));
+    tr.addEventListener("click", () => selectUnit(u.id));
     unitRows.set(u.id, tr);
-    const rows = [...unitRows.keys()].sort();
+    const rows = [...unitRows.keys()].sort((a, b) => a.localeCompare(b, undefined, { numeric: true }));
     $("units-body").replaceChildren(...rows.map((k) => unitRows.get(k)));
   }
   const s = u.state, status = unitStatus(u, now), td = tr.children;
-  tr.className = status; tr.dataset.status = status;
+  tr.className = status + (state.selectedUnit === u.id ? " selected" : ""); tr.dataset.status = status;
   td[0].textContent = u.id;
-  td[1].textContent = s ? s.mode + (s.autonomous ? " (alone)" : "") + (s.refused ? " REFUSED" : "") : "-";
-  td[2].textContent = s && s.task ? `${s.task.fire} ${s.task.phase}` : "-";
-  td[3].textContent = s ? `${fmt(s.water_l, 0)} L` : "-";
-  td[4].textContent = s ? `${fmt(s.heat_flux_kw_m2, 1)} kW/m²` : "-";
-  td[5].textContent = status === "lost" ? "LOST" : (u.heard_ms == null ? "never" : `${fmt((now - (u.heard_ms - state.clockSkew)) / 1000, 1)} s ago`);
+  td[1].textContent = doing(s);
+  td[2].textContent = ordered(u.ordered);
+  td[3].textContent = u.tank_pct != null ? `${fmt(u.tank_pct, 0)} %` : s ? (s.kind === "monorail" ? "main" : `${fmt(s.water_l, 0)} L`) : "-";
+  td[3].className = u.tank_pct != null && u.tank_pct < 15 ? "low" : u.tank_pct != null && u.tank_pct < 35 ? "mid" : "";
+  td[4].textContent = u.time_left_s != null ? dur(u.time_left_s) : "-";
+  td[4].className = u.time_left_s != null && u.time_left_s < 60 ? "low" : "";
+  td[5].textContent = s ? `${fmt(s.health * 100, 0)} %` : "-";
+  td[5].className = s && s.health < 0.5 ? "low" : "";
+  td[6].textContent = u.eta_s != null ? dur(u.eta_s) : "-";
+  td[7].textContent = status === "lost" ? "LOST" : (u.heard_ms == null ? "never" : `${fmt((now - (u.heard_ms - state.clockSkew)) / 1000, 1)} s ago`);
+  if (state.selectedUnit === u.id) unitDetail();
+}
+
+function selectUnit(id) {
+  state.selectedUnit = state.selectedUnit === id ? null : id;
+  for (const [k, tr] of unitRows) tr.classList.toggle("selected", k === state.selectedUnit);
+  unitDetail();
+  showTab("units-pane");
+  scheduleRender();
+}
+
+function unitDetail() {
+  const box = $("unit-detail"), u = state.units.get(state.selectedUnit);
+  if (!u) { box.hidden = true; return; }
+  box.hidden = false;
+  const s = u.state;
+  const rows = [
+    ["unit", `${u.id} (${s ? s.kind : "not heard"})${u.lost ? ", LOST" : u.alive ? "" : ", no token"}`],
+    ["doing", doing(s)],
+    ["ordered", u.ordered ? ordered(u.ordered) : "nothing yet"],
+    ["tank", u.tank_pct != null ? `${fmt(u.tank_pct, 0)} % (${fmt(s.water_l, 0)} L)` : s && s.kind === "monorail" ? "the tunnel's main" : "-"],
+    ["flow", u.flow_l_s != null ? `${fmt(u.flow_l_s, 1)} L/s` : "-"],
+    ["time left", u.time_left_s != null ? `${dur(u.time_left_s)} at this flow` : "not spraying"],
+    ["health", s ? `${fmt(s.health * 100, 0)} %` : "-"],
+    ["heat", s ? `${fmt(s.heat_flux_kw_m2, 1)} kW/m²` : "-"],
+    ["speed", s ? `${fmt(s.speed, 1)} m/s` : "-"],
+    ["at", s ? `chainage ${fmt(chainageOf(s.pose.x, s.pose.y), 0)} m` : "-"],
+    ["arrives", u.eta_s != null ? `in ${dur(u.eta_s)} (straight line, current speed)` : "-"],
+  ];
+  const dl = html("dl");
+  for (const [k, v] of rows) { html("dt", { textContent: k }, dl); html("dd", { textContent: v }, dl); }
+  box.replaceChildren(dl);
 }
 
 function fireRows() {
-  const fires = [...state.fires.values()].sort((a, b) => a.id.localeCompare(b.id, undefined, { numeric: true }));
+  const fires = [...state.fires.values()].sort((a, b) => (a.state === "out") - (b.state === "out") || a.id.localeCompare(b.id, undefined, { numeric: true }));
   $("fires-body").replaceChildren(...fires.map((f) => {
-    const tr = document.createElement("tr");
+    const tr = html("tr");
     tr.dataset.fire = f.id; tr.dataset.state = f.state;
-    for (const v of [f.id, f.state, f.hrr_kw != null ? `${fmt(f.hrr_kw / 1000, 1)} MW` : "-", `${fmt(f.position.x, 0)}, ${fmt(f.position.y, 0)}`, f.assigned.join(" ") || "-"]) {
-      tr.appendChild(Object.assign(document.createElement("td"), { textContent: v }));
+    const out = f.state === "out";
+    for (const v of [f.id, f.state, !out && f.hrr_kw != null ? `${fmt(f.hrr_kw / 1000, 1)} MW` : "-", `${fmt(chainageOf(f.position.x, f.position.y), 0)} m`, out ? "-" : f.assigned.join(" ") || "none"]) {
+      html("td", { textContent: v }, tr);
     }
+    if (out) tr.className = "stale";
     return tr;
   }));
 }
 
 function drawAlerts() {
-  const alerts = [...state.alerts.values()].sort((a, b) => (a.acked_by == null) - (b.acked_by == null) || b.id - a.id).reverse();
+  const alerts = [...state.alerts.values()].sort((a, b) =>
+    (a.acked_by != null) - (b.acked_by != null) || a.priority - b.priority || b.id - a.id);
+  const open = alerts.filter((a) => a.acked_by == null);
   $("alerts").replaceChildren(...alerts.map((a) => {
-    const li = document.createElement("li");
-    li.className = a.acked_by ? "acked" : "open";
-    li.dataset.alert = a.id; li.dataset.kind = a.kind;
-    li.textContent = `t=${fmt(a.t, 0)} s ${a.text}` + (a.acked_by ? ` (acknowledged by ${a.acked_by})` : " ");
+    const li = html("li", { className: `${a.acked_by ? "acked" : "open"} p${a.priority}` });
+    li.dataset.alert = a.id; li.dataset.kind = a.kind; li.dataset.priority = a.priority;
+    html("span", { className: "prio", textContent: `P${a.priority}` }, li);
+    li.append(` t=${fmt(a.t, 0)} s ${a.text}` + (a.acked_by ? ` (acknowledged by ${a.acked_by})` : " "));
     if (!a.acked_by) {
-      const b = document.createElement("button");
-      b.textContent = "Acknowledge"; b.disabled = !state.steers;
-      b.onclick = () => command("POST", `/api/alerts/${a.id}/ack`).then((r) => { if (!r.ok) $("ack").textContent = r.body.error; });
-      li.appendChild(b);
+      const b = html("button", { textContent: "Acknowledge", disabled: !state.steers }, li);
+      b.onclick = () => acknowledge([a.id]);
     }
     return li;
   }));
-  if (!alerts.length) $("alerts").replaceChildren(Object.assign(document.createElement("li"), { textContent: "none" }));
+  if (!alerts.length) $("alerts").replaceChildren(html("li", { textContent: "none" }));
+  $("alerts-open").textContent = open.length ? `(${open.length})` : "";
+  $("ack-all").disabled = !state.steers || !open.length;
+  $("ack-all").textContent = open.length > 1 ? `Acknowledge all ${open.length}` : "Acknowledge all";
+  banner();
 }
 
-function drawDecisions(items) {
-  const list = $("decisions");
-  for (const d of items) {
-    const li = document.createElement("li");
-    li.textContent = `t=${fmt(d.t, 1)} s `;
-    li.appendChild(Object.assign(document.createElement("span"), { textContent: d.text }));
-    list.prepend(li);
+async function acknowledge(ids) {
+  for (const id of ids) {
+    const r = await command("POST", `/api/alerts/${id}/ack`);
+    if (!r.ok) { $("ack").textContent = r.body.error; break; }
   }
-  while (list.children.length > 200) list.lastChild.remove();
+}
+
+// The banner above everything: the console's link to the site first, then the most
+// urgent alert nobody acknowledged.
+function banner() {
+  const b = $("banner");
+  if (state.link === false) {
+    b.className = ""; b.hidden = false;
+    b.textContent = "SITE LOST: the console has no link to the site's router. Units are not known to be lost; what is shown is as last heard.";
+    return;
+  }
+  const open = [...state.alerts.values()].filter((a) => a.acked_by == null).sort((a, c) => a.priority - c.priority || c.id - a.id);
+  if (!open.length) { b.hidden = true; return; }
+  b.hidden = false;
+  b.className = open[0].priority > 1 ? "p2" : "";
+  b.textContent = `P${open[0].priority}: ${open[0].text}` + (open.length > 1 ? ` (and ${open.length - 1} more alerts)` : "");
+}
+
+const KINDS = {
+  assign: /assign|backup|reserve|relie|send |sent |search|stage|standby|adopt/i,
+  goal: /goal|zone|keep-out|evacuate|withdraw|contain|monitor/i,
+  unit: /lost|trapped|cannot|doubt|refus|silent|witness/i,
+  fire: /fire f|\bf\d+\b|confirm|extinguish|\bout\b|merge/i,
+};
+
+function drawDecisions() {
+  const text = $("decision-text").value.trim().toLowerCase();
+  const kind = KINDS[$("decision-kind").value];
+  const at = timeline.at();
+  const lines = [...state.decisions.values()]
+    .filter((l) => (!text || l.text.toLowerCase().includes(text)) && (!kind || kind.test(l.text)))
+    .sort((a, b) => b.t - a.t || b.id - a.id)
+    .slice(0, 200);
+  $("decisions").replaceChildren(...lines.map((l) => {
+    const li = html("li", { className: at != null && l.first_t > at ? "future" : "" });
+    li.dataset.id = l.id; li.dataset.count = l.count;
+    li.append(l.count > 1 ? `t=${fmt(l.first_t, 1)}-${fmt(l.t, 1)} s ` : `t=${fmt(l.t, 1)} s `);
+    html("span", { className: "text", textContent: l.text }, li);
+    if (l.count > 1) html("b", { className: "count", textContent: `\u00d7${l.count}` }, li);
+    return li;
+  }));
 }
 
 function drawHeader() {
-  $("clock").textContent = `t = ${fmt(state.t, 1)} s`;
+  const at = timeline.at();
+  $("clock").textContent = at != null ? `t = ${fmt(at, 1)} s (timeline; live ${fmt(state.t, 1)} s)` : `t = ${fmt(state.t, 1)} s`;
   const c = $("coordinator");
-  c.textContent = state.coordinator === true ? "coordinator up" : state.coordinator === false ? "NO COORDINATOR" : "coordinator ?";
+  c.textContent = state.coordinator === true ? "coordinator in charge" : state.coordinator === false ? "NO COORDINATOR" : "coordinator ?";
   c.className = "badge " + (state.coordinator === true ? "ok" : state.coordinator === false ? "bad" : "");
+  const l = $("site-link");
+  l.textContent = state.link === true ? "site linked" : state.link === false ? "SITE LOST" : "site ?";
+  l.className = "badge " + (state.link === true ? "ok" : state.link === false ? "bad" : "");
+}
+
+function showTab(id) {
+  for (const b of document.querySelectorAll("#tabs button")) b.classList.toggle("on", b.dataset.tab === id);
+  for (const p of document.querySelectorAll("aside .pane")) p.classList.toggle("on", p.id === id);
+}
+
+// ---- the timeline --------------------------------------------------------------------
+
+const timeline = {
+  snaps: [], scrub: null,
+  // A snapshot a second of site time: where every unit and fire was.
+  record() {
+    const last = this.snaps[this.snaps.length - 1];
+    if (last && state.t - last.t < 1) return;
+    const snap = shownLive();
+    snap.t = state.t;
+    this.snaps.push(snap);
+    if (this.snaps.length > MAX_SNAPSHOTS) {
+      // Thin the older half to one in two: the whole incident stays, coarser further back.
+      const half = this.snaps.length >> 1;
+      this.snaps = this.snaps.slice(0, half).filter((_, i) => i % 2 === 0).concat(this.snaps.slice(half));
+    }
+    const r = $("timeline");
+    r.min = this.snaps[0].t; r.max = state.t;
+    if (this.scrub == null) r.value = state.t;
+  },
+  at() { return this.scrub; },
+  shown() {
+    if (this.scrub == null) return null;
+    let best = null;
+    for (const s of this.snaps) { if (s.t <= this.scrub) best = s; else break; }
+    return best || this.snaps[0] || null;
+  },
+  set(t) {
+    this.scrub = t >= state.t - 0.5 ? null : t;
+    $("timeline-t").textContent = this.scrub == null ? "live" : `t = ${fmt(this.scrub, 1)} s`;
+    $("timeline-live").disabled = this.scrub == null;
+    drawHeader(); drawDecisions(); scheduleRender();
+  },
+};
+
+function shownLive() {
+  const scrub = timeline.scrub;
+  timeline.scrub = null;
+  const s = shownItems(Date.now());
+  timeline.scrub = scrub;
+  return s;
+}
+
+function setupTimeline() {
+  $("timeline").addEventListener("input", (ev) => timeline.set(Number(ev.target.value)));
+  $("timeline-live").addEventListener("click", () => { $("timeline").value = state.t; timeline.set(state.t); });
+  $("decision-text").addEventListener("input", drawDecisions);
+  $("decision-kind").addEventListener("change", drawDecisions);
+  for (const b of document.querySelectorAll("#tabs button")) b.addEventListener("click", () => showTab(b.dataset.tab));
+  $("ack-all").addEventListener("click", () => acknowledge([...state.alerts.values()].filter((a) => a.acked_by == null).map((a) => a.id)));
 }
 
 // ---- applying the stream -------------------------------------------------------------
 
 function applyIncident(inc) {
-  state.seq = inc.seq; state.t = inc.t; state.coordinator = inc.coordinator;
+  state.seq = inc.seq; state.t = inc.t; state.coordinator = inc.coordinator; state.link = inc.link;
   if (!state.site || state.site.stations_m.length !== inc.site.stations_m.length || state.site.scenario !== inc.site.scenario) {
     state.site = inc.site; drawSite();
   }
   state.units = new Map(inc.units.map((u) => [u.id, u]));
   state.fires = new Map(inc.fires.map((f) => [f.id, f]));
   state.goals = inc.goals; state.alerts = new Map(inc.alerts.map((a) => [a.id, a]));
+  state.decisions = new Map(inc.decisions.map((l) => [l.id, l]));
   state.heat = inc.heat;
-  $("units").replaceChildren(); unitEls.clear(); unitRows.clear(); $("units-body").replaceChildren();
-  $("fires").replaceChildren(); fireEls.clear();
-  $("decisions").replaceChildren();
+  unitRows.clear(); $("units-body").replaceChildren();
   const now = Date.now();
-  for (const u of state.units.values()) { drawUnit(u, now); unitRow(u, now); }
-  for (const f of state.fires.values()) drawFire(f);
-  fireRows(); drawGoals(); drawHeat(); drawAlerts(); drawDecisions(inc.decisions); drawHeader();
+  for (const u of state.units.values()) unitRow(u, now);
+  fireRows(); drawGoals(); drawHeat(); drawAlerts(); drawDecisions(); drawHeader();
+  timeline.record();
+  fitIncident();
   window.ffStats.incidents++;
 }
 
@@ -332,18 +781,25 @@ function applyDelta(d) {
   if (d.seq <= state.seq) return;
   state.seq = d.seq; state.t = d.t;
   if (d.coordinator != null) state.coordinator = d.coordinator;
+  if (d.link != null) { state.link = d.link; banner(); }
   const now = Date.now();
   const heard = [];
   for (const u of d.units || []) {
-    state.units.set(u.id, u); drawUnit(u, now); unitRow(u, now);
+    state.units.set(u.id, u); unitRow(u, now);
     if (u.heard_ms != null) heard.push(u.heard_ms);
   }
-  if (d.fires) { for (const f of d.fires) { state.fires.set(f.id, f); drawFire(f); } fireRows(); }
+  if (d.fires || d.fires_gone) {
+    for (const f of d.fires || []) state.fires.set(f.id, f);
+    for (const id of d.fires_gone || []) state.fires.delete(id);
+    fireRows();
+  }
   if (d.goals) { state.goals = d.goals; drawGoals(); }
   if (d.alerts) { for (const a of d.alerts) state.alerts.set(a.id, a); drawAlerts(); }
   if (d.heat) { state.heat = d.heat; drawHeat(); }
-  if (d.decisions) drawDecisions(d.decisions);
+  if (d.decisions) { for (const l of d.decisions) state.decisions.set(l.id, l); drawDecisions(); }
   drawHeader();
+  timeline.record();
+  scheduleRender();
   window.ffStats.deltas++;
   if (heard.length) {
     // Drawn once the browser has painted the frame with the change in it.
@@ -378,11 +834,8 @@ function link(up, loginNeeded) {
 // Ages every unit on this page's clock.
 setInterval(() => {
   const now = Date.now();
-  for (const u of state.units.values()) {
-    unitRow(u, now);
-    const g = unitEls.get(u.id);
-    if (g && g.dataset.status !== unitStatus(u, now)) drawUnit(u, now);
-  }
+  for (const u of state.units.values()) unitRow(u, now);
+  scheduleRender();
 }, 500);
 
 // ---- commands ------------------------------------------------------------------------
@@ -424,11 +877,13 @@ function setupCommands() {
     ev.preventDefault();
     const form = { zone: $("goal-zone").value, goal: kind.value, priority: Number($("goal-priority").value || 0), rail_allowed: $("goal-rail").checked };
     if (kind.value === "contain") form.before_m = Number($("goal-before").value);
+    const minutes = $("goal-expires").value;
+    if (minutes !== "") form.expires_s = Number(minutes) * 60;
     const ack = $("ack");
     ack.className = ""; ack.textContent = `issuing ${form.goal} on ${form.zone}...`;
     const r = await command("POST", "/api/goals", form);
     if (r.body.accepted === true) { ack.className = "accepted"; ack.textContent = `accepted: ${r.body.id}: ${r.body.reason}`; }
-    else if (r.body.accepted === false) { ack.className = "rejected"; ack.textContent = `rejected: ${r.body.id}: ${r.body.reason}`; }
+    else if (r.body.accepted === false) { ack.className = "rejected"; ack.textContent = `rejected: your goal ${r.body.id}: ${r.body.reason}`; }
     else { ack.className = "rejected"; ack.textContent = `not issued: ${r.body.error}`; }
   });
   $("goal-clear").addEventListener("click", async () => {
@@ -440,5 +895,6 @@ function setupCommands() {
 }
 
 setupPanZoom();
+setupTimeline();
 setupCommands();
 command("GET", "/api/me").then((r) => { loggedIn(r.ok ? r.body.name : null, r.ok ? r.body.role : null); connect(); });

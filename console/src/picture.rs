@@ -56,6 +56,10 @@ pub const UNIT_PERIOD_MS: u64 = 1000;
 /// A fire track not republished for this long while the coordinator republishes others
 /// (every second) is no longer one it knows: dropped, ms.
 pub const FIRE_ORPHAN_MS: u64 = 5000;
+/// A vanished token counts as a lost unit (or coordinator) only if the console's own link
+/// to the site still holds this long after, ms: when the router dies, every token vanishes
+/// a moment before the link is known to be down.
+pub const LOST_CONFIRM_MS: u64 = 1000;
 /// Below this flow a unit is not spraying: no time left is shown, L/s.
 const SPRAYING_L_S: f64 = 0.5;
 
@@ -266,6 +270,9 @@ pub struct Picture {
     stranded: BTreeSet<(FireId, String)>,
     /// The (unit, goal) pairs trapped as last told, likewise.
     trapped: BTreeSet<(UnitId, String)>,
+    /// Tokens that vanished, and when, not yet taken for lost ([`LOST_CONFIRM_MS`]); the
+    /// coordinator's under no unit's id.
+    vanished: BTreeMap<Option<UnitId>, u64>,
     decisions: VecDeque<DecisionLine>,
     next_line: u64,
     alerts: BTreeMap<u64, Alert>,
@@ -303,6 +310,7 @@ impl Picture {
             goals: Vec::new(),
             stranded: BTreeSet::new(),
             trapped: BTreeSet::new(),
+            vanished: BTreeMap::new(),
             decisions: VecDeque::new(),
             next_line: 1,
             alerts: BTreeMap::new(),
@@ -353,24 +361,24 @@ impl Picture {
             }
             Event::Message(Payload::SimClock(c)) => self.advance(c.t),
             Event::Message(_) => {}
-            Event::UnitAlive(id, alive) => self.unit_alive(id, alive),
+            Event::UnitAlive(id, alive) => self.unit_alive(now_ms, id, alive),
             Event::Link(up) => {
                 if self.link != Some(up) {
                     self.link = Some(up);
                     self.changes.link = true;
                 }
+                if !up {
+                    self.vanished.clear();
+                }
             }
             Event::Status(status) => self.fill_in(now_ms, *status),
             Event::CoordinatorAlive(alive) => {
                 // Every token vanishes with the console's own link: that is no news of the
-                // coordinator.
-                if self.coordinator == Some(true) && !alive && self.link != Some(false) {
-                    self.raise(
-                        AlertKind::CoordinatorLost,
-                        "the coordinator's token vanished: no one is assigning fires until a \
-                         standby takes over"
-                            .into(),
-                    );
+                // coordinator, so it is confirmed first.
+                if alive {
+                    self.vanished.remove(&None);
+                } else if self.coordinator == Some(true) && self.link != Some(false) {
+                    self.vanished.insert(None, now_ms);
                 }
                 self.coordinator = Some(alive);
                 self.changes.coordinator = true;
@@ -483,7 +491,7 @@ impl Picture {
         }
     }
 
-    fn unit_alive(&mut self, id: UnitId, alive: bool) {
+    fn unit_alive(&mut self, now_ms: u64, id: UnitId, alive: bool) {
         let view = self
             .units
             .entry(id.clone())
@@ -492,14 +500,42 @@ impl Picture {
         view.alive = alive;
         if alive {
             view.lost = false;
+            self.vanished.remove(&Some(id.clone()));
         } else if was && self.link != Some(false) {
-            view.lost = true;
-            self.raise(
-                AlertKind::UnitLost { unit: id.clone() },
-                format!("{id} lost: its token vanished (link or unit down)"),
-            );
+            self.vanished.insert(Some(id.clone()), now_ms);
         }
         self.changes.units.insert(id);
+    }
+
+    /// Take the tokens that vanished [`LOST_CONFIRM_MS`] ago, the link still up, for lost.
+    fn confirm_lost(&mut self, now_ms: u64) {
+        let due: Vec<Option<UnitId>> = self
+            .vanished
+            .iter()
+            .filter(|&(_, &at)| now_ms >= at.saturating_add(LOST_CONFIRM_MS))
+            .map(|(who, _)| who.clone())
+            .collect();
+        for who in due {
+            self.vanished.remove(&who);
+            match who {
+                Some(id) => {
+                    if let Some(view) = self.units.get_mut(&id) {
+                        view.lost = true;
+                    }
+                    self.changes.units.insert(id.clone());
+                    self.raise(
+                        AlertKind::UnitLost { unit: id.clone() },
+                        format!("{id} lost: its token vanished (link or unit down)"),
+                    );
+                }
+                None => self.raise(
+                    AlertKind::CoordinatorLost,
+                    "the coordinator's token vanished: no one is assigning fires until a \
+                     standby takes over"
+                        .into(),
+                ),
+            }
+        }
     }
 
     fn fire(&mut self, now_ms: u64, f: FireTrack) {
@@ -654,6 +690,7 @@ impl Picture {
             self.changes.heat = false;
         }
         self.drop_orphans();
+        self.confirm_lost(now_ms);
         // Units whose only change is a move wait for their period; the rest go now.
         let mut units = Vec::new();
         let mut waiting = BTreeSet::new();

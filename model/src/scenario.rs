@@ -671,14 +671,25 @@ mod tests {
     fn portals_are_named_by_the_site_file_or_by_letter() {
         let s = Scenario::from_toml(OK, "s.toml").unwrap();
         assert_eq!(s.portal_names(), ["portal A", "portal B"]);
-        let named = OK.replace("time_limit_s", "portals = [\"north\", \"south\"]\ntime_limit_s");
+        let named = OK.replace(
+            "time_limit_s",
+            "portals = [\"north\", \"south\"]\ntime_limit_s",
+        );
         let s = Scenario::from_toml(&named, "n.toml").unwrap();
         assert_eq!(s.portal_names(), ["north", "south"]);
         refused(
             &named,
             &[
-                ("\"south\"", "\"north\"", "portals: the two portals need two names"),
-                ("\"south\"", "\" \"", "portals[1]: must have 1 to 32 characters"),
+                (
+                    "\"south\"",
+                    "\"north\"",
+                    "portals: the two portals need two names",
+                ),
+                (
+                    "\"south\"",
+                    "\" \"",
+                    "portals[1]: must have 1 to 32 characters",
+                ),
                 ("\"north\", \"south\"", "\"north\"", "portals"),
             ],
         );

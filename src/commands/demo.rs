@@ -100,6 +100,10 @@ pub struct DemoArgs {
     /// Kill the coordinator in charge at this site time: the standby takes over.
     #[arg(long, value_name = "SECONDS", requires = "standby", value_parser = non_negative_f64)]
     kill_coordinator_at: Option<f64>,
+    /// Kill the coordinator at this site time and start a new one at once, which remembers
+    /// nothing but what a recorder kept (with --record) and what the units say.
+    #[arg(long, value_name = "SECONDS", conflicts_with = "standby", value_parser = non_negative_f64)]
+    restart_coordinator_at: Option<f64>,
 }
 
 /// The demo's label of the standby coordinator's process.
@@ -334,14 +338,14 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         println!("the incident commander's console: {scheme}://{addr}/");
         roles.push((Identity::Console, args));
     }
-    for (who, args) in roles {
-        let role = match &who {
+    let spawn = |who: &Identity, args: &[String]| -> anyhow::Result<(String, Child)> {
+        let role = match who {
             Identity::Unit(u) => format!("agent:{u}"),
             Identity::Coordinator if args.iter().any(|a| a == "--standby") => STANDBY_ROLE.into(),
             other => other.to_string(),
         };
         let mut cmd = Command::new(&exe);
-        cmd.args(&args)
+        cmd.args(args)
             .args(["--scenario", a.scenario.as_str(), "--die-with-parent"]);
         match &site {
             Some(s) => cmd
@@ -353,7 +357,10 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         let child = cmd
             .spawn()
             .with_context(|| format!("starting the {role} process"))?;
-        children.push((role, child));
+        Ok((role, child))
+    };
+    for (who, args) in &roles {
+        children.push(spawn(who, args)?);
     }
     println!(
         "firefleet demo: scenario '{}' (seed {seed}), {} fires, {} units, {} processes on {endpoint}, time x{}",
@@ -374,6 +381,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let shutdown = shutdown_signal(false);
     tokio::pin!(shutdown);
     let mut kill_at = a.kill_coordinator_at;
+    let mut restart_at = a.restart_coordinator_at;
     let outcome = loop {
         tokio::select! {
             _ = &mut shutdown => break Outcome::Interrupted,
@@ -395,6 +403,15 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
                     let (_, mut c) = children.remove(k);
                     c.kill().await?;
                     println!("t={:.1} s: killed the coordinator in charge; the standby takes over", truth.t);
+                }
+                if restart_at.take_if(|at| truth.t >= *at).is_some()
+                    && let Some(k) = children.iter().position(|(role, _)| role == "coordinator")
+                    && let Some((who, args)) = roles.iter().find(|(who, _)| *who == Identity::Coordinator)
+                {
+                    let (_, mut c) = children.remove(k);
+                    c.kill().await?;
+                    children.push(spawn(who, args)?);
+                    println!("t={:.1} s: killed the coordinator and started a new one", truth.t);
                 }
                 let due = goals_to_issue.take_if(|_| truth.t >= a.goals_at);
                 for g in due.unwrap_or_default() {
