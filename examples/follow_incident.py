@@ -39,7 +39,7 @@ def events(opener, url):
 
 class Follower:
     def __init__(self):
-        self.fires, self.units = {}, {}
+        self.fires, self.units, self.lines = {}, {}, set()
 
     def fire(self, f):
         if self.fires.get(f["id"]) != f["state"]:
@@ -64,8 +64,11 @@ class Follower:
             self.fire(f)
         for u in body.get("units", []):
             self.unit(u)
+        # Decision lines come again when a repeat is counted on them: each is printed once.
         for d in body.get("decisions", []):
-            print(f"  t={d['t']:.1f} s {d['text']}")
+            if d["id"] not in self.lines:
+                self.lines.add(d["id"])
+                print(f"  t={d['t']:.1f} s {d['text']}")
         for a in body.get("alerts", []):
             if a["acked_by"] is None:
                 print(f"ALERT {a['id']}: {a['text']}")

@@ -58,4 +58,4 @@ pub mod render;
 pub use bus::{
     Bus, BusError, Connect, Inbox, Mode, RejectCounts, free_loopback_port, mtls_link, one_stream,
 };
-pub use exchange::{Answers, Ask, Question, Questions, Raw, RawInbox, Token, Tokens};
+pub use exchange::{Answers, Ask, DeclaredKeys, Question, Questions, Raw, RawInbox, Token, Tokens};

@@ -2,7 +2,8 @@
 // Plain JavaScript, no framework and no build: the console binary serves this file as is.
 //
 // The stream opens with the whole picture (`incident`) and then sends what changed
-// (`delta`): whole entities and decision lines, replaced by id. Freshness is aged here, on
+// (`delta`): whole entities and decision lines, replaced by id, and units' moves, applied
+// on top of the unit held. Freshness is aged here, on
 // this page's clock: a page or console cut off shows every unit going stale rather than a
 // map that looks current.
 //
@@ -787,6 +788,17 @@ function applyDelta(d) {
   for (const u of d.units || []) {
     state.units.set(u.id, u); unitRow(u, now);
     if (u.heard_ms != null) heard.push(u.heard_ms);
+  }
+  // A move: the pose and what follows from it, on top of the unit the page holds.
+  for (const m of d.moves || []) {
+    const u = state.units.get(m.id);
+    if (!u || !u.state) continue;
+    const s = u.state;
+    s.t = m.t; s.pose.x = m.x; s.pose.y = m.y; s.pose.yaw = m.yaw; s.speed = m.speed;
+    s.water_l = m.water_l; s.heat_flux_kw_m2 = m.heat;
+    u.heard_ms = m.heard_ms; u.tank_pct = m.tank_pct; u.time_left_s = m.time_left_s; u.eta_s = m.eta_s;
+    unitRow(u, now);
+    heard.push(m.heard_ms);
   }
   if (d.fires || d.fires_gone) {
     for (const f of d.fires || []) state.fires.set(f.id, f);

@@ -29,6 +29,19 @@ const LINK_CHECK: Duration = Duration::from_millis(500);
 /// logged and dropped; the console keeps going.
 pub async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> Result<(), BusError> {
     let keys = bus.keys();
+    // Each unit's state and task key declared: at 1000 units, matching every sample's key
+    // against the whole key table took more than a core ([`Bus::declare_keys`]).
+    let unit_keys: Vec<String> = console
+        .units()
+        .iter()
+        .flat_map(|u| {
+            [
+                keys.unit_state(u).as_str().to_owned(),
+                keys.unit_task(u).as_str().to_owned(),
+            ]
+        })
+        .collect();
+    let _declared = bus.declare_keys(&unit_keys).await?;
     let wanted = [
         keys.every_unit_state().as_str().to_owned(),
         keys.every_unit_task().as_str().to_owned(),

@@ -10,8 +10,9 @@
 //! going stale instead of a frozen, confident map.
 //!
 //! The page is told what changed, at a bounded rate: a unit's move at most every
-//! [`UNIT_PERIOD_MS`] (what it does, whether it lives, at once), numbers rounded to what a
-//! map shows, so a thousand units cost a page some 300 kB/s, not megabytes. Repeated
+//! [`UNIT_PERIOD_MS`] and as a [`UnitMove`] (what it does, whether it lives, at once and
+//! whole), numbers rounded to what a map shows, so a thousand moving units cost a page
+//! some 150 kB/s, not megabytes. Repeated
 //! decisions fold into one line with a count. A fire the coordinator in charge no longer
 //! republishes (a duplicate it merged, or the tracks of a coordinator that was replaced
 //! without a recorder) is dropped: the page must not show two fires where there is one.
@@ -53,6 +54,9 @@ pub const HEAT_PERIOD_MS: u64 = 1000;
 /// A unit's move is sent to pages at most this often, ms; a change of what it does (mode,
 /// task, refusal) or of its liveness goes at the next tick.
 pub const UNIT_PERIOD_MS: u64 = 1000;
+/// A unit is sent whole at least this often, ms; between, a move carries only its pose
+/// and what follows from it ([`UnitMove`]).
+pub const UNIT_WHOLE_PERIOD_MS: u64 = 10_000;
 /// A fire track not republished for this long while the coordinator republishes others
 /// (every second) is no longer one it knows: dropped, ms.
 pub const FIRE_ORPHAN_MS: u64 = 5000;
@@ -129,8 +133,9 @@ pub enum AlertKind {
     FireReignited {
         fire: FireId,
     },
+    /// A goal the coordinator refused (`goal`: its id; the alert's own `id` is the alert's).
     GoalRejected {
-        id: String,
+        goal: String,
         zone: String,
         /// Whose goal it was.
         issued_by: Option<String>,
@@ -219,6 +224,9 @@ pub struct Delta {
     pub link: Option<bool>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub units: Vec<UnitView>,
+    /// Units that only moved, since they were last sent.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub moves: Vec<UnitMove>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub fires: Vec<FireTrack>,
     /// Fires dropped: no longer known to the coordinator in charge.
@@ -261,7 +269,7 @@ pub struct Picture {
     units: BTreeMap<UnitId, UnitView>,
     /// Per unit: its tank, L, and what its page was last sent (when, and what it did).
     tanks: BTreeMap<UnitId, f64>,
-    sent: BTreeMap<UnitId, (u64, Doing)>,
+    sent: BTreeMap<UnitId, Sent>,
     fires: BTreeMap<FireId, FireTrack>,
     /// When each fire's track was last heard, ms.
     fire_heard: BTreeMap<FireId, u64>,
@@ -342,7 +350,7 @@ impl Picture {
                         .map_or_else(|| "a".to_owned(), |c| format!("{c}'s"));
                     self.raise(
                         AlertKind::GoalRejected {
-                            id: a.id.clone(),
+                            goal: a.id.clone(),
                             zone: a.zone.to_string(),
                             issued_by: a.issued_by.as_ref().map(|c| c.to_string()),
                             reason: a.reason.clone(),
@@ -691,27 +699,44 @@ impl Picture {
         }
         self.drop_orphans();
         self.confirm_lost(now_ms);
-        // Units whose only change is a move wait for their period; the rest go now.
+        // A change of what a unit does goes now and whole; a move waits for its period and
+        // goes as a move, the whole unit once in a while.
         let mut units = Vec::new();
+        let mut moves = Vec::new();
         let mut waiting = BTreeSet::new();
         for id in std::mem::take(&mut self.changes.units) {
             let Some(view) = self.units.get(&id) else {
                 continue;
             };
             let doing = Doing::of(view);
-            let due = self.sent.get(&id).is_none_or(|(at, was)| {
-                *was != doing || now_ms >= at.saturating_add(UNIT_PERIOD_MS)
-            });
-            if due {
-                units.push(view.clone());
-                self.sent.insert(id, (now_ms, doing));
-            } else {
-                waiting.insert(id);
+            match self.sent.get(&id) {
+                Some(sent) if sent.doing == doing => {
+                    if now_ms < sent.at.saturating_add(UNIT_PERIOD_MS) {
+                        waiting.insert(id);
+                        continue;
+                    }
+                    let whole = now_ms >= sent.whole_at.saturating_add(UNIT_WHOLE_PERIOD_MS);
+                    match UnitMove::of(view).filter(|_| !whole) {
+                        Some(m) => {
+                            moves.push(m);
+                            self.sent.get_mut(&id).expect("just read").at = now_ms;
+                        }
+                        None => {
+                            units.push(view.clone());
+                            self.sent.insert(id, Sent::whole(now_ms, doing));
+                        }
+                    }
+                }
+                _ => {
+                    units.push(view.clone());
+                    self.sent.insert(id, Sent::whole(now_ms, doing));
+                }
             }
         }
         let c = &mut self.changes;
         c.units = waiting;
         let nothing = units.is_empty()
+            && moves.is_empty()
             && c.fires.is_empty()
             && c.fires_gone.is_empty()
             && !c.goals
@@ -733,6 +758,7 @@ impl Picture {
             coordinator: c.coordinator.then_some(self.coordinator).flatten(),
             link: c.link.then_some(self.link).flatten(),
             units,
+            moves,
             fires: c
                 .fires
                 .iter()
@@ -838,6 +864,65 @@ impl UnitView {
             .filter(|_| s.speed.abs() > 0.2)
             .map(|task| round(task.target.dist(s.pose.position()) / s.speed.abs(), 1.0));
         self.state = Some(s);
+    }
+}
+
+/// What was last sent to pages of a unit: when, what it did, and when it was sent whole.
+#[derive(Debug)]
+struct Sent {
+    at: u64,
+    doing: Doing,
+    whole_at: u64,
+}
+
+impl Sent {
+    fn whole(at: u64, doing: Doing) -> Self {
+        Self {
+            at,
+            doing,
+            whole_at: at,
+        }
+    }
+}
+
+/// A unit that only moved: its pose and what follows from it, a third of a whole unit's
+/// JSON; the page keeps the rest.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct UnitMove {
+    pub id: UnitId,
+    pub t: f64,
+    pub x: f64,
+    pub y: f64,
+    pub yaw: f64,
+    pub speed: f64,
+    pub water_l: f64,
+    pub heat: f64,
+    pub heard_ms: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tank_pct: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_left_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eta_s: Option<f64>,
+}
+
+impl UnitMove {
+    fn of(v: &UnitView) -> Option<Self> {
+        let s = v.state.as_ref()?;
+        Some(Self {
+            id: v.id.clone(),
+            t: s.t,
+            x: s.pose.x,
+            y: s.pose.y,
+            yaw: s.pose.yaw,
+            speed: s.speed,
+            water_l: s.water_l,
+            heat: s.heat_flux_kw_m2,
+            heard_ms: v.heard_ms?,
+            tank_pct: v.tank_pct,
+            time_left_s: v.time_left_s,
+            eta_s: v.eta_s,
+        })
     }
 }
 

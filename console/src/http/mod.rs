@@ -161,6 +161,17 @@ impl Console {
         self.picture.lock().expect("picture lock")
     }
 
+    /// The units of the site this console shows.
+    pub fn units(&self) -> Vec<firefleet_model::UnitId> {
+        let picture = self.picture();
+        picture
+            .site()
+            .units
+            .iter()
+            .filter_map(|u| firefleet_model::UnitId::new(u.id.as_str()).ok())
+            .collect()
+    }
+
     /// Take in what the bus said.
     pub fn observe(&self, event: Event) {
         self.picture().observe(now_ms(), event);

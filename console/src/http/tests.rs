@@ -344,9 +344,16 @@ async fn a_bad_goal_is_refused_naming_what_is_wrong() {
 async fn an_alert_is_acknowledged_by_the_login() {
     let f = fixture();
     let cookie = log_in(&f.console).await;
-    let unit = firefleet_model::UnitId::new("ugv-1").unwrap();
-    f.console.observe(Event::UnitAlive(unit.clone(), true));
-    f.console.observe(Event::UnitAlive(unit, false));
+    f.console
+        .observe(Event::Message(firefleet_protocol::payload::Payload::Ack(
+            GoalAck {
+                id: "g".into(),
+                zone: firefleet_model::ZoneId::new("deep").unwrap(),
+                issued_by: None,
+                accepted: false,
+                reason: "conflicts".into(),
+            },
+        )));
     let (_, _, incident) = call(&f.console, "GET", "/api/incident", Some(&cookie), None).await;
     let id = incident["alerts"][0]["id"].as_u64().unwrap();
     let uri = format!("/api/alerts/{id}/ack");

@@ -99,7 +99,9 @@ fn a_unit_s_moves_reach_pages_at_a_bounded_rate_and_what_it_does_at_once() {
         s.t = k as f64 / 10.0;
         s.pose.x = 10.0 + 0.1 * k as f64;
         p.observe(k * 100, Event::Message(Payload::UnitState(s.clone())));
-        sent += p.delta(k * 100).map_or(0, |d| d.units.len());
+        sent += p
+            .delta(k * 100)
+            .map_or(0, |d| d.units.len() + d.moves.len());
     }
     assert_eq!(sent as u64, 2000 / UNIT_PERIOD_MS, "moves only");
     // A change of mode goes at the next tick.
@@ -112,10 +114,16 @@ fn a_unit_s_moves_reach_pages_at_a_bounded_rate_and_what_it_does_at_once() {
     s.mode = firefleet_protocol::msg::UnitMode::Fault;
     s.pose.x = 30.0;
     s.t = 2.1;
-    p.observe(2_100, Event::Message(Payload::UnitState(s)));
+    p.observe(2_100, Event::Message(Payload::UnitState(s.clone())));
     assert!(p.delta(2_100).is_none());
     let d = p.delta(3_050).unwrap();
-    assert_eq!(d.units[0].state.as_ref().unwrap().pose.x, 30.0);
+    assert!(d.units.is_empty(), "only a move: the page has the rest");
+    assert_eq!((d.moves[0].x, d.moves[0].heard_ms), (30.0, 2_100));
+    // Whole again once in a while, so a page never drifts from the picture.
+    s.t = 12.5;
+    p.observe(12_500, Event::Message(Payload::UnitState(s)));
+    let d = p.delta(12_500).unwrap();
+    assert_eq!((d.units.len(), d.moves.len()), (1, 0));
 }
 
 #[test]

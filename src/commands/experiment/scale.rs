@@ -9,7 +9,8 @@
 //! Measured: for each report, the time until the coordinator's Extinguish task for that
 //! fire arrives (the whole path: the report over Zenoh, fusion, the assignment over every
 //! unit, the task back over Zenoh), and the coordinator process's CPU time over the run.
-//! The units do not move or act: this measures the coordinator, not the fleet.
+//! The units sway about their posts (2 m either way) and do not act: this measures the
+//! coordinator, not the fleet, and a console that must tell pages of every move.
 //!
 //! `--secure` runs the same load a second time over QUIC with mutual TLS, the coordinator's
 //! router (holding the router's certificate) enforcing the site's access rules and rate and
@@ -19,7 +20,8 @@
 //!
 //! `--console` runs it once more with the commanders' console attached (a `firefleet
 //! console` process on the plain link, one page following its stream), and adds the
-//! console's own CPU share: the console's cost on the coordinator, measured in one run.
+//! console's own CPU share and the bytes a second its page is sent: the console's cost,
+//! against the budget of issue #35 (10 % of a core, 300 kB/s a page at 1000 units).
 
 use std::collections::BTreeMap;
 use std::io::Write as _;
@@ -84,6 +86,10 @@ struct Figures {
 
 /// Units stand 10 m apart; fires 50 m apart, so that fusion keeps them apart.
 const UNIT_SPACING_M: f64 = 10.0;
+/// How far each simulated unit drives either side of its post, m, and how fast it turns
+/// back, rad/s (so at most 1 m/s).
+const SWAY_M: f64 = 2.0;
+const SWAY_RAD_S: f64 = 0.5;
 const FIRE_SPACING_M: f64 = 50.0;
 const WARM_UP: Duration = Duration::from_secs(3);
 /// How long to wait for the last answers after the last report.
@@ -331,12 +337,19 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
             .map(|(i, id)| (id, i))
             .collect(),
     );
+    // Every unit drives to and fro about its post (2 m either way, up to 1 m/s), so that
+    // each state says something new, as a working fleet's do: a console that sends only
+    // what changed is measured at its worst.
     let state = |i: usize, id: &UnitId, t: f64, task: Option<(u64, u64)>| UnitState {
         unit: id.clone(),
         kind: UnitKind::Ground,
         t,
-        pose: Pose2::new(50.0 + i as f64 * UNIT_SPACING_M, -1.75, 0.0),
-        speed: 0.0,
+        pose: Pose2::new(
+            50.0 + i as f64 * UNIT_SPACING_M + SWAY_M * (SWAY_RAD_S * t + i as f64).sin(),
+            -1.75,
+            0.0,
+        ),
+        speed: SWAY_M * SWAY_RAD_S * (SWAY_RAD_S * t + i as f64).cos(),
         mode: UnitMode::Idle,
         water_l: 1500.0,
         health: 1.0,
