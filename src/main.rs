@@ -80,13 +80,16 @@ enum Command {
     Router(commands::deploy::RouterArgs),
 }
 
-/// Log to stderr; `RUST_LOG` overrides `default`.
+/// Log to stderr; `RUST_LOG` overrides `default`. Colour only on a terminal: a journal or a
+/// log file would keep the escape codes.
 fn init_logging(default: &str) {
+    use std::io::IsTerminal as _;
     let filter =
         tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| default.into());
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
         .init();
 }
 

@@ -27,11 +27,12 @@ pub mod schema;
 pub mod sim;
 pub mod status;
 
-/// The scenario (site file) every role reads.
+/// The scenario (site file) every role reads. Required: a role started on a site without
+/// it would have run, silently, on the `vehicle-collision` demo's map and units.
 #[derive(Args, Clone, Debug)]
 pub struct ScenarioArg {
-    /// A built-in scenario name (see `firefleet scenarios`) or a scenario file.
-    #[arg(long, default_value = "vehicle-collision")]
+    /// The site file, or a built-in scenario's name (see `firefleet scenarios`).
+    #[arg(long, value_name = "FILE|NAME")]
     pub scenario: String,
 }
 
