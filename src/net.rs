@@ -62,15 +62,49 @@ pub struct ZenohArgs {
 impl ZenohArgs {
     /// How to join as a process that must be `expect` when it has a TLS identity (`None`:
     /// any identity of the site).
+    ///
+    /// Under systemd with `LoadCredential=` of `ca.pem`, `cert.pem` and `key.pem`, the
+    /// identity is the credentials directory's unless `--tls-dir` says otherwise: the key
+    /// stays 0600 and root's on disk, and the service's dynamic user reads the copy systemd
+    /// hands it (it could not read the file itself).
     pub fn connect(&self, expect: Option<Expect>) -> Connect {
         Connect {
             config_file: self.zenoh_config.clone(),
             mode: self.mode.map(Mode::from),
             connect: self.connect.clone(),
             listen: self.listen.clone(),
-            tls: self.tls_dir.clone(),
+            tls: self.tls_dir.clone().or_else(credentials),
             expect,
         }
+    }
+}
+
+/// systemd's credentials directory for this service, if it holds a TLS identity.
+fn credentials() -> Option<PathBuf> {
+    let dir = PathBuf::from(std::env::var_os("CREDENTIALS_DIRECTORY")?);
+    ["ca.pem", "cert.pem", "key.pem"]
+        .iter()
+        .all(|f| dir.join(f).is_file())
+        .then_some(dir)
+}
+
+/// Tell systemd (a `Type=notify` service) that the role has joined its site, and feed its
+/// watchdog for as long as the runtime runs; nothing when not under systemd. The watchdog
+/// is fed from a task of its own: a runtime that stalls starves it and systemd restarts the
+/// service.
+pub fn ready() {
+    if let Err(e) = sd_notify::notify(false, &[sd_notify::NotifyState::Ready]) {
+        tracing::warn!("could not tell systemd the service is ready: {e}");
+    }
+    let mut usec = 0;
+    if sd_notify::watchdog_enabled(false, &mut usec) {
+        let every = Duration::from_micros(usec / 2);
+        tokio::spawn(async move {
+            loop {
+                tokio::time::sleep(every).await;
+                let _ = sd_notify::notify(false, &[sd_notify::NotifyState::Watchdog]);
+            }
+        });
     }
 }
 
@@ -112,17 +146,19 @@ pub async fn open(zenoh: &ZenohArgs, scenario: &Scenario) -> anyhow::Result<Bus>
 }
 
 /// Join the Zenoh network for a role that runs until stopped (agent, coordinator,
-/// recorder, simulator), trying again while the network is not there yet
-/// ([`Bus::join`]), until joined or stopped by a signal. With a TLS identity it must be
+/// recorder, simulator, console), trying again while the network is not there yet
+/// ([`Bus::join`]), until joined or stopped by a signal; then [`ready`]. With a TLS identity it must be
 /// `who`: files that can never link end the process at once, naming the file and why.
 pub async fn join(zenoh: &ZenohArgs, scenario: &Scenario, who: Expect) -> anyhow::Result<Bus> {
-    Bus::join(
+    let bus = Bus::join(
         &zenoh.connect(Some(who)),
         scenario.site.clone(),
         shutdown_signal(zenoh.die_with_parent),
     )
     .await
-    .context("joining the Zenoh network")
+    .context("joining the Zenoh network")?;
+    ready();
+    Ok(bus)
 }
 
 /// The coordinator's snapshot of the incident, decoded and as sent.

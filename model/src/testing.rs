@@ -200,8 +200,37 @@ pub fn python_package(module: &str, pip: &str, required_by: &str) -> bool {
         std::env::var_os(required_by).is_none(),
         "python3 with {pip} is required here ({required_by} is set): pip install '{pip}'"
     );
+    skipped(&format!(
+        "python3 cannot import {module} (pip install '{pip}'); checked without the independent reader"
+    ));
+    false
+}
+
+/// Whether `program` runs (`program --version`), for a test that checks our files with
+/// another project's tool; missing, as [`python_package`] says it (`install`: how to get
+/// it).
+pub fn program(program: &str, install: &str, required_by: &str) -> bool {
+    let found = std::process::Command::new(program)
+        .arg("--version")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if found {
+        return true;
+    }
+    assert!(
+        std::env::var_os(required_by).is_none(),
+        "{program} is required here ({required_by} is set): {install}"
+    );
+    skipped(&format!("{program} is missing ({install}); not checked"));
+    false
+}
+
+/// Say that the running test skipped a check, on stderr and in `FIREFLEET_SKIPPED`'s file.
+fn skipped(why: &str) {
     let line = format!(
-        "SKIPPED: {}: python3 cannot import {module} (pip install '{pip}'); checked without the independent reader\n",
+        "SKIPPED: {}: {why}\n",
         std::thread::current().name().unwrap_or("a test")
     );
     #[allow(clippy::print_stderr, reason = "a skipped check says so")]
@@ -223,5 +252,4 @@ pub fn python_package(module: &str, pip: &str, required_by: &str) -> bool {
             eprintln!("(could not note the skip in {}: {e})", file.display());
         }
     }
-    false
 }

@@ -170,6 +170,7 @@ pub async fn router(a: RouterArgs) -> anyhow::Result<ExitCode> {
         .await
         .context("starting the router")?;
     tracing::info!(site = %scenario.site, "router up");
+    crate::net::ready();
     shutdown_signal(a.zenoh.die_with_parent).await;
     bus.close().await;
     Ok(ExitCode::SUCCESS)
