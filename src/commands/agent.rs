@@ -14,7 +14,6 @@ use firefleet_agent::{AgentOptions, Ros2Platform, SimPlatform};
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
 use firefleet_model::UnitId;
-use firefleet_model::builtin;
 
 use firefleet_model::UnitKind;
 use firefleet_ros2::graph::{Domain, Namespace};
@@ -64,7 +63,7 @@ struct RosArgs {
 }
 
 pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
-    let scenario = builtin::resolve(&a.scenario.scenario)?;
+    let scenario = a.scenario.load()?;
     if scenario.unit(&a.unit).is_none() {
         anyhow::bail!(
             "--unit {}: the scenario '{}' has no such unit",

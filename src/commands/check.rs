@@ -12,7 +12,6 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 use firefleet_coordinator::incident::LEASE_S;
-use firefleet_model::builtin;
 use firefleet_recorder::parts::Recording;
 
 use super::{ScenarioArg, positive_f64};
@@ -32,7 +31,7 @@ pub struct CheckArgs {
 }
 
 pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
-    let scenario = builtin::resolve(&a.scenario.scenario)?;
+    let scenario = a.scenario.load()?;
     let recording = Recording::load(&a.file)?;
     let checked =
         check(&recording, &scenario, a.lease_s).with_context(|| a.file.display().to_string())?;

@@ -25,10 +25,9 @@ use firefleet_console::picture::Picture;
 use firefleet_console::site::SiteMap;
 use firefleet_console::tls::{TlsListener, server_config};
 use firefleet_model::CommanderId;
-use firefleet_model::builtin;
 
 #[derive(Args, Debug)]
-#[command(args_conflicts_with_subcommands = true)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
 pub struct ConsoleArgs {
     #[command(subcommand)]
     command: Option<ConsoleCommand>,
@@ -110,7 +109,7 @@ fn add_user(a: AddUserArgs) -> anyhow::Result<ExitCode> {
 }
 
 async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
-    let scenario = builtin::resolve(&a.scenario.scenario)?;
+    let scenario = a.scenario.load()?;
     let users = match &a.users {
         Some(path) => Users::load(path)?,
         None if a.http.ip().is_loopback() => {

@@ -12,7 +12,6 @@ use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
 use firefleet_coordinator::CoordinatorOptions;
 use firefleet_model::SiteId;
-use firefleet_model::builtin;
 use firefleet_protocol::msg::EPOCH_RANKS;
 use firefleet_recorder::parts::Recording;
 use firefleet_recorder::reader::Recorded;
@@ -55,7 +54,7 @@ pub struct CoordinatorArgs {
 }
 
 pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
-    let scenario = builtin::resolve(&a.scenario.scenario)?;
+    let scenario = a.scenario.load()?;
     let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Coordinator)).await?;
     let resumed = match &a.resume {
         Some(path) => recorded(path, &scenario.site)?,

@@ -18,7 +18,6 @@ use clap::{Args, Subcommand};
 use firefleet_bus::access::Role;
 use firefleet_bus::render::{Layout, render_site};
 use firefleet_bus::{Bus, Connect, Mode};
-use firefleet_model::builtin;
 use firefleet_model::{CommanderId, RouterId};
 use serde_json::{Value, json};
 
@@ -96,7 +95,7 @@ pub fn run(cmd: DeployCommand) -> anyhow::Result<ExitCode> {
 }
 
 fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
-    let scenario = builtin::resolve(&a.scenario.scenario)?;
+    let scenario = a.scenario.load()?;
     let l = a.layout;
     let layout = Layout {
         pki: l.pki,
@@ -135,7 +134,7 @@ fn router_at(s: &str) -> Result<(RouterId, String), String> {
 }
 
 pub async fn router(a: RouterArgs) -> anyhow::Result<ExitCode> {
-    let scenario = builtin::resolve(&a.scenario.scenario)?;
+    let scenario = a.scenario.load()?;
     let mut connect: Connect = a.zenoh.connect(None);
     connect.mode = Some(Mode::Router);
     let config = connect.to_config()?;

@@ -12,7 +12,6 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use firefleet_bus::goal;
-use firefleet_model::builtin;
 use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::msg::{GoalForm, GoalKind};
 
@@ -91,7 +90,7 @@ pub async fn run(cmd: GoalCommand) -> anyhow::Result<ExitCode> {
     match cmd {
         GoalCommand::Set(a) => set(a).await,
         GoalCommand::List(a) => {
-            let scenario = builtin::resolve(&a.scenario.scenario)?;
+            let scenario = a.scenario.load()?;
             let bus = open(&a.zenoh, &scenario).await?;
             let (status, _) = query_status(&bus).await?;
             if status.goals.is_empty() {
@@ -104,7 +103,7 @@ pub async fn run(cmd: GoalCommand) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         GoalCommand::Clear(a) => {
-            let scenario = builtin::resolve(&a.common.scenario.scenario)?;
+            let scenario = a.common.scenario.load()?;
             let bus = open(&a.common.zenoh, &scenario).await?;
             goal::clear(&bus, &a.zone, &a.by.name)
                 .await
@@ -117,7 +116,7 @@ pub async fn run(cmd: GoalCommand) -> anyhow::Result<ExitCode> {
 }
 
 async fn set(a: SetArgs) -> anyhow::Result<ExitCode> {
-    let scenario = builtin::resolve(&a.common.scenario.scenario)?;
+    let scenario = a.common.scenario.load()?;
     let form = GoalForm {
         id: a.id,
         priority: a.priority,

@@ -28,12 +28,25 @@ pub mod sim;
 pub mod status;
 
 /// The scenario (site file) every role reads. Required: a role started on a site without
-/// it would have run, silently, on the `vehicle-collision` demo's map and units.
+/// it would have run, silently, on the `vehicle-collision` demo's map and units. (An
+/// `Option` that clap requires, so that a command's subcommand may do without it:
+/// `console add-user`.)
 #[derive(Args, Clone, Debug)]
 pub struct ScenarioArg {
     /// The site file, or a built-in scenario's name (see `firefleet scenarios`).
-    #[arg(long, value_name = "FILE|NAME")]
-    pub scenario: String,
+    #[arg(long, value_name = "FILE|NAME", required = true)]
+    pub scenario: Option<String>,
+}
+
+impl ScenarioArg {
+    /// The site file, loaded and validated.
+    pub fn load(&self) -> anyhow::Result<firefleet_model::scenario::Scenario> {
+        let name = self
+            .scenario
+            .as_deref()
+            .ok_or_else(|| anyhow::anyhow!("--scenario FILE|NAME is required"))?;
+        Ok(firefleet_model::builtin::resolve(name)?)
+    }
 }
 
 /// Which body an agent drives.

@@ -17,7 +17,6 @@ use clap::{Args, Subcommand};
 use firefleet_bus::access::{Identity, Role};
 use firefleet_bus::pki::{self, Terms};
 use firefleet_model::CommanderId;
-use firefleet_model::builtin;
 
 use super::ScenarioArg;
 
@@ -97,7 +96,7 @@ pub fn run(cmd: PkiCommand) -> anyhow::Result<ExitCode> {
 }
 
 fn init(a: InitArgs) -> anyhow::Result<ExitCode> {
-    let scenario = builtin::resolve(&a.scenario.scenario)?;
+    let scenario = a.scenario.load()?;
     let commanders = a
         .commander
         .iter()

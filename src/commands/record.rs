@@ -10,7 +10,6 @@ use anyhow::Context;
 use clap::Args;
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
-use firefleet_model::builtin;
 use firefleet_recorder::live::Live;
 use firefleet_recorder::parts::PART_EVERY;
 
@@ -48,7 +47,7 @@ fn part_seconds(s: &str) -> Result<f64, String> {
 }
 
 pub async fn run(a: RecordArgs) -> anyhow::Result<ExitCode> {
-    let scenario = builtin::resolve(&a.scenario.scenario)?;
+    let scenario = a.scenario.load()?;
     let live = match a.foxglove {
         Some(addr) => {
             let listener = tokio::net::TcpListener::bind(addr)

@@ -9,7 +9,6 @@ use anyhow::Context;
 use clap::Args;
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
-use firefleet_model::builtin;
 use firefleet_ros2::graph::Domain;
 use firefleet_sim::SimOptions;
 
@@ -45,7 +44,7 @@ pub struct SimArgs {
 }
 
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
-    let scenario = builtin::resolve(&a.scenario.scenario)?;
+    let scenario = a.scenario.load()?;
     let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Sim)).await?;
     let opts = SimOptions {
         seed: a.seed.unwrap_or(scenario.seed),

@@ -5,7 +5,6 @@
 use std::process::ExitCode;
 
 use clap::Args;
-use firefleet_model::builtin;
 use firefleet_protocol::msg::IncidentStatus;
 
 use super::ScenarioArg;
@@ -23,7 +22,7 @@ pub struct StatusArgs {
 }
 
 pub async fn run(a: StatusArgs) -> anyhow::Result<ExitCode> {
-    let scenario = builtin::resolve(&a.scenario.scenario)?;
+    let scenario = a.scenario.load()?;
     let bus = open(&a.zenoh, &scenario).await?;
     let (status, bytes) = query_status(&bus).await?;
     if a.json {
