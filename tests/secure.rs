@@ -632,8 +632,8 @@ async fn a_stolen_unit_certificate_cannot_stop_a_secure_fleet() {
         "a unit was answered the status"
     );
 
-    // A commander's certificate sets a goal under its own name; under another's, the
-    // router drops it and no coordinator answers.
+    // A commander's certificate sets a goal under its own name; under another's the router
+    // would drop it unanswered, which the tool says before sending it.
     let goal = |by: &str| {
         Command::new(BIN)
             .args(["goal", "set", "--scenario", site.scenario, "--zenoh-config"])
@@ -644,7 +644,15 @@ async fn a_stolen_unit_certificate_cannot_stop_a_secure_fleet() {
             .unwrap()
     };
     assert_says(&goal("rossi"), 0, "accepted");
-    assert!(!goal("bianchi").status.success());
+    let refused = goal("bianchi");
+    assert!(
+        !refused.status.success()
+            && text(&refused).contains(
+                "commander:rossi: the site's router takes goals from it only as --issued-by rossi"
+            ),
+        "{}",
+        text(&refused)
+    );
     // No certificate: no link.
     let plain = cli(
         site.scenario,

@@ -163,25 +163,24 @@ impl Connect {
         Ok(config)
     }
 
+    /// The identity this session would present on the site, checked as
+    /// [`Connect::to_config`] checks it; none without a TLS identity (a plain link).
+    pub fn identity(&self) -> Result<Option<crate::access::Identity>, BusError> {
+        let config = self.to_config()?;
+        let Some(files) = tls_files(&config) else {
+            return Ok(None);
+        };
+        pki::check(&files, None)
+            .map(Some)
+            .map_err(|e| BusError(format!("TLS identity: {e}")))
+    }
+
     /// Refuse, with the file and the reason, a TLS identity that can never link: what
     /// `config` will present (the listening certificate for a router, else the
     /// connecting one).
     fn check_identity(&self, config: &zenoh::Config) -> Result<(), BusError> {
-        let get = |field: &str| -> Option<PathBuf> {
-            config
-                .get_json(&format!("transport/link/tls/{field}"))
-                .ok()
-                .and_then(|s| serde_json::from_str::<Option<String>>(&s).ok().flatten())
-                .map(PathBuf::from)
-        };
         let router = config.get_json("mode").is_ok_and(|m| m.contains("router"));
-        let (cert, key) = if router {
-            ("listen_certificate", "listen_private_key")
-        } else {
-            ("connect_certificate", "connect_private_key")
-        };
-        let (Some(ca), Some(cert), Some(key)) = (get("root_ca_certificate"), get(cert), get(key))
-        else {
+        let Some(files) = tls_files(config) else {
             return if quic_endpoints(config) {
                 Err(BusError(
                     "a QUIC link needs a TLS identity: --tls-dir, or a configuration from firefleet deploy render".into(),
@@ -197,10 +196,33 @@ impl Connect {
         } else {
             self.expect.clone()
         };
-        pki::check(&pki::TlsFiles { ca, cert, key }, expect.as_ref())
+        pki::check(&files, expect.as_ref())
             .map(drop)
             .map_err(|e| BusError(format!("TLS identity: {e}")))
     }
+}
+
+/// The TLS files `config` presents: the listening certificate for a router, else the
+/// connecting one; none if it names no complete identity.
+fn tls_files(config: &zenoh::Config) -> Option<pki::TlsFiles> {
+    let get = |field: &str| -> Option<PathBuf> {
+        config
+            .get_json(&format!("transport/link/tls/{field}"))
+            .ok()
+            .and_then(|s| serde_json::from_str::<Option<String>>(&s).ok().flatten())
+            .map(PathBuf::from)
+    };
+    let router = config.get_json("mode").is_ok_and(|m| m.contains("router"));
+    let (cert, key) = if router {
+        ("listen_certificate", "listen_private_key")
+    } else {
+        ("connect_certificate", "connect_private_key")
+    };
+    Some(pki::TlsFiles {
+        ca: get("root_ca_certificate")?,
+        cert: get(cert)?,
+        key: get(key)?,
+    })
 }
 
 fn quic_endpoints(config: &zenoh::Config) -> bool {

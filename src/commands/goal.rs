@@ -11,6 +11,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
+use firefleet_bus::access::Identity;
 use firefleet_bus::goal;
 use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::msg::{GoalForm, GoalKind};
@@ -128,6 +129,7 @@ async fn set(a: SetArgs) -> anyhow::Result<ExitCode> {
     let goal = form
         .issued_by(a.by.name.clone())
         .map_err(|e| anyhow::anyhow!("the goal is not valid: {e}"))?;
+    may_issue(&a.common.zenoh, &a.by.name)?;
     let bus = open(&a.common.zenoh, &scenario).await?;
     let ack = goal::issue(&bus, &goal, &a.by.name, goal::ACK_TIMEOUT).await;
     bus.close().await;
@@ -141,5 +143,23 @@ async fn set(a: SetArgs) -> anyhow::Result<ExitCode> {
             ack.id, ack.zone, ack.reason
         );
         Ok(ExitCode::FAILURE)
+    }
+}
+
+/// Refuse, before anything is sent, a goal the site's router would drop without a word:
+/// on a site with access rules a commander's certificate puts goals only under its own
+/// name, the console's under any, and no other identity's at all.
+fn may_issue(zenoh: &ZenohArgs, by: &CommanderId) -> anyhow::Result<()> {
+    match zenoh.connect(None).identity()? {
+        None | Some(Identity::Console) => Ok(()),
+        Some(Identity::Commander(name)) if &name == by => Ok(()),
+        Some(Identity::Commander(name)) => anyhow::bail!(
+            "this certificate is commander:{name}: the site's router takes goals from it only \
+             as --issued-by {name} (under '{by}' it would drop the goal, unanswered)"
+        ),
+        Some(other) => anyhow::bail!(
+            "this certificate is {other}, which may not put goals: the site's router would \
+             drop the goal, unanswered (a commander's certificate or the console's may)"
+        ),
     }
 }
