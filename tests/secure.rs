@@ -10,7 +10,7 @@
 
 mod support;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -21,24 +21,7 @@ use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
     BarredSpace, FireState, FireTrack, SimTruth, Task, TaskKind, UnitState,
 };
-use support::{BIN, Fleet, assert_says, cli, outcome, patient, status_of, text};
-
-/// `firefleet pki init` for `scenario` into `dir/pki`, with commander rossi; the PKI.
-fn pki_init(dir: &Path, scenario: &str) -> PathBuf {
-    let pki = dir.join("pki");
-    let out = support::firefleet(&[
-        "pki",
-        "init",
-        "--scenario",
-        scenario,
-        "--out",
-        pki.to_str().unwrap(),
-        "--commander",
-        "rossi",
-    ]);
-    assert!(out.status.success(), "{}", text(&out));
-    pki
-}
+use support::{BIN, Fleet, assert_says, cli, outcome, patient, pki_init, status_of, text};
 
 /// `firefleet status` on `endpoint`, as the identity in `tls` (none: no certificate).
 fn status(scenario: &str, tls: Option<&Path>, endpoint: &str) -> std::process::Output {

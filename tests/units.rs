@@ -42,21 +42,11 @@ fn values<'a>(unit: &'a str, key: &str) -> Vec<&'a str> {
 /// `firefleet pki init` and `deploy render` for rail-tunnel, as deploy/README.md says, in
 /// `dir`: the PKI and the rendered configurations.
 fn site(dir: &Path) -> (PathBuf, PathBuf) {
-    let (pki, cfg) = (dir.join("pki"), dir.join("cfg"));
+    let (pki, cfg) = (support::pki_init(dir, "rail-tunnel"), dir.join("cfg"));
     let run = |args: &[&str]| {
         let out = support::firefleet(args);
         assert!(out.status.success(), "{args:?}: {}", text(&out));
     };
-    run(&[
-        "pki",
-        "init",
-        "--scenario",
-        "rail-tunnel",
-        "--out",
-        pki.to_str().unwrap(),
-        "--commander",
-        "rossi",
-    ]);
     run(&[
         "deploy",
         "render",

@@ -32,7 +32,7 @@ use firefleet_model::heat::{HeatSource, radiant_flux_kw_m2};
 use firefleet_model::{FireId, Point2, UnitId};
 use firefleet_protocol::msg::{
     Decision, FireState, FireTrack, GoalAck, GoalInForce, GoalsInForce, IncidentStatus, Task,
-    TaskPhase, UnitState,
+    TaskPhase, UnitMode, UnitState,
 };
 use firefleet_protocol::payload::Payload;
 use serde::Serialize;
@@ -931,7 +931,7 @@ impl UnitMove {
 struct Doing {
     alive: bool,
     lost: bool,
-    mode: Option<String>,
+    mode: Option<UnitMode>,
     task: Option<(FireId, TaskPhase)>,
     refused: bool,
     autonomous: bool,
@@ -944,7 +944,7 @@ impl Doing {
         Self {
             alive: v.alive,
             lost: v.lost,
-            mode: s.map(|s| s.mode.to_string()),
+            mode: s.map(|s| s.mode),
             task: s.and_then(|s| s.task.as_ref()).map(|t| (t.fire, t.phase)),
             refused: s.is_some_and(|s| s.refused.is_some()),
             autonomous: s.is_some_and(|s| s.autonomous),

@@ -193,17 +193,16 @@ pub fn python_package(module: &str, pip: &str, required_by: &str) -> bool {
         .stderr(std::process::Stdio::null())
         .status()
         .is_ok_and(|s| s.success());
-    if found {
-        return true;
-    }
-    assert!(
-        std::env::var_os(required_by).is_none(),
-        "python3 with {pip} is required here ({required_by} is set): pip install '{pip}'"
-    );
-    skipped(&format!(
-        "python3 cannot import {module} (pip install '{pip}'); checked without the independent reader"
-    ));
-    false
+    found
+        || missing(
+            required_by,
+            &format!(
+                "python3 with {pip} is required here ({required_by} is set): pip install '{pip}'"
+            ),
+            &format!(
+                "python3 cannot import {module} (pip install '{pip}'); checked without the independent reader"
+            ),
+        )
 }
 
 /// Whether `program` runs (`program --version`), for a test that checks our files with
@@ -216,14 +215,19 @@ pub fn program(program: &str, install: &str, required_by: &str) -> bool {
         .stderr(std::process::Stdio::null())
         .status()
         .is_ok_and(|s| s.success());
-    if found {
-        return true;
-    }
-    assert!(
-        std::env::var_os(required_by).is_none(),
-        "{program} is required here ({required_by} is set): {install}"
-    );
-    skipped(&format!("{program} is missing ({install}); not checked"));
+    found
+        || missing(
+            required_by,
+            &format!("{program} is required here ({required_by} is set): {install}"),
+            &format!("{program} is missing ({install}); not checked"),
+        )
+}
+
+/// What a missing tool means: a failed test where `required_by` is set (`required` says
+/// why), else a skip said as [`skipped`] says it. Always false.
+fn missing(required_by: &str, required: &str, skip: &str) -> bool {
+    assert!(std::env::var_os(required_by).is_none(), "{required}");
+    skipped(skip);
     false
 }
 

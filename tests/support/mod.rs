@@ -180,3 +180,20 @@ pub async fn status_of(bus: &Bus, within: Duration) -> serde_json::Value {
     let key = bus.keys().expr(&Topic::CoordStatus);
     first_answer(bus, &key, within, |b| serde_json::from_slice(b).ok()).await
 }
+
+/// `firefleet pki init` for `scenario` into `dir/pki`, with commander rossi; the PKI.
+pub fn pki_init(dir: &std::path::Path, scenario: &str) -> std::path::PathBuf {
+    let pki = dir.join("pki");
+    let out = firefleet(&[
+        "pki",
+        "init",
+        "--scenario",
+        scenario,
+        "--out",
+        pki.to_str().unwrap(),
+        "--commander",
+        "rossi",
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    pki
+}
