@@ -78,6 +78,9 @@ enum Command {
     Deploy(commands::deploy::DeployCommand),
     /// Run a site's Zenoh router (mutual TLS and access rules, unless --plain).
     Router(commands::deploy::RouterArgs),
+    /// Check one host's role before (or beside) its service: every problem one line with
+    /// its fix (exit 1 if any).
+    Doctor(commands::doctor::DoctorArgs),
 }
 
 /// Log to stderr; `RUST_LOG` overrides `default`. Colour only on a terminal: a journal or a
@@ -105,6 +108,7 @@ fn main() -> std::process::ExitCode {
             | Command::Check(_)
             | Command::Schema(_)
             | Command::Plan(_)
+            | Command::Doctor(_)
     );
     init_logging(if quiet { "warn" } else { "info,zenoh=warn" });
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -126,6 +130,7 @@ fn main() -> std::process::ExitCode {
             Command::Pki(c) => commands::pki::run(c),
             Command::Deploy(c) => commands::deploy::run(c),
             Command::Router(a) => commands::deploy::router(a).await,
+            Command::Doctor(a) => commands::doctor::run(a).await,
             Command::Bt(c) => commands::bt::run(c),
             Command::Replay(a) => commands::replay::run(a),
             Command::Check(a) => commands::check::run(a),

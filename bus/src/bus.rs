@@ -94,6 +94,31 @@ pub struct Connect {
 impl Connect {
     /// Build the Zenoh configuration.
     pub fn to_config(&self) -> Result<zenoh::Config, BusError> {
+        let config = self.build()?;
+        self.check_identity(&config)?;
+        Ok(config)
+    }
+
+    /// What the configuration says of this process's links, before its identity is
+    /// checked: for `firefleet doctor`, which names every problem rather than the first.
+    pub fn links(&self) -> Result<Links, BusError> {
+        let config = self.build()?;
+        let endpoints = |field: &str| -> Vec<String> {
+            config
+                .get_json(field)
+                .ok()
+                .and_then(|s| serde_json::from_str::<Vec<String>>(&s).ok())
+                .unwrap_or_default()
+        };
+        Ok(Links {
+            router: config.get_json("mode").is_ok_and(|m| m.contains("router")),
+            tls: tls_files(&config),
+            connect: endpoints("connect/endpoints"),
+            listen: endpoints("listen/endpoints"),
+        })
+    }
+
+    fn build(&self) -> Result<zenoh::Config, BusError> {
         let mut config = match &self.config_file {
             Some(path) => zenoh::Config::from_file(path)
                 .map_err(|e| BusError(format!("config file {}: {e}", path.display())))?,
@@ -159,7 +184,6 @@ impl Connect {
                 .insert_json5("listen/endpoints", &list(&listen))
                 .map_err(|e| BusError(format!("--listen: {e}")))?;
         }
-        self.check_identity(&config)?;
         Ok(config)
     }
 
@@ -200,6 +224,17 @@ impl Connect {
             .map(drop)
             .map_err(|e| BusError(format!("TLS identity: {e}")))
     }
+}
+
+/// A process's links as its configuration says ([`Connect::links`]).
+#[derive(Debug, Clone)]
+pub struct Links {
+    /// It runs as a router.
+    pub router: bool,
+    /// The identity it presents (the listening one for a router), if complete.
+    pub tls: Option<pki::TlsFiles>,
+    pub connect: Vec<String>,
+    pub listen: Vec<String>,
 }
 
 /// The TLS files `config` presents: the listening certificate for a router, else the

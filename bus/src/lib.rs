@@ -52,10 +52,12 @@ mod exchange;
 pub mod goal;
 pub mod limits;
 pub mod pki;
+pub mod probe;
 pub mod refusals;
 pub mod render;
 
 pub use bus::{
-    Bus, BusError, Connect, Inbox, Mode, RejectCounts, free_loopback_port, mtls_link, one_stream,
+    Bus, BusError, Connect, Inbox, Links, Mode, RejectCounts, free_loopback_port, mtls_link,
+    one_stream,
 };
 pub use exchange::{Answers, Ask, DeclaredKeys, Question, Questions, Raw, RawInbox, Token, Tokens};

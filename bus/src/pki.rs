@@ -98,8 +98,12 @@ pub struct Terms {
     /// The hosts a router is reached by (default: localhost and 127.0.0.1); only a
     /// router's certificate names hosts.
     pub hosts: Vec<String>,
-    /// Days from now until it expires.
+    /// Days from its start until it expires.
     pub valid_days: u32,
+    /// When it is valid from (default: now, less an hour's grace for clocks a little
+    /// behind). Earlier dates make a certificate already expired: what tests of the checks
+    /// that refuse one start from.
+    pub from: Option<OffsetDateTime>,
 }
 
 impl Default for Terms {
@@ -107,6 +111,7 @@ impl Default for Terms {
         Self {
             hosts: Vec::new(),
             valid_days: DEFAULT_VALID_DAYS,
+            from: None,
         }
     }
 }
@@ -143,7 +148,17 @@ pub fn make_site(
     let names = Identity::of_site(scenario, commanders);
     let site = Signer::create(&out.join(CA_DIR), CA_NAME)?;
     let web = Signer::create(&out.join(WEB_CA_DIR), WEB_CA_NAME)?;
+    // The hosts are the router's (and the console page's); the other identities are
+    // clients and name none.
+    let client = Terms {
+        hosts: Vec::new(),
+        ..terms.clone()
+    };
     for name in &names {
+        let terms = match name.role() {
+            Role::Router | Role::Console => terms,
+            _ => &client,
+        };
         leaf(out, name, terms, &site, &web)?;
     }
     Ok(names)
@@ -279,7 +294,16 @@ impl Certified {
     /// The certificate of a site identity in PEM text `pem`, which `source` names in
     /// errors.
     pub fn from_pem(pem: &[u8], source: &str) -> Result<Self, PkiError> {
-        let p = parse_pem(pem, source)?;
+        Self::of(parse_pem(pem, source)?, source)
+    }
+
+    /// The certificate of a site identity in DER bytes `der` (as a TLS peer presents it),
+    /// which `source` names in errors.
+    pub fn from_der(der: &[u8], source: &str) -> Result<Self, PkiError> {
+        Self::of(parse_der(der, source)?, source)
+    }
+
+    fn of(p: Parsed, source: &str) -> Result<Self, PkiError> {
         let identity =
             p.cn.parse()
                 .map_err(|e| refused(format!("{source}: common name: {e}")))?;
@@ -320,10 +344,15 @@ fn parse(path: &Path) -> Result<Parsed, PkiError> {
 
 /// [`parse`] of the PEM text `text`, which `source` names in errors.
 fn parse_pem(text: &[u8], source: &str) -> Result<Parsed, PkiError> {
-    let bad = |why: String| refused(format!("{source}: {why}"));
     let (_, pem) = x509_parser::pem::parse_x509_pem(text)
-        .map_err(|e| bad(format!("not a PEM certificate ({e})")))?;
-    let (_, c) = X509Certificate::from_der(&pem.contents)
+        .map_err(|e| refused(format!("{source}: not a PEM certificate ({e})")))?;
+    parse_der(&pem.contents, source)
+}
+
+/// [`parse`] of the DER bytes `der`, which `source` names in errors.
+fn parse_der(der: &[u8], source: &str) -> Result<Parsed, PkiError> {
+    let bad = |why: String| refused(format!("{source}: {why}"));
+    let (_, c) = X509Certificate::from_der(der)
         .map_err(|e| bad(format!("not an X.509 certificate ({e})")))?;
     let cn = c
         .subject()
@@ -354,7 +383,7 @@ fn parse_pem(text: &[u8], source: &str) -> Result<Parsed, PkiError> {
         server,
         hosts,
         spki: c.public_key().raw.to_vec(),
-        der: pem.contents.clone(),
+        der: der.to_vec(),
     })
 }
 
@@ -528,21 +557,22 @@ impl Signer {
         &self,
         mut p: CertificateParams,
         valid_days: u32,
+        from: Option<OffsetDateTime>,
         what: &str,
     ) -> Result<(rcgen::Certificate, KeyPair), PkiError> {
         if valid_days == 0 {
             return Err(refused("a certificate must be valid for at least a day"));
         }
-        let now = OffsetDateTime::now_utc();
-        let not_after = now + time::Duration::days(valid_days.into());
+        // An hour's grace for clocks a little behind the one that issued it.
+        let from = from.unwrap_or_else(|| OffsetDateTime::now_utc() - time::Duration::hours(1));
+        let not_after = from + time::Duration::hours(1) + time::Duration::days(valid_days.into());
         if not_after > self.not_after {
             return Err(refused(format!(
                 "{what} would outlive its CA (valid until {}): fewer days, or a new CA",
                 date(self.not_after)
             )));
         }
-        // An hour's grace for clocks a little behind the one that issued it.
-        p.not_before = now - time::Duration::hours(1);
+        p.not_before = from;
         p.not_after = not_after;
         let key = KeyPair::generate().map_err(cert("generating a key"))?;
         let signed = p
@@ -611,7 +641,7 @@ fn leaf(
         }
         _ => {}
     }
-    let (signed, key) = site.sign(p, terms.valid_days, &who.to_string())?;
+    let (signed, key) = site.sign(p, terms.valid_days, terms.from, &who.to_string())?;
     let dir = out.join(who.dir_name());
     if who.role() == Role::Console {
         // The console's page is a web server for the commanders' browsers. Its certificate
@@ -628,7 +658,8 @@ fn leaf(
         ];
         page.extended_key_usages = vec![ExtendedKeyUsagePurpose::ServerAuth];
         page.subject_alt_names = sans(&terms.hosts())?;
-        let (https, https_key) = web.sign(page, terms.valid_days, "the console's page")?;
+        let (https, https_key) =
+            web.sign(page, terms.valid_days, terms.from, "the console's page")?;
         replace(&dir, "web-ca.pem", &web.pem, false)?;
         replace(&dir, "https-key.pem", &https_key.serialize_pem(), true)?;
         replace(&dir, "https-cert.pem", &https.pem(), false)?;

@@ -12,6 +12,8 @@
 //! time_limit_s = 240
 //! portals = ["north", "south"] # optional: the portals' names at chainage 0 and at the
 //!                            # end, as crews call them (default "portal A", "portal B")
+//! simulated = true           # optional: the simulator's tunnel (true) or a real one
+//!                            # (false); a deployed site says which (`Scenario::simulated`)
 //!
 //! [tunnel]
 //! length_m = 200.0
@@ -127,6 +129,14 @@ pub struct Scenario {
     /// The portals' names, at chainage 0 and at the tunnel's end ([`Scenario::portal_names`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub portals: Option<[String; 2]>,
+    /// Whether the site is the simulator's tunnel or a real one. A deployed site says: on
+    /// a real one an agent refuses the simulator's platform, and on a simulated one the
+    /// coordinator keeps the simulator's clock (tasks are numbered by site time, which a
+    /// faster-than-real simulation runs ahead of the wall clock). Absent, as in the
+    /// shipped scenarios the demo runs, each process is told (`--platform`, `--sim-clock`)
+    /// and `firefleet doctor` asks the site file to say.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub simulated: Option<bool>,
 }
 
 /// The rank of commander `c` among `commanders`: as listed, else [`Rank::Sector`].
@@ -318,6 +328,7 @@ impl Scenario {
             commanders: Vec::new(),
             profiles: BTreeMap::new(),
             portals: None,
+            simulated: None,
         }
     }
 

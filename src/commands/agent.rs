@@ -71,6 +71,7 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
             scenario.name
         );
     }
+    a.platform.fits(&scenario).map_err(anyhow::Error::msg)?;
     let spec = scenario.unit(&a.unit).expect("checked above");
     let bus = join(
         &a.zenoh,

@@ -28,7 +28,8 @@ pub struct CoordinatorArgs {
     /// A unit silent this long is treated as lost, seconds of site time.
     #[arg(long, default_value_t = firefleet_coordinator::incident::LEASE_S, value_parser = positive_f64)]
     lease_s: f64,
-    /// Follow the simulator's clock (`ff/<site>/sim/clock`) instead of the system clock.
+    /// Follow the simulator's clock (`ff/<site>/sim/clock`) instead of the system clock
+    /// (implied on a site whose site file says `simulated = true`).
     #[arg(long)]
     sim_clock: bool,
     /// How units are paired with fires: optimal (least total travel time) or greedy
@@ -55,6 +56,7 @@ pub struct CoordinatorArgs {
 
 pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
     let scenario = a.scenario.load()?;
+    let sim_clock = super::sim_clock(&scenario, a.sim_clock).map_err(anyhow::Error::msg)?;
     let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Coordinator)).await?;
     let resumed = match &a.resume {
         Some(path) => recorded(path, &scenario.site)?,
@@ -62,7 +64,7 @@ pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
     };
     let opts = CoordinatorOptions {
         lease_s: a.lease_s,
-        sim_clock: a.sim_clock,
+        sim_clock,
         strategy: a.assignment,
         resume: resumed.tracks,
         resume_goals: resumed.goals,

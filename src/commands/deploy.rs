@@ -71,7 +71,8 @@ pub struct LayoutArgs {
     #[arg(long, default_value_t = 1.0, value_parser = super::time_scale)]
     time_scale: f64,
     /// A simulated site: grant the simulator's keys (to the simulator, and to each unit
-    /// for its own body). A real site has none.
+    /// for its own body). A real site has none. Implied by `simulated = true` in the site
+    /// file.
     #[arg(long)]
     simulated: bool,
 }
@@ -97,6 +98,12 @@ pub fn run(cmd: DeployCommand) -> anyhow::Result<ExitCode> {
 fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     let scenario = a.scenario.load()?;
     let l = a.layout;
+    if l.simulated && scenario.simulated == Some(false) {
+        bail!(
+            "--simulated for site '{}', which its site file says is real (simulated = false)",
+            scenario.site
+        );
+    }
     let layout = Layout {
         pki: l.pki,
         pki_at: l.pki_at,
@@ -106,7 +113,7 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         connect: l.connect,
         routers: l.router,
         time_scale: l.time_scale,
-        simulated: l.simulated,
+        simulated: l.simulated || scenario.simulated == Some(true),
     };
     let identities = render_site(&scenario, &layout)?;
     let routers = identities

@@ -16,6 +16,7 @@ pub mod console;
 pub mod coordinator;
 pub mod demo;
 pub mod deploy;
+pub mod doctor;
 pub mod experiment;
 pub mod goal;
 pub mod pki;
@@ -56,6 +57,37 @@ pub enum PlatformKind {
     Sim,
     /// A ROS 2 robot over rmw_zenoh (ground units): `firefleet sim --ros2`, or a real one.
     Ros2,
+}
+
+impl PlatformKind {
+    /// Whether an agent may drive this body on `scenario`'s site: a real tunnel has no
+    /// simulator, and an agent on the simulator's platform there would drive nothing (its
+    /// unit shown lost while it logs nothing wrong). The reason, if not.
+    pub fn fits(self, scenario: &firefleet_model::scenario::Scenario) -> Result<(), String> {
+        match (self, scenario.simulated) {
+            (PlatformKind::Sim, Some(false)) => Err(format!(
+                "--platform sim on site '{}', which its site file says is real (simulated = false): a robot's agent runs --platform ros2",
+                scenario.site
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Whether the coordinator keeps the simulator's clock: told so (`--sim-clock`) or on a
+/// site whose site file says it is simulated. A real site has no simulator clock to keep
+/// (tasks numbered by it would never be due), so asking for one there is refused.
+pub fn sim_clock(
+    scenario: &firefleet_model::scenario::Scenario,
+    told: bool,
+) -> Result<bool, String> {
+    match (told, scenario.simulated) {
+        (true, Some(false)) => Err(format!(
+            "--sim-clock on site '{}', which its site file says is real (simulated = false): a real site runs on the system clock",
+            scenario.site
+        )),
+        (told, simulated) => Ok(told || simulated == Some(true)),
+    }
 }
 
 /// The fastest a fleet's site time may run against the wall clock. The simulator steps

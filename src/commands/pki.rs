@@ -105,6 +105,7 @@ fn init(a: InitArgs) -> anyhow::Result<ExitCode> {
     let terms = Terms {
         hosts: a.host,
         valid_days: a.valid_days,
+        from: None,
     };
     let names = pki::make_site(&scenario, &commanders, &terms, &a.out)?;
     println!(
@@ -126,6 +127,7 @@ fn issue(a: IssueArgs) -> anyhow::Result<ExitCode> {
     let terms = Terms {
         hosts: a.host,
         valid_days: a.valid_days,
+        from: None,
     };
     let dir = pki::issue(&a.pki, &name, &terms)?;
     let c = pki::Certified::read(&dir.join("cert.pem"))?;

@@ -91,6 +91,7 @@ fn issue_adds_routers_and_renews_without_touching_the_ca() {
     let terms = Terms {
         hosts: vec!["router-b.site".into(), "10.0.0.2".into()],
         valid_days: 30,
+        from: None,
     };
     let dir = issue(&out, &b, &terms).unwrap();
     let c = Certified::read(&dir.join("cert.pem")).unwrap();
@@ -205,27 +206,14 @@ fn files_that_can_never_work_are_refused_naming_the_file() {
     .to_string();
     assert!(e.contains("not signed by the CA"), "{e}");
     // Expired: a certificate whose validity ended yesterday, signed by the site CA.
-    let ca_key = KeyPair::from_pem(&fs::read_to_string(out.join("ca/ca.key")).unwrap()).unwrap();
-    let ca = ca_params(CA_NAME).self_signed(&ca_key).unwrap();
-    let mut p = CertificateParams::default();
-    p.distinguished_name.push(DnType::CommonName, "unit:ugv-1");
     let now = OffsetDateTime::now_utc();
-    p.not_before = now - time::Duration::days(400);
-    p.not_after = now - time::Duration::days(1);
-    let key = KeyPair::generate().unwrap();
-    let old = p.signed_by(&key, &ca, &ca_key).unwrap();
-    let stale = d.path().join("stale");
-    write(&stale, "cert.pem", &old.pem(), false).unwrap();
-    write(&stale, "key.pem", &key.serialize_pem(), true).unwrap();
-    let e = check(
-        &TlsFiles {
-            ca: ugv1.ca.clone(),
-            ..TlsFiles::in_dir(&stale)
-        },
-        None,
-    )
-    .unwrap_err()
-    .to_string();
+    let terms = Terms {
+        from: Some(now - time::Duration::days(400)),
+        valid_days: 399,
+        ..Terms::default()
+    };
+    issue(&out, &unit("ugv-1"), &terms).unwrap();
+    let e = check(&ugv1, None).unwrap_err().to_string();
     assert!(e.contains("unit:ugv-1's certificate expired on"), "{e}");
 }
 
@@ -257,4 +245,20 @@ fn the_console_page_has_a_web_certificate_the_links_do_not_trust() {
     let web_ca = parse(&console.join("web-ca.pem")).unwrap();
     let site_ca = parse(&console.join("ca.pem")).unwrap();
     assert_ne!(web_ca.spki, site_ca.spki);
+}
+
+#[test]
+fn a_site_made_with_hosts_names_them_in_the_router_s_certificate_only() {
+    // deploy/README.md's step 1: `pki init ... --host router.tunnel.local --host 10.20.0.1`.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("pki");
+    let terms = Terms {
+        hosts: vec!["router.tunnel.local".into(), "10.20.0.1".into()],
+        ..Terms::default()
+    };
+    make_site(&site(), &[], &terms, &out).unwrap();
+    let router = Certified::read(&out.join("router/cert.pem")).unwrap();
+    assert_eq!(router.hosts, ["router.tunnel.local", "10.20.0.1"]);
+    let unit = Certified::read(&out.join("unit-ugv-1/cert.pem")).unwrap();
+    assert!(unit.hosts.is_empty() && !unit.server, "{unit:?}");
 }
