@@ -19,6 +19,7 @@
 mod checking;
 mod children;
 mod commands;
+mod metrics;
 mod net;
 
 use clap::{Parser, Subcommand};

@@ -12,7 +12,7 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use firefleet_bus::{Ask, Bus, Inbox};
+use firefleet_bus::{Ask, Bus, Inbox, free_loopback_port};
 use firefleet_model::{FireId, Point2, Pose2, UnitId, ZoneId};
 use firefleet_protocol::codec::{self, PROTOCOL_VERSION};
 use firefleet_protocol::keys::Topic;
@@ -1140,4 +1140,95 @@ async fn the_coordinator_token_is_gone_only_when_every_holder_is() {
     for bus in [b, watcher, router] {
         bus.close().await;
     }
+}
+
+/// `GET path` from `addr` over plain HTTP/1.1: the status code and the body.
+fn http_get(addr: &str, path: &str) -> (u16, String) {
+    use std::io::{Read, Write};
+    let Ok(mut s) = std::net::TcpStream::connect(addr) else {
+        return (0, String::new());
+    };
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut reply = String::new();
+    s.read_to_string(&mut reply).unwrap();
+    let code = reply
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    let body = reply.split_once("\r\n\r\n").map_or("", |(_, b)| b);
+    (code, body.to_owned())
+}
+
+/// Issue #37: every long-running role serves /healthz, /readyz and Prometheus /metrics
+/// with `--metrics`; the coordinator's figures follow the incident, and a unit whose
+/// router is gone is alive but not ready.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn roles_serve_health_readiness_and_metrics() {
+    let (bus, endpoint) = router("handover").await;
+    let truths = bus
+        .subscribe::<SimTruth>(&bus.keys().sim_truth())
+        .await
+        .unwrap();
+    let at = || format!("127.0.0.1:{}", free_loopback_port().unwrap());
+    let (coord, agent) = (at(), at());
+    let mut fleet = handover_fleet(
+        &endpoint,
+        &["coordinator", "--sim-clock", "--metrics", &coord],
+    );
+    // ugv-far again, serving its metrics.
+    let mut plain = fleet.0.pop().unwrap();
+    plain.kill().unwrap();
+    plain.wait().unwrap();
+    fleet.0.push(spawn_role(
+        HANDOVER,
+        &endpoint,
+        &["agent", "--unit", "ugv-far", "--metrics", &agent],
+    ));
+    let truth = outcome(&truths, Duration::from_secs(90)).await;
+    assert!(truth.all_out(), "{truth:?}");
+    for addr in [&coord, &agent] {
+        assert_eq!(http_get(addr, "/healthz").0, 200, "{addr}");
+        assert_eq!(http_get(addr, "/readyz").0, 200, "{addr}");
+    }
+    let (code, text) = http_get(&coord, "/metrics");
+    assert_eq!(code, 200, "{text}");
+    let value = |series: &str| -> f64 {
+        text.lines()
+            .find_map(|l| l.strip_prefix(series)?.strip_prefix(' ')?.parse().ok())
+            .unwrap_or_else(|| panic!("no {series} in\n{text}"))
+    };
+    assert!(value("firefleet_links") >= 1.0);
+    assert_eq!(value("firefleet_ready"), 1.0);
+    assert!(value("firefleet_messages_sent_total") > 10.0);
+    assert!(value("firefleet_messages_received_total") > 10.0);
+    for reason in ["undecodable", "version", "invalid", "overflow"] {
+        value(&format!(
+            "firefleet_messages_rejected_total{{reason=\"{reason}\"}}"
+        ));
+    }
+    assert!(value("firefleet_coordinator_reports_total") >= 1.0);
+    assert!(value("firefleet_coordinator_report_to_task_seconds_count") >= 1.0);
+    value("firefleet_coordinator_report_to_task_seconds_bucket{le=\"0.001\"}");
+    value("firefleet_coordinator_fires");
+    value("firefleet_coordinator_tasks");
+    value("firefleet_coordinator_lease_misses_total");
+    assert_eq!(value("firefleet_coordinator_in_office"), 1.0);
+
+    // The router gone: the agent lives on, and says it is not ready.
+    bus.close().await;
+    let deadline = Instant::now() + patient(Duration::from_secs(15));
+    while http_get(&agent, "/readyz").0 != 503 {
+        assert!(
+            Instant::now() < deadline,
+            "the agent still says it is ready"
+        );
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+    assert_eq!(http_get(&agent, "/healthz").0, 200);
+    drop(fleet);
 }

@@ -324,6 +324,23 @@ fn json_string(s: &str) -> String {
     serde_json::Value::String(s.to_owned()).to_string()
 }
 
+/// Messages this session put and took (valid ones; what was refused is counted in
+/// [`RejectCounts`]): for a role's `/metrics`.
+#[derive(Debug, Default)]
+pub struct Traffic {
+    sent: AtomicU64,
+    received: AtomicU64,
+}
+
+impl Traffic {
+    pub fn sent(&self) -> u64 {
+        self.sent.load(Ordering::Relaxed)
+    }
+    pub fn received(&self) -> u64 {
+        self.received.load(Ordering::Relaxed)
+    }
+}
+
 /// Counts of messages dropped on receipt, by failure class, and their log: counted
 /// summaries per sender and class ([`crate::refusals`]), never a line per message.
 #[derive(Debug, Default)]
@@ -405,6 +422,7 @@ pub struct Bus {
     session: Session,
     keys: Keys,
     rejects: Arc<RejectCounts>,
+    traffic: Arc<Traffic>,
     /// A declared publisher per key put on: a put on an undeclared key makes Zenoh match
     /// the key against every resource it knows, each time (with a thousand units, about
     /// half of a coordinator's CPU); a declared one keeps its route. Keys are few
@@ -421,6 +439,7 @@ impl Bus {
             session,
             keys: Keys::new(site),
             rejects: Arc::default(),
+            traffic: Arc::default(),
             publishers: Arc::default(),
         })
     }
@@ -508,6 +527,10 @@ impl Bus {
     pub fn rejects(&self) -> &Arc<RejectCounts> {
         &self.rejects
     }
+    /// Messages put and taken by this session.
+    pub fn traffic(&self) -> &Arc<Traffic> {
+        &self.traffic
+    }
 
     /// Publish `m` on `key`.
     pub async fn put<M: Message>(&self, key: &Key<M>, m: &M) -> Result<(), BusError> {
@@ -526,7 +549,9 @@ impl Bus {
                     .map_err(BusError::from_zenoh)?,
             ),
         };
-        publisher.put(bytes).wait().map_err(BusError::from_zenoh)
+        publisher.put(bytes).wait().map_err(BusError::from_zenoh)?;
+        self.traffic.sent.fetch_add(1, Ordering::Relaxed);
+        Ok(())
     }
 
     /// Subscribe to `key` (one key or a pattern), decoding `M`.
@@ -554,6 +579,7 @@ impl Bus {
         Ok(Inbox {
             sub,
             rejects: self.rejects.clone(),
+            traffic: self.traffic.clone(),
             _m: PhantomData,
         })
     }
@@ -598,6 +624,7 @@ const DEFAULT_INBOX: usize = 256;
 pub struct Inbox<M> {
     sub: Subscriber<FifoChannelHandler<Sample>>,
     rejects: Arc<RejectCounts>,
+    traffic: Arc<Traffic>,
     _m: PhantomData<fn() -> M>,
 }
 
@@ -635,7 +662,10 @@ impl<M: Message> Inbox<M> {
             }
         };
         match codec::decode::<M>(&sample.payload().to_bytes()) {
-            Ok(m) => Some((topic, m)),
+            Ok(m) => {
+                self.traffic.received.fetch_add(1, Ordering::Relaxed);
+                Some((topic, m))
+            }
             Err(e) => {
                 self.rejects.refuse(key, &e);
                 None

@@ -57,7 +57,7 @@ pub mod refusals;
 pub mod render;
 
 pub use bus::{
-    Bus, BusError, Connect, Inbox, Links, Mode, RejectCounts, free_loopback_port, mtls_link,
-    one_stream,
+    Bus, BusError, Connect, Inbox, Links, Mode, RejectCounts, Traffic, free_loopback_port,
+    mtls_link, one_stream,
 };
 pub use exchange::{Answers, Ask, DeclaredKeys, Question, Questions, Raw, RawInbox, Token, Tokens};

@@ -13,7 +13,7 @@
 //! answers `fire/*` with the latest of each; the tracks keep their ids), then from the
 //! units' states (adopting the tasks they still work on) and their new reports. A
 //! [`standby`] follows the tracks and goals itself and takes over when the coordinator in
-//! charge is gone.
+//! charge is gone. [`stats`] is what it counts for monitoring.
 //!
 //! Not here: recording (the `firefleet-recorder` crate) or anything a robot runs
 //! (`firefleet-agent`).
@@ -27,6 +27,7 @@ pub mod invariants;
 pub mod node;
 pub mod roads;
 pub mod standby;
+pub mod stats;
 
 pub use incident::Incident;
 pub use node::{CoordinatorOptions, run};

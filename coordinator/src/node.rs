@@ -34,12 +34,12 @@ use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    FireTrack, GoalAck, GoalsInForce, MAX_GOAL_ID, SimClock, Stranded, Task, Trapped, UnitState,
-    ZoneGoal, latest_per_fire,
+    FireState, FireTrack, GoalAck, GoalsInForce, MAX_GOAL_ID, SimClock, Stranded, Task, Trapped,
+    UnitState, ZoneGoal, latest_per_fire,
 };
 
 use crate::assign::Strategy;
-use crate::incident::{Incident, Output};
+use crate::incident::{Decision, Incident, Loss, Output};
 
 /// Re-publication of tasks and tracks is spread over this many ticks a second.
 const REPUBLISH_SLICES: usize = 10;
@@ -61,6 +61,8 @@ pub struct CoordinatorOptions {
     /// This coordinator's rank among the site's coordinators: the remainder of its epochs
     /// ([`firefleet_protocol::msg::epoch_after`]) and, standing by, when it takes over.
     pub rank: u32,
+    /// What it counts for monitoring (`--metrics`); shared with whoever serves them.
+    pub stats: crate::stats::Stats,
 }
 
 /// Why [`run`] returned.
@@ -179,7 +181,11 @@ pub async fn run(
     let mut slice = 0;
     tokio::pin!(shutdown);
     tracing::info!(units = scenario.units.len(), "coordinator started");
+    let stats = &opts.stats;
+    stats.in_office.set(1);
+    let _out_of_office = OutOfOffice(stats.in_office.clone());
     loop {
+        let mut report_taken = None;
         // Biased, in order of urgency: a flame report or a lost unit is acted on before
         // the next of the ten thousand states a second a large fleet sends (fairness
         // among them would make a report wait behind a burst of states). States come
@@ -206,6 +212,8 @@ pub async fn run(
                 other => Err(Invalid::new("key", format!("'{other}' is not a unit token"))),
             }.map_err(|e| (topic.to_string(), e)),
             Some((topic, r)) = reports.recv() => {
+                report_taken = Some(std::time::Instant::now());
+                stats.reports.inc();
                 if topic == Topic::UnitReport(r.unit.clone()) {
                     incident.on_report(&r, clock.now())
                 } else {
@@ -264,6 +272,8 @@ pub async fn run(
                 slice = (slice + 1) % REPUBLISH_SLICES;
                 if slice == 0 {
                     told.tell(bus, &incident, t, true).await?;
+                    stats.tasks.set(incident.tasks().count() as i64);
+                    stats.fires.set(incident.fire_tracks(t).iter().filter(|f| f.state != FireState::Out).count() as i64);
                 } else {
                     told.strands(bus, &incident, t).await?;
                 }
@@ -291,16 +301,40 @@ pub async fn run(
             }
         };
         for d in incident.take_decisions() {
+            if matches!(
+                d.decision,
+                Decision::Lost {
+                    why: Loss::Silent,
+                    ..
+                }
+            ) {
+                stats.lease_misses.inc();
+            }
             bus.put(&keys.coord_log(), &d.to_msg()).await?;
         }
         // Units hear of barred space before any task that depends on it.
         told.tell(bus, &incident, clock.now(), false).await?;
         match outputs {
-            Ok(outputs) => publish(bus, outputs).await?,
+            Ok(outputs) => {
+                let tasked = outputs.iter().any(|o| matches!(o, Output::Task(_)));
+                publish(bus, outputs).await?;
+                if let (Some(taken), true) = (report_taken, tasked) {
+                    stats.report_to_task.observe(taken.elapsed().as_secs_f64());
+                }
+            }
             Err((from, e)) => bus.rejects().refuse_invalid(&from, &e),
         }
     }
     Ok(Ended::Shutdown)
+}
+
+/// Sets the in-office gauge to 0 however the loop ends (shut down, deposed, an error).
+struct OutOfOffice(prometheus_client::metrics::gauge::Gauge);
+
+impl Drop for OutOfOffice {
+    fn drop(&mut self) {
+        self.0.set(0);
+    }
 }
 
 /// How long a starting coordinator waits for the simulator's clock.

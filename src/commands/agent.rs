@@ -27,6 +27,8 @@ pub struct AgentArgs {
     scenario: ScenarioArg,
     #[command(flatten)]
     zenoh: ZenohArgs,
+    #[command(flatten)]
+    metrics: crate::metrics::MetricsArg,
     /// The unit this agent drives (an id from the scenario's `[[units]]`).
     #[arg(long)]
     unit: UnitId,
@@ -79,6 +81,7 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
         Expect::Identity(Identity::Unit(a.unit.clone())),
     )
     .await?;
+    a.metrics.serve(&bus, false, None).await?;
     let opts = AgentOptions {
         unit: a.unit.clone(),
         report_period_s: 0.25,

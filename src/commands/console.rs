@@ -60,6 +60,8 @@ struct ServeArgs {
     scenario: ScenarioArg,
     #[command(flatten)]
     zenoh: ZenohArgs,
+    #[command(flatten)]
+    metrics: crate::metrics::MetricsArg,
     /// Where the page is served. Loopback by default: serving it wider is a site's decision.
     #[arg(long, value_name = "ADDR:PORT", default_value = "127.0.0.1:8080")]
     http: SocketAddr,
@@ -132,6 +134,7 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
         .await
         .with_context(|| format!("serving the console on {}", a.http))?;
     let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Console)).await?;
+    a.metrics.serve(&bus, false, None).await?;
     let (console, requests) = Console::new(
         Picture::new(SiteMap::new(&scenario)),
         users,

@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
 
 use anyhow::Context;
 use clap::Args;
@@ -25,6 +26,8 @@ pub struct CoordinatorArgs {
     scenario: ScenarioArg,
     #[command(flatten)]
     zenoh: ZenohArgs,
+    #[command(flatten)]
+    metrics: crate::metrics::MetricsArg,
     /// A unit silent this long is treated as lost, seconds of site time.
     #[arg(long, default_value_t = firefleet_coordinator::incident::LEASE_S, value_parser = positive_f64)]
     lease_s: f64,
@@ -58,6 +61,11 @@ pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
     let scenario = a.scenario.load()?;
     let sim_clock = super::sim_clock(&scenario, a.sim_clock).map_err(anyhow::Error::msg)?;
     let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Coordinator)).await?;
+    let stats = firefleet_coordinator::stats::Stats::default();
+    let figures = stats.clone();
+    a.metrics
+        .serve(&bus, false, Some(Arc::new(move |r| figures.register(r))))
+        .await?;
     let resumed = match &a.resume {
         Some(path) => recorded(path, &scenario.site)?,
         None => Recorded::default(),
@@ -69,6 +77,7 @@ pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
         resume: resumed.tracks,
         resume_goals: resumed.goals,
         rank: a.rank,
+        stats,
     };
     let shutdown = shutdown_signal(a.zenoh.die_with_parent);
     firefleet_coordinator::standby::serve(&bus, &scenario, &opts, a.standby, shutdown).await?;

@@ -83,6 +83,8 @@ pub struct RouterArgs {
     scenario: ScenarioArg,
     #[command(flatten)]
     zenoh: ZenohArgs,
+    #[command(flatten)]
+    metrics: crate::metrics::MetricsArg,
     /// Run without mutual TLS and access rules (loopback demos, tests that do not test
     /// security).
     #[arg(long)]
@@ -176,6 +178,7 @@ pub async fn router(a: RouterArgs) -> anyhow::Result<ExitCode> {
         .await
         .context("starting the router")?;
     tracing::info!(site = %scenario.site, "router up");
+    a.metrics.serve(&bus, true, None).await?;
     crate::net::ready();
     shutdown_signal(a.zenoh.die_with_parent).await;
     bus.close().await;

@@ -23,6 +23,8 @@ pub struct RecordArgs {
     scenario: ScenarioArg,
     #[command(flatten)]
     zenoh: ZenohArgs,
+    #[command(flatten)]
+    metrics: crate::metrics::MetricsArg,
     /// The MCAP file to write. Until the recorder stops it is written as parts in
     /// `FILE.mcap.parts/`, each a finished MCAP file, so that a recorder killed outright
     /// leaves all but the last few seconds readable by any MCAP reader.
@@ -62,6 +64,7 @@ pub async fn run(a: RecordArgs) -> anyhow::Result<ExitCode> {
         None => None,
     };
     let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Recorder)).await?;
+    a.metrics.serve(&bus, false, None).await?;
     let summary = firefleet_recorder::record(
         &bus,
         &scenario,

@@ -21,6 +21,8 @@ pub struct SimArgs {
     scenario: ScenarioArg,
     #[command(flatten)]
     zenoh: ZenohArgs,
+    #[command(flatten)]
+    metrics: crate::metrics::MetricsArg,
     /// Seed of the simulator's random draws (default: the scenario's).
     #[arg(long)]
     seed: Option<u64>,
@@ -46,6 +48,7 @@ pub struct SimArgs {
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
     let scenario = a.scenario.load()?;
     let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Sim)).await?;
+    a.metrics.serve(&bus, false, None).await?;
     let opts = SimOptions {
         seed: a.seed.unwrap_or(scenario.seed),
         time_scale: a.time_scale,

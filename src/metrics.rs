@@ -1,0 +1,158 @@
+//! `--metrics ADDR`: a long-running role's health and figures over HTTP, for the site's
+//! monitoring (Prometheus, a load balancer's or an orchestrator's probes).
+//!
+//! - `/healthz`: 200 while the process serves at all.
+//! - `/readyz`: 200 while it is linked to the site (a router or a peer; a router, once it
+//!   listens), else 503 with the reason: a unit whose router is gone is alive, not ready.
+//! - `/metrics`: Prometheus text: `firefleet_links` (routers and peers linked),
+//!   `firefleet_messages_sent` and `_received` (valid messages), `firefleet_messages_rejected`
+//!   by reason (the bus's refusal classes), `firefleet_ready`, and the role's own figures
+//!   (the coordinator's report-to-task latency histogram, fires, tasks, lease misses:
+//!   `firefleet_coordinator::stats`).
+//!
+//! Figures are read when scraped, from the bus's counters and the role's shared metrics;
+//! nothing here is on the path of a message. Bind it to the site's management network or
+//! loopback: it tells whoever reaches it what the role sees (counts, not contents).
+//!
+//! Not here: the figures' meaning (where they are counted).
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+
+use anyhow::Context;
+use axum::Router;
+use axum::extract::State;
+use axum::http::{StatusCode, header};
+use axum::response::IntoResponse;
+use axum::routing::get;
+use clap::Args;
+use firefleet_bus::Bus;
+use prometheus_client::encoding::text::encode;
+use prometheus_client::metrics::counter::Counter;
+use prometheus_client::metrics::family::Family;
+use prometheus_client::metrics::gauge::Gauge;
+use prometheus_client::registry::Registry;
+
+/// Where a role serves its health and metrics.
+#[derive(Args, Clone, Debug, Default)]
+pub struct MetricsArg {
+    /// Serve /healthz, /readyz and Prometheus /metrics on ADDR (e.g. 127.0.0.1:9464).
+    #[arg(long, value_name = "ADDR")]
+    pub metrics: Option<SocketAddr>,
+}
+
+/// A role's own figures, registered afresh at each scrape.
+pub type Figures = Arc<dyn Fn(&mut Registry) + Send + Sync>;
+
+struct Served {
+    bus: Bus,
+    /// A router is ready once it listens; it has no router to be linked to.
+    router: bool,
+    figures: Option<Figures>,
+}
+
+impl MetricsArg {
+    /// Serve for `bus`'s role, if asked, from a task of its own; a port that cannot be
+    /// bound ends the role with the reason (a monitoring that silently sees nothing is
+    /// worse than a service that says it cannot start).
+    pub async fn serve(
+        &self,
+        bus: &Bus,
+        router: bool,
+        figures: Option<Figures>,
+    ) -> anyhow::Result<()> {
+        let Some(addr) = self.metrics else {
+            return Ok(());
+        };
+        let listener = tokio::net::TcpListener::bind(addr)
+            .await
+            .with_context(|| format!("--metrics {addr}"))?;
+        let served = Arc::new(Served {
+            bus: bus.clone(),
+            router,
+            figures,
+        });
+        let app = Router::new()
+            .route("/healthz", get(|| async { "ok\n" }))
+            .route("/readyz", get(readyz))
+            .route("/metrics", get(metrics))
+            .with_state(served);
+        tracing::info!(%addr, "health and metrics served");
+        tokio::spawn(async move {
+            if let Err(e) = axum::serve(listener, app).await {
+                tracing::warn!("the metrics server stopped: {e}");
+            }
+        });
+        Ok(())
+    }
+}
+
+impl Served {
+    async fn ready(&self) -> bool {
+        self.router || self.bus.connected().await
+    }
+}
+
+async fn readyz(State(s): State<Arc<Served>>) -> impl IntoResponse {
+    if s.ready().await {
+        (StatusCode::OK, "ready\n")
+    } else {
+        (
+            StatusCode::SERVICE_UNAVAILABLE,
+            "not linked to the site: no router or peer\n",
+        )
+    }
+}
+
+async fn metrics(State(s): State<Arc<Served>>) -> impl IntoResponse {
+    let mut registry = Registry::with_prefix("firefleet");
+    let info = s.bus.zenoh_session().info();
+    let links = Gauge::<i64>::default();
+    links.set((info.routers_zid().await.count() + info.peers_zid().await.count()) as i64);
+    registry.register(
+        "links",
+        "Routers and peers this process is linked to",
+        links,
+    );
+    let ready = Gauge::<i64>::default();
+    ready.set(i64::from(s.ready().await));
+    registry.register("ready", "1 while linked to the site (see /readyz)", ready);
+    let sent = Counter::<u64>::default();
+    sent.inc_by(s.bus.traffic().sent());
+    registry.register("messages_sent", "Messages put on the bus", sent);
+    let received = Counter::<u64>::default();
+    received.inc_by(s.bus.traffic().received());
+    registry.register(
+        "messages_received",
+        "Valid messages taken off the bus",
+        received,
+    );
+    let rejected = Family::<Vec<(&'static str, &'static str)>, Counter>::default();
+    for (reason, n) in s.bus.rejects().snapshot() {
+        rejected.get_or_create(&vec![("reason", reason)]).inc_by(n);
+    }
+    registry.register(
+        "messages_rejected",
+        "Messages refused on receipt, by reason",
+        rejected,
+    );
+    if let Some(figures) = &s.figures {
+        figures(&mut registry);
+    }
+    let mut text = String::new();
+    match encode(&mut text, &registry) {
+        Ok(()) => (
+            StatusCode::OK,
+            [(
+                header::CONTENT_TYPE,
+                "application/openmetrics-text; version=1.0.0; charset=utf-8",
+            )],
+            text,
+        ),
+        Err(e) => (
+            StatusCode::INTERNAL_SERVER_ERROR,
+            [(header::CONTENT_TYPE, "text/plain; charset=utf-8")],
+            format!("encoding the metrics: {e}\n"),
+        ),
+    }
+}
