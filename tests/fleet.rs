@@ -1195,6 +1195,30 @@ async fn roles_serve_health_readiness_and_metrics() {
         assert_eq!(http_get(addr, "/healthz").0, 200, "{addr}");
         assert_eq!(http_get(addr, "/readyz").0, 200, "{addr}");
     }
+    // A unit of another release (a rolling upgrade half done): refused, counted, and shown
+    // as such in the status, not as lost.
+    let far = UnitId::new("ugv-far").unwrap();
+    bus.put_raw(
+        bus.keys().unit_state(&far).as_str(),
+        vec![PROTOCOL_VERSION + 1, 0, 0],
+    )
+    .await
+    .unwrap();
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let out = cli(HANDOVER, &endpoint, &["status"]);
+    let said = text(&out);
+    let line = said
+        .lines()
+        .find(|l| l.contains("ugv-far"))
+        .unwrap_or_default();
+    assert!(
+        line.contains(" other ")
+            && line.contains(&format!(
+                "OTHER PROTOCOL: speaks version {}",
+                PROTOCOL_VERSION + 1
+            )),
+        "{said}"
+    );
     let (code, text) = http_get(&coord, "/metrics");
     assert_eq!(code, 200, "{text}");
     let value = |series: &str| -> f64 {

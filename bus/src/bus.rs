@@ -16,6 +16,7 @@ use std::marker::PhantomData;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 use zenoh::handlers::FifoChannelHandler;
 use zenoh::pubsub::{Publisher, Subscriber};
@@ -351,6 +352,8 @@ pub struct RejectCounts {
     /// Taken off the bus but dropped: the reader was behind ([`crate::RawInbox`]).
     overflow: AtomicU64,
     log: Mutex<Refusals>,
+    /// The keys last heard in another protocol version: which version, and when.
+    versions: Mutex<HashMap<String, (u8, std::time::Instant)>>,
 }
 
 impl RejectCounts {
@@ -358,7 +361,27 @@ impl RejectCounts {
     /// did not decode.
     pub fn refuse(&self, from: &str, e: &CodecError) {
         self.count(e);
+        if let CodecError::Version { got } = e {
+            self.versions
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+                .insert(from.to_owned(), (*got, std::time::Instant::now()));
+        }
         self.log(from, e.class(), e);
+    }
+    /// The keys heard in another protocol version within `recent`, and the version each
+    /// spoke last: a unit of another release (a rolling upgrade half done) is shown as
+    /// such, not as lost. A key heard in this version again drops out once `recent` passes.
+    pub fn other_versions(&self, recent: Duration) -> Vec<(String, u8)> {
+        let mut versions = self
+            .versions
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        versions.retain(|_, (_, at)| at.elapsed() <= recent);
+        let mut out: Vec<(String, u8)> =
+            versions.iter().map(|(k, (v, _))| (k.clone(), *v)).collect();
+        out.sort();
+        out
     }
     /// Count and log a message from `from` that decoded but its receiver refused.
     pub fn refuse_invalid(&self, from: &str, reason: &dyn std::fmt::Display) {

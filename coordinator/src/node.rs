@@ -34,8 +34,8 @@ use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    FireState, FireTrack, GoalAck, GoalsInForce, MAX_GOAL_ID, SimClock, Stranded, Task, Trapped,
-    UnitState, ZoneGoal, latest_per_fire,
+    FireState, FireTrack, GoalAck, GoalsInForce, IncidentStatus, MAX_GOAL_ID, SimClock, Stranded,
+    Task, Trapped, UnitState, ZoneGoal, latest_per_fire,
 };
 
 use crate::assign::Strategy;
@@ -255,6 +255,7 @@ pub async fn run(
                         body.rejected.insert("inconsistent".to_owned(), incident.inconsistencies());
                         // Sightings past what one unit's word may hold (a liar's flood).
                         body.rejected.insert("lone_tracks".to_owned(), incident.lone_refused());
+                        other_versions(&mut body, bus);
                         Some(codec::encode(&body))
                     }
                     _ => None,
@@ -326,6 +327,24 @@ pub async fn run(
         }
     }
     Ok(Ended::Shutdown)
+}
+
+/// How long a unit heard speaking another protocol version is shown so after its last
+/// such message: units send several a second, so a few seconds of silence in that version
+/// means it was upgraded (or is gone, which its lease tells).
+const OTHER_VERSION_RECENT: Duration = Duration::from_secs(5);
+
+/// Mark in `status` the units heard lately in another protocol version.
+fn other_versions(status: &mut IncidentStatus, bus: &Bus) {
+    for (key, version) in bus.rejects().other_versions(OTHER_VERSION_RECENT) {
+        let unit = match firefleet_protocol::keys::parse(&key) {
+            Ok((_, Topic::UnitState(u) | Topic::UnitReport(u) | Topic::UnitBt(u))) => u,
+            _ => continue,
+        };
+        if let Some(s) = status.units.iter_mut().find(|s| s.unit == unit) {
+            s.protocol = Some(version);
+        }
+    }
 }
 
 /// Sets the in-office gauge to 0 however the loop ends (shut down, deposed, an error).

@@ -5,6 +5,7 @@
 use std::process::ExitCode;
 
 use clap::Args;
+use firefleet_protocol::codec::PROTOCOL_VERSION;
 use firefleet_protocol::msg::IncidentStatus;
 
 use super::ScenarioArg;
@@ -56,10 +57,20 @@ fn print_status(s: &IncidentStatus) {
             .task
             .as_ref()
             .map_or("-".to_owned(), |t| t.kind.to_string());
-        let why = u
-            .lost
-            .as_ref()
-            .map_or(String::new(), |w| format!("  ({w})"));
+        // A unit of another release is not lost: its messages are refused until the site
+        // and the unit speak one version (deploy/UPGRADE.md).
+        let why = match (u.protocol, &u.lost) {
+            (Some(v), _) => format!(
+                "  (OTHER PROTOCOL: speaks version {v}, the coordinator {PROTOCOL_VERSION}: its messages are refused until it is upgraded)"
+            ),
+            (None, Some(w)) => format!("  ({w})"),
+            (None, None) => String::new(),
+        };
+        let presence = match (u.protocol, u.alive) {
+            (Some(_), _) => "other",
+            (None, true) => "alive",
+            (None, false) => "lost",
+        };
         // A unit whose reports no longer confirm a fire alone is named as such.
         let doubted = if u.report_weight < 0.5 {
             format!("  DOUBTED: reports weighed {:.2}", u.report_weight)
@@ -69,7 +80,7 @@ fn print_status(s: &IncidentStatus) {
         println!(
             "  {:10} {:6} {:13} water {:6.0} L  task {task}{why}{doubted}",
             u.unit.as_str(),
-            if u.alive { "alive" } else { "lost" },
+            presence,
             mode.unwrap_or("-"),
             u.state.as_ref().map_or(0.0, |st| st.water_l),
         );

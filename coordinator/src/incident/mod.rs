@@ -510,6 +510,7 @@ impl Incident {
                     task: v.task.clone(),
                     lost: v.lost.map(|(why, _)| why.to_string()),
                     report_weight: self.fusion.witnesses().weight(u),
+                    protocol: None,
                 })
                 .collect(),
             fires: self.fire_tracks(t),

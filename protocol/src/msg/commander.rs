@@ -28,6 +28,11 @@ pub struct UnitStatus {
     /// contradicts one; below 0.5 its word alone no longer confirms a fire.
     #[serde(default = "full_weight")]
     pub report_weight: f64,
+    /// The protocol version the unit was last heard speaking, when it is not the
+    /// coordinator's (its messages are refused): a unit of another release, not a lost one
+    /// (`deploy/UPGRADE.md`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub protocol: Option<u8>,
 }
 
 fn full_weight() -> f64 {
