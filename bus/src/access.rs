@@ -112,6 +112,14 @@ impl Identity {
             Identity::Console,
             Identity::ROUTER,
         ]);
+        // The site file's further routers (the first is `router`).
+        all.extend(
+            scenario
+                .routers
+                .iter()
+                .skip(1)
+                .map(|r| Identity::Router(Some(r.name.clone()))),
+        );
         let mut named: Vec<CommanderId> = commanders.to_vec();
         for c in &scenario.commanders {
             if !named.contains(&c.id) {

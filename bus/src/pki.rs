@@ -148,15 +148,33 @@ pub fn make_site(
     let names = Identity::of_site(scenario, commanders);
     let site = Signer::create(&out.join(CA_DIR), CA_NAME)?;
     let web = Signer::create(&out.join(WEB_CA_DIR), WEB_CA_NAME)?;
-    // The hosts are the router's (and the console page's); the other identities are
-    // clients and name none.
+    // The hosts are the first router's and the console page's; a router the site file
+    // lists is reached at its host (the first also at those given); the other identities
+    // are clients and name none.
     let client = Terms {
         hosts: Vec::new(),
         ..terms.clone()
     };
     for name in &names {
-        let terms = match name.role() {
-            Role::Router | Role::Console => terms,
+        let listed = match name {
+            Identity::Router(None) => scenario.routers.first(),
+            Identity::Router(Some(r)) => scenario.routers.iter().find(|s| &s.name == r),
+            _ => None,
+        };
+        let router_terms;
+        let terms = match (name.role(), listed) {
+            (Role::Router, Some(spec)) => {
+                let mut hosts = vec![spec.host.clone()];
+                if *name == Identity::ROUTER {
+                    hosts.extend(terms.hosts.iter().filter(|h| **h != spec.host).cloned());
+                }
+                router_terms = Terms {
+                    hosts,
+                    ..terms.clone()
+                };
+                &router_terms
+            }
+            (Role::Router | Role::Console, _) => terms,
             _ => &client,
         };
         leaf(out, name, terms, &site, &web)?;

@@ -18,7 +18,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use firefleet_model::scenario::Scenario;
-use firefleet_model::{CommanderId, RouterId, UnitId};
+use firefleet_model::{CommanderId, Point2, RouterId, UnitId};
 use firefleet_protocol::keys::Keys;
 use serde_json::{Value, json};
 
@@ -94,11 +94,10 @@ fn io(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> RenderError {
 /// Write the configurations `a` asks for, for `scenario`'s site; its identities (the
 /// revoked ones left out).
 pub fn render_site(scenario: &Scenario, a: &Layout) -> Result<Vec<Identity>, RenderError> {
-    if let Some(e) = a
-        .listen
+    let planned = plan_routers(scenario, a)?;
+    if let Some(e) = planned
         .iter()
-        .chain([&a.connect])
-        .chain(a.routers.iter().map(|(_, e)| e))
+        .flat_map(|r| r.listen.iter().chain([&r.endpoint]))
         .find(|e| !e.starts_with("quic/"))
     {
         return Err(RenderError::Refused(format!(
@@ -113,11 +112,11 @@ pub fn render_site(scenario: &Scenario, a: &Layout) -> Result<Vec<Identity>, Ren
     }
     let revoked: Vec<Identity> = pki::revoked(&a.pki)?.into_iter().map(|(r, _)| r).collect();
     let mut identities = Identity::of_site(scenario, &a.commanders);
-    identities.extend(
-        a.routers
-            .iter()
-            .map(|(r, _)| Identity::Router(Some(r.clone()))),
-    );
+    for r in &planned {
+        if !identities.contains(&r.who) {
+            identities.push(r.who.clone());
+        }
+    }
     identities.retain(|who| !revoked.contains(who));
     if !identities.contains(&Identity::ROUTER) {
         return Err(RenderError::Refused(
@@ -191,36 +190,52 @@ pub fn render_site(scenario: &Scenario, a: &Layout) -> Result<Vec<Identity>, Ren
         r["low_pass_filter"] = low_pass.clone();
         r
     };
-    write_config(
-        &a.out.join("router.json5"),
-        &format!(
-            "The Zenoh router of site '{}': QUIC with mutual TLS only, access rules default\n\
-             deny, rate and size bounds per unit key.\n\
-             Run it with `firefleet router --zenoh-config router.json5` (or zenohd -c).",
-            scenario.site
-        ),
-        &router_config(&Identity::ROUTER, &a.listen, &[]),
-    )?;
-    for (name, endpoint) in &a.routers {
-        let who = Identity::Router(Some(name.clone()));
-        if !identities.contains(&who) {
-            continue;
-        }
-        write_config(
-            &a.out.join(format!("{}.json5", who.dir_name())),
-            &format!(
-                "Router {name} of site '{}', linked to the first: the same rules.",
+    // Routers along the tunnel link to their neighbour toward the first (in chainage
+    // order when the site file places them; else each to the first): one chain, as the
+    // tunnel's own network runs.
+    let live: Vec<&Planned> = planned
+        .iter()
+        .filter(|r| identities.contains(&r.who))
+        .collect();
+    for (i, r) in live.iter().enumerate() {
+        let upstream: Vec<&String> = match (i, r.chainage_m) {
+            (0, _) => Vec::new(),
+            (_, Some(c)) => live[..i]
+                .iter()
+                .min_by(|x, y| {
+                    let d = |p: &Planned| (p.chainage_m.unwrap_or(0.0) - c).abs();
+                    d(x).total_cmp(&d(y))
+                })
+                .map(|n| vec![&n.endpoint])
+                .unwrap_or_default(),
+            (_, None) => vec![&live[0].endpoint],
+        };
+        let comment = if i == 0 {
+            format!(
+                "The Zenoh router of site '{}': QUIC with mutual TLS only, access rules default\n\
+                 deny, rate and size bounds per unit key.\n\
+                 Run it with `firefleet router --zenoh-config router.json5` (or zenohd -c).",
                 scenario.site
-            ),
-            &router_config(&who, std::slice::from_ref(endpoint), &[&a.connect]),
+            )
+        } else {
+            format!(
+                "Router {} of site '{}', linked to {}: the same rules.",
+                r.who,
+                scenario.site,
+                upstream.first().map_or("the first", |e| e.as_str())
+            )
+        };
+        write_config(
+            &a.out.join(format!("{}.json5", r.who.dir_name())),
+            &comment,
+            &router_config(&r.who, &r.listen, &upstream),
         )?;
     }
-    let connect: Vec<String> = [&a.connect]
-        .into_iter()
-        .chain(a.routers.iter().map(|(_, e)| e))
-        .map(|e| one_stream(e))
-        .collect();
     for who in identities.iter().filter(|w| w.role() != Role::Router) {
+        let connect: Vec<String> = client_order(scenario, who, &live)
+            .into_iter()
+            .map(|e| one_stream(e))
+            .collect();
         let mut client = base("client", who);
         client["connect"] = json!({ "endpoints": connect });
         write_config(
@@ -247,6 +262,79 @@ pub fn render_site(scenario: &Scenario, a: &Layout) -> Result<Vec<Identity>, Ren
     }
     fs::write(a.out.join("ACCESS.md"), &table).map_err(io("writing ACCESS.md"))?;
     Ok(identities)
+}
+
+/// A router to render: who, where it listens, where it is reached, and where it stands.
+struct Planned {
+    who: Identity,
+    listen: Vec<String>,
+    endpoint: String,
+    chainage_m: Option<f64>,
+}
+
+/// The site's routers: the site file's `[[routers]]` (each listening on its port on every
+/// address, reached at its host), or the command line's (`--listen`/`--connect` for the
+/// first, `--router NAME=ENDPOINT` for the others); not both.
+fn plan_routers(scenario: &Scenario, a: &Layout) -> Result<Vec<Planned>, RenderError> {
+    if scenario.routers.is_empty() {
+        let mut planned = vec![Planned {
+            who: Identity::ROUTER,
+            listen: a.listen.clone(),
+            endpoint: a.connect.clone(),
+            chainage_m: None,
+        }];
+        planned.extend(a.routers.iter().map(|(name, endpoint)| Planned {
+            who: Identity::Router(Some(name.clone())),
+            listen: vec![endpoint.clone()],
+            endpoint: endpoint.clone(),
+            chainage_m: None,
+        }));
+        return Ok(planned);
+    }
+    if !a.routers.is_empty() {
+        return Err(RenderError::Refused(
+            "the site file lists its routers ([[routers]]): --router is for a site file that does not".into(),
+        ));
+    }
+    Ok(scenario
+        .routers
+        .iter()
+        .enumerate()
+        .map(|(i, r)| Planned {
+            who: if i == 0 {
+                Identity::ROUTER
+            } else {
+                Identity::Router(Some(r.name.clone()))
+            },
+            listen: vec![format!("quic/0.0.0.0:{}", r.port)],
+            endpoint: r.endpoint(),
+            chainage_m: Some(r.chainage_m),
+        })
+        .collect())
+}
+
+/// The routers `who` dials, in the order it tries them: a unit the nearest to where it
+/// starts first (Zenoh's client takes the first that answers, and the next when its link
+/// drops), every other identity the site's first router first.
+fn client_order<'a>(
+    scenario: &Scenario,
+    who: &Identity,
+    routers: &[&'a Planned],
+) -> Vec<&'a String> {
+    let start = match who {
+        Identity::Unit(u) => scenario
+            .unit(u)
+            .map(|s| scenario.tunnel.chainage(Point2::new(s.x_m, s.y_m)).m()),
+        _ => None,
+    };
+    let mut order: Vec<&Planned> = routers.to_vec();
+    if let Some(at) = start {
+        order.sort_by(|x, y| {
+            let d = |p: &Planned| p.chainage_m.map_or(f64::INFINITY, |c| (c - at).abs());
+            d(x).total_cmp(&d(y))
+        });
+    }
+    order.into_iter().map(|r| &r.endpoint).collect()
 }
 
 fn write_config(path: &Path, comment: &str, value: &Value) -> Result<(), RenderError> {
@@ -291,4 +379,82 @@ pub fn access_table(
         out.push('\n');
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firefleet_model::scenario::RouterSpec;
+
+    fn config(dir: &Path, who: &str) -> Value {
+        let text = fs::read_to_string(dir.join(format!("{who}.json5"))).unwrap();
+        let json: String = text.lines().filter(|l| !l.starts_with("//")).collect();
+        serde_json::from_str(&json).unwrap()
+    }
+
+    /// The pile-up with a router at each portal: each issued for its host, linked in a
+    /// chain, and every unit dialling the one nearer where it starts first.
+    #[test]
+    fn routers_the_site_file_lists_are_issued_linked_and_dialled_nearest_first() {
+        let mut scenario = firefleet_model::builtin::resolve("pileup").unwrap();
+        let router = |name: &str, host: &str, chainage_m: f64| RouterSpec {
+            name: RouterId::new(name).unwrap(),
+            host: host.into(),
+            port: 7447,
+            chainage_m,
+        };
+        scenario.routers = vec![
+            router("west", "west.tunnel.local", 0.0),
+            router("east", "east.tunnel.local", 300.0),
+        ];
+        scenario.validate().unwrap();
+        let d = tempfile::tempdir().unwrap();
+        let (pki_dir, out) = (d.path().join("pki"), d.path().join("out"));
+        let rossi = CommanderId::new("rossi").unwrap();
+        pki::make_site(
+            &scenario,
+            std::slice::from_ref(&rossi),
+            &pki::Terms::default(),
+            &pki_dir,
+        )
+        .unwrap();
+        let east = Identity::Router(Some(RouterId::new("east").unwrap()));
+        for (who, host) in [(Identity::ROUTER, "west"), (east.clone(), "east")] {
+            let c = pki::Certified::read(&pki_dir.join(who.dir_name()).join("cert.pem")).unwrap();
+            assert_eq!(c.hosts, [format!("{host}.tunnel.local")], "{who}");
+        }
+        let layout = Layout::loopback(pki_dir, out.clone(), "quic/127.0.0.1:1".into(), rossi);
+        render_site(&scenario, &layout).unwrap();
+        let west_at = "quic/west.tunnel.local:7447?multistream=0";
+        let east_at = "quic/east.tunnel.local:7447?multistream=0";
+        let router = config(&out, "router");
+        assert_eq!(
+            router["listen"]["endpoints"],
+            json!(["quic/0.0.0.0:7447?multistream=0"])
+        );
+        assert!(router.get("connect").is_none());
+        assert_eq!(
+            config(&out, &east.dir_name())["connect"]["endpoints"],
+            json!([west_at])
+        );
+        // ugv-1 starts at the west portal, ugv-3 at the east one (x = 5 and 295 m).
+        assert_eq!(
+            config(&out, "unit-ugv-1")["connect"]["endpoints"],
+            json!([west_at, east_at])
+        );
+        assert_eq!(
+            config(&out, "unit-ugv-3")["connect"]["endpoints"],
+            json!([east_at, west_at])
+        );
+        assert_eq!(
+            config(&out, "coordinator")["connect"]["endpoints"],
+            json!([west_at, east_at])
+        );
+        // Not both the site file's routers and the command line's.
+        let twice = Layout {
+            routers: vec![(RouterId::new("b").unwrap(), "quic/b:7447".into())],
+            ..layout
+        };
+        assert!(render_site(&scenario, &twice).is_err());
+    }
 }

@@ -15,6 +15,12 @@
 //! simulated = true           # optional: the simulator's tunnel (true) or a real one
 //!                            # (false); a deployed site says which (`Scenario::simulated`)
 //!
+//! [[routers]]                # optional: the site's routers, the first its own
+//! name = "west"
+//! host = "router-west.tunnel.local"
+//! port = 7447                # optional, default 7447
+//! chainage_m = 0.0
+//!
 //! [tunnel]
 //! length_m = 200.0
 //! width_m = 10.0
@@ -83,7 +89,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{Point2, Pose2};
-use crate::ids::{CommanderId, SiteId, UnitId, ZoneId};
+use crate::ids::{CommanderId, RouterId, SiteId, UnitId, ZoneId};
 use crate::profile::{self, Profile};
 use crate::spec::{GroundSpec, MonorailSpec, UnitKind};
 use crate::tunnel::Chainage;
@@ -137,6 +143,41 @@ pub struct Scenario {
     /// and `firefleet doctor` asks the site file to say.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub simulated: Option<bool>,
+    /// The site's Zenoh routers along the tunnel, the first the site's own (identity
+    /// `router`), the others `router:<name>` ([`RouterSpec`]). Empty: the routers are given
+    /// to `pki` and `deploy render` on the command line.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub routers: Vec<RouterSpec>,
+}
+
+/// The most routers a site lists: one every few hundred metres of the longest tunnels.
+pub const MAX_ROUTERS: usize = 64;
+
+/// A Zenoh router of the site: where it stands, and the host and port its clients reach
+/// it at (the host is named in its certificate, which clients check).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RouterSpec {
+    pub name: RouterId,
+    pub host: String,
+    #[serde(default = "default_router_port")]
+    pub port: u16,
+    pub chainage_m: f64,
+}
+
+fn default_router_port() -> u16 {
+    7447
+}
+
+impl RouterSpec {
+    /// The QUIC endpoint clients and neighbouring routers dial.
+    pub fn endpoint(&self) -> String {
+        if self.host.contains(':') {
+            format!("quic/[{}]:{}", self.host, self.port)
+        } else {
+            format!("quic/{}:{}", self.host, self.port)
+        }
+    }
 }
 
 /// The rank of commander `c` among `commanders`: as listed, else [`Rank::Sector`].
@@ -329,6 +370,7 @@ impl Scenario {
             profiles: BTreeMap::new(),
             portals: None,
             simulated: None,
+            routers: Vec::new(),
         }
     }
 
@@ -580,6 +622,32 @@ impl Scenario {
         for (i, c) in self.commanders.iter().enumerate() {
             once(&mut ids, c.id.as_str(), || format!("commanders[{i}].id"))?;
         }
+        if self.routers.len() > MAX_ROUTERS {
+            return Err(Invalid::new(
+                "routers",
+                format!("{} routers: at most {MAX_ROUTERS}", self.routers.len()),
+            ));
+        }
+        let mut ids = HashSet::new();
+        for (i, r) in self.routers.iter().enumerate() {
+            let f = |n: &str| format!("routers[{i}].{n}");
+            once(&mut ids, r.name.as_str(), || f("name"))?;
+            let host_ok = !r.host.is_empty()
+                && r.host.len() <= 253
+                && r.host
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | ':'));
+            if !host_ok {
+                return Err(Invalid::new(
+                    f("host"),
+                    format!("'{}' is no host name or address", r.host),
+                ));
+            }
+            if r.port == 0 {
+                return Err(Invalid::new(f("port"), "must be 1 to 65535"));
+            }
+            in_range(&f("chainage_m"), r.chainage_m, 0.0, t.length_m)?;
+        }
         Ok(())
     }
 }
@@ -675,6 +743,34 @@ mod tests {
         assert!(
             e.contains("tunnel.length_m: is 100 but the centerline adds up to 91.416"),
             "{e}"
+        );
+    }
+
+    #[test]
+    fn routers_stand_along_the_tunnel_at_hosts_their_clients_dial() {
+        let listed = format!(
+            "{OK}\n[[routers]]\nname = \"west\"\nhost = \"router-west.site\"\nchainage_m = 0.0\n\
+             [[routers]]\nname = \"east\"\nhost = \"10.0.0.2\"\nport = 7450\nchainage_m = 90.0\n"
+        );
+        let s = Scenario::from_toml(&listed, "r.toml").unwrap();
+        assert_eq!(s.routers[0].endpoint(), "quic/router-west.site:7447");
+        assert_eq!(s.routers[1].endpoint(), "quic/10.0.0.2:7450");
+        refused(
+            &listed,
+            &[
+                ("\"east\"", "\"west\"", "routers[1].name"),
+                (
+                    "\"10.0.0.2\"",
+                    "\"a host\"",
+                    "routers[1].host: 'a host' is no host",
+                ),
+                ("port = 7450", "port = 0", "routers[1].port"),
+                (
+                    "chainage_m = 90.0",
+                    "chainage_m = 120.0",
+                    "routers[1].chainage_m",
+                ),
+            ],
         );
     }
 
