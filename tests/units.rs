@@ -48,6 +48,18 @@ fn site(dir: &Path) -> (PathBuf, PathBuf) {
         assert!(out.status.success(), "{args:?}: {}", text(&out));
     };
     run(&[
+        "pki",
+        "issue",
+        "--pki",
+        pki.to_str().unwrap(),
+        "--role",
+        "router",
+        "--name",
+        "b",
+        "--host",
+        "router-b.tunnel.local",
+    ]);
+    run(&[
         "deploy",
         "render",
         "--scenario",
@@ -62,6 +74,8 @@ fn site(dir: &Path) -> (PathBuf, PathBuf) {
         "quic/0.0.0.0:7447",
         "--connect",
         "quic/router.tunnel.local:7447",
+        "--router",
+        "b=quic/router-b.tunnel.local:7447",
         "--pki-at",
         "/etc/firefleet/pki",
     ]);
@@ -78,7 +92,7 @@ fn every_unit_is_rated_ok_by_systemd() {
         return;
     }
     let units = units();
-    assert!(units.len() >= 6, "{units:?}");
+    assert!(units.len() >= 8, "{units:?}");
     for (name, _) in &units {
         let path = std::fs::canonicalize(Path::new(UNITS).join(name)).unwrap();
         let out = Command::new("systemd-analyze")
@@ -102,9 +116,14 @@ fn every_unit_is_rated_ok_by_systemd() {
 fn every_unit_names_what_pki_init_and_deploy_render_write() {
     let dir = tempfile::tempdir().unwrap();
     let (pki, cfg) = site(dir.path());
-    let unit = "ugv-1";
     for (name, text) in units() {
-        let text = text.replace("%i", unit);
+        // A template's instance: a unit of the site, or its further router.
+        let instance = if name.starts_with("firefleet-router@") {
+            "b"
+        } else {
+            "ugv-1"
+        };
+        let text = text.replace("%i", instance);
         // The service is told when it is ready, and stays in its sandbox.
         for (key, value) in [
             ("Type", "notify"),

@@ -26,6 +26,18 @@ use crate::access::{self, Grant, Identity, Op, Role, UnknownUnit};
 use crate::pki::{self, PkiError};
 use crate::{limits, mtls_link, one_stream};
 
+/// How long a link may be silent before its far end counts it dead, ms (Zenoh's default is
+/// 10 s). A client whose router died stays on it until then, then tries its routers again:
+/// failing over within 2 s needs a lease of 1 s (keep-alives every 250 ms, a few bytes).
+/// Shorter would drop links over a wireless hiccup; the coordinator's grace for a vanished
+/// token (`firefleet_coordinator::node`) covers the reconnection.
+pub const LINK_LEASE_MS: u64 = 1000;
+
+/// How long opening a link may take, ms (Zenoh's default is 10 s): a client failing over
+/// tries its routers in turn, and a dead one it tries first must not hold it past the 2 s
+/// target. A handshake on the site's network takes milliseconds.
+pub const OPEN_TIMEOUT_MS: u64 = 500;
+
 /// Where a site's files are and how its processes reach the router.
 #[derive(Debug, Clone)]
 pub struct Layout {
@@ -150,7 +162,13 @@ pub fn render_site(scenario: &Scenario, a: &Layout) -> Result<Vec<Identity>, Ren
         json!({
             "mode": mode,
             "scouting": { "multicast": { "enabled": false } },
-            "transport": { "link": { "tls": mtls_link(&pki_at.join(who.dir_name())) } },
+            "transport": {
+                "link": {
+                    "tls": mtls_link(&pki_at.join(who.dir_name())),
+                    "tx": { "lease": LINK_LEASE_MS },
+                },
+                "unicast": { "open_timeout": OPEN_TIMEOUT_MS },
+            },
         })
     };
     let keys = Keys::new(scenario.site.clone());

@@ -60,10 +60,11 @@ pub const UNIT_WHOLE_PERIOD_MS: u64 = 10_000;
 /// A fire track not republished for this long while the coordinator republishes others
 /// (every second) is no longer one it knows: dropped, ms.
 pub const FIRE_ORPHAN_MS: u64 = 5000;
-/// A vanished token counts as a lost unit (or coordinator) only if the console's own link
-/// to the site still holds this long after, ms: when the router dies, every token vanishes
-/// a moment before the link is known to be down.
-pub const LOST_CONFIRM_MS: u64 = 1000;
+/// A vanished token counts as a lost unit (or coordinator) only if it stays away this long
+/// and the console's own link to the site still holds, ms: when the console's router dies,
+/// every token vanishes a moment before the link is known to be down, and a unit whose
+/// router dies is back on the next within it (the coordinator's grace, the same).
+pub const LOST_CONFIRM_MS: u64 = firefleet_protocol::keys::TOKEN_GRACE_MS;
 /// Below this flow a unit is not spraying: no time left is shown, L/s.
 const SPRAYING_L_S: f64 = 0.5;
 

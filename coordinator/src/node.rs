@@ -22,6 +22,7 @@
 //! Not here: any decision; [`crate::incident`] decides, this loop carries events in and
 //! decisions out.
 
+use std::collections::HashMap;
 use std::future::Future;
 use std::sync::Arc;
 use std::time::Duration;
@@ -30,7 +31,7 @@ use firefleet_bus::{Ask, Bus, BusError, Inbox};
 use firefleet_model::clock::{Clock, ExternalClock, SystemClock};
 use firefleet_model::scenario::Scenario;
 use firefleet_model::validate::Invalid;
-use firefleet_model::{CommanderId, ZoneId};
+use firefleet_model::{CommanderId, UnitId, ZoneId};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
@@ -179,6 +180,7 @@ pub async fn run(
     let mut republish =
         tokio::time::interval(Duration::from_millis(1000 / REPUBLISH_SLICES as u64));
     let mut slice = 0;
+    let mut vanished: HashMap<UnitId, std::time::Instant> = HashMap::new();
     tokio::pin!(shutdown);
     tracing::info!(units = scenario.units.len(), "coordinator started");
     let stats = &opts.stats;
@@ -208,6 +210,13 @@ pub async fn run(
             },
             Some((_, c)) = clock_msgs.recv() => { sim_time.set(c.t); Ok(Vec::new()) }
             Some((topic, up)) = alive.recv() => match &topic {
+                // A vanished token is taken for a lost unit only if it stays away past
+                // TOKEN_GRACE: a unit whose router died is back on the next within it.
+                Topic::UnitAlive(unit) if !up => {
+                    vanished.entry(unit.clone()).or_insert_with(std::time::Instant::now);
+                    Ok(Vec::new())
+                }
+                Topic::UnitAlive(unit) if vanished.remove(unit).is_some() => Ok(Vec::new()),
                 Topic::UnitAlive(unit) => incident.on_alive(unit, up, clock.now()),
                 other => Err(Invalid::new("key", format!("'{other}' is not a unit token"))),
             }.map_err(|e| (topic.to_string(), e)),
@@ -281,6 +290,15 @@ pub async fn run(
                 // A unit silent past its lease is lost within a tenth of a second, not at
                 // the next tick: its fire waits for a new unit meanwhile.
                 let mut out = incident.lapse(t);
+                let gone: Vec<UnitId> = vanished
+                    .iter()
+                    .filter(|(_, at)| at.elapsed() >= TOKEN_GRACE)
+                    .map(|(u, _)| u.clone())
+                    .collect();
+                for unit in gone {
+                    vanished.remove(&unit);
+                    out.extend(incident.on_alive(&unit, false, t).unwrap_or_default());
+                }
                 out.extend(
                     incident
                         .tasks()
@@ -328,6 +346,12 @@ pub async fn run(
     }
     Ok(Ended::Shutdown)
 }
+
+/// How long a unit's vanished liveliness token may stay away before the unit counts as lost
+/// ([`firefleet_protocol::keys::TOKEN_GRACE_MS`], wall-clock time, as failing over takes);
+/// a unit that died is still lost by its lease when that comes first (at faster-than-real
+/// site time).
+const TOKEN_GRACE: Duration = Duration::from_millis(firefleet_protocol::keys::TOKEN_GRACE_MS);
 
 /// How long a unit heard speaking another protocol version is shown so after its last
 /// such message: units send several a second, so a few seconds of silence in that version

@@ -49,6 +49,13 @@ use firefleet_model::ids::{CommanderId, FireId, SiteId, UnitId, ZoneId};
 
 const ROOT: &str = "ff";
 
+/// How long a vanished liveliness token (`unit/<id>/alive`, `coord/alive`) may stay away
+/// before its process counts as gone, ms: a unit whose router died declares it again on its
+/// next router (failing over takes under 2 s, `tests/routers.rs`), while the site's other
+/// routers forget it as soon as the dead router's link lapses. The coordinator and the
+/// console wait this long alike.
+pub const TOKEN_GRACE_MS: u64 = 2000;
+
 /// One concrete key, without the `ff/<site>/` prefix.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 pub enum Topic {
