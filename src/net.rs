@@ -158,7 +158,30 @@ pub async fn join(zenoh: &ZenohArgs, scenario: &Scenario, who: Expect) -> anyhow
     .await
     .context("joining the Zenoh network")?;
     ready();
+    tokio::spawn(watch_link(bus.clone()));
     Ok(bus)
+}
+
+/// Say in the log whenever the router (or peer) this process is linked through changes: a
+/// unit that shows lost, or one that failed over to the next router, says so in its own log
+/// at the default level, with when.
+async fn watch_link(bus: Bus) {
+    let mut was: Vec<String> = Vec::new();
+    while !bus.zenoh_session().is_closed() {
+        let info = bus.zenoh_session().info();
+        let mut now: Vec<String> = info.routers_zid().await.map(|z| z.to_string()).collect();
+        now.extend(info.peers_zid().await.map(|z| z.to_string()));
+        now.sort();
+        if now != was && !bus.zenoh_session().is_closed() {
+            if now.is_empty() {
+                tracing::warn!("link to the site lost: trying its routers again");
+            } else {
+                tracing::info!(through = now.join(","), "linked to the site");
+            }
+            was = now;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
 }
 
 /// The coordinator's snapshot of the incident, decoded and as sent.
