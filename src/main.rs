@@ -21,6 +21,7 @@ mod children;
 mod commands;
 mod metrics;
 mod net;
+mod rehome;
 
 use clap::{Parser, Subcommand};
 

@@ -45,7 +45,8 @@ pub struct MetricsArg {
 pub type Figures = Arc<dyn Fn(&mut Registry) + Send + Sync>;
 
 struct Served {
-    bus: Bus,
+    /// The role's session: a unit that moves to a nearer router changes it.
+    bus: std::sync::RwLock<Bus>,
     /// A router is ready once it listens; it has no router to be linked to.
     router: bool,
     figures: Option<Figures>,
@@ -60,15 +61,15 @@ impl MetricsArg {
         bus: &Bus,
         router: bool,
         figures: Option<Figures>,
-    ) -> anyhow::Result<()> {
+    ) -> anyhow::Result<Metrics> {
         let Some(addr) = self.metrics else {
-            return Ok(());
+            return Ok(Metrics(None));
         };
         let listener = tokio::net::TcpListener::bind(addr)
             .await
             .with_context(|| format!("--metrics {addr}"))?;
         let served = Arc::new(Served {
-            bus: bus.clone(),
+            bus: std::sync::RwLock::new(bus.clone()),
             router,
             figures,
         });
@@ -76,20 +77,41 @@ impl MetricsArg {
             .route("/healthz", get(|| async { "ok\n" }))
             .route("/readyz", get(readyz))
             .route("/metrics", get(metrics))
-            .with_state(served);
+            .with_state(served.clone());
         tracing::info!(%addr, "health and metrics served");
         tokio::spawn(async move {
             if let Err(e) = axum::serve(listener, app).await {
                 tracing::warn!("the metrics server stopped: {e}");
             }
         });
-        Ok(())
+        Ok(Metrics(Some(served)))
+    }
+}
+
+/// What a role serves its health and metrics from, if it does.
+pub struct Metrics(Option<Arc<Served>>);
+
+impl Metrics {
+    /// Serve from `bus` from now on (a unit that moved to another router).
+    pub fn follow(&self, bus: &Bus) {
+        if let Some(s) = &self.0 {
+            *s.bus
+                .write()
+                .unwrap_or_else(std::sync::PoisonError::into_inner) = bus.clone();
+        }
     }
 }
 
 impl Served {
+    fn bus(&self) -> Bus {
+        self.bus
+            .read()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone()
+    }
+
     async fn ready(&self) -> bool {
-        self.router || self.bus.connected().await
+        self.router || self.bus().connected().await
     }
 }
 
@@ -106,7 +128,8 @@ async fn readyz(State(s): State<Arc<Served>>) -> impl IntoResponse {
 
 async fn metrics(State(s): State<Arc<Served>>) -> impl IntoResponse {
     let mut registry = Registry::with_prefix("firefleet");
-    let info = s.bus.zenoh_session().info();
+    let bus = s.bus();
+    let info = bus.zenoh_session().info();
     let links = Gauge::<i64>::default();
     links.set((info.routers_zid().await.count() + info.peers_zid().await.count()) as i64);
     registry.register(
@@ -118,17 +141,17 @@ async fn metrics(State(s): State<Arc<Served>>) -> impl IntoResponse {
     ready.set(i64::from(s.ready().await));
     registry.register("ready", "1 while linked to the site (see /readyz)", ready);
     let sent = Counter::<u64>::default();
-    sent.inc_by(s.bus.traffic().sent());
+    sent.inc_by(bus.traffic().sent());
     registry.register("messages_sent", "Messages put on the bus", sent);
     let received = Counter::<u64>::default();
-    received.inc_by(s.bus.traffic().received());
+    received.inc_by(bus.traffic().received());
     registry.register(
         "messages_received",
         "Valid messages taken off the bus",
         received,
     );
     let rejected = Family::<Vec<(&'static str, &'static str)>, Counter>::default();
-    for (reason, n) in s.bus.rejects().snapshot() {
+    for (reason, n) in bus.rejects().snapshot() {
         rejected.get_or_create(&vec![("reason", reason)]).inc_by(n);
     }
     registry.register(

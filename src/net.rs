@@ -158,8 +158,13 @@ pub async fn join(zenoh: &ZenohArgs, scenario: &Scenario, who: Expect) -> anyhow
     .await
     .context("joining the Zenoh network")?;
     ready();
-    tokio::spawn(watch_link(bus.clone()));
+    watch(&bus);
     Ok(bus)
+}
+
+/// Log `bus`'s link changes ([`watch_link`]) for as long as it is open.
+pub fn watch(bus: &Bus) {
+    tokio::spawn(watch_link(bus.clone()));
 }
 
 /// Say in the log whenever the router (or peer) this process is linked through changes: a

@@ -15,6 +15,11 @@ use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::UnitState;
 use support::{BIN, Fleet, patient, text};
 
+/// How long a moving unit keeps its old session (`firefleet`'s `rehome::OVERLAP`).
+fn rehome_overlap() -> Duration {
+    Duration::from_secs(1)
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_unit_whose_router_is_killed_moves_to_the_next_and_is_never_counted_lost() {
     let dir = tempfile::tempdir().unwrap();
@@ -58,13 +63,15 @@ async fn a_unit_whose_router_is_killed_moves_to_the_next_and_is_never_counted_lo
         cfg.to_str().unwrap(),
     ]);
     let role = |args: &[&str], config: &str| {
+        let log = std::fs::File::create(dir.path().join(format!("{config}.log"))).unwrap();
         Command::new(BIN)
             .args(args)
             .args(["--scenario", s, "--zenoh-config"])
             .arg(cfg.join(config))
+            .env("RUST_LOG", "info,zenoh=warn")
             .stdin(Stdio::null())
             .stdout(Stdio::null())
-            .stderr(Stdio::null())
+            .stderr(log)
             .spawn()
             .unwrap()
     };
@@ -154,6 +161,53 @@ async fn a_unit_whose_router_is_killed_moves_to_the_next_and_is_never_counted_lo
         .unwrap()
         .unwrap();
     assert_eq!(st.unit, ugv3);
+
+    // The east router back: ugv-3, nearer it than the west one by far, moves back to it,
+    // its token never away.
+    fleet.0[1] = role(&["router"], "router-east.json5");
+    let restarted = Instant::now();
+    let agent_log = dir.path().join("unit-ugv-3.json5.log");
+    let check = until(
+        "ugv-3 never moved back to the east router",
+        Duration::from_secs(30),
+    );
+    let mut away = false;
+    let mut seen = Vec::new();
+    loop {
+        if let Ok(Some((Topic::UnitAlive(u), up))) =
+            tokio::time::timeout(Duration::from_millis(100), tokens.recv()).await
+            && u == ugv3
+        {
+            seen.push((restarted.elapsed(), up));
+            away |= !up;
+        }
+        let said = std::fs::read_to_string(&agent_log).unwrap_or_default();
+        if said.contains("moving to the nearer router") && said.contains("to=\"east\"") {
+            break;
+        }
+        check();
+    }
+    let moved = restarted.elapsed();
+    // The old session closes a second after the move: its twin token must not count.
+    tokio::time::sleep(rehome_overlap() + Duration::from_millis(500)).await;
+    while let Ok(Some((Topic::UnitAlive(u), up))) =
+        tokio::time::timeout(Duration::from_millis(1), tokens.recv()).await
+    {
+        if u == ugv3 {
+            seen.push((restarted.elapsed(), up));
+            away |= !up;
+        }
+    }
+    eprintln!("ugv-3's token at the west router since the east one restarted: {seen:?}");
+    eprintln!(
+        "east router back -> ugv-3 moved back to it {moved:?} after; its token away during the move: {away}"
+    );
+    assert!(!away, "ugv-3's token vanished while it moved");
+    while states.try_recv().is_some() {}
+    tokio::time::timeout(patient(Duration::from_secs(5)), states.recv())
+        .await
+        .expect("ugv-3 stated after its move")
+        .unwrap();
     tokio::time::sleep(Duration::from_millis(
         firefleet_protocol::keys::TOKEN_GRACE_MS,
     ))

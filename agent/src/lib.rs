@@ -22,5 +22,5 @@ pub mod node;
 pub mod platform;
 
 pub use controller::{Controller, Services};
-pub use node::{AgentOptions, run};
+pub use node::{AgentOptions, Ended, run};
 pub use platform::{Platform, Ros2Platform, SimPlatform};

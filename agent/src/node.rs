@@ -1,7 +1,8 @@
 //! An agent process: one controller, its platform, and its link to the coordinator.
 //!
-//! Declares the unit's liveliness token (the coordinator learns of a lost unit the moment
-//! its session drops), follows the coordinator's own token to know whether to act alone,
+//! Runs while its caller holds the unit's liveliness token (the coordinator learns of a
+//! lost unit the moment its session drops; a unit moving to a nearer router holds one on
+//! each session for a moment, `firefleet`'s `rehome`), follows the coordinator's own token to know whether to act alone,
 //! takes tasks and the barred space commanders' goals make (asking for the newest at
 //! start: the coordinator and recorders answer), steps the controller on every sensor frame, and publishes the unit's state
 //! and flame reports a few times a second of site time, and its behavior tree's
@@ -50,15 +51,26 @@ fn status(s: Status) -> NodeStatus {
     }
 }
 
-/// Run the agent with controller `ctl` until `shutdown` completes or the platform goes
-/// away.
-pub async fn run<P, U>(
+/// Why [`run`] returned.
+pub enum Ended<M> {
+    /// Shut down, or the platform went away: the unit was halted.
+    Stopped,
+    /// `move_to` gave what it waited for (a session linked through another router): the
+    /// caller runs on with it, the controller as it is and the body not halted.
+    Moved(M),
+}
+
+/// Run the agent with controller `ctl` until `shutdown` completes, the platform goes away
+/// or `move_to` completes. The caller holds the unit's liveliness token on `bus`'s session:
+/// it must outlive a move to another session, or the unit would vanish for a moment.
+pub async fn run<P, U, M>(
     bus: &Bus,
     mut platform: P,
-    mut ctl: Controller<U>,
+    ctl: &mut Controller<U>,
     opts: &AgentOptions,
     shutdown: impl Future<Output = ()>,
-) -> Result<(), BusError>
+    move_to: impl Future<Output = M>,
+) -> Result<Ended<M>, BusError>
 where
     P: Platform,
     U: Services<Sensors = P::Sensors, Command = P::Command>,
@@ -80,7 +92,6 @@ where
         })
         .collect();
 
-    let _token = bus.token(&Topic::UnitAlive(unit.clone())).await?;
     let coord = bus.watch_tokens(&keys.expr(&Topic::CoordAlive)).await?;
     let tasks = bus.subscribe(&keys.unit_task(unit)).await?;
     let barred = bus.subscribe(&keys.coord_barred()).await?;
@@ -116,7 +127,9 @@ where
     };
     tracing::info!(%unit, nodes = ctl.tree().len(), "agent started");
     tokio::pin!(shutdown);
+    tokio::pin!(move_to);
     let mut halt = None;
+    let mut moved = None;
     loop {
         tokio::select! {
             frame = platform.sense() => {
@@ -175,14 +188,21 @@ where
                 ctl.set_coordinator_present(present);
             }
             _ = &mut shutdown => break,
+            next = &mut move_to => {
+                moved = Some(next);
+                break;
+            }
         }
     }
     // What the tree did since the last batch goes out before the agent does.
     if !transitions.borrow().is_empty() {
         bus.put(&bt_key, &batch()).await?;
     }
+    if let Some(next) = moved {
+        return Ok(Ended::Moved(next));
+    }
     if let Some(cmd) = halt {
         platform.actuate(cmd).await?;
     }
-    Ok(())
+    Ok(Ended::Stopped)
 }

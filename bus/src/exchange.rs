@@ -308,6 +308,15 @@ impl Bus {
         info.routers_zid().await.next().is_some() || info.peers_zid().await.next().is_some()
     }
 
+    /// Whether the session is linked through the router whose Zenoh id is `zid` (hex, as
+    /// [`crate::render::router_zid`] gives a site router's).
+    pub async fn linked_to(&self, zid: &str) -> bool {
+        let Ok(want) = zid.parse::<zenoh::session::ZenohId>() else {
+            return false;
+        };
+        self.zenoh().info().routers_zid().await.any(|z| z == want)
+    }
+
     /// Decode `raw` as an `M`, counting and logging it (`what` names it) if it does not.
     pub fn decode<M: Message>(&self, raw: &Raw, what: &str) -> Option<M> {
         match codec::decode::<M>(&raw.bytes) {

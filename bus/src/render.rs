@@ -197,6 +197,7 @@ pub fn render_site(scenario: &Scenario, a: &Layout) -> Result<Vec<Identity>, Ren
     let (downsampling, low_pass) = limits::zenoh_limits(&keys, &units, a.time_scale);
     let router_config = |who: &Identity, listen: &[String], connect: &[&String]| {
         let mut r = base("router", who);
+        r["id"] = json!(router_zid(&scenario.site, who));
         let listen: Vec<String> = listen.iter().map(|e| one_stream(e)).collect();
         r["listen"] = json!({ "endpoints": listen });
         if !connect.is_empty() {
@@ -280,6 +281,15 @@ pub fn render_site(scenario: &Scenario, a: &Layout) -> Result<Vec<Identity>, Ren
     }
     fs::write(a.out.join("ACCESS.md"), &table).map_err(io("writing ACCESS.md"))?;
     Ok(identities)
+}
+
+/// The Zenoh id a site's router runs under: fixed by its site and name, so that a unit can
+/// tell from its session which of the site file's routers it is linked through (and move
+/// to a nearer one: `firefleet agent`). 16 bytes of SHA-256, in hex.
+pub fn router_zid(site: &firefleet_model::SiteId, who: &Identity) -> String {
+    use sha2::Digest as _;
+    let digest = sha2::Sha256::digest(format!("firefleet router {site}/{who}").as_bytes());
+    digest[..16].iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// A router to render: who, where it listens, where it is reached, and where it stands.

@@ -2,6 +2,7 @@
 //!
 //! Not here: the unit's behaviour (`firefleet_agent`).
 
+use std::future::Future;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -10,16 +11,22 @@ use anyhow::Context;
 use clap::Args;
 use firefleet_agent::ground::GroundController;
 use firefleet_agent::monorail::MonorailController;
-use firefleet_agent::{AgentOptions, Ros2Platform, SimPlatform};
+use firefleet_agent::{
+    AgentOptions, Controller, Ended, Platform, Ros2Platform, Services, SimPlatform,
+};
+use firefleet_bus::Bus;
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
 use firefleet_model::UnitId;
+use firefleet_protocol::keys::Topic;
 
 use firefleet_model::UnitKind;
 use firefleet_ros2::graph::{Domain, Namespace};
 
 use super::{PlatformKind, ScenarioArg, positive_f64};
+use crate::metrics::Metrics;
 use crate::net::{ZenohArgs, join, shutdown_signal};
+use crate::rehome::{self, Rehoming};
 
 #[derive(Args, Debug)]
 pub struct AgentArgs {
@@ -81,15 +88,20 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
         Expect::Identity(Identity::Unit(a.unit.clone())),
     )
     .await?;
-    a.metrics.serve(&bus, false, None).await?;
+    let metrics = a.metrics.serve(&bus, false, None).await?;
     let opts = AgentOptions {
         unit: a.unit.clone(),
         report_period_s: 0.25,
         print_tree: a.print_tree,
     };
     let shared = Arc::new(scenario.clone());
+    let on = Drive {
+        opts: &opts,
+        moves: Rehoming::new(&a.zenoh, &scenario, &a.unit),
+        metrics: &metrics,
+    };
     let shutdown = shutdown_signal(a.zenoh.die_with_parent);
-    match spec.kind {
+    let bus = match spec.kind {
         UnitKind::Ground => {
             let body = scenario
                 .ground_spec(&a.unit)
@@ -102,8 +114,14 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
                 GroundController::with_tree(a.unit.clone(), body, shared, &doc, 1.0 / a.tick_hz)?;
             match a.platform {
                 PlatformKind::Sim => {
-                    let platform = SimPlatform::ground(&bus, &a.unit).await?;
-                    firefleet_agent::run(&bus, platform, ctl, &opts, shutdown).await?;
+                    let unit = &a.unit;
+                    on.drive(
+                        bus,
+                        ctl,
+                        async |bus: &Bus| Ok(SimPlatform::ground(bus, unit).await?),
+                        shutdown,
+                    )
+                    .await?
                 }
                 PlatformKind::Ros2 => {
                     let (domain, namespace) = a.ros.place(&a.unit)?;
@@ -115,14 +133,20 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
                         ),
                         None => None,
                     };
-                    let session = own.as_ref().unwrap_or(bus.zenoh_session());
                     tracing::info!(%namespace, %domain, "driving a ROS 2 robot");
-                    let platform =
-                        Ros2Platform::ground(session, domain, namespace, &a.unit, body).await?;
-                    firefleet_agent::run(&bus, platform, ctl, &opts, shutdown).await?;
+                    let unit = &a.unit;
+                    let robot = async |bus: &Bus| {
+                        let session = own.as_ref().unwrap_or(bus.zenoh_session());
+                        Ok(
+                            Ros2Platform::ground(session, domain, namespace.clone(), unit, body)
+                                .await?,
+                        )
+                    };
+                    let bus = on.drive(bus, ctl, robot, shutdown).await?;
                     if let Some(s) = own {
                         s.close().await.ok();
                     }
+                    bus
                 }
             }
         }
@@ -143,12 +167,76 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
             };
             let ctl = MonorailController::with_tree(a.unit.clone(), carriage, shared, &doc)?
                 .context("the unit's rail is not in the scenario")?;
-            let platform = SimPlatform::monorail(&bus, &a.unit).await?;
-            firefleet_agent::run(&bus, platform, ctl, &opts, shutdown).await?;
+            let unit = &a.unit;
+            on.drive(
+                bus,
+                ctl,
+                async |bus: &Bus| Ok(SimPlatform::monorail(bus, unit).await?),
+                shutdown,
+            )
+            .await?
         }
-    }
+    };
     bus.close().await;
     Ok(ExitCode::SUCCESS)
+}
+
+/// What an agent runs with besides its controller and body.
+struct Drive<'a> {
+    opts: &'a AgentOptions,
+    moves: Option<Rehoming>,
+    metrics: &'a Metrics,
+}
+
+impl Drive<'_> {
+    /// Run `ctl` on the body `platform` makes on the current session until stopped,
+    /// moving to a nearer router whenever [`Rehoming`] finds one (the body made again on
+    /// the new session, the controller kept); the session it ends on.
+    async fn drive<P, U>(
+        &self,
+        mut bus: Bus,
+        mut ctl: Controller<U>,
+        mut platform: impl AsyncFnMut(&Bus) -> anyhow::Result<P>,
+        shutdown: impl Future<Output = ()>,
+    ) -> anyhow::Result<Bus>
+    where
+        P: Platform,
+        U: Services<Sensors = P::Sensors, Command = P::Command>,
+    {
+        tokio::pin!(shutdown);
+        let unit = Topic::UnitAlive(self.opts.unit.clone());
+        let mut token = bus.token(&unit).await?;
+        loop {
+            let body = platform(&bus).await?;
+            let move_to = async {
+                match &self.moves {
+                    Some(m) => m.nearer(&bus).await,
+                    None => std::future::pending().await,
+                }
+            };
+            match firefleet_agent::run(&bus, body, &mut ctl, self.opts, shutdown.as_mut(), move_to)
+                .await?
+            {
+                Ended::Stopped => {
+                    drop(token);
+                    return Ok(bus);
+                }
+                // Make before break: the unit's token on the new session came first; the
+                // old session and its token go a moment later.
+                Ended::Moved((next, next_token)) => {
+                    self.metrics.follow(&next);
+                    crate::net::watch(&next);
+                    let old = std::mem::replace(&mut bus, next);
+                    let old_token = std::mem::replace(&mut token, next_token);
+                    tokio::spawn(async move {
+                        tokio::time::sleep(rehome::OVERLAP).await;
+                        drop(old_token);
+                        old.close().await;
+                    });
+                }
+            }
+        }
+    }
 }
 
 impl RosArgs {

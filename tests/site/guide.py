@@ -179,8 +179,13 @@ def wait(what, within, check):
 
 def linked_after(logfile, t0):
     """The first 'linked to the site' line of a service's log after wall time t0 (UTC)."""
+    return logged_after(logfile, t0, "linked to the site")
+
+
+def logged_after(logfile, t0, *needles):
+    """When a service's log first said all of `needles` on one line after wall time t0."""
     for line in open(logfile, errors="replace"):
-        if "linked to the site" not in line or "lost" in line:
+        if not all(n in line for n in needles) or "link to the site lost" in line:
             continue
         stamp = line.split()[0]
         try:
@@ -243,6 +248,14 @@ def main():
         log(f"FAILOVER: ugv-3 linked to the next router {failover:.2f} s after its router was killed (target {FAILOVER_TARGET_S} s)")
         if failover > FAILOVER_TARGET_S:
             fail(f"failover took {failover:.2f} s")
+        # The east router back: ugv-3 moves back to it, the nearer, its token held on both
+        # sessions for a moment (no unit counted lost, checked below).
+        restarted = time.time()
+        sh("ip", "netns", "exec", ns("router-east"), "systemctl", "start", "firefleet-router@east",
+           env=dict(os.environ, PATH=f"{SHIM}:/usr/bin:/bin", FFG_STATE=STATE))
+        moved = wait("ugv-3 moved back to the east router", 20,
+                     lambda: logged_after(agent_log, restarted, "moving to the nearer router", 'to="east"'))
+        log(f"RE-HOMING: ugv-3 moved back to the east router {moved - restarted:.2f} s after it was started again")
 
         def all_out():
             s = status()
