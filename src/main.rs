@@ -7,7 +7,9 @@
 //!
 //! Each subcommand lives in `commands/` and only parses, calls and prints; what several
 //! share is beside them: `net` (joining the bus, signals, the status query), `children`
-//! (the processes a command starts), `checking` (a recording through the invariants).
+//! (the processes a command starts), `checking` (a recording through the invariants),
+//! `metrics` (a role's health and Prometheus figures over HTTP), `rehome` (a unit's move
+//! to a nearer router).
 //! Not here: any role's work (the library crates).
 
 #![allow(

@@ -33,10 +33,7 @@ fn site() -> Site {
     let shipped = std::fs::read_to_string("model/scenarios/vehicle-collision.toml").unwrap();
     std::fs::write(&real, format!("simulated = false\n{shipped}")).unwrap();
     let pki = dir.path().join("pki");
-    let run = |args: &[&str]| {
-        let out = support::firefleet(args);
-        assert!(out.status.success(), "{args:?}: {}", text(&out));
-    };
+    let run = support::firefleet_ok;
     let (real_s, pki_s) = (real.to_str().unwrap(), pki.to_str().unwrap());
     run(&[
         "pki",

@@ -39,10 +39,7 @@ async fn a_unit_whose_router_is_killed_moves_to_the_next_and_is_never_counted_lo
     )
     .unwrap();
     let (pki, cfg) = (dir.path().join("pki"), dir.path().join("cfg"));
-    let run = |args: &[&str]| {
-        let out = support::firefleet(args);
-        assert!(out.status.success(), "{args:?}: {}", text(&out));
-    };
+    let run = support::firefleet_ok;
     let s = site.to_str().unwrap();
     run(&[
         "pki",

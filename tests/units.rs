@@ -43,10 +43,7 @@ fn values<'a>(unit: &'a str, key: &str) -> Vec<&'a str> {
 /// `dir`: the PKI and the rendered configurations.
 fn site(dir: &Path) -> (PathBuf, PathBuf) {
     let (pki, cfg) = (support::pki_init(dir, "rail-tunnel"), dir.join("cfg"));
-    let run = |args: &[&str]| {
-        let out = support::firefleet(args);
-        assert!(out.status.success(), "{args:?}: {}", text(&out));
-    };
+    let run = support::firefleet_ok;
     run(&[
         "pki",
         "issue",

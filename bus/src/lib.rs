@@ -40,7 +40,8 @@
 //! certificate may touch is derived, not written; [`limits`] bounds how fast and how large
 //! a unit may send on its own keys; [`pki`] makes the site's role-bound certificates and
 //! checks an identity's files before a link is tried; [`render`] writes the configurations
-//! that carry them, the rules and the bounds.
+//! that carry them, the rules and the bounds; [`probe`] opens a link's handshake on its own
+//! to see which certificate a router presents (`firefleet doctor`).
 //!
 //! Not here: the messages and keys themselves (`firefleet-protocol`), or what any role does
 //! with them (the role crates). Besides `firefleet-ros2`, this is the only crate that

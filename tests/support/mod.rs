@@ -36,6 +36,12 @@ pub fn firefleet(args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// `firefleet ARGS`, which must succeed (else the test fails with what it said).
+pub fn firefleet_ok(args: &[&str]) {
+    let out = firefleet(args);
+    assert!(out.status.success(), "{args:?}: {}", text(&out));
+}
+
 /// Standard output and standard error, as text.
 pub fn text(o: &Output) -> String {
     format!(
