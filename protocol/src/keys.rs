@@ -51,7 +51,7 @@ const ROOT: &str = "ff";
 
 /// How long a vanished liveliness token (`unit/<id>/alive`, `coord/alive`) may stay away
 /// before its process counts as gone, ms: a unit whose router died declares it again on its
-/// next router (failing over takes under 2 s, `tests/routers.rs`), while the site's other
+/// next router (failing over takes under 2 s, `tests/it/routers.rs`), while the site's other
 /// routers forget it as soon as the dead router's link lapses. The coordinator and the
 /// console wait this long alike.
 pub const TOKEN_GRACE_MS: u64 = 2000;

@@ -23,7 +23,7 @@
 //!
 //! Not here: the rules and bounds that hold against the attacks (`firefleet_bus::access`,
 //! `limits`, the coordinator's trust in reports and goals), or attacks across identities
-//! (`tests/secure.rs`).
+//! (`tests/it/secure.rs`).
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! The process harness the end-to-end tests share: the `firefleet` binary, a router owned
 //! by the test, roles started as client processes, one-shot commands against them.
 //!
-//! Each test binary uses part of this module.
+//! Every module of the test binary uses part of it.
 #![allow(dead_code)]
 
 use std::process::{Child, Command, Output, Stdio};

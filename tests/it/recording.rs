@@ -8,19 +8,17 @@
     reason = "tests print what a person running them reads"
 )]
 
-mod support;
-
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+use crate::support::{firefleet, router, spawn_role, text};
 use firefleet_model::UnitKind;
 use firefleet_model::testing::python_package;
 use firefleet_model::{Pose2, UnitId};
 use firefleet_protocol::msg::{SimClock, UnitMode, UnitState};
 use firefleet_recorder::parts::{INDEX, Index, Recording, parts_dir};
 use rand::{Rng, SeedableRng};
-use support::{firefleet, router, spawn_role, text};
 
 const KILLS: usize = 20;
 const SEED: u64 = 20;

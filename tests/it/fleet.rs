@@ -6,12 +6,14 @@
     reason = "tests print what a person running them reads"
 )]
 
-mod support;
-
 use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+use crate::support::{
+    BIN, Fleet, assert_says, cli, first_answer, free_endpoint, outcome, patient, router, router_at,
+    spawn_role, status_of, text,
+};
 use firefleet_bus::{Ask, Bus, Inbox, free_loopback_port};
 use firefleet_model::{FireId, Point2, Pose2, UnitId, ZoneId};
 use firefleet_protocol::codec::{self, PROTOCOL_VERSION};
@@ -19,10 +21,6 @@ use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
     Bar, BarredSpace, FireState, FireTrack, FlameObservation, FlameReport, SimTruth, Task,
     TaskKind, TaskPhase, TaskProgress, UnitState,
-};
-use support::{
-    BIN, Fleet, assert_says, cli, first_answer, free_endpoint, outcome, patient, router, router_at,
-    spawn_role, status_of, text,
 };
 
 /// Run `firefleet demo` on `scenario` at 8x with `extra` arguments; its summary, after
@@ -86,7 +84,7 @@ fn demo_fleet_puts_out_every_fire_and_records_the_incident() {
     }
     check_recording(&recording);
     let rec = recording.to_str().unwrap();
-    let out = support::firefleet(&["check", rec, "--scenario", "cargo-truck"]);
+    let out = crate::support::firefleet(&["check", rec, "--scenario", "cargo-truck"]);
     assert_says(&out, 0, "0 violations");
 
     // The timeline of the incident, from the recording alone.
@@ -297,7 +295,7 @@ async fn a_killed_agent_s_fire_is_reassigned_and_put_out() {
     .unwrap();
     assert_eq!(reassigned, fire);
     let reaction = killed_at.elapsed();
-    // The figure for the notes: `cargo test --test fleet killed -- --nocapture`.
+    // The figure for the notes: `cargo test --test it fleet::killed -- --nocapture`.
     eprintln!("unit killed -> its fire reassigned: {reaction:?} (wall time)");
     assert!(
         reaction < Duration::from_secs(5),

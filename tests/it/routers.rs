@@ -2,18 +2,16 @@
 //! next its configuration lists, over QUIC with mutual TLS as `deploy render` writes it for
 //! the site file's `[[routers]]`, fast enough that the coordinator never counts it lost.
 //!
-//! The figure for the notes: `cargo test --test routers -- --nocapture`.
-
-mod support;
+//! The figure for the notes: `cargo test --test it routers:: -- --nocapture`.
 
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::support::{BIN, Fleet, patient, text};
 use firefleet_bus::{Bus, Connect};
 use firefleet_model::UnitId;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::UnitState;
-use support::{BIN, Fleet, patient, text};
 
 /// How long a moving unit keeps its old session (`firefleet`'s `rehome::OVERLAP`).
 fn rehome_overlap() -> Duration {
@@ -39,7 +37,7 @@ async fn a_unit_whose_router_is_killed_moves_to_the_next_and_is_never_counted_lo
     )
     .unwrap();
     let (pki, cfg) = (dir.path().join("pki"), dir.path().join("cfg"));
-    let run = support::firefleet_ok;
+    let run = crate::support::firefleet_ok;
     let s = site.to_str().unwrap();
     run(&[
         "pki",

@@ -7,13 +7,11 @@
 //! Not here: running the units under systemd (this machine's systemd is not PID 1); the
 //! namespace site of the deploy guide does that.
 
-mod support;
-
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use support::{BIN, Fleet, patient, text};
+use crate::support::{BIN, Fleet, patient, text};
 
 const UNITS: &str = "deploy/systemd";
 
@@ -42,8 +40,11 @@ fn values<'a>(unit: &'a str, key: &str) -> Vec<&'a str> {
 /// `firefleet pki init` and `deploy render` for rail-tunnel, as deploy/README.md says, in
 /// `dir`: the PKI and the rendered configurations.
 fn site(dir: &Path) -> (PathBuf, PathBuf) {
-    let (pki, cfg) = (support::pki_init(dir, "rail-tunnel"), dir.join("cfg"));
-    let run = support::firefleet_ok;
+    let (pki, cfg) = (
+        crate::support::pki_init(dir, "rail-tunnel"),
+        dir.join("cfg"),
+    );
+    let run = crate::support::firefleet_ok;
     run(&[
         "pki",
         "issue",

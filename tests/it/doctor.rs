@@ -4,16 +4,14 @@
 //! one, a router dialled by a name its certificate does not list, a coordinator without the
 //! simulator's clock) is named on one line with its fix, and the doctor exits 1.
 
-mod support;
-
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::support::{BIN, Fleet, patient, text};
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::{self, Terms};
 use firefleet_model::UnitId;
-use support::{BIN, Fleet, patient, text};
 
 /// The site: vehicle-collision's file saying it is a real tunnel, its PKI (the router
 /// certified for `localhost` and `router.tunnel.local`, not 127.0.0.1) and two renderings,
@@ -33,7 +31,7 @@ fn site() -> Site {
     let shipped = std::fs::read_to_string("model/scenarios/vehicle-collision.toml").unwrap();
     std::fs::write(&real, format!("simulated = false\n{shipped}")).unwrap();
     let pki = dir.path().join("pki");
-    let run = support::firefleet_ok;
+    let run = crate::support::firefleet_ok;
     let (real_s, pki_s) = (real.to_str().unwrap(), pki.to_str().unwrap());
     run(&[
         "pki",

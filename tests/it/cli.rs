@@ -1,8 +1,6 @@
 //! The command line: exit codes and messages a user relies on.
 
-mod support;
-
-use support::{assert_numbers, assert_says, firefleet, json_of};
+use crate::support::{assert_numbers, assert_says, firefleet, json_of};
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()

@@ -8,8 +8,8 @@
 //! random bytes do. A decoder must return, never panic, and what it accepts must survive a
 //! round trip (postcard: decode, encode, decode gives the same message).
 //!
-//! `cargo test --test fuzz` runs a short pass of every decoder (CI). The documented long run
-//! is `FUZZ_CASES=1000000 cargo test --release --test fuzz`, a million inputs per decoder.
+//! `cargo test --test it fuzz::` runs a short pass of every decoder (CI). The documented long run
+//! is `FUZZ_CASES=1000000 cargo test --release --test it fuzz::`, a million inputs per decoder.
 
 #![allow(
     clippy::print_stdout,
@@ -220,8 +220,8 @@ fn commander_json() {
 #[test]
 fn scenario_toml() {
     let seeds: Vec<Vec<u8>> = [
-        include_str!("../model/scenarios/rail-tunnel.toml"),
-        include_str!("../model/scenarios/pileup.toml"),
+        include_str!("../../model/scenarios/rail-tunnel.toml"),
+        include_str!("../../model/scenarios/pileup.toml"),
     ]
     .map(|s| s.as_bytes().to_vec())
     .to_vec();
@@ -238,9 +238,9 @@ fn scenario_toml() {
 #[test]
 fn behavior_tree_xml() {
     let seeds: Vec<Vec<u8>> = [
-        include_str!("../agent/trees/ground_unit.xml"),
-        include_str!("../agent/trees/monorail_unit.xml"),
-        include_str!("../examples/trees/patrol.xml"),
+        include_str!("../../agent/trees/ground_unit.xml"),
+        include_str!("../../agent/trees/monorail_unit.xml"),
+        include_str!("../../examples/trees/patrol.xml"),
     ]
     .map(|s| s.as_bytes().to_vec())
     .to_vec();

@@ -8,12 +8,11 @@
     reason = "tests print what a person running them reads"
 )]
 
-mod support;
-
 use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+use crate::support::{BIN, Fleet, assert_says, cli, outcome, patient, pki_init, status_of, text};
 use firefleet_bus::{Ask, Bus};
 use firefleet_model::{FireId, Point2, Pose2, UnitId};
 use firefleet_protocol::codec;
@@ -21,7 +20,6 @@ use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
     BarredSpace, FireState, FireTrack, SimTruth, Task, TaskKind, UnitState,
 };
-use support::{BIN, Fleet, assert_says, cli, outcome, patient, pki_init, status_of, text};
 
 /// `firefleet status` on `endpoint`, as the identity in `tls` (none: no certificate).
 fn status(scenario: &str, tls: Option<&Path>, endpoint: &str) -> std::process::Output {
@@ -83,7 +81,7 @@ fn mutual_tls_lets_in_only_the_site_s_identities() {
     let plain = format!("tcp/127.0.0.1:{port}");
     assert!(!status("rail-tunnel", None, &plain).status.success());
     let other = dir.path().join("other");
-    let out = support::firefleet(&[
+    let out = crate::support::firefleet(&[
         "pki",
         "init",
         "--scenario",
@@ -190,7 +188,7 @@ async fn a_second_router_joins_and_a_revoked_unit_loses_its_rules() {
     let dir = tempfile::tempdir().unwrap();
     let scenario = "vehicle-collision";
     let pki = pki_init(dir.path(), scenario);
-    let out = support::firefleet(&[
+    let out = crate::support::firefleet(&[
         "pki",
         "issue",
         "--pki",
@@ -205,7 +203,7 @@ async fn a_second_router_joins_and_a_revoked_unit_loses_its_rules() {
         "30",
     ]);
     assert_says(&out, 0, "router:b");
-    let listed = support::firefleet(&["pki", "list", "--pki", pki.to_str().unwrap()]);
+    let listed = crate::support::firefleet(&["pki", "list", "--pki", pki.to_str().unwrap()]);
     assert_says(&listed, 0, "router:b");
     assert!(text(&listed).contains("unit:ugv-2"), "{}", text(&listed));
     let (a, b) = (
@@ -220,7 +218,7 @@ async fn a_second_router_joins_and_a_revoked_unit_loses_its_rules() {
     );
     let cfg = dir.path().join("cfg");
     let render = || {
-        let out = support::firefleet(&[
+        let out = crate::support::firefleet(&[
             "deploy",
             "render",
             "--scenario",
@@ -280,7 +278,7 @@ async fn a_second_router_joins_and_a_revoked_unit_loses_its_rules() {
         "ugv-2 was not heard before it was revoked"
     );
 
-    let out = support::firefleet(&[
+    let out = crate::support::firefleet(&[
         "pki",
         "revoke",
         "--pki",
@@ -292,7 +290,7 @@ async fn a_second_router_joins_and_a_revoked_unit_loses_its_rules() {
     let rules = std::fs::read_to_string(cfg.join("router.json5")).unwrap();
     assert!(!rules.contains("unit:ugv-2"), "a revoked name kept a rule");
     assert!(!cfg.join("unit-ugv-2.json5").exists());
-    let out = support::firefleet(&[
+    let out = crate::support::firefleet(&[
         "pki",
         "issue",
         "--pki",
@@ -396,7 +394,7 @@ impl SecureSite {
         let pki = pki.to_str().unwrap();
         let port = firefleet_bus::free_loopback_port().unwrap();
         let endpoint = format!("quic/127.0.0.1:{port}");
-        let out = support::firefleet(&[
+        let out = crate::support::firefleet(&[
             "deploy",
             "render",
             "--scenario",
