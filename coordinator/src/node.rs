@@ -212,12 +212,15 @@ pub async fn run(
             Some((topic, up)) = alive.recv() => match &topic {
                 // A vanished token is taken for a lost unit only if it stays away past
                 // TOKEN_GRACE: a unit whose router died is back on the next within it.
+                // One back within it never counted as gone.
                 Topic::UnitAlive(unit) if !up => {
                     vanished.entry(unit.clone()).or_insert_with(std::time::Instant::now);
                     Ok(Vec::new())
                 }
-                Topic::UnitAlive(unit) if vanished.remove(unit).is_some() => Ok(Vec::new()),
-                Topic::UnitAlive(unit) => incident.on_alive(unit, up, clock.now()),
+                Topic::UnitAlive(unit) => match vanished.remove(unit) {
+                    Some(_) => Ok(Vec::new()),
+                    None => incident.on_alive(unit, up, clock.now()),
+                },
                 other => Err(Invalid::new("key", format!("'{other}' is not a unit token"))),
             }.map_err(|e| (topic.to_string(), e)),
             Some((topic, r)) = reports.recv() => {
