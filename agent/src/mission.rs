@@ -25,7 +25,9 @@ use firefleet_bt::{Port, Registry, Status};
 use firefleet_model::UnitKind;
 use firefleet_model::scenario::Tunnel;
 use firefleet_model::{FireId, Point2, UnitId};
-use firefleet_protocol::msg::{BarredSpace, Refusal, TaskKind, TaskPhase, TaskProgress};
+use firefleet_protocol::msg::{
+    Approach, BarredSpace, Refusal, TaskKind, TaskPhase, TaskProgress,
+};
 
 /// The coordinator link's state on the unit.
 #[derive(Debug, Clone, Default)]
@@ -108,12 +110,21 @@ impl Mission {
     /// The coordinator's Extinguish task not yet finished, if any.
     pub fn assigned_fire(&self) -> Option<(u64, FireId, Point2)> {
         match self.task {
-            Some((seq, TaskKind::Extinguish { fire, target }))
+            Some((seq, TaskKind::Extinguish { fire, target, .. }))
                 if self.outcome.is_none_or(|o| o.seq != seq) =>
             {
                 Some((seq, fire, target))
             }
             _ => None,
+        }
+    }
+
+    /// The side of its fire the coordinator's Extinguish task says to fire from (upwind
+    /// while the air moves); `Either` without one.
+    pub fn approach(&self) -> Approach {
+        match self.task {
+            Some((_, TaskKind::Extinguish { from, .. })) if self.assigned_fire().is_some() => from,
+            _ => Approach::Either,
         }
     }
 
@@ -359,6 +370,7 @@ mod tests {
         TaskKind::Extinguish {
             fire: FireId(fire),
             target: Point2::new(50.0, 0.0),
+            from: Approach::Either,
         }
     }
 

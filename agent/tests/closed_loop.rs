@@ -10,7 +10,7 @@ use firefleet_model::UnitId;
 use firefleet_model::geometry::{Point2, wrap_angle};
 use firefleet_model::profile::GROUND;
 use firefleet_model::scenario::Scenario;
-use firefleet_protocol::msg::{TaskKind, TaskPhase, TruthFireState, UnitMode};
+use firefleet_protocol::msg::{Approach, TaskKind, TaskPhase, TruthFireState, UnitMode};
 use firefleet_sim::World;
 
 /// What a closed-loop run did.
@@ -50,6 +50,7 @@ fn run(coordinator_task: Option<Point2>) -> Run {
             TaskKind::Extinguish {
                 fire: FireId(1),
                 target,
+                from: Approach::Either,
             },
         )
         .unwrap();
@@ -198,6 +199,7 @@ fn a_staged_unit_assigned_the_fire_puts_it_out() {
                 TaskKind::Extinguish {
                     fire: FireId(1),
                     target: Point2::new(60.0, -2.0),
+                    from: Approach::Either,
                 },
             )
             .unwrap();
@@ -258,6 +260,7 @@ fn facing_away_in_a_narrow_bore_the_unit_turns_round_by_backing() {
         TaskKind::Extinguish {
             fire: FireId(1),
             target: flame,
+            from: Approach::Either,
         },
     )
     .unwrap();

@@ -9,7 +9,7 @@ use firefleet_agent::ground::GroundController;
 use firefleet_model::profile::GROUND;
 use firefleet_model::scenario::Scenario;
 use firefleet_model::{Chainage, FireId, Point2, UnitId, ZoneId};
-use firefleet_protocol::msg::{Bar, BarredSpace, BarredSpan, RefusalReason, TaskKind};
+use firefleet_protocol::msg::{Approach, Bar, BarredSpace, BarredSpan, RefusalReason, TaskKind};
 use firefleet_sim::World;
 
 /// Chainages `start`-`end` barred to every unit (to ground units only if `rail_allowed`).
@@ -116,6 +116,7 @@ fn a_task_that_needs_barred_space_is_refused_with_the_reason() {
         TaskKind::Extinguish {
             fire: FireId(1),
             target: Point2::new(100.0, 0.0),
+            from: Approach::Either,
         },
     )
     .unwrap();

@@ -7,7 +7,7 @@ use firefleet_agent::monorail::{MonorailController, default_tree};
 use firefleet_model::profile::MONORAIL;
 use firefleet_model::scenario::Scenario;
 use firefleet_model::{Chainage, FireId, Point2, UnitId, ZoneId};
-use firefleet_protocol::msg::{
+use firefleet_protocol::msg::{Approach, 
     Bar, BarredSpace, BarredSpan, RefusalReason, TaskKind, TaskPhase, TruthFireState, UnitMode,
 };
 use firefleet_sim::World;
@@ -78,6 +78,7 @@ fn assign(ctl: &mut MonorailController, at: Point2) {
         TaskKind::Extinguish {
             fire: FireId(1),
             target: at,
+            from: Approach::Either,
         },
     )
     .unwrap();
@@ -157,6 +158,7 @@ fn sent_searching_it_runs_along_the_rail_reports_what_it_passes_and_stops_for_a_
         TaskKind::Extinguish {
             fire: FireId(1),
             target: Point2::new(160.0, -2.0),
+            from: Approach::Either,
         },
     )
     .unwrap();
@@ -204,6 +206,7 @@ fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
     let attack = TaskKind::Extinguish {
         fire: FireId(1),
         target: Point2::new(100.0, 1.0),
+        from: Approach::Either,
     };
     // Inside 50-150 m when the goal comes: it runs out by the nearest end (155 m), and
     // refuses the fire inside.

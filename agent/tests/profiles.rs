@@ -7,7 +7,7 @@ use std::sync::Arc;
 use firefleet_agent::ground::GroundController;
 use firefleet_model::scenario::Scenario;
 use firefleet_model::{FireId, UnitId};
-use firefleet_protocol::msg::TaskKind;
+use firefleet_protocol::msg::{Approach, TaskKind};
 use firefleet_sim::World;
 
 /// A wall of wrecks across the bore at x = 50 with a 2.45 m gap on the centreline: wide enough for the small unit (1.0 m wide, 1.9 m across its footprint's diagonal), not for the heavy one (2.5 m wide).
@@ -42,6 +42,7 @@ fn furthest(profile: &str) -> (f64, u32) {
         TaskKind::Extinguish {
             fire: FireId(1),
             target,
+            from: Approach::Either,
         },
     );
     let mut furthest: f64 = 0.0;

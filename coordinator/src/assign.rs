@@ -232,6 +232,10 @@ pub struct Site<'a> {
     pub hazards: &'a [Place],
     /// Driving distances for ground units; straight lines without.
     pub roads: Option<&'a dyn Roads>,
+    /// Which way the air moves along the tunnel, when it moves enough for units to attack
+    /// from upwind: `Some(true)` towards the end. A ground unit downwind of a fire drives
+    /// past it to its upwind side, through its smoke: [`HAZARD_S`] more.
+    pub air_towards_end: Option<bool>,
 }
 
 /// Cost of driving past another burning fire on the way, s: the heat dose and the risk
@@ -372,10 +376,15 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f
     let Some(t) = road.unwrap_or_else(|| u.mobility.travel_s(u.at.position, n.at.position)) else {
         return INFEASIBLE;
     };
+    let downwind = match site.air_towards_end {
+        Some(true) => u.at.chainage > n.at.chainage,
+        Some(false) => u.at.chainage < n.at.chainage,
+        None => false,
+    };
     let passed = match u.mobility {
         // A carriage runs under the ceiling, over the fires.
         Mobility::Rail { .. } => 0,
-        Mobility::Ground(_) => hazards_between,
+        Mobility::Ground(_) => hazards_between + usize::from(downwind),
     };
     let thirsty = if u.water_l < WATER_NEEDED_L {
         LOW_WATER_S

@@ -15,6 +15,9 @@
 //! simulated = true           # optional: the simulator's tunnel (true) or a real one
 //!                            # (false); a deployed site says which (`Scenario::simulated`)
 //!
+//! [ventilation]              # optional, and [scada]: see `crate::infra`
+//! air_m_s = 2.0
+//!
 //! [[routers]]                # optional: the site's routers, the first its own
 //! name = "west"
 //! host = "router-west.tunnel.local"
@@ -89,6 +92,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{Point2, Pose2};
+use crate::infra::{ScadaMap, Ventilation};
 use crate::ids::{CommanderId, RouterId, SiteId, UnitId, ZoneId};
 use crate::profile::{self, Profile};
 use crate::spec::{GroundSpec, MonorailSpec, UnitKind};
@@ -148,6 +152,13 @@ pub struct Scenario {
     /// to `pki` and `deploy render` on the command line.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub routers: Vec<RouterSpec>,
+    /// The tunnel's longitudinal ventilation ([`crate::infra`]); absent, the air is still.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ventilation: Option<Ventilation>,
+    /// Where the tunnel's SCADA serves its DTS and ventilation over Modbus TCP
+    /// ([`crate::infra`]); absent, the site has no feed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scada: Option<ScadaMap>,
 }
 
 /// The most routers a site lists: one every few hundred metres of the longest tunnels.
@@ -371,6 +382,8 @@ impl Scenario {
             portals: None,
             simulated: None,
             routers: Vec::new(),
+            ventilation: None,
+            scada: None,
         }
     }
 
@@ -648,7 +661,21 @@ impl Scenario {
             }
             in_range(&f("chainage_m"), r.chainage_m, 0.0, t.length_m)?;
         }
+        if let Some(v) = &self.ventilation {
+            v.validate(t.length_m)
+                .map_err(|e| e.within("ventilation"))?;
+        }
+        if let Some(m) = &self.scada {
+            let fans = self.ventilation.as_ref().map_or(0, |v| v.fans.len());
+            m.validate(t.length_m, fans)
+                .map_err(|e| e.within("scada"))?;
+        }
         Ok(())
+    }
+
+    /// Air velocity along the tunnel, m/s, positive towards its end (0 without ventilation).
+    pub fn air_m_s(&self) -> f64 {
+        self.ventilation.as_ref().map_or(0.0, |v| v.air_m_s)
     }
 }
 
@@ -690,6 +717,22 @@ mod tests {
 
     fn err(text: &str) -> String {
         Scenario::from_toml(text, "s.toml").unwrap_err().to_string()
+    }
+
+    #[test]
+    fn ventilation_and_scada_map_are_validated_in_the_site_file() {
+        let ok = format!(
+            "{OK}\n[ventilation]\nair_m_s = 2.0\nfans = [{{ name = \"jf-1\", chainage_m = 30.0 }}]\n[scada.dts]\nzone_length_m = 10.0\n"
+        );
+        let s = Scenario::from_toml(&ok, "s.toml").unwrap();
+        assert_eq!(s.air_m_s(), 2.0);
+        assert_eq!(s.scada.as_ref().unwrap().zone_count(100.0), 10);
+        let e = err(&ok.replace("chainage_m = 30.0", "chainage_m = 130.0"));
+        assert!(e.contains("ventilation.fans[0].chainage_m"), "{e}");
+        let e = err(&format!("{ok}[scada.vent]\nfirst_register = 20\n"));
+        assert!(e.contains("scada.vent.first_register"), "{e}");
+        let e = err(&ok.replace("zone_length_m = 10.0", "zone_length_m = 0.0"));
+        assert!(e.contains("scada.dts.zone_length_m"), "{e}");
     }
 
     #[test]

@@ -10,7 +10,7 @@ use firefleet_model::validate::Invalid;
 
 /// Version of the postcard wire format. Bump on any incompatible change to a postcard
 /// message.
-pub const PROTOCOL_VERSION: u8 = 3;
+pub const PROTOCOL_VERSION: u8 = 4;
 
 /// Why bytes could not become a valid message.
 #[derive(Debug, thiserror::Error)]
@@ -174,6 +174,7 @@ mod tests {
             kind: TaskKind::Extinguish {
                 fire: FireId(2),
                 target: Point2::new(50.0, -1.0),
+                from: crate::msg::Approach::Start,
             },
         };
         assert_eq!(decode::<Task>(&encode(&t)).unwrap(), t);

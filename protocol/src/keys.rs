@@ -19,6 +19,10 @@
 //!                                 queries on it with the newest
 //! ff/<site>/coord/goals           coord -> all       GoalsInForce (JSON), the same way:
 //!                                 a starting coordinator recalls the goals from it
+//! ff/<site>/infra/dts/<zone>      scada -> all       DtsZone (postcard), one DTS zone
+//! ff/<site>/infra/vent            scada -> all       Vent (postcard), the ventilation
+//! ff/<site>/infra/link            scada -> all       ScadaLink (postcard), the bridge's
+//!                                 link to the tunnel's SCADA, every poll
 //! ff/<site>/sim/clock             SimClock (postcard)
 //! ff/<site>/sim/truth             SimTruth (postcard)
 //! ff/<site>/sim/unit/<id>/sensors UnitSensors (postcard)
@@ -41,9 +45,9 @@ use std::fmt;
 use std::marker::PhantomData;
 
 use crate::msg::{
-    BarredSpace, BtTransitions, Decision, FireTrack, FlameReport, GoalAck, GoalsInForce, Message,
-    RailCommand, RailSensors, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState,
-    ZoneGoal,
+    BarredSpace, BtTransitions, Decision, DtsZone, FireTrack, FlameReport, GoalAck, GoalsInForce,
+    Message, RailCommand, RailSensors, ScadaLink, SimClock, SimTruth, Task, UnitCommand,
+    UnitSensors, UnitState, Vent, ZoneGoal,
 };
 use firefleet_model::ids::{CommanderId, FireId, SiteId, UnitId, ZoneId};
 
@@ -72,6 +76,9 @@ pub enum Topic {
     CoordLog,
     CoordBarred,
     CoordGoals,
+    InfraDts(u16),
+    InfraVent,
+    InfraLink,
     SimClock,
     SimTruth,
     SimSensors(UnitId),
@@ -96,6 +103,9 @@ impl fmt::Display for Topic {
             Topic::CoordLog => f.write_str("coord/log"),
             Topic::CoordBarred => f.write_str("coord/barred"),
             Topic::CoordGoals => f.write_str("coord/goals"),
+            Topic::InfraDts(z) => write!(f, "infra/dts/{z}"),
+            Topic::InfraVent => f.write_str("infra/vent"),
+            Topic::InfraLink => f.write_str("infra/link"),
             Topic::SimClock => f.write_str("sim/clock"),
             Topic::SimTruth => f.write_str("sim/truth"),
             Topic::SimSensors(u) => write!(f, "sim/unit/{u}/sensors"),
@@ -237,6 +247,9 @@ typed_keys! {
         coord_log() -> Decision = Topic::CoordLog;
         coord_barred() -> BarredSpace = Topic::CoordBarred;
         coord_goals() -> GoalsInForce = Topic::CoordGoals;
+        infra_dts(zone: u16) -> DtsZone = Topic::InfraDts(zone);
+        infra_vent() -> Vent = Topic::InfraVent;
+        infra_link() -> ScadaLink = Topic::InfraLink;
         sim_clock() -> SimClock = Topic::SimClock;
         sim_truth() -> SimTruth = Topic::SimTruth;
         sim_sensors(u: &UnitId) -> UnitSensors = Topic::SimSensors(u.clone());
@@ -257,6 +270,8 @@ typed_keys! {
         every_zone_goal -> ZoneGoal = "zone/*/goal/*";
         /// The coordinator's answers for every zone.
         every_zone_ack -> GoalAck = "zone/*/ack";
+        /// Every DTS zone.
+        every_dts_zone -> DtsZone = "infra/dts/*";
         /// Sensor frames of every simulated ground unit.
         every_sim_sensors -> UnitSensors = "sim/unit/*/sensors";
         /// Sensor frames of every simulated monorail unit.
@@ -309,6 +324,14 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
         ["coord", "log"] => Topic::CoordLog,
         ["coord", "barred"] => Topic::CoordBarred,
         ["coord", "goals"] => Topic::CoordGoals,
+        ["infra", "dts", z] => Topic::InfraDts(
+            z.parse()
+                .ok()
+                .filter(|z: &u16| usize::from(*z) < firefleet_model::infra::MAX_DTS_ZONES)
+                .ok_or_else(|| err(format!("'{z}' is no DTS zone number")))?,
+        ),
+        ["infra", "vent"] => Topic::InfraVent,
+        ["infra", "link"] => Topic::InfraLink,
         ["sim", "clock"] => Topic::SimClock,
         ["sim", "truth"] => Topic::SimTruth,
         ["sim", "unit", u, "sensors"] => Topic::SimSensors(unit(u)?),
@@ -346,6 +369,9 @@ mod tests {
             Topic::CoordLog,
             Topic::CoordBarred,
             Topic::CoordGoals,
+            Topic::InfraDts(17),
+            Topic::InfraVent,
+            Topic::InfraLink,
             Topic::SimClock,
             Topic::SimTruth,
             Topic::SimSensors(u("b")),
@@ -391,6 +417,10 @@ mod tests {
                 keys.every_zone_ack().as_str().to_owned(),
             ),
             (
+                keys.infra_dts(3).as_str().to_owned(),
+                keys.every_dts_zone().as_str().to_owned(),
+            ),
+            (
                 keys.sim_rail_cmd(&u("r")).as_str().to_owned(),
                 keys.every_sim_rail_cmd().as_str().to_owned(),
             ),
@@ -415,6 +445,8 @@ mod tests {
             "ff/t1/unit/a/nope",
             "ff/T1/sim/clock",
             "ff/t1/fire/12",
+            "ff/t1/infra/dts/x",
+            "ff/t1/infra/dts/99999",
         ] {
             let e = parse(k).unwrap_err();
             assert_eq!(e.key, k);

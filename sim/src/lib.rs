@@ -15,16 +15,24 @@
 //! the simulator publishes its clock and ground truth. Agents cannot tell it from hardware
 //! except by the clock it keeps.
 //!
+//! Longitudinal ventilation carries the hot ceiling gas downstream and cuts it short
+//! upstream ([`physics::ceiling_rise_c`]); downstream it heats the units' bodies too. The
+//! tunnel's linear heat detector ([`dts`]) reads that ceiling, and [`scada`] serves it and
+//! the ventilation over Modbus TCP as a tunnel's SCADA would.
+//!
 //! Not modelled (yet): smoke transport and visibility (smoke only lowers detector
-//! confidence with distance), ventilation, collisions between units. Fire spreads to
+//! confidence with distance, the same up- and downstream), ventilation changing during a
+//! run, collisions between units. Fire spreads to
 //! parked vehicles by radiation (flux-time product, see [`physics`]); fire does not spread
 //! along the road.
 
 pub mod camera;
 pub mod carriage;
+pub mod dts;
 pub mod jet;
 pub mod node;
 pub mod physics;
+pub mod scada;
 pub mod world;
 
 pub use node::{SimOptions, run};

@@ -16,6 +16,7 @@
 
 use std::collections::HashMap;
 use std::future::Future;
+use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
 use firefleet_bus::{Bus, BusError, Inbox};
@@ -29,6 +30,7 @@ use firefleet_ros2::node::{Node, NodeError};
 use tokio::time::MissedTickBehavior;
 
 use crate::physics;
+use crate::scada::Registers;
 use crate::world::World;
 
 /// How to run the simulator.
@@ -45,6 +47,9 @@ pub struct SimOptions {
     pub wait_for_coordinator: bool,
     /// Serve ground units as ROS 2 robots on this domain.
     pub ros2: Option<Domain>,
+    /// Serve the tunnel's SCADA (its DTS and ventilation, by the site file's map) as a
+    /// Modbus TCP server on this address ([`crate::scada`]).
+    pub scada: Option<SocketAddr>,
 }
 
 impl Default for SimOptions {
@@ -56,6 +61,7 @@ impl Default for SimOptions {
             wait_for_fleet: None,
             wait_for_coordinator: false,
             ros2: None,
+            scada: None,
         }
     }
 }
@@ -86,6 +92,10 @@ pub async fn run(
             .await
             .map_err(BusError::new)?,
         None => HashMap::new(),
+    };
+    let scada = match opts.scada {
+        Some(addr) => Some(serve_scada(&world, addr).await?),
+        None => None,
     };
     tokio::pin!(shutdown);
 
@@ -150,6 +160,9 @@ pub async fn run(
         if world.time() < scenario.time_limit_s {
             world.step(opts.step_s);
         }
+        if let Some((registers, _)) = &scada {
+            registers.update(&world);
+        }
         bus.put(
             &keys.sim_clock(),
             &SimClock {
@@ -179,6 +192,33 @@ pub async fn run(
     let truth = world.truth();
     bus.put(&keys.sim_truth(), &truth).await?;
     Ok(truth)
+}
+
+/// The SCADA's Modbus server on `addr`, and its task (aborted when dropped).
+async fn serve_scada(
+    world: &World,
+    addr: SocketAddr,
+) -> Result<(Registers, AbortOnDrop), BusError> {
+    let map = world.scada_map().ok_or_else(|| {
+        BusError::new("the site file has no [scada] map for the simulator to serve")
+    })?;
+    let listener = tokio::net::TcpListener::bind(addr)
+        .await
+        .map_err(|e| BusError::new(format!("SCADA server on {addr}: {e}")))?;
+    let registers = Registers::new(map.clone());
+    registers.update(world);
+    tracing::info!(%addr, "serving the tunnel's SCADA over Modbus TCP");
+    let task = tokio::spawn(crate::scada::serve(listener, registers.clone()));
+    Ok((registers, AbortOnDrop(task)))
+}
+
+/// A task that ends with its owner.
+struct AbortOnDrop(tokio::task::JoinHandle<std::io::Result<()>>);
+
+impl Drop for AbortOnDrop {
+    fn drop(&mut self) {
+        self.0.abort();
+    }
 }
 
 /// A ROS 2 body for every ground unit of `world`, each a node of its own namespace.

@@ -131,6 +131,77 @@ pub fn ceiling_jet_rise_c(q_kw: f64, r_m: f64, h_m: f64) -> f64 {
     }
 }
 
+/// Ambient air for the dimensionless heat release rate: density kg/m^3, specific heat
+/// kJ/(kg K), temperature K.
+const RHO_AIR: f64 = 1.2;
+const CP_AIR: f64 = 1.0;
+const T_AIR_K: f64 = 293.0;
+
+/// Dimensionless heat release rate `Q* = Q / (rho c_p T g^1/2 H^5/2)` with the tunnel's
+/// height as the length scale, and dimensionless air velocity `V* = u / (g H)^1/2`.
+fn q_star(q_kw: f64, h_m: f64) -> f64 {
+    q_kw / (RHO_AIR * CP_AIR * T_AIR_K * G.sqrt() * h_m.powf(2.5))
+}
+
+/// How far smoke flows against the ventilation under the ceiling, m (back-layering):
+/// Li, Lei & Ingason, "Study of critical velocity and backlayering length in longitudinally
+/// ventilated tunnel fires", Fire Safety Journal 45 (2010):
+/// `L_b / H = 18.5 ln(0.81 Q*^1/3 / V*)` for `Q* <= 0.15`, `18.5 ln(0.43 / V*)` above;
+/// none at or above the critical velocity (where the logarithm reaches 0). In still air
+/// the whole tunnel: smoke spreads both ways.
+pub fn backlayering_length_m(q_kw: f64, h_m: f64, air_m_s: f64) -> f64 {
+    let v = air_m_s.abs() / (G * h_m).sqrt();
+    if v < 1e-3 {
+        return f64::INFINITY;
+    }
+    let qs = q_star(q_kw.max(0.0), h_m);
+    let critical = if qs <= 0.15 { 0.81 * qs.cbrt() } else { 0.43 };
+    (18.5 * (critical / v).ln()).max(0.0) * h_m
+}
+
+/// Below this air velocity the smoke is left to its own buoyancy, m/s.
+pub const STILL_AIR_M_S: f64 = 0.1;
+
+/// Gas temperature rise under the ceiling at `along_m` along the air's direction from a
+/// fire (positive downstream) and `r_m` from it, in air moving at `air_m_s` (either
+/// sign), degrees C.
+///
+/// In still air, Alpert's ceiling jet ([`ceiling_jet_rise_c`]). With the air moving,
+/// downstream the maximum over the fire decays along the tunnel as Ingason and Li's
+/// correlation for longitudinally ventilated tunnels gives it (Li & Ingason, "The maximum
+/// ceiling gas temperature in a large tunnel fire", Fire Safety Journal 48 (2012); Ingason
+/// & Li 2010): `dT / dT_max = 0.57 exp(-0.0166 x / H) + 0.43 exp(-0.155 x / H)`, never below
+/// the still-air jet's. Upstream the ceiling jet reaches only the back-layering length,
+/// tapering linearly to nothing there (an assumption: the correlation gives the length, not
+/// the profile). The maximum itself is the plume's (Alpert's `r / H <= 0.18` value, within
+/// 4 % of Li and Ingason's 17.5 Q^2/3 / H^5/3 for strong ventilation).
+pub fn ceiling_rise_c(q_kw: f64, along_m: f64, r_m: f64, h_m: f64, air_m_s: f64) -> f64 {
+    let still = ceiling_jet_rise_c(q_kw, r_m, h_m);
+    if air_m_s.abs() < STILL_AIR_M_S {
+        return still;
+    }
+    if along_m >= 0.0 {
+        let x = along_m / h_m.max(0.5);
+        let decay = 0.57 * (-0.0166 * x).exp() + 0.43 * (-0.155 * x).exp();
+        (ceiling_jet_rise_c(q_kw, 0.0, h_m) * decay).max(still)
+    } else {
+        let lb = backlayering_length_m(q_kw, h_m, air_m_s);
+        still * (1.0 + along_m / lb).max(0.0)
+    }
+}
+
+/// Share of the ceiling's temperature rise a unit's body (1 m up) meets downstream of a
+/// fire in moving air. Assumption: ventilation above about 1 m/s destratifies the smoke
+/// within tens of metres downstream (Newman 1984; the tunnel fire tests Ingason and Li
+/// review), so the gas around a vehicle-height body runs at about half the ceiling's rise;
+/// in still air and upstream the hot layer stays under the ceiling, clear of the body.
+pub const DESTRATIFIED_SHARE: f64 = 0.5;
+
+/// Convective heat transfer coefficient from moving hot gas to a unit's body, kW/(m^2 K).
+/// Assumption: forced convection at a few m/s over a vehicle-sized body, 10 to 30
+/// W/(m^2 K) (the textbook range); the middle.
+pub const H_CONVECTIVE_KW_M2_K: f64 = 0.02;
+
 /// Fire spread to parked vehicles, by the flux-time product (Toal, Silcock & Shields 1989;
 /// Babrauskas, Ignition Handbook): a vehicle ignites once `integral (q - q_cr) dt` reaches
 /// [`VEHICLE_FTP_KJ_M2`], counting only the radiant flux `q` on its side nearest the fire
@@ -175,6 +246,28 @@ mod tests {
         assert!((suppression_time_constant_s(1.0) - 3.0).abs() < 1e-12);
         let ratio = suppression_time_constant_s(1.0) / suppression_time_constant_s(2.0);
         assert!((ratio - 2f64.powf(1.85)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn ventilation_carries_the_ceiling_jet_downstream_and_cuts_it_upstream() {
+        // 5 MW under a 6.3 m ceiling: Q* = 0.046, critical velocity 0.81 Q*^1/3 (g H)^1/2
+        // = 2.27 m/s.
+        let (q, h) = (5000.0, 6.3);
+        assert!(backlayering_length_m(q, h, 2.5) == 0.0);
+        let lb = backlayering_length_m(q, h, 2.0);
+        assert!((10.0..25.0).contains(&lb), "{lb}");
+        assert!(backlayering_length_m(q, h, 0.0).is_infinite());
+        // Still air: symmetric, Alpert's.
+        assert_eq!(
+            ceiling_rise_c(q, -30.0, 30.0, h, 0.0),
+            ceiling_rise_c(q, 30.0, 30.0, h, 0.0)
+        );
+        // Moving air: hotter downstream than in still air, nothing beyond the back-layer.
+        let down = ceiling_rise_c(q, 50.0, 50.0, h, 2.0);
+        assert!(down > 2.0 * ceiling_jet_rise_c(q, 50.0, h), "{down}");
+        assert_eq!(ceiling_rise_c(q, -(lb + 1.0), lb + 1.0, h, 2.0), 0.0);
+        // At the fire, the plume's maximum either way.
+        assert!((ceiling_rise_c(q, 0.0, 0.0, h, 2.0) - ceiling_jet_rise_c(q, 0.0, h)).abs() < 1e-9);
     }
 
     #[test]

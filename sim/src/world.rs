@@ -19,6 +19,9 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use crate::camera::{self, FlameTarget};
+use crate::dts::Dts;
+use firefleet_model::Chainage;
+use firefleet_model::infra::{DtsReading, ScadaMap, VentReading, Ventilation};
 use crate::carriage::Carriage;
 use crate::jet::{self, Landing};
 use crate::physics;
@@ -160,6 +163,9 @@ pub struct World {
     /// One per obstacle.
     exposure: Vec<Exposure>,
     rng: ChaCha8Rng,
+    ventilation: Option<Ventilation>,
+    /// The linear heat detector, on a site with a SCADA map.
+    dts: Option<Dts>,
 }
 
 impl World {
@@ -223,9 +229,16 @@ impl World {
                 })
                 .collect(),
             rng: ChaCha8Rng::seed_from_u64(seed),
+            ventilation: scenario.ventilation.clone(),
+            dts: scenario
+                .scada
+                .clone()
+                .map(|m| Dts::new(m, scenario.tunnel.length_m)),
         };
-        // Fires that ignited before the start are already at their t-squared size.
+        // Fires that ignited before the start are already at their t-squared size, and the
+        // detector has been measuring all along.
         w.step_fires(0.0, &[]);
+        w.measure_dts();
         w
     }
 
@@ -336,7 +349,8 @@ impl World {
         self.spread(dt);
         for i in 0..self.bodies.len() {
             let p = self.bodies[i].pose;
-            let flux = self.radiant_flux([p.x, p.y, physics::UNIT_BODY_HEIGHT_M]);
+            let flux = self.radiant_flux([p.x, p.y, physics::UNIT_BODY_HEIGHT_M])
+                + self.convective_flux(p.position());
             let b = &mut self.bodies[i];
             b.heat_flux = flux;
             b.heat_dose += flux * dt;
@@ -348,6 +362,89 @@ impl World {
             c.heat_dose += flux * dt;
         }
         self.t += dt;
+        self.measure_dts();
+    }
+
+    /// Air velocity along the tunnel, m/s, positive towards its end.
+    fn air_m_s(&self) -> f64 {
+        self.ventilation.as_ref().map_or(0.0, |v| v.air_m_s)
+    }
+
+    /// Gas temperature rise under the ceiling over `p` from every burning fire, degrees C
+    /// ([`physics::ceiling_rise_c`]), `height_m` above the road.
+    pub fn ceiling_rise_c(&self, p: Point2, height_m: f64) -> f64 {
+        let u = self.air_m_s();
+        let s = self.tunnel.chainage(p).m();
+        self.fires
+            .iter()
+            .filter(|f| f.state == TruthFireState::Burning)
+            .map(|f| {
+                let at = f.spec.position();
+                let along = (s - self.tunnel.chainage(at).m()) * u.signum();
+                physics::ceiling_rise_c(f.hrr_kw, along, at.dist(p), height_m, u)
+            })
+            .sum()
+    }
+
+    /// Heat a body at `p` takes from the hot gas the air carries downstream of burning
+    /// fires, kW/m^2 ([`physics::DESTRATIFIED_SHARE`]); none in still air or upstream.
+    fn convective_flux(&self, p: Point2) -> f64 {
+        let u = self.air_m_s();
+        if u.abs() < physics::STILL_AIR_M_S {
+            return 0.0;
+        }
+        let s = self.tunnel.chainage(p).m();
+        let h = self.tunnel.height_m;
+        self.fires
+            .iter()
+            .filter(|f| f.state == TruthFireState::Burning)
+            .map(|f| {
+                let at = f.spec.position();
+                let along = (s - self.tunnel.chainage(at).m()) * u.signum();
+                if along <= 0.0 {
+                    return 0.0;
+                }
+                physics::H_CONVECTIVE_KW_M2_K
+                    * physics::DESTRATIFIED_SHARE
+                    * physics::ceiling_rise_c(f.hrr_kw, along, at.dist(p), h, u)
+            })
+            .sum()
+    }
+
+    /// A DTS measurement, when one is due.
+    fn measure_dts(&mut self) {
+        let Some(mut dts) = self.dts.take() else {
+            return;
+        };
+        if dts.due(self.t) {
+            let h = self.tunnel.height_m;
+            dts.measure(self.t, |s| {
+                physics::AMBIENT_C + self.ceiling_rise_c(self.tunnel.point_at(Chainage::new(s), 0.0), h)
+            });
+        }
+        self.dts = Some(dts);
+    }
+
+    /// The site's SCADA map, if it has one.
+    pub fn scada_map(&self) -> Option<&ScadaMap> {
+        self.dts.as_ref().map(Dts::map)
+    }
+
+    /// The linear heat detector's latest measurement (site time, zones), on a site with a
+    /// SCADA map.
+    pub fn dts(&self) -> Option<(f64, &[DtsReading])> {
+        self.dts.as_ref()?.readings()
+    }
+
+    /// What the ventilation's instruments read: the air velocity and each fan's state (a
+    /// site without ventilation reads still air and no fans).
+    pub fn vent(&self) -> VentReading {
+        VentReading {
+            air_m_s: self.air_m_s(),
+            fans: self.ventilation.as_ref().map_or_else(Vec::new, |v| {
+                vec![v.fan_state(); v.fans.len()]
+            }),
+        }
     }
 
     /// Where water lands: on the road (a disk as wide as the jet's spread), or on a vehicle,
@@ -525,14 +622,15 @@ impl World {
     ///
     /// The fire detector and the thermal camera see burning fires within range whose flame
     /// the carriage has a line of sight to; the camera places each with a Gaussian error
-    /// growing with range. The temperature is Alpert's ceiling jet summed over the fires.
+    /// growing with range. The temperature is the ceiling gas's ([`World::ceiling_rise_c`]).
     pub fn rail_sensors(&mut self, id: &UnitId) -> Option<RailSensors> {
         let c = self.carriages.iter().find(|c| &c.id == id)?;
         let m = c.pivot();
         let spec = c.spec;
         let mut fire_detected = false;
         let mut hot_spots = Vec::new();
-        let mut temperature_c = physics::AMBIENT_C;
+        let temperature_c =
+            physics::AMBIENT_C + self.ceiling_rise_c(firefleet_model::Point2::new(m[0], m[1]), m[2]);
         for f in self
             .fires
             .iter()
@@ -542,7 +640,6 @@ impl World {
                 .spec
                 .position()
                 .dist(firefleet_model::Point2::new(m[0], m[1]));
-            temperature_c += physics::ceiling_jet_rise_c(f.hrr_kw, r, m[2]);
             let centre = f.flame_centre();
             let range = (r * r + (m[2] - centre[2]).powi(2)).sqrt();
             if f.hrr_kw < physics::Q_VISIBLE_KW

@@ -43,6 +43,10 @@ pub struct SimArgs {
     /// With --ros2: the ROS_DOMAIN_ID to serve on.
     #[arg(long, value_name = "ID", default_value_t = 0, requires = "ros2")]
     ros_domain: u32,
+    /// Serve the tunnel's SCADA (DTS zones and ventilation, by the site file's `[scada]`
+    /// map) as a Modbus TCP server on this address, e.g. 127.0.0.1:5020.
+    #[arg(long, value_name = "HOST:PORT")]
+    scada: Option<std::net::SocketAddr>,
 }
 
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
@@ -59,6 +63,7 @@ pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
             .then(|| Domain::new(a.ros_domain))
             .transpose()
             .context("--ros-domain")?,
+        scada: a.scada,
         ..SimOptions::default()
     };
     let truth = firefleet_sim::run(

@@ -157,6 +157,7 @@ fn fleet_messages() {
         kind: TaskKind::Extinguish {
             fire: FireId(3),
             target: Point2::new(60.0, 1.0),
+            from: Approach::Either,
         },
     };
     let report = FlameReport {

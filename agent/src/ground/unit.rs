@@ -29,8 +29,8 @@ use firefleet_model::scenario::{Scenario, Tunnel};
 use firefleet_model::spec::GroundSpec;
 use firefleet_model::{Chainage, UnitId};
 use firefleet_protocol::msg::{
-    CLEAR_OF_BARRED_M, FlameReport, INSIDE_PORTAL_M, TaskKind, UnitCommand, UnitMode, UnitSensors,
-    UnitState, nearest_allowed,
+    Approach, CLEAR_OF_BARRED_M, FlameReport, INSIDE_PORTAL_M, TaskKind, UnitCommand, UnitMode,
+    UnitSensors, UnitState, nearest_allowed,
 };
 
 use crate::controller::Services;
@@ -379,21 +379,38 @@ impl Unit {
     /// Choose a firing position for a fire at `target` and prepare the path to it: free for
     /// the vehicle, with line of sight and a jet solution under the ceiling, arriving along
     /// the line towards the fire so that the camera faces it.
+    ///
+    /// On the side the task names (upwind while the air moves: the unit drives round the
+    /// fire to it if it came from downwind); if no spot there can be reached, on the unit's
+    /// own side after all: an attack from downwind beats none.
     pub fn firing_position(&mut self, target: Point2) -> Option<Point2> {
+        let side = self.mission.approach();
+        if side != Approach::Either
+            && let Some(spot) = self.firing_position_from(target, side)
+        {
+            return Some(spot);
+        }
+        self.firing_position_from(target, Approach::Either)
+    }
+
+    fn firing_position_from(&mut self, target: Point2, side: Approach) -> Option<Point2> {
         let from = self.pose().position();
         let t = &self.scenario.tunnel;
-        // Spots on the unit's side of the fire: towards the unit where it can see the
-        // fire's spot, else back along the road (round a bend the straight line to the unit
-        // runs through the wall).
-        let home = if t.segment_inside(target, from) {
+        let axis = t.heading_at(t.chainage(target));
+        // Spots on the unit's side of the fire (or the side asked for): towards the unit
+        // where it can see the fire's spot, else back along the road (round a bend the
+        // straight line to the unit runs through the wall).
+        let towards_start = match side {
+            Approach::Start => true,
+            Approach::End => false,
+            Approach::Either => t.chainage(from) < t.chainage(target),
+        };
+        let home = if side == Approach::Either && t.segment_inside(target, from) {
             target.bearing_to(from)
+        } else if towards_start {
+            axis + std::f64::consts::PI
         } else {
-            let axis = t.heading_at(t.chainage(target));
-            if t.chainage(from) < t.chainage(target) {
-                axis + std::f64::consts::PI
-            } else {
-                axis
-            }
+            axis
         };
         // Straight towards the unit first, then alternately either side, 20 deg steps.
         let offsets = std::iter::once(0.0).chain((1..=8).flat_map(|k| {

@@ -16,6 +16,13 @@
 //!
 //! Each unit's sightings count with the weight its past claims earned ([`witness`]): a unit
 //! whose fires the others look at and never see loses the power to confirm one alone.
+//!
+//! The tunnel's linear heat detector (DTS) is one more source ([`Fusion::observe_dts`]):
+//! an alarm peak is a fire somewhere in its zone, confirmed on the detector's word (a
+//! certified fire detector's alarm is a fire alarm) but, like one unit's, provisional until
+//! a unit sees it. Its estimate is the zone, seen from nowhere: a unit's sighting replaces
+//! it ([`Fused::Located`]). A DTS alarm never re-ignites a fire that is out: a ceiling
+//! stays hot for minutes after its flames are gone, and units' cameras see a flare-up.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -77,6 +84,9 @@ pub const LONE_START_EVERY_S: f64 = 5.0;
 /// unit arriving at a pile-up confirms the fires in front of it; a liar's fakes each
 /// take one unit away, so fewer than a fleet.
 pub const MAX_PROVISIONAL: usize = 3;
+/// Confidence of a DTS alarm as a witness: a certified detector's alarm, from criteria the
+/// site set, but from a fibre that cannot tell a fire from a hot exhaust in one zone.
+const DTS_CONFIDENCE: f64 = 0.9;
 
 /// One unit's view of a fire: its latest estimate and confidence, the weight of the unit's
 /// word when it reported, and since when it has seen the fire without a break.
@@ -138,6 +148,8 @@ pub struct Fire {
     looks: BTreeMap<UnitId, f64>,
     /// Its lone claim was contradicted (counted once).
     contradicted: bool,
+    /// When a DTS alarm last placed it here.
+    dts: Option<f64>,
 }
 
 impl Fire {
@@ -156,14 +168,20 @@ impl Fire {
             credited: BTreeSet::new(),
             looks: BTreeMap::new(),
             contradicted: false,
+            dts: None,
         };
         f.refuse();
         f
     }
 
+    /// Sources whose word counts that place it: its credible witnesses, and the DTS.
+    fn sources(&self) -> usize {
+        self.per_unit.values().filter(|s| s.credible()).count() + usize::from(self.dts.is_some())
+    }
+
     /// Credit every witness of a fire more than one unit reports, once.
     fn credit(&mut self, witnesses: &mut Witnesses) {
-        if self.per_unit.len() < 2 {
+        if self.per_unit.len() + usize::from(self.dts.is_some()) < 2 {
             return;
         }
         for u in self.per_unit.keys() {
@@ -178,6 +196,9 @@ impl Fire {
     /// tentative one only while the reporter still sees it (a detector's passing false
     /// alarm is the unit's tracker's to drop, not a lie).
     fn lone_claim(&self, t: f64) -> Option<&UnitId> {
+        if self.dts.is_some() {
+            return None;
+        }
         let mut it = self.per_unit.iter();
         match (it.next(), it.next()) {
             (Some((u, s)), None) if s.live(t) || self.state != FireState::Tentative => Some(u),
@@ -186,17 +207,24 @@ impl Fire {
     }
 
     fn refuse(&mut self) {
+        let dts_doubt = if self.dts.is_some() {
+            1.0 - DTS_CONFIDENCE
+        } else {
+            1.0
+        };
+        self.confidence = 1.0
+            - dts_doubt
+                * self
+                    .per_unit
+                    .values()
+                    .map(|s| 1.0 - s.confidence * s.weight)
+                    .product::<f64>();
+        // Without a unit's sighting the estimate is the detector's zone, as placed.
         let mut it = self.per_unit.values();
         let Some(first) = it.next() else { return };
         self.estimate = it.fold(first.estimate, |acc, s| acc.fuse(&s.estimate));
         self.estimate.cov[0] = self.estimate.cov[0].max(MIN_VAR_M2);
         self.estimate.cov[2] = self.estimate.cov[2].max(MIN_VAR_M2);
-        self.confidence = 1.0
-            - self
-                .per_unit
-                .values()
-                .map(|s| 1.0 - s.confidence * s.weight)
-                .product::<f64>();
     }
 
     pub fn position(&self) -> Point2 {
@@ -218,7 +246,13 @@ impl Fire {
     /// it gets one unit (the reporter or a verifier), no backups and no reserves, because
     /// one unit's word, from a detector gone wrong or a stolen certificate, is all there is.
     pub fn corroborated(&self) -> bool {
-        self.per_unit.values().filter(|s| s.credible()).count() >= 2
+        self.sources() >= 2
+    }
+
+    /// A DTS alarm placed it, and no unit has seen it yet: where it is within the zone
+    /// is a guess.
+    pub fn dts_only(&self) -> bool {
+        self.dts.is_some() && self.per_unit.is_empty()
     }
 
     /// The units that see it burning at `t`: a sighting within [`STILL_SEEN_S`], by a unit
@@ -263,6 +297,9 @@ pub enum Fused {
     /// A new track refused: the unit holds [`MAX_LONE_TRACKS`] on its word alone, or has
     /// started tracks faster than [`LONE_START_EVERY_S`] allows.
     Refused,
+    /// A track the DTS alone had placed was seen by a unit: it is where the unit says now,
+    /// no longer somewhere in a zone.
+    Located(FireId),
 }
 
 /// A lone claim another unit had in clear view too long without seeing it.
@@ -358,6 +395,7 @@ impl Fusion {
                         kept.sizes.entry(u.clone()).or_insert(*q);
                     }
                     kept.credited.extend(removed.credited.iter().cloned());
+                    kept.dts = kept.dts.into_iter().chain(removed.dts).reduce(f64::max);
                     kept.credit(&mut self.witnesses);
                     kept.first_seen = kept.first_seen.min(removed.first_seen);
                     kept.last_seen = kept.last_seen.max(removed.last_seen);
@@ -457,6 +495,7 @@ impl Fusion {
             credited: BTreeSet::new(),
             looks: BTreeMap::new(),
             contradicted: false,
+            dts: None,
         };
         fire.refuse();
         self.next_id = self.next_id.max(track.id.0);
@@ -469,7 +508,7 @@ impl Fusion {
         self.fires
             .iter()
             .filter(|f| f.active() && f.state != FireState::Tentative)
-            .filter(|f| f.per_unit.len() == 1 && f.per_unit.contains_key(unit))
+            .filter(|f| f.dts.is_none() && f.per_unit.len() == 1 && f.per_unit.contains_key(unit))
             .count()
     }
 
@@ -497,6 +536,7 @@ impl Fusion {
                 .fires
                 .iter()
                 .filter(|f| matches!(f.state, FireState::Tentative | FireState::Confirmed))
+                .filter(|f| f.dts.is_none())
                 .filter(|f| f.per_unit.len() == 1 && f.per_unit.contains_key(unit))
                 .count();
             let (tokens, at) = self
@@ -531,6 +571,7 @@ impl Fusion {
             };
         };
         fire.last_seen = t;
+        let located = fire.dts_only();
         let since = fire
             .per_unit
             .get(unit)
@@ -550,7 +591,7 @@ impl Fusion {
         }
         fire.refuse();
         fire.credit(&mut self.witnesses);
-        let credible = fire.per_unit.values().filter(|s| s.credible()).count();
+        let credible = fire.sources();
         let room = room || credible >= 2;
         match fire.state {
             FireState::Out
@@ -569,8 +610,56 @@ impl Fusion {
                 fire.state = FireState::Confirmed;
                 Fused::Confirmed(fire.id)
             }
+            _ if located => Fused::Located(fire.id),
             _ => Fused::Updated(fire.id),
         }
+    }
+
+    /// Fold in a DTS alarm peak at `at` (its zone as a Gaussian) at time `t`: it joins the
+    /// active track it gates with, else starts one, confirmed ([`Fused::Confirmed`]). A peak
+    /// at a fire that is out or lost changes nothing (`None`).
+    pub fn observe_dts(&mut self, at: Gaussian2, t: f64) -> Option<Fused> {
+        let best = self
+            .fires
+            .iter_mut()
+            .filter(|f| f.state != FireState::Lost)
+            .map(|f| (f.estimate.gate2(&at), f))
+            .filter(|(m2, _)| *m2 < GATE2)
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((_, fire)) = best {
+            if !fire.active() {
+                return None;
+            }
+            fire.dts = Some(t);
+            fire.last_seen = t;
+            fire.refuse();
+            fire.credit(&mut self.witnesses);
+            if fire.state == FireState::Tentative {
+                fire.state = FireState::Confirmed;
+                return Some(Fused::Confirmed(fire.id));
+            }
+            return Some(Fused::Updated(fire.id));
+        }
+        self.next_id += 1;
+        let id = FireId(self.next_id);
+        let mut f = Fire {
+            id,
+            state: FireState::Confirmed,
+            per_unit: BTreeMap::new(),
+            sizes: BTreeMap::new(),
+            estimate: at,
+            confidence: 0.0,
+            first_seen: t,
+            last_seen: t,
+            out_at: None,
+            credited: BTreeSet::new(),
+            looks: BTreeMap::new(),
+            contradicted: false,
+            dts: Some(t),
+        };
+        f.refuse();
+        self.fires.push(f);
+        Some(Fused::Confirmed(id))
     }
 
     /// `unit` has had every spot where `in_view` holds in clear view for the last `dt` s,

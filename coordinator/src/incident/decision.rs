@@ -7,7 +7,7 @@
 use std::fmt;
 
 use firefleet_model::{Chainage, FireId, Point2, UnitId, ZoneId};
-use firefleet_protocol::msg::{self, FireTrack, GoalKind, ZoneGoal};
+use firefleet_protocol::msg::{self, Approach, FireTrack, GoalKind, ZoneGoal};
 
 use crate::fusion::witness::{CONTRADICT_AFTER_S, Record};
 
@@ -232,6 +232,21 @@ pub enum Decision {
         backup: bool,
         cost_s: f64,
         runner_up: Option<(UnitId, f64)>,
+        /// The side the unit attacks from, upwind of air moving at this speed, m/s
+        /// (positive towards the end); `None` in still air.
+        upwind: Option<(Approach, f64)>,
+    },
+    /// A DTS alarm peak between `from_m` and `to_m`, up to `max_c`, is a new fire.
+    DtsAlarm {
+        fire: FireId,
+        from_m: f64,
+        to_m: f64,
+        max_c: f64,
+    },
+    /// A fire the DTS alone had placed was seen by a unit at `at`: its units go there.
+    Located {
+        fire: FireId,
+        at: Point2,
     },
 }
 
@@ -455,14 +470,40 @@ impl fmt::Display for Decision {
                 backup,
                 cost_s,
                 runner_up,
+                upwind,
             } => {
                 let verb = if *backup { "send backup" } else { "assign" };
                 write!(f, "{verb} {unit} to fire {fire}: cost {cost_s:.1} s; ")?;
                 match runner_up {
-                    Some((u, c)) => write!(f, "runner-up {u} at {c:.1} s"),
-                    None => write!(f, "no other free unit"),
+                    Some((u, c)) => write!(f, "runner-up {u} at {c:.1} s")?,
+                    None => write!(f, "no other free unit")?,
+                }
+                match upwind {
+                    Some((side, air)) => {
+                        let (from, to) = match side {
+                            Approach::Start => ("the start side", "the end"),
+                            Approach::End => ("the end side", "the start"),
+                            Approach::Either => ("either side", "nowhere"),
+                        };
+                        write!(f, "; from {from}: air flows towards {to} at {:.1} m/s", air.abs())
+                    }
+                    None => Ok(()),
                 }
             }
+            Decision::DtsAlarm {
+                fire,
+                from_m,
+                to_m,
+                max_c,
+            } => write!(
+                f,
+                "DTS alarm at chainage {from_m:.0}-{to_m:.0} m ({max_c:.0} C): fire {fire}, sent for before any unit has seen it"
+            ),
+            Decision::Located { fire, at } => write!(
+                f,
+                "fire {fire}, placed by the DTS, seen by a unit at ({:.1}, {:.1}): its units go there",
+                at.x, at.y
+            ),
         }
     }
 }

@@ -64,7 +64,7 @@ impl Incident {
                     .is_none_or(|f| f.state != FireState::Assigned)
             });
         }
-        let picks = self.picks(&candidates, &needs);
+        let picks = self.picks(&candidates, &needs, t);
         let mut out = Vec::new();
         for p in &picks {
             out.extend(self.dispatch(p, t, false));
@@ -213,7 +213,7 @@ impl Incident {
             .collect();
         let candidates = self.free_ground_units(busy);
         let mut out = Vec::new();
-        for p in self.picks(&candidates, &backups) {
+        for p in self.picks(&candidates, &backups, t) {
             if p.cost_s <= self.policy.help_within_s {
                 out.extend(self.dispatch(&p, t, true));
             }
@@ -222,7 +222,7 @@ impl Incident {
     }
 
     /// `needs` paired with `candidates` by the strategy, on this site.
-    pub(super) fn picks(&mut self, candidates: &[Candidate], needs: &[Need]) -> Vec<Pick> {
+    pub(super) fn picks(&mut self, candidates: &[Candidate], needs: &[Need], t: f64) -> Vec<Pick> {
         if candidates.is_empty() || needs.is_empty() {
             return Vec::new();
         }
@@ -249,6 +249,7 @@ impl Incident {
             barred_rail: &barred_rail,
             hazards: &hazards,
             roads: Some(&roads as &dyn Roads),
+            air_towards_end: self.air_m_s(t).map(|a| a > 0.0),
         };
         let picks = self.strategy.solve(candidates, needs, &site);
         self.roads = roads;
@@ -291,6 +292,7 @@ impl Incident {
             fire.state = FireState::Assigned;
         }
         let target = fire.position();
+        let from = self.approach(t);
         if let Some((old, was_backup)) = self
             .units
             .get(&p.unit)
@@ -311,6 +313,7 @@ impl Incident {
             TaskKind::Extinguish {
                 fire: p.fire,
                 target,
+                from,
             },
             t,
         );
@@ -325,6 +328,7 @@ impl Incident {
                 backup,
                 cost_s: p.cost_s,
                 runner_up: p.runner_up.clone(),
+                upwind: self.air_m_s(t).map(|air| (from, air)),
             },
         );
         vec![task, Output::Fire(self.track(p.fire, t))]

@@ -456,6 +456,7 @@ impl Incident {
         let kind = TaskKind::Extinguish {
             fire,
             target: p.target,
+            from: self.approach(t),
         };
         vec![Output::Fire(self.track(fire, t)), self.give(unit, kind, t)]
     }
@@ -528,6 +529,7 @@ impl Incident {
                     self.log(t, Decision::Reignited { fire: id });
                     out.push(Output::Fire(self.track(id, t)));
                 }
+                Fused::Located(id) => out.extend(self.retarget(id, t)),
             }
         }
         for m in self.fusion.merge_duplicates() {
@@ -590,6 +592,7 @@ impl Incident {
             );
         }
         out.extend(self.enforce(t));
+        out.extend(self.dts_alarms(t));
         // Units move and look between events: searches end, searchers change, and a unit
         // on its way may now have a nearer relief.
         let scope = if t - self.solved_all_at >= self.policy.solve_all_every_s {

@@ -69,6 +69,7 @@ mod decision;
 mod dispatch;
 mod events;
 mod freshness;
+mod infra;
 mod policy;
 mod search;
 mod staging;
@@ -76,6 +77,7 @@ mod zones;
 
 pub use decision::{Decision, Logged, Loss};
 pub use freshness::{AHEAD_S, BEHIND_S};
+pub use infra::{MOVING_AIR_M_S, VENT_FRESH_S};
 pub use policy::Policy;
 
 /// How many decisions the incident remembers for status queries.
@@ -221,6 +223,8 @@ pub struct Incident {
     /// Units a goal holds in a zone with nowhere to go, as of the last enforcement: the
     /// decision is logged once when a unit becomes trapped, not at every enforcement.
     trapped: BTreeMap<UnitId, firefleet_protocol::msg::Trapped>,
+    /// The tunnel's DTS and ventilation, as the SCADA bridge reports them.
+    infra: infra::Infra,
 }
 
 impl Incident {
@@ -254,6 +258,7 @@ impl Incident {
             solved_all_at: f64::NEG_INFINITY,
             inconsistencies: 0,
             lone_refused: 0,
+            infra: infra::Infra::new(None, tunnel.length_m),
             tunnel,
         }
     }
@@ -307,6 +312,7 @@ impl Incident {
         let mut incident = Self::new(scenario.tunnel.clone(), units, lease_s, strategy);
         incident.goals = Goals::new(&scenario.zones, &scenario.commanders);
         incident.roads = roads;
+        incident.infra = infra::Infra::new(scenario.scada.clone(), scenario.tunnel.length_m);
         Ok(incident)
     }
 

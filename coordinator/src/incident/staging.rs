@@ -63,6 +63,12 @@ impl Incident {
         const INSIDE_M: f64 = 5.0;
         let (lo, hi) = (Chainage::ZERO + INSIDE_M, self.tunnel.end() - INSIDE_M);
         let mut out = Vec::new();
+        // Reserves wait upwind while the air moves: downstream is the fire's smoke.
+        let upwind = match self.approach(t) {
+            firefleet_protocol::msg::Approach::Start => Some(-1.0),
+            firefleet_protocol::msg::Approach::End => Some(1.0),
+            firefleet_protocol::msg::Approach::Either => None,
+        };
         // Each free unit's nearest active fire; each fire keeps its nearest
         // `reserves_per_fire` within `help_within_s` (any distance to hold a contain
         // line), the others patrol (a thousand units must not converge on the first fire
@@ -106,7 +112,7 @@ impl Incident {
             let at = self.tunnel.station(at);
             let goal = nearest.map(|&(fire, f)| {
                 let f = self.tunnel.chainage(f);
-                let side = if at.s <= f { -1.0 } else { 1.0 };
+                let side = upwind.unwrap_or(if at.s <= f { -1.0 } else { 1.0 });
                 // Under a contain goal, reserves hold the line the front must not pass.
                 let s = match self.goals.at(f).map(|g| (g.goal.goal, g.goal.before_m)) {
                     Some((GoalKind::Contain, Some(line))) => Chainage::new(line),

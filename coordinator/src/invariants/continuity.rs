@@ -325,6 +325,7 @@ mod tests {
     use firefleet_model::scenario::Scenario;
 
     use super::*;
+    use firefleet_protocol::msg::Approach;
     use crate::incident::LEASE_S;
     use crate::invariants::tests::state_of;
     use crate::invariants::{Event, Invariants};
@@ -353,6 +354,7 @@ mod tests {
         TaskKind::Extinguish {
             fire: FireId(1),
             target: at,
+            from: Approach::Either,
         }
     }
 

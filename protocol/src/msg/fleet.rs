@@ -199,8 +199,40 @@ pub enum TaskKind {
     /// Drive to `goal` looking for new fires, past the fires the coordinator already knows
     /// (left burning by a commander's goal): do not stop for them.
     Search { goal: Point2 },
-    /// Put out the fire believed to be at `target`.
-    Extinguish { fire: FireId, target: Point2 },
+    /// Put out the fire believed to be at `target`, firing from the side `from`.
+    Extinguish {
+        fire: FireId,
+        target: Point2,
+        from: Approach,
+    },
+}
+
+/// Which side of a fire, along the tunnel, a unit takes its firing position on.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum Approach {
+    /// Whichever side the unit reaches first: the air is still, or nobody knows.
+    #[default]
+    Either,
+    /// The side towards chainage 0 (the first portal): upwind while the air flows towards
+    /// the tunnel's end.
+    Start,
+    /// The side towards the tunnel's end.
+    End,
+}
+
+impl Approach {
+    /// The upwind side in air moving at `air_m_s` along the tunnel (positive towards its
+    /// end); `Either` in air slower than `still_m_s`.
+    pub fn upwind(air_m_s: f64, still_m_s: f64) -> Self {
+        if air_m_s >= still_m_s {
+            Approach::Start
+        } else if air_m_s <= -still_m_s {
+            Approach::End
+        } else {
+            Approach::Either
+        }
+    }
 }
 
 /// Task numbers grow at least this fast with site time, per second: a restarted
@@ -263,8 +295,13 @@ impl fmt::Display for TaskKind {
             TaskKind::Standby => f.write_str("standby"),
             TaskKind::Cruise { goal } => write!(f, "cruise to ({:.1}, {:.1})", goal.x, goal.y),
             TaskKind::Search { goal } => write!(f, "search to ({:.1}, {:.1})", goal.x, goal.y),
-            TaskKind::Extinguish { fire, target } => {
-                write!(f, "extinguish {fire} at ({:.1}, {:.1})", target.x, target.y)
+            TaskKind::Extinguish { fire, target, from } => {
+                write!(f, "extinguish {fire} at ({:.1}, {:.1})", target.x, target.y)?;
+                match from {
+                    Approach::Either => Ok(()),
+                    Approach::Start => f.write_str(" from the start side"),
+                    Approach::End => f.write_str(" from the end side"),
+                }
             }
         }
     }

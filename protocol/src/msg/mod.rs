@@ -65,7 +65,7 @@ macro_rules! messages {
     };
 }
 messages! {
-    Postcard: Decision, BarredSpace, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions;
+    Postcard: Decision, BarredSpace, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions, DtsZone, Vent, ScadaLink;
     Json: ZoneGoal, GoalAck, GoalsInForce, IncidentStatus;
 }
 
@@ -76,10 +76,12 @@ mod barred;
 mod bt;
 mod commander;
 mod fleet;
+mod infra;
 mod sim;
 
 pub use barred::*;
 pub use bt::*;
 pub use commander::*;
 pub use fleet::*;
+pub use infra::*;
 pub use sim::*;

@@ -609,7 +609,7 @@ async fn flood_as_unit(
                 }) else {
                     continue;
                 };
-                let firefleet_protocol::msg::TaskKind::Extinguish { fire, target } = task.kind
+                let firefleet_protocol::msg::TaskKind::Extinguish { fire, target, .. } = task.kind
                 else {
                     continue;
                 };

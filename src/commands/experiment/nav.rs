@@ -31,7 +31,7 @@ use firefleet_model::geometry::wrap_angle;
 use firefleet_model::profile::GROUND;
 use firefleet_model::scenario::{FireSpec, Growth, Obstacle, Scenario, Segment, Tunnel, UnitSpec};
 use firefleet_model::{Chainage, FireId, SiteId, UnitId};
-use firefleet_protocol::msg::{TaskKind, UnitMode};
+use firefleet_protocol::msg::{Approach, TaskKind, UnitMode};
 use firefleet_sim::World;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -178,6 +178,7 @@ fn trial(s: &Scenario, seed: u64, lambda_m: Option<f64>) -> anyhow::Result<Trial
         TaskKind::Extinguish {
             fire: FireId(1),
             target: flame,
+            from: Approach::Either,
         },
     )?;
     let (mut frames, mut seen) = (0u32, 0u32);

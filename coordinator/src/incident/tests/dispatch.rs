@@ -143,7 +143,7 @@ fn a_spraying_backup_stays_on_its_fire_and_the_unit_still_on_its_way_takes_a_new
     let mut i = incident_with_backups();
     let out = corroborated(&mut i, &report("a", 60.0), &["b"], 1.0);
     let backup = tasks(&out)[1].clone();
-    let TaskKind::Extinguish { fire, target } = backup.kind else {
+    let TaskKind::Extinguish { fire, target, .. } = backup.kind else {
         panic!()
     };
     let spraying = TaskProgress {
@@ -230,7 +230,7 @@ fn a_fire_one_unit_alone_reports_gets_no_backup_until_that_unit_sprays_it() {
     let t = tasks(&out);
     assert_eq!(t.len(), 1, "provisional: one unit, no backup: {out:?}");
     assert_eq!(t[0].unit.as_str(), "b");
-    let TaskKind::Extinguish { fire, target } = t[0].kind else {
+    let TaskKind::Extinguish { fire, target, .. } = t[0].kind else {
         panic!()
     };
     let spraying = TaskProgress {

@@ -1,7 +1,7 @@
 //! Liveness, fires going out, bad input, and a restarted coordinator.
 
 use super::*;
-use firefleet_protocol::msg::{EPOCH_RANKS, Task, epoch_after};
+use firefleet_protocol::msg::{Approach, EPOCH_RANKS, Task, epoch_after};
 
 #[test]
 fn a_lost_unit_s_fire_is_reassigned_at_once() {
@@ -204,6 +204,7 @@ fn a_restarted_coordinator_recalls_recorded_fires_under_their_ids() {
         [TaskKind::Extinguish {
             fire: FireId(9),
             target: Point2::new(150.0, 1.0),
+            from: Approach::Either,
         }]
     );
     let tracks = i.fire_tracks(42.0);
@@ -252,7 +253,7 @@ fn a_unit_heard_again_after_its_lease_is_back_in_play_and_its_old_task_not_adopt
     let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
     let first = tasks(&out)[0].clone();
     assert_eq!(first.unit.as_str(), "b");
-    let TaskKind::Extinguish { fire, target } = first.kind else {
+    let TaskKind::Extinguish { fire, target, .. } = first.kind else {
         unreachable!()
     };
     // b falls silent past its lease (its token stays): lost, its fire goes to a.
@@ -543,7 +544,7 @@ fn an_out_claim_while_another_attacker_still_sees_the_fire_frees_only_the_claima
     let on_fire: Vec<Task> = tasks(&out).into_iter().cloned().collect();
     assert_eq!(on_fire.len(), 2, "both units attack: {out:?}");
     let progress = |task: &Task, phase| {
-        let TaskKind::Extinguish { fire, target } = task.kind else {
+        let TaskKind::Extinguish { fire, target, .. } = task.kind else {
             unreachable!()
         };
         TaskProgress {

@@ -1,0 +1,250 @@
+//! The tunnel's own senses in the incident: DTS alarms are fire reports, and the
+//! ventilation says which side of a fire to attack it from.
+//!
+//! **DTS.** Zones in alarm (and neither stale, faulted nor old) are grouped into runs of
+//! neighbours; each zone hotter than its neighbours in a run is a fire somewhere in it (two
+//! burning cars 20 m apart are two peaks, a fire's hot ceiling either side of it is one).
+//! Each peak is observed by fusion as a Gaussian over its zone ([`Fusion::observe_dts`]),
+//! so a unit is sent before any unit has seen the fire, and its first sighting moves the
+//! units sent there to where the flame is ([`Decision::Located`]).
+//!
+//! **Ventilation.** With the air moving at [`MOVING_AIR_M_S`] or more, smoke and hot gas
+//! stream downstream of a fire (back-layering reaches a few tunnel heights upstream at
+//! most, none above the critical velocity): fire services attack from upwind. Ground units
+//! are told to fire from the upwind side ([`Approach`]), units downwind pay for driving
+//! past the fire to get there in the assignment, and reserves wait upwind.
+//!
+//! Both feeds are one bridge's word (`firefleet scada`): every reading is checked against
+//! the site's map and for freshness, and a stale one is dropped, never extrapolated.
+//!
+//! Not here: the bus, or Modbus ([`firefleet_model::infra`] is the map).
+
+use std::collections::BTreeMap;
+
+use firefleet_model::Gaussian2;
+use firefleet_model::infra::ScadaMap;
+use firefleet_model::validate::{Invalid, Validate};
+use firefleet_protocol::msg::{Approach, DtsZone, Vent};
+
+use super::freshness::{AHEAD_S, BEHIND_S};
+use super::{Decision, Incident, Output, Scope};
+use crate::fusion::Fused;
+
+/// Air slower than this is still for choosing a side, m/s: below it a fire's plume rises
+/// and spreads both ways under the ceiling (back-layering reaches ten tunnel heights at
+/// 0.5 m/s for a car fire), so neither side is clear.
+pub const MOVING_AIR_M_S: f64 = 0.5;
+
+/// A ventilation reading older than this is no longer believed, s.
+pub const VENT_FRESH_S: f64 = 30.0;
+
+/// What the incident knows of the site's DTS and ventilation.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Infra {
+    map: Option<(ScadaMap, f64)>,
+    /// The newest reading of each zone.
+    zones: BTreeMap<u16, DtsZone>,
+    /// A reading came since the alarms were last looked at.
+    changed: bool,
+    vent: Option<Vent>,
+}
+
+impl Infra {
+    pub(super) fn new(map: Option<ScadaMap>, length_m: f64) -> Self {
+        Self {
+            map: map.map(|m| (m, length_m)),
+            ..Self::default()
+        }
+    }
+
+    /// A reading is believed for this long, s: two of the detector's measurements and a
+    /// poll's slack.
+    fn fresh_s(&self) -> f64 {
+        self.map
+            .as_ref()
+            .map_or(30.0, |(m, _)| 2.0 * m.dts.period_s + 5.0)
+    }
+
+    /// The alarm peaks as of `t`: each zone in alarm hotter than its neighbours in alarm,
+    /// as (zone, span).
+    fn peaks(&self, t: f64) -> Vec<(f64, f64)> {
+        let fresh = self.fresh_s();
+        let alarmed = |k: u16| {
+            self.zones.get(&k).filter(|z| {
+                !z.stale && !z.reading.fault && z.reading.alarm.any() && t - z.t <= fresh
+            })
+        };
+        self.zones
+            .keys()
+            .filter_map(|&k| {
+                let z = alarmed(k)?;
+                let hotter = |n: Option<&DtsZone>| n.is_some_and(|n| n.reading.max_c > z.reading.max_c);
+                // A plateau counts once: its first zone.
+                let level = k
+                    .checked_sub(1)
+                    .and_then(alarmed)
+                    .is_some_and(|n| n.reading.max_c == z.reading.max_c);
+                let below = k.checked_sub(1).and_then(alarmed);
+                let above = k.checked_add(1).and_then(alarmed);
+                (!hotter(below) && !hotter(above) && !level).then_some((z.start_m, z.end_m))
+            })
+            .collect()
+    }
+}
+
+impl Incident {
+    /// One DTS zone's reading from the bridge: checked against the site's map (its zone
+    /// and span), and taken if newer than the zone's last. A stale one withdraws the
+    /// zone's last reading from the alarms.
+    pub fn on_dts(&mut self, z: &DtsZone, t: f64) -> Result<(), Invalid> {
+        z.validate()?;
+        let Some((map, length)) = &self.infra.map else {
+            return Err(Invalid::new("zone", "this site's file maps no DTS"));
+        };
+        let k = usize::from(z.zone);
+        if k >= map.zone_count(*length) {
+            return Err(Invalid::new(
+                "zone",
+                format!("{k}: the site has {} zones", map.zone_count(*length)),
+            ));
+        }
+        let (a, b) = map.zone_span(k, *length);
+        if (z.start_m - a).abs() > 0.01 || (z.end_m - b).abs() > 0.01 {
+            return Err(Invalid::new(
+                "start_m",
+                format!(
+                    "zone {k} spans {a:.1}-{b:.1} m in the site's map, not {:.1}-{:.1}",
+                    z.start_m, z.end_m
+                ),
+            ));
+        }
+        if !z.stale && (z.t > t + AHEAD_S || z.t < t - BEHIND_S) {
+            return Err(Invalid::new(
+                "t",
+                format!("{:.1} s is off the site clock ({t:.1} s)", z.t),
+            ));
+        }
+        let known = self.infra.zones.get(&z.zone);
+        if known.is_some_and(|old| old.t > z.t) {
+            return Err(Invalid::new("t", "older than the zone's last reading"));
+        }
+        self.infra.changed |= known.is_none_or(|old| old != z);
+        self.infra.zones.insert(z.zone, *z);
+        Ok(())
+    }
+
+    /// The ventilation's reading from the bridge.
+    pub fn on_vent(&mut self, v: &Vent, t: f64) -> Result<(), Invalid> {
+        v.validate()?;
+        if !v.stale && (v.t > t + AHEAD_S || v.t < t - BEHIND_S) {
+            return Err(Invalid::new(
+                "t",
+                format!("{:.1} s is off the site clock ({t:.1} s)", v.t),
+            ));
+        }
+        if self.infra.vent.as_ref().is_some_and(|old| old.t > v.t) {
+            return Err(Invalid::new("t", "older than the last reading"));
+        }
+        self.infra.vent = Some(v.clone());
+        Ok(())
+    }
+
+    /// The air along the tunnel as believed at `t`, m/s (positive towards the end), if a
+    /// fresh reading says it moves.
+    pub fn air_m_s(&self, t: f64) -> Option<f64> {
+        self.infra
+            .vent
+            .as_ref()
+            .filter(|v| !v.stale && t - v.t <= VENT_FRESH_S)
+            .map(|v| v.reading.air_m_s)
+            .filter(|a| a.abs() >= MOVING_AIR_M_S)
+    }
+
+    /// The side to attack fires from at `t`: upwind while the air moves.
+    pub(super) fn approach(&self, t: f64) -> Approach {
+        self.air_m_s(t)
+            .map_or(Approach::Either, |a| Approach::upwind(a, MOVING_AIR_M_S))
+    }
+
+    /// New DTS readings: their alarm peaks to fusion, a fire track for each new one, and
+    /// the units sent.
+    pub(super) fn dts_alarms(&mut self, t: f64) -> Vec<Output> {
+        if !std::mem::take(&mut self.infra.changed) {
+            return Vec::new();
+        }
+        let mut out = Vec::new();
+        for (a, b) in self.infra.peaks(t) {
+            let at = self.zone_estimate(a, b);
+            if let Some(Fused::Confirmed(fire)) = self.fusion.observe_dts(at, t) {
+                let max_c = self
+                    .infra
+                    .zones
+                    .values()
+                    .find(|z| z.start_m == a)
+                    .map_or(f64::NAN, |z| z.reading.max_c);
+                self.log(
+                    t,
+                    Decision::DtsAlarm {
+                        fire,
+                        from_m: a,
+                        to_m: b,
+                        max_c,
+                    },
+                );
+                out.push(Output::Fire(self.track(fire, t)));
+            }
+        }
+        if !out.is_empty() {
+            out.extend(self.solve_within(Scope::NewFires, t));
+        }
+        out
+    }
+
+    /// A fire somewhere in the zone from `a` to `b` m, across the road: uniform along the
+    /// zone and across the tunnel, as a Gaussian of the same mean and variance in the
+    /// tunnel's frame at the zone's middle.
+    fn zone_estimate(&self, a: f64, b: f64) -> Gaussian2 {
+        let s = firefleet_model::Chainage::new((a + b) / 2.0);
+        let along = (b - a).powi(2) / 12.0;
+        let across = self.tunnel.width_m.powi(2) / 12.0;
+        let h = self.tunnel.heading_at(s);
+        let (c, sn) = (h.cos(), h.sin());
+        Gaussian2 {
+            mean: self.tunnel.point_at(s, 0.0),
+            cov: [
+                along * c * c + across * sn * sn,
+                (along - across) * c * sn,
+                along * sn * sn + across * c * c,
+            ],
+        }
+    }
+
+    /// Units sent to `fire` while only the DTS had placed it go where the unit that saw it
+    /// says it is now.
+    pub(super) fn retarget(&mut self, fire: firefleet_model::FireId, t: f64) -> Vec<Output> {
+        let Some(at) = self.fusion.get(fire).map(|f| f.position()) else {
+            return Vec::new();
+        };
+        let units: Vec<_> = self.assigned_to(fire);
+        let mut out = vec![Output::Fire(self.track(fire, t))];
+        self.log(t, Decision::Located { fire, at });
+        for u in units {
+            let Some(kind) = self.units.get(&u).and_then(|v| v.task.as_ref()).map(|t| t.kind)
+            else {
+                continue;
+            };
+            if let firefleet_protocol::msg::TaskKind::Extinguish { fire: f, from, .. } = kind {
+                out.push(self.give(
+                    &u,
+                    firefleet_protocol::msg::TaskKind::Extinguish {
+                        fire: f,
+                        target: at,
+                        from,
+                    },
+                    t,
+                ));
+            }
+        }
+        out
+    }
+}
