@@ -1,8 +1,8 @@
 //! The scenarios firefleet ships, and how a `--scenario` argument names a site.
 //!
 //! The BT paper's three virtual experiments (`vehicle-collision`, `self-ignition`,
-//! `cargo-truck`), a pile-up for the fleet experiment and a rail tunnel with a monorail
-//! unit. They are site files like any other (`model/scenarios/*.toml`), compiled in so
+//! `cargo-truck`), a pile-up for the fleet experiment, a rail tunnel with a monorail
+//! unit and a ventilated tunnel whose air decides which side to attack from. They are site files like any other (`model/scenarios/*.toml`), compiled in so
 //! that `firefleet demo` needs nothing beside the binary.
 
 use std::path::Path;
@@ -10,7 +10,7 @@ use std::path::Path;
 use crate::scenario::{Scenario, ScenarioError};
 
 /// The shipped scenarios by name, as TOML.
-pub const BUILT_IN: [(&str, &str); 5] = [
+pub const BUILT_IN: [(&str, &str); 6] = [
     (
         "vehicle-collision",
         include_str!("../scenarios/vehicle-collision.toml"),
@@ -22,6 +22,7 @@ pub const BUILT_IN: [(&str, &str); 5] = [
     ("cargo-truck", include_str!("../scenarios/cargo-truck.toml")),
     ("pileup", include_str!("../scenarios/pileup.toml")),
     ("rail-tunnel", include_str!("../scenarios/rail-tunnel.toml")),
+    ("ventilated", include_str!("../scenarios/ventilated.toml")),
 ];
 
 /// A shipped scenario by name.

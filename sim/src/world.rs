@@ -425,6 +425,11 @@ impl World {
         self.dts = Some(dts);
     }
 
+    /// The tunnel's length, m.
+    pub fn length_m(&self) -> f64 {
+        self.tunnel.length_m
+    }
+
     /// The site's SCADA map, if it has one.
     pub fn scada_map(&self) -> Option<&ScadaMap> {
         self.dts.as_ref().map(Dts::map)

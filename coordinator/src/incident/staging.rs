@@ -59,16 +59,16 @@ impl Incident {
             // Units leaving a barred zone keep their way out.
             .filter(|(_, at, ..)| !self.goal_at(*at).is_some_and(|g| g.bars_entry()))
             .collect();
-        // Units wait and search at least this far inside the portals, m.
-        const INSIDE_M: f64 = 5.0;
-        let (lo, hi) = (Chainage::ZERO + INSIDE_M, self.tunnel.end() - INSIDE_M);
-        let mut out = Vec::new();
         // Reserves wait upwind while the air moves: downstream is the fire's smoke.
         let upwind = match self.approach(t) {
             firefleet_protocol::msg::Approach::Start => Some(-1.0),
             firefleet_protocol::msg::Approach::End => Some(1.0),
             firefleet_protocol::msg::Approach::Either => None,
         };
+        // Units wait and search at least this far inside the portals, m.
+        const INSIDE_M: f64 = 5.0;
+        let (lo, hi) = (Chainage::ZERO + INSIDE_M, self.tunnel.end() - INSIDE_M);
+        let mut out = Vec::new();
         // Each free unit's nearest active fire; each fire keeps its nearest
         // `reserves_per_fire` within `help_within_s` (any distance to hold a contain
         // line), the others patrol (a thousand units must not converge on the first fire
@@ -77,12 +77,20 @@ impl Incident {
             self.goal_at(f)
                 .is_some_and(|g| g.goal.goal == GoalKind::Contain)
         };
+        let upwind_of = |at: Point2, f: Point2| {
+            upwind.is_none_or(|side| {
+                (self.tunnel.chainage(at) - self.tunnel.chainage(f)) * side >= 0.0
+            })
+        };
         let nearest: Vec<Option<&(FireId, Point2)>> = free
             .iter()
             .map(|(_, at, _, mobility)| {
                 active
                     .iter()
                     .min_by(|a, b| a.1.dist(*at).total_cmp(&b.1.dist(*at)))
+                    // A unit downwind of its nearest fire is in its smoke, and would have
+                    // to drive through the fire to wait upwind: it is no reserve there.
+                    .filter(|(_, f)| upwind_of(*at, *f))
                     .filter(|(_, f)| {
                         holds_a_line(*f)
                             || mobility

@@ -1,12 +1,19 @@
-//! `firefleet experiment fleet`: the shipped multi-fire scenarios under three strategies
+//! `firefleet experiment fleet`: the shipped multi-fire scenarios under four strategies
 //! side by side: every unit running its tree alone with no coordinator, greedy
-//! nearest-free-unit assignment, and the coordinator's optimal assignment.
+//! nearest-free-unit assignment, the coordinator's optimal assignment, and the optimal
+//! coordinator with the tunnel's SCADA feed (`feed`: DTS alarms as fire reports, the
+//! ventilation's air for the side to attack from; what `firefleet scada` delivers).
 //!
-//! A fourth row per scenario, `bound`, is not a strategy: the optimal coordinator told
-//! where every fire is at t = 0, as if the tunnel's own fire detection had located them
-//! all. The fleet still drives there and fights them, so its time to all-out is what no
-//! coordination of these units can beat with their sensors alone: how much of the
-//! uncoordinated fleet's time is finding fires rather than choosing who fights them.
+//! A further row per scenario, `bound`, is not a strategy: the optimal coordinator told
+//! exactly where every fire is at t = 0. The fleet still drives there and fights them, so
+//! its time to all-out is what no coordination of these units can beat: how much of the
+//! uncoordinated fleet's time is finding fires rather than choosing who fights them. The
+//! feed comes close to it but for the DTS's zone (a fire is somewhere in 10 m until a
+//! unit sees it) and its first measurement.
+//!
+//! On a ventilated scenario one more row, `feed, downwind`, tells the fed coordinator the
+//! air flows the other way: it then sends units in from downwind, through the smoke, and
+//! the heat dose column shows what the upwind side spares them.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -19,7 +26,7 @@ use firefleet_model::scenario::Scenario;
 use firefleet_protocol::msg::{FireState, FireTrack};
 use serde::Serialize;
 
-use super::sim_fleet::{self, SimFleet};
+use super::sim_fleet::{self, Air, SimFleet};
 use crate::commands::write_json;
 
 #[derive(Args, Debug)]
@@ -34,8 +41,8 @@ pub struct FleetArgs {
     json: Option<PathBuf>,
 }
 
-/// The multi-fire scenarios the fleet experiment runs.
-const FLEET_SCENARIOS: [&str; 3] = ["cargo-truck", "pileup", "rail-tunnel"];
+/// The scenarios the fleet experiment runs.
+const FLEET_SCENARIOS: [&str; 4] = ["cargo-truck", "pileup", "rail-tunnel", "ventilated"];
 
 #[derive(Serialize)]
 struct FleetRun {
@@ -67,15 +74,19 @@ enum Command {
     Alone,
     /// A coordinator with this strategy, which learns of fires from the units' reports.
     Coordinator(Strategy),
+    /// The optimal coordinator with the SCADA feed, told the air as measured or reversed.
+    Fed(Air),
     /// The optimal coordinator, told every fire at t = 0: the bound.
     Told,
 }
 
-/// The rows of the table: label, command.
-const ROWS: [(&str, Command); 4] = [
+/// The rows of the table: label, command. The reversed air only where the air moves.
+const ROWS: [(&str, Command); 6] = [
     ("autonomous", Command::Alone),
     ("greedy", Command::Coordinator(Strategy::Greedy)),
     ("optimal", Command::Coordinator(Strategy::Optimal)),
+    ("feed", Command::Fed(Air::AsMeasured)),
+    ("feed, downwind", Command::Fed(Air::Reversed)),
     ("bound", Command::Told),
 ];
 
@@ -105,6 +116,7 @@ fn fleet_run(scenario: &Scenario, command: Command, seed: u64) -> anyhow::Result
     let (how, known) = match command {
         Command::Alone => (sim_fleet::Command::Alone, Vec::new()),
         Command::Coordinator(s) => (sim_fleet::Command::Coordinator(s), Vec::new()),
+        Command::Fed(air) => (sim_fleet::Command::Fed(Strategy::Optimal, air), Vec::new()),
         Command::Told => (
             sim_fleet::Command::Coordinator(Strategy::Optimal),
             known_fires(scenario),
@@ -147,7 +159,7 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
         a.trials, a.seed
     );
     println!(
-        "{:<12} {:<11} {:>16} {:>10} {:>14} {:>9} {:>14} {:>10}",
+        "{:<12} {:<15} {:>12} {:>10} {:>14} {:>9} {:>14} {:>10}",
         "scenario",
         "strategy",
         "all out (s)",
@@ -159,7 +171,11 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
     );
     for name in FLEET_SCENARIOS {
         let scenario = builtin::resolve(name)?;
+        let mut autonomous = None;
         for (label, command) in ROWS {
+            if matches!(command, Command::Fed(Air::Reversed)) && scenario.air_m_s() == 0.0 {
+                continue;
+            }
             let (mut time, mut unfinished, mut dose, mut water, mut never, mut violations) =
                 (0.0, 0, 0.0, 0.0, 0.0, 0);
             for k in 0..a.trials {
@@ -183,8 +199,17 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
                 fires_never_attacked: never / n,
                 violations,
             };
+            let faster = match command {
+                Command::Alone => {
+                    autonomous = Some(run.time_all_out_s);
+                    String::new()
+                }
+                _ => autonomous.map_or(String::new(), |a| {
+                    format!("  {:+.1} %", 100.0 * (a - run.time_all_out_s) / a)
+                }),
+            };
             println!(
-                "{:<12} {:<11} {:>16.1} {:>10} {:>14.1} {:>9.0} {:>14.1} {:>10}",
+                "{:<12} {:<15} {:>12.1} {:>10} {:>14.1} {:>9.0} {:>14.1} {:>10}{faster}",
                 run.scenario,
                 run.strategy,
                 run.time_all_out_s,

@@ -23,7 +23,7 @@ use firefleet_model::UnitKind;
 use firefleet_model::scenario::Scenario;
 use firefleet_model::{CommanderId, UnitId};
 use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitState, ZoneGoal};
-use firefleet_protocol::msg::{FireTrack, SimTruth};
+use firefleet_protocol::msg::{DtsZone, FireTrack, SimTruth, Vent};
 use firefleet_sim::World;
 
 use crate::checking::burning;
@@ -101,6 +101,19 @@ pub enum Command {
     Alone,
     /// A coordinator with this strategy, which learns of fires from the units' reports.
     Coordinator(Strategy),
+    /// A coordinator with this strategy that also takes the tunnel's SCADA feed (its DTS
+    /// zones and ventilation, as `firefleet scada` would deliver them).
+    Fed(Strategy, Air),
+}
+
+/// What the fed coordinator is told of the air.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Air {
+    /// What the ventilation measures.
+    AsMeasured,
+    /// The opposite direction: the coordinator then sends units in from downwind, to
+    /// measure what the upwind side spares them.
+    Reversed,
 }
 
 /// A fleet, its world and its coordinator, stepped together.
@@ -108,6 +121,9 @@ pub struct SimFleet {
     world: World,
     units: Vec<(UnitId, Unit)>,
     incident: Option<Incident>,
+    /// The coordinator takes the SCADA feed, with the air as told; and the DTS
+    /// measurement it has.
+    feed: Option<(Air, f64)>,
     invariants: Invariants,
     step: u64,
 }
@@ -147,9 +163,19 @@ impl SimFleet {
                 Ok((u.id.clone(), ctl))
             })
             .collect::<anyhow::Result<_>>()?;
-        let incident = match command {
-            Command::Alone => None,
-            Command::Coordinator(s) => {
+        let (strategy, feed) = match command {
+            Command::Alone => (None, None),
+            Command::Coordinator(s) => (Some(s), None),
+            Command::Fed(s, air) => (Some(s), Some((air, f64::NEG_INFINITY))),
+        };
+        anyhow::ensure!(
+            feed.is_none() || scenario.scada.is_some(),
+            "scenario {} maps no SCADA to feed the coordinator",
+            scenario.name
+        );
+        let incident = match strategy {
+            None => None,
+            Some(s) => {
                 let mut inc = Incident::from_scenario(scenario, LEASE_S, s)?;
                 if !known.is_empty() {
                     let (_, refused) = inc.restore(known, 0.0);
@@ -166,6 +192,7 @@ impl SimFleet {
             world: World::new(scenario, seed),
             units,
             incident,
+            feed,
             invariants: Invariants::new(scenario),
             step: 0,
         })
@@ -230,6 +257,9 @@ impl SimFleet {
                 self.invariants.observe(t, Event::State(u.state()));
             }
             if let Some(inc) = &mut self.incident {
+                if let Some((air, seen)) = &mut self.feed {
+                    feed(inc, &self.world, *air, seen, t);
+                }
                 let mut outputs = inc.tick(t);
                 for (_, u) in &mut self.units {
                     outputs.extend(inc.on_state(u.state(), t).unwrap_or_default());
@@ -261,5 +291,42 @@ impl SimFleet {
                 }
             }
         }
+    }
+}
+
+/// What `firefleet scada` would put on the bus at `t`: the DTS zones of a measurement newer
+/// than `seen`, and the ventilation (its air reversed if `air` says so).
+fn feed(inc: &mut Incident, world: &World, air: Air, seen: &mut f64, t: f64) {
+    let length = world.length_m();
+    if let (Some(map), Some((measured, zones))) = (world.scada_map(), world.dts())
+        && measured > *seen
+    {
+        *seen = measured;
+        for (k, reading) in zones.iter().enumerate() {
+            let (start_m, end_m) = map.zone_span(k, length);
+            let z = DtsZone {
+                zone: k as u16,
+                start_m,
+                end_m,
+                t: measured,
+                reading: *reading,
+                stale: false,
+            };
+            if let Err(e) = inc.on_dts(&z, t) {
+                tracing::warn!("DTS zone {k}: {e}");
+            }
+        }
+    }
+    let mut reading = world.vent();
+    if air == Air::Reversed {
+        reading.air_m_s = -reading.air_m_s;
+    }
+    let vent = Vent {
+        t,
+        reading,
+        stale: false,
+    };
+    if let Err(e) = inc.on_vent(&vent, t) {
+        tracing::warn!("ventilation: {e}");
     }
 }
