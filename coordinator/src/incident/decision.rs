@@ -236,6 +236,12 @@ pub enum Decision {
         /// (positive towards the end); `None` in still air.
         upwind: Option<(Approach, f64)>,
     },
+    /// A free unit downwind of a burning fire withdraws out of its smoke.
+    LeaveSmoke {
+        unit: UnitId,
+        fire: FireId,
+        to: Point2,
+    },
     /// A DTS alarm peak between `from_m` and `to_m`, up to `max_c`, is a new fire.
     DtsAlarm {
         fire: FireId,
@@ -498,6 +504,11 @@ impl fmt::Display for Decision {
             } => write!(
                 f,
                 "DTS alarm at chainage {from_m:.0}-{to_m:.0} m ({max_c:.0} C): fire {fire}, sent for before any unit has seen it"
+            ),
+            Decision::LeaveSmoke { unit, fire, to } => write!(
+                f,
+                "{unit} is downwind of fire {fire}, in its smoke: it withdraws to ({:.1}, {:.1}), towards the downstream portal",
+                to.x, to.y
             ),
             Decision::Located { fire, at } => write!(
                 f,

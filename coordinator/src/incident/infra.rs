@@ -14,6 +14,9 @@
 //! are told to fire from the upwind side ([`Approach`]), units downwind pay for driving
 //! past the fire to get there in the assignment, and reserves wait upwind.
 //!
+//! A zone the detector reads fresh counts as looked at ([`crate::coverage`]): units do not
+//! search the stretches the fibre watches, and so do not drive into a fire's smoke to look.
+//!
 //! Both feeds are one bridge's word (`firefleet scada`): every reading is checked against
 //! the site's map and for freshness, and a stale one is dropped, never extrapolated.
 //!
@@ -130,6 +133,15 @@ impl Incident {
         }
         self.infra.changed |= known.is_none_or(|old| old != z);
         self.infra.zones.insert(z.zone, *z);
+        // A zone the detector reads is a stretch watched: no unit need search it for a
+        // fire (a fire that heats no ceiling is not one a camera misses for long).
+        if !z.stale && !z.reading.fault {
+            self.coverage.look(
+                firefleet_model::Chainage::new(z.start_m),
+                firefleet_model::Chainage::new(z.end_m),
+                z.t.min(t),
+            );
+        }
         Ok(())
     }
 

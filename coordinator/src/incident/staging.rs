@@ -69,6 +69,48 @@ impl Incident {
         const INSIDE_M: f64 = 5.0;
         let (lo, hi) = (Chainage::ZERO + INSIDE_M, self.tunnel.end() - INSIDE_M);
         let mut out = Vec::new();
+        // With the air moving, a free unit downwind of a burning fire stands in its smoke
+        // and hot gas: it withdraws to the downstream portal, and is nobody's reserve.
+        let mut free = free;
+        if let Some(side) = upwind {
+            let exit = if side < 0.0 { hi } else { lo };
+            let fires: Vec<(FireId, Chainage)> = self
+                .fusion
+                .fires()
+                .iter()
+                .filter(burning)
+                .map(|f| (f.id, self.tunnel.chainage(f.position())))
+                .collect();
+            let mut leaving = Vec::new();
+            free.retain(|(unit, at, current, _)| {
+                let s = self.tunnel.chainage(*at);
+                let Some(&(fire, _)) = fires.iter().find(|(_, f)| (s - *f) * side < 0.0) else {
+                    return true;
+                };
+                let to = self
+                    .goals
+                    .nearest_allowed(exit, self.policy.evacuate_margin_m, lo, hi)
+                    .unwrap_or(s);
+                let goal = self
+                    .tunnel
+                    .point_at(to, self.tunnel.lane_nearest(self.tunnel.station(*at).d));
+                if !matches!(current, Some(TaskKind::Cruise { goal: g }) if g.dist(goal) < 3.0) {
+                    leaving.push((unit.clone(), fire, goal));
+                }
+                false
+            });
+            for (unit, fire, goal) in leaving {
+                out.push(self.give(&unit, TaskKind::Cruise { goal }, t));
+                self.log(
+                    t,
+                    Decision::LeaveSmoke {
+                        unit,
+                        fire,
+                        to: goal,
+                    },
+                );
+            }
+        }
         // Each free unit's nearest active fire; each fire keeps its nearest
         // `reserves_per_fire` within `help_within_s` (any distance to hold a contain
         // line), the others patrol (a thousand units must not converge on the first fire

@@ -53,6 +53,8 @@ struct FleetRun {
     time_all_out_s: f64,
     unfinished: u32,
     heat_dose: f64,
+    /// The heat dose of the units that sprayed: the attackers'.
+    attack_heat_dose: f64,
     water_l: f64,
     fires_never_attacked: f64,
     /// Incident invariants broken, over all trials (`firefleet check`'s).
@@ -65,6 +67,37 @@ struct FleetResults {
     strategies: Vec<FleetRun>,
     /// The `bound` rows: the optimal coordinator told every fire at t = 0.
     bounds: Vec<FleetRun>,
+    /// Per ground-only scenario, the drive floor ([`drive_floor_s`]).
+    floors: Vec<(String, f64)>,
+}
+
+/// Preferred firing distances reach out to this, m (the ground units' farthest standoff).
+const FARTHEST_STANDOFF_M: f64 = 10.0;
+
+/// A floor under every strategy's time to all-out on a scenario of ground units, s: the
+/// fire whose nearest unit is farthest, reached in a straight line at that unit's top
+/// speed to within [`FARTHEST_STANDOFF_M`], with no time to start, turn, aim or spray. No
+/// coordination, feed or sensor beats it; the units' speed does. `None` with monorail
+/// units (they reach a fire along their rail, from its hose points).
+fn drive_floor_s(scenario: &Scenario) -> Option<f64> {
+    let units = scenario
+        .units
+        .iter()
+        .map(|u| {
+            let at = firefleet_model::Point2::new(u.x_m, u.y_m);
+            Some((at, scenario.ground_spec(&u.id)?.max_speed_m_s))
+        })
+        .collect::<Option<Vec<_>>>()?;
+    scenario
+        .fires
+        .iter()
+        .map(|f| {
+            units
+                .iter()
+                .map(|(at, v)| (at.dist(f.position()) - FARTHEST_STANDOFF_M).max(0.0) / v)
+                .fold(f64::INFINITY, f64::min)
+        })
+        .reduce(f64::max)
 }
 
 /// Who decides what the units do in a run.
@@ -133,6 +166,12 @@ fn fleet_run(scenario: &Scenario, command: Command, seed: u64) -> anyhow::Result
     Ok(Outcome {
         done: truth.all_out().then_some(truth.t),
         dose: truth.units.iter().map(|u| u.heat_dose_kj_m2).sum(),
+        attack_dose: truth
+            .units
+            .iter()
+            .filter(|u| u.water_used_l > 0.0)
+            .map(|u| u.heat_dose_kj_m2)
+            .sum(),
         water: truth.units.iter().map(|u| u.water_used_l).sum(),
         never: truth
             .fires
@@ -147,24 +186,26 @@ fn fleet_run(scenario: &Scenario, command: Command, seed: u64) -> anyhow::Result
 struct Outcome {
     done: Option<f64>,
     dose: f64,
+    attack_dose: f64,
     water: f64,
     never: usize,
     violations: usize,
 }
 
 pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
-    let (mut runs, mut bounds) = (Vec::new(), Vec::new());
+    let (mut runs, mut bounds, mut floors) = (Vec::new(), Vec::new(), Vec::new());
     println!(
         "fleet experiment: {} trials per scenario and strategy, seed {}",
         a.trials, a.seed
     );
     println!(
-        "{:<12} {:<15} {:>12} {:>10} {:>14} {:>9} {:>14} {:>10}",
+        "{:<12} {:<15} {:>12} {:>10} {:>14} {:>14} {:>9} {:>14} {:>10}",
         "scenario",
         "strategy",
         "all out (s)",
         "unfinished",
         "heat (kJ/m2)",
+        "attackers'",
         "water (L)",
         "never attacked",
         "violations"
@@ -178,11 +219,13 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
             }
             let (mut time, mut unfinished, mut dose, mut water, mut never, mut violations) =
                 (0.0, 0, 0.0, 0.0, 0.0, 0);
+            let mut attack_dose = 0.0;
             for k in 0..a.trials {
                 let o = fleet_run(&scenario, command, a.seed + u64::from(k))?;
                 time += o.done.unwrap_or(scenario.time_limit_s);
                 unfinished += u32::from(o.done.is_none());
                 dose += o.dose;
+                attack_dose += o.attack_dose;
                 water += o.water;
                 never += o.never as f64;
                 violations += o.violations;
@@ -195,6 +238,7 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
                 time_all_out_s: time / n,
                 unfinished,
                 heat_dose: dose / n,
+                attack_heat_dose: attack_dose / n,
                 water_l: water / n,
                 fires_never_attacked: never / n,
                 violations,
@@ -209,12 +253,13 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
                 }),
             };
             println!(
-                "{:<12} {:<15} {:>12.1} {:>10} {:>14.1} {:>9.0} {:>14.1} {:>10}{faster}",
+                "{:<12} {:<15} {:>12.1} {:>10} {:>14.1} {:>14.1} {:>9.0} {:>14.1} {:>10}{faster}",
                 run.scenario,
                 run.strategy,
                 run.time_all_out_s,
                 run.unfinished,
                 run.heat_dose,
+                run.attack_heat_dose,
                 run.water_l,
                 run.fires_never_attacked,
                 run.violations
@@ -224,6 +269,15 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
                 _ => runs.push(run),
             }
         }
+        if let (Some(floor), Some(a)) = (drive_floor_s(&scenario), autonomous) {
+            println!(
+                "{name:<12} {:<15} {floor:>12.1}{:>60}  {:+.1} %",
+                "drive floor",
+                "(top speed, straight line, no spraying)",
+                100.0 * (a - floor) / a
+            );
+            floors.push((name.to_owned(), floor));
+        }
     }
     let broken: usize = runs.iter().chain(&bounds).map(|r| r.violations).sum();
     write_json(
@@ -232,6 +286,7 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
             seed: a.seed,
             strategies: runs,
             bounds,
+            floors,
         },
     )?;
     if broken > 0 {
