@@ -44,6 +44,8 @@ enum Command {
     Demo(commands::demo::DemoArgs),
     /// Run the tunnel fire simulator.
     Sim(commands::sim::SimArgs),
+    /// Bridge the tunnel's SCADA (DTS zones, ventilation) from Modbus TCP to the site's bus.
+    Scada(commands::scada::ScadaArgs),
     /// Run the coordinator.
     Coordinator(commands::coordinator::CoordinatorArgs),
     /// Run the agent of one unit.
@@ -123,6 +125,7 @@ fn main() -> std::process::ExitCode {
         match cli.command {
             Command::Demo(a) => commands::demo::run(a).await,
             Command::Sim(a) => commands::sim::run(a).await,
+            Command::Scada(a) => commands::scada::run(a).await,
             Command::Coordinator(a) => commands::coordinator::run(a).await,
             Command::Agent(a) => commands::agent::run(a).await,
             Command::Record(a) => commands::record::run(a).await,

@@ -22,7 +22,10 @@
 //!   Argon2id password per commander) is what vouches for the issuer of those goals, not
 //!   a certificate per commander. A site that wants the router's word for every issuer
 //!   gives each commander a certificate and no console;
-//! - the simulator speaks only `sim/` keys, and only on a simulated site.
+//! - the simulator speaks only `sim/` keys, and only on a simulated site;
+//! - the SCADA bridge (`firefleet scada`) puts only the tunnel's readings (`infra/`), and
+//!   hears the simulator's clock on a simulated site; the coordinator, the commanders and
+//!   the console hear them.
 //!
 //! The rules stop an identity from touching another's keys; what an identity may send on
 //! its own keys is the application's to check (task fencing, validation, the coordinator's
@@ -48,6 +51,8 @@ pub enum Identity {
     Commander(CommanderId),
     /// The commanders' web console (`firefleet console`).
     Console,
+    /// The bridge from the tunnel's SCADA (`firefleet scada`).
+    Scada,
     /// A router of the site: `router` for its first, `router:<name>` for any other. It
     /// links everyone and is granted nothing (its own session is not a remote face its
     /// rules apply to; it runs no role). Only a router's certificate may serve TLS.
@@ -63,6 +68,7 @@ pub enum Role {
     Sim,
     Commander,
     Console,
+    Scada,
     Router,
 }
 
@@ -73,6 +79,7 @@ firefleet_model::names!(Role, "role" {
     Sim => "sim",
     Commander => "commander",
     Console => "console",
+    Scada => "scada",
     Router => "router",
 });
 
@@ -93,6 +100,7 @@ impl Identity {
             Identity::Sim => Role::Sim,
             Identity::Commander(_) => Role::Commander,
             Identity::Console => Role::Console,
+            Identity::Scada => Role::Scada,
             Identity::Router(_) => Role::Router,
         }
     }
@@ -112,6 +120,10 @@ impl Identity {
             Identity::Console,
             Identity::ROUTER,
         ]);
+        // The SCADA bridge, where the site file maps the tunnel's SCADA.
+        if scenario.scada.is_some() {
+            all.push(Identity::Scada);
+        }
         // The site file's further routers (the first is `router`).
         all.extend(
             scenario
@@ -140,6 +152,7 @@ impl fmt::Display for Identity {
             Identity::Sim => f.write_str("sim"),
             Identity::Commander(c) => write!(f, "commander:{c}"),
             Identity::Console => f.write_str("console"),
+            Identity::Scada => f.write_str("scada"),
             Identity::Router(None) => f.write_str("router"),
             Identity::Router(Some(r)) => write!(f, "router:{r}"),
         }
@@ -149,7 +162,7 @@ impl fmt::Display for Identity {
 /// A common name that is no identity of ours.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error(
-    "'{name}' is not an identity (unit:<id>, coordinator, recorder, sim, commander:<name>, console, router, router:<name>): {reason}"
+    "'{name}' is not an identity (unit:<id>, coordinator, recorder, sim, commander:<name>, console, scada, router, router:<name>): {reason}"
 )]
 pub struct IdentityError {
     pub name: String,
@@ -174,6 +187,7 @@ impl FromStr for Identity {
                 "recorder" => Ok(Identity::Recorder),
                 "sim" => Ok(Identity::Sim),
                 "console" => Ok(Identity::Console),
+                "scada" => Ok(Identity::Scada),
                 "router" => Ok(Identity::ROUTER),
                 _ => Err(err("unknown".into())),
             },
@@ -327,6 +341,7 @@ pub fn grants(
             grant(Op::Subscribe, keys.every_fire().as_str());
             grant(Op::Subscribe, keys.coord_goals().as_str());
             grant(Op::Watch, &keys.expr(&Topic::CoordAlive));
+            grant(Op::Subscribe, &keys.every_infra());
             if simulated {
                 grant(Op::Subscribe, keys.sim_clock().as_str());
             }
@@ -352,6 +367,7 @@ pub fn grants(
             grant(Op::Subscribe, keys.coord_log().as_str());
             grant(Op::Subscribe, keys.coord_goals().as_str());
             grant(Op::Subscribe, keys.coord_barred().as_str());
+            grant(Op::Subscribe, &keys.every_infra());
             grant(Op::Query, &keys.every_coord());
             grant(Op::Watch, &keys.every_alive());
             // The console's picture runs on site time.
@@ -367,6 +383,14 @@ pub fn grants(
             grant(Op::Subscribe, keys.every_sim_cmd().as_str());
             grant(Op::Subscribe, keys.every_sim_rail_cmd().as_str());
             grant(Op::Watch, &keys.every_alive());
+        }
+        Identity::Scada => {
+            grant(Op::Put, keys.every_dts_zone().as_str());
+            grant(Op::Put, keys.infra_vent().as_str());
+            grant(Op::Put, keys.infra_link().as_str());
+            if simulated {
+                grant(Op::Subscribe, keys.sim_clock().as_str());
+            }
         }
         Identity::Sim | Identity::Router(_) => {}
     }

@@ -109,6 +109,19 @@ pub async fn run(
         .subscribe_raw(&[keys.every_unit_task().as_str()], true)
         .await?;
     let clock_msgs = bus.subscribe(&keys.sim_clock()).await?;
+    // The tunnel's DTS zones and ventilation, from the SCADA bridge: room for a poll of
+    // every zone.
+    let dts = bus
+        .subscribe_with_capacity(
+            &keys.every_dts_zone(),
+            scenario
+                .scada
+                .as_ref()
+                .map_or(16, |m| m.zone_count(scenario.tunnel.length_m))
+                .max(256),
+        )
+        .await?;
+    let vent = bus.subscribe(&keys.infra_vent()).await?;
     // `coord/status`, `coord/barred` and `coord/goals` are answered to queries.
     let coord_q = bus.serve(&keys.every_coord()).await?;
     let mut told = Told::default();
@@ -209,6 +222,15 @@ pub async fn run(
                 Err(e) => Err((sample.key.clone(), Invalid::new("task", format!("another coordinator's task: {e}")))),
             },
             Some((_, c)) = clock_msgs.recv() => { sim_time.set(c.t); Ok(Vec::new()) }
+            Some((topic, z)) = dts.recv() => if topic == Topic::InfraDts(z.zone) {
+                incident.on_dts(&z, clock.now()).map(|()| Vec::new())
+            } else {
+                Err(Invalid::new("zone", format!("zone {} on another zone's key", z.zone)))
+            }.map_err(|e| (topic.to_string(), e)),
+            Some((topic, v)) = vent.recv() => incident
+                .on_vent(&v, clock.now())
+                .map(|()| Vec::new())
+                .map_err(|e| (topic.to_string(), e)),
             Some((topic, up)) = alive.recv() => match &topic {
                 // A vanished token is taken for a lost unit only if it stays away past
                 // TOKEN_GRACE: a unit whose router died is back on the next within it.

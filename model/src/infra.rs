@@ -390,12 +390,22 @@ impl ScadaMap {
     /// Zone readings from the registers of the DTS block (from its first); a register
     /// that cannot hold what the map says is an error naming the zone and field.
     pub fn decode_dts(&self, regs: &[u16]) -> Result<Vec<DtsReading>, Invalid> {
-        let d = &self.dts;
         regs.chunks_exact(usize::from(DTS_REGISTERS_PER_ZONE))
             .enumerate()
-            .map(|(k, r)| {
-                let f = |n: &str| format!("dts zone {k} {n}");
-                let bits = r[2];
+            .map(|(k, r)| self.decode_zone(k, r))
+            .collect()
+    }
+
+    /// Zone `k`'s reading from its three registers.
+    pub fn decode_zone(&self, k: usize, r: &[u16]) -> Result<DtsReading, Invalid> {
+        let d = &self.dts;
+        let f = |n: &str| format!("dts zone {k} {n}");
+        let [max, rise, bits] = r else {
+            return Err(Invalid::new(f("registers"), format!("{} registers, not 3", r.len())));
+        };
+        let bits = *bits;
+        {
+            {
                 if bits & !(BIT_MAX | BIT_RISE | BIT_DIFF | BIT_FAULT) != 0 {
                     return Err(Invalid::new(
                         f("state"),
@@ -403,8 +413,8 @@ impl ScadaMap {
                     ));
                 }
                 let fault = bits & BIT_FAULT != 0;
-                let max_c = from_i16(r[0], d.temperature_scale_c);
-                let rise_c_min = from_i16(r[1], d.rise_scale_c_min);
+                let max_c = from_i16(*max, d.temperature_scale_c);
+                let rise_c_min = from_i16(*rise, d.rise_scale_c_min);
                 if !fault {
                     in_range(&f("maximum"), max_c, DTS_RANGE_C.0, DTS_RANGE_C.1)?;
                     in_range(
@@ -424,8 +434,8 @@ impl ScadaMap {
                     },
                     fault,
                 })
-            })
-            .collect()
+            }
+        }
     }
 
     /// The ventilation's registers, from its block's first.

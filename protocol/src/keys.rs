@@ -212,6 +212,10 @@ impl Keys {
     pub fn every_alive(&self) -> String {
         format!("{ROOT}/{}/**/alive", self.site)
     }
+    /// `ff/<site>/infra/**`: everything the SCADA bridge puts.
+    pub fn every_infra(&self) -> String {
+        format!("{ROOT}/{}/infra/**", self.site)
+    }
     /// `ff/<site>/unit/*/alive`: every unit's liveliness token.
     pub fn every_unit_alive(&self) -> String {
         format!("{ROOT}/{}/unit/*/alive", self.site)

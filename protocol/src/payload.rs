@@ -11,9 +11,9 @@
 use crate::codec::{self, CodecError};
 use crate::keys::Topic;
 use crate::msg::{
-    BarredSpace, BtTransitions, Decision, FireTrack, FlameReport, GoalAck, GoalsInForce, Message,
-    RailCommand, RailSensors, SimClock, SimTruth, Task, UnitCommand, UnitSensors, UnitState,
-    ZoneGoal,
+    BarredSpace, BtTransitions, Decision, DtsZone, FireTrack, FlameReport, GoalAck, GoalsInForce,
+    Message, RailCommand, RailSensors, ScadaLink, SimClock, SimTruth, Task, UnitCommand,
+    UnitSensors, UnitState, Vent, ZoneGoal,
 };
 use firefleet_model::{CommanderId, ZoneId};
 use serde::{Deserialize, Serialize};
@@ -90,6 +90,9 @@ payloads! {
     Decision(Decision) = Topic::CoordLog,
     Barred(BarredSpace) = Topic::CoordBarred,
     Goals(GoalsInForce) = Topic::CoordGoals,
+    Dts(DtsZone) = Topic::InfraDts(_),
+    Vent(Vent) = Topic::InfraVent,
+    ScadaLink(ScadaLink) = Topic::InfraLink,
     SimClock(SimClock) = Topic::SimClock,
     SimTruth(SimTruth) = Topic::SimTruth,
     UnitSensors(UnitSensors) = Topic::SimSensors(_),

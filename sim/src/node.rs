@@ -50,6 +50,8 @@ pub struct SimOptions {
     /// Serve the tunnel's SCADA (its DTS and ventilation, by the site file's map) as a
     /// Modbus TCP server on this address ([`crate::scada`]).
     pub scada: Option<SocketAddr>,
+    /// Stop serving the SCADA at this site time (a cut link).
+    pub cut_scada_at: Option<f64>,
 }
 
 impl Default for SimOptions {
@@ -62,6 +64,7 @@ impl Default for SimOptions {
             wait_for_coordinator: false,
             ros2: None,
             scada: None,
+            cut_scada_at: None,
         }
     }
 }
@@ -93,7 +96,7 @@ pub async fn run(
             .map_err(BusError::new)?,
         None => HashMap::new(),
     };
-    let scada = match opts.scada {
+    let mut scada = match opts.scada {
         Some(addr) => Some(serve_scada(&world, addr).await?),
         None => None,
     };
@@ -162,6 +165,9 @@ pub async fn run(
         }
         if let Some((registers, _)) = &scada {
             registers.update(&world);
+        }
+        if opts.cut_scada_at.is_some_and(|at| world.time() >= at) && scada.take().is_some() {
+            tracing::warn!(t = world.time(), "SCADA server stopped: the link is cut");
         }
         bus.put(
             &keys.sim_clock(),

@@ -97,6 +97,15 @@ pub struct DemoArgs {
     /// rules cover the fleet's keys; a robot's ROS 2 topics stay on the robot's own router.
     #[arg(long, value_enum, default_value_t = PlatformKind::Sim, conflicts_with = "secure")]
     platform: PlatformKind,
+    /// Run the tunnel's SCADA too: the simulator serves its DTS zones and ventilation over
+    /// Modbus TCP on a free loopback port, and `firefleet scada` bridges them to the bus
+    /// for the coordinator (the scenario's file must map `[scada]`).
+    #[arg(long)]
+    scada: bool,
+    /// With --scada: stop the simulator's Modbus server at this site time, as a cut link
+    /// to the tunnel's SCADA (the bridge marks its readings stale; nothing else changes).
+    #[arg(long, value_name = "SECONDS", requires = "scada", value_parser = non_negative_f64)]
+    cut_scada_at: Option<f64>,
     /// Kill the coordinator in charge at this site time: the standby takes over.
     #[arg(long, value_name = "SECONDS", requires = "standby", value_parser = non_negative_f64)]
     kill_coordinator_at: Option<f64>,
@@ -273,6 +282,28 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         roles.push((Identity::Recorder, args));
     }
     let wait = "30".to_string();
+    let modbus = match a.scada {
+        true => {
+            anyhow::ensure!(
+                scenario.scada.is_some(),
+                "--scada: scenario '{}' maps no [scada] in its file",
+                scenario.name
+            );
+            let port = free_loopback_port().context("finding a free port for Modbus")?;
+            let addr = format!("127.0.0.1:{port}");
+            roles.push((
+                Identity::Scada,
+                vec![
+                    "scada".into(),
+                    "--modbus".into(),
+                    addr.clone(),
+                    "--sim-clock".into(),
+                ],
+            ));
+            Some(addr)
+        }
+        false => None,
+    };
     roles.push((
         Identity::Sim,
         vec![
@@ -287,6 +318,12 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         ]
         .into_iter()
         .chain((a.platform == PlatformKind::Ros2).then(|| "--ros2".into()))
+        .chain(modbus.iter().flat_map(|m| ["--scada".into(), m.clone()]))
+        .chain(
+            a.cut_scada_at
+                .iter()
+                .flat_map(|t| ["--cut-scada-at".into(), t.to_string()]),
+        )
         .collect(),
     ));
     roles.push((

@@ -447,7 +447,7 @@ async fn protocol(f: &mut Findings, a: &DoctorArgs, scenario: &Scenario, within:
     let key = match a.identity.role() {
         Role::Unit | Role::Console | Role::Commander => keys.expr(&Topic::CoordBarred),
         Role::Coordinator => keys.every_fire().as_str().to_owned(),
-        Role::Recorder | Role::Sim | Role::Router => return,
+        Role::Recorder | Role::Sim | Role::Scada | Role::Router => return,
     };
     let expect = match a.identity.role() {
         Role::Router => None,

@@ -23,6 +23,7 @@ pub mod pki;
 pub mod plan;
 pub mod record;
 pub mod replay;
+pub mod scada;
 pub mod scenarios;
 pub mod schema;
 pub mod sim;

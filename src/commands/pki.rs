@@ -189,5 +189,6 @@ fn identity(role: Role, name: Option<&str>) -> anyhow::Result<Identity> {
         Role::Recorder => Ok(Identity::Recorder),
         Role::Sim => Ok(Identity::Sim),
         Role::Console => Ok(Identity::Console),
+        Role::Scada => Ok(Identity::Scada),
     }
 }

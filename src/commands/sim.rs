@@ -47,6 +47,9 @@ pub struct SimArgs {
     /// map) as a Modbus TCP server on this address, e.g. 127.0.0.1:5020.
     #[arg(long, value_name = "HOST:PORT")]
     scada: Option<std::net::SocketAddr>,
+    /// With --scada: stop serving it at this site time (a cut link, for tests and demos).
+    #[arg(long, value_name = "SECONDS", requires = "scada")]
+    cut_scada_at: Option<f64>,
 }
 
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
@@ -64,6 +67,7 @@ pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
             .transpose()
             .context("--ros-domain")?,
         scada: a.scada,
+        cut_scada_at: a.cut_scada_at,
         ..SimOptions::default()
     };
     let truth = firefleet_sim::run(
