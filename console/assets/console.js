@@ -27,7 +27,7 @@ const $ = (id) => document.getElementById(id);
 const state = {
   seq: -1, t: 0, site: null, coordinator: null, link: null, me: null, steers: false,
   selectedZone: null, selectedUnit: null, units: new Map(), fires: new Map(), goals: [],
-  decisions: new Map(), alerts: new Map(), heat: null, clockSkew: 0,
+  decisions: new Map(), alerts: new Map(), heat: null, infra: null, clockSkew: 0,
 };
 
 // What the browser test and the latency measurement read: update latency from the
@@ -689,6 +689,40 @@ function drawDecisions() {
   }));
 }
 
+// ---- the tunnel's own senses: DTS profile, alarms, ventilation, the SCADA link --------
+
+function drawInfra() {
+  const v = state.infra, badge = $("scada");
+  $("infra-none").hidden = !!v; $("infra-body").hidden = !v; badge.hidden = !v;
+  if (!v) return;
+  const up = v.link_up === true;
+  badge.textContent = up ? "SCADA live" : "SCADA STALE";
+  badge.className = "badge " + (up ? "ok" : "bad");
+  const since = v.last_ok != null ? ` (last good read t = ${fmt(v.last_ok, 1)} s)` : "";
+  $("infra-link").textContent = up ? "Link to the tunnel's SCADA: live." : `Link to the tunnel's SCADA: DOWN, readings stale${since}: ${v.problem}`;
+  const svg = $("dts-profile");
+  svg.replaceChildren();
+  const zs = v.zones;
+  if (zs.length) {
+    const end = Math.max(...zs.map((z) => z.end_m)), top = Math.max(100, ...zs.map((z) => z.max_c));
+    svg.setAttribute("viewBox", `0 0 ${end} 100`);
+    for (const z of zs) {
+      const h = 100 * Math.max(0, z.max_c) / top;
+      const r = el("rect", { x: z.start_m, y: 100 - h, width: Math.max(0.1, z.end_m - z.start_m) * 0.9, height: h, class: "dts" + (z.alarm ? " alarm" : "") + (z.stale ? " stale" : "") }, svg);
+      r.appendChild(title(`${fmt(z.start_m, 0)}-${fmt(z.end_m, 0)} m: ${fmt(z.max_c, 1)} °C${z.alarm ? ", ALARM" : ""}${z.stale ? `, stale (read t = ${fmt(z.t, 1)} s)` : ""}`));
+    }
+    $("dts-scale").textContent = `0 to ${fmt(top, 0)} °C, chainage 0 to ${fmt(end, 0)} m`;
+  }
+  const alarms = zs.filter((z) => z.alarm);
+  $("dts-alarms").replaceChildren(...(alarms.length ? alarms.map((z) => html("li", { textContent: `zone ${z.zone}: ${fmt(z.start_m, 0)}-${fmt(z.end_m, 0)} m, ${fmt(z.max_c, 1)} °C${z.stale ? " (stale)" : ""}` })) : [html("li", { textContent: "none" })]));
+  const w = v.vent, portals = state.site ? state.site.portals : ["start", "end"];
+  if (!w) { $("vent").textContent = "-"; return; }
+  const fans = {};
+  for (const f of w.fans) fans[f] = (fans[f] || 0) + 1;
+  const air = Math.abs(w.air_m_s) < 0.05 ? "air still" : `air flows towards ${w.air_m_s > 0 ? portals[1] : portals[0]} at ${fmt(Math.abs(w.air_m_s), 1)} m/s`;
+  $("vent").textContent = `${air}; fans: ${Object.entries(fans).map(([k, n]) => `${n} ${k}`).join(", ") || "none"}${w.stale ? ` (stale, read t = ${fmt(w.t, 1)} s)` : ""}`;
+}
+
 function drawHeader() {
   const at = timeline.at();
   $("clock").textContent = at != null ? `t = ${fmt(at, 1)} s (timeline; live ${fmt(state.t, 1)} s)` : `t = ${fmt(state.t, 1)} s`;
@@ -769,10 +803,11 @@ function applyIncident(inc) {
   state.goals = inc.goals; state.alerts = new Map(inc.alerts.map((a) => [a.id, a]));
   state.decisions = new Map(inc.decisions.map((l) => [l.id, l]));
   state.heat = inc.heat;
+  state.infra = inc.infra;
   unitRows.clear(); $("units-body").replaceChildren();
   const now = Date.now();
   for (const u of state.units.values()) unitRow(u, now);
-  fireRows(); drawGoals(); drawHeat(); drawAlerts(); drawDecisions(); drawHeader();
+  fireRows(); drawGoals(); drawHeat(); drawAlerts(); drawDecisions(); drawHeader(); drawInfra();
   timeline.record();
   fitIncident();
   window.ffStats.incidents++;
@@ -808,6 +843,7 @@ function applyDelta(d) {
   if (d.goals) { state.goals = d.goals; drawGoals(); }
   if (d.alerts) { for (const a of d.alerts) state.alerts.set(a.id, a); drawAlerts(); }
   if (d.heat) { state.heat = d.heat; drawHeat(); }
+  if (d.infra) { state.infra = d.infra; drawInfra(); }
   if (d.decisions) { for (const l of d.decisions) state.decisions.set(l.id, l); drawDecisions(); }
   drawHeader();
   timeline.record();

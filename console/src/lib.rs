@@ -3,7 +3,8 @@
 //!
 //! [`picture`] is the incident as the fleet knows it (unit states, fire tracks, goals,
 //! decisions, alerts), built from the bus's messages with no I/O, so what the page shows
-//! is testable message by message; [`site`] is the tunnel drawn to scale from the site
+//! is testable message by message, with [`infra`] its layer of the tunnel's own DTS and
+//! ventilation; [`site`] is the tunnel drawn to scale from the site
 //! file; [`auth`] the commanders' logins and [`throttle`] what failing one costs; [`http`]
 //! the web page, its API and the stream of
 //! changes, over a [`http::Console`] that [`node`] feeds from the bus and that sends goals
@@ -18,6 +19,7 @@
 
 pub mod auth;
 pub mod http;
+pub mod infra;
 pub mod node;
 pub mod picture;
 pub mod site;

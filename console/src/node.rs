@@ -50,6 +50,7 @@ pub async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> Result<(), BusError> 
         keys.expr(&Topic::CoordGoals),
         keys.expr(&Topic::CoordLog),
         keys.expr(&Topic::SimClock),
+        keys.every_infra(),
     ];
     let wanted: Vec<&str> = wanted.iter().map(String::as_str).collect();
     let mut samples = bus.subscribe_raw(&wanted, false).await?;

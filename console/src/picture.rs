@@ -37,6 +37,7 @@ use firefleet_protocol::msg::{
 use firefleet_protocol::payload::Payload;
 use serde::Serialize;
 
+use crate::infra::{Infra, InfraView};
 use crate::site::SiteMap;
 
 /// Decisions kept for the timeline (the recording keeps them all).
@@ -155,6 +156,10 @@ pub enum AlertKind {
         issued_by: Option<String>,
     },
     CoordinatorLost,
+    /// The link to the tunnel's SCADA (its DTS and ventilation) is down.
+    ScadaLost {
+        problem: String,
+    },
 }
 
 impl AlertKind {
@@ -165,7 +170,7 @@ impl AlertKind {
             | AlertKind::FireStranded { .. }
             | AlertKind::UnitTrapped { .. } => 1,
             AlertKind::UnitLost { .. } | AlertKind::FireReignited { .. } => 2,
-            AlertKind::GoalRejected { .. } => 3,
+            AlertKind::GoalRejected { .. } | AlertKind::ScadaLost { .. } => 3,
         }
     }
 }
@@ -209,6 +214,8 @@ pub struct Incident {
     pub alerts: Vec<Alert>,
     pub acks: Vec<GoalAck>,
     pub heat: Option<Heat>,
+    /// The tunnel's DTS and ventilation, on a site with a SCADA bridge.
+    pub infra: Option<InfraView>,
     /// The number of the last delta this picture includes: the stream's deltas after it
     /// apply on top (entities and decision lines by id, so one shown twice is harmless).
     pub seq: u64,
@@ -244,6 +251,8 @@ pub struct Delta {
     pub acks: Vec<GoalAck>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub heat: Option<Heat>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub infra: Option<InfraView>,
 }
 
 #[derive(Debug, Default)]
@@ -288,6 +297,9 @@ pub struct Picture {
     acks: VecDeque<GoalAck>,
     heat: Option<Heat>,
     heat_at_ms: Option<u64>,
+    infra: Infra,
+    /// The infrastructure layer as last sent, and when.
+    infra_sent: Option<(u64, InfraView)>,
     seq: u64,
     changes: Changes,
 }
@@ -326,6 +338,8 @@ impl Picture {
             acks: VecDeque::new(),
             heat: None,
             heat_at_ms: None,
+            infra: Infra::default(),
+            infra_sent: None,
             seq: 0,
             changes: Changes::default(),
         }
@@ -369,6 +383,21 @@ impl Picture {
                 self.changes.acks.push(a);
             }
             Event::Message(Payload::SimClock(c)) => self.advance(c.t),
+            Event::Message(Payload::Dts(z)) => self.infra.zone(now_ms, z),
+            Event::Message(Payload::Vent(v)) => self.infra.vent(now_ms, v),
+            Event::Message(Payload::ScadaLink(l)) => {
+                let problem = l.problem.clone();
+                if self.infra.link(now_ms, l) {
+                    self.raise(
+                        AlertKind::ScadaLost {
+                            problem: problem.clone(),
+                        },
+                        format!(
+                            "link to the tunnel's SCADA lost ({problem}): its DTS and ventilation readings are stale"
+                        ),
+                    );
+                }
+            }
             Event::Message(_) => {}
             Event::UnitAlive(id, alive) => self.unit_alive(now_ms, id, alive),
             Event::Link(up) => {
@@ -683,6 +712,7 @@ impl Picture {
             alerts: self.alerts.values().cloned().collect(),
             acks: self.acks.iter().take(acks).cloned().collect(),
             heat: self.heat.clone(),
+            infra: self.infra_sent.as_ref().map(|(_, v)| v.clone()),
             seq: self.seq,
         }
     }
@@ -700,6 +730,16 @@ impl Picture {
         }
         self.drop_orphans();
         self.confirm_lost(now_ms);
+        // The layer at most every HEAT_PERIOD_MS, and only when it changed: the bridge
+        // re-sends every zone every second, and a silent one goes stale without a word.
+        let infra = match &self.infra_sent {
+            Some((at, _)) if now_ms < at + HEAT_PERIOD_MS => None,
+            _ if !self.infra.heard() => None,
+            sent => Some(self.infra.view(now_ms)).filter(|v| sent.as_ref().is_none_or(|(_, s)| s != v)),
+        };
+        if let Some(v) = &infra {
+            self.infra_sent = Some((now_ms, v.clone()));
+        }
         // A change of what a unit does goes now and whole; a move waits for its period and
         // goes as a move, the whole unit once in a while.
         let mut units = Vec::new();
@@ -746,7 +786,8 @@ impl Picture {
             && c.decisions.is_empty()
             && c.alerts.is_empty()
             && c.acks.is_empty()
-            && !heat_due;
+            && !heat_due
+            && infra.is_none();
         if nothing {
             return None;
         }
@@ -780,6 +821,7 @@ impl Picture {
                 .collect(),
             acks: c.acks,
             heat: if heat_due { self.heat.clone() } else { None },
+            infra,
         })
     }
 
