@@ -152,7 +152,15 @@ impl Bridge {
     async fn poll(&mut self, t: f64) {
         self.link.t = t;
         self.link.polls += 1;
-        let failures = match self.read(t).await {
+        // The link holds when every register was read; a zone whose registers make no
+        // sense is that zone's problem (stale, counted), not the link's.
+        let read = self.read(t).await;
+        self.link.up = read.is_ok();
+        if self.link.up {
+            self.link.last_ok = Some(t);
+        }
+        self.link.problem.clear();
+        let failures = match read {
             Ok(failures) => failures,
             Err(f) => {
                 // Nothing read this time: everything held is now stale.
@@ -165,11 +173,6 @@ impl Bridge {
                 vec![f]
             }
         };
-        self.link.up = failures.is_empty();
-        if self.link.up {
-            self.link.last_ok = Some(t);
-            self.link.problem.clear();
-        }
         for f in failures {
             let problem = match &f {
                 Failure::Timeout => {

@@ -11,6 +11,7 @@ mod fleet;
 mod fuzz;
 mod recording;
 mod routers;
+mod scada;
 mod secure;
 mod support;
 mod units;

@@ -84,7 +84,8 @@ impl Validate for Vent {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct ScadaLink {
     pub t: f64,
-    /// The last poll read every register.
+    /// The last poll read every register (a zone whose registers make no sense is counted
+    /// in `out_of_range` and goes stale; the link still holds).
     pub up: bool,
     /// Site time of the last poll that did.
     pub last_ok: Option<f64>,
