@@ -472,6 +472,10 @@ pub async fn record(
                         let update = serde_json::to_vec(&scene::fleet_scene(scenario, &fleet, ts)).expect("serialises");
                         sink.write(scene::SCENE_TOPIC, scene::SCHEMA_NAME, scene_schema, &update, t)?;
                     }
+                    if fleet.take_infra_change() || (new_part && fleet.has_infra()) {
+                        let update = serde_json::to_vec(&scene::infra_scene(scenario, &fleet, ts)).expect("serialises");
+                        sink.write(scene::INFRA_TOPIC, scene::SCHEMA_NAME, scene_schema, &update, t)?;
+                    }
                     if heat || new_part {
                         let grid = serde_json::to_vec(&scene::heat_grid(scenario, &fleet, ts)).expect("serialises");
                         sink.write(scene::HEAT_TOPIC, scene::GRID_SCHEMA_NAME, || schemars::schema_for!(scene::Grid), &grid, t)?;

@@ -7,6 +7,10 @@
 //!   With real robots this is all there is, so it never reads the simulator;
 //! - [`HEAT_TOPIC`]: a `foxglove.Grid` of the radiant flux the fleet's fire tracks imply
 //!   (the planners' model, [`heat_grid`]);
+//! - [`INFRA_TOPIC`]: the tunnel's own senses from the SCADA bridge: each DTS zone a band
+//!   under the ceiling coloured by its temperature (red in alarm, grey when stale), the
+//!   air's direction and the fans ([`infra_scene`]). Foxglove's Plot panel plots the
+//!   recorded zones themselves (`ff/<site>/infra/dts/<zone>`, `.reading.max_c`);
 //! - [`TRUTH_TOPIC`]: the simulator's ground truth, for demos and experiments only.
 //!
 //! The messages are Foxglove's well-known `foxglove.SceneUpdate`, `foxglove.Grid` and
@@ -26,7 +30,8 @@ use firefleet_model::profile::GROUND;
 use firefleet_model::scenario::{Scenario, Tunnel};
 use firefleet_model::{Chainage, FireId, Point2, UnitId};
 use firefleet_protocol::msg::{
-    FireState, FireTrack, GoalKind, GoalsInForce, SimTruth, TruthFireState, UnitMode, UnitState,
+    DtsZone, FireState, FireTrack, GoalKind, GoalsInForce, SimTruth, TruthFireState, UnitMode,
+    UnitState, Vent,
 };
 
 use firefleet_protocol::payload::Payload;
@@ -236,6 +241,10 @@ pub struct Fleet {
     goals: GoalsInForce,
     changed: bool,
     fires_changed: bool,
+    /// The SCADA bridge's newest reading of each DTS zone, and of the ventilation.
+    dts: BTreeMap<u16, DtsZone>,
+    vent: Option<Vent>,
+    infra_changed: bool,
 }
 
 impl Fleet {
@@ -255,6 +264,13 @@ impl Fleet {
                 self.changed |= self.goals.goals != g.goals;
                 self.goals = g.clone();
             }
+            Payload::Dts(z) if self.dts.get(&z.zone).is_none_or(|o| o.t <= z.t) => {
+                self.infra_changed |= self.dts.insert(z.zone, *z).as_ref() != Some(z);
+            }
+            Payload::Vent(v) if self.vent.as_ref().is_none_or(|o| o.t <= v.t) => {
+                self.infra_changed |= self.vent.as_ref() != Some(v);
+                self.vent = Some(v.clone());
+            }
             _ => {}
         }
     }
@@ -264,6 +280,17 @@ impl Fleet {
         if self.gone.insert(unit, !alive) != Some(!alive) {
             self.changed = true;
         }
+    }
+
+    /// Whether the tunnel's senses changed since the last call (never, on a site without a
+    /// SCADA bridge).
+    pub fn take_infra_change(&mut self) -> bool {
+        std::mem::take(&mut self.infra_changed)
+    }
+
+    /// Whether the SCADA bridge was ever heard.
+    pub fn has_infra(&self) -> bool {
+        !self.dts.is_empty() || self.vent.is_some()
     }
 
     /// Whether anything drawn changed since the last call, and whether the heat did.
@@ -380,6 +407,73 @@ pub fn fleet_scene(s: &Scenario, fleet: &Fleet, ts: Time) -> SceneUpdate {
         }
         e.texts
             .push(label(f.position.x, f.position.y, h + 0.5, text));
+        entities.push(e);
+    }
+    SceneUpdate {
+        deletions: Vec::new(),
+        entities,
+    }
+}
+
+/// The tunnel's own senses: each DTS zone a band under the ceiling, from blue (ambient) to
+/// yellow (60 C) and red at 300 C, red and labelled in alarm, grey while stale; the air
+/// and each fan's state labelled at mid-tunnel.
+pub fn infra_scene(s: &Scenario, fleet: &Fleet, ts: Time) -> SceneUpdate {
+    let t = &s.tunnel;
+    let mut entities = Vec::new();
+    for z in fleet.dts.values() {
+        let r = &z.reading;
+        let color = if z.stale || r.fault {
+            rgba(0.5, 0.5, 0.5, 0.5)
+        } else if r.alarm.any() {
+            rgba(1.0, 0.1, 0.0, 0.9)
+        } else {
+            let a = ((r.max_c - 20.0) / 280.0).clamp(0.0, 1.0);
+            rgba(a.sqrt(), 0.8 * (1.0 - a), 1.0 - a, 0.6)
+        };
+        let mut e = entity(format!("dts/{}", z.zone), ts);
+        let span = (Chainage::new(z.start_m), Chainage::new(z.end_m));
+        e.cubes.extend(band(t, span, (0.0, 0.6), (t.height_m - 0.2, 0.15), color));
+        if r.alarm.any() || z.stale {
+            let at = t.point_at(span.0.midpoint(span.1), 0.0);
+            let stale = if z.stale { " (stale)" } else { "" };
+            e.texts.push(label(
+                at.x,
+                at.y,
+                t.height_m + 0.3,
+                format!("DTS {:.0}-{:.0} m: {:.0} C{stale}", z.start_m, z.end_m, r.max_c),
+            ));
+        }
+        entities.push(e);
+    }
+    if let Some(v) = &fleet.vent {
+        let [start, end] = s.portal_names();
+        let air = if v.reading.air_m_s.abs() < 0.05 {
+            "air still".to_owned()
+        } else {
+            let to = if v.reading.air_m_s > 0.0 { end } else { start };
+            format!("air towards {to} at {:.1} m/s", v.reading.air_m_s.abs())
+        };
+        let stale = if v.stale { " (stale)" } else { "" };
+        let mut e = entity("vent".into(), ts);
+        let at = t.point_at(Chainage::new(t.length_m / 2.0), -t.width_m / 2.0);
+        e.texts.push(label(at.x, at.y, t.height_m, format!("{air}{stale}")));
+        let fans = s.ventilation.as_ref().map(|v| v.fans.as_slice()).unwrap_or_default();
+        for (f, state) in fans.iter().zip(&v.reading.fans) {
+            let at = t.point_at(Chainage::new(f.chainage_m), 0.0);
+            e.cylinders.push(CylinderPrimitive {
+                pose: Pose::at(at.x, at.y, t.height_m - 0.6, t.heading_at(Chainage::new(f.chainage_m))),
+                size: Vector3 {
+                    x: 1.0,
+                    y: 1.0,
+                    z: 0.8,
+                },
+                bottom_scale: 1.0,
+                top_scale: 1.0,
+                color: rgba(0.7, 0.7, 0.8, 0.8),
+            });
+            e.texts.push(label(at.x, at.y, t.height_m - 1.2, format!("{} {state:?}", f.name)));
+        }
         entities.push(e);
     }
     SceneUpdate {

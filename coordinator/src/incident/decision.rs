@@ -232,9 +232,8 @@ pub enum Decision {
         backup: bool,
         cost_s: f64,
         runner_up: Option<(UnitId, f64)>,
-        /// The side the unit attacks from, upwind of air moving at this speed, m/s
-        /// (positive towards the end); `None` in still air.
-        upwind: Option<(Approach, f64)>,
+        /// The side the unit attacks from, upwind; `None` in still air.
+        upwind: Option<Upwind>,
     },
     /// A free unit downwind of a burning fire withdraws out of its smoke.
     LeaveSmoke {
@@ -485,14 +484,11 @@ impl fmt::Display for Decision {
                     None => write!(f, "no other free unit")?,
                 }
                 match upwind {
-                    Some((side, air)) => {
-                        let (from, to) = match side {
-                            Approach::Start => ("the start side", "the end"),
-                            Approach::End => ("the end side", "the start"),
-                            Approach::Either => ("either side", "nowhere"),
-                        };
-                        write!(f, "; from {from}: air flows towards {to} at {:.1} m/s", air.abs())
-                    }
+                    Some(u) => write!(
+                        f,
+                        "; from the {}: air flows towards the {} at {:.1} m/s",
+                        u.from, u.towards, u.air_m_s
+                    ),
                     None => Ok(()),
                 }
             }
@@ -516,6 +512,32 @@ impl fmt::Display for Decision {
                 at.x, at.y
             ),
         }
+    }
+}
+
+/// The side a unit attacks from, upwind: the portal it comes from, the portal the air flows
+/// towards, and how fast, m/s.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Upwind {
+    pub from: String,
+    pub towards: String,
+    pub air_m_s: f64,
+}
+
+impl Upwind {
+    /// Attacking from `side` in air moving at `air_m_s` (positive towards the end), with
+    /// `portals` the names at chainage 0 and at the end.
+    pub fn new(side: Approach, air_m_s: f64, portals: &[String; 2]) -> Option<Self> {
+        let (from, towards) = match side {
+            Approach::Start => (&portals[0], &portals[1]),
+            Approach::End => (&portals[1], &portals[0]),
+            Approach::Either => return None,
+        };
+        Some(Self {
+            from: from.clone(),
+            towards: towards.clone(),
+            air_m_s: air_m_s.abs(),
+        })
     }
 }
 

@@ -13,7 +13,7 @@ use firefleet_protocol::msg::{FireState, TaskKind, TaskPhase, UnitMode};
 use crate::assign::{Candidate, Mobility, Need, Pick, Place, Roads, Site, wants_another};
 use crate::fusion::Fire;
 
-use super::{Decision, Incident, Output, Scope};
+use super::{Decision, Incident, Output, Scope, Upwind};
 
 impl Incident {
     /// Fire `f` as a need for a unit, with its zone's priority; `None` if a goal bars
@@ -328,7 +328,9 @@ impl Incident {
                 backup,
                 cost_s: p.cost_s,
                 runner_up: p.runner_up.clone(),
-                upwind: self.air_m_s(t).map(|air| (from, air)),
+                upwind: self
+                    .air_m_s(t)
+                    .and_then(|air| Upwind::new(from, air, &self.portals)),
             },
         );
         vec![task, Output::Fire(self.track(p.fire, t))]

@@ -75,7 +75,7 @@ mod search;
 mod staging;
 mod zones;
 
-pub use decision::{Decision, Logged, Loss};
+pub use decision::{Decision, Logged, Loss, Upwind};
 pub use freshness::{AHEAD_S, BEHIND_S};
 pub use infra::{MOVING_AIR_M_S, VENT_FRESH_S};
 pub use policy::Policy;
@@ -225,6 +225,8 @@ pub struct Incident {
     trapped: BTreeMap<UnitId, firefleet_protocol::msg::Trapped>,
     /// The tunnel's DTS and ventilation, as the SCADA bridge reports them.
     infra: infra::Infra,
+    /// The portals' names, at chainage 0 and at the end, for the decisions' words.
+    portals: [String; 2],
 }
 
 impl Incident {
@@ -259,6 +261,7 @@ impl Incident {
             inconsistencies: 0,
             lone_refused: 0,
             infra: infra::Infra::new(None, tunnel.length_m),
+            portals: ["portal A".into(), "portal B".into()],
             tunnel,
         }
     }
@@ -313,6 +316,7 @@ impl Incident {
         incident.goals = Goals::new(&scenario.zones, &scenario.commanders);
         incident.roads = roads;
         incident.infra = infra::Infra::new(scenario.scada.clone(), scenario.tunnel.length_m);
+        incident.portals = scenario.portal_names();
         Ok(incident)
     }
 

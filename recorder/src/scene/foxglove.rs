@@ -19,6 +19,8 @@ pub const SCENE_TOPIC: &str = "/scene";
 pub const HEAT_TOPIC: &str = "/heat";
 /// The simulator's ground truth.
 pub const TRUTH_TOPIC: &str = "/truth/scene";
+/// The tunnel's own senses: DTS zones under the ceiling, the air and the fans.
+pub const INFRA_TOPIC: &str = "/scene/tunnel";
 /// Coordinator decisions and goal answers.
 pub const LOG_TOPIC: &str = "/log";
 /// The frame every entity is drawn in.

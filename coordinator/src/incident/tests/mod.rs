@@ -12,6 +12,7 @@ use firefleet_protocol::msg::{
 use firefleet_protocol::testing::ground_state;
 
 mod dispatch;
+mod infra;
 mod events;
 mod search;
 mod staging;

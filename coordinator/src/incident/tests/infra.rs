@@ -1,0 +1,186 @@
+//! DTS alarms as fire reports, and the ventilation's side to attack from.
+
+use super::*;
+use firefleet_model::infra::{DtsAlarm, DtsReading, FanState, VentReading};
+use firefleet_protocol::msg::{Approach, DtsZone, Vent};
+
+/// A 300 m tunnel mapped in 10 m DTS zones, two ground units at each portal.
+fn site() -> Incident {
+    let mut s = Scenario::straight(300.0)
+        .ground("west-1", 5.0, -2.5)
+        .ground("west-2", 5.0, 2.5)
+        .ground("east-1", 295.0, -2.5)
+        .ground("east-2", 295.0, 2.5)
+        .build();
+    s.portals = Some(["west".into(), "east".into()]);
+    s.scada = Some(toml::from_str("[dts]\nzone_length_m = 10.0\n").unwrap());
+    let mut inc = Incident::from_scenario(&s, 5.0, Strategy::Optimal).unwrap();
+    for (id, x) in [("west-1", 5.0), ("west-2", 5.0), ("east-1", 295.0), ("east-2", 295.0)] {
+        inc.on_alive(&u(id), true, 0.0).unwrap();
+        inc.state_at(ground_state(id, x, -2.5), 0.0).unwrap();
+    }
+    inc
+}
+
+/// Every zone at 20 C but those in `hot` (zone, degrees C), in alarm above 60 C.
+fn measure(inc: &mut Incident, t: f64, hot: &[(u16, f64)]) {
+    for k in 0..30u16 {
+        let max_c = hot.iter().find(|(z, _)| *z == k).map_or(20.0, |(_, c)| *c);
+        let z = DtsZone {
+            zone: k,
+            start_m: f64::from(k) * 10.0,
+            end_m: f64::from(k + 1) * 10.0,
+            t,
+            reading: DtsReading {
+                max_c,
+                rise_c_min: 0.0,
+                alarm: DtsAlarm {
+                    max: max_c >= 60.0,
+                    ..DtsAlarm::default()
+                },
+                fault: false,
+            },
+            stale: false,
+        };
+        inc.on_dts(&z, t).unwrap();
+    }
+}
+
+fn air(inc: &mut Incident, t: f64, air_m_s: f64) {
+    let v = Vent {
+        t,
+        reading: VentReading {
+            air_m_s,
+            fans: vec![FanState::Forward; 2],
+        },
+        stale: false,
+    };
+    inc.on_vent(&v, t).unwrap();
+}
+
+fn extinguish_tasks(out: &[Output]) -> Vec<(UnitId, Point2, Approach)> {
+    out.iter()
+        .filter_map(|o| match o {
+            Output::Task(t) => match t.kind {
+                TaskKind::Extinguish { target, from, .. } => Some((t.unit.clone(), target, from)),
+                _ => None,
+            },
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn an_alarm_peak_sends_a_unit_before_any_has_seen_the_fire_and_a_sighting_moves_it_there() {
+    let mut inc = site();
+    // Zones 14 to 16 in alarm, 15 the hottest: one fire, in zone 15.
+    measure(&mut inc, 1.0, &[(14, 70.0), (15, 180.0), (16, 90.0), (27, 40.0)]);
+    let out = inc.tick(1.0);
+    let sent = extinguish_tasks(&out);
+    assert_eq!(sent.len(), 1, "{out:?}");
+    let (unit, target, from) = sent[0].clone();
+    assert!((target.x - 155.0).abs() < 1e-9 && target.y.abs() < 1e-9, "{target:?}");
+    assert_eq!(from, Approach::Either, "still air: either side");
+    assert!(inc.decisions().any(|d| matches!(d.decision, Decision::DtsAlarm { from_m, .. } if from_m == 150.0)));
+    // One source: provisional, no backup yet.
+    let fire = inc.fire_tracks(1.0)[0].id;
+    assert!(!inc.fusion.get(fire).unwrap().corroborated());
+    // The unit sees the flame 3 m from the zone's middle: its task moves there, and the
+    // detector's word and the unit's corroborate each other.
+    let at = inc.units[&unit].state.as_ref().unwrap().pose.x;
+    let report = FlameReport {
+        unit: unit.clone(),
+        t: 30.0,
+        observer: Pose2::new(at, -2.5, 0.0),
+        observations: vec![FlameObservation {
+            position: Point2::new(152.0, -2.0),
+            cov: [0.2, 0.0, 0.2],
+            confidence: 0.9,
+            hrr_kw: None,
+        }],
+    };
+    let out = inc.report_at(&report, 30.0).unwrap();
+    let moved = extinguish_tasks(&out);
+    assert!(
+        moved.iter().any(|(u, p, _)| *u == unit && p.dist(Point2::new(152.0, -2.0)) < 1.0),
+        "{out:?}"
+    );
+    assert!(inc.fusion.get(fire).unwrap().corroborated());
+    assert_eq!(inc.fire_tracks(30.0).len(), 1, "the sighting joined the DTS's fire");
+}
+
+#[test]
+fn a_stale_or_old_reading_raises_nothing_and_a_zone_off_the_map_is_refused() {
+    let mut inc = site();
+    let mut z = DtsZone {
+        zone: 15,
+        start_m: 150.0,
+        end_m: 160.0,
+        t: 1.0,
+        reading: DtsReading {
+            max_c: 200.0,
+            rise_c_min: 0.0,
+            alarm: DtsAlarm {
+                max: true,
+                ..DtsAlarm::default()
+            },
+            fault: false,
+        },
+        stale: true,
+    };
+    inc.on_dts(&z, 1.0).unwrap();
+    assert!(extinguish_tasks(&inc.tick(1.0)).is_empty());
+    // Fresh, but read long ago: no longer believed.
+    z.stale = false;
+    z.t = 2.0;
+    inc.on_dts(&z, 9.0).unwrap();
+    assert!(extinguish_tasks(&inc.tick(60.0)).is_empty());
+    z.t = 60.0;
+    z.start_m = 151.0;
+    let e = inc.on_dts(&z, 60.0).unwrap_err();
+    assert!(e.reason.contains("spans 150.0-160.0"), "{e}");
+    z.start_m = 150.0;
+    z.zone = 31;
+    assert!(inc.on_dts(&z, 60.0).unwrap_err().reason.contains("30 zones"));
+}
+
+#[test]
+fn with_the_air_moving_units_attack_from_upwind_and_downwind_units_leave_the_smoke() {
+    let mut inc = site();
+    air(&mut inc, 1.0, 2.1);
+    measure(&mut inc, 1.0, &[(15, 180.0)]);
+    let out = inc.tick(1.0);
+    let sent = extinguish_tasks(&out);
+    assert_eq!(sent.len(), 1);
+    // A west unit, from the west: the east units, as near, would cross the fire.
+    assert!(sent[0].0.as_str().starts_with("west"), "{sent:?}");
+    assert_eq!(sent[0].2, Approach::Start);
+    let said = inc
+        .decisions()
+        .find(|d| matches!(d.decision, Decision::Assign { .. }))
+        .unwrap()
+        .decision
+        .to_string();
+    assert!(said.contains("from the west: air flows towards the east at 2.1 m/s"), "{said}");
+    // The east units, downwind, withdraw towards the east portal.
+    let leaving: Vec<&UnitId> = out
+        .iter()
+        .filter_map(|o| match o {
+            Output::Task(t) if matches!(t.kind, TaskKind::Cruise { goal } if goal.x > 280.0) => Some(&t.unit),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(leaving.len(), 2, "{out:?}");
+    assert!(leaving.iter().all(|u| u.as_str().starts_with("east")));
+    // Reversed air: the east side is upwind.
+    let mut inc = site();
+    air(&mut inc, 1.0, -2.1);
+    measure(&mut inc, 1.0, &[(15, 180.0)]);
+    let sent = extinguish_tasks(&inc.tick(1.0));
+    assert!(sent[0].0.as_str().starts_with("east") && sent[0].2 == Approach::End, "{sent:?}");
+    // Air too slow to choose a side by, or a stale reading: either side.
+    let mut inc = site();
+    air(&mut inc, 1.0, 0.3);
+    measure(&mut inc, 1.0, &[(15, 180.0)]);
+    assert_eq!(extinguish_tasks(&inc.tick(1.0))[0].2, Approach::Either);
+}
