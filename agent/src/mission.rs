@@ -25,9 +25,7 @@ use firefleet_bt::{Port, Registry, Status};
 use firefleet_model::UnitKind;
 use firefleet_model::scenario::Tunnel;
 use firefleet_model::{FireId, Point2, UnitId};
-use firefleet_protocol::msg::{
-    Approach, BarredSpace, Refusal, TaskKind, TaskPhase, TaskProgress,
-};
+use firefleet_protocol::msg::{Approach, BarredSpace, Refusal, TaskKind, TaskPhase, TaskProgress};
 
 /// The coordinator link's state on the unit.
 #[derive(Debug, Clone, Default)]

@@ -122,10 +122,7 @@ impl Infra {
     /// The link holds at `now_ms`: the bridge says so and was heard lately.
     pub fn up(&self, now_ms: u64) -> Option<bool> {
         let heard = self.heard_ms?;
-        Some(
-            self.link.as_ref().is_some_and(|l| l.up)
-                && now_ms < heard.saturating_add(SILENT_MS),
-        )
+        Some(self.link.as_ref().is_some_and(|l| l.up) && now_ms < heard.saturating_add(SILENT_MS))
     }
 
     /// The layer at `now_ms`: a silent bridge's readings all count as stale.

@@ -735,7 +735,9 @@ impl Picture {
         let infra = match &self.infra_sent {
             Some((at, _)) if now_ms < at + HEAT_PERIOD_MS => None,
             _ if !self.infra.heard() => None,
-            sent => Some(self.infra.view(now_ms)).filter(|v| sent.as_ref().is_none_or(|(_, s)| s != v)),
+            sent => {
+                Some(self.infra.view(now_ms)).filter(|v| sent.as_ref().is_none_or(|(_, s)| s != v))
+            }
         };
         if let Some(v) = &infra {
             self.infra_sent = Some((now_ms, v.clone()));

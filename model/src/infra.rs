@@ -131,7 +131,12 @@ impl Ventilation {
                     "must have 1 to 32 characters",
                 ));
             }
-            in_range(&format!("fans[{i}].chainage_m"), f.chainage_m, 0.0, length_m)?;
+            in_range(
+                &format!("fans[{i}].chainage_m"),
+                f.chainage_m,
+                0.0,
+                length_m,
+            )?;
         }
         Ok(())
     }
@@ -255,7 +260,9 @@ pub struct VentReading {
 /// `v` in counts of `scale`, as a 16-bit signed register.
 fn to_i16(v: f64, scale: f64) -> u16 {
     // Saturating: a value off the scale reads as its end, as a transmitter's would.
-    ((v / scale).round().clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16) as u16
+    ((v / scale)
+        .round()
+        .clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16) as u16
 }
 
 /// A 16-bit signed register in counts of `scale`.
@@ -290,7 +297,12 @@ impl ScadaMap {
         in_range("dts.period_s", d.period_s, 0.1, 600.0)?;
         in_range("dts.alarm_max_c", d.alarm_max_c, 30.0, 500.0)?;
         in_range("dts.alarm_rise_c_min", d.alarm_rise_c_min, 0.5, 500.0)?;
-        in_range("dts.alarm_differential_c", d.alarm_differential_c, 1.0, 500.0)?;
+        in_range(
+            "dts.alarm_differential_c",
+            d.alarm_differential_c,
+            1.0,
+            500.0,
+        )?;
         in_range(
             "vent.velocity_scale_m_s",
             self.vent.velocity_scale_m_s,
@@ -336,8 +348,7 @@ impl ScadaMap {
 
     /// The zone holding chainage `s`.
     pub fn zone_at(&self, s: f64, length_m: f64) -> usize {
-        ((s / self.dts.zone_length_m).floor().max(0.0) as usize)
-            .min(self.zone_count(length_m) - 1)
+        ((s / self.dts.zone_length_m).floor().max(0.0) as usize).min(self.zone_count(length_m) - 1)
     }
 
     /// The DTS's registers, as addresses (a block of `u32` so its end may be 65536).
@@ -401,7 +412,10 @@ impl ScadaMap {
         let d = &self.dts;
         let f = |n: &str| format!("dts zone {k} {n}");
         let [max, rise, bits] = r else {
-            return Err(Invalid::new(f("registers"), format!("{} registers, not 3", r.len())));
+            return Err(Invalid::new(
+                f("registers"),
+                format!("{} registers, not 3", r.len()),
+            ));
         };
         let bits = *bits;
         {
@@ -521,7 +535,10 @@ mod tests {
         );
         let mut m = map();
         m.dts.first_register = 65000;
-        assert_eq!(m.validate(10_000.0, 0).unwrap_err().field, "dts.first_register");
+        assert_eq!(
+            m.validate(10_000.0, 0).unwrap_err().field,
+            "dts.first_register"
+        );
     }
 
     #[test]

@@ -92,8 +92,8 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{Point2, Pose2};
-use crate::infra::{ScadaMap, Ventilation};
 use crate::ids::{CommanderId, RouterId, SiteId, UnitId, ZoneId};
+use crate::infra::{ScadaMap, Ventilation};
 use crate::profile::{self, Profile};
 use crate::spec::{GroundSpec, MonorailSpec, UnitKind};
 use crate::tunnel::Chainage;

@@ -433,7 +433,8 @@ pub fn infra_scene(s: &Scenario, fleet: &Fleet, ts: Time) -> SceneUpdate {
         };
         let mut e = entity(format!("dts/{}", z.zone), ts);
         let span = (Chainage::new(z.start_m), Chainage::new(z.end_m));
-        e.cubes.extend(band(t, span, (0.0, 0.6), (t.height_m - 0.2, 0.15), color));
+        e.cubes
+            .extend(band(t, span, (0.0, 0.6), (t.height_m - 0.2, 0.15), color));
         if r.alarm.any() || z.stale {
             let at = t.point_at(span.0.midpoint(span.1), 0.0);
             let stale = if z.stale { " (stale)" } else { "" };
@@ -441,7 +442,10 @@ pub fn infra_scene(s: &Scenario, fleet: &Fleet, ts: Time) -> SceneUpdate {
                 at.x,
                 at.y,
                 t.height_m + 0.3,
-                format!("DTS {:.0}-{:.0} m: {:.0} C{stale}", z.start_m, z.end_m, r.max_c),
+                format!(
+                    "DTS {:.0}-{:.0} m: {:.0} C{stale}",
+                    z.start_m, z.end_m, r.max_c
+                ),
             ));
         }
         entities.push(e);
@@ -457,12 +461,22 @@ pub fn infra_scene(s: &Scenario, fleet: &Fleet, ts: Time) -> SceneUpdate {
         let stale = if v.stale { " (stale)" } else { "" };
         let mut e = entity("vent".into(), ts);
         let at = t.point_at(Chainage::new(t.length_m / 2.0), -t.width_m / 2.0);
-        e.texts.push(label(at.x, at.y, t.height_m, format!("{air}{stale}")));
-        let fans = s.ventilation.as_ref().map(|v| v.fans.as_slice()).unwrap_or_default();
+        e.texts
+            .push(label(at.x, at.y, t.height_m, format!("{air}{stale}")));
+        let fans = s
+            .ventilation
+            .as_ref()
+            .map(|v| v.fans.as_slice())
+            .unwrap_or_default();
         for (f, state) in fans.iter().zip(&v.reading.fans) {
             let at = t.point_at(Chainage::new(f.chainage_m), 0.0);
             e.cylinders.push(CylinderPrimitive {
-                pose: Pose::at(at.x, at.y, t.height_m - 0.6, t.heading_at(Chainage::new(f.chainage_m))),
+                pose: Pose::at(
+                    at.x,
+                    at.y,
+                    t.height_m - 0.6,
+                    t.heading_at(Chainage::new(f.chainage_m)),
+                ),
                 size: Vector3 {
                     x: 1.0,
                     y: 1.0,
@@ -472,7 +486,12 @@ pub fn infra_scene(s: &Scenario, fleet: &Fleet, ts: Time) -> SceneUpdate {
                 top_scale: 1.0,
                 color: rgba(0.7, 0.7, 0.8, 0.8),
             });
-            e.texts.push(label(at.x, at.y, t.height_m - 1.2, format!("{} {state:?}", f.name)));
+            e.texts.push(label(
+                at.x,
+                at.y,
+                t.height_m - 1.2,
+                format!("{} {state:?}", f.name),
+            ));
         }
         entities.push(e);
     }

@@ -78,7 +78,9 @@ impl Dts {
 
     /// The latest measurement: its site time and the zones' readings.
     pub fn readings(&self) -> Option<(f64, &[DtsReading])> {
-        self.last.as_ref().map(|(t, _)| (*t, self.readings.as_slice()))
+        self.last
+            .as_ref()
+            .map(|(t, _)| (*t, self.readings.as_slice()))
     }
 }
 
@@ -88,8 +90,8 @@ mod tests {
 
     #[test]
     fn the_zone_over_a_hot_spot_alarms_and_its_rise_is_per_minute() {
-        let map: ScadaMap = toml::from_str("[dts]\nzone_length_m = 10.0\nperiod_s = 10.0\n")
-            .expect("a map");
+        let map: ScadaMap =
+            toml::from_str("[dts]\nzone_length_m = 10.0\nperiod_s = 10.0\n").expect("a map");
         let mut dts = Dts::new(map, 100.0);
         assert!(dts.due(0.0));
         dts.measure(0.0, |_| 20.0);

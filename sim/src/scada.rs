@@ -33,10 +33,12 @@ impl Image {
     /// `qty` registers from `addr`, if the map defines every one of them.
     fn read(&self, addr: u16, qty: u16) -> Option<Vec<u16>> {
         let (a, n) = (u32::from(addr), u32::from(qty));
-        [&self.dts, &self.vent].into_iter().find_map(|(first, regs)| {
-            let from = a.checked_sub(*first)? as usize;
-            regs.get(from..from + n as usize).map(<[u16]>::to_vec)
-        })
+        [&self.dts, &self.vent]
+            .into_iter()
+            .find_map(|(first, regs)| {
+                let from = a.checked_sub(*first)? as usize;
+                regs.get(from..from + n as usize).map(<[u16]>::to_vec)
+            })
     }
 }
 
@@ -129,8 +131,7 @@ mod tests {
         let regs = Registers::new(s.scada.clone().unwrap());
         regs.update(&world);
         let ask = |slave, request| regs.answer(SlaveRequest { slave, request });
-        let Ok(Response::ReadInputRegisters(r)) = ask(1, Request::ReadInputRegisters(0, 30))
-        else {
+        let Ok(Response::ReadInputRegisters(r)) = ask(1, Request::ReadInputRegisters(0, 30)) else {
             panic!("the DTS block answers");
         };
         assert_eq!(r.len(), 30);

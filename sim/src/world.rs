@@ -19,12 +19,12 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use crate::camera::{self, FlameTarget};
-use crate::dts::Dts;
-use firefleet_model::Chainage;
-use firefleet_model::infra::{DtsReading, ScadaMap, VentReading, Ventilation};
 use crate::carriage::Carriage;
+use crate::dts::Dts;
 use crate::jet::{self, Landing};
 use crate::physics;
+use firefleet_model::Chainage;
+use firefleet_model::infra::{DtsReading, ScadaMap, VentReading, Ventilation};
 
 mod fire;
 use fire::Fire;
@@ -419,7 +419,8 @@ impl World {
         if dts.due(self.t) {
             let h = self.tunnel.height_m;
             dts.measure(self.t, |s| {
-                physics::AMBIENT_C + self.ceiling_rise_c(self.tunnel.point_at(Chainage::new(s), 0.0), h)
+                physics::AMBIENT_C
+                    + self.ceiling_rise_c(self.tunnel.point_at(Chainage::new(s), 0.0), h)
             });
         }
         self.dts = Some(dts);
@@ -446,9 +447,10 @@ impl World {
     pub fn vent(&self) -> VentReading {
         VentReading {
             air_m_s: self.air_m_s(),
-            fans: self.ventilation.as_ref().map_or_else(Vec::new, |v| {
-                vec![v.fan_state(); v.fans.len()]
-            }),
+            fans: self
+                .ventilation
+                .as_ref()
+                .map_or_else(Vec::new, |v| vec![v.fan_state(); v.fans.len()]),
         }
     }
 
@@ -634,8 +636,8 @@ impl World {
         let spec = c.spec;
         let mut fire_detected = false;
         let mut hot_spots = Vec::new();
-        let temperature_c =
-            physics::AMBIENT_C + self.ceiling_rise_c(firefleet_model::Point2::new(m[0], m[1]), m[2]);
+        let temperature_c = physics::AMBIENT_C
+            + self.ceiling_rise_c(firefleet_model::Point2::new(m[0], m[1]), m[2]);
         for f in self
             .fires
             .iter()

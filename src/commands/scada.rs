@@ -26,9 +26,7 @@ use firefleet_bus::Bus;
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
 use firefleet_model::clock::{Clock, ExternalClock, SystemClock};
-use firefleet_model::infra::{
-    DTS_REGISTERS_PER_ZONE, DtsReading, MAX_READ, ScadaMap, VentReading,
-};
+use firefleet_model::infra::{DTS_REGISTERS_PER_ZONE, DtsReading, MAX_READ, ScadaMap, VentReading};
 use firefleet_model::scenario::Scenario;
 use firefleet_protocol::msg::{DtsZone, MAX_PROBLEM, ScadaLink, Vent};
 use tokio_modbus::client::{Context as Modbus, Reader};
@@ -77,7 +75,12 @@ pub async fn run(a: ScadaArgs) -> anyhow::Result<ExitCode> {
         Arc::new(SystemClock)
     };
     let clock_msgs = bus.subscribe(&bus.keys().sim_clock()).await?;
-    let mut bridge = Bridge::new(&scenario, map, a.modbus, Duration::from_secs_f64(a.timeout_s));
+    let mut bridge = Bridge::new(
+        &scenario,
+        map,
+        a.modbus,
+        Duration::from_secs_f64(a.timeout_s),
+    );
     tracing::info!(modbus = %a.modbus, period_s = a.period_s, "bridging the tunnel's SCADA");
     crate::net::ready();
     let mut ticker = tokio::time::interval(Duration::from_secs_f64(a.period_s));

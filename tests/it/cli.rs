@@ -164,22 +164,64 @@ fn the_cannon_experiment_reports_every_angle_and_is_reproducible() {
 }
 
 #[test]
-fn the_fleet_experiment_compares_three_strategies_on_every_multi_fire_scenario() {
+fn the_fleet_experiment_compares_the_strategies_with_and_without_the_scada_feed() {
     let v = json_of(&["experiment", "fleet", "--trials", "1"]);
     let runs = v["strategies"].as_array().unwrap();
-    assert_eq!(runs.len(), 9, "3 scenarios x 3 strategies");
+    assert_eq!(
+        runs.len(),
+        17,
+        "4 scenarios x 4 strategies, and the ventilated one from downwind"
+    );
     for r in runs {
-        assert!(["autonomous", "greedy", "optimal"].contains(&r["strategy"].as_str().unwrap()));
+        assert!(
+            ["autonomous", "greedy", "optimal", "feed", "feed, downwind"]
+                .contains(&r["strategy"].as_str().unwrap())
+        );
         assert_numbers(
             r,
             &[
                 "time_all_out_s",
                 "heat_dose",
+                "attack_heat_dose",
                 "water_l",
                 "fires_never_attacked",
             ],
         );
         assert_eq!(r["unfinished"], 0, "every fire out in {r}");
+    }
+    let run = |scenario: &str, strategy: &str| {
+        runs.iter()
+            .find(|r| r["scenario"] == scenario && r["strategy"] == strategy)
+            .unwrap_or_else(|| panic!("no {strategy} run on {scenario}"))
+    };
+    let num = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap();
+    // Upwind spares the attackers the fire's hot gas, and the fleet the downstream smoke.
+    let (up, down) = (
+        run("ventilated", "feed"),
+        run("ventilated", "feed, downwind"),
+    );
+    assert!(
+        num(up, "attack_heat_dose") < 0.5 * num(down, "attack_heat_dose"),
+        "{up} {down}"
+    );
+    assert!(num(up, "heat_dose") < num(down, "heat_dose"), "{up} {down}");
+    // The DTS finds the rail tunnel's far fire before any sensor of the fleet does.
+    let (fed, optimal) = (run("rail-tunnel", "feed"), run("rail-tunnel", "optimal"));
+    assert!(
+        num(fed, "time_all_out_s") < num(optimal, "time_all_out_s"),
+        "{fed} {optimal}"
+    );
+    // The drive floor is under every time on its scenario.
+    let floors = v["floors"].as_array().unwrap();
+    assert!(floors.len() >= 2, "{v}");
+    for f in floors {
+        let (name, floor) = (f[0].as_str().unwrap(), f[1].as_f64().unwrap());
+        for r in runs.iter().filter(|r| r["scenario"] == name) {
+            assert!(
+                num(r, "time_all_out_s") > floor,
+                "{r} under the floor {floor}"
+            );
+        }
     }
 }
 
@@ -254,7 +296,7 @@ fn deploy_render_writes_the_documented_rules_and_a_site_router_refuses_plain_lin
     assert_says(
         &out,
         0,
-        "1 router configuration(s), 7 client configurations",
+        "1 router configuration(s), 8 client configurations",
     );
     let table = std::fs::read_to_string(dir.path().join("cfg/ACCESS.md")).unwrap();
     let readme = std::fs::read_to_string("deploy/README.md").unwrap();

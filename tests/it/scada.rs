@@ -19,7 +19,11 @@ use crate::support::*;
 const SCENARIO: &str = "ventilated";
 
 fn pymodbus() -> bool {
-    python_package("pymodbus", "pymodbus>=3.10,<4", "FIREFLEET_REQUIRE_PYMODBUS")
+    python_package(
+        "pymodbus",
+        "pymodbus>=3.10,<4",
+        "FIREFLEET_REQUIRE_PYMODBUS",
+    )
 }
 
 /// Wait until something accepts TCP connections on `port`.
@@ -62,23 +66,41 @@ async fn an_independent_modbus_client_reads_the_alarm_zone_at_the_fire() {
     assert_eq!(zs.len(), 30);
     let alarmed: Vec<&serde_json::Value> = zs
         .iter()
-        .filter(|z| z["alarm_max"] == true || z["alarm_rise"] == true || z["alarm_differential"] == true)
+        .filter(|z| {
+            z["alarm_max"] == true || z["alarm_rise"] == true || z["alarm_differential"] == true
+        })
         .collect();
     assert!(!alarmed.is_empty(), "no zone in alarm: {read}");
     // The hottest zone in alarm holds the van's chainage (150 m, on the line between
     // zones 14 and 15), and the air carries the heat east: hotter downstream than up.
     let hottest = alarmed
         .iter()
-        .max_by(|a, b| a["max_c"].as_f64().partial_cmp(&b["max_c"].as_f64()).unwrap())
+        .max_by(|a, b| {
+            a["max_c"]
+                .as_f64()
+                .partial_cmp(&b["max_c"].as_f64())
+                .unwrap()
+        })
         .unwrap();
     let k = hottest["zone"].as_u64().unwrap();
-    assert!((14..=15).contains(&k), "hottest zone in alarm is {k}: {read}");
+    assert!(
+        (14..=15).contains(&k),
+        "hottest zone in alarm is {k}: {read}"
+    );
     let t = |k: usize| zs[k]["max_c"].as_f64().unwrap();
-    assert!(t(17) > t(12) + 5.0, "20 m downstream {} C, upstream {} C", t(17), t(12));
+    assert!(
+        t(17) > t(12) + 5.0,
+        "20 m downstream {} C, upstream {} C",
+        t(17),
+        t(12)
+    );
     assert!(t(0) < 25.0, "the west portal's zone reads {} C", t(0));
     assert_eq!(read["vent"]["air_m_s"], 2.0);
     assert_eq!(read["vent"]["fan_states"], serde_json::json!([1, 1, 1]));
-    assert_eq!(read["unmapped_refused"], true, "a register off the map answered");
+    assert_eq!(
+        read["unmapped_refused"], true,
+        "a register off the map answered"
+    );
 }
 
 #[tokio::test(flavor = "multi_thread")]
@@ -88,9 +110,15 @@ async fn the_bridge_publishes_what_a_scada_holds_and_marks_it_stale_when_the_lin
     }
     let (bus, endpoint) = router("tunnel-v").await;
     let keys = bus.keys().clone();
-    let zones = bus.subscribe::<DtsZone>(&keys.every_dts_zone()).await.unwrap();
+    let zones = bus
+        .subscribe::<DtsZone>(&keys.every_dts_zone())
+        .await
+        .unwrap();
     let vents = bus.subscribe::<Vent>(&keys.infra_vent()).await.unwrap();
-    let links = bus.subscribe::<ScadaLink>(&keys.infra_link()).await.unwrap();
+    let links = bus
+        .subscribe::<ScadaLink>(&keys.infra_link())
+        .await
+        .unwrap();
     let port = firefleet_bus::free_loopback_port().unwrap();
     let mut plc = Command::new("python3")
         .args(["tests/scada/plc.py", &port.to_string(), "30", "3"])
@@ -117,7 +145,10 @@ async fn the_bridge_publishes_what_a_scada_holds_and_marks_it_stale_when_the_lin
     let until = Instant::now() + within;
     let (mut seven, mut nine, mut vent) = (None, false, None);
     while seven.is_none() || vent.is_none() {
-        assert!(Instant::now() < until, "zone 7 or the ventilation never came");
+        assert!(
+            Instant::now() < until,
+            "zone 7 or the ventilation never came"
+        );
         tokio::select! {
             Some((_, z)) = zones.recv() => {
                 nine |= z.zone == 9;
@@ -145,7 +176,10 @@ async fn the_bridge_publishes_what_a_scada_holds_and_marks_it_stale_when_the_lin
             break l;
         }
     };
-    assert!(link.up && link.out_of_range > 0 && link.last_ok.is_some(), "{link:?}");
+    assert!(
+        link.up && link.out_of_range > 0 && link.last_ok.is_some(),
+        "{link:?}"
+    );
     let last_good = z.t;
 
     // Cut the link: the bridge says so and sends zone 7 again as it last read it, stale.
@@ -164,7 +198,10 @@ async fn the_bridge_publishes_what_a_scada_holds_and_marks_it_stale_when_the_lin
     let (cut, stale) = (cut.unwrap(), stale.unwrap());
     assert!(cut.last_ok.is_some() && !cut.problem.is_empty(), "{cut:?}");
     assert!((stale.reading.max_c - 85.3).abs() < 1e-9);
-    assert!(stale.t >= last_good && stale.t <= cut.t, "{stale:?} {cut:?}");
+    assert!(
+        stale.t >= last_good && stale.t <= cut.t,
+        "{stale:?} {cut:?}"
+    );
 }
 
 /// One GET of the console's API, the body as JSON.
@@ -205,7 +242,10 @@ fn a_fleet_with_the_bridge_puts_its_fire_out_and_a_cut_link_shows_stale_on_the_c
     let until = Instant::now() + patient(Duration::from_secs(90));
     let (mut live, mut cut) = (false, None);
     while cut.is_none() {
-        assert!(Instant::now() < until, "the console never showed the cut link");
+        assert!(
+            Instant::now() < until,
+            "the console never showed the cut link"
+        );
         std::thread::sleep(Duration::from_millis(500));
         let Some(inc) = get_json(&addr, "/api/incident") else {
             continue;

@@ -81,7 +81,8 @@ impl Infra {
             .keys()
             .filter_map(|&k| {
                 let z = alarmed(k)?;
-                let hotter = |n: Option<&DtsZone>| n.is_some_and(|n| n.reading.max_c > z.reading.max_c);
+                let hotter =
+                    |n: Option<&DtsZone>| n.is_some_and(|n| n.reading.max_c > z.reading.max_c);
                 // A plateau counts once: its first zone.
                 let level = k
                     .checked_sub(1)
@@ -241,7 +242,11 @@ impl Incident {
         let mut out = vec![Output::Fire(self.track(fire, t))];
         self.log(t, Decision::Located { fire, at });
         for u in units {
-            let Some(kind) = self.units.get(&u).and_then(|v| v.task.as_ref()).map(|t| t.kind)
+            let Some(kind) = self
+                .units
+                .get(&u)
+                .and_then(|v| v.task.as_ref())
+                .map(|t| t.kind)
             else {
                 continue;
             };

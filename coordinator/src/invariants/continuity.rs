@@ -325,10 +325,10 @@ mod tests {
     use firefleet_model::scenario::Scenario;
 
     use super::*;
-    use firefleet_protocol::msg::Approach;
     use crate::incident::LEASE_S;
     use crate::invariants::tests::state_of;
     use crate::invariants::{Event, Invariants};
+    use firefleet_protocol::msg::Approach;
 
     const FIRE: Point2 = Point2 { x: 200.0, y: 0.0 };
 

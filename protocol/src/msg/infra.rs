@@ -36,7 +36,10 @@ pub struct DtsZone {
 impl Validate for DtsZone {
     fn validate(&self) -> Result<(), Invalid> {
         if usize::from(self.zone) >= MAX_DTS_ZONES {
-            return Err(Invalid::new("zone", format!("at most {MAX_DTS_ZONES} zones")));
+            return Err(Invalid::new(
+                "zone",
+                format!("at most {MAX_DTS_ZONES} zones"),
+            ));
         }
         in_range("start_m", self.start_m, 0.0, 1e5)?;
         in_range("end_m", self.end_m, self.start_m, 1e5)?;

@@ -15,7 +15,12 @@ fn site() -> Incident {
     s.portals = Some(["west".into(), "east".into()]);
     s.scada = Some(toml::from_str("[dts]\nzone_length_m = 10.0\n").unwrap());
     let mut inc = Incident::from_scenario(&s, 5.0, Strategy::Optimal).unwrap();
-    for (id, x) in [("west-1", 5.0), ("west-2", 5.0), ("east-1", 295.0), ("east-2", 295.0)] {
+    for (id, x) in [
+        ("west-1", 5.0),
+        ("west-2", 5.0),
+        ("east-1", 295.0),
+        ("east-2", 295.0),
+    ] {
         inc.on_alive(&u(id), true, 0.0).unwrap();
         inc.state_at(ground_state(id, x, -2.5), 0.0).unwrap();
     }
@@ -74,14 +79,24 @@ fn extinguish_tasks(out: &[Output]) -> Vec<(UnitId, Point2, Approach)> {
 fn an_alarm_peak_sends_a_unit_before_any_has_seen_the_fire_and_a_sighting_moves_it_there() {
     let mut inc = site();
     // Zones 14 to 16 in alarm, 15 the hottest: one fire, in zone 15.
-    measure(&mut inc, 1.0, &[(14, 70.0), (15, 180.0), (16, 90.0), (27, 40.0)]);
+    measure(
+        &mut inc,
+        1.0,
+        &[(14, 70.0), (15, 180.0), (16, 90.0), (27, 40.0)],
+    );
     let out = inc.tick(1.0);
     let sent = extinguish_tasks(&out);
     assert_eq!(sent.len(), 1, "{out:?}");
     let (unit, target, from) = sent[0].clone();
-    assert!((target.x - 155.0).abs() < 1e-9 && target.y.abs() < 1e-9, "{target:?}");
+    assert!(
+        (target.x - 155.0).abs() < 1e-9 && target.y.abs() < 1e-9,
+        "{target:?}"
+    );
     assert_eq!(from, Approach::Either, "still air: either side");
-    assert!(inc.decisions().any(|d| matches!(d.decision, Decision::DtsAlarm { from_m, .. } if from_m == 150.0)));
+    assert!(
+        inc.decisions()
+            .any(|d| matches!(d.decision, Decision::DtsAlarm { from_m, .. } if from_m == 150.0))
+    );
     // One source: provisional, no backup yet.
     let fire = inc.fire_tracks(1.0)[0].id;
     assert!(!inc.fusion.get(fire).unwrap().corroborated());
@@ -102,11 +117,17 @@ fn an_alarm_peak_sends_a_unit_before_any_has_seen_the_fire_and_a_sighting_moves_
     let out = inc.report_at(&report, 30.0).unwrap();
     let moved = extinguish_tasks(&out);
     assert!(
-        moved.iter().any(|(u, p, _)| *u == unit && p.dist(Point2::new(152.0, -2.0)) < 1.0),
+        moved
+            .iter()
+            .any(|(u, p, _)| *u == unit && p.dist(Point2::new(152.0, -2.0)) < 1.0),
         "{out:?}"
     );
     assert!(inc.fusion.get(fire).unwrap().corroborated());
-    assert_eq!(inc.fire_tracks(30.0).len(), 1, "the sighting joined the DTS's fire");
+    assert_eq!(
+        inc.fire_tracks(30.0).len(),
+        1,
+        "the sighting joined the DTS's fire"
+    );
 }
 
 #[test]
@@ -141,7 +162,12 @@ fn a_stale_or_old_reading_raises_nothing_and_a_zone_off_the_map_is_refused() {
     assert!(e.reason.contains("spans 150.0-160.0"), "{e}");
     z.start_m = 150.0;
     z.zone = 31;
-    assert!(inc.on_dts(&z, 60.0).unwrap_err().reason.contains("30 zones"));
+    assert!(
+        inc.on_dts(&z, 60.0)
+            .unwrap_err()
+            .reason
+            .contains("30 zones")
+    );
 }
 
 #[test]
@@ -161,12 +187,17 @@ fn with_the_air_moving_units_attack_from_upwind_and_downwind_units_leave_the_smo
         .unwrap()
         .decision
         .to_string();
-    assert!(said.contains("from the west: air flows towards the east at 2.1 m/s"), "{said}");
+    assert!(
+        said.contains("from the west: air flows towards the east at 2.1 m/s"),
+        "{said}"
+    );
     // The east units, downwind, withdraw towards the east portal.
     let leaving: Vec<&UnitId> = out
         .iter()
         .filter_map(|o| match o {
-            Output::Task(t) if matches!(t.kind, TaskKind::Cruise { goal } if goal.x > 280.0) => Some(&t.unit),
+            Output::Task(t) if matches!(t.kind, TaskKind::Cruise { goal } if goal.x > 280.0) => {
+                Some(&t.unit)
+            }
             _ => None,
         })
         .collect();
@@ -177,7 +208,10 @@ fn with_the_air_moving_units_attack_from_upwind_and_downwind_units_leave_the_smo
     air(&mut inc, 1.0, -2.1);
     measure(&mut inc, 1.0, &[(15, 180.0)]);
     let sent = extinguish_tasks(&inc.tick(1.0));
-    assert!(sent[0].0.as_str().starts_with("east") && sent[0].2 == Approach::End, "{sent:?}");
+    assert!(
+        sent[0].0.as_str().starts_with("east") && sent[0].2 == Approach::End,
+        "{sent:?}"
+    );
     // Air too slow to choose a side by, or a stale reading: either side.
     let mut inc = site();
     air(&mut inc, 1.0, 0.3);

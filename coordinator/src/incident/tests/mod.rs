@@ -12,8 +12,8 @@ use firefleet_protocol::msg::{
 use firefleet_protocol::testing::ground_state;
 
 mod dispatch;
-mod infra;
 mod events;
+mod infra;
 mod search;
 mod staging;
 mod zones;

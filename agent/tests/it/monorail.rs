@@ -7,8 +7,9 @@ use firefleet_agent::monorail::{MonorailController, default_tree};
 use firefleet_model::profile::MONORAIL;
 use firefleet_model::scenario::Scenario;
 use firefleet_model::{Chainage, FireId, Point2, UnitId, ZoneId};
-use firefleet_protocol::msg::{Approach, 
-    Bar, BarredSpace, BarredSpan, RefusalReason, TaskKind, TaskPhase, TruthFireState, UnitMode,
+use firefleet_protocol::msg::{
+    Approach, Bar, BarredSpace, BarredSpan, RefusalReason, TaskKind, TaskPhase, TruthFireState,
+    UnitMode,
 };
 use firefleet_sim::World;
 
