@@ -21,7 +21,7 @@ with open(sys.argv[1], "rb") as f:
     assert described, "no firefleet metadata record"
     for key in ("firefleet_version", "protocol_version", "site", "site_file"):
         assert described[0].metadata.get(key), f"metadata without {key}"
-for name in ("foxglove.SceneUpdate", "firefleet.UnitState", "firefleet.Task", "firefleet.SimTruth", "firefleet.BtTransitions", "foxglove.Log"):
+for name in ("foxglove.SceneUpdate", "firefleet.UnitState", "firefleet.Task", "firefleet.SimTruth", "firefleet.BtTransitions", "foxglove.Log", "firefleet.DtsZone", "firefleet.Vent", "firefleet.ScadaLink"):
     assert counts[name] > 0, f"no {name} messages"
 print(f"mcap ok: {len(summary.channels)} channels, {sum(counts.values())} messages")
 for name, n in sorted(counts.items()):
