@@ -374,16 +374,25 @@ impl World {
     /// ([`physics::ceiling_rise_c`]), `height_m` above the road.
     pub fn ceiling_rise_c(&self, p: Point2, height_m: f64) -> f64 {
         let u = self.air_m_s();
+        self.burning_from(p)
+            .map(|(q, along, r)| physics::ceiling_rise_c(q, along, r, height_m, u))
+            .sum()
+    }
+
+    /// Each burning fire as seen from `p`: its heat release, how far `p` lies downstream of
+    /// it along the air (negative: upstream; along the tunnel in still air), and how far
+    /// from it.
+    fn burning_from(&self, p: Point2) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+        let sign = self.air_m_s().signum();
         let s = self.tunnel.chainage(p).m();
         self.fires
             .iter()
             .filter(|f| f.state == TruthFireState::Burning)
-            .map(|f| {
+            .map(move |f| {
                 let at = f.spec.position();
-                let along = (s - self.tunnel.chainage(at).m()) * u.signum();
-                physics::ceiling_rise_c(f.hrr_kw, along, at.dist(p), height_m, u)
+                let along = (s - self.tunnel.chainage(at).m()) * sign;
+                (f.hrr_kw, along, at.dist(p))
             })
-            .sum()
     }
 
     /// Heat a body at `p` takes from the hot gas the air carries downstream of burning
@@ -393,20 +402,13 @@ impl World {
         if u.abs() < physics::STILL_AIR_M_S {
             return 0.0;
         }
-        let s = self.tunnel.chainage(p).m();
         let h = self.tunnel.height_m;
-        self.fires
-            .iter()
-            .filter(|f| f.state == TruthFireState::Burning)
-            .map(|f| {
-                let at = f.spec.position();
-                let along = (s - self.tunnel.chainage(at).m()) * u.signum();
-                if along <= 0.0 {
-                    return 0.0;
-                }
+        self.burning_from(p)
+            .filter(|(_, along, _)| *along > 0.0)
+            .map(|(q, along, r)| {
                 physics::H_CONVECTIVE_KW_M2_K
                     * physics::DESTRATIFIED_SHARE
-                    * physics::ceiling_rise_c(f.hrr_kw, along, at.dist(p), h, u)
+                    * physics::ceiling_rise_c(q, along, r, h, u)
             })
             .sum()
     }

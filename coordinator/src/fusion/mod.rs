@@ -325,6 +325,17 @@ pub struct Fusion {
     starts: BTreeMap<UnitId, (f64, f64)>,
 }
 
+/// The track of `fires` not lost that `z` falls nearest to within the association gate.
+fn nearest_gated<'a>(fires: &'a mut [Fire], z: &Gaussian2) -> Option<&'a mut Fire> {
+    fires
+        .iter_mut()
+        .filter(|f| f.state != FireState::Lost)
+        .map(|f| (f.estimate.gate2(z), f))
+        .filter(|(m2, _)| *m2 < GATE2)
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, f)| f)
+}
+
 /// A duplicate track merged into an older one.
 #[derive(Debug, Clone)]
 pub struct Merge {
@@ -524,14 +535,7 @@ impl Fusion {
         // Room for one more fire on this unit's word alone (the track this observation
         // joins is not among them while it is tentative).
         let room = self.provisional(unit) < MAX_PROVISIONAL;
-        let best = self
-            .fires
-            .iter_mut()
-            .filter(|f| f.state != FireState::Lost)
-            .map(|f| (f.estimate.gate2(&z), f))
-            .filter(|(m2, _)| *m2 < GATE2)
-            .min_by(|a, b| a.0.total_cmp(&b.0));
-        let Some((_, fire)) = best else {
+        let Some(fire) = nearest_gated(&mut self.fires, &z) else {
             let lone = self
                 .fires
                 .iter()
@@ -619,14 +623,7 @@ impl Fusion {
     /// active track it gates with, else starts one, confirmed ([`Fused::Confirmed`]). A peak
     /// at a fire that is out or lost changes nothing (`None`).
     pub fn observe_dts(&mut self, at: Gaussian2, t: f64) -> Option<Fused> {
-        let best = self
-            .fires
-            .iter_mut()
-            .filter(|f| f.state != FireState::Lost)
-            .map(|f| (f.estimate.gate2(&at), f))
-            .filter(|(m2, _)| *m2 < GATE2)
-            .min_by(|a, b| a.0.total_cmp(&b.0));
-        if let Some((_, fire)) = best {
+        if let Some(fire) = nearest_gated(&mut self.fires, &at) {
             if !fire.active() {
                 return None;
             }
