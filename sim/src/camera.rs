@@ -127,13 +127,15 @@ pub fn in_view(
     image(cam, pose, f, tunnel, obstacles).is_some()
 }
 
-/// Detect flames from a unit at `pose`; `rng` draws misses, false alarms and noise.
+/// Detect flames from a unit at `pose` through smoke of extinction `smoke_per_m` (at least
+/// [`physics::SMOKE_EXTINCTION_PER_M`]); `rng` draws misses, false alarms and noise.
 pub fn detect(
     cam: &CameraSpec,
     pose: &Pose2,
     flames: &[FlameTarget],
     tunnel: &Tunnel,
     obstacles: &[Obstacle],
+    smoke_per_m: f64,
     rng: &mut impl Rng,
 ) -> Vec<FlameDetection> {
     let edge = Normal::new(0.0, cam.box_sigma_px).expect("positive sigma");
@@ -167,9 +169,7 @@ pub fn detect(
             clip(v0 + jitter[1], cam.height_px),
             clip(v1 + jitter[3], cam.height_px),
         );
-        let confidence = ((0.95 - 0.3 * range / cam.range_m)
-            * (-physics::SMOKE_EXTINCTION_PER_M * range).exp()
-            + dc)
+        let confidence = ((0.95 - 0.3 * range / cam.range_m) * (-smoke_per_m * range).exp() + dc)
             .clamp(0.05, 0.99);
         out.push(FlameDetection {
             class: ObjectClass::Fire,
@@ -239,10 +239,19 @@ mod tests {
         obstacles: &[Obstacle],
         rng: &mut ChaCha8Rng,
     ) -> Vec<FlameDetection> {
-        detect(&GROUND.camera, pose, &[f], &open_road(), obstacles, rng)
-            .into_iter()
-            .filter(|d| d.confidence > 0.6)
-            .collect()
+        let road = open_road();
+        detect(
+            &GROUND.camera,
+            pose,
+            &[f],
+            &road,
+            obstacles,
+            physics::SMOKE_EXTINCTION_PER_M,
+            rng,
+        )
+        .into_iter()
+        .filter(|d| d.confidence > 0.6)
+        .collect()
     }
 
     #[test]
@@ -346,6 +355,7 @@ mod tests {
                 &flames,
                 &open_road(),
                 &[],
+                physics::SMOKE_EXTINCTION_PER_M,
                 &mut rng,
             ) {
                 d.validate().unwrap();
@@ -365,6 +375,7 @@ mod tests {
                     &[],
                     &open_road(),
                     &[],
+                    physics::SMOKE_EXTINCTION_PER_M,
                     &mut rng,
                 )
                 .len()

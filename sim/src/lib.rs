@@ -16,13 +16,14 @@
 //! except by the clock it keeps.
 //!
 //! Longitudinal ventilation carries the hot ceiling gas downstream and cuts it short
-//! upstream ([`physics::ceiling_rise_c`]); downstream it heats the units' bodies too. The
+//! upstream ([`physics::ceiling_rise_c`]); downstream it heats the units' bodies too, and
+//! its smoke dims their cameras ([`physics::SMOKE_DOWNSTREAM_PER_M`]). The
 //! tunnel's linear heat detector ([`dts`]) reads that ceiling, and [`scada`] serves it and
 //! the ventilation over Modbus TCP as a tunnel's SCADA would.
 //!
-//! Not modelled (yet): smoke transport and visibility (smoke only lowers detector
-//! confidence with distance, the same up- and downstream), ventilation changing during a
-//! run, collisions between units. Fire spreads to
+//! Not modelled (yet): smoke transport as a field (the smoke is light everywhere, and
+//! thicker anywhere downstream of a burning fire in moving air), ventilation changing
+//! during a run, collisions between units. Fire spreads to
 //! parked vehicles by radiation (flux-time product, see [`physics`]); fire does not spread
 //! along the road.
 

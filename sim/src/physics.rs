@@ -80,6 +80,13 @@ pub const FALSE_ALARM_PROB: f64 = 0.01;
 /// `exp(-k r)`. Assumption: light smoke (visibility of the order of 100 m).
 pub const SMOKE_EXTINCTION_PER_M: f64 = 0.01;
 
+/// Extinction added downstream of a burning fire in moving air, 1/m: the air carries the
+/// smoke there and mixes it down to the road (visibility of 2 to 3 over the extinction:
+/// some 50 m). Assumption, of the order measured in ventilated tunnel fire tests for the
+/// first minutes of a car fire (extinction 0.05 to 0.5 1/m); the low end, so that a unit
+/// downwind still finds the fire, only later and closer.
+pub const SMOKE_DOWNSTREAM_PER_M: f64 = 0.05;
+
 /// A simulated unit stops and shuts its valve when no command has arrived for this long
 /// (wall time), as a real drive controller's watchdog would.
 pub const COMMAND_WATCHDOG: std::time::Duration = std::time::Duration::from_millis(500);

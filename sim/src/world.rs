@@ -413,6 +413,22 @@ impl World {
             .sum()
     }
 
+    /// Extinction the smoke the air carries downstream of burning fires adds at `p`, 1/m
+    /// ([`physics::SMOKE_DOWNSTREAM_PER_M`]); none in still air or upstream.
+    fn smoke_downstream(&self, p: Point2) -> f64 {
+        if self.air_m_s().abs() < physics::STILL_AIR_M_S {
+            return 0.0;
+        }
+        let downstream = self
+            .burning_from(p)
+            .any(|(q, along, _)| q >= physics::Q_VISIBLE_KW && along > 0.0);
+        if downstream {
+            physics::SMOKE_DOWNSTREAM_PER_M
+        } else {
+            0.0
+        }
+    }
+
     /// A DTS measurement, when one is due.
     fn measure_dts(&mut self) {
         let Some(mut dts) = self.dts.take() else {
@@ -605,12 +621,14 @@ impl World {
     pub fn sensors(&mut self, id: &UnitId) -> Option<UnitSensors> {
         let flames: Vec<FlameTarget> = self.visible_flames().map(|(_, f)| f).collect();
         let b = self.bodies.iter().find(|b| &b.id == id)?;
+        let smoke = physics::SMOKE_EXTINCTION_PER_M + self.smoke_downstream(b.pose.position());
         let detections = camera::detect(
             &b.spec.camera,
             &b.spec.camera.looking_from(&b.pose, b.cannon.pan),
             &flames,
             &self.tunnel,
             &self.obstacles,
+            smoke,
             &mut self.rng,
         );
         Some(UnitSensors {

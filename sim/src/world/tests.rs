@@ -264,3 +264,53 @@ fn heat_flux_rises_near_the_fire() {
     let far = w.sensors(&u1()).unwrap().heat_flux_kw_m2;
     assert!(far > 0.0 && far < 1.0, "{far}");
 }
+
+/// Two units 15 m either side of a 3 MW fire (at 470 kW, growing), facing it, with the air moving east at
+/// `air_m_s`: (the west unit's, the east unit's) mean detection confidence over 200 frames,
+/// and the heat flux each takes.
+fn either_side(air_m_s: f64) -> ((f64, f64), (f64, f64)) {
+    let mut s = Scenario::straight(100.0)
+        .fire("f", 50.0, 0.0, 3000.0)
+        .ignition(-100.0)
+        .ground("west", 35.0, 0.0)
+        .ground("east", 65.0, 0.0)
+        .build();
+    s.units[1].yaw_rad = std::f64::consts::PI;
+    s.ventilation = Some(firefleet_model::infra::Ventilation {
+        air_m_s,
+        fans: Vec::new(),
+    });
+    let mut w = World::new(&s, 1);
+    w.step(0.05);
+    let mut seen = |id: &str| {
+        let id = UnitId::new(id).unwrap();
+        let c: Vec<f64> = (0..200)
+            .flat_map(|_| w.sensors(&id).unwrap().detections)
+            .map(|d| d.confidence)
+            .collect();
+        let flux = w.sensors(&id).unwrap().heat_flux_kw_m2;
+        (c.iter().sum::<f64>() / c.len().max(1) as f64, flux)
+    };
+    (seen("west"), seen("east"))
+}
+
+#[test]
+fn moving_air_carries_heat_and_smoke_downstream_only() {
+    let ((west_c, west_q), (east_c, east_q)) = either_side(0.0);
+    assert!(
+        (west_c - east_c).abs() < 0.05,
+        "still air: {west_c} {east_c}"
+    );
+    assert!(
+        (west_q - east_q).abs() < 1e-9,
+        "still air: {west_q} {east_q}"
+    );
+    let ((up_c, up_q), (down_c, down_q)) = either_side(2.0);
+    // Upstream as in still air; downstream dimmer (exp(-0.05 x 15) = 0.47) and hotter.
+    assert!((up_c - west_c).abs() < 0.05 && (up_q - west_q).abs() < 1e-9);
+    assert!(down_c < 0.6 * up_c, "downstream {down_c}, upstream {up_c}");
+    assert!(
+        down_q > 5.0 * up_q,
+        "downstream {down_q} kW/m2, upstream {up_q}"
+    );
+}
