@@ -68,8 +68,8 @@ impl Infra {
             .map_or(30.0, |(m, _)| 2.0 * m.dts.period_s + 5.0)
     }
 
-    /// The alarm peaks as of `t`: each zone in alarm hotter than its neighbours in alarm,
-    /// as (zone, span).
+    /// The alarm peaks as of `t`: the span of each zone in alarm hotter than its
+    /// neighbours in alarm (of a plateau, its first zone).
     fn peaks(&self, t: f64) -> Vec<(f64, f64)> {
         let fresh = self.fresh_s();
         let alarmed = |k: u16| {
@@ -81,16 +81,11 @@ impl Infra {
             .keys()
             .filter_map(|&k| {
                 let z = alarmed(k)?;
-                let hotter =
-                    |n: Option<&DtsZone>| n.is_some_and(|n| n.reading.max_c > z.reading.max_c);
-                // A plateau counts once: its first zone.
-                let level = k
-                    .checked_sub(1)
-                    .and_then(alarmed)
-                    .is_some_and(|n| n.reading.max_c == z.reading.max_c);
                 let below = k.checked_sub(1).and_then(alarmed);
                 let above = k.checked_add(1).and_then(alarmed);
-                (!hotter(below) && !hotter(above) && !level).then_some((z.start_m, z.end_m))
+                let peak = below.is_none_or(|n| n.reading.max_c < z.reading.max_c)
+                    && above.is_none_or(|n| n.reading.max_c <= z.reading.max_c);
+                peak.then_some((z.start_m, z.end_m))
             })
             .collect()
     }

@@ -70,7 +70,8 @@ impl Incident {
         let (lo, hi) = (Chainage::ZERO + INSIDE_M, self.tunnel.end() - INSIDE_M);
         let mut out = Vec::new();
         // With the air moving, a free unit downwind of a burning fire stands in its smoke
-        // and hot gas: it withdraws to the downstream portal, and is nobody's reserve.
+        // and hot gas: it withdraws to the downstream portal, and is nobody's reserve (it
+        // would have to drive through the fire to wait upwind). The others wait upwind.
         let mut free = free;
         if let Some(side) = upwind {
             let exit = if side < 0.0 { hi } else { lo };
@@ -119,20 +120,12 @@ impl Incident {
             self.goal_at(f)
                 .is_some_and(|g| g.goal.goal == GoalKind::Contain)
         };
-        let upwind_of = |at: Point2, f: Point2| {
-            upwind.is_none_or(|side| {
-                (self.tunnel.chainage(at) - self.tunnel.chainage(f)) * side >= 0.0
-            })
-        };
         let nearest: Vec<Option<&(FireId, Point2)>> = free
             .iter()
             .map(|(_, at, _, mobility)| {
                 active
                     .iter()
                     .min_by(|a, b| a.1.dist(*at).total_cmp(&b.1.dist(*at)))
-                    // A unit downwind of its nearest fire is in its smoke, and would have
-                    // to drive through the fire to wait upwind: it is no reserve there.
-                    .filter(|(_, f)| upwind_of(*at, *f))
                     .filter(|(_, f)| {
                         holds_a_line(*f)
                             || mobility
