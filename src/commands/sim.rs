@@ -54,6 +54,11 @@ pub struct SimArgs {
 
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
     let scenario = a.scenario.load()?;
+    anyhow::ensure!(
+        a.scada.is_none() || scenario.scada.is_some(),
+        "--scada: site '{}': its file maps no [scada] for the simulator to serve",
+        scenario.site
+    );
     let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Sim)).await?;
     a.metrics.serve(&bus, false, None).await?;
     let opts = SimOptions {
