@@ -110,6 +110,31 @@ enum Failure {
     OutOfRange(String),
 }
 
+/// A reading as last read: when, what, and whether it could not be read again since.
+#[derive(Debug, Clone)]
+struct Held<T> {
+    t: f64,
+    reading: T,
+    stale: bool,
+}
+
+impl<T> Held<T> {
+    fn new(t: f64, reading: T) -> Self {
+        Self {
+            t,
+            reading,
+            stale: false,
+        }
+    }
+}
+
+/// Mark what `held` holds stale: it could not be read again.
+fn spoil<T>(held: &mut Option<Held<T>>) {
+    if let Some(h) = held {
+        h.stale = true;
+    }
+}
+
 /// The bridge's state: its connection, the last good readings and the counts.
 struct Bridge {
     map: ScadaMap,
@@ -118,9 +143,9 @@ struct Bridge {
     addr: SocketAddr,
     timeout: Duration,
     modbus: Option<Modbus>,
-    /// Per zone, the last good reading and when it was taken.
-    zones: Vec<Option<(f64, DtsReading, bool)>>,
-    vent: Option<(f64, VentReading, bool)>,
+    /// Per zone, its last good reading.
+    zones: Vec<Option<Held<DtsReading>>>,
+    vent: Option<Held<VentReading>>,
     link: ScadaLink,
 }
 
@@ -162,17 +187,13 @@ impl Bridge {
         if self.link.up {
             self.link.last_ok = Some(t);
         }
-        self.link.problem.clear();
+        let before = std::mem::take(&mut self.link.problem);
         let failures = match read {
             Ok(failures) => failures,
             Err(f) => {
                 // Nothing read this time: everything held is now stale.
-                for z in self.zones.iter_mut().flatten() {
-                    z.2 = true;
-                }
-                if let Some(v) = &mut self.vent {
-                    v.2 = true;
-                }
+                self.zones.iter_mut().for_each(spoil);
+                spoil(&mut self.vent);
                 vec![f]
             }
         };
@@ -197,8 +218,14 @@ impl Bridge {
                     e.clone()
                 }
             };
-            tracing::warn!(t, "SCADA: {problem}");
             self.link.problem = problem.chars().take(MAX_PROBLEM).collect();
+        }
+        // Said once when it starts, not every second it lasts.
+        if self.link.problem != before {
+            match self.link.problem.as_str() {
+                "" => tracing::info!(t, "SCADA: every register read again"),
+                problem => tracing::warn!(t, "SCADA: {problem}"),
+            }
         }
     }
 
@@ -243,21 +270,17 @@ impl Bridge {
             .enumerate()
         {
             match self.map.decode_zone(k, chunk) {
-                Ok(r) => self.zones[k] = Some((t, r, false)),
+                Ok(r) => self.zones[k] = Some(Held::new(t, r)),
                 Err(e) => {
-                    if let Some(z) = &mut self.zones[k] {
-                        z.2 = true;
-                    }
+                    spoil(&mut self.zones[k]);
                     failures.push(Failure::OutOfRange(e.to_string()));
                 }
             }
         }
         match self.map.decode_vent(&vent_regs, self.fans) {
-            Ok(v) => self.vent = Some((t, v, false)),
+            Ok(v) => self.vent = Some(Held::new(t, v)),
             Err(e) => {
-                if let Some(v) = &mut self.vent {
-                    v.2 = true;
-                }
+                spoil(&mut self.vent);
                 failures.push(Failure::OutOfRange(e.to_string()));
             }
         }
@@ -268,7 +291,7 @@ impl Bridge {
     async fn publish(&self, bus: &Bus) -> anyhow::Result<()> {
         let keys = bus.keys();
         for (k, z) in self.zones.iter().enumerate() {
-            let Some((t, reading, stale)) = *z else {
+            let Some(z) = z else {
                 continue;
             };
             let (start_m, end_m) = self.map.zone_span(k, self.length_m);
@@ -277,17 +300,17 @@ impl Bridge {
                 zone,
                 start_m,
                 end_m,
-                t,
-                reading,
-                stale,
+                t: z.t,
+                reading: z.reading,
+                stale: z.stale,
             };
             bus.put(&keys.infra_dts(zone), &msg).await?;
         }
-        if let Some((t, reading, stale)) = &self.vent {
+        if let Some(v) = &self.vent {
             let msg = Vent {
-                t: *t,
-                reading: reading.clone(),
-                stale: *stale,
+                t: v.t,
+                reading: v.reading.clone(),
+                stale: v.stale,
             };
             bus.put(&keys.infra_vent(), &msg).await?;
         }
