@@ -155,12 +155,20 @@ pub struct Fire {
 impl Fire {
     /// A track first seen at `t` by `unit`.
     fn new(id: FireId, unit: &UnitId, sighting: Sighting, t: f64) -> Self {
-        let mut f = Fire {
+        let mut f = Fire::at(id, FireState::Tentative, sighting.estimate, t);
+        f.per_unit.insert(unit.clone(), sighting);
+        f.refuse();
+        f
+    }
+
+    /// A track in `state` at `estimate` since `t`, with no source yet.
+    fn at(id: FireId, state: FireState, estimate: Gaussian2, t: f64) -> Self {
+        Fire {
             id,
-            state: FireState::Tentative,
-            per_unit: BTreeMap::from([(unit.clone(), sighting)]),
+            state,
+            per_unit: BTreeMap::new(),
             sizes: BTreeMap::new(),
-            estimate: sighting.estimate,
+            estimate,
             confidence: 0.0,
             first_seen: t,
             last_seen: t,
@@ -169,9 +177,7 @@ impl Fire {
             looks: BTreeMap::new(),
             contradicted: false,
             dts: None,
-        };
-        f.refuse();
-        f
+        }
     }
 
     /// Sources whose word counts that place it: its credible witnesses, and the DTS.
@@ -483,9 +489,11 @@ impl Fusion {
             FireState::Assigned | FireState::Suppressing => FireState::Confirmed,
             s => s,
         };
+        let estimate = Gaussian2 {
+            mean: track.position,
+            cov: track.cov,
+        };
         let mut fire = Fire {
-            id: track.id,
-            state,
             per_unit: track
                 .seen_by
                 .iter()
@@ -495,18 +503,9 @@ impl Fusion {
                 .hrr_kw
                 .map(|q| track.seen_by.iter().map(|u| (u.clone(), q)).collect())
                 .unwrap_or_default(),
-            estimate: Gaussian2 {
-                mean: track.position,
-                cov: track.cov,
-            },
             confidence: track.confidence,
-            first_seen: track.t,
-            last_seen: track.t,
             out_at: (state == FireState::Out).then_some(track.t),
-            credited: BTreeSet::new(),
-            looks: BTreeMap::new(),
-            contradicted: false,
-            dts: None,
+            ..Fire::at(track.id, state, estimate, track.t)
         };
         fire.refuse();
         self.next_id = self.next_id.max(track.id.0);
@@ -640,19 +639,8 @@ impl Fusion {
         self.next_id += 1;
         let id = FireId(self.next_id);
         let mut f = Fire {
-            id,
-            state: FireState::Confirmed,
-            per_unit: BTreeMap::new(),
-            sizes: BTreeMap::new(),
-            estimate: at,
-            confidence: 0.0,
-            first_seen: t,
-            last_seen: t,
-            out_at: None,
-            credited: BTreeSet::new(),
-            looks: BTreeMap::new(),
-            contradicted: false,
             dts: Some(t),
+            ..Fire::at(id, FireState::Confirmed, at, t)
         };
         f.refuse();
         self.fires.push(f);
