@@ -110,13 +110,10 @@ impl Infra {
         });
     }
 
-    /// The bridge's word on its link; whether the link just went down.
-    pub fn link(&mut self, now_ms: u64, l: ScadaLink) -> bool {
+    /// The bridge's word on its link.
+    pub fn link(&mut self, now_ms: u64, l: ScadaLink) {
         self.heard_ms = Some(now_ms);
-        let was_up = self.link.as_ref().is_none_or(|old| old.up);
-        let down = was_up && !l.up && l.polls > 0;
         self.link = Some(l);
-        down
     }
 
     /// The link holds at `now_ms`: the bridge says so and was heard lately.
@@ -207,13 +204,13 @@ mod tests {
                 stale: false,
             },
         );
-        assert!(!i.link(1000, link(true)));
+        i.link(1000, link(true));
         let v = i.view(1500);
         assert_eq!(v.link_up, Some(true));
         assert_eq!(v.zones[0].max_c, 85.0);
         assert!(v.zones[0].alarm && !v.zones[0].stale);
         // The bridge says the link is down, and re-sends the reading stale.
-        assert!(i.link(2000, link(false)));
+        i.link(2000, link(false));
         i.zone(2000, zone(4.0, 85.04, true));
         let v = i.view(2500);
         assert_eq!(v.link_up, Some(false));

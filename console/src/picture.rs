@@ -385,19 +385,7 @@ impl Picture {
             Event::Message(Payload::SimClock(c)) => self.advance(c.t),
             Event::Message(Payload::Dts(z)) => self.infra.zone(now_ms, z),
             Event::Message(Payload::Vent(v)) => self.infra.vent(now_ms, v),
-            Event::Message(Payload::ScadaLink(l)) => {
-                let problem = l.problem.clone();
-                if self.infra.link(now_ms, l) {
-                    self.raise(
-                        AlertKind::ScadaLost {
-                            problem: problem.clone(),
-                        },
-                        format!(
-                            "link to the tunnel's SCADA lost ({problem}): its DTS and ventilation readings are stale"
-                        ),
-                    );
-                }
-            }
+            Event::Message(Payload::ScadaLink(l)) => self.infra.link(now_ms, l),
             Event::Message(_) => {}
             Event::UnitAlive(id, alive) => self.unit_alive(now_ms, id, alive),
             Event::Link(up) => {
@@ -739,8 +727,21 @@ impl Picture {
                 Some(self.infra.view(now_ms)).filter(|v| sent.as_ref().is_none_or(|(_, s)| s != v))
             }
         };
-        if let Some(v) = &infra {
-            self.infra_sent = Some((now_ms, v.clone()));
+        if let Some(v) = infra.clone() {
+            // The link lost, by the bridge's word or its silence: raised once as it goes.
+            let was = self.infra_sent.as_ref().and_then(|(_, s)| s.link_up);
+            if was == Some(true) && v.link_up == Some(false) {
+                self.raise(
+                    AlertKind::ScadaLost {
+                        problem: v.problem.clone(),
+                    },
+                    format!(
+                        "link to the tunnel's SCADA lost ({}): its DTS and ventilation readings are stale",
+                        v.problem
+                    ),
+                );
+            }
+            self.infra_sent = Some((now_ms, v));
         }
         // A change of what a unit does goes now and whole; a move waits for its period and
         // goes as a move, the whole unit once in a while.

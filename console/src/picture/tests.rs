@@ -438,3 +438,58 @@ fn a_fire_a_goal_strands_raises_one_alert_naming_the_goal_and_its_issuer() {
     p.observe(0, told(4.0, vec![stranded]));
     assert_eq!(p.incident().alerts.len(), 2);
 }
+
+#[test]
+fn a_silent_scada_bridge_raises_one_alert_and_the_layer_goes_stale() {
+    use firefleet_model::infra::{DtsAlarm, DtsReading};
+    use firefleet_protocol::msg::{DtsZone, ScadaLink};
+    let mut p = picture();
+    assert!(
+        p.delta(0).is_none_or(|d| d.infra.is_none()),
+        "no bridge, no layer"
+    );
+    let zone = DtsZone {
+        zone: 3,
+        start_m: 30.0,
+        end_m: 40.0,
+        t: 1.0,
+        reading: DtsReading {
+            max_c: 80.0,
+            rise_c_min: 0.0,
+            alarm: DtsAlarm {
+                max: true,
+                ..DtsAlarm::default()
+            },
+            fault: false,
+        },
+        stale: false,
+    };
+    let link = ScadaLink {
+        t: 1.0,
+        up: true,
+        last_ok: Some(1.0),
+        polls: 1,
+        timeouts: 0,
+        disconnects: 0,
+        exceptions: 0,
+        out_of_range: 0,
+        problem: String::new(),
+    };
+    p.observe(1000, Event::Message(Payload::Dts(zone)));
+    p.observe(1000, Event::Message(Payload::ScadaLink(link)));
+    let live = p.delta(1000).unwrap().infra.unwrap();
+    assert_eq!(live.link_up, Some(true));
+    assert!(live.zones[0].alarm && !live.zones[0].stale);
+    // Nothing from the bridge for longer than it takes to miss it: stale, and one alert.
+    let gone = p.delta(1000 + crate::infra::SILENT_MS).unwrap();
+    let layer = gone.infra.unwrap();
+    assert_eq!(layer.link_up, Some(false));
+    assert!(layer.zones[0].stale && layer.zones[0].max_c == 80.0);
+    assert_eq!(gone.alerts.len(), 1);
+    assert!(matches!(gone.alerts[0].kind, AlertKind::ScadaLost { .. }));
+    assert!(
+        p.delta(3000 + crate::infra::SILENT_MS)
+            .is_none_or(|d| d.alerts.is_empty() && d.infra.is_none()),
+        "said once"
+    );
+}
