@@ -418,38 +418,34 @@ impl ScadaMap {
             ));
         };
         let bits = *bits;
-        {
-            {
-                if bits & !(BIT_MAX | BIT_RISE | BIT_DIFF | BIT_FAULT) != 0 {
-                    return Err(Invalid::new(
-                        f("state"),
-                        format!("{bits:#06x} sets bits the map does not define"),
-                    ));
-                }
-                let fault = bits & BIT_FAULT != 0;
-                let max_c = from_i16(*max, d.temperature_scale_c);
-                let rise_c_min = from_i16(*rise, d.rise_scale_c_min);
-                if !fault {
-                    in_range(&f("maximum"), max_c, DTS_RANGE_C.0, DTS_RANGE_C.1)?;
-                    in_range(
-                        &f("rate of rise"),
-                        rise_c_min,
-                        -DTS_RISE_RANGE_C_MIN,
-                        DTS_RISE_RANGE_C_MIN,
-                    )?;
-                }
-                Ok(DtsReading {
-                    max_c,
-                    rise_c_min,
-                    alarm: DtsAlarm {
-                        max: bits & BIT_MAX != 0,
-                        rise: bits & BIT_RISE != 0,
-                        differential: bits & BIT_DIFF != 0,
-                    },
-                    fault,
-                })
-            }
+        if bits & !(BIT_MAX | BIT_RISE | BIT_DIFF | BIT_FAULT) != 0 {
+            return Err(Invalid::new(
+                f("state"),
+                format!("{bits:#06x} sets bits the map does not define"),
+            ));
         }
+        let fault = bits & BIT_FAULT != 0;
+        let max_c = from_i16(*max, d.temperature_scale_c);
+        let rise_c_min = from_i16(*rise, d.rise_scale_c_min);
+        if !fault {
+            in_range(&f("maximum"), max_c, DTS_RANGE_C.0, DTS_RANGE_C.1)?;
+            in_range(
+                &f("rate of rise"),
+                rise_c_min,
+                -DTS_RISE_RANGE_C_MIN,
+                DTS_RISE_RANGE_C_MIN,
+            )?;
+        }
+        Ok(DtsReading {
+            max_c,
+            rise_c_min,
+            alarm: DtsAlarm {
+                max: bits & BIT_MAX != 0,
+                rise: bits & BIT_RISE != 0,
+                differential: bits & BIT_DIFF != 0,
+            },
+            fault,
+        })
     }
 
     /// The ventilation's registers, from its block's first.
