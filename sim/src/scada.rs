@@ -27,6 +27,8 @@ use crate::world::World;
 struct Image {
     dts: (u32, Vec<u16>),
     vent: (u32, Vec<u16>),
+    /// Site time of the DTS measurement it holds.
+    measured: Option<f64>,
 }
 
 impl Image {
@@ -57,16 +59,23 @@ impl Registers {
         }
     }
 
-    /// Take `world`'s latest DTS measurement and ventilation reading.
+    /// Take `world`'s latest DTS measurement and ventilation reading, if the detector
+    /// measured since (the loop calls this every step; it measures every `period_s`).
     pub fn update(&self, world: &World) {
-        let Some((_, zones)) = world.dts() else {
+        let Some((measured, zones)) = world.dts() else {
             return;
         };
+        let image = self.image.read().unwrap_or_else(|p| p.into_inner());
+        if image.measured == Some(measured) {
+            return;
+        }
+        drop(image);
         let dts = self.map.encode_dts(zones);
         let vent = self.map.encode_vent(&world.vent());
         let mut image = self.image.write().unwrap_or_else(|p| p.into_inner());
         image.dts = (u32::from(self.map.dts.first_register), dts);
         image.vent = (u32::from(self.map.vent.first_register), vent);
+        image.measured = Some(measured);
     }
 
     fn answer(&self, req: SlaveRequest<'_>) -> Result<Response, ExceptionCode> {
