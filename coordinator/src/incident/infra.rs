@@ -68,9 +68,9 @@ impl Infra {
             .map_or(30.0, |(m, _)| 2.0 * m.dts.period_s + 5.0)
     }
 
-    /// The alarm peaks as of `t`: the span of each zone in alarm hotter than its
-    /// neighbours in alarm (of a plateau, its first zone).
-    fn peaks(&self, t: f64) -> Vec<(f64, f64)> {
+    /// The alarm peaks as of `t`: the span and maximum of each zone in alarm hotter than
+    /// its neighbours in alarm (of a plateau, its first zone).
+    fn peaks(&self, t: f64) -> Vec<(f64, f64, f64)> {
         let fresh = self.fresh_s();
         let alarmed = |k: u16| {
             self.zones.get(&k).filter(|z| {
@@ -85,7 +85,7 @@ impl Infra {
                 let above = k.checked_add(1).and_then(alarmed);
                 let peak = below.is_none_or(|n| n.reading.max_c < z.reading.max_c)
                     && above.is_none_or(|n| n.reading.max_c <= z.reading.max_c);
-                peak.then_some((z.start_m, z.end_m))
+                peak.then_some((z.start_m, z.end_m, z.reading.max_c))
             })
             .collect()
     }
@@ -181,15 +181,9 @@ impl Incident {
             return Vec::new();
         }
         let mut out = Vec::new();
-        for (a, b) in self.infra.peaks(t) {
+        for (a, b, max_c) in self.infra.peaks(t) {
             let at = self.zone_estimate(a, b);
             if let Some(Fused::Confirmed(fire)) = self.fusion.observe_dts(at, t) {
-                let max_c = self
-                    .infra
-                    .zones
-                    .values()
-                    .find(|z| z.start_m == a)
-                    .map_or(f64::NAN, |z| z.reading.max_c);
                 self.log(
                     t,
                     Decision::DtsAlarm {
