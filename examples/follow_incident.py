@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """Follow a firefleet incident and issue a zone goal, from Python with nothing but its
-standard library: the console's JSON API (see the README's console section).
+standard library: the console's JSON API (see docs/console.md).
 
     python3 examples/follow_incident.py --url http://127.0.0.1:8080 \
-        --user rossi --zone deep --goal keep-out --after 10 --for 60
+        --user rossi --zone far --goal keep-out --after 10 --for 60
 
 The password is read from the FIREFLEET_PASSWORD environment variable (or asked for).
 It prints fires as their state changes, units as their mode or task changes, and every

@@ -1,6 +1,5 @@
 //! A recording through the incident's invariants: what `firefleet check` prints and the
-//! nemesis judges its runs by; and the simulator's burning fires as the invariants' event,
-//! which the in-process experiments feed them too.
+//! lab's nemesis judges its runs by.
 //!
 //! Not here: the invariants themselves (`firefleet_coordinator::invariants`) or reading MCAP
 //! records (`firefleet_recorder::parts`, `firefleet_protocol::payload`); this feeds one to
@@ -9,7 +8,6 @@
 use firefleet_coordinator::invariants::{Event, Invariants, Tally, Violation};
 use firefleet_model::scenario::Scenario;
 use firefleet_protocol::keys::{self, Topic};
-use firefleet_protocol::msg::{SimTruth, TruthFireState};
 use firefleet_protocol::payload::{GoalClear, Payload};
 use firefleet_recorder::parts::Recording;
 
@@ -78,7 +76,7 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
             }
             (_, Ok(Payload::SimTruth(truth))) => {
                 t = truth.t;
-                Some(burning(&truth))
+                Some(Event::burning(&truth))
             }
             (Topic::ZoneGoal(zone, by), Ok(Payload::Goal(goal))) => Some(Event::Goal {
                 key_zone: zone.clone(),
@@ -97,18 +95,6 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
         forged,
         continuity: inv.continuity(),
     })
-}
-
-/// Where `truth` has fires burning, for the checker.
-pub fn burning(truth: &SimTruth) -> Event {
-    Event::Burning(
-        truth
-            .fires
-            .iter()
-            .filter(|f| f.state == TruthFireState::Burning)
-            .map(|f| f.position)
-            .collect(),
-    )
 }
 
 #[cfg(test)]

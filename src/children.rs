@@ -1,11 +1,30 @@
-//! The child processes a command starts (the demo's fleet, the nemesis's processes): how
-//! each is started so none outlives its parent, and how they are stopped so the recorder
-//! keeps what the others say until they exit.
+//! The child processes a command starts (the demo's fleet, the lab's harnesses): where the
+//! `firefleet` binary is, how each child is started so none outlives its parent, and how
+//! they are stopped so the recorder keeps what the others say until they exit.
 
+use std::path::PathBuf;
 use std::process::Stdio;
 use std::time::Duration;
 
 use tokio::process::{Child, Command};
+
+/// The `firefleet` binary whose roles a command starts: `FIREFLEET_BIN` if set, else the
+/// `firefleet` beside the running executable (itself, or the lab's `firefleet-lab`, which
+/// cargo builds into the same directory and a package installs beside it).
+pub fn firefleet_binary() -> anyhow::Result<PathBuf> {
+    if let Some(bin) = std::env::var_os("FIREFLEET_BIN") {
+        return Ok(bin.into());
+    }
+    let exe = std::env::current_exe()
+        .map_err(|e| anyhow::anyhow!("locating the running executable: {e}"))?;
+    let bin = exe.with_file_name(format!("firefleet{}", std::env::consts::EXE_SUFFIX));
+    anyhow::ensure!(
+        bin.is_file(),
+        "no firefleet binary beside {} (build it with `cargo build`, or name one with FIREFLEET_BIN)",
+        exe.display()
+    );
+    Ok(bin)
+}
 
 /// The role of the first child that has exited, if any.
 pub fn exited(children: &mut [(String, Child)]) -> Option<String> {

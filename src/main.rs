@@ -18,11 +18,8 @@
     reason = "a CLI prints what a person reads"
 )]
 
-mod checking;
-mod children;
 mod commands;
 mod metrics;
-mod net;
 mod rehome;
 
 use clap::{Parser, Subcommand};
@@ -71,9 +68,6 @@ enum Command {
     /// Validate, show or dry-run behavior-tree XML files.
     #[command(subcommand)]
     Bt(commands::bt::BtCommand),
-    /// Reproduce an experiment of the papers in the simulator.
-    #[command(subcommand)]
-    Experiment(commands::experiment::ExperimentCommand),
     /// List the built-in scenarios.
     Scenarios,
     /// Make a site's certificates for mutual TLS.
@@ -89,39 +83,19 @@ enum Command {
     Doctor(commands::doctor::DoctorArgs),
 }
 
-/// Log to stderr; `RUST_LOG` overrides `default`. Colour only on a terminal: a journal or a
-/// log file would keep the escape codes.
-fn init_logging(default: &str) {
-    use std::io::IsTerminal as _;
-    let filter =
-        tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| default.into());
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::stderr().is_terminal())
-        .init();
-}
-
 fn main() -> std::process::ExitCode {
-    end_quietly_on_a_closed_pipe();
     let cli = Cli::parse();
-    // Experiments and tree tools print tables; per-event logs are noise there.
+    // Tree tools and checks print tables; per-event logs are noise there.
     let quiet = matches!(
         cli.command,
-        Command::Experiment(_)
-            | Command::Bt(_)
+        Command::Bt(_)
             | Command::Replay(_)
             | Command::Check(_)
             | Command::Schema(_)
             | Command::Plan(_)
             | Command::Doctor(_)
     );
-    init_logging(if quiet { "warn" } else { "info,zenoh=warn" });
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-        .expect("tokio runtime");
-    let result = runtime.block_on(async move {
+    firefleet::cli::run(quiet, async move {
         match cli.command {
             Command::Demo(a) => commands::demo::run(a).await,
             Command::Sim(a) => commands::sim::run(a).await,
@@ -142,40 +116,6 @@ fn main() -> std::process::ExitCode {
             Command::Replay(a) => commands::replay::run(a),
             Command::Check(a) => commands::check::run(a),
             Command::Schema(a) => commands::schema::run(a),
-            Command::Experiment(c) => commands::experiment::run(c).await,
         }
-    });
-    match result {
-        Ok(code) => code,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            std::process::ExitCode::from(2)
-        }
-    }
+    })
 }
-
-/// A reader that stops reading (`firefleet status | head`) ends this process quietly with
-/// the status a shell gives a program a closed pipe stopped (141), instead of a panic on
-/// the next `println!`. Not by restoring SIGPIPE's default: then a TLS link whose peer went
-/// away (rustls writes with `writev`, which cannot ask for no signal) would kill a role
-/// mid-incident; with SIGPIPE ignored, as Rust starts programs, a socket write fails with
-/// an error its owner handles, and only printing to a closed stdout ends the process.
-fn end_quietly_on_a_closed_pipe() {
-    let default = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        let payload = info.payload();
-        let message = payload
-            .downcast_ref::<String>()
-            .map(String::as_str)
-            .or_else(|| payload.downcast_ref::<&str>().copied())
-            .unwrap_or_default();
-        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
-            std::process::exit(CLOSED_PIPE);
-        }
-        default(info);
-    }));
-}
-
-/// The exit status of a program stopped by a closed pipe, as shells report it (128 +
-/// SIGPIPE).
-const CLOSED_PIPE: i32 = 141;

@@ -26,7 +26,7 @@ use firefleet_model::{Point2, UnitId};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::UnitState;
 
-use crate::net::ZenohArgs;
+use firefleet::net::ZenohArgs;
 
 /// How much nearer another router must be than the one the unit links through, m: a unit
 /// halfway between two routers does not flap between them.

@@ -28,6 +28,7 @@
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 
+use firefleet_model::fire::same_fire;
 use firefleet_model::heat::{HeatSource, radiant_flux_kw_m2};
 use firefleet_model::{FireId, Point2, UnitId};
 use firefleet_protocol::msg::{
@@ -46,9 +47,6 @@ pub const DECISIONS_KEPT: usize = 200;
 pub const ACKS_KEPT: usize = 50;
 /// Acknowledged alerts kept (unacknowledged ones are never dropped).
 pub const ACKED_ALERTS_KEPT: usize = 100;
-/// A fire track this close to one that was put out is the same fire burning again, m
-/// (the same distance the continuity checker matches fires by).
-pub const SAME_FIRE_M: f64 = 6.0;
 /// The heat field is recomputed at most this often, ms: fire tracks change every
 /// coordinator cycle, a commander reads heat over seconds.
 pub const HEAT_PERIOD_MS: u64 = 1000;
@@ -576,9 +574,10 @@ impl Picture {
             Some(old) => old.state == FireState::Out && burning,
             None => {
                 burning
-                    && self.fires.values().any(|o| {
-                        o.state == FireState::Out && o.position.dist(f.position) <= SAME_FIRE_M
-                    })
+                    && self
+                        .fires
+                        .values()
+                        .any(|o| o.state == FireState::Out && same_fire(o.position, f.position))
             }
         };
         if reignited {

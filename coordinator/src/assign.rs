@@ -394,8 +394,9 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f
     t + HAZARD_S * passed as f64 + thirsty
 }
 
-/// A hazard this close to the fire is the fire itself, m.
-const SAME_FIRE_M: f64 = 3.0;
+/// A hazard this close to the fire is the fire itself (the burning vehicle the fire was
+/// placed on), m: not [`firefleet_model::fire::SAME_FIRE_M`], which matches two fires.
+const HAZARD_IS_FIRE_M: f64 = 3.0;
 
 /// Costs, one row per fire, one column per unit.
 fn travel_matrix(units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<f64> {
@@ -408,7 +409,7 @@ fn travel_matrix(units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<f6
         let itself: Vec<Chainage> = site
             .hazards
             .iter()
-            .filter(|h| h.position.dist(n.at.position) <= SAME_FIRE_M)
+            .filter(|h| h.position.dist(n.at.position) <= HAZARD_IS_FIRE_M)
             .map(|h| h.chainage)
             .collect();
         costs.extend(units.iter().zip(&unit_ranks).map(|(u, &r)| {

@@ -38,8 +38,8 @@ use firefleet_model::UnitKind;
 use firefleet_model::scenario::{CommanderSpec, Rank, Zone, rank_of};
 use firefleet_model::{Chainage, CommanderId, ZoneId};
 use firefleet_protocol::msg::{
-    Bar, BarredSpace, BarredSpan, GoalAck, GoalInForce, GoalKind, GoalsInForce, MAX_GOALS_IN_FORCE,
-    ZoneGoal, nearest_allowed,
+    Bar, BarredSpace, BarredSpan, GoalAck, GoalInForce, GoalsInForce, MAX_GOALS_IN_FORCE, ZoneGoal,
+    nearest_allowed,
 };
 
 /// Goals one commander may hold in force: a goal or two for each of a site's zones is
@@ -71,17 +71,14 @@ impl Active {
         (self.start..=self.end).contains(&s)
     }
 
-    /// Whether a unit may not be in or travel through the zone.
+    /// Whether a unit may not be in or travel through the zone ([`GoalKind::bars_entry`]).
     pub fn bars_entry(&self) -> bool {
-        matches!(self.goal.goal, GoalKind::KeepOut | GoalKind::Evacuate)
+        self.goal.goal.bars_entry()
     }
 
-    /// Whether fires in the zone are not to be attacked.
+    /// Whether fires in the zone are not to be attacked ([`GoalKind::bars_attack`]).
     pub fn bars_attack(&self) -> bool {
-        matches!(
-            self.goal.goal,
-            GoalKind::Monitor | GoalKind::KeepOut | GoalKind::Evacuate
-        )
+        self.goal.goal.bars_attack()
     }
 }
 
@@ -430,6 +427,8 @@ impl Goals {
 
 #[cfg(test)]
 mod tests {
+    use firefleet_protocol::msg::GoalKind;
+
     use super::*;
 
     fn c(m: f64) -> Chainage {

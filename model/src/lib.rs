@@ -2,7 +2,8 @@
 //!
 //! Identifiers, the site frame and its geometry, the tunnel and its chainage, the site
 //! (scenario) file format and its validation, robot profiles and the specs they carry,
-//! how time is read, the tunnel's ventilation and SCADA map, and the radiant heat model the planners and the console share.
+//! how time is read, when two places are one fire, the tunnel's ventilation and SCADA map,
+//! and the radiant heat model the planners and the console share.
 //!
 //! Not here: messages, keys and encodings (`firefleet-protocol`), or anything that talks
 //! to a network (`firefleet-bus`). This crate has no Zenoh and no tokio, so the pure
@@ -10,6 +11,7 @@
 
 pub mod builtin;
 pub mod clock;
+pub mod fire;
 pub mod geometry;
 pub mod heat;
 pub mod ids;

@@ -39,6 +39,9 @@
 //! the payload agree at compile time. Liveliness tokens and the status queryable carry no
 //! message and are plain key expressions ([`Keys::expr`]).
 //!
+//! The table above is `docs/keys.md`'s, for readers of the code; [`Topic::TEMPLATES`] is
+//! the list a test holds that table to.
+//!
 //! Not here: access rules or routing; this module only names keys.
 
 use std::fmt;
@@ -112,6 +115,64 @@ impl fmt::Display for Topic {
             Topic::SimCmd(u) => write!(f, "sim/unit/{u}/cmd"),
             Topic::SimRailSensors(u) => write!(f, "sim/rail/{u}/sensors"),
             Topic::SimRailCmd(u) => write!(f, "sim/rail/{u}/cmd"),
+        }
+    }
+}
+
+impl Topic {
+    /// The key of every kind of topic, without the `ff/<site>/` prefix, as the docs write
+    /// them (`docs/keys.md` has a row for each, which a test checks). A new kind of topic
+    /// goes here as well as in [`Topic::template`], which the compiler makes exhaustive.
+    pub const TEMPLATES: &[&str] = &[
+        "unit/<id>/state",
+        "unit/<id>/alive",
+        "unit/<id>/report",
+        "unit/<id>/task",
+        "unit/<id>/bt",
+        "fire/<fire_id>",
+        "zone/<zone>/goal/<commander>",
+        "zone/<zone>/ack",
+        "coord/alive",
+        "coord/status",
+        "coord/log",
+        "coord/barred",
+        "coord/goals",
+        "infra/dts/<zone>",
+        "infra/vent",
+        "infra/link",
+        "sim/clock",
+        "sim/truth",
+        "sim/unit/<id>/sensors",
+        "sim/unit/<id>/cmd",
+        "sim/rail/<id>/sensors",
+        "sim/rail/<id>/cmd",
+    ];
+
+    /// This topic's key with its ids as placeholders: one of [`Topic::TEMPLATES`].
+    pub fn template(&self) -> &'static str {
+        match self {
+            Topic::UnitState(_) => "unit/<id>/state",
+            Topic::UnitAlive(_) => "unit/<id>/alive",
+            Topic::UnitReport(_) => "unit/<id>/report",
+            Topic::UnitTask(_) => "unit/<id>/task",
+            Topic::UnitBt(_) => "unit/<id>/bt",
+            Topic::Fire(_) => "fire/<fire_id>",
+            Topic::ZoneGoal(..) => "zone/<zone>/goal/<commander>",
+            Topic::ZoneAck(_) => "zone/<zone>/ack",
+            Topic::CoordAlive => "coord/alive",
+            Topic::CoordStatus => "coord/status",
+            Topic::CoordLog => "coord/log",
+            Topic::CoordBarred => "coord/barred",
+            Topic::CoordGoals => "coord/goals",
+            Topic::InfraDts(_) => "infra/dts/<zone>",
+            Topic::InfraVent => "infra/vent",
+            Topic::InfraLink => "infra/link",
+            Topic::SimClock => "sim/clock",
+            Topic::SimTruth => "sim/truth",
+            Topic::SimSensors(_) => "sim/unit/<id>/sensors",
+            Topic::SimCmd(_) => "sim/unit/<id>/cmd",
+            Topic::SimRailSensors(_) => "sim/rail/<id>/sensors",
+            Topic::SimRailCmd(_) => "sim/rail/<id>/cmd",
         }
     }
 }
@@ -353,6 +414,21 @@ mod tests {
 
     fn u(s: &str) -> UnitId {
         UnitId::new(s).unwrap()
+    }
+
+    #[test]
+    fn every_template_is_the_key_of_one_kind_of_topic() {
+        let mut seen = std::collections::BTreeSet::new();
+        for template in Topic::TEMPLATES {
+            let key = format!("ff/t1/{template}")
+                .replace("<id>", "u1")
+                .replace("<fire_id>", "f7")
+                .replace("<zone>", "7")
+                .replace("<commander>", "rossi");
+            let (_, topic) = parse(&key).unwrap();
+            assert_eq!(topic.template(), *template, "{key}");
+            assert!(seen.insert(*template), "{template} twice");
+        }
     }
 
     #[test]

@@ -25,8 +25,8 @@ use firefleet_ros2::graph::{Domain, Namespace};
 
 use super::{PlatformKind, ScenarioArg, positive_f64};
 use crate::metrics::Metrics;
-use crate::net::{ZenohArgs, join, shutdown_signal};
 use crate::rehome::{self, Rehoming};
+use firefleet::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
 pub struct AgentArgs {
@@ -43,7 +43,7 @@ pub struct AgentArgs {
     #[arg(long, value_name = "FILE.xml")]
     tree: Option<PathBuf>,
     /// How often the tree is ticked, per second of site time.
-    #[arg(long, default_value_t = 20.0, value_parser = positive_f64)]
+    #[arg(long, default_value_t = 20.0, value_parser = positive_f64, allow_negative_numbers = true)]
     tick_hz: f64,
     /// Print the tree with live statuses to stderr about once a second of site time.
     #[arg(long)]
@@ -225,7 +225,7 @@ impl Drive<'_> {
                 // old session and its token go a moment later.
                 Ended::Moved((next, next_token)) => {
                     self.metrics.follow(&next);
-                    crate::net::watch(&next);
+                    firefleet::net::watch(&next);
                     let old = std::mem::replace(&mut bus, next);
                     let old_token = std::mem::replace(&mut token, next_token);
                     tokio::spawn(async move {

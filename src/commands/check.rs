@@ -4,7 +4,7 @@
 //! every violation and exits 1 if there is any.
 //!
 //! Not here: the invariants (`firefleet_coordinator::invariants`) or feeding a recording
-//! to them (`crate::checking`); this command prints the verdict.
+//! to them (`firefleet::checking`); this command prints the verdict.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -15,7 +15,7 @@ use firefleet_coordinator::incident::LEASE_S;
 use firefleet_recorder::parts::Recording;
 
 use super::{ScenarioArg, positive_f64};
-use crate::checking::check;
+use firefleet::checking::check;
 
 #[derive(Args, Debug)]
 pub struct CheckArgs {
@@ -26,7 +26,7 @@ pub struct CheckArgs {
     #[command(flatten)]
     scenario: ScenarioArg,
     /// The lease the coordinator counted units lost after, seconds of site time.
-    #[arg(long, default_value_t = LEASE_S, value_parser = positive_f64)]
+    #[arg(long, default_value_t = LEASE_S, value_parser = positive_f64, allow_negative_numbers = true)]
     lease_s: f64,
 }
 

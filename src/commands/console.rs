@@ -13,9 +13,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use super::{ScenarioArg, positive_f64};
-use crate::net::{ZenohArgs, join, shutdown_signal};
 use anyhow::Context;
 use clap::{Args, Subcommand};
+use firefleet::net::{ZenohArgs, join, shutdown_signal};
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
 use firefleet_console::auth::{Role, Sessions, Users};
@@ -78,7 +78,7 @@ struct ServeArgs {
     #[arg(long, value_name = "FILE", requires = "https_cert")]
     https_key: Option<PathBuf>,
     /// Hours a login lasts.
-    #[arg(long, default_value_t = 8.0, value_parser = positive_f64)]
+    #[arg(long, default_value_t = 8.0, value_parser = positive_f64, allow_negative_numbers = true)]
     session_hours: f64,
 }
 

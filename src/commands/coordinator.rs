@@ -18,7 +18,7 @@ use firefleet_recorder::parts::Recording;
 use firefleet_recorder::reader::Recorded;
 
 use super::{ScenarioArg, positive_f64};
-use crate::net::{ZenohArgs, join, shutdown_signal};
+use firefleet::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
 pub struct CoordinatorArgs {
@@ -29,7 +29,7 @@ pub struct CoordinatorArgs {
     #[command(flatten)]
     metrics: crate::metrics::MetricsArg,
     /// A unit silent this long is treated as lost, seconds of site time.
-    #[arg(long, default_value_t = firefleet_coordinator::incident::LEASE_S, value_parser = positive_f64)]
+    #[arg(long, default_value_t = firefleet_coordinator::incident::LEASE_S, value_parser = positive_f64, allow_negative_numbers = true)]
     lease_s: f64,
     /// Follow the simulator's clock (`ff/<site>/sim/clock`) instead of the system clock
     /// (implied on a site whose site file says `simulated = true`).

@@ -25,6 +25,7 @@ use firefleet_bus::access::Identity;
 use firefleet_bus::pki;
 use firefleet_bus::render::{Layout, render_site};
 use firefleet_bus::{Bus, Connect, Mode, free_loopback_port};
+use firefleet_coordinator::goals::Goals;
 use firefleet_model::UnitKind;
 use firefleet_model::builtin;
 use firefleet_model::scenario::Scenario;
@@ -36,8 +37,8 @@ use serde::Serialize;
 use tokio::process::{Child, Command};
 
 use super::{PlatformKind, non_negative_f64, time_scale, write_json};
-use crate::children::{as_child, exited, stop_children};
-use crate::net::shutdown_signal;
+use firefleet::children::{as_child, exited, firefleet_binary, stop_children};
+use firefleet::net::shutdown_signal;
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
@@ -48,8 +49,12 @@ pub struct DemoArgs {
     #[arg(long)]
     seed: Option<u64>,
     /// Simulated seconds per wall-clock second.
-    #[arg(long, default_value_t = 4.0, value_parser = time_scale)]
+    #[arg(long, default_value_t = 4.0, value_parser = time_scale, allow_negative_numbers = true)]
     time_scale: f64,
+    /// The loopback port the demo's router listens on, for `firefleet status`, `goal` and
+    /// other clients to `--connect` to (default: a free one, printed at the start).
+    #[arg(long)]
+    port: Option<u16>,
     /// Record all fleet traffic to this MCAP file.
     #[arg(long, value_name = "FILE.mcap")]
     record: Option<PathBuf>,
@@ -64,7 +69,7 @@ pub struct DemoArgs {
     goal: Vec<String>,
     /// Issue the goals this many seconds of site time into the incident instead of at its
     /// start (mid-incident, with units already at work).
-    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = non_negative_f64)]
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = non_negative_f64, allow_negative_numbers = true)]
     goals_at: f64,
     /// Run the fleet over mutual TLS through a router enforcing the site's access rules.
     #[arg(long)]
@@ -89,7 +94,7 @@ pub struct DemoArgs {
     console_users: Option<PathBuf>,
     /// Keep the fleet up this many seconds after the incident ends (to look at it on the
     /// console, or steer the units still patrolling).
-    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = non_negative_f64)]
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = non_negative_f64, allow_negative_numbers = true)]
     linger: f64,
     /// The bodies the ground agents drive: the simulator's units over the site's `sim/`
     /// keys, or ROS 2 robots (the simulator serving each on rmw_zenoh topics in its unit's
@@ -104,14 +109,14 @@ pub struct DemoArgs {
     scada: bool,
     /// With --scada: stop the simulator's Modbus server at this site time, as a cut link
     /// to the tunnel's SCADA (the bridge marks its readings stale; nothing else changes).
-    #[arg(long, value_name = "SECONDS", requires = "scada", value_parser = non_negative_f64)]
+    #[arg(long, value_name = "SECONDS", requires = "scada", value_parser = non_negative_f64, allow_negative_numbers = true)]
     cut_scada_at: Option<f64>,
     /// Kill the coordinator in charge at this site time: the standby takes over.
-    #[arg(long, value_name = "SECONDS", requires = "standby", value_parser = non_negative_f64)]
+    #[arg(long, value_name = "SECONDS", requires = "standby", value_parser = non_negative_f64, allow_negative_numbers = true)]
     kill_coordinator_at: Option<f64>,
     /// Kill the coordinator at this site time and start a new one at once, which remembers
     /// nothing but what a recorder kept (with --record) and what the units say.
-    #[arg(long, value_name = "SECONDS", conflicts_with = "standby", value_parser = non_negative_f64)]
+    #[arg(long, value_name = "SECONDS", conflicts_with = "standby", value_parser = non_negative_f64, allow_negative_numbers = true)]
     restart_coordinator_at: Option<f64>,
 }
 
@@ -224,7 +229,10 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         .map(|g| parse_goal(g, &scenario))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let seed = a.seed.unwrap_or(scenario.seed);
-    let port = free_loopback_port().context("finding a free loopback port")?;
+    let port = match a.port {
+        Some(port) => port,
+        None => free_loopback_port().context("finding a free loopback port")?,
+    };
     let commander = demo_commander();
     let site = a
         .secure
@@ -265,10 +273,12 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let states = bus.subscribe::<UnitState>(&keys.every_unit_state()).await?;
     let acks = bus.subscribe::<GoalAck>(&keys.every_zone_ack()).await?;
     let mut goals_to_issue = Some(goals.clone());
-    // The goals the coordinator accepted: fires where one bars attack may be left burning.
-    let mut in_force: Vec<ZoneGoal> = Vec::new();
+    // The goals the coordinator accepted, as it holds them: fires where one bars attack may
+    // be left burning.
+    let mut in_force = Goals::new(&scenario.zones, &scenario.commanders);
+    let mut site_t = 0.0;
 
-    let exe = std::env::current_exe().context("locating the firefleet binary")?;
+    let exe = firefleet_binary()?;
     let mut roles: Vec<(Identity, Vec<String>)> = Vec::new();
     if a.record.is_some() || a.foxglove.is_some() {
         let mut args = vec!["record".to_string()];
@@ -407,6 +417,12 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         children.len(),
         a.time_scale
     );
+    if site.is_none() {
+        println!(
+            "follow it from another terminal: firefleet status --scenario {} --mode client --connect {endpoint}",
+            a.scenario
+        );
+    }
 
     let started = Instant::now();
     let wall_limit = Duration::from_secs_f64(scenario.time_limit_s / a.time_scale + 90.0);
@@ -427,12 +443,13 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             }
             Some((_, ack)) = acks.recv() => {
                 if ack.accepted && let Some(g) = goals.iter().find(|g| g.id == ack.id && g.zone == ack.zone) {
-                    in_force.push(g.clone());
+                    in_force.submit(&g.zone, &commander, g.clone(), site_t);
                 }
                 let verdict = if ack.accepted { "" } else { "rejected: " };
                 println!("goal '{}' on zone {}: {verdict}{}", ack.id, ack.zone, ack.reason);
             }
             Some((_, truth)) = truths.recv() => {
+                site_t = truth.t;
                 // The simulator starts once the coordinator is up: time to issue the goals.
                 if kill_at.take_if(|at| truth.t >= *at).is_some()
                     && let Some(k) = children.iter().position(|(role, _)| role == "coordinator")
@@ -516,28 +533,18 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         fires: Vec::new(),
         units: Vec::new(),
     });
-    // Fires still burning where a commander's accepted goal bars attack: left so on purpose.
+    // Fires still burning where the goal governing their place (by rank, then priority, as
+    // the coordinator decides) bars attack: left so on purpose.
+    in_force.expire(truth.t);
     let spared: Vec<&str> = truth
         .fires
         .iter()
         .filter(|f| f.state != TruthFireState::Out)
         .filter_map(|f| {
-            let s = scenario.tunnel.chainage(f.position);
             in_force
-                .iter()
-                .filter(|g| {
-                    matches!(
-                        g.goal,
-                        GoalKind::Monitor | GoalKind::KeepOut | GoalKind::Evacuate
-                    )
-                })
-                .find(|g| {
-                    scenario
-                        .zones
-                        .iter()
-                        .any(|z| z.id == g.zone && (z.start_m..=z.end_m).contains(&s))
-                })
-                .map(|g| g.zone.as_str())
+                .at(scenario.tunnel.chainage(f.position))
+                .filter(|g| g.bars_attack())
+                .map(|g| g.goal.zone.as_str())
         })
         .collect();
     let mut zones = spared.clone();

@@ -22,7 +22,7 @@ use firefleet_model::{CommanderId, RouterId};
 use serde_json::{Value, json};
 
 use super::ScenarioArg;
-use crate::net::{ZenohArgs, shutdown_signal};
+use firefleet::net::{ZenohArgs, shutdown_signal};
 
 #[derive(Subcommand, Debug)]
 pub enum DeployCommand {
@@ -68,7 +68,7 @@ pub struct LayoutArgs {
     router: Vec<(RouterId, String)>,
     /// How much faster than real time a simulated site runs: the rate bounds scale with
     /// it (a real site: 1).
-    #[arg(long, default_value_t = 1.0, value_parser = super::time_scale)]
+    #[arg(long, default_value_t = 1.0, value_parser = super::time_scale, allow_negative_numbers = true)]
     time_scale: f64,
     /// A simulated site: grant the simulator's keys (to the simulator, and to each unit
     /// for its own body). A real site has none. Implied by `simulated = true` in the site
@@ -179,7 +179,7 @@ pub async fn router(a: RouterArgs) -> anyhow::Result<ExitCode> {
         .context("starting the router")?;
     tracing::info!(site = %scenario.site, "router up");
     a.metrics.serve(&bus, true, None).await?;
-    crate::net::ready();
+    firefleet::net::ready();
     shutdown_signal(a.zenoh.die_with_parent).await;
     bus.close().await;
     Ok(ExitCode::SUCCESS)

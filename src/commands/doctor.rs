@@ -29,7 +29,7 @@ use firefleet_protocol::keys::Topic;
 use time::OffsetDateTime;
 
 use super::{PlatformKind, ScenarioArg};
-use crate::net::ZenohArgs;
+use firefleet::net::ZenohArgs;
 
 #[derive(Args, Debug)]
 pub struct DoctorArgs {
@@ -55,7 +55,7 @@ pub struct DoctorArgs {
     #[arg(long)]
     offline: bool,
     /// How long a router or the coordinator has to answer, seconds.
-    #[arg(long, default_value_t = 3.0, value_parser = super::positive_f64)]
+    #[arg(long, default_value_t = 3.0, value_parser = super::positive_f64, allow_negative_numbers = true)]
     timeout_s: f64,
 }
 

@@ -3,7 +3,7 @@
 //! A goal is JSON on `ff/<site>/zone/<zone>/goal/<commander>`; the coordinator answers
 //! every goal on `ff/<site>/zone/<zone>/ack`, and a delete on the goal key clears that
 //! commander's goals on the zone. This command is one client of that API
-//! (`firefleet_bus::goal`); any Zenoh client can do the same (see the README).
+//! (`firefleet_bus::goal`); any Zenoh client can do the same (docs/zone-goals.md).
 //!
 //! Not here: how the coordinator applies goals (`firefleet_coordinator::goals`).
 
@@ -17,7 +17,7 @@ use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::msg::{GoalForm, GoalKind};
 
 use super::ScenarioArg;
-use crate::net::{ZenohArgs, open, query_status};
+use firefleet::net::{ZenohArgs, open, query_status};
 
 #[derive(Subcommand, Debug)]
 pub enum GoalCommand {

@@ -14,7 +14,7 @@ use firefleet_recorder::live::Live;
 use firefleet_recorder::parts::PART_EVERY;
 
 use super::{ScenarioArg, positive_f64};
-use crate::net::{ZenohArgs, join, shutdown_signal};
+use firefleet::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
 #[command(group(clap::ArgGroup::new("output").required(true).multiple(true).args(["out", "foxglove"])))]

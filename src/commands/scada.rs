@@ -33,7 +33,7 @@ use tokio_modbus::client::{Context as Modbus, Reader};
 use tokio_modbus::{ExceptionCode, Slave};
 
 use super::{ScenarioArg, positive_f64};
-use crate::net::{ZenohArgs, join, shutdown_signal};
+use firefleet::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
 pub struct ScadaArgs {
@@ -47,10 +47,10 @@ pub struct ScadaArgs {
     #[arg(long, value_name = "HOST:PORT")]
     modbus: SocketAddr,
     /// Seconds between polls.
-    #[arg(long, default_value_t = 1.0, value_parser = positive_f64)]
+    #[arg(long, default_value_t = 1.0, value_parser = positive_f64, allow_negative_numbers = true)]
     period_s: f64,
     /// Seconds a request may take before the link counts as down.
-    #[arg(long, default_value_t = 1.0, value_parser = positive_f64)]
+    #[arg(long, default_value_t = 1.0, value_parser = positive_f64, allow_negative_numbers = true)]
     timeout_s: f64,
     /// Follow the simulator's clock (implied on a site whose file says `simulated = true`).
     #[arg(long)]
@@ -82,7 +82,7 @@ pub async fn run(a: ScadaArgs) -> anyhow::Result<ExitCode> {
         Duration::from_secs_f64(a.timeout_s),
     );
     tracing::info!(modbus = %a.modbus, period_s = a.period_s, "bridging the tunnel's SCADA");
-    crate::net::ready();
+    firefleet::net::ready();
     let mut ticker = tokio::time::interval(Duration::from_secs_f64(a.period_s));
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let shutdown = shutdown_signal(a.zenoh.die_with_parent);

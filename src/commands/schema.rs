@@ -7,7 +7,7 @@
 //! is of the JSON form a recording holds, not of the bytes on the bus.
 //!
 //! Not here: the key each message travels on (`firefleet_protocol::keys`, listed in the
-//! README).
+//! `docs/keys.md`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -13,7 +13,7 @@ use firefleet_ros2::graph::Domain;
 use firefleet_sim::SimOptions;
 
 use super::{ScenarioArg, positive_f64, time_scale};
-use crate::net::{ZenohArgs, join, shutdown_signal};
+use firefleet::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
 pub struct SimArgs {
@@ -27,10 +27,10 @@ pub struct SimArgs {
     #[arg(long)]
     seed: Option<u64>,
     /// Simulated seconds per wall-clock second.
-    #[arg(long, default_value_t = 1.0, value_parser = time_scale)]
+    #[arg(long, default_value_t = 1.0, value_parser = time_scale, allow_negative_numbers = true)]
     time_scale: f64,
     /// Wait up to this many seconds for every unit to be alive before starting the clock.
-    #[arg(long, value_name = "SECONDS", value_parser = positive_f64)]
+    #[arg(long, value_name = "SECONDS", value_parser = positive_f64, allow_negative_numbers = true)]
     wait_for_fleet: Option<f64>,
     /// With --wait-for-fleet, wait for a coordinator too.
     #[arg(long)]

@@ -9,7 +9,7 @@ use firefleet_protocol::codec::PROTOCOL_VERSION;
 use firefleet_protocol::msg::IncidentStatus;
 
 use super::ScenarioArg;
-use crate::net::{ZenohArgs, open, query_status};
+use firefleet::net::{ZenohArgs, open, query_status};
 
 #[derive(Args, Debug)]
 pub struct StatusArgs {

@@ -1,6 +1,6 @@
 //! The command line: exit codes and messages a user relies on.
 
-use crate::support::{assert_numbers, assert_says, firefleet, json_of};
+use crate::support::{assert_says, firefleet, json_of};
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
@@ -122,110 +122,6 @@ fn a_closed_pipe_ends_a_command_quietly() {
 }
 
 #[test]
-fn the_cannon_experiment_reports_every_angle_and_is_reproducible() {
-    let dir = tempfile::tempdir().unwrap();
-    let (a, b) = (dir.path().join("a.json"), dir.path().join("b.json"));
-    for path in [&a, &b] {
-        let out = firefleet(&[
-            "experiment",
-            "cannon",
-            "--seed",
-            "3",
-            "--trials",
-            "4",
-            "--json",
-            path.to_str().unwrap(),
-        ]);
-        assert!(out.status.success(), "{}", text(&out.stderr));
-    }
-    let (ja, jb) = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
-    assert_eq!(ja, jb, "the same seed gives the same results");
-    let v: serde_json::Value = serde_json::from_slice(&ja).unwrap();
-    let angles = v["angles"].as_array().unwrap();
-    assert_eq!(
-        angles
-            .iter()
-            .map(|x| x["angle_deg"].as_f64().unwrap())
-            .collect::<Vec<_>>(),
-        [0.0, 30.0, 60.0]
-    );
-    for x in angles {
-        assert_numbers(
-            x,
-            &[
-                "trials",
-                "mean_s_per_flame",
-                "std_s_per_flame",
-                "completion_rate",
-            ],
-        );
-        assert!(x["completion_rate"].as_f64().unwrap() > 0.9, "{x}");
-    }
-}
-
-#[test]
-fn the_fleet_experiment_compares_the_strategies_with_and_without_the_scada_feed() {
-    let v = json_of(&["experiment", "fleet", "--trials", "1"]);
-    let runs = v["strategies"].as_array().unwrap();
-    assert_eq!(
-        runs.len(),
-        17,
-        "4 scenarios x 4 strategies, and the ventilated one from downwind"
-    );
-    for r in runs {
-        assert!(
-            ["autonomous", "greedy", "optimal", "feed", "feed, downwind"]
-                .contains(&r["strategy"].as_str().unwrap())
-        );
-        assert_numbers(
-            r,
-            &[
-                "time_all_out_s",
-                "heat_dose",
-                "attack_heat_dose",
-                "water_l",
-                "fires_never_attacked",
-            ],
-        );
-        assert_eq!(r["unfinished"], 0, "every fire out in {r}");
-    }
-    let run = |scenario: &str, strategy: &str| {
-        runs.iter()
-            .find(|r| r["scenario"] == scenario && r["strategy"] == strategy)
-            .unwrap_or_else(|| panic!("no {strategy} run on {scenario}"))
-    };
-    let num = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap();
-    // Upwind spares the attackers the fire's hot gas, and the fleet the downstream smoke.
-    let (up, down) = (
-        run("ventilated", "feed"),
-        run("ventilated", "feed, downwind"),
-    );
-    assert!(
-        num(up, "attack_heat_dose") < 0.5 * num(down, "attack_heat_dose"),
-        "{up} {down}"
-    );
-    assert!(num(up, "heat_dose") < num(down, "heat_dose"), "{up} {down}");
-    // The DTS finds the rail tunnel's far fire before any sensor of the fleet does.
-    let (fed, optimal) = (run("rail-tunnel", "feed"), run("rail-tunnel", "optimal"));
-    assert!(
-        num(fed, "time_all_out_s") < num(optimal, "time_all_out_s"),
-        "{fed} {optimal}"
-    );
-    // The drive floor is under every time on its scenario.
-    let floors = v["floors"].as_array().unwrap();
-    assert!(floors.len() >= 2, "{v}");
-    for f in floors {
-        let (name, floor) = (f[0].as_str().unwrap(), f[1].as_f64().unwrap());
-        for r in runs.iter().filter(|r| r["scenario"] == name) {
-            assert!(
-                num(r, "time_all_out_s") > floor,
-                "{r} under the floor {floor}"
-            );
-        }
-    }
-}
-
-#[test]
 fn plan_grid_solves_a_movingai_benchmark_to_its_optimal_lengths() {
     // The fixture's optimal lengths come from an independent Dijkstra
     // (tests/fixtures/make_grid_bench.py).
@@ -240,28 +136,6 @@ fn plan_grid_solves_a_movingai_benchmark_to_its_optimal_lengths() {
 
     let out = firefleet(&["plan", "grid", "--map", &scen, "--scen", &scen]);
     assert_says(&out, 2, "grid-bench.scen: line 1: expected 'type'");
-}
-
-#[test]
-fn the_costmap_experiment_reports_the_papers_three_cases_in_its_order() {
-    let v = json_of(&["experiment", "costmap-ga", "--size", "40"]);
-    let cases = v["cases"].as_array().unwrap();
-    assert_eq!(cases.len(), 3);
-    let f = |k: usize| cases[k]["fitness"].as_f64().unwrap();
-    for c in cases {
-        for key in ["case", "fitness", "path_time", "heat_dose"] {
-            assert!(c[key].is_number(), "{key} in {c}");
-        }
-    }
-    assert!(
-        f(2) <= f(1) && f(2) <= f(0),
-        "the GA's weights plan the fittest path: {v}"
-    );
-    let h = |k: usize| cases[k]["heat_dose"].as_f64().unwrap();
-    assert!(
-        h(1) < h(0),
-        "heat in the cost keeps the path out of the heat: {v}"
-    );
 }
 
 #[test]

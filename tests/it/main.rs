@@ -9,6 +9,7 @@ mod cli;
 mod doctor;
 mod fleet;
 mod fuzz;
+mod readme;
 mod recording;
 mod routers;
 mod scada;

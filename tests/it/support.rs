@@ -120,13 +120,6 @@ pub fn json_of(args: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap()
 }
 
-/// Asserts that every one of `keys` in `v` is a number.
-pub fn assert_numbers(v: &serde_json::Value, keys: &[&str]) {
-    for key in keys {
-        assert!(v[key].is_number(), "{key} in {v}");
-    }
-}
-
 /// A wall-clock wait for something the fleet's processes must do (join, answer, put a fire
 /// out), times `FIREFLEET_TEST_PATIENCE` (a number, default 1): on a loaded machine (two
 /// cores, every test binary at once) the processes take longer, and a deadline that only

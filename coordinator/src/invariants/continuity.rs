@@ -22,12 +22,13 @@
 //! without hearing it: a recorder cut off with its router (a router restart) hears
 //! nobody for a while, and that silence is the recorder's, not the units'.
 //!
-//! Fires are matched by place ([`SAME_FIRE_M`]), not by id: a new coordinator's tracks
-//! are its own, numbered afresh.
+//! Fires are matched by place ([`firefleet_model::fire::same_fire`]), not by id: a new
+//! coordinator's tracks are its own, numbered afresh.
 
 use std::collections::BTreeMap;
 
 use firefleet_model::UnitKind;
+use firefleet_model::fire::same_fire;
 use firefleet_model::{Point2, UnitId};
 use firefleet_protocol::msg::{Task, TaskKind, UnitState};
 
@@ -40,9 +41,6 @@ pub const RELIEF_S: f64 = 1.0;
 /// Time a new coordinator has, after its first task, to send its term's units to every
 /// fire the old term was attacking, site s: it gives those tasks as it takes office.
 pub const TAKEOVER_S: f64 = 1.0;
-/// Two attack targets this close are one fire, m: fused estimates of one flame differ by
-/// a metre or two, and fires in one tunnel stand further apart than this.
-pub const SAME_FIRE_M: f64 = 6.0;
 /// A stretch this long with no event at all is the observer's own silence, site s.
 const OBSERVER_GAP_S: f64 = 1.0;
 /// How often the units are looked over for silence, site s: events come thousands a
@@ -313,10 +311,6 @@ impl Continuity {
             .filter(|h| t - h.at <= self.lease_s)
             .map(|h| h.kind)
     }
-}
-
-fn same_fire(a: Point2, b: Point2) -> bool {
-    a.dist(b) <= SAME_FIRE_M
 }
 
 #[cfg(test)]

@@ -38,7 +38,8 @@ use firefleet_model::profile::{GROUND, MONORAIL, Profile};
 use firefleet_model::scenario::{Scenario, Tunnel};
 use firefleet_model::{Chainage, CommanderId, Point2, UnitId, ZoneId};
 use firefleet_protocol::msg::{
-    INSIDE_PORTAL_M, Task, TaskKind, TaskPhase, UnitState, ZoneGoal, nearest_allowed,
+    INSIDE_PORTAL_M, SimTruth, Task, TaskKind, TaskPhase, TruthFireState, UnitState, ZoneGoal,
+    nearest_allowed,
 };
 
 use crate::goals::{Active, Goals};
@@ -47,7 +48,7 @@ use crate::incident::LEASE_S;
 mod continuity;
 
 use continuity::Continuity;
-pub use continuity::{RELIEF_S, SAME_FIRE_M, TAKEOVER_S, Tally};
+pub use continuity::{RELIEF_S, TAKEOVER_S, Tally};
 
 /// Time to hear a goal and act on it, s: a state or task message comes at least once a
 /// second, and a plan takes up to half a second.
@@ -74,6 +75,21 @@ pub enum Event {
     Task(Task),
     /// Where fires burn (burning, not smouldering), by the simulator's ground truth.
     Burning(Vec<Point2>),
+}
+
+impl Event {
+    /// Where `truth` has fires burning: the checker's event of the simulator's ground
+    /// truth, in a recording or an in-process fleet alike.
+    pub fn burning(truth: &SimTruth) -> Self {
+        Self::Burning(
+            truth
+                .fires
+                .iter()
+                .filter(|f| f.state == TruthFireState::Burning)
+                .map(|f| f.position)
+                .collect(),
+        )
+    }
 }
 
 /// A broken invariant.

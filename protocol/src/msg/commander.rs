@@ -92,6 +92,19 @@ firefleet_model::names!(GoalKind, "a goal" {
     Evacuate => "evacuate",
 });
 
+impl GoalKind {
+    /// Whether a unit may not be in or travel through a zone with this goal.
+    pub fn bars_entry(self) -> bool {
+        matches!(self, GoalKind::KeepOut | GoalKind::Evacuate)
+    }
+
+    /// Whether fires in a zone with this goal are not to be attacked: every goal that bars
+    /// entry, and `monitor`, which watches a fire without fighting it.
+    pub fn bars_attack(self) -> bool {
+        self.bars_entry() || self == GoalKind::Monitor
+    }
+}
+
 /// `ff/<site>/zone/<zone>/goal` (JSON): an incident commander's zone goal.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]

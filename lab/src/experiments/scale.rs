@@ -43,7 +43,7 @@ use firefleet_protocol::keys::{Keys, Topic};
 use firefleet_protocol::msg::{FlameObservation, FlameReport, Task, TaskKind, UnitMode, UnitState};
 use serde::Serialize;
 
-use crate::commands::write_json;
+use firefleet::args::write_json;
 
 #[derive(Args, Debug)]
 pub struct ScaleArgs {
@@ -308,7 +308,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
     let reporter = Bus::open(client, SiteId::new("scale")?).await?;
     let tasks = reporter.subscribe::<Task>(&keys.every_unit_task()).await?;
     // The fleet comes up once the coordinator answers status queries (its last step).
-    while crate::net::query_status(&fleet).await.is_err() {
+    while firefleet::net::query_status(&fleet).await.is_err() {
         anyhow::ensure!(
             launched.elapsed() < Duration::from_secs(20),
             "the coordinator did not come up within 20 s"
@@ -506,7 +506,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
 
 /// `firefleet <role> --scenario <site>`, quiet, a child of this process that ends with it.
 fn child(role: &str, site: &std::path::Path) -> anyhow::Result<tokio::process::Command> {
-    let mut cmd = tokio::process::Command::new(std::env::current_exe()?);
+    let mut cmd = tokio::process::Command::new(firefleet::children::firefleet_binary()?);
     cmd.args([role, "--scenario"])
         .arg(site)
         .arg("--die-with-parent")

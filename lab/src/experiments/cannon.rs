@@ -1,15 +1,15 @@
-//! `firefleet experiment`: the papers' experiments, reproduced in the simulator.
+//! The BT paper's water-cannon experiment (section 4.3): one ground unit 6 m from an
+//! ignition point with 1 to 5 flames, at 0, 30 and 60 degrees, its tree alone.
 //!
-//! Runs are in-process (world, unit controllers and the coordinator's incident logic
-//! stepped together, no bus) so that a seed gives the same run every time. The code is the
-//! demo's; only the transport is left out.
+//! Not here: the tree (`firefleet_agent::ground::cannon_experiment_tree`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 
 use anyhow::Context;
-use clap::{Args, Subcommand};
+use clap::Args;
+use firefleet::args::write_json;
 use firefleet_agent::ground::{GroundController, cannon_experiment_tree};
 use firefleet_model::UnitKind;
 use firefleet_model::geometry::Point2;
@@ -22,44 +22,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use crate::commands::write_json;
-
-mod costmap_ga;
-mod fleet;
-mod flood;
-mod nav;
-mod nemesis;
-mod plot;
-mod robogat;
-mod scale;
-mod sim_fleet;
-mod zones;
-
-#[derive(Subcommand, Debug)]
-pub enum ExperimentCommand {
-    /// The BT paper's water-cannon experiment: 1 to 5 flames 6 m away at 0, 30 and 60 deg.
-    Cannon(CannonArgs),
-    /// The shipped multi-fire scenarios with no coordinator, greedy and optimal assignment.
-    Fleet(fleet::FleetArgs),
-    /// The ROBOGAT paper's monorail case study: fuzzy against fixed weights.
-    Robogat(robogat::RobogatArgs),
-    /// A real coordinator process under a large simulated fleet over loopback Zenoh.
-    Scale(scale::ScaleArgs),
-    /// A secure demo site under a flood from one stolen unit certificate, measured.
-    Flood(flood::FloodArgs),
-    /// The Dijkstra+GA paper's heat-aware cost map: no heat, w1 = w2 = 1, GA-tuned.
-    CostmapGa(costmap_ga::CostmapGaArgs),
-    /// The BT paper's navigation trials in a curved tunnel, visibility term on and off.
-    Nav(nav::NavArgs),
-    /// Keep-out and evacuate goals issued mid-incident on the shipped scenarios.
-    Zones(zones::ZonesArgs),
-    /// The fleet across Linux network namespaces under partitions, loss, kills and
-    /// pauses, one fault a run, checked over its recordings (needs root).
-    Nemesis(nemesis::NemesisArgs),
-    /// The nemesis's delaying TCP proxy, run in the router's namespace.
-    #[command(hide = true)]
-    DelayProxy(nemesis::proxy::ProxyArgs),
-}
+use super::mean_std;
 
 #[derive(Args, Debug)]
 pub struct CannonArgs {
@@ -71,21 +34,6 @@ pub struct CannonArgs {
     /// Also write the results as JSON.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
-}
-
-pub async fn run(cmd: ExperimentCommand) -> anyhow::Result<ExitCode> {
-    match cmd {
-        ExperimentCommand::Cannon(a) => cannon(a),
-        ExperimentCommand::Fleet(a) => fleet::run(a),
-        ExperimentCommand::Robogat(a) => robogat::run(a),
-        ExperimentCommand::Scale(a) => scale::run(a).await,
-        ExperimentCommand::Flood(a) => flood::run(a).await,
-        ExperimentCommand::CostmapGa(a) => costmap_ga::run(a),
-        ExperimentCommand::Nav(a) => nav::run(a),
-        ExperimentCommand::Zones(a) => zones::run(a),
-        ExperimentCommand::Nemesis(a) => nemesis::run(a).await,
-        ExperimentCommand::DelayProxy(a) => nemesis::proxy::run(a).await,
-    }
 }
 
 /// The paper's figures: angle, mean and standard deviation of the time per flame, s.
@@ -198,20 +146,7 @@ fn trial(angle_deg: f64, seed: u64) -> anyhow::Result<(usize, usize, Option<f64>
     Ok((out, n, None))
 }
 
-fn mean_std(v: &[f64]) -> (f64, f64) {
-    if v.is_empty() {
-        return (f64::NAN, f64::NAN);
-    }
-    let m = v.iter().sum::<f64>() / v.len() as f64;
-    let var = if v.len() > 1 {
-        v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64
-    } else {
-        0.0
-    };
-    (m, var.sqrt())
-}
-
-fn cannon(a: CannonArgs) -> anyhow::Result<ExitCode> {
+pub fn run(a: CannonArgs) -> anyhow::Result<ExitCode> {
     let mut angles = Vec::new();
     println!(
         "water-cannon experiment (BT paper, section 4.3): unit 6 m from the ignition point, 1-5 flames, seed {}",

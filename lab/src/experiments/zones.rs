@@ -22,8 +22,8 @@ use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::msg::{GoalKind, TruthFireState, ZoneGoal};
 use serde::Serialize;
 
-use super::sim_fleet::{Command, SimFleet};
-use crate::commands::write_json;
+use firefleet::args::write_json;
+use firefleet_lab::fleet::{Command, SimFleet};
 
 #[derive(Args, Debug)]
 pub struct ZonesArgs {

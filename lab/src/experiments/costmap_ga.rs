@@ -12,7 +12,7 @@ use clap::Args;
 use firefleet_nav::costmap::{Ga, Terrain, three_cases};
 use serde::Serialize;
 
-use crate::commands::write_json;
+use firefleet::args::write_json;
 
 #[derive(Args, Debug)]
 pub struct CostmapGaArgs {

@@ -15,7 +15,7 @@ use serde::Serialize;
 
 use super::plot::{self, Labels, Series};
 
-use crate::commands::write_json;
+use firefleet::args::write_json;
 
 #[derive(Args, Debug)]
 pub struct RobogatArgs {

@@ -26,8 +26,8 @@ use firefleet_model::scenario::Scenario;
 use firefleet_protocol::msg::{FireState, FireTrack};
 use serde::Serialize;
 
-use super::sim_fleet::{self, Air, SimFleet};
-use crate::commands::write_json;
+use firefleet::args::write_json;
+use firefleet_lab::fleet::{self as sim_fleet, Air, SimFleet};
 
 #[derive(Args, Debug)]
 pub struct FleetArgs {

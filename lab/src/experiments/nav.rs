@@ -39,7 +39,7 @@ use serde::Serialize;
 
 use super::mean_std;
 
-use crate::commands::write_json;
+use firefleet::args::write_json;
 
 #[derive(Args, Debug)]
 pub struct NavArgs {

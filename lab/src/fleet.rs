@@ -26,8 +26,6 @@ use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitState, Zon
 use firefleet_protocol::msg::{DtsZone, FireTrack, SimTruth, Vent};
 use firefleet_sim::World;
 
-use crate::checking::burning;
-
 /// The simulator's step, s.
 const DT_S: f64 = 0.05;
 /// Units and coordinator exchange states, reports and tasks every this many steps (a
@@ -252,7 +250,8 @@ impl SimFleet {
         }
         if self.step.is_multiple_of(EXCHANGE_EVERY) {
             let t = self.world.time();
-            self.invariants.observe(t, burning(&self.world.truth()));
+            self.invariants
+                .observe(t, Event::burning(&self.world.truth()));
             for (_, u) in &self.units {
                 self.invariants.observe(t, Event::State(u.state()));
             }

@@ -49,7 +49,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use crate::commands::{time_scale, write_json};
+use firefleet::args::{time_scale, write_json};
 
 /// What the thief sends on ugv-2's keys.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -89,7 +89,7 @@ pub struct FloodArgs {
     /// The site (a built-in scenario or a file); it must have a unit ugv-2.
     #[arg(long, default_value = "pileup")]
     scenario: String,
-    #[arg(long, default_value_t = 4.0, value_parser = time_scale)]
+    #[arg(long, default_value_t = 4.0, value_parser = time_scale, allow_negative_numbers = true)]
     time_scale: f64,
     /// The attacks, one run each (comma-separated); with `none` among them, a table sets
     /// each run's all-out time beside the unattacked one's.
@@ -251,7 +251,7 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
     let console = (a.https_clients > 0)
         .then(|| firefleet_bus::free_loopback_port().map(|p| format!("127.0.0.1:{p}")))
         .transpose()?;
-    let mut demo = std::process::Command::new(std::env::current_exe()?);
+    let mut demo = std::process::Command::new(firefleet::children::firefleet_binary()?);
     demo.args(["demo", "--secure", "--scenario"])
         .arg(&site_file)
         .args(["--seed", &a.seed.to_string()])
@@ -681,7 +681,7 @@ async fn bar_every_zone(
     };
     // Strike once the firefighting is under way: a fire confirmed. (A keep-out before any
     // fire is known strands nothing the coordinator knows of, and raises no alert: see the
-    // README's zone goals.)
+    // docs/zone-goals.md.)
     let mut chief_bus = chief_bus;
     loop {
         if stop.load(Ordering::Relaxed) {

@@ -51,9 +51,9 @@ use serde::Serialize;
 use tokio::io::AsyncWriteExt;
 use tokio::process::{Child, Command};
 
-use crate::checking::check;
-use crate::children::{as_child, stop_children};
-use crate::commands::{time_scale, write_json};
+use firefleet::args::{time_scale, write_json};
+use firefleet::checking::check;
+use firefleet::children::{as_child, firefleet_binary, stop_children};
 
 /// How long a fault that lasts (a partition, loss, a pause) lasts, wall-clock.
 const FAULT: Duration = Duration::from_secs(15);
@@ -78,7 +78,7 @@ pub struct NemesisArgs {
     /// Simulated seconds per wall-clock second: slow enough that the scenario's time
     /// limit comes well after a fault and the recovery from it (the simulator stops at
     /// the limit, and its units with it).
-    #[arg(long, default_value_t = 4.0, value_parser = time_scale)]
+    #[arg(long, default_value_t = 4.0, value_parser = time_scale, allow_negative_numbers = true)]
     time_scale: f64,
     /// The faults to run, one fleet each (default: all).
     #[arg(long, value_delimiter = ',')]
@@ -312,12 +312,16 @@ fn spawn(
     if let Some(c) = connect {
         args.extend(strings(&["--mode", "client", "--connect", c]));
     }
-    spawn_as_given(ns, role, &args)
+    spawn_as_given(&firefleet_binary()?, ns, role, &args)
 }
 
-/// Start `args` of the firefleet binary in namespace `ns`, its stdin a pipe from here.
-fn spawn_as_given(ns: &str, role: &str, args: &[String]) -> anyhow::Result<(String, Child)> {
-    let exe = std::env::current_exe().context("locating the firefleet binary")?;
+/// Start `exe` with `args` in namespace `ns`, its stdin a pipe from here.
+fn spawn_as_given(
+    exe: &Path,
+    ns: &str,
+    role: &str,
+    args: &[String],
+) -> anyhow::Result<(String, Child)> {
     let mut cmd = Command::new("ip");
     cmd.args(["netns", "exec", ns]).arg(exe).args(args);
     as_child(&mut cmd, "error");
@@ -369,7 +373,6 @@ async fn one_run(
     let mut links = std::collections::BTreeMap::new();
     let unit_port = if fault == Fault::Delay {
         let args = strings(&[
-            "experiment",
             "delay-proxy",
             "--listen",
             &format!("0.0.0.0:{PROXY_PORT}"),
@@ -378,7 +381,10 @@ async fn one_run(
             "--seed",
             &run.to_string(),
         ]);
-        procs.0.push(spawn_as_given(&router_ns, "proxy", &args)?);
+        let lab = std::env::current_exe().context("locating the lab's binary")?;
+        procs
+            .0
+            .push(spawn_as_given(&lab, &router_ns, "proxy", &args)?);
         PROXY_PORT
     } else {
         PORT

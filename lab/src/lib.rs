@@ -1,0 +1,20 @@
+//! The lab's library: [`fleet::SimFleet`], a whole fleet stepped deterministically in one
+//! process (world, unit controllers, the coordinator's incident core), which the lab's
+//! experiments and any crate's tests can drive.
+//!
+//! ```
+//! use firefleet_coordinator::assign::Strategy;
+//! use firefleet_lab::fleet::{Command, SimFleet};
+//!
+//! let scenario = firefleet_model::builtin::resolve("vehicle-collision").unwrap();
+//! let mut fleet = SimFleet::new(&scenario, Command::Coordinator(Strategy::Optimal), 1, &[]).unwrap();
+//! while fleet.time() < 5.0 {
+//!     fleet.step().unwrap();
+//! }
+//! assert!(fleet.violations().is_empty());
+//! ```
+//!
+//! Not here: the experiments (the `firefleet-lab` binary) or the fleet's processes (the
+//! `firefleet` binary's roles).
+
+pub mod fleet;
