@@ -162,7 +162,7 @@ pub async fn join(zenoh: &ZenohArgs, scenario: &Scenario, who: Expect) -> anyhow
     Ok(bus)
 }
 
-/// Log `bus`'s link changes ([`watch_link`]) for as long as it is open.
+/// Log `bus`'s link changes (`watch_link`) for as long as it is open.
 pub fn watch(bus: &Bus) {
     tokio::spawn(watch_link(bus.clone()));
 }

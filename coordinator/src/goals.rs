@@ -71,12 +71,12 @@ impl Active {
         (self.start..=self.end).contains(&s)
     }
 
-    /// Whether a unit may not be in or travel through the zone ([`GoalKind::bars_entry`]).
+    /// Whether a unit may not be in or travel through the zone ([`firefleet_protocol::msg::GoalKind::bars_entry`]).
     pub fn bars_entry(&self) -> bool {
         self.goal.goal.bars_entry()
     }
 
-    /// Whether fires in the zone are not to be attacked ([`GoalKind::bars_attack`]).
+    /// Whether fires in the zone are not to be attacked ([`firefleet_protocol::msg::GoalKind::bars_attack`]).
     pub fn bars_attack(&self) -> bool {
         self.goal.goal.bars_attack()
     }

@@ -3,7 +3,7 @@
 //! Site and unit ids become chunks of Zenoh key expressions, so they are restricted to a
 //! small alphabet that can never contain the key-expression specials (`/ * $ # ?`).
 //!
-//! Not here: key expressions built from them ([`crate::keys`]).
+//! Not here: key expressions built from them (`firefleet_protocol::keys`, which builds on this crate).
 
 use std::fmt;
 use std::str::FromStr;

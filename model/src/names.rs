@@ -1,7 +1,7 @@
 //! Names of enums, one way: the names they have on the wire (their serde names, kebab
 //! case) are the names on the command line, in logs and in printed tables.
 //!
-//! [`names!`](crate::names) gives an enum `as_str`, `Display`, `FromStr` (whose error lists
+//! [`names!`](macro@crate::names) gives an enum `as_str`, `Display`, `FromStr` (whose error lists
 //! the choices) and `ALL`. Each use is tested against serde, so the two cannot drift.
 
 /// `names!(Enum, "what one is" { Variant => "name", ... })`; see the module doc.

@@ -16,7 +16,7 @@
 //! removed, so a recording is one file, as every tool expects. Readers ([`Recording::load`])
 //! take either: the file, or, when the recorder did not live to merge, the parts.
 //!
-//! Not here: what is recorded ([`crate::record`]).
+//! Not here: what is recorded ([`mod@crate::record`]).
 
 use std::fs;
 use std::io;

@@ -231,7 +231,7 @@ impl McapSink {
 }
 
 /// The recording being written, in parts ([`crate::parts`]): every message goes to the
-/// current part, which is finished and replaced every [`PART_EVERY`].
+/// current part, which is finished and replaced every [`crate::parts::PART_EVERY`].
 struct Parts<'a> {
     out: PathBuf,
     dir: PathBuf,

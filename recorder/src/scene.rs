@@ -14,7 +14,7 @@
 //! - [`TRUTH_TOPIC`]: the simulator's ground truth, for demos and experiments only.
 //!
 //! The messages are Foxglove's well-known `foxglove.SceneUpdate`, `foxglove.Grid` and
-//! `foxglove.Log`, as JSON ([`foxglove`](self::foxglove)).
+//! `foxglove.Log`, as JSON ([`foxglove`]).
 //!
 //! Not here: writing the file ([`crate::record`](mod@crate::record)) or serving it live
 //! ([`crate::live`]).

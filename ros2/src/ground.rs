@@ -33,7 +33,7 @@
 //! - Tank level and heat flux are plain `Float64` in stated units: `sensor_msgs` has no
 //!   water tank or heat-flux message, and `BatteryState` would mean misreading its fields.
 //!
-//! Not here: the agent's `Platform` ([`firefleet_agent`]) or the simulator's loop.
+//! Not here: the agent's `Platform` (`firefleet_agent::platform`, which builds on this crate) or the simulator's loop.
 
 use std::sync::{Arc, Mutex};
 

@@ -1,8 +1,8 @@
 //! The monorail unit's behavior-tree leaves, registered for the [`RailUnit`] context with
 //! the coordinator-link leaves every unit shares ([`crate::mission`]).
 //!
-//! Not here: the kinematics and planner they drive ([`crate::rail`]) or the tree
-//! (`agent/trees/monorail_unit.xml`).
+//! Not here: the kinematics and planner they drive ([`super::kinematics`], [`super::clik`],
+//! [`super::planner`]) or the tree (`agent/trees/monorail_unit.xml`).
 
 use firefleet_bt::node::Io;
 use firefleet_bt::{Port, Registry, StatefulAction, Status};

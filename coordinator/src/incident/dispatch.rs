@@ -32,7 +32,7 @@ impl Incident {
     /// units are all still on their way, solved again so that a unit come free near a
     /// fire takes it over from one still far away ([`crate::assign::KEEP_S`] keeps changes to real
     /// gains). A unit that loses its fire so stays on as its backup if it is within
-    /// [`Policy::help_within_s`] of it and the fire wants another attacker, and is released
+    /// [`super::Policy::help_within_s`] of it and the fire wants another attacker, and is released
     /// otherwise.
     pub(super) fn assign(&mut self, scope: Scope, t: f64) -> Vec<Output> {
         let open = |s: FireState| match scope {

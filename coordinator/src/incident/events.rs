@@ -416,7 +416,7 @@ impl Incident {
     /// A unit works on a task this coordinator did not give (it gave it before a restart):
     /// take the task over rather than send the unit elsewhere. Its fire is the track the
     /// task names if that was recalled and is still burning, else the track within
-    /// [`Policy::adopt_radius_m`] of where the unit believes it is, or a new track there.
+    /// [`super::Policy::adopt_radius_m`] of where the unit believes it is, or a new track there.
     ///
     /// The task is given again in this coordinator's term: until a unit has taken a task
     /// of the new term, the coordinator that gave the old one (deposed, perhaps only cut

@@ -4,7 +4,7 @@
 //! **DTS.** Zones in alarm (and neither stale, faulted nor old) are grouped into runs of
 //! neighbours; each zone hotter than its neighbours in a run is a fire somewhere in it (two
 //! burning cars 20 m apart are two peaks, a fire's hot ceiling either side of it is one).
-//! Each peak is observed by fusion as a Gaussian over its zone ([`Fusion::observe_dts`]),
+//! Each peak is observed by fusion as a Gaussian over its zone ([`crate::fusion::Fusion::observe_dts`]),
 //! so a unit is sent before any unit has seen the fire, and its first sighting moves the
 //! units sent there to where the flame is ([`Decision::Located`]).
 //!

@@ -37,9 +37,9 @@ impl Incident {
     }
 
     /// Whether a flame at a point is one a unit at `pose` cannot miss
-    /// ([`Policy::clear_view_m`]).
+    /// ([`super::Policy::clear_view_m`]).
     ///
-    /// [`Policy::clear_view_m`]: super::Policy::clear_view_m
+    /// [`super::Policy::clear_view_m`]: super::Policy::clear_view_m
     pub(super) fn clear_view(
         &self,
         mobility: Mobility,
@@ -55,11 +55,11 @@ impl Incident {
     }
 
     /// Free ground units search the stretches nobody has looked at for
-    /// [`Policy::search_again_after_s`] (less barred zones): each end of each unseen stretch gets
+    /// [`super::Policy::search_again_after_s`] (less barred zones): each end of each unseen stretch gets
     /// the nearest free unit on its side, nearest pairs first. Searched from both ends, a
     /// stretch is split at its middle; from one, the unit drives through to its far end.
     /// A unit already searching keeps its goal unless the new one is
-    /// [`Policy::search_goal_slack_m`] away. Returns the tasks and the units searching.
+    /// [`super::Policy::search_goal_slack_m`] away. Returns the tasks and the units searching.
     pub(super) fn search(&mut self, t: f64) -> (Vec<Output>, BTreeSet<UnitId>) {
         // Not the portals' mouths: units come in through them, and the incident's command
         // post sees them from outside.

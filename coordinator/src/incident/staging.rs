@@ -14,8 +14,8 @@ use crate::assign::Mobility;
 use super::{Decision, Incident, Output};
 
 impl Incident {
-    /// Free units (but the `searching`) wait [`Policy::stage_offset_m`] short of the nearest
-    /// active fire, on their own side and in their lane, at most [`Policy::reserves_per_fire`] per
+    /// Free units (but the `searching`) wait [`super::Policy::stage_offset_m`] short of the nearest
+    /// active fire, on their own side and in their lane, at most [`super::Policy::reserves_per_fire`] per
     /// fire; the others patrol on their own.
     pub(super) fn stage(&mut self, searching: &BTreeSet<UnitId>, t: f64) -> Vec<Output> {
         let burning = |f: &&crate::fusion::Fire| {
