@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use crate::support::{
     BIN, Fleet, assert_says, cli, first_answer, free_endpoint, outcome, patient, router, router_at,
-    spawn_role, status_of, text,
+    spawn_role, status_of, text, until_in_recording,
 };
 use firefleet_bus::{Ask, Bus, Inbox, free_loopback_port};
 use firefleet_model::{FireId, Point2, Pose2, UnitId, ZoneId};
@@ -689,8 +689,8 @@ async fn a_coordinator_resumed_from_a_killed_recorders_file_keeps_the_fire() {
         &["record", "--out", recording.to_str().unwrap()],
     )]);
     until_recorded(&bus, &f7()).await;
-    // The recorder writes its file out once a second.
-    tokio::time::sleep(Duration::from_millis(1500)).await;
+    // The recorder writes its file out as it goes: the fire must be in it.
+    until_in_recording(&recording, "/fire/f7", "", Duration::from_secs(10)).await;
     drop(recorder);
     let _coordinator = Fleet(vec![spawn_role(
         HANDOVER,
@@ -964,8 +964,14 @@ async fn barred_space_reaches_the_units_and_outlives_the_coordinator_and_the_rec
     recalled(&status_of(&bus, Duration::from_secs(10)).await);
     // The recorder is killed outright (its file never finished) and the coordinator
     // stopped: one started with --resume on that file, no recorder running, still bars
-    // deep from its first word.
-    tokio::time::sleep(Duration::from_millis(1500)).await;
+    // deep from its first word. The goals are in the file it wrote out as it went.
+    until_in_recording(
+        &recording,
+        "/coord/goals",
+        "firefleet-cli-deep-keep-out",
+        Duration::from_secs(10),
+    )
+    .await;
     for k in [1, 2] {
         fleet.0[k].kill().unwrap();
         fleet.0[k].wait().unwrap();

@@ -41,7 +41,7 @@ async fn an_independent_modbus_client_reads_the_alarm_zone_at_the_fire() {
         return;
     }
     let scenario = builtin::resolve(SCENARIO).unwrap();
-    let (_router, endpoint) = router("tunnel-v").await;
+    let (bus, endpoint) = router("tunnel-v").await;
     let port = firefleet_bus::free_loopback_port().unwrap();
     let addr = format!("127.0.0.1:{port}");
     let _fleet = Fleet(vec![spawn_role(
@@ -50,8 +50,8 @@ async fn an_independent_modbus_client_reads_the_alarm_zone_at_the_fire() {
         &["sim", "--scada", &addr, "--time-scale", "4"],
     )]);
     listening(port, patient(Duration::from_secs(20)));
-    // Some 40 s of site time: the fire has grown and the detector measured it since.
-    tokio::time::sleep(Duration::from_secs(10)).await;
+    // 40 s of site time: the fire has grown and the detector measured it since.
+    until_site_time(&bus, 40.0, Duration::from_secs(30)).await;
     let zones = scenario.scada.as_ref().unwrap().zone_count(300.0);
     let out = Command::new("python3")
         .args(["tests/scada/read.py", "127.0.0.1", &port.to_string()])

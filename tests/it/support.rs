@@ -180,6 +180,55 @@ pub async fn status_of(bus: &Bus, within: Duration) -> serde_json::Value {
     first_answer(bus, &key, within, |b| serde_json::from_slice(b).ok()).await
 }
 
+/// Wait until the recording at `path` (its file, or the parts a recorder writes out as it
+/// goes) holds a message on a key ending in `key_tail` whose JSON contains `needle`: what
+/// a later step reads back from the file is in it. Panics after `within` (patient).
+pub async fn until_in_recording(
+    path: &std::path::Path,
+    key_tail: &str,
+    needle: &str,
+    within: Duration,
+) {
+    let deadline = std::time::Instant::now() + patient(within);
+    loop {
+        let held = firefleet_recorder::parts::Recording::load(path).is_ok_and(|r| {
+            r.messages().flatten().any(|m| {
+                m.channel.topic.ends_with(key_tail)
+                    && String::from_utf8_lossy(&m.data).contains(needle)
+            })
+        });
+        if held {
+            return;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "{} never held {key_tail} with {needle:?}",
+            path.display()
+        );
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+}
+
+/// Wait until the simulator's clock on `bus` reads `t` s of site time or more. Panics
+/// after `within` (patient).
+pub async fn until_site_time(bus: &Bus, t: f64, within: Duration) {
+    let clock = bus
+        .subscribe::<firefleet_protocol::msg::SimClock>(&bus.keys().sim_clock())
+        .await
+        .unwrap();
+    tokio::time::timeout(patient(within), async {
+        loop {
+            match clock.recv().await {
+                Some((_, c)) if c.t >= t => return,
+                Some(_) => {}
+                None => panic!("bus closed"),
+            }
+        }
+    })
+    .await
+    .unwrap_or_else(|_| panic!("site time never reached {t} s"));
+}
+
 /// `firefleet pki init` for `scenario` into `dir/pki`, with commander rossi; the PKI.
 pub fn pki_init(dir: &std::path::Path, scenario: &str) -> std::path::PathBuf {
     let pki = dir.join("pki");
