@@ -5,11 +5,13 @@
 //! subcommands run one role each and join a Zenoh network given on the command line, so
 //! the same binary deploys onto several machines.
 //!
-//! Each subcommand lives in `commands/` and only parses, calls and prints; what several
-//! share is beside them: `net` (joining the bus, signals, the status query), `children`
-//! (the processes a command starts), `checking` (a recording through the invariants),
-//! `metrics` (a role's health and Prometheus figures over HTTP), `rehome` (a unit's move
-//! to a nearer router).
+//! Each subcommand lives in `commands/` and only parses, calls and prints; beside them is
+//! `metrics` (a role's health and Prometheus figures over HTTP). What the binary shares
+//! with the lab is this package's library: `firefleet::net` (joining the bus, signals, the
+//! status query), `firefleet::children` (the processes a command starts),
+//! `firefleet::checking` (a recording through the invariants), `firefleet::args` and
+//! `firefleet::cli`.
+//!
 //! Not here: any role's work (the library crates).
 
 #![allow(
@@ -20,7 +22,6 @@
 
 mod commands;
 mod metrics;
-mod rehome;
 
 use clap::{Parser, Subcommand};
 

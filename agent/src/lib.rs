@@ -8,8 +8,9 @@
 //! link both share and [`controller`] what both are to the node. Navigation (grids,
 //! planners, the path follower) is its own crate, `firefleet-nav`, which the coordinator
 //! shares for its road map. The edges are [`platform`], the interface a robot's hardware
-//! drivers implement (implemented here for the simulator), and [`node`], which connects a
-//! controller to its platform and to the coordinator.
+//! drivers implement (implemented here for the simulator and a ROS 2 robot), [`node`],
+//! which connects a controller to its platform and to the coordinator, and [`rehome`],
+//! a unit's move to a nearer router.
 //!
 //! Not here: the coordinator's side of the fleet (`firefleet-coordinator`) or the simulator
 //! (`firefleet-sim`).
@@ -20,7 +21,8 @@ pub mod mission;
 pub mod monorail;
 pub mod node;
 pub mod platform;
+pub mod rehome;
 
 pub use controller::{Controller, Services};
-pub use node::{AgentOptions, Ended, run};
-pub use platform::{Platform, Ros2Platform, SimPlatform};
+pub use node::{AgentOptions, DriveError, Ended, drive, run};
+pub use platform::{Platform, PlatformError, Ros2Platform, SimPlatform};

@@ -1,10 +1,13 @@
 //! An agent process: one controller, its platform, and its link to the coordinator.
 //!
-//! Runs while its caller holds the unit's liveliness token (the coordinator learns of a
-//! lost unit the moment its session drops; a unit moving to a nearer router holds one on
-//! each session for a moment, `firefleet`'s `rehome`), follows the coordinator's own token to know whether to act alone,
-//! takes tasks and the barred space commanders' goals make (asking for the newest at
-//! start: the coordinator and recorders answer), steps the controller on every sensor frame, and publishes the unit's state
+//! [`drive`] is the agent's whole life: it holds the unit's liveliness token (the
+//! coordinator learns of a lost unit the moment its session drops), runs the controller
+//! on its body, and moves to a nearer router when [`crate::rehome`] finds one, the body
+//! made again on the new session and the controller kept (a token on each session for a
+//! moment, so the unit never vanishes). [`run`] is one session's loop: it follows the
+//! coordinator's own token to know whether to act alone, takes tasks and the barred space
+//! commanders' goals make (asking for the newest at start: the coordinator and recorders
+//! answer), steps the controller on every sensor frame, and publishes the unit's state
 //! and flame reports a few times a second of site time, and its behavior tree's
 //! transitions every step (for recordings).
 //!
@@ -23,7 +26,8 @@ use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{BarredSpace, BtTransition, BtTransitions, NodeStatus};
 
 use crate::controller::{Controller, Services};
-use crate::platform::Platform;
+use crate::platform::{Platform, PlatformError};
+use crate::rehome::{self, Rehoming};
 
 /// How long the agent's start-up question for the barred space stays open.
 const BARRED_QUERY_TIMEOUT: Duration = Duration::from_secs(2);
@@ -48,6 +52,65 @@ fn status(s: Status) -> NodeStatus {
         Status::Success => NodeStatus::Success,
         Status::Failure => NodeStatus::Failure,
         Status::Skipped => NodeStatus::Skipped,
+    }
+}
+
+/// Why [`drive`] failed.
+#[derive(Debug, thiserror::Error)]
+pub enum DriveError {
+    #[error(transparent)]
+    Bus(#[from] BusError),
+    #[error("the unit's body: {0}")]
+    Platform(#[from] PlatformError),
+}
+
+/// Run controller `ctl` on the body `platform` makes on `bus`'s session until `shutdown`
+/// completes or the body goes away, holding the unit's liveliness token; with `moves`,
+/// moving to a nearer router whenever it finds one (the body made again on the new
+/// session, the controller kept, `on_moved` told of the new session). The session it
+/// ends on, for the caller to close.
+pub async fn drive<P, U>(
+    mut bus: Bus,
+    mut ctl: Controller<U>,
+    mut platform: impl AsyncFnMut(&Bus) -> Result<P, PlatformError>,
+    opts: &AgentOptions,
+    moves: Option<Rehoming>,
+    mut on_moved: impl FnMut(&Bus),
+    shutdown: impl Future<Output = ()>,
+) -> Result<Bus, DriveError>
+where
+    P: Platform,
+    U: Services<Sensors = P::Sensors, Command = P::Command>,
+{
+    tokio::pin!(shutdown);
+    let unit = Topic::UnitAlive(opts.unit.clone());
+    let mut token = bus.token(&unit).await?;
+    loop {
+        let body = platform(&bus).await?;
+        let move_to = async {
+            match &moves {
+                Some(m) => m.nearer(&bus).await,
+                None => std::future::pending().await,
+            }
+        };
+        match run(&bus, body, &mut ctl, opts, shutdown.as_mut(), move_to).await? {
+            Ended::Stopped => {
+                drop(token);
+                return Ok(bus);
+            }
+            // Make before break: the unit's token on the new session came first; the old
+            // session and its token go a moment later.
+            Ended::Moved((next, next_token)) => {
+                on_moved(&next);
+                let old = std::mem::replace(&mut bus, next);
+                let old_token = std::mem::replace(&mut token, next_token);
+                tokio::spawn(async move {
+                    tokio::time::sleep(rehome::OVERLAP).await;
+                    drop(old_token);
+                    old.close().await;
+                });
+            }
+        }
     }
 }
 

@@ -22,6 +22,17 @@ use firefleet_ros2::graph::{Domain, Namespace};
 use firefleet_ros2::ground::Robot;
 use firefleet_ros2::node::{Node, NodeError};
 
+/// Why a body could not be reached.
+#[derive(Debug, thiserror::Error)]
+pub enum PlatformError {
+    /// The simulator's keys for the unit could not be subscribed to or declared.
+    #[error("the simulator's body: {0}")]
+    Sim(#[from] BusError),
+    /// The robot's ROS 2 node could not be declared on its Zenoh session.
+    #[error("the ROS 2 robot: {0}")]
+    Ros2(#[from] NodeError),
+}
+
 /// A robot body: sensor frames in, set-points out.
 pub trait Platform {
     type Sensors: Send;

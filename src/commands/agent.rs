@@ -2,7 +2,6 @@
 //!
 //! Not here: the unit's behaviour (`firefleet_agent`).
 
-use std::future::Future;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -11,21 +10,17 @@ use anyhow::Context;
 use clap::Args;
 use firefleet_agent::ground::GroundController;
 use firefleet_agent::monorail::MonorailController;
-use firefleet_agent::{
-    AgentOptions, Controller, Ended, Platform, Ros2Platform, Services, SimPlatform,
-};
+use firefleet_agent::rehome::Rehoming;
+use firefleet_agent::{AgentOptions, Ros2Platform, SimPlatform, drive};
 use firefleet_bus::Bus;
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
 use firefleet_model::UnitId;
-use firefleet_protocol::keys::Topic;
 
 use firefleet_model::UnitKind;
 use firefleet_ros2::graph::{Domain, Namespace};
 
 use super::{PlatformKind, ScenarioArg, positive_f64};
-use crate::metrics::Metrics;
-use crate::rehome::{self, Rehoming};
 use firefleet::net::{ZenohArgs, join, shutdown_signal};
 
 #[derive(Args, Debug)]
@@ -95,10 +90,16 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
         print_tree: a.print_tree,
     };
     let shared = Arc::new(scenario.clone());
-    let on = Drive {
-        opts: &opts,
-        moves: Rehoming::new(&a.zenoh, &scenario, &a.unit),
-        metrics: &metrics,
+    let moves = Rehoming::new(
+        a.zenoh
+            .connect(Some(Expect::Identity(Identity::Unit(a.unit.clone())))),
+        &scenario,
+        &a.unit,
+    );
+    // A move to a nearer router: its link logged and its figures served like the first's.
+    let on_moved = |next: &Bus| {
+        metrics.follow(next);
+        firefleet::net::watch(next);
     };
     let shutdown = shutdown_signal(a.zenoh.die_with_parent);
     let bus = match spec.kind {
@@ -115,10 +116,13 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
             match a.platform {
                 PlatformKind::Sim => {
                     let unit = &a.unit;
-                    on.drive(
+                    drive(
                         bus,
                         ctl,
                         async |bus: &Bus| Ok(SimPlatform::ground(bus, unit).await?),
+                        &opts,
+                        moves,
+                        on_moved,
                         shutdown,
                     )
                     .await?
@@ -142,7 +146,7 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
                                 .await?,
                         )
                     };
-                    let bus = on.drive(bus, ctl, robot, shutdown).await?;
+                    let bus = drive(bus, ctl, robot, &opts, moves, on_moved, shutdown).await?;
                     if let Some(s) = own {
                         s.close().await.ok();
                     }
@@ -168,10 +172,13 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
             let ctl = MonorailController::with_tree(a.unit.clone(), carriage, shared, &doc)?
                 .context("the unit's rail is not in the scenario")?;
             let unit = &a.unit;
-            on.drive(
+            drive(
                 bus,
                 ctl,
                 async |bus: &Bus| Ok(SimPlatform::monorail(bus, unit).await?),
+                &opts,
+                moves,
+                on_moved,
                 shutdown,
             )
             .await?
@@ -179,64 +186,6 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
     };
     bus.close().await;
     Ok(ExitCode::SUCCESS)
-}
-
-/// What an agent runs with besides its controller and body.
-struct Drive<'a> {
-    opts: &'a AgentOptions,
-    moves: Option<Rehoming>,
-    metrics: &'a Metrics,
-}
-
-impl Drive<'_> {
-    /// Run `ctl` on the body `platform` makes on the current session until stopped,
-    /// moving to a nearer router whenever [`Rehoming`] finds one (the body made again on
-    /// the new session, the controller kept); the session it ends on.
-    async fn drive<P, U>(
-        &self,
-        mut bus: Bus,
-        mut ctl: Controller<U>,
-        mut platform: impl AsyncFnMut(&Bus) -> anyhow::Result<P>,
-        shutdown: impl Future<Output = ()>,
-    ) -> anyhow::Result<Bus>
-    where
-        P: Platform,
-        U: Services<Sensors = P::Sensors, Command = P::Command>,
-    {
-        tokio::pin!(shutdown);
-        let unit = Topic::UnitAlive(self.opts.unit.clone());
-        let mut token = bus.token(&unit).await?;
-        loop {
-            let body = platform(&bus).await?;
-            let move_to = async {
-                match &self.moves {
-                    Some(m) => m.nearer(&bus).await,
-                    None => std::future::pending().await,
-                }
-            };
-            match firefleet_agent::run(&bus, body, &mut ctl, self.opts, shutdown.as_mut(), move_to)
-                .await?
-            {
-                Ended::Stopped => {
-                    drop(token);
-                    return Ok(bus);
-                }
-                // Make before break: the unit's token on the new session came first; the
-                // old session and its token go a moment later.
-                Ended::Moved((next, next_token)) => {
-                    self.metrics.follow(&next);
-                    firefleet::net::watch(&next);
-                    let old = std::mem::replace(&mut bus, next);
-                    let old_token = std::mem::replace(&mut token, next_token);
-                    tokio::spawn(async move {
-                        tokio::time::sleep(rehome::OVERLAP).await;
-                        drop(old_token);
-                        old.close().await;
-                    });
-                }
-            }
-        }
-    }
 }
 
 impl RosArgs {

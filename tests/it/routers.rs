@@ -13,11 +13,6 @@ use firefleet_model::UnitId;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::UnitState;
 
-/// How long a moving unit keeps its old session (`firefleet`'s `rehome::OVERLAP`).
-fn rehome_overlap() -> Duration {
-    Duration::from_secs(1)
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_unit_whose_router_is_killed_moves_to_the_next_and_is_never_counted_lost() {
     let dir = tempfile::tempdir().unwrap();
@@ -184,7 +179,7 @@ async fn a_unit_whose_router_is_killed_moves_to_the_next_and_is_never_counted_lo
     }
     let moved = restarted.elapsed();
     // The old session closes a second after the move: its twin token must not count.
-    tokio::time::sleep(rehome_overlap() + Duration::from_millis(500)).await;
+    tokio::time::sleep(firefleet_agent::rehome::OVERLAP + Duration::from_millis(500)).await;
     while let Ok(Some((Topic::UnitAlive(u), up))) =
         tokio::time::timeout(Duration::from_millis(1), tokens.recv()).await
     {

@@ -8,9 +8,10 @@
 //! routers stand, and when one is nearer by [`MARGIN_M`] than the router it is linked
 //! through (told apart by their fixed Zenoh ids, `firefleet_bus::render::router_zid`), it
 //! opens a second session with its routers nearest first. If that one links through the
-//! nearer router, the agent runs on with it (`firefleet_agent::Ended::Moved`) and closes
-//! the old session only after the new one holds the unit's token: Zenoh keeps twin tokens
-//! apart, so the coordinator sees the unit present throughout.
+//! nearer router, the agent runs on with it ([`crate::node::Ended::Moved`], which
+//! [`crate::node::drive`] follows) and closes the old session only after the new one holds
+//! the unit's token: Zenoh keeps twin tokens apart, so the coordinator sees the unit
+//! present throughout.
 //!
 //! Not here: failing over when a router dies (Zenoh's client does, within the rendered
 //! link lease), or which routers a unit lists (`deploy render`).
@@ -18,15 +19,12 @@
 use std::time::{Duration, Instant};
 
 use firefleet_bus::access::Identity;
-use firefleet_bus::pki::Expect;
 use firefleet_bus::render::router_zid;
 use firefleet_bus::{Bus, Connect, Token, one_stream};
 use firefleet_model::scenario::Scenario;
 use firefleet_model::{Point2, UnitId};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::UnitState;
-
-use firefleet::net::ZenohArgs;
 
 /// How much nearer another router must be than the one the unit links through, m: a unit
 /// halfway between two routers does not flap between them.
@@ -71,11 +69,10 @@ pub struct Rehoming {
 }
 
 impl Rehoming {
-    /// For `unit` on `scenario`'s site joined as `zenoh` says: none (it never moves)
+    /// For `unit` on `scenario`'s site joined as `connect` says: none (it never moves)
     /// unless the site file lists two routers or more and the unit's configuration dials
     /// them.
-    pub fn new(zenoh: &ZenohArgs, scenario: &Scenario, unit: &UnitId) -> Option<Self> {
-        let connect = zenoh.connect(Some(Expect::Identity(Identity::Unit(unit.clone()))));
+    pub fn new(connect: Connect, scenario: &Scenario, unit: &UnitId) -> Option<Self> {
         let dialled = connect.links().ok()?.connect;
         let routers: Vec<Known> = scenario
             .routers
