@@ -1,7 +1,10 @@
-//! The child processes a command starts (the demo's fleet, the lab's harnesses): where the
-//! `firefleet` binary is, how each child is started so none outlives its parent, and how
-//! they are stopped so the recorder keeps what the others say until they exit.
+//! The child processes a command starts (the demo's fleet, the lab's harnesses, the end to
+//! end tests): where the `firefleet` binary is, one typed way to say which role to start
+//! and how it joins the bus ([`RoleCommand`]), how each child is started so none outlives
+//! its parent, and how they are stopped so the recorder keeps what the others say until
+//! they exit.
 
+use std::ffi::OsString;
 use std::path::PathBuf;
 use std::process::Stdio;
 use std::time::Duration;
@@ -24,6 +27,124 @@ pub fn firefleet_binary() -> anyhow::Result<PathBuf> {
         exe.display()
     );
     Ok(bin)
+}
+
+/// How a role joins the site's bus.
+#[derive(Debug, Clone)]
+enum Join {
+    /// As its own arguments say (a router, or a command that takes no bus).
+    AsGiven,
+    /// A client of the router at this endpoint.
+    ClientOf(String),
+    /// As this Zenoh configuration file says (a secure site's rendered one).
+    Config(PathBuf),
+}
+
+/// One role of the `firefleet` binary: `firefleet ROLE ARGS... --scenario SITE` joined to
+/// the bus as told, optionally ending when its parent does.
+///
+/// ```
+/// use firefleet::children::RoleCommand;
+///
+/// let agent = RoleCommand::new("agent")
+///     .args(["--unit", "ugv-1"])
+///     .scenario("vehicle-collision")
+///     .client_of("tcp/127.0.0.1:7447")
+///     .die_with_parent();
+/// let args: Vec<String> = agent.to_args().into_iter().map(|a| a.into_string().unwrap()).collect();
+/// assert_eq!(
+///     args.join(" "),
+///     "agent --unit ugv-1 --scenario vehicle-collision --die-with-parent \
+///      --mode client --connect tcp/127.0.0.1:7447"
+/// );
+/// ```
+#[derive(Debug, Clone)]
+pub struct RoleCommand {
+    args: Vec<OsString>,
+    scenario: Option<OsString>,
+    join: Join,
+    die_with_parent: bool,
+}
+
+impl RoleCommand {
+    /// `firefleet ROLE` (`agent`, `coordinator`, `sim`, `record`, `console`, `scada`,
+    /// `router`, `demo`, ...).
+    pub fn new(role: &str) -> Self {
+        Self {
+            args: vec![role.into()],
+            scenario: None,
+            join: Join::AsGiven,
+            die_with_parent: false,
+        }
+    }
+
+    /// One more argument of the role's own.
+    pub fn arg(mut self, arg: impl Into<OsString>) -> Self {
+        self.args.push(arg.into());
+        self
+    }
+
+    /// More arguments of the role's own.
+    pub fn args<I: IntoIterator<Item = S>, S: Into<OsString>>(mut self, args: I) -> Self {
+        self.args.extend(args.into_iter().map(Into::into));
+        self
+    }
+
+    /// The site file (or built-in scenario) the role reads.
+    pub fn scenario(mut self, scenario: impl Into<OsString>) -> Self {
+        self.scenario = Some(scenario.into());
+        self
+    }
+
+    /// Join as a client of the router at `endpoint`.
+    pub fn client_of(mut self, endpoint: &str) -> Self {
+        self.join = Join::ClientOf(endpoint.to_owned());
+        self
+    }
+
+    /// Join as the Zenoh configuration file at `path` says.
+    pub fn zenoh_config(mut self, path: impl Into<PathBuf>) -> Self {
+        self.join = Join::Config(path.into());
+        self
+    }
+
+    /// End when this process's end of the child's stdin closes (a child of [`as_child`]).
+    pub fn die_with_parent(mut self) -> Self {
+        self.die_with_parent = true;
+        self
+    }
+
+    /// The arguments after the binary's name.
+    pub fn to_args(&self) -> Vec<OsString> {
+        let mut args = self.args.clone();
+        if let Some(s) = &self.scenario {
+            args.extend(["--scenario".into(), s.clone()]);
+        }
+        if self.die_with_parent {
+            args.push("--die-with-parent".into());
+        }
+        match &self.join {
+            Join::AsGiven => {}
+            Join::ClientOf(endpoint) => {
+                args.extend(["--mode", "client", "--connect"].map(OsString::from));
+                args.push(endpoint.into());
+            }
+            Join::Config(path) => {
+                args.extend(["--zenoh-config".into(), path.into()]);
+            }
+        }
+        args
+    }
+
+    /// The role as a child of this process ([`as_child`], logging at `log` unless
+    /// `RUST_LOG` says otherwise), run by the [`firefleet_binary`]: ready to spawn, or to
+    /// take more arguments first.
+    pub fn child(&self, log: &str) -> anyhow::Result<Command> {
+        let mut cmd = Command::new(firefleet_binary()?);
+        cmd.args(self.to_args());
+        as_child(&mut cmd, log);
+        Ok(cmd)
+    }
 }
 
 /// The role of the first child that has exited, if any.

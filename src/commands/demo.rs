@@ -34,10 +34,10 @@ use firefleet_protocol::msg::{
     GoalAck, GoalForm, GoalKind, SimTruth, TruthFireState, UnitState, ZoneGoal,
 };
 use serde::Serialize;
-use tokio::process::{Child, Command};
+use tokio::process::Child;
 
 use super::{PlatformKind, non_negative_f64, time_scale, write_json};
-use firefleet::children::{as_child, exited, firefleet_binary, stop_children};
+use firefleet::children::{RoleCommand, exited, stop_children};
 use firefleet::net::shutdown_signal;
 
 #[derive(Args, Debug)]
@@ -278,20 +278,18 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let mut in_force = Goals::new(&scenario.zones, &scenario.commanders);
     let mut site_t = 0.0;
 
-    let exe = firefleet_binary()?;
-    let mut roles: Vec<(Identity, Vec<String>)> = Vec::new();
+    let mut roles: Vec<(Identity, RoleCommand)> = Vec::new();
     if a.record.is_some() || a.foxglove.is_some() {
-        let mut args = vec!["record".to_string()];
+        let mut record = RoleCommand::new("record");
         if let Some(path) = &a.record {
-            args.extend(["--out".into(), path.display().to_string()]);
+            record = record.arg("--out").arg(path);
         }
         if let Some(addr) = a.foxglove {
-            args.extend(["--foxglove".into(), addr.to_string()]);
+            record = record.args(["--foxglove".into(), addr.to_string()]);
             println!("Foxglove live: ws://{addr}");
         }
-        roles.push((Identity::Recorder, args));
+        roles.push((Identity::Recorder, record));
     }
-    let wait = "30".to_string();
     let modbus = match a.scada {
         true => {
             anyhow::ensure!(
@@ -301,79 +299,54 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             );
             let port = free_loopback_port().context("finding a free port for Modbus")?;
             let addr = format!("127.0.0.1:{port}");
-            roles.push((
-                Identity::Scada,
-                vec![
-                    "scada".into(),
-                    "--modbus".into(),
-                    addr.clone(),
-                    "--sim-clock".into(),
-                ],
-            ));
+            let bridge = RoleCommand::new("scada").args(["--modbus", &addr, "--sim-clock"]);
+            roles.push((Identity::Scada, bridge));
             Some(addr)
         }
         false => None,
     };
-    roles.push((
-        Identity::Sim,
-        vec![
-            "sim".into(),
-            "--seed".into(),
-            seed.to_string(),
-            "--time-scale".into(),
-            a.time_scale.to_string(),
-            "--wait-for-fleet".into(),
-            wait,
-            "--wait-for-coordinator".into(),
-        ]
-        .into_iter()
-        .chain((a.platform == PlatformKind::Ros2).then(|| "--ros2".into()))
-        .chain(modbus.iter().flat_map(|m| ["--scada".into(), m.clone()]))
-        .chain(
-            a.cut_scada_at
-                .iter()
-                .flat_map(|t| ["--cut-scada-at".into(), t.to_string()]),
-        )
-        .collect(),
-    ));
-    roles.push((
-        Identity::Coordinator,
-        vec!["coordinator".into(), "--sim-clock".into()],
-    ));
+    let mut sim = RoleCommand::new("sim")
+        .args(["--seed".into(), seed.to_string()])
+        .args(["--time-scale".into(), a.time_scale.to_string()])
+        .args(["--wait-for-fleet", "30", "--wait-for-coordinator"]);
+    if a.platform == PlatformKind::Ros2 {
+        sim = sim.arg("--ros2");
+    }
+    if let Some(m) = &modbus {
+        sim = sim.args(["--scada", m]);
+    }
+    if let Some(t) = a.cut_scada_at {
+        sim = sim.args(["--cut-scada-at".into(), t.to_string()]);
+    }
+    roles.push((Identity::Sim, sim));
+    let coordinator = RoleCommand::new("coordinator").arg("--sim-clock");
+    roles.push((Identity::Coordinator, coordinator.clone()));
     if a.standby {
-        roles.push((
-            Identity::Coordinator,
-            vec![
-                "coordinator".into(),
-                "--sim-clock".into(),
-                "--standby".into(),
-            ],
-        ));
+        roles.push((Identity::Coordinator, coordinator.arg("--standby")));
     }
     for u in &scenario.units {
-        let mut args = vec!["agent".into(), "--unit".into(), u.id.to_string()];
+        let mut agent = RoleCommand::new("agent").args(["--unit", u.id.as_str()]);
         if a.platform == PlatformKind::Ros2 && u.kind == UnitKind::Ground {
-            args.extend(["--platform".into(), "ros2".into()]);
+            agent = agent.args(["--platform", "ros2"]);
         }
-        roles.push((Identity::Unit(u.id.clone()), args));
+        roles.push((Identity::Unit(u.id.clone()), agent));
     }
     let mut children: Vec<(String, Child)> = Vec::new();
     if let Some(addr) = a.console {
-        let mut args = vec!["console".to_string(), "--http".into(), addr.to_string()];
+        let mut console = RoleCommand::new("console").args(["--http".into(), addr.to_string()]);
         if let Some(users) = &a.console_users {
-            args.extend(["--users".into(), users.display().to_string()]);
+            console = console.arg("--users").arg(users);
         }
         // On a secure site the page is HTTPS with the console's web certificate from the
         // site PKI (valid for loopback): commanders' browsers trust the site's web CA.
         let scheme = match &site {
             Some(s) => {
                 let dir = s.pki.join(Identity::Console.dir_name());
-                args.extend([
-                    "--https-cert".into(),
-                    dir.join("https-cert.pem").display().to_string(),
-                    "--https-key".into(),
-                    dir.join("https-key.pem").display().to_string(),
-                ]);
+                console = console
+                    .arg("--https-cert")
+                    .arg(dir.join("https-cert.pem"))
+                    .arg("--https-key")
+                    .arg(dir.join("https-key.pem"));
                 println!(
                     "the console's page is signed by the site's web CA: {}",
                     dir.join("web-ca.pem").display()
@@ -383,31 +356,36 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             None => "http",
         };
         println!("the incident commander's console: {scheme}://{addr}/");
-        roles.push((Identity::Console, args));
+        roles.push((Identity::Console, console));
     }
-    let spawn = |who: &Identity, args: &[String]| -> anyhow::Result<(String, Child)> {
-        let role = match who {
-            Identity::Unit(u) => format!("agent:{u}"),
-            Identity::Coordinator if args.iter().any(|a| a == "--standby") => STANDBY_ROLE.into(),
-            other => other.to_string(),
-        };
-        let mut cmd = Command::new(&exe);
-        cmd.args(args)
-            .args(["--scenario", a.scenario.as_str(), "--die-with-parent"]);
-        match &site {
-            Some(s) => cmd
-                .arg("--zenoh-config")
-                .arg(s.configs.join(format!("{}.json5", who.dir_name()))),
-            None => cmd.args(["--mode", "client", "--connect", endpoint.as_str()]),
-        };
-        as_child(&mut cmd, "warn,zenoh=error");
-        let child = cmd
+    // Each role as it is started (again, for a restarted coordinator), under its label.
+    let launched: Vec<(String, RoleCommand)> = roles
+        .into_iter()
+        .map(|(who, role)| {
+            let label = match &who {
+                Identity::Unit(u) => format!("agent:{u}"),
+                Identity::Coordinator if role.to_args().iter().any(|a| a == "--standby") => {
+                    STANDBY_ROLE.into()
+                }
+                other => other.to_string(),
+            };
+            let role = role.scenario(&a.scenario).die_with_parent();
+            let role = match &site {
+                Some(s) => role.zenoh_config(s.configs.join(format!("{}.json5", who.dir_name()))),
+                None => role.client_of(&endpoint),
+            };
+            (label, role)
+        })
+        .collect();
+    let start = |label: &str, role: &RoleCommand| -> anyhow::Result<(String, Child)> {
+        let child = role
+            .child("warn,zenoh=error")?
             .spawn()
-            .with_context(|| format!("starting the {role} process"))?;
-        Ok((role, child))
+            .with_context(|| format!("starting the {label} process"))?;
+        Ok((label.to_owned(), child))
     };
-    for (who, args) in &roles {
-        children.push(spawn(who, args)?);
+    for (label, role) in &launched {
+        children.push(start(label, role)?);
     }
     println!(
         "firefleet demo: scenario '{}' (seed {seed}), {} fires, {} units, {} processes on {endpoint}, time x{}",
@@ -460,11 +438,11 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
                 }
                 if restart_at.take_if(|at| truth.t >= *at).is_some()
                     && let Some(k) = children.iter().position(|(role, _)| role == "coordinator")
-                    && let Some((who, args)) = roles.iter().find(|(who, _)| *who == Identity::Coordinator)
+                    && let Some((label, role)) = launched.iter().find(|(label, _)| label == "coordinator")
                 {
                     let (_, mut c) = children.remove(k);
                     c.kill().await?;
-                    children.push(spawn(who, args)?);
+                    children.push(start(label, role)?);
                     println!("t={:.1} s: killed the coordinator and started a new one", truth.t);
                 }
                 let due = goals_to_issue.take_if(|_| truth.t >= a.goals_at);

@@ -8,6 +8,7 @@ use std::process::{Child, Command, Output, Stdio};
 
 use std::time::Duration;
 
+use firefleet::children::RoleCommand;
 use firefleet_bus::{Ask, Bus, Connect, Inbox, Mode, free_loopback_port};
 use firefleet_model::SiteId;
 use firefleet_protocol::keys::Topic;
@@ -53,17 +54,13 @@ pub fn text(o: &Output) -> String {
 
 /// `firefleet ARGS` as a client of the router at `endpoint`, on `scenario`'s site.
 fn client(scenario: &str, endpoint: &str, args: &[&str]) -> Command {
+    let (role, own) = args.split_first().expect("a command");
+    let role = RoleCommand::new(role)
+        .args(own)
+        .scenario(scenario)
+        .client_of(endpoint);
     let mut c = Command::new(BIN);
-    c.args(args)
-        .args([
-            "--scenario",
-            scenario,
-            "--mode",
-            "client",
-            "--connect",
-            endpoint,
-        ])
-        .env("RUST_LOG", "warn,zenoh=error");
+    c.args(role.to_args()).env("RUST_LOG", "warn,zenoh=error");
     c
 }
 

@@ -50,6 +50,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use firefleet::args::{time_scale, write_json};
+use firefleet::children::RoleCommand;
 
 /// What the thief sends on ugv-2's keys.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -251,22 +252,26 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
     let console = (a.https_clients > 0)
         .then(|| firefleet_bus::free_loopback_port().map(|p| format!("127.0.0.1:{p}")))
         .transpose()?;
-    let mut demo = std::process::Command::new(firefleet::children::firefleet_binary()?);
-    demo.args(["demo", "--secure", "--scenario"])
-        .arg(&site_file)
-        .args(["--seed", &a.seed.to_string()])
-        .args(["--time-scale", &a.time_scale.to_string()])
+    let mut role = RoleCommand::new("demo")
+        .arg("--secure")
+        .args(["--seed".into(), a.seed.to_string()])
+        .args(["--time-scale".into(), a.time_scale.to_string()])
         .arg("--pki")
         .arg(&pki_dir)
         .arg("--record")
         .arg(&recording)
         .arg("--summary-json")
         .arg(&summary)
+        .scenario(&site_file);
+    if let Some(c) = &console {
+        role = role.args(["--console", c]);
+    }
+    // Its output is read line by line (the router's endpoint, the outcome): not a quiet
+    // child as `RoleCommand::child` makes.
+    let mut demo = std::process::Command::new(firefleet::children::firefleet_binary()?);
+    demo.args(role.to_args())
         .stdout(Stdio::piped())
         .stderr(std::fs::File::create(&log)?);
-    if let Some(c) = &console {
-        demo.args(["--console", c]);
-    }
     let started = Instant::now();
     let mut demo = demo.spawn().context("starting the demo")?;
     let mut lines = BufReader::new(demo.stdout.take().context("the demo's output")?).lines();

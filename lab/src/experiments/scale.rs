@@ -26,7 +26,7 @@
 use std::collections::BTreeMap;
 use std::io::Write as _;
 use std::path::PathBuf;
-use std::process::{ExitCode, Stdio};
+use std::process::ExitCode;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -44,6 +44,7 @@ use firefleet_protocol::msg::{FlameObservation, FlameReport, Task, TaskKind, Uni
 use serde::Serialize;
 
 use firefleet::args::write_json;
+use firefleet::children::RoleCommand;
 
 #[derive(Args, Debug)]
 pub struct ScaleArgs {
@@ -506,15 +507,10 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
 
 /// `firefleet <role> --scenario <site>`, quiet, a child of this process that ends with it.
 fn child(role: &str, site: &std::path::Path) -> anyhow::Result<tokio::process::Command> {
-    let mut cmd = tokio::process::Command::new(firefleet::children::firefleet_binary()?);
-    cmd.args([role, "--scenario"])
-        .arg(site)
-        .arg("--die-with-parent")
-        .env("RUST_LOG", "warn,zenoh=error")
-        .stdin(Stdio::piped())
-        .stdout(Stdio::null())
-        .kill_on_drop(true);
-    Ok(cmd)
+    RoleCommand::new(role)
+        .scenario(site)
+        .die_with_parent()
+        .child("warn,zenoh=error")
 }
 
 /// A connection to `addr` once `who`, launched at `launched`, listens there (within 20 s).

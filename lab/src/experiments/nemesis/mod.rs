@@ -53,7 +53,7 @@ use tokio::process::{Child, Command};
 
 use firefleet::args::{time_scale, write_json};
 use firefleet::checking::check;
-use firefleet::children::{as_child, firefleet_binary, stop_children};
+use firefleet::children::{RoleCommand, as_child, firefleet_binary, stop_children};
 
 /// How long a fault that lasts (a partition, loss, a pause) lasts, wall-clock.
 const FAULT: Duration = Duration::from_secs(15);
@@ -298,8 +298,9 @@ impl Procs {
     }
 }
 
-/// Start `args` of the firefleet binary in namespace `ns`, a client of the router at
-/// `connect` (or, with `connect` `None`, as given: the router itself).
+/// Start `args` (the role and its own arguments) of the firefleet binary in namespace
+/// `ns`, a client of the router at `connect` (or, with `connect` `None`, as given: the
+/// router itself).
 fn spawn(
     ns: &str,
     role: &str,
@@ -307,12 +308,15 @@ fn spawn(
     scenario: &str,
     connect: Option<&str>,
 ) -> anyhow::Result<(String, Child)> {
-    let mut args = args.to_vec();
-    args.extend(strings(&["--scenario", scenario, "--die-with-parent"]));
+    let (name, own) = args.split_first().context("a role to start")?;
+    let mut command = RoleCommand::new(name)
+        .args(own)
+        .scenario(scenario)
+        .die_with_parent();
     if let Some(c) = connect {
-        args.extend(strings(&["--mode", "client", "--connect", c]));
+        command = command.client_of(c);
     }
-    spawn_as_given(&firefleet_binary()?, ns, role, &args)
+    spawn_as_given(&firefleet_binary()?, ns, role, &command.to_args())
 }
 
 /// Start `exe` with `args` in namespace `ns`, its stdin a pipe from here.
@@ -320,7 +324,7 @@ fn spawn_as_given(
     exe: &Path,
     ns: &str,
     role: &str,
-    args: &[String],
+    args: &[impl AsRef<std::ffi::OsStr>],
 ) -> anyhow::Result<(String, Child)> {
     let mut cmd = Command::new("ip");
     cmd.args(["netns", "exec", ns]).arg(exe).args(args);
