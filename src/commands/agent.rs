@@ -20,17 +20,13 @@ use firefleet_model::UnitId;
 use firefleet_model::UnitKind;
 use firefleet_ros2::graph::{Domain, Namespace};
 
-use super::{PlatformKind, ScenarioArg, positive_f64};
-use firefleet::net::{ZenohArgs, join, shutdown_signal};
+use super::{PlatformKind, RoleArgs, positive_f64};
+use firefleet::net::{join, shutdown_signal};
 
 #[derive(Args, Debug)]
 pub struct AgentArgs {
     #[command(flatten)]
-    scenario: ScenarioArg,
-    #[command(flatten)]
-    zenoh: ZenohArgs,
-    #[command(flatten)]
-    metrics: crate::metrics::MetricsArg,
+    role: RoleArgs,
     /// The unit this agent drives (an id from the scenario's `[[units]]`).
     #[arg(long)]
     unit: UnitId,
@@ -67,7 +63,7 @@ struct RosArgs {
 }
 
 pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
-    let scenario = a.scenario.load()?;
+    let scenario = a.role.scenario.load()?;
     if scenario.unit(&a.unit).is_none() {
         anyhow::bail!(
             "--unit {}: the scenario '{}' has no such unit",
@@ -78,12 +74,12 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
     a.platform.fits(&scenario).map_err(anyhow::Error::msg)?;
     let spec = scenario.unit(&a.unit).expect("checked above");
     let bus = join(
-        &a.zenoh,
+        &a.role.zenoh,
         &scenario,
         Expect::Identity(Identity::Unit(a.unit.clone())),
     )
     .await?;
-    let metrics = a.metrics.serve(&bus, false, None).await?;
+    let metrics = a.role.metrics.serve(&bus, false, None).await?;
     let opts = AgentOptions {
         unit: a.unit.clone(),
         report_period_s: 0.25,
@@ -91,7 +87,8 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
     };
     let shared = Arc::new(scenario.clone());
     let moves = Rehoming::new(
-        a.zenoh
+        a.role
+            .zenoh
             .connect(Some(Expect::Identity(Identity::Unit(a.unit.clone())))),
         &scenario,
         &a.unit,
@@ -101,7 +98,7 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
         metrics.follow(next);
         firefleet::net::watch(next);
     };
-    let shutdown = shutdown_signal(a.zenoh.die_with_parent);
+    let shutdown = shutdown_signal(a.role.zenoh.die_with_parent);
     let bus = match spec.kind {
         UnitKind::Ground => {
             let body = scenario

@@ -12,10 +12,10 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
 
-use super::{ScenarioArg, positive_f64};
+use super::{RoleArgs, positive_f64};
 use anyhow::Context;
 use clap::{Args, Subcommand};
-use firefleet::net::{ZenohArgs, join, shutdown_signal};
+use firefleet::net::{join, shutdown_signal};
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
 use firefleet_console::auth::{Role, Sessions, Users};
@@ -57,11 +57,7 @@ struct AddUserArgs {
 #[derive(Args, Debug)]
 struct ServeArgs {
     #[command(flatten)]
-    scenario: ScenarioArg,
-    #[command(flatten)]
-    zenoh: ZenohArgs,
-    #[command(flatten)]
-    metrics: crate::metrics::MetricsArg,
+    role: RoleArgs,
     /// Where the page is served. Loopback by default: serving it wider is a site's decision.
     #[arg(long, value_name = "ADDR:PORT", default_value = "127.0.0.1:8080")]
     http: SocketAddr,
@@ -111,7 +107,7 @@ fn add_user(a: AddUserArgs) -> anyhow::Result<ExitCode> {
 }
 
 async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
-    let scenario = a.scenario.load()?;
+    let scenario = a.role.scenario.load()?;
     let users = match &a.users {
         Some(path) => Users::load(path)?,
         None if a.http.ip().is_loopback() => {
@@ -133,8 +129,13 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
     let listener = tokio::net::TcpListener::bind(a.http)
         .await
         .with_context(|| format!("serving the console on {}", a.http))?;
-    let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Console)).await?;
-    a.metrics.serve(&bus, false, None).await?;
+    let bus = join(
+        &a.role.zenoh,
+        &scenario,
+        Expect::Identity(Identity::Console),
+    )
+    .await?;
+    a.role.metrics.serve(&bus, false, None).await?;
     let (console, requests) = Console::new(
         Picture::new(SiteMap::new(&scenario)),
         users,
@@ -166,7 +167,7 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
             }
         })
     };
-    let stop = shutdown_signal(a.zenoh.die_with_parent);
+    let stop = shutdown_signal(a.role.zenoh.die_with_parent);
     let served = match tls {
         Some(config) => {
             tracing::info!("console on https://{}", listener.local_addr()?);

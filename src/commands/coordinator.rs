@@ -17,17 +17,13 @@ use firefleet_protocol::msg::EPOCH_RANKS;
 use firefleet_recorder::parts::Recording;
 use firefleet_recorder::reader::Recorded;
 
-use super::{ScenarioArg, positive_f64};
-use firefleet::net::{ZenohArgs, join, shutdown_signal};
+use super::{RoleArgs, positive_f64};
+use firefleet::net::{join, shutdown_signal};
 
 #[derive(Args, Debug)]
 pub struct CoordinatorArgs {
     #[command(flatten)]
-    scenario: ScenarioArg,
-    #[command(flatten)]
-    zenoh: ZenohArgs,
-    #[command(flatten)]
-    metrics: crate::metrics::MetricsArg,
+    role: RoleArgs,
     /// A unit silent this long is treated as lost, seconds of site time.
     #[arg(long, default_value_t = firefleet_coordinator::incident::LEASE_S, value_parser = positive_f64, allow_negative_numbers = true)]
     lease_s: f64,
@@ -58,12 +54,18 @@ pub struct CoordinatorArgs {
 }
 
 pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
-    let scenario = a.scenario.load()?;
+    let scenario = a.role.scenario.load()?;
     let sim_clock = super::sim_clock(&scenario, a.sim_clock).map_err(anyhow::Error::msg)?;
-    let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Coordinator)).await?;
+    let bus = join(
+        &a.role.zenoh,
+        &scenario,
+        Expect::Identity(Identity::Coordinator),
+    )
+    .await?;
     let stats = firefleet_coordinator::stats::Stats::default();
     let figures = stats.clone();
-    a.metrics
+    a.role
+        .metrics
         .serve(&bus, false, Some(Arc::new(move |r| figures.register(r))))
         .await?;
     let resumed = match &a.resume {
@@ -79,7 +81,7 @@ pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
         rank: a.rank,
         stats,
     };
-    let shutdown = shutdown_signal(a.zenoh.die_with_parent);
+    let shutdown = shutdown_signal(a.role.zenoh.die_with_parent);
     firefleet_coordinator::standby::serve(&bus, &scenario, &opts, a.standby, shutdown).await?;
     bus.close().await;
     Ok(ExitCode::SUCCESS)

@@ -21,8 +21,8 @@ use firefleet_bus::{Bus, Connect, Mode};
 use firefleet_model::{CommanderId, RouterId};
 use serde_json::{Value, json};
 
-use super::ScenarioArg;
-use firefleet::net::{ZenohArgs, shutdown_signal};
+use super::{RoleArgs, ScenarioArg};
+use firefleet::net::shutdown_signal;
 
 #[derive(Subcommand, Debug)]
 pub enum DeployCommand {
@@ -80,11 +80,7 @@ pub struct LayoutArgs {
 #[derive(Args, Debug)]
 pub struct RouterArgs {
     #[command(flatten)]
-    scenario: ScenarioArg,
-    #[command(flatten)]
-    zenoh: ZenohArgs,
-    #[command(flatten)]
-    metrics: crate::metrics::MetricsArg,
+    role: RoleArgs,
     /// Run without mutual TLS and access rules (loopback demos, tests that do not test
     /// security).
     #[arg(long)]
@@ -143,8 +139,8 @@ fn router_at(s: &str) -> Result<(RouterId, String), String> {
 }
 
 pub async fn router(a: RouterArgs) -> anyhow::Result<ExitCode> {
-    let scenario = a.scenario.load()?;
-    let mut connect: Connect = a.zenoh.connect(None);
+    let scenario = a.role.scenario.load()?;
+    let mut connect: Connect = a.role.zenoh.connect(None);
     connect.mode = Some(Mode::Router);
     let config = connect.to_config()?;
     if !a.plain {
@@ -178,9 +174,9 @@ pub async fn router(a: RouterArgs) -> anyhow::Result<ExitCode> {
         .await
         .context("starting the router")?;
     tracing::info!(site = %scenario.site, "router up");
-    a.metrics.serve(&bus, true, None).await?;
+    a.role.metrics.serve(&bus, true, None).await?;
     firefleet::net::ready();
-    shutdown_signal(a.zenoh.die_with_parent).await;
+    shutdown_signal(a.role.zenoh.die_with_parent).await;
     bus.close().await;
     Ok(ExitCode::SUCCESS)
 }

@@ -47,6 +47,18 @@ impl ScenarioArg {
     }
 }
 
+/// What every role that runs until stopped takes: its site file, how it joins the bus,
+/// and where it serves its health and figures.
+#[derive(Args, Debug)]
+pub struct RoleArgs {
+    #[command(flatten)]
+    pub scenario: ScenarioArg,
+    #[command(flatten)]
+    pub zenoh: firefleet::net::ZenohArgs,
+    #[command(flatten)]
+    pub metrics: crate::metrics::MetricsArg,
+}
+
 /// Which body an agent drives.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PlatformKind {

@@ -13,18 +13,14 @@ use firefleet_bus::pki::Expect;
 use firefleet_recorder::live::Live;
 use firefleet_recorder::parts::PART_EVERY;
 
-use super::{ScenarioArg, positive_f64};
-use firefleet::net::{ZenohArgs, join, shutdown_signal};
+use super::{RoleArgs, positive_f64};
+use firefleet::net::{join, shutdown_signal};
 
 #[derive(Args, Debug)]
 #[command(group(clap::ArgGroup::new("output").required(true).multiple(true).args(["out", "foxglove"])))]
 pub struct RecordArgs {
     #[command(flatten)]
-    scenario: ScenarioArg,
-    #[command(flatten)]
-    zenoh: ZenohArgs,
-    #[command(flatten)]
-    metrics: crate::metrics::MetricsArg,
+    role: RoleArgs,
     /// The MCAP file to write. Until the recorder stops it is written as parts in
     /// `FILE.mcap.parts/`, each a finished MCAP file, so that a recorder killed outright
     /// leaves all but the last few seconds readable by any MCAP reader.
@@ -49,7 +45,7 @@ fn part_seconds(s: &str) -> Result<f64, String> {
 }
 
 pub async fn run(a: RecordArgs) -> anyhow::Result<ExitCode> {
-    let scenario = a.scenario.load()?;
+    let scenario = a.role.scenario.load()?;
     let live = match a.foxglove {
         Some(addr) => {
             let listener = tokio::net::TcpListener::bind(addr)
@@ -63,15 +59,20 @@ pub async fn run(a: RecordArgs) -> anyhow::Result<ExitCode> {
         }
         None => None,
     };
-    let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Recorder)).await?;
-    a.metrics.serve(&bus, false, None).await?;
+    let bus = join(
+        &a.role.zenoh,
+        &scenario,
+        Expect::Identity(Identity::Recorder),
+    )
+    .await?;
+    a.role.metrics.serve(&bus, false, None).await?;
     let summary = firefleet_recorder::record(
         &bus,
         &scenario,
         a.out.as_deref(),
         live,
         Duration::from_secs_f64(a.part_seconds),
-        shutdown_signal(a.zenoh.die_with_parent),
+        shutdown_signal(a.role.zenoh.die_with_parent),
     )
     .await?;
     tracing::info!(messages = summary.messages, channels = summary.channels, skipped = summary.skipped, dropped = summary.dropped, over_budget = summary.over_budget, out = ?a.out, "recording finished");

@@ -13,17 +13,13 @@ use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
 use firefleet_scada::node::ScadaOptions;
 
-use super::{ScenarioArg, positive_f64};
-use firefleet::net::{ZenohArgs, join, shutdown_signal};
+use super::{RoleArgs, positive_f64};
+use firefleet::net::{join, shutdown_signal};
 
 #[derive(Args, Debug)]
 pub struct ScadaArgs {
     #[command(flatten)]
-    scenario: ScenarioArg,
-    #[command(flatten)]
-    zenoh: ZenohArgs,
-    #[command(flatten)]
-    metrics: crate::metrics::MetricsArg,
+    role: RoleArgs,
     /// The SCADA's Modbus TCP server, HOST:PORT.
     #[arg(long, value_name = "HOST:PORT")]
     modbus: SocketAddr,
@@ -39,7 +35,7 @@ pub struct ScadaArgs {
 }
 
 pub async fn run(a: ScadaArgs) -> anyhow::Result<ExitCode> {
-    let scenario = a.scenario.load()?;
+    let scenario = a.role.scenario.load()?;
     let map = scenario.scada.clone().with_context(|| {
         format!(
             "site '{}': its file maps no [scada] (see the site file format)",
@@ -52,15 +48,15 @@ pub async fn run(a: ScadaArgs) -> anyhow::Result<ExitCode> {
         timeout: Duration::from_secs_f64(a.timeout_s),
         sim_clock: super::sim_clock(&scenario, a.sim_clock).map_err(anyhow::Error::msg)?,
     };
-    let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Scada)).await?;
-    a.metrics.serve(&bus, false, None).await?;
+    let bus = join(&a.role.zenoh, &scenario, Expect::Identity(Identity::Scada)).await?;
+    a.role.metrics.serve(&bus, false, None).await?;
     firefleet::net::ready();
     firefleet_scada::node::run(
         &bus,
         &scenario,
         map,
         &opts,
-        shutdown_signal(a.zenoh.die_with_parent),
+        shutdown_signal(a.role.zenoh.die_with_parent),
     )
     .await
     .context("bridging the SCADA")?;

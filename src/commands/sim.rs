@@ -12,17 +12,13 @@ use firefleet_bus::pki::Expect;
 use firefleet_ros2::graph::Domain;
 use firefleet_sim::SimOptions;
 
-use super::{ScenarioArg, positive_f64, time_scale};
-use firefleet::net::{ZenohArgs, join, shutdown_signal};
+use super::{RoleArgs, positive_f64, time_scale};
+use firefleet::net::{join, shutdown_signal};
 
 #[derive(Args, Debug)]
 pub struct SimArgs {
     #[command(flatten)]
-    scenario: ScenarioArg,
-    #[command(flatten)]
-    zenoh: ZenohArgs,
-    #[command(flatten)]
-    metrics: crate::metrics::MetricsArg,
+    role: RoleArgs,
     /// Seed of the simulator's random draws (default: the scenario's).
     #[arg(long)]
     seed: Option<u64>,
@@ -53,14 +49,14 @@ pub struct SimArgs {
 }
 
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
-    let scenario = a.scenario.load()?;
+    let scenario = a.role.scenario.load()?;
     anyhow::ensure!(
         a.scada.is_none() || scenario.scada.is_some(),
         "--scada: site '{}': its file maps no [scada] for the simulator to serve",
         scenario.site
     );
-    let bus = join(&a.zenoh, &scenario, Expect::Identity(Identity::Sim)).await?;
-    a.metrics.serve(&bus, false, None).await?;
+    let bus = join(&a.role.zenoh, &scenario, Expect::Identity(Identity::Sim)).await?;
+    a.role.metrics.serve(&bus, false, None).await?;
     let opts = SimOptions {
         seed: a.seed.unwrap_or(scenario.seed),
         time_scale: a.time_scale,
@@ -79,7 +75,7 @@ pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
         &bus,
         &scenario,
         &opts,
-        shutdown_signal(a.zenoh.die_with_parent),
+        shutdown_signal(a.role.zenoh.die_with_parent),
     )
     .await?;
     tracing::info!(
