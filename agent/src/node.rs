@@ -55,7 +55,7 @@ fn status(s: Status) -> NodeStatus {
     }
 }
 
-/// Why [`drive`] failed.
+/// Why the agent stopped on an error ([`drive`], [`run`]).
 #[derive(Debug, thiserror::Error)]
 pub enum DriveError {
     #[error(transparent)]
@@ -133,7 +133,7 @@ pub async fn run<P, U, M>(
     opts: &AgentOptions,
     shutdown: impl Future<Output = ()>,
     move_to: impl Future<Output = M>,
-) -> Result<Ended<M>, BusError>
+) -> Result<Ended<M>, DriveError>
 where
     P: Platform,
     U: Services<Sensors = P::Sensors, Command = P::Command>,

@@ -22,7 +22,7 @@ use firefleet_ros2::graph::{Domain, Namespace};
 use firefleet_ros2::ground::Robot;
 use firefleet_ros2::node::{Node, NodeError};
 
-/// Why a body could not be reached.
+/// Why a body could not be reached or told.
 #[derive(Debug, thiserror::Error)]
 pub enum PlatformError {
     /// The simulator's keys for the unit could not be subscribed to or declared.
@@ -40,7 +40,10 @@ pub trait Platform {
     /// The next sensor frame; `None` when the body is gone for good.
     fn sense(&mut self) -> impl Future<Output = Option<Self::Sensors>> + Send;
     /// Send set-points; the body applies its own rate limits.
-    fn actuate(&mut self, cmd: Self::Command) -> impl Future<Output = Result<(), BusError>> + Send;
+    fn actuate(
+        &mut self,
+        cmd: Self::Command,
+    ) -> impl Future<Output = Result<(), PlatformError>> + Send;
 }
 
 /// A simulated body, reached over the bus: a ground vehicle
@@ -91,8 +94,8 @@ impl<S: Message, C: Message> Platform for SimPlatform<S, C> {
         Some(frame)
     }
 
-    async fn actuate(&mut self, cmd: C) -> Result<(), BusError> {
-        self.bus.put(&self.cmd_key, &cmd).await
+    async fn actuate(&mut self, cmd: C) -> Result<(), PlatformError> {
+        Ok(self.bus.put(&self.cmd_key, &cmd).await?)
     }
 }
 
@@ -131,7 +134,7 @@ impl Platform for Ros2Platform {
         self.robot.sense().await
     }
 
-    async fn actuate(&mut self, cmd: UnitCommand) -> Result<(), BusError> {
-        self.robot.actuate(&cmd).map_err(BusError::new)
+    async fn actuate(&mut self, cmd: UnitCommand) -> Result<(), PlatformError> {
+        Ok(self.robot.actuate(&cmd)?)
     }
 }

@@ -29,21 +29,34 @@ use firefleet_protocol::keys::{self, Key, Keys, Subscribable, Topic};
 use firefleet_protocol::msg::Message;
 
 use crate::access::Role;
-use crate::pki::{self, Expect};
+use crate::pki::{self, Expect, PkiError};
 use crate::refusals::Refusals;
 
-/// A bus error: Zenoh refused something.
+/// What failed on the bus, by what a caller can do about it: a configuration to fix, an
+/// identity to replace, a network Zenoh refused, or a bus that is gone.
 #[derive(Debug, thiserror::Error)]
-#[error("zenoh: {0}")]
-pub struct BusError(String);
+pub enum BusError {
+    /// The session's configuration cannot be used: a configuration file, an endpoint, a
+    /// link's settings (what, and why).
+    #[error("{0}")]
+    Config(String),
+    /// The TLS identity the session would present can never link.
+    #[error("TLS identity: {0}")]
+    Identity(#[from] PkiError),
+    /// Zenoh refused an operation (opening a session, declaring, putting, querying).
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+    /// Asked to stop before the session joined the network.
+    #[error("stopped before joining the Zenoh network")]
+    Stopped,
+    /// The bus closed under a reader.
+    #[error("the bus closed")]
+    Closed,
+}
 
 impl BusError {
     fn from_zenoh(e: impl std::fmt::Display) -> Self {
-        Self(e.to_string())
-    }
-    /// An error of a transport built on a session (a ROS 2 node's, say).
-    pub fn new(e: impl std::fmt::Display) -> Self {
-        Self(e.to_string())
+        Self::Zenoh(e.to_string())
     }
 }
 
@@ -122,7 +135,7 @@ impl Connect {
     fn build(&self) -> Result<zenoh::Config, BusError> {
         let mut config = match &self.config_file {
             Some(path) => zenoh::Config::from_file(path)
-                .map_err(|e| BusError(format!("config file {}: {e}", path.display())))?,
+                .map_err(|e| BusError::Config(format!("config file {}: {e}", path.display())))?,
             None => {
                 let mut c = zenoh::Config::default();
                 c.insert_json5("scouting/multicast/enabled", "false")
@@ -150,7 +163,7 @@ impl Connect {
             .chain(&self.listen)
             .find(|e| e.starts_with("tls/"))
         {
-            return Err(BusError(format!(
+            return Err(BusError::Config(format!(
                 "endpoint '{e}': secure links are quic/HOST:PORT (Zenoh's TLS link can \
                  corrupt its stream under load, eclipse-zenoh/zenoh#2557)"
             )));
@@ -158,7 +171,7 @@ impl Connect {
         if let Some(dir) = &self.tls {
             for e in self.connect.iter().chain(&self.listen) {
                 if !e.starts_with("quic/") {
-                    return Err(BusError(format!(
+                    return Err(BusError::Config(format!(
                         "endpoint '{e}' is not QUIC: with a TLS identity ({}) every link is quic/...",
                         dir.display()
                     )));
@@ -170,7 +183,7 @@ impl Connect {
             for (field, value) in fields {
                 config
                     .insert_json5(&format!("transport/link/tls/{field}"), &value.to_string())
-                    .map_err(|e| BusError(format!("TLS {field}: {e}")))?;
+                    .map_err(|e| BusError::Config(format!("TLS {field}: {e}")))?;
             }
         }
         let connect: Vec<String> = self.connect.iter().map(|e| one_stream(e)).collect();
@@ -178,12 +191,12 @@ impl Connect {
         if !connect.is_empty() {
             config
                 .insert_json5("connect/endpoints", &list(&connect))
-                .map_err(|e| BusError(format!("--connect: {e}")))?;
+                .map_err(|e| BusError::Config(format!("--connect: {e}")))?;
         }
         if !listen.is_empty() {
             config
                 .insert_json5("listen/endpoints", &list(&listen))
-                .map_err(|e| BusError(format!("--listen: {e}")))?;
+                .map_err(|e| BusError::Config(format!("--listen: {e}")))?;
         }
         Ok(config)
     }
@@ -195,9 +208,7 @@ impl Connect {
         let Some(files) = tls_files(&config) else {
             return Ok(None);
         };
-        pki::check(&files, None)
-            .map(Some)
-            .map_err(|e| BusError(format!("TLS identity: {e}")))
+        Ok(Some(pki::check(&files, None)?))
     }
 
     /// Refuse, with the file and the reason, a TLS identity that can never link: what
@@ -207,7 +218,7 @@ impl Connect {
         let router = config.get_json("mode").is_ok_and(|m| m.contains("router"));
         let Some(files) = tls_files(config) else {
             return if quic_endpoints(config) {
-                Err(BusError(
+                Err(BusError::Config(
                     "a QUIC link needs a TLS identity: --tls-dir, or a configuration from firefleet deploy render".into(),
                 ))
             } else {
@@ -221,9 +232,8 @@ impl Connect {
         } else {
             self.expect.clone()
         };
-        pki::check(&files, expect.as_ref())
-            .map(drop)
-            .map_err(|e| BusError(format!("TLS identity: {e}")))
+        pki::check(&files, expect.as_ref())?;
+        Ok(())
     }
 }
 
@@ -494,7 +504,7 @@ impl Bus {
                     tokio::select! {
                         _ = tokio::time::sleep(wait) => {}
                         _ = &mut stop => {
-                            return Err(BusError::new("stopped before joining the Zenoh network"));
+                            return Err(BusError::Stopped);
                         }
                     }
                 }

@@ -102,7 +102,7 @@ pub async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> Result<(), BusError> 
                     Err(e) => tracing::debug!(key = s.key, "dropped ({e})"),
                 }
             }
-            else => return Err(BusError::new("the bus closed")),
+            else => return Err(BusError::Closed),
         }
     }
 }

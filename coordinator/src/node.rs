@@ -66,6 +66,16 @@ pub struct CoordinatorOptions {
     pub stats: crate::stats::Stats,
 }
 
+/// Why the coordinator could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeError {
+    #[error(transparent)]
+    Bus(#[from] BusError),
+    /// A unit of the site file has a profile the incident cannot plan with.
+    #[error(transparent)]
+    Profile(#[from] crate::incident::UnitProfileError),
+}
+
 /// Why [`run`] returned.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Ended {
@@ -83,7 +93,7 @@ pub async fn run(
     scenario: &Scenario,
     opts: &CoordinatorOptions,
     shutdown: impl Future<Output = ()>,
-) -> Result<Ended, BusError> {
+) -> Result<Ended, NodeError> {
     let keys = bus.keys().clone();
     let sim_time = ExternalClock::new(0.0);
     let clock: Arc<dyn Clock> = if opts.sim_clock {
@@ -91,8 +101,7 @@ pub async fn run(
     } else {
         Arc::new(SystemClock)
     };
-    let mut incident =
-        Incident::from_scenario(scenario, opts.lease_s, opts.strategy).map_err(BusError::new)?;
+    let mut incident = Incident::from_scenario(scenario, opts.lease_s, opts.strategy)?;
 
     let _token = bus.token(&Topic::CoordAlive).await?;
     let alive = bus.watch_tokens(&keys.every_unit_alive()).await?;

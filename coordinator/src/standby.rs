@@ -61,7 +61,7 @@ pub async fn serve(
     opts: &CoordinatorOptions,
     standby: bool,
     shutdown: impl Future<Output = ()>,
-) -> Result<(), BusError> {
+) -> Result<(), crate::node::NodeError> {
     tokio::pin!(shutdown);
     let mut resumed = opts.clone();
     let mut standing_by = standby;

@@ -69,31 +69,49 @@ impl Default for SimOptions {
     }
 }
 
+/// Why the simulator could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error(transparent)]
+    Bus(#[from] BusError),
+    /// The step and the time scale make a period no timer can keep.
+    #[error("a step of {step_s} s at time scale {time_scale} is no period a clock can keep")]
+    Period { step_s: f64, time_scale: f64 },
+    /// A unit's ROS 2 body could not be declared or publish.
+    #[error("a ROS 2 body: {0}")]
+    Ros2(#[from] NodeError),
+    /// Asked to serve the SCADA of a site whose file maps none.
+    #[error("the site file has no [scada] map for the simulator to serve")]
+    NoScadaMap,
+    /// The SCADA's Modbus server could not listen.
+    #[error("SCADA server on {addr}: {source}")]
+    ScadaBind {
+        addr: SocketAddr,
+        source: std::io::Error,
+    },
+}
+
 /// Run until `shutdown` completes; returns the last ground truth.
 pub async fn run(
     bus: &Bus,
     scenario: &Scenario,
     opts: &SimOptions,
     shutdown: impl Future<Output = ()>,
-) -> Result<SimTruth, BusError> {
+) -> Result<SimTruth, SimError> {
     // A step period Zenoh's timers can keep: no shorter than a microsecond.
     let period = Duration::try_from_secs_f64(opts.step_s / opts.time_scale)
         .ok()
         .filter(|p| *p >= Duration::from_micros(1))
-        .ok_or_else(|| {
-            BusError::new(format!(
-                "a step of {} s at time scale {} is no period a clock can keep",
-                opts.step_s, opts.time_scale
-            ))
+        .ok_or(SimError::Period {
+            step_s: opts.step_s,
+            time_scale: opts.time_scale,
         })?;
     let keys = bus.keys().clone();
     let mut world = World::new(scenario, opts.seed);
     let commands = bus.subscribe(&keys.every_sim_cmd()).await?;
     let rail_commands = bus.subscribe(&keys.every_sim_rail_cmd()).await?;
     let ros_bodies = match opts.ros2 {
-        Some(domain) => ros_bodies(bus, &world, domain)
-            .await
-            .map_err(BusError::new)?,
+        Some(domain) => ros_bodies(bus, &world, domain).await?,
         None => HashMap::new(),
     };
     let mut scada = match opts.scada {
@@ -180,7 +198,7 @@ pub async fn run(
         for id in &ids {
             if let Some(s) = world.sensors(id) {
                 match ros_bodies.get(id) {
-                    Some((_, body)) => body.publish(&s).map_err(BusError::new)?,
+                    Some((_, body)) => body.publish(&s)?,
                     None => bus.put(&keys.sim_sensors(id), &s).await?,
                 }
             }
@@ -204,13 +222,11 @@ pub async fn run(
 async fn serve_scada(
     world: &World,
     addr: SocketAddr,
-) -> Result<(Registers, AbortOnDrop), BusError> {
-    let map = world.scada_map().ok_or_else(|| {
-        BusError::new("the site file has no [scada] map for the simulator to serve")
-    })?;
+) -> Result<(Registers, AbortOnDrop), SimError> {
+    let map = world.scada_map().ok_or(SimError::NoScadaMap)?;
     let listener = tokio::net::TcpListener::bind(addr)
         .await
-        .map_err(|e| BusError::new(format!("SCADA server on {addr}: {e}")))?;
+        .map_err(|source| SimError::ScadaBind { addr, source })?;
     let registers = Registers::new(map.clone());
     registers.update(world);
     tracing::info!(%addr, "serving the tunnel's SCADA over Modbus TCP");
