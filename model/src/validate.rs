@@ -103,18 +103,20 @@ mod tests {
     }
 }
 
-/// Why a TOML file (a site, a robot profile) was rejected: the file, then what.
+/// Why a TOML file (a site, a robot profile) was rejected: the file, then what. Each
+/// message is whole (the cause is in it, not chained after it: a chain would print the
+/// TOML error twice).
 #[derive(Debug, thiserror::Error)]
 pub enum FileError {
-    #[error("{origin}: cannot read: {source}")]
+    #[error("{origin}: cannot read: {error}")]
     Io {
         origin: String,
-        source: std::io::Error,
+        error: std::io::Error,
     },
-    #[error("{origin}: {source}")]
+    #[error("{origin}: {error}")]
     Syntax {
         origin: String,
-        source: Box<toml::de::Error>,
+        error: Box<toml::de::Error>,
     },
     #[error("{origin}: {invalid}")]
     Invalid { origin: String, invalid: Invalid },
@@ -131,7 +133,7 @@ pub fn from_toml<T: serde::de::DeserializeOwned>(
 ) -> Result<T, FileError> {
     let t: T = toml::from_str(text).map_err(|e| FileError::Syntax {
         origin: origin.to_owned(),
-        source: Box::new(e),
+        error: Box::new(e),
     })?;
     check(&t).map_err(|invalid| FileError::Invalid {
         origin: origin.to_owned(),
@@ -146,9 +148,9 @@ pub fn load_toml<T: serde::de::DeserializeOwned>(
     check: impl FnOnce(&T) -> Result<(), Invalid>,
 ) -> Result<T, FileError> {
     let origin = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| FileError::Io {
+    let text = std::fs::read_to_string(path).map_err(|error| FileError::Io {
         origin: origin.clone(),
-        source,
+        error,
     })?;
     from_toml(&text, &origin, check)
 }

@@ -34,6 +34,9 @@ pub fn timeline(recording: &Recording, out: &mut impl Write) -> Result<(), Repla
     let mut truth: BTreeMap<String, String> = BTreeMap::new();
     let mut barred = Vec::new();
     let (mut decisions, mut messages) = (0usize, 0usize);
+    // When the simulator last saw a fire go out: the end of the firefighting, which the
+    // recording's own end (a demo lingering, a recorder stopped late) is not.
+    let mut last_out: Option<f64> = None;
     for m in recording.messages() {
         // A file cut short (the part a killed recorder was writing) is told up to the cut.
         let m = match m {
@@ -124,6 +127,9 @@ pub fn timeline(recording: &Recording, out: &mut impl Write) -> Result<(), Repla
                     let state = format!("{:?}", f.state).to_lowercase();
                     if truth.insert(f.name.clone(), state.clone()).as_ref() != Some(&state) {
                         writeln!(out, "t={site_t:7.1} s  (truth) fire {} {state}", f.name)?;
+                        if state == "out" {
+                            last_out = Some(site_t);
+                        }
                     }
                 }
             }
@@ -131,9 +137,13 @@ pub fn timeline(recording: &Recording, out: &mut impl Write) -> Result<(), Repla
         }
     }
     let fires_out = truth.values().filter(|s| *s == "out").count();
+    let last = match last_out {
+        Some(t) if fires_out > 0 => format!(", the last at t={t:.1} s"),
+        _ => String::new(),
+    };
     writeln!(
         out,
-        "{messages} messages, {decisions} decisions, {} tracks; simulated fires out {fires_out}/{} at t={site_t:.1} s",
+        "{messages} messages, {decisions} decisions, {} tracks; simulated fires out {fires_out}/{}{last}; the recording ends at t={site_t:.1} s",
         tracks.len(),
         truth.len()
     )?;
