@@ -1,0 +1,334 @@
+//! What the console sends a page: the incident whole ([`Incident`]) or what changed
+//! ([`Delta`]), and the views they are made of (units, decision lines, alerts, the heat
+//! field); how a unit's state becomes what a page shows (rounded, with its flow, time
+//! left and ETA), and what a page was last sent of each unit.
+//!
+//! Not here: keeping the picture up to date from what the console hears (the parent
+//! module's [`super::Picture`]).
+
+use std::sync::Arc;
+
+use firefleet_model::{FireId, UnitId};
+use firefleet_protocol::msg::{FireTrack, GoalAck, GoalInForce, TaskPhase, UnitMode, UnitState};
+use serde::Serialize;
+
+use super::SPRAYING_L_S;
+use crate::infra::InfraView;
+use crate::site::SiteMap;
+
+/// A unit as the page shows it.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct UnitView {
+    pub id: UnitId,
+    /// Its latest state; none until heard.
+    pub state: Option<UnitState>,
+    /// When the console last heard its state, ms since the Unix epoch.
+    pub heard_ms: Option<u64>,
+    /// Its token is present.
+    pub alive: bool,
+    /// Its token vanished after it had been present.
+    pub lost: bool,
+    /// The task its coordinator last gave it (what it was ordered; its state's task and
+    /// mode are what it does).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ordered: Option<String>,
+    /// Its tank, % full; none on the tunnel's water main.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tank_pct: Option<f64>,
+    /// Water it draws, L/s (smoothed over its states).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flow_l_s: Option<f64>,
+    /// Seconds until its tank is empty at that flow, while it sprays.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_left_s: Option<f64>,
+    /// Seconds to its task's target, straight, at its current speed, while it drives.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eta_s: Option<f64>,
+}
+
+/// A line of the decision list: one decision, or a decision repeated `count` times (the
+/// first at `first_t`, the latest at `t`).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct DecisionLine {
+    pub id: u64,
+    pub t: f64,
+    pub first_t: f64,
+    pub count: u32,
+    pub text: String,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum AlertKind {
+    UnitLost {
+        unit: UnitId,
+    },
+    FireReignited {
+        fire: FireId,
+    },
+    /// A goal the coordinator refused (`goal`: its id; the alert's own `id` is the alert's).
+    GoalRejected {
+        goal: String,
+        zone: String,
+        /// Whose goal it was.
+        issued_by: Option<String>,
+        reason: String,
+    },
+    /// A goal in force leaves a burning fire with no unit allowed to reach or attack it.
+    FireStranded {
+        fire: FireId,
+        goal: String,
+        issued_by: Option<String>,
+    },
+    /// A unit inside a zone it was told to leave with nowhere to go.
+    UnitTrapped {
+        unit: UnitId,
+        goal: String,
+        issued_by: Option<String>,
+    },
+    CoordinatorLost,
+    /// The link to the tunnel's SCADA (its DTS and ventilation) is down.
+    ScadaLost {
+        problem: String,
+    },
+}
+
+impl AlertKind {
+    /// How urgent, 1 (highest) to 3: what leaves a fire or a unit without help first.
+    pub fn priority(&self) -> u8 {
+        match self {
+            AlertKind::CoordinatorLost
+            | AlertKind::FireStranded { .. }
+            | AlertKind::UnitTrapped { .. } => 1,
+            AlertKind::UnitLost { .. } | AlertKind::FireReignited { .. } => 2,
+            AlertKind::GoalRejected { .. } | AlertKind::ScadaLost { .. } => 3,
+        }
+    }
+}
+
+/// Something a commander must acknowledge.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Alert {
+    pub id: u64,
+    /// Site time it was raised.
+    pub t: f64,
+    #[serde(flatten)]
+    pub kind: AlertKind,
+    /// [`AlertKind::priority`].
+    pub priority: u8,
+    pub text: String,
+    /// The commander who acknowledged it.
+    pub acked_by: Option<String>,
+}
+
+/// The heat field: radiant flux, kW/m^2 to 0.1, at each station of the site map (rows)
+/// and each of its lateral offsets (columns), row-major.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Heat {
+    pub columns: usize,
+    pub kw_m2: Vec<f32>,
+}
+
+/// The whole picture.
+#[derive(Debug, Clone, Serialize)]
+pub struct Incident {
+    /// Newest site time heard.
+    pub t: f64,
+    pub site: Arc<SiteMap>,
+    pub coordinator: Option<bool>,
+    /// The console's link to the site; none until known.
+    pub link: Option<bool>,
+    pub units: Vec<UnitView>,
+    pub fires: Vec<FireTrack>,
+    pub goals: Vec<GoalInForce>,
+    pub decisions: Vec<DecisionLine>,
+    pub alerts: Vec<Alert>,
+    pub acks: Vec<GoalAck>,
+    pub heat: Option<Heat>,
+    /// The tunnel's DTS and ventilation, on a site with a SCADA bridge.
+    pub infra: Option<InfraView>,
+    /// The number of the last delta this picture includes: the stream's deltas after it
+    /// apply on top (entities and decision lines by id, so one shown twice is harmless).
+    pub seq: u64,
+}
+
+/// What changed since the previous delta: whole entities, newest only.
+#[derive(Debug, Clone, Serialize, Default)]
+pub struct Delta {
+    pub seq: u64,
+    pub t: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coordinator: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub link: Option<bool>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub units: Vec<UnitView>,
+    /// Units that only moved, since they were last sent.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub moves: Vec<UnitMove>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub fires: Vec<FireTrack>,
+    /// Fires dropped: no longer known to the coordinator in charge.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub fires_gone: Vec<FireId>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub goals: Option<Vec<GoalInForce>>,
+    /// New or changed lines (a repeat counted), by id.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub decisions: Vec<DecisionLine>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub alerts: Vec<Alert>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub acks: Vec<GoalAck>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heat: Option<Heat>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub infra: Option<InfraView>,
+}
+
+impl UnitView {
+    pub(super) fn unheard(id: UnitId) -> Self {
+        Self {
+            id,
+            state: None,
+            heard_ms: None,
+            alive: false,
+            lost: false,
+            ordered: None,
+            tank_pct: None,
+            flow_l_s: None,
+            time_left_s: None,
+            eta_s: None,
+        }
+    }
+
+    /// Take `s` as its newest state, with what follows from it and the one before.
+    pub(super) fn follow(&mut self, s: UnitState, tank_l: Option<f64>) {
+        if let Some(old) = &self.state {
+            let dt = s.t - old.t;
+            if dt > 0.0 {
+                let drawn = ((old.water_l - s.water_l) / dt).max(0.0);
+                // Smoothed: a state's water is rounded, and agents sample at their own rate.
+                let flow = self.flow_l_s.map_or(drawn, |f| 0.7 * f + 0.3 * drawn);
+                self.flow_l_s = Some(round(flow, 10.0));
+            }
+        }
+        self.tank_pct = tank_l.map(|tank| round(100.0 * s.water_l / tank, 1.0).min(100.0));
+        self.time_left_s = match (tank_l, self.flow_l_s) {
+            (Some(_), Some(flow)) if flow >= SPRAYING_L_S => Some(round(s.water_l / flow, 1.0)),
+            _ => None,
+        };
+        self.eta_s = s
+            .task
+            .as_ref()
+            .filter(|_| s.speed.abs() > 0.2)
+            .map(|task| round(task.target.dist(s.pose.position()) / s.speed.abs(), 1.0));
+        self.state = Some(s);
+    }
+}
+
+/// What was last sent to pages of a unit: when, what it did, and when it was sent whole.
+#[derive(Debug)]
+pub(super) struct Sent {
+    pub(super) at: u64,
+    pub(super) doing: Doing,
+    pub(super) whole_at: u64,
+}
+
+impl Sent {
+    pub(super) fn whole(at: u64, doing: Doing) -> Self {
+        Self {
+            at,
+            doing,
+            whole_at: at,
+        }
+    }
+}
+
+/// A unit that only moved: its pose and what follows from it, a third of a whole unit's
+/// JSON; the page keeps the rest.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct UnitMove {
+    pub id: UnitId,
+    pub t: f64,
+    pub x: f64,
+    pub y: f64,
+    pub yaw: f64,
+    pub speed: f64,
+    pub water_l: f64,
+    pub heat: f64,
+    pub heard_ms: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tank_pct: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_left_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eta_s: Option<f64>,
+}
+
+impl UnitMove {
+    pub(super) fn of(v: &UnitView) -> Option<Self> {
+        let s = v.state.as_ref()?;
+        Some(Self {
+            id: v.id.clone(),
+            t: s.t,
+            x: s.pose.x,
+            y: s.pose.y,
+            yaw: s.pose.yaw,
+            speed: s.speed,
+            water_l: s.water_l,
+            heat: s.heat_flux_kw_m2,
+            heard_ms: v.heard_ms?,
+            tank_pct: v.tank_pct,
+            time_left_s: v.time_left_s,
+            eta_s: v.eta_s,
+        })
+    }
+}
+
+/// What a unit does, as far as its page must hear at once (its pose may wait).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Doing {
+    alive: bool,
+    lost: bool,
+    mode: Option<UnitMode>,
+    task: Option<(FireId, TaskPhase)>,
+    refused: bool,
+    autonomous: bool,
+    ordered: Option<String>,
+}
+
+impl Doing {
+    pub(super) fn of(v: &UnitView) -> Self {
+        let s = v.state.as_ref();
+        Self {
+            alive: v.alive,
+            lost: v.lost,
+            mode: s.map(|s| s.mode),
+            task: s.and_then(|s| s.task.as_ref()).map(|t| (t.fire, t.phase)),
+            refused: s.is_some_and(|s| s.refused.is_some()),
+            autonomous: s.is_some_and(|s| s.autonomous),
+            ordered: v.ordered.clone(),
+        }
+    }
+}
+
+pub(super) fn round(v: f64, per_unit: f64) -> f64 {
+    (v * per_unit).round() / per_unit
+}
+
+/// A state as a page shows it: numbers rounded to what a map or a table shows (a third of
+/// the JSON), the task numbers only the coordinator needs left out.
+pub(super) fn shown(mut s: UnitState) -> UnitState {
+    s.t = round(s.t, 100.0);
+    s.pose.x = round(s.pose.x, 100.0);
+    s.pose.y = round(s.pose.y, 100.0);
+    s.pose.yaw = round(s.pose.yaw, 1000.0);
+    s.speed = round(s.speed, 100.0);
+    s.water_l = round(s.water_l, 10.0);
+    s.health = round(s.health, 100.0);
+    s.heat_flux_kw_m2 = round(s.heat_flux_kw_m2, 10.0);
+    s.task_seq = None;
+    s.epoch = None;
+    s
+}
