@@ -1,0 +1,161 @@
+//! What the world shows its units and the checker: each unit's sensor frame (camera,
+//! heat, tank, odometry, cannon), each carriage's, the flames a camera could see, and the
+//! ground truth.
+//!
+//! Not here: the world's own step (the parent module) or a camera's optics
+//! ([`crate::camera`]).
+
+use super::*;
+
+impl World {
+    /// The flames a camera could see now, one per visible fire, in scenario order.
+    fn visible_flames(&self) -> impl Iterator<Item = (usize, FlameTarget)> + '_ {
+        self.fires
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| {
+                f.state == TruthFireState::Burning && f.hrr_kw >= physics::Q_VISIBLE_KW
+            })
+            .map(|(i, f)| {
+                (
+                    i,
+                    FlameTarget {
+                        centre: f.flame_centre(),
+                        radius_m: f.spec.radius_m,
+                        height_m: f.flame_height(),
+                    },
+                )
+            })
+    }
+
+    /// Whether ground unit `id`'s camera has fire `fire` (scenario index) in view now: in
+    /// its image, within range, hidden by no wall or vehicle. Ground truth for experiments;
+    /// `None` for an unknown unit.
+    pub fn flame_in_view(&self, id: &UnitId, fire: usize) -> Option<bool> {
+        let b = self.bodies.iter().find(|b| &b.id == id)?;
+        let eye = b.spec.camera.looking_from(&b.pose, b.cannon.pan);
+        Some(self.visible_flames().any(|(i, f)| {
+            i == fire && camera::in_view(&b.spec.camera, &eye, &f, &self.tunnel, &self.obstacles)
+        }))
+    }
+
+    /// What unit `id`'s sensors read now; `None` for an unknown unit.
+    pub fn sensors(&mut self, id: &UnitId) -> Option<UnitSensors> {
+        let flames: Vec<FlameTarget> = self.visible_flames().map(|(_, f)| f).collect();
+        let b = self.bodies.iter().find(|b| &b.id == id)?;
+        let smoke = physics::SMOKE_EXTINCTION_PER_M + self.smoke_downstream(b.pose.position());
+        let detections = camera::detect(
+            &b.spec.camera,
+            &b.spec.camera.looking_from(&b.pose, b.cannon.pan),
+            &flames,
+            &self.tunnel,
+            &self.obstacles,
+            smoke,
+            &mut self.rng,
+        );
+        Some(UnitSensors {
+            unit: b.id.clone(),
+            t: self.t,
+            pose: b.pose,
+            speed: b.speed,
+            steer: b.steer,
+            heat_flux_kw_m2: b.heat_flux,
+            water_l: b.water_l,
+            cannon: b.cannon,
+            detections,
+            collided: b.collided,
+        })
+    }
+
+    /// What monorail unit `id`'s sensors read now; `None` for an unknown unit.
+    ///
+    /// The fire detector and the thermal camera see burning fires within range whose flame
+    /// the carriage has a line of sight to; the camera places each with a Gaussian error
+    /// growing with range. The temperature is the ceiling gas's ([`World::ceiling_rise_c`]).
+    pub fn rail_sensors(&mut self, id: &UnitId) -> Option<RailSensors> {
+        let c = self.carriages.iter().find(|c| &c.id == id)?;
+        let m = c.pivot();
+        let spec = c.spec;
+        let mut fire_detected = false;
+        let mut hot_spots = Vec::new();
+        let temperature_c = physics::AMBIENT_C
+            + self.ceiling_rise_c(firefleet_model::Point2::new(m[0], m[1]), m[2]);
+        for f in self
+            .fires
+            .iter()
+            .filter(|f| f.state == TruthFireState::Burning)
+        {
+            let r = f
+                .spec
+                .position()
+                .dist(firefleet_model::Point2::new(m[0], m[1]));
+            let centre = f.flame_centre();
+            let range = (r * r + (m[2] - centre[2]).powi(2)).sqrt();
+            if f.hrr_kw < physics::Q_VISIBLE_KW
+                || range > spec.detector_range_m
+                || camera::line_blocked(&self.tunnel, &self.obstacles, m, centre)
+            {
+                continue;
+            }
+            fire_detected = true;
+            let sigma = spec.hot_spot_sigma_a_m + spec.hot_spot_sigma_b * range;
+            let noise = Normal::new(0.0, sigma).expect("sigma is positive");
+            hot_spots.push(HotSpot {
+                position: firefleet_model::Point2::new(
+                    f.spec.x_m + noise.sample(&mut self.rng),
+                    f.spec.y_m + noise.sample(&mut self.rng),
+                ),
+                sigma_m: sigma,
+            });
+        }
+        Some(RailSensors {
+            unit: c.id.clone(),
+            t: self.t,
+            joints: c.joints,
+            speed: c.speed,
+            valve_open: c.valve_open,
+            flow_l_s: if c.valve_open { spec.flow_l_s } else { 0.0 },
+            water_connected: c.connected(),
+            fire_detected,
+            temperature_c,
+            heat_flux_kw_m2: c.heat_flux,
+            hot_spots,
+        })
+    }
+
+    pub fn truth(&self) -> SimTruth {
+        SimTruth {
+            t: self.t,
+            time_limit_s: self.time_limit_s,
+            fires: self
+                .fires
+                .iter()
+                .map(|f| TruthFire {
+                    name: f.spec.name.clone(),
+                    position: f.spec.position(),
+                    hrr_kw: f.hrr_kw,
+                    state: f.state,
+                    water_received_l: f.water_received_l,
+                })
+                .collect(),
+            units: self
+                .bodies
+                .iter()
+                .map(|b| TruthUnit {
+                    id: b.id.clone(),
+                    pose: b.pose,
+                    heat_dose_kj_m2: b.heat_dose,
+                    water_used_l: b.water_used,
+                    collisions: b.collisions,
+                })
+                .chain(self.carriages.iter().map(|c| TruthUnit {
+                    id: c.id.clone(),
+                    pose: c.pose(),
+                    heat_dose_kj_m2: c.heat_dose,
+                    water_used_l: c.water_used,
+                    collisions: 0,
+                }))
+                .collect(),
+        }
+    }
+}
