@@ -49,6 +49,7 @@
 
 pub mod access;
 mod bus;
+mod connect;
 mod exchange;
 pub mod goal;
 pub mod limits;
@@ -57,8 +58,6 @@ pub mod probe;
 pub mod refusals;
 pub mod render;
 
-pub use bus::{
-    Bus, BusError, Connect, Inbox, Links, Mode, RejectCounts, Traffic, free_loopback_port,
-    mtls_link, one_stream,
-};
+pub use bus::{Bus, BusError, Inbox, RejectCounts, Traffic};
+pub use connect::{Connect, Links, Mode, free_loopback_port, mtls_link, one_stream};
 pub use exchange::{Answers, Ask, DeclaredKeys, Question, Questions, Raw, RawInbox, Token, Tokens};
