@@ -1,0 +1,308 @@
+//! The attackers: what a thief does with a stolen unit certificate (fake fires, moved
+//! fakes, false "out", replays, a flood) and with a sector commander's (a keep-out on every
+//! zone), each as a task beside the site, numbering its lies by the site's clock.
+//!
+//! Not here: the site under attack and what is measured of it (the parent module).
+
+use super::*;
+
+/// What a lying unit needs to know: who it speaks for, where the site's real fires are
+/// (a thief knows the site), and how fast site time runs.
+pub(super) struct Lie {
+    pub(super) unit: UnitId,
+    pub(super) fires: Vec<Point2>,
+    pub(super) time_scale: f64,
+}
+
+/// The site's time as the thief hears it: ugv-2's own simulated sensors carry it.
+#[derive(Clone, Default)]
+struct SiteClock(Arc<AtomicU64>);
+
+impl SiteClock {
+    pub(super) fn now(&self) -> f64 {
+        f64::from_bits(self.0.load(Ordering::Relaxed))
+    }
+
+    pub(super) fn set(&self, t: f64) {
+        self.0.store(t.to_bits(), Ordering::Relaxed);
+    }
+}
+
+/// Fake fires: three, `seed`ed, none within 15 m of a real one.
+pub(super) fn fakes(rng: &mut ChaCha8Rng, real: &[Point2]) -> Vec<Point2> {
+    let mut out: Vec<Point2> = Vec::new();
+    while out.len() < 3 {
+        let p = Point2::new(rng.random_range(10.0..290.0), rng.random_range(-3.0..3.0));
+        if real.iter().chain(&out).all(|r| r.dist(p) > 15.0) {
+            out.push(p);
+        }
+    }
+    out
+}
+
+/// One report of flames at `at`, dated `t`, by `unit`, as its camera would place them.
+pub(super) fn report(unit: &UnitId, t: f64, at: &[Point2]) -> FlameReport {
+    FlameReport {
+        unit: unit.clone(),
+        t,
+        observer: Pose2::new(
+            at.first().map_or(60.0, |p| (p.x - 15.0).max(1.0)),
+            -2.0,
+            0.0,
+        ),
+        observations: at
+            .iter()
+            .map(|&position| FlameObservation {
+                position,
+                cov: [0.3, 0.0, 0.3],
+                confidence: 0.95,
+                hrr_kw: Some(5000.0),
+            })
+            .collect(),
+    }
+}
+
+/// Send `attack` on `lie.unit`'s keys until `stop`, counting in `sent`.
+pub(super) async fn flood_as_unit(
+    thief: Bus,
+    lie: Lie,
+    attack: Attack,
+    seed: u64,
+    stop: Arc<AtomicBool>,
+    sent: Arc<AtomicU64>,
+) {
+    let unit = lie.unit.clone();
+    let keys = thief.keys().clone();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let clock = SiteClock::default();
+    if let Ok(sensors) = thief.subscribe(&keys.sim_sensors(&unit)).await {
+        let clock = clock.clone();
+        tokio::spawn(async move {
+            while let Some((_, s)) = sensors.recv().await {
+                clock.set(s.t);
+            }
+        });
+    }
+    let tasks = thief.subscribe(&keys.unit_task(&unit)).await.ok();
+    // A unit's pace: a report every 0.25 s of site time.
+    let pace = Duration::from_secs_f64(0.25 / lie.time_scale);
+    let mut state = UnitState::idle(
+        unit.clone(),
+        UnitKind::Ground,
+        Pose2::new(60.0, -2.0, 0.0),
+        1000.0,
+    );
+    let big = vec![0xA5u8; 1 << 20];
+    let mut fake = fakes(&mut rng, &lie.fires);
+    let mut moved_at = 0.0;
+    let mut claimed: Option<(u64, u32)> = None;
+    while !stop.load(Ordering::Relaxed) {
+        let now = clock.now();
+        let (key, bytes) = match attack {
+            Attack::None | Attack::Commander => {
+                tokio::time::sleep(Duration::from_millis(100)).await;
+                continue;
+            }
+            Attack::States => {
+                state.t += 0.001;
+                (
+                    keys.unit_state(&unit).as_str().to_owned(),
+                    codec::encode(&state),
+                )
+            }
+            Attack::Garbage => {
+                let n = rng.random_range(1..256);
+                (
+                    keys.unit_state(&unit).as_str().to_owned(),
+                    (0..n).map(|_| rng.random()).collect(),
+                )
+            }
+            Attack::Reports => {
+                tokio::time::sleep(Duration::from_micros(1_000_000 / 94)).await;
+                let at: Vec<Point2> = (0..MAX_LIST)
+                    .map(|_| Point2::new(rng.random_range(0.0..300.0), rng.random_range(-4.0..4.0)))
+                    .collect();
+                (
+                    keys.unit_report(&unit).as_str().to_owned(),
+                    codec::encode(&report(&unit, state.t, &at)),
+                )
+            }
+            Attack::BigBt => (keys.unit_bt(&unit).as_str().to_owned(), big.clone()),
+            Attack::FakeFires | Attack::MovingFakes => {
+                tokio::time::sleep(pace).await;
+                if attack == Attack::MovingFakes && now - moved_at >= 12.0 {
+                    fake = fakes(&mut rng, &lie.fires);
+                    moved_at = now;
+                }
+                (
+                    keys.unit_report(&unit).as_str().to_owned(),
+                    codec::encode(&report(&unit, now, &fake)),
+                )
+            }
+            Attack::Replay => {
+                tokio::time::sleep(pace).await;
+                // What ugv-2 reported of the real fires 30 s ago, once there is a past.
+                if now < 40.0 {
+                    continue;
+                }
+                (
+                    keys.unit_report(&unit).as_str().to_owned(),
+                    codec::encode(&report(&unit, now - 30.0, &lie.fires)),
+                )
+            }
+            Attack::FalseOut => {
+                tokio::time::sleep(Duration::from_secs_f64(0.5 / lie.time_scale)).await;
+                let Some(task) = tasks.as_ref().and_then(|t| {
+                    let mut newest = None;
+                    while let Some((_, task)) = t.try_recv() {
+                        newest = Some(task);
+                    }
+                    newest
+                }) else {
+                    continue;
+                };
+                let firefleet_protocol::msg::TaskKind::Extinguish { fire, target, .. } = task.kind
+                else {
+                    continue;
+                };
+                // Three claims a task, dated a little ahead so that the unit's own states
+                // do not shadow them.
+                let times = match claimed {
+                    Some((seq, n)) if seq == task.seq => n,
+                    _ => 0,
+                };
+                if times >= 3 {
+                    continue;
+                }
+                claimed = Some((task.seq, times + 1));
+                let forged = UnitState {
+                    t: now + 0.5,
+                    task: Some(TaskProgress {
+                        seq: task.seq,
+                        fire,
+                        phase: TaskPhase::Extinguished,
+                        target,
+                    }),
+                    task_seq: Some(task.seq),
+                    epoch: Some(task.epoch),
+                    ..UnitState::idle(
+                        unit.clone(),
+                        UnitKind::Ground,
+                        Pose2::new((target.x - 8.0).max(1.0), target.y, 0.0),
+                        500.0,
+                    )
+                };
+                (
+                    keys.unit_state(&unit).as_str().to_owned(),
+                    codec::encode(&forged),
+                )
+            }
+        };
+        if thief.put_raw(&key, bytes).await.is_ok() {
+            sent.fetch_add(1, Ordering::Relaxed);
+        }
+        // The link's own pace, but never a task that starves the runtime.
+        if sent.load(Ordering::Relaxed).is_multiple_of(256) {
+            tokio::task::yield_now().await;
+        }
+    }
+    thief.close().await;
+}
+
+/// The stolen sector commander's attack: keep-out at priority 255 on every zone as soon as
+/// a coordinator answers, then 70 goals more; the incident commander, asking the status
+/// every 100 ms, clears every zone once it names a stranded fire. The alert's delay (site
+/// s) goes to `alert_delay`.
+pub(super) async fn bar_every_zone(
+    (thief, sector): (Bus, CommanderId),
+    (chief_bus, chief): (Bus, CommanderId),
+    zones: Vec<ZoneId>,
+    stop: Arc<AtomicBool>,
+    sent: Arc<AtomicU64>,
+    alert_delay: Arc<std::sync::Mutex<Option<f64>>>,
+) {
+    let status = |bus: Bus| async move {
+        let key = bus.keys().expr(&Topic::CoordStatus);
+        let answers = bus
+            .ask(&key, Ask::within(Duration::from_secs(1)))
+            .await
+            .ok()?;
+        let sample = answers.recv().await?;
+        let status = codec::decode::<IncidentStatus>(&sample.bytes).ok()?;
+        Some((bus, status))
+    };
+    // Strike once the firefighting is under way: a fire confirmed. (A keep-out before any
+    // fire is known strands nothing the coordinator knows of, and raises no alert: see the
+    // docs/zone-goals.md.)
+    let mut chief_bus = chief_bus;
+    loop {
+        if stop.load(Ordering::Relaxed) {
+            return;
+        }
+        match status(chief_bus.clone()).await {
+            Some((b, s)) if s.fires.iter().any(|f| f.state != FireState::Tentative) => {
+                chief_bus = b;
+                break;
+            }
+            Some((b, _)) => chief_bus = b,
+            None => {}
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    let mut accepted_at = None;
+    for zone in &zones {
+        let goal = ZoneGoal {
+            priority: 255,
+            ..ZoneGoal::new(zone.clone(), GoalKind::KeepOut, sector.clone())
+        };
+        if let Ok(ack) = goal::issue(&thief, &goal, &sector, goal::ACK_TIMEOUT).await {
+            sent.fetch_add(1, Ordering::Relaxed);
+            if ack.accepted && accepted_at.is_none() {
+                accepted_at = status(chief_bus.clone()).await.map(|(_, s)| s.t);
+            }
+        }
+    }
+    for k in 0..70u32 {
+        let zone = &zones[k as usize % zones.len()];
+        let goal = ZoneGoal {
+            id: format!("flood-{k}"),
+            priority: u8::try_from(k % 200).unwrap_or(0),
+            ..ZoneGoal::new(zone.clone(), GoalKind::Monitor, sector.clone())
+        };
+        if thief
+            .put(&thief.keys().zone_goal(zone, &sector), &goal)
+            .await
+            .is_ok()
+        {
+            sent.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+    // The incident commander: the moment the alert shows, clear every zone the stolen
+    // certificate holds goals on (a delete on the chief's own goal key of a zone clears the
+    // lower ranks' goals there), and again should it strand a fire later.
+    while !stop.load(Ordering::Relaxed) {
+        if let Some((_, s)) = status(chief_bus.clone()).await
+            && !s.stranded.is_empty()
+        {
+            alert_delay
+                .lock()
+                .expect("not poisoned")
+                .get_or_insert_with(|| accepted_at.map_or(f64::NAN, |at| s.t - at));
+            let mut named: Vec<ZoneId> = s
+                .goals
+                .iter()
+                .filter(|g| g.issued_by.as_ref() == Some(&sector))
+                .map(|g| g.zone.clone())
+                .chain(s.stranded.iter().map(|x| x.zone.clone()))
+                .collect();
+            named.sort();
+            named.dedup();
+            for zone in named {
+                let _ = goal::clear(&chief_bus, &zone, &chief).await;
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    thief.close().await;
+    chief_bus.close().await;
+}
