@@ -7,7 +7,8 @@
 use firefleet_model::validate::{Invalid, Validate};
 use firefleet_model::{FireId, UnitId};
 use firefleet_protocol::msg::{
-    FireState, FireTrack, FlameReport, TaskKind, TaskPhase, TaskProgress, UnitMode, UnitState,
+    FireState, FireTrack, FlameReport, Refusal, TaskKind, TaskPhase, TaskProgress, UnitMode,
+    UnitState,
 };
 
 use crate::fusion::{Contradiction, Fused};
@@ -170,8 +171,9 @@ impl Incident {
         // bring a long look it may not have had.
         let looked_s = (t - v.state_at).clamp(0.0, 1.0);
         v.state_at = t;
-        let tasked = v.tasked;
-        let current = v.task.clone();
+        // Whether it holds a task of this coordinator's as it is heard (what follows may
+        // stand it by).
+        let (tasked, holds) = (v.tasked, v.task.is_some());
         let progress = st.task;
         let refusal = st.refused.clone();
         let taken = st.task_seq.map(|seq| (st.epoch.unwrap_or(0), seq));
@@ -201,157 +203,217 @@ impl Incident {
                 },
             );
         }
-        // A task this coordinator did not give (it gave it before a restart) is adopted;
-        // what a unit it tasked reports of an older task is not (a unit heard again after
-        // its lease lapsed may still be on a fire since given to another). A unit that
-        // holds any other task of an older term stands by in this one: until it takes a
-        // task of this term, the coordinator of that one (deposed, perhaps only cut off)
-        // could still command it.
-        if current.is_none() && !tasked {
-            match progress {
-                Some(p) if matches!(p.phase, TaskPhase::Travelling | TaskPhase::Spraying) => {
-                    out.extend(self.adopt(&unit, p, t));
-                    relevant = true;
-                }
-                _ if taken.is_some_and(|(epoch, _)| epoch < self.epoch) => {
-                    out.push(self.standby(&unit, t));
-                    relevant = true;
-                }
-                _ => {}
-            }
+        if !holds && !tasked {
+            relevant |= self.take_over_task(&unit, progress, taken, t, &mut out);
         }
-        let current = self.units.get(&unit).and_then(|v| v.task.clone());
-        if let (Some(task), Some(p)) = (current, progress)
-            && task.seq == p.seq
-            && let TaskKind::Extinguish { fire, .. } = task.kind
-        {
-            // The task may name a track since merged into another.
-            let fire = self.fusion.resolve(fire);
-            match p.phase {
-                TaskPhase::Extinguished => {
-                    relevant = true;
-                    // Sent to a fire one other unit alone claims, it saw nothing there.
-                    if let Some(c) = self.fusion.found_nothing(fire, &unit, t) {
-                        out.extend(self.contradicted(vec![c], &unit, t));
-                    }
-                    // A claim, not yet a fact, while another unit still sees the fire
-                    // or sprays it: a unit lying (or whose detector lost the flame in
-                    // steam) frees itself, not the units still at work.
-                    let against = self.still_burning_for(fire, &unit, t);
-                    if !against.is_empty() {
-                        self.log(
-                            t,
-                            Decision::OutDisputed {
-                                fire,
-                                by: unit.clone(),
-                                against,
-                            },
-                        );
-                        // Not sent straight back to a fire it says is out.
-                        self.failed
-                            .insert((unit.clone(), fire), t + self.policy.retry_after_s);
-                        out.push(self.standby(&unit, t));
-                    } else {
-                        if let Some(f) = self.fusion.get_mut(fire) {
-                            f.state = FireState::Out;
-                            f.out_at = Some(t);
-                        }
-                        self.log(
-                            t,
-                            Decision::FireOut {
-                                fire,
-                                by: unit.clone(),
-                            },
-                        );
-                        out.push(Output::Fire(self.track(fire, t)));
-                        // Everyone on that fire is free again (after a merge, more than one).
-                        let mut free = self.assigned_to(fire);
-                        if !free.contains(&unit) {
-                            free.push(unit.clone());
-                        }
-                        for u in free {
-                            out.push(self.standby(&u, t));
-                        }
-                    }
-                }
-                TaskPhase::Failed => {
-                    relevant = true;
-                    self.failed
-                        .insert((unit.clone(), fire), t + self.policy.retry_after_s);
-                    self.log(
-                        t,
-                        Decision::GaveUp {
-                            unit: unit.clone(),
-                            fire,
-                        },
-                    );
-                    out.extend(self.release(fire, t));
-                    out.push(self.standby(&unit, t));
-                }
-                TaskPhase::Spraying => {
-                    if let Some(f) = self.fusion.get_mut(fire)
-                        && f.state == FireState::Assigned
-                    {
-                        f.state = FireState::Suppressing;
-                        out.push(Output::Fire(self.track(fire, t)));
-                    }
-                }
-                TaskPhase::Travelling => {}
-            }
+        if let Some(p) = progress {
+            relevant |= self.on_progress(&unit, p, t, &mut out);
         }
-        // The unit took a task of this term numbered above the one this coordinator gave
-        // it: a task it never gave (forged). Give the unit its task again, numbered above,
-        // so that it hears this coordinator again. A task of a newer term is a newer
-        // coordinator's (or forged beside it): the unit refuses this one's now, and this
-        // one steps down when it hears that coordinator ([`Incident::deposed_by`]).
-        if let (Some((epoch, taken)), Some(task)) =
-            (taken, self.units.get(&unit).and_then(|v| v.task.clone()))
-            && epoch == task.epoch
-            && taken > task.seq
-            && self.heed_seq(taken, t)
-        {
-            self.log(
-                t,
-                Decision::Superseded {
-                    unit: unit.clone(),
-                    foreign: taken,
-                    ours: task.seq,
-                },
-            );
-            out.push(self.give(&unit, task.kind, t));
+        if let Some((epoch, seq)) = taken {
+            self.supersede_forged(&unit, epoch, seq, t, &mut out);
         }
-        if let Some(r) = refusal
-            && let Some(task) = self.units.get(&unit).and_then(|v| v.task.clone())
-            && task.seq == r.seq
-        {
-            // The unit holds a barred space the coordinator did not (one of them is late,
-            // or the two disagree): the unit's word stands. Standby replaces the task, so
-            // the refusal is logged once. A refusal for a goal no longer in force is the
-            // unit's late news (the lifted bar reaches it within a second): the fire may
-            // be given again at once, not after a minute.
-            let lifted = self.goals.lifted(&r.goal);
-            if let TaskKind::Extinguish { fire, .. } = task.kind {
-                let fire = self.fusion.resolve(fire);
-                if !lifted {
-                    self.failed
-                        .insert((unit.clone(), fire), t + self.policy.retry_after_s);
-                }
-                out.extend(self.release(fire, t));
-            }
-            self.log(
-                t,
-                Decision::Refused {
-                    unit: unit.clone(),
-                    refusal: r,
-                },
-            );
-            out.push(self.standby(&unit, t));
-            relevant = true;
+        if let Some(r) = refusal {
+            relevant |= self.on_refusal(&unit, r, t, &mut out);
         }
         if relevant {
             out.extend(self.solve(t));
         }
         Ok(out)
+    }
+
+    /// A unit this coordinator has never tasked, heard working on a task: one of an earlier
+    /// coordinator of this site (before a restart) is adopted; one of an older term it
+    /// merely holds stands it by. Whether that changes the decisions.
+    ///
+    /// What a unit it tasked reports of an older task is not adopted (a unit heard again
+    /// after its lease lapsed may still be on a fire since given to another). A unit that
+    /// holds any other task of an older term stands by in this one: until it takes a task
+    /// of this term, the coordinator of that one (deposed, perhaps only cut off) could
+    /// still command it.
+    fn take_over_task(
+        &mut self,
+        unit: &UnitId,
+        progress: Option<TaskProgress>,
+        taken: Option<(u64, u64)>,
+        t: f64,
+        out: &mut Vec<Output>,
+    ) -> bool {
+        match progress {
+            Some(p) if matches!(p.phase, TaskPhase::Travelling | TaskPhase::Spraying) => {
+                out.extend(self.adopt(unit, p, t));
+                true
+            }
+            _ if taken.is_some_and(|(epoch, _)| epoch < self.epoch) => {
+                out.push(self.standby(unit, t));
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// What a unit says of the task it holds from this coordinator: a fire it says is out,
+    /// a task it gave up, spraying begun. Whether that changes the decisions.
+    fn on_progress(
+        &mut self,
+        unit: &UnitId,
+        p: TaskProgress,
+        t: f64,
+        out: &mut Vec<Output>,
+    ) -> bool {
+        let Some(task) = self.units.get(unit).and_then(|v| v.task.clone()) else {
+            return false;
+        };
+        let TaskKind::Extinguish { fire, .. } = task.kind else {
+            return false;
+        };
+        if task.seq != p.seq {
+            return false;
+        }
+        // The task may name a track since merged into another.
+        let fire = self.fusion.resolve(fire);
+        match p.phase {
+            TaskPhase::Extinguished => {
+                self.on_out_claim(unit, fire, t, out);
+                true
+            }
+            TaskPhase::Failed => {
+                self.failed
+                    .insert((unit.clone(), fire), t + self.policy.retry_after_s);
+                self.log(
+                    t,
+                    Decision::GaveUp {
+                        unit: unit.clone(),
+                        fire,
+                    },
+                );
+                out.extend(self.release(fire, t));
+                out.push(self.standby(unit, t));
+                true
+            }
+            TaskPhase::Spraying => {
+                if let Some(f) = self.fusion.get_mut(fire)
+                    && f.state == FireState::Assigned
+                {
+                    f.state = FireState::Suppressing;
+                    out.push(Output::Fire(self.track(fire, t)));
+                }
+                false
+            }
+            TaskPhase::Travelling => false,
+        }
+    }
+
+    /// `unit`, sent to `fire`, says it is out: a fact once no other unit still sees it or
+    /// sprays it, and everyone on it is free; a claim disputed otherwise, which frees only
+    /// the claimant (a unit lying, or whose detector lost the flame in steam, frees itself,
+    /// not the units still at work).
+    fn on_out_claim(&mut self, unit: &UnitId, fire: FireId, t: f64, out: &mut Vec<Output>) {
+        // Sent to a fire one other unit alone claims, it saw nothing there.
+        if let Some(c) = self.fusion.found_nothing(fire, unit, t) {
+            out.extend(self.contradicted(vec![c], unit, t));
+        }
+        let against = self.still_burning_for(fire, unit, t);
+        if !against.is_empty() {
+            self.log(
+                t,
+                Decision::OutDisputed {
+                    fire,
+                    by: unit.clone(),
+                    against,
+                },
+            );
+            // Not sent straight back to a fire it says is out.
+            self.failed
+                .insert((unit.clone(), fire), t + self.policy.retry_after_s);
+            out.push(self.standby(unit, t));
+            return;
+        }
+        if let Some(f) = self.fusion.get_mut(fire) {
+            f.state = FireState::Out;
+            f.out_at = Some(t);
+        }
+        self.log(
+            t,
+            Decision::FireOut {
+                fire,
+                by: unit.clone(),
+            },
+        );
+        out.push(Output::Fire(self.track(fire, t)));
+        // Everyone on that fire is free again (after a merge, more than one).
+        let mut free = self.assigned_to(fire);
+        if !free.contains(unit) {
+            free.push(unit.clone());
+        }
+        for u in free {
+            out.push(self.standby(&u, t));
+        }
+    }
+
+    /// The unit took task `seq` of term `epoch`: above the one this coordinator gave it in
+    /// its own term, it is a task this coordinator never gave (forged), and the unit gets
+    /// its task again, numbered above, so that it hears this coordinator again. A task of
+    /// a newer term is a newer coordinator's (or forged beside it): the unit refuses this
+    /// one's now, and this one steps down when it hears that coordinator
+    /// ([`Incident::deposed_by`]).
+    fn supersede_forged(
+        &mut self,
+        unit: &UnitId,
+        epoch: u64,
+        seq: u64,
+        t: f64,
+        out: &mut Vec<Output>,
+    ) {
+        if let Some(task) = self.units.get(unit).and_then(|v| v.task.clone())
+            && epoch == task.epoch
+            && seq > task.seq
+            && self.heed_seq(seq, t)
+        {
+            self.log(
+                t,
+                Decision::Superseded {
+                    unit: unit.clone(),
+                    foreign: seq,
+                    ours: task.seq,
+                },
+            );
+            out.push(self.give(unit, task.kind, t));
+        }
+    }
+
+    /// The unit refused the task it holds from this coordinator for barred space. Whether
+    /// that changes the decisions.
+    ///
+    /// The unit holds a barred space the coordinator did not (one of them is late, or the
+    /// two disagree): the unit's word stands. Standby replaces the task, so the refusal is
+    /// logged once. A refusal for a goal no longer in force is the unit's late news (the
+    /// lifted bar reaches it within a second): the fire may be given again at once, not
+    /// after a minute.
+    fn on_refusal(&mut self, unit: &UnitId, r: Refusal, t: f64, out: &mut Vec<Output>) -> bool {
+        let Some(task) = self.units.get(unit).and_then(|v| v.task.clone()) else {
+            return false;
+        };
+        if task.seq != r.seq {
+            return false;
+        }
+        let lifted = self.goals.lifted(&r.goal);
+        if let TaskKind::Extinguish { fire, .. } = task.kind {
+            let fire = self.fusion.resolve(fire);
+            if !lifted {
+                self.failed
+                    .insert((unit.clone(), fire), t + self.policy.retry_after_s);
+            }
+            out.extend(self.release(fire, t));
+        }
+        self.log(
+            t,
+            Decision::Refused {
+                unit: unit.clone(),
+                refusal: r,
+            },
+        );
+        out.push(self.standby(unit, t));
+        true
     }
 
     /// The units other than `claimant` that still see fire `fire` burning
