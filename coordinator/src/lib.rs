@@ -7,7 +7,8 @@
 //! (units, fires, tasks, goals) and reacts to events with decisions, each logged with its
 //! reason. All six are pure: no Zenoh, no clock of their own.
 //! [`invariants`] checks an incident's history against the zone goals (for recordings and
-//! experiments). [`node`] wires them to the bus. Recording is the `firefleet-recorder` crate's.
+//! experiments). [`node`] wires them to the bus, by the timing rules of [`pacing`] (pure
+//! too, wall-clock time given). Recording is the `firefleet-recorder` crate's.
 //!
 //! A restarted coordinator rebuilds its picture from the recorded fire tracks (a recorder
 //! answers `fire/*` with the latest of each; the tracks keep their ids), then from the
@@ -25,6 +26,7 @@ pub mod goals;
 pub mod incident;
 pub mod invariants;
 pub mod node;
+pub mod pacing;
 pub mod roads;
 pub mod standby;
 pub mod stats;

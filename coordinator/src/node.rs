@@ -22,28 +22,25 @@
 //! Not here: any decision; [`crate::incident`] decides, this loop carries events in and
 //! decisions out.
 
-use std::collections::HashMap;
 use std::future::Future;
 use std::sync::Arc;
 use std::time::Duration;
 
-use firefleet_bus::{Ask, Bus, BusError, Inbox};
+use firefleet_bus::{Ask, Bus, BusError, Inbox, Question, Questions, Raw, RawInbox, Tokens};
 use firefleet_model::clock::{Clock, ExternalClock, SystemClock};
 use firefleet_model::scenario::Scenario;
 use firefleet_model::validate::Invalid;
-use firefleet_model::{CommanderId, UnitId, ZoneId};
+use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    FireState, FireTrack, GoalAck, GoalsInForce, IncidentStatus, MAX_GOAL_ID, SimClock, Stranded,
-    Task, Trapped, UnitState, ZoneGoal, latest_per_fire,
+    DtsZone, FireState, FireTrack, FlameReport, GoalAck, GoalsInForce, IncidentStatus, MAX_GOAL_ID,
+    SimClock, Stranded, Task, Trapped, UnitState, Vent, ZoneGoal, latest_per_fire,
 };
 
 use crate::assign::Strategy;
 use crate::incident::{Decision, Incident, Loss, Output};
-
-/// Re-publication of tasks and tracks is spread over this many ticks a second.
-const REPUBLISH_SLICES: usize = 10;
+use crate::pacing::{Republish, TokenGrace};
 
 /// How the coordinator runs.
 #[derive(Debug, Clone)]
@@ -104,41 +101,18 @@ pub async fn run(
     let mut incident = Incident::from_scenario(scenario, opts.lease_s, opts.strategy)?;
 
     let _token = bus.token(&Topic::CoordAlive).await?;
-    let alive = bus.watch_tokens(&keys.every_unit_alive()).await?;
-    // Room for two states of every unit: units publish in bursts.
-    let states = bus
-        .subscribe_with_capacity(
-            &keys.every_unit_state(),
-            (2 * scenario.units.len()).max(256),
-        )
-        .await?;
-    let reports = bus.subscribe(&keys.every_unit_report()).await?;
-    // Other coordinators' tasks: one of a newer epoch deposes this coordinator.
-    let mut rivals = bus
-        .subscribe_raw(&[keys.every_unit_task().as_str()], true)
-        .await?;
-    let clock_msgs = bus.subscribe(&keys.sim_clock()).await?;
-    // The tunnel's DTS zones and ventilation, from the SCADA bridge: room for a poll of
-    // every zone.
-    let dts = bus
-        .subscribe_with_capacity(
-            &keys.every_dts_zone(),
-            scenario
-                .scada
-                .as_ref()
-                .map_or(16, |m| m.zone_count(scenario.tunnel.length_m))
-                .max(256),
-        )
-        .await?;
-    let vent = bus.subscribe(&keys.infra_vent()).await?;
-    // `coord/status`, `coord/barred` and `coord/goals` are answered to queries.
-    let coord_q = bus.serve(&keys.every_coord()).await?;
+    let Inputs {
+        alive,
+        states,
+        reports,
+        mut rivals,
+        clock_msgs,
+        dts,
+        vent,
+        coord_q,
+        mut goals,
+    } = Inputs::subscribe(bus, scenario).await?;
     let mut told = Told::default();
-    // Goals are read raw, not through the bus's typed inbox: a malformed goal must still
-    // be answered, and a delete on a zone's goal key clears the zone.
-    let mut goals = bus
-        .subscribe_raw(&[keys.every_zone_goal().as_str()], false)
-        .await?;
 
     // Before the first decision, the site clock: a coordinator restarted mid-incident that
     // decided at t = 0 would number its tasks below those the units hold (and they would
@@ -164,45 +138,19 @@ pub async fn run(
     );
     // Before anything else is said: the goals and the tracks the previous coordinator
     // published, as a recorder kept them (none at a first start, or when nothing records).
-    if let Some(kept) = GoalsInForce::newer(recall_goals(bus).await?, opts.resume_goals.clone()) {
-        let (out, refused) = incident.restore_goals(&kept, clock.now());
-        for ack in refused {
-            bus.rejects().count_invalid();
-            tracing::warn!(goal = ack.id, zone = %ack.zone, "recalled goal refused: {}", ack.reason);
-        }
-        publish(bus, out).await?;
-    }
-    let recalled = latest_per_fire(
-        recall_fires(bus)
-            .await?
-            .into_iter()
-            .chain(opts.resume.clone()),
-    );
-    if !recalled.is_empty() {
-        // The site clock dates the recalled tracks (one dated ahead of it is refused). With
-        // no clock to go by (no simulator running) they cannot be dated, and are taken as
-        // they are.
-        if !clocked {
-            let newest = recalled.iter().map(|f| f.t).fold(0.0, f64::max);
-            tracing::warn!("recalled fire tracks taken undated (newest t = {newest:.1} s)");
-            sim_time.set(newest);
-        }
-        let (out, refused) = incident.restore(&recalled, clock.now());
-        for e in refused {
-            bus.rejects().count_invalid();
-            tracing::warn!("refused recalled fire track: {e}");
-        }
-        publish(bus, out).await?;
-    }
+    take_back(
+        bus,
+        &mut incident,
+        opts,
+        clocked.then_some(&*clock),
+        &sim_time,
+    )
+    .await?;
 
     let mut tick = tokio::time::interval(Duration::from_millis(200));
-    // Every task and track is re-sent once a second, a tenth every 100 ms: re-sending a
-    // thousand units' tasks at once would hold up the loop (and a report behind it) for
-    // tens of milliseconds.
-    let mut republish =
-        tokio::time::interval(Duration::from_millis(1000 / REPUBLISH_SLICES as u64));
-    let mut slice = 0;
-    let mut vanished: HashMap<UnitId, std::time::Instant> = HashMap::new();
+    let mut republish_tick = tokio::time::interval(Republish::PERIOD);
+    let mut republish = Republish::default();
+    let mut grace = TokenGrace::default();
     tokio::pin!(shutdown);
     tracing::info!(units = scenario.units.len(), "coordinator started");
     let stats = &opts.stats;
@@ -242,15 +190,14 @@ pub async fn run(
                 .map_err(|e| (topic.to_string(), e)),
             Some((topic, up)) = alive.recv() => match &topic {
                 // A vanished token is taken for a lost unit only if it stays away past
-                // TOKEN_GRACE: a unit whose router died is back on the next within it.
-                // One back within it never counted as gone.
+                // the grace ([`TokenGrace`]).
                 Topic::UnitAlive(unit) if !up => {
-                    vanished.entry(unit.clone()).or_insert_with(std::time::Instant::now);
+                    grace.vanished(unit, std::time::Instant::now());
                     Ok(Vec::new())
                 }
-                Topic::UnitAlive(unit) => match vanished.remove(unit) {
-                    Some(_) => Ok(Vec::new()),
-                    None => incident.on_alive(unit, up, clock.now()),
+                Topic::UnitAlive(unit) => match grace.back(unit) {
+                    true => Ok(Vec::new()),
+                    false => incident.on_alive(unit, up, clock.now()),
                 },
                 other => Err(Invalid::new("key", format!("'{other}' is not a unit token"))),
             }.map_err(|e| (topic.to_string(), e)),
@@ -263,88 +210,15 @@ pub async fn run(
                     Err(Invalid::new("unit", format!("report names unit '{}'", r.unit)))
                 }.map_err(|e| (topic.to_string(), e))
             }
-            Some(sample) = goals.recv() => match sample.topic() {
-                Some(Topic::ZoneGoal(zone, by)) => {
-                    let t = clock.now();
-                    if sample.deleted {
-                        Ok(incident.clear_goals(&zone, &by, t))
-                    } else {
-                        let bytes = &sample.bytes;
-                        let (ack, out) = match codec::decode::<ZoneGoal>(bytes) {
-                            Ok(goal) => incident.on_goal(&zone, &by, goal, t),
-                            Err(e) => {
-                                bus.rejects().refuse(&sample.key, &e);
-                                (malformed(bytes, &zone, &by, &e), Vec::new())
-                            }
-                        };
-                        bus.put(&keys.zone_ack(&zone), &ack).await?;
-                        Ok(out)
-                    }
-                }
-                // Not a zone id or a commander at all (`zone/WEST/goal/x`): there is no ack key to answer
-                // on; refused and counted like any other bad message.
-                _ => Err((sample.key.clone(), Invalid::new("key", "names no zone"))),
-            },
+            Some(sample) = goals.recv() => take_goal(bus, &mut incident, &sample, clock.now()).await?,
             Some(query) = coord_q.recv() => {
-                let t = clock.now();
-                let key = query.key().to_owned();
-                let body = match query.topic() {
-                    Some(Topic::CoordBarred) => Some(codec::encode(&incident.barred_space(t))),
-                    Some(Topic::CoordGoals) => Some(codec::encode(&incident.goals_in_force(t))),
-                    Some(Topic::CoordStatus) => {
-                        let mut body = incident.status(t);
-                        body.rejected = bus.rejects().snapshot().into_iter().map(|(k, v)| (k.to_owned(), v)).collect();
-                        // Changes the incident skipped for want of a unit's view: zero unless it has a bug.
-                        body.rejected.insert("inconsistent".to_owned(), incident.inconsistencies());
-                        // Sightings past what one unit's word may hold (a liar's flood).
-                        body.rejected.insert("lone_tracks".to_owned(), incident.lone_refused());
-                        other_versions(&mut body, bus);
-                        Some(codec::encode(&body))
-                    }
-                    _ => None,
-                };
-                if let Some(body) = body
-                    && let Err(e) = query.answer(&key, body).await
-                {
-                    tracing::warn!(key, "reply failed: {e}");
-                }
+                answer(bus, &incident, query, clock.now()).await;
                 Ok(Vec::new())
             }
             _ = tick.tick() => Ok(incident.tick(clock.now())),
-            _ = republish.tick() => {
-                let t = clock.now();
-                slice = (slice + 1) % REPUBLISH_SLICES;
-                if slice == 0 {
-                    told.tell(bus, &incident, t, true).await?;
-                    stats.tasks.set(incident.tasks().count() as i64);
-                    stats.fires.set(incident.fire_tracks(t).iter().filter(|f| f.state != FireState::Out).count() as i64);
-                } else {
-                    told.strands(bus, &incident, t).await?;
-                }
-                // A unit silent past its lease is lost within a tenth of a second, not at
-                // the next tick: its fire waits for a new unit meanwhile.
-                let mut out = incident.lapse(t);
-                let gone: Vec<UnitId> = vanished
-                    .iter()
-                    .filter(|(_, at)| at.elapsed() >= TOKEN_GRACE)
-                    .map(|(u, _)| u.clone())
-                    .collect();
-                for unit in gone {
-                    vanished.remove(&unit);
-                    out.extend(incident.on_alive(&unit, false, t).unwrap_or_default());
-                }
-                out.extend(
-                    incident
-                        .tasks()
-                        .cloned()
-                        .map(Output::Task)
-                        .chain(incident.fire_tracks(t).into_iter().map(Output::Fire))
-                        .enumerate()
-                        .filter(|(i, _)| i % REPUBLISH_SLICES == slice)
-                        .map(|(_, o)| o),
-                );
-                Ok(out)
-            }
+            _ = republish_tick.tick() => Ok(republish_slice(
+                bus, &mut incident, &mut told, &mut republish, &mut grace, stats, clock.now(),
+            ).await?),
             Some((topic, st)) = states.recv() => {
                 if topic == Topic::UnitState(st.unit.clone()) {
                     incident.on_state(st, clock.now())
@@ -353,39 +227,271 @@ pub async fn run(
                 }.map_err(|e| (topic.to_string(), e))
             }
         };
-        for d in incident.take_decisions() {
-            if matches!(
-                d.decision,
-                Decision::Lost {
-                    why: Loss::Silent,
-                    ..
-                }
-            ) {
-                stats.lease_misses.inc();
-            }
-            bus.put(&keys.coord_log(), &d.to_msg()).await?;
-        }
-        // Units hear of barred space before any task that depends on it.
-        told.tell(bus, &incident, clock.now(), false).await?;
-        match outputs {
-            Ok(outputs) => {
-                let tasked = outputs.iter().any(|o| matches!(o, Output::Task(_)));
-                publish(bus, outputs).await?;
-                if let (Some(taken), true) = (report_taken, tasked) {
-                    stats.report_to_task.observe(taken.elapsed().as_secs_f64());
-                }
-            }
-            Err((from, e)) => bus.rejects().refuse_invalid(&from, &e),
-        }
+        let t = clock.now();
+        settle(
+            bus,
+            &mut incident,
+            &mut told,
+            stats,
+            outputs,
+            report_taken,
+            t,
+        )
+        .await?;
     }
     Ok(Ended::Shutdown)
 }
 
-/// How long a unit's vanished liveliness token may stay away before the unit counts as lost
-/// ([`firefleet_protocol::keys::TOKEN_GRACE_MS`], wall-clock time, as failing over takes);
-/// a unit that died is still lost by its lease when that comes first (at faster-than-real
-/// site time).
-const TOKEN_GRACE: Duration = Duration::from_millis(firefleet_protocol::keys::TOKEN_GRACE_MS);
+/// After each event at site time `t`: the incident's decisions logged, barred space told
+/// (units hear of it before any task that depends on it), then its outputs published, or
+/// the input refused and counted; the time from a report to the task it caused measured.
+async fn settle(
+    bus: &Bus,
+    incident: &mut Incident,
+    told: &mut Told,
+    stats: &crate::stats::Stats,
+    outputs: Result<Vec<Output>, (String, Invalid)>,
+    report_taken: Option<std::time::Instant>,
+    t: f64,
+) -> Result<(), BusError> {
+    for d in incident.take_decisions() {
+        if matches!(
+            d.decision,
+            Decision::Lost {
+                why: Loss::Silent,
+                ..
+            }
+        ) {
+            stats.lease_misses.inc();
+        }
+        bus.put(&bus.keys().coord_log(), &d.to_msg()).await?;
+    }
+    told.tell(bus, incident, t, false).await?;
+    match outputs {
+        Ok(outputs) => {
+            let tasked = outputs.iter().any(|o| matches!(o, Output::Task(_)));
+            publish(bus, outputs).await?;
+            if let (Some(taken), true) = (report_taken, tasked) {
+                stats.report_to_task.observe(taken.elapsed().as_secs_f64());
+            }
+        }
+        Err((from, e)) => bus.rejects().refuse_invalid(&from, &e),
+    }
+    Ok(())
+}
+
+/// What the coordinator hears, subscribed to before it says anything.
+struct Inputs {
+    alive: Tokens,
+    states: Inbox<UnitState>,
+    reports: Inbox<FlameReport>,
+    rivals: RawInbox,
+    clock_msgs: Inbox<SimClock>,
+    dts: Inbox<DtsZone>,
+    vent: Inbox<Vent>,
+    coord_q: Questions,
+    goals: RawInbox,
+}
+
+impl Inputs {
+    async fn subscribe(bus: &Bus, scenario: &Scenario) -> Result<Self, BusError> {
+        let alive = bus.watch_tokens(&bus.keys().every_unit_alive()).await?;
+        // Room for two states of every unit: units publish in bursts.
+        let states = bus
+            .subscribe_with_capacity(
+                &bus.keys().every_unit_state(),
+                (2 * scenario.units.len()).max(256),
+            )
+            .await?;
+        let reports = bus.subscribe(&bus.keys().every_unit_report()).await?;
+        // Other coordinators' tasks: one of a newer epoch deposes this coordinator.
+        let rivals = bus
+            .subscribe_raw(&[bus.keys().every_unit_task().as_str()], true)
+            .await?;
+        let clock_msgs = bus.subscribe(&bus.keys().sim_clock()).await?;
+        // The tunnel's DTS zones and ventilation, from the SCADA bridge: room for a poll of
+        // every zone.
+        let dts = bus
+            .subscribe_with_capacity(
+                &bus.keys().every_dts_zone(),
+                scenario
+                    .scada
+                    .as_ref()
+                    .map_or(16, |m| m.zone_count(scenario.tunnel.length_m))
+                    .max(256),
+            )
+            .await?;
+        let vent = bus.subscribe(&bus.keys().infra_vent()).await?;
+        // `coord/status`, `coord/barred` and `coord/goals` are answered to queries.
+        let coord_q = bus.serve(&bus.keys().every_coord()).await?;
+        // Goals are read raw, not through the bus's typed inbox: a malformed goal must still
+        // be answered, and a delete on a zone's goal key clears the zone.
+        let goals = bus
+            .subscribe_raw(&[bus.keys().every_zone_goal().as_str()], false)
+            .await?;
+        Ok(Self {
+            alive,
+            states,
+            reports,
+            rivals,
+            clock_msgs,
+            dts,
+            vent,
+            coord_q,
+            goals,
+        })
+    }
+}
+
+/// One slice of the once-a-second round at site time `t`: the whole picture told (barred
+/// space, counts) at the first of a second, stranded fires otherwise; units past their
+/// lease or their token's grace lost; and this slice's share of every task and track sent
+/// again.
+async fn republish_slice(
+    bus: &Bus,
+    incident: &mut Incident,
+    told: &mut Told,
+    republish: &mut Republish,
+    grace: &mut TokenGrace,
+    stats: &crate::stats::Stats,
+    t: f64,
+) -> Result<Vec<Output>, BusError> {
+    if republish.advance() {
+        told.tell(bus, incident, t, true).await?;
+        stats.tasks.set(incident.tasks().count() as i64);
+        let burning = incident
+            .fire_tracks(t)
+            .iter()
+            .filter(|f| f.state != FireState::Out)
+            .count();
+        stats.fires.set(burning as i64);
+    } else {
+        told.strands(bus, incident, t).await?;
+    }
+    // A unit silent past its lease is lost within a tenth of a second, not at the next
+    // tick: its fire waits for a new unit meanwhile.
+    let mut out = incident.lapse(t);
+    for unit in grace.lapsed(std::time::Instant::now()) {
+        out.extend(incident.on_alive(&unit, false, t).unwrap_or_default());
+    }
+    out.extend(
+        republish.share(
+            incident
+                .tasks()
+                .cloned()
+                .map(Output::Task)
+                .chain(incident.fire_tracks(t).into_iter().map(Output::Fire)),
+        ),
+    );
+    Ok(out)
+}
+
+/// A commander's goal, or a delete clearing its goals on a zone, taken at site time `t`;
+/// a goal (even a malformed one) is answered on the zone's ack key.
+async fn take_goal(
+    bus: &Bus,
+    incident: &mut Incident,
+    sample: &Raw,
+    t: f64,
+) -> Result<Result<Vec<Output>, (String, Invalid)>, BusError> {
+    let Some(Topic::ZoneGoal(zone, by)) = sample.topic() else {
+        // Not a zone id or a commander at all (`zone/WEST/goal/x`): there is no ack key to
+        // answer on; refused and counted like any other bad message.
+        return Ok(Err((
+            sample.key.clone(),
+            Invalid::new("key", "names no zone"),
+        )));
+    };
+    if sample.deleted {
+        return Ok(Ok(incident.clear_goals(&zone, &by, t)));
+    }
+    let bytes = &sample.bytes;
+    let (ack, out) = match codec::decode::<ZoneGoal>(bytes) {
+        Ok(goal) => incident.on_goal(&zone, &by, goal, t),
+        Err(e) => {
+            bus.rejects().refuse(&sample.key, &e);
+            (malformed(bytes, &zone, &by, &e), Vec::new())
+        }
+    };
+    bus.put(&bus.keys().zone_ack(&zone), &ack).await?;
+    Ok(Ok(out))
+}
+
+/// Take back what the previous coordinator published (the goals in force and the fire
+/// tracks, as recorders answer and `opts` resumes them), dated by the site `clock` (none:
+/// no site clock was heard, and the tracks are taken undated, the clock set to the newest).
+async fn take_back(
+    bus: &Bus,
+    incident: &mut Incident,
+    opts: &CoordinatorOptions,
+    clock: Option<&dyn Clock>,
+    sim_time: &ExternalClock,
+) -> Result<(), BusError> {
+    let now = || clock.map_or(sim_time.now(), Clock::now);
+    if let Some(kept) = GoalsInForce::newer(recall_goals(bus).await?, opts.resume_goals.clone()) {
+        let (out, refused) = incident.restore_goals(&kept, now());
+        for ack in refused {
+            bus.rejects().count_invalid();
+            tracing::warn!(goal = ack.id, zone = %ack.zone, "recalled goal refused: {}", ack.reason);
+        }
+        publish(bus, out).await?;
+    }
+    let recalled = latest_per_fire(
+        recall_fires(bus)
+            .await?
+            .into_iter()
+            .chain(opts.resume.clone()),
+    );
+    if recalled.is_empty() {
+        return Ok(());
+    }
+    // The site clock dates the recalled tracks (one dated ahead of it is refused). With no
+    // clock to go by (no simulator running) they cannot be dated, and are taken as they
+    // are.
+    if clock.is_none() {
+        let newest = recalled.iter().map(|f| f.t).fold(0.0, f64::max);
+        tracing::warn!("recalled fire tracks taken undated (newest t = {newest:.1} s)");
+        sim_time.set(newest);
+    }
+    let (out, refused) = incident.restore(&recalled, now());
+    for e in refused {
+        bus.rejects().count_invalid();
+        tracing::warn!("refused recalled fire track: {e}");
+    }
+    publish(bus, out).await
+}
+
+/// Answer a question on `coord/*` as of site time `t`: the barred space, the goals in
+/// force, or the incident's status with what was refused and skipped.
+async fn answer(bus: &Bus, incident: &Incident, query: Question, t: f64) {
+    let key = query.key().to_owned();
+    let body = match query.topic() {
+        Some(Topic::CoordBarred) => codec::encode(&incident.barred_space(t)),
+        Some(Topic::CoordGoals) => codec::encode(&incident.goals_in_force(t)),
+        Some(Topic::CoordStatus) => {
+            let mut body = incident.status(t);
+            body.rejected = bus
+                .rejects()
+                .snapshot()
+                .into_iter()
+                .map(|(k, v)| (k.to_owned(), v))
+                .collect();
+            // Changes the incident skipped for want of a unit's view: zero unless it has a
+            // bug.
+            body.rejected
+                .insert("inconsistent".to_owned(), incident.inconsistencies());
+            // Sightings past what one unit's word may hold (a liar's flood).
+            body.rejected
+                .insert("lone_tracks".to_owned(), incident.lone_refused());
+            other_versions(&mut body, bus);
+            codec::encode(&body)
+        }
+        _ => return,
+    };
+    if let Err(e) = query.answer(&key, body).await {
+        tracing::warn!(key, "reply failed: {e}");
+    }
+}
 
 /// How long a unit heard speaking another protocol version is shown so after its last
 /// such message: units send several a second, so a few seconds of silence in that version

@@ -1,0 +1,128 @@
+//! The coordinator node's timing rules, pure and tested without a bus: how long a unit's
+//! vanished liveliness token may stay away before the unit counts as lost
+//! ([`TokenGrace`]), and how the once-a-second re-sending of every task and track is
+//! spread over slices ([`Republish`]).
+//!
+//! Wall-clock time comes in as an argument (`now`), never read here: failing over to
+//! another router takes wall-clock time whatever the site time's scale, so the grace is
+//! wall-clock, and a test can give any instant.
+//!
+//! Not here: site-time rules (leases, freshness: the incident core) or the bus loop
+//! ([`crate::node`]).
+
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+use firefleet_model::UnitId;
+
+/// How long a unit's vanished liveliness token may stay away before the unit counts as lost
+/// ([`firefleet_protocol::keys::TOKEN_GRACE_MS`], wall-clock time, as failing over takes);
+/// a unit that died is still lost by its lease when that comes first (at faster-than-real
+/// site time).
+pub const TOKEN_GRACE: Duration = Duration::from_millis(firefleet_protocol::keys::TOKEN_GRACE_MS);
+
+/// Units whose tokens vanished and are not yet taken for lost: a unit whose router died is
+/// back on the next within the grace, and one back within it never counted as gone.
+#[derive(Debug, Default)]
+pub struct TokenGrace {
+    vanished: HashMap<UnitId, Instant>,
+}
+
+impl TokenGrace {
+    /// `unit`'s token vanished at `now` (the first time counts while it stays away).
+    pub fn vanished(&mut self, unit: &UnitId, now: Instant) {
+        self.vanished.entry(unit.clone()).or_insert(now);
+    }
+
+    /// `unit`'s token is back: whether it was within the grace (so it never counted as
+    /// gone, and its return is no news).
+    pub fn back(&mut self, unit: &UnitId) -> bool {
+        self.vanished.remove(unit).is_some()
+    }
+
+    /// The units away past the grace at `now`: now lost, and no longer waited for.
+    pub fn lapsed(&mut self, now: Instant) -> Vec<UnitId> {
+        let gone: Vec<UnitId> = self
+            .vanished
+            .iter()
+            .filter(|(_, at)| now.saturating_duration_since(**at) >= TOKEN_GRACE)
+            .map(|(u, _)| u.clone())
+            .collect();
+        for u in &gone {
+            self.vanished.remove(u);
+        }
+        gone
+    }
+}
+
+/// Every task and track is re-sent once a second, a slice at a time: re-sending a thousand
+/// units' tasks at once would hold up the loop (and a report behind it) for tens of
+/// milliseconds.
+#[derive(Debug, Default)]
+pub struct Republish {
+    slice: usize,
+}
+
+impl Republish {
+    /// Slices a second is cut into.
+    pub const SLICES: usize = 10;
+    /// Time between two slices.
+    pub const PERIOD: Duration = Duration::from_millis(1000 / Self::SLICES as u64);
+
+    /// The next slice; whether it is the first of a second (when the whole picture is
+    /// told: barred space, counts).
+    pub fn advance(&mut self) -> bool {
+        self.slice = (self.slice + 1) % Self::SLICES;
+        self.slice == 0
+    }
+
+    /// This slice's share of `items`: every [`Self::SLICES`]th, so over a second each is
+    /// sent once.
+    pub fn share<T>(&self, items: impl Iterator<Item = T>) -> impl Iterator<Item = T> {
+        let slice = self.slice;
+        items
+            .enumerate()
+            .filter(move |(i, _)| i % Self::SLICES == slice)
+            .map(|(_, item)| item)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn u(s: &str) -> UnitId {
+        UnitId::new(s).unwrap()
+    }
+
+    #[test]
+    fn a_token_back_within_the_grace_never_counts_and_one_away_past_it_does() {
+        let mut g = TokenGrace::default();
+        let t0 = Instant::now();
+        g.vanished(&u("a"), t0);
+        g.vanished(&u("b"), t0);
+        // Vanishing again while away does not restart the grace.
+        g.vanished(&u("b"), t0 + TOKEN_GRACE / 2);
+        assert!(g.lapsed(t0 + TOKEN_GRACE / 2).is_empty());
+        assert!(g.back(&u("a")), "back within the grace");
+        assert_eq!(g.lapsed(t0 + TOKEN_GRACE), vec![u("b")]);
+        // Lost once: not again, and its return is news.
+        assert!(g.lapsed(t0 + 3 * TOKEN_GRACE).is_empty());
+        assert!(!g.back(&u("b")));
+    }
+
+    #[test]
+    fn every_item_is_republished_once_a_second_and_the_second_starts_whole() {
+        let mut r = Republish::default();
+        let mut sent = vec![0; 37];
+        let mut whole = 0;
+        for _ in 0..Republish::SLICES {
+            whole += usize::from(r.advance());
+            for i in r.share(0..sent.len()) {
+                sent[i] += 1;
+            }
+        }
+        assert_eq!(whole, 1);
+        assert!(sent.iter().all(|&n| n == 1), "{sent:?}");
+    }
+}
