@@ -1,4 +1,4 @@
-//! `firefleet experiment costmap-ga`: the Dijkstra+GA paper's three cases on a generated
+//! `firefleet-lab costmap-ga`: the Dijkstra+GA paper's three cases on a generated
 //! 2.5-D fire map: no heat in the cost (case 1), heat with w1 = w2 = 1 (case 2), and
 //! GA-tuned weights (case 3).
 //!

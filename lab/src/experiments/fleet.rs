@@ -1,4 +1,4 @@
-//! `firefleet experiment fleet`: the shipped multi-fire scenarios under four strategies
+//! `firefleet-lab fleet`: the shipped multi-fire scenarios under four strategies
 //! side by side: every unit running its tree alone with no coordinator, greedy
 //! nearest-free-unit assignment, the coordinator's optimal assignment, and the optimal
 //! coordinator with the tunnel's SCADA feed (`feed`: DTS alarms as fire reports, the

@@ -1,4 +1,4 @@
-//! `firefleet experiment flood`: a secure site under attack from one stolen certificate,
+//! `firefleet-lab flood`: a secure site under attack from one stolen certificate,
 //! measured from outside.
 //!
 //! A `firefleet demo --secure` runs in a child process on a PKI made here, its site file

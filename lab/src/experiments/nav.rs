@@ -1,4 +1,4 @@
-//! `firefleet experiment nav`: the BT paper's navigation trials (section 4.2, Fig. 10-11).
+//! `firefleet-lab nav`: the BT paper's navigation trials (section 4.2, Fig. 10-11).
 //!
 //! The paper's set-up: a two-lane tunnel with one curve; two vehicles placed at random
 //! for each trial, one on the curve and one in front of the flame; the robot runs its tree

@@ -1,4 +1,4 @@
-//! `firefleet experiment robogat`: the ROBOGAT paper's case study, fuzzy against fixed
+//! `firefleet-lab robogat`: the ROBOGAT paper's case study, fuzzy against fixed
 //! weights, with the time histories as CSV and as PNG plots of the paper's figures 5-8.
 //!
 //! Not here: the case study itself (`firefleet_agent::monorail::case_study`).

@@ -1,4 +1,4 @@
-//! `firefleet experiment scale`: a real coordinator process under the load of a large fleet.
+//! `firefleet-lab scale`: a real coordinator process under the load of a large fleet.
 //!
 //! The coordinator is a separate `firefleet coordinator` process on a generated site with
 //! `--units` ground units; it is also the Zenoh router the fleet connects to, so that its

@@ -1,4 +1,4 @@
-//! `firefleet experiment zones`: commanders' keep-out and evacuate goals issued
+//! `firefleet-lab zones`: commanders' keep-out and evacuate goals issued
 //! mid-incident, and what the fleet makes of them.
 //!
 //! For each shipped scenario and each of its zones that leaves a fire outside it, the

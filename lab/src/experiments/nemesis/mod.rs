@@ -1,4 +1,4 @@
-//! `firefleet experiment nemesis`: the fleet as separate processes in separate Linux network
+//! `firefleet-lab nemesis`: the fleet as separate processes in separate Linux network
 //! namespaces, one fault injected per run, and checkers over what it recorded.
 //!
 //! Jepsen's method on a fire ground. Each process of a fleet (the coordinator, a standby,
