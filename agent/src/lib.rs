@@ -12,6 +12,25 @@
 //! which connects a controller to its platform and to the coordinator, and [`rehome`],
 //! a unit's move to a nearer router.
 //!
+//! ```
+//! use std::sync::Arc;
+//!
+//! use firefleet_agent::ground::GroundController;
+//! use firefleet_model::{UnitId, builtin};
+//! use firefleet_sim::World;
+//!
+//! let site = Arc::new(builtin::resolve("vehicle-collision").unwrap());
+//! let id = UnitId::new("ugv-1").unwrap();
+//! let mut ctl = GroundController::new(id.clone(), site.ground_spec(&id).unwrap(), site.clone());
+//! let mut world = World::new(&site, 1);
+//! let start = ctl.state().pose.position();
+//! // With no coordinator the unit runs its tree alone: it cruises into the tunnel.
+//! while world.time() < 10.0 {
+//!     world.step_unit(&id, 0.05, |s| ctl.step(s)).unwrap();
+//! }
+//! assert!(ctl.state().pose.position().dist(start) > 2.0);
+//! ```
+//!
 //! Not here: the coordinator's side of the fleet (`firefleet-coordinator`) or the simulator
 //! (`firefleet-sim`).
 

@@ -10,6 +10,20 @@
 //! changes, over a [`http::Console`] that [`node`] feeds from the bus and that sends goals
 //! back through it; [`tls`] serves them over HTTPS.
 //!
+//! ```
+//! use firefleet_console::picture::{Event, Picture};
+//! use firefleet_console::site::SiteMap;
+//! use firefleet_model::{UnitId, builtin};
+//!
+//! let site = builtin::resolve("vehicle-collision").unwrap();
+//! let mut picture = Picture::new(SiteMap::new(&site));
+//! picture.observe(0, Event::CoordinatorAlive(true));
+//! picture.observe(0, Event::UnitAlive(UnitId::new("ugv-1").unwrap(), true));
+//! let incident = picture.incident();
+//! assert_eq!(incident.coordinator, Some(true));
+//! assert!(incident.units.iter().any(|u| u.id.as_str() == "ugv-1" && u.alive));
+//! ```
+//!
 //! The picture is built from what the fleet says, never from the simulator's truth: with
 //! real robots there is no truth to read, and a commander must see what the coordinator
 //! decides on.

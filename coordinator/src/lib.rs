@@ -10,6 +10,23 @@
 //! experiments). [`node`] wires them to the bus, by the timing rules of [`pacing`] (pure
 //! too, wall-clock time given). Recording is the `firefleet-recorder` crate's.
 //!
+//! ```
+//! use firefleet_coordinator::goals::Goals;
+//! use firefleet_model::{CommanderId, UnitKind, ZoneId, builtin};
+//! use firefleet_protocol::msg::{GoalKind, ZoneGoal};
+//!
+//! let site = builtin::resolve("vehicle-collision").unwrap();
+//! let mut goals = Goals::new(&site.zones, &site.commanders);
+//! let (far, rossi) = (ZoneId::new("far").unwrap(), CommanderId::new("rossi").unwrap());
+//! let keep_out = ZoneGoal::new(far.clone(), GoalKind::KeepOut, rossi.clone());
+//! let ack = goals.submit(&far, &rossi, keep_out, 0.0);
+//! assert!(ack.accepted, "{}", ack.reason);
+//! // Ground units may not enter or cross the far zone, 140 m to the end.
+//! let barred = goals.barred(UnitKind::Ground);
+//! assert_eq!(barred.len(), 1);
+//! assert_eq!((barred[0].0.m(), barred[0].1.m()), (140.0, 200.0));
+//! ```
+//!
 //! A restarted coordinator rebuilds its picture from the recorded fire tracks (a recorder
 //! answers `fire/*` with the latest of each; the tracks keep their ids), then from the
 //! units' states (adopting the tasks they still work on) and their new reports. A

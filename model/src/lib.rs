@@ -5,6 +5,17 @@
 //! how time is read, when two places are one fire, the tunnel's ventilation and SCADA map,
 //! and the radiant heat model the planners and the console share.
 //!
+//! ```
+//! use firefleet_model::{Point2, builtin};
+//!
+//! let site = builtin::resolve("vehicle-collision").unwrap();
+//! assert_eq!(site.site.as_str(), "tunnel-a");
+//! // Zones are chainages along the tunnel; in a straight tunnel x is the chainage.
+//! let far = site.zones.iter().find(|z| z.id.as_str() == "far").unwrap();
+//! let s = site.tunnel.chainage(Point2::new(150.0, 1.0));
+//! assert!((far.start_m..=far.end_m).contains(&s));
+//! ```
+//!
 //! Not here: messages, keys and encodings (`firefleet-protocol`), or anything that talks
 //! to a network (`firefleet-bus`). This crate has no Zenoh and no tokio, so the pure
 //! algorithms (`firefleet-nav`, the coordinator's incident core) build on it alone.

@@ -7,6 +7,19 @@
 //! protocol version; commander-facing messages (zone goals, the incident status) are JSON
 //! so any Zenoh client can speak them.
 //!
+//! ```
+//! use firefleet_model::{SiteId, UnitId};
+//! use firefleet_protocol::keys::{self, Keys, Topic};
+//!
+//! let keys = Keys::new(SiteId::new("tunnel-a").unwrap());
+//! let ugv = UnitId::new("ugv-1").unwrap();
+//! let state = keys.unit_state(&ugv);
+//! assert_eq!(state.as_str(), "ff/tunnel-a/unit/ugv-1/state");
+//! // Keys parse back into the topic they were built from: the two cannot drift apart.
+//! let (site, topic) = keys::parse(state.as_str()).unwrap();
+//! assert_eq!((site.as_str(), topic), ("tunnel-a", Topic::UnitState(ugv)));
+//! ```
+//!
 //! Not here: what a site is (ids, geometry, tunnel, site file, profiles: `firefleet-model`)
 //! or how bytes reach the network (`firefleet-bus`). This crate does no I/O and has no
 //! Zenoh, so a reader of recordings or a console can decode messages without a transport.

@@ -8,6 +8,17 @@
 //! [`live`] serves the same channels over the Foxglove WebSocket protocol while the
 //! incident happens.
 //!
+//! ```
+//! use firefleet_recorder::parts::Recording;
+//! use firefleet_recorder::replay::timeline;
+//!
+//! // A recording with nothing in it tells so, in one closing line.
+//! let mut told = Vec::new();
+//! timeline(&Recording::default(), &mut told).unwrap();
+//! let told = String::from_utf8(told).unwrap();
+//! assert!(told.starts_with("0 messages, 0 decisions"), "{told}");
+//! ```
+//!
 //! Not here: deciding anything. The recorder never publishes but its answers to recall
 //! queries, so a fleet runs the same with or without it.
 

@@ -13,6 +13,15 @@
 //! - [`ground`]: a ground unit's topics, from the robot's side ([`ground::Body`]) and
 //!   the agent's ([`ground::Robot`]).
 //!
+//! ```
+//! use firefleet_model::UnitId;
+//! use firefleet_ros2::graph::Namespace;
+//!
+//! // Unit `ugv-1` is the robot in namespace `/ugv_1` (ROS names have no `-`).
+//! let ns = Namespace::of_unit(&UnitId::new("ugv-1").unwrap());
+//! assert_eq!(ns.to_string(), "/ugv_1");
+//! ```
+//!
 //! Not here: services, actions, parameters, TF, QoS beyond rclcpp's default, and the
 //! monorail units (their mapping is written down in `deploy/ros2.md`, not built).
 

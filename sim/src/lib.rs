@@ -15,6 +15,21 @@
 //! the simulator publishes its clock and ground truth. Agents cannot tell it from hardware
 //! except by the clock it keeps.
 //!
+//! ```
+//! use firefleet_sim::World;
+//!
+//! let site = firefleet_model::builtin::resolve("vehicle-collision").unwrap();
+//! let (mut a, mut b) = (World::new(&site, 7), World::new(&site, 7));
+//! for _ in 0..200 {
+//!     a.step(0.05);
+//!     b.step(0.05);
+//! }
+//! assert!((a.time() - 10.0).abs() < 1e-9);
+//! // The same seed and commands give the same world.
+//! assert_eq!(a.truth(), b.truth());
+//! assert_eq!(a.truth().fires.len(), site.fires.len());
+//! ```
+//!
 //! Longitudinal ventilation carries the hot ceiling gas downstream and cuts it short
 //! upstream ([`physics::ceiling_rise_c`]); downstream it heats the units' bodies too, and
 //! its smoke dims their cameras ([`physics::SMOKE_DOWNSTREAM_PER_M`]). The
