@@ -80,8 +80,17 @@ pub fn cli(scenario: &str, endpoint: &str, args: &[&str]) -> Output {
 
 /// A Zenoh router owned by the test on a free loopback port for `site`, and its endpoint.
 pub async fn router(site: &str) -> (Bus, String) {
-    let endpoint = free_endpoint();
-    (router_at(site, &endpoint).await, endpoint)
+    // A port found free may be taken by another test's process before this router binds
+    // it (every test binary runs at once): another port is tried then.
+    let mut last = None;
+    for _ in 0..5 {
+        let endpoint = free_endpoint();
+        match open_router(site, &endpoint).await {
+            Ok(bus) => return (bus, endpoint),
+            Err(e) => last = Some(e),
+        }
+    }
+    panic!("no free port for the test's router: {last:?}")
 }
 
 /// `tcp/127.0.0.1:PORT` on a port nothing listens on.
@@ -91,14 +100,16 @@ pub fn free_endpoint() -> String {
 
 /// A Zenoh router owned by the test, listening on `endpoint` for `site`.
 pub async fn router_at(site: &str, endpoint: &str) -> Bus {
+    open_router(site, endpoint).await.unwrap()
+}
+
+async fn open_router(site: &str, endpoint: &str) -> Result<Bus, firefleet_bus::BusError> {
     let router = Connect {
         mode: Some(Mode::Router),
         listen: vec![endpoint.to_owned()],
         ..Connect::default()
     };
-    Bus::open(&router, SiteId::new(site).unwrap())
-        .await
-        .unwrap()
+    Bus::open(&router, SiteId::new(site).unwrap()).await
 }
 
 /// Asserts that `out` exited with `code` and that what it printed says `needle`.

@@ -40,6 +40,14 @@ use super::{PlatformKind, non_negative_f64, time_scale, write_json};
 use firefleet::children::{RoleCommand, exited, stop_children};
 use firefleet::net::shutdown_signal;
 
+mod goals;
+mod report;
+mod site;
+
+use goals::{demo_commander, parse_goal};
+use report::{Outcome, ProcessInfo, Summary, UnitSummary, print_progress, verdict};
+use site::SecureSite;
+
 #[derive(Args, Debug)]
 pub struct DemoArgs {
     /// A built-in scenario name (see `firefleet scenarios`) or a scenario file.
@@ -123,104 +131,6 @@ pub struct DemoArgs {
 /// The demo's label of the standby coordinator's process.
 const STANDBY_ROLE: &str = "coordinator:standby";
 
-/// The commander the demo issues its `--goal`s as.
-fn demo_commander() -> CommanderId {
-    CommanderId::new("demo").expect("a valid commander name")
-}
-
-/// A `--goal` argument as a goal for `scenario`'s zones.
-fn parse_goal(arg: &str, scenario: &Scenario) -> anyhow::Result<ZoneGoal> {
-    let mut parts = arg.split(':');
-    let (Some(zone), Some(kind)) = (parts.next(), parts.next()) else {
-        anyhow::bail!("--goal {arg}: expected ZONE:GOAL[@CHAINAGE][:PRIORITY]");
-    };
-    let (kind, rail_allowed) = match kind.strip_suffix("+rail") {
-        Some(kind) => (kind, true),
-        None => (kind, false),
-    };
-    let (kind, before_m) = match kind.split_once('@') {
-        Some((kind, line)) => {
-            let line: f64 = line.parse().map_err(|_| {
-                anyhow::anyhow!("--goal {arg}: '{line}' is not a chainage in metres")
-            })?;
-            (kind, Some(line))
-        }
-        None => (kind, None),
-    };
-    let zone = ZoneId::new(zone).with_context(|| format!("--goal {arg}"))?;
-    anyhow::ensure!(
-        scenario.zones.iter().any(|z| z.id == zone),
-        "--goal {arg}: the scenario has no zone '{zone}'"
-    );
-    let goal: GoalKind = kind
-        .parse()
-        .map_err(|e| anyhow::anyhow!("--goal {arg}: {e}; contain takes @CHAINAGE"))?;
-    anyhow::ensure!(
-        goal != GoalKind::Contain || before_m.is_some(),
-        "--goal {arg}: contain needs the line the front must not pass: {zone}:contain@CHAINAGE"
-    );
-    let priority = match parts.next() {
-        Some(p) => p.parse().map_err(|_| {
-            anyhow::anyhow!("--goal {arg}: priority '{p}' is not a whole number from 0 to 255")
-        })?,
-        None => 0,
-    };
-    let form = GoalForm {
-        id: Some(format!("demo-{zone}-{goal}")),
-        priority,
-        before_m,
-        rail_allowed,
-        ..GoalForm::new(zone, goal)
-    };
-    form.issued_by(demo_commander())
-        .with_context(|| format!("--goal {arg}"))
-}
-
-#[derive(Serialize)]
-struct ProcessInfo {
-    role: String,
-    pid: Option<u32>,
-}
-
-#[derive(Serialize)]
-struct UnitSummary {
-    id: String,
-    heat_dose_kj_m2: f64,
-    water_used_l: f64,
-    collisions: u32,
-}
-
-#[derive(Serialize)]
-struct Summary {
-    scenario: String,
-    seed: u64,
-    success: bool,
-    outcome: String,
-    fires_total: usize,
-    fires_out: usize,
-    sim_time_s: f64,
-    wall_time_s: f64,
-    time_scale: f64,
-    processes: Vec<ProcessInfo>,
-    units: Vec<UnitSummary>,
-    recording: Option<PathBuf>,
-    /// The router's endpoint.
-    router: String,
-    /// With --secure: the site PKI and the rendered configurations (made for the run and
-    /// removed at its end, but for a PKI given with --pki).
-    pki: Option<PathBuf>,
-    configs: Option<PathBuf>,
-}
-
-/// How the run ended.
-enum Outcome {
-    AllOut,
-    TimeLimit,
-    ChildDied(String),
-    Interrupted,
-    WallTimeout,
-}
-
 pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let scenario = builtin::resolve(&a.scenario)?;
     let goals = a
@@ -278,86 +188,8 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let mut in_force = Goals::new(&scenario.zones, &scenario.commanders);
     let mut site_t = 0.0;
 
-    let mut roles: Vec<(Identity, RoleCommand)> = Vec::new();
-    if a.record.is_some() || a.foxglove.is_some() {
-        let mut record = RoleCommand::new("record");
-        if let Some(path) = &a.record {
-            record = record.arg("--out").arg(path);
-        }
-        if let Some(addr) = a.foxglove {
-            record = record.args(["--foxglove".into(), addr.to_string()]);
-            println!("Foxglove live: ws://{addr}");
-        }
-        roles.push((Identity::Recorder, record));
-    }
-    let modbus = match a.scada {
-        true => {
-            anyhow::ensure!(
-                scenario.scada.is_some(),
-                "--scada: scenario '{}' maps no [scada] in its file",
-                scenario.name
-            );
-            let port = free_loopback_port().context("finding a free port for Modbus")?;
-            let addr = format!("127.0.0.1:{port}");
-            let bridge = RoleCommand::new("scada").args(["--modbus", &addr, "--sim-clock"]);
-            roles.push((Identity::Scada, bridge));
-            Some(addr)
-        }
-        false => None,
-    };
-    let mut sim = RoleCommand::new("sim")
-        .args(["--seed".into(), seed.to_string()])
-        .args(["--time-scale".into(), a.time_scale.to_string()])
-        .args(["--wait-for-fleet", "30", "--wait-for-coordinator"]);
-    if a.platform == PlatformKind::Ros2 {
-        sim = sim.arg("--ros2");
-    }
-    if let Some(m) = &modbus {
-        sim = sim.args(["--scada", m]);
-    }
-    if let Some(t) = a.cut_scada_at {
-        sim = sim.args(["--cut-scada-at".into(), t.to_string()]);
-    }
-    roles.push((Identity::Sim, sim));
-    let coordinator = RoleCommand::new("coordinator").arg("--sim-clock");
-    roles.push((Identity::Coordinator, coordinator.clone()));
-    if a.standby {
-        roles.push((Identity::Coordinator, coordinator.arg("--standby")));
-    }
-    for u in &scenario.units {
-        let mut agent = RoleCommand::new("agent").args(["--unit", u.id.as_str()]);
-        if a.platform == PlatformKind::Ros2 && u.kind == UnitKind::Ground {
-            agent = agent.args(["--platform", "ros2"]);
-        }
-        roles.push((Identity::Unit(u.id.clone()), agent));
-    }
+    let roles = roles(&a, &scenario, seed, site.as_ref())?;
     let mut children: Vec<(String, Child)> = Vec::new();
-    if let Some(addr) = a.console {
-        let mut console = RoleCommand::new("console").args(["--http".into(), addr.to_string()]);
-        if let Some(users) = &a.console_users {
-            console = console.arg("--users").arg(users);
-        }
-        // On a secure site the page is HTTPS with the console's web certificate from the
-        // site PKI (valid for loopback): commanders' browsers trust the site's web CA.
-        let scheme = match &site {
-            Some(s) => {
-                let dir = s.pki.join(Identity::Console.dir_name());
-                console = console
-                    .arg("--https-cert")
-                    .arg(dir.join("https-cert.pem"))
-                    .arg("--https-key")
-                    .arg(dir.join("https-key.pem"));
-                println!(
-                    "the console's page is signed by the site's web CA: {}",
-                    dir.join("web-ca.pem").display()
-                );
-                "https"
-            }
-            None => "http",
-        };
-        println!("the incident commander's console: {scheme}://{addr}/");
-        roles.push((Identity::Console, console));
-    }
     // Each role as it is started (again, for a restarted coordinator), under its label.
     let launched: Vec<(String, RoleCommand)> = roles
         .into_iter()
@@ -511,50 +343,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         fires: Vec::new(),
         units: Vec::new(),
     });
-    // Fires still burning where the goal governing their place (by rank, then priority, as
-    // the coordinator decides) bars attack: left so on purpose.
-    in_force.expire(truth.t);
-    let spared: Vec<&str> = truth
-        .fires
-        .iter()
-        .filter(|f| f.state != TruthFireState::Out)
-        .filter_map(|f| {
-            in_force
-                .at(scenario.tunnel.chainage(f.position))
-                .filter(|g| g.bars_attack())
-                .map(|g| g.goal.zone.as_str())
-        })
-        .collect();
-    let mut zones = spared.clone();
-    zones.sort_unstable();
-    zones.dedup();
-    let all_but_spared = matches!(outcome, Outcome::TimeLimit)
-        && !spared.is_empty()
-        && truth.fires_out() + spared.len() == truth.fires.len();
-    let success = matches!(outcome, Outcome::AllOut) || all_but_spared;
-    let outcome_text = match &outcome {
-        Outcome::AllOut => format!(
-            "all {} fires out at t = {:.1} s",
-            truth.fires.len(),
-            truth.t
-        ),
-        Outcome::TimeLimit if all_but_spared => format!(
-            "time limit {:.0} s reached with {} of {} fires out; the rest burn where a commander's goal bars attack (zone {})",
-            truth.time_limit_s,
-            truth.fires_out(),
-            truth.fires.len(),
-            zones.join(", ")
-        ),
-        Outcome::TimeLimit => format!(
-            "time limit {:.0} s reached with {} of {} fires out",
-            truth.time_limit_s,
-            truth.fires_out(),
-            truth.fires.len()
-        ),
-        Outcome::ChildDied(role) => format!("the {role} process exited unexpectedly"),
-        Outcome::Interrupted => "interrupted".to_owned(),
-        Outcome::WallTimeout => format!("no result after {wall:.0} s of wall time"),
-    };
+    let (success, outcome_text) = verdict(&outcome, &truth, &mut in_force, &scenario, wall);
     println!("{outcome_text} (wall {wall:.1} s)");
     for u in &truth.units {
         println!(
@@ -596,73 +385,92 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     })
 }
 
-/// A secure demo site: its PKI and the configurations rendered for it.
-struct SecureSite {
-    pki: PathBuf,
-    configs: PathBuf,
-    /// Holds what was made for the run (configurations, a PKI) until the demo ends.
-    _made: tempfile::TempDir,
-}
-
-impl SecureSite {
-    /// Use `pki` (or make one) and render the site's configurations for a router on
-    /// loopback `port`, with `commander` among the identities.
-    fn make(
-        scenario: &Scenario,
-        pki: Option<PathBuf>,
-        port: u16,
-        commander: &CommanderId,
-        time_scale: f64,
-    ) -> anyhow::Result<Self> {
-        let made = tempfile::Builder::new()
-            .prefix("firefleet-demo-")
-            .tempdir()
-            .context("a directory for the demo's site")?;
-        let pki = match pki {
-            Some(p) => p,
-            None => {
-                let p = made.path().join("pki");
-                let terms = pki::Terms::default();
-                pki::make_site(scenario, std::slice::from_ref(commander), &terms, &p)?;
-                p
-            }
-        };
-        let configs = made.path().join("configs");
-        let endpoint = format!("quic/127.0.0.1:{port}");
-        let layout = Layout {
-            time_scale,
-            ..Layout::loopback(pki.clone(), configs.clone(), endpoint, commander.clone())
-        };
-        render_site(scenario, &layout)
-            .with_context(|| format!("rendering the site for the PKI in {}", pki.display()))?;
-        Ok(Self {
-            pki,
-            configs,
-            _made: made,
-        })
-    }
-
-    /// How identity `who` joins the site.
-    fn client(&self, who: &Identity) -> Connect {
-        Connect {
-            config_file: Some(self.configs.join(format!("{}.json5", who.dir_name()))),
-            ..Connect::default()
+/// The demo's roles, each as its identity on a secure site and the command that starts it
+/// (its site file and how it joins are added when it is started).
+fn roles(
+    a: &DemoArgs,
+    scenario: &Scenario,
+    seed: u64,
+    site: Option<&SecureSite>,
+) -> anyhow::Result<Vec<(Identity, RoleCommand)>> {
+    let mut roles: Vec<(Identity, RoleCommand)> = Vec::new();
+    if a.record.is_some() || a.foxglove.is_some() {
+        let mut record = RoleCommand::new("record");
+        if let Some(path) = &a.record {
+            record = record.arg("--out").arg(path);
         }
+        if let Some(addr) = a.foxglove {
+            record = record.args(["--foxglove".into(), addr.to_string()]);
+            println!("Foxglove live: ws://{addr}");
+        }
+        roles.push((Identity::Recorder, record));
     }
-}
-
-fn print_progress(truth: &SimTruth, modes: &BTreeMap<String, String>) {
-    let burning = truth
-        .fires
-        .iter()
-        .filter(|f| f.state == TruthFireState::Burning)
-        .count();
-    let units: Vec<String> = modes.iter().map(|(u, m)| format!("{u} {m}")).collect();
-    println!(
-        "t={:6.1} s  fires burning {burning}, out {}/{}  | {}",
-        truth.t,
-        truth.fires_out(),
-        truth.fires.len(),
-        units.join(", ")
-    );
+    let modbus = match a.scada {
+        true => {
+            anyhow::ensure!(
+                scenario.scada.is_some(),
+                "--scada: scenario '{}' maps no [scada] in its file",
+                scenario.name
+            );
+            let port = free_loopback_port().context("finding a free port for Modbus")?;
+            let addr = format!("127.0.0.1:{port}");
+            let bridge = RoleCommand::new("scada").args(["--modbus", &addr, "--sim-clock"]);
+            roles.push((Identity::Scada, bridge));
+            Some(addr)
+        }
+        false => None,
+    };
+    let mut sim = RoleCommand::new("sim")
+        .args(["--seed".into(), seed.to_string()])
+        .args(["--time-scale".into(), a.time_scale.to_string()])
+        .args(["--wait-for-fleet", "30", "--wait-for-coordinator"]);
+    if a.platform == PlatformKind::Ros2 {
+        sim = sim.arg("--ros2");
+    }
+    if let Some(m) = &modbus {
+        sim = sim.args(["--scada", m]);
+    }
+    if let Some(t) = a.cut_scada_at {
+        sim = sim.args(["--cut-scada-at".into(), t.to_string()]);
+    }
+    roles.push((Identity::Sim, sim));
+    let coordinator = RoleCommand::new("coordinator").arg("--sim-clock");
+    roles.push((Identity::Coordinator, coordinator.clone()));
+    if a.standby {
+        roles.push((Identity::Coordinator, coordinator.arg("--standby")));
+    }
+    for u in &scenario.units {
+        let mut agent = RoleCommand::new("agent").args(["--unit", u.id.as_str()]);
+        if a.platform == PlatformKind::Ros2 && u.kind == UnitKind::Ground {
+            agent = agent.args(["--platform", "ros2"]);
+        }
+        roles.push((Identity::Unit(u.id.clone()), agent));
+    }
+    if let Some(addr) = a.console {
+        let mut console = RoleCommand::new("console").args(["--http".into(), addr.to_string()]);
+        if let Some(users) = &a.console_users {
+            console = console.arg("--users").arg(users);
+        }
+        // On a secure site the page is HTTPS with the console's web certificate from the
+        // site PKI (valid for loopback): commanders' browsers trust the site's web CA.
+        let scheme = match site {
+            Some(s) => {
+                let dir = s.pki.join(Identity::Console.dir_name());
+                console = console
+                    .arg("--https-cert")
+                    .arg(dir.join("https-cert.pem"))
+                    .arg("--https-key")
+                    .arg(dir.join("https-key.pem"));
+                println!(
+                    "the console's page is signed by the site's web CA: {}",
+                    dir.join("web-ca.pem").display()
+                );
+                "https"
+            }
+            None => "http",
+        };
+        println!("the incident commander's console: {scheme}://{addr}/");
+        roles.push((Identity::Console, console));
+    }
+    Ok(roles)
 }
