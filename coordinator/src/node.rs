@@ -114,36 +114,14 @@ pub async fn run(
     } = Inputs::subscribe(bus, scenario).await?;
     let mut told = Told::default();
 
-    // Before the first decision, the site clock: a coordinator restarted mid-incident that
-    // decided at t = 0 would number its tasks below those the units hold (and they would
-    // ignore them) and date every decision wrong. A running simulator sends it ten times
-    // a second.
-    let clocked = !opts.sim_clock || site_clock(&clock_msgs, &sim_time).await;
-    if !clocked {
-        tracing::warn!(
-            "no site clock within {CLOCK_WAIT:?}: starting at t = {:.1} s",
-            clock.now()
-        );
-    }
-    // Then the numbers of the tasks the units hold, from their states: the first task
-    // must outnumber them all. Those states only serve that; the next ones come within
-    // a fraction of a second.
-    let heard = heed_units(&states, &mut incident, scenario.units.len(), clock.now()).await;
-    let epoch = incident.take_office(opts.rank, clock.now());
-    tracing::info!(
-        units = heard,
-        epoch,
-        t = clock.now(),
-        "took office above the task numbers of the units heard"
-    );
-    // Before anything else is said: the goals and the tracks the previous coordinator
-    // published, as a recorder kept them (none at a first start, or when nothing records).
-    take_back(
+    let epoch = take_office(
         bus,
         &mut incident,
         opts,
-        clocked.then_some(&*clock),
+        scenario.units.len(),
+        (&clock_msgs, &states),
         &sim_time,
+        &*clock,
     )
     .await?;
 
@@ -240,6 +218,47 @@ pub async fn run(
         .await?;
     }
     Ok(Ended::Shutdown)
+}
+
+/// Take office, at the site time `clock` keeps: the site clock awaited first, then the
+/// numbers of the tasks the `units` hold, then what the previous coordinator published.
+/// The epoch this coordinator commands in.
+async fn take_office(
+    bus: &Bus,
+    incident: &mut Incident,
+    opts: &CoordinatorOptions,
+    units: usize,
+    inputs: (&Inbox<SimClock>, &Inbox<UnitState>),
+    sim_time: &ExternalClock,
+    clock: &dyn Clock,
+) -> Result<u64, BusError> {
+    // Before the first decision, the site clock: a coordinator restarted mid-incident that
+    // decided at t = 0 would number its tasks below those the units hold (and they would
+    // ignore them) and date every decision wrong. A running simulator sends it ten times
+    // a second.
+    let (clock_msgs, states) = inputs;
+    let clocked = !opts.sim_clock || site_clock(clock_msgs, sim_time).await;
+    if !clocked {
+        tracing::warn!(
+            "no site clock within {CLOCK_WAIT:?}: starting at t = {:.1} s",
+            clock.now()
+        );
+    }
+    // Then the numbers of the tasks the units hold, from their states: the first task
+    // must outnumber them all. Those states only serve that; the next ones come within
+    // a fraction of a second.
+    let heard = heed_units(states, incident, units, clock.now()).await;
+    let epoch = incident.take_office(opts.rank, clock.now());
+    tracing::info!(
+        units = heard,
+        epoch,
+        t = clock.now(),
+        "took office above the task numbers of the units heard"
+    );
+    // Before anything else is said: the goals and the tracks the previous coordinator
+    // published, as a recorder kept them (none at a first start, or when nothing records).
+    take_back(bus, incident, opts, clocked.then_some(clock), sim_time).await?;
+    Ok(epoch)
 }
 
 /// After each event at site time `t`: the incident's decisions logged, barred space told

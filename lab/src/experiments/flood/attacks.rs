@@ -19,17 +19,17 @@ pub(super) struct Lie {
 struct SiteClock(Arc<AtomicU64>);
 
 impl SiteClock {
-    pub(super) fn now(&self) -> f64 {
+    fn now(&self) -> f64 {
         f64::from_bits(self.0.load(Ordering::Relaxed))
     }
 
-    pub(super) fn set(&self, t: f64) {
+    fn set(&self, t: f64) {
         self.0.store(t.to_bits(), Ordering::Relaxed);
     }
 }
 
 /// Fake fires: three, `seed`ed, none within 15 m of a real one.
-pub(super) fn fakes(rng: &mut ChaCha8Rng, real: &[Point2]) -> Vec<Point2> {
+fn fakes(rng: &mut ChaCha8Rng, real: &[Point2]) -> Vec<Point2> {
     let mut out: Vec<Point2> = Vec::new();
     while out.len() < 3 {
         let p = Point2::new(rng.random_range(10.0..290.0), rng.random_range(-3.0..3.0));
@@ -41,7 +41,7 @@ pub(super) fn fakes(rng: &mut ChaCha8Rng, real: &[Point2]) -> Vec<Point2> {
 }
 
 /// One report of flames at `at`, dated `t`, by `unit`, as its camera would place them.
-pub(super) fn report(unit: &UnitId, t: f64, at: &[Point2]) -> FlameReport {
+fn report(unit: &UnitId, t: f64, at: &[Point2]) -> FlameReport {
     FlameReport {
         unit: unit.clone(),
         t,
