@@ -14,6 +14,11 @@
 //! assert!(fleet.violations().is_empty());
 //! ```
 //!
+//! It lives here rather than in `firefleet-sim` (where the design first placed it): a whole
+//! fleet needs the agent's controllers and the coordinator's incident, and the agent
+//! already builds on the simulator, so the simulator cannot build on the agent. A crate's
+//! tests that want it take this crate as a dev-dependency.
+//!
 //! Not here: the experiments (the `firefleet-lab` binary) or the fleet's processes (the
 //! `firefleet` binary's roles).
 
