@@ -78,6 +78,7 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
                 t = truth.t;
                 Some(Event::burning(&truth))
             }
+            (Topic::ZoneAck(_), Ok(Payload::Ack(ack))) => Some(Event::Ack(ack)),
             (Topic::ZoneGoal(zone, by), Ok(Payload::Goal(goal))) => Some(Event::Goal {
                 key_zone: zone.clone(),
                 by: by.clone(),

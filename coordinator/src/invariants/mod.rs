@@ -31,15 +31,15 @@
 //! Not here: why a violation happened. A violation names the unit, the goal and the time;
 //! the recording around it tells the rest.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use firefleet_model::UnitKind;
 use firefleet_model::profile::{GROUND, MONORAIL, Profile};
 use firefleet_model::scenario::{Scenario, Tunnel};
 use firefleet_model::{Chainage, CommanderId, Point2, UnitId, ZoneId};
 use firefleet_protocol::msg::{
-    INSIDE_PORTAL_M, SimTruth, Task, TaskKind, TaskPhase, TruthFireState, UnitState, ZoneGoal,
-    nearest_allowed,
+    GoalAck, INSIDE_PORTAL_M, SimTruth, Task, TaskKind, TaskPhase, TruthFireState, UnitState,
+    ZoneGoal, nearest_allowed,
 };
 
 use crate::goals::{Active, Goals};
@@ -75,6 +75,8 @@ pub enum Event {
     Task(Task),
     /// Where fires burn (burning, not smouldering), by the simulator's ground truth.
     Burning(Vec<Point2>),
+    /// The coordinator's answer to a goal, sent the moment it took (or refused) it.
+    Ack(GoalAck),
 }
 
 impl Event {
@@ -255,6 +257,9 @@ pub struct Invariants {
     /// Each declared unit's top speed, m/s, from its own profile: the time it is given to
     /// leave a zone.
     speeds: BTreeMap<UnitId, f64>,
+    /// The goals the coordinator acknowledged as taken, by id, once the history holds
+    /// acknowledgements at all (a recording does; an in-process run may not).
+    acked: Option<BTreeSet<String>>,
 }
 
 impl Invariants {
@@ -289,6 +294,7 @@ impl Invariants {
             issued: BTreeMap::new(),
             continuity: Continuity::new(lease_s),
             violations: Vec::new(),
+            acked: None,
         }
     }
 
@@ -324,6 +330,12 @@ impl Invariants {
                 self.check_task(&task, t);
             }
             Event::Burning(fires) => self.continuity.burning(fires),
+            Event::Ack(ack) => {
+                let acked = self.acked.get_or_insert_default();
+                if ack.accepted {
+                    acked.insert(ack.id);
+                }
+            }
         }
         let goals = &self.goals;
         let tunnel = &self.tunnel;
@@ -512,7 +524,17 @@ impl Invariants {
             .get(&task.unit)
             .map_or(UnitKind::Ground, |st| st.kind);
         let barred = self.goals.barred_space(t);
-        if let Some(b) = barred.entry_at(kind, self.tunnel.chainage(to)) {
+        // A task is judged against the goals its coordinator had taken when it sent it: a
+        // goal reaches the recorder and the coordinator by different ways, and a task the
+        // coordinator sent before it heard the goal can be recorded after the goal. The
+        // coordinator acknowledges a goal as it takes it, before any task that follows from
+        // it, so where the history holds acknowledgements a goal not yet acknowledged bars
+        // no task.
+        let taken = |goal: &str| self.acked.as_ref().is_none_or(|a| a.contains(goal));
+        if let Some(b) = barred
+            .entry_at(kind, self.tunnel.chainage(to))
+            .filter(|b| taken(&b.goal))
+        {
             let v = Violation::SentIntoBarred {
                 unit: task.unit.clone(),
                 seq: task.seq,

@@ -145,6 +145,42 @@ fn a_zone_at_the_portal_is_left_by_its_far_end_and_a_trapped_unit_breaks_nothing
     assert!(inv.violations().is_empty(), "{:?}", inv.violations());
 }
 
+/// A task the coordinator sent before it took a goal, recorded after the goal (the goal
+/// reached the recorder first): no violation where the history holds the coordinator's
+/// acknowledgements; the same task sent again once the goal was acknowledged is one.
+#[test]
+fn a_task_is_judged_by_the_goals_its_coordinator_had_acknowledged() {
+    let task = |seq| {
+        Event::Task(Task {
+            unit: u(),
+            epoch: 0,
+            seq,
+            t: 0.0,
+            kind: TaskKind::Cruise {
+                goal: Point2::new(150.0, -2.5),
+            },
+        })
+    };
+    let ack = |id: &str, accepted| {
+        Event::Ack(GoalAck {
+            id: id.into(),
+            zone: z("deep"),
+            issued_by: Some(CommanderId::new("ic").unwrap()),
+            accepted,
+            reason: String::new(),
+        })
+    };
+    let v = check(vec![
+        (0.5, ack("earlier", false)),
+        (1.0, goal(GoalKind::KeepOut)),
+        (1.0, task(7)),
+        (1.1, ack("g", true)),
+        (2.0, task(8)),
+    ]);
+    assert_eq!(v.len(), 1, "{v:?}");
+    assert!(matches!(v[0], Violation::SentIntoBarred { seq: 8, .. }));
+}
+
 #[test]
 fn tasks_into_barred_space_and_attacks_in_a_monitor_zone_are_reported() {
     let task = |seq, x| {
