@@ -52,6 +52,19 @@ fn goal(kind: GoalKind) -> Event {
     }
 }
 
+/// Task `seq` sending u1 to cruise to `x`, 2.5 m right of the axis.
+fn cruise(seq: u64, x: f64) -> Event {
+    Event::Task(Task {
+        unit: u(),
+        epoch: 0,
+        seq,
+        t: 0.0,
+        kind: TaskKind::Cruise {
+            goal: Point2::new(x, -2.5),
+        },
+    })
+}
+
 /// Feeds `events` (each at its time) and returns the violations.
 fn check(events: Vec<(f64, Event)>) -> Vec<Violation> {
     let mut inv = Invariants::new(&site());
@@ -150,17 +163,7 @@ fn a_zone_at_the_portal_is_left_by_its_far_end_and_a_trapped_unit_breaks_nothing
 /// acknowledgements; the same task sent again once the goal was acknowledged is one.
 #[test]
 fn a_task_is_judged_by_the_goals_its_coordinator_had_acknowledged() {
-    let task = |seq| {
-        Event::Task(Task {
-            unit: u(),
-            epoch: 0,
-            seq,
-            t: 0.0,
-            kind: TaskKind::Cruise {
-                goal: Point2::new(150.0, -2.5),
-            },
-        })
-    };
+    let task = |seq| cruise(seq, 150.0);
     let ack = |id: &str, accepted| {
         Event::Ack(GoalAck {
             id: id.into(),
@@ -183,17 +186,7 @@ fn a_task_is_judged_by_the_goals_its_coordinator_had_acknowledged() {
 
 #[test]
 fn tasks_into_barred_space_and_attacks_in_a_monitor_zone_are_reported() {
-    let task = |seq, x| {
-        Event::Task(Task {
-            unit: u(),
-            epoch: 0,
-            seq,
-            t: 0.0,
-            kind: TaskKind::Cruise {
-                goal: Point2::new(x, -2.5),
-            },
-        })
-    };
+    let task = cruise;
     let v = check(vec![
         (1.0, goal(GoalKind::KeepOut)),
         (2.0, task(7, 150.0)),
