@@ -5,12 +5,12 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use firefleet_bt::testing::Busy;
-use firefleet_bt::{Registry, Tree, xml};
+use firefleet_bt::{Leaf, Registry, Tree, xml};
 use std::hint::black_box;
 
 fn tree(control: &str, attrs: &str, leaf: &str, n: usize) -> Tree<()> {
     let mut r = Registry::new();
-    r.register_stateful("Busy", vec![], || Busy);
+    r.register("Busy", vec![], Leaf::stateful(|| Busy));
     let leaves = format!("<{leaf}/>").repeat(n);
     let text = format!(
         r#"<root BTCPP_format="4"><BehaviorTree ID="B"><{control} {attrs}>{leaves}</{control}></BehaviorTree></root>"#

@@ -21,7 +21,7 @@
 //! restart to tell.
 
 use firefleet_bt::node::Io;
-use firefleet_bt::{Port, Registry, Status};
+use firefleet_bt::{Leaf, Port, Registry, Status};
 use firefleet_model::UnitKind;
 use firefleet_model::scenario::Tunnel;
 use firefleet_model::{FireId, Point2, UnitId};
@@ -266,10 +266,10 @@ const FAILED_TASK: Port<i64> = Port::input("task", "the task that failed").with_
 
 /// Add the shared leaves to `r`.
 pub fn register<C: Responder>(r: &mut Registry<C>) {
-    r.register_condition(
+    r.register(
         "FireDetection",
         vec![FLAME_WITHIN.spec(), NEAR.spec()],
-        || {
+        Leaf::condition(|| {
             |io: &mut Io<'_>, u: &mut C| {
                 let within = io.get(&FLAME_WITHIN).unwrap_or(30.0);
                 let of = io
@@ -278,24 +278,32 @@ pub fn register<C: Responder>(r: &mut Registry<C>) {
                     .unwrap_or(u.position());
                 ok(u.flame_near(of, within).is_some())
             }
-        },
+        }),
     );
-    r.register_condition("IsAttacking", vec![], || {
-        |_: &mut Io<'_>, u: &mut C| ok(u.mission().job.is_some())
-    });
-    r.register_condition("HasAssignedFire", vec![], || {
-        |_: &mut Io<'_>, u: &mut C| {
-            let m = u.mission();
-            ok(!m.leaving && m.assigned_fire().is_some())
-        }
-    });
-    r.register_condition("IsAutonomous", vec![], || {
-        |_: &mut Io<'_>, u: &mut C| ok(!u.mission().coordinator_present)
-    });
-    r.register_action(
+    r.register(
+        "IsAttacking",
+        vec![],
+        Leaf::condition(|| |_: &mut Io<'_>, u: &mut C| ok(u.mission().job.is_some())),
+    );
+    r.register(
+        "HasAssignedFire",
+        vec![],
+        Leaf::condition(|| {
+            |_: &mut Io<'_>, u: &mut C| {
+                let m = u.mission();
+                ok(!m.leaving && m.assigned_fire().is_some())
+            }
+        }),
+    );
+    r.register(
+        "IsAutonomous",
+        vec![],
+        Leaf::condition(|| |_: &mut Io<'_>, u: &mut C| ok(!u.mission().coordinator_present)),
+    );
+    r.register(
         "LocateFire",
         vec![LOCATED_FIRE.spec(), LOCATED_TASK.spec()],
-        || {
+        Leaf::action(|| {
             |io: &mut Io<'_>, u: &mut C| {
                 if u.mission().leaving {
                     return Status::Failure;
@@ -317,47 +325,59 @@ pub fn register<C: Responder>(r: &mut Registry<C>) {
                 ok(io.set(&LOCATED_FIRE, [fire.x, fire.y]).is_ok()
                     && io.set(&LOCATED_TASK, task).is_ok())
             }
-        },
+        }),
     );
-    r.register_condition("IsTaskCurrent", vec![TASK.spec()], || {
-        |io: &mut Io<'_>, u: &mut C| {
-            let Ok(task) = io.get(&TASK) else {
-                return Status::Failure;
-            };
-            let m = u.mission();
-            ok(!m.leaving
-                && match m.assigned_fire() {
-                    Some((seq, _, _)) => seq as i64 == task,
-                    // Acting alone is current until a coordinator assigns something.
-                    None => task < 0 || m.task.is_some_and(|(s, _)| s as i64 == task),
-                })
-        }
-    });
-    r.register_action("ReportExtinguished", vec![DONE_TASK.spec()], || {
-        |io: &mut Io<'_>, u: &mut C| {
-            let task = io.get(&DONE_TASK).unwrap_or(-1);
-            tracing::info!(unit = %u.id(), task, "flame out");
-            u.stand_down();
-            u.mission().finish(task, TaskPhase::Extinguished);
-            Status::Success
-        }
-    });
-    r.register_action("ErrorHandling", vec![FAILED_TASK.spec()], || {
-        |io: &mut Io<'_>, u: &mut C| {
-            let task = io.get(&FAILED_TASK).unwrap_or(-1);
-            u.stand_down();
-            match u.mission().stop_short(task) {
-                Some(Stopped::Failed) => {
-                    tracing::warn!(unit = %u.id(), task, "attack abandoned")
-                }
-                Some(Stopped::Withdrawn) => {
-                    tracing::info!(unit = %u.id(), task, "task withdrawn")
-                }
-                None => {}
+    r.register(
+        "IsTaskCurrent",
+        vec![TASK.spec()],
+        Leaf::condition(|| {
+            |io: &mut Io<'_>, u: &mut C| {
+                let Ok(task) = io.get(&TASK) else {
+                    return Status::Failure;
+                };
+                let m = u.mission();
+                ok(!m.leaving
+                    && match m.assigned_fire() {
+                        Some((seq, _, _)) => seq as i64 == task,
+                        // Acting alone is current until a coordinator assigns something.
+                        None => task < 0 || m.task.is_some_and(|(s, _)| s as i64 == task),
+                    })
             }
-            Status::Failure
-        }
-    });
+        }),
+    );
+    r.register(
+        "ReportExtinguished",
+        vec![DONE_TASK.spec()],
+        Leaf::action(|| {
+            |io: &mut Io<'_>, u: &mut C| {
+                let task = io.get(&DONE_TASK).unwrap_or(-1);
+                tracing::info!(unit = %u.id(), task, "flame out");
+                u.stand_down();
+                u.mission().finish(task, TaskPhase::Extinguished);
+                Status::Success
+            }
+        }),
+    );
+    r.register(
+        "ErrorHandling",
+        vec![FAILED_TASK.spec()],
+        Leaf::action(|| {
+            |io: &mut Io<'_>, u: &mut C| {
+                let task = io.get(&FAILED_TASK).unwrap_or(-1);
+                u.stand_down();
+                match u.mission().stop_short(task) {
+                    Some(Stopped::Failed) => {
+                        tracing::warn!(unit = %u.id(), task, "attack abandoned")
+                    }
+                    Some(Stopped::Withdrawn) => {
+                        tracing::info!(unit = %u.id(), task, "task withdrawn")
+                    }
+                    None => {}
+                }
+                Status::Failure
+            }
+        }),
+    );
 }
 
 #[cfg(test)]

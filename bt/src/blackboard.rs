@@ -10,6 +10,7 @@
 
 use std::collections::HashMap;
 
+use crate::error::BlackboardError;
 use crate::value::{PortType, Value};
 
 /// Index of a blackboard entry.
@@ -28,7 +29,7 @@ pub struct Blackboard {
 impl Blackboard {
     /// The slot named `name` (a root-scope key, or `scope/key` inside a subtree), creating
     /// it with type `ty`; an existing slot of type Any takes the more precise type.
-    pub(crate) fn entry(&mut self, name: &str, ty: PortType) -> Result<Slot, String> {
+    pub(crate) fn entry(&mut self, name: &str, ty: PortType) -> Result<Slot, BlackboardError> {
         if let Some(&slot) = self.by_name.get(name) {
             let have = &mut self.types[slot.0 as usize];
             if *have == PortType::Any {
@@ -38,7 +39,11 @@ impl Blackboard {
                 && !(ty == PortType::Int && *have == PortType::Double)
                 && !(ty == PortType::Double && *have == PortType::Int)
             {
-                return Err(format!("entry '{name}' is used as {have} and as {ty}"));
+                return Err(BlackboardError::Conflict {
+                    entry: name.to_owned(),
+                    was: *have,
+                    now: ty,
+                });
             } else if ty == PortType::Double {
                 // An entry read as a double and written as an int holds doubles.
                 *have = PortType::Double;
@@ -75,18 +80,18 @@ impl Blackboard {
     }
 
     /// Write `v`, converting an int into a double entry; a type mismatch is an error.
-    pub fn set(&mut self, slot: Slot, v: Value) -> Result<(), String> {
+    pub fn set(&mut self, slot: Slot, v: Value) -> Result<(), BlackboardError> {
         let ty = self.types[slot.0 as usize];
         let v = match (ty, v) {
             (PortType::Double, Value::Int(i)) => Value::Double(i as f64),
             (PortType::Any, v) => v,
             (ty, v) if v.port_type() == ty => v,
             (ty, v) => {
-                return Err(format!(
-                    "entry '{}' holds {ty}, not {}",
-                    self.names[slot.0 as usize],
-                    v.port_type()
-                ));
+                return Err(BlackboardError::WrongType {
+                    entry: self.names[slot.0 as usize].clone(),
+                    holds: ty,
+                    given: v.port_type(),
+                });
             }
         };
         self.values[slot.0 as usize] = Some(v);
@@ -94,10 +99,10 @@ impl Blackboard {
     }
 
     /// Write a value by key name (for the application seeding a tree's inputs).
-    pub fn set_by_name(&mut self, name: &str, v: Value) -> Result<(), String> {
+    pub fn set_by_name(&mut self, name: &str, v: Value) -> Result<(), BlackboardError> {
         let slot = self
             .slot(name)
-            .ok_or_else(|| format!("the tree has no blackboard entry '{name}'"))?;
+            .ok_or_else(|| BlackboardError::NoEntry(name.to_owned()))?;
         self.set(slot, v)
     }
 
@@ -120,10 +125,13 @@ mod tests {
         let mut bb = Blackboard::default();
         let a = bb.entry("goal", PortType::Point).unwrap();
         assert_eq!(bb.entry("goal", PortType::Any).unwrap(), a);
-        assert!(
-            bb.entry("goal", PortType::Bool)
-                .unwrap_err()
-                .contains("point")
+        assert_eq!(
+            bb.entry("goal", PortType::Bool),
+            Err(BlackboardError::Conflict {
+                entry: "goal".into(),
+                was: PortType::Point,
+                now: PortType::Bool
+            })
         );
         bb.alias("sub/target", a);
         bb.set(a, Value::Point([1.0, 2.0])).unwrap();

@@ -94,9 +94,34 @@ type Make<T> = Box<dyn Fn() -> Box<T>>;
 
 enum Maker<C> {
     Builtin(Builtin),
+    Leaf(LeafMaker<C>),
+}
+
+enum LeafMaker<C> {
     Condition(Make<dyn Action<C>>),
     Action(Make<dyn Action<C>>),
     Stateful(Make<dyn StatefulAction<C>>),
+}
+
+/// An application's leaf type: what kind of leaf it is and how an instance is made, one
+/// for each node of the type in a tree (for [`Registry::register`]).
+pub struct Leaf<C>(LeafMaker<C>);
+
+impl<C> Leaf<C> {
+    /// A condition: Success or Failure, never Running.
+    pub fn condition<A: Action<C> + 'static>(make: impl Fn() -> A + 'static) -> Self {
+        Self(LeafMaker::Condition(Box::new(move || Box::new(make()))))
+    }
+
+    /// A synchronous action.
+    pub fn action<A: Action<C> + 'static>(make: impl Fn() -> A + 'static) -> Self {
+        Self(LeafMaker::Action(Box::new(move || Box::new(make()))))
+    }
+
+    /// A stateful asynchronous action (BehaviorTree.CPP's `StatefulActionNode`).
+    pub fn stateful<A: StatefulAction<C> + 'static>(make: impl Fn() -> A + 'static) -> Self {
+        Self(LeafMaker::Stateful(Box::new(move || Box::new(make()))))
+    }
 }
 
 /// A node type.
@@ -134,15 +159,7 @@ impl<C> Registry<C> {
             types: BTreeMap::new(),
         };
         let mut add = |name: &str, category, b, ports: Vec<PortSpec>| {
-            r.types.insert(
-                name.to_owned(),
-                NodeType {
-                    name: name.to_owned(),
-                    category,
-                    ports,
-                    maker: Maker::Builtin(b),
-                },
-            );
+            r.insert(name, category, ports, Maker::Builtin(b));
         };
         for (name, b) in [
             ("Sequence", B::Sequence),
@@ -278,49 +295,14 @@ impl<C> Registry<C> {
         );
     }
 
-    /// A condition: Success or Failure, never Running.
-    pub fn register_condition<A: Action<C> + 'static>(
-        &mut self,
-        name: &str,
-        ports: Vec<PortSpec>,
-        make: impl Fn() -> A + 'static,
-    ) {
-        self.insert(
-            name,
-            Category::Condition,
-            ports,
-            Maker::Condition(Box::new(move || Box::new(make()))),
-        );
-    }
-
-    /// A synchronous action.
-    pub fn register_action<A: Action<C> + 'static>(
-        &mut self,
-        name: &str,
-        ports: Vec<PortSpec>,
-        make: impl Fn() -> A + 'static,
-    ) {
-        self.insert(
-            name,
-            Category::Action,
-            ports,
-            Maker::Action(Box::new(move || Box::new(make()))),
-        );
-    }
-
-    /// A stateful asynchronous action.
-    pub fn register_stateful<A: StatefulAction<C> + 'static>(
-        &mut self,
-        name: &str,
-        ports: Vec<PortSpec>,
-        make: impl Fn() -> A + 'static,
-    ) {
-        self.insert(
-            name,
-            Category::Action,
-            ports,
-            Maker::Stateful(Box::new(move || Box::new(make()))),
-        );
+    /// Register the application's node type `name` with its `ports`; `leaf` says what it
+    /// is and makes one instance per node of that type.
+    pub fn register(&mut self, name: &str, ports: Vec<PortSpec>, leaf: Leaf<C>) {
+        let category = match leaf.0 {
+            LeafMaker::Condition(_) => Category::Condition,
+            LeafMaker::Action(_) | LeafMaker::Stateful(_) => Category::Action,
+        };
+        self.insert(name, category, ports, Maker::Leaf(leaf.0));
     }
 
     pub fn get(&self, name: &str) -> Option<&NodeType<C>> {

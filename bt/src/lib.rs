@@ -2,7 +2,7 @@
 //!
 //! ```
 //! use firefleet_bt::node::Io;
-//! use firefleet_bt::{Port, Registry, Status, xml};
+//! use firefleet_bt::{Leaf, Port, Registry, Status, xml};
 //!
 //! /// What the leaves act on: here, how much water is left.
 //! struct Robot {
@@ -12,17 +12,17 @@
 //! const LITRES: Port<f64> = Port::input("litres", "water one spray takes");
 //!
 //! let mut leaves = Registry::<Robot>::new();
-//! leaves.register_condition("HasWater", vec![], || {
+//! leaves.register("HasWater", vec![], Leaf::condition(|| {
 //!     |_: &mut Io<'_>, r: &mut Robot| {
 //!         if r.water_l > 0.0 { Status::Success } else { Status::Failure }
 //!     }
-//! });
-//! leaves.register_action("Spray", vec![LITRES.spec()], || {
+//! }));
+//! leaves.register("Spray", vec![LITRES.spec()], Leaf::action(|| {
 //!     |io: &mut Io<'_>, r: &mut Robot| {
 //!         r.water_l -= io.get(&LITRES).unwrap_or(0.0);
 //!         Status::Success
 //!     }
-//! });
+//! }));
 //! let doc = xml::parse_str(
 //!     r#"<root BTCPP_format="4"><BehaviorTree ID="Main">
 //!          <Sequence><HasWater/><Spray litres="40"/></Sequence>
@@ -50,6 +50,7 @@
 //! (`&mut C`) on every tick; that is how they reach the robot.
 
 pub mod blackboard;
+pub mod error;
 pub mod factory;
 pub mod node;
 pub mod script;
@@ -61,7 +62,8 @@ pub mod value;
 pub mod xml;
 
 pub use blackboard::{Blackboard, Slot};
-pub use factory::{Builder, Category, NodeId, Registry, ScopeId};
+pub use error::{BlackboardError, BuildError, LiteralError, ScriptError};
+pub use factory::{Builder, Category, Leaf, NodeId, Registry, ScopeId};
 pub use node::{Action, Io, Port, PortDir, PortSpec, StatefulAction};
 pub use status::Status;
 pub use tree::{Transition, Tree};

@@ -8,6 +8,7 @@
 use std::marker::PhantomData;
 
 use crate::blackboard::{Blackboard, Slot};
+use crate::error::BlackboardError;
 use crate::status::Status;
 use crate::value::{PortType, PortValue, Value};
 
@@ -147,8 +148,13 @@ pub enum PortError {
         port: &'static str,
         expected: PortType,
     },
-    #[error("port '{port}': {reason}")]
-    Write { port: &'static str, reason: String },
+    #[error("port '{port}': {source}")]
+    Write {
+        port: &'static str,
+        source: BlackboardError,
+    },
+    #[error("port '{0}' is bound to a literal and cannot be written")]
+    Literal(&'static str),
 }
 
 /// A node's view of its ports and of the tree's clock during one tick.
@@ -200,12 +206,9 @@ impl Io<'_> {
             Binding::Entry(slot) => self
                 .bb
                 .set(slot, v.into_value())
-                .map_err(|reason| PortError::Write { port: name, reason }),
+                .map_err(|source| PortError::Write { port: name, source }),
             Binding::Unbound => Ok(()),
-            Binding::Literal(_) => Err(PortError::Write {
-                port: name,
-                reason: "bound to a literal".into(),
-            }),
+            Binding::Literal(_) => Err(PortError::Literal(name)),
         }
     }
 }

@@ -8,6 +8,7 @@
 //! Text compared with a number is read as a number, as BehaviorTree.CPP converts strings.
 
 use crate::blackboard::{Blackboard, Slot};
+use crate::error::{BlackboardError, ScriptError};
 use crate::value::Value;
 
 /// A parsed expression.
@@ -41,7 +42,7 @@ enum Tok {
     Op(&'static str),
 }
 
-fn lex(src: &str) -> Result<Vec<Tok>, String> {
+fn lex(src: &str) -> Result<Vec<Tok>, ScriptError> {
     let b = src.as_bytes();
     let mut i = 0;
     let mut out = Vec::new();
@@ -57,12 +58,12 @@ fn lex(src: &str) -> Result<Vec<Tok>, String> {
                 i += 1;
             }
             out.push(Tok::Num(src[start..i].parse().map_err(|_| {
-                format!("bad number '{}' at {start}", &src[start..i])
+                ScriptError::Syntax(format!("bad number '{}' at {start}", &src[start..i]))
             })?));
         } else if c == '\'' {
             let end = src[i + 1..]
                 .find('\'')
-                .ok_or_else(|| format!("unterminated string at {i}"))?;
+                .ok_or_else(|| ScriptError::Syntax(format!("unterminated string at {i}")))?;
             out.push(Tok::Str(src[i + 1..i + 1 + end].to_owned()));
             i += end + 2;
         } else if c.is_ascii_alphabetic() || c == '_' || c == '@' {
@@ -90,7 +91,9 @@ fn lex(src: &str) -> Result<Vec<Tok>, String> {
                             out.push(Tok::Op(o));
                             i += 1;
                         }
-                        None => return Err(format!("unexpected '{c}' at {i}")),
+                        None => {
+                            return Err(ScriptError::Syntax(format!("unexpected '{c}' at {i}")));
+                        }
                     }
                 }
             }
@@ -102,7 +105,7 @@ fn lex(src: &str) -> Result<Vec<Tok>, String> {
 struct Parser<'a, 'r> {
     toks: Vec<Tok>,
     pos: usize,
-    resolve: &'a mut dyn FnMut(&str) -> Result<Slot, String>,
+    resolve: &'a mut dyn FnMut(&str) -> Result<Slot, BlackboardError>,
     _r: std::marker::PhantomData<&'r ()>,
 }
 
@@ -115,28 +118,28 @@ impl Parser<'_, '_> {
         self.pos += usize::from(hit);
         hit
     }
-    fn or(&mut self) -> Result<Expr, String> {
+    fn or(&mut self) -> Result<Expr, ScriptError> {
         let mut e = self.and()?;
         while self.eat("||") {
             e = Expr::Or(Box::new(e), Box::new(self.and()?));
         }
         Ok(e)
     }
-    fn and(&mut self) -> Result<Expr, String> {
+    fn and(&mut self) -> Result<Expr, ScriptError> {
         let mut e = self.not()?;
         while self.eat("&&") {
             e = Expr::And(Box::new(e), Box::new(self.not()?));
         }
         Ok(e)
     }
-    fn not(&mut self) -> Result<Expr, String> {
+    fn not(&mut self) -> Result<Expr, ScriptError> {
         if self.eat("!") {
             Ok(Expr::Not(Box::new(self.not()?)))
         } else {
             self.cmp()
         }
     }
-    fn cmp(&mut self) -> Result<Expr, String> {
+    fn cmp(&mut self) -> Result<Expr, ScriptError> {
         let l = self.add()?;
         for (s, op) in [
             ("==", CmpOp::Eq),
@@ -152,7 +155,7 @@ impl Parser<'_, '_> {
         }
         Ok(l)
     }
-    fn add(&mut self) -> Result<Expr, String> {
+    fn add(&mut self) -> Result<Expr, ScriptError> {
         let mut e = self.primary()?;
         loop {
             if self.eat("+") {
@@ -164,12 +167,12 @@ impl Parser<'_, '_> {
             }
         }
     }
-    fn primary(&mut self) -> Result<Expr, String> {
+    fn primary(&mut self) -> Result<Expr, ScriptError> {
         let t = self
             .toks
             .get(self.pos)
             .cloned()
-            .ok_or("expression ends too early")?;
+            .ok_or_else(|| ScriptError::Syntax("expression ends too early".into()))?;
         self.pos += 1;
         match t {
             Tok::Num(n) => Ok(Expr::Lit(Value::Double(n))),
@@ -180,7 +183,7 @@ impl Parser<'_, '_> {
             Tok::Op("(") => {
                 let e = self.or()?;
                 if !self.eat(")") {
-                    return Err("missing ')'".into());
+                    return Err(ScriptError::Syntax("missing ')'".into()));
                 }
                 Ok(e)
             }
@@ -188,7 +191,7 @@ impl Parser<'_, '_> {
                 Box::new(Expr::Lit(Value::Double(0.0))),
                 Box::new(self.primary()?),
             )),
-            Tok::Op(o) => Err(format!("unexpected '{o}'")),
+            Tok::Op(o) => Err(ScriptError::Syntax(format!("unexpected '{o}'"))),
         }
     }
 }
@@ -196,8 +199,8 @@ impl Parser<'_, '_> {
 /// Parse `src`, resolving each key through `resolve`.
 pub fn parse(
     src: &str,
-    resolve: &mut dyn FnMut(&str) -> Result<Slot, String>,
-) -> Result<Expr, String> {
+    resolve: &mut dyn FnMut(&str) -> Result<Slot, BlackboardError>,
+) -> Result<Expr, ScriptError> {
     let toks = lex(src)?;
     let mut p = Parser {
         toks,
@@ -207,7 +210,9 @@ pub fn parse(
     };
     let e = p.or()?;
     if p.pos != p.toks.len() {
-        return Err(format!("unexpected trailing input in '{src}'"));
+        return Err(ScriptError::Syntax(format!(
+            "unexpected trailing input in '{src}'"
+        )));
     }
     Ok(e)
 }
@@ -286,7 +291,7 @@ mod tests {
     use crate::value::PortType;
 
     fn run(src: &str, bb: &mut Blackboard) -> Result<bool, String> {
-        let e = parse(src, &mut |k| bb.entry(k, PortType::Any))?;
+        let e = parse(src, &mut |k| bb.entry(k, PortType::Any)).map_err(|e| e.to_string())?;
         Ok(eval(&e, bb))
     }
 

@@ -8,6 +8,8 @@
 
 use std::fmt;
 
+use crate::error::LiteralError;
+
 /// The type of a port or blackboard entry.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum PortType {
@@ -42,21 +44,22 @@ impl PortType {
     }
 
     /// Parse a literal of this type.
-    pub fn parse(self, s: &str) -> Result<Value, String> {
+    pub fn parse(self, s: &str) -> Result<Value, LiteralError> {
         let s = s.trim();
+        let wrong = || LiteralError {
+            text: s.to_owned(),
+            ty: self,
+        };
         match self {
             PortType::Bool => match s {
                 "true" | "True" | "TRUE" | "1" => Ok(Value::Bool(true)),
                 "false" | "False" | "FALSE" | "0" => Ok(Value::Bool(false)),
-                _ => Err(format!("'{s}' is not a bool")),
+                _ => Err(wrong()),
             },
-            PortType::Int => s
-                .parse()
-                .map(Value::Int)
-                .map_err(|_| format!("'{s}' is not an int")),
+            PortType::Int => s.parse().map(Value::Int).map_err(|_| wrong()),
             PortType::Double => match s.parse::<f64>() {
                 Ok(v) if v.is_finite() => Ok(Value::Double(v)),
-                _ => Err(format!("'{s}' is not a finite double")),
+                _ => Err(wrong()),
             },
             PortType::String | PortType::Any => Ok(Value::String(s.to_owned())),
             PortType::Point => {
@@ -65,7 +68,7 @@ impl PortType {
                     (Some(Ok(x)), Some(Ok(y)), None) if x.is_finite() && y.is_finite() => {
                         Ok(Value::Point([x, y]))
                     }
-                    _ => Err(format!("'{s}' is not a point 'x;y'")),
+                    _ => Err(wrong()),
                 }
             }
         }
@@ -202,11 +205,9 @@ mod tests {
             Ok(Value::Point([1.5, -2.0]))
         );
         assert_eq!(PortType::Bool.parse("true"), Ok(Value::Bool(true)));
-        assert!(
-            PortType::Int
-                .parse("4.2")
-                .unwrap_err()
-                .contains("not an int")
+        assert_eq!(
+            PortType::Int.parse("4.2").unwrap_err().to_string(),
+            "'4.2' is not an int"
         );
         assert!(PortType::Double.parse("nan").is_err());
         assert!(PortType::Point.parse("1;2;3").is_err());

@@ -16,6 +16,7 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use crate::error::BuildError;
 use crate::factory::{Builder, Category, NodeId, Registry, ScopeId};
 use crate::node::PortDir;
 use crate::tree::Tree;
@@ -85,18 +86,30 @@ pub struct XmlError {
     pub line: u32,
     /// The node, as `Type "name"`, or empty for file-level problems.
     pub node: String,
-    pub message: String,
+    pub problem: Problem,
+}
+
+/// What is wrong, where an [`XmlError`] says it is.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum Problem {
+    /// The file as a document: unreadable, not well-formed, not a tree, an include or a
+    /// subtree that cannot be followed.
+    #[error("{0}")]
+    File(String),
+    /// A node or tree that cannot be built.
+    #[error(transparent)]
+    Build(#[from] BuildError),
 }
 
 impl fmt::Display for XmlError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if self.node.is_empty() {
-            write!(f, "{}:{}: {}", self.file, self.line, self.message)
+            write!(f, "{}:{}: {}", self.file, self.line, self.problem)
         } else {
             write!(
                 f,
                 "{}:{}: {}: {}",
-                self.file, self.line, self.node, self.message
+                self.file, self.line, self.node, self.problem
             )
         }
     }
@@ -125,7 +138,7 @@ fn err(file: &str, line: u32, node: &str, message: impl Into<String>) -> XmlErro
         file: file.to_owned(),
         line,
         node: node.to_owned(),
-        message: message.into(),
+        problem: Problem::File(message.into()),
     }])
 }
 
@@ -161,7 +174,7 @@ fn read_into(
                     file: file.clone(),
                     line,
                     node: "include".into(),
-                    message: format!("in included file {}", p.display()),
+                    problem: Problem::File(format!("in included file {}", p.display())),
                 });
             }
             e
@@ -272,7 +285,7 @@ fn parse_into(
                         file: file.into(),
                         line,
                         node: "BehaviorTree".into(),
-                        message: "missing ID".into(),
+                        problem: Problem::File("missing ID".into()),
                     });
                     continue;
                 };
@@ -281,7 +294,7 @@ fn parse_into(
                         file: file.into(),
                         line,
                         node: format!("BehaviorTree \"{id}\""),
-                        message: "defined twice".into(),
+                        problem: Problem::File("defined twice".into()),
                     });
                     continue;
                 }
@@ -291,7 +304,10 @@ fn parse_into(
                         file: file.into(),
                         line,
                         node: format!("BehaviorTree \"{id}\""),
-                        message: format!("must have exactly one root node, found {}", roots.len()),
+                        problem: Problem::File(format!(
+                            "must have exactly one root node, found {}",
+                            roots.len()
+                        )),
                     });
                     continue;
                 }
@@ -306,7 +322,7 @@ fn parse_into(
                     file: file.into(),
                     line,
                     node: "include".into(),
-                    message: "missing path".into(),
+                    problem: Problem::File("missing path".into()),
                 }),
             },
             "TreeNodesModel" => {}
@@ -314,7 +330,7 @@ fn parse_into(
                 file: file.into(),
                 line,
                 node: String::new(),
-                message: format!("unexpected <{other}> under <root>"),
+                problem: Problem::File(format!("unexpected <{other}> under <root>")),
             }),
         }
     }
@@ -375,7 +391,7 @@ pub fn validate<C>(doc: &Document, registry: &Registry<C>) -> Result<(), XmlErro
                 .map_or(String::new(), |t| t.root.file.clone()),
             line: 1,
             node: String::new(),
-            message: m,
+            problem: Problem::File(m),
         });
     }
     for t in &doc.trees {
@@ -410,13 +426,13 @@ fn build_tree<C>(doc: &Document, id: &str, registry: &Registry<C>) -> Result<Tre
     if !errors.is_empty() {
         return Err(XmlErrors(errors));
     }
-    b.build(root).map_err(|m| {
-        err(
-            &def.root.file,
-            def.root.line,
-            &format!("BehaviorTree \"{id}\""),
-            m,
-        )
+    b.build(root).map_err(|e| {
+        XmlErrors(vec![XmlError {
+            file: def.root.file.clone(),
+            line: def.root.line,
+            node: format!("BehaviorTree \"{id}\""),
+            problem: e.into(),
+        }])
     })
 }
 
@@ -428,12 +444,12 @@ fn walk<C>(
     b: &mut Builder<'_, C>,
     errors: &mut Vec<XmlError>,
 ) -> NodeId {
-    let fail = |errors: &mut Vec<XmlError>, b: &mut Builder<'_, C>, message: String| {
+    let fail = |errors: &mut Vec<XmlError>, b: &mut Builder<'_, C>, problem: Problem| {
         errors.push(XmlError {
             file: e.file.clone(),
             line: e.line,
             node: e.label(),
-            message,
+            problem,
         });
         b.node(scope, "AlwaysFailure", &[], &[]).expect("built-in")
     };
@@ -444,24 +460,32 @@ fn walk<C>(
         .collect();
     if e.kind == "SubTree" {
         let Some(id) = e.attr("ID") else {
-            return fail(errors, b, "SubTree without ID".into());
+            return fail(errors, b, Problem::File("SubTree without ID".into()));
         };
         let Some(def) = doc.tree(id) else {
-            return fail(errors, b, format!("no BehaviorTree with ID '{id}'"));
+            return fail(
+                errors,
+                b,
+                Problem::File(format!("no BehaviorTree with ID '{id}'")),
+            );
         };
         if !e.children.is_empty() {
-            return fail(errors, b, "a SubTree element takes no children".into());
+            return fail(
+                errors,
+                b,
+                Problem::File("a SubTree element takes no children".into()),
+            );
         }
         if stack.iter().any(|s| s == id) {
             return fail(
                 errors,
                 b,
-                format!("recursive subtree: {} -> {id}", stack.join(" -> ")),
+                Problem::File(format!("recursive subtree: {} -> {id}", stack.join(" -> "))),
             );
         }
         let inner = match b.subtree_scope(scope, id, &attrs) {
             Ok(s) => s,
-            Err(m) => return fail(errors, b, m),
+            Err(m) => return fail(errors, b, m.into()),
         };
         stack.push(id.to_owned());
         let child = walk(doc, &def.root, inner, stack, b, errors);
@@ -475,7 +499,7 @@ fn walk<C>(
         .collect();
     match b.node(scope, &e.kind, &attrs, &children) {
         Ok(n) => n,
-        Err(m) => fail(errors, b, m),
+        Err(m) => fail(errors, b, m.into()),
     }
 }
 

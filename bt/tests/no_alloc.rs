@@ -2,7 +2,7 @@
 //! allocator is process-wide, and counts only on the thread that asks it to.
 
 use firefleet_bt::testing::{Busy, CountingAlloc, allocations_during};
-use firefleet_bt::{Registry, Status, xml};
+use firefleet_bt::{Leaf, Registry, Status, xml};
 
 #[global_allocator]
 static GLOBAL: CountingAlloc = CountingAlloc;
@@ -10,7 +10,7 @@ static GLOBAL: CountingAlloc = CountingAlloc;
 #[test]
 fn steady_state_ticks_allocate_nothing() {
     let mut r = Registry::new();
-    r.register_stateful("Busy", vec![], || Busy);
+    r.register("Busy", vec![], Leaf::stateful(|| Busy));
     let text = format!(
         r#"<root BTCPP_format="4"><BehaviorTree ID="B">
              <Parallel success_count="-1">

@@ -488,19 +488,23 @@ fn the_observer_sees_every_transition_with_its_time() {
 #[test]
 fn leaves_reach_their_ports_by_name() {
     use firefleet_bt::node::{Io, PortError};
-    use firefleet_bt::{Port, Registry, xml};
+    use firefleet_bt::{Leaf, Port, Registry, xml};
     const A: Port<i64> = Port::input("a", "first");
     const B: Port<String> = Port::input("b", "second");
     const C: Port<bool> = Port::input("c", "not declared");
     let mut r: Registry<Ctx> = Registry::new();
-    r.register_action("Read", vec![B.spec(), A.spec()], || {
-        |io: &mut Io<'_>, ctx: &mut Ctx| {
-            let (a, b) = (io.get(&A).unwrap(), io.get(&B).unwrap());
-            assert_eq!(io.get(&C), Err(PortError::Undeclared("c")));
-            ctx.log.push(format!("{a} {b}"));
-            Status::Success
-        }
-    });
+    r.register(
+        "Read",
+        vec![B.spec(), A.spec()],
+        Leaf::action(|| {
+            |io: &mut Io<'_>, ctx: &mut Ctx| {
+                let (a, b) = (io.get(&A).unwrap(), io.get(&B).unwrap());
+                assert_eq!(io.get(&C), Err(PortError::Undeclared("c")));
+                ctx.log.push(format!("{a} {b}"));
+                Status::Success
+            }
+        }),
+    );
     let text =
         r#"<root BTCPP_format="4"><BehaviorTree ID="T"><Read a="7" b="x"/></BehaviorTree></root>"#;
     let mut t = xml::build(&xml::parse_str(text, "t.xml").unwrap(), &r).unwrap();

@@ -2,7 +2,7 @@
 
 mod common;
 
-use firefleet_bt::xml;
+use firefleet_bt::{BuildError, xml};
 
 fn errors(text: &str) -> String {
     let doc = match xml::parse_str(text, "bad.xml") {
@@ -84,6 +84,36 @@ fn impossible_parallel_threshold() {
     assert!(
         e.contains("success_count=3 cannot be met with 2 children"),
         "{e}"
+    );
+}
+
+#[test]
+fn a_caller_can_branch_on_the_cause() {
+    let doc = xml::parse_str(&wrap("<Sequence>\n<Fly/>\n</Sequence>"), "bad.xml").unwrap();
+    let xml::XmlErrors(es) = xml::validate(&doc, &common::registry()).unwrap_err();
+    assert_eq!(es.len(), 1);
+    assert_eq!(es[0].line, 4);
+    assert_eq!(
+        es[0].problem,
+        xml::Problem::Build(BuildError::UnknownType("Fly".into()))
+    );
+    let doc = xml::parse_str(
+        &wrap("<Repeat num_cycles=\"-2\"><AlwaysSuccess/></Repeat>"),
+        "bad.xml",
+    )
+    .unwrap();
+    let xml::XmlErrors(es) = xml::validate(&doc, &common::registry()).unwrap_err();
+    assert!(
+        matches!(
+            es[0].problem,
+            xml::Problem::Build(BuildError::OutOfRange {
+                port: "num_cycles",
+                value: -2,
+                ..
+            })
+        ),
+        "{:?}",
+        es[0]
     );
 }
 

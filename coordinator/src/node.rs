@@ -101,17 +101,7 @@ pub async fn run(
     let mut incident = Incident::from_scenario(scenario, opts.lease_s, opts.strategy)?;
 
     let _token = bus.token(&Topic::CoordAlive).await?;
-    let Inputs {
-        alive,
-        states,
-        reports,
-        mut rivals,
-        clock_msgs,
-        dts,
-        vent,
-        coord_q,
-        mut goals,
-    } = Inputs::subscribe(bus, scenario).await?;
+    let mut inputs = Inputs::subscribe(bus, scenario).await?;
     let mut told = Told::default();
 
     let epoch = take_office(
@@ -119,7 +109,7 @@ pub async fn run(
         &mut incident,
         opts,
         scenario.units.len(),
-        (&clock_msgs, &states),
+        (&inputs.clock_msgs, &inputs.states),
         &sim_time,
         &*clock,
     )
@@ -145,7 +135,7 @@ pub async fn run(
         let outputs: Result<Vec<Output>, (String, Invalid)> = tokio::select! {
             biased;
             _ = &mut shutdown => break,
-            Some(sample) = rivals.recv() => match codec::decode::<Task>(&sample.bytes) {
+            Some(sample) = inputs.rivals.recv() => match codec::decode::<Task>(&sample.bytes) {
                 Ok(task) if incident.deposed_by(&task, clock.now()) => {
                     for d in incident.take_decisions() {
                         bus.put(&keys.coord_log(), &d.to_msg()).await?;
@@ -156,30 +146,19 @@ pub async fn run(
                 Ok(_) => Ok(Vec::new()),
                 Err(e) => Err((sample.key.clone(), Invalid::new("task", format!("another coordinator's task: {e}")))),
             },
-            Some((_, c)) = clock_msgs.recv() => { sim_time.set(c.t); Ok(Vec::new()) }
-            Some((topic, z)) = dts.recv() => if topic == Topic::InfraDts(z.zone) {
+            Some((_, c)) = inputs.clock_msgs.recv() => { sim_time.set(c.t); Ok(Vec::new()) }
+            Some((topic, z)) = inputs.dts.recv() => if topic == Topic::InfraDts(z.zone) {
                 incident.on_dts(&z, clock.now()).map(|()| Vec::new())
             } else {
                 Err(Invalid::new("zone", format!("zone {} on another zone's key", z.zone)))
             }.map_err(|e| (topic.to_string(), e)),
-            Some((topic, v)) = vent.recv() => incident
+            Some((topic, v)) = inputs.vent.recv() => incident
                 .on_vent(&v, clock.now())
                 .map(|()| Vec::new())
                 .map_err(|e| (topic.to_string(), e)),
-            Some((topic, up)) = alive.recv() => match &topic {
-                // A vanished token is taken for a lost unit only if it stays away past
-                // the grace ([`TokenGrace`]).
-                Topic::UnitAlive(unit) if !up => {
-                    grace.vanished(unit, std::time::Instant::now());
-                    Ok(Vec::new())
-                }
-                Topic::UnitAlive(unit) => match grace.back(unit) {
-                    true => Ok(Vec::new()),
-                    false => incident.on_alive(unit, up, clock.now()),
-                },
-                other => Err(Invalid::new("key", format!("'{other}' is not a unit token"))),
-            }.map_err(|e| (topic.to_string(), e)),
-            Some((topic, r)) = reports.recv() => {
+            Some((topic, up)) = inputs.alive.recv() => on_token(&mut incident, &mut grace, &topic, up, clock.now())
+                .map_err(|e| (topic.to_string(), e)),
+            Some((topic, r)) = inputs.reports.recv() => {
                 report_taken = Some(std::time::Instant::now());
                 stats.reports.inc();
                 if topic == Topic::UnitReport(r.unit.clone()) {
@@ -188,8 +167,8 @@ pub async fn run(
                     Err(Invalid::new("unit", format!("report names unit '{}'", r.unit)))
                 }.map_err(|e| (topic.to_string(), e))
             }
-            Some(sample) = goals.recv() => take_goal(bus, &mut incident, &sample, clock.now()).await?,
-            Some(query) = coord_q.recv() => {
+            Some(sample) = inputs.goals.recv() => take_goal(bus, &mut incident, &sample, clock.now()).await?,
+            Some(query) = inputs.coord_q.recv() => {
                 answer(bus, &incident, query, clock.now()).await;
                 Ok(Vec::new())
             }
@@ -197,7 +176,7 @@ pub async fn run(
             _ = republish_tick.tick() => Ok(republish_slice(
                 bus, &mut incident, &mut told, &mut republish, &mut grace, stats, clock.now(),
             ).await?),
-            Some((topic, st)) = states.recv() => {
+            Some((topic, st)) = inputs.states.recv() => {
                 if topic == Topic::UnitState(st.unit.clone()) {
                     incident.on_state(st, clock.now())
                 } else {
@@ -218,6 +197,29 @@ pub async fn run(
         .await?;
     }
     Ok(Ended::Shutdown)
+}
+
+/// A unit's liveliness token came (`up`) or vanished, at site time `t`. A vanished token
+/// is taken for a lost unit only if it stays away past the grace ([`TokenGrace`]).
+fn on_token(
+    incident: &mut Incident,
+    grace: &mut TokenGrace,
+    topic: &Topic,
+    up: bool,
+    t: f64,
+) -> Result<Vec<Output>, Invalid> {
+    match topic {
+        Topic::UnitAlive(unit) if !up => {
+            grace.vanished(unit, std::time::Instant::now());
+            Ok(Vec::new())
+        }
+        Topic::UnitAlive(unit) if grace.back(unit) => Ok(Vec::new()),
+        Topic::UnitAlive(unit) => incident.on_alive(unit, up, t),
+        other => Err(Invalid::new(
+            "key",
+            format!("'{other}' is not a unit token"),
+        )),
+    }
 }
 
 /// Take office, at the site time `clock` keeps: the site clock awaited first, then the

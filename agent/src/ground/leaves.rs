@@ -11,7 +11,7 @@
 //! ([`super::unit`]).
 
 use firefleet_bt::node::Io;
-use firefleet_bt::{Port, Registry, StatefulAction, Status};
+use firefleet_bt::{Leaf, Port, Registry, StatefulAction, Status};
 use firefleet_model::Point2;
 use firefleet_protocol::msg::TaskKind;
 
@@ -115,45 +115,66 @@ pub fn registry() -> Registry<Unit> {
     let mut r = Registry::new();
     crate::mission::register(&mut r);
 
-    r.register_action("SetGoal", vec![CRUISE_GOAL.spec()], || {
-        |io: &mut Io<'_>, u: &mut Unit| {
-            let g = u.cruise_goal();
-            ok(io.set(&CRUISE_GOAL, [g.x, g.y]).is_ok())
-        }
-    });
-    r.register_action("StartCruise", vec![CRUISE_TO.spec()], || {
-        |io: &mut Io<'_>, u: &mut Unit| match io.get(&CRUISE_TO) {
-            Ok(g) => ok(u.navigate(p(g), NavPurpose::Cruise)),
-            Err(_) => Status::Failure,
-        }
-    });
-    r.register_condition("IsArrival", vec![], || {
-        |_: &mut Io<'_>, u: &mut Unit| ok(u.arrived())
-    });
+    r.register(
+        "SetGoal",
+        vec![CRUISE_GOAL.spec()],
+        Leaf::action(|| {
+            |io: &mut Io<'_>, u: &mut Unit| {
+                let g = u.cruise_goal();
+                ok(io.set(&CRUISE_GOAL, [g.x, g.y]).is_ok())
+            }
+        }),
+    );
+    r.register(
+        "StartCruise",
+        vec![CRUISE_TO.spec()],
+        Leaf::action(|| {
+            |io: &mut Io<'_>, u: &mut Unit| match io.get(&CRUISE_TO) {
+                Ok(g) => ok(u.navigate(p(g), NavPurpose::Cruise)),
+                Err(_) => Status::Failure,
+            }
+        }),
+    );
+    r.register(
+        "IsArrival",
+        vec![],
+        Leaf::condition(|| |_: &mut Io<'_>, u: &mut Unit| ok(u.arrived())),
+    );
     // No cruise under way is a change too: a keep-out that stopped the cruise under the
     // tree (the unit leaving barred space) left the tree waiting for an arrival that
     // could never come, and the unit idle for good once the keep-out was lifted.
-    r.register_condition("CruiseGoalUnchanged", vec![], || {
-        |_: &mut Io<'_>, u: &mut Unit| {
-            ok(u.cruising_to()
-                .is_some_and(|g| g.dist(u.cruise_goal()) < 0.5))
-        }
-    });
-    r.register_condition("IsSearching", vec![], || {
-        |_: &mut Io<'_>, u: &mut Unit| {
-            ok(matches!(u.mission.task, Some((_, TaskKind::Search { .. }))))
-        }
-    });
-    r.register_action("StopCruise", vec![], || {
-        |_: &mut Io<'_>, u: &mut Unit| {
-            u.stop_navigation(NavPurpose::Cruise);
-            Status::Success
-        }
-    });
-    r.register_action(
+    r.register(
+        "CruiseGoalUnchanged",
+        vec![],
+        Leaf::condition(|| {
+            |_: &mut Io<'_>, u: &mut Unit| {
+                ok(u.cruising_to()
+                    .is_some_and(|g| g.dist(u.cruise_goal()) < 0.5))
+            }
+        }),
+    );
+    r.register(
+        "IsSearching",
+        vec![],
+        Leaf::condition(|| {
+            |_: &mut Io<'_>, u: &mut Unit| {
+                ok(matches!(u.mission.task, Some((_, TaskKind::Search { .. }))))
+            }
+        }),
+    );
+    r.register(
+        "StopCruise",
+        vec![],
+        Leaf::action(|| {
+            |_: &mut Io<'_>, u: &mut Unit| {
+                u.stop_navigation(NavPurpose::Cruise);
+                Status::Success
+            }
+        }),
+    );
+    r.register(
         "FireWhereExpected",
-        vec![FIRE_AS_SEEN.spec(), SAME_FIRE_WITHIN.spec(), MOVED.spec()],
-        || {
+        vec![FIRE_AS_SEEN.spec(), SAME_FIRE_WITHIN.spec(), MOVED.spec()], Leaf::action(|| {
             // Success while the fire is where the blackboard says (or not in view); a fire
             // seen elsewhere is written back and the leaf fails, so that a retry around the
             // navigation plans again to the fire as it now is. The coordinator's estimate
@@ -177,12 +198,12 @@ pub fn registry() -> Registry<Unit> {
                     _ => Status::Success,
                 }
             }
-        },
+        }),
     );
-    r.register_action(
+    r.register(
         "SetTargetToFire",
         vec![FIRE.spec(), FIRING_POSITION.spec()],
-        || {
+        Leaf::action(|| {
             |io: &mut Io<'_>, u: &mut Unit| {
                 let Ok(f) = io.get(&FIRE) else {
                     return Status::Failure;
@@ -195,18 +216,22 @@ pub fn registry() -> Registry<Unit> {
                     }
                 }
             }
-        },
+        }),
     );
-    r.register_action("StartNavigation", vec![DRIVE_TO.spec()], || {
-        |io: &mut Io<'_>, u: &mut Unit| match io.get(&DRIVE_TO) {
-            Ok(g) => ok(u.navigate(p(g), NavPurpose::Fire)),
-            Err(_) => Status::Failure,
-        }
-    });
-    r.register_action(
+    r.register(
+        "StartNavigation",
+        vec![DRIVE_TO.spec()],
+        Leaf::action(|| {
+            |io: &mut Io<'_>, u: &mut Unit| match io.get(&DRIVE_TO) {
+                Ok(g) => ok(u.navigate(p(g), NavPurpose::Fire)),
+                Err(_) => Status::Failure,
+            }
+        }),
+    );
+    r.register(
         "ComputeRelativePosition",
         vec![FIRE.spec(), PAN_TO_FIRE.spec(), TILT_TO_FIRE.spec()],
-        || {
+        Leaf::action(|| {
             |io: &mut Io<'_>, u: &mut Unit| {
                 let Ok(f) = io.get(&FIRE) else {
                     return Status::Failure;
@@ -221,12 +246,12 @@ pub fn registry() -> Registry<Unit> {
                     None => Status::Failure,
                 }
             }
-        },
+        }),
     );
-    r.register_condition(
+    r.register(
         "RelativePosAboveThreshold",
         vec![WANTED_PAN.spec(), WANTED_TILT.spec(), AIM_THRESHOLD.spec()],
-        || {
+        Leaf::condition(|| {
             |io: &mut Io<'_>, u: &mut Unit| {
                 let (Ok(pan), Ok(tilt), Ok(th)) = (
                     io.get(&WANTED_PAN),
@@ -238,30 +263,46 @@ pub fn registry() -> Registry<Unit> {
                 ok(u.aim
                     .is_none_or(|(p0, t0)| (p0 - pan).abs() > th || (t0 - tilt).abs() > th))
             }
-        },
+        }),
     );
-    r.register_action("AimWaterCannon", vec![PAN.spec(), TILT.spec()], || {
-        |io: &mut Io<'_>, u: &mut Unit| match (io.get(&PAN), io.get(&TILT)) {
-            (Ok(pan), Ok(tilt)) => {
-                u.aim = Some((pan, tilt));
+    r.register(
+        "AimWaterCannon",
+        vec![PAN.spec(), TILT.spec()],
+        Leaf::action(|| {
+            |io: &mut Io<'_>, u: &mut Unit| match (io.get(&PAN), io.get(&TILT)) {
+                (Ok(pan), Ok(tilt)) => {
+                    u.aim = Some((pan, tilt));
+                    Status::Success
+                }
+                _ => Status::Failure,
+            }
+        }),
+    );
+    r.register(
+        "ScanForFire",
+        vec![SCAN_AMPLITUDE.spec()],
+        Leaf::stateful(|| ScanForFire { since: 0.0 }),
+    );
+    r.register(
+        "IsCannonNotStarted",
+        vec![],
+        Leaf::condition(|| |_: &mut Io<'_>, u: &mut Unit| ok(!u.valve)),
+    );
+    r.register(
+        "StartWaterCannon",
+        vec![],
+        Leaf::stateful(|| StartWaterCannon),
+    );
+    r.register(
+        "StopWaterCannon",
+        vec![],
+        Leaf::action(|| {
+            |_: &mut Io<'_>, u: &mut Unit| {
+                u.valve = false;
+                u.aim = None;
                 Status::Success
             }
-            _ => Status::Failure,
-        }
-    });
-    r.register_stateful("ScanForFire", vec![SCAN_AMPLITUDE.spec()], || ScanForFire {
-        since: 0.0,
-    });
-    r.register_condition("IsCannonNotStarted", vec![], || {
-        |_: &mut Io<'_>, u: &mut Unit| ok(!u.valve)
-    });
-    r.register_stateful("StartWaterCannon", vec![], || StartWaterCannon);
-    r.register_action("StopWaterCannon", vec![], || {
-        |_: &mut Io<'_>, u: &mut Unit| {
-            u.valve = false;
-            u.aim = None;
-            Status::Success
-        }
-    });
+        }),
+    );
     r
 }

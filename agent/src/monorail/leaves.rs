@@ -5,7 +5,7 @@
 //! [`super::planner`]) or the tree (`agent/trees/monorail_unit.xml`).
 
 use firefleet_bt::node::Io;
-use firefleet_bt::{Port, Registry, StatefulAction, Status};
+use firefleet_bt::{Leaf, Port, Registry, StatefulAction, Status};
 use firefleet_model::Point2;
 use firefleet_protocol::msg::TaskKind;
 
@@ -120,19 +120,33 @@ impl StatefulAction<RailUnit> for SearchAlongRail {
 pub fn registry() -> Registry<RailUnit> {
     let mut r = Registry::new();
     crate::mission::register(&mut r);
-    r.register_condition("InReach", vec![FIRE.spec()], || {
-        |io: &mut Io<'_>, u: &mut RailUnit| match fire(io) {
-            Some(f) if u.in_reach(f) => Status::Success,
-            _ => Status::Failure,
-        }
-    });
-    r.register_stateful("SearchAlongRail", vec![], || SearchAlongRail);
-    r.register_stateful("ApproachAlongRail", vec![FIRE.spec()], || ApproachAlongRail);
-    r.register_stateful("SprayFire", vec![FIRE.spec(), COOLING.spec()], || {
-        SprayFire {
+    r.register(
+        "InReach",
+        vec![FIRE.spec()],
+        Leaf::condition(|| {
+            |io: &mut Io<'_>, u: &mut RailUnit| match fire(io) {
+                Some(f) if u.in_reach(f) => Status::Success,
+                _ => Status::Failure,
+            }
+        }),
+    );
+    r.register(
+        "SearchAlongRail",
+        vec![],
+        Leaf::stateful(|| SearchAlongRail),
+    );
+    r.register(
+        "ApproachAlongRail",
+        vec![FIRE.spec()],
+        Leaf::stateful(|| ApproachAlongRail),
+    );
+    r.register(
+        "SprayFire",
+        vec![FIRE.spec(), COOLING.spec()],
+        Leaf::stateful(|| SprayFire {
             clear_since: None,
             seen: false,
-        }
-    });
+        }),
+    );
     r
 }

@@ -7,13 +7,14 @@
 use std::collections::HashMap;
 
 use crate::blackboard::{Blackboard, Slot};
+use crate::error::{BlackboardError, BuildError};
 use crate::node::{Binding, PortDir};
 use crate::script;
 use crate::status::Status;
 use crate::tree::{Kind, NodeData, Tree};
 use crate::value::{PortType, Value};
 
-use super::{Builtin, Maker, Registry};
+use super::{Builtin, LeafMaker, Maker, Registry};
 
 /// A node instance being built.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -81,7 +82,7 @@ impl<'r, C> Builder<'r, C> {
         parent: ScopeId,
         id: &str,
         attrs: &[(&str, &str)],
-    ) -> Result<ScopeId, String> {
+    ) -> Result<ScopeId, BuildError> {
         let n = self.scopes.len();
         let prefix = format!("{}{id}#{n}/", self.scopes[parent.0].prefix);
         let mut scope = Scope {
@@ -94,12 +95,16 @@ impl<'r, C> Builder<'r, C> {
             match *k {
                 "name" | "ID" | "_description" | "_uid" | "_fullpath" => {}
                 "_autoremap" => {
-                    scope.autoremap = PortType::Bool
-                        .parse(v)
-                        .map_err(|e| format!("_autoremap: {e}"))?
-                        == Value::Bool(true);
+                    scope.autoremap =
+                        PortType::Bool
+                            .parse(v)
+                            .map_err(|source| BuildError::Literal {
+                                port: "_autoremap".into(),
+                                source,
+                            })?
+                            == Value::Bool(true);
                 }
-                k if k.starts_with('_') => return Err(format!("attribute '{k}' is not supported")),
+                k if k.starts_with('_') => return Err(BuildError::Unsupported(k.to_owned())),
                 k => match key_ref(v, k) {
                     Some(parent_key) => {
                         scope.remap.insert(k.to_owned(), parent_key.to_owned());
@@ -115,7 +120,7 @@ impl<'r, C> Builder<'r, C> {
     }
 
     /// The slot `key` names in `scope`, typed `ty`.
-    fn resolve(&mut self, scope: usize, key: &str, ty: PortType) -> Result<Slot, String> {
+    fn resolve(&mut self, scope: usize, key: &str, ty: PortType) -> Result<Slot, BlackboardError> {
         let s = &self.scopes[scope];
         if let Some(parent_key) = s.remap.get(key) {
             let (p, pk) = (
@@ -143,11 +148,11 @@ impl<'r, C> Builder<'r, C> {
         type_name: &str,
         attrs: &[(&str, &str)],
         children: &[NodeId],
-    ) -> Result<NodeId, String> {
+    ) -> Result<NodeId, BuildError> {
         let registry = self.registry;
         let t = registry
             .get(type_name)
-            .ok_or_else(|| format!("unknown node type '{type_name}'"))?;
+            .ok_or_else(|| BuildError::UnknownType(type_name.to_owned()))?;
         let builtin = match t.maker {
             Maker::Builtin(b) => Some(b),
             _ => None,
@@ -155,13 +160,12 @@ impl<'r, C> Builder<'r, C> {
         let (lo, hi) = t.category.arity(builtin);
         let n = children.len() as u32;
         if n < lo || n > hi {
-            let want = match (lo, hi) {
-                (0, 0) => "no children".to_owned(),
-                (a, b) if a == b => format!("exactly {a} child{}", if a == 1 { "" } else { "ren" }),
-                (a, u32::MAX) => format!("at least {a} child{}", if a == 1 { "" } else { "ren" }),
-                (a, b) => format!("{a} to {b} children"),
-            };
-            return Err(format!("{type_name} takes {want}, found {n}"));
+            return Err(BuildError::ChildCount {
+                type_name: type_name.to_owned(),
+                min: lo,
+                max: hi,
+                found: n,
+            });
         }
         let mut name = type_name.to_owned();
         for (k, _) in attrs {
@@ -169,18 +173,14 @@ impl<'r, C> Builder<'r, C> {
                 continue;
             }
             if k.starts_with('_') {
-                return Err(format!("attribute '{k}' is not supported by this engine"));
+                return Err(BuildError::Unsupported((*k).to_owned()));
             }
             if !t.ports.iter().any(|p| p.name == *k) {
-                let declared: Vec<&str> = t.ports.iter().map(|p| p.name).collect();
-                return Err(format!(
-                    "'{k}' is not a port of {type_name} (ports: {})",
-                    if declared.is_empty() {
-                        "none".to_owned()
-                    } else {
-                        declared.join(", ")
-                    }
-                ));
+                return Err(BuildError::NotAPort {
+                    type_name: type_name.to_owned(),
+                    attr: (*k).to_owned(),
+                    declared: t.ports.iter().map(|p| p.name).collect(),
+                });
             }
         }
         if let Some((_, v)) = attrs.iter().find(|(k, _)| *k == "name") {
@@ -194,22 +194,28 @@ impl<'r, C> Builder<'r, C> {
             raw.push(value);
             let binding = match value {
                 None if p.optional => Binding::Unbound,
-                None => return Err(format!("missing required port '{}'", p.name)),
+                None => return Err(BuildError::MissingPort(p.name)),
                 Some(v) => match key_ref(v, p.name) {
-                    Some(key) => Binding::Entry(
-                        self.resolve(scope.0, key, p.ty)
-                            .map_err(|e| format!("port '{}': {e}", p.name))?,
-                    ),
-                    None if p.dir != PortDir::In => {
-                        return Err(format!(
-                            "output port '{}' must name a blackboard entry like {{key}}, not '{v}'",
-                            p.name
-                        ));
+                    Some(key) => {
+                        Binding::Entry(self.resolve(scope.0, key, p.ty).map_err(|source| {
+                            BuildError::Entry {
+                                port: p.name.to_owned(),
+                                source,
+                            }
+                        })?)
                     }
-                    None => Binding::Literal(
-                        p.ty.parse(v)
-                            .map_err(|e| format!("port '{}': {e}", p.name))?,
-                    ),
+                    None if p.dir != PortDir::In => {
+                        return Err(BuildError::OutputLiteral {
+                            port: p.name,
+                            value: v.to_owned(),
+                        });
+                    }
+                    None => {
+                        Binding::Literal(p.ty.parse(v).map_err(|source| BuildError::Literal {
+                            port: p.name.to_owned(),
+                            source,
+                        })?)
+                    }
                 },
             };
             self.bindings.push(binding);
@@ -223,9 +229,9 @@ impl<'r, C> Builder<'r, C> {
             }
         };
         let kind = match &t.maker {
-            Maker::Condition(make) => Kind::Condition(make()),
-            Maker::Action(make) => Kind::Action(make()),
-            Maker::Stateful(make) => Kind::Stateful(make()),
+            Maker::Leaf(LeafMaker::Condition(make)) => Kind::Condition(make()),
+            Maker::Leaf(LeafMaker::Action(make)) => Kind::Action(make()),
+            Maker::Leaf(LeafMaker::Stateful(make)) => Kind::Stateful(make()),
             Maker::Builtin(b) => match b {
                 Builtin::Sequence | Builtin::SequenceWithMemory | Builtin::Fallback => {
                     Kind::Ordered {
@@ -243,11 +249,15 @@ impl<'r, C> Builder<'r, C> {
                 Builtin::ReactiveFallback => Kind::ReactiveFallback,
                 Builtin::Parallel | Builtin::ParallelAll => {
                     let threshold = |t: i64| if t < 0 { i64::from(n) + t + 1 } else { t };
-                    for (i, what) in (0..n_ports as usize).zip(["success_count", "failure_count"]) {
+                    for (i, p) in t.ports.iter().enumerate() {
                         if let Some(v) = literal_int(i)
                             && (threshold(v) > i64::from(n) || threshold(v) < 0)
                         {
-                            return Err(format!("{what}={v} cannot be met with {n} children"));
+                            return Err(BuildError::OutOfRange {
+                                port: p.name,
+                                value: v,
+                                reason: format!("cannot be met with {n} children"),
+                            });
                         }
                     }
                     let done = self.done.len() as u32;
@@ -272,7 +282,11 @@ impl<'r, C> Builder<'r, C> {
                     if let Some(v) = literal_int(0)
                         && v < -1
                     {
-                        return Err(format!("{}={v}: use -1 for forever", t.ports[0].name));
+                        return Err(BuildError::OutOfRange {
+                            port: t.ports[0].name,
+                            value: v,
+                            reason: "is below -1 (use -1 for forever)".into(),
+                        });
                     }
                     if *b == Builtin::Repeat {
                         Kind::Repeat { count: 0 }
@@ -284,7 +298,11 @@ impl<'r, C> Builder<'r, C> {
                     if let Some(v) = literal_int(0)
                         && v < 0
                     {
-                        return Err(format!("{}={v} is negative", t.ports[0].name));
+                        return Err(BuildError::OutOfRange {
+                            port: t.ports[0].name,
+                            value: v,
+                            reason: "is negative".into(),
+                        });
                     }
                     match b {
                         Builtin::Timeout => Kind::Timeout { since: None },
@@ -294,17 +312,22 @@ impl<'r, C> Builder<'r, C> {
                 }
                 Builtin::RunOnce => Kind::RunOnce { result: None },
                 Builtin::Precondition => {
-                    let src = raw[0]
-                        .filter(|v| key_ref(v, "if").is_none())
-                        .ok_or("port 'if' must be a literal expression")?;
-                    let else_status: Status = raw[1]
-                        .unwrap_or("FAILURE")
-                        .parse()
-                        .map_err(|e| format!("port 'else': {e}"))?;
+                    let src = raw[0].filter(|v| key_ref(v, "if").is_none()).ok_or(
+                        BuildError::NotLiteral {
+                            port: "if",
+                            what: "expression",
+                        },
+                    )?;
+                    let else_text = raw[1].unwrap_or("FAILURE");
+                    let else_status: Status =
+                        else_text.parse().map_err(|_| BuildError::Status {
+                            port: "else",
+                            text: else_text.to_owned(),
+                        })?;
                     let scope_i = scope.0;
                     let guard =
                         script::parse(src, &mut |k| self.resolve(scope_i, k, PortType::Any))
-                            .map_err(|e| format!("port 'if': {e}"))?;
+                            .map_err(|source| BuildError::Script { port: "if", source })?;
                     Kind::Precondition {
                         guard,
                         else_status,
@@ -316,8 +339,16 @@ impl<'r, C> Builder<'r, C> {
                 Builtin::SetBlackboard => {
                     let key = raw[1]
                         .filter(|v| key_ref(v, "output_key").is_none())
-                        .ok_or("port 'output_key' must be a key name")?;
-                    let target = self.resolve(scope.0, key, PortType::Any)?;
+                        .ok_or(BuildError::NotLiteral {
+                            port: "output_key",
+                            what: "key name",
+                        })?;
+                    let target = self
+                        .resolve(scope.0, key, PortType::Any)
+                        .map_err(|source| BuildError::Entry {
+                            port: "output_key".into(),
+                            source,
+                        })?;
                     if matches!(self.bindings[first_port as usize], Binding::Literal(_)) {
                         self.set_literals.push(self.nodes.len() as u32);
                     }
@@ -374,15 +405,22 @@ impl<'r, C> Builder<'r, C> {
     }
 
     /// Finish the tree with `root` at the top.
-    pub fn build(mut self, root: NodeId) -> Result<Tree<C>, String> {
+    pub fn build(mut self, root: NodeId) -> Result<Tree<C>, BuildError> {
         for (full, text) in std::mem::take(&mut self.literal_inits) {
-            let slot = self.bb.entry(&full, PortType::Any)?;
-            let v = self
-                .bb
-                .entry_type(slot)
-                .parse(&text)
-                .map_err(|e| format!("subtree port '{full}': {e}"))?;
-            self.bb.set(slot, v)?;
+            let entry = |source| BuildError::Entry {
+                port: full.clone(),
+                source,
+            };
+            let slot = self.bb.entry(&full, PortType::Any).map_err(entry)?;
+            let v =
+                self.bb
+                    .entry_type(slot)
+                    .parse(&text)
+                    .map_err(|source| BuildError::Literal {
+                        port: full.clone(),
+                        source,
+                    })?;
+            self.bb.set(slot, v).map_err(entry)?;
         }
         for i in std::mem::take(&mut self.set_literals) {
             let n = &self.nodes[i as usize];
@@ -394,10 +432,10 @@ impl<'r, C> Builder<'r, C> {
             if let Binding::Literal(Value::String(s)) = b
                 && !matches!(ty, PortType::String | PortType::Any)
             {
-                *b = Binding::Literal(
-                    ty.parse(s)
-                        .map_err(|e| format!("SetBlackboard \"{}\": value: {e}", n.name))?,
-                );
+                *b = Binding::Literal(ty.parse(s).map_err(|source| BuildError::Literal {
+                    port: format!("value of SetBlackboard \"{}\"", n.name),
+                    source,
+                })?);
             }
         }
         Ok(Tree::from_parts(

@@ -4,7 +4,7 @@
 
 use firefleet_bt::node::Io;
 use firefleet_bt::xml;
-use firefleet_bt::{Port, Registry, StatefulAction, Status, Tree};
+use firefleet_bt::{Leaf, Port, Registry, StatefulAction, Status, Tree};
 
 /// What the leaves did, in order.
 #[derive(Default)]
@@ -66,27 +66,39 @@ impl StatefulAction<Ctx> for Work {
 
 pub fn registry() -> Registry<Ctx> {
     let mut r = Registry::new();
-    r.register_action("Scripted", vec![ID.spec(), SEQ.spec()], || {
-        let mut s = Scripted { k: 0 };
-        move |io: &mut Io<'_>, ctx: &mut Ctx| {
-            let id = io.get(&ID).unwrap();
-            let seq = io.get(&SEQ).unwrap();
-            let c = seq.chars().nth(s.k).or_else(|| seq.chars().last()).unwrap();
-            s.k += 1;
-            ctx.log.push(id);
-            status_of(c)
-        }
-    });
-    r.register_stateful("Work", vec![ID.spec(), TICKS.spec()], || Work { left: 0 });
-    r.register_condition("Flag", vec![VALUE.spec()], || {
-        |io: &mut Io<'_>, _: &mut Ctx| {
-            if io.get(&VALUE).unwrap_or(false) {
-                Status::Success
-            } else {
-                Status::Failure
+    r.register(
+        "Scripted",
+        vec![ID.spec(), SEQ.spec()],
+        Leaf::action(|| {
+            let mut s = Scripted { k: 0 };
+            move |io: &mut Io<'_>, ctx: &mut Ctx| {
+                let id = io.get(&ID).unwrap();
+                let seq = io.get(&SEQ).unwrap();
+                let c = seq.chars().nth(s.k).or_else(|| seq.chars().last()).unwrap();
+                s.k += 1;
+                ctx.log.push(id);
+                status_of(c)
             }
-        }
-    });
+        }),
+    );
+    r.register(
+        "Work",
+        vec![ID.spec(), TICKS.spec()],
+        Leaf::stateful(|| Work { left: 0 }),
+    );
+    r.register(
+        "Flag",
+        vec![VALUE.spec()],
+        Leaf::condition(|| {
+            |io: &mut Io<'_>, _: &mut Ctx| {
+                if io.get(&VALUE).unwrap_or(false) {
+                    Status::Success
+                } else {
+                    Status::Failure
+                }
+            }
+        }),
+    );
     r
 }
 
