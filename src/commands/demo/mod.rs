@@ -41,11 +41,15 @@ use firefleet::children::{RoleCommand, exited, stop_children};
 use firefleet::net::shutdown_signal;
 
 mod goals;
+mod processes;
 mod report;
+mod roles;
 mod site;
 
 use goals::{demo_commander, parse_goal};
+use processes::{COORDINATOR, Processes};
 use report::{Outcome, ProcessInfo, Summary, UnitSummary, print_progress, verdict};
+use roles::roles;
 use site::SecureSite;
 
 #[derive(Args, Debug)]
@@ -128,9 +132,6 @@ pub struct DemoArgs {
     restart_coordinator_at: Option<f64>,
 }
 
-/// The demo's label of the standby coordinator's process.
-const STANDBY_ROLE: &str = "coordinator:standby";
-
 pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let scenario = builtin::resolve(&a.scenario)?;
     let goals = a
@@ -188,43 +189,18 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let mut in_force = Goals::new(&scenario.zones, &scenario.commanders);
     let mut site_t = 0.0;
 
-    let roles = roles(&a, &scenario, seed, site.as_ref())?;
-    let mut children: Vec<(String, Child)> = Vec::new();
-    // Each role as it is started (again, for a restarted coordinator), under its label.
-    let launched: Vec<(String, RoleCommand)> = roles
-        .into_iter()
-        .map(|(who, role)| {
-            let label = match &who {
-                Identity::Unit(u) => format!("agent:{u}"),
-                Identity::Coordinator if role.to_args().iter().any(|a| a == "--standby") => {
-                    STANDBY_ROLE.into()
-                }
-                other => other.to_string(),
-            };
-            let role = role.scenario(&a.scenario).die_with_parent();
-            let role = match &site {
-                Some(s) => role.zenoh_config(s.configs.join(format!("{}.json5", who.dir_name()))),
-                None => role.client_of(&endpoint),
-            };
-            (label, role)
-        })
-        .collect();
-    let start = |label: &str, role: &RoleCommand| -> anyhow::Result<(String, Child)> {
-        let child = role
-            .child("warn,zenoh=error")?
-            .spawn()
-            .with_context(|| format!("starting the {label} process"))?;
-        Ok((label.to_owned(), child))
-    };
-    for (label, role) in &launched {
-        children.push(start(label, role)?);
-    }
+    let mut processes = Processes::launch(
+        roles(&a, &scenario, seed, site.as_ref())?,
+        &a.scenario,
+        site.as_ref(),
+        &endpoint,
+    )?;
     println!(
         "firefleet demo: scenario '{}' (seed {seed}), {} fires, {} units, {} processes on {endpoint}, time x{}",
         scenario.name,
         scenario.fires.len(),
         scenario.units.len(),
-        children.len(),
+        processes.len(),
         a.time_scale
     );
     if site.is_none() {
@@ -261,20 +237,10 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             Some((_, truth)) = truths.recv() => {
                 site_t = truth.t;
                 // The simulator starts once the coordinator is up: time to issue the goals.
-                if kill_at.take_if(|at| truth.t >= *at).is_some()
-                    && let Some(k) = children.iter().position(|(role, _)| role == "coordinator")
-                {
-                    let (_, mut c) = children.remove(k);
-                    c.kill().await?;
+                if kill_at.take_if(|at| truth.t >= *at).is_some() && processes.kill(COORDINATOR).await? {
                     println!("t={:.1} s: killed the coordinator in charge; the standby takes over", truth.t);
                 }
-                if restart_at.take_if(|at| truth.t >= *at).is_some()
-                    && let Some(k) = children.iter().position(|(role, _)| role == "coordinator")
-                    && let Some((label, role)) = launched.iter().find(|(label, _)| label == "coordinator")
-                {
-                    let (_, mut c) = children.remove(k);
-                    c.kill().await?;
-                    children.push(start(label, role)?);
+                if restart_at.take_if(|at| truth.t >= *at).is_some() && processes.restart(COORDINATOR).await? {
                     println!("t={:.1} s: killed the coordinator and started a new one", truth.t);
                 }
                 let due = goals_to_issue.take_if(|_| truth.t >= a.goals_at);
@@ -296,7 +262,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
                 if started.elapsed() > wall_limit {
                     break Outcome::WallTimeout;
                 }
-                if let Some(role) = exited(&mut children) {
+                if let Some(role) = processes.exited() {
                     break Outcome::ChildDied(role);
                 }
             }
@@ -322,14 +288,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             }
         }
     }
-    let processes: Vec<ProcessInfo> = children
-        .iter()
-        .map(|(role, c)| ProcessInfo {
-            role: role.clone(),
-            pid: c.id(),
-        })
-        .collect();
-    stop_children(children).await;
+    let processes = processes.stop().await;
     // The commander's client first: closed after its router, it would wait out Zenoh's
     // ten-second close for a link whose other end is gone.
     if let Some(c) = commander_bus {
@@ -383,94 +342,4 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         Outcome::Interrupted => ExitCode::from(130),
         _ => ExitCode::FAILURE,
     })
-}
-
-/// The demo's roles, each as its identity on a secure site and the command that starts it
-/// (its site file and how it joins are added when it is started).
-fn roles(
-    a: &DemoArgs,
-    scenario: &Scenario,
-    seed: u64,
-    site: Option<&SecureSite>,
-) -> anyhow::Result<Vec<(Identity, RoleCommand)>> {
-    let mut roles: Vec<(Identity, RoleCommand)> = Vec::new();
-    if a.record.is_some() || a.foxglove.is_some() {
-        let mut record = RoleCommand::new("record");
-        if let Some(path) = &a.record {
-            record = record.arg("--out").arg(path);
-        }
-        if let Some(addr) = a.foxglove {
-            record = record.args(["--foxglove".into(), addr.to_string()]);
-            println!("Foxglove live: ws://{addr}");
-        }
-        roles.push((Identity::Recorder, record));
-    }
-    let modbus = match a.scada {
-        true => {
-            anyhow::ensure!(
-                scenario.scada.is_some(),
-                "--scada: scenario '{}' maps no [scada] in its file",
-                scenario.name
-            );
-            let port = free_loopback_port().context("finding a free port for Modbus")?;
-            let addr = format!("127.0.0.1:{port}");
-            let bridge = RoleCommand::new("scada").args(["--modbus", &addr, "--sim-clock"]);
-            roles.push((Identity::Scada, bridge));
-            Some(addr)
-        }
-        false => None,
-    };
-    let mut sim = RoleCommand::new("sim")
-        .args(["--seed".into(), seed.to_string()])
-        .args(["--time-scale".into(), a.time_scale.to_string()])
-        .args(["--wait-for-fleet", "30", "--wait-for-coordinator"]);
-    if a.platform == PlatformKind::Ros2 {
-        sim = sim.arg("--ros2");
-    }
-    if let Some(m) = &modbus {
-        sim = sim.args(["--scada", m]);
-    }
-    if let Some(t) = a.cut_scada_at {
-        sim = sim.args(["--cut-scada-at".into(), t.to_string()]);
-    }
-    roles.push((Identity::Sim, sim));
-    let coordinator = RoleCommand::new("coordinator").arg("--sim-clock");
-    roles.push((Identity::Coordinator, coordinator.clone()));
-    if a.standby {
-        roles.push((Identity::Coordinator, coordinator.arg("--standby")));
-    }
-    for u in &scenario.units {
-        let mut agent = RoleCommand::new("agent").args(["--unit", u.id.as_str()]);
-        if a.platform == PlatformKind::Ros2 && u.kind == UnitKind::Ground {
-            agent = agent.args(["--platform", "ros2"]);
-        }
-        roles.push((Identity::Unit(u.id.clone()), agent));
-    }
-    if let Some(addr) = a.console {
-        let mut console = RoleCommand::new("console").args(["--http".into(), addr.to_string()]);
-        if let Some(users) = &a.console_users {
-            console = console.arg("--users").arg(users);
-        }
-        // On a secure site the page is HTTPS with the console's web certificate from the
-        // site PKI (valid for loopback): commanders' browsers trust the site's web CA.
-        let scheme = match site {
-            Some(s) => {
-                let dir = s.pki.join(Identity::Console.dir_name());
-                console = console
-                    .arg("--https-cert")
-                    .arg(dir.join("https-cert.pem"))
-                    .arg("--https-key")
-                    .arg(dir.join("https-key.pem"));
-                println!(
-                    "the console's page is signed by the site's web CA: {}",
-                    dir.join("web-ca.pem").display()
-                );
-                "https"
-            }
-            None => "http",
-        };
-        println!("the incident commander's console: {scheme}://{addr}/");
-        roles.push((Identity::Console, console));
-    }
-    Ok(roles)
 }

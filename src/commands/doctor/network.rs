@@ -1,0 +1,133 @@
+//! The doctor's look at the network: the routers' endpoints (resolved, answering, with a
+//! router certificate for the name dialled) and the protocol the site's coordinator speaks.
+
+use super::*;
+
+/// Every router endpoint the role dials: resolved, answering, presenting a router's
+/// certificate of the site valid for the name dialled. Whether one was reached. With an
+/// identity already found wrong (`identity_ok` false) the router's refusal of the link is
+/// its consequence, not a problem of its own.
+pub(super) async fn routers(
+    f: &mut Findings,
+    links: &Links,
+    identity_ok: bool,
+    within: Duration,
+) -> bool {
+    let Some(files) = &links.tls else {
+        return true;
+    };
+    let mut reached = links.connect.is_empty();
+    for endpoint in &links.connect {
+        let shown = endpoint.split(['#', '?']).next().unwrap_or(endpoint);
+        match probe::knock(endpoint, files, within).await {
+            Err(KnockError::Resolve { host, why }) => f.problem(
+                format_args!("router {shown}: the host '{host}' does not resolve ({why})"),
+                "add the router's name to DNS or /etc/hosts, or render again with --connect naming a host the router's certificate lists",
+            ),
+            Err(KnockError::NoAnswer { addr, why, .. }) => f.problem(
+                format_args!("router {shown}: nothing answers at {addr} ({why})"),
+                "start the router there (systemctl start firefleet-router), or open UDP to its port in the firewall",
+            ),
+            Err(e) => f.problem(
+                format_args!("router {shown}: {e}"),
+                "render this identity's configuration again",
+            ),
+            Ok(answered) => {
+                let (host, _) = probe::quic_host_port(endpoint).expect("knocked at");
+                match (&answered.presented, &answered.linked) {
+                    (Ok(c), _) if c.identity.role() != Role::Router => f.problem(
+                        format_args!(
+                            "router {shown}: {} answers with {}'s certificate, not a router's",
+                            answered.addr, c.identity
+                        ),
+                        "point the configuration at the site's router (deploy render --connect)",
+                    ),
+                    (Ok(c), Err(why)) if !c.hosts.iter().any(|h| h == &host) => f.problem(
+                        format_args!(
+                            "router {shown}: {} presents {}'s certificate, which is not for '{host}' (it names {}): {why}",
+                            answered.addr,
+                            c.identity,
+                            c.hosts.join(", ")
+                        ),
+                        format_args!(
+                            "dial the router by a name its certificate lists (deploy render --connect quic/NAME:PORT), or issue it again with --host {host}"
+                        ),
+                    ),
+                    (Ok(c), Err(why)) if !identity_ok => f.note(format_args!(
+                        "router {shown}: {} ({}) refused the link, as it must with the identity above ({why})",
+                        answered.addr, c.identity
+                    )),
+                    (Ok(c), Err(why)) => f.problem(
+                        format_args!("router {shown}: {} ({}) refused the link: {why}", answered.addr, c.identity),
+                        "check that both ends hold certificates of this site's CA and that the router lists this identity",
+                    ),
+                    (Err(why), _) => f.problem(
+                        format_args!("router {shown}: {} presents a certificate that is no site identity's: {why}", answered.addr),
+                        "point the configuration at the site's router",
+                    ),
+                    (Ok(c), Ok(())) => {
+                        reached = true;
+                        f.ok(format_args!(
+                            "router {shown}: {} answers as {}, certified for '{host}'",
+                            answered.addr, c.identity
+                        ))
+                    }
+                }
+            }
+        }
+    }
+    reached
+}
+
+/// The protocol version the site's coordinator speaks, from a postcard message the role
+/// may ask for (its first byte is the version).
+pub(super) async fn protocol(
+    f: &mut Findings,
+    a: &DoctorArgs,
+    scenario: &Scenario,
+    within: Duration,
+) {
+    let keys = firefleet_protocol::keys::Keys::new(scenario.site.clone());
+    let key = match a.identity.role() {
+        Role::Unit | Role::Console | Role::Commander => keys.expr(&Topic::CoordBarred),
+        Role::Coordinator => keys.every_fire().as_str().to_owned(),
+        Role::Recorder | Role::Sim | Role::Scada | Role::Router => return,
+    };
+    let expect = match a.identity.role() {
+        Role::Router => None,
+        _ => Some(Expect::Identity(a.identity.clone())),
+    };
+    let bus = match Bus::open(&a.zenoh.connect(expect), scenario.site.clone()).await {
+        Ok(b) => b,
+        Err(e) => {
+            f.problem(
+                format_args!("joining the site: {e}"),
+                "see the lines above; if none says why, run with RUST_LOG=zenoh=debug",
+            );
+            return;
+        }
+    };
+    let answer = match bus.ask(&key, Ask::within(within)).await {
+        Ok(answers) => answers.recv().await,
+        Err(e) => {
+            f.problem(
+                format_args!("asking {key}: {e}"),
+                "check the router's rules for this identity (deploy render)",
+            );
+            None
+        }
+    };
+    match answer.and_then(|a| a.bytes.first().copied()) {
+        Some(v) if v == PROTOCOL_VERSION => f.ok(format_args!(
+            "protocol: the site speaks version {v}, as this build"
+        )),
+        Some(v) => f.problem(
+            format_args!("protocol: the site's coordinator speaks version {v}, this build {PROTOCOL_VERSION}"),
+            "install the site's release on this host, or upgrade the site as deploy/UPGRADE.md says",
+        ),
+        None => f.note(format_args!(
+            "protocol: nothing answered {key} within {within:?} (no coordinator in charge yet?)"
+        )),
+    }
+    bus.close().await;
+}
