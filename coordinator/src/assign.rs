@@ -2,10 +2,11 @@
 //!
 //! Costs are travel times, by the unit's [`Mobility`]: a ground unit's straight-line time at
 //! its top speed (a lower bound of the real travel time); a monorail unit's time to run its
-//! carriage along the rail until the fire is within its monitor's working reach. To that a
+//! carriage along the rail to the dock that serves the fire ([`firefleet_model::dock`]) and
+//! plug into its hose point, unless it is plugged in there already. To that a
 //! ground unit adds [`HAZARD_S`] per other burning fire it would drive past, and any unit
 //! [`LOW_WATER_S`] if it carries less than [`WATER_NEEDED_L`]. A zone goal's priority is
-//! worth [`PRIORITY_S`] per level. A pair that cannot happen (a fire out of a rail's reach,
+//! worth [`PRIORITY_S`] per level. A pair that cannot happen (a fire no dock of a rail serves,
 //! a way through a keep-out zone) is infeasible and never chosen. Two strategies, both
 //! over the same costs:
 //!
@@ -19,8 +20,10 @@
 //! has [`KEEP_S`] off its cost for its own fire, so it is replaced only for a real gain
 //! (hysteresis). Units spraying take no part: nobody is pulled off a fire it is spraying.
 
+use std::sync::Arc;
+
 use firefleet_model::UnitKind;
-use firefleet_model::scenario::Tunnel;
+use firefleet_model::scenario::{Rail, Tunnel};
 use firefleet_model::spec::GroundSpec;
 use firefleet_model::{Chainage, FireId, Point2, UnitId};
 
@@ -77,18 +80,18 @@ impl GroundBody {
 }
 
 /// How a unit gets to a fire, and what it brings: each unit as its own profile says.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Mobility {
     /// Drives anywhere in the tunnel its body fits.
     Ground(GroundBody),
-    /// Runs along a rail from chainage `start_m` to `end_m` at lateral offset `y_m`, at up
-    /// to `speed_m_s`, works fires within `reach_m` of the carriage and sees them within
-    /// `detector_range_m` along the rail.
+    /// Runs along `rail` at up to `speed_m_s`, sprays from a dock (within `hose_reach_m`
+    /// of a hose point, `coupling_s` after it gets there), works fires within `reach_m`
+    /// of the carriage and sees them within `detector_range_m` along the rail.
     Rail {
-        start_m: f64,
-        end_m: f64,
-        y_m: f64,
+        rail: Arc<Rail>,
         speed_m_s: f64,
+        hose_reach_m: f64,
+        coupling_s: f64,
         reach_m: f64,
         detector_range_m: f64,
     },
@@ -131,30 +134,25 @@ impl Mobility {
     }
 
     /// Travel time from `from` until the unit can work a fire at `to`, s; `None` if it
-    /// never can.
+    /// never can. A carriage's is the run to the dock that serves the fire plus the
+    /// coupling, which it saves if it is plugged in there already.
     pub fn travel_s(&self, from: Point2, to: Point2) -> Option<f64> {
-        match *self {
+        match self {
             Mobility::Ground(g) => Some(from.dist(to) / g.speed_m_s.max(0.1)),
             Mobility::Rail {
-                start_m,
-                end_m,
-                y_m,
+                rail,
                 speed_m_s,
+                hose_reach_m,
+                coupling_s,
                 reach_m,
                 ..
             } => {
-                let lateral = (to.y - y_m).abs();
-                if lateral > reach_m {
-                    return None;
-                }
-                // Along the rail, the fire must come within the reach left by the offset.
-                let along = (reach_m * reach_m - lateral * lateral).sqrt();
-                let (lo, hi) = (to.x - along, to.x + along);
-                if hi < start_m || lo > end_m {
-                    return None;
-                }
-                let goal = from.x.clamp(lo.max(start_m), hi.min(end_m));
-                Some((goal - from.x).abs() / speed_m_s.max(0.1))
+                let dock = rail.dock_for(to, *hose_reach_m, *reach_m, from.x)?;
+                let coupling = match rail.dock_at(from.x, *hose_reach_m) {
+                    Some(here) if here.hose_m == dock.hose_m => 0.0,
+                    _ => *coupling_s,
+                };
+                Some((dock.nearest(from.x) - from.x).abs() / speed_m_s.max(0.1) + coupling)
             }
         }
     }
@@ -365,7 +363,7 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f
     if barred.iter().any(|&(s, e)| a < e && b > s) {
         return INFEASIBLE;
     }
-    let road = match (u.mobility, site.roads) {
+    let road = match (&u.mobility, site.roads) {
         (Mobility::Ground(g), Some(roads)) => match roads.road(n.fire, &u.at, g.width_m) {
             Road::Metres(d) => Some(Some(d / g.speed_m_s.max(0.1))),
             Road::Blocked => Some(None),

@@ -10,7 +10,7 @@ use std::path::Path;
 use crate::scenario::{Scenario, ScenarioError};
 
 /// The shipped scenarios by name, as TOML.
-pub const BUILT_IN: [(&str, &str); 6] = [
+pub const BUILT_IN: [(&str, &str); 7] = [
     (
         "vehicle-collision",
         include_str!("../scenarios/vehicle-collision.toml"),
@@ -23,6 +23,7 @@ pub const BUILT_IN: [(&str, &str); 6] = [
     ("pileup", include_str!("../scenarios/pileup.toml")),
     ("rail-tunnel", include_str!("../scenarios/rail-tunnel.toml")),
     ("ventilated", include_str!("../scenarios/ventilated.toml")),
+    ("long-road", include_str!("../scenarios/long-road.toml")),
 ];
 
 /// A shipped scenario by name.

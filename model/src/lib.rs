@@ -2,7 +2,7 @@
 //!
 //! Identifiers, the site frame and its geometry, the tunnel and its chainage, the site
 //! (scenario) file format and its validation, robot profiles and the specs they carry,
-//! how time is read, when two places are one fire, the tunnel's ventilation and SCADA map,
+//! how time is read, when two places are one fire, where a carriage sprays from, the tunnel's ventilation and SCADA map,
 //! and the radiant heat model the planners and the console share.
 //!
 //! ```
@@ -22,6 +22,7 @@
 
 pub mod builtin;
 pub mod clock;
+pub mod dock;
 pub mod fire;
 pub mod geometry;
 pub mod heat;

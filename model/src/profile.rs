@@ -219,7 +219,8 @@ impl Validate for MonorailSpec {
         in_range("detector_range_m", self.detector_range_m, 1.0, 500.0)?;
         in_range("hot_spot_sigma_a_m", self.hot_spot_sigma_a_m, 0.0, 10.0)?;
         in_range("hot_spot_sigma_b", self.hot_spot_sigma_b, 0.0, 1.0)?;
-        in_range("working_reach_m", self.working_reach_m, 0.5, 200.0)
+        in_range("working_reach_m", self.working_reach_m, 0.5, 200.0)?;
+        in_range("coupling_s", self.coupling_s, 0.0, 600.0)
     }
 }
 

@@ -232,6 +232,16 @@ pub struct MonorailSpec {
     /// `firefleet_agent::monorail`). The coordinator sends a monorail unit only to fires
     /// this close to its rail.
     pub working_reach_m: f64,
+    /// Time to plug into a hose point and have water at the monitor, s. The ROBOGAT
+    /// carriage "is automatically connected to a fire hose" at its place of intervention;
+    /// the paper gives no time. Ours: stop, engage the coupling, open the hydrant valve and
+    /// fill the telescopic tubes, 10 s (a chosen figure; a site measures its own).
+    #[serde(default = "default_coupling_s")]
+    pub coupling_s: f64,
+}
+
+fn default_coupling_s() -> f64 {
+    10.0
 }
 
 /// What a monorail unit reports as its water, L: it draws from the tunnel's main, which a

@@ -32,19 +32,26 @@ pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
     let mut parent = vec![usize::MAX; w * h];
     let mut open = BinaryHeap::new();
     cost[idx(s)] = 0.0;
-    // Keys are costs scaled to integers: exact ordering without a float wrapper.
-    let key = |f: f64| Reverse((f * 1024.0) as u64);
-    open.push((key(octile(s)), idx(s)));
+    // Keys are costs scaled to integers: exact ordering without a float wrapper. Of equal
+    // f, the cell farthest along (largest g) first: in a corridor the octile heuristic is
+    // exact, every cell of the corridor ties, and without the tie-break the search floods
+    // the whole width of a kilometres-long tunnel before it reaches the goal.
+    let key = |f: f64, g: f64| (Reverse((f * 1024.0) as u64), (g * 1024.0) as u64);
+    open.push((key(octile(s), 0.0), idx(s)));
     // The start may sit in inflated space (a robot that stopped close to a wall or a
     // vehicle): cells within ESCAPE_M of it are passable so that it can get out.
     let escape = (ESCAPE_M / grid.resolution()).ceil() as usize;
     let passable = |c: (usize, usize)| {
         !grid.blocked(c) || (c.0.abs_diff(s.0) <= escape && c.1.abs_diff(s.1) <= escape)
     };
-    while let Some((_, i)) = open.pop() {
+    while let Some(((_, g_key), i)) = open.pop() {
         let cur = (i % w, i / w);
         if cur == g {
             break;
+        }
+        // A stale entry: the cell was reached more cheaply since.
+        if g_key > (cost[i] * 1024.0) as u64 {
+            continue;
         }
         for (dc, dr) in NEIGHBOURS {
             let (Some(c), Some(r)) = (cur.0.checked_add_signed(dc), cur.1.checked_add_signed(dr))
@@ -68,7 +75,7 @@ pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
             if nc < cost[n] {
                 cost[n] = nc;
                 parent[n] = i;
-                open.push((key(nc + octile((c, r))), n));
+                open.push((key(nc + octile((c, r)), nc), n));
             }
         }
     }
@@ -89,14 +96,25 @@ pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
     Some(string_pull(grid, &pts))
 }
 
-/// Keep only the corners needed for straight, free segments. A start inside inflated space
-/// sees no free segment, so the path keeps its first grid step out of it.
+/// Longest straight segment string pulling makes, m. Each step of the pulling traces the
+/// segment from its anchor, so an uncapped segment costs the square of its length in
+/// cells: a kilometre of straight tunnel at 0.25 m cells is sixteen million cell visits
+/// a plan (what made plans along a 3 km tunnel take seconds). A corner every 25 m on a
+/// straight line costs the follower nothing.
+const MAX_SEGMENT_M: f64 = 25.0;
+
+/// Keep only the corners needed for straight, free segments of at most [`MAX_SEGMENT_M`]. A
+/// start inside inflated space sees no free segment, so the path keeps its first grid step
+/// out of it.
 fn string_pull(grid: &Grid, pts: &[Point2]) -> Vec<Point2> {
     let mut out = vec![pts[0]];
     let mut anchor = 0;
     let mut i = 1;
     while i < pts.len() {
-        if i + 1 < pts.len() && grid.segment_free(pts[anchor], pts[i + 1]) {
+        if i + 1 < pts.len()
+            && pts[anchor].dist(pts[i + 1]) <= MAX_SEGMENT_M
+            && grid.segment_free(pts[anchor], pts[i + 1])
+        {
             i += 1;
             continue;
         }

@@ -111,10 +111,7 @@ impl Carriage {
 
     /// Plugged into a hose point.
     pub fn connected(&self) -> bool {
-        self.rail
-            .hose_points_m
-            .iter()
-            .any(|h| (h - self.x()).abs() <= self.spec.hose_reach_m)
+        self.rail.dock_at(self.x(), self.spec.hose_reach_m).is_some()
     }
 
     /// The monitor's pivot M in the site frame.

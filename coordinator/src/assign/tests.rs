@@ -240,15 +240,24 @@ proptest::proptest! {
     }
 }
 
-fn rail(id: &str, x: f64) -> Candidate {
+/// A carriage at `x` on a rail from 0 to 100 m with hose points at `hose_points_m`
+/// (tubes of 15 m, 10 s to plug in).
+fn carriage(id: &str, x: f64, hose_points_m: &[f64]) -> Candidate {
     Candidate {
         unit: UnitId::new(id).unwrap(),
         at: Place::straight(x, 0.0),
         mobility: Mobility::Rail {
-            start_m: 0.0,
-            end_m: 100.0,
-            y_m: 0.0,
+            rail: std::sync::Arc::new(firefleet_model::scenario::Rail {
+                id: "rail".into(),
+                start_m: 0.0,
+                end_m: 100.0,
+                y_m: 0.0,
+                height_m: 5.8,
+                hose_points_m: hose_points_m.to_vec(),
+            }),
             speed_m_s: 10.0,
+            hose_reach_m: 15.0,
+            coupling_s: 10.0,
             reach_m: 15.0,
             detector_range_m: 30.0,
         },
@@ -257,14 +266,25 @@ fn rail(id: &str, x: f64) -> Candidate {
     }
 }
 
+/// A carriage on a rail with hose points 30 m apart (the ROBOGAT set-up: the whole rail is
+/// within a tube's reach of one).
+fn rail(id: &str, x: f64) -> Candidate {
+    carriage(id, x, &[15.0, 45.0, 75.0])
+}
+
 #[test]
-fn rail_travel_stops_where_the_fire_comes_within_reach() {
+fn a_carriage_runs_to_the_dock_that_serves_the_fire_and_plugs_in() {
     let m = rail("r", 10.0).mobility;
     let from = Point2::new(10.0, 0.0);
-    // 9 m to the side leaves 12 m of reach along the rail: run from 10 to 38.
+    // Plugged in at 15 m (0-30 m); the fire 9 m aside at 50 m is served from the hose
+    // point at 45 m (30-60 m): 20 m of rail, then 10 s to plug in.
     let t = m.travel_s(from, Point2::new(50.0, 9.0)).unwrap();
-    assert!((t - 2.8).abs() < 1e-9, "{t}");
-    assert_eq!(m.travel_s(from, Point2::new(20.0, 0.0)), Some(0.0));
+    assert!((t - 12.0).abs() < 1e-9, "{t}");
+    assert_eq!(
+        m.travel_s(from, Point2::new(20.0, 0.0)),
+        Some(0.0),
+        "served from where it is plugged in"
+    );
     assert_eq!(
         m.travel_s(from, Point2::new(50.0, 16.0)),
         None,
@@ -276,9 +296,17 @@ fn rail_travel_stops_where_the_fire_comes_within_reach() {
         "past the rail's end"
     );
     assert!(
-        m.travel_s(from, Point2::new(110.0, 0.0)).is_some(),
-        "reached from the end"
+        m.travel_s(from, Point2::new(100.0, 0.0)).is_some(),
+        "reached from the last dock"
     );
+}
+
+#[test]
+fn a_fire_between_hydrants_250_m_apart_is_no_carriages() {
+    let m = carriage("r", 0.0, &[0.0, 250.0]).mobility;
+    let from = Point2::new(0.0, 0.0);
+    assert_eq!(m.travel_s(from, Point2::new(60.0, 0.0)), None);
+    assert_eq!(m.travel_s(from, Point2::new(20.0, 0.0)), Some(0.0));
 }
 
 #[test]
@@ -307,7 +335,8 @@ fn a_fast_rail_unit_beats_a_slow_ground_unit_within_its_reach() {
         at: Place::straight(60.0, 2.0),
         priority: 0,
     }];
-    let picks = optimal(&[rail("r", 0.0), cand("g", 40.0)], &needs, &Site::default());
+    // The carriage: 30 m of rail and 10 s to plug in, 13 s; the ground unit 20 s.
+    let picks = optimal(&[rail("r", 0.0), cand("g", 30.0)], &needs, &Site::default());
     assert_eq!(picks[0].unit.as_str(), "r");
 }
 

@@ -177,7 +177,7 @@ impl Incident {
                 (st.mode != UnitMode::Fault && st.water_l > 0.0).then(|| Candidate {
                     unit: u.clone(),
                     at: Place::in_tunnel(&self.tunnel, st.pose.position()),
-                    mobility: v.mobility,
+                    mobility: v.mobility.clone(),
                     water_l: st.water_l,
                     // Backups are extra hands: only a fire's first attacker is kept on it.
                     heading_for: v

@@ -126,10 +126,10 @@ impl Incident {
         let unit = st.unit.clone();
         self.tunnel.check_inside("pose", st.pose.position())?;
         self.view(&unit, "unit")?.newest_state.admit(st.t, t)?;
-        let mobility = self.view(&unit, "unit")?.mobility;
-        let (from, to) = self.sight(mobility, st.pose);
+        let mobility = self.view(&unit, "unit")?.mobility.clone();
+        let (from, to) = self.sight(&mobility, st.pose);
         self.coverage.look(from, to, t);
-        let clear = self.clear_view(mobility, st.pose);
+        let clear = self.clear_view(&mobility, st.pose);
         let deaf_after_s = self.policy.deaf_after_s;
         let v = self.view(&unit, "unit")?;
         v.last_heard = t;

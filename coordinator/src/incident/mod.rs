@@ -296,10 +296,10 @@ impl Incident {
                         .rail(name)
                         .ok_or_else(|| error(format!("no rail '{name}' for the carriage")))?;
                     Mobility::Rail {
-                        start_m: r.start_m,
-                        end_m: r.end_m,
-                        y_m: r.y_m,
+                        rail: std::sync::Arc::new(r.clone()),
                         speed_m_s: m.carriage_speed_m_s,
+                        hose_reach_m: m.hose_reach_m,
+                        coupling_s: m.coupling_s,
                         reach_m: m.working_reach_m,
                         detector_range_m: m.detector_range_m,
                     }

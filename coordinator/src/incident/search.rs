@@ -19,12 +19,12 @@ impl Incident {
     /// The chainages a unit's sensors take in where it stands: a ground unit's camera
     /// looks ahead along the road (and its heat sensors feel the few metres behind it), a
     /// carriage's detector looks both ways along its rail.
-    pub(super) fn sight(&self, mobility: Mobility, pose: Pose2) -> (Chainage, Chainage) {
+    pub(super) fn sight(&self, mobility: &Mobility, pose: Pose2) -> (Chainage, Chainage) {
         let s = self.tunnel.chainage(pose.position());
         match mobility {
             Mobility::Rail {
                 detector_range_m, ..
-            } => (s - detector_range_m, s + detector_range_m),
+            } => (s - *detector_range_m, s + *detector_range_m),
             Mobility::Ground(g) => {
                 let range = g.camera_range_m;
                 if (pose.yaw - self.tunnel.heading_at(s)).cos() >= 0.0 {
@@ -42,7 +42,7 @@ impl Incident {
     /// [`super::Policy::clear_view_m`]: super::Policy::clear_view_m
     pub(super) fn clear_view(
         &self,
-        mobility: Mobility,
+        mobility: &Mobility,
         pose: Pose2,
     ) -> impl Fn(Point2) -> bool + use<> {
         let range = self.policy.clear_view_m;
@@ -172,21 +172,16 @@ impl Incident {
     /// first one either side.
     pub(super) fn patrol_rails(&mut self, t: f64) -> Vec<Output> {
         let barred = self.goals.barred_space(t);
-        let rail = UnitKind::Monorail;
         let runs: Vec<(UnitId, Point2)> = self
             .units
             .iter()
             .filter(|(_, v)| v.alive && v.working_on().is_none())
             .filter_map(|(u, v)| {
-                let Mobility::Rail {
-                    start_m,
-                    end_m,
-                    y_m,
-                    ..
-                } = v.mobility
-                else {
+                let Mobility::Rail { rail, .. } = &v.mobility else {
                     return None;
                 };
+                let (start_m, end_m, y_m) = (rail.start_m, rail.end_m, rail.y_m);
+                let rail = UnitKind::Monorail;
                 let x = self.tunnel.chainage(v.state.as_ref()?.pose.position());
                 // A carriage inside barred space leaves it on its own first.
                 if barred.entry_at(rail, x).is_some() {

@@ -53,7 +53,7 @@ impl Incident {
                     u.clone(),
                     v.state.as_ref()?.pose.position(),
                     v.task.as_ref().map(|t| t.kind),
-                    v.mobility,
+                    v.mobility.clone(),
                 ))
             })
             // Units leaving a barred zone keep their way out.

@@ -246,7 +246,7 @@ impl Incident {
                 out.push(self.standby(&u, t));
             }
             let v = &self.units[&u];
-            let (Some(st), Mobility::Ground(_)) = (&v.state, v.mobility) else {
+            let (Some(st), Mobility::Ground(_)) = (&v.state, &v.mobility) else {
                 continue;
             };
             let at = self.tunnel.station(st.pose.position());

@@ -39,6 +39,9 @@ pub struct FleetArgs {
     /// Also write the results as JSON.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
+    /// Run these scenarios (shipped names or site files) instead of the default set.
+    #[arg(long = "scenario", value_name = "NAME")]
+    scenarios: Vec<String>,
 }
 
 /// The scenarios the fleet experiment runs.
@@ -210,7 +213,11 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
         "never attacked",
         "violations"
     );
-    for name in FLEET_SCENARIOS {
+    let names: Vec<&str> = match a.scenarios.is_empty() {
+        true => FLEET_SCENARIOS.to_vec(),
+        false => a.scenarios.iter().map(String::as_str).collect(),
+    };
+    for name in names {
         let scenario = builtin::resolve(name)?;
         let mut autonomous = None;
         for (label, command) in ROWS {

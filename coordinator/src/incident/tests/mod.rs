@@ -166,7 +166,7 @@ fn unheard() -> Incident {
     let ground = Mobility::Ground(GroundBody::of(&GROUND));
     let mut i = Incident::new(
         TUNNEL,
-        [(u("a"), ground), (u("b"), ground)],
+        [(u("a"), ground.clone()), (u("b"), ground)],
         5.0,
         Strategy::Optimal,
     );

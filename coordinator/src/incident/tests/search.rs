@@ -7,10 +7,17 @@ use firefleet_model::UnitKind;
 /// state there.
 fn with_rail(x: f64) -> (Incident, UnitState) {
     let rail = Mobility::Rail {
-        start_m: 0.0,
-        end_m: 200.0,
-        y_m: 0.0,
+        rail: std::sync::Arc::new(firefleet_model::scenario::Rail {
+            id: "rail".into(),
+            start_m: 0.0,
+            end_m: 200.0,
+            y_m: 0.0,
+            height_m: 5.8,
+            hose_points_m: (0..7).map(|k| 15.0 + 30.0 * f64::from(k)).collect(),
+        }),
         speed_m_s: 10.0,
+        hose_reach_m: 15.0,
+        coupling_s: 10.0,
         reach_m: 12.0,
         detector_range_m: firefleet_model::profile::MONORAIL.detector_range_m,
     };

@@ -51,7 +51,7 @@ fn in_a_bend_staging_finds_a_fire_s_zone_by_its_chainage() {
     let ground = Mobility::Ground(GroundBody::of(&GROUND));
     let mut i = Incident::new(
         tunnel.clone(),
-        [(u("a"), ground), (u("b"), ground)],
+        [(u("a"), ground.clone()), (u("b"), ground)],
         5.0,
         Strategy::Optimal,
     );

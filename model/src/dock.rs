@@ -1,0 +1,128 @@
+//! Where a monorail carriage works a fire from: plugged into one of its rail's hose
+//! points, free to slide within its telescopic tubes' reach of it.
+//!
+//! The ROBOGAT carriage "is automatically connected to a fire hose (fire hoses are suitably
+//! disposed along the monorail at a distance of about 30 m). After the connection to the
+//! water supply, the robot may slide in both senses along the monorail thanks to the
+//! adoption of telescopic tubes." With hose points 30 m apart and tubes of 15 m the whole
+//! rail is covered. A road tunnel's hydrants stand up to 250 m apart (EU directive
+//! 2004/54/EC, annex I 2.10), and when they are the rail's hose points most of the rail is
+//! out of every tube's reach: there a carriage travels, dry, between hose points, and it
+//! sprays only from a dock. So a carriage attacks a fire from the dock that serves it
+//! ([`Rail::dock_for`]), and a fire no dock serves is not a carriage's.
+//!
+//! Not here: how the carriage gets to its dock or aims (the agent), what the trip costs
+//! (the coordinator's assignment), whether water flows (the simulator uses
+//! [`Rail::dock_at`] for that).
+
+use crate::geometry::Point2;
+use crate::scenario::Rail;
+
+/// The stretch of rail a carriage plugged into one hose point covers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Dock {
+    /// The hose point, site chainage, m.
+    pub hose_m: f64,
+    /// The stretch the tubes let the carriage slide over, on the rail, m.
+    pub lo_m: f64,
+    pub hi_m: f64,
+}
+
+impl Dock {
+    /// Whether a carriage at chainage `x` is plugged in here.
+    pub fn holds(&self, x: f64) -> bool {
+        (self.lo_m..=self.hi_m).contains(&x)
+    }
+
+    /// The point of the dock nearest chainage `x`.
+    pub fn nearest(&self, x: f64) -> f64 {
+        x.clamp(self.lo_m, self.hi_m)
+    }
+}
+
+impl Rail {
+    /// Every hose point's dock, for tubes reaching `hose_reach_m` either way.
+    pub fn docks(&self, hose_reach_m: f64) -> impl Iterator<Item = Dock> + '_ {
+        self.hose_points_m.iter().map(move |&h| Dock {
+            hose_m: h,
+            lo_m: (h - hose_reach_m).max(self.start_m),
+            hi_m: (h + hose_reach_m).min(self.end_m),
+        })
+    }
+
+    /// The dock a carriage at chainage `x` is plugged into, if it is within a hose
+    /// point's tubes (the nearest hose point's, where two overlap).
+    pub fn dock_at(&self, x: f64, hose_reach_m: f64) -> Option<Dock> {
+        self.docks(hose_reach_m)
+            .filter(|d| d.holds(x))
+            .min_by(|a, b| (a.hose_m - x).abs().total_cmp(&(b.hose_m - x).abs()))
+    }
+
+    /// The dock from which a carriage working fires within `working_reach_m` of itself
+    /// reaches a fire at `fire`, for a carriage now at chainage `from_x`: of the docks
+    /// that serve the fire, the one the carriage gets to first (then the one nearer the
+    /// fire). `None` if no dock serves it: the fire is not a carriage's.
+    pub fn dock_for(
+        &self,
+        fire: Point2,
+        hose_reach_m: f64,
+        working_reach_m: f64,
+        from_x: f64,
+    ) -> Option<Dock> {
+        let reach = |d: &Dock| fire.dist(Point2::new(d.nearest(fire.x), self.y_m));
+        let trip = |d: &Dock| (d.nearest(from_x) - from_x).abs();
+        self.docks(hose_reach_m)
+            .filter(|d| reach(d) <= working_reach_m)
+            .min_by(|a, b| {
+                trip(a)
+                    .total_cmp(&trip(b))
+                    .then(reach(a).total_cmp(&reach(b)))
+            })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A rail with hydrants 250 m apart.
+    fn rail() -> Rail {
+        Rail {
+            id: "r".into(),
+            start_m: 0.0,
+            end_m: 1000.0,
+            y_m: 0.0,
+            height_m: 5.8,
+            hose_points_m: vec![125.0, 375.0, 625.0, 875.0],
+        }
+    }
+
+    #[test]
+    fn a_carriage_is_plugged_in_only_within_its_tubes_of_a_hose_point() {
+        let r = rail();
+        assert_eq!(r.dock_at(380.0, 15.0).map(|d| d.hose_m), Some(375.0));
+        assert_eq!(r.dock_at(360.0, 15.0).map(|d| d.hose_m), Some(375.0));
+        assert!(r.dock_at(250.0, 15.0).is_none(), "half-way between hydrants");
+    }
+
+    #[test]
+    fn a_fire_between_hydrants_is_no_carriages_and_one_near_one_is_served_from_it() {
+        let r = rail();
+        assert!(r.dock_for(Point2::new(250.0, 2.0), 15.0, 15.0, 0.0).is_none());
+        let d = r.dock_for(Point2::new(400.0, -2.0), 15.0, 15.0, 0.0).unwrap();
+        assert_eq!(d.hose_m, 375.0);
+        // Slid to the end of its tubes, the carriage is 10.2 m from the fire.
+        assert_eq!(d.nearest(400.0), 390.0);
+    }
+
+    #[test]
+    fn of_two_docks_that_serve_a_fire_the_carriage_takes_the_one_it_reaches_first() {
+        let r = Rail {
+            hose_points_m: vec![100.0, 130.0],
+            ..rail()
+        };
+        let fire = Point2::new(115.0, 0.0);
+        assert_eq!(r.dock_for(fire, 15.0, 15.0, 0.0).unwrap().hose_m, 100.0);
+        assert_eq!(r.dock_for(fire, 15.0, 15.0, 900.0).unwrap().hose_m, 130.0);
+    }
+}
