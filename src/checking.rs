@@ -5,6 +5,7 @@
 //! records (`firefleet_recorder::parts`, `firefleet_protocol::payload`); this feeds one to
 //! the other.
 
+use firefleet_coordinator::invariants::churn::ChurnTally;
 use firefleet_coordinator::invariants::{Event, Invariants, Tally, Violation};
 use firefleet_model::scenario::Scenario;
 use firefleet_protocol::keys::{self, Topic};
@@ -20,6 +21,8 @@ pub struct Checked {
     /// not judged as that unit's.
     pub forged: usize,
     pub continuity: Tally,
+    /// How often fires' attackers changed.
+    pub churn: ChurnTally,
 }
 
 /// The invariants over `recording` of `scenario`'s site, whose coordinator counted units
@@ -95,6 +98,7 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
         messages,
         forged,
         continuity: inv.continuity(),
+        churn: inv.churn(),
     })
 }
 

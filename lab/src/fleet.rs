@@ -196,6 +196,11 @@ impl SimFleet {
         })
     }
 
+    /// The coordinator's incident, when there is one: its decisions, its picture.
+    pub fn incident(&self) -> Option<&Incident> {
+        self.incident.as_ref()
+    }
+
     pub fn time(&self) -> f64 {
         self.world.time()
     }

@@ -41,13 +41,17 @@ impl Dock {
 }
 
 impl Rail {
-    /// Every hose point's dock, for tubes reaching `hose_reach_m` either way.
+    /// Every hose point's dock, for tubes reaching `hose_reach_m` either way (a hose point
+    /// off the rail, which a loaded site file never has, has none).
     pub fn docks(&self, hose_reach_m: f64) -> impl Iterator<Item = Dock> + '_ {
-        self.hose_points_m.iter().map(move |&h| Dock {
-            hose_m: h,
-            lo_m: (h - hose_reach_m).max(self.start_m),
-            hi_m: (h + hose_reach_m).min(self.end_m),
-        })
+        self.hose_points_m
+            .iter()
+            .map(move |&h| Dock {
+                hose_m: h,
+                lo_m: (h - hose_reach_m).max(self.start_m),
+                hi_m: (h + hose_reach_m).min(self.end_m),
+            })
+            .filter(|d| d.lo_m <= d.hi_m)
     }
 
     /// The dock a carriage at chainage `x` is plugged into, if it is within a hose
@@ -61,7 +65,9 @@ impl Rail {
     /// The dock from which a carriage working fires within `working_reach_m` of itself
     /// reaches a fire at `fire`, for a carriage now at chainage `from_x`: of the docks
     /// that serve the fire, the one the carriage gets to first (then the one nearer the
-    /// fire). `None` if no dock serves it: the fire is not a carriage's.
+    /// fire). `None` if no dock serves it: the fire is not a carriage's. (Nearest the fire
+    /// first was tried: on the rail tunnel it made the coordinated fleet's time to all out
+    /// 123 s against 49 s, the carriage turning back to a farther dock.)
     pub fn dock_for(
         &self,
         fire: Point2,
@@ -102,14 +108,22 @@ mod tests {
         let r = rail();
         assert_eq!(r.dock_at(380.0, 15.0).map(|d| d.hose_m), Some(375.0));
         assert_eq!(r.dock_at(360.0, 15.0).map(|d| d.hose_m), Some(375.0));
-        assert!(r.dock_at(250.0, 15.0).is_none(), "half-way between hydrants");
+        assert!(
+            r.dock_at(250.0, 15.0).is_none(),
+            "half-way between hydrants"
+        );
     }
 
     #[test]
     fn a_fire_between_hydrants_is_no_carriages_and_one_near_one_is_served_from_it() {
         let r = rail();
-        assert!(r.dock_for(Point2::new(250.0, 2.0), 15.0, 15.0, 0.0).is_none());
-        let d = r.dock_for(Point2::new(400.0, -2.0), 15.0, 15.0, 0.0).unwrap();
+        assert!(
+            r.dock_for(Point2::new(250.0, 2.0), 15.0, 15.0, 0.0)
+                .is_none()
+        );
+        let d = r
+            .dock_for(Point2::new(400.0, -2.0), 15.0, 15.0, 0.0)
+            .unwrap();
         assert_eq!(d.hose_m, 375.0);
         // Slid to the end of its tubes, the carriage is 10.2 m from the fire.
         assert_eq!(d.nearest(400.0), 390.0);

@@ -111,7 +111,9 @@ impl Carriage {
 
     /// Plugged into a hose point.
     pub fn connected(&self) -> bool {
-        self.rail.dock_at(self.x(), self.spec.hose_reach_m).is_some()
+        self.rail
+            .dock_at(self.x(), self.spec.hose_reach_m)
+            .is_some()
     }
 
     /// The monitor's pivot M in the site frame.

@@ -12,6 +12,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 use firefleet_coordinator::incident::LEASE_S;
+use firefleet_coordinator::invariants::churn;
 use firefleet_recorder::parts::Recording;
 
 use super::{ScenarioArg, positive_f64};
@@ -48,6 +49,16 @@ pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
         c.owed,
         c.sent,
         c.moot,
+    );
+    let churn = &checked.churn;
+    println!(
+        "assignment churn: {} changes to fires' attackers; the most to one fire within {:.0} s: {} (bound {})",
+        churn.changes,
+        churn::WINDOW_S,
+        churn
+            .worst
+            .map_or_else(|| "none".to_owned(), |(f, n)| format!("{n}, fire {f}")),
+        churn::MAX_CHANGES_PER_WINDOW,
     );
     if checked.forged > 0 {
         println!(

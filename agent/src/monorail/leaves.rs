@@ -23,8 +23,9 @@ fn fire(io: &Io<'_>) -> Option<Point2> {
     io.get(&FIRE).ok().map(|[x, y]| Point2::new(x, y))
 }
 
-/// Drives the jet onto the fire: Running while the planner approaches, Success once the
-/// jet point is on the fire.
+/// Drives the jet onto the fire: Running while the carriage runs to the dock that serves
+/// the fire and the planner approaches, Success once the jet point is on the fire;
+/// Failure if no dock serves it.
 struct ApproachAlongRail;
 
 impl StatefulAction<RailUnit> for ApproachAlongRail {
@@ -32,7 +33,9 @@ impl StatefulAction<RailUnit> for ApproachAlongRail {
         let Some(f) = fire(io) else {
             return Status::Failure;
         };
-        u.start_attack(u.flame_near(f, 3.0).unwrap_or(f));
+        if !u.start_attack(u.flame_near(f, 3.0).unwrap_or(f)) {
+            return Status::Failure;
+        }
         self.on_running(io, u)
     }
     fn on_running(&mut self, _: &mut Io<'_>, u: &mut RailUnit) -> Status {

@@ -17,6 +17,12 @@
 //! - [`case_study`]: the paper's simulation case study, for the experiment and the bench.
 //! - [`frame`]: the rail's frame in the site.
 //!
+//! A carriage sprays only from a dock, plugged into a hose point ([`firefleet_model::dock`]):
+//! an attack holds the carriage's travel to the stretch of rail of the dock that serves
+//! the fire (a joint limit, like barred space), so the approach runs it there, dry on the
+//! way (a journey, not a fault), and the monitor's pan and tilt do the rest. A carriage is
+//! at fault only when it stands at a hose point and has no water.
+//!
 //! Barred space binds the carriage as a joint limit: the carriage's travel is narrowed to
 //! the stretch of rail it may be on (the CLIK then aims from the nearest allowed point,
 //! the monitor's pan and tilt doing the rest), a search run stops short of barred space,
@@ -39,6 +45,7 @@ use std::sync::Arc;
 use firefleet_bt::xml::{self, Document, XmlErrors};
 use firefleet_model::Chainage;
 use firefleet_model::UnitKind;
+use firefleet_model::dock::Dock;
 use firefleet_model::scenario::{Rail, Scenario, Tunnel};
 use firefleet_model::spec::{MAINS_WATER_L, MonorailSpec};
 use firefleet_model::{Point2, Pose2, UnitId};
@@ -85,6 +92,8 @@ const SWEEP_M: [f64; 2] = [0.5, 0.5];
 #[derive(Debug, Clone, Copy)]
 struct Attack {
     fire: Point2,
+    /// Where the carriage sprays from: it runs there first.
+    dock: Dock,
     planner: Planner,
     out: bool,
 }
@@ -222,24 +231,45 @@ impl RailUnit {
         Point2::new(self.rail.start_m + self.sensors.joints.d, self.rail.y_m)
     }
 
-    /// Whether the monitor can work a fire at `p` from somewhere on the rail.
-    pub fn in_reach(&self, p: Point2) -> bool {
-        let x = p.x.clamp(self.rail.start_m, self.rail.end_m);
-        p.dist(Point2::new(x, self.rail.y_m)) <= self.spec.working_reach_m
+    /// The dock the carriage would work a fire at `p` from, if one serves it.
+    fn dock_for(&self, p: Point2) -> Option<Dock> {
+        self.rail.dock_for(
+            p,
+            self.spec.hose_reach_m,
+            self.spec.working_reach_m,
+            self.position().x,
+        )
     }
 
-    /// Start (or retarget) the attack on the fire at `fire`.
-    pub fn start_attack(&mut self, fire: Point2) {
+    /// Whether the monitor can work a fire at `p` from a dock of the rail.
+    pub fn in_reach(&self, p: Point2) -> bool {
+        self.dock_for(p).is_some()
+    }
+
+    /// Start (or retarget) the attack on the fire at `fire`; false if no dock serves it.
+    pub fn start_attack(&mut self, fire: Point2) -> bool {
         if let Some(a) = &mut self.attack {
             a.fire = fire;
-            return;
+            return true;
         }
+        let Some(dock) = self.dock_for(fire) else {
+            return false;
+        };
         let start = self.clik.monitor.position(&self.q, self.frame.height_m);
         self.attack = Some(Attack {
             fire,
+            dock,
             planner: Planner::new(self.planner_params(), start),
             out: false,
         });
+        true
+    }
+
+    /// Whether the carriage stands plugged into a hose point: where its water comes from.
+    fn at_hose_point(&self) -> bool {
+        self.rail
+            .dock_at(self.position().x, self.spec.hose_reach_m)
+            .is_some()
     }
 
     /// Where the attack is: approaching, sweeping, or holding the jet after the fire.
@@ -421,6 +451,13 @@ impl Services for RailUnit {
             if !(0.0..=MAX_GAP_S).contains(&gap) {
                 self.q = joints(&self.sensors.joints);
             } else {
+                // The dock bounds the carriage's travel as a joint limit, as barred space
+                // does: the planner's approach runs the carriage there (dry on the way)
+                // while the monitor comes round, and the CLIK works the fire from it.
+                let s0 = self.rail.start_m;
+                let lim = &mut self.clik.limits;
+                lim.lo[0] = lim.lo[0].max(a.dock.lo_m - s0);
+                lim.hi[0] = lim.hi[0].min(a.dock.hi_m - s0).max(lim.lo[0]);
                 let fire = self.frame.from_site(a.fire);
                 let inputs = Inputs {
                     fire: self.sensors.fire_detected,
@@ -463,7 +500,9 @@ impl Services for RailUnit {
 
     fn state(&self) -> UnitState {
         let s = &self.sensors;
-        let mode = if !s.water_connected {
+        // Dry at a hose point is a fault; dry between hose points is a journey.
+        let dry = self.at_hose_point() && !s.water_connected;
+        let mode = if dry {
             UnitMode::Fault
         } else if self.valve {
             UnitMode::Extinguishing
@@ -482,11 +521,7 @@ impl Services for RailUnit {
             pose: Pose2::new(p.x, p.y, 0.0),
             speed: s.speed,
             mode,
-            water_l: if s.water_connected {
-                MAINS_WATER_L
-            } else {
-                0.0
-            },
+            water_l: if dry { 0.0 } else { MAINS_WATER_L },
             health: 1.0,
             heat_flux_kw_m2: s.heat_flux_kw_m2,
             task: self.mission.progress(mode == UnitMode::Extinguishing),

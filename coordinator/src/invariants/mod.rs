@@ -23,6 +23,8 @@
 //!   to it in the same epoch. One coordinator's numbers to a unit only grow (it re-sends
 //!   the latest), so two coordinators shared the epoch.
 //! - **fire abandoned**, **fire forgotten across a takeover**: see [`continuity`].
+//! - **assignment churn**: one fire's attackers changed more than
+//!   [`churn::MAX_CHANGES_PER_WINDOW`] times within [`churn::WINDOW_S`]: see [`churn`].
 //!
 //! Goals are applied with the coordinator's own rules ([`crate::goals::Goals`]: ids
 //! replace, priorities, expiry), so a goal the coordinator refused binds nobody here
@@ -36,7 +38,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use firefleet_model::UnitKind;
 use firefleet_model::profile::{GROUND, MONORAIL, Profile};
 use firefleet_model::scenario::{Scenario, Tunnel};
-use firefleet_model::{Chainage, CommanderId, Point2, UnitId, ZoneId};
+use firefleet_model::{Chainage, CommanderId, FireId, Point2, UnitId, ZoneId};
 use firefleet_protocol::msg::{
     GoalAck, INSIDE_PORTAL_M, SimTruth, Task, TaskKind, TaskPhase, TruthFireState, UnitState,
     ZoneGoal, nearest_allowed,
@@ -45,8 +47,10 @@ use firefleet_protocol::msg::{
 use crate::goals::{Active, Goals};
 use crate::incident::LEASE_S;
 
+pub mod churn;
 mod continuity;
 
+use churn::{Churn, ChurnTally};
 use continuity::Continuity;
 pub use continuity::{RELIEF_S, TAKEOVER_S, Tally};
 
@@ -157,6 +161,13 @@ pub enum Violation {
         due: f64,
         fire: Point2,
     },
+    /// Fire `fire`'s attackers changed `changes` times within [`churn::WINDOW_S`] up to
+    /// `t` (the most it reached).
+    Churn {
+        fire: FireId,
+        t: f64,
+        changes: usize,
+    },
 }
 
 impl std::fmt::Display for Violation {
@@ -231,6 +242,12 @@ impl std::fmt::Display for Violation {
                 "t={t:.1} s: epoch {epoch} took office; at t={due:.1} s it had sent nobody to the fire at ({:.1}, {:.1}) that the old term was attacking",
                 fire.x, fire.y
             ),
+            Violation::Churn { fire, t, changes } => write!(
+                f,
+                "t={t:.1} s: fire {fire}'s attackers changed {changes} times within {:.0} s (at most {} allowed): assignment thrash",
+                churn::WINDOW_S,
+                churn::MAX_CHANGES_PER_WINDOW
+            ),
         }
     }
 }
@@ -253,6 +270,7 @@ pub struct Invariants {
     /// The highest task number given to each unit in each epoch.
     issued: BTreeMap<(UnitId, u64), u64>,
     continuity: Continuity,
+    churn: Churn,
     violations: Vec<Violation>,
     /// Each declared unit's top speed, m/s, from its own profile: the time it is given to
     /// leave a zone.
@@ -293,6 +311,7 @@ impl Invariants {
             epochs: BTreeMap::new(),
             issued: BTreeMap::new(),
             continuity: Continuity::new(lease_s),
+            churn: Churn::default(),
             violations: Vec::new(),
             acked: None,
         }
@@ -328,6 +347,9 @@ impl Invariants {
             Event::Task(task) => {
                 self.continuity.task(&task, t);
                 self.check_task(&task, t);
+                for (fire, changes) in self.churn.task(&task, t) {
+                    self.thrash(fire, changes, t);
+                }
             }
             Event::Burning(fires) => self.continuity.burning(fires),
             Event::Ack(ack) => {
@@ -358,6 +380,28 @@ impl Invariants {
     /// How the fires owed a unit (lost units', takeovers') were settled so far.
     pub fn continuity(&self) -> Tally {
         self.continuity.tally()
+    }
+
+    /// How much the assignments churned so far.
+    pub fn churn(&self) -> ChurnTally {
+        self.churn.tally()
+    }
+
+    /// Fire `fire` reached `changes` within the window at `t`: one violation per fire,
+    /// raised to the most it reaches.
+    fn thrash(&mut self, fire: FireId, changes: usize, t: f64) {
+        let open = self.violations.iter_mut().find_map(|v| match v {
+            Violation::Churn {
+                fire: f,
+                changes: c,
+                ..
+            } if *f == fire => Some(c),
+            _ => None,
+        });
+        match open {
+            Some(c) => *c = (*c).max(changes),
+            None => self.violations.push(Violation::Churn { fire, t, changes }),
+        }
     }
 
     fn forget(&mut self, goal: &str) {

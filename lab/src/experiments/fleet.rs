@@ -42,6 +42,10 @@ pub struct FleetArgs {
     /// Run these scenarios (shipped names or site files) instead of the default set.
     #[arg(long = "scenario", value_name = "NAME")]
     scenarios: Vec<String>,
+    /// Run only the rows whose label starts with one of these (autonomous, greedy,
+    /// optimal, feed, bound); every row by default.
+    #[arg(long = "row", value_name = "LABEL")]
+    rows: Vec<String>,
 }
 
 /// The scenarios the fleet experiment runs.
@@ -222,6 +226,9 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
         let mut autonomous = None;
         for (label, command) in ROWS {
             if matches!(command, Command::Fed(Air::Reversed)) && scenario.air_m_s() == 0.0 {
+                continue;
+            }
+            if !a.rows.is_empty() && !a.rows.iter().any(|r| label.starts_with(r.as_str())) {
                 continue;
             }
             let (mut time, mut unfinished, mut dose, mut water, mut never, mut violations) =

@@ -1,0 +1,158 @@
+//! Assignment churn: how often a fire's attackers change, read from the tasks the
+//! coordinator sent.
+//!
+//! A change is a unit given a fire it was not on (an assignment, a backup joining, a
+//! takeover) or taken off the fire it was on (a release, a stand-down). Re-sent tasks,
+//! retargets on the same fire and a fire's own re-estimates are not changes. Over a busy
+//! minute a fire sees its first attacker and a backup come, one handover (two changes)
+//! and its attackers stood down when it is out: about six. A coordinator that thrashes
+//! assigns and releases the same unit every second or two, dozens a minute (2304
+//! releases over one 3 km incident before this check). The checker fails a recording in
+//! which one fire's attackers change more than [`MAX_CHANGES_PER_WINDOW`] times within
+//! any [`WINDOW_S`].
+//!
+//! Not here: why the coordinator changed its mind (its decision log says), or whether the
+//! change was right.
+
+use std::collections::{BTreeMap, VecDeque};
+
+use firefleet_model::{FireId, UnitId};
+use firefleet_protocol::msg::{Task, TaskKind};
+
+/// The window churn is counted over, s of site time.
+pub const WINDOW_S: f64 = 60.0;
+/// Most changes to one fire's attackers within any [`WINDOW_S`] before it counts as
+/// thrash: the busy minute's six and a margin of two.
+pub const MAX_CHANGES_PER_WINDOW: usize = 8;
+
+/// Each fire's changes so far.
+#[derive(Debug, Default)]
+pub(super) struct Churn {
+    /// The fire each unit's latest task sends it to, if any.
+    on: BTreeMap<UnitId, FireId>,
+    /// Per fire, the times of its changes within the last window.
+    recent: BTreeMap<FireId, VecDeque<f64>>,
+    tally: ChurnTally,
+}
+
+/// How much the fleet's assignments churned over a history.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ChurnTally {
+    /// Every change to any fire's attackers.
+    pub changes: usize,
+    /// The most changes to one fire within one [`WINDOW_S`], and that fire.
+    pub worst: Option<(FireId, usize)>,
+}
+
+impl Churn {
+    /// `task` was sent at `t`; the fire and its count within the window when this change
+    /// took it past [`MAX_CHANGES_PER_WINDOW`] (or further past it).
+    pub(super) fn task(&mut self, task: &Task, t: f64) -> Vec<(FireId, usize)> {
+        let now = match task.kind {
+            TaskKind::Extinguish { fire, .. } => Some(fire),
+            _ => None,
+        };
+        let before = self.on.get(&task.unit).copied();
+        if before == now {
+            return Vec::new();
+        }
+        match now {
+            Some(f) => self.on.insert(task.unit.clone(), f),
+            None => self.on.remove(&task.unit),
+        };
+        before
+            .into_iter()
+            .chain(now)
+            .filter_map(|fire| self.change(fire, t))
+            .collect()
+    }
+
+    fn change(&mut self, fire: FireId, t: f64) -> Option<(FireId, usize)> {
+        self.tally.changes += 1;
+        let times = self.recent.entry(fire).or_default();
+        times.push_back(t);
+        while times.front().is_some_and(|&s| t - s > WINDOW_S) {
+            times.pop_front();
+        }
+        let n = times.len();
+        if self.tally.worst.is_none_or(|(_, w)| n > w) {
+            self.tally.worst = Some((fire, n));
+        }
+        (n > MAX_CHANGES_PER_WINDOW).then_some((fire, n))
+    }
+
+    pub(super) fn tally(&self) -> ChurnTally {
+        self.tally.clone()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firefleet_model::Point2;
+    use firefleet_protocol::msg::Approach;
+
+    fn task(unit: &str, seq: u64, fire: Option<u32>) -> Task {
+        Task {
+            unit: UnitId::new(unit).unwrap(),
+            epoch: 1,
+            seq,
+            t: 0.0,
+            kind: match fire {
+                Some(f) => TaskKind::Extinguish {
+                    fire: FireId(f),
+                    target: Point2::new(10.0, 0.0),
+                    from: Approach::Either,
+                },
+                None => TaskKind::Standby,
+            },
+        }
+    }
+
+    #[test]
+    fn resent_tasks_are_no_change_and_a_handover_is_two() {
+        let mut c = Churn::default();
+        assert!(c.task(&task("a", 1, Some(1)), 0.0).is_empty());
+        assert!(c.task(&task("a", 1, Some(1)), 1.0).is_empty(), "re-sent");
+        assert!(c.task(&task("b", 1, Some(1)), 2.0).is_empty());
+        assert!(c.task(&task("a", 2, None), 2.0).is_empty());
+        assert_eq!(
+            c.tally(),
+            ChurnTally {
+                changes: 3,
+                worst: Some((FireId(1), 3))
+            }
+        );
+    }
+
+    #[test]
+    fn a_unit_assigned_and_released_every_few_seconds_is_thrash() {
+        let mut c = Churn::default();
+        let mut flagged = Vec::new();
+        for k in 0..10u32 {
+            let t = 3.0 * f64::from(k);
+            flagged.extend(c.task(&task("rail-1", 2 * u64::from(k), Some(1)), t));
+            flagged.extend(c.task(&task("rail-1", 2 * u64::from(k) + 1, None), t + 0.3));
+        }
+        assert_eq!(
+            flagged.first(),
+            Some(&(FireId(1), MAX_CHANGES_PER_WINDOW + 1))
+        );
+        assert_eq!(c.tally().worst, Some((FireId(1), 20)));
+    }
+
+    #[test]
+    fn changes_spread_over_the_incident_are_not() {
+        let mut c = Churn::default();
+        for k in 0..30u32 {
+            let t = 20.0 * f64::from(k);
+            let fire = Some(1 + k % 2);
+            assert!(c.task(&task("a", u64::from(k), fire), t).is_empty());
+        }
+        assert!(
+            c.tally()
+                .worst
+                .is_some_and(|(_, n)| n <= MAX_CHANGES_PER_WINDOW)
+        );
+    }
+}
