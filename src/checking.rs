@@ -6,6 +6,7 @@
 //! the other.
 
 use firefleet_coordinator::invariants::churn::ChurnTally;
+use firefleet_coordinator::invariants::pinned::BlockedTally;
 use firefleet_coordinator::invariants::{Event, Invariants, Tally, Violation};
 use firefleet_model::scenario::Scenario;
 use firefleet_protocol::keys::{self, Topic};
@@ -23,6 +24,8 @@ pub struct Checked {
     pub continuity: Tally,
     /// How often fires' attackers changed.
     pub churn: ChurnTally,
+    /// How often units were blocked.
+    pub blocked: BlockedTally,
 }
 
 /// The invariants over `recording` of `scenario`'s site, whose coordinator counted units
@@ -79,6 +82,7 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
             }
             (_, Ok(Payload::SimTruth(truth))) => {
                 t = truth.t;
+                inv.observe(t, Event::blocked(&truth));
                 Some(Event::burning(&truth))
             }
             (Topic::ZoneAck(_), Ok(Payload::Ack(ack))) => Some(Event::Ack(ack)),
@@ -99,6 +103,7 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
         forged,
         continuity: inv.continuity(),
         churn: inv.churn(),
+        blocked: inv.blocked(),
     })
 }
 

@@ -255,8 +255,9 @@ impl SimFleet {
         }
         if self.step.is_multiple_of(EXCHANGE_EVERY) {
             let t = self.world.time();
-            self.invariants
-                .observe(t, Event::burning(&self.world.truth()));
+            let truth = self.world.truth();
+            self.invariants.observe(t, Event::burning(&truth));
+            self.invariants.observe(t, Event::blocked(&truth));
             for (_, u) in &self.units {
                 self.invariants.observe(t, Event::State(u.state()));
             }

@@ -32,25 +32,24 @@ pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
     let mut parent = vec![usize::MAX; w * h];
     let mut open = BinaryHeap::new();
     cost[idx(s)] = 0.0;
-    // Keys are costs scaled to integers: exact ordering without a float wrapper. Of equal
-    // f, the cell farthest along (largest g) first: in a corridor the octile heuristic is
-    // exact, every cell of the corridor ties, and without the tie-break the search floods
-    // the whole width of a kilometres-long tunnel before it reaches the goal.
-    let key = |f: f64, g: f64| (Reverse((f * 1024.0) as u64), (g * 1024.0) as u64);
-    open.push((key(octile(s), 0.0), idx(s)));
+    // Keys are costs scaled to integers: exact ordering without a float wrapper; each
+    // entry keeps the cost it was pushed with, to skip it once the cell is reached cheaper.
+    let key = |f: f64| Reverse((f * 1024.0) as u64);
+    let pushed = |g: f64| (g * 1024.0) as u64;
+    open.push((key(octile(s)), idx(s), pushed(0.0)));
     // The start may sit in inflated space (a robot that stopped close to a wall or a
     // vehicle): cells within ESCAPE_M of it are passable so that it can get out.
     let escape = (ESCAPE_M / grid.resolution()).ceil() as usize;
     let passable = |c: (usize, usize)| {
         !grid.blocked(c) || (c.0.abs_diff(s.0) <= escape && c.1.abs_diff(s.1) <= escape)
     };
-    while let Some(((_, g_key), i)) = open.pop() {
+    while let Some((_, i, g_key)) = open.pop() {
         let cur = (i % w, i / w);
         if cur == g {
             break;
         }
         // A stale entry: the cell was reached more cheaply since.
-        if g_key > (cost[i] * 1024.0) as u64 {
+        if g_key > pushed(cost[i]) {
             continue;
         }
         for (dc, dr) in NEIGHBOURS {
@@ -75,7 +74,7 @@ pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
             if nc < cost[n] {
                 cost[n] = nc;
                 parent[n] = i;
-                open.push((key(nc + octile((c, r)), nc), n));
+                open.push((key(nc + octile((c, r))), n, pushed(nc)));
             }
         }
     }
@@ -99,9 +98,10 @@ pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
 /// Longest straight segment string pulling makes, m. Each step of the pulling traces the
 /// segment from its anchor, so an uncapped segment costs the square of its length in
 /// cells: a kilometre of straight tunnel at 0.25 m cells is sixteen million cell visits
-/// a plan (what made plans along a 3 km tunnel take seconds). A corner every 25 m on a
-/// straight line costs the follower nothing.
-const MAX_SEGMENT_M: f64 = 25.0;
+/// a plan (what made plans along a 3 km tunnel take seconds; capped, a tenth of that). A
+/// corner every 250 m on a straight line costs the follower nothing, and it leaves every
+/// path in a 300 m tunnel as it was.
+const MAX_SEGMENT_M: f64 = 250.0;
 
 /// Keep only the corners needed for straight, free segments of at most [`MAX_SEGMENT_M`]. A
 /// start inside inflated space sees no free segment, so the path keeps its first grid step

@@ -12,7 +12,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 use firefleet_coordinator::incident::LEASE_S;
-use firefleet_coordinator::invariants::churn;
+use firefleet_coordinator::invariants::{churn, pinned};
 use firefleet_recorder::parts::Recording;
 
 use super::{ScenarioArg, positive_f64};
@@ -59,6 +59,17 @@ pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
             .worst
             .map_or_else(|| "none".to_owned(), |(f, n)| format!("{n}, fire {f}")),
         churn::MAX_CHANGES_PER_WINDOW,
+    );
+    let blocked = &checked.blocked;
+    println!(
+        "blocked steps: {} of all units; the most of one unit within {:.0} s: {} (bound {})",
+        blocked.steps,
+        pinned::WINDOW_S,
+        blocked
+            .worst
+            .as_ref()
+            .map_or_else(|| "none".to_owned(), |(u, n)| format!("{n}, {u}")),
+        pinned::MAX_BLOCKED_PER_WINDOW,
     );
     if checked.forged > 0 {
         println!(

@@ -25,6 +25,8 @@
 //! - **fire abandoned**, **fire forgotten across a takeover**: see [`continuity`].
 //! - **assignment churn**: one fire's attackers changed more than
 //!   [`churn::MAX_CHANGES_PER_WINDOW`] times within [`churn::WINDOW_S`]: see [`churn`].
+//! - **unit pinned**: a unit's blocked steps (the simulator's refused moves) rose by more
+//!   than [`pinned::MAX_BLOCKED_PER_WINDOW`] within [`pinned::WINDOW_S`]: see [`pinned`].
 //!
 //! Goals are applied with the coordinator's own rules ([`crate::goals::Goals`]: ids
 //! replace, priorities, expiry), so a goal the coordinator refused binds nobody here
@@ -49,10 +51,12 @@ use crate::incident::LEASE_S;
 
 pub mod churn;
 mod continuity;
+pub mod pinned;
 
 use churn::{Churn, ChurnTally};
 use continuity::Continuity;
 pub use continuity::{RELIEF_S, TAKEOVER_S, Tally};
+use pinned::{BlockedTally, Pinned};
 
 /// Time to hear a goal and act on it, s: a state or task message comes at least once a
 /// second, and a plan takes up to half a second.
@@ -81,6 +85,8 @@ pub enum Event {
     Burning(Vec<Point2>),
     /// The coordinator's answer to a goal, sent the moment it took (or refused) it.
     Ack(GoalAck),
+    /// Each unit's blocked steps so far, by the simulator's ground truth.
+    Blocked(Vec<(UnitId, u32)>),
 }
 
 impl Event {
@@ -93,6 +99,17 @@ impl Event {
                 .iter()
                 .filter(|f| f.state == TruthFireState::Burning)
                 .map(|f| f.position)
+                .collect(),
+        )
+    }
+
+    /// Each unit's blocked steps in `truth`.
+    pub fn blocked(truth: &SimTruth) -> Self {
+        Self::Blocked(
+            truth
+                .units
+                .iter()
+                .map(|u| (u.id.clone(), u.collisions))
                 .collect(),
         )
     }
@@ -168,6 +185,9 @@ pub enum Violation {
         t: f64,
         changes: usize,
     },
+    /// `unit`'s blocked steps rose by `blocked` within [`pinned::WINDOW_S`] up to `t` (the
+    /// most it reached).
+    Pinned { unit: UnitId, t: f64, blocked: u32 },
 }
 
 impl std::fmt::Display for Violation {
@@ -242,6 +262,12 @@ impl std::fmt::Display for Violation {
                 "t={t:.1} s: epoch {epoch} took office; at t={due:.1} s it had sent nobody to the fire at ({:.1}, {:.1}) that the old term was attacking",
                 fire.x, fire.y
             ),
+            Violation::Pinned { unit, t, blocked } => write!(
+                f,
+                "t={t:.1} s: {unit} was blocked {blocked} steps within {:.0} s (at most {} allowed): pinned against a wall, a vehicle or a unit",
+                pinned::WINDOW_S,
+                pinned::MAX_BLOCKED_PER_WINDOW
+            ),
             Violation::Churn { fire, t, changes } => write!(
                 f,
                 "t={t:.1} s: fire {fire}'s attackers changed {changes} times within {:.0} s (at most {} allowed): assignment thrash",
@@ -271,6 +297,7 @@ pub struct Invariants {
     issued: BTreeMap<(UnitId, u64), u64>,
     continuity: Continuity,
     churn: Churn,
+    pinned: Pinned,
     violations: Vec<Violation>,
     /// Each declared unit's top speed, m/s, from its own profile: the time it is given to
     /// leave a zone.
@@ -312,6 +339,7 @@ impl Invariants {
             issued: BTreeMap::new(),
             continuity: Continuity::new(lease_s),
             churn: Churn::default(),
+            pinned: Pinned::default(),
             violations: Vec::new(),
             acked: None,
         }
@@ -352,6 +380,11 @@ impl Invariants {
                 }
             }
             Event::Burning(fires) => self.continuity.burning(fires),
+            Event::Blocked(counts) => {
+                for (unit, blocked) in self.pinned.counts(&counts, t) {
+                    self.pinned_unit(unit, blocked, t);
+                }
+            }
             Event::Ack(ack) => {
                 let acked = self.acked.get_or_insert_default();
                 if ack.accepted {
@@ -385,6 +418,28 @@ impl Invariants {
     /// How much the assignments churned so far.
     pub fn churn(&self) -> ChurnTally {
         self.churn.tally()
+    }
+
+    /// How much the units were blocked so far.
+    pub fn blocked(&self) -> BlockedTally {
+        self.pinned.tally()
+    }
+
+    /// `unit` was blocked `blocked` steps within the window at `t`: one violation per unit,
+    /// raised to the most it reaches.
+    fn pinned_unit(&mut self, unit: UnitId, blocked: u32, t: f64) {
+        let open = self.violations.iter_mut().find_map(|v| match v {
+            Violation::Pinned {
+                unit: u,
+                blocked: b,
+                ..
+            } if *u == unit => Some(b),
+            _ => None,
+        });
+        match open {
+            Some(b) => *b = (*b).max(blocked),
+            None => self.violations.push(Violation::Pinned { unit, t, blocked }),
+        }
     }
 
     /// Fire `fire` reached `changes` within the window at `t`: one violation per fire,
