@@ -92,7 +92,7 @@ const SWEEP_M: [f64; 2] = [0.5, 0.5];
 #[derive(Debug, Clone, Copy)]
 struct Attack {
     fire: Point2,
-    /// Where the carriage sprays from: it runs there first.
+    /// Where the carriage sprays from: the attack holds its travel to this stretch.
     dock: Dock,
     planner: Planner,
     out: bool,
