@@ -71,8 +71,11 @@ const JET_CEILING_MARGIN_M: f64 = 0.3;
 /// How far a navigation goal on a blocked cell is moved to a free one at most, m: half a
 /// car's length and its inflation.
 const GOAL_SHIFT_M: f64 = 4.0;
-/// Backing off after touching something, s.
+/// Backing off (or, if that is blocked too, pulling straight ahead) after touching
+/// something, s.
 const RECOVER_S: f64 = 1.5;
+/// Speed of a recovery move, m/s.
+const RECOVER_SPEED_M_S: f64 = 0.4;
 /// How often a unit inside barred space that found no way out tries again, s.
 const LEAVE_RETRY_S: f64 = 1.0;
 
@@ -91,9 +94,32 @@ struct Navigation {
     goal: Point2,
     follow: PurePursuit,
     arrived: bool,
-    /// Backing off until this time, then replanning.
-    recover_until: Option<f64>,
+    /// Getting clear of what the body touched, then replanning.
+    recover: Option<Recovery>,
     failed: bool,
+}
+
+/// A straight move to get clear after the body touched something: back first; if that is
+/// blocked too, ahead, and so on, each move for [`RECOVER_S`]. A unit whose rear corner is
+/// against a wall cannot back off, and turning away swings the overhang behind its rear
+/// axle into the wall; only straight ahead frees it (units on a 3 km tunnel were pinned so
+/// for twenty seconds at a time, a blocked step every step).
+#[derive(Debug, Clone, Copy)]
+struct Recovery {
+    until: f64,
+    /// Signed speed: negative backs.
+    speed: f64,
+}
+
+impl Recovery {
+    /// The move after touching something at `t`: the other way from the move under way,
+    /// backing first.
+    fn after(under_way: Option<Recovery>, t: f64) -> Self {
+        Self {
+            until: t + RECOVER_S,
+            speed: under_way.map_or(-RECOVER_SPEED_M_S, |r| -r.speed),
+        }
+    }
 }
 
 /// The unit, its world model and its services.
@@ -279,7 +305,7 @@ impl Unit {
                     goal: to,
                     follow: PurePursuit::new(p),
                     arrived: false,
-                    recover_until: None,
+                    recover: None,
                     failed: false,
                 });
                 if purpose == NavPurpose::Cruise {
@@ -564,9 +590,8 @@ impl Services for Unit {
         self.tracker.update(&self.spec, frame);
         if frame.collided
             && let Some(n) = &mut self.nav
-            && n.recover_until.is_none()
         {
-            n.recover_until = Some(frame.t + RECOVER_S);
+            n.recover = Some(Recovery::after(n.recover, frame.t));
         }
         self.frame = frame.clone();
         self.keep_out();
@@ -592,22 +617,27 @@ impl Services for Unit {
             valve_open: self.valve && f.water_l > 0.0,
         };
         let (pose, speed, steer, now, spec) = (f.pose, f.speed, f.steer, f.t, self.spec);
-        // Backing off does not back into barred space (a unit already inside backs off on
-        // its way out). Looked at only while backing off: this runs on every frame.
-        let recovering = self.nav.as_ref().is_some_and(|n| n.recover_until.is_some());
-        let behind_barred = recovering
-            && self.in_barred(pose.position().offset(pose.yaw + std::f64::consts::PI, 1.0));
+        // Getting clear does not move into barred space (a unit already inside does, on its
+        // way out). Looked at only while recovering: this runs on every frame.
+        let toward_barred = self.nav.as_ref().and_then(|n| n.recover).is_some_and(|r| {
+            let back = if r.speed < 0.0 {
+                std::f64::consts::PI
+            } else {
+                0.0
+            };
+            self.in_barred(pose.position().offset(pose.yaw + back, 1.0))
+        });
         let Some(n) = &mut self.nav else { return cmd };
         if n.arrived || n.failed {
             return cmd;
         }
-        if let Some(until) = n.recover_until {
-            let backing_in = n.purpose != NavPurpose::Leave && behind_barred;
-            if now < until && !backing_in {
-                cmd.speed = -0.4;
+        if let Some(r) = n.recover {
+            let moving_in = n.purpose != NavPurpose::Leave && toward_barred;
+            if now < r.until && !moving_in {
+                cmd.speed = r.speed;
                 return cmd;
             }
-            n.recover_until = None;
+            n.recover = None;
             let grid = if n.purpose == NavPurpose::Leave {
                 &self.open_nav_grid
             } else {

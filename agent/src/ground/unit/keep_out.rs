@@ -101,7 +101,7 @@ impl Unit {
                     goal,
                     follow: PurePursuit::new(route),
                     arrived: false,
-                    recover_until: None,
+                    recover: None,
                     failed: false,
                 });
             }
