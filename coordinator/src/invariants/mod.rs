@@ -376,13 +376,13 @@ impl Invariants {
                 self.continuity.task(&task, t);
                 self.check_task(&task, t);
                 for (fire, changes) in self.churn.task(&task, t) {
-                    self.thrash(fire, changes, t);
+                    self.raise(Violation::Churn { fire, t, changes });
                 }
             }
             Event::Burning(fires) => self.continuity.burning(fires),
             Event::Blocked(counts) => {
                 for (unit, blocked) in self.pinned.counts(&counts, t) {
-                    self.pinned_unit(unit, blocked, t);
+                    self.raise(Violation::Pinned { unit, t, blocked });
                 }
             }
             Event::Ack(ack) => {
@@ -425,38 +425,37 @@ impl Invariants {
         self.pinned.tally()
     }
 
-    /// `unit` was blocked `blocked` steps within the window at `t`: one violation per unit,
-    /// raised to the most it reaches.
-    fn pinned_unit(&mut self, unit: UnitId, blocked: u32, t: f64) {
-        let open = self.violations.iter_mut().find_map(|v| match v {
-            Violation::Pinned {
-                unit: u,
-                blocked: b,
-                ..
-            } if *u == unit => Some(b),
-            _ => None,
-        });
-        match open {
-            Some(b) => *b = (*b).max(blocked),
-            None => self.violations.push(Violation::Pinned { unit, t, blocked }),
+    /// A windowed count past its bound: one violation per fire (churn) or unit (pinned),
+    /// the first time it is passed, raised to the most it reaches after.
+    fn raise(&mut self, new: Violation) {
+        for open in &mut self.violations {
+            match (open, &new) {
+                (
+                    Violation::Churn { fire, changes, .. },
+                    Violation::Churn {
+                        fire: f,
+                        changes: c,
+                        ..
+                    },
+                ) if fire == f => {
+                    *changes = (*changes).max(*c);
+                    return;
+                }
+                (
+                    Violation::Pinned { unit, blocked, .. },
+                    Violation::Pinned {
+                        unit: u,
+                        blocked: b,
+                        ..
+                    },
+                ) if unit == u => {
+                    *blocked = (*blocked).max(*b);
+                    return;
+                }
+                _ => {}
+            }
         }
-    }
-
-    /// Fire `fire` reached `changes` within the window at `t`: one violation per fire,
-    /// raised to the most it reaches.
-    fn thrash(&mut self, fire: FireId, changes: usize, t: f64) {
-        let open = self.violations.iter_mut().find_map(|v| match v {
-            Violation::Churn {
-                fire: f,
-                changes: c,
-                ..
-            } if *f == fire => Some(c),
-            _ => None,
-        });
-        match open {
-            Some(c) => *c = (*c).max(changes),
-            None => self.violations.push(Violation::Churn { fire, t, changes }),
-        }
+        self.violations.push(new);
     }
 
     fn forget(&mut self, goal: &str) {
