@@ -516,20 +516,26 @@ impl World {
             }
             let o = &self.obstacles[i];
             // The hottest side: the footprint point nearest each burning fire, half-way up.
-            let flux = self
+            let mut flux = 0.0;
+            let centre = o.pose().position();
+            let mut hottest = (0.0, centre, centre);
+            for f in self
                 .fires
                 .iter()
                 .filter(|f| f.state == TruthFireState::Burning)
-                .map(|f| {
-                    let p = nearest_on(o, f.spec.position());
-                    let c = f.flame_centre();
-                    let r = ((c[0] - p.x).powi(2)
-                        + (c[1] - p.y).powi(2)
-                        + (c[2] - o.height_m / 2.0).powi(2))
-                    .sqrt();
-                    physics::radiant_flux_kw_m2(f.hrr_kw, r.max(f.spec.radius_m))
-                })
-                .sum::<f64>();
+            {
+                let p = nearest_on(o, f.spec.position());
+                let c = f.flame_centre();
+                let r = ((c[0] - p.x).powi(2)
+                    + (c[1] - p.y).powi(2)
+                    + (c[2] - o.height_m / 2.0).powi(2))
+                .sqrt();
+                let q = physics::radiant_flux_kw_m2(f.hrr_kw, r.max(f.spec.radius_m));
+                flux += q;
+                if q > hottest.0 {
+                    hottest = (q, p, f.spec.position());
+                }
+            }
             let over = flux - physics::VEHICLE_CRITICAL_FLUX_KW_M2;
             if over <= 0.0 {
                 continue;
@@ -539,15 +545,22 @@ impl World {
                 continue;
             }
             let area = o.length_m * o.width_m;
+            let radius_m = 0.5 * o.length_m.min(o.width_m);
+            // The vehicle catches on the side the heat came from, and its flames stand
+            // there, just off the body (a fire's centre inside a vehicle's box is hidden
+            // from every camera by the box itself, and a spread fire found only by the DTS
+            // was fought blind; issue #51).
+            let (_, side, source) = hottest;
+            let at = side.offset(side.bearing_to(source), radius_m.min(side.dist(source)));
             let spec = FireSpec {
                 name: format!("{}-spread", o.name),
-                x_m: o.x_m,
-                y_m: o.y_m,
+                x_m: at.x,
+                y_m: at.y,
                 growth: firefleet_model::scenario::Growth::Fast,
                 peak_kw: (physics::VEHICLE_PEAK_KW_PER_M2 * area)
                     .clamp(physics::VEHICLE_PEAK_MIN_KW, physics::VEHICLE_PEAK_MAX_KW),
                 ignition_s: self.t,
-                radius_m: 0.5 * o.length_m.min(o.width_m),
+                radius_m,
             };
             tracing::info!(vehicle = %o.name, t = self.t, "fire spread to a parked vehicle");
             self.exposure[i].fire = Some(self.fires.len());
