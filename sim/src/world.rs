@@ -509,6 +509,10 @@ impl World {
     /// Heat parked vehicles with the fires' radiation; one that has taken enough catches
     /// fire (see [`physics::VEHICLE_FTP_KJ_M2`]).
     fn spread(&mut self, dt: f64) {
+        // How far off a vehicle's body its flames' centre stands once it catches, m: the
+        // flames climb the face that caught (and parked vehicles can stand less than a
+        // metre apart, so no further than half way to the fire that lit it).
+        const SPREAD_FLAME_OFF_BODY_M: f64 = 0.25;
         for i in 0..self.obstacles.len() {
             let e = self.exposure[i];
             if e.burning || e.fire.is_some() {
@@ -549,9 +553,10 @@ impl World {
             // The vehicle catches on the side the heat came from, and its flames stand
             // there, just off the body (a fire's centre inside a vehicle's box is hidden
             // from every camera by the box itself, and a spread fire found only by the DTS
-            // was fought blind; issue #51).
+            // was fought late; issue #51).
             let (_, side, source) = hottest;
-            let at = side.offset(side.bearing_to(source), radius_m.min(side.dist(source)));
+            let off = SPREAD_FLAME_OFF_BODY_M.min(side.dist(source) / 2.0);
+            let at = side.offset(side.bearing_to(source), off);
             let spec = FireSpec {
                 name: format!("{}-spread", o.name),
                 x_m: at.x,

@@ -253,6 +253,22 @@ fn fire_spreads_to_an_exposed_vehicle_and_water_on_it_holds_it_back() {
     assert_eq!(spread.fires.len(), 2, "{:?}", spread.fires);
     assert_eq!(spread.fires[1].name, "exposed-spread");
     assert_ne!(spread.fires[1].state, TruthFireState::Dormant);
+    // It burns on the side facing the first car, off the exposed car's body, where a camera
+    // in the gap between the two can see it.
+    let w = neighbours(false);
+    let at = spread.fires[1].position;
+    assert!(!w.obstacles[1].footprint_contains(at, 0.0), "{at:?}");
+    assert!(
+        at.y < w.obstacles[1].y_m && at.y > w.obstacles[0].y_m,
+        "{at:?}"
+    );
+    let eye = [at.x + 6.0, at.y, 1.0];
+    assert!(!camera::line_blocked(
+        &w.tunnel,
+        &w.obstacles,
+        eye,
+        [at.x, at.y, 0.5]
+    ));
     let cooled = neighbours(true).truth();
     assert_eq!(cooled.fires.len(), 1, "{:?}", cooled.fires);
 }
