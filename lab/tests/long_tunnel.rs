@@ -1,6 +1,6 @@
 //! The fleet at a real tunnel's size, in-process and deterministic: the shipped 3 km road
-//! tunnel with hydrants 250 m apart, its optimal coordinator learning of fires from the
-//! units alone (no DTS).
+//! tunnel and 4 km rail tunnel with hydrants 250 m apart, their optimal coordinator
+//! learning of fires from the units alone (no DTS).
 
 use firefleet_coordinator::assign::Strategy;
 use firefleet_coordinator::incident::Decision;
@@ -9,7 +9,16 @@ use firefleet_model::{UnitKind, builtin};
 
 #[test]
 fn the_long_road_tunnel_puts_out_every_fire_without_thrash_and_its_carriages_spray() {
-    let scenario = builtin::resolve("long-road").unwrap();
+    every_fire_out_without_thrash_and_the_carriages_spray("long-road");
+}
+
+#[test]
+fn the_long_rail_tunnel_puts_out_every_fire_without_thrash_and_its_carriages_spray() {
+    every_fire_out_without_thrash_and_the_carriages_spray("long-rail");
+}
+
+fn every_fire_out_without_thrash_and_the_carriages_spray(name: &str) {
+    let scenario = builtin::resolve(name).unwrap();
     let mut fleet =
         SimFleet::new(&scenario, Command::Coordinator(Strategy::Optimal), 1, &[]).unwrap();
     while fleet.time() < scenario.time_limit_s && !fleet.truth().all_out() {
@@ -18,7 +27,7 @@ fn the_long_road_tunnel_puts_out_every_fire_without_thrash_and_its_carriages_spr
     let truth = fleet.truth();
     assert!(
         truth.all_out(),
-        "fires left at {:.0} s: {:?}",
+        "{name}: fires left at {:.0} s: {:?}",
         truth.t,
         truth.fires
     );
@@ -47,7 +56,7 @@ fn the_long_road_tunnel_puts_out_every_fire_without_thrash_and_its_carriages_spr
         let u = truth.units.iter().find(|t| &t.id == unit).unwrap();
         assert!(
             u.water_used_l > 0.0,
-            "{unit} was given a fire and sprayed none"
+            "{name}: {unit} was given a fire and sprayed none"
         );
     }
 }

@@ -10,7 +10,7 @@ use std::path::Path;
 use crate::scenario::{Scenario, ScenarioError};
 
 /// The shipped scenarios by name, as TOML.
-pub const BUILT_IN: [(&str, &str); 7] = [
+pub const BUILT_IN: [(&str, &str); 8] = [
     (
         "vehicle-collision",
         include_str!("../scenarios/vehicle-collision.toml"),
@@ -24,6 +24,7 @@ pub const BUILT_IN: [(&str, &str); 7] = [
     ("rail-tunnel", include_str!("../scenarios/rail-tunnel.toml")),
     ("ventilated", include_str!("../scenarios/ventilated.toml")),
     ("long-road", include_str!("../scenarios/long-road.toml")),
+    ("long-rail", include_str!("../scenarios/long-rail.toml")),
 ];
 
 /// A shipped scenario by name.

@@ -245,6 +245,21 @@ impl Obstacle {
         let pose = self.pose();
         [(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)].map(|(x, y)| pose.to_site(Point2::new(x, y)))
     }
+    /// `p` if it is outside the footprint, else the point `off` metres out from the face
+    /// nearest to it: where a fire placed inside the box burns as seen from the road.
+    pub fn off_body(&self, p: Point2, off: f64) -> Point2 {
+        if !self.footprint_contains(p, 0.0) {
+            return p;
+        }
+        let b = self.pose().to_body(p);
+        let (hl, hw) = (self.length_m / 2.0, self.width_m / 2.0);
+        let out = if hl - b.x.abs() < hw - b.y.abs() {
+            Point2::new((hl + off).copysign(b.x), b.y)
+        } else {
+            Point2::new(b.x, (hw + off).copysign(b.y))
+        };
+        self.pose().to_site(out)
+    }
 }
 
 /// NFPA t-squared growth classes (NFPA 72, Annex B; NFPA 92).
@@ -410,6 +425,19 @@ impl Scenario {
     /// Read, parse and validate a scenario file.
     pub fn load(path: &Path) -> Result<Self, ScenarioError> {
         validate::load_toml(path, Self::validate)
+    }
+
+    /// Where a fire reported at `p` can be fought from the road: `p` itself, or, if `p`
+    /// lies inside a parked vehicle (a DTS zone's chainage on the tunnel's axis, where a
+    /// train or a lorry stands), half a metre off the vehicle's face nearest to it. The
+    /// flames of a burning vehicle come out of its faces; its inside is seen and reached
+    /// from nowhere.
+    pub fn fightable_at(&self, p: Point2) -> Point2 {
+        const OFF_BODY_M: f64 = 0.5;
+        self.obstacles
+            .iter()
+            .find(|o| o.footprint_contains(p, 0.0))
+            .map_or(p, |o| o.off_body(p, OFF_BODY_M))
     }
 
     pub fn unit(&self, id: &UnitId) -> Option<&UnitSpec> {
@@ -682,6 +710,25 @@ impl Scenario {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_fire_inside_a_vehicle_is_fought_off_its_nearest_face() {
+        let s = Scenario::from_toml(OK, "t.toml").unwrap();
+        // The car spans x 38-42, y -2.9 to -1.1: the axis is 1.1 m off its kerb side.
+        let axis = Point2::new(40.5, -1.5);
+        let at = s.fightable_at(axis);
+        assert!(
+            (at.x - 40.5).abs() < 1e-9 && (at.y - (-1.1 + 0.5)).abs() < 1e-9,
+            "{at:?}"
+        );
+        let end = s.fightable_at(Point2::new(41.8, -2.0));
+        assert!(
+            (end.x - 42.5).abs() < 1e-9 && (end.y + 2.0).abs() < 1e-9,
+            "{end:?}"
+        );
+        let road = Point2::new(20.0, 1.0);
+        assert_eq!(s.fightable_at(road), road);
+    }
 
     const OK: &str = r#"
         name = "t"

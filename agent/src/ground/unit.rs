@@ -408,8 +408,10 @@ impl Unit {
     ///
     /// On the side the task names (upwind while the air moves: the unit drives round the
     /// fire to it if it came from downwind); if no spot there can be reached, on the unit's
-    /// own side after all: an attack from downwind beats none.
+    /// own side after all: an attack from downwind beats none. A fire reported inside a
+    /// parked vehicle is fought at the vehicle's nearest face.
     pub fn firing_position(&mut self, target: Point2) -> Option<Point2> {
+        let target = self.scenario.fightable_at(target);
         let side = self.mission.approach();
         if side != Approach::Either
             && let Some(spot) = self.firing_position_from(target, side)
