@@ -23,3 +23,4 @@
 //! `firefleet` binary's roles).
 
 pub mod fleet;
+pub mod tunnels;

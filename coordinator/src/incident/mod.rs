@@ -51,7 +51,7 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use firefleet_model::profile::Profile;
-use firefleet_model::scenario::{Scenario, Tunnel};
+use firefleet_model::scenario::{Scenario, Tunnel, UnitSpec};
 use firefleet_model::validate::{Invalid, Validate};
 use firefleet_model::{FireId, UnitId};
 use firefleet_protocol::msg::{
@@ -100,6 +100,33 @@ enum Scope {
 pub struct UnitProfileError {
     pub unit: UnitId,
     pub reason: String,
+}
+
+/// How `u` of `scenario` moves, as its profile says (a carriage with the rail it names).
+pub fn mobility_of(scenario: &Scenario, u: &UnitSpec) -> Result<Mobility, UnitProfileError> {
+    let error = |reason: String| UnitProfileError {
+        unit: u.id.clone(),
+        reason,
+    };
+    Ok(
+        match scenario.profile_of(u).map_err(|e| error(e.to_string()))? {
+            Profile::Ground(g) => Mobility::Ground(GroundBody::of(&g)),
+            Profile::Monorail(m) => {
+                let name = u.rail.as_deref().unwrap_or_default();
+                let r = scenario
+                    .rail(name)
+                    .ok_or_else(|| error(format!("no rail '{name}' for the carriage")))?;
+                Mobility::Rail {
+                    rail: std::sync::Arc::new(r.clone()),
+                    speed_m_s: m.carriage_speed_m_s,
+                    hose_reach_m: m.hose_reach_m,
+                    coupling_s: m.coupling_s,
+                    reach_m: m.working_reach_m,
+                    detector_range_m: m.detector_range_m,
+                }
+            }
+        },
+    )
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -282,31 +309,11 @@ impl Incident {
         lease_s: f64,
         strategy: Strategy,
     ) -> Result<Self, UnitProfileError> {
-        let mut units = Vec::new();
-        for u in &scenario.units {
-            let error = |reason: String| UnitProfileError {
-                unit: u.id.clone(),
-                reason,
-            };
-            let mobility = match scenario.profile_of(u).map_err(|e| error(e.to_string()))? {
-                Profile::Ground(g) => Mobility::Ground(GroundBody::of(&g)),
-                Profile::Monorail(m) => {
-                    let name = u.rail.as_deref().unwrap_or_default();
-                    let r = scenario
-                        .rail(name)
-                        .ok_or_else(|| error(format!("no rail '{name}' for the carriage")))?;
-                    Mobility::Rail {
-                        rail: std::sync::Arc::new(r.clone()),
-                        speed_m_s: m.carriage_speed_m_s,
-                        hose_reach_m: m.hose_reach_m,
-                        coupling_s: m.coupling_s,
-                        reach_m: m.working_reach_m,
-                        detector_range_m: m.detector_range_m,
-                    }
-                }
-            };
-            units.push((u.id.clone(), mobility));
-        }
+        let units = scenario
+            .units
+            .iter()
+            .map(|u| Ok((u.id.clone(), mobility_of(scenario, u)?)))
+            .collect::<Result<Vec<_>, UnitProfileError>>()?;
         let widths = units.iter().filter_map(|(_, m)| match m {
             Mobility::Ground(g) => Some(g.width_m),
             Mobility::Rail { .. } => None,

@@ -14,28 +14,36 @@
 //! On a ventilated scenario one more row, `feed, downwind`, tells the fed coordinator the
 //! air flows the other way: it then sends units in from downwind, through the smoke, and
 //! the heat dose column shows what the upwind side spares them.
+//!
+//! `--generated N` runs a family of N real-size tunnels instead ([`firefleet_lab::tunnels`],
+//! 1-10 km), by default the autonomous and optimal rows only, one trial each, and prints
+//! the median gain of each row over the autonomous fleet, and of the drive floor.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context;
 use clap::Args;
-use firefleet_coordinator::assign::Strategy;
-use firefleet_model::FireId;
+use firefleet_coordinator::assign::{Mobility, Strategy};
+use firefleet_coordinator::incident::mobility_of;
 use firefleet_model::builtin;
 use firefleet_model::scenario::Scenario;
+use firefleet_model::{FireId, Point2};
 use firefleet_protocol::msg::{FireState, FireTrack};
 use serde::Serialize;
 
 use firefleet::args::write_json;
 use firefleet_lab::fleet::{self as sim_fleet, Air, SimFleet};
+use firefleet_lab::tunnels;
 
 #[derive(Args, Debug)]
 pub struct FleetArgs {
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Runs per scenario and strategy (seeds seed, seed+1, ...).
-    #[arg(long, default_value_t = 3)]
-    trials: u32,
+    /// Runs per scenario and strategy (seeds seed, seed+1, ...); 3, or 1 with
+    /// `--generated`.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    trials: Option<u32>,
     /// Also write the results as JSON.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
@@ -43,9 +51,20 @@ pub struct FleetArgs {
     #[arg(long = "scenario", value_name = "NAME")]
     scenarios: Vec<String>,
     /// Run only the rows whose label starts with one of these (autonomous, greedy,
-    /// optimal, feed, bound); every row by default.
+    /// optimal, feed, bound); every row by default, autonomous and optimal with
+    /// `--generated`.
     #[arg(long = "row", value_name = "LABEL")]
     rows: Vec<String>,
+    /// Run a generated family of this many real-size tunnels (1-10 km) instead.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1000))]
+    generated: Option<u16>,
+    /// The generated family's seed.
+    #[arg(long, default_value_t = 51, requires = "generated")]
+    family: u64,
+    /// Write the generated tunnels' site files to this directory (each runs as a real
+    /// fleet with `firefleet demo --scenario FILE`).
+    #[arg(long, value_name = "DIR", requires = "generated")]
+    sites: Option<PathBuf>,
 }
 
 /// The scenarios the fleet experiment runs.
@@ -81,30 +100,32 @@ struct FleetResults {
 /// Preferred firing distances reach out to this, m (the ground units' farthest standoff).
 const FARTHEST_STANDOFF_M: f64 = 10.0;
 
-/// A floor under every strategy's time to all-out on a scenario of ground units, s: the
-/// fire whose nearest unit is farthest, reached in a straight line at that unit's top
-/// speed to within [`FARTHEST_STANDOFF_M`], with no time to start, turn, aim or spray. No
-/// coordination, feed or sensor beats it; the units' speed does. `None` with monorail
-/// units (they reach a fire along their rail, from its hose points).
-fn drive_floor_s(scenario: &Scenario) -> Option<f64> {
+/// A floor under every strategy's time to all-out, s: the fire whose nearest unit is
+/// farthest, reached at that unit's top speed, a ground unit in a straight line to within
+/// [`FARTHEST_STANDOFF_M`], a carriage along its rail to the dock that serves the fire and
+/// coupled there (it cannot spray before), with no time to start, turn, aim or spray. No
+/// coordination, feed or sensor beats it; the units' speed does.
+fn drive_floor_s(scenario: &Scenario) -> anyhow::Result<f64> {
     let units = scenario
         .units
         .iter()
-        .map(|u| {
-            let at = firefleet_model::Point2::new(u.x_m, u.y_m);
-            Some((at, scenario.ground_spec(&u.id)?.max_speed_m_s))
-        })
-        .collect::<Option<Vec<_>>>()?;
+        .map(|u| Ok((Point2::new(u.x_m, u.y_m), mobility_of(scenario, u)?)))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let reach = |at: Point2, m: &Mobility, fire: Point2| match m {
+        Mobility::Ground(g) => Some((at.dist(fire) - FARTHEST_STANDOFF_M).max(0.0) / g.speed_m_s),
+        Mobility::Rail { .. } => m.travel_s(at, fire),
+    };
     scenario
         .fires
         .iter()
         .map(|f| {
             units
                 .iter()
-                .map(|(at, v)| (at.dist(f.position()) - FARTHEST_STANDOFF_M).max(0.0) / v)
+                .filter_map(|(at, m)| reach(*at, m, f.position()))
                 .fold(f64::INFINITY, f64::min)
         })
         .reduce(f64::max)
+        .context("no fires")
 }
 
 /// Who decides what the units do in a run.
@@ -131,7 +152,7 @@ const ROWS: [(&str, Command); 6] = [
 ];
 
 /// Every fire of `scenario` as a confirmed track, as a coordinator would recall it.
-fn known_fires(scenario: &Scenario) -> Vec<FireTrack> {
+pub(super) fn known_fires(scenario: &Scenario) -> Vec<FireTrack> {
     (1..)
         .zip(&scenario.fires)
         .map(|(id, f)| FireTrack {
@@ -199,11 +220,50 @@ struct Outcome {
     violations: usize,
 }
 
+/// The scenarios to run: a generated family (its site files written where asked), those
+/// named, or the default set.
+fn scenarios(a: &FleetArgs) -> anyhow::Result<Vec<Scenario>> {
+    if let Some(n) = a.generated {
+        let family = tunnels::family(a.family, usize::from(n))?;
+        if let Some(dir) = &a.sites {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+            for (k, s) in family.iter().enumerate() {
+                let path = dir.join(format!("{}.toml", s.name));
+                std::fs::write(&path, tunnels::site_file(a.family, k, usize::from(n)))
+                    .with_context(|| format!("writing {}", path.display()))?;
+            }
+        }
+        return Ok(family);
+    }
+    let names: Vec<&str> = match a.scenarios.is_empty() {
+        true => FLEET_SCENARIOS.to_vec(),
+        false => a.scenarios.iter().map(String::as_str).collect(),
+    };
+    Ok(names
+        .into_iter()
+        .map(builtin::resolve)
+        .collect::<Result<_, _>>()?)
+}
+
+/// The median of `xs` (the mean of the middle two of an even count); `None` if empty.
+fn median(mut xs: Vec<f64>) -> Option<f64> {
+    xs.sort_by(f64::total_cmp);
+    let n = xs.len();
+    (n > 0).then(|| (xs[(n - 1) / 2] + xs[n / 2]) / 2.0)
+}
+
 pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
     let (mut runs, mut bounds, mut floors) = (Vec::new(), Vec::new(), Vec::new());
+    let trials = a
+        .trials
+        .unwrap_or(if a.generated.is_some() { 1 } else { 3 });
+    let rows: Vec<&str> = match (a.generated, a.rows.is_empty()) {
+        (Some(_), true) => vec!["autonomous", "optimal"],
+        _ => a.rows.iter().map(String::as_str).collect(),
+    };
     println!(
-        "fleet experiment: {} trials per scenario and strategy, seed {}",
-        a.trials, a.seed
+        "fleet experiment: {trials} trials per scenario and strategy, seed {}",
+        a.seed
     );
     println!(
         "{:<12} {:<15} {:>12} {:>10} {:>14} {:>14} {:>9} {:>14} {:>10}",
@@ -217,24 +277,40 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
         "never attacked",
         "violations"
     );
-    let names: Vec<&str> = match a.scenarios.is_empty() {
-        true => FLEET_SCENARIOS.to_vec(),
-        false => a.scenarios.iter().map(String::as_str).collect(),
+    // Per row label, the gain over the autonomous fleet on each scenario, %.
+    let mut gains: Vec<(&str, Vec<f64>)> = Vec::new();
+    let mut gain = |label: &'static str, autonomous: f64, t: f64| {
+        let g = 100.0 * (autonomous - t) / autonomous;
+        match gains.iter_mut().find(|(l, _)| *l == label) {
+            Some((_, v)) => v.push(g),
+            None => gains.push((label, vec![g])),
+        }
+        format!("  {g:+.1} %")
     };
-    for name in names {
-        let scenario = builtin::resolve(name)?;
+    for scenario in scenarios(&a)? {
+        let name = scenario.name.as_str();
+        if a.generated.is_some() {
+            println!(
+                "{name}: {:.2} km, {} fires, {} units ({} carriages), air {:.1} m/s",
+                scenario.tunnel.length_m / 1000.0,
+                scenario.fires.len(),
+                scenario.units.len(),
+                scenario.rails.len(),
+                scenario.air_m_s()
+            );
+        }
         let mut autonomous = None;
         for (label, command) in ROWS {
             if matches!(command, Command::Fed(Air::Reversed)) && scenario.air_m_s() == 0.0 {
                 continue;
             }
-            if !a.rows.is_empty() && !a.rows.iter().any(|r| label.starts_with(r.as_str())) {
+            if !rows.is_empty() && !rows.iter().any(|r| label.starts_with(r)) {
                 continue;
             }
             let (mut time, mut unfinished, mut dose, mut water, mut never, mut violations) =
                 (0.0, 0, 0.0, 0.0, 0.0, 0);
             let mut attack_dose = 0.0;
-            for k in 0..a.trials {
+            for k in 0..trials {
                 let o = fleet_run(&scenario, command, a.seed + u64::from(k))?;
                 time += o.done.unwrap_or(scenario.time_limit_s);
                 unfinished += u32::from(o.done.is_none());
@@ -244,11 +320,11 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
                 never += o.never as f64;
                 violations += o.violations;
             }
-            let n = f64::from(a.trials);
+            let n = f64::from(trials);
             let run = FleetRun {
                 strategy: label,
                 scenario: name.to_owned(),
-                trials: a.trials,
+                trials,
                 time_all_out_s: time / n,
                 unfinished,
                 heat_dose: dose / n,
@@ -257,14 +333,13 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
                 fires_never_attacked: never / n,
                 violations,
             };
-            let faster = match command {
-                Command::Alone => {
+            let faster = match (command, autonomous) {
+                (Command::Alone, _) => {
                     autonomous = Some(run.time_all_out_s);
                     String::new()
                 }
-                _ => autonomous.map_or(String::new(), |a| {
-                    format!("  {:+.1} %", 100.0 * (a - run.time_all_out_s) / a)
-                }),
+                (_, Some(a)) => gain(label, a, run.time_all_out_s),
+                (_, None) => String::new(),
             };
             println!(
                 "{:<12} {:<15} {:>12.1} {:>10} {:>14.1} {:>14.1} {:>9.0} {:>14.1} {:>10}{faster}",
@@ -283,16 +358,29 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
                 _ => runs.push(run),
             }
         }
-        if let (Some(floor), Some(a)) = (drive_floor_s(&scenario), autonomous) {
+        if let Some(a) = autonomous {
+            let floor = drive_floor_s(&scenario)?;
             println!(
-                "{name:<12} {:<15} {floor:>12.1}{:>60}  {:+.1} %",
+                "{name:<12} {:<15} {floor:>12.1}{:>60}{}",
                 "drive floor",
                 "(top speed, straight line, no spraying)",
-                100.0 * (a - floor) / a
+                gain("drive floor", a, floor)
             );
             floors.push((name.to_owned(), floor));
         }
     }
+    if !gains.is_empty() {
+        println!("median gain over the autonomous fleet:");
+        for (label, g) in &gains {
+            let m = median(g.clone()).unwrap_or(f64::NAN);
+            println!("  {label:<15} {m:+.1} % over {} scenarios", g.len());
+        }
+    }
+    let unfinished: u32 = runs
+        .iter()
+        .filter(|r| r.strategy != "autonomous")
+        .map(|r| r.unfinished)
+        .sum();
     let broken: usize = runs.iter().chain(&bounds).map(|r| r.violations).sum();
     write_json(
         a.json.as_deref(),
@@ -303,9 +391,18 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
             floors,
         },
     )?;
+    let mut ok = true;
     if broken > 0 {
         eprintln!("{broken} invariant violations");
-        return Ok(ExitCode::FAILURE);
+        ok = false;
     }
-    Ok(ExitCode::SUCCESS)
+    if unfinished > 0 {
+        eprintln!("{unfinished} coordinated runs left fires burning at the time limit");
+        ok = false;
+    }
+    Ok(if ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
 }

@@ -18,6 +18,7 @@ pub mod cannon;
 mod costmap_ga;
 mod fleet;
 mod flood;
+pub mod length;
 mod nav;
 mod nemesis;
 mod plot;
@@ -31,6 +32,8 @@ pub enum Experiment {
     Cannon(cannon::CannonArgs),
     /// The shipped multi-fire scenarios with no coordinator, greedy and optimal assignment.
     Fleet(fleet::FleetArgs),
+    /// What a tunnel's length costs: a unit's and the coordinator's memory, plan times.
+    Length(length::LengthArgs),
     /// The ROBOGAT paper's monorail case study: fuzzy against fixed weights.
     Robogat(robogat::RobogatArgs),
     /// A real coordinator process under a large simulated fleet over loopback Zenoh.
@@ -55,6 +58,7 @@ pub async fn run(experiment: Experiment) -> anyhow::Result<ExitCode> {
     match experiment {
         Experiment::Cannon(a) => cannon::run(a),
         Experiment::Fleet(a) => fleet::run(a),
+        Experiment::Length(a) => length::run(a),
         Experiment::Robogat(a) => robogat::run(a),
         Experiment::Scale(a) => scale::run(a).await,
         Experiment::Flood(a) => flood::run(a).await,
