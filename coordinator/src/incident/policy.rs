@@ -67,6 +67,15 @@ pub struct Policy {
     /// is not the unit's to report, m: the spread of a flame's estimated position. (What a
     /// stolen certificate's report can claim: within sight of where the unit is.)
     pub report_reach_slack_m: f64,
+    /// A free ground unit this many tunnel heights or fewer downwind of a burning fire
+    /// stands in its hot gas and withdraws to that distance; further down the smoke has
+    /// cooled. Downstream of a fire in a ventilated tunnel the ceiling gas's temperature
+    /// rise decays as `0.57 exp(-0.0166 x / H) + 0.43 exp(-0.155 x / H)` of its maximum
+    /// (Li & Ingason, Fire Safety Journal 48, 2012), a tenth of it at about 105 H: for a
+    /// 5 MW fire under a 6.3 m ceiling, 23 C of 230, some 660 m on. In a 300 m tunnel that
+    /// is the downstream portal, as before; in a 10 km one, withdrawing every unit
+    /// downwind to the portal took units kilometres from fires they could serve.
+    pub hot_smoke_heights: f64,
 }
 
 impl Policy {
@@ -88,6 +97,7 @@ impl Policy {
         sight_behind_m: 5.0,
         deaf_after_s: 10.0,
         clear_view_m: 12.0,
+        hot_smoke_heights: 105.0,
     };
 }
 

@@ -69,12 +69,13 @@ impl Incident {
         const INSIDE_M: f64 = 5.0;
         let (lo, hi) = (Chainage::ZERO + INSIDE_M, self.tunnel.end() - INSIDE_M);
         let mut out = Vec::new();
-        // With the air moving, a free unit downwind of a burning fire stands in its smoke
-        // and hot gas: it withdraws to the downstream portal, and is nobody's reserve (it
-        // would have to drive through the fire to wait upwind). The others wait upwind.
+        // With the air moving, a free unit downwind of a burning fire and within its hot
+        // gas ([`super::Policy::hot_smoke_heights`]) withdraws out of it, downstream (to
+        // the portal at most), and is nobody's reserve (it would have to drive through the
+        // fire to wait upwind). The others wait upwind.
         let mut free = free;
         if let Some(side) = upwind {
-            let exit = if side < 0.0 { hi } else { lo };
+            let reach = self.policy.hot_smoke_heights * self.tunnel.height_m;
             let fires: Vec<(FireId, Chainage)> = self
                 .fusion
                 .fires()
@@ -85,12 +86,19 @@ impl Incident {
             let mut leaving = Vec::new();
             free.retain(|(unit, at, current, _)| {
                 let s = self.tunnel.chainage(*at);
-                let Some(&(fire, _)) = fires.iter().find(|(_, f)| (s - *f) * side < 0.0) else {
+                // The fires upwind of the unit whose hot gas reaches it; it leaves the
+                // reach of the one furthest downstream.
+                let Some(&(fire, edge)) = fires
+                    .iter()
+                    .filter(|(_, f)| (s - *f) * side < 0.0 && (s - *f).abs() < reach)
+                    .max_by(|a, b| ((a.1 - b.1) * -side).total_cmp(&0.0))
+                else {
                     return true;
                 };
+                let out_of_reach = (edge - side * reach).clamp(lo, hi);
                 let to = self
                     .goals
-                    .nearest_allowed(exit, self.policy.evacuate_margin_m, lo, hi)
+                    .nearest_allowed(out_of_reach, self.policy.evacuate_margin_m, lo, hi)
                     .unwrap_or(s);
                 let goal = self
                     .tunnel
