@@ -26,6 +26,7 @@ fn instance(units: usize, fires: usize) -> (Vec<Candidate>, Vec<Need>) {
             mobility: Mobility::Ground(GroundBody::of(&GROUND)),
             water_l: 1500.0,
             heading_for: None,
+            not_for: Vec::new(),
         })
         .collect();
     let f = (0..fires)

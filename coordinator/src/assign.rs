@@ -194,6 +194,10 @@ pub struct Candidate {
     pub water_l: f64,
     /// The fire the unit is already on its way to, if any: it costs [`KEEP_S`] less.
     pub heading_for: Option<FireId>,
+    /// Fires the unit is not to be sent to (it gave them up or called them out lately):
+    /// infeasible for it, so the solver picks someone else rather than a unit the
+    /// dispatch would then refuse to send.
+    pub not_for: Vec<FireId>,
 }
 
 /// What another unit must save to take over a fire from the unit on its way to it, s of
@@ -432,6 +436,8 @@ fn cost_matrix(travel: &[f64], units: &[Candidate], needs: &[Need]) -> Vec<f64> 
             let (n, u) = (&needs[k / units.len()], &units[k % units.len()]);
             if c >= INFEASIBLE {
                 c
+            } else if u.not_for.contains(&n.fire) {
+                INFEASIBLE
             } else {
                 let keep = if u.heading_for == Some(n.fire) {
                     KEEP_S
@@ -470,7 +476,7 @@ pub fn optimal(units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<Pick
         .into_iter()
         .enumerate()
         .filter_map(|(f, u)| Some((f, u?)))
-        .filter(|&(f, u)| travel[f * units.len() + u] < INFEASIBLE)
+        .filter(|&(f, u)| costs[f * units.len() + u] < INFEASIBLE)
         .map(|(f, u)| pick(units, needs, &travel, f, u))
         .collect()
 }

@@ -14,6 +14,7 @@ fn cand(id: &str, x: f64) -> Candidate {
         }),
         water_l: 1500.0,
         heading_for: None,
+        not_for: Vec::new(),
     }
 }
 
@@ -121,6 +122,7 @@ fn at(id: &str, x: f64, y: f64) -> Candidate {
         }),
         water_l: 1500.0,
         heading_for: None,
+        not_for: Vec::new(),
     }
 }
 
@@ -263,6 +265,7 @@ fn carriage(id: &str, x: f64, hose_points_m: &[f64]) -> Candidate {
         },
         water_l: 1e5,
         heading_for: None,
+        not_for: Vec::new(),
     }
 }
 
@@ -413,4 +416,31 @@ fn units_avoid_driving_past_other_fires_and_running_dry() {
         optimal(&dry, &needs, &Site::default())[0].unit.as_str(),
         "left"
     );
+}
+
+#[test]
+fn a_unit_not_to_be_sent_to_a_fire_is_passed_over_for_the_next() {
+    let fire = Need {
+        fire: FireId(1),
+        at: Place::straight(100.0, 0.0),
+        priority: 0,
+    };
+    // a is nearest, but gave this fire up a moment ago.
+    let gave_up = Candidate {
+        not_for: vec![FireId(1)],
+        ..at("a", 90.0, 0.0)
+    };
+    for strategy in [Strategy::Greedy, Strategy::Optimal] {
+        let units = [gave_up.clone(), at("b", 40.0, 0.0)];
+        let picks = strategy.solve(&units, std::slice::from_ref(&fire), &Site::default());
+        assert_eq!(picks.len(), 1, "{strategy:?}");
+        assert_eq!(picks[0].unit.as_str(), "b", "{strategy:?}");
+        // Alone, it is not sent at all.
+        let picks = strategy.solve(
+            std::slice::from_ref(&gave_up),
+            std::slice::from_ref(&fire),
+            &Site::default(),
+        );
+        assert!(picks.is_empty(), "{strategy:?}: {picks:?}");
+    }
 }

@@ -67,6 +67,10 @@ const ADOPT_VAR_M2: f64 = 1.0;
 const LOSE_AFTER_S: f64 = 60.0;
 /// Flames seen again at an extinguished fire after this long mean it reignited, s.
 const REIGNITE_AFTER_S: f64 = 5.0;
+/// A DTS zone read rising this long after its fire went out means it burns, s: two of a
+/// detector's readings at the usual 10 s period, by which a knocked-down fire's ceiling
+/// gas has stopped heating the fibre (a rate of rise spans the last readings).
+pub const DTS_REHEAT_AFTER_S: f64 = 20.0;
 /// Live tracks one unit's word alone may hold (seen by nobody else). A tunnel incident
 /// has a handful of fires in any one camera's view; a unit reporting more is lying or
 /// broken, and each track costs every later observation a gate test, so past this its

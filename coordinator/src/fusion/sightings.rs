@@ -106,12 +106,28 @@ impl Fusion {
         }
     }
 
-    /// Fold in a DTS alarm peak at `at` (its zone as a Gaussian) at time `t`: it joins the
-    /// active track it gates with, else starts one, confirmed ([`Fused::Confirmed`]). A peak
-    /// at a fire that is out or lost changes nothing (`None`).
-    pub fn observe_dts(&mut self, at: Gaussian2, t: f64) -> Option<Fused> {
+    /// Fold in a DTS alarm peak at `at` (its zone as a Gaussian) at time `t`, `rising`
+    /// with the time of its reading if the zone's rate of rise is in alarm: it joins the
+    /// active track it gates with, else starts one, confirmed ([`Fused::Confirmed`]). A
+    /// peak at a fire that is out reignites it if the zone was rising
+    /// [`DTS_REHEAT_AFTER_S`] after it went out ([`Fused::Reignited`]); else, and at a
+    /// lost fire, it changes nothing (`None`).
+    pub fn observe_dts(&mut self, at: Gaussian2, rising: Option<f64>, t: f64) -> Option<Fused> {
         if let Some(fire) = nearest_gated(&mut self.fires, &at) {
             if !fire.active() {
+                // A fire put out stops heating its zone within a reading or two; a
+                // rate-of-rise alarm read well after is a fire burning (a unit called it
+                // out without seeing it, or a smouldering bed caught again).
+                let reheated = rising
+                    .zip(fire.out_at)
+                    .is_some_and(|(read, out)| read - out > DTS_REHEAT_AFTER_S);
+                if fire.state == FireState::Out && reheated {
+                    fire.state = FireState::Confirmed;
+                    fire.out_at = None;
+                    fire.dts = Some(t);
+                    fire.last_seen = t;
+                    return Some(Fused::Reignited(fire.id));
+                }
                 return None;
             }
             fire.dts = Some(t);

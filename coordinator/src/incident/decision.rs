@@ -134,6 +134,19 @@ pub enum Decision {
         /// The units that still see it or spray it.
         against: Vec<UnitId>,
     },
+    /// A unit reported out a fire no unit has seen burn (the DTS placed it): it cannot
+    /// have seen it go out, so the fire stays open; the claimant is freed.
+    OutUnseen {
+        fire: FireId,
+        by: UnitId,
+    },
+    /// A fire reported out whose DTS zone heats up again: it burns.
+    ReheatedZone {
+        fire: FireId,
+        from_m: f64,
+        to_m: f64,
+        rise_c_min: f64,
+    },
     GaveUp {
         unit: UnitId,
         fire: FireId,
@@ -368,6 +381,21 @@ impl fmt::Display for Decision {
                 } else {
                     "see or spray"
                 }
+            ),
+            Decision::OutUnseen { fire, by } => write!(
+                f,
+                "{by} reports fire {fire} out, but no unit has seen it burn (the DTS placed \
+                 it): it stays open, only {by} is freed"
+            ),
+            Decision::ReheatedZone {
+                fire,
+                from_m,
+                to_m,
+                rise_c_min,
+            } => write!(
+                f,
+                "fire {fire} reported out, but its DTS zone {from_m:.0}-{to_m:.0} m heats up \
+                 again ({rise_c_min:+.0} C/min): it burns"
             ),
             Decision::GaveUp { unit, fire } => write!(f, "unit {unit} gave up fire {fire}"),
             Decision::Adopt {

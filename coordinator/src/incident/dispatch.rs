@@ -184,6 +184,12 @@ impl Incident {
                         .working_on()
                         .filter(|_| !v.backup)
                         .map(|f| self.fusion.resolve(f)),
+                    not_for: self
+                        .failed
+                        .keys()
+                        .filter(|(unit, _)| unit == u)
+                        .map(|(_, f)| *f)
+                        .collect(),
                 })
             })
             .filter(|c| barred.entry_at(c.mobility.kind(), c.at.chainage).is_none())

@@ -313,19 +313,34 @@ impl Incident {
             out.extend(self.contradicted(vec![c], unit, t));
         }
         let against = self.still_burning_for(fire, unit, t);
-        if !against.is_empty() {
+        let unseen = self.fusion.get(fire).is_some_and(|f| f.dts_only());
+        if !against.is_empty() || unseen {
             self.log(
                 t,
-                Decision::OutDisputed {
-                    fire,
-                    by: unit.clone(),
-                    against,
+                if unseen {
+                    // Sent by the DTS to a fire it never found (behind a lorry, say): its
+                    // detector seeing no flame there says nothing of the fire.
+                    Decision::OutUnseen {
+                        fire,
+                        by: unit.clone(),
+                    }
+                } else {
+                    Decision::OutDisputed {
+                        fire,
+                        by: unit.clone(),
+                        against,
+                    }
                 },
             );
             // Not sent straight back to a fire it says is out.
             self.failed
                 .insert((unit.clone(), fire), t + self.policy.retry_after_s);
+            let alone = self.assigned_to(fire).iter().all(|u| u == unit);
             out.push(self.standby(unit, t));
+            if unseen && alone {
+                // Nobody is on it now: it is anyone's to take again.
+                out.extend(self.release(fire, t));
+            }
             return;
         }
         if let Some(f) = self.fusion.get_mut(fire) {

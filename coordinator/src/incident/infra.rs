@@ -68,9 +68,9 @@ impl Infra {
             .map_or(30.0, |(m, _)| 2.0 * m.dts.period_s + 5.0)
     }
 
-    /// The alarm peaks as of `t`: the span and maximum of each zone in alarm hotter than
-    /// its neighbours in alarm (of a plateau, its first zone).
-    fn peaks(&self, t: f64) -> Vec<(f64, f64, f64)> {
+    /// The alarm peaks as of `t`: each zone in alarm hotter than its neighbours in alarm
+    /// (of a plateau, its first zone).
+    fn peaks(&self, t: f64) -> Vec<DtsZone> {
         let fresh = self.fresh_s();
         let alarmed = |k: u16| {
             self.zones.get(&k).filter(|z| {
@@ -85,7 +85,7 @@ impl Infra {
                 let above = k.checked_add(1).and_then(alarmed);
                 let peak = below.is_none_or(|n| n.reading.max_c < z.reading.max_c)
                     && above.is_none_or(|n| n.reading.max_c <= z.reading.max_c);
-                peak.then_some((z.start_m, z.end_m, z.reading.max_c))
+                peak.then_some(*z)
             })
             .collect()
     }
@@ -181,20 +181,33 @@ impl Incident {
             return Vec::new();
         }
         let mut out = Vec::new();
-        for (a, b, max_c) in self.infra.peaks(t) {
+        for z in self.infra.peaks(t) {
+            let (a, b) = (z.start_m, z.end_m);
             let at = self.zone_estimate(a, b);
-            if let Some(Fused::Confirmed(fire)) = self.fusion.observe_dts(at, t) {
-                self.log(
-                    t,
+            let rising = z.reading.alarm.rise.then_some(z.t);
+            let (fire, decision) = match self.fusion.observe_dts(at, rising, t) {
+                Some(Fused::Confirmed(fire)) => (
+                    fire,
                     Decision::DtsAlarm {
                         fire,
                         from_m: a,
                         to_m: b,
-                        max_c,
+                        max_c: z.reading.max_c,
                     },
-                );
-                out.push(Output::Fire(self.track(fire, t)));
-            }
+                ),
+                Some(Fused::Reignited(fire)) => (
+                    fire,
+                    Decision::ReheatedZone {
+                        fire,
+                        from_m: a,
+                        to_m: b,
+                        rise_c_min: z.reading.rise_c_min,
+                    },
+                ),
+                _ => continue,
+            };
+            self.log(t, decision);
+            out.push(Output::Fire(self.track(fire, t)));
         }
         if !out.is_empty() {
             out.extend(self.solve_within(Scope::NewFires, t));

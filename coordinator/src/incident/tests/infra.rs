@@ -29,8 +29,14 @@ fn site() -> Incident {
 
 /// Every zone at 20 C but those in `hot` (zone, degrees C), in alarm above 60 C.
 fn measure(inc: &mut Incident, t: f64, hot: &[(u16, f64)]) {
+    measure_rising(inc, t, hot, 0.0);
+}
+
+/// As [`measure`], the hot zones rising at `rise_c_min` (in alarm from 10 C/min).
+fn measure_rising(inc: &mut Incident, t: f64, hot: &[(u16, f64)], rise_c_min: f64) {
     for k in 0..30u16 {
         let max_c = hot.iter().find(|(z, _)| *z == k).map_or(20.0, |(_, c)| *c);
+        let rise_c_min = if max_c > 20.0 { rise_c_min } else { 0.0 };
         let z = DtsZone {
             zone: k,
             start_m: f64::from(k) * 10.0,
@@ -38,9 +44,10 @@ fn measure(inc: &mut Incident, t: f64, hot: &[(u16, f64)]) {
             t,
             reading: DtsReading {
                 max_c,
-                rise_c_min: 0.0,
+                rise_c_min,
                 alarm: DtsAlarm {
                     max: max_c >= 60.0,
+                    rise: rise_c_min >= 10.0,
                     ..DtsAlarm::default()
                 },
                 fault: false,
@@ -217,4 +224,80 @@ fn with_the_air_moving_units_attack_from_upwind_and_downwind_units_leave_the_smo
     air(&mut inc, 1.0, 0.3);
     measure(&mut inc, 1.0, &[(15, 180.0)]);
     assert_eq!(extinguish_tasks(&inc.tick(1.0))[0].2, Approach::Either);
+}
+
+/// The DTS's fire in zone 15, the unit sent to it, and that unit's task number.
+fn sent_by_the_dts(inc: &mut Incident) -> (FireId, UnitId, u64) {
+    measure(inc, 1.0, &[(15, 180.0)]);
+    let out = inc.tick(1.0);
+    let (unit, ..) = extinguish_tasks(&out)[0].clone();
+    let seq = inc.units[&unit].task.as_ref().unwrap().seq;
+    (inc.fire_tracks(1.0)[0].id, unit, seq)
+}
+
+fn claims_out(inc: &mut Incident, unit: &UnitId, fire: FireId, seq: u64, t: f64) -> Vec<Output> {
+    let x = inc.units[unit].state.as_ref().unwrap().pose.x;
+    let mut st = ground_state(unit.as_str(), x, -2.5);
+    st.task = Some(TaskProgress {
+        seq,
+        fire,
+        phase: TaskPhase::Extinguished,
+        target: Point2::new(155.0, 0.0),
+    });
+    st.task_seq = Some(seq);
+    st.epoch = inc.units[unit].task.as_ref().map(|k| k.epoch);
+    inc.state_at(st, t).unwrap()
+}
+
+#[test]
+fn a_unit_that_never_saw_the_dts_fire_cannot_call_it_out_and_another_is_sent() {
+    let mut inc = site();
+    let (fire, unit, seq) = sent_by_the_dts(&mut inc);
+    // It reports the fire out without ever having reported a flame there (the flames were
+    // behind a lorry): the fire stays open, the unit is freed, and someone else goes.
+    let mut out = claims_out(&mut inc, &unit, fire, seq, 3.0);
+    out.extend(inc.tick(3.5));
+    assert!(inc.decisions().any(
+        |d| matches!(&d.decision, Decision::OutUnseen { fire: f, by } if *f == fire && *by == unit)
+    ));
+    assert!(inc.fusion.get(fire).unwrap().active());
+    let again = extinguish_tasks(&out);
+    assert!(
+        again.iter().any(|(u, ..)| *u != unit),
+        "another unit is sent: {out:?}"
+    );
+}
+
+#[test]
+fn a_zone_heating_up_again_after_its_fire_was_called_out_reopens_it() {
+    let mut inc = site();
+    let (fire, unit, seq) = sent_by_the_dts(&mut inc);
+    // The unit saw the flame, and then saw it gone: out.
+    let at = inc.units[&unit].state.as_ref().unwrap().pose.x;
+    let report = FlameReport {
+        unit: unit.clone(),
+        t: 30.0,
+        observer: Pose2::new(at, -2.5, 0.0),
+        observations: vec![FlameObservation {
+            position: Point2::new(152.0, -2.0),
+            cov: [0.2, 0.0, 0.2],
+            confidence: 0.9,
+            hrr_kw: None,
+        }],
+    };
+    inc.report_at(&report, 30.0).unwrap();
+    let seq = inc.units[&unit].task.as_ref().map_or(seq, |k| k.seq);
+    claims_out(&mut inc, &unit, fire, seq, 40.0);
+    assert_eq!(inc.fusion.get(fire).unwrap().state, FireState::Out);
+    // The zone still hot but cooling: still out. Rising 30 s after: it burns.
+    measure_rising(&mut inc, 50.0, &[(15, 150.0)], -40.0);
+    inc.tick(50.0);
+    assert_eq!(inc.fusion.get(fire).unwrap().state, FireState::Out);
+    measure_rising(&mut inc, 70.0, &[(15, 170.0)], 25.0);
+    inc.tick(70.0);
+    assert!(inc.fusion.get(fire).unwrap().active());
+    assert!(
+        inc.decisions()
+            .any(|d| matches!(&d.decision, Decision::ReheatedZone { fire: f, .. } if *f == fire))
+    );
 }
