@@ -3,7 +3,12 @@
 //!
 //! A change is a unit given a fire it was not on (an assignment, a backup joining, a
 //! takeover) or taken off the fire it was on (a release, a stand-down). Re-sent tasks,
-//! retargets on the same fire and a fire's own re-estimates are not changes. Over a busy
+//! retargets on the same fire and a fire's own re-estimates are not changes, and nor are
+//! the decisions of one instant that undo each other: a unit assigned and released in the
+//! same step (the solve that runs as each unit of a starting fleet is heard chains several
+//! at t = 0) never moved for them, so only its net change at that instant counts. (Counted
+//! as the tasks come, a fire's count can stand one above its net for the rest of that
+//! instant, while one unit's change is not yet undone by the next.) Over a busy
 //! minute a fire sees its first attacker and a backup come, one handover (two changes)
 //! and its attackers stood down when it is out: about six. A coordinator that thrashes
 //! assigns and releases the same unit every second or two, dozens a minute (2304
@@ -33,6 +38,10 @@ pub(super) struct Churn {
     /// Per fire, the times of its changes within the last window.
     recent: BTreeMap<FireId, VecDeque<f64>>,
     tally: ChurnTally,
+    /// The instant of the latest change, and per unit changed then: its fire before that
+    /// instant and the fires its net change counted.
+    instant: f64,
+    this_instant: BTreeMap<UnitId, (Option<FireId>, Vec<FireId>)>,
 }
 
 /// How much the fleet's assignments churned over a history.
@@ -60,11 +69,37 @@ impl Churn {
             Some(f) => self.on.insert(task.unit.clone(), f),
             None => self.on.remove(&task.unit),
         };
-        before
-            .into_iter()
-            .chain(now)
+        if t != self.instant {
+            self.instant = t;
+            self.this_instant.clear();
+        }
+        let (start, counted) = self
+            .this_instant
+            .remove(&task.unit)
+            .unwrap_or((before, Vec::new()));
+        for fire in counted {
+            self.retract(fire, t);
+        }
+        let net: Vec<FireId> = if start == now {
+            Vec::new()
+        } else {
+            start.into_iter().chain(now).collect()
+        };
+        self.this_instant
+            .insert(task.unit.clone(), (start, net.clone()));
+        net.into_iter()
             .filter_map(|fire| self.change(fire, t))
             .collect()
+    }
+
+    /// Take back a change to `fire` counted at `t`, the current instant.
+    fn retract(&mut self, fire: FireId, t: f64) {
+        if let Some(times) = self.recent.get_mut(&fire)
+            && let Some(k) = times.iter().rposition(|&s| s == t)
+        {
+            times.remove(k);
+            self.tally.changes -= 1;
+        }
     }
 
     fn change(&mut self, fire: FireId, t: f64) -> Option<(FireId, usize)> {
@@ -123,6 +158,23 @@ mod tests {
                 worst: Some((FireId(1), 3))
             }
         );
+    }
+
+    #[test]
+    fn decisions_that_undo_each_other_within_an_instant_are_no_change() {
+        let mut c = Churn::default();
+        // At one instant: a, then b, then c given fire 1, each relieving the one before
+        // (the solve as each unit of a starting fleet is heard).
+        c.task(&task("a", 1, Some(1)), 0.0);
+        c.task(&task("b", 1, Some(1)), 0.0);
+        c.task(&task("a", 2, None), 0.0);
+        c.task(&task("c", 1, Some(1)), 0.0);
+        c.task(&task("b", 2, None), 0.0);
+        assert_eq!(c.tally().changes, 1, "only c came");
+        // Later, c handed over to a: two changes.
+        c.task(&task("a", 3, Some(1)), 5.0);
+        c.task(&task("c", 2, None), 5.0);
+        assert_eq!(c.tally().changes, 3);
     }
 
     #[test]
