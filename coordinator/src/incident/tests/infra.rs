@@ -82,6 +82,22 @@ fn extinguish_tasks(out: &[Output]) -> Vec<(UnitId, Point2, Approach)> {
         .collect()
 }
 
+/// `unit`, where it stands, reporting the flame of zone 15 at (152, -2) at t = 30 s.
+fn sees_the_flame(inc: &Incident, unit: &UnitId) -> FlameReport {
+    let at = inc.units[unit].state.as_ref().unwrap().pose.x;
+    FlameReport {
+        unit: unit.clone(),
+        t: 30.0,
+        observer: Pose2::new(at, -2.5, 0.0),
+        observations: vec![FlameObservation {
+            position: Point2::new(152.0, -2.0),
+            cov: [0.2, 0.0, 0.2],
+            confidence: 0.9,
+            hrr_kw: None,
+        }],
+    }
+}
+
 #[test]
 fn an_alarm_peak_sends_a_unit_before_any_has_seen_the_fire_and_a_sighting_moves_it_there() {
     let mut inc = site();
@@ -109,19 +125,7 @@ fn an_alarm_peak_sends_a_unit_before_any_has_seen_the_fire_and_a_sighting_moves_
     assert!(!inc.fusion.get(fire).unwrap().corroborated());
     // The unit sees the flame 3 m from the zone's middle: its task moves there, and the
     // detector's word and the unit's corroborate each other.
-    let at = inc.units[&unit].state.as_ref().unwrap().pose.x;
-    let report = FlameReport {
-        unit: unit.clone(),
-        t: 30.0,
-        observer: Pose2::new(at, -2.5, 0.0),
-        observations: vec![FlameObservation {
-            position: Point2::new(152.0, -2.0),
-            cov: [0.2, 0.0, 0.2],
-            confidence: 0.9,
-            hrr_kw: None,
-        }],
-    };
-    let out = inc.report_at(&report, 30.0).unwrap();
+    let out = inc.report_at(&sees_the_flame(&inc, &unit), 30.0).unwrap();
     let moved = extinguish_tasks(&out);
     assert!(
         moved
@@ -273,19 +277,7 @@ fn a_zone_heating_up_again_after_its_fire_was_called_out_reopens_it() {
     let mut inc = site();
     let (fire, unit, seq) = sent_by_the_dts(&mut inc);
     // The unit saw the flame, and then saw it gone: out.
-    let at = inc.units[&unit].state.as_ref().unwrap().pose.x;
-    let report = FlameReport {
-        unit: unit.clone(),
-        t: 30.0,
-        observer: Pose2::new(at, -2.5, 0.0),
-        observations: vec![FlameObservation {
-            position: Point2::new(152.0, -2.0),
-            cov: [0.2, 0.0, 0.2],
-            confidence: 0.9,
-            hrr_kw: None,
-        }],
-    };
-    inc.report_at(&report, 30.0).unwrap();
+    inc.report_at(&sees_the_flame(&inc, &unit), 30.0).unwrap();
     let seq = inc.units[&unit].task.as_ref().map_or(seq, |k| k.seq);
     claims_out(&mut inc, &unit, fire, seq, 40.0);
     assert_eq!(inc.fusion.get(fire).unwrap().state, FireState::Out);
