@@ -285,11 +285,23 @@ pub fn render_site(scenario: &Scenario, a: &Layout) -> Result<Vec<Identity>, Ren
 
 /// The Zenoh id a site's router runs under: fixed by its site and name, so that a unit can
 /// tell from its session which of the site file's routers it is linked through (and move
-/// to a nearer one: `firefleet agent`). 16 bytes of SHA-256, in hex.
+/// to a nearer one: `firefleet agent`). 16 bytes of SHA-256, in hex, with a first digit
+/// that is never 0.
+///
+/// Zenoh reads an id as a hexadecimal number and refuses one written with a leading 0
+/// ("Leading 0s are not valid"), which one hash in sixteen starts with (both of site
+/// `nord`'s routers did, and they could not start). Setting a bit of the first byte's high
+/// nibble only where it is 0 keeps every other id as it was, so sites rendered before keep
+/// theirs.
 pub fn router_zid(site: &firefleet_model::SiteId, who: &Identity) -> String {
     use sha2::Digest as _;
     let digest = sha2::Sha256::digest(format!("firefleet router {site}/{who}").as_bytes());
-    digest[..16].iter().map(|b| format!("{b:02x}")).collect()
+    let mut id = [0u8; 16];
+    id.copy_from_slice(&digest[..16]);
+    if id[0] < 0x10 {
+        id[0] |= 0x10;
+    }
+    id.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// A router to render: who, where it listens, where it is reached, and where it stands.
@@ -412,7 +424,43 @@ pub fn access_table(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use firefleet_model::SiteId;
     use firefleet_model::scenario::RouterSpec;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Any site and router name makes an id Zenoh takes, and writes back as rendered
+        /// (a unit compares the two to tell which router it is linked through).
+        #[test]
+        fn every_site_and_router_name_makes_a_zenoh_id(
+            site in "[a-z0-9][a-z0-9_-]{0,47}",
+            router in proptest::option::of("[a-z0-9][a-z0-9_-]{0,40}"),
+        ) {
+            let site = SiteId::new(site).unwrap();
+            let who = Identity::Router(router.map(|r| RouterId::new(r).unwrap()));
+            let zid = router_zid(&site, &who);
+            let parsed: zenoh::session::ZenohId = zid.parse().map_err(|e| {
+                TestCaseError::fail(format!("site {site}, {who}: id {zid} refused: {e}"))
+            })?;
+            prop_assert_eq!(parsed.to_string(), zid);
+        }
+    }
+
+    /// Site `nord`: both routers' hashed ids began with 0, which Zenoh refuses.
+    #[test]
+    fn site_nord_has_router_ids_zenoh_takes() {
+        let site = SiteId::new("nord").unwrap();
+        for who in [
+            Identity::ROUTER,
+            Identity::Router(Some(RouterId::new("east").unwrap())),
+        ] {
+            let zid = router_zid(&site, &who);
+            assert!(
+                zid.parse::<zenoh::session::ZenohId>().is_ok(),
+                "{who}: {zid}"
+            );
+        }
+    }
 
     fn config(dir: &Path, who: &str) -> Value {
         let text = fs::read_to_string(dir.join(format!("{who}.json5"))).unwrap();

@@ -206,13 +206,9 @@ fn deploy_render_writes_the_documented_rules_and_a_site_router_refuses_plain_lin
 fn the_scada_roles_refuse_a_site_file_that_maps_no_scada() {
     let site = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/site/site.toml");
     let out = firefleet(&["scada", "--scenario", site, "--modbus", "127.0.0.1:1"]);
-    assert_says(&out, 2, "site 'tunnel-g': its file maps no [scada]");
+    assert_says(&out, 2, "site 'nord': its file maps no [scada]");
     let out = firefleet(&["sim", "--scenario", site, "--scada", "127.0.0.1:1"]);
-    assert_says(
-        &out,
-        2,
-        "--scada: site 'tunnel-g': its file maps no [scada]",
-    );
+    assert_says(&out, 2, "--scada: site 'nord': its file maps no [scada]");
     let out = firefleet(&["demo", "--scenario", site, "--scada"]);
     assert_says(
         &out,
