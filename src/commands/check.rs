@@ -1,18 +1,24 @@
-//! `firefleet check FILE.mcap`: the incident's invariants over a recording (units out of
-//! barred zones in time, no task into barred space, no attack where a goal forbids it,
+//! `firefleet check FILE.mcap...`: the incident's invariants over each recording (units out
+//! of barred zones in time, no task into barred space, no attack where a goal forbids it,
 //! fencing, no fire abandoned with a lost unit or forgotten across a takeover). Prints
-//! every violation and exits 1 if there is any.
+//! every violation and exits 1 if there is any, or if a recording cannot be read.
+//!
+//! A site's recorder starts a file at each start (and each recorder makes its own), so the
+//! incident is as many files as the site made: each is checked on its own, as the record
+//! of the stretch of the incident it holds, and one that cannot be read does not stop the
+//! others from being checked.
 //!
 //! Not here: the invariants (`firefleet_coordinator::invariants`) or feeding a recording
 //! to them (`firefleet::checking`); this command prints the verdict.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
 use firefleet_coordinator::incident::LEASE_S;
 use firefleet_coordinator::invariants::{churn, pinned};
+use firefleet_model::scenario::Scenario;
 use firefleet_recorder::parts::Recording;
 
 use super::{ScenarioArg, positive_f64};
@@ -20,9 +26,10 @@ use firefleet::checking::check;
 
 #[derive(Args, Debug)]
 pub struct CheckArgs {
-    /// The recording: its MCAP file, or the parts a recorder killed before it could merge
-    /// them left (`FILE.mcap.parts/`; naming `FILE.mcap` finds them too).
-    file: PathBuf,
+    /// The recordings: each an MCAP file, or the parts a recorder killed before it could
+    /// merge them left (`FILE.mcap.parts/`; naming `FILE.mcap` finds them too).
+    #[arg(required = true, value_name = "FILE")]
+    files: Vec<PathBuf>,
     /// The site the recording is of.
     #[command(flatten)]
     scenario: ScenarioArg,
@@ -33,16 +40,46 @@ pub struct CheckArgs {
 
 pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
     let scenario = a.scenario.load()?;
-    let recording = Recording::load(&a.file)?;
+    let mut failed = 0;
+    for file in &a.files {
+        match check_one(file, &scenario, a.lease_s) {
+            Ok(true) => {}
+            Ok(false) => failed += 1,
+            Err(e) => {
+                failed += 1;
+                println!("{}: not checked: {e:#}", file.display());
+            }
+        }
+    }
+    if a.files.len() > 1 {
+        println!(
+            "{} recordings checked: {}",
+            a.files.len(),
+            match failed {
+                0 => "every one holds".to_owned(),
+                n => format!("{n} with violations or unreadable"),
+            }
+        );
+    }
+    Ok(if failed == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// Check one recording and print its verdict: whether it holds.
+fn check_one(file: &Path, scenario: &Scenario, lease_s: f64) -> anyhow::Result<bool> {
+    let recording = Recording::load(file)?;
     let checked =
-        check(&recording, &scenario, a.lease_s).with_context(|| a.file.display().to_string())?;
+        check(&recording, scenario, lease_s).with_context(|| file.display().to_string())?;
     for v in &checked.violations {
         println!("{v}");
     }
     let c = checked.continuity;
     println!(
         "{}: {} messages of site '{}', {} violations; {} fires owed a unit (lost units', takeovers'): {} sent in time, {} needing none",
-        a.file.display(),
+        file.display(),
         checked.messages,
         scenario.site,
         checked.violations.len(),
@@ -77,9 +114,5 @@ pub fn run(a: CheckArgs) -> anyhow::Result<ExitCode> {
             checked.forged
         );
     }
-    Ok(if checked.violations.is_empty() {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
+    Ok(checked.violations.is_empty())
 }

@@ -86,6 +86,27 @@ fn demo_fleet_puts_out_every_fire_and_records_the_incident() {
     let rec = recording.to_str().unwrap();
     let out = crate::support::firefleet(&["check", rec, "--scenario", "cargo-truck"]);
     assert_says(&out, 0, "0 violations");
+    // A site's recordings are many files (one per recorder start): every one is checked,
+    // and one that cannot be read fails the check without hiding the others' verdicts.
+    let missing = recording.with_file_name("never-made.mcap");
+    let out = crate::support::firefleet(&[
+        "check",
+        rec,
+        missing.to_str().unwrap(),
+        "--scenario",
+        "cargo-truck",
+    ]);
+    assert_says(
+        &out,
+        1,
+        "2 recordings checked: 1 with violations or unreadable",
+    );
+    assert!(text(&out).contains("0 violations"), "{}", text(&out));
+    assert!(
+        text(&out).contains("never-made.mcap: not checked"),
+        "{}",
+        text(&out)
+    );
 
     // The timeline of the incident, from the recording alone.
     let replay = Command::new(BIN)
