@@ -31,7 +31,8 @@
 //! answers `fire/*` with the latest of each; the tracks keep their ids), then from the
 //! units' states (adopting the tasks they still work on) and their new reports. A
 //! [`standby`] follows the tracks and goals itself and takes over when the coordinator in
-//! charge is gone. [`stats`] is what it counts for monitoring.
+//! charge is gone. Each keeps the goals in force in its [`journal`] on its own host, so no
+//! combination of restarts forgets a keep-out. [`stats`] is what it counts for monitoring.
 //!
 //! Not here: recording (the `firefleet-recorder` crate) or anything a robot runs
 //! (`firefleet-agent`).
@@ -42,6 +43,7 @@ pub mod fusion;
 pub mod goals;
 pub mod incident;
 pub mod invariants;
+pub mod journal;
 pub mod node;
 pub mod pacing;
 pub mod roads;

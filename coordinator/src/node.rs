@@ -39,7 +39,9 @@ use firefleet_protocol::msg::{
 };
 
 use crate::assign::Strategy;
+use crate::incident::freshness;
 use crate::incident::{Decision, Incident, Loss, Output};
+use crate::journal::GoalJournal;
 use crate::pacing::{Republish, TokenGrace};
 
 /// How the coordinator runs.
@@ -53,9 +55,12 @@ pub struct CoordinatorOptions {
     /// Fire tracks to take back at start besides those recorders answer with (read from a
     /// recording: `firefleet_recorder::reader::incident_in`); the newest of each fire wins.
     pub resume: Vec<FireTrack>,
-    /// Goals in force to take back at start, read from a recording likewise; the newer of
-    /// these and what recorders answer with wins.
+    /// Goals in force to take back at start, read from a recording likewise; the newest
+    /// of these, the [`journal`](Self::journal)'s and what recorders answer with wins.
     pub resume_goals: Option<GoalsInForce>,
+    /// Where this coordinator keeps the goals in force on its host, written as they change
+    /// and taken back at start ([`crate::journal`]); `None` keeps them only on the bus.
+    pub journal: Option<GoalJournal>,
     /// This coordinator's rank among the site's coordinators: the remainder of its epochs
     /// ([`firefleet_protocol::msg::epoch_after`]) and, standing by, when it takes over.
     pub rank: u32,
@@ -102,7 +107,10 @@ pub async fn run(
 
     let _token = bus.token(&Topic::CoordAlive).await?;
     let mut inputs = Inputs::subscribe(bus, scenario).await?;
-    let mut told = Told::default();
+    let mut told = Told {
+        journal: opts.journal.clone(),
+        ..Told::default()
+    };
 
     let epoch = take_office(
         bus,
@@ -449,7 +457,37 @@ async fn take_back(
     sim_time: &ExternalClock,
 ) -> Result<(), BusError> {
     let now = || clock.map_or(sim_time.now(), Clock::now);
-    if let Some(kept) = GoalsInForce::newer(recall_goals(bus).await?, opts.resume_goals.clone()) {
+    // A set dated ahead of the site clock is of another incident (a rehearsal whose clock
+    // started again at 0, a host whose clock was wrong) or forged (a stolen recorder key
+    // dated one far ahead to win below): set aside. Undated by any clock, nothing is.
+    let t = now();
+    let dated = |g: &GoalsInForce, from: &str| {
+        let ahead = clock.is_some() && g.t > t + freshness::AHEAD_S;
+        if ahead {
+            bus.rejects().count_invalid();
+            tracing::warn!(
+                "goals in force from {from} set aside: dated t = {:.1} s, ahead of the site clock ({t:.1} s)",
+                g.t
+            );
+        }
+        !ahead
+    };
+    let kept_here = opts.journal.as_ref().and_then(|j| match j.load() {
+        Ok(g) => g,
+        Err(e) => {
+            tracing::error!("goals in force kept on this host not taken back: {e}");
+            None
+        }
+    });
+    let local = GoalsInForce::newer(opts.resume_goals.clone(), kept_here)
+        .filter(|g| dated(g, "this host's record"));
+    let recorded = recall_goals(bus)
+        .await?
+        .filter(|g| dated(g, "a recorder's answer"));
+    // The newest wins, this host's own on a tie: each is what a coordinator in office
+    // published at its `t`, and a coordinator that was down while another served has an
+    // older record than the recorders.
+    if let Some(kept) = GoalsInForce::newer(local, recorded) {
         let (out, refused) = incident.restore_goals(&kept, now());
         for ack in refused {
             bus.rejects().count_invalid();
@@ -585,10 +623,12 @@ async fn heed_units(
     heard.len()
 }
 
-/// Which revision of its goals the coordinator last published (`None`: none yet).
+/// Which revision of its goals the coordinator last published (`None`: none yet), and
+/// where it keeps each new one on its host.
 #[derive(Default)]
 struct Told {
     revision: Option<u64>,
+    journal: Option<GoalJournal>,
     /// The fires the goals stranded and the units they trapped, as last told.
     stranded: Vec<Stranded>,
     trapped: Vec<Trapped>,
@@ -611,6 +651,9 @@ impl Told {
             bus.put(&keys.coord_barred(), &incident.barred_space(t))
                 .await?;
             let goals = incident.goals_in_force(t);
+            if self.revision != Some(revision) {
+                keep(self.journal.as_ref(), &goals);
+            }
             bus.put(&keys.coord_goals(), &goals).await?;
             self.stranded = goals.stranded;
             self.trapped = goals.trapped;
@@ -631,6 +674,18 @@ impl Told {
             self.trapped = goals.trapped;
         }
         Ok(())
+    }
+}
+
+/// Keep `goals` in `journal`, if there is one. Synchronously, in the coordinator's loop:
+/// goals change at a commander's hand, and writing and syncing a few kilobytes takes
+/// milliseconds. A failure is logged, not fatal: the goals still hold, and go out on the
+/// bus for recorders and the standby to keep.
+pub(crate) fn keep(journal: Option<&GoalJournal>, goals: &GoalsInForce) {
+    if let Some(j) = journal
+        && let Err(e) = j.store(goals)
+    {
+        tracing::error!("goals in force not kept on this host: {e}");
     }
 }
 

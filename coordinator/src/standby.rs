@@ -6,7 +6,9 @@
 //! the coordinator in charge publishes (tracks on change and every second, goals likewise).
 //! Taking over is [`crate::node::run`] with those as what it resumes from, so a takeover
 //! needs no recorder and forgets no fire and no keep-out; the site clock and the units'
-//! task numbers come first, as at any start, so no task number goes back.
+//! task numbers come first, as at any start, so no task number goes back. The goals it
+//! follows it also keeps on its host ([`crate::journal`]), as the coordinator in charge
+//! does, so a standby restarted together with everyone else takes them back.
 //!
 //! Who takes over: each standby has a rank, given by the operator (0, 1, 2, ... on the
 //! site's coordinator machines). When the coordinator's liveliness token vanishes (or none
@@ -109,7 +111,14 @@ async fn follow(
                     tracks.insert(track.id, track);
                 }
             }
-            Some((_, g)) = goals.recv() => newest = GoalsInForce::newer(Some(g), newest),
+            Some((_, g)) = goals.recv() => {
+                // Kept on this host as they change (not at each second's re-send), so a
+                // standby restarted with everyone else takes them back.
+                if newest.as_ref().is_none_or(|n| n.goals != g.goals) {
+                    crate::node::keep(opts.journal.as_ref(), &g);
+                }
+                newest = GoalsInForce::newer(Some(g), newest);
+            }
             Some((_, alive)) = coordinator.recv() => {
                 in_charge = alive;
                 if !in_charge {

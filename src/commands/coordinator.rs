@@ -12,6 +12,7 @@ use clap::Args;
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
 use firefleet_coordinator::CoordinatorOptions;
+use firefleet_coordinator::journal::GoalJournal;
 use firefleet_model::SiteId;
 use firefleet_protocol::msg::EPOCH_RANKS;
 use firefleet_recorder::parts::Recording;
@@ -51,6 +52,12 @@ pub struct CoordinatorArgs {
     /// the coordinator takes office in, so two never share one.
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..EPOCH_RANKS as i64))]
     rank: u32,
+    /// Keep the goals in force in this directory (created if missing), written as they
+    /// change and taken back at every start, so that no combination of restarts forgets a
+    /// keep-out; the packaged service gives it its StateDirectory. Without it the goals
+    /// live on the bus only (this coordinator, its standby, the recorders).
+    #[arg(long, value_name = "DIR")]
+    state_dir: Option<PathBuf>,
 }
 
 pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
@@ -68,6 +75,15 @@ pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
         .metrics
         .serve(&bus, false, Some(Arc::new(move |r| figures.register(r))))
         .await?;
+    let journal = a
+        .state_dir
+        .as_deref()
+        .map(GoalJournal::open)
+        .transpose()
+        .context("--state-dir")?;
+    if let Some(j) = &journal {
+        tracing::info!(file = %j.path().display(), "goals in force kept on this host");
+    }
     let resumed = match &a.resume {
         Some(path) => recorded(path, &scenario.site)?,
         None => Recorded::default(),
@@ -78,6 +94,7 @@ pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
         strategy: a.assignment,
         resume: resumed.tracks,
         resume_goals: resumed.goals,
+        journal,
         rank: a.rank,
         stats,
     };

@@ -861,6 +861,90 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
     }
 }
 
+/// A power cut: the coordinator and its standby go down together, with no recorder
+/// running. Each kept the goals in force in its state directory, so a coordinator started
+/// on either host bars what was barred from its first word; and a clear outlives a restart
+/// as a goal does (a cleared keep-out does not come back).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn goals_outlive_the_coordinator_and_its_standby_going_down_together() {
+    let (bus, endpoint) = router("tunnel-r").await;
+    let told = bus.subscribe(&bus.keys().coord_barred()).await.unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (here, standby_host) = (dir.path().join("coordinator"), dir.path().join("standby"));
+    let coordinator = |state: &Path, extra: &[&str]| {
+        let args: Vec<&str> = ["coordinator", "--state-dir", state.to_str().unwrap()]
+            .iter()
+            .chain(extra)
+            .copied()
+            .collect();
+        spawn_role("rail-tunnel", &endpoint, &args)
+    };
+    let mut fleet = Fleet(vec![
+        coordinator(&here, &[]),
+        coordinator(&standby_host, &["--standby", "--rank", "1"]),
+    ]);
+    let out = set_goal(&endpoint, &["--goal", "keep-out", "--rail-allowed"]).await;
+    assert_says(&out, 0, "accepted");
+    let barred = barred_answer(&bus, Duration::from_secs(5)).await.spans;
+    // The standby keeps what it follows: wait until its record has the goal.
+    let record = standby_host.join("goals-in-force.json");
+    let deadline = Instant::now() + patient(Duration::from_secs(10));
+    while !std::fs::read_to_string(&record)
+        .unwrap_or_default()
+        .contains("firefleet-cli-deep-keep-out")
+    {
+        assert!(Instant::now() < deadline, "the standby never kept the goal");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    let restart = |fleet: &mut Fleet, state: &Path| {
+        for c in &mut fleet.0 {
+            c.kill().unwrap();
+            c.wait().unwrap();
+        }
+        while told.try_recv().is_some() {}
+        fleet.0.push(coordinator(state, &[]));
+    };
+    let first_word = || async {
+        let (_, first) = tokio::time::timeout(patient(Duration::from_secs(20)), told.recv())
+            .await
+            .expect("the restarted coordinator never published the barred space")
+            .expect("bus open");
+        first.spans
+    };
+    restart(&mut fleet, &standby_host);
+    assert_eq!(first_word().await, barred, "lifted by the power cut");
+    let status = status_of(&bus, Duration::from_secs(10)).await;
+    assert_eq!(
+        status["goals"][0]["id"], "firefleet-cli-deep-keep-out",
+        "{status}"
+    );
+    // Cleared, then everything down again: the clear is what is kept.
+    assert!(
+        cli(
+            "rail-tunnel",
+            &endpoint,
+            &["goal", "clear", "--zone", "deep"]
+        )
+        .status
+        .success()
+    );
+    let deadline = Instant::now() + patient(Duration::from_secs(10));
+    while std::fs::read_to_string(&record)
+        .unwrap_or_default()
+        .contains("firefleet-cli-deep-keep-out")
+    {
+        assert!(Instant::now() < deadline, "the clear was never kept");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    restart(&mut fleet, &standby_host);
+    assert_eq!(
+        first_word().await,
+        Vec::new(),
+        "a cleared keep-out came back"
+    );
+    bus.close().await;
+}
+
 /// The barred space on `coord/barred` as whoever answers a query (the coordinator, or a
 /// recorder once it is gone) gives it, once it bars something.
 async fn barred_answer(bus: &Bus, within: Duration) -> BarredSpace {

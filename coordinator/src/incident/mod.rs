@@ -68,7 +68,7 @@ use crate::roads::RoadMaps;
 mod decision;
 mod dispatch;
 mod events;
-mod freshness;
+pub(crate) mod freshness;
 mod infra;
 mod policy;
 mod search;
