@@ -3,7 +3,8 @@
 //! Identifiers, the site frame and its geometry, the tunnel and its chainage, the site
 //! (scenario) file format and its validation, robot profiles and the specs they carry,
 //! how time is read, when two places are one fire, where a carriage sprays from, the tunnel's ventilation and SCADA map,
-//! and the radiant heat model the planners and the console share.
+//! the radiant heat model the planners and the console share, and the file a role keeps
+//! its state in across restarts.
 //!
 //! ```
 //! use firefleet_model::{Point2, builtin};
@@ -32,6 +33,7 @@ mod names;
 pub mod profile;
 pub mod scenario;
 pub mod spec;
+pub mod state_file;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod tunnel;
