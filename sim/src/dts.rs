@@ -23,6 +23,14 @@ pub struct Dts {
     readings: Vec<DtsReading>,
 }
 
+/// What of the detector changes as it measures: its latest measurement (each zone's
+/// maximum, for the next rate of rise) and the readings it gives.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct DtsState {
+    last: Option<(f64, Vec<f64>)>,
+    readings: Vec<DtsReading>,
+}
+
 impl Dts {
     pub fn new(map: ScadaMap, length_m: f64) -> Self {
         Self {
@@ -35,6 +43,20 @@ impl Dts {
 
     pub fn map(&self) -> &ScadaMap {
         &self.map
+    }
+
+    /// What changes as it measures ([`crate::world::Snapshot`]).
+    pub fn state(&self) -> DtsState {
+        DtsState {
+            last: self.last.clone(),
+            readings: self.readings.clone(),
+        }
+    }
+
+    /// Carry on from what [`Self::state`] gave.
+    pub fn restore(&mut self, s: DtsState) {
+        self.last = s.last;
+        self.readings = s.readings;
     }
 
     /// A measurement is due at `t`.

@@ -31,7 +31,8 @@ use tokio::time::MissedTickBehavior;
 
 use crate::physics;
 use crate::scada::Registers;
-use crate::world::World;
+use crate::world::{Snapshot, World};
+use firefleet_model::state_file::StateFile;
 
 /// How to run the simulator.
 #[derive(Debug, Clone)]
@@ -52,6 +53,10 @@ pub struct SimOptions {
     pub scada: Option<SocketAddr>,
     /// Stop serving the SCADA at this site time (a cut link).
     pub cut_scada_at: Option<f64>,
+    /// Where the world is kept (every site or wall second, the sooner, and at a stop) and taken back from at
+    /// start, so that a restarted simulator carries the rehearsal on
+    /// ([`crate::world::Snapshot`]); `None` starts the rehearsal anew at every start.
+    pub state: Option<StateFile>,
 }
 
 impl Default for SimOptions {
@@ -65,6 +70,7 @@ impl Default for SimOptions {
             ros2: None,
             scada: None,
             cut_scada_at: None,
+            state: None,
         }
     }
 }
@@ -108,6 +114,16 @@ pub async fn run(
         })?;
     let keys = bus.keys().clone();
     let mut world = World::new(scenario, opts.seed);
+    if let Some(state) = &opts.state {
+        take_back(&mut world, state);
+    }
+    let keeper = opts.state.clone().map(Keeper::spawn);
+    // Every site second (or wall second, the sooner): a simulator restarted after a crash
+    // resumes at most a second of site time behind the clock every role kept, well inside
+    // the window they judge messages by (the coordinator's: 10 s behind).
+    let keep_every = (1.0 / opts.step_s.max(period.as_secs_f64()))
+        .ceil()
+        .max(1.0) as u64;
     let commands = bus.subscribe(&keys.every_sim_cmd()).await?;
     let rail_commands = bus.subscribe(&keys.every_sim_rail_cmd()).await?;
     let ros_bodies = match opts.ros2 {
@@ -211,11 +227,87 @@ pub async fn run(
         if step.is_multiple_of(2) {
             bus.put(&keys.sim_truth(), &world.truth()).await?;
         }
+        if let Some(k) = &keeper
+            && step.is_multiple_of(keep_every)
+        {
+            k.keep(&world);
+        }
         step += 1;
+    }
+    if let Some(k) = keeper {
+        k.last(&world).await;
     }
     let truth = world.truth();
     bus.put(&keys.sim_truth(), &truth).await?;
     Ok(truth)
+}
+
+/// Carry on the rehearsal `state` holds, if it holds one of this world; otherwise the
+/// world starts anew, and the log says why.
+fn take_back(world: &mut World, state: &StateFile) {
+    let snapshot = match state.read() {
+        Ok(Some(bytes)) => match postcard::from_bytes::<Snapshot>(&bytes) {
+            Ok(s) => s,
+            Err(e) => {
+                tracing::error!(file = %state.path().display(), "the world kept is unreadable ({e}): starting the rehearsal anew");
+                return;
+            }
+        },
+        Ok(None) => return,
+        Err(e) => {
+            tracing::error!("the world kept is not taken back ({e}): starting the rehearsal anew");
+            return;
+        }
+    };
+    match world.resume(snapshot) {
+        Ok(()) => tracing::warn!(
+            t = world.time(),
+            file = %state.path().display(),
+            "carrying on the rehearsal where the world was kept"
+        ),
+        Err(why) => tracing::warn!(
+            file = %state.path().display(),
+            "the world kept is not taken back ({why}): starting the rehearsal anew"
+        ),
+    }
+}
+
+/// Keeps the world in its state file off the simulation loop: the loop hands over the
+/// latest snapshot's bytes, a blocking thread writes them (a file sync takes milliseconds,
+/// a step at time scale 10 five), and a snapshot that comes while one is written replaces
+/// the one waiting.
+struct Keeper {
+    latest: tokio::sync::watch::Sender<Vec<u8>>,
+    writer: tokio::task::JoinHandle<()>,
+}
+
+impl Keeper {
+    fn spawn(state: StateFile) -> Self {
+        let (latest, mut rx) = tokio::sync::watch::channel(Vec::new());
+        let writer = tokio::spawn(async move {
+            while rx.changed().await.is_ok() {
+                let bytes = rx.borrow_and_update().clone();
+                let file = state.clone();
+                let written = tokio::task::spawn_blocking(move || file.write(&bytes)).await;
+                if let Ok(Err(e)) = written {
+                    tracing::error!("the world is not kept: {e}");
+                }
+            }
+        });
+        Self { latest, writer }
+    }
+
+    fn keep(&self, world: &World) {
+        let bytes = postcard::to_stdvec(&world.snapshot()).expect("a snapshot serialises");
+        self.latest.send_replace(bytes);
+    }
+
+    /// Keep the world as it is at a stop, and wait until it is written.
+    async fn last(self, world: &World) {
+        self.keep(world);
+        drop(self.latest);
+        let _ = self.writer.await;
+    }
 }
 
 /// The SCADA's Modbus server on `addr`, and its task (aborted when dropped).

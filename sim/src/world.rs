@@ -28,7 +28,9 @@ use firefleet_model::infra::{DtsReading, ScadaMap, VentReading, Ventilation};
 
 mod fire;
 mod sensing;
+mod snapshot;
 use fire::Fire;
+pub use snapshot::{Mismatch, Snapshot};
 
 /// Every unit of a validated scenario has a profile of its kind.
 const VALIDATED: &str = "a validated scenario's units have profiles of their kind";
@@ -142,7 +144,7 @@ fn inside(pose: &Pose2, spec: &GroundSpec, p: Point2) -> bool {
 }
 
 /// How close a parked vehicle is to catching fire.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy, Default, serde::Serialize, serde::Deserialize)]
 struct Exposure {
     /// Flux-time product so far, kJ/m^2.
     ftp: f64,

@@ -9,11 +9,15 @@ use anyhow::Context;
 use clap::Args;
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
+use firefleet_model::state_file::StateFile;
 use firefleet_ros2::graph::Domain;
 use firefleet_sim::SimOptions;
 
 use super::{RoleArgs, positive_f64, time_scale};
 use firefleet::net::{join, shutdown_signal};
+
+/// The world's file in the simulator's state directory.
+const WORLD_FILE: &str = "world.postcard";
 
 #[derive(Args, Debug)]
 pub struct SimArgs {
@@ -46,6 +50,13 @@ pub struct SimArgs {
     /// With --scada: stop serving it at this site time (a cut link, for tests and demos).
     #[arg(long, value_name = "SECONDS", requires = "scada")]
     cut_scada_at: Option<f64>,
+    /// Keep the simulated world in this directory (created if missing), every second of
+    /// site time and at a stop, and carry the rehearsal on from it at start: a restarted simulator goes
+    /// on where it was rather than starting the site clock again. The packaged service
+    /// gives it its StateDirectory; remove the directory's contents (`systemctl clean
+    /// firefleet-sim`) to start a new rehearsal.
+    #[arg(long, value_name = "DIR")]
+    state_dir: Option<std::path::PathBuf>,
 }
 
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
@@ -69,6 +80,12 @@ pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
             .context("--ros-domain")?,
         scada: a.scada,
         cut_scada_at: a.cut_scada_at,
+        state: a
+            .state_dir
+            .as_deref()
+            .map(|d| StateFile::in_dir(d, WORLD_FILE))
+            .transpose()
+            .context("--state-dir")?,
         ..SimOptions::default()
     };
     let truth = firefleet_sim::run(

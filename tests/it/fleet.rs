@@ -19,8 +19,8 @@ use firefleet_model::{FireId, Point2, Pose2, UnitId, ZoneId};
 use firefleet_protocol::codec::{self, PROTOCOL_VERSION};
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    Bar, BarredSpace, FireState, FireTrack, FlameObservation, FlameReport, SimTruth, Task,
-    TaskKind, TaskPhase, TaskProgress, UnitState,
+    Bar, BarredSpace, FireState, FireTrack, FlameObservation, FlameReport, SimClock, SimTruth,
+    Task, TaskKind, TaskPhase, TaskProgress, UnitState,
 };
 
 /// Run `firefleet demo` on `scenario` at 8x with `extra` arguments; its summary, after
@@ -399,6 +399,86 @@ async fn a_restarted_coordinator_takes_over_mid_incident() {
     assert!(
         decisions.contains(&format!("recall fire {old_fire}")),
         "the new coordinator recalled the recorded track: {decisions}"
+    );
+    drop(fleet);
+    bus.close().await;
+}
+
+/// The simulator killed mid-incident and started again on its state directory carries the
+/// rehearsal on: its clock goes on from where the world was kept, not from 0 (which every
+/// role would refuse as stale, wedging the site), the unit at work is where it was, and the
+/// fire still goes out.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_simulator_restarted_mid_incident_carries_the_rehearsal_on() {
+    let (bus, endpoint) = router("handover").await;
+    let keys = bus.keys().clone();
+    let near = UnitId::new("ugv-near").unwrap();
+    let near_state = bus
+        .subscribe::<UnitState>(&keys.unit_state(&near))
+        .await
+        .unwrap();
+    let clock = bus.subscribe::<SimClock>(&keys.sim_clock()).await.unwrap();
+    let truths = bus.subscribe::<SimTruth>(&keys.sim_truth()).await.unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let state = dir.path().join("sim");
+    let sim = || {
+        spawn_role(
+            HANDOVER,
+            &endpoint,
+            &[
+                "sim",
+                "--time-scale",
+                "6",
+                "--wait-for-fleet",
+                "30",
+                "--state-dir",
+                state.to_str().unwrap(),
+            ],
+        )
+    };
+    let mut fleet = handover_fleet(&endpoint, &["coordinator", "--sim-clock"]);
+    fleet.0[0].kill().unwrap();
+    fleet.0[0].wait().unwrap();
+    fleet.0[0] = sim();
+
+    // Killed once the near unit is on its way to the fire, a few seconds in.
+    first_at_work(&near_state, |_| {}).await;
+    let mut before = None;
+    while let Some((_, c)) = clock.try_recv() {
+        before = Some(c.t);
+    }
+    let (_, c) = clock.recv().await.expect("bus open");
+    let before = before.map_or(c.t, |b: f64| b.max(c.t));
+    let (_, truth) = truths.recv().await.expect("bus open");
+    let pose_before = truth.units.iter().find(|u| u.id == near).unwrap().pose;
+    fleet.0[0].kill().unwrap();
+    fleet.0[0].wait().unwrap();
+    while clock.try_recv().is_some() {}
+    while truths.try_recv().is_some() {}
+    fleet.0[0] = sim();
+
+    let (_, after) = tokio::time::timeout(patient(Duration::from_secs(20)), clock.recv())
+        .await
+        .expect("the restarted simulator never ran")
+        .expect("bus open");
+    // Kept every site second: at most that much is lost.
+    assert!(
+        after.t >= before - 1.0 - 1e-6,
+        "the clock went back from {before:.2} s to {:.2} s",
+        after.t
+    );
+    let (_, truth) = truths.recv().await.expect("bus open");
+    let pose_after = truth.units.iter().find(|u| u.id == near).unwrap().pose;
+    assert!(
+        pose_after.position().dist(pose_before.position()) < 3.0,
+        "the unit was put back at its start: {pose_before:?} -> {pose_after:?}"
+    );
+    // Unread, the clock's inbox would fill and hold up this session (the router) with it.
+    drop(clock);
+    let truth = outcome(&truths, Duration::from_secs(90)).await;
+    assert!(
+        truth.all_out(),
+        "the rehearsal did not carry on after the simulator's restart: {truth:?}"
     );
     drop(fleet);
     bus.close().await;

@@ -52,7 +52,9 @@ pub fn text(o: &Output) -> String {
     )
 }
 
-/// `firefleet ARGS` as a client of the router at `endpoint`, on `scenario`'s site.
+/// `firefleet ARGS` as a client of the router at `endpoint`, on `scenario`'s site; it logs
+/// warnings, or what `FF_TEST_LOG` says (e.g. `info,zenoh=error` to follow a fleet test's
+/// decisions).
 fn client(scenario: &str, endpoint: &str, args: &[&str]) -> Command {
     let (role, own) = args.split_first().expect("a command");
     let role = RoleCommand::new(role)
@@ -60,7 +62,10 @@ fn client(scenario: &str, endpoint: &str, args: &[&str]) -> Command {
         .scenario(scenario)
         .client_of(endpoint);
     let mut c = Command::new(BIN);
-    c.args(role.to_args()).env("RUST_LOG", "warn,zenoh=error");
+    c.args(role.to_args()).env(
+        "RUST_LOG",
+        std::env::var("FF_TEST_LOG").unwrap_or("warn,zenoh=error".into()),
+    );
     c
 }
 

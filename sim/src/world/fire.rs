@@ -8,7 +8,7 @@ use crate::camera;
 use crate::physics;
 
 /// A fire of the world.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub(super) struct Fire {
     pub(super) spec: FireSpec,
     pub(super) alpha: f64,

@@ -330,3 +330,106 @@ fn moving_air_carries_heat_and_smoke_downstream_only() {
         "downstream {down_q} kW/m2, upstream {up_q}"
     );
 }
+
+/// A world carried on from a snapshot (through its bytes, as a restarted simulator reads
+/// it) is the world that would have run on: the same fires, spread ones included, units,
+/// heat and sensor noise, step for step.
+#[test]
+fn a_world_resumed_from_its_snapshot_runs_on_as_it_would_have() {
+    let mut w = neighbours(false);
+    w.command(
+        &u1(),
+        UnitCommand {
+            speed: 0.5,
+            steer: 0.05,
+            pan: 0.2,
+            tilt: 0.1,
+            valve_open: false,
+        },
+    );
+    let bytes = postcard::to_stdvec(&w.snapshot()).unwrap();
+    let site = Scenario::straight(100.0)
+        .name("spread")
+        .section(10.0, 6.0)
+        .time_limit(900.0)
+        .car("burning", 50.0, -1.25)
+        .car("exposed", 50.0, 1.25)
+        .fire("car", 50.0, -1.25, 5000.0)
+        .growth(Growth::Ultrafast)
+        .ignition(-300.0)
+        .ground("u1", 30.0, 3.0)
+        .build();
+    let mut resumed = World::new(&site, 99);
+    resumed
+        .resume(postcard::from_bytes(&bytes).unwrap())
+        .unwrap();
+    assert_eq!(resumed.time(), w.time());
+    assert_eq!(resumed.truth(), w.truth(), "the spread fire is back too");
+    resumed.command(
+        &u1(),
+        UnitCommand {
+            speed: 0.5,
+            steer: 0.05,
+            pan: 0.2,
+            tilt: 0.1,
+            valve_open: false,
+        },
+    );
+    for _ in 0..100 {
+        w.step(0.05);
+        resumed.step(0.05);
+        assert_eq!(resumed.sensors(&u1()), w.sensors(&u1()));
+    }
+    assert_eq!(resumed.truth(), w.truth());
+}
+
+#[test]
+fn a_snapshot_of_another_world_or_of_a_rehearsal_that_is_over_is_not_taken_back() {
+    let mut w = world();
+    for _ in 0..40 {
+        w.step(0.05);
+    }
+    let snap = w.snapshot();
+    let other = site().fire("g", 60.0, 0.0, 2000.0).build();
+    let mut fresh = World::new(&other, 1);
+    let e = fresh.resume(snap.clone()).unwrap_err();
+    assert!(e.to_string().contains("fire 1: 'g' against 'none'"), "{e}");
+    assert_eq!(fresh.time(), 0.0, "left as it was");
+    let moved = site().obstacle("van", (70.0, 2.5), [5.0, 2.0, 2.2]).build();
+    assert!(matches!(
+        World::new(&moved, 1).resume(snap.clone()),
+        Err(Mismatch::Obstacles { now: 2, then: 1 })
+    ));
+    let short = site().time_limit(1.0).build();
+    assert!(matches!(
+        World::new(&short, 1).resume(snap),
+        Err(Mismatch::Over { .. })
+    ));
+}
+
+/// A unit the site file added since the snapshot starts where the file says; the others
+/// are where they stood.
+#[test]
+fn a_unit_added_to_the_site_file_starts_where_the_file_says() {
+    let mut w = world();
+    w.command(
+        &u1(),
+        UnitCommand {
+            speed: 1.0,
+            steer: 0.0,
+            pan: 0.0,
+            tilt: 0.0,
+            valve_open: false,
+        },
+    );
+    for _ in 0..40 {
+        w.step(0.05);
+    }
+    let added = site().ground("u2", 8.0, 2.5).build();
+    let mut resumed = World::new(&added, 1);
+    resumed.resume(w.snapshot()).unwrap();
+    let truth = resumed.truth();
+    let at = |id: &str| truth.units.iter().find(|u| u.id == *id).unwrap().pose;
+    assert_eq!(at("u1"), w.truth().units[0].pose);
+    assert_eq!((at("u2").x, at("u2").y), (8.0, 2.5));
+}
