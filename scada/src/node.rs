@@ -59,11 +59,18 @@ pub async fn run(
     let mut ticker = tokio::time::interval(opts.period);
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     tokio::pin!(shutdown);
+    // On the simulator's clock, nothing is polled before the clock is heard: a reading
+    // stamped t = 0 by a bridge restarted mid-incident is refused by the coordinator as
+    // off the site clock, and the first rates of rise would be taken against it.
+    let mut clocked = !opts.sim_clock;
     loop {
         tokio::select! {
             _ = &mut shutdown => return Ok(()),
-            Some((_, c)) = clock_msgs.recv() => site_time.set(c.t),
-            _ = ticker.tick() => {
+            Some((_, c)) = clock_msgs.recv() => {
+                site_time.set(c.t);
+                clocked = true;
+            }
+            _ = ticker.tick(), if clocked => {
                 let read = link.read(&bridge).await;
                 if bridge.poll(clock.now(), read).iter().any(Failure::drops_connection) {
                     link.modbus = None;
