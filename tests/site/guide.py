@@ -17,9 +17,14 @@ each runs as its installed unit says (a dynamic user, its group, its credentials
 for that user, its environment files, READY awaited on the notify socket).
 
 Mid-incident the second router (router-east, the nearest to ugv-3) is killed: ugv-3 must
-be linked again within 2 s (its agent's log says when), no unit may be counted lost, every
-fire must go out, the coordinator's /metrics must have its series, and the guide's last
-steps check the recording (`firefleet check`). Exit 0 when all holds, 1 when not, 2 when
+be linked again within 2 s (its agent's log says when). Then the site's life (issue #46):
+the commander bars the middle of the tunnel and the power fails on the coordinator, the
+standby and the recorder at once (all three killed, then started again): the keep-out must
+be in force again, in the status and in the new recording; then the simulator alone is
+killed and started again, and must carry the rehearsal on. No unit may be counted lost,
+every fire must go out, the coordinator's /metrics must have its series, and the guide's
+last steps check every recording the site made (`firefleet check`). The site is `nord`,
+whose east router's hashed Zenoh id begins with 0. Exit 0 when all holds, 1 when not, 2 when
 this machine cannot make namespaces (not root, no `ip`).
 """
 import argparse
@@ -52,6 +57,10 @@ HOSTS = {
     "ugv-3": "10.78.0.23",
 }
 BRIDGE = "ffg-br"
+# The services' StateDirectory= (the namespaces share this machine's /var/lib).
+STATE_DIRS = ["firefleet-recorder", "firefleet-coordinator", "firefleet-coordinator-standby",
+              "firefleet-sim"]
+KEEP_OUT = "rossi-middle-keep-out"
 FAILOVER_TARGET_S = 2.0
 
 
@@ -81,7 +90,7 @@ def down():
         shutil.rmtree(f"/etc/netns/{ns(host)}", ignore_errors=True)
     sh("ip", "link", "del", BRIDGE, check=False, stderr=subprocess.DEVNULL)
     sh("dpkg", "--purge", "firefleet", check=False, stdout=subprocess.DEVNULL)
-    for d in ["/etc/firefleet", "/media/site-kit", "/var/lib/firefleet-recorder"]:
+    for d in ["/etc/firefleet", "/media/site-kit"] + [f"/var/lib/{d}" for d in STATE_DIRS]:
         shutil.rmtree(d, ignore_errors=True)
     shutil.rmtree(WORK, ignore_errors=True)
 
@@ -197,6 +206,27 @@ def logged_after(logfile, t0, *needles):
     return None
 
 
+def systemctl(host, *args):
+    sh("ip", "netns", "exec", ns(host), "systemctl", *args,
+       env=dict(os.environ, PATH=f"{SHIM}:/usr/bin:/bin", FFG_STATE=STATE))
+
+
+def commander(*args):
+    """`firefleet ARGS` on the commander's host, as its identity."""
+    return subprocess.run(
+        ["ip", "netns", "exec", ns("commander"), "firefleet", *args,
+         "--scenario", "/etc/firefleet/site.toml",
+         "--zenoh-config", "/etc/firefleet/commander-rossi.json5"],
+        capture_output=True, text=True)
+
+
+def read(path):
+    try:
+        return open(path).read()
+    except OSError:
+        return ""
+
+
 def metrics(host, addr):
     code = ("import urllib.request,sys;"
             f"sys.stdout.write(urllib.request.urlopen('http://{addr}/metrics').read().decode())")
@@ -257,6 +287,40 @@ def main():
                      lambda: logged_after(agent_log, restarted, "moving to the nearer router", 'to="east"'))
         log(f"RE-HOMING: ugv-3 moved back to the east router {moved - restarted:.2f} s after it was started again")
 
+        # A keep-out on the middle of the tunnel, between the two fires' units, kept by
+        # the coordinator and the standby on their hosts.
+        out = commander("goal", "set", "--issued-by", "rossi", "--zone", "middle", "--goal", "keep-out")
+        if out.returncode != 0 or "accepted" not in out.stdout:
+            fail(f"the commander's keep-out was not accepted: {out.stdout}{out.stderr}")
+        for d in ["firefleet-coordinator", "firefleet-coordinator-standby"]:
+            wait(f"the keep-out kept in /var/lib/{d}", 10,
+                 lambda: KEEP_OUT in read(f"/var/lib/{d}/goals-in-force.json"))
+        # The power fails on the coordinator's, the standby's and the recorder's hosts.
+        cut = time.time()
+        for host, service in [("coordinator", "firefleet-coordinator"),
+                              ("standby", "firefleet-coordinator-standby"),
+                              ("recorder", "firefleet-recorder")]:
+            systemctl(host, "kill", service)
+        log("POWER CUT: coordinator, standby and recorder killed together")
+        for host, service in [("recorder", "firefleet-recorder"),
+                              ("coordinator", "firefleet-coordinator"),
+                              ("standby", "firefleet-coordinator-standby")]:
+            systemctl(host, "start", service)
+        s = wait("the keep-out in force after the power cut", 30,
+                 lambda: (s := status()) and any(g.get("id") == KEEP_OUT for g in s.get("goals") or []) and s)
+        log(f"POWER CUT: the keep-out in force again {time.time() - cut:.1f} s after the cut (site time {s['t']:.1f} s)")
+        # The simulator alone: it carries the rehearsal on from its state directory.
+        clock_before = s["t"]
+        systemctl("sim", "kill", "firefleet-sim")
+        restarted = time.time()
+        systemctl("sim", "start", "firefleet-sim")
+        sim_log = f"{STATE}/firefleet-sim.service.log"
+        wait("the simulator carrying the rehearsal on", 10,
+             lambda: logged_after(sim_log, restarted, "carrying on the rehearsal"))
+        s = wait("the site clock going on after the simulator's restart", 20,
+                 lambda: (s := status()) and s["t"] > clock_before and s)
+        log(f"SIMULATOR RESTART: the site clock went on from {clock_before:.1f} s to {s['t']:.1f} s")
+
         def all_out():
             s = status()
             fires = (s or {}).get("fires") or []
@@ -277,13 +341,20 @@ def main():
         log("the coordinator's /metrics has every named series")
         for hosts, body in after:
             run_step(hosts, body, home)
-        # The whole incident as recorded: no unit counted lost at any time.
-        for rec in glob.glob("/var/lib/firefleet-recorder/incident-*.mcap"):
+        # The whole incident as recorded, in one file per recorder start: no unit counted
+        # lost at any time, and the keep-out taken back after the power cut.
+        recordings = sorted(glob.glob("/var/lib/firefleet-recorder/incident-*"))
+        if len(recordings) < 2:
+            fail(f"the recorder restarted, yet made {len(recordings)} recordings")
+        for rec in recordings:
             timeline = sh("firefleet", "replay", rec, capture_output=True).stdout
             lost = [l for l in timeline.splitlines() if re.search(r"unit \S+ lost", l)]
             if lost:
                 fail(f"the recording says a unit was counted lost: {lost}")
             log(f"{rec}: {len(timeline.splitlines())} lines of timeline, no unit counted lost")
+        if f"recall goal '{KEEP_OUT}'" not in timeline:
+            fail(f"the recording after the power cut does not show the keep-out taken back:\n{timeline[-3000:]}")
+        log("the recording after the power cut shows the keep-out taken back")
         log("PASSED: the guide as written stood up the site; every fire out; checked")
     finally:
         if not a.keep:
