@@ -165,12 +165,31 @@ fn list(a: ListArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// Revoke a name, and say how to enforce it on every router of the site: a router still
+/// running on its old rules admits the name (a revoked robot failed over to the router
+/// nobody restarted within 0.5 s and was tasked again).
 fn revoke(a: RevokeArgs) -> anyhow::Result<ExitCode> {
     pki::revoke(&a.pki, &a.name)?;
     println!(
-        "{} revoked. Enforce it: firefleet deploy render (the same arguments as before), then restart the router with the new router.json5",
+        "{} revoked. Enforce it on every router, or it is not enforced:",
         a.name
     );
+    println!("  1. firefleet deploy render, with the same arguments as before;");
+    println!(
+        "  2. on each router's host in turn (units move to another router while one restarts), its new configuration and a restart:"
+    );
+    for l in pki::list(&a.pki)? {
+        let who = &l.identity;
+        let service = match who {
+            Identity::Router(None) => "firefleet-router".to_owned(),
+            Identity::Router(Some(name)) => format!("firefleet-router@{name}"),
+            _ => continue,
+        };
+        println!(
+            "     {who}: install {}.json5 in /etc/firefleet/, then systemctl restart {service}",
+            who.dir_name()
+        );
+    }
     Ok(ExitCode::SUCCESS)
 }
 

@@ -285,7 +285,17 @@ async fn a_second_router_joins_and_a_revoked_unit_loses_its_rules() {
         pki.to_str().unwrap(),
         "unit:ugv-2",
     ]);
-    assert_says(&out, 0, "restart the router");
+    // The way to enforce it names every router of the site, not one.
+    assert_says(
+        &out,
+        0,
+        "router: install router.json5 in /etc/firefleet/, then systemctl restart firefleet-router\n",
+    );
+    assert_says(
+        &out,
+        0,
+        "router:b: install router-b.json5 in /etc/firefleet/, then systemctl restart firefleet-router@b",
+    );
     render();
     let rules = std::fs::read_to_string(cfg.join("router.json5")).unwrap();
     assert!(!rules.contains("unit:ugv-2"), "a revoked name kept a rule");

@@ -23,8 +23,9 @@ standby and the recorder at once (all three killed, then started again): the kee
 be in force again, in the status and in the new recording; then the simulator alone is
 killed and started again, and must carry the rehearsal on. No unit may be counted lost,
 every fire must go out, the coordinator's /metrics must have its series, and the guide's
-last steps check every recording the site made (`firefleet check`). The site is `nord`,
-whose east router's hashed Zenoh id begins with 0. Exit 0 when all holds, 1 when not, 2 when
+last steps check every recording the site made (`firefleet check`) and revoke ugv-3 on
+both routers, after which it must be heard through neither. The site is `nord`, whose east
+router's hashed Zenoh id begins with 0. Exit 0 when all holds, 1 when not, 2 when
 this machine cannot make namespaces (not root, no `ip`).
 """
 import argparse
@@ -341,6 +342,16 @@ def main():
         log("the coordinator's /metrics has every named series")
         for hosts, body in after:
             run_step(hosts, body, home)
+        # The guide revoked ugv-3 and gave both routers the new rules: its agent still runs
+        # with the stolen certificate, and neither router lets it be heard: it stays away
+        # past the coordinator's grace (counted lost), its agent trying each router.
+        def revoked():
+            s = status()
+            if not s or not (unit(s, "ugv-3") or {}).get("lost"):
+                return None
+            return s if all((unit(s, u) or {}).get("alive") for u in ["ugv-1", "ugv-2"]) else None
+        wait("ugv-3 heard through neither router, ugv-1 and ugv-2 through theirs", 60, revoked)
+        log("REVOCATION: ugv-3 heard through neither router; ugv-1 and ugv-2 still are")
         # The whole incident as recorded, in one file per recorder start: no unit counted
         # lost at any time, and the keep-out taken back after the power cut.
         recordings = sorted(glob.glob("/var/lib/firefleet-recorder/incident-*"))
