@@ -65,6 +65,12 @@ fn site() -> Site {
     let (good, misdialled) = (dir.path().join("good"), dir.path().join("misdialled"));
     render(&good, "localhost");
     render(&misdialled, "127.0.0.1");
+    // Open to every user as far as the files' own modes allow, as /etc/firefleet is to
+    // the services' group: the checks below for the service's user look at those modes.
+    use std::os::unix::fs::PermissionsExt as _;
+    for d in [dir.path(), &good, &misdialled] {
+        std::fs::set_permissions(d, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
     Site {
         _dir: dir,
         real,
@@ -169,6 +175,30 @@ fn the_doctor_names_each_misconfiguration_on_one_line_with_its_fix() {
             "cannot be read by nobody",
         );
     }
+    // A configuration the service's user cannot read (its key handed in by systemd).
+    if nix_user_exists("nobody") {
+        use std::os::unix::fs::PermissionsExt as _;
+        let private = s.good.join("unit-ugv-1-private.json5");
+        std::fs::copy(&ugv1, &private).unwrap();
+        std::fs::set_permissions(&private, std::fs::Permissions::from_mode(0o600)).unwrap();
+        let key_dir = s.pki.join("unit-ugv-1");
+        let out = Command::new(BIN)
+            .args(["doctor", "--scenario"])
+            .arg(&s.real)
+            .arg("--zenoh-config")
+            .arg(&private)
+            .args(["--identity", "unit:ugv-1", "--platform", "ros2"])
+            .args(["--service-user", "nobody", "--offline"])
+            .env("CREDENTIALS_DIRECTORY", &key_dir)
+            .output()
+            .unwrap();
+        one_problem(&out, "Zenoh configuration: ");
+        assert!(
+            text(&out).contains("unit-ugv-1-private.json5 cannot be read by nobody"),
+            "{}",
+            text(&out)
+        );
+    }
     // Another role's certificate.
     one_problem(
         &doctor(&s.real, &ugv1, &["--identity", "coordinator"]),
@@ -222,4 +252,66 @@ fn the_doctor_names_each_misconfiguration_on_one_line_with_its_fix() {
 fn nix_user_exists(name: &str) -> bool {
     std::fs::read_to_string("/etc/passwd")
         .is_ok_and(|p| p.lines().any(|l| l.split(':').next() == Some(name)))
+}
+
+/// A site file whose `[[routers]]` entry names a wrong address (nothing answers there): the
+/// fix names the entry and the name's resolution, not only the firewall; and a key that is
+/// not the certificate's is one problem, not three.
+#[test]
+fn the_doctor_points_a_wrong_router_address_at_the_site_files_entry() {
+    let dir = tempfile::tempdir().unwrap();
+    let site = dir.path().join("site.toml");
+    let shipped = std::fs::read_to_string("model/scenarios/vehicle-collision.toml").unwrap();
+    let port = firefleet_bus::free_loopback_port().unwrap();
+    std::fs::write(
+        &site,
+        format!(
+            "simulated = false\n{shipped}\n[[routers]]\nname = \"west\"\nhost = \"localhost\"\nport = {port}\nchainage_m = 0.0\n"
+        ),
+    )
+    .unwrap();
+    let (pki, out) = (dir.path().join("pki"), dir.path().join("out"));
+    let (site_s, pki_s) = (site.to_str().unwrap(), pki.to_str().unwrap());
+    crate::support::firefleet_ok(&["pki", "init", "--scenario", site_s, "--out", pki_s]);
+    crate::support::firefleet_ok(&[
+        "deploy",
+        "render",
+        "--scenario",
+        site_s,
+        "--pki",
+        pki_s,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let ugv1 = out.join("unit-ugv-1.json5");
+    let args = [
+        "--identity",
+        "unit:ugv-1",
+        "--platform",
+        "ros2",
+        "--timeout-s",
+        "1",
+    ];
+    // Nobody listens at the entry's port.
+    let said = doctor(&site, &ugv1, &args);
+    one_problem(&said, &format!("nothing answers at 127.0.0.1:{port}"));
+    assert!(
+        text(&said).contains("the site file's [[routers]] entry 'west'")
+            && text(&said).contains("DNS or /etc/hosts"),
+        "{}",
+        text(&said)
+    );
+    // ugv-2's key beside ugv-1's certificate: said once, by the identity's check.
+    std::fs::copy(
+        pki.join("unit-ugv-2").join("key.pem"),
+        pki.join("unit-ugv-1").join("key.pem"),
+    )
+    .unwrap();
+    let said = doctor(&site, &ugv1, &args);
+    let problems = text(&said)
+        .lines()
+        .filter(|l| l.starts_with("PROBLEM"))
+        .count();
+    assert_eq!(problems, 1, "{}", text(&said));
+    assert!(text(&said).contains("key"), "{}", text(&said));
 }

@@ -4,12 +4,15 @@
 //! An operator who follows the guide and gets a unit shown "lost" has, at the default log
 //! level, nothing that says why: a process retries a link that can never work, or drives a
 //! body that is not there. The doctor runs the checks a process would fail on, and the
-//! ones it would not notice, before the service is started (or beside it): the site file,
-//! the identity's certificate (role and name, dates, the site's CA, the key its own and
+//! ones it would not notice, before the service is started (or beside it): the site file
+//! and the Zenoh configuration (readable by the service's user: [`permissions`]), the
+//! identity's certificate (role and name, dates, the site's CA, the key its own and
 //! readable by whoever reads it), the platform and clock for the site, the routers'
-//! endpoints (resolved, answering, presenting a router certificate for the name dialled:
-//! [`firefleet_bus::probe`]) and, once linked, the protocol version the site's coordinator
-//! speaks. Exit 0 when nothing is wrong, 1 otherwise.
+//! endpoints (listed in the site file's `[[routers]]`, resolved, answering, presenting a
+//! router certificate for the name dialled: [`firefleet_bus::probe`]) and, once linked,
+//! the protocol version the site's coordinator speaks. A problem whose cause is one
+//! already said (a knock with a key found wrong) is a note, not a second problem. Exit 0
+//! when nothing is wrong, 1 otherwise.
 //!
 //! Not here: fixing anything (each line says how), or checking other hosts' roles.
 
@@ -38,7 +41,7 @@ mod site;
 
 use identity::identity;
 use network::{protocol, routers};
-use permissions::key_reader;
+use permissions::{files_readable, key_reader};
 use site::site_role;
 
 #[derive(Args, Debug)]
@@ -109,6 +112,7 @@ pub async fn run(a: DoctorArgs) -> anyhow::Result<ExitCode> {
         }
     };
     site_role(&mut f, &a, &scenario);
+    files_readable(&mut f, &a);
     let links = match a.zenoh.connect(None).links() {
         Ok(l) => l,
         Err(e) => {
@@ -124,7 +128,7 @@ pub async fn run(a: DoctorArgs) -> anyhow::Result<ExitCode> {
         f.note("offline: routers not resolved or knocked at, site not joined");
         false
     } else {
-        routers(&mut f, &links, identity_ok, within).await && identity_ok
+        routers(&mut f, &links, &scenario, identity_ok, within).await && identity_ok
     };
     if reachable {
         protocol(&mut f, &a, &scenario, within).await;

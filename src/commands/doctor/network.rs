@@ -10,6 +10,7 @@ use super::*;
 pub(super) async fn routers(
     f: &mut Findings,
     links: &Links,
+    scenario: &Scenario,
     identity_ok: bool,
     within: Duration,
 ) -> bool {
@@ -19,15 +20,45 @@ pub(super) async fn routers(
     let mut reached = links.connect.is_empty();
     for endpoint in &links.connect {
         let shown = endpoint.split(['#', '?']).next().unwrap_or(endpoint);
+        let listed = probe::quic_host_port(endpoint)
+            .ok()
+            .and_then(|(host, port)| {
+                scenario
+                    .routers
+                    .iter()
+                    .find(|r| r.host == host && r.port == port)
+            });
+        // Where the address came from, so the fix says what to correct.
+        let from = match (listed, scenario.routers.is_empty()) {
+            (Some(r), _) => format!("the site file's [[routers]] entry '{}'", r.name),
+            (None, false) => {
+                f.problem(
+                    format_args!(
+                        "router {shown}: the configuration dials a router the site file's [[routers]] does not list"
+                    ),
+                    "render this identity's configuration again from the site file (firefleet deploy render) and copy it",
+                );
+                continue;
+            }
+            (None, true) => "deploy render --connect".to_owned(),
+        };
         match probe::knock(endpoint, files, within).await {
             Err(KnockError::Resolve { host, why }) => f.problem(
                 format_args!("router {shown}: the host '{host}' does not resolve ({why})"),
-                "add the router's name to DNS or /etc/hosts, or render again with --connect naming a host the router's certificate lists",
+                format_args!(
+                    "add the router's name to DNS or /etc/hosts; if the name is wrong, correct {from} and render again"
+                ),
             ),
             Err(KnockError::NoAnswer { addr, why, .. }) => f.problem(
                 format_args!("router {shown}: nothing answers at {addr} ({why})"),
-                "start the router there (systemctl start firefleet-router), or open UDP to its port in the firewall",
+                format_args!(
+                    "check that {addr} is the router's address (DNS or /etc/hosts, and {from}: render again if it is wrong), that the router runs there (systemctl status on its host), and that UDP to its port is open"
+                ),
             ),
+            // A knock with an identity found wrong above fails because of it: said once.
+            Err(e) if !identity_ok => f.note(format_args!(
+                "router {shown}: not knocked at with the identity above ({e})"
+            )),
             Err(e) => f.problem(
                 format_args!("router {shown}: {e}"),
                 "render this identity's configuration again",
