@@ -158,23 +158,28 @@ pub async fn join(zenoh: &ZenohArgs, scenario: &Scenario, who: Expect) -> anyhow
     .await
     .context("joining the Zenoh network")?;
     ready();
-    watch(&bus);
+    watch(&bus, scenario);
     Ok(bus)
 }
 
 /// Log `bus`'s link changes (`watch_link`) for as long as it is open.
-pub fn watch(bus: &Bus) {
-    tokio::spawn(watch_link(bus.clone()));
+pub fn watch(bus: &Bus, scenario: &Scenario) {
+    tokio::spawn(watch_link(bus.clone(), scenario.clone()));
 }
 
 /// Say in the log whenever the router (or peer) this process is linked through changes: a
 /// unit that shows lost, or one that failed over to the next router, says so in its own log
 /// at the default level, with when.
-async fn watch_link(bus: Bus) {
+/// Routers are named as in the site file (a Zenoh id only for one it does not list).
+async fn watch_link(bus: Bus, scenario: Scenario) {
     let mut was: Vec<String> = Vec::new();
     while !bus.zenoh_session().is_closed() {
         let info = bus.zenoh_session().info();
-        let mut now: Vec<String> = info.routers_zid().await.map(|z| z.to_string()).collect();
+        let mut now: Vec<String> = info
+            .routers_zid()
+            .await
+            .map(|z| firefleet_bus::render::router_name(&scenario, &z.to_string()))
+            .collect();
         now.extend(info.peers_zid().await.map(|z| z.to_string()));
         now.sort();
         if now != was && !bus.zenoh_session().is_closed() {

@@ -18,8 +18,7 @@
 
 use std::time::{Duration, Instant};
 
-use firefleet_bus::access::Identity;
-use firefleet_bus::render::router_zid;
+use firefleet_bus::render::{router_zid, site_routers};
 use firefleet_bus::{Bus, Connect, Token, one_stream};
 use firefleet_model::scenario::Scenario;
 use firefleet_model::{Point2, UnitId};
@@ -74,22 +73,12 @@ impl Rehoming {
     /// them.
     pub fn new(connect: Connect, scenario: &Scenario, unit: &UnitId) -> Option<Self> {
         let dialled = connect.links().ok()?.connect;
-        let routers: Vec<Known> = scenario
-            .routers
-            .iter()
-            .enumerate()
-            .map(|(i, r)| {
-                let who = if i == 0 {
-                    Identity::ROUTER
-                } else {
-                    Identity::Router(Some(r.name.clone()))
-                };
-                Known {
-                    name: r.name.to_string(),
-                    zid: router_zid(&scenario.site, &who),
-                    endpoint: one_stream(&r.endpoint()),
-                    chainage_m: r.chainage_m,
-                }
+        let routers: Vec<Known> = site_routers(scenario)
+            .map(|(who, r)| Known {
+                name: r.name.to_string(),
+                zid: router_zid(&scenario.site, &who),
+                endpoint: one_stream(&r.endpoint()),
+                chainage_m: r.chainage_m,
             })
             .filter(|k| dialled.contains(&k.endpoint))
             .collect();

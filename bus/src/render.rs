@@ -304,6 +304,32 @@ pub fn router_zid(site: &firefleet_model::SiteId, who: &Identity) -> String {
     id.iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// Each router the site file lists, with the identity it runs as: the first is the
+/// site's own `router`, the others `router:<name>`.
+pub fn site_routers(
+    scenario: &Scenario,
+) -> impl Iterator<Item = (Identity, &firefleet_model::scenario::RouterSpec)> {
+    scenario.routers.iter().enumerate().map(|(i, r)| {
+        let who = if i == 0 {
+            Identity::ROUTER
+        } else {
+            Identity::Router(Some(r.name.clone()))
+        };
+        (who, r)
+    })
+}
+
+/// The name to log for the router whose Zenoh id is `zid`: its site file name, `router`
+/// for a site whose single router the command line gave, or `zid` itself for another.
+pub fn router_name(scenario: &Scenario, zid: &str) -> String {
+    if scenario.routers.is_empty() && router_zid(&scenario.site, &Identity::ROUTER) == zid {
+        return "router".to_owned();
+    }
+    site_routers(scenario)
+        .find(|(who, _)| router_zid(&scenario.site, who) == zid)
+        .map_or_else(|| zid.to_owned(), |(_, r)| r.name.to_string())
+}
+
 /// A router to render: who, where it listens, where it is reached, and where it stands.
 struct Planned {
     who: Identity,
@@ -444,6 +470,35 @@ mod tests {
             })?;
             prop_assert_eq!(parsed.to_string(), zid);
         }
+    }
+
+    /// Logs name routers as the site file does.
+    #[test]
+    fn a_router_is_named_by_its_zenoh_id_as_the_site_file_names_it() {
+        let mut scenario = firefleet_model::builtin::resolve("pileup").unwrap();
+        assert_eq!(
+            router_name(&scenario, &router_zid(&scenario.site, &Identity::ROUTER)),
+            "router"
+        );
+        scenario.routers = ["west", "east"]
+            .into_iter()
+            .map(|name| RouterSpec {
+                name: RouterId::new(name).unwrap(),
+                host: format!("{name}.tunnel.local"),
+                port: 7447,
+                chainage_m: 0.0,
+            })
+            .collect();
+        let east = Identity::Router(Some(RouterId::new("east").unwrap()));
+        assert_eq!(
+            router_name(&scenario, &router_zid(&scenario.site, &east)),
+            "east"
+        );
+        assert_eq!(
+            router_name(&scenario, &router_zid(&scenario.site, &Identity::ROUTER)),
+            "west"
+        );
+        assert_eq!(router_name(&scenario, "1f00"), "1f00");
     }
 
     /// Site `nord`: both routers' hashed ids began with 0, which Zenoh refuses.

@@ -262,7 +262,7 @@ async fn take_office(
     tracing::info!(
         units = heard,
         epoch,
-        t = clock.now(),
+        t = %format_args!("{:.2}", clock.now()),
         "took office above the task numbers of the units heard"
     );
     // Before anything else is said: the goals and the tracks the previous coordinator

@@ -201,7 +201,7 @@ pub async fn run(
             registers.update(&world);
         }
         if opts.cut_scada_at.is_some_and(|at| world.time() >= at) && scada.take().is_some() {
-            tracing::warn!(t = world.time(), "SCADA server stopped: the link is cut");
+            tracing::warn!(t = %format_args!("{:.2}", world.time()), "SCADA server stopped: the link is cut");
         }
         bus.put(
             &keys.sim_clock(),
@@ -261,7 +261,7 @@ fn take_back(world: &mut World, state: &StateFile) {
     };
     match world.resume(snapshot) {
         Ok(()) => tracing::warn!(
-            t = world.time(),
+            t = %format_args!("{:.2}", world.time()),
             file = %state.path().display(),
             "carrying on the rehearsal where the world was kept"
         ),

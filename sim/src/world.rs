@@ -569,7 +569,7 @@ impl World {
                 ignition_s: self.t,
                 radius_m,
             };
-            tracing::info!(vehicle = %o.name, t = self.t, "fire spread to a parked vehicle");
+            tracing::info!(vehicle = %o.name, t = %format_args!("{:.2}", self.t), "fire spread to a parked vehicle");
             self.exposure[i].fire = Some(self.fires.len());
             self.fires.push(Fire::new(spec));
         }

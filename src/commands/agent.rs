@@ -96,7 +96,7 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
     // A move to a nearer router: its link logged and its figures served like the first's.
     let on_moved = |next: &Bus| {
         metrics.follow(next);
-        firefleet::net::watch(next);
+        firefleet::net::watch(next, &scenario);
     };
     let shutdown = shutdown_signal(a.role.zenoh.die_with_parent);
     let bus = match spec.kind {

@@ -328,7 +328,8 @@ impl Incident {
     }
 
     fn log(&mut self, t: f64, decision: Decision) {
-        tracing::info!(t, "{decision}");
+        // Site time to the hundredth, as a reader takes it (not 55.89999999999896).
+        tracing::info!(t = %format_args!("{t:.2}"), "{decision}");
         if self.decisions.len() == DECISION_LOG {
             self.decisions.pop_front();
         }
