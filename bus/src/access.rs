@@ -328,6 +328,8 @@ pub fn grants(
             grant(Op::Put, keys.coord_goals().as_str());
             grant(Op::Put, keys.every_zone_ack().as_str());
             grant(Op::Token, &keys.expr(&Topic::CoordAlive));
+            // A standby says it is standing by (operators see who could take over).
+            grant(Op::Token, &keys.every_standby_alive());
             grant(Op::Subscribe, keys.every_unit_state().as_str());
             grant(Op::Subscribe, keys.every_unit_report().as_str());
             grant(Op::Subscribe, keys.every_zone_goal().as_str());

@@ -94,6 +94,9 @@ async fn follow(
     let fires = bus.subscribe(&keys.every_fire()).await?;
     let goals = bus.subscribe(&keys.coord_goals()).await?;
     let coordinator = bus.watch_tokens(&keys.expr(&Topic::CoordAlive)).await?;
+    // Held while standing by: `firefleet status` and the console show who could take over,
+    // and that nobody could once it is gone.
+    let _standing_by = bus.token(&Topic::CoordStandbyAlive(rank)).await?;
     let mut tracks: BTreeMap<FireId, FireTrack> = BTreeMap::new();
     let mut newest: Option<GoalsInForce> = None;
     let mut in_charge = false;

@@ -12,6 +12,7 @@
 //!                                 <by>; a delete clears <by>'s goals on the zone
 //! ff/<site>/zone/<zone>/ack       coord -> commander GoalAck (JSON)
 //! ff/<site>/coord/alive           liveliness token of the coordinator
+//! ff/<site>/coord/standby/<rank>/alive  liveliness token of a standby coordinator
 //! ff/<site>/coord/status          queryable, JSON snapshot of the incident
 //! ff/<site>/coord/log             coord -> recorders Decision (postcard), one per decision
 //! ff/<site>/coord/barred          coord -> units     BarredSpace (postcard), every second
@@ -75,6 +76,8 @@ pub enum Topic {
     ZoneGoal(ZoneId, CommanderId),
     ZoneAck(ZoneId),
     CoordAlive,
+    /// A standby coordinator's liveliness, by its rank: who could take over.
+    CoordStandbyAlive(u32),
     CoordStatus,
     CoordLog,
     CoordBarred,
@@ -102,6 +105,7 @@ impl fmt::Display for Topic {
             Topic::ZoneGoal(z, by) => write!(f, "zone/{z}/goal/{by}"),
             Topic::ZoneAck(z) => write!(f, "zone/{z}/ack"),
             Topic::CoordAlive => f.write_str("coord/alive"),
+            Topic::CoordStandbyAlive(rank) => write!(f, "coord/standby/{rank}/alive"),
             Topic::CoordStatus => f.write_str("coord/status"),
             Topic::CoordLog => f.write_str("coord/log"),
             Topic::CoordBarred => f.write_str("coord/barred"),
@@ -133,6 +137,7 @@ impl Topic {
         "zone/<zone>/goal/<commander>",
         "zone/<zone>/ack",
         "coord/alive",
+        "coord/standby/<rank>/alive",
         "coord/status",
         "coord/log",
         "coord/barred",
@@ -160,6 +165,7 @@ impl Topic {
             Topic::ZoneGoal(..) => "zone/<zone>/goal/<commander>",
             Topic::ZoneAck(_) => "zone/<zone>/ack",
             Topic::CoordAlive => "coord/alive",
+            Topic::CoordStandbyAlive(_) => "coord/standby/<rank>/alive",
             Topic::CoordStatus => "coord/status",
             Topic::CoordLog => "coord/log",
             Topic::CoordBarred => "coord/barred",
@@ -281,6 +287,10 @@ impl Keys {
     pub fn every_unit_alive(&self) -> String {
         format!("{ROOT}/{}/unit/*/alive", self.site)
     }
+    /// `ff/<site>/coord/standby/*/alive`: every standby coordinator's liveliness.
+    pub fn every_standby_alive(&self) -> String {
+        format!("{ROOT}/{}/coord/standby/*/alive", self.site)
+    }
 }
 
 /// The typed keys and patterns: which message travels on which topic, in one table.
@@ -385,6 +395,10 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
         ),
         ["zone", z, "ack"] => Topic::ZoneAck(zone(z)?),
         ["coord", "alive"] => Topic::CoordAlive,
+        ["coord", "standby", rank, "alive"] => Topic::CoordStandbyAlive(
+            rank.parse()
+                .map_err(|_| err(format!("'{rank}' is no standby's rank")))?,
+        ),
         ["coord", "status"] => Topic::CoordStatus,
         ["coord", "log"] => Topic::CoordLog,
         ["coord", "barred"] => Topic::CoordBarred,
@@ -424,7 +438,8 @@ mod tests {
                 .replace("<id>", "u1")
                 .replace("<fire_id>", "f7")
                 .replace("<zone>", "7")
-                .replace("<commander>", "rossi");
+                .replace("<commander>", "rossi")
+                .replace("<rank>", "1");
             let (_, topic) = parse(&key).unwrap();
             assert_eq!(topic.template(), *template, "{key}");
             assert!(seen.insert(*template), "{template} twice");
@@ -445,6 +460,7 @@ mod tests {
             Topic::ZoneGoal(z.clone(), CommanderId::new("rossi").unwrap()),
             Topic::ZoneAck(z),
             Topic::CoordAlive,
+            Topic::CoordStandbyAlive(2),
             Topic::CoordStatus,
             Topic::CoordLog,
             Topic::CoordBarred,

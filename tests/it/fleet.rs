@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use crate::support::{
     BIN, Fleet, assert_says, cli, first_answer, free_endpoint, outcome, patient, router, router_at,
-    spawn_role, status_of, text, until_in_recording,
+    spawn_role, spawn_watched, status_of, text, until_in_recording, until_line,
 };
 use firefleet_bus::{Ask, Bus, Inbox, free_loopback_port};
 use firefleet_model::{FireId, Point2, Pose2, UnitId, ZoneId};
@@ -939,6 +939,41 @@ async fn commanders_goals_are_answered_listed_and_cleared() {
         assert!(Instant::now() < deadline, "not cleared: {}", text(&out));
         tokio::time::sleep(Duration::from_millis(200)).await;
     }
+}
+
+/// `status --watch` says, round after round, who is in office and who could take over:
+/// a standby gone is said ("NO STANDBY"), and a coordinator gone too.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn status_watch_shows_the_office_and_the_standby_as_they_come_and_go() {
+    let (_router, endpoint) = router("tunnel-r").await;
+    let mut fleet = Fleet(vec![
+        spawn_role("rail-tunnel", &endpoint, &["coordinator"]),
+        spawn_role(
+            "rail-tunnel",
+            &endpoint,
+            &["coordinator", "--standby", "--rank", "1"],
+        ),
+    ]);
+    let (watch, lines) = spawn_watched("rail-tunnel", &endpoint, &["status", "--watch", "0.3"]);
+    fleet.0.push(watch);
+    let within = Duration::from_secs(20);
+    until_line(
+        &lines,
+        "office: a coordinator in office; standing by: rank 1",
+        within,
+    );
+    for (k, said) in [
+        (
+            1,
+            "office: a coordinator in office; NO STANDBY: nobody could take over",
+        ),
+        (0, "office: NO COORDINATOR IN OFFICE; NO STANDBY"),
+    ] {
+        fleet.0[k].kill().unwrap();
+        fleet.0[k].wait().unwrap();
+        until_line(&lines, said, within);
+    }
+    until_line(&lines, "NO COORDINATOR ANSWERS", within);
 }
 
 /// A power cut: the coordinator and its standby go down together, with no recorder

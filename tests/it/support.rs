@@ -6,7 +6,7 @@
 
 use std::process::{Child, Command, Output, Stdio};
 
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use firefleet::children::RoleCommand;
 use firefleet_bus::{Ask, Bus, Connect, Inbox, Mode, free_loopback_port};
@@ -76,6 +76,48 @@ pub fn spawn_role(scenario: &str, endpoint: &str, args: &[&str]) -> Child {
         .stdout(Stdio::null())
         .spawn()
         .unwrap()
+}
+
+/// Start a long-running command as a client of the router at `endpoint`, its standard
+/// output read line by line into the receiver.
+pub fn spawn_watched(
+    scenario: &str,
+    endpoint: &str,
+    args: &[&str],
+) -> (Child, std::sync::mpsc::Receiver<String>) {
+    use std::io::BufRead as _;
+    let mut child = client(scenario, endpoint, args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let out = child.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(out).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                return;
+            }
+        }
+    });
+    (child, rx)
+}
+
+/// Wait for a line containing `needle` (the lines before it are passed over).
+pub fn until_line(lines: &std::sync::mpsc::Receiver<String>, needle: &str, within: Duration) {
+    let deadline = Instant::now() + patient(within);
+    let mut seen = Vec::new();
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        match lines.recv_timeout(left) {
+            Ok(line) if line.contains(needle) => return,
+            Ok(line) => seen.push(line),
+            Err(_) => {
+                let tail = seen[seen.len().saturating_sub(20)..].join("\n");
+                panic!("no line with {needle:?} within {within:?}; the last:\n{tail}")
+            }
+        }
+    }
 }
 
 /// Run a one-shot command against the router at `endpoint` on `scenario`'s site.
