@@ -21,7 +21,8 @@ be linked again within 2 s (its agent's log says when). Then the site's life (is
 the commander bars the middle of the tunnel and the power fails on the coordinator, the
 standby and the recorder at once (all three killed, then started again): the keep-out must
 be in force again, in the status and in the new recording; then the simulator alone is
-killed and started again, and must carry the rehearsal on. No unit may be counted lost,
+killed and started again, and must carry the rehearsal on; then a fourth robot is added
+as the guide says, and must get a task. No unit may be counted lost,
 every fire must go out, the coordinator's /metrics must have its series, and the guide's
 last steps check every recording the site made (`firefleet check`) and revoke ugv-3 on
 both routers, after which it must be heard through neither. The site is `nord`, whose east
@@ -56,7 +57,17 @@ HOSTS = {
     "ugv-1": "10.78.0.21",
     "ugv-2": "10.78.0.22",
     "ugv-3": "10.78.0.23",
+    "ugv-4": "10.78.0.24",
 }
+# The robot the guide's "Adding and retiring a robot" adds mid-incident, at the east portal.
+UGV4 = """
+[[units]]
+id = "ugv-4"
+kind = "ground"
+x_m = 290.0
+y_m = 2.5
+yaw_rad = 3.14159
+"""
 BRIDGE = "ffg-br"
 # The services' StateDirectory= (the namespaces share this machine's /var/lib).
 STATE_DIRS = ["firefleet-recorder", "firefleet-coordinator", "firefleet-coordinator-standby",
@@ -207,6 +218,51 @@ def logged_after(logfile, t0, *needles):
     return None
 
 
+def add_robot():
+    """ugv-4 added mid-incident, as the guide's "Adding and retiring a robot" says: its
+    identity and the site file on the PKI machine, the new site file everywhere, each router
+    in turn (the units of each moved back before the next), the standby then the
+    coordinator, the robot itself, then the simulator (which carries the world on and puts
+    ugv-4 where the site file starts it) and the recorder. It must get a task."""
+    started = time.time()
+    pki = f"{WORK}/pki"
+    with open(f"{pki}/site.toml", "a") as f:
+        f.write(UGV4)
+    for cmd in [
+        "firefleet pki issue --pki pki --role unit --name ugv-4",
+        "firefleet deploy render --scenario site.toml --pki pki --out site --commander rossi --pki-at /etc/firefleet/pki",
+        "cp site.toml /media/site-kit/ && cp -r site /media/site-kit/ && cp -r pki/unit-ugv-4 /media/site-kit/pki/",
+        # Every machine's site file (the namespaces share /etc/firefleet).
+        "install -m 0640 -g firefleet /media/site-kit/site.toml /etc/firefleet/",
+    ]:
+        run_step(["pki"], cmd, None)
+    for host, config, service, units in [
+            ("router-west", "router.json5", "firefleet-router", ["ugv-1", "ugv-2"]),
+            ("router-east", "router-east.json5", "firefleet-router@east", ["ugv-3"])]:
+        run_step(["pki"], f"install -m 0640 -g firefleet /media/site-kit/site/{config} /etc/firefleet/", None)
+        t0 = time.time()
+        systemctl(host, "restart", service)
+        name = host.removeprefix("router-")
+        for u in units:
+            wait(f"{u} back on {host}", 20, lambda: logged_after(
+                f"{STATE}/firefleet-agent@{u}.service.log", t0, "moving to the nearer router", f'to="{name}"'))
+    systemctl("standby", "restart", "firefleet-coordinator-standby")
+    systemctl("coordinator", "restart", "firefleet-coordinator")
+    run_step(["ugv-4"], "\n".join([
+        "install -d -m 0700 /etc/firefleet/pki/unit-$ID",
+        "install -m 0600 /media/site-kit/pki/unit-$ID/*.pem /etc/firefleet/pki/unit-$ID/",
+        "install -m 0640 -g firefleet /media/site-kit/site/unit-$ID.json5 /etc/firefleet/",
+        "systemctl enable --now firefleet-agent@$ID",
+    ]), None)
+    systemctl("sim", "restart", "firefleet-sim")
+    systemctl("recorder", "restart", "firefleet-recorder")
+    s = wait("ugv-4 tasked", 60, lambda: (s := status()) and (unit(s, "ugv-4") or {}).get("task") and s)
+    log(f"ADDED: ugv-4 joined mid-incident and got a task ({unit(s, 'ugv-4')['task'].get('kind')}) "
+        f"{time.time() - started:.1f} s after the procedure began, at site time {s['t']:.1f} s")
+    if not any(g.get("id") == KEEP_OUT for g in s.get("goals") or []):
+        fail("the keep-out was lost on the way")
+
+
 def systemctl(host, *args):
     sh("ip", "netns", "exec", ns(host), "systemctl", *args,
        env=dict(os.environ, PATH=f"{SHIM}:/usr/bin:/bin", FFG_STATE=STATE))
@@ -322,6 +378,8 @@ def main():
                  lambda: (s := status()) and s["t"] > clock_before and s)
         log(f"SIMULATOR RESTART: the site clock went on from {clock_before:.1f} s to {s['t']:.1f} s")
 
+        add_robot()
+
         def all_out():
             s = status()
             fires = (s or {}).get("fires") or []
@@ -340,31 +398,41 @@ def main():
             if series not in text:
                 fail(f"the coordinator's /metrics has no {series}:\n{text[:2000]}")
         log("the coordinator's /metrics has every named series")
+        revoked_at = time.time()
         for hosts, body in after:
             run_step(hosts, body, home)
         # The guide revoked ugv-3 and gave both routers the new rules: its agent still runs
-        # with the stolen certificate, and neither router lets it be heard: it stays away
-        # past the coordinator's grace (counted lost), its agent trying each router.
-        def revoked():
+        # with the stolen certificate and links again (TLS checks no revocation), yet
+        # neither router lets it be heard, past a token's grace, while ugv-1 and ugv-2 are.
+        agent3 = f"{STATE}/firefleet-agent@ugv-3.service.log"
+        wait("ugv-3's agent linked again after the routers' restart", 30,
+             lambda: linked_after(agent3, revoked_at))
+        def unheard():
             s = status()
-            if not s or not (unit(s, "ugv-3") or {}).get("lost"):
+            if not s or (unit(s, "ugv-3") or {}).get("alive", True):
                 return None
             return s if all((unit(s, u) or {}).get("alive") for u in ["ugv-1", "ugv-2"]) else None
-        wait("ugv-3 heard through neither router, ugv-1 and ugv-2 through theirs", 60, revoked)
+        wait("ugv-3 unheard, ugv-1 and ugv-2 heard", 30, unheard)
+        quiet_until = time.monotonic() + 3.0
+        while time.monotonic() < quiet_until:
+            if not unheard():
+                fail("ugv-3 was heard again after its revocation reached both routers")
         log("REVOCATION: ugv-3 heard through neither router; ugv-1 and ugv-2 still are")
         # The whole incident as recorded, in one file per recorder start: no unit counted
         # lost at any time, and the keep-out taken back after the power cut.
         recordings = sorted(glob.glob("/var/lib/firefleet-recorder/incident-*"))
-        if len(recordings) < 2:
-            fail(f"the recorder restarted, yet made {len(recordings)} recordings")
+        if len(recordings) < 3:
+            fail(f"the recorder started three times, yet made {len(recordings)} recordings")
+        recalled = False
         for rec in recordings:
             timeline = sh("firefleet", "replay", rec, capture_output=True).stdout
+            recalled |= f"recall goal '{KEEP_OUT}'" in timeline
             lost = [l for l in timeline.splitlines() if re.search(r"unit \S+ lost", l)]
             if lost:
                 fail(f"the recording says a unit was counted lost: {lost}")
             log(f"{rec}: {len(timeline.splitlines())} lines of timeline, no unit counted lost")
-        if f"recall goal '{KEEP_OUT}'" not in timeline:
-            fail(f"the recording after the power cut does not show the keep-out taken back:\n{timeline[-3000:]}")
+        if not recalled:
+            fail("no recording after the power cut shows the keep-out taken back")
         log("the recording after the power cut shows the keep-out taken back")
         log("PASSED: the guide as written stood up the site; every fire out; checked")
     finally:
