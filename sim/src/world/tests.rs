@@ -212,10 +212,9 @@ fn a_monorail_monitor_puts_out_a_fire_under_its_rail() {
     assert!(carriage.water_used_l > 0.0);
 }
 
-/// A 5 MW car fire in one lane, a car in the next lane 0.7 m away, after 400 s; `hose`
-/// puts a jet on the exposed car while the unit's water lasts.
-fn neighbours(hose: bool) -> World {
-    let site = Scenario::straight(100.0)
+/// A 5 MW car fire in one lane, a car in the next lane 0.7 m away, and unit u1.
+fn car_beside_a_fire() -> Scenario {
+    Scenario::straight(100.0)
         .name("spread")
         .section(10.0, 6.0)
         .time_limit(900.0)
@@ -225,8 +224,13 @@ fn neighbours(hose: bool) -> World {
         .growth(Growth::Ultrafast)
         .ignition(-300.0)
         .ground("u1", 30.0, 3.0)
-        .build();
-    let mut w = World::new(&site, 1);
+        .build()
+}
+
+/// [`car_beside_a_fire`] after 400 s; `hose` puts a jet on the exposed car while the unit's
+/// water lasts.
+fn neighbours(hose: bool) -> World {
+    let mut w = World::new(&car_beside_a_fire(), 1);
     if hose {
         // A jet into the exposed car's rear, 18 m away: the lowest elevation that hits it.
         let pan = (1.25f64 - 3.0).atan2(18.0);
@@ -336,45 +340,24 @@ fn moving_air_carries_heat_and_smoke_downstream_only() {
 /// heat and sensor noise, step for step.
 #[test]
 fn a_world_resumed_from_its_snapshot_runs_on_as_it_would_have() {
+    // Commands are not kept (a unit's computer sends them again): each world gets its own.
+    let drive = UnitCommand {
+        speed: 0.5,
+        steer: 0.05,
+        pan: 0.2,
+        tilt: 0.1,
+        valve_open: false,
+    };
     let mut w = neighbours(false);
-    w.command(
-        &u1(),
-        UnitCommand {
-            speed: 0.5,
-            steer: 0.05,
-            pan: 0.2,
-            tilt: 0.1,
-            valve_open: false,
-        },
-    );
+    w.command(&u1(), drive);
     let bytes = postcard::to_stdvec(&w.snapshot()).unwrap();
-    let site = Scenario::straight(100.0)
-        .name("spread")
-        .section(10.0, 6.0)
-        .time_limit(900.0)
-        .car("burning", 50.0, -1.25)
-        .car("exposed", 50.0, 1.25)
-        .fire("car", 50.0, -1.25, 5000.0)
-        .growth(Growth::Ultrafast)
-        .ignition(-300.0)
-        .ground("u1", 30.0, 3.0)
-        .build();
-    let mut resumed = World::new(&site, 99);
+    let mut resumed = World::new(&car_beside_a_fire(), 99);
     resumed
         .resume(postcard::from_bytes(&bytes).unwrap())
         .unwrap();
     assert_eq!(resumed.time(), w.time());
     assert_eq!(resumed.truth(), w.truth(), "the spread fire is back too");
-    resumed.command(
-        &u1(),
-        UnitCommand {
-            speed: 0.5,
-            steer: 0.05,
-            pan: 0.2,
-            tilt: 0.1,
-            valve_open: false,
-        },
-    );
+    resumed.command(&u1(), drive);
     for _ in 0..100 {
         w.step(0.05);
         resumed.step(0.05);
