@@ -117,7 +117,7 @@ async fn follow(
             Some((_, g)) = goals.recv() => {
                 // Kept on this host as they change (not at each second's re-send), so a
                 // standby restarted with everyone else takes them back.
-                if newest.as_ref().is_none_or(|n| n.goals != g.goals) {
+                if newest.as_ref().is_none_or(|n| g.t >= n.t && n.goals != g.goals) {
                     crate::node::keep(opts.journal.as_ref(), &g);
                 }
                 newest = GoalsInForce::newer(Some(g), newest);
