@@ -425,7 +425,14 @@ impl Incident {
     fn view(&mut self, unit: &UnitId, field: &str) -> Result<&mut UnitView, Invalid> {
         self.units
             .get_mut(unit)
-            .ok_or_else(|| Invalid::new(field, format!("unknown unit '{unit}'")))
+            .ok_or_else(|| {
+                Invalid::new(
+                    field,
+                    format!(
+                        "unknown unit '{unit}': not in this coordinator's site file (a robot added since: give the coordinator and its standby the new site file and restart them, deploy/README.md)"
+                    ),
+                )
+            })
     }
 
     fn standby(&mut self, unit: &UnitId, t: f64) -> Output {
