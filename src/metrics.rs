@@ -3,7 +3,8 @@
 //!
 //! - `/healthz`: 200 while the process serves at all.
 //! - `/readyz`: 200 while it is linked to the site (a router or a peer; a router, once it
-//!   listens), else 503 with the reason: a unit whose router is gone is alive, not ready.
+//!   listens) and nothing holds it back, else 503 with the reason: a unit whose router is
+//!   gone is alive, not ready; so is one the coordinator does not know ([`Metrics::hold_back`]).
 //! - `/metrics`: Prometheus text: `firefleet_links` (routers and peers linked),
 //!   `firefleet_messages_sent` and `_received` (valid messages), `firefleet_messages_rejected`
 //!   by reason (the bus's refusal classes), `firefleet_ready`, and the role's own figures
@@ -44,12 +45,16 @@ pub struct MetricsArg {
 /// A role's own figures, registered afresh at each scrape.
 pub type Figures = Arc<dyn Fn(&mut Registry) + Send + Sync>;
 
+/// Why a role linked to the site is still not ready, if it is not: asked at each probe.
+pub type HeldBack = Arc<dyn Fn() -> Option<String> + Send + Sync>;
+
 struct Served {
     /// The role's session: a unit that moves to a nearer router changes it.
     bus: std::sync::RwLock<Bus>,
     /// A router is ready once it listens; it has no router to be linked to.
     router: bool,
     figures: Option<Figures>,
+    held_back: std::sync::RwLock<Option<HeldBack>>,
 }
 
 impl MetricsArg {
@@ -72,6 +77,7 @@ impl MetricsArg {
             bus: std::sync::RwLock::new(bus.clone()),
             router,
             figures,
+            held_back: std::sync::RwLock::new(None),
         });
         let app = Router::new()
             .route("/healthz", get(|| async { "ok\n" }))
@@ -92,6 +98,15 @@ impl MetricsArg {
 pub struct Metrics(Option<Arc<Served>>);
 
 impl Metrics {
+    /// Not ready, even linked, while `why` says why (a unit the coordinator does not know).
+    pub fn hold_back(&self, why: HeldBack) {
+        if let Some(s) = &self.0 {
+            *s.held_back
+                .write()
+                .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(why);
+        }
+    }
+
     /// Serve from `bus` from now on (a unit that moved to another router).
     pub fn follow(&self, bus: &Bus) {
         if let Some(s) = &self.0 {
@@ -110,19 +125,27 @@ impl Served {
             .clone()
     }
 
-    async fn ready(&self) -> bool {
-        self.router || self.bus().connected().await
+    /// Ready, or why not.
+    async fn ready(&self) -> Result<(), String> {
+        if !(self.router || self.bus().connected().await) {
+            return Err("not linked to the site: no router or peer".to_owned());
+        }
+        let held = self
+            .held_back
+            .read()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone();
+        match held.and_then(|why| why()) {
+            Some(why) => Err(why),
+            None => Ok(()),
+        }
     }
 }
 
 async fn readyz(State(s): State<Arc<Served>>) -> impl IntoResponse {
-    if s.ready().await {
-        (StatusCode::OK, "ready\n")
-    } else {
-        (
-            StatusCode::SERVICE_UNAVAILABLE,
-            "not linked to the site: no router or peer\n",
-        )
+    match s.ready().await {
+        Ok(()) => (StatusCode::OK, "ready\n".to_owned()),
+        Err(why) => (StatusCode::SERVICE_UNAVAILABLE, format!("{why}\n")),
     }
 }
 
@@ -138,7 +161,7 @@ async fn metrics(State(s): State<Arc<Served>>) -> impl IntoResponse {
         links,
     );
     let ready = Gauge::<i64>::default();
-    ready.set(i64::from(s.ready().await));
+    ready.set(i64::from(s.ready().await.is_ok()));
     registry.register("ready", "1 while linked to the site (see /readyz)", ready);
     let sent = Counter::<u64>::default();
     sent.inc_by(bus.traffic().sent());

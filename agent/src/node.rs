@@ -11,6 +11,13 @@
 //! and flame reports a few times a second of site time, and its behavior tree's
 //! transitions every step (for recordings).
 //!
+//! Its start-up question names the unit, so the coordinator can say it does not know it (a
+//! robot added to the site whose coordinator still runs on the old site file): the agent
+//! then logs the coordinator's reason and holds it in its [`Standing`] (the unit's
+//! `/readyz` says it). It asks again every [`REASK_UNKNOWN`], and whenever a coordinator
+//! appears (one that was not there at start, or one restarted with a new site file), until
+//! a task shows the coordinator takes the unit, which clears the refusal.
+//!
 //! Not here: deciding anything; the controller decides, this loop only carries frames,
 //! commands and messages.
 
@@ -31,6 +38,32 @@ use crate::rehome::{self, Rehoming};
 
 /// How long the agent's start-up question for the barred space stays open.
 const BARRED_QUERY_TIMEOUT: Duration = Duration::from_secs(2);
+/// How often a unit asks again whether the coordinator takes it, until a task shows it
+/// does (a coordinator taking office answers no question; a restart of the coordinator
+/// with the new site file is what a refused unit waits for).
+pub const REASK_UNKNOWN: Duration = Duration::from_secs(10);
+
+/// Whether the site's coordinator knows this unit: why not, while it does not. Shared
+/// with whatever serves the unit's readiness; cloning shares it.
+#[derive(Debug, Clone, Default)]
+pub struct Standing(std::sync::Arc<std::sync::Mutex<Option<String>>>);
+
+impl Standing {
+    /// Why the coordinator does not take this unit, if it said so at the last asking.
+    pub fn refused(&self) -> Option<String> {
+        self.0
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone()
+    }
+
+    fn set(&self, why: Option<String>) {
+        *self
+            .0
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = why;
+    }
+}
 /// Site seconds between two batches of behaviour-tree transitions: 5 Hz, a tenth of the
 /// router's bound on a unit's `bt` key (`firefleet_bus::limits`).
 const BT_BATCH_S: f64 = 0.2;
@@ -43,6 +76,8 @@ pub struct AgentOptions {
     pub report_period_s: f64,
     /// Print the tree with live statuses to stderr about once a second of site time.
     pub print_tree: bool,
+    /// Whether the coordinator knows the unit, as it last answered.
+    pub standing: Standing,
 }
 
 fn status(s: Status) -> NodeStatus {
@@ -164,7 +199,13 @@ where
         every_answer: true,
         ..Ask::within(BARRED_QUERY_TIMEOUT)
     };
-    let barred_answers = bus.ask(keys.coord_barred().as_str(), ask).await?;
+    let question = format!("{}?unit={unit}", keys.coord_barred().as_str());
+    let mut barred_answers = bus.ask(&question, ask).await?;
+    // Whether the question is open; whether to ask again once it closes; whether a task
+    // showed the coordinator takes the unit (only a coordinator that knows it tasks it).
+    let (mut asking, mut ask_again, mut taken) = (true, false, false);
+    let mut reask = tokio::time::interval(REASK_UNKNOWN);
+    reask.reset();
     let state_key = keys.unit_state(unit);
     let report_key = keys.unit_report(unit);
     let bt_key = keys.unit_bt(unit);
@@ -228,6 +269,12 @@ where
                 if &task.unit == unit {
                     if let Err(e) = ctl.on_task(task.epoch, task.seq, task.kind) {
                         bus.rejects().refuse_invalid(&tasks_from, &e);
+                    } else if !taken {
+                        taken = true;
+                        if opts.standing.refused().is_some() {
+                            tracing::info!(%unit, "the coordinator takes this unit now");
+                            opts.standing.set(None);
+                        }
                     }
                 } else {
                     bus.rejects().refuse_invalid(&tasks_from, &format_args!("a task addressed to {}", task.unit));
@@ -238,17 +285,48 @@ where
                     bus.rejects().refuse_invalid(&barred_from, &e);
                 }
             }
-            Some(answer) = barred_answers.recv() => {
-                if let Some(b) = bus.decode::<BarredSpace>(&answer, "barred space answer")
-                    && let Err(e) = ctl.on_barred(b)
-                {
-                    bus.rejects().refuse_invalid(&barred_from, &format_args!("an answer: {e}"));
+            answer = barred_answers.recv_or_refusal(), if asking => match answer {
+                Some(Ok(answer)) => {
+                    if let Some(b) = bus.decode::<BarredSpace>(&answer, "barred space answer")
+                        && let Err(e) = ctl.on_barred(b)
+                    {
+                        bus.rejects().refuse_invalid(&barred_from, &format_args!("an answer: {e}"));
+                    }
                 }
+                Some(Err(why)) => {
+                    if opts.standing.refused().is_none() {
+                        tracing::error!(%unit, "the coordinator does not take this unit: {why}");
+                    }
+                    opts.standing.set(Some(why));
+                }
+                None if ask_again => {
+                    // A coordinator appeared while this question was open: ask it.
+                    barred_answers = bus.ask(&question, ask).await?;
+                    ask_again = false;
+                }
+                None => asking = false,
+            },
+            // Until a task shows the coordinator takes the unit, asked again now and then:
+            // a coordinator still taking office answers no question.
+            _ = reask.tick(), if !asking && !taken => {
+                barred_answers = bus.ask(&question, ask).await?;
+                asking = true;
             }
             change = coord.recv() => {
                 let Some((_, present)) = change else { break };
                 tracing::info!(%unit, present, "coordinator presence changed");
                 ctl.set_coordinator_present(present);
+                // A coordinator that appears (one that was not there at the first asking,
+                // or one restarted with a new site file) is asked whether it takes the unit.
+                if present {
+                    taken = false;
+                    if asking {
+                        ask_again = true;
+                    } else {
+                        barred_answers = bus.ask(&question, ask).await?;
+                        asking = true;
+                    }
+                }
             }
             _ = &mut shutdown => break,
             next = &mut move_to => {

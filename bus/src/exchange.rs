@@ -136,6 +136,16 @@ impl Answers {
         }
     }
 
+    /// The next answer, or an answerer's refusal (an error reply) with its text. `None`
+    /// when no more will come.
+    pub async fn recv_or_refusal(&self) -> Option<Result<Raw, String>> {
+        let reply = self.0.recv_async().await.ok()?;
+        Some(match reply.result() {
+            Ok(s) => Ok(Raw::of(s)),
+            Err(e) => Err(String::from_utf8_lossy(&e.payload().to_bytes()).into_owned()),
+        })
+    }
+
     /// Every answer, once the question has closed.
     pub async fn all(self) -> Vec<Raw> {
         let mut out = Vec::new();
@@ -169,6 +179,19 @@ impl Question {
     /// The topic asked, if the key is one of the site's.
     pub fn topic(&self) -> Option<Topic> {
         keys::parse(self.key()).ok().map(|(_, t)| t)
+    }
+
+    /// A parameter the question was asked with (`key?name=value`).
+    pub fn parameter(&self, name: &str) -> Option<&str> {
+        self.0.parameters().get(name)
+    }
+
+    /// Refuse the question, saying why: the asker gets an error reply with the text.
+    pub async fn refuse(&self, why: &str) -> Result<(), BusError> {
+        self.0
+            .reply_err(why.as_bytes().to_vec())
+            .await
+            .map_err(BusError::from)
     }
 
     /// Answer with `bytes` on `key`.

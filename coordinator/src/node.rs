@@ -525,6 +525,16 @@ async fn take_back(
 async fn answer(bus: &Bus, incident: &Incident, query: Question, t: f64) {
     let key = query.key().to_owned();
     let body = match query.topic() {
+        // A unit that names itself asks whether this coordinator knows it too: one added
+        // to the site since its site file was read is refused with the reason (its agent
+        // is then not ready, and says why).
+        Some(Topic::CoordBarred) if query.parameter("unit").is_some_and(|u| !incident.knows(u)) => {
+            let why = crate::incident::unknown_unit(query.parameter("unit").unwrap_or_default());
+            if let Err(e) = query.refuse(&why).await {
+                tracing::warn!(key, "refusal failed: {e}");
+            }
+            return;
+        }
         Some(Topic::CoordBarred) => codec::encode(&incident.barred_space(t)),
         Some(Topic::CoordGoals) => codec::encode(&incident.goals_in_force(t)),
         Some(Topic::CoordStatus) => {

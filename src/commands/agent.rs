@@ -80,10 +80,14 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
     )
     .await?;
     let metrics = a.role.metrics.serve(&bus, false, None).await?;
+    let standing = firefleet_agent::node::Standing::default();
+    let held = standing.clone();
+    metrics.hold_back(Arc::new(move || held.refused()));
     let opts = AgentOptions {
         unit: a.unit.clone(),
         report_period_s: 0.25,
         print_tree: a.print_tree,
+        standing,
     };
     let shared = Arc::new(scenario.clone());
     let moves = Rehoming::new(

@@ -1388,6 +1388,58 @@ fn http_get(addr: &str, path: &str) -> (u16, String) {
     (code, body.to_owned())
 }
 
+/// A robot added to the site while the coordinator still runs on the old site file: its
+/// agent is linked but not ready, its /readyz saying the coordinator's reason, until the
+/// coordinator is restarted with the new site file and tasks it; then ready.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_agent_the_coordinator_does_not_know_is_not_ready_and_says_why() {
+    let (_router, endpoint) = router("tunnel-r").await;
+    let dir = tempfile::tempdir().unwrap();
+    let added = dir.path().join("site.toml");
+    let shipped = std::fs::read_to_string("model/scenarios/rail-tunnel.toml").unwrap();
+    std::fs::write(
+        &added,
+        format!("{shipped}\n[[units]]\nid = \"ugv-9\"\nkind = \"ground\"\nx_m = 5.0\ny_m = 2.5\n"),
+    )
+    .unwrap();
+    let added = added.to_str().unwrap();
+    // The simulator has the robot's body (its file is the new one); the coordinator the
+    // old file.
+    let mut fleet = Fleet(vec![
+        spawn_role("rail-tunnel", &endpoint, &["coordinator", "--sim-clock"]),
+        spawn_role(added, &endpoint, &["sim", "--time-scale", "4"]),
+    ]);
+    let addr = format!("127.0.0.1:{}", firefleet_bus::free_loopback_port().unwrap());
+    fleet.0.push(spawn_role(
+        added,
+        &endpoint,
+        &["agent", "--unit", "ugv-9", "--metrics", &addr],
+    ));
+    let readyz = |code: u16, needle: &str| {
+        let deadline = Instant::now() + patient(Duration::from_secs(30));
+        loop {
+            let (got, body) = http_get(&addr, "/readyz");
+            if got == code && body.contains(needle) {
+                return;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "/readyz never said {code} {needle:?}: {got} {body}"
+            );
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    };
+    readyz(
+        503,
+        "unknown unit 'ugv-9': not in this coordinator's site file",
+    );
+    // The coordinator restarted with the new site file takes it (tasks it): ready.
+    fleet.0[0].kill().unwrap();
+    fleet.0[0].wait().unwrap();
+    fleet.0[0] = spawn_role(added, &endpoint, &["coordinator", "--sim-clock"]);
+    readyz(200, "ready");
+}
+
 /// Issue #37: every long-running role serves /healthz, /readyz and Prometheus /metrics
 /// with `--metrics`; the coordinator's figures follow the incident, and a unit whose
 /// router is gone is alive but not ready.

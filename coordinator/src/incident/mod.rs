@@ -425,14 +425,7 @@ impl Incident {
     fn view(&mut self, unit: &UnitId, field: &str) -> Result<&mut UnitView, Invalid> {
         self.units
             .get_mut(unit)
-            .ok_or_else(|| {
-                Invalid::new(
-                    field,
-                    format!(
-                        "unknown unit '{unit}': not in this coordinator's site file (a robot added since: give the coordinator and its standby the new site file and restart them, deploy/README.md)"
-                    ),
-                )
-            })
+            .ok_or_else(|| Invalid::new(field, unknown_unit(unit.as_str())))
     }
 
     fn standby(&mut self, unit: &UnitId, t: f64) -> Output {
@@ -498,6 +491,11 @@ impl Incident {
             .to_track(t, self.assigned_to(fire))
     }
 
+    /// Whether `unit` is on this incident's roster (its site file's units).
+    pub fn knows(&self, unit: &str) -> bool {
+        UnitId::new(unit).is_ok_and(|u| self.units.contains_key(&u))
+    }
+
     /// Every current task, for periodic re-publication (late joiners, lost messages): a
     /// deaf unit's too, whose echo of it brings the unit back.
     pub fn tasks(&self) -> impl Iterator<Item = &Task> {
@@ -552,6 +550,15 @@ impl Incident {
             rejected: Default::default(),
         }
     }
+}
+
+/// Why a unit the incident does not know is refused, and what to do: its states, its
+/// reports, and its own question whether the coordinator knows it (the agent's readiness)
+/// all say this.
+pub fn unknown_unit(unit: &str) -> String {
+    format!(
+        "unknown unit '{unit}': not in this coordinator's site file (a robot added since: give the coordinator and its standby the new site file and restart them, deploy/README.md)"
+    )
 }
 
 #[cfg(test)]
