@@ -27,7 +27,7 @@ use std::rc::Rc;
 use std::time::Duration;
 
 use firefleet_bt::{Status, Transition};
-use firefleet_bus::{Ask, Bus, BusError};
+use firefleet_bus::{Answers, Ask, Bus, BusError};
 use firefleet_model::UnitId;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{BarredSpace, BtTransition, BtTransitions, NodeStatus};
@@ -87,6 +87,18 @@ fn status(s: Status) -> NodeStatus {
         Status::Success => NodeStatus::Success,
         Status::Failure => NodeStatus::Failure,
         Status::Skipped => NodeStatus::Skipped,
+    }
+}
+
+/// Ask whether the coordinator takes the unit once more. A failure is logged, not fatal:
+/// the question only decides the unit's readiness, and is asked again later.
+async fn ask_once_more(bus: &Bus, question: &str, ask: Ask) -> Option<Answers> {
+    match bus.ask(question, ask).await {
+        Ok(a) => Some(a),
+        Err(e) => {
+            tracing::warn!("asking {question}: {e}");
+            None
+        }
     }
 }
 
@@ -301,16 +313,20 @@ where
                 }
                 None if ask_again => {
                     // A coordinator appeared while this question was open: ask it.
-                    barred_answers = bus.ask(&question, ask).await?;
                     ask_again = false;
+                    match ask_once_more(bus, &question, ask).await {
+                        Some(a) => barred_answers = a,
+                        None => asking = false,
+                    }
                 }
                 None => asking = false,
             },
             // Until a task shows the coordinator takes the unit, asked again now and then:
             // a coordinator still taking office answers no question.
             _ = reask.tick(), if !asking && !taken => {
-                barred_answers = bus.ask(&question, ask).await?;
-                asking = true;
+                if let Some(a) = ask_once_more(bus, &question, ask).await {
+                    (barred_answers, asking) = (a, true);
+                }
             }
             change = coord.recv() => {
                 let Some((_, present)) = change else { break };
@@ -322,9 +338,8 @@ where
                     taken = false;
                     if asking {
                         ask_again = true;
-                    } else {
-                        barred_answers = bus.ask(&question, ask).await?;
-                        asking = true;
+                    } else if let Some(a) = ask_once_more(bus, &question, ask).await {
+                        (barred_answers, asking) = (a, true);
                     }
                 }
             }
