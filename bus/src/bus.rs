@@ -25,9 +25,10 @@ use firefleet_protocol::codec::{self, CodecError};
 use firefleet_protocol::keys::{self, Key, Keys, Subscribable, Topic};
 use firefleet_protocol::msg::Message;
 
-use crate::connect::Connect;
+use crate::connect::{Connect, tls_files};
 use crate::pki::PkiError;
 use crate::refusals::Refusals;
+use crate::seal::Seals;
 
 /// What failed on the bus, by what a caller can do about it: a configuration to fix, an
 /// identity to replace, a network Zenoh refused, or a bus that is gone.
@@ -87,6 +88,8 @@ pub struct RejectCounts {
     undecodable: AtomicU64,
     version: AtomicU64,
     invalid: AtomicU64,
+    /// A goal or clear whose seal is missing, does not hold, is stale or is a replay.
+    seal: AtomicU64,
     /// Taken off the bus but dropped: the reader was behind ([`crate::RawInbox`]).
     overflow: AtomicU64,
     log: Mutex<Refusals>,
@@ -126,6 +129,12 @@ impl RejectCounts {
         self.count_invalid();
         self.log(from, "invalid", reason);
     }
+    /// Count and log a message from `from` whose seal was refused (missing, not holding,
+    /// stale, a replay).
+    pub fn refuse_seal(&self, from: &str, reason: &dyn std::fmt::Display) {
+        self.count_seal();
+        self.log(from, "seal", reason);
+    }
     /// Count and log a message from `from` dropped because its reader was behind.
     pub fn refuse_overflow(&self, from: &str) {
         self.count_overflow();
@@ -155,6 +164,10 @@ impl RejectCounts {
     pub fn count_invalid(&self) {
         self.invalid.fetch_add(1, Ordering::Relaxed);
     }
+    /// Count a message whose seal was refused, logged by the caller.
+    pub fn count_seal(&self) {
+        self.seal.fetch_add(1, Ordering::Relaxed);
+    }
     /// Count a message dropped because its reader was behind.
     pub fn count_overflow(&self) {
         self.overflow.fetch_add(1, Ordering::Relaxed);
@@ -167,11 +180,12 @@ impl RejectCounts {
         self.snapshot().iter().map(|(_, n)| n).sum()
     }
     /// `(class, count)` pairs, for status reports.
-    pub fn snapshot(&self) -> [(&'static str, u64); 4] {
+    pub fn snapshot(&self) -> [(&'static str, u64); 5] {
         [
             ("undecodable", self.undecodable.load(Ordering::Relaxed)),
             ("version", self.version.load(Ordering::Relaxed)),
             ("invalid", self.invalid.load(Ordering::Relaxed)),
+            ("seal", self.seal.load(Ordering::Relaxed)),
             ("overflow", self.overflow.load(Ordering::Relaxed)),
         ]
     }
@@ -189,20 +203,32 @@ pub struct Bus {
     /// half of a coordinator's CPU); a declared one keeps its route. Keys are few
     /// (a unit's topics, a fire's track, a zone's ack), so the map stays small.
     publishers: Arc<Mutex<HashMap<String, Publisher<'static>>>>,
+    /// With a TLS identity: its key to seal with and its CA to check seals.
+    seals: Option<Arc<Seals>>,
 }
 
 impl Bus {
     pub async fn open(connect: &Connect, site: SiteId) -> Result<Self, BusError> {
-        let session = zenoh::open(connect.to_config()?)
-            .await
-            .map_err(BusError::from_zenoh)?;
+        let config = connect.to_config()?;
+        let seals = match tls_files(&config) {
+            Some(files) => Some(Arc::new(Seals::load(&files)?)),
+            None => None,
+        };
+        let session = zenoh::open(config).await.map_err(BusError::from_zenoh)?;
         Ok(Self {
             session,
             keys: Keys::new(site),
             rejects: Arc::default(),
             traffic: Arc::default(),
             publishers: Arc::default(),
+            seals,
         })
+    }
+
+    /// This session's seals: none on a plain link (a site without a PKI trusts whoever
+    /// is on its bus, and nothing is sealed).
+    pub fn seals(&self) -> Option<&Seals> {
+        self.seals.as_deref()
     }
 
     /// Join the network for a role that runs until stopped (agent, coordinator, recorder,

@@ -199,7 +199,7 @@ pub struct Links {
 
 /// The TLS files `config` presents: the listening certificate for a router, else the
 /// connecting one; none if it names no complete identity.
-fn tls_files(config: &zenoh::Config) -> Option<pki::TlsFiles> {
+pub(crate) fn tls_files(config: &zenoh::Config) -> Option<pki::TlsFiles> {
     let get = |field: &str| -> Option<PathBuf> {
         config
             .get_json(&format!("transport/link/tls/{field}"))

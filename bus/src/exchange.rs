@@ -20,16 +20,18 @@ use zenoh::sample::{Locality, Sample, SampleKind};
 
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::{self, Topic};
-use firefleet_protocol::msg::Message;
+use firefleet_protocol::msg::{Message, Seal};
 
 use crate::bus::{Bus, BusError};
 
-/// A sample as it arrived: its key, whether it was a put or a delete, and its bytes.
+/// A sample as it arrived: its key, whether it was a put or a delete, its bytes, and its
+/// attachment (a seal's, where there is one).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Raw {
     pub key: String,
     pub deleted: bool,
     pub bytes: Vec<u8>,
+    pub attachment: Option<Vec<u8>>,
 }
 
 impl Raw {
@@ -38,6 +40,7 @@ impl Raw {
             key: s.key_expr().as_str().to_owned(),
             deleted: s.kind() == SampleKind::Delete,
             bytes: s.payload().to_bytes().into_owned(),
+            attachment: s.attachment().map(|a| a.to_bytes().into_owned()),
         }
     }
 
@@ -314,9 +317,24 @@ impl Bus {
         ))
     }
 
-    /// Delete `key` (a commander's goals on a zone are cleared so).
-    pub async fn delete(&self, key: &str) -> Result<(), BusError> {
-        Ok(self.zenoh().delete(key.to_owned()).await?)
+    /// Delete `key` (a commander's goals on a zone are cleared so), with `seal` in the
+    /// attachment if there is one.
+    pub async fn delete(&self, key: &str, seal: Option<&Seal>) -> Result<(), BusError> {
+        let delete = self.zenoh().delete(key.to_owned());
+        match seal {
+            Some(s) => delete.attachment(s.to_attachment()).await?,
+            None => delete.await?,
+        }
+        Ok(())
+    }
+
+    /// Put bytes as they are on `key` with `seal` in the attachment (a commander's goal).
+    pub async fn put_sealed(&self, key: &str, bytes: Vec<u8>, seal: &Seal) -> Result<(), BusError> {
+        Ok(self
+            .zenoh()
+            .put(key.to_owned(), bytes)
+            .attachment(seal.to_attachment())
+            .await?)
     }
 
     /// Put bytes as they are on `key`: for tools that must send what no typed message

@@ -3,17 +3,24 @@
 //!
 //! A goal is put on `zone/<zone>/goal/<commander>`; the coordinator answers each one it
 //! hears on `zone/<zone>/ack`. A delete on the goal key clears that commander's goals on
-//! the zone.
+//! the zone. On a secure site both are sealed with the tool's identity (a commander's
+//! own, or the console's for its logins): the coordinator takes no goal or clear without
+//! a seal it can check.
 
 use std::time::Duration;
 
 use firefleet_model::{CommanderId, ZoneId};
-use firefleet_protocol::msg::{GoalAck, ZoneGoal};
+use firefleet_protocol::codec;
+use firefleet_protocol::msg::{GoalAck, Seal, ZoneGoal};
 
 use crate::{Bus, BusError};
 
 /// How long a person's tool waits for the coordinator's answer.
 pub const ACK_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// How long a tool puts one seal again while it waits: well inside the half minute a
+/// coordinator takes a seal as fresh.
+const RESEAL: Duration = Duration::from_secs(10);
 
 /// Why a goal got no answer.
 #[derive(Debug, thiserror::Error)]
@@ -39,11 +46,18 @@ pub async fn issue(
     by: &CommanderId,
     within: Duration,
 ) -> Result<GoalAck, GoalError> {
-    let keys = bus.keys();
-    let acks = bus.subscribe::<GoalAck>(&keys.zone_ack(&goal.zone)).await?;
+    let acks = bus
+        .subscribe::<GoalAck>(&bus.keys().zone_ack(&goal.zone))
+        .await?;
+    // Sealed once: every put again is the same message, not a newer one; sealed again
+    // only before the seal grows too old for a coordinator to take as fresh.
+    let mut sealed = (tokio::time::Instant::now(), Put::new(bus, goal, by));
     let deadline = tokio::time::Instant::now() + within;
     while tokio::time::Instant::now() < deadline {
-        bus.put(&keys.zone_goal(&goal.zone, by), goal).await?;
+        if sealed.0.elapsed() > RESEAL {
+            sealed = (tokio::time::Instant::now(), Put::new(bus, goal, by));
+        }
+        sealed.1.send(bus).await?;
         let resend = (tokio::time::Instant::now() + Duration::from_secs(1)).min(deadline);
         loop {
             match tokio::time::timeout_at(resend, acks.recv()).await {
@@ -57,7 +71,38 @@ pub async fn issue(
     Err(GoalError::NoAnswer(within))
 }
 
+/// Put `goal` under commander `by` once, sealed where the bus can seal, without waiting
+/// for an answer: for scripted commanders that read the answers themselves.
+pub async fn put(bus: &Bus, goal: &ZoneGoal, by: &CommanderId) -> Result<(), BusError> {
+    Put::new(bus, goal, by).send(bus).await
+}
+
+/// A goal ready to put: its key, its bytes, and their seal.
+struct Put {
+    key: String,
+    bytes: Vec<u8>,
+    seal: Option<Seal>,
+}
+
+impl Put {
+    fn new(bus: &Bus, goal: &ZoneGoal, by: &CommanderId) -> Self {
+        let key = bus.keys().zone_goal(&goal.zone, by).as_str().to_owned();
+        let bytes = codec::encode(goal);
+        let seal = bus.seals().map(|s| s.sealer.seal(&key, Some(&bytes)));
+        Self { key, bytes, seal }
+    }
+
+    async fn send(&self, bus: &Bus) -> Result<(), BusError> {
+        match &self.seal {
+            Some(seal) => bus.put_sealed(&self.key, self.bytes.clone(), seal).await,
+            None => bus.put_raw(&self.key, self.bytes.clone()).await,
+        }
+    }
+}
+
 /// Clear commander `by`'s goals on `zone`.
 pub async fn clear(bus: &Bus, zone: &ZoneId, by: &CommanderId) -> Result<(), BusError> {
-    bus.delete(bus.keys().zone_goal(zone, by).as_str()).await
+    let key = bus.keys().zone_goal(zone, by);
+    let seal = bus.seals().map(|s| s.sealer.seal(key.as_str(), None));
+    bus.delete(key.as_str(), seal.as_ref()).await
 }

@@ -57,6 +57,7 @@ pub mod pki;
 pub mod probe;
 pub mod refusals;
 pub mod render;
+pub mod seal;
 
 pub use bus::{Bus, BusError, Inbox, RejectCounts, Traffic};
 pub use connect::{Connect, Links, Mode, free_loopback_port, mtls_link, one_stream};

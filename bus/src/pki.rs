@@ -336,6 +336,11 @@ impl Certified {
         })
     }
 
+    /// The certificate itself, DER.
+    pub fn der(&self) -> &[u8] {
+        &self.der
+    }
+
     /// Whole days from `now` until it expires (negative: expired).
     pub fn days_left(&self, now: OffsetDateTime) -> i64 {
         (self.not_after - now).whole_days()

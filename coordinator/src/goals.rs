@@ -25,6 +25,12 @@
 //! - Goals are bounded: [`MAX_GOALS_PER_COMMANDER`] per commander, [`MAX_GOALS_IN_FORCE`]
 //!   in all (what one `coord/goals` message carries, so the goals in force are always
 //!   stored and recalled whole).
+//! - On a secure site a goal and a clear arrive sealed by their issuer (the node checks
+//!   the seal; here is what follows from its time): a goal sealed before a clear that
+//!   covers it (its issuer's, or a higher rank's on its zone), or before the version of
+//!   the same goal in force, is a replay and is refused. The newest sealed clear of each
+//!   commander on each zone is kept ([`GoalsInForce::cleared`]), so a restart keeps
+//!   refusing what it cleared.
 //! - Where zones overlap, the governing goal covering a chainage (rank, then priority)
 //!   governs it, for
 //!   what it bars as for what it asks: a keep-out under a higher-priority extinguish goal is
@@ -38,8 +44,8 @@ use firefleet_model::UnitKind;
 use firefleet_model::scenario::{CommanderSpec, Rank, Zone, rank_of};
 use firefleet_model::{Chainage, CommanderId, ZoneId};
 use firefleet_protocol::msg::{
-    Bar, BarredSpace, BarredSpan, GoalAck, GoalInForce, GoalsInForce, MAX_GOALS_IN_FORCE, ZoneGoal,
-    nearest_allowed,
+    Bar, BarredSpace, BarredSpan, Cleared, GoalAck, GoalInForce, GoalsInForce, MAX_GOALS_IN_FORCE,
+    Sealed, ZoneGoal, nearest_allowed,
 };
 
 /// Goals one commander may hold in force: a goal or two for each of a site's zones is
@@ -59,6 +65,8 @@ pub struct Active {
     pub until: Option<f64>,
     /// Its issuer's rank.
     pub rank: Rank,
+    /// The goal as its issuer sealed it (a secure site).
+    pub proof: Option<Sealed>,
 }
 
 impl Active {
@@ -94,10 +102,17 @@ pub struct Goals {
     /// Ids of goals lately lifted (cleared, lapsed, overridden), newest last: a unit that
     /// refuses a task for one of them has not heard yet.
     lifted: std::collections::VecDeque<String>,
+    /// The newest sealed clear of each commander on each zone.
+    cleared: Vec<Cleared>,
 }
 
 /// Lifted goal ids remembered.
 const LIFTED_KEPT: usize = 64;
+
+/// Seconds between two seal times, `later` after `earlier`.
+fn ms_apart(later: u64, earlier: u64) -> f64 {
+    later.saturating_sub(earlier) as f64 / 1000.0
+}
 
 /// Whether two goals ask the fleet for the same thing.
 fn same_ask(a: &ZoneGoal, b: &ZoneGoal) -> bool {
@@ -123,6 +138,7 @@ impl Goals {
             active: Vec::new(),
             revision: 0,
             lifted: std::collections::VecDeque::new(),
+            cleared: Vec::new(),
         }
     }
 
@@ -143,14 +159,64 @@ impl Goals {
     }
 
     /// Take goal `g`, which arrived on zone `key_zone`'s key from commander `by` at site
-    /// time `t`.
-    pub fn submit(
+    /// time `t`, unsealed (an open site).
+    pub fn submit(&mut self, key_zone: &ZoneId, by: &CommanderId, g: ZoneGoal, t: f64) -> GoalAck {
+        self.take(key_zone, by, g, t, None)
+    }
+
+    /// [`Goals::submit`] of a goal whose seal the node checked, `proof`.
+    pub fn submit_sealed(
+        &mut self,
+        key_zone: &ZoneId,
+        by: &CommanderId,
+        g: ZoneGoal,
+        t: f64,
+        proof: Sealed,
+    ) -> GoalAck {
+        self.take(key_zone, by, g, t, Some(proof))
+    }
+
+    /// Why a goal of `by` with id `id` on `zone` sealed at `at_ms` is a replay, if it is:
+    /// a clear that covers it was sealed later, or the version in force was.
+    fn replayed(&self, zone: &ZoneId, by: &CommanderId, id: &str, at_ms: u64) -> Option<String> {
+        let rank = rank_of(&self.commanders, by);
+        if let Some(c) = self.cleared.iter().find(|c| {
+            &c.zone == zone
+                && c.proof.seal.at_ms >= at_ms
+                && (&c.by == by || rank_of(&self.commanders, &c.by) > rank)
+        }) {
+            return Some(format!(
+                "sealed before commander '{}' cleared zone '{zone}' ({:.1} s earlier): a replay",
+                c.by,
+                ms_apart(c.proof.seal.at_ms, at_ms)
+            ));
+        }
+        self.active
+            .iter()
+            .filter_map(|a| Some((a, a.proof.as_ref()?.seal.at_ms)))
+            .find(|(a, newer)| a.goal.id == id && *newer > at_ms)
+            .map(|(_, newer)| {
+                format!(
+                    "sealed {:.1} s before the version of goal '{id}' in force: a replay",
+                    ms_apart(newer, at_ms)
+                )
+            })
+    }
+
+    fn take(
         &mut self,
         key_zone: &ZoneId,
         by: &CommanderId,
         mut g: ZoneGoal,
         t: f64,
+        proof: Option<Sealed>,
     ) -> GoalAck {
+        if let Some(why) = proof
+            .as_ref()
+            .and_then(|p| self.replayed(key_zone, by, &g.id, p.seal.at_ms))
+        {
+            return ack(&g, false, why);
+        }
         if &g.zone != key_zone {
             return ack(
                 &g,
@@ -267,6 +333,7 @@ impl Goals {
             until: g.expires_s.map(|e| t + e),
             rank,
             goal: g,
+            proof,
         };
         let mut reason = match replaced {
             Some(i) => {
@@ -302,7 +369,13 @@ impl Goals {
         let Some(by) = g.goal.issued_by.clone() else {
             return ack(&g.goal, false, "names no commander as its issuer");
         };
-        let a = self.submit(&g.goal.zone.clone(), &by, g.goal.clone(), g.since);
+        let a = self.take(
+            &g.goal.zone.clone(),
+            &by,
+            g.goal.clone(),
+            g.since,
+            g.proof.clone(),
+        );
         if a.accepted
             && let Some(active) = self.active.iter_mut().find(|x| x.goal.id == g.goal.id)
         {
@@ -322,11 +395,53 @@ impl Goals {
                     goal: a.goal.clone(),
                     since: a.since,
                     until: a.until,
+                    proof: a.proof.clone(),
                 })
                 .collect(),
             stranded: Vec::new(),
             trapped: Vec::new(),
+            cleared: self.cleared.clone(),
         }
+    }
+
+    /// Clear commander `by`'s goals on `zone` as [`Goals::clear`] does, by a clear whose
+    /// seal the node checked, `proof`, which is kept: a goal sealed before it stays
+    /// cleared. A clear sealed before the newest one kept changes nothing.
+    pub fn clear_sealed(
+        &mut self,
+        zone: &ZoneId,
+        by: &CommanderId,
+        proof: Sealed,
+    ) -> Vec<ZoneGoal> {
+        self.note_cleared(Cleared {
+            zone: zone.clone(),
+            by: by.clone(),
+            proof,
+        });
+        self.clear(zone, by)
+    }
+
+    /// Keep `c` as its commander's newest clear of its zone, if it is newer. A goal in
+    /// force sealed before it is not dropped here: [`Goals::clear`] does that, and a
+    /// recalled clear comes before the goals recalled with it.
+    pub fn note_cleared(&mut self, c: Cleared) {
+        match self
+            .cleared
+            .iter_mut()
+            .find(|k| k.zone == c.zone && k.by == c.by)
+        {
+            Some(k) if k.proof.seal.at_ms >= c.proof.seal.at_ms => {}
+            Some(k) => *k = c,
+            None => {
+                // Bounded as the goals are: one per commander and zone, at most what one
+                // message holds (the oldest goes first).
+                if self.cleared.len() == MAX_GOALS_IN_FORCE {
+                    self.cleared.remove(0);
+                }
+                self.cleared.push(c);
+            }
+        }
+        self.revision += 1;
     }
 
     /// Clear commander `by`'s goals on `zone`, and those of every lower rank there; the
@@ -484,6 +599,85 @@ mod tests {
 
     fn ic() -> CommanderId {
         CommanderId::new("ic").unwrap()
+    }
+
+    /// A proof of `g` on `by`'s key sealed at `at_ms`: the rules here read only its time
+    /// (the node checks the signature).
+    fn proof(zone: &str, by: &CommanderId, payload: Option<&str>, at_ms: u64) -> Sealed {
+        Sealed {
+            key: format!("ff/s/zone/{zone}/goal/{by}"),
+            payload: payload.map(str::to_owned),
+            seal: firefleet_protocol::msg::Seal {
+                cert: String::new(),
+                at_ms,
+                sig: String::new(),
+            },
+        }
+    }
+
+    #[test]
+    fn a_sealed_goal_older_than_a_clear_or_its_version_in_force_is_a_replay() {
+        let mut g = goals();
+        let chief = CommanderId::new("chief").unwrap();
+        let keep_out = || unsigned("ko", "a", GoalKind::KeepOut, 0);
+        let sealed_at = |at| proof("a", &ic(), Some("{}"), at);
+        assert!(
+            g.submit_sealed(&zid("a"), &ic(), keep_out(), 0.0, sealed_at(1_000))
+                .accepted
+        );
+        // The same goal put again (the tool's resend): the same seal, taken.
+        assert!(
+            g.submit_sealed(&zid("a"), &ic(), keep_out(), 0.5, sealed_at(1_000))
+                .accepted
+        );
+        // Amended at 2 s; the version of 1 s put again after it is a replay.
+        let monitor = unsigned("ko", "a", GoalKind::Monitor, 0);
+        assert!(
+            g.submit_sealed(&zid("a"), &ic(), monitor, 1.0, sealed_at(2_000))
+                .accepted
+        );
+        let a = g.submit_sealed(&zid("a"), &ic(), keep_out(), 1.5, sealed_at(1_000));
+        assert!(!a.accepted && a.reason.contains("a replay"), "{a:?}");
+        // The chief clears zone a at 3 s: every lower rank's goal there sealed before is
+        // cleared for good, kept in the goals in force; one sealed after is taken.
+        assert_eq!(
+            g.clear_sealed(&zid("a"), &chief, proof("a", &chief, None, 3_000))
+                .len(),
+            1
+        );
+        let a = g.submit_sealed(&zid("a"), &ic(), keep_out(), 2.0, sealed_at(2_500));
+        assert!(
+            !a.accepted && a.reason.contains("cleared zone 'a'"),
+            "{a:?}"
+        );
+        let kept = g.in_force(2.0);
+        assert_eq!(kept.cleared.len(), 1);
+        let mut back = goals();
+        back.note_cleared(kept.cleared[0].clone());
+        let a = back.submit_sealed(&zid("a"), &ic(), keep_out(), 2.0, sealed_at(2_500));
+        assert!(!a.accepted, "the clear outlives a restart: {a:?}");
+        // An older clear changes nothing kept; a goal sealed after the clear stands.
+        back.note_cleared(Cleared {
+            zone: zid("a"),
+            by: chief.clone(),
+            proof: proof("a", &chief, None, 500),
+        });
+        assert_eq!(back.in_force(0.0).cleared[0].proof.seal.at_ms, 3_000);
+        assert!(
+            back.submit_sealed(&zid("a"), &ic(), keep_out(), 3.0, sealed_at(3_001))
+                .accepted
+        );
+        // Another zone's clear does not touch it.
+        assert!(
+            back.submit_sealed(
+                &zid("b"),
+                &ic(),
+                unsigned("x", "b", GoalKind::Monitor, 0),
+                3.0,
+                proof("b", &ic(), Some("{}"), 10)
+            )
+            .accepted
+        );
     }
 
     #[test]

@@ -82,9 +82,9 @@ mod tests {
                 goal: ZoneGoal::new(ZoneId::new("east").unwrap(), GoalKind::KeepOut, rossi),
                 since: t - 3.0,
                 until: Some(t + 600.0),
+                proof: None,
             }],
-            stranded: Vec::new(),
-            trapped: Vec::new(),
+            ..GoalsInForce::default()
         }
     }
 

@@ -47,6 +47,7 @@ pub mod journal;
 pub mod node;
 pub mod pacing;
 pub mod roads;
+pub(crate) mod sealing;
 pub mod standby;
 pub mod stats;
 

@@ -43,6 +43,7 @@ use crate::incident::freshness;
 use crate::incident::{Decision, Incident, Loss, Output};
 use crate::journal::GoalJournal;
 use crate::pacing::{Republish, TokenGrace};
+use crate::sealing;
 
 /// How the coordinator runs.
 #[derive(Debug, Clone)]
@@ -431,15 +432,32 @@ async fn take_goal(
             Invalid::new("key", "names no zone"),
         )));
     };
-    if sample.deleted {
-        return Ok(Ok(incident.clear_goals(&zone, &by, t)));
-    }
     let bytes = &sample.bytes;
+    let proof = match sealing::heard(bus.seals().map(|s| &s.check), sample, &by, wall_ms()) {
+        Ok(proof) => proof,
+        Err(why) => {
+            bus.rejects().refuse_seal(&sample.key, &why);
+            if !sample.deleted {
+                bus.put(
+                    &bus.keys().zone_ack(&zone),
+                    &refusal(bytes, &zone, &by, why),
+                )
+                .await?;
+            }
+            return Ok(Ok(Vec::new()));
+        }
+    };
+    if sample.deleted {
+        return Ok(Ok(incident.clear_goals(&zone, &by, t, proof)));
+    }
     let (ack, out) = match codec::decode::<ZoneGoal>(bytes) {
-        Ok(goal) => incident.on_goal(&zone, &by, goal, t),
+        Ok(goal) => incident.on_goal(&zone, &by, goal, t, proof),
         Err(e) => {
             bus.rejects().refuse(&sample.key, &e);
-            (malformed(bytes, &zone, &by, &e), Vec::new())
+            (
+                refusal(bytes, &zone, &by, format!("malformed: {e}")),
+                Vec::new(),
+            )
         }
     };
     bus.put(&bus.keys().zone_ack(&zone), &ack).await?;
@@ -479,15 +497,43 @@ async fn take_back(
             None
         }
     });
-    let local = GoalsInForce::newer(opts.resume_goals.clone(), kept_here)
-        .filter(|g| dated(g, "this host's record"));
-    let recorded = recall_goals(bus)
-        .await?
-        .filter(|g| dated(g, "a recorder's answer"));
-    // The newest wins, this host's own on a tie: each is what a coordinator in office
-    // published at its `t`, and a coordinator that was down while another served has an
-    // older record than the recorders.
-    if let Some(kept) = GoalsInForce::newer(local, recorded) {
+    let check = bus.seals().map(|s| &s.check);
+    let mut sets = Vec::new();
+    let sources = [
+        (kept_here, "this host's record"),
+        (opts.resume_goals.clone(), "the standby's memory"),
+    ]
+    .into_iter()
+    .chain(
+        recall_goals(bus)
+            .await?
+            .into_iter()
+            .map(|g| (Some(g), "a recorder's answer")),
+    );
+    for (set, from) in sources {
+        let Some(set) = set.filter(|g| dated(g, from)) else {
+            continue;
+        };
+        let (set, refused) = sealing::recalled(check, bus.keys(), set, from);
+        for why in refused {
+            bus.rejects().count_seal();
+            tracing::warn!("recalled {why}");
+        }
+        sets.push(set);
+    }
+    // Open site: the newest wins, this host's own on a tie (each is what a coordinator in
+    // office published at its `t`, and a coordinator that was down while another served
+    // has an older record than the recorders). Secure site: every sealed goal and clear of
+    // any of them (`sealing::merged`), so a set that leaves some out lifts nothing.
+    let kept = match check {
+        Some(_) => sealing::merged(sets),
+        None => sets
+            .into_iter()
+            .map(Some)
+            .reduce(GoalsInForce::newer)
+            .flatten(),
+    };
+    if let Some(kept) = kept {
         let (out, refused) = incident.restore_goals(&kept, now());
         for ack in refused {
             bus.rejects().count_invalid();
@@ -699,9 +745,9 @@ pub(crate) fn keep(journal: Option<&GoalJournal>, goals: &GoalsInForce) {
     }
 }
 
-/// The newest goals in force anyone on `coord/goals` answers with (recorders do, for a
+/// The goals in force everyone on `coord/goals` answers with (recorders do, for a
 /// coordinator that is gone); answers that do not decode are counted and logged.
-async fn recall_goals(bus: &Bus) -> Result<Option<GoalsInForce>, BusError> {
+async fn recall_goals(bus: &Bus) -> Result<Vec<GoalsInForce>, BusError> {
     // Not this coordinator's own queryable, which answers only once it runs; every
     // recorder's answer, not one of them: the newest wins below.
     let ask = Ask {
@@ -710,13 +756,12 @@ async fn recall_goals(bus: &Bus) -> Result<Option<GoalsInForce>, BusError> {
         ..Ask::within(RECALL_TIMEOUT)
     };
     let answers = bus.ask(bus.keys().coord_goals().as_str(), ask).await?;
-    let mut newest: Option<GoalsInForce> = None;
-    for a in answers.all().await {
-        if let Some(g) = bus.decode::<GoalsInForce>(&a, "recalled goals") {
-            newest = GoalsInForce::newer(Some(g), newest);
-        }
-    }
-    Ok(newest)
+    Ok(answers
+        .all()
+        .await
+        .iter()
+        .filter_map(|a| bus.decode::<GoalsInForce>(a, "recalled goals"))
+        .collect())
 }
 
 /// How long a starting coordinator waits for recorders to answer with fire tracks.
@@ -741,9 +786,17 @@ async fn recall_fires(bus: &Bus) -> Result<Vec<FireTrack>, BusError> {
     Ok(latest_per_fire(tracks))
 }
 
-/// The answer to a goal that does not decode: rejected, with the id if the JSON has one
-/// so that the sender can tell it is theirs.
-fn malformed(bytes: &[u8], zone: &ZoneId, by: &CommanderId, e: &codec::CodecError) -> GoalAck {
+/// This host's clock, milliseconds since the Unix epoch: what live seals are dated by.
+fn wall_ms() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX))
+}
+
+/// The answer to a goal refused before it was read (it does not decode, or its seal does
+/// not hold) for `reason`: with the id if the JSON has one, so that the sender can tell
+/// it is theirs.
+fn refusal(bytes: &[u8], zone: &ZoneId, by: &CommanderId, reason: String) -> GoalAck {
     let id = serde_json::from_slice::<serde_json::Value>(bytes)
         .ok()
         .and_then(|v| {
@@ -757,7 +810,7 @@ fn malformed(bytes: &[u8], zone: &ZoneId, by: &CommanderId, e: &codec::CodecErro
         zone: zone.clone(),
         issued_by: Some(by.clone()),
         accepted: false,
-        reason: format!("malformed: {e}"),
+        reason,
     }
 }
 

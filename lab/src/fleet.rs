@@ -229,7 +229,7 @@ impl SimFleet {
         let Some(inc) = &mut self.incident else {
             return Ok(());
         };
-        let (ack, out) = inc.on_goal(&zone, by, goal, t);
+        let (ack, out) = inc.on_goal(&zone, by, goal, t, None);
         anyhow::ensure!(ack.accepted, "goal refused: {}", ack.reason);
         self.tell_barred(t)?;
         self.deliver(out);

@@ -68,13 +68,10 @@ pub struct SetArgs {
 /// router lets a commander put only under the name in its certificate.
 #[derive(Args, Debug)]
 pub struct Issuer {
-    /// The commander's name (with --tls-dir: the NAME of its `commander:NAME` certificate).
-    #[arg(
-        long = "issued-by",
-        value_name = "NAME",
-        default_value = "firefleet-cli"
-    )]
-    name: CommanderId,
+    /// The commander's name (default: the NAME of a `commander:NAME` certificate, else
+    /// `firefleet-cli`).
+    #[arg(long = "issued-by", value_name = "NAME")]
+    name: Option<CommanderId>,
 }
 
 #[derive(Args, Debug)]
@@ -105,11 +102,12 @@ pub async fn run(cmd: GoalCommand) -> anyhow::Result<ExitCode> {
         }
         GoalCommand::Clear(a) => {
             let scenario = a.common.scenario.load()?;
+            let by = issuer(&a.common.zenoh, a.by.name)?;
             let bus = open(&a.common.zenoh, &scenario).await?;
-            goal::clear(&bus, &a.zone, &a.by.name)
+            goal::clear(&bus, &a.zone, &by)
                 .await
-                .with_context(|| format!("clearing {}'s goals on zone {}", a.by.name, a.zone))?;
-            println!("cleared {}'s goals on zone {}", a.by.name, a.zone);
+                .with_context(|| format!("clearing {by}'s goals on zone {}", a.zone))?;
+            println!("cleared {by}'s goals on zone {}", a.zone);
             bus.close().await;
             Ok(ExitCode::SUCCESS)
         }
@@ -126,12 +124,12 @@ async fn set(a: SetArgs) -> anyhow::Result<ExitCode> {
         rail_allowed: a.rail_allowed,
         ..GoalForm::new(a.zone, a.goal)
     };
+    let by = issuer(&a.common.zenoh, a.by.name)?;
     let goal = form
-        .issued_by(a.by.name.clone())
+        .issued_by(by.clone())
         .map_err(|e| anyhow::anyhow!("the goal is not valid: {e}"))?;
-    may_issue(&a.common.zenoh, &a.by.name)?;
     let bus = open(&a.common.zenoh, &scenario).await?;
-    let ack = goal::issue(&bus, &goal, &a.by.name, goal::ACK_TIMEOUT).await;
+    let ack = goal::issue(&bus, &goal, &by, goal::ACK_TIMEOUT).await;
     bus.close().await;
     let ack = ack?;
     if ack.accepted {
@@ -146,13 +144,21 @@ async fn set(a: SetArgs) -> anyhow::Result<ExitCode> {
     }
 }
 
-/// Refuse, before anything is sent, a goal the site's router would drop without a word:
-/// on a site with access rules a commander's certificate puts goals only under its own
-/// name, the console's under any, and no other identity's at all.
-fn may_issue(zenoh: &ZenohArgs, by: &CommanderId) -> anyhow::Result<()> {
-    match zenoh.connect(None).identity()? {
-        None | Some(Identity::Console) => Ok(()),
-        Some(Identity::Commander(name)) if &name == by => Ok(()),
+/// The commander a goal or a clear is issued as: the one `asked` for (`--issued-by`), else
+/// the certificate's commander, else `firefleet-cli`. Refused, before anything is sent,
+/// where the site's router would drop it without a word: on a site with access rules a
+/// commander's certificate puts and clears goals only under its own name, the console's
+/// under any, and no other identity's at all.
+fn issuer(zenoh: &ZenohArgs, asked: Option<CommanderId>) -> anyhow::Result<CommanderId> {
+    let identity = zenoh.connect(None).identity()?;
+    let by = match (asked, &identity) {
+        (Some(by), _) => by,
+        (None, Some(Identity::Commander(name))) => name.clone(),
+        (None, _) => CommanderId::new("firefleet-cli").expect("a valid name"),
+    };
+    match identity {
+        None | Some(Identity::Console) => Ok(by),
+        Some(Identity::Commander(name)) if name == by => Ok(by),
         Some(Identity::Commander(name)) => anyhow::bail!(
             "this certificate is commander:{name}: the site's router takes goals from it only \
              as --issued-by {name} (under '{by}' it would drop the goal, unanswered)"

@@ -744,3 +744,145 @@ fn forged_state(unit: &UnitId) -> UnitState {
         )
     }
 }
+
+/// Issue #52's first finding, and its "done when": a stolen recorder key answers a
+/// restarted coordinator's recall with goals nobody sealed, a goal changed under its
+/// issuer's seal, and a goal its issuer had cleared (sealed, so it is a perfect replay),
+/// in a set dated now that leaves out a goal still in force. The coordinator takes back
+/// only the goal in force.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stolen_recorder_key_cannot_forge_replay_or_lift_goals_at_recall() {
+    use firefleet_protocol::msg::{GoalInForce, GoalKind, GoalsInForce};
+    let site = SecureSite::new("vehicle-collision");
+    let state = site.dir.path().join("coordinator-state");
+    let coordinator = || {
+        site.spawn(
+            "coordinator",
+            &["coordinator", "--state-dir", state.to_str().unwrap()],
+        )
+    };
+    let mut fleet = Fleet(vec![coordinator()]);
+    let thief = site.open("recorder").await;
+    let keys = thief.keys().clone();
+    let published = thief.subscribe(&keys.coord_goals()).await.unwrap();
+    let goal = |args: &[&str]| {
+        Command::new(BIN)
+            .args([
+                "goal",
+                args[0],
+                "--scenario",
+                site.scenario,
+                "--zenoh-config",
+            ])
+            .arg(site.config("commander-rossi"))
+            .args(&args[1..])
+            .output()
+            .unwrap()
+    };
+    let deadline = Instant::now() + patient(Duration::from_secs(30));
+    while !goal(&["set", "--zone", "far", "--goal", "keep-out"])
+        .status
+        .success()
+    {
+        assert!(
+            Instant::now() < deadline,
+            "the coordinator never took a goal"
+        );
+    }
+    assert_says(
+        &goal(&["set", "--zone", "core", "--goal", "monitor"]),
+        0,
+        "accepted",
+    );
+    // What the coordinator published with both in force, seals and all.
+    let both = loop {
+        let (_, g) = tokio::time::timeout(patient(Duration::from_secs(10)), published.recv())
+            .await
+            .expect("no goals published")
+            .unwrap();
+        if g.goals.len() == 2 {
+            break g;
+        }
+    };
+    assert!(both.goals.iter().all(|g| g.proof.is_some()), "{both:?}");
+    assert!(goal(&["clear", "--zone", "far"]).status.success());
+    let commander = site.open("commander-rossi").await;
+    let deadline = Instant::now() + patient(Duration::from_secs(10));
+    while status_of(&commander, Duration::from_secs(5)).await["goals"]
+        .as_array()
+        .map_or(0, Vec::len)
+        != 1
+    {
+        assert!(Instant::now() < deadline, "the clear was not taken");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    for c in &mut fleet.0 {
+        c.kill().unwrap();
+        c.wait().unwrap();
+    }
+
+    let of = |zone: &str| -> GoalInForce {
+        both.goals
+            .iter()
+            .find(|g| g.goal.zone.as_str() == zone)
+            .unwrap()
+            .clone()
+    };
+    let replayed = of("far");
+    let changed = GoalInForce {
+        goal: firefleet_protocol::msg::ZoneGoal {
+            goal: GoalKind::Evacuate,
+            ..of("core").goal
+        },
+        ..of("core")
+    };
+    let unsealed = GoalInForce {
+        goal: firefleet_protocol::msg::ZoneGoal {
+            id: "forged-portal".into(),
+            zone: firefleet_model::ZoneId::new("portal").unwrap(),
+            ..replayed.goal.clone()
+        },
+        proof: None,
+        ..replayed.clone()
+    };
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs_f64();
+    let forged = GoalsInForce {
+        t: now,
+        goals: vec![replayed, changed, unsealed],
+        ..GoalsInForce::default()
+    };
+    let answers = thief
+        .zenoh_session()
+        .declare_queryable(keys.coord_goals().as_str())
+        .await
+        .unwrap();
+    let answering = tokio::spawn(async move {
+        while let Ok(q) = answers.recv_async().await {
+            let _ = q.reply(q.key_expr().clone(), codec::encode(&forged)).await;
+        }
+    });
+    fleet.0.push(coordinator());
+    // Its first answer after the restart is what it took back.
+    let status = status_of(&commander, Duration::from_secs(30)).await;
+    let ids: Vec<&str> = status["goals"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|g| g["id"].as_str().unwrap())
+        .collect();
+    assert_eq!(ids, ["rossi-core-monitor"], "{status}");
+    assert_eq!(status["goals"][0]["goal"], "monitor", "{status}");
+    // The changed and the unsealed goal refused for their seals, the replay by its clear.
+    assert!(
+        status["rejected"]["seal"].as_u64() >= Some(2),
+        "{}",
+        status["rejected"]
+    );
+    answering.abort();
+    for b in [thief, commander] {
+        b.close().await;
+    }
+}

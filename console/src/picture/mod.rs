@@ -342,10 +342,12 @@ impl Picture {
                         goal,
                         since: status.t,
                         until: None,
+                        proof: None,
                     })
                     .collect(),
                 stranded: status.stranded,
                 trapped: status.trapped,
+                cleared: Vec::new(),
             });
         }
     }

@@ -360,6 +360,7 @@ fn goals_change_only_when_the_goals_in_force_do() {
         },
         since: 1.0,
         until: None,
+        proof: None,
     };
     let g = |t| GoalsInForce {
         t,

@@ -8,8 +8,8 @@ use std::collections::BTreeMap;
 
 use firefleet_model::{Chainage, CommanderId, Point2, UnitId, UnitKind, ZoneId};
 use firefleet_protocol::msg::{
-    BarredSpace, FireState, GoalAck, GoalKind, GoalsInForce, INSIDE_PORTAL_M, MAX_LIST, Stranded,
-    TaskKind, Trapped, ZoneGoal,
+    BarredSpace, FireState, GoalAck, GoalInForce, GoalKind, GoalsInForce, INSIDE_PORTAL_M,
+    MAX_LIST, Sealed, Stranded, TaskKind, Trapped, ZoneGoal,
 };
 
 use crate::assign::Mobility;
@@ -26,8 +26,12 @@ impl Incident {
         by: &CommanderId,
         goal: ZoneGoal,
         t: f64,
+        proof: Option<Sealed>,
     ) -> (GoalAck, Vec<Output>) {
-        let mut ack = self.goals.submit(key_zone, by, goal.clone(), t);
+        let mut ack = match proof {
+            Some(p) => self.goals.submit_sealed(key_zone, by, goal.clone(), t, p),
+            None => self.goals.submit(key_zone, by, goal.clone(), t),
+        };
         if ack.accepted
             && let (GoalKind::Contain, Some(line)) = (goal.goal, goal.before_m)
             && !self.fire_in_zone(&goal.id)
@@ -72,7 +76,15 @@ impl Incident {
     /// gone from the site file) is refused with the reason.
     pub fn restore_goals(&mut self, kept: &GoalsInForce, t: f64) -> (Vec<Output>, Vec<GoalAck>) {
         let mut refused = Vec::new();
-        for g in &kept.goals {
+        // Clears first, then goals in the order they were sealed: a goal sealed before a
+        // clear stays cleared, and a newer version replaces an older one, never the other
+        // way round.
+        for c in &kept.cleared {
+            self.goals.note_cleared(c.clone());
+        }
+        let mut goals: Vec<&GoalInForce> = kept.goals.iter().collect();
+        goals.sort_by_key(|g| g.proof.as_ref().map_or(0, |p| p.seal.at_ms));
+        for g in goals {
             let ack = self.goals.restore(g, t);
             if ack.accepted {
                 self.log(
@@ -183,8 +195,18 @@ impl Incident {
     }
 
     /// Every goal on `zone` withdrawn by a commander.
-    pub fn clear_goals(&mut self, zone: &ZoneId, by: &CommanderId, t: f64) -> Vec<Output> {
-        for g in self.goals.clear(zone, by) {
+    pub fn clear_goals(
+        &mut self,
+        zone: &ZoneId,
+        by: &CommanderId,
+        t: f64,
+        proof: Option<Sealed>,
+    ) -> Vec<Output> {
+        let cleared = match proof {
+            Some(p) => self.goals.clear_sealed(zone, by, p),
+            None => self.goals.clear(zone, by),
+        };
+        for g in cleared {
             self.log(
                 t,
                 Decision::GoalCleared {

@@ -278,6 +278,10 @@ pub struct GoalInForce {
     pub goal: ZoneGoal,
     pub since: f64,
     pub until: Option<f64>,
+    /// The goal as its issuer sealed it (on a secure site; none on an open one): whoever
+    /// takes the goal back checks it again.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub proof: Option<Sealed>,
 }
 
 /// The most goals a site holds in force: every one of them fits one `coord/goals` message
@@ -300,6 +304,10 @@ pub struct GoalsInForce {
     /// The units these goals trap, as of `t`: every console raises an alert for each.
     #[serde(default)]
     pub trapped: Vec<Trapped>,
+    /// The newest sealed clear of each commander's goals on each zone: a goal sealed
+    /// before it stays cleared, whatever set it comes back in.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub cleared: Vec<Cleared>,
 }
 
 /// A ground unit inside a zone a goal bars it from that cannot obey: no chainage outside
@@ -388,8 +396,11 @@ impl Validate for GoalInForce {
     fn validate(&self) -> Result<(), Invalid> {
         self.goal.validate().map_err(|e| e.within("goal"))?;
         finite("since", self.since)?;
-        match self.until {
-            Some(u) => finite("until", u),
+        if let Some(u) = self.until {
+            finite("until", u)?;
+        }
+        match &self.proof {
+            Some(p) => p.validate().map_err(|e| e.within("proof")),
             None => Ok(()),
         }
     }
@@ -413,7 +424,9 @@ impl Validate for GoalsInForce {
         max_len("stranded", &self.stranded, MAX_LIST)?;
         each("stranded", &self.stranded)?;
         max_len("trapped", &self.trapped, MAX_LIST)?;
-        each("trapped", &self.trapped)
+        each("trapped", &self.trapped)?;
+        max_len("cleared", &self.cleared, MAX_GOALS_IN_FORCE)?;
+        each("cleared", &self.cleared)
     }
 }
 

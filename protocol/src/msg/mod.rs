@@ -77,6 +77,7 @@ mod bt;
 mod commander;
 mod fleet;
 mod infra;
+mod seal;
 mod sim;
 
 pub use barred::*;
@@ -84,4 +85,5 @@ pub use bt::*;
 pub use commander::*;
 pub use fleet::*;
 pub use infra::*;
+pub use seal::*;
 pub use sim::*;

@@ -101,6 +101,7 @@ fn a_keep_out_zone_is_unmistakable_and_says_who_barred_it() {
             goal,
             since: 1.0,
             until: None,
+            proof: None,
         }],
         ..Default::default()
     }));

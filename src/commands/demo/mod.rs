@@ -246,7 +246,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
                 let due = goals_to_issue.take_if(|_| truth.t >= a.goals_at);
                 for g in due.unwrap_or_default() {
                     println!("t={:.1} s: issuing goal '{}': {:?} on zone {} (priority {})", truth.t, g.id, g.goal, g.zone, g.priority);
-                    commander_bus.as_ref().unwrap_or(&bus).put(&keys.zone_goal(&g.zone, &commander), &g).await?;
+                    firefleet_bus::goal::put(commander_bus.as_ref().unwrap_or(&bus), &g, &commander).await?;
                 }
                 let out = truth.fires_out();
                 if truth.t >= next_print || out != last_out {

@@ -221,7 +221,7 @@ fn goal(
 
 fn submit(i: &mut Incident, (zone, g): (ZoneId, ZoneGoal), t: f64) -> (GoalAck, Vec<Output>) {
     let by = g.issued_by.clone().unwrap();
-    i.on_goal(&zone, &by, g, t)
+    i.on_goal(&zone, &by, g, t, None)
 }
 
 /// The fire the first report of a test becomes.

@@ -15,6 +15,7 @@ fn no_fire_in_a_keep_out_zone_is_attacked_and_no_unit_crosses_it() {
         &ZoneId::new("z1").unwrap(),
         &CommanderId::new("ic-1").unwrap(),
         3.0,
+        None,
     );
     assert_eq!(tasks(&out).len(), 2, "cleared: both fires are attacked");
 }
@@ -229,6 +230,7 @@ fn a_refusal_for_a_goal_since_lifted_is_late_news_and_the_fire_is_given_again_at
         &ZoneId::new("z1").unwrap(),
         &CommanderId::new("ic-1").unwrap(),
         2.0,
+        None,
     );
     let task = tasks(&out)[0].clone();
     // The unit has not heard of the lift yet and refuses.
@@ -280,6 +282,7 @@ fn a_unit_no_goal_leaves_a_way_out_is_trapped_said_once_and_freed_when_cleared()
         &ZoneId::new("w").unwrap(),
         &CommanderId::new("ic-1").unwrap(),
         3.0,
+        None,
     );
     assert!(i.trapped().is_empty());
 }

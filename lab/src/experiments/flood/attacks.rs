@@ -269,11 +269,7 @@ pub(super) async fn bar_every_zone(
             priority: u8::try_from(k % 200).unwrap_or(0),
             ..ZoneGoal::new(zone.clone(), GoalKind::Monitor, sector.clone())
         };
-        if thief
-            .put(&thief.keys().zone_goal(zone, &sector), &goal)
-            .await
-            .is_ok()
-        {
+        if goal::put(&thief, &goal, &sector).await.is_ok() {
             sent.fetch_add(1, Ordering::Relaxed);
         }
     }
