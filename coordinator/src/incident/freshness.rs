@@ -16,6 +16,15 @@
 //! within NTP's milliseconds. Equal times pass: a unit's state and its report of the same
 //! instant are on different keys, and a repeat of the newest message changes nothing.
 //!
+//! **Order is judged against the site clock, not only the sender's last.** The newest
+//! time kept for a sender is never later than the site clock when it was taken: a message
+//! dated ahead (inside the window) counts as dated now. Otherwise one forward-dated lie from
+//! a stolen key (a state 4.5 s ahead, sent again and again) made every real message
+//! "older than the sender's last" for as long as the lies came, and the coordinator's
+//! picture of that unit, or of a DTS zone, was the thief's alone (issue #52). The price: two
+//! honest messages both dated ahead of the clock are not ordered among themselves, which
+//! costs nothing, as both are within the hosts' clock difference of now.
+//!
 //! Pure: the caller says what time it is.
 
 use firefleet_model::validate::Invalid;
@@ -48,6 +57,13 @@ impl Newest {
                 ),
             ));
         }
+        self.order(sent, now)
+    }
+
+    /// Take a message dated `sent` at site time `now` by order alone, whatever its distance
+    /// from the clock (a reading its sender marks stale, dated when it was last good), or
+    /// say why not.
+    pub fn order(&mut self, sent: f64, now: f64) -> Result<(), Invalid> {
         if let Some(last) = self.0
             && sent < last
         {
@@ -58,7 +74,7 @@ impl Newest {
                 ),
             ));
         }
-        self.0 = Some(sent);
+        self.0 = Some(sent.min(now));
         Ok(())
     }
 }
@@ -79,7 +95,8 @@ mod tests {
             n.admit(101.0, 100.5).is_ok(),
             "slightly ahead: clocks differ"
         );
-        let older = n.admit(100.5, 101.0).unwrap_err();
+        // The one ahead counts as dated 100.5 s, the clock when it came.
+        let older = n.admit(100.4, 101.0).unwrap_err();
         assert!(
             older.to_string().contains("older than the sender's last"),
             "{older}"
@@ -94,6 +111,17 @@ mod tests {
             ahead.to_string().contains("ahead of the site clock"),
             "{ahead}"
         );
+        // A message dated ahead counts as dated now: the sender's next one, dated by the
+        // clock, still passes, however often the one ahead is sent again.
+        let mut n = Newest::default();
+        for _ in 0..3 {
+            assert!(n.admit(104.5, 100.0).is_ok());
+        }
+        assert!(
+            n.admit(100.0, 100.0).is_ok(),
+            "shut out by a forward-dated lie"
+        );
+        assert!(n.admit(99.0, 100.0).is_err(), "older than one taken now");
         let mut n = Newest::default();
         assert!(n.admit(1e9, 100.0).is_err());
         assert!(

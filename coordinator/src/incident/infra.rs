@@ -29,7 +29,7 @@ use firefleet_model::infra::ScadaMap;
 use firefleet_model::validate::{Invalid, Validate};
 use firefleet_protocol::msg::{Approach, DtsZone, Vent};
 
-use super::freshness::{AHEAD_S, BEHIND_S};
+use super::freshness::Newest;
 use super::{Decision, Incident, Output, Scope};
 use crate::fusion::Fused;
 
@@ -47,9 +47,12 @@ pub(super) struct Infra {
     map: Option<(ScadaMap, f64)>,
     /// The newest reading of each zone.
     zones: BTreeMap<u16, DtsZone>,
+    /// The newest time taken for each zone, by the site clock ([`Newest`]).
+    zone_times: BTreeMap<u16, Newest>,
     /// A reading came since the alarms were last looked at.
     changed: bool,
     vent: Option<Vent>,
+    vent_time: Newest,
 }
 
 impl Infra {
@@ -91,6 +94,17 @@ impl Infra {
     }
 }
 
+/// Take a reading dated `sent` at site time `now` as the bridge's newest: within the
+/// window of the site clock and in order ([`Newest`]); one the bridge marks stale is dated
+/// when its detector was last read, far behind maybe, and is taken by order alone.
+fn admit(newest: &mut Newest, stale: bool, sent: f64, now: f64) -> Result<(), Invalid> {
+    if stale {
+        newest.order(sent, now)
+    } else {
+        newest.admit(sent, now)
+    }
+}
+
 impl Incident {
     /// One DTS zone's reading from the bridge: checked against the site's map (its zone
     /// and span), and taken if newer than the zone's last. A stale one withdraws the
@@ -117,16 +131,13 @@ impl Incident {
                 ),
             ));
         }
-        if !z.stale && (z.t > t + AHEAD_S || z.t < t - BEHIND_S) {
-            return Err(Invalid::new(
-                "t",
-                format!("{:.1} s is off the site clock ({t:.1} s)", z.t),
-            ));
-        }
+        admit(
+            self.infra.zone_times.entry(z.zone).or_default(),
+            z.stale,
+            z.t,
+            t,
+        )?;
         let known = self.infra.zones.get(&z.zone);
-        if known.is_some_and(|old| old.t > z.t) {
-            return Err(Invalid::new("t", "older than the zone's last reading"));
-        }
         self.infra.changed |= known.is_none_or(|old| old != z);
         self.infra.zones.insert(z.zone, *z);
         // A zone the detector reads is a stretch watched: no unit need search it for a
@@ -144,15 +155,7 @@ impl Incident {
     /// The ventilation's reading from the bridge.
     pub fn on_vent(&mut self, v: &Vent, t: f64) -> Result<(), Invalid> {
         v.validate()?;
-        if !v.stale && (v.t > t + AHEAD_S || v.t < t - BEHIND_S) {
-            return Err(Invalid::new(
-                "t",
-                format!("{:.1} s is off the site clock ({t:.1} s)", v.t),
-            ));
-        }
-        if self.infra.vent.as_ref().is_some_and(|old| old.t > v.t) {
-            return Err(Invalid::new("t", "older than the last reading"));
-        }
+        admit(&mut self.infra.vent_time, v.stale, v.t, t)?;
         self.infra.vent = Some(v.clone());
         Ok(())
     }

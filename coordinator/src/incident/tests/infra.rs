@@ -34,28 +34,36 @@ fn measure(inc: &mut Incident, t: f64, hot: &[(u16, f64)]) {
 
 /// As [`measure`], the hot zones rising at `rise_c_min` (in alarm from 10 C/min).
 fn measure_rising(inc: &mut Incident, t: f64, hot: &[(u16, f64)], rise_c_min: f64) {
-    for k in 0..30u16 {
-        let max_c = hot.iter().find(|(z, _)| *z == k).map_or(20.0, |(_, c)| *c);
-        let rise_c_min = if max_c > 20.0 { rise_c_min } else { 0.0 };
-        let z = DtsZone {
-            zone: k,
-            start_m: f64::from(k) * 10.0,
-            end_m: f64::from(k + 1) * 10.0,
-            t,
-            reading: DtsReading {
-                max_c,
-                rise_c_min,
-                alarm: DtsAlarm {
-                    max: max_c >= 60.0,
-                    rise: rise_c_min >= 10.0,
-                    ..DtsAlarm::default()
-                },
-                fault: false,
-            },
-            stale: false,
-        };
+    for z in readings(t, hot, rise_c_min) {
         inc.on_dts(&z, t).unwrap();
     }
+}
+
+/// The readings [`measure_rising`] takes, dated `t`.
+fn readings(t: f64, hot: &[(u16, f64)], rise_c_min: f64) -> Vec<DtsZone> {
+    (0..30u16)
+        .map(|k| {
+            let max_c = hot.iter().find(|(z, _)| *z == k).map_or(20.0, |(_, c)| *c);
+            let rise_c_min = if max_c > 20.0 { rise_c_min } else { 0.0 };
+            DtsZone {
+                zone: k,
+                start_m: f64::from(k) * 10.0,
+                end_m: f64::from(k + 1) * 10.0,
+                t,
+                reading: DtsReading {
+                    max_c,
+                    rise_c_min,
+                    alarm: DtsAlarm {
+                        max: max_c >= 60.0,
+                        rise: rise_c_min >= 10.0,
+                        ..DtsAlarm::default()
+                    },
+                    fault: false,
+                },
+                stale: false,
+            }
+        })
+        .collect()
 }
 
 fn air(inc: &mut Incident, t: f64, air_m_s: f64) {
@@ -178,6 +186,27 @@ fn a_stale_or_old_reading_raises_nothing_and_a_zone_off_the_map_is_refused() {
             .unwrap_err()
             .reason
             .contains("30 zones")
+    );
+}
+
+#[test]
+fn forward_dated_all_normal_readings_do_not_shut_out_the_bridge_s_alarm() {
+    // A stolen SCADA key sends "all normal" dated 4.5 s ahead, again and again; the real
+    // bridge's alarm, dated by the clock, still gets through.
+    let mut inc = site();
+    for k in 0..5 {
+        let t = 10.0 + f64::from(k);
+        for z in readings(t + 4.5, &[], 0.0) {
+            inc.on_dts(&z, t).unwrap();
+        }
+        measure(&mut inc, t, &[(15, 300.0)]);
+    }
+    // Every real reading was taken (`measure` unwraps), and the alarm's fire is tracked.
+    let out = inc.tick(14.0);
+    assert!(
+        out.iter().any(|o| matches!(o, Output::Fire(f)
+            if f.state == FireState::Confirmed && (f.position.x - 155.0).abs() < 1e-9)),
+        "the real alarm was shut out: {out:?}"
     );
 }
 
