@@ -77,6 +77,10 @@ pub enum Attack {
     FalseOut,
     /// Reports of the site's real fires as ugv-2 saw them 30 s before, replayed.
     Replay,
+    /// States of ugv-2 (idle, where it is not) dated 4.5 s ahead of the site clock, inside
+    /// the window, at a unit's pace: once, they made every real state "older than the
+    /// sender's last" for as long as they came.
+    AheadStates,
     /// A stolen sector commander's keep-out on every zone, and 70 goals more.
     Commander,
 }

@@ -139,6 +139,17 @@ pub(super) async fn flood_as_unit(
                     codec::encode(&report(&unit, now, &fake)),
                 )
             }
+            Attack::AheadStates => {
+                tokio::time::sleep(pace).await;
+                if now <= 0.0 {
+                    continue;
+                }
+                state.t = now + 4.5;
+                (
+                    keys.unit_state(&unit).as_str().to_owned(),
+                    codec::encode(&state),
+                )
+            }
             Attack::Replay => {
                 tokio::time::sleep(pace).await;
                 // What ugv-2 reported of the real fires 30 s ago, once there is a past.
