@@ -619,25 +619,38 @@ function fireRows() {
   }));
 }
 
+// An alarm's state (ISA-18.2): active or returned to normal, acknowledged or not; closed
+// once both returned and acknowledged. Active unacknowledged ones come first.
+function alarmState(a) {
+  if (a.active) return a.acked_by == null ? "active-unacked" : "active-acked";
+  return a.acked_by == null ? "returned-unacked" : "closed";
+}
+const ALARM_ORDER = { "active-unacked": 0, "returned-unacked": 1, "active-acked": 2, "closed": 3 };
+const ALARM_WORDS = { "active-unacked": "ACTIVE", "active-acked": "active, acknowledged", "returned-unacked": "returned to normal, acknowledge to close", "closed": "closed" };
+
 function drawAlerts() {
   const alerts = [...state.alerts.values()].sort((a, b) =>
-    (a.acked_by != null) - (b.acked_by != null) || a.priority - b.priority || b.id - a.id);
-  const open = alerts.filter((a) => a.acked_by == null);
+    ALARM_ORDER[alarmState(a)] - ALARM_ORDER[alarmState(b)] || a.priority - b.priority || b.id - a.id);
+  const unacked = alerts.filter((a) => a.acked_by == null);
   $("alerts").replaceChildren(...alerts.map((a) => {
-    const li = html("li", { className: `${a.acked_by ? "acked" : "open"} p${a.priority}` });
-    li.dataset.alert = a.id; li.dataset.kind = a.kind; li.dataset.priority = a.priority;
+    const st = alarmState(a);
+    const li = html("li", { className: `${st} p${a.priority}` });
+    li.dataset.alert = a.id; li.dataset.kind = a.kind; li.dataset.priority = a.priority; li.dataset.state = st;
     html("span", { className: "prio", textContent: `P${a.priority}` }, li);
-    li.append(` t=${fmt(a.t, 0)} s ${a.text}` + (a.acked_by ? ` (acknowledged by ${a.acked_by})` : " "));
-    if (!a.acked_by) {
+    const times = a.count > 1 ? ` (x${a.count}, last t=${fmt(a.last_t, 0)} s)` : "";
+    const back = a.returned_t != null && !a.active ? `; back to normal at t=${fmt(a.returned_t, 0)} s` : "";
+    const who = a.acked_by ? `; acknowledged by ${a.acked_by}` : "";
+    li.append(` t=${fmt(a.t, 0)} s ${a.text}${times} [${ALARM_WORDS[st]}${back}${who}] `);
+    if (a.acked_by == null) {
       const b = html("button", { textContent: "Acknowledge", disabled: !state.steers }, li);
       b.onclick = () => acknowledge([a.id]);
     }
     return li;
   }));
   if (!alerts.length) $("alerts").replaceChildren(html("li", { textContent: "none" }));
-  $("alerts-open").textContent = open.length ? `(${open.length})` : "";
-  $("ack-all").disabled = !state.steers || !open.length;
-  $("ack-all").textContent = open.length > 1 ? `Acknowledge all ${open.length}` : "Acknowledge all";
+  $("alerts-open").textContent = unacked.length ? `(${unacked.length})` : "";
+  $("ack-all").disabled = !state.steers || !unacked.length;
+  $("ack-all").textContent = unacked.length > 1 ? `Acknowledge all ${unacked.length}` : "Acknowledge all";
   banner();
 }
 
@@ -649,7 +662,7 @@ async function acknowledge(ids) {
 }
 
 // The banner above everything: the console's link to the site first, then the most
-// urgent alert nobody acknowledged.
+// urgent active alarm nobody acknowledged. An alarm whose cause ended leaves it at once.
 function banner() {
   const b = $("banner");
   if (state.link === false) {
@@ -657,7 +670,7 @@ function banner() {
     b.textContent = "SITE LOST: the console has no link to the site's router. Units are not known to be lost; what is shown is as last heard.";
     return;
   }
-  const open = [...state.alerts.values()].filter((a) => a.acked_by == null).sort((a, c) => a.priority - c.priority || c.id - a.id);
+  const open = [...state.alerts.values()].filter((a) => alarmState(a) === "active-unacked").sort((a, c) => a.priority - c.priority || c.id - a.id);
   if (!open.length) { b.hidden = true; return; }
   b.hidden = false;
   b.className = open[0].priority > 1 ? "p2" : "";

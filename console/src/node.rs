@@ -80,6 +80,9 @@ pub async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> Result<(), BusError> 
                 }
                 match topic {
                     Topic::UnitAlive(unit) => console.observe(Event::UnitAlive(unit, alive)),
+                    Topic::CoordStandbyAlive(rank) => {
+                        console.observe(Event::StandbyAlive(rank, alive));
+                    }
                     Topic::CoordAlive => {
                         console.observe(Event::CoordinatorAlive(alive));
                         if alive {

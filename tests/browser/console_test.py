@@ -10,11 +10,13 @@ Drives the page in headless Chromium through chromedriver (Selenium), at 1920x10
   never take an old fire's id, no two fires are drawn where there is one, no false "burns
   again"; a keep-out picked on the map, acked, units leaving the zone; an evacuate on the
   other zone traps every unit: one alert per unit within 2 s, one decision line each;
+  cleared, every such alarm returns to normal within 2 s and the banner empties;
   both goals cleared: no unit idle 5 s later; no two labels overlap at either size; the
   tablet's panes one tab away; the timeline scrubbed back and forth; a pinch zooms; the
   router killed: "SITE LOST" within 3 s and no unit taken for lost;
 - a secure rail-tunnel (`demo --secure`, HTTPS signed by the site's web CA, checked with
-  it): every unit alive and the coordinator in charge on the page.
+  it): every unit alive and the coordinator in charge on the page; a goal from the page,
+  sealed by the console, accepted, and its sealed clear taken.
 
 Screenshots of each size go to --screenshots DIR. Prints the page's update latency (the
 console hearing a unit's state -> the page having drawn it).
@@ -156,7 +158,7 @@ def page_state(js):
     return js("""
         const units = [...document.querySelectorAll('#units g.unit')].map(g => ({id: g.dataset.unit, status: g.dataset.status, x: Number(g.dataset.x)}));
         const fires = [...document.querySelectorAll('#fires g.fire')].map(g => ({id: g.dataset.fire, state: g.dataset.state}));
-        const alerts = [...document.querySelectorAll('#alerts li[data-alert]')].map(li => ({id: li.dataset.alert, kind: li.dataset.kind, priority: li.dataset.priority, text: li.textContent}));
+        const alerts = [...document.querySelectorAll('#alerts li[data-alert]')].map(li => ({id: li.dataset.alert, kind: li.dataset.kind, priority: li.dataset.priority, state: li.dataset.state, text: li.textContent}));
         const decisions = [...document.querySelectorAll('#decisions li')].map(li => ({count: Number(li.dataset.count), text: li.querySelector('.text').textContent}));
         return {units, fires, alerts, decisions, coordinator: document.getElementById('coordinator').textContent,
                 site: document.getElementById('site-link').textContent};
@@ -388,9 +390,19 @@ def plain_site(args, tmp, users, driver):
         assert all(len(v) == 1 for v in per_unit.values()), per_unit
         print(f"trapped: {len(trapped)} alerts within {took:.1f} s of the ack, one decision line each "
               f"(counts {[v[0]['count'] for v in per_unit.values()]})")
-        # Both cleared: every unit goes back to work.
+        # Both cleared: every unit goes back to work, and every alarm whose cause ended
+        # returns to normal by itself within 2 s (ISA-18.2), leaving the banner.
         clear(driver, js, other)
         clear(driver, js, zone)
+        t0 = time.monotonic()
+        wait_for("every trapped-unit alarm back to normal",
+                 lambda: all(a["state"] in ("returned-unacked", "closed")
+                             for a in page_state(js)["alerts"] if a["kind"] in ("unit-trapped", "fire-stranded")),
+                 timeout=2.5, every=0.1)
+        wait_for("the banner empty", lambda: driver.find_element(By.ID, "banner").get_attribute("hidden"),
+                 timeout=2.5, every=0.1)
+        print(f"goals cleared: the trapped alarms back to normal and the banner empty "
+              f"{time.monotonic() - t0:.1f} s later")
         t0 = time.monotonic()
         def busy():
             modes = js("return [...window.ffState.units.values()].map(u => [u.id, u.state && u.state.mode, u.state && u.state.speed])")
@@ -509,6 +521,13 @@ def secure_site(args, tmp, users, driver):
                  timeout=30)
         assert not [a for a in page_state(js)["alerts"] if a["kind"] in ("unit-lost", "coordinator-lost")]
         print("secure site: the page shows every unit alive and the coordinator in charge")
+        # A goal from the page: the console seals it for its commander, and the coordinator,
+        # which takes no unsealed goal on a secure site, accepts it; the clear is sealed too.
+        zone = js("return document.querySelector('polygon.zone[data-zone]').dataset.zone")
+        issue(driver, js, zone, "monitor")
+        clear(driver, js, zone)
+        wait_for("the sealed clear taken", lambda: not js("return window.ffState.goals.length"), timeout=10)
+        print(f"secure site: a monitor goal on {zone} from the page, sealed by the console, accepted and cleared")
         if args.screenshots:
             driver.save_screenshot(os.path.join(args.screenshots, "console-secure-1920x1080.png"))
     finally:

@@ -33,6 +33,9 @@ impl Picture {
         if let Some(v) = infra.clone() {
             // The link lost, by the bridge's word or its silence: raised once as it goes.
             let was = self.infra_sent.as_ref().and_then(|(_, s)| s.link_up);
+            if v.link_up == Some(true) {
+                self.settle(|k| matches!(k, AlertKind::ScadaLost { .. }));
+            }
             if was == Some(true) && v.link_up == Some(false) {
                 self.raise(
                     AlertKind::ScadaLost {

@@ -2,9 +2,13 @@
 //! messages, tokens appearing and vanishing), a whole [`Incident`] or the [`Delta`] since
 //! the last one out. No I/O, no clock of its own: the caller says what time it is.
 //!
-//! What a commander must not miss becomes an [`Alert`] that stays until a commander
-//! acknowledges it: a unit whose token vanished (lost), a fire that burns again after it
-//! was out, a goal the coordinator rejected, the coordinator gone. A unit's freshness is
+//! What a commander must not miss becomes an [`Alert`], an alarm with the lifecycle of
+//! ISA-18.2: a unit whose token vanished (lost), a fire that burns again after it was out,
+//! a goal the coordinator rejected, a fire stranded or a unit trapped by a goal, the
+//! coordinator gone, a standby gone (it took office, or stopped), the SCADA link cut. It
+//! returns to normal by itself when its cause ends (the token back, the fire out, the goal
+//! lifted, the link up) and closes once it is also acknowledged; one cause is one alarm,
+//! counted when raised again. A unit's freshness is
 //! the wall time since the console last heard it ([`UnitView::heard_ms`]); the page ages
 //! it on its own clock between updates, so a console or page cut off shows every unit
 //! going stale instead of a frozen, confident map.
@@ -50,8 +54,8 @@ use view::{Doing, Sent, shown};
 pub const DECISIONS_KEPT: usize = 200;
 /// Goal answers kept.
 pub const ACKS_KEPT: usize = 50;
-/// Acknowledged alerts kept (unacknowledged ones are never dropped).
-pub const ACKED_ALERTS_KEPT: usize = 100;
+/// Closed alerts kept (returned to normal and acknowledged); open ones are never dropped.
+pub const CLOSED_ALERTS_KEPT: usize = 100;
 /// The heat field is recomputed at most this often, ms: fire tracks change every
 /// coordinator cycle, a commander reads heat over seconds.
 pub const HEAT_PERIOD_MS: u64 = 1000;
@@ -81,11 +85,21 @@ pub enum Event {
     UnitAlive(UnitId, bool),
     /// The coordinator's token appeared or vanished.
     CoordinatorAlive(bool),
+    /// The token of the standby coordinator of this rank appeared or vanished.
+    StandbyAlive(u32, bool),
     /// The console's link to the site (a router) is up, or gone.
     Link(bool),
     /// The coordinator's answer to a status query: the incident so far, for a console
     /// started mid-incident.
     Status(Box<IncidentStatus>),
+}
+
+/// Whose token the picture watches for going away.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+enum Watched {
+    Unit(UnitId),
+    Coordinator,
+    Standby(u32),
 }
 
 #[derive(Debug, Default)]
@@ -123,7 +137,9 @@ pub struct Picture {
     trapped: BTreeSet<(UnitId, String)>,
     /// Tokens that vanished, and when, not yet taken for lost ([`LOST_CONFIRM_MS`]); the
     /// coordinator's under no unit's id.
-    vanished: BTreeMap<Option<UnitId>, u64>,
+    vanished: BTreeMap<Watched, u64>,
+    /// The standby coordinators whose tokens are present, by rank.
+    standbys: BTreeSet<u32>,
     decisions: VecDeque<DecisionLine>,
     next_line: u64,
     alerts: BTreeMap<u64, Alert>,
@@ -165,6 +181,7 @@ impl Picture {
             stranded: BTreeSet::new(),
             trapped: BTreeSet::new(),
             vanished: BTreeMap::new(),
+            standbys: BTreeSet::new(),
             decisions: VecDeque::new(),
             next_line: 1,
             alerts: BTreeMap::new(),
@@ -235,12 +252,24 @@ impl Picture {
                 // Every token vanishes with the console's own link: that is no news of the
                 // coordinator, so it is confirmed first.
                 if alive {
-                    self.vanished.remove(&None);
+                    self.vanished.remove(&Watched::Coordinator);
+                    self.settle(|k| *k == AlertKind::CoordinatorLost);
                 } else if self.coordinator == Some(true) && self.link != Some(false) {
-                    self.vanished.insert(None, now_ms);
+                    self.vanished.insert(Watched::Coordinator, now_ms);
                 }
                 self.coordinator = Some(alive);
                 self.changes.coordinator = true;
+            }
+            Event::StandbyAlive(rank, alive) => {
+                if alive {
+                    self.standbys.insert(rank);
+                    self.vanished.remove(&Watched::Standby(rank));
+                    self.settle(
+                        |k| matches!(k, AlertKind::StandbyGone { rank: r, .. } if *r == rank),
+                    );
+                } else if self.standbys.remove(&rank) && self.link != Some(false) {
+                    self.vanished.insert(Watched::Standby(rank), now_ms);
+                }
             }
         }
     }
@@ -361,16 +390,17 @@ impl Picture {
         view.alive = alive;
         if alive {
             view.lost = false;
-            self.vanished.remove(&Some(id.clone()));
+            self.vanished.remove(&Watched::Unit(id.clone()));
+            self.settle(|k| matches!(k, AlertKind::UnitLost { unit } if *unit == id));
         } else if was && self.link != Some(false) {
-            self.vanished.insert(Some(id.clone()), now_ms);
+            self.vanished.insert(Watched::Unit(id.clone()), now_ms);
         }
         self.changes.units.insert(id);
     }
 
     /// Take the tokens that vanished [`LOST_CONFIRM_MS`] ago, the link still up, for lost.
     fn confirm_lost(&mut self, now_ms: u64) {
-        let due: Vec<Option<UnitId>> = self
+        let due: Vec<Watched> = self
             .vanished
             .iter()
             .filter(|&(_, &at)| now_ms >= at.saturating_add(LOST_CONFIRM_MS))
@@ -379,7 +409,7 @@ impl Picture {
         for who in due {
             self.vanished.remove(&who);
             match who {
-                Some(id) => {
+                Watched::Unit(id) => {
                     if let Some(view) = self.units.get_mut(&id) {
                         view.lost = true;
                     }
@@ -389,12 +419,31 @@ impl Picture {
                         format!("{id} lost: its token vanished (link or unit down)"),
                     );
                 }
-                None => self.raise(
-                    AlertKind::CoordinatorLost,
-                    "the coordinator's token vanished: no one is assigning fires until a \
-                     standby takes over"
-                        .into(),
-                ),
+                Watched::Coordinator => {
+                    let text = if self.standbys.is_empty() {
+                        "the coordinator's token vanished and no standby follows: no one is \
+                         assigning fires until a coordinator is started"
+                    } else {
+                        "the coordinator's token vanished: no one is assigning fires until a \
+                         standby takes over"
+                    };
+                    self.raise(AlertKind::CoordinatorLost, text.into());
+                }
+                Watched::Standby(rank) => {
+                    let left = self.standbys.len();
+                    let text = match left {
+                        0 => format!(
+                            "standby coordinator rank {rank} is gone (it took office, or it \
+                             stopped): no standby is left, so if the coordinator in office \
+                             fails no one assigns fires"
+                        ),
+                        n => format!(
+                            "standby coordinator rank {rank} is gone (it took office, or it \
+                             stopped): {n} standby left"
+                        ),
+                    };
+                    self.raise(AlertKind::StandbyGone { rank, left }, text);
+                }
             }
         }
     }
@@ -426,6 +475,9 @@ impl Picture {
                 ),
             );
         }
+        if f.state == FireState::Out {
+            self.settle(|k| matches!(k, AlertKind::FireReignited { fire } if *fire == f.id));
+        }
         self.changes.fires.insert(f.id);
         self.changes.heat = true;
         self.fires.insert(f.id, f);
@@ -450,6 +502,7 @@ impl Picture {
                 );
             }
         }
+        self.settle(|k| matches!(k, AlertKind::FireStranded { fire, goal, .. } if !now.contains(&(*fire, goal.clone()))));
         self.stranded = now;
         let now: BTreeSet<(UnitId, String)> = g
             .trapped
@@ -468,6 +521,7 @@ impl Picture {
                 );
             }
         }
+        self.settle(|k| matches!(k, AlertKind::UnitTrapped { unit, goal, .. } if !now.contains(&(unit.clone(), goal.clone()))));
         self.trapped = now;
         if g.goals != self.goals {
             self.goals = g.goals;
@@ -476,30 +530,61 @@ impl Picture {
     }
 
     fn raise(&mut self, kind: AlertKind, text: String) {
+        let t = self.t;
+        let event = kind.is_event();
+        if let Some(a) = self
+            .alerts
+            .values_mut()
+            .find(|a| !a.closed() && a.kind.same_cause(&kind))
+        {
+            a.active = !event;
+            a.returned_t = event.then_some(t);
+            a.last_t = t;
+            a.count += 1;
+            a.kind = kind;
+            a.text = text;
+            self.changes.alerts.insert(a.id);
+            return;
+        }
         let id = self.alerts.keys().next_back().map_or(1, |k| k + 1);
         self.alerts.insert(
             id,
             Alert {
                 id,
-                t: self.t,
+                t,
+                last_t: t,
+                count: 1,
                 priority: kind.priority(),
                 kind,
                 text,
+                active: !event,
+                returned_t: event.then_some(t),
                 acked_by: None,
             },
         );
         self.changes.alerts.insert(id);
-        let acked: Vec<u64> = self
+        let closed: Vec<u64> = self
             .alerts
             .values()
-            .filter(|a| a.acked_by.is_some())
+            .filter(|a| a.closed())
             .map(|a| a.id)
             .collect();
-        for old in acked
+        for old in closed
             .iter()
-            .take(acked.len().saturating_sub(ACKED_ALERTS_KEPT))
+            .take(closed.len().saturating_sub(CLOSED_ALERTS_KEPT))
         {
             self.alerts.remove(old);
+        }
+    }
+
+    /// Every active alert whose cause `ended` says has ended returns to normal now.
+    fn settle(&mut self, ended: impl Fn(&AlertKind) -> bool) {
+        for a in self.alerts.values_mut() {
+            if a.active && ended(&a.kind) {
+                a.active = false;
+                a.returned_t = Some(self.t);
+                self.changes.alerts.insert(a.id);
+            }
         }
     }
 

@@ -239,9 +239,75 @@ fn a_trapped_unit_raises_one_alert_while_it_lasts() {
     );
     assert_eq!(alerts[0].priority, 1);
     assert!(alerts[0].text.contains("rossi"), "{}", alerts[0].text);
+    assert!(alerts[0].active && alerts[0].count == 1);
+    // Freed: it returns to normal by itself, and stays open until acknowledged.
     p.observe(0, told(2.0, vec![]));
-    p.observe(0, told(3.0, vec![x]));
-    assert_eq!(p.incident().alerts.len(), 2, "trapped again: raised again");
+    let a = &p.incident().alerts[0];
+    assert!(
+        !a.active && a.returned_t == Some(2.0) && !a.closed(),
+        "{a:?}"
+    );
+    // Trapped again before anyone acknowledged: the same alarm, active again, counted.
+    p.observe(0, told(3.0, vec![x.clone()]));
+    let a = p.incident().alerts[0].clone();
+    assert_eq!((a.active, a.count, a.t, a.last_t), (true, 2, 1.0, 3.0));
+    assert_eq!(p.incident().alerts.len(), 1, "one cause, one alarm");
+    // Acknowledged while active; freed: closed. Trapped once more: a new alarm.
+    assert!(p.acknowledge(a.id, "rossi"));
+    p.observe(0, told(4.0, vec![]));
+    assert!(p.incident().alerts[0].closed());
+    p.observe(0, told(5.0, vec![x]));
+    let alerts = p.incident().alerts;
+    assert_eq!(alerts.len(), 2, "after it closed: raised anew");
+    assert!(alerts[1].active && alerts[1].acked_by.is_none());
+}
+
+#[test]
+fn a_standby_gone_is_an_alarm_until_one_follows_again_and_says_how_many_are_left() {
+    let mut p = picture();
+    p.observe(0, Event::Link(true));
+    p.observe(0, Event::CoordinatorAlive(true));
+    p.observe(0, Event::StandbyAlive(1, true));
+    p.observe(0, Event::StandbyAlive(2, true));
+    p.observe(0, Event::StandbyAlive(1, false));
+    // Not at once (it may be failing over between routers), but after the grace.
+    assert!(p.delta(0).is_none_or(|d| d.alerts.is_empty()));
+    let d = p.delta(LOST_CONFIRM_MS).unwrap();
+    assert!(
+        matches!(&d.alerts[..], [a] if a.kind == AlertKind::StandbyGone { rank: 1, left: 1 } && a.priority == 2),
+        "{:?}",
+        d.alerts
+    );
+    p.observe(LOST_CONFIRM_MS, Event::StandbyAlive(2, false));
+    let d = p.delta(2 * LOST_CONFIRM_MS).unwrap();
+    assert!(
+        d.alerts[0].text.contains("no standby is left"),
+        "{:?}",
+        d.alerts
+    );
+    // The coordinator gone with no standby: the alarm does not promise one.
+    p.observe(2 * LOST_CONFIRM_MS, Event::CoordinatorAlive(false));
+    let d = p.delta(3 * LOST_CONFIRM_MS).unwrap();
+    let lost = d
+        .alerts
+        .iter()
+        .find(|a| a.kind == AlertKind::CoordinatorLost)
+        .unwrap();
+    assert!(lost.text.contains("no standby follows"), "{}", lost.text);
+    // A standby back, the coordinator back: both return to normal.
+    p.observe(3 * LOST_CONFIRM_MS, Event::StandbyAlive(1, true));
+    p.observe(3 * LOST_CONFIRM_MS, Event::CoordinatorAlive(true));
+    let open: Vec<_> = p
+        .incident()
+        .alerts
+        .into_iter()
+        .filter(|a| a.active)
+        .collect();
+    assert_eq!(
+        open.iter().map(|a| &a.kind).collect::<Vec<_>>(),
+        [&AlertKind::StandbyGone { rank: 2, left: 0 }],
+        "{open:?}"
+    );
 }
 
 #[test]
@@ -266,13 +332,9 @@ fn a_vanished_token_is_a_lost_unit_and_an_alert_until_acknowledged() {
     assert_eq!(d.alerts[0].acked_by.as_deref(), Some("rossi"));
     assert!(!p.acknowledge(99, "rossi"));
     p.observe(0, Event::UnitAlive(u.clone(), true));
-    assert!(
-        p.delta(0)
-            .unwrap()
-            .units
-            .iter()
-            .any(|v| v.id == u && !v.lost)
-    );
+    let d = p.delta(0).unwrap();
+    assert!(d.units.iter().any(|v| v.id == u && !v.lost));
+    assert!(d.alerts[0].closed(), "back, and acknowledged: closed");
 }
 
 #[test]
@@ -434,10 +496,15 @@ fn a_fire_a_goal_strands_raises_one_alert_naming_the_goal_and_its_issuer() {
         "{}",
         alerts[0].text
     );
-    // Lifted, then stranded again: a new alert.
+    // Lifted: returned to normal at once. Stranded again before anyone acknowledged: the
+    // same alarm, active again.
     p.observe(0, told(3.0, Vec::new()));
+    let a = p.delta(0).unwrap().alerts[0].clone();
+    assert_eq!((a.active, a.returned_t), (false, Some(3.0)));
     p.observe(0, told(4.0, vec![stranded]));
-    assert_eq!(p.incident().alerts.len(), 2);
+    let alerts = p.incident().alerts;
+    assert_eq!(alerts.len(), 1);
+    assert!(alerts[0].active && alerts[0].count == 2);
 }
 
 #[test]

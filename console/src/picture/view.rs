@@ -87,6 +87,13 @@ pub enum AlertKind {
         issued_by: Option<String>,
     },
     CoordinatorLost,
+    /// A standby coordinator's token is gone: it took office, or it stopped. Either way
+    /// the site has one spare fewer.
+    StandbyGone {
+        rank: u32,
+        /// Standbys still following.
+        left: usize,
+    },
     /// The link to the tunnel's SCADA (its DTS and ventilation) is down.
     ScadaLost {
         problem: String,
@@ -100,25 +107,78 @@ impl AlertKind {
             AlertKind::CoordinatorLost
             | AlertKind::FireStranded { .. }
             | AlertKind::UnitTrapped { .. } => 1,
-            AlertKind::UnitLost { .. } | AlertKind::FireReignited { .. } => 2,
+            AlertKind::UnitLost { .. }
+            | AlertKind::FireReignited { .. }
+            | AlertKind::StandbyGone { .. } => 2,
             AlertKind::GoalRejected { .. } | AlertKind::ScadaLost { .. } => 3,
         }
     }
+
+    /// Whether `other` has the same cause: one alarm per cause, however often it is
+    /// raised (what differs is the detail: a link's latest problem, a goal's latest
+    /// reason, how many standbys are left).
+    pub fn same_cause(&self, other: &AlertKind) -> bool {
+        use AlertKind as K;
+        match (self, other) {
+            (K::ScadaLost { .. }, K::ScadaLost { .. }) => true,
+            (
+                K::GoalRejected {
+                    goal,
+                    zone,
+                    issued_by,
+                    ..
+                },
+                K::GoalRejected {
+                    goal: g,
+                    zone: z,
+                    issued_by: i,
+                    ..
+                },
+            ) => goal == g && zone == z && issued_by == i,
+            (K::StandbyGone { rank, .. }, K::StandbyGone { rank: r, .. }) => rank == r,
+            (a, b) => a == b,
+        }
+    }
+
+    /// An event, not a condition: nothing ends it, so it returns to normal as it is
+    /// raised and waits only for its acknowledgement (a goal refused).
+    pub fn is_event(&self) -> bool {
+        matches!(self, AlertKind::GoalRejected { .. })
+    }
 }
 
-/// Something a commander must acknowledge.
+/// An alarm, with the lifecycle control rooms use (ISA-18.2): active or returned to
+/// normal, acknowledged or not. It returns to normal by itself when its cause ends; it
+/// closes (leaves the page's open list) once it has returned to normal and been
+/// acknowledged. One alarm per cause ([`AlertKind::same_cause`]): raised again while it is
+/// open, it counts, and it is active again.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Alert {
     pub id: u64,
-    /// Site time it was raised.
+    /// Site time it was first raised.
     pub t: f64,
+    /// Site time it was last raised.
+    pub last_t: f64,
+    /// Times raised while open.
+    pub count: u32,
     #[serde(flatten)]
     pub kind: AlertKind,
     /// [`AlertKind::priority`].
     pub priority: u8,
     pub text: String,
+    /// Its cause holds.
+    pub active: bool,
+    /// Site time it returned to normal, while it is not active.
+    pub returned_t: Option<f64>,
     /// The commander who acknowledged it.
     pub acked_by: Option<String>,
+}
+
+impl Alert {
+    /// Returned to normal and acknowledged: nothing more to do.
+    pub fn closed(&self) -> bool {
+        !self.active && self.acked_by.is_some()
+    }
 }
 
 /// The heat field: radiant flux, kW/m^2 to 0.1, at each station of the site map (rows)
