@@ -652,6 +652,7 @@ function drawAlerts() {
   $("ack-all").disabled = !state.steers || !unacked.length;
   $("ack-all").textContent = unacked.length > 1 ? `Acknowledge all ${unacked.length}` : "Acknowledge all";
   banner();
+  annunciate();
 }
 
 async function acknowledge(ids) {
@@ -659,6 +660,55 @@ async function acknowledge(ids) {
     const r = await command("POST", `/api/alerts/${id}/ack`);
     if (!r.ok) { $("ack").textContent = r.body.error; break; }
   }
+}
+
+// ---- annunciation: P1 alarms sound until acknowledged, and raise a notification ------
+// The sound is the page's own (Web Audio: two tones, again every two seconds while any
+// active P1 alarm is unacknowledged), so no file to load and nothing to autoplay: a
+// browser lets a page sound only after a click on it, which logging in is; until then the
+// button says so. Muting is per page and shows on the button. A notification goes up for
+// each new P1 alarm where the commander allowed them (asked at login).
+const audio = { context: null, muted: sessionStorage.getItem("ff-muted") === "1", playing: false, timer: null, notified: new Set() };
+window.ffAudio = audio;
+
+function unlockAudio() {
+  if (!audio.context) audio.context = new AudioContext();
+  if (audio.context.state === "suspended") audio.context.resume();
+  if (window.Notification && Notification.permission === "default") Notification.requestPermission();
+  annunciate();
+}
+
+function tone(at, hz) {
+  const c = audio.context, o = c.createOscillator(), g = c.createGain();
+  o.frequency.value = hz; o.type = "square";
+  g.gain.setValueAtTime(0.0001, at);
+  g.gain.exponentialRampToValueAtTime(0.2, at + 0.02);
+  g.gain.exponentialRampToValueAtTime(0.0001, at + 0.25);
+  o.connect(g).connect(c.destination);
+  o.start(at); o.stop(at + 0.3);
+}
+
+function annunciate() {
+  const p1 = [...state.alerts.values()].filter((a) => a.priority === 1 && alarmState(a) === "active-unacked");
+  for (const a of p1) {
+    if (audio.notified.has(a.id)) continue;
+    audio.notified.add(a.id);
+    if (window.Notification && Notification.permission === "granted") {
+      new Notification(`P1: ${a.text}`, { tag: `ff-alarm-${a.id}`, requireInteraction: true });
+    }
+  }
+  const sound = p1.length > 0 && !audio.muted && audio.context && audio.context.state === "running";
+  if (sound && !audio.timer) {
+    const ring = () => { const t = audio.context.currentTime; tone(t, 880); tone(t + 0.35, 660); };
+    ring();
+    audio.timer = setInterval(ring, 2000);
+  } else if (!sound && audio.timer) {
+    clearInterval(audio.timer); audio.timer = null;
+  }
+  audio.playing = !!audio.timer;
+  const b = $("mute");
+  b.textContent = audio.muted ? "sound: MUTED" : !audio.context ? "sound: off until a click" : audio.playing ? "sound: ALARM" : "sound: on";
+  b.className = "badge" + (audio.muted ? " warn" : audio.playing ? " bad" : "");
 }
 
 // The banner above everything: the console's link to the site first, then the most
@@ -923,7 +973,15 @@ function loggedIn(name, role) {
 }
 
 function setupCommands() {
+  // Any click on the page lets it sound; the mute button toggles this page's sound.
+  document.addEventListener("pointerdown", unlockAudio, { once: true });
+  $("mute").addEventListener("click", () => {
+    audio.muted = !audio.muted;
+    sessionStorage.setItem("ff-muted", audio.muted ? "1" : "0");
+    unlockAudio();
+  });
   $("login").addEventListener("submit", async (ev) => {
+    unlockAudio();
     ev.preventDefault();
     $("login-error").textContent = "";
     const r = await command("POST", "/api/login", { name: $("login-name").value, password: $("login-password").value });

@@ -10,7 +10,8 @@ Drives the page in headless Chromium through chromedriver (Selenium), at 1920x10
   never take an old fire's id, no two fires are drawn where there is one, no false "burns
   again"; a keep-out picked on the map, acked, units leaving the zone; an evacuate on the
   other zone traps every unit: one alert per unit within 2 s, one decision line each;
-  cleared, every such alarm returns to normal within 2 s and the banner empties;
+  they sound (Web Audio) until muted on the page's button; cleared, every such alarm
+  returns to normal within 2 s, the banner empties and the page falls silent;
   both goals cleared: no unit idle 5 s later; no two labels overlap at either size; the
   tablet's panes one tab away; the timeline scrubbed back and forth; a pinch zooms; the
   router killed: "SITE LOST" within 3 s and no unit taken for lost;
@@ -390,6 +391,16 @@ def plain_site(args, tmp, users, driver):
         assert all(len(v) == 1 for v in per_unit.values()), per_unit
         print(f"trapped: {len(trapped)} alerts within {took:.1f} s of the ack, one decision line each "
               f"(counts {[v[0]['count'] for v in per_unit.values()]})")
+        # Active unacknowledged P1 alarms sound (Web Audio, unlocked by the login's click),
+        # and the page's mute, visible on its button, silences them and only them.
+        wait_for("the P1 alarms sounding", lambda: js(
+            "return window.ffAudio.playing && window.ffAudio.context.state === 'running'"), timeout=2)
+        driver.find_element(By.ID, "mute").click()
+        wait_for("the page muted", lambda: not js("return window.ffAudio.playing")
+                 and driver.find_element(By.ID, "mute").text == "sound: MUTED", timeout=2)
+        driver.find_element(By.ID, "mute").click()
+        wait_for("the page sounding again", lambda: js("return window.ffAudio.playing"), timeout=2)
+        print("P1 alarms: the page sounds (audio context running), muted and unmuted by its button")
         # Both cleared: every unit goes back to work, and every alarm whose cause ended
         # returns to normal by itself within 2 s (ISA-18.2), leaving the banner.
         clear(driver, js, other)
@@ -401,6 +412,7 @@ def plain_site(args, tmp, users, driver):
                  timeout=2.5, every=0.1)
         wait_for("the banner empty", lambda: driver.find_element(By.ID, "banner").get_attribute("hidden"),
                  timeout=2.5, every=0.1)
+        wait_for("the page silent", lambda: not js("return window.ffAudio.playing"), timeout=2.5, every=0.1)
         print(f"goals cleared: the trapped alarms back to normal and the banner empty "
               f"{time.monotonic() - t0:.1f} s later")
         t0 = time.monotonic()
