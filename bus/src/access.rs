@@ -361,6 +361,9 @@ pub fn grants(
             };
             grant(Op::Put, goals.as_str());
             grant(Op::Delete, goals.as_str());
+            // Its own goal keys heard: a goal sealed with its key that it never sent is
+            // someone else's, who holds the key.
+            grant(Op::Subscribe, goals.as_str());
             grant(Op::Subscribe, keys.every_zone_ack().as_str());
             grant(Op::Subscribe, keys.every_fire().as_str());
             grant(Op::Subscribe, keys.every_unit_state().as_str());

@@ -47,7 +47,15 @@ pub struct Sealer {
     rng: SystemRandom,
     cert: String,
     identity: Identity,
+    /// The signatures of the last [`MADE_KEPT`] seals made here: a seal with this
+    /// identity's certificate that is not among them was made with its key elsewhere
+    /// (ECDSA signatures are randomised: nobody makes one of ours by chance).
+    made: Mutex<std::collections::VecDeque<String>>,
 }
+
+/// How many of its own seals a sealer remembers: every goal and clear a busy console
+/// sends in an incident, many times over.
+const MADE_KEPT: usize = 4096;
 
 impl std::fmt::Debug for Sealer {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -84,6 +92,7 @@ impl Sealer {
             rng,
             cert: base64_of(certified.der()),
             identity: certified.identity,
+            made: Mutex::default(),
         })
     }
 
@@ -105,11 +114,40 @@ impl Sealer {
             .key
             .sign(&self.rng, &sealed_bytes(key, at_ms, payload))
             .expect("ECDSA signing fails only without randomness");
+        let sig = base64_of(sig.as_ref());
+        let mut made = self
+            .made
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if made.len() == MADE_KEPT {
+            made.pop_front();
+        }
+        made.push_back(sig.clone());
         Seal {
             cert: self.cert.clone(),
             at_ms,
-            sig: base64_of(sig.as_ref()),
+            sig,
         }
+    }
+
+    /// Whether `seal` is one this sealer made (of the last [`MADE_KEPT`]).
+    pub fn made(&self, seal: &Seal) -> bool {
+        self.made
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .contains(&seal.sig)
+    }
+}
+
+impl Seals {
+    /// Whether `seal`, heard on `key` over `payload` (`None`: a delete), holds and was
+    /// made with this process's own key by someone else: the key is stolen (or a second
+    /// process runs with this identity, which a site must not do). A seal that does not
+    /// hold is no proof of anything and says no.
+    pub fn impostor(&self, key: &str, payload: Option<&[u8]>, seal: &Seal) -> bool {
+        self.check
+            .check(key, payload, seal)
+            .is_ok_and(|signer| signer == self.sealer.identity && !self.sealer.made(seal))
     }
 }
 

@@ -8,9 +8,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use firefleet_bus::goal::{self, ACK_TIMEOUT};
-use firefleet_bus::{Ask, Bus, BusError};
+use firefleet_bus::{Ask, Bus, BusError, Raw};
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::IncidentStatus;
+use firefleet_protocol::msg::{IncidentStatus, Seal};
 use firefleet_protocol::payload::Payload;
 use tokio::sync::mpsc;
 
@@ -52,7 +52,13 @@ pub async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> Result<(), BusError> 
         keys.expr(&Topic::SimClock),
         keys.every_infra(),
     ];
-    let wanted: Vec<&str> = wanted.iter().map(String::as_str).collect();
+    let mut wanted: Vec<&str> = wanted.iter().map(String::as_str).collect();
+    // With seals (a secure site): every goal and clear, to tell one sealed with this
+    // console's key that it never sent.
+    let goals = keys.every_zone_goal();
+    if bus.seals().is_some() {
+        wanted.push(goals.as_str());
+    }
     let mut samples = bus.subscribe_raw(&wanted, false).await?;
     // Only the tokens: on a site with access rules the console may watch `**/alive` and
     // nothing wider, and a watch on the whole site is refused there (the page was blind).
@@ -93,6 +99,10 @@ pub async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> Result<(), BusError> 
                 }
             }
             Some(s) = samples.recv() => {
+                if let Some(identity) = impostor(&bus, &s) {
+                    console.observe(Event::Impostor { identity, key: s.key.clone() });
+                    continue;
+                }
                 if s.deleted {
                     continue;
                 }
@@ -108,6 +118,16 @@ pub async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> Result<(), BusError> 
             else => return Err(BusError::Closed),
         }
     }
+}
+
+/// The identity whose key sealed `sample` elsewhere, if it is this console's own.
+fn impostor(bus: &Bus, sample: &Raw) -> Option<String> {
+    let seals = bus.seals()?;
+    let seal = Seal::from_attachment(sample.attachment.as_deref()?).ok()?;
+    let payload = (!sample.deleted).then_some(sample.bytes.as_slice());
+    seals
+        .impostor(&sample.key, payload, &seal)
+        .then(|| seals.sealer.identity().to_string())
 }
 
 /// Ask the coordinator for the incident so far; nothing if none answers. On a task of its

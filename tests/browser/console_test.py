@@ -539,6 +539,8 @@ def secure_site(args, tmp, users, driver):
         issue(driver, js, zone, "monitor")
         clear(driver, js, zone)
         wait_for("the sealed clear taken", lambda: not js("return window.ffState.goals.length"), timeout=10)
+        assert not [a for a in page_state(js)["alerts"] if a["kind"] == "impostor"], "its own seals taken for an impostor's"
+
         print(f"secure site: a monitor goal on {zone} from the page, sealed by the console, accepted and cleared")
         if args.screenshots:
             driver.save_screenshot(os.path.join(args.screenshots, "console-secure-1920x1080.png"))

@@ -3,7 +3,6 @@
 //! documented map, and our bridge reads a SCADA its server plays. Then the whole fleet with
 //! the bridge as one more process, its link cut mid-incident.
 
-use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -202,16 +201,6 @@ async fn the_bridge_publishes_what_a_scada_holds_and_marks_it_stale_when_the_lin
         stale.t >= last_good && stale.t <= cut.t,
         "{stale:?} {cut:?}"
     );
-}
-
-/// One GET of the console's API, the body as JSON.
-fn get_json(addr: &str, path: &str) -> Option<serde_json::Value> {
-    let mut s = TcpStream::connect(addr).ok()?;
-    s.set_read_timeout(Some(Duration::from_secs(5))).ok()?;
-    write!(s, "GET {path} HTTP/1.0\r\nHost: {addr}\r\n\r\n").ok()?;
-    let mut body = String::new();
-    s.read_to_string(&mut body).ok()?;
-    serde_json::from_str(body.split_once("\r\n\r\n")?.1).ok()
 }
 
 #[test]

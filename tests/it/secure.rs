@@ -886,3 +886,64 @@ async fn a_stolen_recorder_key_cannot_forge_replay_or_lift_goals_at_recall() {
         b.close().await;
     }
 }
+
+/// Issue #52, item 3: a goal sealed with the console's key that the console never sent.
+/// The coordinator takes it (the console speaks for any commander), and the console,
+/// which hears its own goal keys, raises "someone else holds the key of console" within
+/// 2 s.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_goal_sealed_with_the_console_s_stolen_key_raises_the_impostor_alarm() {
+    use firefleet_bus::goal;
+    use firefleet_protocol::msg::{GoalKind, ZoneGoal};
+    let site = SecureSite::new("vehicle-collision");
+    let addr = format!("127.0.0.1:{}", firefleet_bus::free_loopback_port().unwrap());
+    let _fleet = Fleet(vec![
+        site.spawn("coordinator", &["coordinator"]),
+        site.spawn("console", &["console", "--http", &addr]),
+    ]);
+    let deadline = Instant::now() + patient(Duration::from_secs(60));
+    while crate::support::get_json(&addr, "/api/incident").is_none_or(|i| i["link"] != true) {
+        assert!(Instant::now() < deadline, "the console never linked");
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+    let thief = site.open("console").await;
+    let rossi = firefleet_model::CommanderId::new("rossi").unwrap();
+    let keep_out = ZoneGoal::new(
+        firefleet_model::ZoneId::new("far").unwrap(),
+        GoalKind::KeepOut,
+        rossi.clone(),
+    );
+    let ack = goal::issue(&thief, &keep_out, &rossi, goal::ACK_TIMEOUT)
+        .await
+        .unwrap();
+    assert!(ack.accepted, "{ack:?}");
+    let heard = Instant::now();
+    let alarm = loop {
+        let inc = crate::support::get_json(&addr, "/api/incident").unwrap_or_default();
+        if let Some(a) = inc["alerts"]
+            .as_array()
+            .and_then(|a| a.iter().find(|a| a["kind"] == "impostor").cloned())
+        {
+            break a;
+        }
+        assert!(
+            heard.elapsed() < patient(Duration::from_secs(2)),
+            "no impostor alarm: {inc}"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    };
+    println!(
+        "impostor alarm on the console {:.2} s after the coordinator's ack",
+        heard.elapsed().as_secs_f64()
+    );
+    assert_eq!(alarm["priority"], 1, "{alarm}");
+    assert_eq!(alarm["active"], true, "{alarm}");
+    assert!(
+        alarm["text"]
+            .as_str()
+            .unwrap()
+            .contains("someone else holds the key of console"),
+        "{alarm}"
+    );
+    thief.close().await;
+}

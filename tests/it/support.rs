@@ -300,3 +300,14 @@ pub fn pki_init(dir: &std::path::Path, scenario: &str) -> std::path::PathBuf {
     assert!(out.status.success(), "{}", text(&out));
     pki
 }
+
+/// One GET of the console's API, the body as JSON.
+pub fn get_json(addr: &str, path: &str) -> Option<serde_json::Value> {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr).ok()?;
+    s.set_read_timeout(Some(Duration::from_secs(5))).ok()?;
+    write!(s, "GET {path} HTTP/1.0\r\nHost: {addr}\r\n\r\n").ok()?;
+    let mut body = String::new();
+    s.read_to_string(&mut body).ok()?;
+    serde_json::from_str(body.split_once("\r\n\r\n")?.1).ok()
+}

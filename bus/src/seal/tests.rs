@@ -103,3 +103,19 @@ fn an_expired_certificate_seals_nothing() {
     let e = check.check(KEY, None, &sealer.seal(KEY, None)).unwrap_err();
     assert!(e.to_string().contains("expired"), "{e}");
 }
+
+#[test]
+fn a_seal_made_with_this_key_elsewhere_is_an_impostor_s() {
+    let (_d, ours, _) = sites();
+    let files = TlsFiles::in_dir(&ours.join("console"));
+    let (console, thief) = (Seals::load(&files).unwrap(), Sealer::load(&files).unwrap());
+    let mine = console.sealer.seal(KEY, Some(b"{}"));
+    assert!(console.sealer.made(&mine));
+    assert!(!console.impostor(KEY, Some(b"{}"), &mine));
+    let stolen = thief.seal(KEY, Some(b"{}"));
+    assert!(console.impostor(KEY, Some(b"{}"), &stolen));
+    // Another identity's seal, or one that does not hold, is none of this key's business.
+    let rossi = Sealer::load(&TlsFiles::in_dir(&ours.join("commander-rossi"))).unwrap();
+    assert!(!console.impostor(KEY, Some(b"{}"), &rossi.seal(KEY, Some(b"{}"))));
+    assert!(!console.impostor(KEY, Some(b"[]"), &stolen));
+}

@@ -85,6 +85,9 @@ pub enum Event {
     UnitAlive(UnitId, bool),
     /// The coordinator's token appeared or vanished.
     CoordinatorAlive(bool),
+    /// A message on `key` sealed with this process's own identity's key that it never
+    /// sent ([`firefleet_bus::seal::Seals::impostor`]).
+    Impostor { identity: String, key: String },
     /// The token of the standby coordinator of this rank appeared or vanished.
     StandbyAlive(u32, bool),
     /// The console's link to the site (a router) is up, or gone.
@@ -260,6 +263,17 @@ impl Picture {
                 self.coordinator = Some(alive);
                 self.changes.coordinator = true;
             }
+            Event::Impostor { identity, key } => self.raise(
+                AlertKind::Impostor {
+                    identity: identity.clone(),
+                },
+                format!(
+                    "someone else holds the key of {identity}: {key} carries a seal made with \
+                     it that this console never made. Take the identity off the site \
+                     (firefleet pki revoke {identity}, then a new certificate for this \
+                     console) and look at what was sent under it"
+                ),
+            ),
             Event::StandbyAlive(rank, alive) => {
                 if alive {
                     self.standbys.insert(rank);

@@ -561,3 +561,24 @@ fn a_silent_scada_bridge_raises_one_alert_and_the_layer_goes_stale() {
         "said once"
     );
 }
+
+#[test]
+fn an_impostor_is_a_p1_alarm_that_nothing_but_a_commander_ends() {
+    let mut p = picture();
+    let heard = |key: &str| Event::Impostor {
+        identity: "console".into(),
+        key: key.into(),
+    };
+    p.observe(0, heard("ff/s/zone/a/goal/rossi"));
+    p.observe(0, heard("ff/s/zone/b/goal/bianchi"));
+    let alerts = p.incident().alerts;
+    assert_eq!(alerts.len(), 1, "one alarm per identity: {alerts:?}");
+    let a = &alerts[0];
+    assert!(a.active && a.priority == 1 && a.count == 2, "{a:?}");
+    assert!(a.text.contains("ff/s/zone/b/goal/bianchi"), "{}", a.text);
+    assert!(p.acknowledge(a.id, "rossi"));
+    assert!(
+        p.incident().alerts[0].active,
+        "acknowledged, still in force"
+    );
+}

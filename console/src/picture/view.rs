@@ -98,6 +98,11 @@ pub enum AlertKind {
     ScadaLost {
         problem: String,
     },
+    /// A message sealed with this console's own key that it never sent: someone else
+    /// holds the key. Active until the identity is cut off; nothing here ends it.
+    Impostor {
+        identity: String,
+    },
 }
 
 impl AlertKind {
@@ -106,7 +111,8 @@ impl AlertKind {
         match self {
             AlertKind::CoordinatorLost
             | AlertKind::FireStranded { .. }
-            | AlertKind::UnitTrapped { .. } => 1,
+            | AlertKind::UnitTrapped { .. }
+            | AlertKind::Impostor { .. } => 1,
             AlertKind::UnitLost { .. }
             | AlertKind::FireReignited { .. }
             | AlertKind::StandbyGone { .. } => 2,
