@@ -189,6 +189,14 @@ impl Question {
         self.0.parameters().get(name)
     }
 
+    /// What the question carries (empty if nothing).
+    pub fn payload(&self) -> Vec<u8> {
+        self.0
+            .payload()
+            .map(|p| p.to_bytes().into_owned())
+            .unwrap_or_default()
+    }
+
     /// Refuse the question, saying why: the asker gets an error reply with the text.
     pub async fn refuse(&self, why: &str) -> Result<(), BusError> {
         self.0
@@ -290,6 +298,16 @@ impl Bus {
 
     /// Ask `key_expr` and receive the answers as they come.
     pub async fn ask(&self, key_expr: &str, ask: Ask) -> Result<Answers, BusError> {
+        self.ask_with(key_expr, ask, None).await
+    }
+
+    /// [`Bus::ask`] with `payload` carried by the question (what a preview is asked of).
+    pub async fn ask_with(
+        &self,
+        key_expr: &str,
+        ask: Ask,
+        payload: Option<Vec<u8>>,
+    ) -> Result<Answers, BusError> {
         let consolidation = if ask.every_answer {
             ConsolidationMode::None
         } else {
@@ -300,13 +318,16 @@ impl Bus {
         } else {
             Locality::Any
         };
-        let replies = self
+        let get = self
             .zenoh()
             .get(key_expr.to_owned())
             .consolidation(consolidation)
             .allowed_destination(destination)
-            .timeout(ask.timeout)
-            .await?;
+            .timeout(ask.timeout);
+        let replies = match payload {
+            Some(p) => get.payload(p).await?,
+            None => get.await?,
+        };
         Ok(Answers(replies))
     }
 

@@ -11,9 +11,10 @@ use std::time::Duration;
 
 use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::codec;
-use firefleet_protocol::msg::{GoalAck, Seal, ZoneGoal};
+use firefleet_protocol::keys::Topic;
+use firefleet_protocol::msg::{GoalAck, GoalPreview, Seal, ZoneGoal};
 
-use crate::{Bus, BusError};
+use crate::{Ask, Bus, BusError};
 
 /// How long a person's tool waits for the coordinator's answer.
 pub const ACK_TIMEOUT: Duration = Duration::from_secs(5);
@@ -34,6 +35,9 @@ pub enum GoalError {
         .0.as_secs_f64()
     )]
     NoAnswer(Duration),
+    /// The coordinator refused the question, saying why.
+    #[error("{0}")]
+    Refused(String),
 }
 
 /// Put `goal` under commander `by` and wait up to `within` for the coordinator's answer,
@@ -69,6 +73,29 @@ pub async fn issue(
         }
     }
     Err(GoalError::NoAnswer(within))
+}
+
+/// What `goal` under commander `by` would do if it were issued now, as the coordinator
+/// works it out (`coord/preview`): nothing is put, nothing changes.
+pub async fn preview(
+    bus: &Bus,
+    goal: &ZoneGoal,
+    by: &CommanderId,
+    within: Duration,
+) -> Result<GoalPreview, GoalError> {
+    let key = format!("{}?by={by}", bus.keys().expr(&Topic::CoordPreview));
+    let answers = bus
+        .ask_with(&key, Ask::within(within), Some(codec::encode(goal)))
+        .await?;
+    match answers.recv_or_refusal().await {
+        Some(Ok(a)) => bus
+            .decode::<GoalPreview>(&a, "goal preview")
+            .ok_or(GoalError::Refused(
+                "the coordinator's preview did not decode".into(),
+            )),
+        Some(Err(why)) => Err(GoalError::Refused(why)),
+        None => Err(GoalError::NoAnswer(within)),
+    }
 }
 
 /// Put `goal` under commander `by` once, sealed where the bus can seal, without waiting

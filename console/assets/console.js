@@ -636,6 +636,7 @@ function drawAlerts() {
     const st = alarmState(a);
     const li = html("li", { className: `${st} p${a.priority}` });
     li.dataset.alert = a.id; li.dataset.kind = a.kind; li.dataset.priority = a.priority; li.dataset.state = st;
+    if (a.unit) li.dataset.unit = a.unit;
     html("span", { className: "prio", textContent: `P${a.priority}` }, li);
     const times = a.count > 1 ? ` (x${a.count}, last t=${fmt(a.last_t, 0)} s)` : "";
     const back = a.returned_t != null && !a.active ? `; back to normal at t=${fmt(a.returned_t, 0)} s` : "";
@@ -972,6 +973,23 @@ function loggedIn(name, role) {
   drawAlerts();
 }
 
+// What a goal's preview says it would do to the fleet, in words; "" if nothing.
+function previewHarm(p) {
+  const said = [];
+  if (p.trapped.length) said.push(`trap ${p.trapped.map((x) => x.unit).join(", ")} (they would hold where they are, inside the zone)`);
+  if (p.stranded.length) said.push(`strand ${p.stranded.map((x) => `fire ${x.fire}`).join(", ")} (no unit could reach or attack it)`);
+  return said.join(" and ");
+}
+
+async function issueGoal(form) {
+  const ack = $("ack");
+  ack.className = ""; ack.textContent = `issuing ${form.goal} on ${form.zone}...`;
+  const r = await command("POST", "/api/goals", form);
+  if (r.body.accepted === true) { ack.className = "accepted"; ack.textContent = `accepted: ${r.body.id}: ${r.body.reason}`; }
+  else if (r.body.accepted === false) { ack.className = "rejected"; ack.textContent = `rejected: your goal ${r.body.id}: ${r.body.reason}`; }
+  else { ack.className = "rejected"; ack.textContent = `not issued: ${r.body.error}`; }
+}
+
 function setupCommands() {
   // Any click on the page lets it sound; the mute button toggles this page's sound.
   document.addEventListener("pointerdown", unlockAudio, { once: true });
@@ -999,11 +1017,23 @@ function setupCommands() {
     const minutes = $("goal-expires").value;
     if (minutes !== "") form.expires_s = Number(minutes) * 60;
     const ack = $("ack");
-    ack.className = ""; ack.textContent = `issuing ${form.goal} on ${form.zone}...`;
-    const r = await command("POST", "/api/goals", form);
-    if (r.body.accepted === true) { ack.className = "accepted"; ack.textContent = `accepted: ${r.body.id}: ${r.body.reason}`; }
-    else if (r.body.accepted === false) { ack.className = "rejected"; ack.textContent = `rejected: your goal ${r.body.id}: ${r.body.reason}`; }
-    else { ack.className = "rejected"; ack.textContent = `not issued: ${r.body.error}`; }
+    ack.className = ""; ack.textContent = `checking what ${form.goal} on ${form.zone} would do...`;
+    // What it would do first (the coordinator works it out on the incident as it is): a
+    // goal that strands a fire or traps a unit is issued only when the commander says so.
+    const p = await command("POST", "/api/goals/preview", form);
+    const harm = p.ok && p.body.ack.accepted ? previewHarm(p.body) : "";
+    if (harm) {
+      ack.textContent = "";
+      const box = $("preview");
+      box.dataset.trapped = p.body.trapped.map((x) => x.unit).join(" ");
+      box.dataset.stranded = p.body.stranded.map((x) => x.fire).join(" ");
+      $("preview-text").textContent = `${form.goal} on ${form.zone} would ${harm}. Issue it anyway?`;
+      box.hidden = false;
+      $("preview-confirm").onclick = () => { box.hidden = true; issueGoal(form); };
+      $("preview-cancel").onclick = () => { box.hidden = true; ack.className = ""; ack.textContent = `not issued: ${form.goal} on ${form.zone}`; };
+      return;
+    }
+    issueGoal(form);
   });
   $("goal-clear").addEventListener("click", async () => {
     const zone = $("goal-zone").value;

@@ -168,6 +168,15 @@ pub async fn carry_goals(bus: Arc<Bus>, mut requests: mpsc::Receiver<GoalRequest
                     };
                     let _ = reply.send(answer);
                 }
+                GoalRequest::Preview { goal, reply } => {
+                    let answer = match &goal.issued_by {
+                        Some(by) => goal::preview(&bus, &goal, by, ACK_TIMEOUT)
+                            .await
+                            .map_err(|e| e.to_string()),
+                        None => Err("the goal names no issuer".to_owned()),
+                    };
+                    let _ = reply.send(answer);
+                }
                 GoalRequest::Clear { zone, by, reply } => {
                     let answer = goal::clear(&bus, &zone, &by)
                         .await

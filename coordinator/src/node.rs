@@ -583,6 +583,15 @@ async fn answer(bus: &Bus, incident: &Incident, query: Question, t: f64) {
         }
         Some(Topic::CoordBarred) => codec::encode(&incident.barred_space(t)),
         Some(Topic::CoordGoals) => codec::encode(&incident.goals_in_force(t)),
+        Some(Topic::CoordPreview) => match preview(incident, &query, t) {
+            Ok(p) => codec::encode(&p),
+            Err(why) => {
+                if let Err(e) = query.refuse(&why).await {
+                    tracing::warn!(key, "refusal failed: {e}");
+                }
+                return;
+            }
+        },
         Some(Topic::CoordStatus) => {
             let mut body = incident.status(t);
             body.rejected = bus
@@ -784,6 +793,22 @@ async fn recall_fires(bus: &Bus) -> Result<Vec<FireTrack>, BusError> {
         .filter_map(|a| bus.decode::<FireTrack>(a, "recalled fire track"))
         .collect();
     Ok(latest_per_fire(tracks))
+}
+
+/// What the goal `query` carries, asked `?by=<commander>`, would do if it were taken at
+/// `t`, or why it cannot be asked. Not sealed: a preview changes nothing.
+fn preview(
+    incident: &Incident,
+    query: &Question,
+    t: f64,
+) -> Result<firefleet_protocol::msg::GoalPreview, String> {
+    let by = query
+        .parameter("by")
+        .ok_or("a preview names its commander: coord/preview?by=<commander>")?;
+    let by = CommanderId::new(by).map_err(|e| format!("by: {e}"))?;
+    let goal = codec::decode::<ZoneGoal>(&query.payload())
+        .map_err(|e| format!("the goal to preview: {e}"))?;
+    Ok(incident.preview(&goal.zone.clone(), &by, goal, t))
 }
 
 /// This host's clock, milliseconds since the Unix epoch: what live seals are dated by.

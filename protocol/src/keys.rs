@@ -14,6 +14,8 @@
 //! ff/<site>/coord/alive           liveliness token of the coordinator
 //! ff/<site>/coord/standby/<rank>/alive  liveliness token of a standby coordinator
 //! ff/<site>/coord/status          queryable, JSON snapshot of the incident
+//! ff/<site>/coord/preview         queryable: a ZoneGoal (JSON) asked with `?by=<commander>`,
+//!                                 answered with the GoalPreview (JSON) of taking it now
 //! ff/<site>/coord/log             coord -> recorders Decision (postcard), one per decision
 //! ff/<site>/coord/barred          coord -> units     BarredSpace (postcard), every second
 //!                                 and on change; the coordinator and recorders answer
@@ -79,6 +81,8 @@ pub enum Topic {
     /// A standby coordinator's liveliness, by its rank: who could take over.
     CoordStandbyAlive(u32),
     CoordStatus,
+    /// What a goal would do, asked before it is issued.
+    CoordPreview,
     CoordLog,
     CoordBarred,
     CoordGoals,
@@ -107,6 +111,7 @@ impl fmt::Display for Topic {
             Topic::CoordAlive => f.write_str("coord/alive"),
             Topic::CoordStandbyAlive(rank) => write!(f, "coord/standby/{rank}/alive"),
             Topic::CoordStatus => f.write_str("coord/status"),
+            Topic::CoordPreview => f.write_str("coord/preview"),
             Topic::CoordLog => f.write_str("coord/log"),
             Topic::CoordBarred => f.write_str("coord/barred"),
             Topic::CoordGoals => f.write_str("coord/goals"),
@@ -167,6 +172,7 @@ impl Topic {
             Topic::CoordAlive => "coord/alive",
             Topic::CoordStandbyAlive(_) => "coord/standby/<rank>/alive",
             Topic::CoordStatus => "coord/status",
+            Topic::CoordPreview => "coord/preview",
             Topic::CoordLog => "coord/log",
             Topic::CoordBarred => "coord/barred",
             Topic::CoordGoals => "coord/goals",
@@ -400,6 +406,7 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
                 .map_err(|_| err(format!("'{rank}' is no standby's rank")))?,
         ),
         ["coord", "status"] => Topic::CoordStatus,
+        ["coord", "preview"] => Topic::CoordPreview,
         ["coord", "log"] => Topic::CoordLog,
         ["coord", "barred"] => Topic::CoordBarred,
         ["coord", "goals"] => Topic::CoordGoals,
@@ -462,6 +469,7 @@ mod tests {
             Topic::CoordAlive,
             Topic::CoordStandbyAlive(2),
             Topic::CoordStatus,
+            Topic::CoordPreview,
             Topic::CoordLog,
             Topic::CoordBarred,
             Topic::CoordGoals,

@@ -9,7 +9,8 @@ Drives the page in headless Chromium through chromedriver (Selenium), at 1920x10
   the coordinator restarted with no recorder (`demo --restart-coordinator-at`): its fires
   never take an old fire's id, no two fires are drawn where there is one, no false "burns
   again"; a keep-out picked on the map, acked, units leaving the zone; an evacuate on the
-  other zone traps every unit: one alert per unit within 2 s, one decision line each;
+  other zone is previewed (the page names every unit it would trap and asks to confirm)
+  and traps every unit: one alert per unit within 2 s, as previewed, one decision line each;
   they sound (Web Audio) until muted on the page's button; cleared, every such alarm
   returns to normal within 2 s, the banner empties and the page falls silent;
   both goals cleared: no unit idle 5 s later; no two labels overlap at either size; the
@@ -159,7 +160,7 @@ def page_state(js):
     return js("""
         const units = [...document.querySelectorAll('#units g.unit')].map(g => ({id: g.dataset.unit, status: g.dataset.status, x: Number(g.dataset.x)}));
         const fires = [...document.querySelectorAll('#fires g.fire')].map(g => ({id: g.dataset.fire, state: g.dataset.state}));
-        const alerts = [...document.querySelectorAll('#alerts li[data-alert]')].map(li => ({id: li.dataset.alert, kind: li.dataset.kind, priority: li.dataset.priority, state: li.dataset.state, text: li.textContent}));
+        const alerts = [...document.querySelectorAll('#alerts li[data-alert]')].map(li => ({id: li.dataset.alert, kind: li.dataset.kind, priority: li.dataset.priority, state: li.dataset.state, unit: li.dataset.unit, text: li.textContent}));
         const decisions = [...document.querySelectorAll('#decisions li')].map(li => ({count: Number(li.dataset.count), text: li.querySelector('.text').textContent}));
         return {units, fires, alerts, decisions, coordinator: document.getElementById('coordinator').textContent,
                 site: document.getElementById('site-link').textContent};
@@ -243,12 +244,27 @@ def issue(driver, js, zone, kind):
     Select(driver.find_element(By.ID, "goal-kind")).select_by_value(kind)
     js("document.getElementById('ack').className = ''; document.getElementById('ack').textContent = ''")
     driver.find_element(By.ID, "goal-issue").click()
+    # Previewed first: a goal that would trap a unit or strand a fire asks to be confirmed,
+    # naming them; what the preview said is returned to compare with what follows.
+    said = {"trapped": [], "stranded": []}
+    def answered():
+        if not driver.find_element(By.ID, "preview").get_attribute("hidden"):
+            return "preview"
+        if driver.find_element(By.ID, "ack").get_attribute("class") in ("accepted", "rejected"):
+            return "ack"
+        return None
+    if wait_for(f"the preview or the ack of {kind} on {zone}", answered, timeout=15) == "preview":
+        box = driver.find_element(By.ID, "preview")
+        said = {k: (box.get_attribute(f"data-{k}") or "").split() for k in ("trapped", "stranded")}
+        print(f"preview of {kind} on zone {zone}: {driver.find_element(By.ID, 'preview-text').text}")
+        driver.find_element(By.ID, "preview-confirm").click()
     ack = wait_for(f"the coordinator's ack of {kind} on {zone}",
                    lambda: driver.find_element(By.ID, "ack").text
                    if driver.find_element(By.ID, "ack").get_attribute("class") in
                    ("accepted", "rejected") else None, timeout=15)
     assert ack.startswith("accepted"), ack
     print(f"{kind} on zone {zone}: {ack}")
+    return said
 
 
 def clear(driver, js, zone):
@@ -377,7 +393,8 @@ def plain_site(args, tmp, users, driver):
 
         # Evacuate the other zone: every unit is now where it may not be, with nowhere to
         # go. One alert per unit, raised within 2 s; one decision line per unit.
-        issue(driver, js, other, "evacuate")
+        said = issue(driver, js, other, "evacuate")
+        assert sorted(said["trapped"]) == sorted(units), f"the preview named {said['trapped']}, not every unit"
         t0 = time.monotonic()
         trapped = wait_for("a trapped-unit alert for every unit",
                            lambda: (lambda a: a if len(a) >= len(units) else None)(
@@ -385,6 +402,8 @@ def plain_site(args, tmp, users, driver):
                            timeout=10, every=0.1)
         took = time.monotonic() - t0
         assert took <= 2.0 + 0.5, f"the trapped alerts took {took:.1f} s"
+        alarmed = sorted(a["unit"] for a in trapped)
+        assert alarmed == sorted(said["trapped"]), f"previewed {said['trapped']}, trapped {alarmed}"
         assert all(a["priority"] == "1" for a in trapped), trapped
         lines = [d for d in page_state(js)["decisions"] if "cannot obey goal" in d["text"]]
         per_unit = {u: [d for d in lines if d["text"].startswith(f"{u} ")] for u in units}

@@ -11,6 +11,7 @@
 //! POST   /api/logout
 //! GET    /api/me                who is logged in (401 if nobody)
 //! POST   /api/goals             a goal (`firefleet_protocol::msg::GoalForm`) -> the ack   [login]
+//! POST   /api/goals/preview     a goal's form -> what it would do (`GoalPreview`)      [login]
 //! DELETE /api/goals/{zone}      clear the login's goals on the zone          [login]
 //! POST   /api/alerts/{id}/ack   acknowledge an alert                         [login]
 //! ```
@@ -53,7 +54,7 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::{delete, get, post};
 use axum::{Json, Router};
 use firefleet_model::{CommanderId, ZoneId};
-use firefleet_protocol::msg::{GoalAck, GoalForm, ZoneGoal};
+use firefleet_protocol::msg::{GoalAck, GoalForm, GoalPreview, ZoneGoal};
 use serde::Deserialize;
 use serde_json::json;
 use tokio::sync::{broadcast, mpsc, oneshot};
@@ -85,6 +86,11 @@ pub enum GoalRequest {
     Set {
         goal: ZoneGoal,
         reply: oneshot::Sender<Result<GoalAck, String>>,
+    },
+    /// What the goal would do if it were put now: the coordinator's preview.
+    Preview {
+        goal: ZoneGoal,
+        reply: oneshot::Sender<Result<GoalPreview, String>>,
     },
     /// Clear `by`'s goals on `zone`.
     Clear {
@@ -209,6 +215,7 @@ impl Console {
             .route("/api/logout", post(logout))
             .route("/api/me", get(me))
             .route("/api/goals", post(set_goal))
+            .route("/api/goals/preview", post(preview_goal))
             .route("/api/goals/{zone}", delete(clear_goals))
             .route("/api/alerts/{id}/ack", post(ack_alert))
             .layer(axum::middleware::from_fn_with_state(self.clone(), guard))
@@ -565,27 +572,55 @@ async fn me(State(c): State<Arc<Console>>, headers: HeaderMap) -> Response {
     }
 }
 
+/// The goal a logged-in commander's form states, checked as every tool checks one, or the
+/// answer that says why there is none.
+fn goal_of(
+    c: &Console,
+    headers: &HeaderMap,
+    body: Result<Json<GoalForm>, JsonRejection>,
+) -> Result<(CommanderId, ZoneGoal), Box<Response>> {
+    let who = c
+        .commander(headers)
+        .ok_or_else(|| Box::new(unauthorized()))?;
+    let Json(form) = body.map_err(|e| Box::new(bad_json(e)))?;
+    if !c.picture().site().zones.iter().any(|z| z.id == form.zone) {
+        return Err(Box::new(error(
+            StatusCode::BAD_REQUEST,
+            format!("zone: the site has no zone '{}'", form.zone),
+        )));
+    }
+    let goal = form
+        .issued_by(who.clone())
+        .map_err(|e| Box::new(error(StatusCode::BAD_REQUEST, e.to_string())))?;
+    Ok((who, goal))
+}
+
+async fn preview_goal(
+    State(c): State<Arc<Console>>,
+    headers: HeaderMap,
+    body: Result<Json<GoalForm>, JsonRejection>,
+) -> Response {
+    let goal = match goal_of(&c, &headers, body) {
+        Ok((_, g)) => g,
+        Err(r) => return *r,
+    };
+    let Some(answer) = ask(&c, |reply| GoalRequest::Preview { goal, reply }).await else {
+        return shutting_down();
+    };
+    match answer {
+        Ok(preview) => Json(preview).into_response(),
+        Err(why) => error(StatusCode::GATEWAY_TIMEOUT, why),
+    }
+}
+
 async fn set_goal(
     State(c): State<Arc<Console>>,
     headers: HeaderMap,
     body: Result<Json<GoalForm>, JsonRejection>,
 ) -> Response {
-    let Some(who) = c.commander(&headers) else {
-        return unauthorized();
-    };
-    let Json(form) = match body {
-        Ok(b) => b,
-        Err(e) => return bad_json(e),
-    };
-    if !c.picture().site().zones.iter().any(|z| z.id == form.zone) {
-        return error(
-            StatusCode::BAD_REQUEST,
-            format!("zone: the site has no zone '{}'", form.zone),
-        );
-    }
-    let goal = match form.issued_by(who.clone()) {
+    let (who, goal) = match goal_of(&c, &headers, body) {
         Ok(g) => g,
-        Err(e) => return error(StatusCode::BAD_REQUEST, e.to_string()),
+        Err(r) => return *r,
     };
     tracing::info!(
         "console: {who} sets goal '{}' on zone {}",

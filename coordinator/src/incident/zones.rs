@@ -8,12 +8,12 @@ use std::collections::BTreeMap;
 
 use firefleet_model::{Chainage, CommanderId, Point2, UnitId, UnitKind, ZoneId};
 use firefleet_protocol::msg::{
-    BarredSpace, FireState, GoalAck, GoalInForce, GoalKind, GoalsInForce, INSIDE_PORTAL_M,
-    MAX_LIST, Sealed, Stranded, TaskKind, Trapped, ZoneGoal,
+    BarredSpace, FireState, GoalAck, GoalInForce, GoalKind, GoalPreview, GoalsInForce,
+    INSIDE_PORTAL_M, MAX_LIST, Sealed, Stranded, TaskKind, Trapped, ZoneGoal,
 };
 
 use crate::assign::Mobility;
-use crate::goals::Active;
+use crate::goals::{Active, Goals};
 
 use super::{Decision, Incident, Output};
 
@@ -124,7 +124,12 @@ impl Incident {
     /// Every unit is asked as the units themselves judge a task ([`BarredSpace::refuses`]);
     /// where nothing is barred, nothing is asked.
     pub fn stranded(&self) -> Vec<Stranded> {
-        let barred = self.goals.barred_space(0.0);
+        self.stranded_under(&self.goals)
+    }
+
+    /// [`Incident::stranded`] under `goals` instead of the goals in force.
+    fn stranded_under(&self, goals: &Goals) -> Vec<Stranded> {
+        let barred = goals.barred_space(0.0);
         if barred.spans.is_empty() {
             return Vec::new();
         }
@@ -168,8 +173,7 @@ impl Incident {
             let Some((_, span)) = nearest.filter(|_| !reachable) else {
                 continue;
             };
-            let issued_by = self
-                .goals
+            let issued_by = goals
                 .active()
                 .iter()
                 .find(|a| a.goal.id == span.goal)
@@ -238,6 +242,60 @@ impl Incident {
         self.goal_at(p).is_some_and(|g| g.bars_attack())
     }
 
+    /// Where a ground unit at chainage `s` must go under `goals`: nothing if no goal bars
+    /// it there, else the goal that does and the chainage to leave to (none: trapped).
+    fn way_out<'g>(&self, goals: &'g Goals, s: Chainage) -> Option<(&'g Active, Option<Chainage>)> {
+        let g = goals.at(s).filter(|g| g.bars_entry())?;
+        let to = goals.nearest_allowed(
+            s,
+            self.policy.evacuate_margin_m,
+            Chainage::new(INSIDE_PORTAL_M),
+            self.tunnel.end() - INSIDE_PORTAL_M,
+        );
+        Some((g, to))
+    }
+
+    /// The ground units `goals` would trap where they are now.
+    fn trapped_under(&self, goals: &Goals) -> Vec<Trapped> {
+        self.units
+            .iter()
+            .filter(|(_, v)| v.alive && matches!(v.mobility, Mobility::Ground(_)))
+            .filter_map(|(u, v)| {
+                let at = self.tunnel.chainage(v.state.as_ref()?.pose.position());
+                match self.way_out(goals, at)? {
+                    (g, None) => Some(trapped_by(u, g)),
+                    (_, Some(_)) => None,
+                }
+            })
+            .take(MAX_LIST)
+            .collect()
+    }
+
+    /// What goal `goal`, from commander `by` on zone `key_zone`'s key, would do if it were
+    /// taken at `t`: the answer it would get, the fires the goals would then strand and the
+    /// units they would trap. Nothing changes (the goals are copied).
+    pub fn preview(
+        &self,
+        key_zone: &ZoneId,
+        by: &CommanderId,
+        goal: ZoneGoal,
+        t: f64,
+    ) -> GoalPreview {
+        let mut goals = self.goals.clone();
+        let ack = goals.submit(key_zone, by, goal, t);
+        let (stranded, trapped) = if ack.accepted {
+            (self.stranded_under(&goals), self.trapped_under(&goals))
+        } else {
+            (Vec::new(), Vec::new())
+        };
+        GoalPreview {
+            ack,
+            stranded,
+            trapped,
+            t,
+        }
+    }
+
     /// Apply the goals in force to the units: withdraw units from fires they may no longer
     /// attack, move units out of zones they may not be in, then re-solve.
     pub(super) fn enforce(&mut self, t: f64) -> Vec<Output> {
@@ -272,22 +330,12 @@ impl Incident {
                 continue;
             };
             let at = self.tunnel.station(st.pose.position());
-            let Some(g) = self.goals.at(at.s).filter(|g| g.bars_entry()) else {
+            let Some((g, way)) = self.way_out(&self.goals, at.s) else {
                 continue;
             };
             let (id, zone) = (g.goal.id.clone(), g.goal.zone.clone());
-            let Some(x) = self.goals.nearest_allowed(
-                at.s,
-                self.policy.evacuate_margin_m,
-                Chainage::new(INSIDE_PORTAL_M),
-                self.tunnel.end() - INSIDE_PORTAL_M,
-            ) else {
-                let held = Trapped {
-                    unit: u.clone(),
-                    goal: id,
-                    zone,
-                    issued_by: g.goal.issued_by.clone(),
-                };
+            let Some(x) = way else {
+                let held = trapped_by(&u, g);
                 // Said once while it lasts: every enforcement finds it again.
                 if self.trapped.get(&u) != Some(&held) {
                     self.log(
@@ -321,5 +369,15 @@ impl Incident {
         self.trapped = trapped;
         out.extend(self.solve(t));
         out
+    }
+}
+
+/// Unit `u` trapped by goal `g`.
+fn trapped_by(u: &UnitId, g: &Active) -> Trapped {
+    Trapped {
+        unit: u.clone(),
+        goal: g.goal.id.clone(),
+        zone: g.goal.zone.clone(),
+        issued_by: g.goal.issued_by.clone(),
     }
 }

@@ -430,6 +430,30 @@ impl Validate for GoalsInForce {
     }
 }
 
+/// `ff/<site>/coord/preview` (JSON, answered to a question carrying a [`ZoneGoal`]): what
+/// the goal would do if it were issued now, with nothing changed. A commander sees the
+/// fires it would strand and the units it would trap before they happen.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct GoalPreview {
+    /// The answer the goal would get.
+    pub ack: GoalAck,
+    /// The burning fires the goals in force would strand with it, as of `t`.
+    pub stranded: Vec<Stranded>,
+    /// The units they would trap.
+    pub trapped: Vec<Trapped>,
+    pub t: f64,
+}
+
+impl Validate for GoalPreview {
+    fn validate(&self) -> Result<(), Invalid> {
+        finite("t", self.t)?;
+        max_len("stranded", &self.stranded, MAX_LIST)?;
+        each("stranded", &self.stranded)?;
+        max_len("trapped", &self.trapped, MAX_LIST)?;
+        each("trapped", &self.trapped)
+    }
+}
+
 /// `ff/<site>/zone/<zone>/ack` (JSON): the coordinator's answer to a zone goal.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct GoalAck {

@@ -250,6 +250,34 @@ fn a_refusal_for_a_goal_since_lifted_is_late_news_and_the_fire_is_given_again_at
 }
 
 #[test]
+fn a_preview_says_what_the_goal_then_does_and_changes_nothing() {
+    let mut i = incident();
+    let end = TUNNEL.end().m();
+    i.goals = Goals::new(&[zone("w", 0.0, 100.0), zone("e", 100.0, end)], &[]);
+    i.state_at(state("b", 55.0, None), 0.5).unwrap();
+    submit(&mut i, goal("k1", "e", GoalKind::KeepOut, 0, None), 1.0);
+    let (zone_w, evacuate) = goal("v1", "w", GoalKind::Evacuate, 0, None);
+    let by = CommanderId::new("ic-1").unwrap();
+    let before = i.goals_revision();
+    let preview = i.preview(&zone_w, &by, evacuate.clone(), 1.2);
+    assert!(preview.ack.accepted, "{preview:?}");
+    assert_eq!(i.goals_revision(), before, "a preview changes no goal");
+    assert!(i.trapped().is_empty());
+    // Taken for real, it traps what the preview said.
+    i.on_goal(&zone_w, &by, evacuate, 1.2, None);
+    i.tick(1.4);
+    assert_eq!(preview.trapped, i.trapped());
+    assert_eq!(preview.trapped.len(), 2, "{preview:?}");
+    // A goal that would be refused is previewed as refused, with nothing it would do.
+    let (_, bad) = goal("x", "w", GoalKind::Monitor, 0, None);
+    let refused = i.preview(&ZoneId::new("e").unwrap(), &by, bad, 2.0);
+    assert!(
+        !refused.ack.accepted && refused.trapped.is_empty(),
+        "{refused:?}"
+    );
+}
+
+#[test]
 fn a_unit_no_goal_leaves_a_way_out_is_trapped_said_once_and_freed_when_cleared() {
     let mut i = incident();
     let end = TUNNEL.end().m();
