@@ -6,7 +6,8 @@
 
 use std::fmt;
 
-use firefleet_model::{Chainage, FireId, Point2, UnitId, ZoneId};
+use firefleet_model::scenario::Rank;
+use firefleet_model::{Chainage, CommanderId, FireId, Point2, UnitId, ZoneId};
 use firefleet_protocol::msg::{self, Approach, FireTrack, GoalKind, ZoneGoal};
 
 use crate::fusion::witness::{CONTRADICT_AFTER_S, Record};
@@ -48,6 +49,16 @@ pub enum Decision {
     GoalCleared {
         zone: ZoneId,
         goal: String,
+        by: CommanderId,
+    },
+    /// A commander's clear of a zone lifted nothing there: goal `held` of a commander of
+    /// an equal or higher rank holds, which only that commander or a higher rank lifts.
+    ClearHeld {
+        zone: ZoneId,
+        by: CommanderId,
+        held: String,
+        issuer: String,
+        rank: Rank,
     },
     GoalExpired {
         zone: ZoneId,
@@ -291,9 +302,19 @@ impl fmt::Display for Decision {
                     write!(f, " rejected: {reason}")
                 }
             }
-            Decision::GoalCleared { zone, goal } => {
-                write!(f, "goal '{goal}' on zone {zone} cleared")
+            Decision::GoalCleared { zone, goal, by } => {
+                write!(f, "goal '{goal}' on zone {zone} cleared by {by}")
             }
+            Decision::ClearHeld {
+                zone,
+                by,
+                held,
+                issuer,
+                rank,
+            } => write!(
+                f,
+                "{by}'s clear of zone {zone} lifted nothing there: goal '{held}' of {rank} commander '{issuer}' holds, which only {issuer} or a higher rank lifts"
+            ),
             Decision::GoalExpired { zone, goal } => {
                 write!(f, "goal '{goal}' on zone {zone} expired")
             }

@@ -210,12 +210,25 @@ impl Incident {
             Some(p) => self.goals.clear_sealed(zone, by, p),
             None => self.goals.clear(zone, by),
         };
+        if cleared.is_empty()
+            && let Some(a) = self.goals.active().iter().find(|a| &a.goal.zone == zone)
+        {
+            let d = Decision::ClearHeld {
+                zone: zone.clone(),
+                by: by.clone(),
+                held: a.goal.id.clone(),
+                issuer: a.goal.issuer().to_owned(),
+                rank: a.rank,
+            };
+            self.log(t, d);
+        }
         for g in cleared {
             self.log(
                 t,
                 Decision::GoalCleared {
                     zone: zone.clone(),
                     goal: g.id,
+                    by: by.clone(),
                 },
             );
         }

@@ -314,3 +314,32 @@ fn a_unit_no_goal_leaves_a_way_out_is_trapped_said_once_and_freed_when_cleared()
     );
     assert!(i.trapped().is_empty());
 }
+
+#[test]
+fn a_clear_says_who_cleared_and_one_that_lifts_nothing_says_whose_goal_holds() {
+    let mut i = zoned();
+    i.goals = Goals::new(
+        &[zone("z1", 50.0, 100.0)],
+        &[firefleet_model::scenario::CommanderSpec {
+            id: CommanderId::new("ic-1").unwrap(),
+            rank: firefleet_model::scenario::Rank::Incident,
+        }],
+    );
+    submit(&mut i, goal("k1", "z1", GoalKind::KeepOut, 0, None), 1.0);
+    let z1 = ZoneId::new("z1").unwrap();
+    i.clear_goals(&z1, &CommanderId::new("rossi").unwrap(), 2.0, None);
+    let held = i
+        .decisions()
+        .map(|d| d.decision.to_string())
+        .find(|d| d.contains("lifted nothing"))
+        .expect("a clear that lifted nothing said nothing");
+    assert!(
+        held.contains("goal 'k1' of incident commander 'ic-1' holds"),
+        "{held}"
+    );
+    i.clear_goals(&z1, &CommanderId::new("ic-1").unwrap(), 3.0, None);
+    assert!(
+        i.decisions()
+            .any(|d| d.decision.to_string() == "goal 'k1' on zone z1 cleared by ic-1")
+    );
+}
