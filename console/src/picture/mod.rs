@@ -73,6 +73,10 @@ pub const FIRE_ORPHAN_MS: u64 = 5000;
 /// every token vanishes a moment before the link is known to be down, and a unit whose
 /// router dies is back on the next within it (the coordinator's grace, the same).
 pub const LOST_CONFIRM_MS: u64 = firefleet_protocol::keys::TOKEN_GRACE_MS;
+/// Tasks of two terms heard within this long mean two coordinators command at once, ms: a
+/// coordinator in office re-sends every unit's task every second, so one that still
+/// commands is heard within it, and one that stepped down is not.
+pub const CLAIM_WINDOW_MS: u64 = 3000;
 /// Below this flow a unit is not spraying: no time left is shown, L/s.
 const SPRAYING_L_S: f64 = 0.5;
 
@@ -143,6 +147,8 @@ pub struct Picture {
     vanished: BTreeMap<Watched, u64>,
     /// The standby coordinators whose tokens are present, by rank.
     standbys: BTreeSet<u32>,
+    /// The terms (epochs) whose tasks were heard lately: when first and last, ms.
+    terms: BTreeMap<u64, (u64, u64)>,
     decisions: VecDeque<DecisionLine>,
     next_line: u64,
     alerts: BTreeMap<u64, Alert>,
@@ -185,6 +191,7 @@ impl Picture {
             trapped: BTreeSet::new(),
             vanished: BTreeMap::new(),
             standbys: BTreeSet::new(),
+            terms: BTreeMap::new(),
             decisions: VecDeque::new(),
             next_line: 1,
             alerts: BTreeMap::new(),
@@ -206,7 +213,10 @@ impl Picture {
     pub fn observe(&mut self, now_ms: u64, event: Event) {
         match event {
             Event::Message(Payload::UnitState(s)) => self.state(now_ms, s),
-            Event::Message(Payload::Task(task)) => self.ordered(task),
+            Event::Message(Payload::Task(task)) => {
+                self.heard_term(now_ms, task.epoch);
+                self.ordered(task);
+            }
             Event::Message(Payload::Fire(f)) => self.fire(now_ms, f),
             Event::Message(Payload::Goals(g)) => self.goals(g),
             Event::Message(Payload::Decision(d)) => self.decision(d),
@@ -309,6 +319,43 @@ impl Picture {
         }
         view.heard_ms = Some(now_ms);
         self.changes.units.insert(id);
+    }
+
+    /// A task of term `epoch` heard at `now_ms`. Two terms each heard after the other
+    /// began, within [`CLAIM_WINDOW_MS`], raise the two-coordinators alarm; one term
+    /// following another (a restart, a standby taking over from one gone) does not.
+    fn heard_term(&mut self, now_ms: u64, epoch: u64) {
+        self.terms.entry(epoch).or_insert((now_ms, now_ms)).1 = now_ms;
+        self.forget_terms(now_ms);
+        let overlap = self.terms.iter().any(|(a, (a_first, a_last))| {
+            self.terms
+                .iter()
+                .any(|(b, (b_first, _))| a != b && a_last > b_first && b_first >= a_first)
+        });
+        if overlap {
+            let epochs: Vec<u64> = self.terms.keys().copied().collect();
+            let text = format!(
+                "two coordinators command units at once (terms {}): one cut off and back, a \
+                 split site, or someone else holds the coordinator's key. Units obey the newer \
+                 term; if no coordinator of yours took office then, the key is stolen",
+                epochs
+                    .iter()
+                    .map(u64::to_string)
+                    .collect::<Vec<_>>()
+                    .join(" and ")
+            );
+            self.raise(AlertKind::TwoCoordinators { epochs }, text);
+        }
+    }
+
+    /// Drop the terms not heard within [`CLAIM_WINDOW_MS`]; one term left: the
+    /// two-coordinators alarm returns to normal.
+    fn forget_terms(&mut self, now_ms: u64) {
+        self.terms
+            .retain(|_, (_, last)| now_ms < last.saturating_add(CLAIM_WINDOW_MS));
+        if self.terms.len() <= 1 {
+            self.settle(|k| matches!(k, AlertKind::TwoCoordinators { .. }));
+        }
     }
 
     fn ordered(&mut self, task: Task) {

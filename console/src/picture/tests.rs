@@ -582,3 +582,44 @@ fn an_impostor_is_a_p1_alarm_that_nothing_but_a_commander_ends() {
         "acknowledged, still in force"
     );
 }
+
+#[test]
+fn tasks_of_two_terms_at_once_are_two_coordinators_until_one_alone_is_heard() {
+    use firefleet_protocol::msg::{Task, TaskKind};
+    let mut p = picture();
+    let task = |epoch, seq| {
+        Event::Message(Payload::Task(Task {
+            unit: unit("ugv-1"),
+            epoch,
+            seq,
+            t: 1.0,
+            kind: TaskKind::Standby,
+        }))
+    };
+    // One coordinator re-sending, then a new one's term right after it stopped (a
+    // restart), then a standby's long after: no alarm.
+    p.observe(0, task(10, 1));
+    p.observe(1000, task(10, 1));
+    p.observe(1500, task(15, 1));
+    p.observe(1500 + CLAIM_WINDOW_MS, task(20, 2));
+    assert!(p.incident().alerts.is_empty(), "{:?}", p.incident().alerts);
+    // Another term while term 20 still commands (heard after the new one began): both
+    // claim office.
+    let thief = u64::MAX / 2;
+    p.observe(1600 + CLAIM_WINDOW_MS, task(thief, 1));
+    assert!(
+        p.incident().alerts.is_empty(),
+        "one term after another is no alarm yet"
+    );
+    p.observe(1700 + CLAIM_WINDOW_MS, task(20, 3));
+    let a = p.incident().alerts[0].clone();
+    assert!(
+        a.active
+            && a.priority == 1
+            && matches!(&a.kind, AlertKind::TwoCoordinators { epochs } if epochs.len() == 2),
+        "{a:?}"
+    );
+    // Term 20 heard no more: one term commands, back to normal.
+    p.observe(2000 + 2 * CLAIM_WINDOW_MS, task(u64::MAX / 2, 2));
+    assert!(!p.incident().alerts[0].active);
+}

@@ -98,6 +98,12 @@ pub enum AlertKind {
     ScadaLost {
         problem: String,
     },
+    /// Tasks of two terms (epochs) heard within [`super::CLAIM_WINDOW_MS`]: two
+    /// coordinators command units at once (one cut off and back, a split site, or someone
+    /// holding the coordinator's key). Returns to normal when one term alone is heard.
+    TwoCoordinators {
+        epochs: Vec<u64>,
+    },
     /// A message sealed with this console's own key that it never sent: someone else
     /// holds the key. Active until the identity is cut off; nothing here ends it.
     Impostor {
@@ -112,7 +118,8 @@ impl AlertKind {
             AlertKind::CoordinatorLost
             | AlertKind::FireStranded { .. }
             | AlertKind::UnitTrapped { .. }
-            | AlertKind::Impostor { .. } => 1,
+            | AlertKind::Impostor { .. }
+            | AlertKind::TwoCoordinators { .. } => 1,
             AlertKind::UnitLost { .. }
             | AlertKind::FireReignited { .. }
             | AlertKind::StandbyGone { .. } => 2,
@@ -142,6 +149,7 @@ impl AlertKind {
                 },
             ) => goal == g && zone == z && issued_by == i,
             (K::StandbyGone { rank, .. }, K::StandbyGone { rank: r, .. }) => rank == r,
+            (K::TwoCoordinators { .. }, K::TwoCoordinators { .. }) => true,
             (a, b) => a == b,
         }
     }
