@@ -57,6 +57,9 @@ enum Command {
     /// Issue, list or clear incident commanders' zone goals.
     #[command(subcommand)]
     Goal(commands::goal::GoalCommand),
+    /// Ask that a site identity whose key is stolen be suspended in band (two commanders,
+    /// or the operator with the coordinator's identity).
+    Suspend(commands::suspend::SuspendArgs),
     /// Run the planners on standard inputs (MovingAI grid benchmarks).
     #[command(subcommand)]
     Plan(commands::plan::PlanCommand),
@@ -106,6 +109,7 @@ fn main() -> std::process::ExitCode {
             Command::Record(a) => commands::record::run(a).await,
             Command::Status(a) => commands::status::run(a).await,
             Command::Goal(c) => commands::goal::run(c).await,
+            Command::Suspend(a) => commands::suspend::run(a).await,
             Command::Console(a) => commands::console::run(a).await,
             Command::Plan(c) => commands::plan::run(c),
             Command::Scenarios => commands::scenarios::list(),

@@ -333,6 +333,9 @@ pub fn grants(
             grant(Op::Subscribe, keys.every_unit_state().as_str());
             grant(Op::Subscribe, keys.every_unit_report().as_str());
             grant(Op::Subscribe, keys.every_zone_goal().as_str());
+            // Asks to suspend an identity, and its own (the operator at its host's).
+            grant(Op::Subscribe, keys.every_suspend().as_str());
+            grant(Op::Put, keys.suspends_by(&who.dir_name()).as_str());
             grant(Op::Watch, &keys.every_unit_alive());
             grant(Op::Query, keys.every_fire().as_str());
             grant(Op::Query, keys.coord_goals().as_str());
@@ -361,6 +364,11 @@ pub fn grants(
             };
             grant(Op::Put, goals.as_str());
             grant(Op::Delete, goals.as_str());
+            // A commander asks, under its own name, that an identity be suspended; the
+            // console may not (a stolen console key would speak for two commanders).
+            if let Identity::Commander(_) = who {
+                grant(Op::Put, keys.suspends_by(&who.dir_name()).as_str());
+            }
             // Its own goal keys heard: a goal sealed with its key that it never sent is
             // someone else's, who holds the key.
             grant(Op::Subscribe, goals.as_str());

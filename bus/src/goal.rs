@@ -133,3 +133,34 @@ pub async fn clear(bus: &Bus, zone: &ZoneId, by: &CommanderId) -> Result<(), Bus
     let seal = bus.seals().map(|s| s.sealer.seal(key.as_str(), None));
     bus.delete(key.as_str(), seal.as_ref()).await
 }
+
+/// Why an ask to suspend could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum SuspendError {
+    #[error(transparent)]
+    Bus(#[from] BusError),
+    #[error(
+        "a suspension is sealed by whoever asks: this session has no identity (a site without a PKI has nothing to suspend)"
+    )]
+    Unsealed,
+}
+
+/// Ask, as this session's identity (a commander, or the coordinator's for its host's
+/// operator), that identity `target` be suspended for `reason`: put sealed on
+/// `trust/suspend/<target>/<this identity>`. Two commanders' asks, or the coordinator's
+/// key's, suspend it.
+pub async fn suspend(
+    bus: &Bus,
+    target: &crate::access::Identity,
+    reason: &str,
+) -> Result<(), SuspendError> {
+    let seals = bus.seals().ok_or(SuspendError::Unsealed)?;
+    let key = bus
+        .keys()
+        .suspend(&target.dir_name(), &seals.sealer.identity().dir_name());
+    let bytes = codec::encode(&firefleet_protocol::msg::Suspension {
+        reason: reason.to_owned(),
+    });
+    let seal = seals.sealer.seal(key.as_str(), Some(&bytes));
+    Ok(bus.put_sealed(key.as_str(), bytes, &seal).await?)
+}

@@ -398,9 +398,8 @@ impl Goals {
                     proof: a.proof.clone(),
                 })
                 .collect(),
-            stranded: Vec::new(),
-            trapped: Vec::new(),
             cleared: self.cleared.clone(),
+            ..GoalsInForce::default()
         }
     }
 
@@ -451,6 +450,18 @@ impl Goals {
         let (gone, kept): (Vec<Active>, _) = self.active.drain(..).partition(|a| {
             &a.goal.zone == zone && (a.goal.issued_by.as_ref() == Some(by) || a.rank < rank)
         });
+        self.active = kept;
+        self.revision += u64::from(!gone.is_empty());
+        for a in &gone {
+            self.note_lifted(&a.goal.id);
+        }
+        gone.into_iter().map(|a: Active| a.goal).collect()
+    }
+
+    /// Drop the goals `lapses` picks (their issuer, or whoever sealed them, suspended); the
+    /// goals dropped.
+    pub fn lapse(&mut self, lapses: impl Fn(&Active) -> bool) -> Vec<ZoneGoal> {
+        let (gone, kept) = self.active.drain(..).partition(|a| lapses(a));
         self.active = kept;
         self.revision += u64::from(!gone.is_empty());
         for a in &gone {

@@ -177,6 +177,7 @@ pub async fn run(
                 }.map_err(|e| (topic.to_string(), e))
             }
             Some(sample) = inputs.goals.recv() => take_goal(bus, &mut incident, &sample, clock.now()).await?,
+            Some(sample) = inputs.suspends.recv() => Ok(take_suspension(bus, &mut incident, &sample, clock.now())),
             Some(query) = inputs.coord_q.recv() => {
                 answer(bus, &incident, query, clock.now()).await;
                 Ok(Vec::new())
@@ -321,6 +322,7 @@ struct Inputs {
     vent: Inbox<Vent>,
     coord_q: Questions,
     goals: RawInbox,
+    suspends: RawInbox,
 }
 
 impl Inputs {
@@ -359,6 +361,10 @@ impl Inputs {
         let goals = bus
             .subscribe_raw(&[bus.keys().every_zone_goal().as_str()], false)
             .await?;
+        // Asks to suspend an identity: raw, for their seals.
+        let suspends = bus
+            .subscribe_raw(&[bus.keys().every_suspend().as_str()], false)
+            .await?;
         Ok(Self {
             alive,
             states,
@@ -369,6 +375,7 @@ impl Inputs {
             vent,
             coord_q,
             goals,
+            suspends,
         })
     }
 }
@@ -447,6 +454,23 @@ async fn take_goal(
             return Ok(Ok(Vec::new()));
         }
     };
+    // Whoever sealed it may be suspended (the console, for every commander it seals for).
+    if let Some(signer) = proof
+        .as_ref()
+        .and_then(|p| sealing::signer(bus.seals().map(|s| &s.check), p))
+        .filter(|s| incident.is_suspended(&s.dir_name()))
+    {
+        let why = format!("sealed by {signer}, which is suspended");
+        bus.rejects().refuse_seal(&sample.key, &why);
+        if !sample.deleted {
+            bus.put(
+                &bus.keys().zone_ack(&zone),
+                &refusal(bytes, &zone, &by, why),
+            )
+            .await?;
+        }
+        return Ok(Ok(Vec::new()));
+    }
     if sample.deleted {
         return Ok(Ok(incident.clear_goals(&zone, &by, t, proof)));
     }
@@ -462,6 +486,34 @@ async fn take_goal(
     };
     bus.put(&bus.keys().zone_ack(&zone), &ack).await?;
     Ok(Ok(out))
+}
+
+/// An ask to suspend an identity, taken at site time `t` if its seal holds: the
+/// decisions that follow (a suspended commander's goals, or the goals a suspended console
+/// sealed, lapse). Refused ones are counted and logged.
+fn take_suspension(bus: &Bus, incident: &mut Incident, sample: &Raw, t: f64) -> Vec<Output> {
+    let check = bus.seals().map(|s| &s.check);
+    let (target, by, proof) = match sealing::heard_suspension(check, sample, wall_ms()) {
+        Ok(ask) => ask,
+        Err(why) => {
+            bus.rejects().refuse_seal(&sample.key, &why);
+            return Vec::new();
+        }
+    };
+    let (now_suspended, mut out) = incident.suspend(&target, &by, proof, t);
+    if now_suspended {
+        tracing::warn!(target, "suspended in band");
+        out.extend(incident.lapse_goals(
+            |a| {
+                a.proof
+                    .as_ref()
+                    .and_then(|p| sealing::signer(check, p))
+                    .is_some_and(|s| s.dir_name() == target)
+            },
+            t,
+        ));
+    }
+    out
 }
 
 /// Take back what the previous coordinator published (the goals in force and the fire

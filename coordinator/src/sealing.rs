@@ -25,8 +25,10 @@ use firefleet_bus::access::Identity;
 use firefleet_bus::seal::SealCheck;
 use firefleet_model::CommanderId;
 use firefleet_protocol::codec;
-use firefleet_protocol::keys::Keys;
-use firefleet_protocol::msg::{Cleared, GoalInForce, GoalsInForce, Seal, Sealed, ZoneGoal};
+use firefleet_protocol::keys::{self, Keys, Topic};
+use firefleet_protocol::msg::{
+    Cleared, GoalInForce, GoalsInForce, Seal, Sealed, Suspension, ZoneGoal,
+};
 
 /// How far a live seal's time may be from this host's clock: hosts of a site keep NTP
 /// time within a fraction of a second; half a minute leaves room for a commander's laptop
@@ -76,6 +78,59 @@ pub fn heard(
         seal,
     };
     holds(check, &proof, by)?;
+    fresh(&proof, now_ms)?;
+    Ok(Some(proof))
+}
+
+/// An ask to suspend heard live (`sample` on `trust/suspend/<target>/<by>`) at `now_ms`:
+/// the target, the asker and the proof to keep, or why it is refused. Only a secure site
+/// suspends: the ask must be sealed by the identity it names as `by`, a commander or the
+/// coordinator (its host's operator), and fresh.
+pub fn heard_suspension(
+    check: Option<&SealCheck>,
+    sample: &Raw,
+    now_ms: u64,
+) -> Result<(String, String, Sealed), String> {
+    let check = check.ok_or("a site without a PKI suspends nobody: there is no seal to trust")?;
+    let Some(Topic::Suspend(target, by)) = sample.topic() else {
+        return Err("not an ask to suspend".into());
+    };
+    if sample.deleted {
+        return Err("a suspension is not lifted in band: revoke, and issue anew".into());
+    }
+    let attachment = sample
+        .attachment
+        .as_ref()
+        .ok_or("unsealed: an ask to suspend carries its asker's seal")?;
+    let seal = Seal::from_attachment(attachment).map_err(|e| format!("unsealed: {e}"))?;
+    codec::decode::<Suspension>(&sample.bytes).map_err(|e| format!("malformed: {e}"))?;
+    let proof = Sealed {
+        key: sample.key.clone(),
+        payload: Some(String::from_utf8_lossy(&sample.bytes).into_owned()),
+        seal,
+    };
+    suspension_holds(check, &proof, &by)?;
+    fresh(&proof, now_ms)?;
+    Ok((target, by, proof))
+}
+
+/// Whether `proof`, an ask to suspend by `by`, was sealed by `by`, a commander or the
+/// coordinator.
+fn suspension_holds(check: &SealCheck, proof: &Sealed, by: &str) -> Result<(), String> {
+    let signer = check
+        .check_sealed(proof)
+        .map_err(|e| format!("seal refused: {e}"))?;
+    if signer.dir_name() != by || !matches!(signer, Identity::Commander(_) | Identity::Coordinator)
+    {
+        return Err(format!(
+            "sealed by {signer}: an ask to suspend is sealed by the commander (or the coordinator) it names, not '{by}'"
+        ));
+    }
+    Ok(())
+}
+
+/// Whether a live seal's time is within [`FRESH`] of this host's clock.
+fn fresh(proof: &Sealed, now_ms: u64) -> Result<(), String> {
     let apart = proof.seal.at_ms.abs_diff(now_ms);
     if apart > FRESH.as_millis() as u64 {
         return Err(format!(
@@ -89,7 +144,12 @@ pub fn heard(
             FRESH.as_secs()
         ));
     }
-    Ok(Some(proof))
+    Ok(())
+}
+
+/// Who sealed `proof`, if its seal holds (none on an open site).
+pub fn signer(check: Option<&SealCheck>, proof: &Sealed) -> Option<Identity> {
+    check?.check_sealed(proof).ok()
 }
 
 /// Whether `proof`'s seal holds and its signer may speak for `by`.
@@ -129,6 +189,19 @@ pub fn recalled(
                 false
             }
         });
+    kept.suspensions.retain(|p| {
+        let held = match keys::parse(&p.key) {
+            Ok((_, Topic::Suspend(_, by))) => suspension_holds(check, p, &by),
+            _ => Err("not an ask to suspend".into()),
+        };
+        match held {
+            Ok(()) => true,
+            Err(why) => {
+                refused.push(format!("an ask to suspend from {from} ({}): {why}", p.key));
+                false
+            }
+        }
+    });
     kept.goals.retain(|g| match goal_holds(check, keys, g) {
         Ok(()) => true,
         Err(why) => {
@@ -149,6 +222,7 @@ pub fn recalled(
 /// overrode may come back from an older set, and is overridden again as its overrider is
 /// taken back (sealed later, taken later).
 pub fn merged(mut sets: Vec<GoalsInForce>) -> Option<GoalsInForce> {
+    let suspensions: Vec<Sealed> = sets.iter().flat_map(|s| s.suspensions.clone()).collect();
     sets.sort_by(|a, b| b.t.total_cmp(&a.t));
     let t = sets.first()?.t;
     let mut goals: Vec<GoalInForce> = Vec::new();
@@ -180,6 +254,7 @@ pub fn merged(mut sets: Vec<GoalsInForce>) -> Option<GoalsInForce> {
         t,
         goals,
         cleared,
+        suspensions,
         ..GoalsInForce::default()
     })
 }

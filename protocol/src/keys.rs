@@ -22,6 +22,9 @@
 //!                                 queries on it with the newest
 //! ff/<site>/coord/goals           coord -> all       GoalsInForce (JSON), the same way:
 //!                                 a starting coordinator recalls the goals from it
+//! ff/<site>/trust/suspend/<target>/<by>  commander or coordinator -> coordinator:
+//!                                 Suspension (JSON, sealed): `by` asks that identity
+//!                                 `target` be suspended (both identity names, `:` as `-`)
 //! ff/<site>/infra/dts/<zone>      scada -> all       DtsZone (postcard), one DTS zone
 //! ff/<site>/infra/vent            scada -> all       Vent (postcard), the ventilation
 //! ff/<site>/infra/link            scada -> all       ScadaLink (postcard), the bridge's
@@ -52,8 +55,8 @@ use std::marker::PhantomData;
 
 use crate::msg::{
     BarredSpace, BtTransitions, Decision, DtsZone, FireTrack, FlameReport, GoalAck, GoalsInForce,
-    Message, RailCommand, RailSensors, ScadaLink, SimClock, SimTruth, Task, UnitCommand,
-    UnitSensors, UnitState, Vent, ZoneGoal,
+    Message, RailCommand, RailSensors, ScadaLink, SimClock, SimTruth, Suspension, Task,
+    UnitCommand, UnitSensors, UnitState, Vent, ZoneGoal,
 };
 use firefleet_model::ids::{CommanderId, FireId, SiteId, UnitId, ZoneId};
 
@@ -86,6 +89,9 @@ pub enum Topic {
     CoordLog,
     CoordBarred,
     CoordGoals,
+    /// `trust/suspend/<target>/<by>`: identity `by` asks that identity `target` be
+    /// suspended (each an identity's name with `:` made `-`: `commander-rossi`, `console`).
+    Suspend(String, String),
     InfraDts(u16),
     InfraVent,
     InfraLink,
@@ -115,6 +121,7 @@ impl fmt::Display for Topic {
             Topic::CoordLog => f.write_str("coord/log"),
             Topic::CoordBarred => f.write_str("coord/barred"),
             Topic::CoordGoals => f.write_str("coord/goals"),
+            Topic::Suspend(target, by) => write!(f, "trust/suspend/{target}/{by}"),
             Topic::InfraDts(z) => write!(f, "infra/dts/{z}"),
             Topic::InfraVent => f.write_str("infra/vent"),
             Topic::InfraLink => f.write_str("infra/link"),
@@ -176,6 +183,7 @@ impl Topic {
             Topic::CoordLog => "coord/log",
             Topic::CoordBarred => "coord/barred",
             Topic::CoordGoals => "coord/goals",
+            Topic::Suspend(..) => "trust/suspend/<target>/<by>",
             Topic::InfraDts(_) => "infra/dts/<zone>",
             Topic::InfraVent => "infra/vent",
             Topic::InfraLink => "infra/link",
@@ -277,6 +285,10 @@ impl Keys {
         format!("{ROOT}/{}/coord/*", self.site)
     }
     /// `ff/<site>/zone/*/goal/<by>`: commander `by`'s goals on every zone.
+    /// `ff/<site>/trust/suspend/*/<by>`: the asks identity `by` (its name) may make.
+    pub fn suspends_by(&self, by: &str) -> Pattern<Suspension> {
+        Pattern::new(format!("{ROOT}/{}/trust/suspend/*/{by}", self.site))
+    }
     pub fn zone_goals_by(&self, by: &CommanderId) -> Pattern<ZoneGoal> {
         Pattern::new(format!("{ROOT}/{}/zone/*/goal/{by}", self.site))
     }
@@ -328,6 +340,7 @@ typed_keys! {
         coord_log() -> Decision = Topic::CoordLog;
         coord_barred() -> BarredSpace = Topic::CoordBarred;
         coord_goals() -> GoalsInForce = Topic::CoordGoals;
+        suspend(target: &str, by: &str) -> Suspension = Topic::Suspend(target.to_owned(), by.to_owned());
         infra_dts(zone: u16) -> DtsZone = Topic::InfraDts(zone);
         infra_vent() -> Vent = Topic::InfraVent;
         infra_link() -> ScadaLink = Topic::InfraLink;
@@ -351,6 +364,8 @@ typed_keys! {
         every_zone_goal -> ZoneGoal = "zone/*/goal/*";
         /// The coordinator's answers for every zone.
         every_zone_ack -> GoalAck = "zone/*/ack";
+        /// Every ask to suspend an identity.
+        every_suspend -> Suspension = "trust/suspend/*/*";
         /// Every DTS zone.
         every_dts_zone -> DtsZone = "infra/dts/*";
         /// Sensor frames of every simulated ground unit.
@@ -370,6 +385,22 @@ typed_keys! {
 pub struct KeyError {
     pub key: String,
     pub reason: String,
+}
+
+/// An identity's name as a key chunk (`unit-ugv-1`, `commander-rossi`, `console`): 1 to 64
+/// of `a-z`, `0-9` and `-`.
+pub fn identity_name(s: &str) -> Result<String, String> {
+    let ok = !s.is_empty()
+        && s.len() <= 64
+        && s.bytes()
+            .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-');
+    if ok {
+        Ok(s.to_owned())
+    } else {
+        Err(format!(
+            "'{s}' is no identity's name (1 to 64 of a-z, 0-9, -: commander-rossi, unit-ugv-1)"
+        ))
+    }
 }
 
 /// Parse a concrete key into its site and topic.
@@ -410,6 +441,10 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
         ["coord", "log"] => Topic::CoordLog,
         ["coord", "barred"] => Topic::CoordBarred,
         ["coord", "goals"] => Topic::CoordGoals,
+        ["trust", "suspend", target, by] => Topic::Suspend(
+            identity_name(target).map_err(err)?,
+            identity_name(by).map_err(err)?,
+        ),
         ["infra", "dts", z] => Topic::InfraDts(
             z.parse()
                 .ok()
@@ -473,6 +508,7 @@ mod tests {
             Topic::CoordLog,
             Topic::CoordBarred,
             Topic::CoordGoals,
+            Topic::Suspend("commander-bianchi".into(), "coordinator".into()),
             Topic::InfraDts(17),
             Topic::InfraVent,
             Topic::InfraLink,

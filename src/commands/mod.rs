@@ -24,6 +24,7 @@ pub mod scenarios;
 pub mod schema;
 pub mod sim;
 pub mod status;
+pub mod suspend;
 
 /// The scenario (site file) every role reads. Required: a role started on a site without
 /// it would have run, silently, on the `vehicle-collision` demo's map and units. (An

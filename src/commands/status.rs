@@ -233,6 +233,9 @@ fn print_status(s: &IncidentStatus) {
     for x in &s.trapped {
         println!("ALERT {x}");
     }
+    for who in &s.suspended {
+        println!("SUSPENDED {who}: nothing of it is taken (revoke it: firefleet pki revoke)");
+    }
     if s.rejected.values().any(|n| *n > 0) {
         println!("rejected messages: {:?}", s.rejected);
     }

@@ -947,3 +947,108 @@ async fn a_goal_sealed_with_the_console_s_stolen_key_raises_the_impostor_alarm()
     );
     thief.close().await;
 }
+
+/// Issue #52, item 4: a stolen commander key's keep-outs, cut off in band. One
+/// commander's ask suspends nobody; the operator's at the coordinator's host (its key)
+/// does: the commander's goals lapse at once, its further goals are refused, `status`
+/// shows it, and a restarted coordinator keeps the suspension.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stolen_commander_key_is_suspended_in_band_and_stays_so_across_a_restart() {
+    let site = SecureSite::new("vehicle-collision");
+    let state = site.dir.path().join("coordinator-state");
+    let coordinator = || {
+        site.spawn(
+            "coordinator",
+            &["coordinator", "--state-dir", state.to_str().unwrap()],
+        )
+    };
+    let mut fleet = Fleet(vec![coordinator()]);
+    let cli = |who: &str, args: &[&str]| {
+        Command::new(BIN)
+            .args([args[0], args[1]])
+            .args(["--scenario", site.scenario, "--zenoh-config"])
+            .arg(site.config(who))
+            .args(&args[2..])
+            .output()
+            .unwrap()
+    };
+    // The thief, with rossi's key, bars both zones the fleet works in.
+    let deadline = Instant::now() + patient(Duration::from_secs(30));
+    while !cli(
+        "commander-rossi",
+        &["goal", "set", "--zone", "far", "--goal", "keep-out"],
+    )
+    .status
+    .success()
+    {
+        assert!(
+            Instant::now() < deadline,
+            "the coordinator never took a goal"
+        );
+    }
+    assert_says(
+        &cli(
+            "commander-rossi",
+            &["goal", "set", "--zone", "core", "--goal", "keep-out"],
+        ),
+        0,
+        "accepted",
+    );
+    let suspend = |who: &str| {
+        Command::new(BIN)
+            .args(["suspend", "--scenario", site.scenario, "--zenoh-config"])
+            .arg(site.config(who))
+            .args(["--identity", "commander:rossi", "--reason", "key stolen"])
+            .output()
+            .unwrap()
+    };
+    // One commander alone (rossi itself, who noticed) suspends nobody.
+    assert_says(&suspend("commander-rossi"), 0, "a second commander's ask");
+    let watcher = site.open("recorder").await;
+    let goals = watcher
+        .subscribe(&watcher.keys().coord_goals())
+        .await
+        .unwrap();
+    // The operator, with the coordinator's own files.
+    let asked = Instant::now();
+    assert_says(&suspend("coordinator"), 0, "commander:rossi is suspended");
+    loop {
+        let (_, g) = tokio::time::timeout(patient(Duration::from_secs(5)), goals.recv())
+            .await
+            .expect("no goals published")
+            .unwrap();
+        if g.goals.is_empty() {
+            assert_eq!(g.suspensions.len(), 2, "both asks kept: {g:?}");
+            break;
+        }
+    }
+    println!(
+        "rossi's keep-outs lapsed {:.2} s after the operator's ask",
+        asked.elapsed().as_secs_f64()
+    );
+    assert_says(
+        &cli(
+            "commander-rossi",
+            &["goal", "set", "--zone", "far", "--goal", "monitor"],
+        ),
+        1,
+        "is suspended",
+    );
+    // A restart keeps it: the journal holds the asks, checked again.
+    for c in &mut fleet.0 {
+        c.kill().unwrap();
+        c.wait().unwrap();
+    }
+    fleet.0.push(coordinator());
+    let commander = site.open("commander-rossi").await;
+    let status = status_of(&commander, Duration::from_secs(30)).await;
+    assert_eq!(
+        status["suspended"],
+        serde_json::json!(["commander-rossi"]),
+        "{status}"
+    );
+    assert_eq!(status["goals"], serde_json::json!([]), "{status}");
+    for b in [watcher, commander] {
+        b.close().await;
+    }
+}

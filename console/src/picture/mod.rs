@@ -35,6 +35,7 @@ use std::sync::Arc;
 use firefleet_model::fire::same_fire;
 use firefleet_model::heat::{HeatSource, radiant_flux_kw_m2};
 use firefleet_model::{FireId, Point2, UnitId};
+use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::{
     Decision, FireState, FireTrack, GoalAck, GoalInForce, GoalsInForce, IncidentStatus, Task,
     UnitState,
@@ -147,6 +148,8 @@ pub struct Picture {
     vanished: BTreeMap<Watched, u64>,
     /// The standby coordinators whose tokens are present, by rank.
     standbys: BTreeSet<u32>,
+    /// The identities suspended, as the goals in force last said.
+    suspended: BTreeSet<String>,
     /// The terms (epochs) whose tasks were heard lately: when first and last, ms.
     terms: BTreeMap<u64, (u64, u64)>,
     decisions: VecDeque<DecisionLine>,
@@ -192,6 +195,7 @@ impl Picture {
             vanished: BTreeMap::new(),
             standbys: BTreeSet::new(),
             terms: BTreeMap::new(),
+            suspended: BTreeSet::new(),
             decisions: VecDeque::new(),
             next_line: 1,
             alerts: BTreeMap::new(),
@@ -437,7 +441,7 @@ impl Picture {
                     .collect(),
                 stranded: status.stranded,
                 trapped: status.trapped,
-                cleared: Vec::new(),
+                ..GoalsInForce::default()
             });
         }
     }
@@ -584,6 +588,29 @@ impl Picture {
         }
         self.settle(|k| matches!(k, AlertKind::UnitTrapped { unit, goal, .. } if !now.contains(&(unit.clone(), goal.clone()))));
         self.trapped = now;
+        let suspended: BTreeSet<String> = g
+            .suspensions
+            .iter()
+            .filter_map(|p| match keys::parse(&p.key) {
+                Ok((_, Topic::Suspend(target, _))) => Some(target),
+                _ => None,
+            })
+            .collect();
+        for who in suspended.difference(&self.suspended.clone()) {
+            self.raise(
+                AlertKind::Suspended {
+                    identity: who.clone(),
+                },
+                format!(
+                    "{who} is suspended: the coordinator takes nothing of it (revoke it for \
+                     good: firefleet pki revoke, and restart the routers)"
+                ),
+            );
+        }
+        self.settle(
+            |k| matches!(k, AlertKind::Suspended { identity } if !suspended.contains(identity)),
+        );
+        self.suspended = suspended;
         if g.goals != self.goals {
             self.goals = g.goals;
             self.changes.goals = true;

@@ -201,6 +201,7 @@ fn a_console_started_mid_incident_fills_in_from_the_coordinator_s_status() {
         stranded: Vec::new(),
         trapped: Vec::new(),
         rejected: Default::default(),
+        suspended: Vec::new(),
     };
     p.observe(0, Event::Status(Box::new(status)));
     let inc = p.incident();
@@ -622,4 +623,34 @@ fn tasks_of_two_terms_at_once_are_two_coordinators_until_one_alone_is_heard() {
     // Term 20 heard no more: one term commands, back to normal.
     p.observe(2000 + 2 * CLAIM_WINDOW_MS, task(u64::MAX / 2, 2));
     assert!(!p.incident().alerts[0].active);
+}
+
+#[test]
+fn a_suspended_identity_is_an_alarm_while_the_goals_in_force_say_so() {
+    let mut p = picture();
+    let ask = |by: &str| firefleet_protocol::msg::Sealed {
+        key: format!("ff/tunnel-a/trust/suspend/commander-rossi/{by}"),
+        payload: Some(r#"{"reason": ""}"#.into()),
+        seal: firefleet_protocol::msg::Seal {
+            cert: String::new(),
+            at_ms: 1,
+            sig: String::new(),
+        },
+    };
+    for t in [1.0, 2.0] {
+        p.observe(
+            0,
+            Event::Message(Payload::Goals(GoalsInForce {
+                t,
+                suspensions: vec![ask("coordinator")],
+                ..Default::default()
+            })),
+        );
+    }
+    let alerts = p.incident().alerts;
+    assert_eq!(alerts.len(), 1, "{alerts:?}");
+    assert!(
+        matches!(&alerts[0].kind, AlertKind::Suspended { identity } if identity == "commander-rossi")
+            && alerts[0].active
+    );
 }

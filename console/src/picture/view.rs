@@ -104,6 +104,11 @@ pub enum AlertKind {
     TwoCoordinators {
         epochs: Vec<u64>,
     },
+    /// An identity suspended in band (two commanders, or the operator at the
+    /// coordinator's host, asked): the coordinator takes nothing of it.
+    Suspended {
+        identity: String,
+    },
     /// A message sealed with this console's own key that it never sent: someone else
     /// holds the key. Active until the identity is cut off; nothing here ends it.
     Impostor {
@@ -122,7 +127,8 @@ impl AlertKind {
             | AlertKind::TwoCoordinators { .. } => 1,
             AlertKind::UnitLost { .. }
             | AlertKind::FireReignited { .. }
-            | AlertKind::StandbyGone { .. } => 2,
+            | AlertKind::StandbyGone { .. }
+            | AlertKind::Suspended { .. } => 2,
             AlertKind::GoalRejected { .. } | AlertKind::ScadaLost { .. } => 3,
         }
     }

@@ -51,6 +51,22 @@ pub enum Decision {
         goal: String,
         by: CommanderId,
     },
+    /// `by` asked that identity `target` be suspended; not yet enough asks to suspend it.
+    SuspendAsked {
+        target: String,
+        by: String,
+    },
+    /// Identity `target` is suspended, as `by` asked: nothing of it is taken.
+    Suspended {
+        target: String,
+        by: Vec<String>,
+    },
+    /// A goal lapsed because whoever issued or sealed it is suspended.
+    GoalSuspended {
+        zone: ZoneId,
+        goal: String,
+        issuer: String,
+    },
     /// A commander's clear of a zone lifted nothing there: goal `held` of a commander of
     /// an equal or higher rank holds, which only that commander or a higher rank lifts.
     ClearHeld {
@@ -305,6 +321,19 @@ impl fmt::Display for Decision {
             Decision::GoalCleared { zone, goal, by } => {
                 write!(f, "goal '{goal}' on zone {zone} cleared by {by}")
             }
+            Decision::SuspendAsked { target, by } => write!(
+                f,
+                "{by} asks that {target} be suspended: a second commander's ask (or the coordinator host's operator's) suspends it"
+            ),
+            Decision::Suspended { target, by } => write!(
+                f,
+                "{target} suspended (asked by {}): nothing of it is taken; revoke it for good (firefleet pki revoke)",
+                by.join(", ")
+            ),
+            Decision::GoalSuspended { zone, goal, issuer } => write!(
+                f,
+                "goal '{goal}' on zone {zone} by {issuer} lapsed: its issuer or sealer is suspended"
+            ),
             Decision::ClearHeld {
                 zone,
                 by,

@@ -124,6 +124,7 @@ impl Incident {
     /// A unit's state message.
     pub fn on_state(&mut self, st: UnitState, t: f64) -> Result<Vec<Output>, Invalid> {
         let unit = st.unit.clone();
+        self.not_suspended(&format!("unit-{unit}"))?;
         self.tunnel.check_inside("pose", st.pose.position())?;
         self.view(&unit, "unit")?.newest_state.admit(st.t, t)?;
         let mobility = self.view(&unit, "unit")?.mobility.clone();
@@ -549,6 +550,7 @@ impl Incident {
     /// else tells it where the unit is; a report from anywhere else is refused. (On a
     /// simulated site the unit's simulated sensors would.)
     pub fn on_report(&mut self, r: &FlameReport, t: f64) -> Result<Vec<Output>, Invalid> {
+        self.not_suspended(&format!("unit-{}", r.unit))?;
         for (i, o) in r.observations.iter().enumerate() {
             self.tunnel
                 .check_inside(&format!("observations[{i}].position"), o.position)?;

@@ -110,6 +110,7 @@ impl Incident {
     /// and span), and taken if newer than the zone's last. A stale one withdraws the
     /// zone's last reading from the alarms.
     pub fn on_dts(&mut self, z: &DtsZone, t: f64) -> Result<(), Invalid> {
+        self.not_suspended("scada")?;
         z.validate()?;
         let Some((map, length)) = &self.infra.map else {
             return Err(Invalid::new("zone", "this site's file maps no DTS"));
@@ -154,6 +155,7 @@ impl Incident {
 
     /// The ventilation's reading from the bridge.
     pub fn on_vent(&mut self, v: &Vent, t: f64) -> Result<(), Invalid> {
+        self.not_suspended("scada")?;
         v.validate()?;
         admit(&mut self.infra.vent_time, v.stale, v.t, t)?;
         self.infra.vent = Some(v.clone());

@@ -64,6 +64,7 @@ use crate::coverage::Coverage;
 use crate::fusion::Fusion;
 use crate::goals::Goals;
 use crate::roads::RoadMaps;
+use crate::suspensions::Suspensions;
 
 mod decision;
 mod dispatch;
@@ -73,6 +74,7 @@ mod infra;
 mod policy;
 mod search;
 mod staging;
+mod trust;
 mod zones;
 
 pub use decision::{Decision, Logged, Loss, Upwind};
@@ -247,6 +249,8 @@ pub struct Incident {
     /// Flame observations refused for starting a track past a unit's
     /// [`crate::fusion::MAX_LONE_TRACKS`].
     lone_refused: u64,
+    /// Identities suspended in band ([`crate::suspensions`]).
+    suspensions: Suspensions,
     /// Units a goal holds in a zone with nowhere to go, as of the last enforcement: the
     /// decision is logged once when a unit becomes trapped, not at every enforcement.
     trapped: BTreeMap<UnitId, firefleet_protocol::msg::Trapped>,
@@ -287,6 +291,7 @@ impl Incident {
             solved_all_at: f64::NEG_INFINITY,
             inconsistencies: 0,
             lone_refused: 0,
+            suspensions: Suspensions::default(),
             infra: infra::Infra::new(None, tunnel.length_m),
             portals: ["portal A".into(), "portal B".into()],
             tunnel,
@@ -548,6 +553,7 @@ impl Incident {
             stranded: self.stranded(),
             trapped: self.trapped(),
             rejected: Default::default(),
+            suspended: self.suspensions.names(),
         }
     }
 }

@@ -15,6 +15,7 @@ use firefleet_protocol::msg::{
 use crate::assign::Mobility;
 use crate::goals::{Active, Goals};
 
+use super::trust::commander_name;
 use super::{Decision, Incident, Output};
 
 impl Incident {
@@ -28,6 +29,16 @@ impl Incident {
         t: f64,
         proof: Option<Sealed>,
     ) -> (GoalAck, Vec<Output>) {
+        if self.is_suspended(&commander_name(by)) {
+            let ack = GoalAck {
+                id: goal.id.clone(),
+                zone: goal.zone.clone(),
+                issued_by: Some(by.clone()),
+                accepted: false,
+                reason: format!("commander '{by}' is suspended: its goals are not taken"),
+            };
+            return (ack, Vec::new());
+        }
         let mut ack = match proof {
             Some(p) => self.goals.submit_sealed(key_zone, by, goal.clone(), t, p),
             None => self.goals.submit(key_zone, by, goal.clone(), t),
@@ -79,12 +90,24 @@ impl Incident {
         // Clears first, then goals in the order they were sealed: a goal sealed before a
         // clear stays cleared, and a newer version replaces an older one, never the other
         // way round.
+        self.restore_suspensions(&kept.suspensions, t);
         for c in &kept.cleared {
             self.goals.note_cleared(c.clone());
         }
         let mut goals: Vec<&GoalInForce> = kept.goals.iter().collect();
         goals.sort_by_key(|g| g.proof.as_ref().map_or(0, |p| p.seal.at_ms));
         for g in goals {
+            let by = g.goal.issued_by.as_ref().map(commander_name);
+            if by.is_some_and(|b| self.is_suspended(&b)) {
+                refused.push(GoalAck {
+                    id: g.goal.id.clone(),
+                    zone: g.goal.zone.clone(),
+                    issued_by: g.goal.issued_by.clone(),
+                    accepted: false,
+                    reason: "its issuer is suspended".into(),
+                });
+                continue;
+            }
             let ack = self.goals.restore(g, t);
             if ack.accepted {
                 self.log(
@@ -106,6 +129,7 @@ impl Incident {
         GoalsInForce {
             stranded: self.stranded(),
             trapped: self.trapped(),
+            suspensions: self.suspensions.proofs(),
             ..self.goals.in_force(t)
         }
     }

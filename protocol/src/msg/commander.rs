@@ -60,6 +60,9 @@ pub struct IncidentStatus {
     /// and `inconsistent`: changes it skipped for want of a unit's view (zero unless it has
     /// a bug).
     pub rejected: BTreeMap<String, u64>,
+    /// Identities suspended in band (`commander-rossi`, `unit-ugv-3`, `console`).
+    #[serde(default)]
+    pub suspended: Vec<String>,
 }
 
 impl Validate for IncidentStatus {
@@ -308,6 +311,10 @@ pub struct GoalsInForce {
     /// before it stays cleared, whatever set it comes back in.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub cleared: Vec<Cleared>,
+    /// The sealed asks to suspend identities, of those suspended: kept and taken back with
+    /// the goals, and checked again like them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub suspensions: Vec<Sealed>,
 }
 
 /// A ground unit inside a zone a goal bars it from that cannot obey: no chainage outside
@@ -426,7 +433,9 @@ impl Validate for GoalsInForce {
         max_len("trapped", &self.trapped, MAX_LIST)?;
         each("trapped", &self.trapped)?;
         max_len("cleared", &self.cleared, MAX_GOALS_IN_FORCE)?;
-        each("cleared", &self.cleared)
+        each("cleared", &self.cleared)?;
+        max_len("suspensions", &self.suspensions, MAX_LIST)?;
+        each("suspensions", &self.suspensions)
     }
 }
 
@@ -451,6 +460,33 @@ impl Validate for GoalPreview {
         each("stranded", &self.stranded)?;
         max_len("trapped", &self.trapped, MAX_LIST)?;
         each("trapped", &self.trapped)
+    }
+}
+
+/// The most characters a suspension's reason may have.
+pub const MAX_REASON: usize = 256;
+
+/// `ff/<site>/trust/suspend/<target>/<by>` (JSON, sealed by `by`): `by` asks that the
+/// identity `target` be suspended, in band, for `reason`. Two commanders asking (or the
+/// operator at the coordinator's host, with its key) suspend it: the coordinator then
+/// takes nothing of it (its goals lapse; a unit's states and reports, a bridge's readings
+/// are refused), shows it suspended, and keeps the suspension with the goals in force.
+/// Revocation (`firefleet pki revoke`) is the lasting cut; this is the one in seconds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Suspension {
+    pub reason: String,
+}
+
+impl Validate for Suspension {
+    fn validate(&self) -> Result<(), Invalid> {
+        if self.reason.chars().count() > MAX_REASON {
+            return Err(Invalid::new(
+                "reason",
+                format!("longer than {MAX_REASON} characters"),
+            ));
+        }
+        Ok(())
     }
 }
 

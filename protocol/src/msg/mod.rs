@@ -66,7 +66,7 @@ macro_rules! messages {
 }
 messages! {
     Postcard: Decision, BarredSpace, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions, DtsZone, Vent, ScadaLink;
-    Json: ZoneGoal, GoalAck, GoalsInForce, GoalPreview, IncidentStatus;
+    Json: ZoneGoal, GoalAck, GoalsInForce, GoalPreview, Suspension, IncidentStatus;
 }
 
 /// Longest list any fleet message may carry; bounds the work one message can cause.
