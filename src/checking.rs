@@ -86,6 +86,16 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
                 Some(Event::burning(&truth))
             }
             (Topic::ZoneAck(_), Ok(Payload::Ack(ack))) => Some(Event::Ack(ack)),
+            // The goals in force carry the asks of every identity suspended: its goals
+            // lapsed there, as the coordinator says.
+            (Topic::CoordGoals, Ok(Payload::Goals(g))) => {
+                for ask in &g.suspensions {
+                    if let Ok((_, Topic::Suspend(target, _))) = keys::parse(&ask.key) {
+                        inv.observe(t, Event::Suspended(target));
+                    }
+                }
+                None
+            }
             (Topic::ZoneGoal(zone, by), Ok(Payload::Goal(goal))) => Some(Event::Goal {
                 key_zone: zone.clone(),
                 by: by.clone(),

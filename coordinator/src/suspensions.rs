@@ -13,8 +13,15 @@
 
 use std::collections::BTreeMap;
 
+use firefleet_bus::access::Identity;
+use firefleet_model::CommanderId;
 use firefleet_protocol::keys::{self, Topic};
 use firefleet_protocol::msg::Sealed;
+
+/// Commander `c`'s identity name, as suspensions name it (`commander-rossi`).
+pub fn commander_name(c: &CommanderId) -> String {
+    Identity::Commander(c.clone()).dir_name()
+}
 
 /// The name the coordinator's own key asks under.
 pub const OPERATOR: &str = "coordinator";

@@ -7,13 +7,12 @@
 //! seals (the node checks them; a console's suspension lapses the goals it sealed, which
 //! only the node can tell).
 
-use firefleet_bus::access::Identity;
-use firefleet_model::CommanderId;
 use firefleet_model::validate::Invalid;
 use firefleet_protocol::msg::Sealed;
 
 use super::{Decision, Incident, Output};
 use crate::goals::Active;
+use crate::suspensions::commander_name;
 
 impl Incident {
     /// `by`'s sealed ask, `proof`, that identity `target` be suspended, taken at `t`.
@@ -99,9 +98,4 @@ impl Incident {
 /// The name (`commander-<id>`) of a goal's issuer.
 pub(super) fn issued_by_name(a: &Active) -> Option<String> {
     a.goal.issued_by.as_ref().map(commander_name)
-}
-
-/// Commander `c`'s identity name, as suspensions name it.
-pub(super) fn commander_name(c: &CommanderId) -> String {
-    Identity::Commander(c.clone()).dir_name()
 }

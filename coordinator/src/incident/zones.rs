@@ -15,8 +15,8 @@ use firefleet_protocol::msg::{
 use crate::assign::Mobility;
 use crate::goals::{Active, Goals};
 
-use super::trust::commander_name;
 use super::{Decision, Incident, Output};
+use crate::suspensions::commander_name;
 
 impl Incident {
     /// A commander's goal arrived on zone `key_zone`'s key: the acknowledgement, and the

@@ -48,6 +48,7 @@ use firefleet_protocol::msg::{
 
 use crate::goals::{Active, Goals};
 use crate::incident::LEASE_S;
+use crate::suspensions::commander_name;
 
 pub mod churn;
 mod continuity;
@@ -85,6 +86,9 @@ pub enum Event {
     Burning(Vec<Point2>),
     /// The coordinator's answer to a goal, sent the moment it took (or refused) it.
     Ack(GoalAck),
+    /// Identity `0` (`commander-rossi`) is suspended: its goals lapsed
+    /// ([`crate::suspensions`]).
+    Suspended(String),
     /// Each unit's blocked steps so far, by the simulator's ground truth.
     Blocked(Vec<(UnitId, u32)>),
 }
@@ -383,6 +387,14 @@ impl Invariants {
             Event::Blocked(counts) => {
                 for (unit, blocked) in self.pinned.counts(&counts, t) {
                     self.raise(Violation::Pinned { unit, t, blocked });
+                }
+            }
+            Event::Suspended(name) => {
+                for g in self
+                    .goals
+                    .lapse(|a| a.goal.issued_by.as_ref().map(commander_name) == Some(name.clone()))
+                {
+                    self.forget(&g.id);
                 }
             }
             Event::Ack(ack) => {

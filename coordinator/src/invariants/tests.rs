@@ -185,6 +185,25 @@ fn a_task_is_judged_by_the_goals_its_coordinator_had_acknowledged() {
 }
 
 #[test]
+fn a_suspended_commander_s_goals_bar_nothing_after_the_suspension() {
+    let v = check(vec![
+        (1.0, goal(GoalKind::KeepOut)),
+        (2.0, Event::Suspended("commander-ic".into())),
+        (3.0, cruise(7, 150.0)),
+        // A goal heard after it bars again (the coordinator's refusal of it is in the
+        // acknowledgements, where a recording holds them), and another identity's
+        // suspension changes nothing.
+        (4.0, goal(GoalKind::KeepOut)),
+        (5.0, Event::Suspended("console".into())),
+        (6.0, cruise(8, 150.0)),
+    ]);
+    assert!(
+        matches!(&v[..], [Violation::SentIntoBarred { seq: 8, .. }]),
+        "{v:?}"
+    );
+}
+
+#[test]
 fn tasks_into_barred_space_and_attacks_in_a_monitor_zone_are_reported() {
     let task = cruise;
     let v = check(vec![

@@ -53,7 +53,7 @@ use firefleet::args::{time_scale, write_json};
 use firefleet::children::RoleCommand;
 
 mod attacks;
-use attacks::{Lie, bar_every_zone, flood_as_unit};
+use attacks::{Answer, Lie, bar_every_zone, flood_as_unit};
 
 /// What the thief sends on ugv-2's keys.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -83,12 +83,16 @@ pub enum Attack {
     AheadStates,
     /// A stolen sector commander's keep-out on every zone, and 70 goals more.
     Commander,
+    /// A stolen incident commander's keep-out on every zone, and 70 goals more: nobody on
+    /// the bus outranks it, so the sector commander and the operator at the coordinator's
+    /// host suspend it 5 s of site time after the alert.
+    Chief,
 }
 
 impl Attack {
     /// Whether the thief holds a unit's certificate (else a commander's).
     fn by_unit(self) -> bool {
-        self != Attack::Commander
+        !matches!(self, Attack::Commander | Attack::Chief)
     }
 }
 
@@ -184,10 +188,19 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
             .and_then(|f| f.all_out_s)
             .context("--max-slowdown needs an unattacked run (--attack none,...) that put every fire out")?;
         for f in &all {
-            let slow = f.all_out_s.map_or(f64::INFINITY, |t| t / control);
+            // A suspension is a person's answer: the time to the alert and the seconds
+            // people take to act are allowed on top.
+            let answer_s = if f.attack == Attack::Chief {
+                f.alert_delay_s.unwrap_or(0.0) + SUSPEND_AFTER_S
+            } else {
+                0.0
+            };
+            let slow = f
+                .all_out_s
+                .map_or(f64::INFINITY, |t| (t - answer_s) / control);
             if slow > max {
                 println!(
-                    "FAILED: {:?} put every fire out {slow:.2} times as late as the unattacked run (at most {max})",
+                    "FAILED: {:?} put every fire out {slow:.2} times as late as the unattacked run (at most {max}, less {answer_s:.1} s of the people's answer)",
                     f.attack
                 );
                 ok = false;
@@ -203,6 +216,9 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
 
 /// The incident commander and the sector commander whose certificate is stolen.
 const CHIEF: &str = "chief";
+/// How long after the alert the honest side suspends a stolen incident commander's key,
+/// site s: the five seconds for people to see the alarm and act.
+const SUSPEND_AFTER_S: f64 = 5.0;
 const SECTOR: &str = "rossi";
 
 /// One run under `attack`.
@@ -324,19 +340,35 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
             sent.clone(),
         ))
     } else {
+        // The stolen key, and the honest commander who answers it.
+        let (stolen, honest, answer) = if attack == Attack::Chief {
+            let operator = join(&as_who(&Identity::Coordinator), &scenario.site).await?;
+            let answer = Answer::Suspend {
+                operator,
+                after: SUSPEND_AFTER_S,
+            };
+            (chief, sector, answer)
+        } else {
+            (sector, chief, Answer::Clear)
+        };
         let thief = join(
-            &as_who(&Identity::Commander(sector.clone())),
+            &as_who(&Identity::Commander(stolen.clone())),
             &scenario.site,
         )
         .await?;
-        let chief = (
-            join(&as_who(&Identity::Commander(chief.clone())), &scenario.site).await?,
-            chief,
+        let honest = (
+            join(
+                &as_who(&Identity::Commander(honest.clone())),
+                &scenario.site,
+            )
+            .await?,
+            honest,
         );
         let zones: Vec<ZoneId> = scenario.zones.iter().map(|z| z.id.clone()).collect();
         tokio::spawn(bar_every_zone(
-            (thief, sector),
-            chief,
+            (thief, stolen),
+            honest,
+            answer,
             zones,
             stop.clone(),
             sent.clone(),

@@ -99,7 +99,7 @@ pub(super) async fn flood_as_unit(
     while !stop.load(Ordering::Relaxed) {
         let now = clock.now();
         let (key, bytes) = match attack {
-            Attack::None | Attack::Commander => {
+            Attack::None | Attack::Commander | Attack::Chief => {
                 tokio::time::sleep(Duration::from_millis(100)).await;
                 continue;
             }
@@ -220,13 +220,25 @@ pub(super) async fn flood_as_unit(
     thief.close().await;
 }
 
-/// The stolen sector commander's attack: keep-out at priority 255 on every zone as soon as
-/// a coordinator answers, then 70 goals more; the incident commander, asking the status
-/// every 100 ms, clears every zone once it names a stranded fire. The alert's delay (site
-/// s) goes to `alert_delay`.
+/// How the honest side answers a stolen commander key's keep-outs once the alert shows.
+pub(super) enum Answer {
+    /// The incident commander clears every zone the thief (a sector commander) holds
+    /// goals on: a higher rank's clear lifts them.
+    Clear,
+    /// Nobody outranks the thief (the incident commander's key): `after` site seconds past
+    /// the alert, the other commander and the operator at the coordinator's host (`operator`,
+    /// with its key) suspend it, and its goals lapse.
+    Suspend { operator: Bus, after: f64 },
+}
+
+/// A stolen commander key's attack: keep-out at priority 255 on every zone as soon as a
+/// fire is confirmed, then 70 goals more; the honest commander (`chief_bus`, `chief`),
+/// asking the status every 100 ms, answers as `answer` says once it names a stranded
+/// fire. The alert's delay (site s) goes to `alert_delay`.
 pub(super) async fn bar_every_zone(
     (thief, sector): (Bus, CommanderId),
     (chief_bus, chief): (Bus, CommanderId),
+    answer: Answer,
     zones: Vec<ZoneId>,
     stop: Arc<AtomicBool>,
     sent: Arc<AtomicU64>,
@@ -284,17 +296,30 @@ pub(super) async fn bar_every_zone(
             sent.fetch_add(1, Ordering::Relaxed);
         }
     }
-    // The incident commander: the moment the alert shows, clear every zone the stolen
+    // The honest commander: the moment the alert shows, clear every zone the stolen
     // certificate holds goals on (a delete on the chief's own goal key of a zone clears the
-    // lower ranks' goals there), and again should it strand a fire later.
+    // lower ranks' goals there), and again should it strand a fire later; or suspend it.
+    let mut alerted_at = None;
+    let mut suspended = false;
     while !stop.load(Ordering::Relaxed) {
         if let Some((_, s)) = status(chief_bus.clone()).await
-            && !s.stranded.is_empty()
+            && (!s.stranded.is_empty() || alerted_at.is_some())
         {
             alert_delay
                 .lock()
                 .expect("not poisoned")
                 .get_or_insert_with(|| accepted_at.map_or(f64::NAN, |at| s.t - at));
+            let alerted = *alerted_at.get_or_insert(s.t);
+            if let Answer::Suspend { operator, after } = &answer {
+                if !suspended && s.t >= alerted + after {
+                    let thief_id = Identity::Commander(sector.clone());
+                    let why = "its key is stolen: keep-outs on every zone";
+                    suspended = goal::suspend(&chief_bus, &thief_id, why).await.is_ok()
+                        && goal::suspend(operator, &thief_id, why).await.is_ok();
+                }
+                tokio::time::sleep(Duration::from_millis(100)).await;
+                continue;
+            }
             let mut named: Vec<ZoneId> = s
                 .goals
                 .iter()
@@ -312,4 +337,7 @@ pub(super) async fn bar_every_zone(
     }
     thief.close().await;
     chief_bus.close().await;
+    if let Answer::Suspend { operator, .. } = answer {
+        operator.close().await;
+    }
 }
