@@ -440,7 +440,18 @@ async fn take_goal(
         )));
     };
     let bytes = &sample.bytes;
-    let proof = match sealing::heard(bus.seals().map(|s| &s.check), sample, &by, wall_ms()) {
+    let check = bus.seals().map(|s| &s.check);
+    // Its seal must hold, and whoever sealed it not be suspended (the console, say, for
+    // every commander it seals for).
+    let proof = sealing::heard(check, sample, &by, wall_ms()).and_then(|proof| {
+        match proof.as_ref().and_then(|p| sealing::signer(check, p)) {
+            Some(signer) if incident.is_suspended(&signer.dir_name()) => {
+                Err(format!("sealed by {signer}, which is suspended"))
+            }
+            _ => Ok(proof),
+        }
+    });
+    let proof = match proof {
         Ok(proof) => proof,
         Err(why) => {
             bus.rejects().refuse_seal(&sample.key, &why);
@@ -454,23 +465,6 @@ async fn take_goal(
             return Ok(Ok(Vec::new()));
         }
     };
-    // Whoever sealed it may be suspended (the console, for every commander it seals for).
-    if let Some(signer) = proof
-        .as_ref()
-        .and_then(|p| sealing::signer(bus.seals().map(|s| &s.check), p))
-        .filter(|s| incident.is_suspended(&s.dir_name()))
-    {
-        let why = format!("sealed by {signer}, which is suspended");
-        bus.rejects().refuse_seal(&sample.key, &why);
-        if !sample.deleted {
-            bus.put(
-                &bus.keys().zone_ack(&zone),
-                &refusal(bytes, &zone, &by, why),
-            )
-            .await?;
-        }
-        return Ok(Ok(Vec::new()));
-    }
     if sample.deleted {
         return Ok(Ok(incident.clear_goals(&zone, &by, t, proof)));
     }

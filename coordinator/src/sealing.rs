@@ -1,5 +1,5 @@
-//! Which seals the coordinator takes on commanders' goals and clears, heard live or taken
-//! back after a restart.
+//! Which seals the coordinator takes on commanders' goals and clears, and on asks to
+//! suspend an identity ([`crate::suspensions`]), heard live or taken back after a restart.
 //!
 //! On a secure site (the coordinator's bus has a TLS identity, so it knows the site CA)
 //! every goal and every clear must carry a seal that holds, by an identity that may speak
