@@ -484,6 +484,12 @@ impl Goals {
         gone.into_iter().map(|a: Active| a.goal).collect()
     }
 
+    /// Count a change to what the goals in force are published with beside the goals (a
+    /// suspension, kept with them): it is told and journaled like a change of goals.
+    pub fn touch(&mut self) {
+        self.revision += 1;
+    }
+
     /// Grows with every change to the goals in force.
     pub fn revision(&self) -> u64 {
         self.revision

@@ -41,6 +41,8 @@ impl Incident {
                 by: self.suspensions.asked_by(target),
             },
         );
+        // Published and journaled with the goals in force, whether or not a goal lapses.
+        self.goals.touch();
         let out = self.lapse_goals(|a| issued_by_name(a) == Some(target.to_owned()), t);
         (true, out)
     }

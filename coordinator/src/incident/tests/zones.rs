@@ -343,3 +343,29 @@ fn a_clear_says_who_cleared_and_one_that_lifts_nothing_says_whose_goal_holds() {
             .any(|d| d.decision.to_string() == "goal 'k1' on zone z1 cleared by ic-1")
     );
 }
+
+#[test]
+fn a_suspended_unit_is_heard_no_more_and_the_suspension_is_told_with_the_goals() {
+    use firefleet_protocol::msg::{Seal, Sealed};
+    let mut i = incident();
+    let ask = |by: &str| Sealed {
+        key: format!("ff/s/trust/suspend/unit-b/{by}"),
+        payload: Some(r#"{"reason": ""}"#.into()),
+        seal: Seal {
+            cert: String::new(),
+            at_ms: 1,
+            sig: String::new(),
+        },
+    };
+    let before = i.goals_revision();
+    let (now, _) = i.suspend("unit-b", "commander-rossi", ask("commander-rossi"), 1.0);
+    assert!(!now, "one commander alone");
+    assert!(i.state_at(state("b", 55.0, None), 1.5).is_ok());
+    let (now, _) = i.suspend("unit-b", "coordinator", ask("coordinator"), 2.0);
+    assert!(now);
+    assert!(i.goals_revision() > before, "told and journaled");
+    assert_eq!(i.goals_in_force(2.0).suspensions.len(), 2);
+    let e = i.state_at(state("b", 56.0, None), 2.5).unwrap_err();
+    assert!(e.to_string().contains("unit-b is suspended"), "{e}");
+    assert_eq!(i.status(2.5).suspended, ["unit-b"]);
+}
