@@ -928,14 +928,27 @@ let source = null;
 
 // The stream: the console refuses it (401) to a page nobody has logged in on when reads
 // need a login; a refused EventSource closes for good, and logging in opens it again.
+// The console beats every second when it has nothing else to say: a page that heard
+// nothing for 3 s says its console is gone, whatever the browser thinks of the connection.
+let heardAt = 0;
+const SILENT_MS = 3000;
 function connect() {
   if (source) source.close();
   const es = new EventSource("/api/stream");
   source = es;
-  es.addEventListener("incident", (ev) => { applyIncident(JSON.parse(ev.data)); link(true); });
-  es.addEventListener("delta", (ev) => applyDelta(JSON.parse(ev.data)));
+  const heard = () => { heardAt = Date.now(); };
+  es.addEventListener("incident", (ev) => { heard(); applyIncident(JSON.parse(ev.data)); link(true); });
+  es.addEventListener("delta", (ev) => { heard(); applyDelta(JSON.parse(ev.data)); });
+  es.addEventListener("beat", heard);
   es.onerror = () => link(false, es.readyState === EventSource.CLOSED && !state.me);
 }
+setInterval(() => {
+  if (heardAt && source && Date.now() - heardAt > SILENT_MS) {
+    const l = $("link");
+    if (l.textContent === "live") link(false, false);
+  }
+  if (heardAt && Date.now() - heardAt <= SILENT_MS && $("link").textContent === "NO LINK to the console") link(true);
+}, 500);
 
 function link(up, loginNeeded) {
   const l = $("link");

@@ -15,7 +15,8 @@ Drives the page in headless Chromium through chromedriver (Selenium), at 1920x10
   returns to normal within 2 s, the banner empties and the page falls silent;
   both goals cleared: no unit idle 5 s later; no two labels overlap at either size; the
   tablet's panes one tab away; the timeline scrubbed back and forth; a pinch zooms; the
-  router killed: "SITE LOST" within 3 s and no unit taken for lost;
+  router killed: "SITE LOST" within 3 s and no unit taken for lost; the console stopped:
+  the page says "NO LINK to the console" within 3 s (it beats every second);
 - a secure rail-tunnel (`demo --secure`, HTTPS signed by the site's web CA, checked with
   it): every unit alive and the coordinator in charge on the page; a goal from the page,
   sealed by the console, accepted, and its sealed clear taken.
@@ -505,6 +506,16 @@ def plain_site(args, tmp, users, driver):
         print(f"router killed: SITE LOST on the page {took:.1f} s later, no unit taken for lost")
         if args.screenshots:
             driver.save_screenshot(os.path.join(args.screenshots, "console-site-lost-1024x768.png"))
+        # The console itself stopped, hard: the page stops hearing its beat and says so.
+        # Stopped (SIGSTOP), not killed: a killed process's connection resets at once, a
+        # hung one's (or one behind a dead network) never does.
+        console.send_signal(signal.SIGSTOP)
+        t0 = time.monotonic()
+        wait_for("NO LINK to the console on the page",
+                 lambda: driver.find_element(By.ID, "link").text == "NO LINK to the console",
+                 timeout=4, every=0.1)
+        print(f"console stopped: the page says NO LINK {time.monotonic() - t0:.1f} s later")
+        console.send_signal(signal.SIGCONT)
     finally:
         if fox is not None:
             fox.close()

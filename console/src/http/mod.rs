@@ -79,6 +79,9 @@ pub const HASHING: usize = 2;
 /// in a frame. Images are the SVG the script draws, which is markup, not a fetch.
 const CSP: &str = "default-src 'none'; script-src 'self'; style-src 'self'; connect-src 'self'; img-src 'self' data:; base-uri 'none'; form-action 'self'; frame-ancestors 'none'";
 
+/// How often the stream beats while it has nothing else to say.
+pub const BEAT: std::time::Duration = std::time::Duration::from_secs(1);
+
 /// A goal on its way to the coordinator, answered by whoever carries it to the bus.
 #[derive(Debug)]
 pub enum GoalRequest {
@@ -475,8 +478,15 @@ async fn stream(State(c): State<Arc<Console>>, headers: HeaderMap) -> Response {
             Some((Ok(event), (None, deltas, slot)))
         },
     );
+    // A beat every second, as an event the page hears (a comment it would not): a page
+    // whose console is gone says so within [`BEAT`] three times over, not when the
+    // browser's connection times out (15 s and more).
     Sse::new(events)
-        .keep_alive(KeepAlive::default())
+        .keep_alive(
+            KeepAlive::new()
+                .interval(BEAT)
+                .event(SseEvent::default().event("beat").data("")),
+        )
         .into_response()
 }
 
