@@ -260,8 +260,8 @@ function drawGoals() {
   }
   const list = $("goals");
   list.replaceChildren(...state.goals.map((g) => {
-    const until = g.until != null ? `, until t=${fmt(g.until, 0)} s` : "";
-    const li = html("li", { textContent: `${g.goal.zone}: ${g.goal.goal} p${g.goal.priority} by ${g.goal.issued_by} since t=${fmt(g.since, 0)} s${until} (${g.goal.id})` });
+    const until = g.until != null ? `, until ${when(g.until, 0)}` : "";
+    const li = html("li", { textContent: `${g.goal.zone}: ${g.goal.goal} p${g.goal.priority} by ${g.goal.issued_by} since ${when(g.since, 0)}${until} (${g.goal.id})` });
     li.dataset.zone = g.goal.zone; li.dataset.goal = g.goal.goal;
     return li;
   }));
@@ -638,10 +638,10 @@ function drawAlerts() {
     li.dataset.alert = a.id; li.dataset.kind = a.kind; li.dataset.priority = a.priority; li.dataset.state = st;
     if (a.unit) li.dataset.unit = a.unit;
     html("span", { className: "prio", textContent: `P${a.priority}` }, li);
-    const times = a.count > 1 ? ` (x${a.count}, last t=${fmt(a.last_t, 0)} s)` : "";
-    const back = a.returned_t != null && !a.active ? `; back to normal at t=${fmt(a.returned_t, 0)} s` : "";
+    const times = a.count > 1 ? ` (x${a.count}, last ${when(a.last_t, 0)})` : "";
+    const back = a.returned_t != null && !a.active ? `; back to normal at ${when(a.returned_t, 0)}` : "";
     const who = a.acked_by ? `; acknowledged by ${a.acked_by}` : "";
-    li.append(` t=${fmt(a.t, 0)} s ${a.text}${times} [${ALARM_WORDS[st]}${back}${who}] `);
+    li.append(` ${when(a.t, 0)} ${a.text}${times} [${ALARM_WORDS[st]}${back}${who}] `);
     if (a.acked_by == null) {
       const b = html("button", { textContent: "Acknowledge", disabled: !state.steers }, li);
       b.onclick = () => acknowledge([a.id]);
@@ -746,7 +746,7 @@ function drawDecisions() {
   $("decisions").replaceChildren(...lines.map((l) => {
     const li = html("li", { className: at != null && l.first_t > at ? "future" : "" });
     li.dataset.id = l.id; li.dataset.count = l.count;
-    li.append(l.count > 1 ? `t=${fmt(l.first_t, 1)}-${fmt(l.t, 1)} s ` : `t=${fmt(l.t, 1)} s `);
+    li.append(l.count > 1 ? `${when(l.first_t, 1)} to ${when(l.t, 1)} ` : `${when(l.t, 1)} `);
     html("span", { className: "text", textContent: l.text }, li);
     if (l.count > 1) html("b", { className: "count", textContent: `\u00d7${l.count}` }, li);
     return li;
@@ -787,9 +787,17 @@ function drawInfra() {
   $("vent").textContent = `${air}; fans: ${Object.entries(fans).map(([k, n]) => `${n} ${k}`).join(", ") || "none"}${w.stale ? ` (stale, read t = ${fmt(w.t, 1)} s)` : ""}`;
 }
 
+// Site time as people read it: a simulated site's clock counts seconds from the start
+// (t = 12.3 s), a real site's is the hosts' clock, Unix time, shown as the time of day.
+const UNIX_T = 1e9;
+function when(t, digits) {
+  if (t >= UNIX_T) return new Date(t * 1000).toLocaleTimeString([], { hour12: false });
+  return `t=${fmt(t, digits)} s`;
+}
+
 function drawHeader() {
   const at = timeline.at();
-  $("clock").textContent = at != null ? `t = ${fmt(at, 1)} s (timeline; live ${fmt(state.t, 1)} s)` : `t = ${fmt(state.t, 1)} s`;
+  $("clock").textContent = at != null ? `${when(at, 1)} (timeline; live ${when(state.t, 1)})` : when(state.t, 1);
   const c = $("coordinator");
   c.textContent = state.coordinator === true ? "coordinator in charge" : state.coordinator === false ? "NO COORDINATOR" : "coordinator ?";
   c.className = "badge " + (state.coordinator === true ? "ok" : state.coordinator === false ? "bad" : "");
