@@ -18,6 +18,7 @@ use clap::{Args, Subcommand};
 use firefleet::net::{join, shutdown_signal};
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
+use firefleet_console::audit::Audit;
 use firefleet_console::auth::{Role, Sessions, Users};
 use firefleet_console::http::{Console, Peer, Serving, TICK};
 use firefleet_console::node;
@@ -76,6 +77,10 @@ struct ServeArgs {
     /// Hours a login lasts.
     #[arg(long, default_value_t = 8.0, value_parser = positive_f64, allow_negative_numbers = true)]
     session_hours: f64,
+    /// Keep the audit log (who issued, cleared and acknowledged what) in DIR, so a restart
+    /// keeps it (the packaged service: its StateDirectory). Without it, memory only.
+    #[arg(long, value_name = "DIR")]
+    state_dir: Option<PathBuf>,
 }
 
 pub async fn run(a: ConsoleArgs) -> anyhow::Result<ExitCode> {
@@ -136,6 +141,10 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
     )
     .await?;
     a.role.metrics.serve(&bus, false, None).await?;
+    let audit = match &a.state_dir {
+        Some(dir) => Audit::open(dir).context("--state-dir")?,
+        None => Audit::in_memory(),
+    };
     let (console, requests) = Console::new(
         Picture::new(SiteMap::new(&scenario)),
         users,
@@ -144,6 +153,7 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
             secure: tls.is_some(),
             open_reads,
         },
+        audit,
     );
     let bus = Arc::new(bus);
     let feed = {

@@ -14,6 +14,7 @@
 //! POST   /api/goals/preview     a goal's form -> what it would do (`GoalPreview`)      [login]
 //! DELETE /api/goals/{zone}      clear the login's goals on the zone          [login]
 //! POST   /api/alerts/{id}/ack   acknowledge an alert                         [login]
+//! GET    /api/audit[?format=csv] who issued, cleared, acknowledged what, when [read]
 //! ```
 //!
 //! Who may do what. With a users file, reading needs a login (a viewer's or a
@@ -46,7 +47,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use axum::extract::rejection::JsonRejection;
-use axum::extract::{ConnectInfo, FromRequestParts, Path, State};
+use axum::extract::{ConnectInfo, FromRequestParts, Path, Query, State};
 use axum::http::request::Parts;
 use axum::http::{HeaderMap, HeaderValue, Method, StatusCode, header};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
@@ -59,6 +60,7 @@ use serde::Deserialize;
 use serde_json::json;
 use tokio::sync::{broadcast, mpsc, oneshot};
 
+use crate::audit::{Action, Audit, Entry as AuditEntry};
 use crate::auth::{CheckRefused, Checker, Role, Sessions, Users};
 use crate::picture::{Event, Picture};
 use crate::throttle::Throttle;
@@ -124,6 +126,8 @@ pub struct Console {
     throttle: Throttle,
     /// Streams open, by session token.
     streams: Mutex<HashMap<String, usize>>,
+    /// Who did what through this console.
+    audit: Audit,
 }
 
 /// How a console is served.
@@ -143,12 +147,14 @@ pub fn now_ms() -> u64 {
 }
 
 impl Console {
-    /// A console over `picture`; the receiver gets the goals commanders issue.
+    /// A console over `picture`, keeping what commanders do in `audit`; the receiver gets
+    /// the goals commanders issue.
     pub fn new(
         picture: Picture,
         users: Users,
         sessions: Sessions,
         serving: Serving,
+        audit: Audit,
     ) -> (Arc<Self>, mpsc::Receiver<GoalRequest>) {
         let (goals, requests) = mpsc::channel(16);
         let (deltas, _) = broadcast::channel(BACKLOG);
@@ -162,8 +168,22 @@ impl Console {
             open_reads: serving.open_reads,
             throttle: Throttle::default(),
             streams: Mutex::new(HashMap::new()),
+            audit,
         });
         (console, requests)
+    }
+
+    /// Keep in the audit log that `who` did `action` about `what`, with `outcome`.
+    fn audited(&self, who: &CommanderId, action: Action, what: String, outcome: String) {
+        let t = self.picture().t();
+        self.audit.note(AuditEntry {
+            wall_ms: now_ms(),
+            t,
+            who: who.to_string(),
+            action,
+            what,
+            outcome,
+        });
     }
 
     fn picture(&self) -> std::sync::MutexGuard<'_, Picture> {
@@ -221,6 +241,7 @@ impl Console {
             .route("/api/goals/preview", post(preview_goal))
             .route("/api/goals/{zone}", delete(clear_goals))
             .route("/api/alerts/{id}/ack", post(ack_alert))
+            .route("/api/audit", get(audit))
             .layer(axum::middleware::from_fn_with_state(self.clone(), guard))
             .with_state(self)
     }
@@ -637,9 +658,16 @@ async fn set_goal(
         goal.id,
         goal.zone
     );
+    let what = format!("{} on zone {} (goal '{}')", goal.goal, goal.zone, goal.id);
     let Some(answer) = ask(&c, |reply| GoalRequest::Set { goal, reply }).await else {
         return shutting_down();
     };
+    let outcome = match &answer {
+        Ok(ack) if ack.accepted => format!("accepted: {}", ack.reason),
+        Ok(ack) => format!("rejected: {}", ack.reason),
+        Err(why) => format!("no answer: {why}"),
+    };
+    c.audited(&who, Action::Goal, what, outcome);
     match answer {
         Ok(ack) => {
             let status = if ack.accepted {
@@ -697,6 +725,16 @@ async fn clear_goals(
     let Some(answer) = ask(&c, request).await else {
         return shutting_down();
     };
+    let outcome = match &answer {
+        Ok(()) => "sent".to_owned(),
+        Err(why) => format!("not sent: {why}"),
+    };
+    c.audited(
+        &who,
+        Action::Clear,
+        format!("their goals on zone {zone}"),
+        outcome,
+    );
     match answer {
         Ok(()) => Json(json!({ "zone": zone, "cleared_by": who })).into_response(),
         Err(why) => error(StatusCode::BAD_GATEWAY, why),
@@ -714,11 +752,49 @@ async fn ack_alert(
     let Ok(id) = id.parse::<u64>() else {
         return error(StatusCode::NOT_FOUND, format!("no alert '{id}'"));
     };
-    if c.picture().acknowledge(id, who.as_str()) {
-        Json(json!({ "id": id, "acked_by": who })).into_response()
-    } else {
-        error(StatusCode::NOT_FOUND, format!("no alert {id}"))
+    let acked = {
+        let mut picture = c.picture();
+        picture
+            .alert_text(id)
+            .filter(|_| picture.acknowledge(id, who.as_str()))
+    };
+    match acked {
+        Some(text) => {
+            c.audited(
+                &who,
+                Action::Acknowledge,
+                format!("alarm {id}: {text}"),
+                "acknowledged".into(),
+            );
+            Json(json!({ "id": id, "acked_by": who })).into_response()
+        }
+        None => error(StatusCode::NOT_FOUND, format!("no alert {id}")),
     }
+}
+
+/// The audit log as JSON (`?format=csv`: as CSV, for a spreadsheet or the report).
+async fn audit(
+    State(c): State<Arc<Console>>,
+    headers: HeaderMap,
+    Query(q): Query<HashMap<String, String>>,
+) -> Response {
+    if !c.may_read(&headers) {
+        return login_to_read();
+    }
+    if q.get("format").is_some_and(|f| f == "csv") {
+        return (
+            [
+                (header::CONTENT_TYPE, "text/csv; charset=utf-8"),
+                (
+                    header::CONTENT_DISPOSITION,
+                    "attachment; filename=\"firefleet-audit.csv\"",
+                ),
+            ],
+            c.audit.csv(),
+        )
+            .into_response();
+    }
+    Json(c.audit.entries()).into_response()
 }
 
 #[cfg(test)]

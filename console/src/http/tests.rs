@@ -37,6 +37,7 @@ fn fixture_serving(serving: Serving) -> Fixture {
         users,
         Sessions::new(Duration::from_secs(3600)),
         serving,
+        crate::audit::Audit::in_memory(),
     );
     Fixture {
         console,
@@ -298,6 +299,15 @@ async fn a_goal_is_issued_under_the_login_and_answered_with_the_ack() {
     assert_eq!(ack["id"], "rossi-deep-keep-out");
     let goal = coordinator.await.unwrap();
     assert_eq!(goal.issuer(), "rossi");
+    // Kept in the audit log, for any reader.
+    let (_, _, audit) = call(&f.console, "GET", "/api/audit", Some(&cookie), None).await;
+    assert_eq!(audit[0]["who"], "rossi", "{audit}");
+    assert_eq!(audit[0]["action"], "goal");
+    assert_eq!(
+        audit[0]["what"],
+        "keep-out on zone deep (goal 'rossi-deep-keep-out')"
+    );
+    assert_eq!(audit[0]["outcome"], "accepted: keep-out by rossi");
 }
 
 #[tokio::test]
@@ -363,6 +373,15 @@ async fn an_alert_is_acknowledged_by_the_login() {
     assert_eq!(status, StatusCode::OK, "{body}");
     let (_, _, incident) = call(&f.console, "GET", "/api/incident", Some(&cookie), None).await;
     assert_eq!(incident["alerts"][0]["acked_by"], "rossi");
+    let (_, _, audit) = call(&f.console, "GET", "/api/audit", Some(&cookie), None).await;
+    assert_eq!(audit[0]["action"], "acknowledge", "{audit}");
+    assert!(
+        audit[0]["what"]
+            .as_str()
+            .unwrap()
+            .contains("goal 'g' on zone deep rejected: conflicts"),
+        "{audit}"
+    );
     let (status, _, _) = call(
         &f.console,
         "POST",

@@ -213,6 +213,11 @@ impl Picture {
         &self.site
     }
 
+    /// The newest site time heard.
+    pub fn t(&self) -> f64 {
+        self.t
+    }
+
     /// Take in what was heard at `now_ms` (wall time, ms since the Unix epoch).
     pub fn observe(&mut self, now_ms: u64, event: Event) {
         match event {
@@ -674,6 +679,11 @@ impl Picture {
                 self.changes.alerts.insert(a.id);
             }
         }
+    }
+
+    /// Alert `id`'s text, if there is one.
+    pub fn alert_text(&self, id: u64) -> Option<String> {
+        self.alerts.get(&id).map(|a| a.text.clone())
     }
 
     /// A commander acknowledges alert `id`; false if there is no such alert. The first
