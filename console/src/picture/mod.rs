@@ -78,6 +78,11 @@ pub const LOST_CONFIRM_MS: u64 = firefleet_protocol::keys::TOKEN_GRACE_MS;
 /// coordinator in office re-sends every unit's task every second, so one that still
 /// commands is heard within it, and one that stepped down is not.
 pub const CLAIM_WINDOW_MS: u64 = 3000;
+/// A new term beginning while the coordinator's token has been present this long, ms,
+/// is no takeover: a standby takes office only after the token has been gone for the
+/// lease, and a coordinator starting (or a standby taking office) declares its token
+/// before it takes back the goals and the fires, some 4 s before its first task.
+pub const TAKEOVER_QUIET_MS: u64 = 10_000;
 /// Below this flow a unit is not spraying: no time left is shown, L/s.
 const SPRAYING_L_S: f64 = 0.5;
 
@@ -152,6 +157,10 @@ pub struct Picture {
     suspended: BTreeSet<String>,
     /// The terms (epochs) whose tasks were heard lately: when first and last, ms.
     terms: BTreeMap<u64, (u64, u64)>,
+    /// The newest term heard, and since when the coordinator's token has been present
+    /// without a break (ms).
+    newest_term: Option<u64>,
+    coordinator_since: Option<u64>,
     decisions: VecDeque<DecisionLine>,
     next_line: u64,
     alerts: BTreeMap<u64, Alert>,
@@ -195,6 +204,8 @@ impl Picture {
             vanished: BTreeMap::new(),
             standbys: BTreeSet::new(),
             terms: BTreeMap::new(),
+            newest_term: None,
+            coordinator_since: None,
             suspended: BTreeSet::new(),
             decisions: VecDeque::new(),
             next_line: 1,
@@ -276,8 +287,14 @@ impl Picture {
                 if alive {
                     self.vanished.remove(&Watched::Coordinator);
                     self.settle(|k| *k == AlertKind::CoordinatorLost);
-                } else if self.coordinator == Some(true) && self.link != Some(false) {
-                    self.vanished.insert(Watched::Coordinator, now_ms);
+                    if self.coordinator != Some(true) {
+                        self.coordinator_since = Some(now_ms);
+                    }
+                } else {
+                    self.coordinator_since = None;
+                    if self.coordinator == Some(true) && self.link != Some(false) {
+                        self.vanished.insert(Watched::Coordinator, now_ms);
+                    }
                 }
                 self.coordinator = Some(alive);
                 self.changes.coordinator = true;
@@ -334,6 +351,27 @@ impl Picture {
     /// began, within [`CLAIM_WINDOW_MS`], raise the two-coordinators alarm; one term
     /// following another (a restart, a standby taking over from one gone) does not.
     fn heard_term(&mut self, now_ms: u64, epoch: u64) {
+        // A newer term than any heard, begun while the coordinator's token stayed: taken,
+        // not handed over.
+        let newer = self.newest_term.is_some_and(|n| epoch > n);
+        if self.newest_term.is_none_or(|n| epoch > n) {
+            self.newest_term = Some(epoch);
+        }
+        if newer
+            && self
+                .coordinator_since
+                .is_some_and(|since| now_ms >= since.saturating_add(TAKEOVER_QUIET_MS))
+        {
+            self.raise(
+                AlertKind::Usurped { epoch },
+                format!(
+                    "a new term of command ({epoch}) began while the coordinator never left \
+                     office: someone else holds the coordinator's key (or a coordinator this \
+                     console cannot see took over). If none of yours did, revoke the \
+                     coordinator's certificate and issue a new one"
+                ),
+            );
+        }
         self.terms.entry(epoch).or_insert((now_ms, now_ms)).1 = now_ms;
         self.forget_terms(now_ms);
         let overlap = self.terms.iter().any(|(a, (a_first, a_last))| {

@@ -654,3 +654,41 @@ fn a_suspended_identity_is_an_alarm_while_the_goals_in_force_say_so() {
             && alerts[0].active
     );
 }
+
+#[test]
+fn a_new_term_while_the_coordinator_never_left_is_usurped_and_a_takeover_is_not() {
+    use firefleet_protocol::msg::{Task, TaskKind};
+    let task = |epoch| {
+        Event::Message(Payload::Task(Task {
+            unit: unit("ugv-1"),
+            epoch,
+            seq: 1,
+            t: 1.0,
+            kind: TaskKind::Standby,
+        }))
+    };
+    let usurped = |p: &Picture| {
+        p.incident()
+            .alerts
+            .iter()
+            .any(|a| matches!(a.kind, AlertKind::Usurped { .. }))
+    };
+    let mut p = picture();
+    p.observe(0, Event::Link(true));
+    p.observe(0, Event::CoordinatorAlive(true));
+    p.observe(100, task(10));
+    // The coordinator dies; a standby takes office after the lease, token first.
+    p.observe(1000, Event::CoordinatorAlive(false));
+    p.observe(4000, Event::CoordinatorAlive(true));
+    p.observe(4100, task(20));
+    assert!(!usurped(&p), "a takeover is no usurpation");
+    // A term newer still, while that one's token never left: taken.
+    p.observe(4100 + TAKEOVER_QUIET_MS, task(30));
+    assert!(usurped(&p));
+    // An older term heard again is no new one.
+    let mut q = picture();
+    q.observe(0, Event::CoordinatorAlive(true));
+    q.observe(10_000, task(20));
+    q.observe(10_100, task(10));
+    assert!(!usurped(&q));
+}

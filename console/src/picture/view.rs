@@ -109,6 +109,13 @@ pub enum AlertKind {
     Suspended {
         identity: String,
     },
+    /// A new term of command (epoch) began while the coordinator's token had been present
+    /// without a break: no coordinator left office for another to take it, so someone
+    /// else commands with the coordinator's key (or one cut off from this console's view
+    /// took over). Nothing here ends it.
+    Usurped {
+        epoch: u64,
+    },
     /// A message sealed with this console's own key that it never sent: someone else
     /// holds the key. Active until the identity is cut off; nothing here ends it.
     Impostor {
@@ -124,7 +131,8 @@ impl AlertKind {
             | AlertKind::FireStranded { .. }
             | AlertKind::UnitTrapped { .. }
             | AlertKind::Impostor { .. }
-            | AlertKind::TwoCoordinators { .. } => 1,
+            | AlertKind::TwoCoordinators { .. }
+            | AlertKind::Usurped { .. } => 1,
             AlertKind::UnitLost { .. }
             | AlertKind::FireReignited { .. }
             | AlertKind::StandbyGone { .. }
