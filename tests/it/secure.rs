@@ -901,11 +901,7 @@ async fn a_goal_sealed_with_the_console_s_stolen_key_raises_the_impostor_alarm()
         site.spawn("coordinator", &["coordinator"]),
         site.spawn("console", &["console", "--http", &addr]),
     ]);
-    let deadline = Instant::now() + patient(Duration::from_secs(60));
-    while crate::support::get_json(&addr, "/api/incident").is_none_or(|i| i["link"] != true) {
-        assert!(Instant::now() < deadline, "the console never linked");
-        tokio::time::sleep(Duration::from_millis(200)).await;
-    }
+    console_linked(&addr).await;
     let thief = site.open("console").await;
     let rossi = firefleet_model::CommanderId::new("rossi").unwrap();
     let keep_out = ZoneGoal::new(
@@ -917,25 +913,8 @@ async fn a_goal_sealed_with_the_console_s_stolen_key_raises_the_impostor_alarm()
         .await
         .unwrap();
     assert!(ack.accepted, "{ack:?}");
-    let heard = Instant::now();
-    let alarm = loop {
-        let inc = crate::support::get_json(&addr, "/api/incident").unwrap_or_default();
-        if let Some(a) = inc["alerts"]
-            .as_array()
-            .and_then(|a| a.iter().find(|a| a["kind"] == "impostor").cloned())
-        {
-            break a;
-        }
-        assert!(
-            heard.elapsed() < patient(Duration::from_secs(2)),
-            "no impostor alarm: {inc}"
-        );
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    };
-    println!(
-        "impostor alarm on the console {:.2} s after the coordinator's ack",
-        heard.elapsed().as_secs_f64()
-    );
+    let (alarm, took) = console_alarm(&addr, "impostor").await;
+    println!("impostor alarm on the console {took:.2} s after the coordinator's ack");
     assert_eq!(alarm["priority"], 1, "{alarm}");
     assert_eq!(alarm["active"], true, "{alarm}");
     assert!(
@@ -1069,11 +1048,21 @@ async fn a_stolen_coordinator_key_taking_command_is_alarmed_on_the_console() {
     ]);
     fleet.0.push(site.spawn(
         "sim",
-        &["sim", "--time-scale", "2", "--wait-for-fleet", "30", "--wait-for-coordinator"],
+        &[
+            "sim",
+            "--time-scale",
+            "2",
+            "--wait-for-fleet",
+            "30",
+            "--wait-for-coordinator",
+        ],
     ));
     let thief = site.open("coordinator").await;
     let ugv1 = UnitId::new("ugv-1").unwrap();
-    let tasks = thief.subscribe(&thief.keys().unit_task(&ugv1)).await.unwrap();
+    let tasks = thief
+        .subscribe(&thief.keys().unit_task(&ugv1))
+        .await
+        .unwrap();
     // The coordinator in office a while (its token present past a takeover's quiet).
     let (_, real) = tokio::time::timeout(patient(Duration::from_secs(90)), tasks.recv())
         .await
@@ -1093,25 +1082,38 @@ async fn a_stolen_coordinator_key_taking_command_is_alarmed_on_the_console() {
         .put(&thief.keys().unit_task(&ugv1), &forged)
         .await
         .unwrap();
-    let put = Instant::now();
+    let (alarm, took) = console_alarm(&addr, "usurped").await;
+    assert_eq!(alarm["priority"], 1, "{alarm}");
+    println!("usurped alarm on the console {took:.2} s after the forged task");
+    thief.close().await;
+}
+
+/// Wait until the console at `addr` has its link to the site.
+async fn console_linked(addr: &str) {
+    let deadline = Instant::now() + patient(Duration::from_secs(60));
+    while crate::support::get_json(addr, "/api/incident").is_none_or(|i| i["link"] != true) {
+        assert!(Instant::now() < deadline, "the console never linked");
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+}
+
+/// The console's first alarm of `kind`, and the seconds it took to show from now;
+/// fails past 2 s (the bound).
+async fn console_alarm(addr: &str, kind: &str) -> (serde_json::Value, f64) {
+    let from = Instant::now();
     loop {
-        let inc = crate::support::get_json(&addr, "/api/incident").unwrap_or_default();
-        if inc["alerts"]
+        let inc = crate::support::get_json(addr, "/api/incident").unwrap_or_default();
+        if let Some(a) = inc["alerts"]
             .as_array()
-            .is_some_and(|a| a.iter().any(|a| a["kind"] == "usurped" && a["priority"] == 1))
+            .and_then(|a| a.iter().find(|a| a["kind"] == kind).cloned())
         {
-            break;
+            return (a, from.elapsed().as_secs_f64());
         }
         assert!(
-            put.elapsed() < patient(Duration::from_secs(2)),
-            "no usurped alarm: {}",
+            from.elapsed() < patient(Duration::from_secs(2)),
+            "no {kind} alarm: {}",
             inc["alerts"]
         );
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
-    println!(
-        "usurped alarm on the console {:.2} s after the forged task",
-        put.elapsed().as_secs_f64()
-    );
-    thief.close().await;
 }
