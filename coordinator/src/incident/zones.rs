@@ -30,14 +30,7 @@ impl Incident {
         proof: Option<Sealed>,
     ) -> (GoalAck, Vec<Output>) {
         if self.is_suspended(&commander_name(by)) {
-            let ack = GoalAck {
-                id: goal.id.clone(),
-                zone: goal.zone.clone(),
-                issued_by: Some(by.clone()),
-                accepted: false,
-                reason: format!("commander '{by}' is suspended: its goals are not taken"),
-            };
-            return (ack, Vec::new());
+            return (suspended_ack(&goal, by), Vec::new());
         }
         let mut ack = match proof {
             Some(p) => self.goals.submit_sealed(key_zone, by, goal.clone(), t, p),
@@ -318,6 +311,14 @@ impl Incident {
         goal: ZoneGoal,
         t: f64,
     ) -> GoalPreview {
+        if self.is_suspended(&commander_name(by)) {
+            return GoalPreview {
+                ack: suspended_ack(&goal, by),
+                stranded: Vec::new(),
+                trapped: Vec::new(),
+                t,
+            };
+        }
         let mut goals = self.goals.clone();
         let ack = goals.submit(key_zone, by, goal, t);
         let (stranded, trapped) = if ack.accepted {
@@ -416,5 +417,16 @@ fn trapped_by(u: &UnitId, g: &Active) -> Trapped {
         goal: g.goal.id.clone(),
         zone: g.goal.zone.clone(),
         issued_by: g.goal.issued_by.clone(),
+    }
+}
+
+/// The answer to goal `goal` of commander `by`, who is suspended.
+fn suspended_ack(goal: &ZoneGoal, by: &CommanderId) -> GoalAck {
+    GoalAck {
+        id: goal.id.clone(),
+        zone: goal.zone.clone(),
+        issued_by: Some(by.clone()),
+        accepted: false,
+        reason: format!("commander '{by}' is suspended: its goals are not taken"),
     }
 }

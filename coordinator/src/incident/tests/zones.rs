@@ -369,3 +369,28 @@ fn a_suspended_unit_is_heard_no_more_and_the_suspension_is_told_with_the_goals()
     assert!(e.to_string().contains("unit-b is suspended"), "{e}");
     assert_eq!(i.status(2.5).suspended, ["unit-b"]);
 }
+
+#[test]
+fn a_suspended_commander_s_goals_lapse_and_are_refused_and_previewed_as_refused() {
+    use firefleet_protocol::msg::{Seal, Sealed};
+    let mut i = zoned();
+    submit(&mut i, goal("k1", "z1", GoalKind::KeepOut, 0, None), 1.0);
+    let ask = Sealed {
+        key: "ff/s/trust/suspend/commander-ic-1/coordinator".into(),
+        payload: Some(r#"{"reason": ""}"#.into()),
+        seal: Seal {
+            cert: String::new(),
+            at_ms: 1,
+            sig: String::new(),
+        },
+    };
+    let (now, _) = i.suspend("commander-ic-1", "coordinator", ask, 2.0);
+    assert!(now);
+    assert_eq!(i.goals().count(), 0, "its goals lapse at once");
+    let (zone, g) = goal("k2", "z2", GoalKind::Monitor, 0, None);
+    let by = CommanderId::new("ic-1").unwrap();
+    let preview = i.preview(&zone, &by, g.clone(), 3.0);
+    assert!(!preview.ack.accepted && preview.ack.reason.contains("suspended"));
+    let (ack, _) = i.on_goal(&zone, &by, g, 3.0, None);
+    assert!(!ack.accepted && ack.reason.contains("suspended"), "{ack:?}");
+}
