@@ -26,6 +26,22 @@ pub fn commander_name(c: &CommanderId) -> String {
 /// The name the coordinator's own key asks under.
 pub const OPERATOR: &str = "coordinator";
 
+/// Identities one asker may ask to suspend: a stolen commander key flooding asks for made-up
+/// names must not fill the table, or crowd out the asks that matter.
+pub const ASKS_PER_ASKER: usize = 8;
+/// Asks kept in all: every one travels with the goals in force, which carry at most
+/// [`firefleet_protocol::msg::MAX_LIST`].
+pub const MAX_ASKS: usize = firefleet_protocol::msg::MAX_LIST;
+
+/// Why an ask was not taken.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum Refused {
+    #[error("{0} has asked to suspend {ASKS_PER_ASKER} identities already, the most one may")]
+    AskerFull(String),
+    #[error("{MAX_ASKS} asks to suspend are kept already, the most the goals in force carry")]
+    Full,
+}
+
 /// Who asked that each identity be suspended (by name, `:` as `-`).
 #[derive(Debug, Clone, Default)]
 pub struct Suspensions {
@@ -33,14 +49,25 @@ pub struct Suspensions {
 }
 
 impl Suspensions {
-    /// Take `by`'s ask, `proof`, to suspend `target`; whether that suspended it now.
-    pub fn ask(&mut self, target: &str, by: &str, proof: Sealed) -> bool {
+    /// Take `by`'s ask, `proof`, to suspend `target`; whether that suspended it now, or
+    /// why it was not taken (an ask already kept is taken again).
+    pub fn ask(&mut self, target: &str, by: &str, proof: Sealed) -> Result<bool, Refused> {
+        let known = self.asks.get(target).is_some_and(|b| b.contains_key(by));
+        if !known {
+            let asked = self.asks.values().filter(|b| b.contains_key(by)).count();
+            if asked >= ASKS_PER_ASKER {
+                return Err(Refused::AskerFull(by.to_owned()));
+            }
+            if self.asks.values().map(BTreeMap::len).sum::<usize>() >= MAX_ASKS {
+                return Err(Refused::Full);
+            }
+        }
         let was = self.suspended(target);
         self.asks
             .entry(target.to_owned())
             .or_default()
             .insert(by.to_owned(), proof);
-        !was && self.suspended(target)
+        Ok(!was && self.suspended(target))
     }
 
     /// Whether identity `name` is suspended.
@@ -81,8 +108,10 @@ impl Suspensions {
     /// they suspend.
     pub fn restore(&mut self, kept: &[Sealed]) -> Vec<String> {
         for proof in kept {
-            if let Ok((_, Topic::Suspend(target, by))) = keys::parse(&proof.key) {
-                self.ask(&target, &by, proof.clone());
+            if let Ok((_, Topic::Suspend(target, by))) = keys::parse(&proof.key)
+                && let Err(e) = self.ask(&target, &by, proof.clone())
+            {
+                tracing::warn!("a kept ask to suspend {target} not taken back: {e}");
             }
         }
         self.names()
@@ -110,28 +139,32 @@ mod tests {
     fn two_commanders_or_the_operator_suspend_and_one_commander_alone_does_not() {
         let mut s = Suspensions::default();
         let bianchi = "commander-bianchi";
-        assert!(!s.ask(
-            bianchi,
-            "commander-bianchi",
-            proof(bianchi, "commander-bianchi")
-        ));
+        let ask = |s: &mut Suspensions, t: &str, by: &str| s.ask(t, by, proof(t, by));
+        assert_eq!(ask(&mut s, bianchi, "commander-bianchi"), Ok(false));
         assert!(!s.suspended(bianchi), "one commander alone");
-        assert!(s.ask(
-            bianchi,
-            "commander-rossi",
-            proof(bianchi, "commander-rossi")
-        ));
-        assert!(!s.ask(
-            bianchi,
-            "commander-verdi",
-            proof(bianchi, "commander-verdi")
-        ));
-        assert_eq!(s.names(), [bianchi]);
-        assert!(s.ask("console", OPERATOR, proof("console", OPERATOR)));
+        assert_eq!(ask(&mut s, bianchi, "commander-rossi"), Ok(true));
+        assert_eq!(
+            ask(&mut s, bianchi, "commander-verdi"),
+            Ok(false),
+            "already"
+        );
+        assert_eq!(ask(&mut s, "console", OPERATOR), Ok(true));
+        assert_eq!(s.names(), [bianchi, "console"]);
         assert_eq!(s.proofs().len(), 4);
         // Kept and taken back.
         let mut back = Suspensions::default();
         assert_eq!(back.restore(&s.proofs()), ["commander-bianchi", "console"]);
         assert_eq!(back.asked_by("console"), [OPERATOR]);
+        // A flood of asks from one stolen commander key fills its own share only.
+        for k in 0..ASKS_PER_ASKER {
+            let t = format!("unit-fake-{k}");
+            assert_eq!(ask(&mut s, &t, "commander-mallory"), Ok(false));
+        }
+        assert_eq!(
+            ask(&mut s, "unit-x", "commander-mallory"),
+            Err(Refused::AskerFull("commander-mallory".into()))
+        );
+        assert_eq!(ask(&mut s, "unit-x", "commander-rossi"), Ok(false));
+        assert!(!s.suspended("unit-x"));
     }
 }

@@ -56,6 +56,11 @@ pub enum Decision {
         target: String,
         by: String,
     },
+    /// An ask to suspend `target` not taken, for `reason`.
+    SuspendRefused {
+        target: String,
+        reason: String,
+    },
     /// Identity `target` is suspended, as `by` asked: nothing of it is taken.
     Suspended {
         target: String,
@@ -325,6 +330,9 @@ impl fmt::Display for Decision {
                 f,
                 "{by} asks that {target} be suspended: a second commander's ask (or the coordinator host's operator's) suspends it"
             ),
+            Decision::SuspendRefused { target, reason } => {
+                write!(f, "an ask to suspend {target} not taken: {reason}")
+            }
             Decision::Suspended { target, by } => write!(
                 f,
                 "{target} suspended (asked by {}): nothing of it is taken; revoke it for good (firefleet pki revoke)",

@@ -24,15 +24,28 @@ impl Incident {
         proof: Sealed,
         t: f64,
     ) -> (bool, Vec<Output>) {
-        if !self.suspensions.ask(target, by, proof) {
-            self.log(
-                t,
-                Decision::SuspendAsked {
-                    target: target.to_owned(),
-                    by: by.to_owned(),
-                },
-            );
-            return (false, Vec::new());
+        match self.suspensions.ask(target, by, proof) {
+            Ok(true) => {}
+            Ok(false) => {
+                self.log(
+                    t,
+                    Decision::SuspendAsked {
+                        target: target.to_owned(),
+                        by: by.to_owned(),
+                    },
+                );
+                return (false, Vec::new());
+            }
+            Err(e) => {
+                self.log(
+                    t,
+                    Decision::SuspendRefused {
+                        target: target.to_owned(),
+                        reason: e.to_string(),
+                    },
+                );
+                return (false, Vec::new());
+            }
         }
         self.log(
             t,
