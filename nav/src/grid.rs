@@ -2,8 +2,14 @@
 //! outside the tunnel (beyond its walls or ends) blocked like obstacles, so a curved
 //! tunnel is just a grid with more blocked cells.
 //!
+//! Each grid also knows, once asked, every cell's clearance: how far its centre is from
+//! the nearest blocked cell, so that a footprint well clear of everything is known free
+//! from one lookup ([`Grid::clearance_m`]).
+//!
 //! Not here: search over it ([`crate::astar`], [`crate::hybrid_astar`]) or costs beyond
 //! free and blocked ([`crate::costmap`]).
+
+use std::sync::OnceLock;
 
 use firefleet_model::Point2;
 use firefleet_model::scenario::Scenario;
@@ -32,7 +38,20 @@ pub struct Grid {
     w: usize,
     h: usize,
     occ: Vec<bool>,
+    /// Per cell, the octile distance to the nearest blocked cell (or the edge), in
+    /// 1/[`CLEARANCE_UNITS`] cells; worked out when first asked for, as most grids are
+    /// never searched with a footprint.
+    clearance: OnceLock<Box<[u16]>>,
 }
+
+/// The clearance's fixed-point unit: 1/64 of a cell.
+const CLEARANCE_UNITS: u16 = 64;
+/// A diagonal step in those units: 64 sqrt 2 = 90.51, rounded up so that a sum of steps
+/// never falls below the octile distance.
+const CLEARANCE_DIAGONAL: u16 = 91;
+/// The most the octile distance over 91/64-diagonals exceeds the Euclidean one: octile by
+/// up to `sqrt(4 - 2 sqrt 2) = 1.0824` (at 22.5 deg), the rounded diagonal by 91/90.51.
+const CLEARANCE_OVERSHOOT: f64 = 1.09;
 
 impl Grid {
     /// Road cells blocked by walls and obstacle footprints grown by `inflate` metres.
@@ -48,6 +67,7 @@ impl Grid {
             w,
             h,
             occ: vec![false; w * h],
+            clearance: OnceLock::new(),
         };
         for r in 0..h {
             for c in 0..w {
@@ -63,7 +83,11 @@ impl Grid {
     /// This grid with every cell whose centre `barred` holds blocked as well: a keep-out
     /// layer (as Nav2's keepout filter), so that no search over it enters that space.
     pub fn with_keepout(&self, barred: impl Fn(Point2) -> bool) -> Self {
-        let mut g = self.clone();
+        let mut g = Self {
+            occ: self.occ.clone(),
+            clearance: OnceLock::new(),
+            ..*self
+        };
         for r in 0..g.h {
             for c in 0..g.w {
                 if !g.occ[r * g.w + c] && barred(g.center((c, r))) {
@@ -82,10 +106,16 @@ impl Grid {
     }
 
     pub fn cell(&self, p: Point2) -> Option<Cell> {
-        let c = ((p.x - self.x0) / self.res).floor();
-        let r = ((p.y - self.y0) / self.res).floor();
-        (c >= 0.0 && r >= 0.0 && (c as usize) < self.w && (r as usize) < self.h)
-            .then_some((c as usize, r as usize))
+        let c = (p.x - self.x0) / self.res;
+        let r = (p.y - self.y0) / self.res;
+        // Truncation is the floor of a number not below 0 (`floor` itself is a library
+        // call on the x86-64 baseline, and this is the planners' innermost step); NaN fails
+        // the comparison.
+        if !(c >= 0.0 && r >= 0.0) {
+            return None;
+        }
+        let (c, r) = (c as usize, r as usize);
+        (c < self.w && r < self.h).then_some((c, r))
     }
 
     pub fn center(&self, (c, r): Cell) -> Point2 {
@@ -97,6 +127,53 @@ impl Grid {
 
     pub fn blocked(&self, (c, r): Cell) -> bool {
         self.occ[r * self.w + c]
+    }
+
+    /// A lower bound on the distance from the centre of `cell` to the centre of the
+    /// nearest blocked cell, m; the cells beyond the grid's edge count as blocked. 0 on a
+    /// blocked cell. The first call works the whole grid out (two raster passes).
+    pub fn clearance_m(&self, cell: Cell) -> f64 {
+        self.clearance_in(self.clearance.get_or_init(|| self.octile_clearance()), cell)
+    }
+
+    /// The lower bound in metres at `(c, r)` of the clearance `clearance` holds.
+    fn clearance_in(&self, clearance: &[u16], (c, r): Cell) -> f64 {
+        let units = clearance[(r + 1) * (self.w + 2) + c + 1];
+        f64::from(units) * (self.res / (f64::from(CLEARANCE_UNITS) * CLEARANCE_OVERSHOOT))
+    }
+
+    /// The octile distance of every cell to the nearest blocked one, by the two-pass
+    /// chamfer transform (Rosenfeld and Pfaltz): exact for the 8-connected metric, which
+    /// is never below the Euclidean one. Kept with a border of blocked cells round the
+    /// grid (the cells beyond its edge), so that no step needs a bounds check.
+    fn octile_clearance(&self) -> Box<[u16]> {
+        let stride = self.w + 2;
+        let mut dist = vec![0u16; stride * (self.h + 2)].into_boxed_slice();
+        for r in 0..self.h {
+            for c in 0..self.w {
+                if !self.occ[r * self.w + c] {
+                    dist[(r + 1) * stride + c + 1] = u16::MAX;
+                }
+            }
+        }
+        let (o, d) = (CLEARANCE_UNITS, CLEARANCE_DIAGONAL);
+        // Offsets of the neighbours before a cell in raster order, and their steps.
+        let before = [(1, o), (stride + 1, d), (stride, o), (stride - 1, d)];
+        for r in 1..=self.h {
+            for i in r * stride + 1..r * stride + 1 + self.w {
+                for (back, step) in before {
+                    dist[i] = dist[i].min(dist[i - back].saturating_add(step));
+                }
+            }
+        }
+        for r in (1..=self.h).rev() {
+            for i in (r * stride + 1..r * stride + 1 + self.w).rev() {
+                for (ahead, step) in before {
+                    dist[i] = dist[i].min(dist[i + ahead].saturating_add(step));
+                }
+            }
+        }
+        dist
     }
 
     /// Whether `p` lies on a free cell.
@@ -129,54 +206,71 @@ impl Grid {
     /// Whether the segment `a`-`b` crosses only free cells. Uses a supercover traversal
     /// (every cell the segment touches, Amanatides-Woo), not Bresenham: Bresenham skips
     /// cells the segment clips at a corner, which would let a path graze an obstacle.
+    ///
+    /// Once the grid's clearance is worked out ([`Grid::clearance_m`], by a search that
+    /// needed it), the traversal strides through open space: every cell the segment
+    /// touches within `clearance - cell diagonal` of where it leaves a cell is free (the
+    /// bound of [`Grid::clearance_m`]'s doc, for points of the segment and the centres of
+    /// their cells), so it jumps there. The answer is the same, from tens of cells looked
+    /// at across a tunnel's open road instead of one per cell.
     pub fn segment_free(&self, a: Point2, b: Point2) -> bool {
-        let Some(mut cur) = self.cell(a) else {
+        let (Some(mut cur), Some(_)) = (self.cell(a), self.cell(b)) else {
             return false;
         };
-        if self.cell(b).is_none() {
-            return false;
-        }
         let (dx, dy) = (b.x - a.x, b.y - a.y);
         let step_x: isize = if dx > 0.0 { 1 } else { -1 };
         let step_y: isize = if dy > 0.0 { 1 } else { -1 };
-        // Segment parameter (0 at a, 1 at b) at which the next x / y cell boundary is crossed.
-        let first = |pos: f64, origin: f64, cell: usize, step: isize, d: f64| {
-            if d == 0.0 {
-                return f64::INFINITY;
-            }
-            let k = if step > 0 {
-                cell as f64 + 1.0
+        // Segment parameter (0 at a, 1 at b) at which the segment leaves a column (row),
+        // from the cell's index rather than accumulated, so that a stride can land in any
+        // cell. Divisions are hoisted: this is the innermost loop of the visibility term.
+        // In cells: where the segment starts and how far it runs.
+        let (from_x, from_y) = ((a.x - self.x0) / self.res, (a.y - self.y0) / self.res);
+        let (run_x, run_y) = (dx / self.res, dy / self.res);
+        let (per_x, per_y) = (1.0 / run_x, 1.0 / run_y);
+        let at_x = if step_x > 0 { 1.0 - from_x } else { -from_x };
+        let at_y = if step_y > 0 { 1.0 - from_y } else { -from_y };
+        let leaves = |cell: usize, at: f64, per: f64| {
+            if per.is_finite() {
+                (cell as f64 + at) * per
             } else {
-                cell as f64
-            };
-            (origin + k * self.res - pos) / d
+                f64::INFINITY
+            }
         };
-        let mut t_x = first(a.x, self.x0, cur.0, step_x, dx);
-        let mut t_y = first(a.y, self.y0, cur.1, step_y, dy);
-        let t_dx = if dx != 0.0 {
-            self.res / dx.abs()
-        } else {
-            f64::INFINITY
-        };
-        let t_dy = if dy != 0.0 {
-            self.res / dy.abs()
-        } else {
-            f64::INFINITY
-        };
+        let per_m = 1.0 / dx.hypot(dy);
+        let clearance = self.clearance.get();
         loop {
             if self.blocked(cur) {
                 return false;
             }
+            let t_x = leaves(cur.0, at_x, per_x);
+            let t_y = leaves(cur.1, at_y, per_y);
+            let t_out = t_x.min(t_y);
             // The segment ends inside this cell. Ending on the parameter rather than on b's
             // cell is robust to b lying exactly on a cell corner.
-            if t_x.min(t_y) > 1.0 {
+            if t_out > 1.0 {
                 return true;
             }
+            if let Some(clear) = clearance {
+                // The point where the segment leaves the cell is within half a diagonal
+                // of its centre; a stride shorter by a whole diagonal (and a hair, for
+                // rounding) touches no cell as near a blocked one as the clearance.
+                let stride =
+                    self.clearance_in(clear, cur) - self.res * (std::f64::consts::SQRT_2 + 1e-6);
+                if stride > 2.0 * self.res {
+                    let t = t_out + stride * per_m;
+                    if t >= 1.0 {
+                        return true;
+                    }
+                    let (c, r) = (from_x + t * run_x, from_y + t * run_y);
+                    if c >= 0.0 && r >= 0.0 && (c as usize) < self.w && (r as usize) < self.h {
+                        cur = (c as usize, r as usize);
+                        continue;
+                    }
+                }
+            }
             if t_x < t_y {
-                t_x += t_dx;
                 cur.0 = cur.0.wrapping_add_signed(step_x);
             } else {
-                t_y += t_dy;
                 cur.1 = cur.1.wrapping_add_signed(step_y);
             }
             if cur.0 >= self.w || cur.1 >= self.h {
@@ -189,6 +283,7 @@ impl Grid {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     pub(crate) fn scenario() -> Scenario {
         Scenario::straight(50.0)
@@ -235,5 +330,62 @@ pub(crate) mod tests {
         assert!(g.segment_free(Point2::new(35.0, 3.0), Point2::new(5.0, 2.5)));
         // A diagonal that clips the car's corner.
         assert!(!g.segment_free(Point2::new(17.0, 2.0), Point2::new(19.0, 0.0)));
+    }
+
+    /// Grids of scattered blocked cells, off the origin, with open space to stride in.
+    fn grid() -> impl Strategy<Value = Grid> {
+        (5usize..60, 5usize..40).prop_flat_map(|(w, h)| {
+            proptest::collection::vec(prop::bool::weighted(0.03), w * h).prop_map(move |occ| Grid {
+                res: 0.25,
+                x0: -3.0,
+                y0: 1.5,
+                w,
+                h,
+                occ,
+                clearance: OnceLock::new(),
+            })
+        })
+    }
+
+    /// A point on or a little beyond the grid, from fractions of its extent.
+    fn point(g: &Grid, (fx, fy): (f64, f64)) -> Point2 {
+        Point2::new(
+            g.x0 + fx * g.w as f64 * g.res,
+            g.y0 + fy * g.h as f64 * g.res,
+        )
+    }
+
+    proptest! {
+        #[test]
+        fn clearance_is_at_most_the_distance_to_the_nearest_blocked_cell_and_within_nine_percent_of_it(g in grid()) {
+            let (w, h) = g.size();
+            for r in 0..h {
+                for c in 0..w {
+                    let here = g.center((c, r));
+                    // The cells beyond the edge count as blocked.
+                    let edge = [c + 1, w - c, r + 1, h - r].into_iter().min().unwrap() as f64 * g.res;
+                    let nearest = (0..w * h)
+                        .filter(|&i| g.occ[i])
+                        .map(|i| g.center((i % w, i / w)).dist(here))
+                        .fold(edge, f64::min);
+                    let clear = g.clearance_m((c, r));
+                    prop_assert!(clear <= nearest + 1e-9, "({c}, {r}): {clear} > {nearest}");
+                    prop_assert!(clear >= nearest / CLEARANCE_OVERSHOOT - 1e-9, "({c}, {r}): {clear} << {nearest}");
+                }
+            }
+        }
+
+        #[test]
+        fn a_segment_is_judged_the_same_striding_through_open_space(
+            g in grid(),
+            a in (-0.1f64..1.1, -0.1f64..1.1),
+            b in (-0.1f64..1.1, -0.1f64..1.1),
+        ) {
+            let cell_by_cell = g.clone();
+            g.clearance_m((0, 0));
+            let (a, b) = (point(&g, a), point(&g, b));
+            prop_assert_eq!(g.segment_free(a, b), cell_by_cell.segment_free(a, b));
+            prop_assert_eq!(g.segment_free(b, a), cell_by_cell.segment_free(b, a));
+        }
     }
 }

@@ -215,3 +215,32 @@ fn the_visibility_term_keeps_the_flame_in_view_longer() {
         "in view {with:.2} with the term, {without:.2} without"
     );
 }
+
+/// The clearance's shortcut says free exactly where the outline does, on poses all over a
+/// tunnel with a car in it, at the planner's resolutions.
+#[test]
+fn a_pose_clear_by_the_clearance_is_free_by_its_outline() {
+    let s = tunnel(CAR);
+    for res in [0.1, 0.25] {
+        let grid = Grid::from_scenario(&s, res, 0.0);
+        let planner = HybridAStar::new(&grid, FOOT, Params::for_radius(R));
+        let (mut free, mut shortcut) = (0, 0);
+        for i in 0..60 {
+            for j in 0..36 {
+                for k in 0..8 {
+                    let p = Pose2::new(i as f64, -3.6 + 0.2 * j as f64, k as f64 * 0.8);
+                    let by_outline =
+                        planner.grid.cell(p.position()).is_some() && planner.outline_free(&p);
+                    assert_eq!(planner.pose_free(&p), by_outline, "{p:?} at {res} m");
+                    free += usize::from(by_outline);
+                    shortcut += usize::from(
+                        grid.cell(p.position())
+                            .is_some_and(|c| grid.clearance_m(c) > planner.clear_beyond_m),
+                    );
+                }
+            }
+        }
+        // Most free poses of a tunnel's open road take the shortcut.
+        assert!(shortcut * 2 > free, "{shortcut} of {free} at {res} m");
+    }
+}
