@@ -40,11 +40,12 @@
 //! Pure: no I/O, no clock.
 
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::BinaryHeap;
 
 use firefleet_model::geometry::wrap_angle;
 use firefleet_model::heat::{HeatSource, radiant_flux_kw_m2};
 use firefleet_model::{Point2, Pose2};
+use rustc_hash::FxHashMap;
 
 use super::grid::Grid;
 use super::grid_search::CostGrid;
@@ -369,7 +370,7 @@ impl<'a> HybridAStar<'a> {
             steer: 0,
             reverse: false,
         }];
-        let mut best: HashMap<(i64, i64, usize), f64> = HashMap::new();
+        let mut best: FxHashMap<(i64, i64, usize), f64> = FxHashMap::default();
         best.insert(bin(&start), 0.0);
         let mut open = BinaryHeap::new();
         open.push((Reverse(h(&start).to_bits()), 0usize));
