@@ -79,7 +79,10 @@ fn hybrid_astar(c: &mut Criterion) {
             ..params
         },
     );
-    let (behind, facing_back) = (Pose2::new(60.0, 2.5, 0.0), Pose2::new(90.0, -2.5, 3.14));
+    let (behind, facing_back) = (
+        Pose2::new(60.0, 2.5, 0.0),
+        Pose2::new(90.0, -2.5, std::f64::consts::PI),
+    );
     let plan = unit.plan(behind, facing_back, Some(flame)).expect("a path");
     eprintln!(
         "turn_around: {} expansions, {:.1} m",
