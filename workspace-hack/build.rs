@@ -1,0 +1,3 @@
+//! Empty: a build script makes Cargo unify the build dependencies' features as well.
+
+fn main() {}
