@@ -259,8 +259,15 @@ impl Grid {
                 }
                 let (c, r) = (from_x + t * run_x, from_y + t * run_y);
                 if c >= 0.0 && r >= 0.0 && (c as usize) < self.w && (r as usize) < self.h {
-                    cur = (c as usize, r as usize);
-                    continue;
+                    let landed = (c as usize, r as usize);
+                    // Only where the segment leaves the cell it landed in after `t`: a
+                    // segment a rounding error from a cell boundary and along it can land
+                    // beside the cells it runs through, whose exit lies behind, and the
+                    // next stride from there would land there again, for ever.
+                    if leaves(landed.0, at_x, per_x).min(leaves(landed.1, at_y, per_y)) >= t {
+                        cur = landed;
+                        continue;
+                    }
                 }
             }
             if t_x < t_y {
@@ -384,6 +391,28 @@ pub(crate) mod tests {
             }
             if cur.0 >= g.w || cur.1 >= g.h {
                 return false;
+            }
+        }
+    }
+
+    /// A segment along a row boundary, a rounding error off it: its strides land in the
+    /// row beside the one it runs through, whose exit lies behind (this hung a fleet).
+    #[test]
+    fn a_segment_along_a_cell_boundary_ends() {
+        let g = Grid::from_blocked(0.25, Point2::new(-3.0, 1.5), 200, 20, |_| false);
+        // Row 10 begins at y = 4; the floats next to it, and it.
+        let boundary = 4.0f64;
+        for y in [
+            f64::from_bits(boundary.to_bits() - 1),
+            boundary,
+            f64::from_bits(boundary.to_bits() + 1),
+        ] {
+            for (a, b) in [
+                (Point2::new(-2.0, boundary), Point2::new(45.0, y)),
+                (Point2::new(-2.0, y), Point2::new(45.0, boundary)),
+            ] {
+                assert!(g.segment_free(a, b), "{a:?} {b:?}");
+                assert!(g.segment_free(b, a), "{b:?} {a:?}");
             }
         }
     }
