@@ -441,6 +441,28 @@ pub(crate) mod tests {
         }
 
         #[test]
+        fn a_segment_along_a_cell_boundary_is_judged_as_one_cell_at_a_time(
+            g in grid(),
+            (row, col) in (0usize..40, 0usize..60),
+            ulps in (-2i64..=2, -2i64..=2),
+            (from, to) in (-0.1f64..1.1, -0.1f64..1.1),
+            along_x in any::<bool>(),
+        ) {
+            // A boundary of the grid's cells, and the floats a few steps from it.
+            let near = |v: f64, k: i64| f64::from_bits(v.to_bits().wrapping_add_signed(k));
+            let (a, b) = if along_x {
+                let y = g.y0 + (row % g.h) as f64 * g.res;
+                let (a, b) = (point(&g, (from, 0.0)), point(&g, (to, 0.0)));
+                (Point2::new(a.x, near(y, ulps.0)), Point2::new(b.x, near(y, ulps.1)))
+            } else {
+                let x = g.x0 + (col % g.w) as f64 * g.res;
+                let (a, b) = (point(&g, (0.0, from)), point(&g, (0.0, to)));
+                (Point2::new(near(x, ulps.0), a.y), Point2::new(near(x, ulps.1), b.y))
+            };
+            prop_assert_eq!(g.segment_free(a, b), cell_by_cell(&g, a, b));
+        }
+
+        #[test]
         fn a_segment_is_judged_the_same_striding_through_open_space(
             g in grid(),
             a in (-0.1f64..1.1, -0.1f64..1.1),
