@@ -190,6 +190,11 @@ fn fleet_run(scenario: &Scenario, command: Command, seed: u64) -> anyhow::Result
             break;
         }
     }
+    // The count goes in the table; what broke, where and when goes here, or nobody can
+    // tell which run to look at.
+    for v in fleet.violations() {
+        eprintln!("{} seed {seed}: {v}", scenario.name);
+    }
     let truth = fleet.truth();
     Ok(Outcome {
         done: truth.all_out().then_some(truth.t),
