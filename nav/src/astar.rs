@@ -14,9 +14,6 @@ use super::grid::{Grid, NEIGHBOURS};
 /// space, m; about the inflation margin.
 const ESCAPE_M: f64 = 1.0;
 
-/// The heuristic's weight: a thousandth over admissible, to break ties (see [`plan`]).
-const TIE_BREAK: f64 = 1.001;
-
 /// A path from `start` to `goal` through free cells, as corner points (first is `start`,
 /// last is `goal`); `None` if the goal cannot be reached.
 pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
@@ -42,22 +39,16 @@ pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
     cost.set(idx(s), 0.0);
     // Keys are costs scaled to integers: exact ordering without a float wrapper; each
     // entry keeps the cost it was pushed with, to skip it once the cell is reached cheaper.
-    // In open road the octile distance is exact, so every cell between start and goal has
-    // the same estimate, and the search took them in the order of their index, expanding
-    // the whole width of the tunnel along its length (a plan through a 6 km tunnel: 125 ms).
-    // The estimate weighed a thousandth heavier breaks those ties towards the goal (Amit
-    // Patel's tie-breaking; 47 ms); a path found so costs at most a thousandth more than the
-    // shortest, which string pulling straightens anyway.
     let key = |f: f64| Reverse((f * 1024.0) as u64);
     let pushed = |g: f64| (g * 1024.0) as u64;
-    open.push((key(octile(s)), pushed(0.0), idx(s)));
+    open.push((key(octile(s)), idx(s), pushed(0.0)));
     // The start may sit in inflated space (a robot that stopped close to a wall or a
     // vehicle): cells within ESCAPE_M of it are passable so that it can get out.
     let escape = (ESCAPE_M / grid.resolution()).ceil() as usize;
     let passable = |c: (usize, usize)| {
         !grid.blocked(c) || (c.0.abs_diff(s.0) <= escape && c.1.abs_diff(s.1) <= escape)
     };
-    while let Some((_, g_key, i)) = open.pop() {
+    while let Some((_, i, g_key)) = open.pop() {
         let cur = (i % w, i / w);
         if cur == g {
             break;
@@ -88,7 +79,7 @@ pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
             if nc < cost.get(n) {
                 cost.set(n, nc);
                 parent[n] = i + 1;
-                open.push((key(nc + octile((c, r)) * TIE_BREAK), pushed(nc), n));
+                open.push((key(nc + octile((c, r))), n, pushed(nc)));
             }
         }
     }
