@@ -206,12 +206,12 @@ impl Grid {
     /// (every cell the segment touches, Amanatides-Woo), not Bresenham: Bresenham skips
     /// cells the segment clips at a corner, which would let a path graze an obstacle.
     ///
-    /// The traversal strides through open space, by the grid's clearance
-    /// ([`Grid::clearance_m`]): every cell the segment touches within `clearance - cell diagonal` of where it
-    /// leaves a cell is free (the bound of [`Grid::clearance_m`]'s doc, for points of the
-    /// segment and the centres of their cells), so it jumps there. The answer is the
-    /// cell-by-cell traversal's, from tens of cells looked at across a tunnel's open road
-    /// instead of one per cell.
+    /// The traversal strides through open space by the grid's clearance
+    /// ([`Grid::clearance_m`]): every cell the segment touches within `clearance - cell
+    /// diagonal` of where it leaves a cell is free (a point of the segment is within half a
+    /// diagonal of its cell's centre), so it jumps there. The answer is the cell-by-cell
+    /// traversal's, from tens of cells looked at across a tunnel's open road instead of
+    /// one per cell.
     pub fn segment_free(&self, a: Point2, b: Point2) -> bool {
         let (Some(mut cur), Some(_)) = (self.cell(a), self.cell(b)) else {
             return false;
@@ -219,10 +219,11 @@ impl Grid {
         let (dx, dy) = (b.x - a.x, b.y - a.y);
         let step_x: isize = if dx > 0.0 { 1 } else { -1 };
         let step_y: isize = if dy > 0.0 { 1 } else { -1 };
-        // Segment parameter (0 at a, 1 at b) at which the segment leaves a column (row),
-        // from the cell's index rather than accumulated, so that a stride can land in any
-        // cell. Divisions are hoisted: this is the innermost loop of the visibility term.
-        // In cells: where the segment starts and how far it runs.
+        // In cells: where the segment starts and how far it runs. `leaves` is the segment
+        // parameter (0 at a, 1 at b) at which it leaves a column (row), worked out from the
+        // cell's index rather than accumulated step by step, so that a stride can land in
+        // any cell; the divisions are hoisted out of the loop, the visibility term's
+        // innermost.
         let (from_x, from_y) = ((a.x - self.x0) / self.res, (a.y - self.y0) / self.res);
         let (run_x, run_y) = (dx / self.res, dy / self.res);
         let (per_x, per_y) = (1.0 / run_x, 1.0 / run_y);
