@@ -31,6 +31,7 @@
 //! Only [`node`] touches the bus (the same split as the coordinator's `Incident` and
 //! `node`): the picture and the HTTP API are tested without one.
 
+pub mod alarm_file;
 pub mod audit;
 pub mod auth;
 pub mod http;

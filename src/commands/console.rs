@@ -18,6 +18,7 @@ use clap::{Args, Subcommand};
 use firefleet::net::{join, shutdown_signal};
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::Expect;
+use firefleet_console::alarm_file::AlarmFile;
 use firefleet_console::audit::Audit;
 use firefleet_console::auth::{Role, Sessions, Users};
 use firefleet_console::http::{Console, Peer, Serving, TICK};
@@ -77,8 +78,9 @@ struct ServeArgs {
     /// Hours a login lasts.
     #[arg(long, default_value_t = 8.0, value_parser = positive_f64, allow_negative_numbers = true)]
     session_hours: f64,
-    /// Keep the audit log (who issued, cleared and acknowledged what) in DIR, so a restart
-    /// keeps it (the packaged service: its StateDirectory). Without it, memory only.
+    /// Keep the audit log (who issued, cleared and acknowledged what) and the alarms as they
+    /// stand in DIR, so a restart keeps them (the packaged service: its StateDirectory).
+    /// Without it, memory only.
     #[arg(long, value_name = "DIR")]
     state_dir: Option<PathBuf>,
 }
@@ -141,12 +143,17 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
     )
     .await?;
     a.role.metrics.serve(&bus, false, None).await?;
-    let audit = match &a.state_dir {
-        Some(dir) => Audit::open(dir).context("--state-dir")?,
-        None => Audit::in_memory(),
+    let (audit, (alarms, kept)) = match &a.state_dir {
+        Some(dir) => (
+            Audit::open(dir).context("--state-dir")?,
+            AlarmFile::open(dir).context("--state-dir")?,
+        ),
+        None => (Audit::in_memory(), (AlarmFile::in_memory(), Vec::new())),
     };
+    let mut picture = Picture::new(SiteMap::new(&scenario));
+    picture.restore_alerts(kept);
     let (console, requests) = Console::new(
-        Picture::new(SiteMap::new(&scenario)),
+        picture,
         users,
         Sessions::new(Duration::from_secs_f64(a.session_hours * 3600.0)),
         Serving {
@@ -154,6 +161,7 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
             open_reads,
         },
         audit,
+        alarms,
     );
     let bus = Arc::new(bus);
     let feed = {

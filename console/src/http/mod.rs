@@ -60,6 +60,7 @@ use serde::Deserialize;
 use serde_json::json;
 use tokio::sync::{broadcast, mpsc, oneshot};
 
+use crate::alarm_file::AlarmFile;
 use crate::audit::{Action, Audit, Entry as AuditEntry};
 use crate::auth::{CheckRefused, Checker, Role, Sessions, Users};
 use crate::picture::{Event, Picture};
@@ -128,6 +129,8 @@ pub struct Console {
     streams: Mutex<HashMap<String, usize>>,
     /// Who did what through this console.
     audit: Audit,
+    /// The alarms as they stand, for a restart.
+    alarms: AlarmFile,
 }
 
 /// How a console is served.
@@ -147,14 +150,15 @@ pub fn now_ms() -> u64 {
 }
 
 impl Console {
-    /// A console over `picture`, keeping what commanders do in `audit`; the receiver gets
-    /// the goals commanders issue.
+    /// A console over `picture`, keeping what commanders do in `audit` and its alarms in
+    /// `alarms`; the receiver gets the goals commanders issue.
     pub fn new(
         picture: Picture,
         users: Users,
         sessions: Sessions,
         serving: Serving,
         audit: Audit,
+        alarms: AlarmFile,
     ) -> (Arc<Self>, mpsc::Receiver<GoalRequest>) {
         let (goals, requests) = mpsc::channel(16);
         let (deltas, _) = broadcast::channel(BACKLOG);
@@ -169,6 +173,7 @@ impl Console {
             throttle: Throttle::default(),
             streams: Mutex::new(HashMap::new()),
             audit,
+            alarms,
         });
         (console, requests)
     }
@@ -208,7 +213,15 @@ impl Console {
 
     /// Send pages what changed since the last tick; the binary calls it every [`TICK`].
     pub fn tick(&self) {
-        let delta = self.picture().delta(now_ms());
+        let (delta, alarms) = {
+            let mut picture = self.picture();
+            let delta = picture.delta(now_ms());
+            let changed = delta.as_ref().is_some_and(|d| !d.alerts.is_empty());
+            (delta, changed.then(|| picture.alerts()))
+        };
+        if let Some(alarms) = alarms {
+            self.alarms.keep(&alarms);
+        }
         if let Some(delta) = delta
             && self.deltas.receiver_count() > 0
         {
@@ -757,9 +770,13 @@ async fn ack_alert(
         picture
             .alert_text(id)
             .filter(|_| picture.acknowledge(id, who.as_str()))
+            .map(|text| (text, picture.alerts()))
     };
     match acked {
-        Some(text) => {
+        Some((text, alarms)) => {
+            // Kept before the answer: an acknowledged alarm must not sound again after a
+            // restart.
+            c.alarms.keep(&alarms);
             c.audited(
                 &who,
                 Action::Acknowledge,

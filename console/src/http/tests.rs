@@ -38,6 +38,7 @@ fn fixture_serving(serving: Serving) -> Fixture {
         Sessions::new(Duration::from_secs(3600)),
         serving,
         crate::audit::Audit::in_memory(),
+        crate::alarm_file::AlarmFile::in_memory(),
     );
     Fixture {
         console,

@@ -719,6 +719,21 @@ impl Picture {
         }
     }
 
+    /// Every alarm kept: the open ones and the last closed ones.
+    pub fn alerts(&self) -> Vec<Alert> {
+        self.alerts.values().cloned().collect()
+    }
+
+    /// Take back alarms kept before a restart ([`crate::alarm_file`]), as they were: their
+    /// states, counts and acknowledgements. The live site settles or raises them again as it
+    /// is heard; an alarm raised again finds its own and keeps its acknowledgement.
+    pub fn restore_alerts(&mut self, alerts: Vec<Alert>) {
+        for a in alerts {
+            self.changes.alerts.insert(a.id);
+            self.alerts.insert(a.id, a);
+        }
+    }
+
     /// Alert `id`'s text, if there is one.
     pub fn alert_text(&self, id: u64) -> Option<String> {
         self.alerts.get(&id).map(|a| a.text.clone())

@@ -10,7 +10,7 @@ use std::sync::Arc;
 
 use firefleet_model::{FireId, UnitId};
 use firefleet_protocol::msg::{FireTrack, GoalAck, GoalInForce, TaskPhase, UnitMode, UnitState};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::SPRAYING_L_S;
 use crate::infra::InfraView;
@@ -57,7 +57,7 @@ pub struct DecisionLine {
     pub text: String,
 }
 
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
 pub enum AlertKind {
     UnitLost {
@@ -180,7 +180,7 @@ impl AlertKind {
 /// closes (leaves the page's open list) once it has returned to normal and been
 /// acknowledged. One alarm per cause ([`AlertKind::same_cause`]): raised again while it is
 /// open, it counts, and it is active again.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Alert {
     pub id: u64,
     /// Site time it was first raised.
