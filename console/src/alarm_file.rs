@@ -2,9 +2,12 @@
 //! its counts and who acknowledged it, so that a restarted console (a crash, an upgrade,
 //! a power cut) neither forgets an alarm nor sounds again one a commander acknowledged.
 //!
-//! The whole table is rewritten whenever an alarm changes (a [`StateFile`]: atomic and
-//! checksummed), and at once when one is acknowledged, before the commander is answered.
-//! It is small: open alarms and the last [`crate::picture`] keeps of the closed ones.
+//! The whole table is rewritten (a [`StateFile`]: atomic and checksummed) within
+//! [`KEEP_EVERY_MS`] of an alarm's change, and at once when one is acknowledged, before the
+//! commander is answered. The bound matters under attack: an impostor's every message
+//! raises its alarm again, and a rewrite with two syncs per message would be the console's
+//! busiest work. The table is small: open alarms and the last closed ones
+//! [`crate::picture`] keeps.
 //! Read back at start; a file that cannot be believed is said and moved aside (to
 //! `alarms.json.unread`), and the console starts without it: the live site raises again
 //! what still holds, and the audit log keeps who acknowledged what.
@@ -12,6 +15,7 @@
 //! Not here: the alarms' lifecycle ([`crate::picture`]) or who did what ([`crate::audit`]).
 
 use std::path::Path;
+use std::sync::Mutex;
 
 use firefleet_model::state_file::{StateFile, StateFileError};
 
@@ -20,14 +24,39 @@ use crate::picture::Alert;
 /// The file in the state directory.
 pub const FILE: &str = "alarms.json";
 
+/// The longest an alarm's change waits to be kept, ms.
+pub const KEEP_EVERY_MS: u64 = 1000;
+
 /// Where the alarms are kept, if anywhere.
 #[derive(Debug)]
-pub struct AlarmFile(Option<StateFile>);
+pub struct AlarmFile {
+    file: Option<StateFile>,
+    /// Whether a change is not kept yet, and when the table was last kept (ms).
+    unkept: Mutex<(bool, u64)>,
+}
 
 impl AlarmFile {
     /// Alarms kept only in memory (a console with no state directory: a restart loses them).
     pub fn in_memory() -> Self {
-        Self(None)
+        Self::new(None)
+    }
+
+    fn new(file: Option<StateFile>) -> Self {
+        Self {
+            file,
+            unkept: Mutex::new((false, 0)),
+        }
+    }
+
+    /// Whether the table is to be kept now, at `now_ms`, `changed` saying whether an alarm
+    /// changed since the last call: a change waits at most [`KEEP_EVERY_MS`].
+    pub fn due(&self, changed: bool, now_ms: u64) -> bool {
+        let mut unkept = self
+            .unkept
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        unkept.0 |= changed;
+        self.file.is_some() && unkept.0 && now_ms >= unkept.1 + KEEP_EVERY_MS
     }
 
     /// The alarm file in `dir` (made if missing), and the alarms it holds: none if there is
@@ -49,16 +78,23 @@ impl AlarmFile {
             tracing::error!("{why}; the console starts without the alarms kept ({moved})");
             Vec::new()
         });
-        Ok((Self(Some(file)), alarms))
+        Ok((Self::new(Some(file)), alarms))
     }
 
-    /// Keep `alarms` in place of what was kept. A write that fails is logged, not fatal:
-    /// the alarms stand in memory, only their copy is behind.
-    pub fn keep(&self, alarms: &[Alert]) {
-        if let Some(file) = &self.0 {
+    /// Keep `alarms` in place of what was kept, at `now_ms`. A write that fails is logged,
+    /// not fatal: the alarms stand in memory, only their copy is behind (and tried again
+    /// at the next change).
+    pub fn keep(&self, alarms: &[Alert], now_ms: u64) {
+        if let Some(file) = &self.file {
             let body = serde_json::to_vec(alarms).expect("alarms serialize");
-            if let Err(e) = file.write(&body) {
-                tracing::error!("the alarms not kept: {e}");
+            match file.write(&body) {
+                Ok(()) => {
+                    *self
+                        .unkept
+                        .lock()
+                        .unwrap_or_else(std::sync::PoisonError::into_inner) = (false, now_ms)
+                }
+                Err(e) => tracing::error!("the alarms not kept: {e}"),
             }
         }
     }
@@ -94,7 +130,13 @@ mod tests {
         assert!(before.acknowledge(lost.id, "rossi"));
         let (file, kept) = AlarmFile::open(dir.path()).unwrap();
         assert!(kept.is_empty(), "nothing kept yet");
-        file.keep(&before.alerts());
+        assert!(file.due(true, 5_000), "a change, the first");
+        file.keep(&before.alerts(), 5_000);
+        assert!(!file.due(true, 5_500), "the next change waits");
+        assert!(
+            file.due(false, 6_000),
+            "and is kept a second after the last"
+        );
 
         // The console restarts: the alarm is back, acknowledged by rossi, in the first
         // picture a page gets and in the first delta.
@@ -115,7 +157,7 @@ mod tests {
     fn an_alarm_file_that_cannot_be_believed_is_moved_aside_and_the_console_starts_without_it() {
         let dir = tempfile::tempdir().unwrap();
         let (file, _) = AlarmFile::open(dir.path()).unwrap();
-        file.keep(&[]);
+        file.keep(&[], 0);
         let path = dir.path().join(FILE);
         let mut bytes = std::fs::read(&path).unwrap();
         bytes.extend_from_slice(b"tampered");
@@ -128,7 +170,7 @@ mod tests {
             "kept for the operator as it was"
         );
         // And the next alarms are kept afresh.
-        file.keep(&[]);
+        file.keep(&[], 0);
         assert!(AlarmFile::open(dir.path()).unwrap().1.is_empty());
     }
 }

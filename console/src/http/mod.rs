@@ -213,14 +213,16 @@ impl Console {
 
     /// Send pages what changed since the last tick; the binary calls it every [`TICK`].
     pub fn tick(&self) {
+        let now = now_ms();
         let (delta, alarms) = {
             let mut picture = self.picture();
-            let delta = picture.delta(now_ms());
+            let delta = picture.delta(now);
             let changed = delta.as_ref().is_some_and(|d| !d.alerts.is_empty());
-            (delta, changed.then(|| picture.alerts()))
+            let due = self.alarms.due(changed, now);
+            (delta, due.then(|| picture.alerts()))
         };
         if let Some(alarms) = alarms {
-            self.alarms.keep(&alarms);
+            self.alarms.keep(&alarms, now);
         }
         if let Some(delta) = delta
             && self.deltas.receiver_count() > 0
@@ -776,7 +778,7 @@ async fn ack_alert(
         Some((text, alarms)) => {
             // Kept before the answer: an acknowledged alarm must not sound again after a
             // restart.
-            c.alarms.keep(&alarms);
+            c.alarms.keep(&alarms, now_ms());
             c.audited(
                 &who,
                 Action::Acknowledge,
