@@ -219,30 +219,30 @@ impl Grid {
         let (dx, dy) = (b.x - a.x, b.y - a.y);
         let step_x: isize = if dx > 0.0 { 1 } else { -1 };
         let step_y: isize = if dy > 0.0 { 1 } else { -1 };
-        // In cells: where the segment starts and how far it runs. `leaves` is the segment
-        // parameter (0 at a, 1 at b) at which it leaves a column (row), worked out from the
-        // cell's index rather than accumulated step by step, so that a stride can land in
-        // any cell; the divisions are hoisted out of the loop, the visibility term's
-        // innermost.
-        let (from_x, from_y) = ((a.x - self.x0) / self.res, (a.y - self.y0) / self.res);
-        let (run_x, run_y) = (dx / self.res, dy / self.res);
-        let (per_x, per_y) = (1.0 / run_x, 1.0 / run_y);
-        let at_x = if step_x > 0 { 1.0 - from_x } else { -from_x };
-        let at_y = if step_y > 0 { 1.0 - from_y } else { -from_y };
-        let leaves = |cell: usize, at: f64, per: f64| {
-            if per.is_finite() {
-                (cell as f64 + at) * per
-            } else {
-                f64::INFINITY
+        // The segment parameter (0 at a, 1 at b) at which it crosses a column's (row's)
+        // boundary on its way out of the cell or into it, worked out from the cell's index
+        // rather than accumulated step by step, so that a stride can land in any cell; in
+        // metres from `a`, as the cell-by-cell traversal does (in cells from the grid's
+        // origin, a point an ulp off a boundary loses the ulp).
+        let crossing = |origin: f64, pos: f64, d: f64, cell: usize, out: bool| {
+            if d == 0.0 {
+                return if out {
+                    f64::INFINITY
+                } else {
+                    f64::NEG_INFINITY
+                };
             }
+            let k = cell as f64 + if out == (d > 0.0) { 1.0 } else { 0.0 };
+            (origin + k * self.res - pos) / d
         };
+        let cross_x = |c: usize, out: bool| crossing(self.x0, a.x, dx, c, out);
+        let cross_y = |r: usize, out: bool| crossing(self.y0, a.y, dy, r, out);
         let per_m = 1.0 / dx.hypot(dy);
         loop {
             if self.blocked(cur) {
                 return false;
             }
-            let t_x = leaves(cur.0, at_x, per_x);
-            let t_y = leaves(cur.1, at_y, per_y);
+            let (t_x, t_y) = (cross_x(cur.0, true), cross_y(cur.1, true));
             let t_out = t_x.min(t_y);
             // The segment ends inside this cell. Ending on the parameter rather than on b's
             // cell is robust to b lying exactly on a cell corner.
@@ -258,17 +258,16 @@ impl Grid {
                 if t >= 1.0 {
                     return true;
                 }
-                let (c, r) = (from_x + t * run_x, from_y + t * run_y);
-                if c >= 0.0 && r >= 0.0 && (c as usize) < self.w && (r as usize) < self.h {
-                    let landed = (c as usize, r as usize);
-                    // Only where the segment leaves the cell it landed in after `t`: a
-                    // segment a rounding error from a cell boundary and along it can land
-                    // beside the cells it runs through, whose exit lies behind, and the
-                    // next stride from there would land there again, for ever.
-                    if leaves(landed.0, at_x, per_x).min(leaves(landed.1, at_y, per_y)) >= t {
-                        cur = landed;
-                        continue;
-                    }
+                // Only into a cell the segment runs through at `t`: one a rounding error
+                // beside a segment along a cell boundary would be walked instead of its
+                // own, and one whose exit lies behind would be strode from again and
+                // again, for ever.
+                if let Some((c, r)) = self.cell(Point2::new(a.x + t * dx, a.y + t * dy))
+                    && cross_x(c, false).max(cross_y(r, false)) <= t
+                    && cross_x(c, true).min(cross_y(r, true)) >= t
+                {
+                    cur = (c, r);
+                    continue;
                 }
             }
             if t_x < t_y {
