@@ -11,6 +11,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use firefleet_coordinator::assign::{self, Candidate, GroundBody, Mobility, Need, Place, Site};
 use firefleet_model::profile::GROUND;
 use firefleet_model::{FireId, UnitId};
+use firefleet_protocol::msg::Approach;
 use pathfinding::matrix::Matrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -34,6 +35,7 @@ fn instance(units: usize, fires: usize) -> (Vec<Candidate>, Vec<Need>) {
             fire: FireId(i as u32),
             at: p(),
             priority: 0,
+            from: Approach::Either,
         })
         .collect();
     (u, f)

@@ -4,7 +4,9 @@
 //! its top speed (a lower bound of the real travel time); a monorail unit's time to run its
 //! carriage along the rail to the dock that serves the fire ([`firefleet_model::dock`]) and
 //! plug into its hose point, unless it is plugged in there already. To that a
-//! ground unit adds [`HAZARD_S`] per other burning fire it would drive past, and any unit
+//! ground unit adds [`HAZARD_S`] per other burning fire it would drive past, and once
+//! more if it must drive past the fire itself to the side it is attacked from
+//! ([`Need::from`]), and any unit
 //! [`LOW_WATER_S`] if it carries less than [`WATER_NEEDED_L`]. A zone goal's priority is
 //! worth [`PRIORITY_S`] per level. A pair that cannot happen (a fire no dock of a rail serves,
 //! a way through a keep-out zone) is infeasible and never chosen. Two strategies, both
@@ -26,6 +28,7 @@ use firefleet_model::UnitKind;
 use firefleet_model::scenario::{Rail, Tunnel};
 use firefleet_model::spec::GroundSpec;
 use firefleet_model::{Chainage, FireId, Point2, UnitId};
+use firefleet_protocol::msg::Approach;
 
 /// How the coordinator pairs units with fires.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -234,10 +237,6 @@ pub struct Site<'a> {
     pub hazards: &'a [Place],
     /// Driving distances for ground units; straight lines without.
     pub roads: Option<&'a dyn Roads>,
-    /// Which way the air moves along the tunnel, when it moves enough for units to attack
-    /// from upwind: `Some(true)` towards the end. A ground unit downwind of a fire drives
-    /// past it to its upwind side, through its smoke: [`HAZARD_S`] more.
-    pub air_towards_end: Option<bool>,
 }
 
 /// Cost of driving past another burning fire on the way, s: the heat dose and the risk
@@ -261,6 +260,9 @@ pub struct Need {
     /// [`PRIORITY_S`] of travel, so higher-priority fires are served first when units are
     /// short.
     pub priority: u8,
+    /// The side it is to be attacked from (upwind while the air moves): a ground unit on
+    /// the other side drives past it, through its smoke, [`HAZARD_S`] more.
+    pub from: Approach,
 }
 
 /// Heat release per square metre of a burning vehicle, kW/m^2: design value for car and
@@ -378,15 +380,15 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f
     let Some(t) = road.unwrap_or_else(|| u.mobility.travel_s(u.at.position, n.at.position)) else {
         return INFEASIBLE;
     };
-    let downwind = match site.air_towards_end {
-        Some(true) => u.at.chainage > n.at.chainage,
-        Some(false) => u.at.chainage < n.at.chainage,
-        None => false,
+    let wrong_side = match n.from {
+        Approach::Start => u.at.chainage > n.at.chainage,
+        Approach::End => u.at.chainage < n.at.chainage,
+        Approach::Either => false,
     };
     let passed = match u.mobility {
         // A carriage runs under the ceiling, over the fires.
         Mobility::Rail { .. } => 0,
-        Mobility::Ground(_) => hazards_between + usize::from(downwind),
+        Mobility::Ground(_) => hazards_between + usize::from(wrong_side),
     };
     let thirsty = if u.water_l < WATER_NEEDED_L {
         LOW_WATER_S

@@ -71,11 +71,13 @@ fn nearest_free_unit_gets_each_fire() {
             fire: FireId(1),
             at: Place::straight(50.0, 0.0),
             priority: 0,
+            from: Approach::Either,
         },
         Need {
             fire: FireId(2),
             at: Place::straight(5.0, 0.0),
             priority: 0,
+            from: Approach::Either,
         },
     ];
     let picks = greedy(&units, &needs, &Site::default());
@@ -99,11 +101,13 @@ fn more_fires_than_units_leaves_the_farthest_unattended() {
                 fire: FireId(1),
                 at: Place::straight(90.0, 0.0),
                 priority: 0,
+                from: Approach::Either,
             },
             Need {
                 fire: FireId(2),
                 at: Place::straight(10.0, 0.0),
                 priority: 0,
+                from: Approach::Either,
             },
         ],
         &Site::default(),
@@ -139,11 +143,13 @@ fn optimal_beats_greedy_where_greedy_is_myopic() {
             fire: FireId(1),
             at: Place::straight(9.0, 0.0),
             priority: 0,
+            from: Approach::Either,
         },
         Need {
             fire: FireId(2),
             at: Place::straight(20.0, 0.0),
             priority: 0,
+            from: Approach::Either,
         },
     ];
     assert_eq!(total(&greedy(&units, &needs, &Site::default())), 21.0);
@@ -165,6 +171,7 @@ fn a_unit_on_its_way_is_replaced_only_by_one_keep_s_sooner() {
         fire: FireId(1),
         at: Place::straight(100.0, 0.0),
         priority: 0,
+        from: Approach::Either,
     };
     let on_its_way = Candidate {
         heading_for: Some(FireId(1)),
@@ -318,6 +325,7 @@ fn a_fire_out_of_a_rails_reach_goes_to_a_ground_unit_or_to_nobody() {
         fire: FireId(1),
         at: Place::straight(150.0, 0.0),
         priority: 0,
+        from: Approach::Either,
     }];
     for solve in [greedy, optimal] {
         assert!(solve(&[rail("r", 90.0)], &needs, &Site::default()).is_empty());
@@ -337,6 +345,7 @@ fn a_fast_rail_unit_beats_a_slow_ground_unit_within_its_reach() {
         fire: FireId(1),
         at: Place::straight(60.0, 2.0),
         priority: 0,
+        from: Approach::Either,
     }];
     // The carriage: 30 m of rail and 10 s to plug in, 13 s; the ground unit 20 s.
     let picks = optimal(&[rail("r", 0.0), cand("g", 30.0)], &needs, &Site::default());
@@ -350,11 +359,13 @@ fn a_higher_priority_fire_is_served_first_when_units_are_short() {
             fire: FireId(1),
             at: Place::straight(10.0, 0.0),
             priority: 0,
+            from: Approach::Either,
         },
         Need {
             fire: FireId(2),
             at: Place::straight(90.0, 0.0),
             priority: 2,
+            from: Approach::Either,
         },
     ];
     for solve in [greedy, optimal] {
@@ -378,6 +389,7 @@ fn no_unit_travels_through_a_barred_range() {
         fire: FireId(1),
         at: Place::straight(90.0, 0.0),
         priority: 0,
+        from: Approach::Either,
     }];
     let units = [cand("near", 50.0), cand("far", 150.0)];
     for solve in [greedy, optimal] {
@@ -398,6 +410,7 @@ fn units_avoid_driving_past_other_fires_and_running_dry() {
         fire: FireId(1),
         at: Place::straight(50.0, 0.0),
         priority: 0,
+        from: Approach::Either,
     }];
     // Equally far, but the way from the left passes a burning car at 40.
     let units = [cand("left", 20.0), cand("right", 80.0)];
@@ -424,6 +437,7 @@ fn a_unit_not_to_be_sent_to_a_fire_is_passed_over_for_the_next() {
         fire: FireId(1),
         at: Place::straight(100.0, 0.0),
         priority: 0,
+        from: Approach::Either,
     };
     // a is nearest, but gave this fire up a moment ago.
     let gave_up = Candidate {

@@ -277,8 +277,8 @@ pub enum Decision {
         backup: bool,
         cost_s: f64,
         runner_up: Option<(UnitId, f64)>,
-        /// The side the unit attacks from, upwind; `None` in still air.
-        upwind: Option<Upwind>,
+        /// The side the unit attacks from while the air moves; `None` in still air.
+        side: Option<AttackSide>,
     },
     /// A free unit downwind of a burning fire withdraws out of its smoke.
     LeaveSmoke {
@@ -561,7 +561,7 @@ impl fmt::Display for Decision {
                 backup,
                 cost_s,
                 runner_up,
-                upwind,
+                side,
             } => {
                 let verb = if *backup { "send backup" } else { "assign" };
                 write!(f, "{verb} {unit} to fire {fire}: cost {cost_s:.1} s; ")?;
@@ -569,11 +569,17 @@ impl fmt::Display for Decision {
                     Some((u, c)) => write!(f, "runner-up {u} at {c:.1} s")?,
                     None => write!(f, "no other free unit")?,
                 }
-                match upwind {
-                    Some(u) => write!(
+                match side {
+                    Some(s) if s.downwind => write!(
+                        f,
+                        "; from the {}, downwind (looked for from upwind in vain): air flows \
+                         towards the {} at {:.1} m/s",
+                        s.from, s.towards, s.air_m_s
+                    ),
+                    Some(s) => write!(
                         f,
                         "; from the {}: air flows towards the {} at {:.1} m/s",
-                        u.from, u.towards, u.air_m_s
+                        s.from, s.towards, s.air_m_s
                     ),
                     None => Ok(()),
                 }
@@ -601,28 +607,31 @@ impl fmt::Display for Decision {
     }
 }
 
-/// The side a unit attacks from, upwind: the portal it comes from, the portal the air flows
-/// towards, and how fast, m/s.
+/// The side a unit attacks from while the air moves: the portal on that side, the portal
+/// the air flows towards, and how fast, m/s; downwind when those are one.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Upwind {
+pub struct AttackSide {
     pub from: String,
     pub towards: String,
     pub air_m_s: f64,
+    pub downwind: bool,
 }
 
-impl Upwind {
+impl AttackSide {
     /// Attacking from `side` in air moving at `air_m_s` (positive towards the end), with
     /// `portals` the names at chainage 0 and at the end.
     pub fn new(side: Approach, air_m_s: f64, portals: &[String; 2]) -> Option<Self> {
-        let (from, towards) = match side {
-            Approach::Start => (&portals[0], &portals[1]),
-            Approach::End => (&portals[1], &portals[0]),
+        let from = match side {
+            Approach::Start => &portals[0],
+            Approach::End => &portals[1],
             Approach::Either => return None,
         };
+        let towards_end = air_m_s > 0.0;
         Some(Self {
             from: from.clone(),
-            towards: towards.clone(),
+            towards: portals[usize::from(towards_end)].clone(),
             air_m_s: air_m_s.abs(),
+            downwind: (side == Approach::End) == towards_end,
         })
     }
 }

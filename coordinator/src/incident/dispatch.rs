@@ -13,18 +13,19 @@ use firefleet_protocol::msg::{FireState, TaskKind, TaskPhase, UnitMode};
 use crate::assign::{Candidate, Mobility, Need, Pick, Place, Roads, Site, wants_another};
 use crate::fusion::Fire;
 
-use super::{Decision, Incident, Output, Scope, Upwind};
+use super::{AttackSide, Decision, Incident, Output, Scope};
 
 impl Incident {
     /// Fire `f` as a need for a unit, with its zone's priority; `None` if a goal bars
     /// attacking it.
-    pub(super) fn need(&self, f: &Fire) -> Option<Need> {
+    pub(super) fn need(&self, f: &Fire, t: f64) -> Option<Need> {
         let at = Place::in_tunnel(&self.tunnel, f.position());
         let goal = self.goals.at(at.chainage);
         (!goal.is_some_and(|g| g.bars_attack())).then(|| Need {
             fire: f.id,
             at,
             priority: goal.map_or(0, |g| g.goal.priority),
+            from: self.attack_side(f.id, t),
         })
     }
 
@@ -44,7 +45,7 @@ impl Incident {
             .fires()
             .iter()
             .filter(|f| open(f.state))
-            .filter_map(|f| self.need(f))
+            .filter_map(|f| self.need(f, t))
             .collect();
         // The first attackers on their way to those fires, before the solve.
         let on_their_way: Vec<(UnitId, FireId)> = self
@@ -64,7 +65,7 @@ impl Incident {
                     .is_none_or(|f| f.state != FireState::Assigned)
             });
         }
-        let picks = self.picks(&candidates, &needs, t);
+        let picks = self.picks(&candidates, &needs);
         let mut out = Vec::new();
         for p in &picks {
             out.extend(self.dispatch(p, t, false));
@@ -215,11 +216,11 @@ impl Incident {
                     self.policy.units_per_fire,
                 )
             })
-            .filter_map(|f| self.need(f))
+            .filter_map(|f| self.need(f, t))
             .collect();
         let candidates = self.free_ground_units(busy);
         let mut out = Vec::new();
-        for p in self.picks(&candidates, &backups, t) {
+        for p in self.picks(&candidates, &backups) {
             if p.cost_s <= self.policy.help_within_s {
                 out.extend(self.dispatch(&p, t, true));
             }
@@ -228,7 +229,7 @@ impl Incident {
     }
 
     /// `needs` paired with `candidates` by the strategy, on this site.
-    pub(super) fn picks(&mut self, candidates: &[Candidate], needs: &[Need], t: f64) -> Vec<Pick> {
+    pub(super) fn picks(&mut self, candidates: &[Candidate], needs: &[Need]) -> Vec<Pick> {
         if candidates.is_empty() || needs.is_empty() {
             return Vec::new();
         }
@@ -255,7 +256,6 @@ impl Incident {
             barred_rail: &barred_rail,
             hazards: &hazards,
             roads: Some(&roads as &dyn Roads),
-            air_towards_end: self.air_m_s(t).map(|a| a > 0.0),
         };
         let picks = self.strategy.solve(candidates, needs, &site);
         self.roads = roads;
@@ -298,7 +298,7 @@ impl Incident {
             fire.state = FireState::Assigned;
         }
         let target = fire.position();
-        let from = self.approach(t);
+        let from = self.attack_side(p.fire, t);
         if let Some((old, was_backup)) = self
             .units
             .get(&p.unit)
@@ -334,9 +334,9 @@ impl Incident {
                 backup,
                 cost_s: p.cost_s,
                 runner_up: p.runner_up.clone(),
-                upwind: self
+                side: self
                     .air_m_s(t)
-                    .and_then(|air| Upwind::new(from, air, &self.portals)),
+                    .and_then(|air| AttackSide::new(from, air, &self.portals)),
             },
         );
         vec![task, Output::Fire(self.track(p.fire, t))]

@@ -338,6 +338,9 @@ impl Incident {
                 .insert((unit.clone(), fire), t + self.policy.retry_after_s);
             let alone = self.assigned_to(fire).iter().all(|u| u == unit);
             out.push(self.standby(unit, t));
+            if unseen {
+                self.looked_in_vain(fire, unit);
+            }
             if unseen && alone {
                 // Nobody is on it now: it is anyone's to take again.
                 out.extend(self.release(fire, t));
@@ -534,7 +537,7 @@ impl Incident {
         let kind = TaskKind::Extinguish {
             fire,
             target: p.target,
-            from: self.approach(t),
+            from: self.attack_side(fire, t),
         };
         vec![Output::Fire(self.track(fire, t)), self.give(unit, kind, t)]
     }

@@ -24,9 +24,9 @@
 
 use std::collections::BTreeMap;
 
-use firefleet_model::Gaussian2;
 use firefleet_model::infra::ScadaMap;
 use firefleet_model::validate::{Invalid, Validate};
+use firefleet_model::{FireId, Gaussian2, UnitId};
 use firefleet_protocol::msg::{Approach, DtsZone, Vent};
 
 use super::freshness::Newest;
@@ -177,6 +177,42 @@ impl Incident {
     pub(super) fn approach(&self, t: f64) -> Approach {
         self.air_m_s(t)
             .map_or(Approach::Either, |a| Approach::upwind(a, MOVING_AIR_M_S))
+    }
+
+    /// The side to attack `fire` from at `t`: the side opposite the one a unit sent by
+    /// the DTS last looked from and found no flame, else upwind
+    /// ([`Incident::approach`]).
+    ///
+    /// The fibre places a fire on the tunnel's axis within a zone; the flames come out of
+    /// one face of the vehicle that burns, and a body 2.5 m wide and 12 m long hides them
+    /// from every camera on the other side (a lorry burning at its downwind end, seen from
+    /// upwind). Looking from the other side, even downwind in the smoke, beats sending
+    /// unit after unit to the same blind spot: the heat-aware planner and the cannon's
+    /// reach are built for a unit close to a fire.
+    pub(super) fn attack_side(&self, fire: FireId, t: f64) -> Approach {
+        self.unseen_from
+            .get(&self.fusion.resolve(fire))
+            .map_or_else(|| self.approach(t), |&looked| looked.opposite())
+    }
+
+    /// `unit`, sent to `fire` by the DTS, looked and did not find it: the next unit goes
+    /// round to the other side ([`Incident::attack_side`]).
+    pub(super) fn looked_in_vain(&mut self, fire: FireId, unit: &UnitId) {
+        let fire = self.fusion.resolve(fire);
+        let (Some(at), Some(f)) = (
+            self.units
+                .get(unit)
+                .and_then(|v| Some(v.state.as_ref()?.pose.position())),
+            self.fusion.get(fire),
+        ) else {
+            return;
+        };
+        let side = if self.tunnel.chainage(at) <= self.tunnel.chainage(f.position()) {
+            Approach::Start
+        } else {
+            Approach::End
+        };
+        self.unseen_from.insert(fire, side);
     }
 
     /// New DTS readings: their alarm peaks to fusion, a fire track for each new one, and

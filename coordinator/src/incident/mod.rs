@@ -55,8 +55,8 @@ use firefleet_model::scenario::{Scenario, Tunnel, UnitSpec};
 use firefleet_model::validate::{Invalid, Validate};
 use firefleet_model::{FireId, UnitId};
 use firefleet_protocol::msg::{
-    FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitState, UnitStatus, epoch_after,
-    task_seq_ceiling, task_seq_floor,
+    Approach, FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitState, UnitStatus,
+    epoch_after, task_seq_ceiling, task_seq_floor,
 };
 
 use crate::assign::{GroundBody, Mobility, Strategy};
@@ -77,7 +77,7 @@ mod staging;
 mod trust;
 mod zones;
 
-pub use decision::{Decision, Logged, Loss, Upwind};
+pub use decision::{AttackSide, Decision, Logged, Loss};
 pub use freshness::{AHEAD_S, BEHIND_S};
 pub use infra::{MOVING_AIR_M_S, VENT_FRESH_S};
 pub use policy::Policy;
@@ -258,6 +258,9 @@ pub struct Incident {
     infra: infra::Infra,
     /// The portals' names, at chainage 0 and at the end, for the decisions' words.
     portals: [String; 2],
+    /// Fires a unit sent by the DTS looked for and did not find, and the side it looked
+    /// from: the next unit looks from the other ([`Incident::attack_side`]).
+    unseen_from: BTreeMap<FireId, Approach>,
 }
 
 impl Incident {
@@ -288,6 +291,7 @@ impl Incident {
             roads: RoadMaps::default(),
             coverage: Coverage::new(tunnel.length_m),
             trapped: BTreeMap::new(),
+            unseen_from: BTreeMap::new(),
             solved_all_at: f64::NEG_INFINITY,
             inconsistencies: 0,
             lone_refused: 0,

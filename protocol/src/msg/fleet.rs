@@ -222,6 +222,15 @@ pub enum Approach {
 }
 
 impl Approach {
+    /// The other side; `Either` stays itself.
+    pub fn opposite(self) -> Self {
+        match self {
+            Approach::Start => Approach::End,
+            Approach::End => Approach::Start,
+            Approach::Either => Approach::Either,
+        }
+    }
+
     /// The upwind side in air moving at `air_m_s` along the tunnel (positive towards its
     /// end); `Either` in air slower than `still_m_s`.
     pub fn upwind(air_m_s: f64, still_m_s: f64) -> Self {

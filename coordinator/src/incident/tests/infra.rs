@@ -302,6 +302,41 @@ fn a_unit_that_never_saw_the_dts_fire_cannot_call_it_out_and_another_is_sent() {
 }
 
 #[test]
+fn after_a_unit_looked_in_vain_from_upwind_the_next_looks_from_downwind() {
+    let mut inc = site();
+    air(&mut inc, 1.0, 2.1);
+    let (fire, unit, seq) = sent_by_the_dts(&mut inc);
+    assert!(unit.as_str().starts_with("west"), "{unit}");
+    // Nothing seen from the west (the flames come out of the lorry's east end): the next
+    // unit attacks from the east, downwind, and an east unit, already there, is the one.
+    let mut out = claims_out(&mut inc, &unit, fire, seq, 3.0);
+    out.extend(inc.tick(3.5));
+    let again = extinguish_tasks(&out);
+    assert_eq!(again.len(), 1, "{out:?}");
+    assert!(again[0].0.as_str().starts_with("east"), "{again:?}");
+    assert_eq!(again[0].2, Approach::End);
+    let said = inc
+        .decisions()
+        .filter(|d| matches!(d.decision, Decision::Assign { .. }))
+        .last()
+        .unwrap()
+        .decision
+        .to_string();
+    assert!(
+        said.contains("from the east, downwind (looked for from upwind in vain)"),
+        "{said}"
+    );
+    // Nothing from the east either: back to the west.
+    let east = again[0].0.clone();
+    let seq = inc.units[&east].task.as_ref().unwrap().seq;
+    let mut out = claims_out(&mut inc, &east, fire, seq, 5.0);
+    out.extend(inc.tick(5.5));
+    let third = extinguish_tasks(&out);
+    assert_eq!(third.len(), 1, "{out:?}");
+    assert_eq!(third[0].2, Approach::Start, "{third:?}");
+}
+
+#[test]
 fn a_zone_heating_up_again_after_its_fire_was_called_out_reopens_it() {
     let mut inc = site();
     let (fire, unit, seq) = sent_by_the_dts(&mut inc);
