@@ -25,6 +25,7 @@
 use std::sync::Arc;
 
 use firefleet_model::UnitKind;
+use firefleet_model::dock::Reach;
 use firefleet_model::scenario::{Rail, Tunnel};
 use firefleet_model::spec::GroundSpec;
 use firefleet_model::{Chainage, FireId, Point2, UnitId};
@@ -87,15 +88,14 @@ impl GroundBody {
 pub enum Mobility {
     /// Drives anywhere in the tunnel its body fits.
     Ground(GroundBody),
-    /// Runs along `rail` at up to `speed_m_s`, sprays from a dock (within `hose_reach_m`
-    /// of a hose point, `coupling_s` after it gets there), works fires within `reach_m`
-    /// of the carriage and sees them within `detector_range_m` along the rail.
+    /// Runs along `rail` at up to `speed_m_s`, sprays from a dock (`coupling_s` after it
+    /// gets there) on the fires its monitor `reach`es from there, and sees them within
+    /// `detector_range_m` along the rail.
     Rail {
         rail: Arc<Rail>,
         speed_m_s: f64,
-        hose_reach_m: f64,
         coupling_s: f64,
-        reach_m: f64,
+        reach: Reach,
         detector_range_m: f64,
     },
 }
@@ -140,18 +140,30 @@ impl Mobility {
     /// never can. A carriage's is the run to the dock that serves the fire plus the
     /// coupling, which it saves if it is plugged in there already.
     pub fn travel_s(&self, from: Point2, to: Point2) -> Option<f64> {
+        self.travel_keeping_s(from, to, false)
+    }
+
+    /// [`Mobility::travel_s`], for a unit already sent to the fire when `keeping`: a
+    /// carriage keeps a fire [`KEEP_REACH_M`] beyond its reach (the hysteresis
+    /// [`KEEP_S`] is for cost, this is for reach: a fire on the edge of a dock's reach, its
+    /// estimate moving a few tenths of a metre a sighting, flipped between a carriage and a
+    /// ground unit four times a second).
+    pub fn travel_keeping_s(&self, from: Point2, to: Point2, keeping: bool) -> Option<f64> {
         match self {
             Mobility::Ground(g) => Some(from.dist(to) / g.speed_m_s.max(0.1)),
             Mobility::Rail {
                 rail,
                 speed_m_s,
-                hose_reach_m,
                 coupling_s,
-                reach_m,
+                reach,
                 ..
             } => {
-                let dock = rail.dock_for(to, *hose_reach_m, *reach_m, from.x)?;
-                let coupling = match rail.dock_at(from.x, *hose_reach_m) {
+                let reach = Reach {
+                    slack_m: if keeping { KEEP_REACH_M } else { 0.0 },
+                    ..*reach
+                };
+                let dock = rail.dock_for(to, &reach, from.x)?;
+                let coupling = match rail.dock_at(from.x, reach.hose_m) {
                     Some(here) if here.hose_m == dock.hose_m => 0.0,
                     _ => *coupling_s,
                 };
@@ -207,6 +219,10 @@ pub struct Candidate {
 /// travel: a changed task costs a stop and a new plan, and straight-line travel times
 /// are off by more than a few seconds wherever vehicles stand in the way.
 pub const KEEP_S: f64 = 20.0;
+/// How far beyond its reach a carriage keeps a fire it was sent to, m
+/// ([`Mobility::travel_keeping_s`]): a few times the spread of a fire's position estimate
+/// from one sighting to the next.
+pub const KEEP_REACH_M: f64 = 1.0;
 
 /// How a ground unit would drive to a fire.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -377,7 +393,11 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f
         },
         _ => None,
     };
-    let Some(t) = road.unwrap_or_else(|| u.mobility.travel_s(u.at.position, n.at.position)) else {
+    let keeping = u.heading_for == Some(n.fire);
+    let Some(t) = road.unwrap_or_else(|| {
+        u.mobility
+            .travel_keeping_s(u.at.position, n.at.position, keeping)
+    }) else {
         return INFEASIBLE;
     };
     let wrong_side = match n.from {

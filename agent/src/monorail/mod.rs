@@ -45,7 +45,7 @@ use std::sync::Arc;
 use firefleet_bt::xml::{self, Document, XmlErrors};
 use firefleet_model::Chainage;
 use firefleet_model::UnitKind;
-use firefleet_model::dock::Dock;
+use firefleet_model::dock::{Dock, Reach};
 use firefleet_model::scenario::{Rail, Scenario, Tunnel};
 use firefleet_model::spec::{MAINS_WATER_L, MonorailSpec};
 use firefleet_model::{Point2, Pose2, UnitId};
@@ -233,12 +233,8 @@ impl RailUnit {
 
     /// The dock the carriage would work a fire at `p` from, if one serves it.
     fn dock_for(&self, p: Point2) -> Option<Dock> {
-        self.rail.dock_for(
-            p,
-            self.spec.hose_reach_m,
-            self.spec.working_reach_m,
-            self.position().x,
-        )
+        self.rail
+            .dock_for(p, &Reach::of(&self.spec), self.position().x)
     }
 
     /// Whether the monitor can work a fire at `p` from a dock of the rail.

@@ -265,9 +265,13 @@ fn carriage(id: &str, x: f64, hose_points_m: &[f64]) -> Candidate {
                 hose_points_m: hose_points_m.to_vec(),
             }),
             speed_m_s: 10.0,
-            hose_reach_m: 15.0,
             coupling_s: 10.0,
-            reach_m: 15.0,
+            reach: firefleet_model::dock::Reach {
+                hose_m: 15.0,
+                working_m: 15.0,
+                yaw_limit_rad: std::f64::consts::FRAC_PI_3,
+                slack_m: 0.0,
+            },
             detector_range_m: 30.0,
         },
         water_l: 1e5,
@@ -308,6 +312,22 @@ fn a_carriage_runs_to_the_dock_that_serves_the_fire_and_plugs_in() {
     assert!(
         m.travel_s(from, Point2::new(100.0, 0.0)).is_some(),
         "reached from the last dock"
+    );
+}
+
+#[test]
+fn a_carriage_already_sent_keeps_a_fire_on_the_edge_of_its_reach() {
+    // 2.5 m aside at 61 m: in front of the monitor only from 59.56 m (2.5 / tan 60 deg
+    // short of it), and the dock at 75 m starts at 60 m. Not a fresh carriage's; the one
+    // already sent keeps it as the estimate wavers by tenths of a metre.
+    let m = carriage("r", 70.0, &[15.0, 75.0]).mobility;
+    let (from, fire) = (Point2::new(70.0, 0.0), Point2::new(61.0, 2.5));
+    assert_eq!(m.travel_s(from, fire), None);
+    assert_eq!(m.travel_keeping_s(from, fire, true), Some(0.0));
+    assert_eq!(
+        m.travel_keeping_s(from, Point2::new(57.0, 2.5), true),
+        None,
+        "a metre and more beyond is beyond"
     );
 }
 

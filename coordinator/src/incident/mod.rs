@@ -121,9 +121,8 @@ pub fn mobility_of(scenario: &Scenario, u: &UnitSpec) -> Result<Mobility, UnitPr
                 Mobility::Rail {
                     rail: std::sync::Arc::new(r.clone()),
                     speed_m_s: m.carriage_speed_m_s,
-                    hose_reach_m: m.hose_reach_m,
                     coupling_s: m.coupling_s,
-                    reach_m: m.working_reach_m,
+                    reach: firefleet_model::dock::Reach::of(&m),
                     detector_range_m: m.detector_range_m,
                 }
             }

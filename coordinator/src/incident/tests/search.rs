@@ -16,9 +16,13 @@ fn with_rail(x: f64) -> (Incident, UnitState) {
             hose_points_m: (0..7).map(|k| 15.0 + 30.0 * f64::from(k)).collect(),
         }),
         speed_m_s: 10.0,
-        hose_reach_m: 15.0,
         coupling_s: 10.0,
-        reach_m: 12.0,
+        reach: firefleet_model::dock::Reach {
+            hose_m: 15.0,
+            working_m: 12.0,
+            yaw_limit_rad: std::f64::consts::FRAC_PI_3,
+            slack_m: 0.0,
+        },
         detector_range_m: firefleet_model::profile::MONORAIL.detector_range_m,
     };
     let mut i = Incident::new(TUNNEL, [(u("r"), rail)], 5.0, Strategy::Optimal);
