@@ -245,10 +245,11 @@ impl Obstacle {
         let pose = self.pose();
         [(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)].map(|(x, y)| pose.to_site(Point2::new(x, y)))
     }
-    /// `p` if it is outside the footprint, else the point `off` metres out from the face
-    /// nearest to it: where a fire placed inside the box burns as seen from the road.
+    /// `p` if it is `off` metres or more out of the footprint, else the point `off`
+    /// metres out from the face nearest to it: where a fire placed inside the box (or
+    /// against it) burns as seen from the road.
     pub fn off_body(&self, p: Point2, off: f64) -> Point2 {
-        if !self.footprint_contains(p, 0.0) {
+        if !self.footprint_contains(p, off) {
             return p;
         }
         let b = self.pose().to_body(p);
@@ -429,14 +430,16 @@ impl Scenario {
 
     /// Where a fire reported at `p` can be fought from the road: `p` itself, or, if `p`
     /// lies inside a parked vehicle (a DTS zone's chainage on the tunnel's axis, where a
-    /// train or a lorry stands), half a metre off the vehicle's face nearest to it. The
-    /// flames of a burning vehicle come out of its faces; its inside is seen and reached
-    /// from nowhere.
+    /// train or a lorry stands) or less than half a metre off its body, half a metre off
+    /// the vehicle's face nearest to it. The flames of a burning vehicle come out of its
+    /// faces; its inside is seen and reached from nowhere, and a point against its skin
+    /// lies in the cell a map gives the body (a fire seen 2 cm off a locomotive's side
+    /// had no sight line from anywhere, and six units gave it up in turn).
     pub fn fightable_at(&self, p: Point2) -> Point2 {
         const OFF_BODY_M: f64 = 0.5;
         self.obstacles
             .iter()
-            .find(|o| o.footprint_contains(p, 0.0))
+            .find(|o| o.footprint_contains(p, OFF_BODY_M))
             .map_or(p, |o| o.off_body(p, OFF_BODY_M))
     }
 
@@ -728,6 +731,9 @@ mod tests {
         );
         let road = Point2::new(20.0, 1.0);
         assert_eq!(s.fightable_at(road), road);
+        // Against the kerb side, 2 cm off it: half a metre off.
+        let skin = s.fightable_at(Point2::new(39.0, -1.08));
+        assert!((skin.y - (-1.1 + 0.5)).abs() < 1e-9, "{skin:?}");
     }
 
     const OK: &str = r#"

@@ -188,7 +188,12 @@ impl PurePursuit {
             (local.x, local.y)
         };
         let ld = ahead.hypot(left).max(0.1);
-        let alpha = left.atan2(ahead);
+        // A target behind is turned towards at the law's hardest, as one abeam would be:
+        // the sine of an angle near 180 degrees is next to nothing, and the vehicle drove
+        // on, away from it.
+        let alpha = left
+            .atan2(ahead)
+            .clamp(-std::f64::consts::FRAC_PI_2, std::f64::consts::FRAC_PI_2);
         let curvature_steer = (2.0 * spec.wheelbase_m * alpha.sin() / ld).atan();
         let steer = if reverse {
             -curvature_steer

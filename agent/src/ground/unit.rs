@@ -21,6 +21,7 @@
 
 mod keep_out;
 
+use std::f64::consts::FRAC_PI_2;
 use std::sync::Arc;
 
 use firefleet_model::UnitKind;
@@ -78,6 +79,9 @@ const RECOVER_S: f64 = 1.5;
 const RECOVER_SPEED_M_S: f64 = 0.4;
 /// How often a unit inside barred space that found no way out tries again, s.
 const LEAVE_RETRY_S: f64 = 1.0;
+/// How far along a grid path that sets off behind it a unit turns round to, m: beyond the
+/// three-point turn a two-lane bore leaves room for.
+const TURN_ROUND_M: f64 = 8.0;
 
 /// What the navigation service is driving to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -120,6 +124,21 @@ impl Recovery {
             speed: under_way.map_or(-RECOVER_SPEED_M_S, |r| -r.speed),
         }
     }
+}
+
+/// The point `d` metres along `path` and the index of the path's next point after it;
+/// `None` if the path is shorter.
+fn point_along(path: &[Point2], d: f64) -> Option<(usize, Point2)> {
+    let mut left = d;
+    for (i, w) in path.windows(2).enumerate() {
+        let len = w[0].dist(w[1]);
+        if len >= left && len > 0.0 {
+            let at = w[0].offset(w[0].bearing_to(w[1]), left);
+            return Some((i + 1, at));
+        }
+        left -= len;
+    }
+    None
 }
 
 /// The unit, its world model and its services.
@@ -296,7 +315,8 @@ impl Unit {
             .unwrap_or(goal);
         let path = match prepared {
             Some((_, p)) => Some(p),
-            None => nav::plan(&self.nav_grid, self.pose().position(), to).map(Route::forward),
+            None => nav::plan(&self.nav_grid, self.pose().position(), to)
+                .map(|p| self.route_along(&self.hybrid_grid, p)),
         };
         match path {
             Some(p) => {
@@ -380,6 +400,37 @@ impl Unit {
         Some((spot, route))
     }
 
+    /// A grid path from the unit's position as a route: forwards, unless it sets off
+    /// behind the unit; then Hybrid A* on `hybrid_grid` plans the turn round, backing where
+    /// it must, to the point [`TURN_ROUND_M`] along the path, facing along it, and the
+    /// route goes on forwards from there. (Pure pursuit alone, with its look-ahead point
+    /// behind the vehicle, steers by the sine of an angle near 180 degrees, next to
+    /// nothing: a unit sent back the way it came drove on, away from its goal, for a
+    /// minute, until it ran into a parked van and wedged itself against the wall.) The
+    /// path forwards if no turn is found within the planning budget.
+    fn route_along(&self, hybrid_grid: &Grid, path: Vec<Point2>) -> Route {
+        let pose = self.pose();
+        let Some((next, turned)) = point_along(&path, TURN_ROUND_M) else {
+            return Route::forward(path);
+        };
+        let after = path[next];
+        if wrap_angle(pose.position().bearing_to(turned) - pose.yaw).abs() <= FRAC_PI_2
+            || turned.dist(after) < 1e-9
+        {
+            return Route::forward(path);
+        }
+        let goal = Pose2::new(turned.x, turned.y, turned.bearing_to(after));
+        let planner = self.hybrid_planner(hybrid_grid);
+        let Ok(plan) = planner.plan(pose, goal, None) else {
+            return Route::forward(path);
+        };
+        let mut route = Route::from_poses(&plan.poses, &plan.reverse, 2);
+        for &p in &path[next..] {
+            route.push_forward(p);
+        }
+        route
+    }
+
     /// Hybrid A* for this vehicle over `grid`, within the planning budget, away from the
     /// heat of every flame the unit tracks.
     fn hybrid_planner<'g>(&self, grid: &'g Grid) -> HybridAStar<'g> {
@@ -440,11 +491,15 @@ impl Unit {
         } else {
             axis
         };
-        // Straight towards the unit first, then alternately either side, 20 deg steps.
-        let offsets = std::iter::once(0.0).chain((1..=8).flat_map(|k| {
-            let a = f64::from(k) * 0.35;
-            [a, -a]
-        }));
+        // Straight towards the unit first, then alternately either side, 20 deg steps, and
+        // last straight past the fire: a fire at the far end of a train is fought from
+        // beyond it, the walkway beside the train the way there.
+        let offsets = std::iter::once(0.0)
+            .chain((1..=8).flat_map(|k| {
+                let a = f64::from(k) * 0.35;
+                [a, -a]
+            }))
+            .chain(std::iter::once(std::f64::consts::PI));
         let mut spots = offsets
             .flat_map(|off| STANDOFF_M.map(|r| (off, r, target.offset(home + off, r))))
             .filter(|&(_, _, spot)| {
@@ -475,8 +530,7 @@ impl Unit {
                 } else {
                     nav::plan(nav, from, spot)
                 };
-                let path = path.map(Route::forward);
-                Some((spot, path?))
+                Some((spot, self.route_along(&self.hybrid_grid, path?)))
             })
         })?;
         self.prepared = Some((spot, path));
@@ -629,7 +683,7 @@ impl Services for Unit {
             };
             self.in_barred(pose.position().offset(pose.yaw + back, 1.0))
         });
-        let Some(n) = &mut self.nav else { return cmd };
+        let Some(n) = &self.nav else { return cmd };
         if n.arrived || n.failed {
             return cmd;
         }
@@ -639,14 +693,17 @@ impl Services for Unit {
                 cmd.speed = r.speed;
                 return cmd;
             }
-            n.recover = None;
-            let grid = if n.purpose == NavPurpose::Leave {
-                &self.open_nav_grid
+            let (grid, hybrid) = if n.purpose == NavPurpose::Leave {
+                (&self.open_nav_grid, &self.open_hybrid_grid)
             } else {
-                &self.nav_grid
+                (&self.nav_grid, &self.hybrid_grid)
             };
-            match nav::plan(grid, pose.position(), n.goal) {
-                Some(p) => n.follow = PurePursuit::new(Route::forward(p)),
+            let route =
+                nav::plan(grid, pose.position(), n.goal).map(|p| self.route_along(hybrid, p));
+            let Some(n) = &mut self.nav else { return cmd };
+            n.recover = None;
+            match route {
+                Some(route) => n.follow = PurePursuit::new(route),
                 None => {
                     tracing::warn!(unit = %self.id, goal = ?n.goal, "no path after recovering; navigation failed");
                     n.failed = true;
@@ -654,6 +711,7 @@ impl Services for Unit {
                 }
             }
         }
+        let Some(n) = &mut self.nav else { return cmd };
         match n.follow.follow(&pose, speed, steer, &spec) {
             Follow::Drive { speed, steer } => {
                 cmd.speed = speed;

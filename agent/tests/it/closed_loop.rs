@@ -174,6 +174,42 @@ fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
 }
 
 #[test]
+fn a_unit_sent_back_the_way_it_came_turns_round_and_touches_nothing() {
+    // Facing the tunnel's end, a van parked 12 m ahead in its lane, sent back towards the
+    // portal. (Pure pursuit alone drove such a unit on, away from its goal, into the van,
+    // and it wedged itself against the wall: generated tunnel gen-51-1.)
+    let scenario = Arc::new(
+        Scenario::straight(120.0)
+            .name("turn-round")
+            .car("van", 62.0, -2.5)
+            .ground("u1", 50.0, -2.5)
+            .build(),
+    );
+    let mut world = World::new(&scenario, 7);
+    let id = UnitId::new("u1").unwrap();
+    let mut ctl = GroundController::new(id.clone(), *GROUND, scenario.clone());
+    ctl.set_coordinator_present(true);
+    let goal = Point2::new(10.0, -2.5);
+    ctl.on_task(0, 1, TaskKind::Cruise { goal }).unwrap();
+    let mut furthest = 50.0_f64;
+    while world.time() < 90.0 && world.truth().units[0].pose.position().dist(goal) > 1.0 {
+        world.step_unit(&id, 0.05, |s| ctl.step(s)).unwrap();
+        furthest = furthest.max(world.truth().units[0].pose.x);
+    }
+    let unit = &world.truth().units[0];
+    assert!(
+        unit.pose.position().dist(goal) <= 1.0,
+        "not back at the portal after 90 s: {:?}",
+        unit.pose
+    );
+    assert_eq!(unit.collisions, 0);
+    assert!(
+        furthest < 58.0,
+        "drove on towards the van, to x = {furthest:.1}"
+    );
+}
+
+#[test]
 fn a_staged_unit_assigned_the_fire_puts_it_out() {
     let scenario = site();
     let mut world = World::new(&scenario, 5);
