@@ -4,7 +4,8 @@
 //! tree sets goals and polls for arrival while those services do the continuous work.
 //! [`Unit`] plays that role here: a navigation service that plans (Hybrid A* to firing
 //! positions, keeping the flame in view and away from the heat of tracked fires; grid A*
-//! for cruising and as the fallback), follows the path (pure pursuit) and recovers from
+//! for cruising and as the fallback, with a Hybrid A* turn round first when a grid path
+//! sets off behind the unit), follows the path (pure pursuit) and recovers from
 //! touching an obstacle; a keep-out service that holds the navigation to commanders'
 //! barred space (see below); a cannon service that
 //! slews to the aim set-point and opens the valve on request; the flame tracker; and the
