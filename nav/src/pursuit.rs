@@ -418,6 +418,24 @@ mod tests {
     /// Turning round in the road at the vehicle's tightest radius, then a straight run-in,
     /// as the unit's firing routes end.
     #[test]
+    fn turns_round_to_a_path_that_sets_off_behind_it() {
+        // Facing +x, the path runs to -x, straight behind: the sine of the angle to the
+        // look-ahead point is next to nothing, and the follower drove on, away from it.
+        let path = vec![Point2::new(0.0, 0.0), Point2::new(-30.0, -0.5)];
+        let d = drive(Route::forward(path), Pose2::new(0.0, 0.0, 0.0));
+        assert!(
+            d.end.position().dist(Point2::new(-30.0, -0.5)) < 0.6,
+            "{:?}",
+            d.end
+        );
+        assert!(
+            d.max_dev < 2.0 * GROUND.min_turn_radius_m() + 1.0,
+            "a turn at full lock, not a drive away: {}",
+            d.max_dev
+        );
+    }
+
+    #[test]
     fn drives_a_path_with_cusps_stopping_at_each() {
         let radius = GROUND.min_turn_radius_m();
         let start = Pose2::new(0.0, 0.0, 0.0);
