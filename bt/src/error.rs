@@ -18,7 +18,7 @@ pub enum BuildError {
         max: u32,
         found: u32,
     },
-    /// An attribute of BehaviorTree.CPP's this engine does not implement (`_skipIf`...).
+    /// An attribute of BehaviorTree.CPP's this engine does not implement.
     #[error("attribute '{0}' is not supported by this engine")]
     Unsupported(String),
     #[error(
@@ -50,11 +50,9 @@ pub enum BuildError {
         value: i64,
         reason: String,
     },
-    #[error("port '{port}': {source}")]
-    Script {
-        port: &'static str,
-        source: ScriptError,
-    },
+    /// A script in a port (`code`, `if`) or a pre/post-condition attribute (`_skipIf`).
+    #[error("{port}: {source}")]
+    Script { port: String, source: ScriptError },
     #[error("port '{port}': '{text}' is not a status (IDLE, RUNNING, SUCCESS, FAILURE, SKIPPED)")]
     Status { port: &'static str, text: String },
     #[error("port '{port}': {source}")]
@@ -119,12 +117,12 @@ fn a_value_of(ty: PortType) -> &'static str {
     }
 }
 
-/// A guard expression that does not parse, or names an entry against its type.
+/// A script that does not parse, or names an entry against its type.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ScriptError {
-    /// What is wrong and at which byte of the expression.
-    #[error("{0}")]
-    Syntax(String),
+    /// What is wrong, and where: the byte of the script it was found at (0-based).
+    #[error("column {}: {what}", at + 1)]
+    Syntax { at: usize, what: String },
     #[error(transparent)]
     Entry(#[from] BlackboardError),
 }

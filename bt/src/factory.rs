@@ -66,9 +66,11 @@ impl Category {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Builtin {
     Sequence,
+    AsyncSequence,
     SequenceWithMemory,
     ReactiveSequence,
     Fallback,
+    AsyncFallback,
     ReactiveFallback,
     Parallel,
     ParallelAll,
@@ -88,6 +90,8 @@ enum Builtin {
     AlwaysFailure,
     SetBlackboard,
     Sleep,
+    Script,
+    ScriptCondition,
 }
 
 type Make<T> = Box<dyn Fn() -> Box<T>>;
@@ -141,6 +145,7 @@ impl<C> NodeType<C> {
 /// Every node type a tree may use.
 pub struct Registry<C> {
     types: BTreeMap<String, NodeType<C>>,
+    enums: BTreeMap<String, i64>,
 }
 
 impl<C> Default for Registry<C> {
@@ -157,15 +162,18 @@ impl<C> Registry<C> {
         use PortType::*;
         let mut r = Self {
             types: BTreeMap::new(),
+            enums: BTreeMap::new(),
         };
         let mut add = |name: &str, category, b, ports: Vec<PortSpec>| {
             r.insert(name, category, ports, Maker::Builtin(b));
         };
         for (name, b) in [
             ("Sequence", B::Sequence),
+            ("AsyncSequence", B::AsyncSequence),
             ("SequenceWithMemory", B::SequenceWithMemory),
             ("ReactiveSequence", B::ReactiveSequence),
             ("Fallback", B::Fallback),
+            ("AsyncFallback", B::AsyncFallback),
             ("ReactiveFallback", B::ReactiveFallback),
             ("IfThenElse", B::IfThenElse),
             ("WhileDoElse", B::WhileDoElse),
@@ -258,7 +266,7 @@ impl<C> Registry<C> {
             Decorator,
             B::Precondition,
             vec![
-                PortSpec::input("if", String, "guard expression"),
+                PortSpec::input("if", String, "guard script"),
                 PortSpec::input("else", String, "status when the guard is false")
                     .with_default("FAILURE"),
             ],
@@ -280,7 +288,33 @@ impl<C> Registry<C> {
             B::Sleep,
             vec![PortSpec::input("msec", Int, "duration, ms of tree time")],
         );
+        add(
+            "Script",
+            Action,
+            B::Script,
+            vec![PortSpec::input("code", String, "script to run; always succeeds")],
+        );
+        add(
+            "ScriptCondition",
+            Condition,
+            B::ScriptCondition,
+            vec![PortSpec::input(
+                "code",
+                String,
+                "script whose value is the condition",
+            )],
+        );
         r
+    }
+
+    /// Let scripts use `name` for `value` (BT.CPP's `registerScriptingEnum`); an enum
+    /// shadows a blackboard key of the same name, as in BT.CPP.
+    pub fn register_enum(&mut self, name: &str, value: i64) {
+        self.enums.insert(name.to_owned(), value);
+    }
+
+    pub(crate) fn enum_value(&self, name: &str) -> Option<i64> {
+        self.enums.get(name).copied()
     }
 
     fn insert(&mut self, name: &str, category: Category, ports: Vec<PortSpec>, maker: Maker<C>) {

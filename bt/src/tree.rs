@@ -1,9 +1,28 @@
-//! The tree: a flat arena of nodes, ticked and halted with BehaviorTree.CPP v4 semantics.
+//! The tree: a flat arena of nodes, ticked and halted as BehaviorTree.CPP 4.8 does.
 //!
-//! Semantics follow BehaviorTree.CPP 4.x node by node (see each `tick_*`). One deliberate
-//! difference: `Repeat` and `RetryUntilSuccessful` with an infinite count (-1) run one
-//! cycle per tick, where BehaviorTree.CPP would loop forever inside a single tick on a
-//! child that completes synchronously.
+//! Every node is ticked through [`Tree::execute_tick`], BT.CPP's `TreeNode::executeTick`:
+//! the pre-conditions (`_failureIf`, `_successIf`, `_skipIf`, `_while`) may decide the
+//! result without a tick; the post-conditions run on completion; a SKIPPED node stays
+//! IDLE; a decorator's completed child is reset after its parent's status is set. Halting
+//! and resetting are BT.CPP's too, and shallow: a parent resets its children's status,
+//! halting the running ones, and each control node resets its own children when it
+//! completes. The status-change stream an observer sees is therefore BT.CPP's, transition
+//! for transition (the differential test in `tests/btcpp.rs` ticks generated trees through
+//! both engines and compares).
+//!
+//! [`Tree::tick`] is BT.CPP's `tickOnce`: SequenceWithMemory, Repeat and
+//! RetryUntilSuccessful return RUNNING after a child that completed within the tick and ask
+//! for a wake-up, and the root is ticked again at once; a completed root is reset to IDLE.
+//! [`Tree::tick_exactly_once`] does not tick again. Deliberate differences:
+//! - Timers run on the caller's clock (`now`), not on threads: `Timeout` fails at the first
+//!   tick at or after its deadline, `Delay` ticks its child at the first tick after its
+//!   delay (at once for 0 ms; BT.CPP's timer thread decides that race).
+//! - `Repeat` and `RetryUntilSuccessful` with -1 (forever) ask for no wake-up: one cycle a
+//!   tick, where BT.CPP's `tickOnce` would never return on a child that completes at once.
+//! - Where BT.CPP throws from a tick (a script reads a key with no value, adds text to a
+//!   number...), a `Script` or `ScriptCondition` fails, a pre-condition or a
+//!   `Precondition`'s guard counts as false, a post-condition is skipped; the tree keeps
+//!   running and [`Tree::last_script_error`] says what went wrong where.
 //!
 //! Not here: how a tree is built ([`crate::factory`], [`crate::xml`]); control nodes and
 //! decorators tick in their own modules.
@@ -12,7 +31,7 @@ use std::fmt::Write as _;
 
 use crate::blackboard::{Blackboard, Slot};
 use crate::node::{Action, Binding, Io, StatefulAction};
-use crate::script::Expr;
+use crate::script::{EvalError, Script};
 use crate::status::Status;
 use crate::value::Value;
 
@@ -48,13 +67,15 @@ pub struct Transition {
 
 /// The behaviour of a node, with its per-instance state.
 pub(crate) enum Kind<C> {
-    /// Sequence, SequenceWithMemory and Fallback: children in order, stopping at the first
-    /// one that returns `stop` (Failure for sequences, Success for a fallback).
+    /// Sequence, SequenceWithMemory, Fallback and their Async forms: children in order,
+    /// stopping at the first one that returns `stop` (Failure for sequences, Success for a
+    /// fallback).
     Ordered {
         idx: u32,
-        all_skipped: bool,
+        skipped: u32,
         stop: Status,
         memory: bool,
+        asynch: bool,
     },
     ReactiveSequence,
     ReactiveFallback,
@@ -91,13 +112,15 @@ pub(crate) enum Kind<C> {
         result: Option<Status>,
     },
     Precondition {
-        guard: Expr,
+        guard: Script,
         else_status: Status,
         running: bool,
     },
     SubTree,
     AlwaysSuccess,
     AlwaysFailure,
+    Script(Script),
+    ScriptCondition(Script),
     SetBlackboard {
         target: Slot,
     },
@@ -109,6 +132,47 @@ pub(crate) enum Kind<C> {
     Stateful(Box<dyn StatefulAction<C>>),
 }
 
+impl<C> Kind<C> {
+    /// A node with one child that BT.CPP derives from `DecoratorNode` (its completed child
+    /// is reset after the decorator's own status is set).
+    fn is_decorator(&self) -> bool {
+        matches!(
+            self,
+            Kind::Inverter
+                | Kind::ForceSuccess
+                | Kind::ForceFailure
+                | Kind::Repeat { .. }
+                | Kind::Retry { .. }
+                | Kind::KeepRunningUntilFailure
+                | Kind::Timeout { .. }
+                | Kind::Delay { .. }
+                | Kind::RunOnce { .. }
+                | Kind::Precondition { .. }
+                | Kind::SubTree
+        )
+    }
+}
+
+/// A node's pre- and post-condition scripts (the `_skipIf`, `_onSuccess`... attributes).
+#[derive(Debug, Default)]
+pub(crate) struct Conditions {
+    /// `_failureIf`, `_successIf`, `_skipIf`, `_while`: BT.CPP's order of evaluation.
+    pub(crate) pre: [Option<Script>; 4],
+    /// `_onHalted`, `_onFailure`, `_onSuccess`, `_post`.
+    pub(crate) post: [Option<Script>; 4],
+}
+
+/// The attribute of each pre-condition, in [`Conditions::pre`]'s order.
+pub(crate) const PRE: [&str; 4] = ["_failureIf", "_successIf", "_skipIf", "_while"];
+/// The attribute of each post-condition, in [`Conditions::post`]'s order.
+pub(crate) const POST: [&str; 4] = ["_onHalted", "_onFailure", "_onSuccess", "_post"];
+const WHILE: usize = 3;
+const ON_HALTED: usize = 0;
+const ALWAYS: usize = 3;
+
+/// A node with no pre/post conditions.
+pub(crate) const NO_CONDITIONS: u32 = u32::MAX;
+
 pub(crate) struct NodeData<C> {
     pub(crate) name: String,
     pub(crate) type_name: String,
@@ -117,6 +181,8 @@ pub(crate) struct NodeData<C> {
     pub(crate) n_children: u32,
     pub(crate) first_port: u32,
     pub(crate) n_ports: u32,
+    /// Index into [`Tree::conditions`], or [`NO_CONDITIONS`].
+    pub(crate) conditions: u32,
     pub(crate) kind: Kind<C>,
 }
 
@@ -129,44 +195,73 @@ pub struct Tree<C> {
     pub(crate) port_names: Vec<&'static str>,
     /// Completion flags of Parallel children (one per child, preallocated).
     pub(crate) done: Vec<bool>,
+    pub(crate) conditions: Vec<Conditions>,
     pub(crate) bb: Blackboard,
     pub(crate) root: u32,
     now: f64,
+    /// A node asked to be ticked again within this tick (BT.CPP's wake-up signal).
+    wake: bool,
+    last_error: Option<(u32, EvalError)>,
     observer: Option<Observer>,
 }
 
 /// Sees every status change.
 type Observer = Box<dyn FnMut(&Transition)>;
 
+/// The parts a [`crate::Builder`] hands over.
+pub(crate) struct Parts<C> {
+    pub(crate) nodes: Vec<NodeData<C>>,
+    pub(crate) children: Vec<u32>,
+    pub(crate) bindings: Vec<Binding>,
+    pub(crate) port_names: Vec<&'static str>,
+    pub(crate) done: Vec<bool>,
+    pub(crate) conditions: Vec<Conditions>,
+    pub(crate) bb: Blackboard,
+    pub(crate) root: u32,
+}
+
 impl<C> Tree<C> {
-    pub(crate) fn from_parts(
-        nodes: Vec<NodeData<C>>,
-        children: Vec<u32>,
-        (bindings, port_names): (Vec<Binding>, Vec<&'static str>),
-        done: Vec<bool>,
-        bb: Blackboard,
-        root: u32,
-    ) -> Self {
+    pub(crate) fn from_parts(p: Parts<C>) -> Self {
         Self {
-            nodes,
-            children,
-            bindings,
-            port_names,
-            done,
-            bb,
-            root,
+            nodes: p.nodes,
+            children: p.children,
+            bindings: p.bindings,
+            port_names: p.port_names,
+            done: p.done,
+            conditions: p.conditions,
+            bb: p.bb,
+            root: p.root,
             now: 0.0,
+            wake: false,
+            last_error: None,
             observer: None,
         }
     }
 
-    /// Tick the root once at time `now` (seconds).
+    /// Tick the root at time `now` (seconds), again at once while a node asks for a
+    /// wake-up (BT.CPP's `tickOnce`); a completed root is reset to IDLE.
     pub fn tick(&mut self, now: f64, ctx: &mut C) -> Status {
-        self.now = now;
-        self.tick_node(self.root, ctx)
+        loop {
+            let s = self.tick_exactly_once(now, ctx);
+            if !(s == Status::Running && self.wake) {
+                return s;
+            }
+        }
     }
 
-    /// Halt the whole tree: running nodes are halted, every node ends Idle.
+    /// Tick the root once at time `now`, whatever a node asks (BT.CPP's
+    /// `tickExactlyOnce`); a completed root is reset to IDLE.
+    pub fn tick_exactly_once(&mut self, now: f64, ctx: &mut C) -> Status {
+        self.now = now;
+        self.wake = false;
+        let s = self.execute_tick(self.root, ctx);
+        if s.is_completed() {
+            self.reset_status(self.root);
+        }
+        s
+    }
+
+    /// Halt the whole tree: running nodes are halted, and the root ends Idle.
     pub fn halt(&mut self, ctx: &mut C) {
         self.halt_node(self.root, ctx);
     }
@@ -174,6 +269,11 @@ impl<C> Tree<C> {
     /// See every status change from now on.
     pub fn set_observer(&mut self, f: impl FnMut(&Transition) + 'static) {
         self.observer = Some(Box::new(f));
+    }
+
+    /// The last script that could not be evaluated: the node that ran it and why.
+    pub fn last_script_error(&self) -> Option<(u32, &EvalError)> {
+        self.last_error.as_ref().map(|(n, e)| (*n, e))
     }
 
     pub fn blackboard(&self) -> &Blackboard {
@@ -242,6 +342,8 @@ impl<C> Tree<C> {
         self.nodes[i as usize].n_children
     }
 
+    /// Set a node's status, telling the observer if it changed (BT.CPP's `setStatus`, and
+    /// `resetStatus` when `to` is Idle).
     fn set_status(&mut self, i: u32, to: Status) {
         let n = &mut self.nodes[i as usize];
         if n.status != to {
@@ -256,6 +358,10 @@ impl<C> Tree<C> {
                 });
             }
         }
+    }
+
+    fn reset_status(&mut self, i: u32) {
+        self.set_status(i, Status::Idle);
     }
 
     fn port_i64(&self, i: u32, port: u32) -> Option<i64> {
@@ -277,43 +383,108 @@ impl<C> Tree<C> {
         self.port_i64(i, port).map(|ms| ms as f64 / 1000.0)
     }
 
-    fn tick_node(&mut self, i: u32, ctx: &mut C) -> Status {
-        let s = self.tick_kind(i, ctx);
-        self.set_status(i, s);
+    /// Tick node `i` (BT.CPP's `TreeNode::executeTick`, with `DecoratorNode`'s reset of a
+    /// completed child).
+    fn execute_tick(&mut self, i: u32, ctx: &mut C) -> Status {
+        let s = match self.pre_conditions(i, ctx) {
+            Some(s) => s,
+            None => self.tick_kind(i, ctx),
+        };
+        if s.is_completed() {
+            let post = if s == Status::Success { 2 } else { 1 };
+            self.post_condition(i, post);
+            self.post_condition(i, ALWAYS);
+        }
+        // A skipped node stays Idle; its parent hears Skipped.
+        if s != Status::Skipped {
+            self.set_status(i, s);
+        }
+        if self.nodes[i as usize].kind.is_decorator() {
+            let c = self.child(i, 0);
+            if self.nodes[c as usize].status.is_completed() {
+                self.reset_status(c);
+            }
+        }
         s
     }
 
-    /// Reset a child to Idle, halting it first if it is running (BT.CPP `resetChild`).
-    /// Unlike BT.CPP the reset is deep: a completed child's own children go back to Idle
-    /// too, so that no stale status survives (a SequenceWithMemory that failed keeps its
-    /// earlier children's Success otherwise).
-    fn reset_child(&mut self, c: u32, ctx: &mut C) {
-        if self.nodes[c as usize].status == Status::Running {
-            self.halt_node(c, ctx);
-            return;
+    /// BT.CPP's `checkPreConditions`: `_failureIf`, `_successIf` and `_skipIf` are read
+    /// only when the node is Idle, `_while` also while it runs (and halts it when false).
+    fn pre_conditions(&mut self, i: u32, ctx: &mut C) -> Option<Status> {
+        let k = self.nodes[i as usize].conditions;
+        if k == NO_CONDITIONS {
+            return None;
         }
-        for k in 0..self.n_children(c) {
-            let g = self.child(c, k);
-            if self.nodes[g as usize].status != Status::Idle {
-                self.reset_child(g, ctx);
+        let idle = self.nodes[i as usize].status == Status::Idle;
+        let running = self.nodes[i as usize].status == Status::Running;
+        for (j, then) in [Status::Failure, Status::Success, Status::Skipped, Status::Idle]
+            .into_iter()
+            .enumerate()
+        {
+            let Some(script) = &self.conditions[k as usize].pre[j] else {
+                continue;
+            };
+            if !(idle || (running && j == WHILE)) {
+                continue;
+            }
+            let holds = match script.eval_bool(&mut self.bb) {
+                Ok(b) => b,
+                Err(e) => {
+                    self.last_error = Some((i, e));
+                    false
+                }
+            };
+            match (j == WHILE, holds) {
+                (false, true) => return Some(then),
+                (true, false) => {
+                    if running {
+                        self.halt_node(i, ctx);
+                    }
+                    return Some(Status::Skipped);
+                }
+                _ => {}
             }
         }
-        self.set_status(c, Status::Idle);
+        None
     }
 
-    fn reset_children_from(&mut self, i: u32, from: u32, ctx: &mut C) {
-        for k in from..self.n_children(i) {
-            let c = self.child(i, k);
-            self.reset_child(c, ctx);
+    /// Run post-condition `which` of node `i`, if it has one.
+    fn post_condition(&mut self, i: u32, which: usize) {
+        let k = self.nodes[i as usize].conditions;
+        if k == NO_CONDITIONS {
+            return;
+        }
+        if let Some(script) = &self.conditions[k as usize].post[which]
+            && let Err(e) = script.run(&mut self.bb)
+        {
+            self.last_error = Some((i, e));
         }
     }
 
-    fn reset_children(&mut self, i: u32, ctx: &mut C) {
-        self.reset_children_from(i, 0, ctx);
+    /// Halt child `c` if it runs, then reset it to Idle (BT.CPP's `haltChild`).
+    fn halt_child(&mut self, c: u32, ctx: &mut C) {
+        if self.nodes[c as usize].status == Status::Running {
+            self.halt_node(c, ctx);
+        }
+        self.reset_status(c);
     }
 
+    /// Halt-and-reset every child of `i` from the `from`-th on.
+    fn halt_children_from(&mut self, i: u32, from: u32, ctx: &mut C) {
+        for k in from..self.n_children(i) {
+            let c = self.child(i, k);
+            self.halt_child(c, ctx);
+        }
+    }
+
+    /// BT.CPP's `resetChildren`: every child halted if it runs, then reset to Idle.
+    fn reset_children(&mut self, i: u32, ctx: &mut C) {
+        self.halt_children_from(i, 0, ctx);
+    }
+
+    /// BT.CPP's `haltNode`: the node's own `halt` (forget its progress, halt and reset its
+    /// children, reset itself), then its `_onHalted` script.
     fn halt_node(&mut self, i: u32, ctx: &mut C) {
-        self.reset_children(i, ctx);
         let was_running = self.nodes[i as usize].status == Status::Running;
         let n = &mut self.nodes[i as usize];
         match &mut n.kind {
@@ -328,7 +499,13 @@ impl<C> Tree<C> {
                 );
                 a.on_halted(&mut io, ctx);
             }
-            Kind::Ordered { idx, .. } => *idx = 0,
+            // SequenceWithMemory keeps its place across a halt, as in BT.CPP 4.8.
+            Kind::Ordered {
+                idx,
+                skipped,
+                memory: false,
+                ..
+            } => (*idx, *skipped) = (0, 0),
             Kind::Parallel { succ, fail, done } => {
                 (*succ, *fail) = (0, 0);
                 self.done[*done as usize..(*done + n.n_children) as usize].fill(false);
@@ -340,16 +517,20 @@ impl<C> Tree<C> {
             Kind::IfThenElse { branch } => *branch = 0,
             Kind::Repeat { count } | Kind::Retry { count } => *count = 0,
             Kind::Timeout { since } | Kind::Delay { since } => *since = None,
-            Kind::Precondition { running, .. } => *running = false,
             Kind::Sleep { until } => *until = None,
+            // RunOnce remembers that it ran, Precondition that its child runs: BT.CPP's
+            // halt leaves both.
             _ => {}
         }
-        self.set_status(i, Status::Idle);
+        self.reset_children(i, ctx);
+        self.reset_status(i);
+        self.post_condition(i, ON_HALTED);
     }
 
     fn tick_kind(&mut self, i: u32, ctx: &mut C) -> Status {
         let now = self.now;
         let n = &mut self.nodes[i as usize];
+        let prev = n.status;
         let ports = n.first_port as usize..(n.first_port + n.n_ports) as usize;
         // Leaves first: they borrow their own state and the blackboard, nothing else.
         match &mut n.kind {
@@ -366,6 +547,10 @@ impl<C> Tree<C> {
             Kind::Action(a) => {
                 let mut io = io(&self.bindings, &self.port_names, &mut self.bb, ports, now);
                 let s = a.tick(&mut io, ctx);
+                // BT.CPP's SimpleActionNode: Running first, then the result.
+                if prev == Status::Idle {
+                    self.set_status(i, Status::Running);
+                }
                 return if s == Status::Idle {
                     Status::Failure
                 } else {
@@ -374,15 +559,35 @@ impl<C> Tree<C> {
             }
             Kind::Stateful(a) => {
                 let mut io = io(&self.bindings, &self.port_names, &mut self.bb, ports, now);
-                let s = if n.status == Status::Running {
-                    a.on_running(&mut io, ctx)
-                } else {
-                    a.on_start(&mut io, ctx)
+                let s = match prev {
+                    Status::Idle => a.on_start(&mut io, ctx),
+                    Status::Running => a.on_running(&mut io, ctx),
+                    // Completed and not reset yet: BT.CPP returns the result again.
+                    done => return done,
                 };
                 return if s == Status::Idle {
                     Status::Failure
                 } else {
                     s
+                };
+            }
+            Kind::Script(script) => {
+                return match script.run(&mut self.bb) {
+                    Ok(()) => Status::Success,
+                    Err(e) => {
+                        self.last_error = Some((i, e));
+                        Status::Failure
+                    }
+                };
+            }
+            Kind::ScriptCondition(script) => {
+                return match script.eval_bool(&mut self.bb) {
+                    Ok(true) => Status::Success,
+                    Ok(false) => Status::Failure,
+                    Err(e) => {
+                        self.last_error = Some((i, e));
+                        Status::Failure
+                    }
                 };
             }
             Kind::SetBlackboard { target } => {
@@ -404,28 +609,7 @@ impl<C> Tree<C> {
                     Status::Failure
                 };
             }
-            Kind::Sleep { until } => {
-                let deadline = match *until {
-                    Some(d) => d,
-                    None => {
-                        let secs = match &self.bindings[ports.start] {
-                            Binding::Literal(Value::Int(ms)) => *ms as f64 / 1000.0,
-                            _ => 0.0,
-                        };
-                        if secs <= 0.0 {
-                            return Status::Success;
-                        }
-                        *until = Some(now + secs);
-                        return Status::Running;
-                    }
-                };
-                return if now >= deadline {
-                    *until = None;
-                    Status::Success
-                } else {
-                    Status::Running
-                };
-            }
+            Kind::Sleep { .. } => return self.tick_sleep(i, prev),
             _ => {}
         }
         match self.nodes[i as usize].kind {
@@ -436,6 +620,28 @@ impl<C> Tree<C> {
             Kind::IfThenElse { .. } => self.tick_if_then_else(i, ctx),
             Kind::WhileDoElse => self.tick_while_do_else(i, ctx),
             _ => self.tick_decorator(i, ctx),
+        }
+    }
+
+    /// Sleep, a StatefulActionNode in BT.CPP: Running until `msec` of tree time passed.
+    fn tick_sleep(&mut self, i: u32, prev: Status) -> Status {
+        let now = self.now;
+        let secs = self.port_seconds(i, 0).unwrap_or(0.0);
+        let Kind::Sleep { until } = &mut self.nodes[i as usize].kind else {
+            unreachable!()
+        };
+        match prev {
+            Status::Idle if secs <= 0.0 => Status::Success,
+            Status::Idle => {
+                *until = Some(now + secs);
+                Status::Running
+            }
+            Status::Running if until.is_some_and(|d| now < d) => Status::Running,
+            Status::Running => {
+                *until = None;
+                Status::Success
+            }
+            done => done,
         }
     }
 }

@@ -10,8 +10,9 @@
 //! Supported: the compact form (`<Sequence>`) and the explicit one (`<Action ID="X">`),
 //! `main_tree_to_execute`, `<SubTree ID>` with port remapping and `_autoremap`,
 //! `<include path>` (relative to the including file), and `<TreeNodesModel>` (read and
-//! ignored: the registry is the model). Not supported: the `_skipIf`/`_while`-style
-//! pre/post-condition attributes and scripts other than `Precondition`'s guard.
+//! ignored: the registry is the model), scripts (`Script`, `ScriptCondition`,
+//! `Precondition`) and the pre/post-condition attributes (`_skipIf`, `_while`,
+//! `_onSuccess`...), a script error located by its column.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -490,7 +491,10 @@ fn walk<C>(
         stack.push(id.to_owned());
         let child = walk(doc, &def.root, inner, stack, b, errors);
         stack.pop();
-        return b.subtree(e.attr("name").unwrap_or(id), child);
+        return match b.subtree(scope, e.attr("name").unwrap_or(id), &attrs, child) {
+            Ok(n) => n,
+            Err(m) => fail(errors, b, m.into()),
+        };
     }
     let children: Vec<NodeId> = e
         .children

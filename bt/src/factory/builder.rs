@@ -9,9 +9,9 @@ use std::collections::HashMap;
 use crate::blackboard::{Blackboard, Slot};
 use crate::error::{BlackboardError, BuildError};
 use crate::node::{Binding, PortDir};
-use crate::script;
+use crate::script::{Name, Script};
 use crate::status::Status;
-use crate::tree::{Kind, NodeData, Tree};
+use crate::tree::{Conditions, Kind, NO_CONDITIONS, NodeData, POST, PRE, Parts, Tree};
 use crate::value::{PortType, Value};
 
 use super::{Builtin, LeafMaker, Maker, Registry};
@@ -40,6 +40,7 @@ pub struct Builder<'r, C> {
     bindings: Vec<Binding>,
     port_names: Vec<&'static str>,
     done: Vec<bool>,
+    conditions: Vec<Conditions>,
     bb: Blackboard,
     scopes: Vec<Scope>,
     /// Literal values given to subtree ports, typed once the whole tree is known.
@@ -57,6 +58,7 @@ impl<'r, C> Builder<'r, C> {
             bindings: Vec::new(),
             port_names: Vec::new(),
             done: Vec::new(),
+            conditions: Vec::new(),
             bb: Blackboard::default(),
             scopes: vec![Scope {
                 prefix: String::new(),
@@ -94,6 +96,8 @@ impl<'r, C> Builder<'r, C> {
         for (k, v) in attrs {
             match *k {
                 "name" | "ID" | "_description" | "_uid" | "_fullpath" => {}
+                // The SubTree node's own pre/post conditions ([`Builder::subtree`]).
+                k if PRE.contains(&k) || POST.contains(&k) => {}
                 "_autoremap" => {
                     scope.autoremap =
                         PortType::Bool
@@ -141,6 +145,43 @@ impl<'r, C> Builder<'r, C> {
         self.bb.entry(&full, ty)
     }
 
+    /// Parse a script of node attribute or port `port`, its names resolved in `scope`: a
+    /// registered enum, else a blackboard key.
+    fn script(&mut self, scope: usize, port: &str, src: &str) -> Result<Script, BuildError> {
+        let registry = self.registry;
+        Script::parse(src, &mut |k| match registry.enum_value(k) {
+            Some(v) => Ok(Name::Enum(v)),
+            None => self.resolve(scope, k, PortType::Any).map(Name::Entry),
+        })
+        .map_err(|source| BuildError::Script {
+            port: port.to_owned(),
+            source,
+        })
+    }
+
+    /// The pre/post-condition scripts among `attrs`, stored for the tree; their index, or
+    /// [`NO_CONDITIONS`].
+    fn conditions(&mut self, scope: usize, attrs: &[(&str, &str)]) -> Result<u32, BuildError> {
+        let mut c = Conditions::default();
+        let mut any = false;
+        for (k, v) in attrs {
+            let slot = if let Some(j) = PRE.iter().position(|p| p == k) {
+                &mut c.pre[j]
+            } else if let Some(j) = POST.iter().position(|p| p == k) {
+                &mut c.post[j]
+            } else {
+                continue;
+            };
+            *slot = Some(self.script(scope, k, v)?);
+            any = true;
+        }
+        if !any {
+            return Ok(NO_CONDITIONS);
+        }
+        self.conditions.push(c);
+        Ok(self.conditions.len() as u32 - 1)
+    }
+
     /// Create a node of type `type_name` with XML-style attributes and `children`.
     pub fn node(
         &mut self,
@@ -172,6 +213,9 @@ impl<'r, C> Builder<'r, C> {
             if *k == "name" || *k == "ID" || *k == "_description" || *k == "_uid" {
                 continue;
             }
+            if PRE.contains(k) || POST.contains(k) {
+                continue;
+            }
             if k.starts_with('_') {
                 return Err(BuildError::Unsupported((*k).to_owned()));
             }
@@ -186,6 +230,7 @@ impl<'r, C> Builder<'r, C> {
         if let Some((_, v)) = attrs.iter().find(|(k, _)| *k == "name") {
             name = (*v).to_owned();
         }
+        let conditions = self.conditions(scope.0, attrs)?;
         let first_port = self.bindings.len() as u32;
         let mut raw: Vec<Option<&str>> = Vec::with_capacity(t.ports.len());
         for p in &t.ports {
@@ -233,18 +278,21 @@ impl<'r, C> Builder<'r, C> {
             Maker::Leaf(LeafMaker::Action(make)) => Kind::Action(make()),
             Maker::Leaf(LeafMaker::Stateful(make)) => Kind::Stateful(make()),
             Maker::Builtin(b) => match b {
-                Builtin::Sequence | Builtin::SequenceWithMemory | Builtin::Fallback => {
-                    Kind::Ordered {
-                        idx: 0,
-                        all_skipped: true,
-                        stop: if *b == Builtin::Fallback {
-                            Status::Success
-                        } else {
-                            Status::Failure
-                        },
-                        memory: *b == Builtin::SequenceWithMemory,
-                    }
-                }
+                Builtin::Sequence
+                | Builtin::AsyncSequence
+                | Builtin::SequenceWithMemory
+                | Builtin::Fallback
+                | Builtin::AsyncFallback => Kind::Ordered {
+                    idx: 0,
+                    skipped: 0,
+                    stop: if matches!(b, Builtin::Fallback | Builtin::AsyncFallback) {
+                        Status::Success
+                    } else {
+                        Status::Failure
+                    },
+                    memory: *b == Builtin::SequenceWithMemory,
+                    asynch: matches!(b, Builtin::AsyncSequence | Builtin::AsyncFallback),
+                },
                 Builtin::ReactiveSequence => Kind::ReactiveSequence,
                 Builtin::ReactiveFallback => Kind::ReactiveFallback,
                 Builtin::Parallel | Builtin::ParallelAll => {
@@ -324,14 +372,25 @@ impl<'r, C> Builder<'r, C> {
                             port: "else",
                             text: else_text.to_owned(),
                         })?;
-                    let scope_i = scope.0;
-                    let guard =
-                        script::parse(src, &mut |k| self.resolve(scope_i, k, PortType::Any))
-                            .map_err(|source| BuildError::Script { port: "if", source })?;
+                    let guard = self.script(scope.0, "if", src)?;
                     Kind::Precondition {
                         guard,
                         else_status,
                         running: false,
+                    }
+                }
+                Builtin::Script | Builtin::ScriptCondition => {
+                    let src = raw[0].filter(|v| key_ref(v, "code").is_none()).ok_or(
+                        BuildError::NotLiteral {
+                            port: "code",
+                            what: "script",
+                        },
+                    )?;
+                    let script = self.script(scope.0, "code", src)?;
+                    if *b == Builtin::Script {
+                        Kind::Script(script)
+                    } else {
+                        Kind::ScriptCondition(script)
                     }
                 }
                 Builtin::AlwaysSuccess => Kind::AlwaysSuccess,
@@ -360,24 +419,32 @@ impl<'r, C> Builder<'r, C> {
             name,
             type_name.to_owned(),
             kind,
-            first_port,
-            n_ports,
+            (first_port, n_ports),
+            conditions,
             children,
         ))
     }
 
-    /// A SubTree node: `child` is the root of the subtree's instance, built in the scope
-    /// [`Builder::subtree_scope`] returned.
-    pub fn subtree(&mut self, name: &str, child: NodeId) -> NodeId {
+    /// A SubTree node in `scope`, with the SubTree element's attributes (its pre/post
+    /// conditions are read here): `child` is the root of the subtree's instance, built in
+    /// the scope [`Builder::subtree_scope`] returned.
+    pub fn subtree(
+        &mut self,
+        scope: ScopeId,
+        name: &str,
+        attrs: &[(&str, &str)],
+        child: NodeId,
+    ) -> Result<NodeId, BuildError> {
+        let conditions = self.conditions(scope.0, attrs)?;
         let first_port = self.bindings.len() as u32;
-        self.push(
+        Ok(self.push(
             name.to_owned(),
             "SubTree".to_owned(),
             Kind::SubTree,
-            first_port,
-            0,
+            (first_port, 0),
+            conditions,
             &[child],
-        )
+        ))
     }
 
     fn push(
@@ -385,8 +452,8 @@ impl<'r, C> Builder<'r, C> {
         name: String,
         type_name: String,
         kind: Kind<C>,
-        first_port: u32,
-        n_ports: u32,
+        (first_port, n_ports): (u32, u32),
+        conditions: u32,
         children: &[NodeId],
     ) -> NodeId {
         let first_child = self.children.len() as u32;
@@ -399,6 +466,7 @@ impl<'r, C> Builder<'r, C> {
             n_children: children.len() as u32,
             first_port,
             n_ports,
+            conditions,
             kind,
         });
         NodeId(self.nodes.len() as u32 - 1)
@@ -438,14 +506,16 @@ impl<'r, C> Builder<'r, C> {
                 })?);
             }
         }
-        Ok(Tree::from_parts(
-            self.nodes,
-            self.children,
-            (self.bindings, self.port_names),
-            self.done,
-            self.bb,
-            root.0,
-        ))
+        Ok(Tree::from_parts(Parts {
+            nodes: self.nodes,
+            children: self.children,
+            bindings: self.bindings,
+            port_names: self.port_names,
+            done: self.done,
+            conditions: self.conditions,
+            bb: self.bb,
+            root: root.0,
+        }))
     }
 }
 

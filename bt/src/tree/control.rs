@@ -1,6 +1,6 @@
-//! Control nodes: Sequence, SequenceWithMemory and Fallback, their reactive forms,
-//! Parallel and ParallelAll, IfThenElse and WhileDoElse, with BehaviorTree.CPP v4's
-//! semantics, node by node.
+//! Control nodes: Sequence, SequenceWithMemory and Fallback (and their Async forms), the
+//! reactive ones, Parallel and ParallelAll, IfThenElse and WhileDoElse, each as
+//! BehaviorTree.CPP 4.8 ticks it (`src/controls/*.cpp`), down to the order of its resets.
 //!
 //! Not here: decorators ([`super::decorators`]) and the tick loop itself.
 
@@ -9,59 +9,73 @@ use crate::status::Status;
 use super::{Kind, Tree};
 
 impl<C> Tree<C> {
-    /// Sequence, SequenceWithMemory and Fallback.
+    /// Sequence, SequenceWithMemory, Fallback, AsyncSequence and AsyncFallback.
     pub(super) fn tick_ordered(&mut self, i: u32, ctx: &mut C) -> Status {
         let Kind::Ordered {
             mut idx,
-            mut all_skipped,
+            mut skipped,
             stop,
             memory,
+            asynch,
         } = self.nodes[i as usize].kind
         else {
             unreachable!()
         };
         // What the node returns when every child got past: the opposite of `stop`.
-        let done = if stop == Status::Failure {
+        let pass = if stop == Status::Failure {
             Status::Success
         } else {
             Status::Failure
         };
-        if self.nodes[i as usize].status == Status::Idle {
-            all_skipped = true;
+        if !matches!(
+            self.nodes[i as usize].status,
+            Status::Running | Status::Success | Status::Failure
+        ) {
+            skipped = 0;
         }
         self.set_status(i, Status::Running);
         let n = self.n_children(i);
-        let result = loop {
-            if idx >= n {
-                self.reset_children(i, ctx);
-                idx = 0;
-                break if all_skipped { Status::Skipped } else { done };
-            }
+        let mut result = None;
+        while idx < n {
             let c = self.child(i, idx);
-            let s = self.tick_node(c, ctx);
-            all_skipped &= s == Status::Skipped;
+            let prev = self.nodes[c as usize].status;
+            let s = self.execute_tick(c, ctx);
             if s == Status::Running {
-                break Status::Running;
+                result = Some(Status::Running);
+                break;
             }
             if s == stop {
                 if memory {
                     // Keep the position: the next tick resumes at the failed child.
-                    self.reset_children_from(i, idx, ctx);
+                    self.halt_children_from(i, idx, ctx);
                 } else {
                     self.reset_children(i, ctx);
                     idx = 0;
                 }
-                break stop;
+                result = Some(stop);
+                break;
             }
             idx += 1;
-        };
+            if s == Status::Skipped {
+                skipped += 1;
+            } else if (memory || asynch) && prev == Status::Idle && idx < n {
+                // A child done within this tick: yield, and ask to be ticked again.
+                self.wake = true;
+                result = Some(Status::Running);
+                break;
+            }
+        }
+        let result = result.unwrap_or_else(|| {
+            let all_skipped = skipped == n;
+            self.reset_children(i, ctx);
+            (idx, skipped) = (0, 0);
+            if all_skipped { Status::Skipped } else { pass }
+        });
         if let Kind::Ordered {
-            idx: a,
-            all_skipped: b,
-            ..
+            idx: a, skipped: b, ..
         } = &mut self.nodes[i as usize].kind
         {
-            (*a, *b) = (idx, all_skipped);
+            (*a, *b) = (idx, skipped);
         }
         result
     }
@@ -84,18 +98,21 @@ impl<C> Tree<C> {
         let mut all_skipped = true;
         for k in 0..n {
             let c = self.child(i, k);
-            let s = self.tick_node(c, ctx);
+            let s = self.execute_tick(c, ctx);
             all_skipped &= s == Status::Skipped;
             if s == Status::Running {
                 for o in (0..n).filter(|&o| o != k) {
                     let oc = self.child(i, o);
-                    self.reset_child(oc, ctx);
+                    self.halt_child(oc, ctx);
                 }
                 return Status::Running;
             }
             if s == stop {
                 self.reset_children(i, ctx);
                 return stop;
+            }
+            if s == Status::Skipped {
+                self.halt_child(c, ctx);
             }
         }
         self.reset_children(i, ctx);
@@ -123,6 +140,7 @@ impl<C> Tree<C> {
         };
         let (need_s, need_f) = (threshold(raw_s), threshold(raw_f));
         if n < need_s || n < need_f {
+            // BT.CPP throws: the thresholds can never be met.
             return Status::Failure;
         }
         self.set_status(i, Status::Running);
@@ -131,7 +149,7 @@ impl<C> Tree<C> {
         for k in 0..n {
             if !self.done[(done + k) as usize] {
                 let c = self.child(i, k);
-                match self.tick_node(c, ctx) {
+                match self.execute_tick(c, ctx) {
                     Status::Skipped => skipped += 1,
                     Status::Success => {
                         self.done[(done + k) as usize] = true;
@@ -197,16 +215,13 @@ impl<C> Tree<C> {
                 continue;
             }
             let c = self.child(i, k);
-            match self.tick_node(c, ctx) {
+            match self.execute_tick(c, ctx) {
                 Status::Success => self.done[(done + k) as usize] = true,
                 Status::Failure => {
                     self.done[(done + k) as usize] = true;
                     fail += 1;
                 }
-                Status::Skipped => {
-                    self.done[(done + k) as usize] = true;
-                    skipped += 1;
-                }
+                Status::Skipped => skipped += 1,
                 _ => {}
             }
         }
@@ -214,20 +229,23 @@ impl<C> Tree<C> {
             .iter()
             .filter(|d| **d)
             .count() as u32;
-        if completed < n {
-            if let Kind::ParallelAll { fail: f, .. } = &mut self.nodes[i as usize].kind {
-                *f = fail;
+        let store = |t: &mut Self, f: u32| {
+            if let Kind::ParallelAll { fail, .. } = &mut t.nodes[i as usize].kind {
+                *fail = f;
             }
+        };
+        if skipped == n {
+            store(self, fail);
+            return Status::Skipped;
+        }
+        if skipped + completed < n {
+            store(self, fail);
             return Status::Running;
         }
-        self.done[done as usize..(done + n) as usize].fill(false);
-        if let Kind::ParallelAll { fail: f, .. } = &mut self.nodes[i as usize].kind {
-            *f = 0;
-        }
         self.reset_children(i, ctx);
-        if skipped == n {
-            Status::Skipped
-        } else if fail >= max_failures {
+        self.done[done as usize..(done + n) as usize].fill(false);
+        store(self, 0);
+        if fail >= max_failures {
             Status::Failure
         } else {
             Status::Success
@@ -242,18 +260,16 @@ impl<C> Tree<C> {
         self.set_status(i, Status::Running);
         if branch == 0 {
             let c = self.child(i, 0);
-            match self.tick_node(c, ctx) {
+            match self.execute_tick(c, ctx) {
                 Status::Success => branch = 1,
                 Status::Failure if n == 3 => branch = 2,
-                Status::Failure => {
-                    self.reset_children(i, ctx);
-                    return Status::Failure;
-                }
+                // Without an else, BT.CPP returns the failure and leaves the condition
+                // as it is (its parent's reset is shallow).
                 other => return other,
             }
         }
         let c = self.child(i, branch);
-        let s = self.tick_node(c, ctx);
+        let s = self.execute_tick(c, ctx);
         if s == Status::Running {
             if let Kind::IfThenElse { branch: b } = &mut self.nodes[i as usize].kind {
                 *b = branch;
@@ -271,21 +287,21 @@ impl<C> Tree<C> {
         let n = self.n_children(i);
         self.set_status(i, Status::Running);
         let cond = self.child(i, 0);
-        let s = match self.tick_node(cond, ctx) {
+        let s = match self.execute_tick(cond, ctx) {
             Status::Running => return Status::Running,
             Status::Success => {
                 if n == 3 {
                     let e = self.child(i, 2);
-                    self.reset_child(e, ctx);
+                    self.halt_child(e, ctx);
                 }
                 let d = self.child(i, 1);
-                self.tick_node(d, ctx)
+                self.execute_tick(d, ctx)
             }
             Status::Failure if n == 3 => {
                 let d = self.child(i, 1);
-                self.reset_child(d, ctx);
+                self.halt_child(d, ctx);
                 let e = self.child(i, 2);
-                self.tick_node(e, ctx)
+                self.execute_tick(e, ctx)
             }
             _ => Status::Failure,
         };

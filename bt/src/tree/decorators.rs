@@ -1,11 +1,11 @@
 //! Nodes with one child: the decorators (Inverter, ForceSuccess/Failure, Repeat,
 //! RetryUntilSuccessful, Timeout, Delay, RunOnce, KeepRunningUntilFailure, Precondition)
-//! and SubTree, with BehaviorTree.CPP v4's semantics.
+//! and SubTree, each as BehaviorTree.CPP 4.8 ticks it (`src/decorators/*`).
 //!
-//! Not here: control nodes ([`super::control`]).
+//! Not here: control nodes ([`super::control`]); the reset of a completed child after the
+//! decorator's own status is set, which every decorator shares ([`Tree::execute_tick`]).
 
 use crate::node::Binding;
-use crate::script::{self};
 use crate::status::Status;
 use crate::value::Value;
 
@@ -17,16 +17,22 @@ impl<C> Tree<C> {
         let now = self.now;
         match self.nodes[i as usize].kind {
             Kind::SubTree => {
-                self.set_status(i, Status::Running);
-                self.tick_node(c, ctx)
+                if self.nodes[i as usize].status == Status::Idle {
+                    self.set_status(i, Status::Running);
+                }
+                let s = self.execute_tick(c, ctx);
+                if s.is_completed() {
+                    self.halt_child(c, ctx);
+                }
+                s
             }
             Kind::Inverter | Kind::ForceSuccess | Kind::ForceFailure => {
                 self.set_status(i, Status::Running);
-                let s = self.tick_node(c, ctx);
+                let s = self.execute_tick(c, ctx);
                 if !s.is_completed() {
                     return s;
                 }
-                self.reset_child(c, ctx);
+                self.halt_child(c, ctx);
                 match self.nodes[i as usize].kind {
                     Kind::Inverter if s == Status::Success => Status::Failure,
                     Kind::Inverter => Status::Success,
@@ -36,46 +42,64 @@ impl<C> Tree<C> {
             }
             Kind::KeepRunningUntilFailure => {
                 self.set_status(i, Status::Running);
-                match self.tick_node(c, ctx) {
+                match self.execute_tick(c, ctx) {
                     Status::Success => {
-                        self.reset_child(c, ctx);
+                        self.halt_child(c, ctx);
                         Status::Running
                     }
                     Status::Failure => {
-                        self.reset_child(c, ctx);
+                        self.halt_child(c, ctx);
                         Status::Failure
                     }
-                    other => other,
+                    // Skipped: BT.CPP returns its own status, Running.
+                    _ => Status::Running,
                 }
             }
             Kind::Repeat { count } | Kind::Retry { count } => self.tick_loop(i, c, count, ctx),
             Kind::Timeout { since } => {
                 let limit = self.port_seconds(i, 0).unwrap_or(0.0);
-                let start = since.unwrap_or(now);
-                if now - start >= limit {
-                    self.reset_child(c, ctx);
+                let start = match since {
+                    Some(t) => t,
+                    None => {
+                        self.set_status(i, Status::Running);
+                        self.set_timer(i, Some(now));
+                        now
+                    }
+                };
+                // BT.CPP's timer thread halts a running child at the deadline, and the
+                // next tick fails; 0 ms starts no timer.
+                if limit > 0.0
+                    && now - start >= limit
+                    && self.nodes[c as usize].status == Status::Running
+                {
+                    self.halt_child(c, ctx);
                     self.set_timer(i, None);
                     return Status::Failure;
                 }
-                self.set_timer(i, Some(start));
-                self.set_status(i, Status::Running);
-                let s = self.tick_node(c, ctx);
-                if s != Status::Running {
+                let s = self.execute_tick(c, ctx);
+                if s.is_completed() {
                     self.set_timer(i, None);
+                    self.halt_child(c, ctx);
                 }
                 s
             }
             Kind::Delay { since } => {
                 let delay = self.port_seconds(i, 0).unwrap_or(0.0);
-                let start = since.unwrap_or(now);
-                self.set_timer(i, Some(start));
+                let start = match since {
+                    Some(t) => t,
+                    None => {
+                        self.set_status(i, Status::Running);
+                        self.set_timer(i, Some(now));
+                        now
+                    }
+                };
                 if now - start < delay {
                     return Status::Running;
                 }
-                self.set_status(i, Status::Running);
-                let s = self.tick_node(c, ctx);
+                let s = self.execute_tick(c, ctx);
                 if s.is_completed() {
                     self.set_timer(i, None);
+                    self.halt_child(c, ctx);
                 }
                 s
             }
@@ -88,12 +112,12 @@ impl<C> Tree<C> {
                     return if then_skip { Status::Skipped } else { r };
                 }
                 self.set_status(i, Status::Running);
-                let s = self.tick_node(c, ctx);
+                let s = self.execute_tick(c, ctx);
                 if s.is_completed() {
                     if let Kind::RunOnce { result } = &mut self.nodes[i as usize].kind {
                         *result = Some(s);
                     }
-                    self.reset_child(c, ctx);
+                    self.halt_child(c, ctx);
                 }
                 s
             }
@@ -102,27 +126,38 @@ impl<C> Tree<C> {
                 else_status,
                 ..
             } => {
+                // Unlike most decorators, BT.CPP's Precondition does not pass through
+                // Running before its child: it takes the child's status.
                 let pass = running || {
                     let Kind::Precondition { guard, .. } = &self.nodes[i as usize].kind else {
                         unreachable!()
                     };
-                    script::eval(guard, &self.bb)
+                    match guard.eval_bool(&mut self.bb) {
+                        Ok(b) => b,
+                        Err(e) => {
+                            self.last_error = Some((i, e));
+                            false
+                        }
+                    }
                 };
                 if !pass {
                     return else_status;
                 }
-                self.set_status(i, Status::Running);
-                let s = self.tick_node(c, ctx);
-                let still = s == Status::Running;
+                self.set_running_child(i, true);
+                let s = self.execute_tick(c, ctx);
                 if s.is_completed() {
-                    self.reset_child(c, ctx);
-                }
-                if let Kind::Precondition { running, .. } = &mut self.nodes[i as usize].kind {
-                    *running = still;
+                    self.halt_child(c, ctx);
+                    self.set_running_child(i, false);
                 }
                 s
             }
             _ => unreachable!("every kind is handled"),
+        }
+    }
+
+    fn set_running_child(&mut self, i: u32, v: bool) {
+        if let Kind::Precondition { running, .. } = &mut self.nodes[i as usize].kind {
+            *running = v;
         }
     }
 
@@ -141,31 +176,40 @@ impl<C> Tree<C> {
         } else {
             (Status::Failure, Status::Success)
         };
+        let more = |count: i64| count < limit || limit == -1;
         self.set_status(i, Status::Running);
-        let result = loop {
-            if limit >= 0 && count >= limit {
-                count = 0;
-                break again_on;
-            }
-            let s = self.tick_node(c, ctx);
+        let mut result = None;
+        while more(count) {
+            let prev = self.nodes[c as usize].status;
+            let s = self.execute_tick(c, ctx);
             if s == again_on {
                 count += 1;
-                self.reset_child(c, ctx);
-                if limit < 0 {
-                    // Infinite: one cycle per tick, so that the tree keeps control.
-                    break Status::Running;
+                self.halt_child(c, ctx);
+                if prev == Status::Idle && more(count) {
+                    // A cycle done within this tick: yield. Forever (-1) asks for no
+                    // wake-up, so that a tick always returns.
+                    self.wake |= limit != -1;
+                    result = Some(Status::Running);
+                    break;
                 }
             } else if s == done_on {
                 count = 0;
-                self.reset_child(c, ctx);
-                break done_on;
+                self.halt_child(c, ctx);
+                result = Some(done_on);
+                break;
             } else if s == Status::Skipped {
-                self.reset_child(c, ctx);
-                break Status::Skipped;
+                self.halt_child(c, ctx);
+                result = Some(Status::Skipped);
+                break;
             } else {
-                break s;
+                result = Some(s);
+                break;
             }
-        };
+        }
+        let result = result.unwrap_or_else(|| {
+            count = 0;
+            again_on
+        });
         if let Kind::Repeat { count: k } | Kind::Retry { count: k } =
             &mut self.nodes[i as usize].kind
         {
