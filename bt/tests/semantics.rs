@@ -479,7 +479,7 @@ fn the_observer_sees_every_transition_with_its_time() {
     // As in BT.CPP, the completed root is reset to Idle after the tick.
     let n = seen.len();
     assert_eq!(seen[n - 2], (root, 1.0, Running, Success));
-    assert_eq!(seen[n - 1], (root, 1.0, Success, Idle));
+    assert_eq!(seen[n - 1], (root, 1.0, Success, Status::Idle));
     assert!(
         seen.iter()
             .any(|(n, t, _, to)| t == &1.0 && *to == Success && *n != root)
