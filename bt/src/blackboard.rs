@@ -23,6 +23,9 @@ pub struct Blackboard {
     names: Vec<String>,
     types: Vec<PortType>,
     values: Vec<Option<Value>>,
+    /// How many times each entry was written (BT.CPP's `sequence_id`: every write counts,
+    /// an unchanged value too), for the nodes that act on updates (`SkipUnlessUpdated`...).
+    writes: Vec<u64>,
     by_name: HashMap<String, Slot>,
 }
 
@@ -54,6 +57,7 @@ impl Blackboard {
         self.names.push(name.to_owned());
         self.types.push(ty);
         self.values.push(None);
+        self.writes.push(0);
         self.by_name.insert(name.to_owned(), slot);
         Ok(slot)
     }
@@ -95,7 +99,24 @@ impl Blackboard {
             }
         };
         self.values[slot.0 as usize] = Some(v);
+        self.writes[slot.0 as usize] += 1;
         Ok(())
+    }
+
+    /// Count a write of the value the entry already holds (a writer that skips rewriting
+    /// an unchanged value, so as not to allocate, still counts as writing it).
+    pub(crate) fn rewrote(&mut self, slot: Slot) {
+        self.writes[slot.0 as usize] += 1;
+    }
+
+    /// How many times the entry was written.
+    pub fn writes(&self, slot: Slot) -> u64 {
+        self.writes[slot.0 as usize]
+    }
+
+    /// Remove the entry's value (BT.CPP's `unset`).
+    pub fn unset(&mut self, slot: Slot) {
+        self.values[slot.0 as usize] = None;
     }
 
     /// Write a value by key name (for the application seeding a tree's inputs).

@@ -26,7 +26,11 @@
 use std::collections::BTreeMap;
 
 use crate::node::{Action, PortSpec, StatefulAction};
+use crate::status::Status;
 use crate::value::PortType;
+
+/// The case ports of the Switch nodes.
+const CASES: [&str; 6] = ["case_1", "case_2", "case_3", "case_4", "case_5", "case_6"];
 
 mod builder;
 
@@ -56,6 +60,8 @@ impl Category {
     fn arity(self, builtin: Option<Builtin>) -> (u32, u32) {
         match (self, builtin) {
             (Category::Control, Some(Builtin::IfThenElse | Builtin::WhileDoElse)) => (2, 3),
+            // The cases, then the default.
+            (Category::Control, Some(Builtin::Switch(n))) => (u32::from(n) + 1, u32::from(n) + 1),
             (Category::Control, _) => (1, u32::MAX),
             (Category::Decorator | Category::SubTree, _) => (1, 1),
             (Category::Action | Category::Condition, _) => (0, 0),
@@ -92,6 +98,14 @@ enum Builtin {
     Sleep,
     Script,
     ScriptCondition,
+    /// Switch2..6, with its number of cases.
+    Switch(u8),
+    /// LoopInt, LoopBool, LoopDouble, LoopString, with the type of their values.
+    Loop(PortType),
+    /// SkipUnlessUpdated and WaitValueUpdate, with what they return while nothing changed.
+    EntryUpdated(Status),
+    WasEntryUpdated,
+    UnsetBlackboard,
 }
 
 type Make<T> = Box<dyn Fn() -> Box<T>>;
@@ -292,7 +306,11 @@ impl<C> Registry<C> {
             "Script",
             Action,
             B::Script,
-            vec![PortSpec::input("code", String, "script to run; always succeeds")],
+            vec![PortSpec::input(
+                "code",
+                String,
+                "script to run; always succeeds",
+            )],
         );
         add(
             "ScriptCondition",
@@ -302,6 +320,67 @@ impl<C> Registry<C> {
                 "code",
                 String,
                 "script whose value is the condition",
+            )],
+        );
+        for n in 2..=6u8 {
+            let mut ports = vec![PortSpec::input(
+                "variable",
+                Any,
+                "value compared with the cases",
+            )];
+            ports.extend(
+                CASES[..usize::from(n)]
+                    .iter()
+                    .map(|c| PortSpec::input(c, String, "a value of `variable`").optional()),
+            );
+            add(&format!("Switch{n}"), Control, B::Switch(n), ports);
+        }
+        for (name, ty) in [
+            ("LoopInt", Int),
+            ("LoopBool", Bool),
+            ("LoopDouble", Double),
+            ("LoopString", String),
+        ] {
+            add(
+                name,
+                Decorator,
+                B::Loop(ty),
+                vec![
+                    PortSpec::input("queue", String, "values separated by ';' (a literal)"),
+                    PortSpec::input("if_empty", String, "status when the queue is empty")
+                        .with_default("SUCCESS"),
+                    PortSpec::output("value", ty, "the value of this run of the child"),
+                ],
+            );
+        }
+        let entry = || {
+            vec![PortSpec::input(
+                "entry",
+                Any,
+                "the entry watched: key or {key}",
+            )]
+        };
+        add(
+            "SkipUnlessUpdated",
+            Decorator,
+            B::EntryUpdated(Status::Skipped),
+            entry(),
+        );
+        add(
+            "WaitValueUpdate",
+            Decorator,
+            B::EntryUpdated(Status::Running),
+            entry(),
+        );
+        add("WasEntryUpdated", Condition, B::WasEntryUpdated, entry());
+        add(
+            "UnsetBlackboard",
+            Action,
+            B::UnsetBlackboard,
+            vec![PortSpec::input(
+                "key",
+                String,
+                "name of the entry to remove",
             )],
         );
         r

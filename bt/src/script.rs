@@ -209,7 +209,9 @@ fn lex(src: &str) -> Result<Vec<(Tok, usize)>, ScriptError> {
                         i += 1;
                     }
                 }
-                if b.get(i).is_some_and(|c| c.is_ascii_alphabetic() || *c == b'_') {
+                if b.get(i)
+                    .is_some_and(|c| c.is_ascii_alphabetic() || *c == b'_')
+                {
                     return Err(syntax(i, "invalid suffix on a number".into()));
                 }
                 let text = &src[start..i];
@@ -752,7 +754,9 @@ fn assign(bb: &mut Blackboard, op: AssignOp, slot: Slot, rhs: &Expr) -> Result<(
         let v = match op {
             AssignOp::Create | AssignOp::Existing => r,
             _ => match (read(bb, slot)?, r) {
-                (V::Str(a), V::Str(b)) if op == AssignOp::Add => V::Str(Cow::Owned(format!("{a}{b}"))),
+                (V::Str(a), V::Str(b)) if op == AssignOp::Add => {
+                    V::Str(Cow::Owned(format!("{a}{b}")))
+                }
                 (old, r) => {
                     let (x, y) = old
                         .number()
@@ -768,8 +772,10 @@ fn assign(bb: &mut Blackboard, op: AssignOp, slot: Slot, rhs: &Expr) -> Result<(
             },
         };
         let v = convert(ty, v)?;
-        // Unchanged: no write, so that a steady tree allocates nothing.
+        // Unchanged: counted as a write, but not made, so that a steady tree allocates
+        // nothing.
         if holds_already(bb.get(slot), &v) {
+            bb.rewrote(slot);
             return Ok(());
         }
         match (ty, v) {
@@ -832,7 +838,10 @@ mod tests {
         assert!(!truth("true || true && false", &mut bb).unwrap());
         assert!(truth("1 < 2 < 3", &mut bb).unwrap());
         assert!(!truth("3 > 2 > 2", &mut bb).unwrap());
-        assert!(truth("0.1 + 0.2 == 0.3", &mut bb).unwrap(), "within f32 epsilon");
+        assert!(
+            truth("0.1 + 0.2 == 0.3", &mut bb).unwrap(),
+            "within f32 epsilon"
+        );
         assert!(truth("RED == 2 && 'abc' < 'abd'", &mut bb).unwrap());
         assert!(truth("'3' == 3 && -2 * 3 == -6", &mut bb).unwrap());
     }
@@ -840,7 +849,10 @@ mod tests {
     #[test]
     fn ternary_concat_bitwise() {
         let mut bb = bb_with(&[("x", Some(Value::Int(5)))]);
-        let s = parse("y := x > 3 ? 'big' : 'small'; z := y .. x; w := x & 3 | 8", &mut bb);
+        let s = parse(
+            "y := x > 3 ? 'big' : 'small'; z := y .. x; w := x & 3 | 8",
+            &mut bb,
+        );
         s.unwrap().run(&mut bb).unwrap();
         assert_eq!(bb.get_by_name("y"), Some(&Value::String("big".into())));
         assert_eq!(bb.get_by_name("z"), Some(&Value::String("big5".into())));

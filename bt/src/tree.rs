@@ -127,6 +127,34 @@ pub(crate) enum Kind<C> {
     Sleep {
         until: Option<f64>,
     },
+    /// Switch2..6: the child of the first `case_k` equal to `variable`, else the last.
+    Switch {
+        cases: u32,
+        running: Option<u32>,
+    },
+    /// LoopInt, LoopBool, LoopDouble, LoopString: the child once per value of a literal
+    /// queue, the value written to the `value` port.
+    Loop {
+        queue: Vec<Value>,
+        next: u32,
+        child_running: bool,
+        if_empty: Status,
+    },
+    /// SkipUnlessUpdated (`if_not` = Skipped) and WaitValueUpdate (Running): the child only
+    /// when `entry` was written since the node last looked.
+    EntryUpdated {
+        entry: Slot,
+        seen: u64,
+        if_not: Status,
+        child_running: bool,
+    },
+    WasEntryUpdated {
+        entry: Slot,
+        seen: u64,
+    },
+    UnsetBlackboard {
+        entry: Slot,
+    },
     Condition(Box<dyn Action<C>>),
     Action(Box<dyn Action<C>>),
     Stateful(Box<dyn StatefulAction<C>>),
@@ -149,6 +177,8 @@ impl<C> Kind<C> {
                 | Kind::RunOnce { .. }
                 | Kind::Precondition { .. }
                 | Kind::SubTree
+                | Kind::Loop { .. }
+                | Kind::EntryUpdated { .. }
         )
     }
 }
@@ -417,9 +447,14 @@ impl<C> Tree<C> {
         }
         let idle = self.nodes[i as usize].status == Status::Idle;
         let running = self.nodes[i as usize].status == Status::Running;
-        for (j, then) in [Status::Failure, Status::Success, Status::Skipped, Status::Idle]
-            .into_iter()
-            .enumerate()
+        for (j, then) in [
+            Status::Failure,
+            Status::Success,
+            Status::Skipped,
+            Status::Idle,
+        ]
+        .into_iter()
+        .enumerate()
         {
             let Some(script) = &self.conditions[k as usize].pre[j] else {
                 continue;
@@ -487,6 +522,13 @@ impl<C> Tree<C> {
     fn halt_node(&mut self, i: u32, ctx: &mut C) {
         let was_running = self.nodes[i as usize].status == Status::Running;
         let n = &mut self.nodes[i as usize];
+        if let Kind::EntryUpdated { child_running, .. } = &mut n.kind {
+            // BT.CPP's EntryUpdatedDecorator::halt only forgets that its child runs: it
+            // neither halts the child nor resets itself (its parent does).
+            *child_running = false;
+            self.post_condition(i, ON_HALTED);
+            return;
+        }
         match &mut n.kind {
             Kind::Stateful(a) if was_running => {
                 let ports = n.first_port as usize..(n.first_port + n.n_ports) as usize;
@@ -518,6 +560,7 @@ impl<C> Tree<C> {
             Kind::Repeat { count } | Kind::Retry { count } => *count = 0,
             Kind::Timeout { since } | Kind::Delay { since } => *since = None,
             Kind::Sleep { until } => *until = None,
+            Kind::Switch { running, .. } => *running = None,
             // RunOnce remembers that it ran, Precondition that its child runs: BT.CPP's
             // halt leaves both.
             _ => {}
@@ -600,6 +643,7 @@ impl<C> Tree<C> {
                 // Rewriting an unchanged value would only clone it: skip, so that a steady
                 // tree allocates nothing.
                 if self.bb.get(*target) == Some(v) {
+                    self.bb.rewrote(*target);
                     return Status::Success;
                 }
                 let v = v.clone();
@@ -610,6 +654,20 @@ impl<C> Tree<C> {
                 };
             }
             Kind::Sleep { .. } => return self.tick_sleep(i, prev),
+            Kind::WasEntryUpdated { entry, seen } => {
+                let now_seen = self.bb.writes(*entry);
+                let updated = now_seen != *seen;
+                *seen = now_seen;
+                return if updated {
+                    Status::Success
+                } else {
+                    Status::Failure
+                };
+            }
+            Kind::UnsetBlackboard { entry } => {
+                self.bb.unset(*entry);
+                return Status::Success;
+            }
             _ => {}
         }
         match self.nodes[i as usize].kind {
@@ -619,6 +677,7 @@ impl<C> Tree<C> {
             Kind::ParallelAll { .. } => self.tick_parallel_all(i, ctx),
             Kind::IfThenElse { .. } => self.tick_if_then_else(i, ctx),
             Kind::WhileDoElse => self.tick_while_do_else(i, ctx),
+            Kind::Switch { .. } => self.tick_switch(i, ctx),
             _ => self.tick_decorator(i, ctx),
         }
     }

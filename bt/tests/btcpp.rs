@@ -63,6 +63,9 @@ const CONDITIONS: &[&str] = &[
     "0 < a < 3",
     "c",
     "!c",
+    "v > 1",
+    "t == 'y'",
+    "k == 'z'",
 ];
 const POST: &[(&str, &str)] = &[
     ("_onSuccess", "a += 1"),
@@ -85,6 +88,8 @@ struct Gen {
     rng: Rng,
     next_id: usize,
     reactive: bool,
+    /// Whether a `SubTree` may be placed (not inside the subtree's own body).
+    subtree: bool,
 }
 
 impl Gen {
@@ -116,16 +121,40 @@ impl Gen {
             ours: vec![],
             children: vec![],
         };
-        match self.rng.below(10) {
+        match self.rng.below(14) {
             0 => el("AlwaysSuccess", vec![("name", name)]),
             1 => el("AlwaysFailure", vec![("name", name)]),
+            10 => {
+                let key = self.rng.pick(&["a", "b", "c"]).to_owned();
+                el("WasEntryUpdated", vec![("name", name), ("entry", key)])
+            }
+            11 => el("UnsetBlackboard", vec![("name", name), ("key", "u".into())]),
+            12 => {
+                let v = self.rng.pick(&["y", "z"]).to_owned();
+                el(
+                    "SetBlackboard",
+                    vec![("name", name), ("output_key", "k".into()), ("value", v)],
+                )
+            }
+            13 if self.subtree => el(
+                "SubTree",
+                vec![
+                    ("ID", "Sub".into()),
+                    ("name", name),
+                    ("_autoremap", "true".into()),
+                ],
+            ),
+            13 => el("AlwaysSuccess", vec![("name", name)]),
             2 | 3 => el(
                 "Script",
                 vec![("name", name), ("code", self.rng.pick(SCRIPTS).to_owned())],
             ),
             4 | 5 => el(
                 "ScriptCondition",
-                vec![("name", name), ("code", self.rng.pick(CONDITIONS).to_owned())],
+                vec![
+                    ("name", name),
+                    ("code", self.rng.pick(CONDITIONS).to_owned()),
+                ],
             ),
             _ => {
                 let ticks = self.rng.below(3);
@@ -153,8 +182,14 @@ impl Gen {
             "WhileDoElse",
             "AsyncSequence",
             "AsyncFallback",
+            "Switch2",
+            "Switch3",
         ];
         const DECORATORS: &[&str] = &[
+            "LoopInt",
+            "LoopString",
+            "SkipUnlessUpdated",
+            "WaitValueUpdate",
             "Inverter",
             "ForceSuccess",
             "ForceFailure",
@@ -174,6 +209,20 @@ impl Gen {
                     attrs.push(("num_attempts", self.rng.below(4).to_string()));
                 }
                 "RunOnce" => attrs.push(("then_skip", self.rng.chance(50).to_string())),
+                "LoopInt" => {
+                    attrs.push(("queue", self.rng.pick(&["1;2;3", "4", "2;0"]).to_owned()));
+                    attrs.push(("value", "{v}".into()));
+                }
+                "LoopString" => {
+                    attrs.push(("queue", self.rng.pick(&["y;z", "x"]).to_owned()));
+                    attrs.push(("value", "{t}".into()));
+                    let empty = self.rng.pick(&["SUCCESS", "FAILURE", "SKIPPED"]);
+                    attrs.push(("if_empty", empty.to_owned()));
+                }
+                "SkipUnlessUpdated" | "WaitValueUpdate" => {
+                    let key = self.rng.pick(&["{a}", "{b}", "{c}", "a"]).to_owned();
+                    attrs.push(("entry", key));
+                }
                 "Precondition" => {
                     attrs.push(("if", self.rng.pick(CONDITIONS).to_owned()));
                     let els = self.rng.pick(&["SUCCESS", "FAILURE", "SKIPPED"]);
@@ -193,6 +242,8 @@ impl Gen {
         self.reactive |= tag.starts_with("Reactive");
         let n = match tag {
             "IfThenElse" | "WhileDoElse" => 2 + self.rng.below(2),
+            "Switch2" => 3,
+            "Switch3" => 4,
             _ => 1 + self.rng.below(4),
         };
         let children: Vec<El> = (0..n).map(|_| self.node(depth + 1)).collect();
@@ -205,6 +256,12 @@ impl Gen {
                 attrs.push(("failure_count", f.to_string()));
             }
             "ParallelAll" => attrs.push(("max_failures", (1 + self.rng.below(n)).to_string())),
+            "Switch2" | "Switch3" => {
+                attrs.push(("variable", self.rng.pick(&["{a}", "{t}", "{c}"]).to_owned()));
+                for case in ["case_1", "case_2", "case_3"].iter().take(n - 1) {
+                    attrs.push((case, self.rng.pick(&["0", "1", "2", "y", "2.0"]).to_owned()));
+                }
+            }
             _ => {}
         }
         El {
@@ -250,7 +307,10 @@ fn generate(seed: u64) -> Case {
         rng: Rng(seed),
         next_id: 0,
         reactive: false,
+        subtree: false,
     };
+    let sub = g.node(2);
+    g.subtree = true;
     // The root sets the script's variables first, so that no script reads a key nobody
     // wrote (BT.CPP would throw: those trees teach nothing).
     let body = g.node(1);
@@ -263,7 +323,22 @@ fn generate(seed: u64) -> Case {
                 tag: "Script",
                 attrs: vec![
                     ("name", "init".into()),
-                    ("code", "a := 0; b := 1; c := 0; s := 'go'".into()),
+                    (
+                        "code",
+                        "a := 0; b := 1; c := 0; s := 'go'; v := 0; t := 'x'; u := 1".into(),
+                    ),
+                ],
+                ours: vec![],
+                children: vec![],
+            },
+            // BT.CPP's SetBlackboard converts into an entry a script made and throws:
+            // its key is one only SetBlackboard writes.
+            El {
+                tag: "SetBlackboard",
+                attrs: vec![
+                    ("name", "init_k".into()),
+                    ("output_key", "k".into()),
+                    ("value", "y".into()),
                 ],
                 ours: vec![],
                 children: vec![],
@@ -272,8 +347,12 @@ fn generate(seed: u64) -> Case {
         ],
     };
     let doc = |ours| {
-        let mut out = String::from("<root BTCPP_format='4'><BehaviorTree ID='Main'>");
+        let mut out = String::from(
+            "<root BTCPP_format='4' main_tree_to_execute='Main'><BehaviorTree ID='Main'>",
+        );
         render(&root, ours, &mut out);
+        out.push_str("</BehaviorTree><BehaviorTree ID='Sub'>");
+        render(&sub, ours, &mut out);
         out.push_str("</BehaviorTree></root>");
         out
     };
@@ -375,13 +454,17 @@ fn generated_trees_tick_as_behaviortree_cpp_ticks_them() {
     // Every tree exactly once; the ones where tickOnce terminates, with it too.
     let runs: Vec<(usize, bool)> = (0..cases.len())
         .map(|k| (k, false))
-        .chain((0..cases.len()).filter(|k| cases[*k].wake).map(|k| (k, true)))
+        .chain(
+            (0..cases.len())
+                .filter(|k| cases[*k].wake)
+                .map(|k| (k, true)),
+        )
         .collect();
     let input = serde_json::Value::Array(
         runs.iter()
-            .map(|&(k, wake)| {
-                serde_json::json!({"xml": cases[k].cpp, "ticks": TICKS, "wake": wake})
-            })
+            .map(
+                |&(k, wake)| serde_json::json!({"xml": cases[k].cpp, "ticks": TICKS, "wake": wake}),
+            )
             .collect(),
     );
     let dir = std::env::temp_dir().join(format!("firefleet-btcpp-{}", std::process::id()));
@@ -402,9 +485,13 @@ fn generated_trees_tick_as_behaviortree_cpp_ticks_them() {
 
     let registry = registry();
     let (mut compared, mut threw, mut differ) = ([0; 2], [0; 2], Vec::new());
+    let mut why = std::collections::BTreeMap::<String, usize>::new();
     for (&(k, wake), theirs) in runs.iter().zip(&results) {
-        if theirs.get("throws").is_some() {
+        if let Some(e) = theirs.get("throws") {
             threw[usize::from(wake)] += 1;
+            // The last line says what (the first says in which script).
+            let e = e.as_str().unwrap_or("?").lines().last().unwrap_or("?");
+            *why.entry(e.chars().take(240).collect()).or_default() += 1;
             continue;
         }
         compared[usize::from(wake)] += 1;
@@ -423,7 +510,11 @@ fn generated_trees_tick_as_behaviortree_cpp_ticks_them() {
             .collect();
         let mine = ours(&mut tree, TICKS, wake);
         if mine != ticks {
-            let at = mine.iter().zip(&ticks).position(|(a, b)| a != b).unwrap_or(0);
+            let at = mine
+                .iter()
+                .zip(&ticks)
+                .position(|(a, b)| a != b)
+                .unwrap_or(0);
             differ.push(format!(
                 "tree {k} ({}), tick {at}:\n  BT.CPP: {:?}\n  ours:   {:?}\n  {}",
                 if wake { "tickOnce" } else { "tickExactlyOnce" },
@@ -442,12 +533,20 @@ fn generated_trees_tick_as_behaviortree_cpp_ticks_them() {
         threw[1],
         differ.len()
     );
+    for (e, n) in &why {
+        eprintln!("  BT.CPP threw {n}x: {e}");
+    }
     assert!(
         differ.is_empty(),
         "{} of {} runs differ from BT.CPP; the first:\n{}",
         differ.len(),
         compared[0] + compared[1],
-        differ.iter().take(3).cloned().collect::<Vec<_>>().join("\n")
+        differ
+            .iter()
+            .take(3)
+            .cloned()
+            .collect::<Vec<_>>()
+            .join("\n")
     );
     assert!(
         compared[0] >= 1000 || n < 1200,

@@ -393,6 +393,69 @@ impl<'r, C> Builder<'r, C> {
                         Kind::ScriptCondition(script)
                     }
                 }
+                Builtin::Switch(cases) => {
+                    // An enum name as a case is its number, as BT.CPP compares it.
+                    for k in 1..=usize::from(*cases) {
+                        let b = &mut self.bindings[first_port as usize + k];
+                        if let Binding::Literal(Value::String(text)) = b
+                            && let Some(v) = registry.enum_value(text)
+                        {
+                            *b = Binding::Literal(Value::Int(v));
+                        }
+                    }
+                    Kind::Switch {
+                        cases: u32::from(*cases),
+                        running: None,
+                    }
+                }
+                Builtin::Loop(ty) => {
+                    let text = raw[0].filter(|v| key_ref(v, "queue").is_none()).ok_or(
+                        BuildError::NotLiteral {
+                            port: "queue",
+                            what: "list of values",
+                        },
+                    )?;
+                    let queue = text
+                        .split(';')
+                        .filter(|v| !v.trim().is_empty())
+                        .map(|v| ty.parse(v))
+                        .collect::<Result<Vec<_>, _>>()
+                        .map_err(|source| BuildError::Literal {
+                            port: "queue".into(),
+                            source,
+                        })?;
+                    let if_empty = raw[1].unwrap_or("SUCCESS");
+                    Kind::Loop {
+                        queue,
+                        next: 0,
+                        child_running: false,
+                        if_empty: if_empty.parse().map_err(|_| BuildError::Status {
+                            port: "if_empty",
+                            text: if_empty.to_owned(),
+                        })?,
+                    }
+                }
+                Builtin::EntryUpdated(_) | Builtin::WasEntryUpdated | Builtin::UnsetBlackboard => {
+                    let port = t.ports[0].name;
+                    let text = raw[0].expect("a required port");
+                    let key = key_ref(text, port).unwrap_or(text);
+                    let entry = self
+                        .resolve(scope.0, key, PortType::Any)
+                        .map_err(|source| BuildError::Entry {
+                            port: port.to_owned(),
+                            source,
+                        })?;
+                    match b {
+                        Builtin::EntryUpdated(if_not) => Kind::EntryUpdated {
+                            entry,
+                            seen: 0,
+                            if_not: *if_not,
+                            child_running: false,
+                        },
+                        Builtin::WasEntryUpdated => Kind::WasEntryUpdated { entry, seen: 0 },
+                        _ => Kind::UnsetBlackboard { entry },
+                    }
+                }
                 Builtin::AlwaysSuccess => Kind::AlwaysSuccess,
                 Builtin::AlwaysFailure => Kind::AlwaysFailure,
                 Builtin::SetBlackboard => {

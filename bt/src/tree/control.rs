@@ -4,7 +4,9 @@
 //!
 //! Not here: decorators ([`super::decorators`]) and the tick loop itself.
 
+use crate::node::Binding;
 use crate::status::Status;
+use crate::value::Value;
 
 use super::{Kind, Tree};
 
@@ -310,4 +312,108 @@ impl<C> Tree<C> {
         }
         s
     }
+
+    /// Switch2..6. Like BT.CPP's, it does not pass through Running before its child.
+    pub(super) fn tick_switch(&mut self, i: u32, ctx: &mut C) -> Status {
+        let Kind::Switch { cases, running } = self.nodes[i as usize].kind else {
+            unreachable!()
+        };
+        let first = self.nodes[i as usize].first_port as usize;
+        let value = |k: usize| match &self.bindings[first + k] {
+            Binding::Literal(v) => Some(v),
+            Binding::Entry(s) => self.bb.get(*s),
+            Binding::Unbound => None,
+        };
+        let chosen = value(0)
+            .and_then(|var| {
+                (0..cases as usize).find(|k| value(k + 1).is_some_and(|c| switch_equal(var, c)))
+            })
+            .map_or(cases, |k| k as u32);
+        if let Some(r) = running
+            && r != chosen
+        {
+            let c = self.child(i, r);
+            self.halt_child(c, ctx);
+        }
+        let c = self.child(i, chosen);
+        let s = self.execute_tick(c, ctx);
+        let running = match s {
+            Status::Running => Some(chosen),
+            Status::Skipped => None,
+            _ => {
+                self.reset_children(i, ctx);
+                None
+            }
+        };
+        if let Kind::Switch { running: r, .. } = &mut self.nodes[i as usize].kind {
+            *r = running;
+        }
+        s
+    }
+}
+
+/// BT.CPP 4.8's `CheckStringEquality`, on values rather than their text: equal text, or
+/// the same integer read from the front of each (`std::from_chars`), or doubles within
+/// `f32::EPSILON`.
+fn switch_equal(a: &Value, b: &Value) -> bool {
+    /// (text, integer, real) as BT.CPP reads a value converted to text.
+    fn read(v: &Value) -> (Option<&str>, Option<i64>, Option<f64>) {
+        match v {
+            Value::String(s) => (Some(s), int_prefix(s), real_prefix(s)),
+            Value::Int(i) => (None, Some(*i), Some(*i as f64)),
+            Value::Bool(b) => (None, Some(i64::from(*b)), Some(f64::from(u8::from(*b)))),
+            Value::Double(d) => (None, Some(d.trunc() as i64), Some(*d)),
+            Value::Point(_) => (None, None, None),
+        }
+    }
+    let (ta, ia, ra) = read(a);
+    let (tb, ib, rb) = read(b);
+    (ta.is_some() && ta == tb)
+        || (ia.is_some() && ia == ib)
+        || ra
+            .zip(rb)
+            .is_some_and(|(x, y)| (x - y).abs() <= f64::from(f32::EPSILON))
+}
+
+/// The integer at the front of `s`, as `std::from_chars` reads it: an optional `-`,
+/// then digits; what follows is ignored.
+fn int_prefix(s: &str) -> Option<i64> {
+    let digits = s.strip_prefix('-').unwrap_or(s);
+    let n = digits.bytes().take_while(u8::is_ascii_digit).count();
+    if n == 0 {
+        return None;
+    }
+    s[..s.len() - digits.len() + n].parse().ok()
+}
+
+/// The double at the front of `s`, as `std::from_chars` reads it.
+fn real_prefix(s: &str) -> Option<f64> {
+    let b = s.as_bytes();
+    let mut end = usize::from(b.first() == Some(&b'-'));
+    let int_digits = b[end..].iter().take_while(|c| c.is_ascii_digit()).count();
+    end += int_digits;
+    let mut frac_digits = 0;
+    if b.get(end) == Some(&b'.') {
+        frac_digits = b[end + 1..]
+            .iter()
+            .take_while(|c| c.is_ascii_digit())
+            .count();
+        if int_digits + frac_digits > 0 {
+            end += 1 + frac_digits;
+        }
+    }
+    if int_digits + frac_digits == 0 {
+        return None;
+    }
+    if matches!(b.get(end), Some(b'e' | b'E')) {
+        let mut e = end + 1;
+        if matches!(b.get(e), Some(b'+' | b'-')) {
+            e += 1;
+        }
+        let exp = b[e..].iter().take_while(|c| c.is_ascii_digit()).count();
+        if exp > 0 {
+            end = e + exp;
+        }
+    }
+    s[..end].parse().ok()
 }

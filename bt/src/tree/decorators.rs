@@ -151,6 +151,28 @@ impl<C> Tree<C> {
                 }
                 s
             }
+            Kind::Loop { .. } => self.tick_queue_loop(i, c, ctx),
+            Kind::EntryUpdated {
+                entry,
+                seen,
+                if_not,
+                child_running,
+            } => {
+                if !child_running {
+                    let writes = self.bb.writes(entry);
+                    if let Kind::EntryUpdated { seen, .. } = &mut self.nodes[i as usize].kind {
+                        *seen = writes;
+                    }
+                    if writes == seen {
+                        return if_not;
+                    }
+                }
+                let s = self.execute_tick(c, ctx);
+                if let Kind::EntryUpdated { child_running, .. } = &mut self.nodes[i as usize].kind {
+                    *child_running = s == Status::Running;
+                }
+                s
+            }
             _ => unreachable!("every kind is handled"),
         }
     }
@@ -216,5 +238,65 @@ impl<C> Tree<C> {
             *k = count;
         }
         result
+    }
+
+    /// LoopInt and its kin: one value of the queue for each run of the child; Running
+    /// until the queue is empty, then `if_empty`; a failed child fails the loop.
+    fn tick_queue_loop(&mut self, i: u32, c: u32, ctx: &mut C) -> Status {
+        let idle = self.nodes[i as usize].status == Status::Idle;
+        let first = self.nodes[i as usize].first_port as usize;
+        let Kind::Loop {
+            queue,
+            next,
+            child_running,
+            ..
+        } = &mut self.nodes[i as usize].kind
+        else {
+            unreachable!()
+        };
+        if idle {
+            (*next, *child_running) = (0, false);
+        }
+        let mut popped = false;
+        if !*child_running && let Some(v) = queue.get(*next as usize) {
+            *next += 1;
+            popped = true;
+            // The `value` port, the loop's third.
+            if let Binding::Entry(slot) = self.bindings[first + 2] {
+                if self.bb.get(slot) == Some(v) {
+                    self.bb.rewrote(slot);
+                } else {
+                    let v = v.clone();
+                    // The value's type is the port's, checked when the tree was built.
+                    let _ = self.bb.set(slot, v);
+                }
+            }
+        }
+        let Kind::Loop {
+            child_running,
+            if_empty,
+            ..
+        } = self.nodes[i as usize].kind
+        else {
+            unreachable!()
+        };
+        if !popped && !child_running {
+            return if_empty;
+        }
+        if idle {
+            self.set_status(i, Status::Running);
+        }
+        let s = self.execute_tick(c, ctx);
+        if let Kind::Loop { child_running, .. } = &mut self.nodes[i as usize].kind {
+            *child_running = s == Status::Running;
+        }
+        if s.is_completed() {
+            self.halt_child(c, ctx);
+        }
+        if s == Status::Failure {
+            Status::Failure
+        } else {
+            Status::Running
+        }
     }
 }
