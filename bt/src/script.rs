@@ -127,8 +127,9 @@ pub enum EvalError {
     NotInteger,
     /// Text where a number or a truth value was needed.
     NotNumber,
-    /// The value could not be written to its entry.
-    Write(BlackboardError),
+    /// The value could not be written to its entry (boxed: every evaluation returns this
+    /// type, and the common results should stay small).
+    Write(Box<BlackboardError>),
 }
 
 impl fmt::Display for EvalError {
@@ -783,7 +784,8 @@ fn assign(bb: &mut Blackboard, op: AssignOp, slot: Slot, rhs: &Expr) -> Result<(
             (_, v) => v.into_value(),
         }
     };
-    bb.set(slot, value).map_err(EvalError::Write)
+    bb.set(slot, value)
+        .map_err(|e| EvalError::Write(Box::new(e)))
 }
 
 #[cfg(test)]

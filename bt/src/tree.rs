@@ -163,7 +163,7 @@ pub(crate) enum Kind<C> {
 impl<C> Kind<C> {
     /// A node with one child that BT.CPP derives from `DecoratorNode` (its completed child
     /// is reset after the decorator's own status is set).
-    fn is_decorator(&self) -> bool {
+    pub(crate) fn is_decorator(&self) -> bool {
         matches!(
             self,
             Kind::Inverter
@@ -213,6 +213,8 @@ pub(crate) struct NodeData<C> {
     pub(crate) n_ports: u32,
     /// Index into [`Tree::conditions`], or [`NO_CONDITIONS`].
     pub(crate) conditions: u32,
+    /// `kind.is_decorator()`, known when built: every tick of every node asks.
+    pub(crate) decorator: bool,
     pub(crate) kind: Kind<C>,
 }
 
@@ -416,11 +418,13 @@ impl<C> Tree<C> {
     /// Tick node `i` (BT.CPP's `TreeNode::executeTick`, with `DecoratorNode`'s reset of a
     /// completed child).
     fn execute_tick(&mut self, i: u32, ctx: &mut C) -> Status {
-        let s = match self.pre_conditions(i, ctx) {
+        // Most nodes have no pre/post conditions: one test, and the plain tick.
+        let conditions = self.nodes[i as usize].conditions != NO_CONDITIONS;
+        let s = match conditions.then(|| self.pre_conditions(i, ctx)).flatten() {
             Some(s) => s,
             None => self.tick_kind(i, ctx),
         };
-        if s.is_completed() {
+        if conditions && s.is_completed() {
             let post = if s == Status::Success { 2 } else { 1 };
             self.post_condition(i, post);
             self.post_condition(i, ALWAYS);
@@ -429,7 +433,7 @@ impl<C> Tree<C> {
         if s != Status::Skipped {
             self.set_status(i, s);
         }
-        if self.nodes[i as usize].kind.is_decorator() {
+        if self.nodes[i as usize].decorator {
             let c = self.child(i, 0);
             if self.nodes[c as usize].status.is_completed() {
                 self.reset_status(c);

@@ -19,6 +19,12 @@ fn steady_state_ticks_allocate_nothing() {
                <Timeout msec="100000"><Busy/></Timeout>
                <Precondition if="x &lt; 3 &amp;&amp; name == 'a'" else="SKIPPED"><AlwaysSuccess/></Precondition>
                <Sequence><SetBlackboard value="2" output_key="x"/><Busy/></Sequence>
+               <ReactiveSequence>
+                 <Script code="n := 0; n += 1; m := n * 2 - 1; s := 'spray'; k := n &gt; 0 ? 1 : 2"/>
+                 <ScriptCondition code="m == 1 &amp;&amp; s == 'spray' &amp;&amp; 0 &lt; n &lt; 3"/>
+                 <AlwaysSuccess _skipIf="n &gt; 5" _onSuccess="n := 0" _post="k := k"/>
+                 <Switch2 variable="{{s}}" case_1="spray" case_2="2"><Busy/><Busy/><Busy/></Switch2>
+               </ReactiveSequence>
                {}
              </Parallel>
            </BehaviorTree></root>"#,
@@ -29,6 +35,14 @@ fn steady_state_ticks_allocate_nothing() {
     for k in 0..10 {
         assert_eq!(tree.tick(f64::from(k), &mut ()), Status::Running);
     }
+    // The scripts ran (every tick: their sequence is reactive).
+    let bb = tree.blackboard();
+    assert_eq!(bb.get_by_name("m"), Some(&firefleet_bt::Value::Double(1.0)));
+    assert_eq!(
+        bb.get_by_name("n"),
+        Some(&firefleet_bt::Value::Int(0)),
+        "_onSuccess ran"
+    );
     assert!(
         allocations_during(|| drop(std::hint::black_box(vec![1u8; 16]))) >= 1,
         "the counter counts"

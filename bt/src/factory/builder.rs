@@ -530,6 +530,7 @@ impl<'r, C> Builder<'r, C> {
             first_port,
             n_ports,
             conditions,
+            decorator: kind.is_decorator(),
             kind,
         });
         NodeId(self.nodes.len() as u32 - 1)
