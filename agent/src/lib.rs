@@ -34,7 +34,9 @@
 //! Not here: the coordinator's side of the fleet (`firefleet-coordinator`) or the simulator
 //! (`firefleet-sim`).
 
+pub mod btlog;
 pub mod controller;
+pub mod groot2;
 pub mod ground;
 pub mod mission;
 pub mod monorail;

@@ -26,13 +26,15 @@ use std::future::Future;
 use std::rc::Rc;
 use std::time::Duration;
 
-use firefleet_bt::{Status, Transition};
+use firefleet_bt::{Status, Transition, Tree};
 use firefleet_bus::{Answers, Ask, Bus, BusError};
 use firefleet_model::UnitId;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{BarredSpace, BtTransition, BtTransitions, NodeStatus};
 
+use crate::btlog::BtLog;
 use crate::controller::{Controller, Services};
+use crate::groot2::Groot2;
 use crate::platform::{Platform, PlatformError};
 use crate::rehome::{self, Rehoming};
 
@@ -78,6 +80,54 @@ pub struct AgentOptions {
     pub print_tree: bool,
     /// Whether the coordinator knows the unit, as it last answered.
     pub standing: Standing,
+    /// Serve the tree to Groot2 on this address (BT.CPP's Groot2 protocol).
+    pub groot2: Option<std::net::SocketAddr>,
+    /// Record the tree's transitions in this `.btlog` (BT.CPP's FileLogger2).
+    pub btlog: Option<std::path::PathBuf>,
+}
+
+/// Who else sees each step of the tree: Groot2, a `.btlog`. Made once for the agent's
+/// life, so that a move to another router keeps them.
+pub struct Taps {
+    groot2: Option<Groot2>,
+    btlog: Option<BtLog>,
+}
+
+impl Taps {
+    /// What `opts` asks for, on `tree`.
+    pub async fn open<C>(opts: &AgentOptions, tree: &Tree<C>) -> Result<Self, DriveError> {
+        let groot2 = match opts.groot2 {
+            Some(addr) => Some(Groot2::serve(addr, tree).await?),
+            None => None,
+        };
+        let btlog = match &opts.btlog {
+            Some(path) => Some(BtLog::create(path, tree)?),
+            None => None,
+        };
+        Ok(Self { groot2, btlog })
+    }
+
+    fn step<C>(
+        &mut self,
+        tree: &Tree<C>,
+        fresh: &[Transition],
+        now: f64,
+    ) -> Result<(), DriveError> {
+        if let Some(g) = &self.groot2 {
+            g.update(tree, fresh, now);
+        }
+        if let Some(log) = &mut self.btlog {
+            log.append(fresh, now)?;
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), DriveError> {
+        if let Some(log) = &mut self.btlog {
+            log.flush()?;
+        }
+        Ok(())
+    }
 }
 
 fn status(s: Status) -> NodeStatus {
@@ -109,6 +159,10 @@ pub enum DriveError {
     Bus(#[from] BusError),
     #[error("the unit's body: {0}")]
     Platform(#[from] PlatformError),
+    #[error(transparent)]
+    Groot2(#[from] crate::groot2::ServeError),
+    #[error("the behavior-tree log: {0}")]
+    BtLog(#[from] crate::btlog::BtLogError),
 }
 
 /// Run controller `ctl` on the body `platform` makes on `bus`'s session until `shutdown`
@@ -132,6 +186,7 @@ where
     tokio::pin!(shutdown);
     let unit = Topic::UnitAlive(opts.unit.clone());
     let mut token = bus.token(&unit).await?;
+    let mut taps = Taps::open(opts, ctl.tree()).await?;
     loop {
         let body = platform(&bus).await?;
         let move_to = async {
@@ -140,7 +195,16 @@ where
                 None => std::future::pending().await,
             }
         };
-        match run(&bus, body, &mut ctl, opts, shutdown.as_mut(), move_to).await? {
+        let ended = run(
+            &bus,
+            body,
+            &mut ctl,
+            opts,
+            &mut taps,
+            shutdown.as_mut(),
+            move_to,
+        );
+        match ended.await? {
             Ended::Stopped => {
                 drop(token);
                 return Ok(bus);
@@ -178,6 +242,7 @@ pub async fn run<P, U, M>(
     mut platform: P,
     ctl: &mut Controller<U>,
     opts: &AgentOptions,
+    taps: &mut Taps,
     shutdown: impl Future<Output = ()>,
     move_to: impl Future<Output = M>,
 ) -> Result<Ended<M>, DriveError>
@@ -227,6 +292,8 @@ where
     let tasks_from = keys.unit_task(unit).as_str().to_owned();
     let barred_from = format!("{} (at {unit})", keys.coord_barred().as_str());
     let mut next_print = f64::NEG_INFINITY;
+    // How many of `transitions` the taps have seen (a batch drains them).
+    let mut tapped = 0;
     let batch = || BtTransitions {
         unit: unit.clone(),
         transitions: transitions
@@ -254,12 +321,16 @@ where
                 platform.actuate(cmd).await?;
                 let t = U::time(&s);
                 halt = Some(U::halt(&s));
+                taps.step(ctl.tree(), &transitions.borrow()[tapped..], t)?;
+                tapped = transitions.borrow().len();
                 // The tree's transitions go out in batches, at most every BT_BATCH_S, so a
                 // unit stays far inside the router's rate bound on its `bt` key
                 // (`firefleet_bus::limits`) however fast its platform's frames come.
                 if t >= next_bt && !transitions.borrow().is_empty() {
                     next_bt = t + BT_BATCH_S;
                     bus.put(&bt_key, &batch()).await?;
+                    tapped = 0;
+                    taps.flush()?;
                 }
                 if opts.print_tree && t >= next_print {
                     next_print = t + 1.0;
@@ -354,6 +425,7 @@ where
     if !transitions.borrow().is_empty() {
         bus.put(&bt_key, &batch()).await?;
     }
+    taps.flush()?;
     if let Some(next) = moved {
         return Ok(Ended::Moved(next));
     }

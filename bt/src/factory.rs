@@ -28,6 +28,7 @@ use std::collections::BTreeMap;
 use crate::node::{Action, PortSpec, StatefulAction};
 use crate::status::Status;
 use crate::value::PortType;
+use crate::xml::escape;
 
 /// The case ports of the Switch nodes.
 const CASES: [&str; 6] = ["case_1", "case_2", "case_3", "case_4", "case_5", "case_6"];
@@ -416,6 +417,43 @@ impl<C> Registry<C> {
             LeafMaker::Action(_) | LeafMaker::Stateful(_) => Category::Action,
         };
         self.insert(name, category, ports, Maker::Leaf(leaf.0));
+    }
+
+    /// `<TreeNodesModel>` of the application's node types among `used` (built-in ones
+    /// Groot2 knows), indented for a document's root; empty when there are none.
+    pub fn models_xml(&self, used: &[&str]) -> String {
+        let custom: Vec<_> = self
+            .types()
+            .filter(|t| !t.is_builtin() && used.contains(&t.name.as_str()))
+            .collect();
+        if custom.is_empty() {
+            return String::new();
+        }
+        let mut out = String::from("  <TreeNodesModel>\n");
+        for t in custom {
+            let tag = if t.category == Category::Condition {
+                "Condition"
+            } else {
+                "Action"
+            };
+            out.push_str(&format!("    <{tag} ID=\"{}\">\n", escape(&t.name)));
+            for p in &t.ports {
+                let default = p
+                    .default
+                    .map(|d| format!(" default=\"{}\"", escape(d)))
+                    .unwrap_or_default();
+                let dir = p.dir.as_str();
+                out.push_str(&format!(
+                    "      <{dir} name=\"{}\" type=\"{}\"{default}>{}</{dir}>\n",
+                    p.name,
+                    p.ty,
+                    escape(p.description)
+                ));
+            }
+            out.push_str(&format!("    </{tag}>\n"));
+        }
+        out.push_str("  </TreeNodesModel>\n");
+        out
     }
 
     pub fn get(&self, name: &str) -> Option<&NodeType<C>> {

@@ -52,6 +52,7 @@
 pub mod blackboard;
 pub mod error;
 pub mod factory;
+pub mod groot2;
 pub mod node;
 pub mod script;
 pub mod status;

@@ -215,6 +215,9 @@ pub(crate) struct NodeData<C> {
     pub(crate) conditions: u32,
     /// `kind.is_decorator()`, known when built: every tick of every node asks.
     pub(crate) decorator: bool,
+    /// The node's attributes as written, but its name (what Groot2 is shown; a SubTree's
+    /// are its `ID` and its instance's `_fullpath`).
+    pub(crate) attrs: Box<[(String, String)]>,
     pub(crate) kind: Kind<C>,
 }
 
@@ -230,6 +233,10 @@ pub struct Tree<C> {
     pub(crate) conditions: Vec<Conditions>,
     pub(crate) bb: Blackboard,
     pub(crate) root: u32,
+    /// `<TreeNodesModel>` of the application's node types the tree uses.
+    pub(crate) models: String,
+    /// The `<BehaviorTree ID>` it was built from.
+    id: String,
     now: f64,
     /// A node asked to be ticked again within this tick (BT.CPP's wake-up signal).
     wake: bool,
@@ -250,6 +257,7 @@ pub(crate) struct Parts<C> {
     pub(crate) conditions: Vec<Conditions>,
     pub(crate) bb: Blackboard,
     pub(crate) root: u32,
+    pub(crate) models: String,
 }
 
 impl<C> Tree<C> {
@@ -263,6 +271,8 @@ impl<C> Tree<C> {
             conditions: p.conditions,
             bb: p.bb,
             root: p.root,
+            models: p.models,
+            id: "MainTree".to_owned(),
             now: 0.0,
             wake: false,
             last_error: None,
@@ -334,6 +344,21 @@ impl<C> Tree<C> {
     }
     pub fn type_name(&self, node: u32) -> &str {
         &self.nodes[node as usize].type_name
+    }
+    /// The `<BehaviorTree ID>` the tree was built from (`MainTree` for one built in code).
+    pub fn id(&self) -> &str {
+        &self.id
+    }
+    pub(crate) fn set_id(&mut self, id: &str) {
+        id.clone_into(&mut self.id);
+    }
+    /// Node `node`'s attributes as written, but its name.
+    pub fn attrs(&self, node: u32) -> &[(String, String)] {
+        &self.nodes[node as usize].attrs
+    }
+    /// `<TreeNodesModel>` of the application's node types the tree uses (empty if none).
+    pub fn models(&self) -> &str {
+        &self.models
     }
     pub fn children_of(&self, node: u32) -> &[u32] {
         let n = &self.nodes[node as usize];

@@ -18,8 +18,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use crate::error::BuildError;
-use crate::factory::{Builder, Category, NodeId, Registry, ScopeId};
-use crate::node::PortDir;
+use crate::factory::{Builder, NodeId, Registry, ScopeId};
 use crate::tree::Tree;
 
 /// One element of a tree, as written.
@@ -427,14 +426,16 @@ fn build_tree<C>(doc: &Document, id: &str, registry: &Registry<C>) -> Result<Tre
     if !errors.is_empty() {
         return Err(XmlErrors(errors));
     }
-    b.build(root).map_err(|e| {
+    let mut tree = b.build(root).map_err(|e| {
         XmlErrors(vec![XmlError {
             file: def.root.file.clone(),
             line: def.root.line,
             node: format!("BehaviorTree \"{id}\""),
             problem: e.into(),
         }])
-    })
+    })?;
+    tree.set_id(id);
+    Ok(tree)
 }
 
 fn walk<C>(
@@ -491,7 +492,7 @@ fn walk<C>(
         stack.push(id.to_owned());
         let child = walk(doc, &def.root, inner, stack, b, errors);
         stack.pop();
-        return match b.subtree(scope, e.attr("name").unwrap_or(id), &attrs, child) {
+        return match b.subtree((scope, inner), e.attr("name").unwrap_or(id), &attrs, child) {
             Ok(n) => n,
             Err(m) => fail(errors, b, m.into()),
         };
@@ -507,7 +508,8 @@ fn walk<C>(
     }
 }
 
-fn escape(s: &str) -> String {
+/// `s` as XML attribute or text.
+pub(crate) fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -533,40 +535,8 @@ pub fn to_xml<C>(doc: &Document, registry: Option<&Registry<C>>) -> String {
         for t in &doc.trees {
             collect_kinds(&t.root, &mut used);
         }
-        let custom: Vec<_> = r
-            .types()
-            .filter(|t| !t.is_builtin() && used.contains(&t.name))
-            .collect();
-        if !custom.is_empty() {
-            out.push_str("  <TreeNodesModel>\n");
-            for t in custom {
-                let tag = if t.category == Category::Condition {
-                    "Condition"
-                } else {
-                    "Action"
-                };
-                out.push_str(&format!("    <{tag} ID=\"{}\">\n", escape(&t.name)));
-                for p in &t.ports {
-                    let default = p
-                        .default
-                        .map(|d| format!(" default=\"{}\"", escape(d)))
-                        .unwrap_or_default();
-                    let dir = match p.dir {
-                        PortDir::In => "input_port",
-                        PortDir::Out => "output_port",
-                        PortDir::InOut => "inout_port",
-                    };
-                    out.push_str(&format!(
-                        "      <{dir} name=\"{}\" type=\"{}\"{default}>{}</{dir}>\n",
-                        p.name,
-                        p.ty,
-                        escape(p.description)
-                    ));
-                }
-                out.push_str(&format!("    </{tag}>\n"));
-            }
-            out.push_str("  </TreeNodesModel>\n");
-        }
+        let used: Vec<&str> = used.iter().map(String::as_str).collect();
+        out.push_str(&r.models_xml(&used));
     }
     out.push_str("</root>\n");
     out

@@ -39,6 +39,15 @@ pub struct AgentArgs {
     /// Print the tree with live statuses to stderr about once a second of site time.
     #[arg(long)]
     print_tree: bool,
+    /// Serve the tree to Groot2 on ADDR (e.g. 127.0.0.1:1667; BehaviorTree.CPP's Groot2
+    /// protocol over ZeroMQ), as the metrics are served: off unless asked, on the address
+    /// given, loopback unless the operator opens it.
+    #[arg(long, value_name = "ADDR")]
+    groot2: Option<std::net::SocketAddr>,
+    /// Record the tree's transitions in FILE.btlog (BehaviorTree.CPP's FileLogger2 format,
+    /// which Groot2 replays).
+    #[arg(long, value_name = "FILE.btlog")]
+    btlog: Option<PathBuf>,
     /// The body this agent drives.
     #[arg(long, value_enum, default_value_t = PlatformKind::Sim)]
     platform: PlatformKind,
@@ -88,6 +97,8 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
         report_period_s: 0.25,
         print_tree: a.print_tree,
         standing,
+        groot2: a.groot2,
+        btlog: a.btlog.clone(),
     };
     let shared = Arc::new(scenario.clone());
     let moves = Rehoming::new(

@@ -478,9 +478,13 @@ impl<'r, C> Builder<'r, C> {
                 }
             },
         };
+        let kept = attrs
+            .iter()
+            .filter(|(k, _)| !matches!(*k, "name" | "ID" | "_uid" | "_fullpath"))
+            .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+            .collect();
         Ok(self.push(
-            name,
-            type_name.to_owned(),
+            (name, type_name.to_owned(), kept),
             kind,
             (first_port, n_ports),
             conditions,
@@ -490,19 +494,26 @@ impl<'r, C> Builder<'r, C> {
 
     /// A SubTree node in `scope`, with the SubTree element's attributes (its pre/post
     /// conditions are read here): `child` is the root of the subtree's instance, built in
-    /// the scope [`Builder::subtree_scope`] returned.
+    /// the scope `inner` ([`Builder::subtree_scope`]).
     pub fn subtree(
         &mut self,
-        scope: ScopeId,
+        (scope, inner): (ScopeId, ScopeId),
         name: &str,
         attrs: &[(&str, &str)],
         child: NodeId,
     ) -> Result<NodeId, BuildError> {
         let conditions = self.conditions(scope.0, attrs)?;
         let first_port = self.bindings.len() as u32;
+        // The instance's path, as Groot2 names the subtree's blackboard.
+        let path = self.scopes[inner.0].prefix.trim_end_matches('/').to_owned();
+        let kept = attrs
+            .iter()
+            .filter(|(k, _)| !matches!(*k, "name" | "_uid" | "_fullpath"))
+            .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+            .chain([("_fullpath".to_owned(), path)])
+            .collect();
         Ok(self.push(
-            name.to_owned(),
-            "SubTree".to_owned(),
+            (name.to_owned(), "SubTree".to_owned(), kept),
             Kind::SubTree,
             (first_port, 0),
             conditions,
@@ -512,8 +523,7 @@ impl<'r, C> Builder<'r, C> {
 
     fn push(
         &mut self,
-        name: String,
-        type_name: String,
+        (name, type_name, attrs): (String, String, Box<[(String, String)]>),
         kind: Kind<C>,
         (first_port, n_ports): (u32, u32),
         conditions: u32,
@@ -531,6 +541,7 @@ impl<'r, C> Builder<'r, C> {
             n_ports,
             conditions,
             decorator: kind.is_decorator(),
+            attrs,
             kind,
         });
         NodeId(self.nodes.len() as u32 - 1)
@@ -570,6 +581,10 @@ impl<'r, C> Builder<'r, C> {
                 })?);
             }
         }
+        let mut used: Vec<&str> = self.nodes.iter().map(|n| n.type_name.as_str()).collect();
+        used.sort_unstable();
+        used.dedup();
+        let models = self.registry.models_xml(&used);
         Ok(Tree::from_parts(Parts {
             nodes: self.nodes,
             children: self.children,
@@ -579,6 +594,7 @@ impl<'r, C> Builder<'r, C> {
             conditions: self.conditions,
             bb: self.bb,
             root: root.0,
+            models,
         }))
     }
 }

@@ -130,6 +130,14 @@ pub struct DemoArgs {
     /// nothing but what a recorder kept (with --record) and what the units say.
     #[arg(long, value_name = "SECONDS", conflicts_with = "standby", value_parser = non_negative_f64, allow_negative_numbers = true)]
     restart_coordinator_at: Option<f64>,
+    /// Serve each unit's behavior tree to Groot2 on loopback: the first unit of the
+    /// scenario on PORT, the next on PORT + 1, and so on (the agent's `--groot2`).
+    #[arg(long, value_name = "PORT")]
+    groot2: Option<u16>,
+    /// Record each unit's behavior tree in DIR/UNIT.btlog (the agent's `--btlog`), which
+    /// Groot2 replays.
+    #[arg(long, value_name = "DIR")]
+    btlog_dir: Option<PathBuf>,
 }
 
 pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {

@@ -56,10 +56,26 @@ pub(super) fn roles(
     if a.standby {
         roles.push((Identity::Coordinator, coordinator.arg("--standby")));
     }
-    for u in &scenario.units {
+    if let Some(dir) = &a.btlog_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("--btlog-dir {}", dir.display()))?;
+    }
+    for (k, u) in scenario.units.iter().enumerate() {
         let mut agent = RoleCommand::new("agent").args(["--unit", u.id.as_str()]);
         if a.platform == PlatformKind::Ros2 && u.kind == UnitKind::Ground {
             agent = agent.args(["--platform", "ros2"]);
+        }
+        if let Some(base) = a.groot2 {
+            let port = u16::try_from(k)
+                .ok()
+                .and_then(|k| base.checked_add(k))
+                .with_context(|| format!("--groot2 {base}: no port left for unit {}", u.id))?;
+            println!("Groot2: {} on 127.0.0.1:{port}", u.id);
+            agent = agent.args(["--groot2".into(), format!("127.0.0.1:{port}")]);
+        }
+        if let Some(dir) = &a.btlog_dir {
+            agent = agent
+                .arg("--btlog")
+                .arg(dir.join(format!("{}.btlog", u.id)));
         }
         roles.push((Identity::Unit(u.id.clone()), agent));
     }
