@@ -9,6 +9,7 @@ mod cli;
 mod doctor;
 mod fleet;
 mod fuzz;
+mod groot2;
 mod readme;
 mod recording;
 mod routers;

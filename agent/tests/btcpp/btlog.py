@@ -16,12 +16,12 @@ import sys
 import time
 import xml.etree.ElementTree as ET
 
-import behaviortreepy as bt
-
 MAGIC = b"BTCPP4-FileLogger2"
 
 
 def write(path, ticks):
+    import behaviortreepy as bt  # only to write: reading needs no more than the format
+
     xml = sys.stdin.read()
     tree = bt.BehaviorTreeFactory().create_tree_from_text(xml)
     logger = bt.FileLogger(tree, path)
