@@ -13,6 +13,7 @@ fn bt_validate_accepts_the_shipped_trees_and_names_every_error() {
         "validate",
         "agent/trees/ground_unit.xml",
         "examples/trees/patrol.xml",
+        "examples/trees/scripting.xml",
     ]);
     assert!(ok.status.success(), "{}", text(&ok.stderr));
     assert!(
@@ -23,7 +24,7 @@ fn bt_validate_accepts_the_shipped_trees_and_names_every_error() {
 
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.xml");
-    std::fs::write(&bad, "<root BTCPP_format=\"4\">\n<BehaviorTree ID=\"T\">\n<Sequence>\n<Fly/>\n<Timeout><AlwaysSuccess/></Timeout>\n</Sequence>\n</BehaviorTree>\n</root>\n").unwrap();
+    std::fs::write(&bad, "<root BTCPP_format=\"4\">\n<BehaviorTree ID=\"T\">\n<Sequence>\n<Fly/>\n<Timeout><AlwaysSuccess/></Timeout>\n<Script code=\"x := (1 +\"/>\n<AlwaysSuccess _skipIf=\"x == = 2\"/>\n</Sequence>\n</BehaviorTree>\n</root>\n").unwrap();
     let out = firefleet(&["bt", "validate", bad.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     let err = text(&out.stderr);
@@ -34,6 +35,29 @@ fn bt_validate_accepts_the_shipped_trees_and_names_every_error() {
     assert!(
         err.contains("bad.xml:5: Timeout: missing required port 'msec'"),
         "{err}"
+    );
+    // A script's error says where in the script, as well as where in the file.
+    assert!(
+        err.contains(
+            "bad.xml:6: Script: code: column 10: the script ends where an operand was expected"
+        ),
+        "{err}"
+    );
+    assert!(
+        err.contains("bad.xml:7: AlwaysSuccess: _skipIf: column 6: expected an operand, found '='"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bt_run_runs_a_tree_that_sets_its_blackboard_with_scripts() {
+    let out = firefleet(&["bt", "run", "examples/trees/scripting.xml", "--ticks", "6"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("root SUCCESS"), "{stdout}");
+    assert!(
+        stdout.contains("ScriptCondition \"done\"") && stdout.contains("IDLE -> SUCCESS"),
+        "{stdout}"
     );
 }
 
