@@ -162,9 +162,9 @@ enum Tok {
 }
 
 /// Operators, longest first so that `:=` is not read as `:` then `=`.
-const OPS: [&str; 31] = [
+const OPS: [&str; 29] = [
     ":=", "+=", "-=", "*=", "/=", "==", "!=", "<=", ">=", "&&", "||", "..", "=", "<", ">", "!",
-    "~", "(", ")", "+", "-", "*", "/", "&", "|", "^", "?", ":", ";", "\n", "\r",
+    "~", "(", ")", "+", "-", "*", "/", "&", "|", "^", "?", ":", ";",
 ];
 
 fn lex(src: &str) -> Result<Vec<(Tok, usize)>, ScriptError> {
