@@ -159,18 +159,11 @@ async fn groot2_sees_our_tree_as_it_sees_bt_cpps() {
 
 /// Parse a `.btlog` with `btlog.py read`.
 fn read_btlog(path: &Path) -> serde_json::Value {
-    let out = Command::new("python3")
-        .arg(script("btlog.py"))
-        .arg("read")
-        .arg(path)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = firefleet_model::testing::python_stdout(
+        &script("btlog.py"),
+        &["read".as_ref(), path.as_os_str()],
     );
-    serde_json::from_slice(&out.stdout).unwrap()
+    serde_json::from_slice(&out).unwrap()
 }
 
 #[test]

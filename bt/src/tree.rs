@@ -236,7 +236,13 @@ pub struct Tree<C> {
     /// `<TreeNodesModel>` of the application's node types the tree uses.
     pub(crate) models: String,
     /// The `<BehaviorTree ID>` it was built from.
-    id: String,
+    pub(crate) id: String,
+    pub(crate) ticking: Ticking,
+}
+
+/// What ticking keeps besides the nodes' own state; a fresh tree's is the default.
+#[derive(Default)]
+pub(crate) struct Ticking {
     now: f64,
     /// A node asked to be ticked again within this tick (BT.CPP's wake-up signal).
     wake: bool,
@@ -247,45 +253,13 @@ pub struct Tree<C> {
 /// Sees every status change.
 type Observer = Box<dyn FnMut(&Transition)>;
 
-/// The parts a [`crate::Builder`] hands over.
-pub(crate) struct Parts<C> {
-    pub(crate) nodes: Vec<NodeData<C>>,
-    pub(crate) children: Vec<u32>,
-    pub(crate) bindings: Vec<Binding>,
-    pub(crate) port_names: Vec<&'static str>,
-    pub(crate) done: Vec<bool>,
-    pub(crate) conditions: Vec<Conditions>,
-    pub(crate) bb: Blackboard,
-    pub(crate) root: u32,
-    pub(crate) models: String,
-}
-
 impl<C> Tree<C> {
-    pub(crate) fn from_parts(p: Parts<C>) -> Self {
-        Self {
-            nodes: p.nodes,
-            children: p.children,
-            bindings: p.bindings,
-            port_names: p.port_names,
-            done: p.done,
-            conditions: p.conditions,
-            bb: p.bb,
-            root: p.root,
-            models: p.models,
-            id: "MainTree".to_owned(),
-            now: 0.0,
-            wake: false,
-            last_error: None,
-            observer: None,
-        }
-    }
-
     /// Tick the root at time `now` (seconds), again at once while a node asks for a
     /// wake-up (BT.CPP's `tickOnce`); a completed root is reset to IDLE.
     pub fn tick(&mut self, now: f64, ctx: &mut C) -> Status {
         loop {
             let s = self.tick_exactly_once(now, ctx);
-            if !(s == Status::Running && self.wake) {
+            if !(s == Status::Running && self.ticking.wake) {
                 return s;
             }
         }
@@ -294,8 +268,8 @@ impl<C> Tree<C> {
     /// Tick the root once at time `now`, whatever a node asks (BT.CPP's
     /// `tickExactlyOnce`); a completed root is reset to IDLE.
     pub fn tick_exactly_once(&mut self, now: f64, ctx: &mut C) -> Status {
-        self.now = now;
-        self.wake = false;
+        self.ticking.now = now;
+        self.ticking.wake = false;
         let s = self.execute_tick(self.root, ctx);
         if s.is_completed() {
             self.reset_status(self.root);
@@ -310,12 +284,12 @@ impl<C> Tree<C> {
 
     /// See every status change from now on.
     pub fn set_observer(&mut self, f: impl FnMut(&Transition) + 'static) {
-        self.observer = Some(Box::new(f));
+        self.ticking.observer = Some(Box::new(f));
     }
 
     /// The last script that could not be evaluated: the node that ran it and why.
     pub fn last_script_error(&self) -> Option<(u32, &EvalError)> {
-        self.last_error.as_ref().map(|(n, e)| (*n, e))
+        self.ticking.last_error.as_ref().map(|(n, e)| (*n, e))
     }
 
     pub fn blackboard(&self) -> &Blackboard {
@@ -406,10 +380,10 @@ impl<C> Tree<C> {
         if n.status != to {
             let from = n.status;
             n.status = to;
-            if let Some(obs) = &mut self.observer {
+            if let Some(obs) = &mut self.ticking.observer {
                 obs(&Transition {
                     node: i,
-                    t: self.now,
+                    t: self.ticking.now,
                     from,
                     to,
                 });
@@ -494,7 +468,7 @@ impl<C> Tree<C> {
             let holds = match script.eval_bool(&mut self.bb) {
                 Ok(b) => b,
                 Err(e) => {
-                    self.last_error = Some((i, e));
+                    self.ticking.last_error = Some((i, e));
                     false
                 }
             };
@@ -521,7 +495,7 @@ impl<C> Tree<C> {
         if let Some(script) = &self.conditions[k as usize].post[which]
             && let Err(e) = script.run(&mut self.bb)
         {
-            self.last_error = Some((i, e));
+            self.ticking.last_error = Some((i, e));
         }
     }
 
@@ -566,7 +540,7 @@ impl<C> Tree<C> {
                     &self.port_names,
                     &mut self.bb,
                     ports,
-                    self.now,
+                    self.ticking.now,
                 );
                 a.on_halted(&mut io, ctx);
             }
@@ -600,7 +574,7 @@ impl<C> Tree<C> {
     }
 
     fn tick_kind(&mut self, i: u32, ctx: &mut C) -> Status {
-        let now = self.now;
+        let now = self.ticking.now;
         let n = &mut self.nodes[i as usize];
         let prev = n.status;
         let ports = n.first_port as usize..(n.first_port + n.n_ports) as usize;
@@ -647,7 +621,7 @@ impl<C> Tree<C> {
                 return match script.run(&mut self.bb) {
                     Ok(()) => Status::Success,
                     Err(e) => {
-                        self.last_error = Some((i, e));
+                        self.ticking.last_error = Some((i, e));
                         Status::Failure
                     }
                 };
@@ -657,7 +631,7 @@ impl<C> Tree<C> {
                     Ok(true) => Status::Success,
                     Ok(false) => Status::Failure,
                     Err(e) => {
-                        self.last_error = Some((i, e));
+                        self.ticking.last_error = Some((i, e));
                         Status::Failure
                     }
                 };
@@ -713,7 +687,7 @@ impl<C> Tree<C> {
 
     /// Sleep, a StatefulActionNode in BT.CPP: Running until `msec` of tree time passed.
     fn tick_sleep(&mut self, i: u32, prev: Status) -> Status {
-        let now = self.now;
+        let now = self.ticking.now;
         let secs = self.port_seconds(i, 0).unwrap_or(0.0);
         let Kind::Sleep { until } = &mut self.nodes[i as usize].kind else {
             unreachable!()

@@ -205,6 +205,23 @@ pub fn python_package(module: &str, pip: &str, required_by: &str) -> bool {
         )
 }
 
+/// What the Python script `script` prints when run with `args` (an independent reader
+/// checking our output); the test fails with the script's standard error if it fails.
+pub fn python_stdout(script: &std::path::Path, args: &[&std::ffi::OsStr]) -> Vec<u8> {
+    let out = std::process::Command::new("python3")
+        .arg(script)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("python3 {}: {e}", script.display()));
+    assert!(
+        out.status.success(),
+        "python3 {} failed: {}",
+        script.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out.stdout
+}
+
 /// Whether `program` runs (`program --version`), for a test that checks our files with
 /// another project's tool; missing, as [`python_package`] says it (`install`: how to get
 /// it).

@@ -86,18 +86,9 @@ async fn a_demo_units_tree_is_watched_in_groot2_and_recorded_for_replay() {
     let status = demo.wait().unwrap();
     assert!(status.success(), "demo exited with {status}");
     let log = dir.path().join(format!("{unit}.btlog"));
-    let out = Command::new("python3")
-        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("agent/tests/btcpp/btlog.py"))
-        .arg("read")
-        .arg(&log)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let replay: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("agent/tests/btcpp/btlog.py");
+    let out = firefleet_model::testing::python_stdout(&script, &["read".as_ref(), log.as_os_str()]);
+    let replay: serde_json::Value = serde_json::from_slice(&out).unwrap();
     let nodes = replay["nodes"].as_array().unwrap();
     assert_eq!(nodes.len(), uids, "the file's tree is the one served");
     let transitions = replay["transitions"].as_array().unwrap();

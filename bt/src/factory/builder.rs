@@ -11,7 +11,7 @@ use crate::error::{BlackboardError, BuildError};
 use crate::node::{Binding, PortDir};
 use crate::script::{Name, Script};
 use crate::status::Status;
-use crate::tree::{Conditions, Kind, NO_CONDITIONS, NodeData, POST, PRE, Parts, Tree};
+use crate::tree::{Conditions, Kind, NO_CONDITIONS, NodeData, POST, PRE, Tree};
 use crate::value::{PortType, Value};
 
 use super::{Builtin, LeafMaker, Maker, Registry};
@@ -585,7 +585,7 @@ impl<'r, C> Builder<'r, C> {
         used.sort_unstable();
         used.dedup();
         let models = self.registry.models_xml(&used);
-        Ok(Tree::from_parts(Parts {
+        Ok(Tree {
             nodes: self.nodes,
             children: self.children,
             bindings: self.bindings,
@@ -595,7 +595,9 @@ impl<'r, C> Builder<'r, C> {
             bb: self.bb,
             root: root.0,
             models,
-        }))
+            id: "MainTree".to_owned(),
+            ticking: Default::default(),
+        })
     }
 }
 

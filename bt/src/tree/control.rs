@@ -62,7 +62,7 @@ impl<C> Tree<C> {
                 skipped += 1;
             } else if (memory || asynch) && prev == Status::Idle && idx < n {
                 // A child done within this tick: yield, and ask to be ticked again.
-                self.wake = true;
+                self.ticking.wake = true;
                 result = Some(Status::Running);
                 break;
             }

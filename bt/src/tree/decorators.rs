@@ -14,7 +14,7 @@ use super::{Kind, Tree};
 impl<C> Tree<C> {
     pub(super) fn tick_decorator(&mut self, i: u32, ctx: &mut C) -> Status {
         let c = self.child(i, 0);
-        let now = self.now;
+        let now = self.ticking.now;
         match self.nodes[i as usize].kind {
             Kind::SubTree => {
                 if self.nodes[i as usize].status == Status::Idle {
@@ -58,14 +58,7 @@ impl<C> Tree<C> {
             Kind::Repeat { count } | Kind::Retry { count } => self.tick_loop(i, c, count, ctx),
             Kind::Timeout { since } => {
                 let limit = self.port_seconds(i, 0).unwrap_or(0.0);
-                let start = match since {
-                    Some(t) => t,
-                    None => {
-                        self.set_status(i, Status::Running);
-                        self.set_timer(i, Some(now));
-                        now
-                    }
-                };
+                let start = self.start_timer(i, since);
                 // BT.CPP's timer thread halts a running child at the deadline, and the
                 // next tick fails; 0 ms starts no timer.
                 if limit > 0.0
@@ -85,14 +78,7 @@ impl<C> Tree<C> {
             }
             Kind::Delay { since } => {
                 let delay = self.port_seconds(i, 0).unwrap_or(0.0);
-                let start = match since {
-                    Some(t) => t,
-                    None => {
-                        self.set_status(i, Status::Running);
-                        self.set_timer(i, Some(now));
-                        now
-                    }
-                };
+                let start = self.start_timer(i, since);
                 if now - start < delay {
                     return Status::Running;
                 }
@@ -135,7 +121,7 @@ impl<C> Tree<C> {
                     match guard.eval_bool(&mut self.bb) {
                         Ok(b) => b,
                         Err(e) => {
-                            self.last_error = Some((i, e));
+                            self.ticking.last_error = Some((i, e));
                             false
                         }
                     }
@@ -183,6 +169,16 @@ impl<C> Tree<C> {
         }
     }
 
+    /// When Timeout or Delay `i` started: `since`, or now, the node then set Running.
+    fn start_timer(&mut self, i: u32, since: Option<f64>) -> f64 {
+        since.unwrap_or_else(|| {
+            let now = self.ticking.now;
+            self.set_status(i, Status::Running);
+            self.set_timer(i, Some(now));
+            now
+        })
+    }
+
     pub(super) fn set_timer(&mut self, i: u32, v: Option<f64>) {
         if let Kind::Timeout { since } | Kind::Delay { since } = &mut self.nodes[i as usize].kind {
             *since = v;
@@ -210,7 +206,7 @@ impl<C> Tree<C> {
                 if prev == Status::Idle && more(count) {
                     // A cycle done within this tick: yield. Forever (-1) asks for no
                     // wake-up, so that a tick always returns.
-                    self.wake |= limit != -1;
+                    self.ticking.wake |= limit != -1;
                     result = Some(Status::Running);
                     break;
                 }
