@@ -198,6 +198,8 @@ pub(crate) const PRE: [&str; 4] = ["_failureIf", "_successIf", "_skipIf", "_whil
 pub(crate) const POST: [&str; 4] = ["_onHalted", "_onFailure", "_onSuccess", "_post"];
 const WHILE: usize = 3;
 const ON_HALTED: usize = 0;
+const ON_FAILURE: usize = 1;
+const ON_SUCCESS: usize = 2;
 const ALWAYS: usize = 3;
 
 /// A node with no pre/post conditions.
@@ -424,7 +426,11 @@ impl<C> Tree<C> {
             None => self.tick_kind(i, ctx),
         };
         if conditions && s.is_completed() {
-            let post = if s == Status::Success { 2 } else { 1 };
+            let post = if s == Status::Success {
+                ON_SUCCESS
+            } else {
+                ON_FAILURE
+            };
             self.post_condition(i, post);
             self.post_condition(i, ALWAYS);
         }

@@ -268,3 +268,96 @@ fn a_fleet_with_the_bridge_puts_its_fire_out_and_a_cut_link_shows_stale_on_the_c
     assert!(out.status.success(), "{said}");
     assert!(said.contains("all 1 fires out"), "{said}");
 }
+
+/// The bridge killed and started again mid-incident, the rest of the fleet left alone
+/// (issue #46: every role restarted alone keeps the incident going). Its readings come back
+/// stamped on the site clock, not from t = 0 (which every role would refuse as more than
+/// 10 s behind), fresh, and the fire goes out.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_bridge_restarted_alone_mid_incident_reads_on_the_site_clock_and_the_fire_goes_out() {
+    let (bus, endpoint) = router("tunnel-v").await;
+    let keys = bus.keys().clone();
+    let zones = bus
+        .subscribe::<DtsZone>(&keys.every_dts_zone())
+        .await
+        .unwrap();
+    let truths = bus
+        .subscribe::<firefleet_protocol::msg::SimTruth>(&keys.sim_truth())
+        .await
+        .unwrap();
+    let modbus = format!("127.0.0.1:{}", firefleet_bus::free_loopback_port().unwrap());
+    let bridge = || {
+        spawn_role(
+            SCENARIO,
+            &endpoint,
+            &[
+                "scada",
+                "--modbus",
+                &modbus,
+                "--sim-clock",
+                "--period-s",
+                "0.5",
+            ],
+        )
+    };
+    let mut roles = vec![
+        spawn_role(
+            SCENARIO,
+            &endpoint,
+            &[
+                "sim",
+                "--time-scale",
+                "4",
+                "--wait-for-fleet",
+                "30",
+                "--wait-for-coordinator",
+                "--scada",
+                &modbus,
+            ],
+        ),
+        spawn_role(SCENARIO, &endpoint, &["coordinator", "--sim-clock"]),
+    ];
+    let scenario = builtin::resolve(SCENARIO).unwrap();
+    for u in &scenario.units {
+        roles.push(spawn_role(
+            SCENARIO,
+            &endpoint,
+            &["agent", "--unit", u.id.as_str()],
+        ));
+    }
+    roles.push(bridge());
+    let mut fleet = Fleet(roles);
+    let bridge_at = fleet.0.len() - 1;
+
+    // A fresh reading some seconds into the incident, then the bridge killed.
+    let fresh_after = |t0: f64| {
+        let zones = &zones;
+        async move {
+            tokio::time::timeout(patient(Duration::from_secs(60)), async {
+                loop {
+                    let (_, z) = zones.recv().await.expect("bus open");
+                    if !z.stale && z.t > t0 {
+                        return z.t;
+                    }
+                }
+            })
+            .await
+            .expect("no fresh DTS reading")
+        }
+    };
+    let before = fresh_after(10.0).await;
+    fleet.0[bridge_at].kill().unwrap();
+    fleet.0[bridge_at].wait().unwrap();
+    while zones.try_recv().is_some() {}
+    fleet.0[bridge_at] = bridge();
+    let after = fresh_after(0.0).await;
+    assert!(
+        after >= before,
+        "the restarted bridge stamped a reading {after:.1} s, before {before:.1} s"
+    );
+    drop(zones);
+    let truth = outcome(&truths, Duration::from_secs(120)).await;
+    assert!(truth.all_out(), "{truth:?}");
+    drop(fleet);
+    bus.close().await;
+}
