@@ -6,6 +6,7 @@
 //! `cargo test --test it fleet::` runs one module's tests.
 
 mod cli;
+mod console;
 mod doctor;
 mod fleet;
 mod fuzz;
