@@ -84,8 +84,18 @@ impl Groot2 {
         let tree_id = tree_id();
         tokio::spawn(async move {
             loop {
-                let Ok(request) = socket.recv().await else {
-                    continue;
+                let request = match socket.recv().await {
+                    Ok(r) => r,
+                    Err(e) => {
+                        // A client gone mid-request; never a reason to stop serving, nor
+                        // to spin on a socket that keeps failing.
+                        tracing::debug!("Groot2 request: {e}");
+                        if weak.strong_count() == 0 {
+                            break;
+                        }
+                        tokio::time::sleep(Duration::from_millis(50)).await;
+                        continue;
+                    }
                 };
                 let Some(shared) = weak.upgrade() else { break };
                 let reply = answer(&shared, &request, &tree_id);

@@ -107,26 +107,27 @@ impl Taps {
         Ok(Self { groot2, btlog })
     }
 
-    fn step<C>(
-        &mut self,
-        tree: &Tree<C>,
-        fresh: &[Transition],
-        now: f64,
-    ) -> Result<(), DriveError> {
+    /// Show the step's transitions to the taps. A `.btlog` that cannot be written any more
+    /// (a full disk) is closed with an error in the log: the unit works on, unrecorded,
+    /// rather than stop for its recorder.
+    fn step<C>(&mut self, tree: &Tree<C>, fresh: &[Transition], now: f64) {
         if let Some(g) = &self.groot2 {
             g.update(tree, fresh, now);
         }
-        if let Some(log) = &mut self.btlog {
-            log.append(fresh, now)?;
+        if let Some(Err(e)) = self.btlog.as_mut().map(|log| log.append(fresh, now)) {
+            self.give_up_log(&e);
         }
-        Ok(())
     }
 
-    fn flush(&mut self) -> Result<(), DriveError> {
-        if let Some(log) = &mut self.btlog {
-            log.flush()?;
+    fn flush(&mut self) {
+        if let Some(Err(e)) = self.btlog.as_mut().map(BtLog::flush) {
+            self.give_up_log(&e);
         }
-        Ok(())
+    }
+
+    fn give_up_log(&mut self, e: &crate::btlog::BtLogError) {
+        tracing::error!("no longer recording the behavior tree: {e}");
+        self.btlog = None;
     }
 }
 
@@ -321,7 +322,7 @@ where
                 platform.actuate(cmd).await?;
                 let t = U::time(&s);
                 halt = Some(U::halt(&s));
-                taps.step(ctl.tree(), &transitions.borrow()[tapped..], t)?;
+                taps.step(ctl.tree(), &transitions.borrow()[tapped..], t);
                 tapped = transitions.borrow().len();
                 // The tree's transitions go out in batches, at most every BT_BATCH_S, so a
                 // unit stays far inside the router's rate bound on its `bt` key
@@ -330,7 +331,7 @@ where
                     next_bt = t + BT_BATCH_S;
                     bus.put(&bt_key, &batch()).await?;
                     tapped = 0;
-                    taps.flush()?;
+                    taps.flush();
                 }
                 if opts.print_tree && t >= next_print {
                     next_print = t + 1.0;
@@ -425,7 +426,7 @@ where
     if !transitions.borrow().is_empty() {
         bus.put(&bt_key, &batch()).await?;
     }
-    taps.flush()?;
+    taps.flush();
     if let Some(next) = moved {
         return Ok(Ended::Moved(next));
     }
