@@ -19,6 +19,12 @@
 //!   delay (at once for 0 ms; BT.CPP's timer thread decides that race).
 //! - `Repeat` and `RetryUntilSuccessful` with -1 (forever) ask for no wake-up: one cycle a
 //!   tick, where BT.CPP's `tickOnce` would never return on a child that completes at once.
+//! - [`Tree::tick`] ticks again at most [`MAX_WAKE_UPS`] times. Wake-ups can chase each
+//!   other forever: in `ReactiveSequence [Repeat(2){AlwaysSuccess}, Repeat(2){AlwaysSuccess}]`
+//!   each Repeat's first cycle asks for one and the reactive parent restarts the first Repeat
+//!   every time, so BT.CPP 4.8's `tickOnce` never returns on it (tried with behaviortreepy).
+//!   A robot's tick must return; past the bound the tree returns RUNNING and goes on at the
+//!   next tick from where it was.
 //! - Where BT.CPP throws from a tick (a script reads a key with no value, adds text to a
 //!   number...), a `Script` or `ScriptCondition` fails, a pre-condition or a
 //!   `Precondition`'s guard counts as false, a post-condition is skipped; the tree keeps
@@ -255,16 +261,26 @@ pub(crate) struct Ticking {
 /// Sees every status change.
 type Observer = Box<dyn FnMut(&Transition)>;
 
+/// How many times one [`Tree::tick`] ticks the root again for wake-ups.
+///
+/// Far above what a tree that terminates asks for (a `Repeat` of a thousand instant cycles
+/// is one), low enough that a tree whose wake-ups never end costs a tick of about a
+/// millisecond, not a hung robot.
+pub const MAX_WAKE_UPS: usize = 1000;
+
 impl<C> Tree<C> {
     /// Tick the root at time `now` (seconds), again at once while a node asks for a
-    /// wake-up (BT.CPP's `tickOnce`); a completed root is reset to IDLE.
+    /// wake-up (BT.CPP's `tickOnce`), at most [`MAX_WAKE_UPS`] times; a completed root is
+    /// reset to IDLE.
     pub fn tick(&mut self, now: f64, ctx: &mut C) -> Status {
-        loop {
-            let s = self.tick_exactly_once(now, ctx);
+        let mut s = self.tick_exactly_once(now, ctx);
+        for _ in 0..MAX_WAKE_UPS {
             if !(s == Status::Running && self.ticking.wake) {
-                return s;
+                break;
             }
+            s = self.tick_exactly_once(now, ctx);
         }
+        s
     }
 
     /// Tick the root once at time `now`, whatever a node asks (BT.CPP's

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{Ctx, all_idle, registry};
+use common::{Ctx, none_running, registry};
 use firefleet_bt::xml::{self, Document, Element, TreeDef};
 use firefleet_bt::{Status, Tree};
 use proptest::prelude::*;
@@ -99,7 +99,8 @@ proptest! {
             t.tick(k as f64, &mut ctx);
         }
         t.halt(&mut ctx);
-        prop_assert!(all_idle(&t), "{}", t.render());
+        prop_assert_eq!(t.root_status(), Status::Idle);
+        prop_assert!(none_running(&t), "{}", t.render());
         let starts = ctx.log.iter().filter(|l| l.ends_with(":start")).count();
         let halts = ctx.log.iter().filter(|l| l.ends_with(":halt")).count();
         prop_assert!(halts <= starts, "on_halted more often than on_start");

@@ -515,3 +515,40 @@ fn leaves_reach_their_ports_by_name() {
     assert_eq!(t.tick(0.0, &mut ctx), Status::Success);
     assert_eq!(ctx.log, ["7 x"]);
 }
+
+#[test]
+fn wake_ups_that_chase_each_other_end_the_tick_running() {
+    // BT.CPP 4.8's tickOnce never returns on this tree: each Repeat's first cycle asks for
+    // a wake-up and the reactive parent restarts the first Repeat every time.
+    let mut ctx = Ctx::default();
+    let mut t = tree(&format!(
+        r#"<ReactiveSequence><Repeat num_cycles="2">{}</Repeat><Repeat num_cycles="2">{}</Repeat></ReactiveSequence>"#,
+        s("a", "S"),
+        s("b", "S")
+    ));
+    assert_eq!(t.tick(0.0, &mut ctx), Running);
+    let ticks = ctx.log.len();
+    assert!(
+        ticks > firefleet_bt::tree::MAX_WAKE_UPS && ticks < 4 * firefleet_bt::tree::MAX_WAKE_UPS,
+        "{ticks} leaf ticks in one bounded tick"
+    );
+    assert_eq!(t.tick(1.0, &mut ctx), Running, "the next tick goes on");
+}
+
+#[test]
+fn a_halt_leaves_the_children_of_a_completed_sequence_with_memory_as_they_were() {
+    // BT.CPP's halt is shallow: the failed SequenceWithMemory is reset, not halted, so its
+    // first child keeps its SUCCESS (found by the properties test).
+    let mut ctx = Ctx::default();
+    let mut t = tree(&format!(
+        "<ParallelAll>{}<SequenceWithMemory>{}{}</SequenceWithMemory></ParallelAll>",
+        w("w", 3),
+        s("a", "S"),
+        s("b", "F")
+    ));
+    assert_eq!(t.tick(0.0, &mut ctx), Running);
+    t.halt(&mut ctx);
+    assert_eq!(t.root_status(), Status::Idle);
+    assert!(common::none_running(&t));
+    assert!(!all_idle(&t), "{}", t.render());
+}

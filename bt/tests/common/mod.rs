@@ -128,3 +128,13 @@ pub fn run(t: &mut Tree<Ctx>, ctx: &mut Ctx, n: usize) -> Vec<Status> {
 pub fn all_idle(t: &Tree<Ctx>) -> bool {
     (0..t.len() as u32).all(|i| t.status(i) == Status::Idle)
 }
+
+/// No node is Running.
+///
+/// What a halt guarantees. It does not guarantee [`all_idle`]: BT.CPP's halt is
+/// shallow, so a control node that finished (say a `SequenceWithMemory` that
+/// failed on its second child) is reset without halting its children, and the
+/// first child keeps its Success until that sequence is ticked again.
+pub fn none_running(t: &Tree<Ctx>) -> bool {
+    (0..t.len() as u32).all(|i| t.status(i) != Status::Running)
+}
