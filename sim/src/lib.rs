@@ -49,6 +49,7 @@ pub mod jet;
 pub mod node;
 pub mod physics;
 pub mod scada;
+pub mod thermal;
 pub mod world;
 
 pub use node::{SimOptions, run};

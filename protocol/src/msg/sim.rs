@@ -96,6 +96,82 @@ impl Validate for FlameDetection {
     }
 }
 
+/// Largest thermal image a message may carry, pixels a side (640 x 512 is the largest
+/// common uncooled radiometric core).
+pub const MAX_THERMAL_SIDE: u16 = 640;
+
+/// A radiometric thermal image and the depth image registered to it, as a robot's camera
+/// drivers publish them (ROS 2: `sensor_msgs/Image` in `mono16` and `32FC1`).
+///
+/// Temperatures are in centikelvin, the TLinear output of common radiometric cores: a
+/// pixel reads 0.01 K a count, so the scale ends at 655.35 K and hotter scenes (a flame's
+/// core) saturate at `u16::MAX`, as the camera's high-gain mode does.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ThermalImage {
+    pub width: u16,
+    pub height: u16,
+    /// Row by row from the top left, centikelvin.
+    pub centikelvin: Vec<u16>,
+    /// Depth along the optical axis, m, row by row; 0 where there is no value.
+    pub depth_m: Vec<f32>,
+}
+
+impl ThermalImage {
+    /// Kelvin a count.
+    pub const KELVIN_PER_COUNT: f64 = 0.01;
+
+    /// Pixel `(u, v)`'s temperature, K.
+    pub fn kelvin(&self, u: usize, v: usize) -> f64 {
+        f64::from(self.centikelvin[v * usize::from(self.width) + u]) * Self::KELVIN_PER_COUNT
+    }
+
+    /// Pixel `(u, v)`'s depth, m, if the depth image has one.
+    pub fn depth(&self, u: usize, v: usize) -> Option<f64> {
+        let z = self.depth_m[v * usize::from(self.width) + u];
+        (z.is_finite() && z > 0.0).then_some(f64::from(z))
+    }
+}
+
+impl Validate for ThermalImage {
+    fn validate(&self) -> Result<(), Invalid> {
+        in_range(
+            "width",
+            f64::from(self.width),
+            1.0,
+            f64::from(MAX_THERMAL_SIDE),
+        )?;
+        in_range(
+            "height",
+            f64::from(self.height),
+            1.0,
+            f64::from(MAX_THERMAL_SIDE),
+        )?;
+        let n = usize::from(self.width) * usize::from(self.height);
+        for (field, len) in [
+            ("centikelvin", self.centikelvin.len()),
+            ("depth_m", self.depth_m.len()),
+        ] {
+            if len != n {
+                return Err(Invalid::new(
+                    field,
+                    format!("{len} pixels for a {}x{} image", self.width, self.height),
+                ));
+            }
+        }
+        match self
+            .depth_m
+            .iter()
+            .position(|z| !z.is_finite() || *z < 0.0 || *z > 1e3)
+        {
+            Some(i) => Err(Invalid::new(
+                format!("depth_m[{i}]"),
+                format!("{} is not a depth in 0..1000 m", self.depth_m[i]),
+            )),
+            None => Ok(()),
+        }
+    }
+}
+
 /// State of a unit's water cannon.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
 pub struct CannonState {

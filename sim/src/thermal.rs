@@ -1,0 +1,528 @@
+//! Radiometric thermal images of the burning tunnel, with the depth image registered to
+//! them: what a tunnel robot's long-wave infrared core and its depth camera deliver.
+//!
+//! Each pixel casts one ray from the camera's optical centre and takes the first thing it
+//! meets: the road, the walls, the ceiling, a vehicle's box, or the daylight beyond a
+//! portal; flames on the way are semi-transparent volumes in front of it. Radiance is
+//! mixed as a grey body's, `T_app^4 = tau T_s^4 + (1 - tau) T_path^4` (Stefan-Boltzmann in
+//! place of the 8-14 um Planck band: it keeps the ordering of temperatures and is exact for
+//! opaque surfaces, which is what a detector's thresholds see). Assumptions, each a
+//! constant below where it has a value:
+//! - **Flames** are vertical cylinders of the fire's radius and flame height standing on
+//!   the road. Their gas is at McCaffrey's continuous-flame temperature (about 900 C rise)
+//!   in the lower 40 % and cools linearly to a 500 K rise at the tip, Heskestad's
+//!   definition of the mean flame height. A flame is optically thin at its edge and thick
+//!   through its middle: emissivity `1 - exp(-kappa L)` over the path `L` through it, with
+//!   `kappa` [`FLAME_ABSORPTION_PER_M`], the order luminous pool and crib fires show.
+//! - **Flicker**: the height pulses at the puffing frequency `f = 1.5 / sqrt(D)` Hz
+//!   (Pagni 1990; Zukoski), by [`FLICKER_AMPLITUDE`] about its mean, plus a random tongue
+//!   each frame ([`FLICKER_NOISE`]). Hot metal does not flicker; this is what a detector
+//!   tells them apart by.
+//! - **The hot layer**: ceiling and wall surfaces in the top [`HOT_LAYER_SHARE`] of the
+//!   tunnel read the ceiling gas temperature the world computes (Alpert's ceiling jet, in
+//!   [`crate::physics`]); below it, surfaces are at ambient.
+//! - **Vehicles** are boxes at the surface temperature the scene gives them: ambient for a
+//!   parked car, a few hundred kelvin for a body heated by a nearby fire or an exhaust.
+//! - **Smoke**: soot absorbs about as `1 / lambda` (small particles, Rayleigh limit), so its
+//!   extinction at 10 um is [`IR_PER_VISIBLE`] of the visible one the world gives; the smoke
+//!   on a path is taken at ambient temperature. The depth camera works in the near infrared
+//!   and loses a pixel once the round trip through the smoke leaves under 5 % of its light
+//!   (`2 k z > 3` with the visible `k`).
+//! - **Water spray** between the camera and a flame being sprayed passes
+//!   [`SPRAY_TRANSMISSION`] of the flame's radiance (water absorbs strongly at 8-14 um; a
+//!   round assumption, not a measurement) and is at ambient temperature.
+//! - **The sensor**: temporal noise of [`ThermalCore::netd_k`] (NETD) a pixel and frame, a
+//!   fixed pattern of [`ThermalCore::fixed_pattern_k`] that is the same every frame, and
+//!   0.01 K counts saturating at 655.35 K ([`ThermalImage`]). Depth has the depth camera's
+//!   noise and drops a share of a flame's pixels (bright, textureless, moving).
+//! - **Geometry**: the tunnel is rendered as the straight tunnel tangent to its centreline
+//!   at the camera; round a bend that misplaces distant wall pixels (at 40 m on a 300 m
+//!   radius by 2.7 m), which are background to a detector. Beyond a portal is daylight at
+//!   the scene's outside temperature with no depth.
+//!
+//! Deterministic: the noise comes from the caller's seeded generator, the fixed pattern
+//! from the pixel's position.
+//!
+//! Not here: finding flames in these pixels (the agent's flame detector), the RGB-D box
+//! detector the papers' experiments use ([`crate::camera`]).
+
+use firefleet_model::Point2;
+use firefleet_model::geometry::Pose2;
+use firefleet_model::scenario::{Obstacle, Tunnel};
+use firefleet_model::spec::CameraSpec;
+use firefleet_protocol::msg::ThermalImage;
+use rand::Rng;
+use rand_distr::StandardNormal;
+
+/// Kelvin at 0 C.
+pub const KELVIN_AT_0C: f64 = 273.15;
+/// Absorption coefficient of a flame's gas and soot, 1/m.
+pub const FLAME_ABSORPTION_PER_M: f64 = 1.0;
+/// Temperature rise of the continuous flame (McCaffrey: about 900 C), K.
+pub const FLAME_RISE_K: f64 = 880.0;
+/// Temperature rise at the mean flame height (Heskestad), K.
+pub const FLAME_TIP_RISE_K: f64 = 500.0;
+/// Share of the flame's height that is continuous flame.
+pub const CONTINUOUS_SHARE: f64 = 0.4;
+/// Amplitude of the height's pulsation, share of the mean height.
+pub const FLICKER_AMPLITUDE: f64 = 0.2;
+/// One sigma of the height's frame-to-frame randomness, share of the mean height.
+pub const FLICKER_NOISE: f64 = 0.08;
+/// Share of the tunnel's height the hot gas layer fills.
+pub const HOT_LAYER_SHARE: f64 = 0.25;
+/// Soot's extinction at 10 um over the visible one.
+pub const IR_PER_VISIBLE: f64 = 0.55 / 10.0;
+/// Share of a flame's radiance a water spray in front of it passes.
+pub const SPRAY_TRANSMISSION: f64 = 0.5;
+
+/// A radiometric core and where it sits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ThermalCore {
+    /// Intrinsics and mount; the depth camera is registered to it and keeps the range,
+    /// noise and flame dropout given here.
+    pub optics: CameraSpec,
+    /// Temporal noise (noise-equivalent temperature difference), K.
+    pub netd_k: f64,
+    /// Fixed-pattern noise left after the core's flat-field correction, K.
+    pub fixed_pattern_k: f64,
+}
+
+impl ThermalCore {
+    /// A 160 x 120 core with a 57 degree horizontal field of view (a Lepton-class core),
+    /// NETD 50 mK, 0.2 K of fixed pattern, mounted where the unit's RGB-D camera `rgbd`
+    /// is and registered to its depth.
+    pub fn qqvga(rgbd: &CameraSpec) -> Self {
+        let (w, h) = (160.0, 120.0);
+        let f = w / 2.0 / (57f64.to_radians() / 2.0).tan();
+        Self {
+            optics: CameraSpec {
+                width_px: w,
+                height_px: h,
+                fx: f,
+                fy: f,
+                cx: w / 2.0,
+                cy: h / 2.0,
+                box_sigma_px: 1.0,
+                ..*rgbd
+            },
+            netd_k: 0.05,
+            fixed_pattern_k: 0.2,
+        }
+    }
+}
+
+/// A flame standing on the road.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Flame {
+    pub base: Point2,
+    pub radius_m: f64,
+    /// Mean flame height, m.
+    pub height_m: f64,
+    /// A jet is landing on it.
+    pub sprayed: bool,
+}
+
+impl Flame {
+    /// The height at time `t` before the frame's random tongue: the puffing pulsation,
+    /// with a phase from the flame's position so that flames do not pulse together.
+    fn pulsing_height(&self, t: f64) -> f64 {
+        let f = 1.5 / (2.0 * self.radius_m).max(0.1).sqrt();
+        let phase = (self.base.x * 12.9898 + self.base.y * 78.233).sin() * 43758.5453;
+        self.height_m * (1.0 + FLICKER_AMPLITUDE * (std::f64::consts::TAU * f * t + phase).sin())
+    }
+
+    /// Gas temperature at height `z` of a flame `h` high, K.
+    fn gas_k(ambient_k: f64, z: f64, h: f64) -> f64 {
+        let eta = (z / h).clamp(0.0, 1.0);
+        let rise = if eta < CONTINUOUS_SHARE {
+            FLAME_RISE_K
+        } else {
+            FLAME_RISE_K
+                + (FLAME_TIP_RISE_K - FLAME_RISE_K) * (eta - CONTINUOUS_SHARE)
+                    / (1.0 - CONTINUOUS_SHARE)
+        };
+        ambient_k + rise
+    }
+}
+
+/// A box at a surface temperature: a vehicle's body, an exhaust, a hot engine bay.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HotBox {
+    pub shape: Obstacle,
+    pub surface_k: f64,
+}
+
+/// What the camera looks at.
+pub struct Scene<'a> {
+    pub tunnel: &'a Tunnel,
+    pub boxes: &'a [HotBox],
+    pub flames: &'a [Flame],
+    pub ambient_k: f64,
+    /// Daylight beyond the portals (sunlit ground and sky), K.
+    pub outside_k: f64,
+    /// Visible-light extinction of the smoke around the camera, 1/m.
+    pub smoke_per_m: f64,
+    /// Temperature of the hot gas under the ceiling at a point, K.
+    pub ceiling_k: &'a dyn Fn(Point2) -> f64,
+}
+
+/// A ray from the camera: origin and direction in the site frame (direction scaled so that
+/// the parameter is depth along the optical axis).
+#[derive(Debug, Clone, Copy)]
+struct Ray {
+    o: [f64; 3],
+    d: [f64; 3],
+}
+
+impl Ray {
+    fn at(&self, t: f64) -> [f64; 3] {
+        std::array::from_fn(|k| self.o[k] + t * self.d[k])
+    }
+    fn metres_per_t(&self) -> f64 {
+        self.d.iter().map(|c| c * c).sum::<f64>().sqrt()
+    }
+}
+
+/// Where a ray enters box `o`, as its parameter (slab test in the box's frame).
+fn enters_box(o: &Obstacle, r: &Ray) -> Option<f64> {
+    let pose = o.pose();
+    let a = pose.to_body(Point2::new(r.o[0], r.o[1]));
+    let b = pose.to_body(Point2::new(r.o[0] + r.d[0], r.o[1] + r.d[1]));
+    let start = [a.x, a.y, r.o[2]];
+    let dir = [b.x - a.x, b.y - a.y, r.d[2]];
+    let lo = [-o.length_m / 2.0, -o.width_m / 2.0, 0.0];
+    let hi = [o.length_m / 2.0, o.width_m / 2.0, o.height_m];
+    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+    for k in 0..3 {
+        if dir[k].abs() < 1e-12 {
+            if start[k] < lo[k] || start[k] > hi[k] {
+                return None;
+            }
+        } else {
+            let (ta, tb) = ((lo[k] - start[k]) / dir[k], (hi[k] - start[k]) / dir[k]);
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+            if t0 > t1 {
+                return None;
+            }
+        }
+    }
+    Some(t0)
+}
+
+/// The part of a ray inside a flame `h` high: entry and exit parameters.
+fn through_flame(f: &Flame, h: f64, r: &Ray) -> Option<(f64, f64)> {
+    let (px, py) = (r.o[0] - f.base.x, r.o[1] - f.base.y);
+    let a = r.d[0] * r.d[0] + r.d[1] * r.d[1];
+    let b = 2.0 * (px * r.d[0] + py * r.d[1]);
+    let c = px * px + py * py - f.radius_m * f.radius_m;
+    let disc = b * b - 4.0 * a * c;
+    if a < 1e-12 || disc <= 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    let (mut t0, mut t1) = ((-b - s) / (2.0 * a), (-b + s) / (2.0 * a));
+    if r.d[2].abs() > 1e-12 {
+        let (za, zb) = (-r.o[2] / r.d[2], (h - r.o[2]) / r.d[2]);
+        t0 = t0.max(za.min(zb));
+        t1 = t1.min(za.max(zb));
+    } else if !(0.0..=h).contains(&r.o[2]) {
+        return None;
+    }
+    let t0 = t0.max(0.0);
+    (t1 > t0).then_some((t0, t1))
+}
+
+/// What a ray meets first that stops it: its parameter, surface temperature, and whether
+/// it is inside the tunnel (a depth camera can range it).
+fn first_surface(scene: &Scene, r: &Ray) -> (f64, f64, bool) {
+    let tunnel = scene.tunnel;
+    let here = tunnel.station(Point2::new(r.o[0], r.o[1]));
+    let heading = tunnel.heading_at(here.s);
+    let (c, s) = (heading.cos(), heading.sin());
+    let along = c * r.d[0] + s * r.d[1];
+    let across = -s * r.d[0] + c * r.d[1];
+    let half = tunnel.width_m / 2.0;
+    let mut t = f64::INFINITY;
+    if r.d[2] < 0.0 {
+        t = t.min(-r.o[2] / r.d[2]);
+    }
+    if r.d[2] > 0.0 {
+        t = t.min((tunnel.height_m - r.o[2]) / r.d[2]);
+    }
+    if across > 0.0 {
+        t = t.min((half - here.d) / across);
+    } else if across < 0.0 {
+        t = t.min((-half - here.d) / across);
+    }
+    let s_hit = here.s.m() + along * t;
+    if !(0.0..=tunnel.length_m).contains(&s_hit) {
+        return (t, scene.outside_k, false);
+    }
+    let p = r.at(t);
+    let mut surface = if p[2] >= tunnel.height_m * (1.0 - HOT_LAYER_SHARE) {
+        (scene.ceiling_k)(Point2::new(p[0], p[1]))
+    } else {
+        scene.ambient_k
+    };
+    for b in scene.boxes {
+        if let Some(tb) = enters_box(&b.shape, r).filter(|tb| *tb < t) {
+            t = tb;
+            surface = b.surface_k;
+        }
+    }
+    (t, surface, true)
+}
+
+/// Grey-body mix: `T^4 = tau Ta^4 + (1 - tau) Tb^4`.
+fn mix(tau: f64, a: f64, b: f64) -> f64 {
+    (tau * a.powi(4) + (1.0 - tau) * b.powi(4)).powf(0.25)
+}
+
+/// A fixed-pattern offset for pixel `i`, in [-1, 1]: a hash of its index, so the pattern is
+/// the same every frame and in every run.
+fn fixed_pattern(i: usize) -> f64 {
+    let mut z = (i as u64).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^= z >> 31;
+    (z as f64 / u64::MAX as f64) * 2.0 - 1.0
+}
+
+/// A standard normal draw.
+fn gauss(rng: &mut impl Rng) -> f64 {
+    rng.sample(StandardNormal)
+}
+
+/// The thermal and depth images a core looking from `eye` (the camera's pose: the body's,
+/// turned by the pan if it rides on the cannon) takes of `scene` at time `t`.
+pub fn render(
+    core: &ThermalCore,
+    eye: &Pose2,
+    scene: &Scene,
+    t: f64,
+    rng: &mut impl Rng,
+) -> ThermalImage {
+    let cam = &core.optics;
+    let (w, h) = (cam.width_px as usize, cam.height_px as usize);
+    let centre = eye.to_site(Point2::new(cam.mount_forward_m, 0.0));
+    let (cy, sy) = (eye.yaw.cos(), eye.yaw.sin());
+    let ir_per_m = scene.smoke_per_m * IR_PER_VISIBLE;
+    // One random tongue per flame per frame.
+    let heights: Vec<f64> = scene
+        .flames
+        .iter()
+        .map(|f| {
+            let tongue = 1.0 + FLICKER_NOISE * gauss(rng);
+            (f.pulsing_height(t) * tongue).max(0.05 * f.height_m)
+        })
+        .collect();
+    let mut image = ThermalImage {
+        width: w as u16,
+        height: h as u16,
+        centikelvin: vec![0; w * h],
+        depth_m: vec![0.0; w * h],
+    };
+    for v in 0..h {
+        for u in 0..w {
+            let c = cam.back_project(u as f64 + 0.5, v as f64 + 0.5, 1.0);
+            let [forward, left, up] = [c[2], -c[0], -c[1]];
+            let ray = Ray {
+                o: [centre.x, centre.y, cam.mount_height_m],
+                d: [cy * forward - sy * left, sy * forward + cy * left, up],
+            };
+            let (t_hit, surface_k, ranged) = first_surface(scene, &ray);
+            let mut kelvin = surface_k;
+            let mut depth = ranged.then_some(t_hit);
+            // Flames in front of the surface, the farthest first, each over what is behind.
+            let mut crossed: Vec<(f64, f64, &Flame, f64)> = scene
+                .flames
+                .iter()
+                .zip(&heights)
+                .filter_map(|(f, &fh)| {
+                    let (t0, t1) = through_flame(f, fh, &ray)?;
+                    (t0 < t_hit).then_some((t0, t1.min(t_hit), f, fh))
+                })
+                .collect();
+            crossed.sort_by(|a, b| b.0.total_cmp(&a.0));
+            for &(t0, t1, f, fh) in &crossed {
+                let mid = ray.at((t0 + t1) / 2.0)[2];
+                let eps = 1.0 - (-FLAME_ABSORPTION_PER_M * (t1 - t0) * ray.metres_per_t()).exp();
+                kelvin = mix(1.0 - eps, kelvin, Flame::gas_k(scene.ambient_k, mid, fh));
+                if f.sprayed {
+                    kelvin = mix(SPRAY_TRANSMISSION, kelvin, scene.ambient_k);
+                }
+                if eps > 0.5 {
+                    depth = (rng.random::<f64>() >= cam.depth_dropout).then_some(t0);
+                }
+            }
+            let path_m = crossed.last().map_or(t_hit, |c| c.0) * ray.metres_per_t();
+            kelvin = mix((-ir_per_m * path_m).exp(), kelvin, scene.ambient_k);
+            let i = v * w + u;
+            kelvin += core.netd_k * gauss(rng) + core.fixed_pattern_k * fixed_pattern(i);
+            image.centikelvin[i] = (kelvin / ThermalImage::KELVIN_PER_COUNT)
+                .round()
+                .clamp(0.0, f64::from(u16::MAX)) as u16;
+            image.depth_m[i] = depth
+                .filter(|z| *z <= cam.range_m && 2.0 * scene.smoke_per_m * z < 3.0)
+                .map_or(0.0, |z| {
+                    let sigma = cam.depth_sigma_m(z);
+                    (z + sigma * gauss(rng)).max(0.1) as f32
+                });
+        }
+    }
+    image
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firefleet_model::profile::GROUND;
+    use firefleet_model::validate::Validate;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    const AMBIENT: f64 = 293.15;
+
+    fn road() -> Tunnel {
+        Tunnel::straight(300.0, 10.0, 6.0, 2)
+    }
+
+    fn shot(flames: &[Flame], boxes: &[HotBox], smoke: f64, seed: u64) -> ThermalImage {
+        let tunnel = road();
+        let scene = Scene {
+            tunnel: &tunnel,
+            boxes,
+            flames,
+            ambient_k: AMBIENT,
+            outside_k: 310.0,
+            smoke_per_m: smoke,
+            ceiling_k: &|_| AMBIENT + 40.0,
+        };
+        let core = ThermalCore::qqvga(&GROUND.camera);
+        render(
+            &core,
+            &Pose2::new(50.0, 0.0, 0.0),
+            &scene,
+            1.0,
+            &mut ChaCha8Rng::seed_from_u64(seed),
+        )
+    }
+
+    fn flame(x: f64) -> Flame {
+        Flame {
+            base: Point2::new(x, 0.0),
+            radius_m: 0.6,
+            height_m: 2.0,
+            sprayed: false,
+        }
+    }
+
+    /// Pixels above 500 K.
+    fn hot_area(img: &ThermalImage) -> usize {
+        img.centikelvin.iter().filter(|k| **k > 50_000).count()
+    }
+
+    /// The pixel a site point projects to.
+    fn pixel(p: [f64; 3]) -> (usize, usize) {
+        let core = ThermalCore::qqvga(&GROUND.camera);
+        let c = core.optics.body_to_camera([p[0] - 50.0, p[1], p[2]]);
+        let [u, v] = core.optics.project(c).unwrap();
+        (u as usize, v as usize)
+    }
+
+    #[test]
+    fn a_flame_is_hot_where_the_pinhole_model_puts_it_and_its_depth_is_its_range() {
+        let img = shot(&[flame(60.0)], &[], 0.01, 1);
+        img.validate().unwrap();
+        let (u, v) = pixel([59.4, 0.0, 0.5]);
+        assert!(img.kelvin(u, v) > 600.0, "flame core {}", img.kelvin(u, v));
+        let (u, v) = pixel([59.4, 3.0, 0.5]);
+        assert!(
+            (img.kelvin(u, v) - AMBIENT).abs() < 2.0,
+            "wall beside it at ambient: {}",
+            img.kelvin(u, v)
+        );
+        let depths: Vec<f64> = (0..160)
+            .flat_map(|u| (0..120).map(move |v| (u, v)))
+            .filter(|&(u, v)| img.kelvin(u, v) > 600.0)
+            .filter_map(|(u, v)| img.depth(u, v))
+            .collect();
+        assert!(depths.len() > 20);
+        let mean = depths.iter().sum::<f64>() / depths.len() as f64;
+        let near_surface = 60.0 - 0.6 - 50.0 - GROUND.camera.mount_forward_m;
+        assert!(
+            (mean - near_surface).abs() < 0.5,
+            "{mean} vs {near_surface}"
+        );
+    }
+
+    #[test]
+    fn the_same_seed_gives_the_same_image_and_the_flame_flickers_between_frames() {
+        assert_eq!(
+            shot(&[flame(60.0)], &[], 0.01, 7),
+            shot(&[flame(60.0)], &[], 0.01, 7)
+        );
+        let areas: Vec<usize> = (0..8)
+            .map(|s| hot_area(&shot(&[flame(60.0)], &[], 0.01, s)))
+            .collect();
+        let (lo, hi) = (areas.iter().min().unwrap(), areas.iter().max().unwrap());
+        assert!(
+            *hi as f64 > 1.1 * *lo as f64,
+            "flame area varies: {areas:?}"
+        );
+    }
+
+    #[test]
+    fn smoke_dims_a_flame_but_long_wave_infrared_still_sees_it_where_depth_is_lost() {
+        let clear = shot(&[flame(65.0)], &[], 0.01, 2);
+        let thick = shot(&[flame(65.0)], &[], 1.0, 2);
+        // The core saturates on the flame (655 K), so compare what reads above 500 K.
+        assert!(hot_area(&thick) < hot_area(&clear), "dimmer at the edges");
+        assert!(hot_area(&thick) > hot_area(&clear) / 2, "and still there");
+        let (u, v) = pixel([64.4, 0.0, 0.5]);
+        assert_eq!(thick.kelvin(u, v), 655.35, "saturated");
+        assert_eq!(
+            thick.depth(u, v),
+            None,
+            "14 m is beyond the depth camera in this smoke"
+        );
+    }
+
+    #[test]
+    fn a_hot_body_reads_its_surface_temperature_and_a_spray_cools_a_flame() {
+        let car = HotBox {
+            shape: Obstacle {
+                name: "car".into(),
+                x_m: 60.0,
+                y_m: 0.0,
+                length_m: 4.0,
+                width_m: 1.8,
+                height_m: 1.4,
+                yaw_rad: 0.0,
+            },
+            surface_k: 450.0,
+        };
+        let img = shot(&[], &[car], 0.01, 3);
+        let (u, v) = pixel([58.0, 0.0, 0.7]);
+        assert!(
+            (img.kelvin(u, v) - 450.0).abs() < 2.0,
+            "{}",
+            img.kelvin(u, v)
+        );
+        let dry = shot(&[flame(60.0)], &[], 0.01, 4);
+        let wet = shot(
+            &[Flame {
+                sprayed: true,
+                ..flame(60.0)
+            }],
+            &[],
+            0.01,
+            4,
+        );
+        assert!(
+            hot_area(&wet) < hot_area(&dry),
+            "the spray cools the flame's thin edges"
+        );
+    }
+}
