@@ -8,6 +8,7 @@
 pub mod aim;
 pub mod leaves;
 pub mod perception;
+pub mod thermal;
 pub mod tracker;
 pub mod unit;
 

@@ -1,0 +1,358 @@
+//! Flames found in a radiometric thermal image's pixels, with the registered depth image:
+//! the detector a unit with only a thermal camera runs in place of a box detector.
+//!
+//! Each frame, in three steps:
+//! 1. **Segmentation** by hysteresis: a region starts at pixels at or above
+//!    [`DetectorConfig::seed_k`] (a flame's core saturates the core's 655 K scale; the hot
+//!    layer, exhausts and sunlit portals stay below) and grows through 4-connected pixels
+//!    at or above [`DetectorConfig::grow_k`], so a region takes in the flame's cooler,
+//!    thinner edges.
+//! 2. **Persistence**: each region is matched to the nearest region of the previous frames
+//!    (centroid within [`DetectorConfig::match_px`]); its pixel count over the last
+//!    [`DetectorConfig::window`] frames is fitted with a straight line (the camera closing
+//!    in grows it steadily) and what is left is flicker. Flames pulse at 1-3 Hz by tens of
+//!    per cent; hot metal does not move. A region is a flame once seen in
+//!    [`DetectorConfig::min_frames`] frames with a detrended flicker of at least
+//!    [`DetectorConfig::min_flicker`].
+//! 3. **Position**: the range to the flame's visible surface is the median of the region's
+//!    valid depth pixels; with too few (smoke blinds a depth camera long before long-wave
+//!    infrared; a flame's pixels drop out), the ray through the region's bottom row meets
+//!    the road, where a flame stands. Half the region's width at that range is added: a
+//!    flame's axis is behind its visible surface by its radius.
+//!
+//! Out come [`FlameDetection`]s, as a box detector's, so placing them in the site frame
+//! and their covariance are the same code for both ([`crate::ground::perception`]): the
+//! box is the region's, and every cell of the depth window holds the detector's range to
+//! the flame's axis.
+//!
+//! Not here: the images themselves (the robot's drivers, or the simulator's renderer),
+//! tracking flames in the site frame ([`crate::ground::tracker`]).
+
+use firefleet_model::spec::CameraSpec;
+use firefleet_protocol::msg::{DEPTH_WINDOW, FlameDetection, ObjectClass, ThermalImage};
+
+/// The detector's thresholds. [`DetectorConfig::default`] is the tuning the lab's
+/// detection table measures (`firefleet-lab thermal`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DetectorConfig {
+    /// A region starts at a pixel this hot, K.
+    pub seed_k: f64,
+    /// and takes in neighbours this hot, K.
+    pub grow_k: f64,
+    /// Smallest region, pixels.
+    pub min_pixels: usize,
+    /// Frames a region's size is kept over.
+    pub window: usize,
+    /// Frames a region must be seen in before it is a flame.
+    pub min_frames: usize,
+    /// Smallest detrended flicker: RMS of the size about its line, over the mean size.
+    pub min_flicker: f64,
+    /// Farthest a region's centroid moves between frames, pixels.
+    pub match_px: f64,
+    /// Fewest valid depth pixels for a range from depth.
+    pub min_depth_px: usize,
+}
+
+impl Default for DetectorConfig {
+    fn default() -> Self {
+        Self {
+            seed_k: 640.0,
+            grow_k: 450.0,
+            min_pixels: 4,
+            window: 8,
+            min_frames: 4,
+            min_flicker: 0.04,
+            match_px: 12.0,
+            min_depth_px: 4,
+        }
+    }
+}
+
+/// One hot region of one frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Region {
+    pixels: usize,
+    /// `[u_min, v_min, u_max, v_max]`, pixel edges.
+    bbox: [f64; 4],
+    centroid: [f64; 2],
+    /// Median valid depth, m, if enough pixels had one.
+    depth_m: Option<f64>,
+}
+
+/// A region followed over frames.
+#[derive(Debug, Clone)]
+struct Followed {
+    last: Region,
+    /// Pixel counts, oldest first, at most `window`.
+    sizes: Vec<f64>,
+    /// Frames it was seen in.
+    seen: usize,
+    /// Matched in the current frame.
+    matched: bool,
+}
+
+impl Followed {
+    /// RMS of the sizes about their least-squares line, over their mean.
+    fn flicker(&self) -> f64 {
+        let n = self.sizes.len() as f64;
+        if self.sizes.len() < 3 {
+            return 0.0;
+        }
+        let mean_x = (n - 1.0) / 2.0;
+        let mean_y = self.sizes.iter().sum::<f64>() / n;
+        let (mut sxy, mut sxx) = (0.0, 0.0);
+        for (i, y) in self.sizes.iter().enumerate() {
+            let dx = i as f64 - mean_x;
+            sxy += dx * (y - mean_y);
+            sxx += dx * dx;
+        }
+        let slope = sxy / sxx;
+        let rss: f64 = self
+            .sizes
+            .iter()
+            .enumerate()
+            .map(|(i, y)| (y - mean_y - slope * (i as f64 - mean_x)).powi(2))
+            .sum();
+        (rss / n).sqrt() / mean_y.max(1.0)
+    }
+}
+
+/// The detector of one camera; it keeps the regions of the last frames.
+#[derive(Debug, Clone, Default)]
+pub struct ThermalDetector {
+    config: DetectorConfig,
+    followed: Vec<Followed>,
+}
+
+impl ThermalDetector {
+    pub fn new(config: DetectorConfig) -> Self {
+        Self {
+            config,
+            followed: Vec::new(),
+        }
+    }
+
+    /// The flames in the next frame, `img`, taken by a camera with `optics`.
+    pub fn detect(&mut self, img: &ThermalImage, optics: &CameraSpec) -> Vec<FlameDetection> {
+        let cfg = self.config;
+        let regions = segment(img, &cfg);
+        for f in &mut self.followed {
+            f.matched = false;
+        }
+        for r in regions {
+            let near = self
+                .followed
+                .iter_mut()
+                .filter(|f| !f.matched)
+                .map(|f| (dist(f.last.centroid, r.centroid), f))
+                .filter(|(d, _)| *d <= cfg.match_px)
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            match near {
+                Some((_, f)) => {
+                    f.last = r;
+                    f.seen += 1;
+                    f.matched = true;
+                    f.sizes.push(r.pixels as f64);
+                    if f.sizes.len() > cfg.window {
+                        f.sizes.remove(0);
+                    }
+                }
+                None => self.followed.push(Followed {
+                    last: r,
+                    sizes: vec![r.pixels as f64],
+                    seen: 1,
+                    matched: true,
+                }),
+            }
+        }
+        self.followed.retain(|f| f.matched);
+        self.followed
+            .iter()
+            .filter(|f| f.seen >= cfg.min_frames && f.flicker() >= cfg.min_flicker)
+            .filter_map(|f| detection(&f.last, f.flicker(), optics))
+            .collect()
+    }
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+/// The hot regions of a frame, by hysteresis on the temperature.
+fn segment(img: &ThermalImage, cfg: &DetectorConfig) -> Vec<Region> {
+    let (w, h) = (usize::from(img.width), usize::from(img.height));
+    let count = |k: f64| (k / ThermalImage::KELVIN_PER_COUNT).round() as u16;
+    let (seed, grow) = (count(cfg.seed_k), count(cfg.grow_k));
+    let mut taken = vec![false; w * h];
+    let mut stack = Vec::new();
+    let mut depths = Vec::new();
+    let mut out = Vec::new();
+    for start in 0..w * h {
+        if taken[start] || img.centikelvin[start] < seed {
+            continue;
+        }
+        taken[start] = true;
+        stack.push(start);
+        depths.clear();
+        let (mut n, mut su, mut sv) = (0usize, 0.0, 0.0);
+        let mut bbox = [usize::MAX, usize::MAX, 0, 0];
+        while let Some(i) = stack.pop() {
+            let (u, v) = (i % w, i / w);
+            n += 1;
+            su += u as f64 + 0.5;
+            sv += v as f64 + 0.5;
+            bbox = [bbox[0].min(u), bbox[1].min(v), bbox[2].max(u), bbox[3].max(v)];
+            if let Some(z) = img.depth(u, v) {
+                depths.push(z);
+            }
+            let neighbours = [
+                (u > 0).then(|| i - 1),
+                (u + 1 < w).then(|| i + 1),
+                (v > 0).then(|| i - w),
+                (v + 1 < h).then(|| i + w),
+            ];
+            for j in neighbours.into_iter().flatten() {
+                if !taken[j] && img.centikelvin[j] >= grow {
+                    taken[j] = true;
+                    stack.push(j);
+                }
+            }
+        }
+        if n < cfg.min_pixels {
+            continue;
+        }
+        let depth_m = (depths.len() >= cfg.min_depth_px).then(|| {
+            depths.sort_unstable_by(f64::total_cmp);
+            depths[depths.len() / 2]
+        });
+        out.push(Region {
+            pixels: n,
+            bbox: [
+                bbox[0] as f64,
+                bbox[1] as f64,
+                bbox[2] as f64 + 1.0,
+                bbox[3] as f64 + 1.0,
+            ],
+            centroid: [su / n as f64, sv / n as f64],
+            depth_m,
+        });
+    }
+    out
+}
+
+/// A flame's detection from its region: the range to its axis and a confidence that grows
+/// with its flicker.
+fn detection(r: &Region, flicker: f64, optics: &CameraSpec) -> Option<FlameDetection> {
+    let surface = r.depth_m.or_else(|| {
+        // The ray through the middle of the region's bottom row meets the road at the
+        // depth where the camera's height is the ray's drop.
+        let drop_per_m = (r.bbox[3] - optics.cy) / optics.fy;
+        (drop_per_m > 1e-3).then(|| optics.mount_height_m / drop_per_m)
+    })?;
+    let radius_m = (r.bbox[2] - r.bbox[0]) / 2.0 * surface / optics.fx;
+    let axis = (surface + radius_m) as f32;
+    Some(FlameDetection {
+        class: ObjectClass::Fire,
+        confidence: (0.5 + 2.0 * flicker).clamp(0.05, 0.99),
+        bbox: r.bbox,
+        depth: [axis; DEPTH_WINDOW * DEPTH_WINDOW],
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firefleet_model::Point2;
+    use firefleet_model::geometry::Pose2;
+    use firefleet_model::profile::GROUND;
+    use firefleet_model::scenario::{Obstacle, Tunnel};
+    use firefleet_sim::thermal::{Flame, HotBox, Scene, ThermalCore, render};
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    use crate::ground::perception;
+
+    const AMBIENT: f64 = 293.15;
+
+    /// Frames at 10 Hz of a camera at (0, 0) looking down +x at `flames` and `boxes`.
+    fn frames(flames: &[Flame], boxes: &[HotBox], smoke: f64, n: usize) -> Vec<ThermalImage> {
+        let tunnel = Tunnel::straight(300.0, 10.0, 6.0, 2);
+        let core = ThermalCore::qqvga(&GROUND.camera);
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let scene = Scene {
+            tunnel: &tunnel,
+            boxes,
+            flames,
+            ambient_k: AMBIENT,
+            outside_k: 310.0,
+            smoke_per_m: smoke,
+            ceiling_k: &|_| AMBIENT + 60.0,
+        };
+        (0..n)
+            .map(|k| render(&core, &Pose2::new(100.0, 0.0, 0.0), &scene, k as f64 * 0.1, &mut rng))
+            .collect()
+    }
+
+    fn run(images: &[ThermalImage]) -> Vec<Vec<FlameDetection>> {
+        let optics = ThermalCore::qqvga(&GROUND.camera).optics;
+        let mut d = ThermalDetector::new(DetectorConfig::default());
+        images.iter().map(|i| d.detect(i, &optics)).collect()
+    }
+
+    fn flame_at(x: f64, y: f64) -> Flame {
+        Flame {
+            base: Point2::new(x, y),
+            radius_m: 0.5,
+            height_m: 1.8,
+            sprayed: false,
+        }
+    }
+
+    /// Where a detection places the flame.
+    fn place(d: &FlameDetection) -> Point2 {
+        let optics = ThermalCore::qqvga(&GROUND.camera).optics;
+        perception::locate(d, &optics, &Pose2::new(100.0, 0.0, 0.0))
+            .unwrap()
+            .estimate
+            .mean
+    }
+
+    #[test]
+    fn a_flame_at_6_m_is_found_within_half_a_metre_after_a_few_frames() {
+        let out = run(&frames(&[flame_at(106.0, 0.5)], &[], 0.01, 12));
+        assert!(out[..3].iter().all(Vec::is_empty), "not before it persisted");
+        let found: Vec<Point2> = out[4..].iter().flatten().map(place).collect();
+        assert!(found.len() >= 6, "{found:?}");
+        for p in found {
+            assert!(p.dist(Point2::new(106.0, 0.5)) < 0.5, "{p:?}");
+        }
+    }
+
+    #[test]
+    fn hot_metal_that_does_not_flicker_is_no_flame() {
+        let engine = HotBox {
+            shape: Obstacle {
+                name: "burnt-out car".into(),
+                x_m: 110.0,
+                y_m: 0.0,
+                length_m: 4.0,
+                width_m: 1.8,
+                height_m: 1.4,
+                yaw_rad: 0.0,
+            },
+            surface_k: 650.0,
+        };
+        let out = run(&frames(&[], &[engine], 0.01, 12));
+        assert!(out.iter().all(Vec::is_empty), "{out:?}");
+    }
+
+    #[test]
+    fn in_smoke_that_blinds_depth_the_flame_is_placed_from_where_it_meets_the_road() {
+        let out = run(&frames(&[flame_at(110.0, -1.0)], &[], 0.8, 12));
+        let found: Vec<Point2> = out.iter().flatten().map(place).collect();
+        assert!(found.len() >= 4, "{found:?}");
+        for p in found {
+            assert!(p.dist(Point2::new(110.0, -1.0)) < 1.0, "{p:?}");
+        }
+    }
+}
