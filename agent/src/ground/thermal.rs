@@ -8,21 +8,22 @@
 //!    at or above [`DetectorConfig::grow_k`], so a region takes in the flame's cooler,
 //!    thinner edges.
 //! 2. **Persistence**: each region is matched to the nearest region of the previous frames
-//!    (centroid within [`DetectorConfig::match_px`]); its pixel count over the last
-//!    [`DetectorConfig::window`] frames is fitted with a straight line (the camera closing
-//!    in grows it steadily) and what is left is flicker. Flames pulse at 1-3 Hz by tens of
+//!    (centroid within [`DetectorConfig::match_px`]). The size of its core (the pixels at
+//!    or above the seed temperature; what the flame heats around it is steady and would
+//!    hide the flicker) over the last [`DetectorConfig::window`] frames is fitted with a
+//!    straight line (the camera closing in grows it steadily), and what is left is flicker. Flames pulse at 1-3 Hz by tens of
 //!    per cent; hot metal does not move. A region is a flame once seen in
 //!    [`DetectorConfig::min_frames`] frames with a detrended flicker of at least
 //!    [`DetectorConfig::min_flicker`].
-//! 3. **Position**: the range to the flame's visible surface is the median of the region's
-//!    valid depth pixels; with too few (smoke blinds a depth camera long before long-wave
-//!    infrared; a flame's pixels drop out), the ray through the region's bottom row meets
-//!    the road, where a flame stands. Half the region's width at that range is added: a
-//!    flame's axis is behind its visible surface by its radius.
+//! 3. **Position**, from the core: the range to the flame's visible surface is the median
+//!    of its valid depth pixels or where the ray through its bottom row meets the road (a
+//!    flame stands on it), the nearer of the two: smoke blinds a depth camera long before
+//!    long-wave infrared, and a thin flame is transparent to it. Half the core's width at
+//!    that range is added: a flame's axis is behind its visible surface by its radius.
 //!
 //! Out come [`FlameDetection`]s, as a box detector's, so placing them in the site frame
 //! and their covariance are the same code for both ([`crate::ground::perception`]): the
-//! box is the region's, and every cell of the depth window holds the detector's range to
+//! box is the core's, and every cell of the depth window holds the detector's range to
 //! the flame's axis.
 //!
 //! Not here: the images themselves (the robot's drivers, or the simulator's renderer),
@@ -71,11 +72,15 @@ impl Default for DetectorConfig {
 /// One hot region of one frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Region {
-    pixels: usize,
-    /// `[u_min, v_min, u_max, v_max]`, pixel edges.
+    /// Pixels at or above the seed temperature: the flame's core, whose size flickers. A
+    /// region also takes in what the flame heats around it (a car's body, the layer),
+    /// which is steady and would hide the flicker.
+    core: usize,
+    /// The core's `[u_min, v_min, u_max, v_max]`, pixel edges.
     bbox: [f64; 4],
+    /// The core's centroid, pixels.
     centroid: [f64; 2],
-    /// Median valid depth, m, if enough pixels had one.
+    /// Median valid depth over the core, m, if enough of its pixels had one.
     depth_m: Option<f64>,
 }
 
@@ -83,7 +88,7 @@ struct Region {
 #[derive(Debug, Clone)]
 struct Followed {
     last: Region,
-    /// Pixel counts, oldest first, at most `window`.
+    /// Core sizes, pixels, oldest first, at most `window`.
     sizes: Vec<f64>,
     /// Frames it was seen in.
     seen: usize,
@@ -152,14 +157,14 @@ impl ThermalDetector {
                     f.last = r;
                     f.seen += 1;
                     f.matched = true;
-                    f.sizes.push(r.pixels as f64);
+                    f.sizes.push(r.core as f64);
                     if f.sizes.len() > cfg.window {
                         f.sizes.remove(0);
                     }
                 }
                 None => self.followed.push(Followed {
                     last: r,
-                    sizes: vec![r.pixels as f64],
+                    sizes: vec![r.core as f64],
                     seen: 1,
                     matched: true,
                 }),
@@ -194,16 +199,24 @@ fn segment(img: &ThermalImage, cfg: &DetectorConfig) -> Vec<Region> {
         taken[start] = true;
         stack.push(start);
         depths.clear();
-        let (mut n, mut su, mut sv) = (0usize, 0.0, 0.0);
+        let (mut n, mut core, mut su, mut sv) = (0usize, 0usize, 0.0, 0.0);
         let mut bbox = [usize::MAX, usize::MAX, 0, 0];
         while let Some(i) = stack.pop() {
             let (u, v) = (i % w, i / w);
             n += 1;
-            su += u as f64 + 0.5;
-            sv += v as f64 + 0.5;
-            bbox = [bbox[0].min(u), bbox[1].min(v), bbox[2].max(u), bbox[3].max(v)];
-            if let Some(z) = img.depth(u, v) {
-                depths.push(z);
+            if img.centikelvin[i] >= seed {
+                core += 1;
+                if let Some(z) = img.depth(u, v) {
+                    depths.push(z);
+                }
+                su += u as f64 + 0.5;
+                sv += v as f64 + 0.5;
+                bbox = [
+                    bbox[0].min(u),
+                    bbox[1].min(v),
+                    bbox[2].max(u),
+                    bbox[3].max(v),
+                ];
             }
             let neighbours = [
                 (u > 0).then(|| i - 1),
@@ -226,14 +239,14 @@ fn segment(img: &ThermalImage, cfg: &DetectorConfig) -> Vec<Region> {
             depths[depths.len() / 2]
         });
         out.push(Region {
-            pixels: n,
+            core,
             bbox: [
                 bbox[0] as f64,
                 bbox[1] as f64,
                 bbox[2] as f64 + 1.0,
                 bbox[3] as f64 + 1.0,
             ],
-            centroid: [su / n as f64, sv / n as f64],
+            centroid: [su / core as f64, sv / core as f64],
             depth_m,
         });
     }
@@ -241,14 +254,21 @@ fn segment(img: &ThermalImage, cfg: &DetectorConfig) -> Vec<Region> {
 }
 
 /// A flame's detection from its region: the range to its axis and a confidence that grows
-/// with its flicker.
+/// with its flicker; `None` with no range.
 fn detection(r: &Region, flicker: f64, optics: &CameraSpec) -> Option<FlameDetection> {
-    let surface = r.depth_m.or_else(|| {
-        // The ray through the middle of the region's bottom row meets the road at the
-        // depth where the camera's height is the ray's drop.
-        let drop_per_m = (r.bbox[3] - optics.cy) / optics.fy;
-        (drop_per_m > 1e-3).then(|| optics.mount_height_m / drop_per_m)
-    })?;
+    // The ray through the core's bottom row meets the road at the depth where the
+    // camera's height is the ray's drop. Where the flame's foot is hidden (behind a car,
+    // say) the lowest visible point is above the road and this is too far, never too near,
+    // unless the image's bottom edge cuts the core.
+    let drop_per_m = (r.bbox[3] - optics.cy) / optics.fy;
+    let road = (drop_per_m > 1e-3 && r.bbox[3] < optics.height_px)
+        .then(|| optics.mount_height_m / drop_per_m);
+    // A thin flame is transparent to a depth camera, which ranges the wall behind it, so
+    // the nearer of the two is the flame.
+    let surface = match (r.depth_m, road) {
+        (Some(d), Some(g)) => d.min(g),
+        (d, g) => d.or(g)?,
+    };
     let radius_m = (r.bbox[2] - r.bbox[0]) / 2.0 * surface / optics.fx;
     let axis = (surface + radius_m) as f32;
     Some(FlameDetection {
@@ -289,7 +309,15 @@ mod tests {
             ceiling_k: &|_| AMBIENT + 60.0,
         };
         (0..n)
-            .map(|k| render(&core, &Pose2::new(100.0, 0.0, 0.0), &scene, k as f64 * 0.1, &mut rng))
+            .map(|k| {
+                render(
+                    &core,
+                    &Pose2::new(100.0, 0.0, 0.0),
+                    &scene,
+                    k as f64 * 0.1,
+                    &mut rng,
+                )
+            })
             .collect()
     }
 
@@ -320,7 +348,10 @@ mod tests {
     #[test]
     fn a_flame_at_6_m_is_found_within_half_a_metre_after_a_few_frames() {
         let out = run(&frames(&[flame_at(106.0, 0.5)], &[], 0.01, 12));
-        assert!(out[..3].iter().all(Vec::is_empty), "not before it persisted");
+        assert!(
+            out[..3].iter().all(Vec::is_empty),
+            "not before it persisted"
+        );
         let found: Vec<Point2> = out[4..].iter().flatten().map(place).collect();
         assert!(found.len() >= 6, "{found:?}");
         for p in found {

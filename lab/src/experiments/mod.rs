@@ -24,6 +24,7 @@ mod nemesis;
 mod plot;
 mod robogat;
 mod scale;
+mod thermal;
 mod zones;
 
 #[derive(Subcommand, Debug)]
@@ -38,6 +39,8 @@ pub enum Experiment {
     Robogat(robogat::RobogatArgs),
     /// A real coordinator process under a large simulated fleet over loopback Zenoh.
     Scale(scale::ScaleArgs),
+    /// The pixel flame detector's precision, recall and localisation error by scene class.
+    Thermal(thermal::ThermalArgs),
     /// A secure demo site under a flood from one stolen unit certificate, measured.
     Flood(flood::FloodArgs),
     /// The Dijkstra+GA paper's heat-aware cost map: no heat, w1 = w2 = 1, GA-tuned.
@@ -62,6 +65,7 @@ pub async fn run(experiment: Experiment) -> anyhow::Result<ExitCode> {
         Experiment::Robogat(a) => robogat::run(a),
         Experiment::Scale(a) => scale::run(a).await,
         Experiment::Flood(a) => flood::run(a).await,
+        Experiment::Thermal(a) => thermal::run(a),
         Experiment::CostmapGa(a) => costmap_ga::run(a),
         Experiment::Nav(a) => nav::run(a),
         Experiment::Zones(a) => zones::run(a),
