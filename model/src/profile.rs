@@ -155,7 +155,11 @@ impl Validate for GroundSpec {
             10.0,
         )?;
         self.nozzle.validate().map_err(|e| e.within("nozzle"))?;
-        self.camera.validate().map_err(|e| e.within("camera"))
+        self.camera.validate().map_err(|e| e.within("camera"))?;
+        match &self.thermal_camera {
+            Some(c) => c.validate().map_err(|e| e.within("thermal_camera")),
+            None => Ok(()),
+        }
     }
 }
 

@@ -59,6 +59,11 @@ pub struct GroundSpec {
     pub cannon_tilt_rate_rad_s: f64,
     /// The RGB-D camera the flame detector looks through.
     pub camera: CameraSpec,
+    /// A radiometric thermal core registered to the depth camera, if the unit has one:
+    /// the pixel flame detector looks through it. Its `depth_*` fields are the depth
+    /// camera's as registered to it; `box_sigma_px` is the core's pixel noise on a region.
+    #[serde(default)]
+    pub thermal_camera: Option<CameraSpec>,
 }
 
 /// A monitor nozzle and its effective jet exit speed, the BT paper's equation 9:

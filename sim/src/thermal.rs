@@ -88,23 +88,11 @@ pub struct ThermalCore {
 }
 
 impl ThermalCore {
-    /// A 160 x 120 core with a 57 degree horizontal field of view (a Lepton-class core),
-    /// NETD 50 mK, 0.2 K of fixed pattern, mounted where the unit's RGB-D camera `rgbd`
-    /// is and registered to its depth.
-    pub fn qqvga(rgbd: &CameraSpec) -> Self {
-        let (w, h) = (160.0, 120.0);
-        let f = w / 2.0 / (57f64.to_radians() / 2.0).tan();
+    /// A Lepton-class core with `optics` (the unit profile's `thermal_camera`): NETD
+    /// 50 mK, 0.2 K of fixed pattern.
+    pub fn lepton_class(optics: CameraSpec) -> Self {
         Self {
-            optics: CameraSpec {
-                width_px: w,
-                height_px: h,
-                fx: f,
-                fy: f,
-                cx: w / 2.0,
-                cy: h / 2.0,
-                box_sigma_px: 1.0,
-                ..*rgbd
-            },
+            optics,
             netd_k: 0.05,
             fixed_pattern_k: 0.2,
         }
@@ -399,7 +387,8 @@ mod tests {
             smoke_per_m: smoke,
             ceiling_k: &|_| AMBIENT + 40.0,
         };
-        let core = ThermalCore::qqvga(&GROUND.camera);
+        let core =
+            ThermalCore::lepton_class(GROUND.thermal_camera.expect("luf60 has a thermal core"));
         render(
             &core,
             &Pose2::new(50.0, 0.0, 0.0),
@@ -425,7 +414,8 @@ mod tests {
 
     /// The pixel a site point projects to.
     fn pixel(p: [f64; 3]) -> (usize, usize) {
-        let core = ThermalCore::qqvga(&GROUND.camera);
+        let core =
+            ThermalCore::lepton_class(GROUND.thermal_camera.expect("luf60 has a thermal core"));
         let c = core.optics.body_to_camera([p[0] - 50.0, p[1], p[2]]);
         let [u, v] = core.optics.project(c).unwrap();
         (u as usize, v as usize)

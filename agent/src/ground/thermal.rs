@@ -297,7 +297,8 @@ mod tests {
     /// Frames at 10 Hz of a camera at (0, 0) looking down +x at `flames` and `boxes`.
     fn frames(flames: &[Flame], boxes: &[HotBox], smoke: f64, n: usize) -> Vec<ThermalImage> {
         let tunnel = Tunnel::straight(300.0, 10.0, 6.0, 2);
-        let core = ThermalCore::qqvga(&GROUND.camera);
+        let core =
+            ThermalCore::lepton_class(GROUND.thermal_camera.expect("luf60 has a thermal core"));
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let scene = Scene {
             tunnel: &tunnel,
@@ -322,7 +323,9 @@ mod tests {
     }
 
     fn run(images: &[ThermalImage]) -> Vec<Vec<FlameDetection>> {
-        let optics = ThermalCore::qqvga(&GROUND.camera).optics;
+        let optics =
+            ThermalCore::lepton_class(GROUND.thermal_camera.expect("luf60 has a thermal core"))
+                .optics;
         let mut d = ThermalDetector::new(DetectorConfig::default());
         images.iter().map(|i| d.detect(i, &optics)).collect()
     }
@@ -338,7 +341,9 @@ mod tests {
 
     /// Where a detection places the flame.
     fn place(d: &FlameDetection) -> Point2 {
-        let optics = ThermalCore::qqvga(&GROUND.camera).optics;
+        let optics =
+            ThermalCore::lepton_class(GROUND.thermal_camera.expect("luf60 has a thermal core"))
+                .optics;
         perception::locate(d, &optics, &Pose2::new(100.0, 0.0, 0.0))
             .unwrap()
             .estimate

@@ -219,7 +219,7 @@ impl Tally {
 /// Run one clip through the pixel detector (`pixels`) and the simulator's box stream
 /// (`boxes`, the RGB-D detector's stand-in the papers' experiments use).
 fn clip(s: &Setup, seed: u64, pixels: &mut Tally, boxes: &mut Tally) {
-    let core = ThermalCore::qqvga(&GROUND.camera);
+    let core = ThermalCore::lepton_class(GROUND.thermal_camera.expect("luf60 has a thermal core"));
     let optics = core.optics;
     let mut detector = ThermalDetector::new(DetectorConfig::default());
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
