@@ -25,6 +25,7 @@ use firefleet_model::{CommanderId, UnitId};
 use firefleet_protocol::msg::{BarredSpace, FlameReport, TaskKind, UnitState, ZoneGoal};
 use firefleet_protocol::msg::{DtsZone, FireTrack, SimTruth, Vent};
 use firefleet_sim::World;
+use firefleet_sim::world::Perception;
 
 /// The simulator's step, s.
 const DT_S: f64 = 0.05;
@@ -35,6 +36,10 @@ const EXCHANGE_EVERY: u64 = 5;
 const BARRED_EVERY: u64 = 20;
 
 /// One unit's control loop, whichever kind it is.
+#[allow(
+    clippy::large_enum_variant,
+    reason = "a fleet holds a handful, made once a run; both kinds are about 2 KB"
+)]
 enum Unit {
     Ground(GroundController),
     Rail(MonorailController),
@@ -194,6 +199,11 @@ impl SimFleet {
             invariants: Invariants::new(scenario),
             step: 0,
         })
+    }
+
+    /// Choose what the ground units' flame detection is made of.
+    pub fn set_perception(&mut self, p: Perception) {
+        self.world.set_perception(p);
     }
 
     /// The coordinator's incident, when there is one: its decisions, its picture.

@@ -36,6 +36,10 @@ const SHIPPED: &[(&str, &str)] = &[
 /// A robot model.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "a profile is read once a unit and copied as a value; 400 bytes cost nothing"
+)]
 pub enum Profile {
     Ground(GroundSpec),
     Monorail(MonorailSpec),

@@ -460,6 +460,7 @@ impl Robot {
                     },
                     detections: std::mem::take(&mut self.detections),
                     collided: std::mem::take(&mut self.bumped),
+                    thermal: None,
                 });
             }
         }

@@ -69,6 +69,7 @@ fn sensors(unit: &UnitId) -> UnitSensors {
             depth: [c[2] as f32; 25],
         }],
         collided: true,
+        thermal: None,
     }
 }
 

@@ -75,6 +75,21 @@ pub const IR_PER_VISIBLE: f64 = 0.55 / 10.0;
 /// Share of a flame's radiance a water spray in front of it passes.
 pub const SPRAY_TRANSMISSION: f64 = 0.5;
 
+/// Seconds between a core's frames: Lepton-class cores deliver under 9 Hz (export rules
+/// on uncooled cores), 8.7 Hz.
+pub const THERMAL_PERIOD_S: f64 = 1.0 / 8.7;
+/// The hottest a vehicle's body reads, K: a burning one's panels glow at 600-800 C (the
+/// core saturates far below either way).
+pub const BURNING_BODY_K: f64 = 900.0;
+/// What a vehicle's panel loses a kelvin above ambient, kW/m^2/K: convection (0.01-0.02)
+/// and its own radiation linearised (0.01-0.03 from 300 to 500 K). A panel taking a flux
+/// `q` settles `q / 0.04` above ambient; settling takes minutes a real panel's heat
+/// capacity would add, which this steady value leaves out (it errs hot, which a detector
+/// must survive).
+pub const BODY_LOSS_KW_M2_K: f64 = 0.04;
+/// Daylight beyond a portal over the tunnel's air, K (sunlit ground, sky near the horizon).
+pub const DAYLIGHT_RISE_K: f64 = 10.0;
+
 /// A radiometric core and where it sits.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ThermalCore {

@@ -169,6 +169,21 @@ pub struct World {
     ventilation: Option<Ventilation>,
     /// The linear heat detector, on a site with a SCADA map.
     dts: Option<Dts>,
+    perception: Perception,
+    /// When each ground unit's thermal core delivers its next frame, s (one per body).
+    thermal_due: Vec<f64>,
+}
+
+/// What a ground unit's flame detection is made of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Perception {
+    /// Boxes drawn from the ground truth ([`camera::detect`]), the RGB-D detector's
+    /// stand-in the papers' experiments were run with.
+    #[default]
+    Boxes,
+    /// Thermal images ([`crate::thermal`]) for units with a thermal core, which find flames
+    /// in them themselves; boxes for units without one.
+    Pixels,
 }
 
 impl World {
@@ -188,7 +203,7 @@ impl World {
                 Some(Carriage::new(u.id.clone(), spec, rail.clone(), u.x_m))
             })
             .collect();
-        let bodies = scenario
+        let bodies: Vec<Body> = scenario
             .units
             .iter()
             .filter(|u| u.kind == UnitKind::Ground)
@@ -212,6 +227,7 @@ impl World {
                 collided: false,
             })
             .collect();
+        let thermal_due = vec![0.0; bodies.len()];
         let mut w = Self {
             tunnel: scenario.tunnel.clone(),
             obstacles: scenario.obstacles.clone(),
@@ -237,12 +253,19 @@ impl World {
                 .scada
                 .clone()
                 .map(|m| Dts::new(m, scenario.tunnel.length_m)),
+            perception: Perception::default(),
+            thermal_due,
         };
         // Fires that ignited before the start are already at their t-squared size, and the
         // detector has been measuring all along.
         w.step_fires(0.0, &[]);
         w.measure_dts();
         w
+    }
+
+    /// Choose what ground units' flame detection is made of.
+    pub fn set_perception(&mut self, p: Perception) {
+        self.perception = p;
     }
 
     pub fn time(&self) -> f64 {

@@ -8,18 +8,21 @@
 //!    at or above [`DetectorConfig::grow_k`], so a region takes in the flame's cooler,
 //!    thinner edges.
 //! 2. **Persistence**: each region is matched to the nearest region of the previous frames
-//!    (centroid within [`DetectorConfig::match_px`]). The size of its core (the pixels at
-//!    or above the seed temperature; what the flame heats around it is steady and would
-//!    hide the flicker) over the last [`DetectorConfig::window`] frames is fitted with a
-//!    straight line (the camera closing in grows it steadily), and what is left is flicker. Flames pulse at 1-3 Hz by tens of
+//!    (centroid within [`DetectorConfig::match_px`]). The size and the top row of its core
+//!    (the pixels at or above the seed temperature; what the flame heats around it is
+//!    steady and would hide the flicker) over the last [`DetectorConfig::window`] frames
+//!    are fitted with straight lines (the camera closing in changes them steadily), and
+//!    what is left is flicker. Flames pulse at 1-3 Hz by tens of
 //!    per cent; hot metal does not move. A region is a flame once seen in
 //!    [`DetectorConfig::min_frames`] frames with a detrended flicker of at least
 //!    [`DetectorConfig::min_flicker`].
 //! 3. **Position**, from the core: the range to the flame's visible surface is the median
 //!    of its valid depth pixels or where the ray through its bottom row meets the road (a
 //!    flame stands on it), the nearer of the two: smoke blinds a depth camera long before
-//!    long-wave infrared, and a thin flame is transparent to it. Half the core's width at
-//!    that range is added: a flame's axis is behind its visible surface by its radius.
+//!    long-wave infrared, and a thin flame is transparent to it. The road ray is used only
+//!    as near as one pixel of its row costs [`DetectorConfig::max_road_error_m`], and no
+//!    range beyond the camera's is reported. Half the core's width at that range is added:
+//!    a flame's axis is behind its visible surface by its radius.
 //!
 //! Out come [`FlameDetection`]s, as a box detector's, so placing them in the site frame
 //! and their covariance are the same code for both ([`crate::ground::perception`]): the
@@ -52,6 +55,10 @@ pub struct DetectorConfig {
     pub match_px: f64,
     /// Fewest valid depth pixels for a range from depth.
     pub min_depth_px: usize,
+    /// Largest error, m, a range from the road ray may have for one pixel of error in the
+    /// foot's row. That error is `z^2 / (f_y h)` (`h` the camera's height), so it sets the
+    /// farthest such range: `sqrt(error f_y h)`, 12 m for a 147 px focal length 1 m up.
+    pub max_road_error_m: f64,
 }
 
 impl Default for DetectorConfig {
@@ -65,6 +72,7 @@ impl Default for DetectorConfig {
             min_flicker: 0.04,
             match_px: 12.0,
             min_depth_px: 4,
+            max_road_error_m: 1.0,
         }
     }
 }
@@ -88,8 +96,8 @@ struct Region {
 #[derive(Debug, Clone)]
 struct Followed {
     last: Region,
-    /// Core sizes, pixels, oldest first, at most `window`.
-    sizes: Vec<f64>,
+    /// The core's size, top row and height, pixels, oldest first, at most `window`.
+    shapes: Vec<[f64; 3]>,
     /// Frames it was seen in.
     seen: usize,
     /// Matched in the current frame.
@@ -97,29 +105,48 @@ struct Followed {
 }
 
 impl Followed {
-    /// RMS of the sizes about their least-squares line, over their mean.
-    fn flicker(&self) -> f64 {
-        let n = self.sizes.len() as f64;
-        if self.sizes.len() < 3 {
-            return 0.0;
+    fn keep(&mut self, r: &Region, window: usize) {
+        self.shapes
+            .push([r.core as f64, r.bbox[1], r.bbox[3] - r.bbox[1]]);
+        if self.shapes.len() > window {
+            self.shapes.remove(0);
         }
-        let mean_x = (n - 1.0) / 2.0;
-        let mean_y = self.sizes.iter().sum::<f64>() / n;
-        let (mut sxy, mut sxx) = (0.0, 0.0);
-        for (i, y) in self.sizes.iter().enumerate() {
-            let dx = i as f64 - mean_x;
-            sxy += dx * (y - mean_y);
-            sxx += dx * dx;
-        }
-        let slope = sxy / sxx;
-        let rss: f64 = self
-            .sizes
-            .iter()
-            .enumerate()
-            .map(|(i, y)| (y - mean_y - slope * (i as f64 - mean_x)).powi(2))
-            .sum();
-        (rss / n).sqrt() / mean_y.max(1.0)
     }
+
+    /// How much the core flickers: its size's or its top's RMS about their least-squares
+    /// lines, over its mean size or height, whichever is more. The top matters where a
+    /// flame rises from something burning that is as hot and steady as its core (a
+    /// vehicle's body: the size's share of flicker is small there; the flame's tip still
+    /// pulses).
+    fn flicker(&self) -> f64 {
+        let column = |k: usize| self.shapes.iter().map(move |s| s[k]);
+        let mean = |k: usize| column(k).sum::<f64>() / self.shapes.len() as f64;
+        (detrended_rms(column(0)) / mean(0).max(1.0))
+            .max(detrended_rms(column(1)) / mean(2).max(1.0))
+    }
+}
+
+/// RMS of a series about its least-squares line; 0 for fewer than 3 values.
+fn detrended_rms(ys: impl Iterator<Item = f64> + Clone) -> f64 {
+    let n = ys.clone().count();
+    if n < 3 {
+        return 0.0;
+    }
+    let nf = n as f64;
+    let mean_x = (nf - 1.0) / 2.0;
+    let mean_y = ys.clone().sum::<f64>() / nf;
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (i, y) in ys.clone().enumerate() {
+        let dx = i as f64 - mean_x;
+        sxy += dx * (y - mean_y);
+        sxx += dx * dx;
+    }
+    let slope = sxy / sxx;
+    let rss: f64 = ys
+        .enumerate()
+        .map(|(i, y)| (y - mean_y - slope * (i as f64 - mean_x)).powi(2))
+        .sum();
+    (rss / nf).sqrt()
 }
 
 /// The detector of one camera; it keeps the regions of the last frames.
@@ -157,24 +184,25 @@ impl ThermalDetector {
                     f.last = r;
                     f.seen += 1;
                     f.matched = true;
-                    f.sizes.push(r.core as f64);
-                    if f.sizes.len() > cfg.window {
-                        f.sizes.remove(0);
-                    }
+                    f.keep(&r, cfg.window);
                 }
-                None => self.followed.push(Followed {
-                    last: r,
-                    sizes: vec![r.core as f64],
-                    seen: 1,
-                    matched: true,
-                }),
+                None => {
+                    let mut f = Followed {
+                        last: r,
+                        shapes: Vec::with_capacity(cfg.window + 1),
+                        seen: 1,
+                        matched: true,
+                    };
+                    f.keep(&r, cfg.window);
+                    self.followed.push(f);
+                }
             }
         }
         self.followed.retain(|f| f.matched);
         self.followed
             .iter()
             .filter(|f| f.seen >= cfg.min_frames && f.flicker() >= cfg.min_flicker)
-            .filter_map(|f| detection(&f.last, f.flicker(), optics))
+            .filter_map(|f| detection(&f.last, f.flicker(), optics, &cfg))
             .collect()
     }
 }
@@ -254,21 +282,31 @@ fn segment(img: &ThermalImage, cfg: &DetectorConfig) -> Vec<Region> {
 }
 
 /// A flame's detection from its region: the range to its axis and a confidence that grows
-/// with its flicker; `None` with no range.
-fn detection(r: &Region, flicker: f64, optics: &CameraSpec) -> Option<FlameDetection> {
+/// with its flicker; `None` with no range, or one beyond the camera's.
+fn detection(
+    r: &Region,
+    flicker: f64,
+    optics: &CameraSpec,
+    cfg: &DetectorConfig,
+) -> Option<FlameDetection> {
     // The ray through the core's bottom row meets the road at the depth where the
     // camera's height is the ray's drop. Where the flame's foot is hidden (behind a car,
     // say) the lowest visible point is above the road and this is too far, never too near,
-    // unless the image's bottom edge cuts the core.
+    // unless the image's bottom edge cuts the core. Near the horizon a pixel is metres.
+    let farthest = (cfg.max_road_error_m * optics.fy * optics.mount_height_m).sqrt();
     let drop_per_m = (r.bbox[3] - optics.cy) / optics.fy;
-    let road = (drop_per_m > 1e-3 && r.bbox[3] < optics.height_px)
-        .then(|| optics.mount_height_m / drop_per_m);
+    let road = (drop_per_m > 0.0 && r.bbox[3] < optics.height_px)
+        .then(|| optics.mount_height_m / drop_per_m)
+        .filter(|z| *z <= farthest);
     // A thin flame is transparent to a depth camera, which ranges the wall behind it, so
     // the nearer of the two is the flame.
     let surface = match (r.depth_m, road) {
         (Some(d), Some(g)) => d.min(g),
         (d, g) => d.or(g)?,
     };
+    if surface > optics.range_m {
+        return None;
+    }
     let radius_m = (r.bbox[2] - r.bbox[0]) / 2.0 * surface / optics.fx;
     let axis = (surface + radius_m) as f32;
     Some(FlameDetection {

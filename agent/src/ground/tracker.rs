@@ -7,7 +7,7 @@
 
 use firefleet_model::geometry::{Gaussian2, Point2};
 use firefleet_model::spec::GroundSpec;
-use firefleet_protocol::msg::{FlameObservation, MAX_HRR_KW, UnitSensors};
+use firefleet_protocol::msg::{FlameDetection, FlameObservation, MAX_HRR_KW, UnitSensors};
 
 use crate::ground::perception;
 
@@ -52,19 +52,24 @@ pub struct FlameTracker {
 }
 
 impl FlameTracker {
-    /// Fold in one sensor frame.
-    pub fn update(&mut self, spec: &GroundSpec, s: &UnitSensors) {
+    /// Fold in one sensor frame: its detections, through the RGB-D camera, and `thermal`,
+    /// what the unit's own detector found in the frame's thermal image (through the
+    /// profile's thermal camera).
+    pub fn update(&mut self, spec: &GroundSpec, s: &UnitSensors, thermal: &[FlameDetection]) {
         let dt = self.last_t.map_or(0.0, |t| (s.t - t).max(0.0));
         self.last_t = Some(s.t);
         for tr in &mut self.tracks {
             tr.estimate.inflate(PROCESS_NOISE_M2_S * dt);
         }
-        for d in &s.detections {
-            let Some(located) = perception::locate(
-                d,
-                &spec.camera,
-                &spec.camera.looking_from(&s.pose, s.cannon.pan),
-            ) else {
+        let seen = s.detections.iter().map(|d| (d, &spec.camera)).chain(
+            thermal
+                .iter()
+                .filter_map(|d| Some((d, spec.thermal_camera.as_ref()?))),
+        );
+        for (d, cam) in seen {
+            let Some(located) =
+                perception::locate(d, cam, &cam.looking_from(&s.pose, s.cannon.pan))
+            else {
                 continue;
             };
             let z = located.estimate;
@@ -141,6 +146,7 @@ mod tests {
             cannon: CannonState::default(),
             detections: dets,
             collided: false,
+            thermal: None,
         }
     }
 
@@ -168,6 +174,7 @@ mod tests {
             tr.update(
                 &GROUND,
                 &frame(0.1 * k as f64, pose, vec![det(&pose, flame, err)]),
+                &[],
             );
         }
         assert_eq!(tr.tracks().len(), 1);
@@ -189,11 +196,12 @@ mod tests {
                     pose,
                     vec![det(&pose, a, 0.0), det(&pose, b, 0.0)],
                 ),
+                &[],
             );
         }
         assert_eq!(tr.confirmed().count(), 2);
         assert_eq!(tr.observations(0.3).len(), 2);
-        tr.update(&GROUND, &frame(0.5 + STALE_S + 0.1, pose, vec![]));
+        tr.update(&GROUND, &frame(0.5 + STALE_S + 0.1, pose, vec![]), &[]);
         assert!(tr.tracks().is_empty());
     }
 }

@@ -39,6 +39,7 @@ use crate::controller::Services;
 use crate::mission::{Mission, Responder};
 
 use crate::ground::aim;
+use crate::ground::thermal::ThermalDetector;
 use crate::ground::tracker::FlameTracker;
 use firefleet_model::heat::HeatSource;
 use firefleet_nav::hybrid_astar::{Footprint, HybridAStar, Params};
@@ -161,6 +162,8 @@ pub struct Unit {
     /// A unit inside barred space that found no way out tries again at this time.
     leave_retry_at: f64,
     pub(crate) tracker: FlameTracker,
+    /// Finds flames in the thermal core's frames, on a unit whose sensors send them.
+    thermal: ThermalDetector,
     /// The latest sensor frame.
     pub(crate) frame: UnitSensors,
     nav: Option<Navigation>,
@@ -200,6 +203,7 @@ impl Unit {
             cannon: Default::default(),
             detections: Vec::new(),
             collided: false,
+            thermal: None,
         };
         let nav_grid = Grid::from_scenario(&scenario, GRID_RES_M, spec.circumradius_m() + 0.25);
         let sight_grid = Grid::from_scenario(&scenario, GRID_RES_M, 0.0);
@@ -215,6 +219,7 @@ impl Unit {
             sight_grid,
             hybrid_grid,
             tracker: FlameTracker::default(),
+            thermal: ThermalDetector::default(),
             frame,
             nav: None,
             cruising_to: None,
@@ -642,15 +647,21 @@ impl Services for Unit {
     type Sensors = UnitSensors;
     type Command = UnitCommand;
 
-    /// Take in a new sensor frame.
+    /// Take in a new sensor frame, finding flames in its thermal image if it has one.
     fn sense(&mut self, frame: &UnitSensors) {
-        self.tracker.update(&self.spec, frame);
+        let thermal = match (&frame.thermal, &self.spec.thermal_camera) {
+            (Some(image), Some(optics)) => self.thermal.detect(image, optics),
+            _ => Vec::new(),
+        };
+        self.tracker.update(&self.spec, frame, &thermal);
         if frame.collided
             && let Some(n) = &mut self.nav
         {
             n.recover = Some(Recovery::after(n.recover, frame.t));
         }
         self.frame = frame.clone();
+        // The image is the detector's; the frame is kept for its readings.
+        self.frame.thermal = None;
         self.keep_out();
     }
 

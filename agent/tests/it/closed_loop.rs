@@ -12,6 +12,7 @@ use firefleet_model::profile::GROUND;
 use firefleet_model::scenario::Scenario;
 use firefleet_protocol::msg::{Approach, TaskKind, TaskPhase, TruthFireState, UnitMode};
 use firefleet_sim::World;
+use firefleet_sim::world::Perception;
 
 /// What a closed-loop run did.
 /// A 120 m tunnel: a parked car at 40 m, a 5 MW fire at 60 m, unit u1 at the portal.
@@ -36,10 +37,15 @@ struct Run {
 }
 
 /// Step world and controller together until the fire is out (and 5 s more, for the
-/// controller to notice) or the time limit.
+/// controller to notice) or the time limit; the unit sees boxes.
 fn run(coordinator_task: Option<Point2>) -> Run {
+    run_seeing(coordinator_task, Perception::Boxes)
+}
+
+fn run_seeing(coordinator_task: Option<Point2>, perception: Perception) -> Run {
     let scenario = site();
     let mut world = World::new(&scenario, 11);
+    world.set_perception(perception);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), *GROUND, scenario.clone());
     if let Some(target) = coordinator_task {
@@ -94,6 +100,21 @@ fn alone_the_unit_cruises_finds_and_puts_out_the_fire() {
         0,
         "touched the parked car or a wall"
     );
+    assert!(
+        r.closest_while_burning > 4.0,
+        "came within {:.1} m of the burning fire",
+        r.closest_while_burning
+    );
+}
+
+/// The same with nothing but its thermal core: the unit finds the flame in the pixels,
+/// places it, and puts it out (the vehicle beside it warms in the fire's radiation).
+#[test]
+fn alone_with_only_a_thermal_camera_the_unit_finds_and_puts_out_the_fire() {
+    let r = run_seeing(None, Perception::Pixels);
+    let t = r.out_at.expect("fire never went out");
+    assert!(t < 120.0, "took {t} s");
+    assert_eq!(r.world.truth().units[0].collisions, 0);
     assert!(
         r.closest_while_burning > 4.0,
         "came within {:.1} m of the burning fire",

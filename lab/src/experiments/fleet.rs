@@ -30,6 +30,7 @@ use firefleet_model::builtin;
 use firefleet_model::scenario::Scenario;
 use firefleet_model::{FireId, Point2};
 use firefleet_protocol::msg::{FireState, FireTrack};
+use firefleet_sim::world::Perception;
 use serde::Serialize;
 
 use firefleet::args::write_json;
@@ -65,6 +66,26 @@ pub struct FleetArgs {
     /// fleet with `firefleet demo --scenario FILE`).
     #[arg(long, value_name = "DIR", requires = "generated")]
     sites: Option<PathBuf>,
+    /// What ground units find flames in: boxes drawn from the truth (the papers'
+    /// detector's stand-in) or their thermal cores' pixels.
+    #[arg(long, value_enum, default_value_t = Sensing::Boxes)]
+    perception: Sensing,
+}
+
+/// `--perception`'s values: the simulator's [`Perception`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Sensing {
+    Boxes,
+    Pixels,
+}
+
+impl From<Sensing> for Perception {
+    fn from(s: Sensing) -> Self {
+        match s {
+            Sensing::Boxes => Perception::Boxes,
+            Sensing::Pixels => Perception::Pixels,
+        }
+    }
 }
 
 /// The scenarios the fleet experiment runs.
@@ -173,7 +194,12 @@ pub(super) fn known_fires(scenario: &Scenario) -> Vec<FireTrack> {
 /// incident logic, when there is one, stepped together with them in-process: the same
 /// code as the processes of a demo, without the bus): time all out (or `None`), heat dose
 /// (kJ/m^2, summed over units), water used (L), fires that got no water, invariants broken.
-fn fleet_run(scenario: &Scenario, command: Command, seed: u64) -> anyhow::Result<Outcome> {
+fn fleet_run(
+    scenario: &Scenario,
+    command: Command,
+    seed: u64,
+    perception: Perception,
+) -> anyhow::Result<Outcome> {
     let (how, known) = match command {
         Command::Alone => (sim_fleet::Command::Alone, Vec::new()),
         Command::Coordinator(s) => (sim_fleet::Command::Coordinator(s), Vec::new()),
@@ -184,6 +210,7 @@ fn fleet_run(scenario: &Scenario, command: Command, seed: u64) -> anyhow::Result
         ),
     };
     let mut fleet = SimFleet::new(scenario, how, seed, &known)?;
+    fleet.set_perception(perception);
     while fleet.time() < scenario.time_limit_s {
         fleet.step()?;
         if fleet.truth().all_out() {
@@ -316,7 +343,12 @@ pub fn run(a: FleetArgs) -> anyhow::Result<ExitCode> {
                 (0.0, 0, 0.0, 0.0, 0.0, 0);
             let mut attack_dose = 0.0;
             for k in 0..trials {
-                let o = fleet_run(&scenario, command, a.seed + u64::from(k))?;
+                let o = fleet_run(
+                    &scenario,
+                    command,
+                    a.seed + u64::from(k),
+                    a.perception.into(),
+                )?;
                 time += o.done.unwrap_or(scenario.time_limit_s);
                 unfinished += u32::from(o.done.is_none());
                 dose += o.dose;

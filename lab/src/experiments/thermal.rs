@@ -3,9 +3,10 @@
 //!
 //! Each scene is a 1.6 s clip at 10 Hz from a ground unit's thermal core closing in on
 //! its subject at 0-1 m/s. Classes: flames on the road; vehicle fires (a flame at a car
-//! whose body the fire heats, under a hotter layer); thick smoke (0.3-1 /m, where the
-//! depth camera goes blind); and three without a flame: a hot exhaust, a heated or
-//! burnt-out body (500-700 K, hotter than the core's scale), and daylight through a portal.
+//! whose body the fire heats to 400-900 K, under a hotter layer); thick smoke (0.3-1 /m,
+//! where the depth camera goes blind); and three without a flame: a hot exhaust, a heated
+//! or burnt-out body (500-700 K, hotter than the core's scale), and daylight through a
+//! portal.
 //!
 //! Scored per frame from the fourth on (the detector needs that many to judge flicker): a
 //! detection within [`MATCH_M`] of the flame's axis is a hit, any other a false alarm;
@@ -149,7 +150,7 @@ fn setup(class: Class, rng: &mut ChaCha8Rng) -> Setup {
             boxes: vec![car(
                 target.x + flame.radius_m + 2.1,
                 lateral,
-                rng.random_range(400.0..620.0),
+                rng.random_range(400.0..900.0),
             )],
             ceiling_k: AMBIENT_K + rng.random_range(60.0..250.0),
             ..base

@@ -198,6 +198,10 @@ pub struct UnitSensors {
     pub detections: Vec<FlameDetection>,
     /// The body touched an obstacle or a wall in the last step.
     pub collided: bool,
+    /// A frame of the thermal core, when one is due (the core delivers fewer frames than
+    /// the sensors do); the unit finds flames in it itself.
+    #[serde(default)]
+    pub thermal: Option<ThermalImage>,
 }
 
 impl Validate for UnitSensors {
@@ -211,7 +215,11 @@ impl Validate for UnitSensors {
         finite("cannon.pan", self.cannon.pan)?;
         finite("cannon.tilt", self.cannon.tilt)?;
         max_len("detections", &self.detections, MAX_LIST)?;
-        each("detections", &self.detections)
+        each("detections", &self.detections)?;
+        match &self.thermal {
+            Some(image) => image.validate().map_err(|e| e.within("thermal")),
+            None => Ok(()),
+        }
     }
 }
 

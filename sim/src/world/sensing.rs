@@ -6,6 +6,12 @@
 //! ([`crate::camera`]).
 
 use super::*;
+use crate::thermal::{
+    self, BODY_LOSS_KW_M2_K, BURNING_BODY_K, DAYLIGHT_RISE_K, Flame, HotBox, Scene,
+    THERMAL_PERIOD_S, ThermalCore,
+};
+use firefleet_model::spec::CameraSpec;
+use firefleet_protocol::msg::ThermalImage;
 
 impl World {
     /// The flames a camera could see now, one per visible fire, in scenario order.
@@ -40,19 +46,47 @@ impl World {
     }
 
     /// What unit `id`'s sensors read now; `None` for an unknown unit.
+    ///
+    /// With [`Perception::Pixels`] a unit with a thermal core gets a thermal frame every
+    /// [`THERMAL_PERIOD_S`] and no boxes.
     pub fn sensors(&mut self, id: &UnitId) -> Option<UnitSensors> {
-        let flames: Vec<FlameTarget> = self.visible_flames().map(|(_, f)| f).collect();
-        let b = self.bodies.iter().find(|b| &b.id == id)?;
+        let i = self.bodies.iter().position(|b| &b.id == id)?;
+        let b = &self.bodies[i];
+        let eye = b.spec.camera.looking_from(&b.pose, b.cannon.pan);
         let smoke = physics::SMOKE_EXTINCTION_PER_M + self.smoke_downstream(b.pose.position());
-        let detections = camera::detect(
-            &b.spec.camera,
-            &b.spec.camera.looking_from(&b.pose, b.cannon.pan),
-            &flames,
-            &self.tunnel,
-            &self.obstacles,
-            smoke,
-            &mut self.rng,
-        );
+        let core = b
+            .spec
+            .thermal_camera
+            .filter(|_| self.perception == Perception::Pixels);
+        let (detections, thermal) = match core {
+            Some(optics) => {
+                let due = self.t >= self.thermal_due[i];
+                if due {
+                    // On the core's own clock: the first frame period after now.
+                    self.thermal_due[i] =
+                        ((self.t / THERMAL_PERIOD_S).floor() + 1.0) * THERMAL_PERIOD_S;
+                }
+                let eye = optics.looking_from(&b.pose, b.cannon.pan);
+                (
+                    Vec::new(),
+                    due.then(|| self.thermal_frame(optics, &eye, smoke)),
+                )
+            }
+            None => {
+                let flames: Vec<FlameTarget> = self.visible_flames().map(|(_, f)| f).collect();
+                let detections = camera::detect(
+                    &b.spec.camera,
+                    &eye,
+                    &flames,
+                    &self.tunnel,
+                    &self.obstacles,
+                    smoke,
+                    &mut self.rng,
+                );
+                (detections, None)
+            }
+        };
+        let b = &self.bodies[i];
         Some(UnitSensors {
             unit: b.id.clone(),
             t: self.t,
@@ -64,7 +98,53 @@ impl World {
             cannon: b.cannon,
             detections,
             collided: b.collided,
+            thermal,
         })
+    }
+
+    /// A thermal core's frame from `eye` through smoke `smoke_per_m`: burning fires as
+    /// flames (sprayed while water lands on them), vehicles warmed by the flux the fires
+    /// send them at their middle (up to [`BURNING_BODY_K`], where one burns), the ceiling
+    /// gas as the world computes it.
+    fn thermal_frame(&mut self, optics: CameraSpec, eye: &Pose2, smoke_per_m: f64) -> ThermalImage {
+        let ambient_k = physics::AMBIENT_C + thermal::KELVIN_AT_0C;
+        let flames: Vec<Flame> = self
+            .fires
+            .iter()
+            .filter(|f| f.state == TruthFireState::Burning && f.hrr_kw >= physics::Q_VISIBLE_KW)
+            .map(|f| Flame {
+                base: f.spec.position(),
+                radius_m: f.spec.radius_m,
+                height_m: f.flame_height(),
+                sprayed: f.wetted,
+            })
+            .collect();
+        let boxes: Vec<HotBox> = self
+            .obstacles
+            .iter()
+            .map(|o| HotBox {
+                shape: o.clone(),
+                surface_k: (ambient_k
+                    + self.radiant_flux([o.x_m, o.y_m, o.height_m / 2.0]) / BODY_LOSS_KW_M2_K)
+                    .min(BURNING_BODY_K),
+            })
+            .collect();
+        let height = self.tunnel.height_m;
+        let ceiling = |p: Point2| ambient_k + self.ceiling_rise_c(p, height);
+        let scene = Scene {
+            tunnel: &self.tunnel,
+            boxes: &boxes,
+            flames: &flames,
+            ambient_k,
+            outside_k: ambient_k + DAYLIGHT_RISE_K,
+            smoke_per_m,
+            ceiling_k: &ceiling,
+        };
+        let core = ThermalCore::lepton_class(optics);
+        let mut rng = self.rng.clone();
+        let image = thermal::render(&core, eye, &scene, self.t, &mut rng);
+        self.rng = rng;
+        image
     }
 
     /// What monorail unit `id`'s sensors read now; `None` for an unknown unit.

@@ -1,6 +1,7 @@
 //! The parent module's tests.
 
 use super::*;
+use firefleet_model::Validate;
 use firefleet_model::profile::GROUND;
 use firefleet_model::scenario::Growth;
 use firefleet_model::testing::ScenarioBuilder;
@@ -415,4 +416,32 @@ fn a_unit_added_to_the_site_file_starts_where_the_file_says() {
     let at = |id: &str| truth.units.iter().find(|u| u.id == *id).unwrap().pose;
     assert_eq!(at("u1"), w.truth().units[0].pose);
     assert_eq!((at("u2").x, at("u2").y), (8.0, 2.5));
+}
+
+#[test]
+fn with_pixels_a_unit_gets_thermal_frames_at_the_cores_rate_showing_the_fire_and_no_boxes() {
+    let mut w = world();
+    w.set_perception(Perception::Pixels);
+    let (mut frames, mut boxes) = (Vec::new(), 0);
+    for _ in 0..100 {
+        let s = w.sensors(&u1()).unwrap();
+        boxes += s.detections.len();
+        if let Some(image) = s.thermal {
+            image.validate().unwrap();
+            frames.push(image);
+        }
+        w.step(0.05);
+    }
+    assert_eq!(boxes, 0);
+    // 5 s at 8.7 Hz: a frame at every first step past each period.
+    assert!((40..=44).contains(&frames.len()), "{} frames", frames.len());
+    let saturated = frames[0]
+        .centikelvin
+        .iter()
+        .filter(|k| **k == u16::MAX)
+        .count();
+    assert!(
+        saturated > 20,
+        "the 3 MW fire 10 m ahead: {saturated} saturated pixels"
+    );
 }
