@@ -6,7 +6,9 @@
 //! cannons with slew limits and a ballistic jet, and an RGB-D flame detector (boxes with a
 //! depth window, field of view, range, occlusion, misses, false alarms, noise), and
 //! monorail carriages with their fire monitors ([`carriage`]), fire detector, ceiling-jet
-//! temperature and thermal camera.
+//! temperature and thermal camera. With [`world::Perception::Pixels`], ground units with a
+//! thermal core get its radiometric frames ([`thermal`]) and find flames in them
+//! themselves.
 //! [`physics`] holds every physical constant with its source or stated assumption.
 //!
 //! [`node`] puts the world on the bus exactly as real hardware drivers would be: each unit

@@ -33,6 +33,7 @@
 //! tracking flames in the site frame ([`crate::ground::tracker`]).
 
 use firefleet_model::spec::CameraSpec;
+use firefleet_model::validate::Validate;
 use firefleet_protocol::msg::{DEPTH_WINDOW, FlameDetection, ObjectClass, ThermalImage};
 
 /// The detector's thresholds. [`DetectorConfig::default`] is the tuning the lab's
@@ -164,8 +165,14 @@ impl ThermalDetector {
         }
     }
 
-    /// The flames in the next frame, `img`, taken by a camera with `optics`.
+    /// The flames in the next frame, `img`, taken by a camera with `optics`. An image
+    /// that fails validation (buffers that do not match its size, say) shows nothing: every
+    /// path from a robot validates its frames before they get here, so this only keeps a
+    /// malformed one from panicking the unit.
     pub fn detect(&mut self, img: &ThermalImage, optics: &CameraSpec) -> Vec<FlameDetection> {
+        if img.validate().is_err() {
+            return Vec::new();
+        }
         let cfg = self.config;
         let regions = segment(img, &cfg);
         for f in &mut self.followed {
@@ -400,6 +407,19 @@ mod tests {
         for p in found {
             assert!(p.dist(Point2::new(106.0, 0.5)) < 0.5, "{p:?}");
         }
+    }
+
+    #[test]
+    fn a_malformed_image_shows_nothing_and_does_not_panic() {
+        let optics = GROUND.thermal_camera.unwrap();
+        let mut d = ThermalDetector::default();
+        let short = ThermalImage {
+            width: 160,
+            height: 120,
+            centikelvin: vec![u16::MAX; 100],
+            depth_m: vec![1.0; 100],
+        };
+        assert!(d.detect(&short, &optics).is_empty());
     }
 
     #[test]

@@ -414,6 +414,32 @@ impl Validate for SimTruth {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_thermal_image_whose_buffers_do_not_match_its_size_or_whose_depth_is_no_depth_is_refused() {
+        let good = ThermalImage {
+            width: 4,
+            height: 2,
+            centikelvin: vec![29_315; 8],
+            depth_m: vec![0.0, 1.5, 3.0, 0.0, 2.0, 2.0, 2.0, 2.0],
+        };
+        good.validate().unwrap();
+        assert!((good.kelvin(1, 0) - 293.15).abs() < 1e-9);
+        assert_eq!((good.depth(0, 0), good.depth(1, 0)), (None, Some(1.5)));
+        let short = ThermalImage {
+            centikelvin: vec![0; 7],
+            ..good.clone()
+        };
+        let e = short.validate().unwrap_err();
+        assert_eq!(e.field, "centikelvin");
+        assert!(e.reason.contains("7 pixels for a 4x2 image"), "{e}");
+        let mut nan = good.clone();
+        nan.depth_m[5] = f32::NAN;
+        assert_eq!(nan.validate().unwrap_err().field, "depth_m[5]");
+        let huge = ThermalImage { width: 641, ..good };
+        assert_eq!(huge.validate().unwrap_err().field, "width");
+    }
+
     use super::*;
 
     #[test]
