@@ -518,7 +518,7 @@ pub async fn record(
                     let bytes = &s.bytes;
                     let parsed = keys::parse(key).map_err(|e| e.to_string())
                         .and_then(|(_, topic)| Payload::from_wire(&topic, bytes).map_err(|e| e.to_string()));
-                    let p = match parsed {
+                    let mut p = match parsed {
                         Ok(p) => p,
                         Err(reason) => {
                             sink.skipped += 1;
@@ -526,6 +526,11 @@ pub async fn record(
                             continue;
                         }
                     };
+                    // A thermal core's frame (115 kB at 8.7 Hz a unit) is the unit's to look
+                    // at, not the incident's record: what it found is in the unit's reports.
+                    if let Payload::UnitSensors(s) = &mut p {
+                        s.thermal = None;
+                    }
                     let t = now_ns();
                     let json = p.to_json();
                     // Over its channel's budget, a message is not written, but still

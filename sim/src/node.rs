@@ -31,7 +31,7 @@ use tokio::time::MissedTickBehavior;
 
 use crate::physics;
 use crate::scada::Registers;
-use crate::world::{Snapshot, World};
+use crate::world::{Perception, Snapshot, World};
 use firefleet_model::state_file::StateFile;
 
 /// How to run the simulator.
@@ -57,6 +57,8 @@ pub struct SimOptions {
     /// start, so that a restarted simulator carries the rehearsal on
     /// ([`crate::world::Snapshot`]); `None` starts the rehearsal anew at every start.
     pub state: Option<StateFile>,
+    /// What ground units' flame detection is made of ([`Perception`]).
+    pub perception: Perception,
 }
 
 impl Default for SimOptions {
@@ -71,6 +73,7 @@ impl Default for SimOptions {
             scada: None,
             cut_scada_at: None,
             state: None,
+            perception: Perception::default(),
         }
     }
 }
@@ -114,6 +117,7 @@ pub async fn run(
         })?;
     let keys = bus.keys().clone();
     let mut world = World::new(scenario, opts.seed);
+    world.set_perception(opts.perception);
     if let Some(state) = &opts.state {
         take_back(&mut world, state);
     }

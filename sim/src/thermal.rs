@@ -326,6 +326,8 @@ pub fn render(
         centikelvin: vec![0; w * h],
         depth_m: vec![0.0; w * h],
     };
+    // The flames a pixel's ray crosses: (entry, exit, flame, its height this frame).
+    let mut crossed: Vec<(f64, f64, &Flame, f64)> = Vec::with_capacity(scene.flames.len());
     for v in 0..h {
         for u in 0..w {
             let c = cam.back_project(u as f64 + 0.5, v as f64 + 0.5, 1.0);
@@ -338,15 +340,11 @@ pub fn render(
             let mut kelvin = surface_k;
             let mut depth = ranged.then_some(t_hit);
             // Flames in front of the surface, the farthest first, each over what is behind.
-            let mut crossed: Vec<(f64, f64, &Flame, f64)> = scene
-                .flames
-                .iter()
-                .zip(&heights)
-                .filter_map(|(f, &fh)| {
-                    let (t0, t1) = through_flame(f, fh, &ray)?;
-                    (t0 < t_hit).then_some((t0, t1.min(t_hit), f, fh))
-                })
-                .collect();
+            crossed.clear();
+            crossed.extend(scene.flames.iter().zip(&heights).filter_map(|(f, &fh)| {
+                let (t0, t1) = through_flame(f, fh, &ray)?;
+                (t0 < t_hit).then_some((t0, t1.min(t_hit), f, fh))
+            }));
             crossed.sort_by(|a, b| b.0.total_cmp(&a.0));
             for &(t0, t1, f, fh) in &crossed {
                 let mid = ray.at((t0 + t1) / 2.0)[2];

@@ -12,6 +12,7 @@ use firefleet_bus::pki::Expect;
 use firefleet_model::state_file::StateFile;
 use firefleet_ros2::graph::Domain;
 use firefleet_sim::SimOptions;
+use firefleet_sim::world::Perception;
 
 use super::{RoleArgs, positive_f64, time_scale};
 use firefleet::net::{join, shutdown_signal};
@@ -57,6 +58,27 @@ pub struct SimArgs {
     /// firefleet-sim`) to start a new rehearsal.
     #[arg(long, value_name = "DIR")]
     state_dir: Option<std::path::PathBuf>,
+    /// What ground units find flames in: boxes drawn from the truth (the papers' detector's
+    /// stand-in), or frames of the thermal core their profile names, in which each agent
+    /// finds flames itself. Not with --ros2: its robots have no thermal topics yet.
+    #[arg(long, value_enum, default_value_t = Sensing::Boxes, conflicts_with = "ros2")]
+    perception: Sensing,
+}
+
+/// `--perception`'s values: the simulator's [`Perception`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Sensing {
+    Boxes,
+    Pixels,
+}
+
+impl From<Sensing> for Perception {
+    fn from(s: Sensing) -> Self {
+        match s {
+            Sensing::Boxes => Perception::Boxes,
+            Sensing::Pixels => Perception::Pixels,
+        }
+    }
 }
 
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
@@ -86,6 +108,7 @@ pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {
             .map(|d| StateFile::in_dir(d, WORLD_FILE))
             .transpose()
             .context("--state-dir")?,
+        perception: a.perception.into(),
         ..SimOptions::default()
     };
     let truth = firefleet_sim::run(

@@ -36,6 +36,7 @@ use firefleet_protocol::msg::{
 use serde::Serialize;
 use tokio::process::Child;
 
+use super::sim::Sensing;
 use super::{PlatformKind, non_negative_f64, time_scale, write_json};
 use firefleet::children::{RoleCommand, exited, stop_children};
 use firefleet::net::shutdown_signal;
@@ -114,6 +115,10 @@ pub struct DemoArgs {
     /// rules cover the fleet's keys; a robot's ROS 2 topics stay on the robot's own router.
     #[arg(long, value_enum, default_value_t = PlatformKind::Sim, conflicts_with = "secure")]
     platform: PlatformKind,
+    /// What ground units find flames in (the simulator's `--perception`): boxes drawn from
+    /// the truth, or their thermal cores' frames.
+    #[arg(long, value_enum, default_value_t = Sensing::Boxes, conflicts_with = "platform")]
+    perception: Sensing,
     /// Run the tunnel's SCADA too: the simulator serves its DTS zones and ventilation over
     /// Modbus TCP on a free loopback port, and `firefleet scada` bridges them to the bus
     /// for the coordinator (the scenario's file must map `[scada]`).

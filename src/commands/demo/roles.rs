@@ -44,6 +44,9 @@ pub(super) fn roles(
     if a.platform == PlatformKind::Ros2 {
         sim = sim.arg("--ros2");
     }
+    if a.perception == Sensing::Pixels {
+        sim = sim.args(["--perception", "pixels"]);
+    }
     if let Some(m) = &modbus {
         sim = sim.args(["--scada", m]);
     }
