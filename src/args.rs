@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use anyhow::Context;
+use firefleet_sim::world::Perception;
 use serde::Serialize;
 
 /// The fastest a fleet's site time may run against the wall clock. The simulator steps
@@ -49,4 +50,22 @@ pub fn write_json(path: Option<&Path>, value: &impl Serialize) -> anyhow::Result
             .with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
+}
+
+/// `--perception`: what ground units find flames in, the simulator's [`Perception`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Sensing {
+    /// Boxes drawn from the truth (the papers' detector's stand-in).
+    Boxes,
+    /// Frames of the thermal core the unit's profile names; each agent finds flames itself.
+    Pixels,
+}
+
+impl From<Sensing> for Perception {
+    fn from(s: Sensing) -> Self {
+        match s {
+            Sensing::Boxes => Perception::Boxes,
+            Sensing::Pixels => Perception::Pixels,
+        }
+    }
 }

@@ -12,9 +12,9 @@ use firefleet_bus::pki::Expect;
 use firefleet_model::state_file::StateFile;
 use firefleet_ros2::graph::Domain;
 use firefleet_sim::SimOptions;
-use firefleet_sim::world::Perception;
 
 use super::{RoleArgs, positive_f64, time_scale};
+use firefleet::args::Sensing;
 use firefleet::net::{join, shutdown_signal};
 
 /// The world's file in the simulator's state directory.
@@ -63,22 +63,6 @@ pub struct SimArgs {
     /// finds flames itself. Not with --ros2: its robots have no thermal topics yet.
     #[arg(long, value_enum, default_value_t = Sensing::Boxes, conflicts_with = "ros2")]
     perception: Sensing,
-}
-
-/// `--perception`'s values: the simulator's [`Perception`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Sensing {
-    Boxes,
-    Pixels,
-}
-
-impl From<Sensing> for Perception {
-    fn from(s: Sensing) -> Self {
-        match s {
-            Sensing::Boxes => Perception::Boxes,
-            Sensing::Pixels => Perception::Pixels,
-        }
-    }
 }
 
 pub async fn run(a: SimArgs) -> anyhow::Result<ExitCode> {

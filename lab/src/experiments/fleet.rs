@@ -33,7 +33,7 @@ use firefleet_protocol::msg::{FireState, FireTrack};
 use firefleet_sim::world::Perception;
 use serde::Serialize;
 
-use firefleet::args::write_json;
+use firefleet::args::{Sensing, write_json};
 use firefleet_lab::fleet::{self as sim_fleet, Air, SimFleet};
 use firefleet_lab::tunnels;
 
@@ -70,22 +70,6 @@ pub struct FleetArgs {
     /// detector's stand-in) or their thermal cores' pixels.
     #[arg(long, value_enum, default_value_t = Sensing::Boxes)]
     perception: Sensing,
-}
-
-/// `--perception`'s values: the simulator's [`Perception`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum Sensing {
-    Boxes,
-    Pixels,
-}
-
-impl From<Sensing> for Perception {
-    fn from(s: Sensing) -> Self {
-        match s {
-            Sensing::Boxes => Perception::Boxes,
-            Sensing::Pixels => Perception::Pixels,
-        }
-    }
 }
 
 /// The scenarios the fleet experiment runs.

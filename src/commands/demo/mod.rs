@@ -36,8 +36,8 @@ use firefleet_protocol::msg::{
 use serde::Serialize;
 use tokio::process::Child;
 
-use super::sim::Sensing;
 use super::{PlatformKind, non_negative_f64, time_scale, write_json};
+use firefleet::args::Sensing;
 use firefleet::children::{RoleCommand, exited, stop_children};
 use firefleet::net::shutdown_signal;
 
