@@ -339,7 +339,7 @@ mod tests {
 
     const AMBIENT: f64 = 293.15;
 
-    /// Frames at 10 Hz of a camera at (0, 0) looking down +x at `flames` and `boxes`.
+    /// Frames at 10 Hz of a camera at (100, 0) looking down +x at `flames` and `boxes`.
     fn frames(flames: &[Flame], boxes: &[HotBox], smoke: f64, n: usize) -> Vec<ThermalImage> {
         let tunnel = Tunnel::straight(300.0, 10.0, 6.0, 2);
         let core =
