@@ -10,6 +10,7 @@
 //! | `tank_level` | std_msgs/Float64 | robot -> agent | water left, litres |
 //! | `heat_flux` | std_msgs/Float64 | robot -> agent | radiant heat flux at the body, kW/m^2 |
 //! | `bumper` | std_msgs/Bool | robot -> agent | the body touched something since the last message |
+//! | `thermal/image_raw`, `thermal/depth`, `thermal/camera_info` | sensor_msgs/Image, Image, CameraInfo | robot -> agent | a thermal core's frames, for a unit whose profile has a `thermal_camera` ([`crate::thermal`]); the agent finds flames in them itself |
 //! | `cmd_vel` | geometry_msgs/TwistStamped | agent -> robot | `linear.x` m/s, `angular.z` rad/s |
 //! | `cannon_controller/commands` | std_msgs/Float64MultiArray | agent -> robot | `[pan, tilt]` rad, a ros2_control forward command controller |
 //! | `steering/command` | std_msgs/Float64 | agent -> robot | steering angle to turn the wheels to at a standstill, rad |
@@ -42,12 +43,13 @@ use firefleet_model::geometry::Pose2;
 use firefleet_model::spec::{CameraSpec, GroundSpec};
 use firefleet_model::validate::Validate;
 use firefleet_protocol::msg::{
-    CannonState, DEPTH_WINDOW, FlameDetection, ObjectClass, UnitCommand, UnitSensors,
+    CannonState, DEPTH_WINDOW, FlameDetection, ObjectClass, ThermalImage, UnitCommand, UnitSensors,
 };
 use tokio::sync::mpsc;
 
 use crate::msg::*;
 use crate::node::{Node, NodeError, Publisher, Subscription};
+use crate::thermal::{self, THERMAL_DEPTH, THERMAL_IMAGE, THERMAL_INFO};
 
 pub const ODOM: &str = "odom";
 pub const JOINT_STATES: &str = "joint_states";
@@ -165,6 +167,9 @@ pub struct Body {
     tank: Publisher<Float64>,
     heat: Publisher<Float64>,
     bumper: Publisher<Bool>,
+    thermal: Publisher<Image>,
+    thermal_depth: Publisher<Image>,
+    thermal_info: Publisher<CameraInfo>,
     commands: Arc<Mutex<Received>>,
     _subscriptions: [Subscription; 4],
 }
@@ -220,6 +225,9 @@ impl Body {
             tank: node.publisher(TANK).await?,
             heat: node.publisher(HEAT_FLUX).await?,
             bumper: node.publisher(BUMPER).await?,
+            thermal: node.publisher(THERMAL_IMAGE).await?,
+            thermal_depth: node.publisher(THERMAL_DEPTH).await?,
+            thermal_info: node.publisher(THERMAL_INFO).await?,
             commands,
             _subscriptions: subscriptions,
         })
@@ -255,6 +263,13 @@ impl Body {
             data: s.heat_flux_kw_m2,
         })?;
         self.bumper.put(&Bool { data: s.collided })?;
+        if let (Some(img), Some(optics)) = (&s.thermal, &self.spec.thermal_camera) {
+            let optical = frame(&self.ns, "thermal_optical_frame");
+            let (image, depth, info) = thermal::to_ros(img, s.t, &optical, optics);
+            self.thermal_info.put(&info)?;
+            self.thermal_depth.put(&depth)?;
+            self.thermal.put(&image)?;
+        }
         self.odom.put(&Odometry {
             header: Header::new(s.t, "map"),
             child_frame_id: frame(&self.ns, "base_link"),
@@ -318,6 +333,9 @@ enum Incoming {
     Tank(f64),
     Heat(f64),
     Bumper(bool),
+    Thermal(Image),
+    ThermalDepth(Image),
+    ThermalInfo(Box<CameraInfo>),
 }
 
 /// A subscription callback that queues what it takes, wrapped.
@@ -341,6 +359,12 @@ pub struct Robot {
     heat: f64,
     bumped: bool,
     detections: Vec<FlameDetection>,
+    /// A thermal image and a depth image waiting for their partner, the newest camera
+    /// info, and the frame they made.
+    thermal_image: Option<Image>,
+    thermal_depth: Option<Image>,
+    thermal_info: Option<CameraInfo>,
+    thermal: Option<ThermalImage>,
     valve: bool,
     last_t: f64,
     cmd_vel: Publisher<TwistStamped>,
@@ -365,6 +389,15 @@ impl Robot {
                 .await?,
             node.subscribe(BUMPER, feed(&tx, |m: Bool| Incoming::Bumper(m.data)))
                 .await?,
+            node.subscribe(THERMAL_IMAGE, feed(&tx, Incoming::Thermal))
+                .await?,
+            node.subscribe(THERMAL_DEPTH, feed(&tx, Incoming::ThermalDepth))
+                .await?,
+            node.subscribe(
+                THERMAL_INFO,
+                feed(&tx, |m| Incoming::ThermalInfo(Box::new(m))),
+            )
+            .await?,
             node.subscribe(ODOM, feed(&tx, |m| Incoming::Odom(Box::new(m))))
                 .await?,
         ];
@@ -378,6 +411,10 @@ impl Robot {
             heat: 0.0,
             bumped: false,
             detections: Vec::new(),
+            thermal_image: None,
+            thermal_depth: None,
+            thermal_info: None,
+            thermal: None,
             valve: false,
             last_t: 0.0,
             cmd_vel: node.publisher(CMD_VEL).await?,
@@ -414,6 +451,26 @@ impl Robot {
         }
     }
 
+    /// A thermal frame from the waiting image and depth, once both have the same stamp;
+    /// one the profile cannot take is refused with the reason.
+    fn pair_thermal(&mut self) {
+        let (Some(image), Some(depth)) = (&self.thermal_image, &self.thermal_depth) else {
+            return;
+        };
+        if image.header.stamp != depth.header.stamp {
+            return;
+        }
+        let Some(optics) = &self.spec.thermal_camera else {
+            tracing::warn!(unit = %self.unit, "a thermal frame, but the unit's profile has no thermal_camera");
+            return;
+        };
+        match thermal::from_ros(image, depth, self.thermal_info.as_ref(), optics) {
+            Ok(frame) => self.thermal = Some(frame),
+            Err(e) => tracing::warn!(unit = %self.unit, "dropped a thermal frame: {e}"),
+        }
+        (self.thermal_image, self.thermal_depth) = (None, None);
+    }
+
     fn take(&mut self, m: Incoming) -> Option<UnitSensors> {
         match m {
             Incoming::Joints(j) => {
@@ -429,6 +486,15 @@ impl Robot {
                     .iter()
                     .filter_map(|d| detection_from_ros(d, &self.spec.camera)),
             ),
+            Incoming::Thermal(i) => {
+                self.thermal_image = Some(i);
+                self.pair_thermal();
+            }
+            Incoming::ThermalDepth(d) => {
+                self.thermal_depth = Some(d);
+                self.pair_thermal();
+            }
+            Incoming::ThermalInfo(i) => self.thermal_info = Some(*i),
             Incoming::Tank(l) => self.water_l = Some(l),
             Incoming::Heat(q) => self.heat = q,
             Incoming::Bumper(b) => self.bumped |= b,
@@ -460,7 +526,7 @@ impl Robot {
                     },
                     detections: std::mem::take(&mut self.detections),
                     collided: std::mem::take(&mut self.bumped),
-                    thermal: None,
+                    thermal: self.thermal.take(),
                 });
             }
         }

@@ -96,6 +96,21 @@ const DEFINITIONS: &[(&str, &str)] = &[
          float64[] effort",
     ),
     (
+        "sensor_msgs/msg/Image",
+        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n\
+         uint8 is_bigendian\nuint32 step\nuint8[] data",
+    ),
+    (
+        "sensor_msgs/msg/RegionOfInterest",
+        "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify",
+    ),
+    (
+        "sensor_msgs/msg/CameraInfo",
+        "std_msgs/Header header\nuint32 height\nuint32 width\nstring distortion_model\n\
+         float64[] d\nfloat64[9] k\nfloat64[9] r\nfloat64[12] p\nuint32 binning_x\n\
+         uint32 binning_y\nRegionOfInterest roi",
+    ),
+    (
         "vision_msgs/msg/ObjectHypothesis",
         "string class_id\nfloat64 score",
     ),

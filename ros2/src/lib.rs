@@ -31,3 +31,4 @@ pub mod ground;
 pub mod idl;
 pub mod msg;
 pub mod node;
+pub mod thermal;

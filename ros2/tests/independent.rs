@@ -22,7 +22,9 @@ use firefleet_model::UnitId;
 use firefleet_model::geometry::Pose2;
 use firefleet_model::profile::GROUND;
 use firefleet_model::testing::python_package;
-use firefleet_protocol::msg::{CannonState, FlameDetection, ObjectClass, UnitCommand, UnitSensors};
+use firefleet_protocol::msg::{
+    CannonState, FlameDetection, ObjectClass, ThermalImage, UnitCommand, UnitSensors,
+};
 use firefleet_ros2::graph::{Attachment, Domain, Namespace};
 use firefleet_ros2::ground::{Body, Robot};
 use firefleet_ros2::msg::*;
@@ -69,7 +71,19 @@ fn sensors(unit: &UnitId) -> UnitSensors {
             depth: [c[2] as f32; 25],
         }],
         collided: true,
-        thermal: None,
+        thermal: Some(thermal_frame()),
+    }
+}
+
+/// A frame of the profile's thermal core: a ramp of temperatures, depth with gaps.
+fn thermal_frame() -> ThermalImage {
+    let optics = GROUND.thermal_camera.unwrap();
+    let n = (optics.width_px * optics.height_px) as usize;
+    ThermalImage {
+        width: optics.width_px as u16,
+        height: optics.height_px as u16,
+        centikelvin: (0..n).map(|i| 29_315 + (i % 4000) as u16).collect(),
+        depth_m: (0..n).map(|i| (i % 9) as f32 * 0.75).collect(),
     }
 }
 
@@ -95,6 +109,8 @@ fn value_of(ty: &str, bytes: &[u8]) -> Value {
         Bool::TYPE => v::<Bool>(bytes),
         TwistStamped::TYPE => v::<TwistStamped>(bytes),
         Float64MultiArray::TYPE => v::<Float64MultiArray>(bytes),
+        Image::TYPE => v::<Image>(bytes),
+        CameraInfo::TYPE => v::<CameraInfo>(bytes),
         other => panic!("unexpected type {other} on the wire"),
     }
 }
@@ -162,6 +178,10 @@ async fn the_wire_is_ros_2_by_an_independent_reader() {
     );
     assert_eq!((got.cannon.pan, got.cannon.tilt), (0.5, 0.25));
     assert_eq!(got.detections.len(), 1);
+    assert_eq!(
+        got.thermal, sent.thermal,
+        "the thermal frame, pixel for pixel"
+    );
     assert!(
         (got.detections[0].depth_m().unwrap() - sent.detections[0].depth_m().unwrap()).abs() < 1e-5
     );
@@ -219,6 +239,9 @@ async fn the_wire_is_ros_2_by_an_independent_reader() {
             "ugv_1/odom",
             "ugv_1/steering/command",
             "ugv_1/tank_level",
+            "ugv_1/thermal/camera_info",
+            "ugv_1/thermal/depth",
+            "ugv_1/thermal/image_raw",
         ]
     );
     // The type std_msgs/String too: its hash is the one rmw_zenoh's design document shows.
@@ -240,8 +263,8 @@ async fn the_wire_is_ros_2_by_an_independent_reader() {
             .or_default() += 1;
     }
     assert_eq!(kinds.get("NN"), Some(&2), "{keys:#?}");
-    assert_eq!(kinds.get("MP"), Some(&10), "{kinds:?}");
-    assert_eq!(kinds.get("MS"), Some(&10), "{kinds:?}");
+    assert_eq!(kinds.get("MP"), Some(&13), "{kinds:?}");
+    assert_eq!(kinds.get("MS"), Some(&13), "{kinds:?}");
 
     if !python_rosbags() {
         return;

@@ -60,8 +60,8 @@ pub struct SimArgs {
     state_dir: Option<std::path::PathBuf>,
     /// What ground units find flames in: boxes drawn from the truth (the papers' detector's
     /// stand-in), or frames of the thermal core their profile names, in which each agent
-    /// finds flames itself. Not with --ros2: its robots have no thermal topics yet.
-    #[arg(long, value_enum, default_value_t = Sensing::Boxes, conflicts_with = "ros2")]
+    /// finds flames itself (with --ros2, on the robots' `thermal/` topics).
+    #[arg(long, value_enum, default_value_t = Sensing::Boxes)]
     perception: Sensing,
 }
 

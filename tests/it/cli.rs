@@ -120,12 +120,6 @@ fn bad_scenarios_and_arguments_are_refused_with_the_reason() {
     // Used to panic in the simulator's timer.
     let out = firefleet(&["demo", "--time-scale", "1e9"]);
     assert_says(&out, 2, "1000000000 is faster than the fleet can follow");
-    let out = firefleet(&["demo", "--platform", "ros2", "--perception", "pixels"]);
-    assert_says(
-        &out,
-        2,
-        "--perception pixels: the ROS 2 robots' topics carry no thermal image yet",
-    );
 }
 
 /// A reader that stops reading ends the command quietly, with the status a shell gives a

@@ -116,8 +116,7 @@ pub struct DemoArgs {
     #[arg(long, value_enum, default_value_t = PlatformKind::Sim, conflicts_with = "secure")]
     platform: PlatformKind,
     /// What ground units find flames in (the simulator's `--perception`): boxes drawn from
-    /// the truth, or their thermal cores' frames. Pixels not with --platform ros2: the
-    /// robots' topics have no thermal image yet.
+    /// the truth, or their thermal cores' frames.
     #[arg(long, value_enum, default_value_t = Sensing::Boxes)]
     perception: Sensing,
     /// Run the tunnel's SCADA too: the simulator serves its DTS zones and ventilation over

@@ -45,10 +45,6 @@ pub(super) fn roles(
         sim = sim.arg("--ros2");
     }
     if a.perception == Sensing::Pixels {
-        anyhow::ensure!(
-            a.platform != PlatformKind::Ros2,
-            "--perception pixels: the ROS 2 robots' topics carry no thermal image yet; use --platform sim"
-        );
         sim = sim.args(["--perception", "pixels"]);
     }
     if let Some(m) = &modbus {
