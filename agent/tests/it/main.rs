@@ -9,3 +9,4 @@ mod closed_loop;
 mod keep_out;
 mod monorail;
 mod profiles;
+mod ros2_thermal;

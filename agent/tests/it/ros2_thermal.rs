@@ -1,0 +1,179 @@
+//! A ROS 2 robot with only a thermal camera, its every message encoded by an independent
+//! implementation (Python `rosbags`, `tests/ros2/thermal_robot.py`) and put on rmw_zenoh's
+//! keys: the agent's side of the link assembles the frames and its detector places the
+//! flame where it is.
+
+use std::io::Write;
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use firefleet_agent::ground::perception;
+use firefleet_agent::ground::thermal::ThermalDetector;
+use firefleet_bus::{Connect, Mode, free_loopback_port};
+use firefleet_model::UnitId;
+use firefleet_model::geometry::Point2;
+use firefleet_model::profile::GROUND;
+use firefleet_model::testing::python_package;
+use firefleet_ros2::graph::{Attachment, Domain, Namespace, Topic, gid_of};
+use firefleet_ros2::ground::Robot;
+use firefleet_ros2::node::Node;
+use serde_json::{Value, json};
+use zenoh::Wait;
+
+/// The unit stands here, looking down +x; the flame's axis is 6 m ahead of its thermal
+/// core and 0.5 m to the left.
+const UNIT: [f64; 3] = [10.0, -1.0, 0.0];
+const RANGE_M: f64 = 6.0;
+const LEFT_M: f64 = 0.5;
+
+/// Frames the robot sends, at 10 Hz of its clock.
+const FRAMES: usize = 12;
+
+fn robot_messages() -> Option<Vec<Vec<Value>>> {
+    if !python_package(
+        "rosbags.typesys",
+        "rosbags>=0.10,<0.12",
+        "FIREFLEET_REQUIRE_PYTHON_ROSBAGS",
+    ) {
+        return None;
+    }
+    let cam = GROUND.thermal_camera.unwrap();
+    let request = json!({
+        "frames": FRAMES,
+        "camera": {
+            "width": cam.width_px, "height": cam.height_px, "fx": cam.fx, "fy": cam.fy,
+            "cx": cam.cx, "cy": cam.cy, "mount_forward_m": cam.mount_forward_m,
+            "mount_height_m": cam.mount_height_m,
+        },
+        "unit": UNIT,
+        "flame": {
+            "forward_m": cam.mount_forward_m + RANGE_M, "left_m": LEFT_M,
+            "radius_m": 0.4, "height_m": 1.5,
+        },
+    });
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/ros2/thermal_robot.py");
+    let mut child = Command::new("python3")
+        .arg(script)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(request.to_string().as_bytes())
+        .unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some(serde_json::from_slice(&out.stdout).unwrap())
+}
+
+fn unhex(s: &str) -> Vec<u8> {
+    (0..s.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap())
+        .collect()
+}
+
+/// The `pkg/msg/Type` name as our definitions spell it (`'static` for [`Topic`]).
+fn known_type(ty: &str) -> &'static str {
+    [
+        "sensor_msgs/msg/JointState",
+        "std_msgs/msg/Float64",
+        "sensor_msgs/msg/CameraInfo",
+        "sensor_msgs/msg/Image",
+        "nav_msgs/msg/Odometry",
+    ]
+    .into_iter()
+    .find(|t| *t == ty)
+    .unwrap_or_else(|| panic!("the robot script sent {ty}"))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_thermal_only_robot_on_ros_2_gets_its_flame_placed_within_half_a_metre_at_6_m() {
+    let Some(frames) = robot_messages() else {
+        return;
+    };
+    let port = free_loopback_port().unwrap();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let open = |c: Connect| async move { zenoh::open(c.to_config().unwrap()).await.unwrap() };
+    let robot_side = open(Connect {
+        mode: Some(Mode::Router),
+        listen: vec![endpoint.clone()],
+        ..Connect::default()
+    })
+    .await;
+    let agent_side = open(Connect {
+        mode: Some(Mode::Client),
+        connect: vec![endpoint],
+        ..Connect::default()
+    })
+    .await;
+    let unit = UnitId::new("ugv-1").unwrap();
+    let ns = Namespace::of_unit(&unit);
+    let domain = Domain::new(0).unwrap();
+    let node = Node::new(&agent_side, domain, ns.clone(), "firefleet_agent")
+        .await
+        .unwrap();
+    let mut robot = Robot::new(&node, unit, *GROUND).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(300)).await;
+
+    let optics = GROUND.thermal_camera.unwrap();
+    let mut detector = ThermalDetector::default();
+    let gid = gid_of("the robot script");
+    let flame = Point2::new(UNIT[0] + optics.mount_forward_m + RANGE_M, UNIT[1] + LEFT_M);
+    let (mut frames_with_images, mut placed) = (0, Vec::new());
+    for (k, frame) in frames.iter().enumerate() {
+        for (seq, m) in frame.iter().enumerate() {
+            let topic = Topic::new(
+                &ns,
+                m["topic"].as_str().unwrap(),
+                known_type(m["type"].as_str().unwrap()),
+            )
+            .unwrap();
+            robot_side
+                .put(topic.key(domain), unhex(m["cdr"].as_str().unwrap()))
+                .attachment(
+                    Attachment::now((k * 10 + seq + 1) as i64, gid)
+                        .encode()
+                        .to_vec(),
+                )
+                .wait()
+                .unwrap();
+        }
+        let got = tokio::time::timeout(Duration::from_secs(5), robot.sense())
+            .await
+            .expect("a frame within 5 s")
+            .unwrap();
+        let Some(image) = &got.thermal else { continue };
+        frames_with_images += 1;
+        let eye = optics.looking_from(&got.pose, got.cannon.pan);
+        placed.extend(
+            detector
+                .detect(image, &optics)
+                .iter()
+                .filter_map(|d| perception::locate(d, &optics, &eye))
+                .map(|l| l.estimate.mean),
+        );
+    }
+    assert_eq!(
+        frames_with_images, FRAMES,
+        "every frame came with its image"
+    );
+    assert!(
+        placed.len() >= FRAMES - 4,
+        "found from the fourth frame on: {placed:?}"
+    );
+    for p in &placed {
+        assert!(
+            p.dist(flame) < 0.5,
+            "placed at {p:?}, the flame is at {flame:?}"
+        );
+    }
+}
