@@ -166,11 +166,14 @@ impl ThermalDetector {
     }
 
     /// The flames in the next frame, `img`, taken by a camera with `optics`. An image
-    /// that fails validation (buffers that do not match its size, say) shows nothing: every
-    /// path from a robot validates its frames before they get here, so this only keeps a
-    /// malformed one from panicking the unit.
+    /// that fails validation (buffers that do not match its size, say) or is not the size
+    /// `optics` says shows nothing: every path from a robot checks its frames before they
+    /// get here, so this only keeps a malformed one from panicking the unit or being read
+    /// through the wrong lens.
     pub fn detect(&mut self, img: &ThermalImage, optics: &CameraSpec) -> Vec<FlameDetection> {
-        if img.validate().is_err() {
+        let sized = f64::from(img.width) == optics.width_px
+            && f64::from(img.height) == optics.height_px;
+        if !sized || img.validate().is_err() {
             return Vec::new();
         }
         let cfg = self.config;
@@ -410,7 +413,7 @@ mod tests {
     }
 
     #[test]
-    fn a_malformed_image_shows_nothing_and_does_not_panic() {
+    fn a_malformed_image_or_one_of_another_size_shows_nothing() {
         let optics = GROUND.thermal_camera.unwrap();
         let mut d = ThermalDetector::default();
         let short = ThermalImage {
@@ -420,6 +423,14 @@ mod tests {
             depth_m: vec![1.0; 100],
         };
         assert!(d.detect(&short, &optics).is_empty());
+        let other_core = ThermalImage {
+            width: 80,
+            height: 60,
+            centikelvin: vec![u16::MAX; 80 * 60],
+            depth_m: vec![1.0; 80 * 60],
+        };
+        assert!(d.detect(&other_core, &optics).is_empty());
+        assert!(d.followed.is_empty(), "neither was even segmented");
     }
 
     #[test]
