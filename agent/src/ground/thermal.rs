@@ -171,8 +171,8 @@ impl ThermalDetector {
     /// get here, so this only keeps a malformed one from panicking the unit or being read
     /// through the wrong lens.
     pub fn detect(&mut self, img: &ThermalImage, optics: &CameraSpec) -> Vec<FlameDetection> {
-        let sized = f64::from(img.width) == optics.width_px
-            && f64::from(img.height) == optics.height_px;
+        let sized =
+            f64::from(img.width) == optics.width_px && f64::from(img.height) == optics.height_px;
         if !sized || img.validate().is_err() {
             return Vec::new();
         }
