@@ -5,8 +5,8 @@
 //! detector, temperature, thermal camera) and accepts actuator set-points.
 //! A real robot implements it over its drivers; [`SimPlatform`] implements it over the
 //! simulator's `ff/<site>/sim/unit/<id>/...` keys, and [`Ros2Platform`] over a ROS 2
-//! robot's topics (rmw_zenoh's conventions, `firefleet_ros2::ground`), which the simulator
-//! can serve too. The agent code is the same for all of them.
+//! robot's topics (rmw_zenoh's conventions, `firefleet_ros2::ground` and
+//! `firefleet_ros2::monorail`), which the simulator can serve too. The agent code is the same for all of them.
 //!
 //! Not here: what the unit does with its body (the controllers) or the bus to the
 //! coordinator ([`crate::node`]).
@@ -15,12 +15,12 @@ use std::future::Future;
 
 use firefleet_bus::{Bus, BusError, Inbox};
 use firefleet_model::UnitId;
-use firefleet_model::spec::GroundSpec;
+use firefleet_model::spec::{GroundSpec, MonorailSpec};
 use firefleet_protocol::keys::Key;
 use firefleet_protocol::msg::{Message, RailCommand, RailSensors, UnitCommand, UnitSensors};
 use firefleet_ros2::graph::{Domain, Namespace};
-use firefleet_ros2::ground::Robot;
 use firefleet_ros2::node::{Node, NodeError};
+use firefleet_ros2::{ground, monorail};
 
 /// Why a body could not be reached or told.
 #[derive(Debug, thiserror::Error)]
@@ -99,18 +99,30 @@ impl<S: Message, C: Message> Platform for SimPlatform<S, C> {
     }
 }
 
-/// A ground robot running ROS 2 over rmw_zenoh: odometry, joint states, 3D flame
-/// detections, tank and heat in; `cmd_vel`, cannon commands and valve out (the topic table
-/// is in `firefleet_ros2::ground`). The agent is a ROS 2 node, `firefleet_agent`, in the
-/// robot's namespace.
-pub struct Ros2Platform {
-    robot: Robot,
+/// A robot running ROS 2 over rmw_zenoh, its agent a ROS 2 node `firefleet_agent` in the
+/// robot's namespace: a ground robot (`Ros2Platform<ground::Robot>`: odometry, joint
+/// states, flame detections or thermal images, tank and heat in; `cmd_vel`, cannon
+/// commands and valve out) or a monorail carriage (`Ros2Platform<monorail::Robot>`: joint
+/// states, nozzle, detector, temperature, hot spots in; a joint trajectory, nozzle speed
+/// and valve out). The topic tables are in `firefleet_ros2::ground` and
+/// `firefleet_ros2::monorail`.
+pub struct Ros2Platform<R> {
+    robot: R,
     _node: Node,
 }
 
-impl Ros2Platform {
-    /// The ground robot in `namespace` on `domain`, reached through `session` (the robot's
-    /// rmw_zenoh router, or any Zenoh network that routes its keys).
+/// The agent's node in `namespace` on `domain`, reached through `session` (the robot's
+/// rmw_zenoh router, or any Zenoh network that routes its keys).
+async fn agent_node(
+    session: &zenoh::Session,
+    domain: Domain,
+    namespace: Namespace,
+) -> Result<Node, NodeError> {
+    Node::new(session, domain, namespace, "firefleet_agent").await
+}
+
+impl Ros2Platform<ground::Robot> {
+    /// The ground robot in `namespace` on `domain`, reached through `session`.
     pub async fn ground(
         session: &zenoh::Session,
         domain: Domain,
@@ -118,15 +130,32 @@ impl Ros2Platform {
         unit: &UnitId,
         spec: GroundSpec,
     ) -> Result<Self, NodeError> {
-        let node = Node::new(session, domain, namespace, "firefleet_agent").await?;
+        let node = agent_node(session, domain, namespace).await?;
         Ok(Self {
-            robot: Robot::new(&node, unit.clone(), spec).await?,
+            robot: ground::Robot::new(&node, unit.clone(), spec).await?,
             _node: node,
         })
     }
 }
 
-impl Platform for Ros2Platform {
+impl Ros2Platform<monorail::Robot> {
+    /// The monorail carriage in `namespace` on `domain`, reached through `session`.
+    pub async fn monorail(
+        session: &zenoh::Session,
+        domain: Domain,
+        namespace: Namespace,
+        unit: &UnitId,
+        spec: MonorailSpec,
+    ) -> Result<Self, NodeError> {
+        let node = agent_node(session, domain, namespace).await?;
+        Ok(Self {
+            robot: monorail::Robot::new(&node, unit.clone(), spec).await?,
+            _node: node,
+        })
+    }
+}
+
+impl Platform for Ros2Platform<ground::Robot> {
     type Sensors = UnitSensors;
     type Command = UnitCommand;
 
@@ -135,6 +164,19 @@ impl Platform for Ros2Platform {
     }
 
     async fn actuate(&mut self, cmd: UnitCommand) -> Result<(), PlatformError> {
+        Ok(self.robot.actuate(&cmd)?)
+    }
+}
+
+impl Platform for Ros2Platform<monorail::Robot> {
+    type Sensors = RailSensors;
+    type Command = RailCommand;
+
+    async fn sense(&mut self) -> Option<RailSensors> {
+        self.robot.sense().await
+    }
+
+    async fn actuate(&mut self, cmd: RailCommand) -> Result<(), PlatformError> {
         Ok(self.robot.actuate(&cmd)?)
     }
 }

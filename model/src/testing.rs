@@ -208,10 +208,36 @@ pub fn python_package(module: &str, pip: &str, required_by: &str) -> bool {
 /// What the Python script `script` prints when run with `args` (an independent reader
 /// checking our output); the test fails with the script's standard error if it fails.
 pub fn python_stdout(script: &std::path::Path, args: &[&std::ffi::OsStr]) -> Vec<u8> {
-    let out = std::process::Command::new("python3")
+    python(script, args, None)
+}
+
+/// What the Python script `script` prints when it reads `request` on its standard input,
+/// as [`python_stdout`].
+pub fn python_reply(script: &std::path::Path, request: &[u8]) -> Vec<u8> {
+    python(script, &[], Some(request))
+}
+
+fn python(script: &std::path::Path, args: &[&std::ffi::OsStr], stdin: Option<&[u8]>) -> Vec<u8> {
+    use std::io::Write as _;
+    use std::process::Stdio;
+    let mut child = std::process::Command::new("python3")
         .arg(script)
         .args(args)
-        .output()
+        .stdin(if stdin.is_some() {
+            Stdio::piped()
+        } else {
+            Stdio::null()
+        })
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("python3 {}: {e}", script.display()));
+    if let (Some(bytes), Some(mut pipe)) = (stdin, child.stdin.take()) {
+        pipe.write_all(bytes)
+            .unwrap_or_else(|e| panic!("python3 {}: its input: {e}", script.display()));
+    }
+    let out = child
+        .wait_with_output()
         .unwrap_or_else(|e| panic!("python3 {}: {e}", script.display()));
     assert!(
         out.status.success(),
@@ -220,6 +246,20 @@ pub fn python_stdout(script: &std::path::Path, args: &[&std::ffi::OsStr]) -> Vec
         String::from_utf8_lossy(&out.stderr)
     );
     out.stdout
+}
+
+/// `bytes` as lower-case hex, the way tests hand binary data to a Python checker.
+pub fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Hex digits back to bytes; panics on anything else (a checker's reply is trusted in a
+/// test, and a malformed one fails it).
+pub fn unhex(s: &str) -> Vec<u8> {
+    (0..s.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&s[i..i + 2], 16).expect("hex digits"))
+        .collect()
 }
 
 /// Whether `program` runs (`program --version`), for a test that checks our files with

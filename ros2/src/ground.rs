@@ -45,8 +45,8 @@ use firefleet_model::validate::Validate;
 use firefleet_protocol::msg::{
     CannonState, DEPTH_WINDOW, FlameDetection, ObjectClass, ThermalImage, UnitCommand, UnitSensors,
 };
-use tokio::sync::mpsc;
 
+use crate::assemble::{self, Assemble, Parts};
 use crate::msg::*;
 use crate::node::{Node, NodeError, Publisher, Subscription};
 use crate::thermal::{self, THERMAL_DEPTH, THERMAL_IMAGE, THERMAL_INFO};
@@ -70,7 +70,8 @@ pub const FIRE_CLASS: &str = "fire";
 /// Slowest speed at which a yaw rate still says a steering angle, m/s.
 pub const MIN_STEER_SPEED: f64 = 0.05;
 
-fn frame(ns: &str, frame: &str) -> String {
+/// Frame `frame` of the robot in namespace `ns` (`/ugv_1`, `base_link` -> `ugv_1/base_link`).
+pub(crate) fn frame(ns: &str, frame: &str) -> String {
     format!("{}/{frame}", ns.trim_start_matches('/'))
 }
 
@@ -338,21 +339,22 @@ enum Incoming {
     ThermalInfo(Box<CameraInfo>),
 }
 
-/// A subscription callback that queues what it takes, wrapped.
-fn feed<M>(
-    tx: &mpsc::UnboundedSender<Incoming>,
-    wrap: impl Fn(M) -> Incoming + Send + Sync + 'static,
-) -> impl Fn(M) + Send + Sync + 'static {
-    let tx = tx.clone();
-    // A send fails only once the robot is dropped, when nothing is waiting for it.
-    move |m| drop(tx.send(wrap(m)))
-}
-
 /// The agent's side: a robot's topics assembled into sensor frames, set-points sent out.
 pub struct Robot {
+    parts: Parts<Incoming>,
+    heard: Heard,
+    last_t: f64,
+    cmd_vel: Publisher<TwistStamped>,
+    steering_cmd: Publisher<Float64>,
+    cannon_cmd: Publisher<Float64MultiArray>,
+    valve_cmd: Publisher<Bool>,
+    _subscriptions: Vec<Subscription>,
+}
+
+/// What the robot has said since the last frame, and what it said last.
+struct Heard {
     unit: UnitId,
     spec: GroundSpec,
-    incoming: mpsc::UnboundedReceiver<Incoming>,
     steer: Option<f64>,
     cannon: Option<(f64, f64)>,
     water_l: Option<f64>,
@@ -365,57 +367,53 @@ pub struct Robot {
     thermal_depth: Option<Image>,
     thermal_info: Option<CameraInfo>,
     thermal: Option<ThermalImage>,
+    /// The valve as the agent last set it (the robot reports no valve state of its own).
     valve: bool,
-    last_t: f64,
-    cmd_vel: Publisher<TwistStamped>,
-    steering_cmd: Publisher<Float64>,
-    cannon_cmd: Publisher<Float64MultiArray>,
-    valve_cmd: Publisher<Bool>,
-    _subscriptions: Vec<Subscription>,
 }
 
 impl Robot {
     pub async fn new(node: &Node, unit: UnitId, spec: GroundSpec) -> Result<Self, NodeError> {
-        // Unbounded, so Zenoh's callbacks never wait; `sense` drains it every frame.
-        let (tx, incoming) = mpsc::unbounded_channel();
+        let (feed, parts) = assemble::parts();
         let subscriptions = vec![
-            node.subscribe(JOINT_STATES, feed(&tx, Incoming::Joints))
+            node.subscribe(JOINT_STATES, feed.to(Incoming::Joints))
                 .await?,
-            node.subscribe(DETECTIONS, feed(&tx, Incoming::Detections))
+            node.subscribe(DETECTIONS, feed.to(Incoming::Detections))
                 .await?,
-            node.subscribe(TANK, feed(&tx, |m: Float64| Incoming::Tank(m.data)))
+            node.subscribe(TANK, feed.to(|m: Float64| Incoming::Tank(m.data)))
                 .await?,
-            node.subscribe(HEAT_FLUX, feed(&tx, |m: Float64| Incoming::Heat(m.data)))
+            node.subscribe(HEAT_FLUX, feed.to(|m: Float64| Incoming::Heat(m.data)))
                 .await?,
-            node.subscribe(BUMPER, feed(&tx, |m: Bool| Incoming::Bumper(m.data)))
+            node.subscribe(BUMPER, feed.to(|m: Bool| Incoming::Bumper(m.data)))
                 .await?,
-            node.subscribe(THERMAL_IMAGE, feed(&tx, Incoming::Thermal))
+            node.subscribe(THERMAL_IMAGE, feed.to(Incoming::Thermal))
                 .await?,
-            node.subscribe(THERMAL_DEPTH, feed(&tx, Incoming::ThermalDepth))
+            node.subscribe(THERMAL_DEPTH, feed.to(Incoming::ThermalDepth))
                 .await?,
             node.subscribe(
                 THERMAL_INFO,
-                feed(&tx, |m| Incoming::ThermalInfo(Box::new(m))),
+                feed.to(|m| Incoming::ThermalInfo(Box::new(m))),
             )
             .await?,
-            node.subscribe(ODOM, feed(&tx, |m| Incoming::Odom(Box::new(m))))
+            node.subscribe(ODOM, feed.to(|m| Incoming::Odom(Box::new(m))))
                 .await?,
         ];
         Ok(Self {
-            unit,
-            spec,
-            incoming,
-            steer: None,
-            cannon: None,
-            water_l: None,
-            heat: 0.0,
-            bumped: false,
-            detections: Vec::new(),
-            thermal_image: None,
-            thermal_depth: None,
-            thermal_info: None,
-            thermal: None,
-            valve: false,
+            parts,
+            heard: Heard {
+                unit,
+                spec,
+                steer: None,
+                cannon: None,
+                water_l: None,
+                heat: 0.0,
+                bumped: false,
+                detections: Vec::new(),
+                thermal_image: None,
+                thermal_depth: None,
+                thermal_info: None,
+                thermal: None,
+                valve: false,
+            },
             last_t: 0.0,
             cmd_vel: node.publisher(CMD_VEL).await?,
             steering_cmd: node.publisher(STEERING).await?,
@@ -428,29 +426,48 @@ impl Robot {
     /// The next sensor frame: taken when odometry arrives, once the robot has reported its
     /// joints and tank; `None` when the session is gone.
     pub async fn sense(&mut self) -> Option<UnitSensors> {
-        loop {
-            let first = self.incoming.recv().await?;
-            let mut frame = self.take(first);
-            // Frames queue up if the agent falls behind; act on the newest.
-            while let Ok(m) = self.incoming.try_recv() {
-                if let Some(newer) = self.take(m) {
-                    frame = Some(newer);
-                }
-            }
-            if let Some(f) = frame {
-                match f.validate() {
-                    Ok(()) => {
-                        self.last_t = f.t;
-                        return Some(f);
-                    }
-                    Err(e) => {
-                        tracing::warn!(unit = %self.unit, "dropped a ROS 2 sensor frame: {e}")
-                    }
-                }
-            }
-        }
+        let frame = self.parts.next_frame(&mut self.heard).await?;
+        self.last_t = frame.t;
+        Some(frame)
     }
 
+    /// Send set-points, stamped with the newest frame's time.
+    pub fn actuate(&mut self, cmd: &UnitCommand) -> Result<(), NodeError> {
+        let header = Header::new(self.last_t, "");
+        // Before the twist: the body reads the standstill angle when the twist arrives.
+        self.steering_cmd.put(&Float64 { data: cmd.steer })?;
+        self.cmd_vel.put(&TwistStamped {
+            header,
+            twist: Twist {
+                linear: Vector3 {
+                    x: cmd.speed,
+                    ..Vector3::default()
+                },
+                angular: Vector3 {
+                    z: cmd.speed * cmd.steer.tan() / self.heard.spec.wheelbase_m,
+                    ..Vector3::default()
+                },
+            },
+        })?;
+        self.cannon_cmd.put(&Float64MultiArray {
+            layout: MultiArrayLayout {
+                dim: vec![MultiArrayDimension {
+                    label: "pan_tilt".into(),
+                    size: 2,
+                    stride: 2,
+                }],
+                data_offset: 0,
+            },
+            data: vec![cmd.pan, cmd.tilt],
+        })?;
+        self.heard.valve = cmd.valve_open;
+        self.valve_cmd.put(&Bool {
+            data: cmd.valve_open,
+        })
+    }
+}
+
+impl Heard {
     /// A thermal frame from the waiting image and depth, once both have the same stamp;
     /// one the profile cannot take is refused with the reason.
     fn pair_thermal(&mut self) {
@@ -469,6 +486,15 @@ impl Robot {
             Err(e) => tracing::warn!(unit = %self.unit, "dropped a thermal frame: {e}"),
         }
         (self.thermal_image, self.thermal_depth) = (None, None);
+    }
+}
+
+impl Assemble for Heard {
+    type Part = Incoming;
+    type Frame = UnitSensors;
+
+    fn unit(&self) -> &UnitId {
+        &self.unit
     }
 
     fn take(&mut self, m: Incoming) -> Option<UnitSensors> {
@@ -516,7 +542,6 @@ impl Robot {
                     cannon: CannonState {
                         pan,
                         tilt,
-                        // The robot reports no valve state of its own; what we asked for.
                         valve_open: self.valve,
                         flow_l_s: if self.valve {
                             self.spec.cannon_flow_l_s
@@ -531,41 +556,6 @@ impl Robot {
             }
         }
         None
-    }
-
-    /// Send set-points, stamped with the newest frame's time.
-    pub fn actuate(&mut self, cmd: &UnitCommand) -> Result<(), NodeError> {
-        let header = Header::new(self.last_t, "");
-        // Before the twist: the body reads the standstill angle when the twist arrives.
-        self.steering_cmd.put(&Float64 { data: cmd.steer })?;
-        self.cmd_vel.put(&TwistStamped {
-            header,
-            twist: Twist {
-                linear: Vector3 {
-                    x: cmd.speed,
-                    ..Vector3::default()
-                },
-                angular: Vector3 {
-                    z: cmd.speed * cmd.steer.tan() / self.spec.wheelbase_m,
-                    ..Vector3::default()
-                },
-            },
-        })?;
-        self.cannon_cmd.put(&Float64MultiArray {
-            layout: MultiArrayLayout {
-                dim: vec![MultiArrayDimension {
-                    label: "pan_tilt".into(),
-                    size: 2,
-                    stride: 2,
-                }],
-                data_offset: 0,
-            },
-            data: vec![cmd.pan, cmd.tilt],
-        })?;
-        self.valve = cmd.valve_open;
-        self.valve_cmd.put(&Bool {
-            data: cmd.valve_open,
-        })
     }
 }
 

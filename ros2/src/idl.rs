@@ -41,6 +41,10 @@ pub enum IdlError {
 const DEFINITIONS: &[(&str, &str)] = &[
     ("builtin_interfaces/msg/Time", "int32 sec\nuint32 nanosec"),
     (
+        "builtin_interfaces/msg/Duration",
+        "int32 sec\nuint32 nanosec",
+    ),
+    (
         "std_msgs/msg/Header",
         "builtin_interfaces/Time stamp\nstring frame_id",
     ),
@@ -94,6 +98,19 @@ const DEFINITIONS: &[(&str, &str)] = &[
         "sensor_msgs/msg/JointState",
         "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\n\
          float64[] effort",
+    ),
+    (
+        "sensor_msgs/msg/Temperature",
+        "std_msgs/Header header\nfloat64 temperature\nfloat64 variance",
+    ),
+    (
+        "trajectory_msgs/msg/JointTrajectoryPoint",
+        "float64[] positions\nfloat64[] velocities\nfloat64[] accelerations\nfloat64[] effort\n\
+         builtin_interfaces/Duration time_from_start",
+    ),
+    (
+        "trajectory_msgs/msg/JointTrajectory",
+        "std_msgs/Header header\nstring[] joint_names\nJointTrajectoryPoint[] points",
     ),
     (
         "sensor_msgs/msg/Image",

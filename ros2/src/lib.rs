@@ -11,7 +11,9 @@
 //! - [`graph`]: key expressions, liveliness tokens, attachments;
 //! - [`node`]: a node with typed publishers and subscriptions on a Zenoh session;
 //! - [`ground`]: a ground unit's topics, from the robot's side ([`ground::Body`]) and
-//!   the agent's ([`ground::Robot`]).
+//!   the agent's ([`ground::Robot`]);
+//! - [`monorail`]: a monorail carriage's, the same way ([`monorail::Body`],
+//!   [`monorail::Robot`]).
 //!
 //! ```
 //! use firefleet_model::UnitId;
@@ -22,13 +24,14 @@
 //! assert_eq!(ns.to_string(), "/ugv_1");
 //! ```
 //!
-//! Not here: services, actions, parameters, TF, QoS beyond rclcpp's default, and the
-//! monorail units (their mapping is written down in `deploy/ros2.md`, not built).
+//! Not here: services, actions, parameters, TF, QoS beyond rclcpp's default.
 
+mod assemble;
 pub mod cdr;
 pub mod graph;
 pub mod ground;
 pub mod idl;
+pub mod monorail;
 pub mod msg;
 pub mod node;
 pub mod thermal;

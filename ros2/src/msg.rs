@@ -58,6 +58,28 @@ impl Time {
     }
 }
 
+/// `builtin_interfaces/Duration`: a span of time, as `Time` splits it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Duration {
+    pub sec: i32,
+    pub nanosec: u32,
+}
+
+impl Duration {
+    /// `t` seconds (non-negative).
+    pub fn from_secs(t: f64) -> Self {
+        let Time { sec, nanosec } = Time::from_secs(t);
+        Self { sec, nanosec }
+    }
+    pub fn secs(&self) -> f64 {
+        Time {
+            sec: self.sec,
+            nanosec: self.nanosec,
+        }
+        .secs()
+    }
+}
+
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Header {
     pub stamp: Time,
@@ -176,6 +198,11 @@ impl Covariance {
         }
         Self(c)
     }
+
+    /// The variance of the `i`-th of x, y, z, roll, pitch, yaw (row-major diagonal).
+    pub fn variance(&self, i: usize) -> f64 {
+        self.0[i * 7]
+    }
 }
 
 impl Serialize for Covariance {
@@ -261,7 +288,39 @@ impl JointState {
         let i = self.name.iter().position(|n| n == name)?;
         self.position.get(i).copied()
     }
+
+    /// The velocity of joint `name`, if the message has one.
+    pub fn velocity_of(&self, name: &str) -> Option<f64> {
+        let i = self.name.iter().position(|n| n == name)?;
+        self.velocity.get(i).copied()
+    }
 }
+
+/// `sensor_msgs/Temperature`: degrees Celsius, and the variance (0: unknown).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Temperature {
+    pub header: Header,
+    pub temperature: f64,
+    pub variance: f64,
+}
+ros_message!(Temperature, "sensor_msgs/msg/Temperature");
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct JointTrajectoryPoint {
+    pub positions: Vec<f64>,
+    pub velocities: Vec<f64>,
+    pub accelerations: Vec<f64>,
+    pub effort: Vec<f64>,
+    pub time_from_start: Duration,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct JointTrajectory {
+    pub header: Header,
+    pub joint_names: Vec<String>,
+    pub points: Vec<JointTrajectoryPoint>,
+}
+ros_message!(JointTrajectory, "trajectory_msgs/msg/JointTrajectory");
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Image {

@@ -12,7 +12,8 @@ use std::marker::PhantomData;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicI64, AtomicU32, AtomicU64, Ordering};
 
-use zenoh::Session;
+/// The Zenoh session a robot's nodes are declared on ([`robot_session`] opens one).
+pub use zenoh::Session;
 use zenoh::Wait;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::{Publisher as ZPublisher, Subscriber};

@@ -4,6 +4,7 @@
 //! The body and the robot run on real Zenoh sessions (a router and a client on loopback
 //! TCP); a plain Zenoh subscriber records every sample under the robot's namespace, as any
 //! rmw_zenoh subscription would see it, and `tests/rosbags_check.py` gets the recording.
+//! A ground robot's link and a monorail carriage's, each on a wire of its own.
 
 #![allow(
     clippy::print_stdout,
@@ -12,21 +13,22 @@
 )]
 
 use std::collections::BTreeMap;
-use std::io::Write;
-use std::process::{Command, Stdio};
+use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use firefleet_bus::{Connect, Mode, free_loopback_port};
 use firefleet_model::UnitId;
-use firefleet_model::geometry::Pose2;
-use firefleet_model::profile::GROUND;
-use firefleet_model::testing::python_package;
+use firefleet_model::geometry::{Point2, Pose2};
+use firefleet_model::profile::{GROUND, MONORAIL};
+use firefleet_model::testing::{hex, python_package, python_reply, unhex};
 use firefleet_protocol::msg::{
-    CannonState, FlameDetection, ObjectClass, ThermalImage, UnitCommand, UnitSensors,
+    CannonState, FlameDetection, HotSpot, ObjectClass, RailCommand, RailJoints, RailSensors,
+    ThermalImage, UnitCommand, UnitSensors,
 };
 use firefleet_ros2::graph::{Attachment, Domain, Namespace};
 use firefleet_ros2::ground::{Body, Robot};
+use firefleet_ros2::monorail;
 use firefleet_ros2::msg::*;
 use firefleet_ros2::node::Node;
 use firefleet_ros2::{cdr, idl};
@@ -111,50 +113,170 @@ fn value_of(ty: &str, bytes: &[u8]) -> Value {
         Float64MultiArray::TYPE => v::<Float64MultiArray>(bytes),
         Image::TYPE => v::<Image>(bytes),
         CameraInfo::TYPE => v::<CameraInfo>(bytes),
+        Temperature::TYPE => v::<Temperature>(bytes),
+        JointTrajectory::TYPE => v::<JointTrajectory>(bytes),
         other => panic!("unexpected type {other} on the wire"),
     }
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn the_wire_is_ros_2_by_an_independent_reader() {
-    let port = free_loopback_port().unwrap();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let router = open(&Connect {
-        mode: Some(Mode::Router),
-        listen: vec![endpoint.clone()],
-        ..Connect::default()
-    })
-    .await;
-    let client = open(&Connect {
-        mode: Some(Mode::Client),
-        connect: vec![endpoint],
-        ..Connect::default()
-    })
-    .await;
+/// Two real Zenoh sessions on loopback TCP (a router, where the body lives, and a client,
+/// where the agent does), and a plain subscriber on the router recording every sample
+/// under `prefix` as the wire carried it.
+struct Wire {
+    router: zenoh::Session,
+    client: zenoh::Session,
+    seen: Arc<Mutex<Vec<Sample>>>,
+    _recorder: zenoh::pubsub::Subscriber<()>,
+}
 
-    let seen: Arc<Mutex<Vec<Sample>>> = Arc::default();
-    let recorder = seen.clone();
-    let _wire = router
-        .declare_subscriber("0/ugv_1/**")
-        .callback(move |s| {
-            recorder.lock().unwrap().push((
-                s.key_expr().to_string(),
-                s.payload().to_bytes().to_vec(),
-                s.attachment().map(|a| a.to_bytes().to_vec()),
-            ))
+impl Wire {
+    async fn open(prefix: &str) -> Self {
+        let port = free_loopback_port().unwrap();
+        let endpoint = format!("tcp/127.0.0.1:{port}");
+        let router = open(&Connect {
+            mode: Some(Mode::Router),
+            listen: vec![endpoint.clone()],
+            ..Connect::default()
         })
-        .await
-        .unwrap();
+        .await;
+        let client = open(&Connect {
+            mode: Some(Mode::Client),
+            connect: vec![endpoint],
+            ..Connect::default()
+        })
+        .await;
+        let seen: Arc<Mutex<Vec<Sample>>> = Arc::default();
+        let recorder = seen.clone();
+        let _recorder = router
+            .declare_subscriber(format!("{prefix}/**"))
+            .callback(move |s| {
+                recorder.lock().unwrap().push((
+                    s.key_expr().to_string(),
+                    s.payload().to_bytes().to_vec(),
+                    s.attachment().map(|a| a.to_bytes().to_vec()),
+                ))
+            })
+            .await
+            .unwrap();
+        Self {
+            router,
+            client,
+            seen,
+            _recorder,
+        }
+    }
 
+    /// The body's node on the router and the agent's on the client, in `unit`'s namespace.
+    async fn nodes(&self, unit: &UnitId) -> (Node, Node) {
+        let ns = Namespace::of_unit(unit);
+        let domain = Domain::new(0).unwrap();
+        let body = Node::new(&self.router, domain, ns.clone(), "firefleet_sim")
+            .await
+            .unwrap();
+        let agent = Node::new(&self.client, domain, ns, "firefleet_agent")
+            .await
+            .unwrap();
+        (body, agent)
+    }
+
+    /// Every sample so far, checked as rmw_zenoh's keys and attachments say (the type hash
+    /// in the key is ours), and the topics they came on, sorted; then the same checks by
+    /// rosbags, and the robot's graph entities counted.
+    async fn check(&self, topics: &[&str]) {
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        let seen = self.seen.lock().unwrap().clone();
+        let mut hashes = BTreeMap::new();
+        let mut messages = Vec::new();
+        let mut on = Vec::new();
+        for (key, bytes, attachment) in &seen {
+            let parts: Vec<&str> = key.split('/').collect();
+            let [.., dds, hash] = parts[..] else {
+                panic!("{key}")
+            };
+            let ty = ros_type(dds);
+            assert_eq!(hash, idl::type_hash(&ty).unwrap(), "{key}");
+            let a =
+                Attachment::decode(attachment.as_deref().expect("every sample has one")).unwrap();
+            assert!(
+                a.sequence >= 1 && a.timestamp_ns > 1_600_000_000_000_000_000,
+                "{a:?}"
+            );
+            on.push(parts[1..parts.len() - 2].join("/"));
+            hashes.insert(ty.clone(), hash.to_owned());
+            messages.push(json!({"type": ty, "cdr": hex(bytes), "value": value_of(&ty, bytes)}));
+        }
+        on.sort();
+        on.dedup();
+        assert_eq!(on, topics);
+        // The type std_msgs/String too: its hash is the one rmw_zenoh's design document shows.
+        hashes.insert(
+            "std_msgs/msg/String".into(),
+            idl::type_hash("std_msgs/msg/String").unwrap(),
+        );
+
+        // The robot shows up as ROS 2 does: a node token, and one per publisher and
+        // subscription (each topic has one of each: the body's and the agent's).
+        let tokens = self.client.liveliness().get("@ros2_lv/0/**").await.unwrap();
+        let mut keys = std::collections::BTreeSet::new();
+        while let Ok(reply) = tokens.recv_async().await {
+            keys.insert(reply.result().unwrap().key_expr().to_string());
+        }
+        let mut kinds = BTreeMap::<String, usize>::new();
+        for key in &keys {
+            *kinds
+                .entry(key.split('/').nth(5).unwrap().to_owned())
+                .or_default() += 1;
+        }
+        assert_eq!(kinds.get("NN"), Some(&2), "{keys:#?}");
+        assert_eq!(kinds.get("MP"), Some(&topics.len()), "{kinds:?}");
+        assert_eq!(kinds.get("MS"), Some(&topics.len()), "{kinds:?}");
+
+        if python_rosbags() {
+            rosbags_agree(&hashes, &messages);
+        }
+    }
+}
+
+/// rosbags computes the same type hashes, decodes our bytes to our values and encodes
+/// our values to our bytes; and its bytes decode to the same values with our decoder.
+fn rosbags_agree(hashes: &BTreeMap<String, String>, messages: &[Value]) {
+    let request = json!({"hashes": hashes, "messages": messages});
+    let script = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/rosbags_check.py"
+    ));
+    let reply: Value =
+        serde_json::from_slice(&python_reply(script, request.to_string().as_bytes())).unwrap();
+    let theirs = reply["rosbags_cdr"].as_array().unwrap();
+    assert_eq!(theirs.len(), messages.len());
+    for (m, t) in messages.iter().zip(theirs) {
+        let ty = m["type"].as_str().unwrap();
+        let bytes = unhex(t.as_str().unwrap());
+        assert_eq!(value_of(ty, &bytes), m["value"], "{ty}");
+    }
+    eprintln!(
+        "rosbags agreed on {} type hashes and {} messages",
+        hashes.len(),
+        messages.len()
+    );
+}
+
+/// Wait up to a second for `take` to give something.
+async fn within_a_second<T>(mut take: impl FnMut() -> Option<T>) -> Option<T> {
+    for _ in 0..50 {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        if let Some(t) = take() {
+            return Some(t);
+        }
+    }
+    None
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_ground_robots_wire_is_ros_2_by_an_independent_reader() {
+    let wire = Wire::open("0/ugv_1").await;
     let unit = UnitId::new("ugv-1").unwrap();
-    let ns = Namespace::of_unit(&unit);
-    let domain = Domain::new(0).unwrap();
-    let body_node = Node::new(&router, domain, ns.clone(), "firefleet_sim")
-        .await
-        .unwrap();
-    let agent_node = Node::new(&client, domain, ns, "firefleet_agent")
-        .await
-        .unwrap();
+    let (body_node, agent_node) = wire.nodes(&unit).await;
     let body = Body::new(&body_node, unit.clone(), *GROUND).await.unwrap();
     let mut robot = Robot::new(&agent_node, unit.clone(), *GROUND)
         .await
@@ -193,126 +315,107 @@ async fn the_wire_is_ros_2_by_an_independent_reader() {
         valve_open: true,
     };
     robot.actuate(&cmd).unwrap();
-    let mut applied = None;
-    for _ in 0..50 {
-        tokio::time::sleep(Duration::from_millis(20)).await;
-        if let Some(c) = body.take_command(&UnitCommand::halt(&CannonState::default())) {
-            applied = Some(c);
-            break;
-        }
-    }
-    let applied = applied.expect("set-points reach the body");
+    let applied =
+        within_a_second(|| body.take_command(&UnitCommand::halt(&CannonState::default())))
+            .await
+            .expect("set-points reach the body");
     assert!((applied.steer - cmd.steer).abs() < 1e-12 && applied.speed == cmd.speed);
-    tokio::time::sleep(Duration::from_millis(300)).await;
 
-    let seen = seen.lock().unwrap().clone();
-    let mut hashes = BTreeMap::new();
-    let mut messages = Vec::new();
-    let mut topics = Vec::new();
-    for (key, bytes, attachment) in &seen {
-        let parts: Vec<&str> = key.split('/').collect();
-        let [.., dds, hash] = parts[..] else {
-            panic!("{key}")
-        };
-        let ty = ros_type(dds);
-        assert_eq!(hash, idl::type_hash(&ty).unwrap(), "{key}");
-        let a = Attachment::decode(attachment.as_deref().expect("every sample has one")).unwrap();
-        assert!(
-            a.sequence >= 1 && a.timestamp_ns > 1_600_000_000_000_000_000,
-            "{a:?}"
-        );
-        topics.push(parts[1..parts.len() - 2].join("/"));
-        hashes.insert(ty.clone(), hash.to_owned());
-        messages.push(json!({"type": ty, "cdr": hex(bytes), "value": value_of(&ty, bytes)}));
-    }
-    topics.sort();
-    assert_eq!(
-        topics,
-        [
-            "ugv_1/bumper",
-            "ugv_1/cannon/valve",
-            "ugv_1/cannon_controller/commands",
-            "ugv_1/cmd_vel",
-            "ugv_1/flame_detections",
-            "ugv_1/heat_flux",
-            "ugv_1/joint_states",
-            "ugv_1/odom",
-            "ugv_1/steering/command",
-            "ugv_1/tank_level",
-            "ugv_1/thermal/camera_info",
-            "ugv_1/thermal/depth",
-            "ugv_1/thermal/image_raw",
-        ]
-    );
-    // The type std_msgs/String too: its hash is the one rmw_zenoh's design document shows.
-    hashes.insert(
-        "std_msgs/msg/String".into(),
-        idl::type_hash("std_msgs/msg/String").unwrap(),
-    );
-
-    // The robot shows up as ROS 2 does: a node token, and one per publisher and subscription.
-    let tokens = client.liveliness().get("@ros2_lv/0/**").await.unwrap();
-    let mut keys = std::collections::BTreeSet::new();
-    while let Ok(reply) = tokens.recv_async().await {
-        keys.insert(reply.result().unwrap().key_expr().to_string());
-    }
-    let mut kinds = BTreeMap::<String, usize>::new();
-    for key in &keys {
-        *kinds
-            .entry(key.split('/').nth(5).unwrap().to_owned())
-            .or_default() += 1;
-    }
-    assert_eq!(kinds.get("NN"), Some(&2), "{keys:#?}");
-    assert_eq!(kinds.get("MP"), Some(&13), "{kinds:?}");
-    assert_eq!(kinds.get("MS"), Some(&13), "{kinds:?}");
-
-    if !python_rosbags() {
-        return;
-    }
-    let request = json!({"hashes": hashes, "messages": messages});
-    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/rosbags_check.py");
-    let mut child = Command::new("python3")
-        .arg(script)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(request.to_string().as_bytes())
-        .unwrap();
-    let out = child.wait_with_output().unwrap();
-    assert!(
-        out.status.success(),
-        "rosbags disagrees:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    // rosbags' own bytes decode to the same values with our decoder.
-    let reply: Value = serde_json::from_slice(&out.stdout).unwrap();
-    let theirs = reply["rosbags_cdr"].as_array().unwrap();
-    assert_eq!(theirs.len(), messages.len());
-    for (m, t) in messages.iter().zip(theirs) {
-        let ty = m["type"].as_str().unwrap();
-        let bytes = unhex(t.as_str().unwrap());
-        assert_eq!(value_of(ty, &bytes), m["value"], "{ty}");
-    }
-    eprintln!(
-        "rosbags agreed on {} type hashes and {} messages",
-        hashes.len(),
-        messages.len()
-    );
+    wire.check(&[
+        "ugv_1/bumper",
+        "ugv_1/cannon/valve",
+        "ugv_1/cannon_controller/commands",
+        "ugv_1/cmd_vel",
+        "ugv_1/flame_detections",
+        "ugv_1/heat_flux",
+        "ugv_1/joint_states",
+        "ugv_1/odom",
+        "ugv_1/steering/command",
+        "ugv_1/tank_level",
+        "ugv_1/thermal/camera_info",
+        "ugv_1/thermal/depth",
+        "ugv_1/thermal/image_raw",
+    ])
+    .await;
 }
 
-fn hex(b: &[u8]) -> String {
-    b.iter().map(|x| format!("{x:02x}")).collect()
-}
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_carriages_wire_is_ros_2_by_an_independent_reader() {
+    let wire = Wire::open("0/rail_1").await;
+    let unit = UnitId::new("rail-1").unwrap();
+    let (body_node, agent_node) = wire.nodes(&unit).await;
+    let mut body = monorail::Body::new(&body_node, unit.clone()).await.unwrap();
+    let mut robot = monorail::Robot::new(&agent_node, unit.clone(), *MONORAIL)
+        .await
+        .unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
 
-fn unhex(s: &str) -> Vec<u8> {
-    (0..s.len())
-        .step_by(2)
-        .map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap())
-        .collect()
+    let sent = RailSensors {
+        unit: unit.clone(),
+        t: 41.25,
+        joints: RailJoints {
+            d: 37.5,
+            theta1: 0.25,
+            theta2: -0.375,
+            v0: 18.5,
+        },
+        speed: -2.5,
+        valve_open: true,
+        flow_l_s: MONORAIL.flow_l_s,
+        water_connected: true,
+        fire_detected: true,
+        temperature_c: 312.5,
+        heat_flux_kw_m2: 4.75,
+        hot_spots: vec![HotSpot {
+            position: Point2::new(151.25, -1.5),
+            sigma_m: 0.375,
+        }],
+    };
+    body.publish(&sent).unwrap();
+    let got = tokio::time::timeout(Duration::from_secs(5), robot.sense())
+        .await
+        .expect("a frame within 5 s")
+        .unwrap();
+    assert_eq!(got, sent, "every field of the carriage's frame");
+
+    let cmd = RailCommand {
+        joints: RailJoints {
+            d: 52.0,
+            theta1: -0.5,
+            theta2: -0.25,
+            v0: 20.0,
+        },
+        valve_open: true,
+    };
+    robot.actuate(&cmd).unwrap();
+    let before = RailCommand {
+        joints: sent.joints,
+        valve_open: false,
+    };
+    // The three command topics arrive one by one; wait for the last, the valve.
+    let mut applied = before;
+    within_a_second(|| {
+        if let Some(c) = body.take_command(&applied) {
+            applied = c;
+        }
+        applied.valve_open.then_some(())
+    })
+    .await
+    .expect("set-points reach the body");
+    assert_eq!(applied, cmd);
+
+    wire.check(&[
+        "rail_1/fire_detected",
+        "rail_1/heat_flux",
+        "rail_1/hot_spots",
+        "rail_1/joint_states",
+        "rail_1/monitor/flow",
+        "rail_1/monitor/valve",
+        "rail_1/monitor_controller/joint_trajectory",
+        "rail_1/nozzle/speed",
+        "rail_1/nozzle/speed_command",
+        "rail_1/temperature",
+        "rail_1/water_connected",
+    ])
+    .await;
 }

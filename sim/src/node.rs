@@ -6,10 +6,11 @@
 //! [`physics::COMMAND_WATCHDOG`] of wall time is halted with its valve shut, as real drive
 //! controllers do when their computer dies.
 //!
-//! With [`SimOptions::ros2`], every ground unit's body is a ROS 2 robot instead
-//! ([`firefleet_ros2::ground::Body`], a node `firefleet_sim` in the unit's namespace,
-//! `ugv-1` -> `/ugv_1`): its frames go out on its ROS 2 topics and its set-points come
-//! from them, with no firefleet key between agent and body.
+//! With [`SimOptions::ros2`], every unit's body is a ROS 2 robot instead
+//! ([`firefleet_ros2::ground::Body`] for a ground unit, [`firefleet_ros2::monorail::Body`]
+//! for a carriage; a node `firefleet_sim` in the unit's namespace, `ugv-1` -> `/ugv_1`):
+//! its frames go out on its ROS 2 topics and its set-points come from them, with no
+//! firefleet key between agent and body.
 //!
 //! Not here: the world itself ([`crate::world`]); this loop only paces it and carries its
 //! messages.
@@ -25,8 +26,8 @@ use firefleet_model::scenario::Scenario;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{Message, SimClock, SimTruth};
 use firefleet_ros2::graph::{Domain, Namespace};
-use firefleet_ros2::ground::Body;
 use firefleet_ros2::node::{Node, NodeError};
+use firefleet_ros2::{ground, monorail};
 use tokio::time::MissedTickBehavior;
 
 use crate::physics;
@@ -46,7 +47,7 @@ pub struct SimOptions {
     /// a coordinator, if `wait_for_coordinator`) to be alive on the bus.
     pub wait_for_fleet: Option<Duration>,
     pub wait_for_coordinator: bool,
-    /// Serve ground units as ROS 2 robots on this domain.
+    /// Serve every unit as a ROS 2 robot on this domain.
     pub ros2: Option<Domain>,
     /// Serve the tunnel's SCADA (its DTS and ventilation, by the site file's map) as a
     /// Modbus TCP server on this address ([`crate::scada`]).
@@ -130,9 +131,9 @@ pub async fn run(
         .max(1.0) as u64;
     let commands = bus.subscribe(&keys.every_sim_cmd()).await?;
     let rail_commands = bus.subscribe(&keys.every_sim_rail_cmd()).await?;
-    let ros_bodies = match opts.ros2 {
-        Some(domain) => ros_bodies(bus, &world, domain).await?,
-        None => HashMap::new(),
+    let mut ros_bodies = match opts.ros2 {
+        Some(domain) => Ros2Bodies::declare(bus, &world, domain).await?,
+        None => Ros2Bodies::default(),
     };
     let mut scada = match opts.scada {
         Some(addr) => Some(serve_scada(&world, addr).await?),
@@ -182,13 +183,7 @@ pub async fn run(
                 _ => None,
             },
         );
-        for (id, (_, body)) in &ros_bodies {
-            let (_, last) = world.ground_unit(id).expect("a body per ground unit");
-            if let Some(cmd) = body.take_command(&last) {
-                world.command(id, cmd);
-                last_command.insert(id.clone(), Instant::now());
-            }
-        }
+        ros_bodies.command(&mut world, &mut last_command);
         let now = Instant::now();
         for id in ids.iter().chain(&rail_ids) {
             if last_command
@@ -217,7 +212,7 @@ pub async fn run(
         .await?;
         for id in &ids {
             if let Some(s) = world.sensors(id) {
-                match ros_bodies.get(id) {
+                match ros_bodies.ground.get(id) {
                     Some((_, body)) => body.publish(&s)?,
                     None => bus.put(&keys.sim_sensors(id), &s).await?,
                 }
@@ -225,7 +220,10 @@ pub async fn run(
         }
         for id in &rail_ids {
             if let Some(s) = world.rail_sensors(id) {
-                bus.put(&keys.sim_rail_sensors(id), &s).await?;
+                match ros_bodies.rail.get_mut(id) {
+                    Some((_, body)) => body.publish(&s)?,
+                    None => bus.put(&keys.sim_rail_sensors(id), &s).await?,
+                }
             }
         }
         if step.is_multiple_of(2) {
@@ -339,26 +337,56 @@ impl Drop for AbortOnDrop {
     }
 }
 
-/// A ROS 2 body for every ground unit of `world`, each a node of its own namespace.
-async fn ros_bodies(
-    bus: &Bus,
-    world: &World,
-    domain: Domain,
-) -> Result<HashMap<UnitId, (Node, Body)>, NodeError> {
-    let mut bodies = HashMap::new();
-    for id in world.unit_ids() {
-        let (spec, _) = world.ground_unit(id).expect("listed");
-        let node = Node::new(
-            bus.zenoh_session(),
-            domain,
-            Namespace::of_unit(id),
-            "firefleet_sim",
-        )
-        .await?;
-        let body = Body::new(&node, id.clone(), spec).await?;
-        bodies.insert(id.clone(), (node, body));
+/// A ROS 2 body for every unit of `world`, each a node of its own namespace.
+#[derive(Default)]
+struct Ros2Bodies {
+    ground: HashMap<UnitId, (Node, ground::Body)>,
+    rail: HashMap<UnitId, (Node, monorail::Body)>,
+}
+
+impl Ros2Bodies {
+    async fn declare(bus: &Bus, world: &World, domain: Domain) -> Result<Self, NodeError> {
+        let node = async |id: &UnitId| {
+            Node::new(
+                bus.zenoh_session(),
+                domain,
+                Namespace::of_unit(id),
+                "firefleet_sim",
+            )
+            .await
+        };
+        let mut bodies = Self::default();
+        for id in world.unit_ids() {
+            let (spec, _) = world.ground_unit(id).expect("listed");
+            let node = node(id).await?;
+            let body = ground::Body::new(&node, id.clone(), spec).await?;
+            bodies.ground.insert(id.clone(), (node, body));
+        }
+        for id in world.rail_unit_ids() {
+            let node = node(id).await?;
+            let body = monorail::Body::new(&node, id.clone()).await?;
+            bodies.rail.insert(id.clone(), (node, body));
+        }
+        Ok(bodies)
     }
-    Ok(bodies)
+
+    /// Hand every body's new set-points to `world`, noting who was commanded.
+    fn command(&self, world: &mut World, last_command: &mut HashMap<UnitId, Instant>) {
+        for (id, (_, body)) in &self.ground {
+            let (_, last) = world.ground_unit(id).expect("a body per ground unit");
+            if let Some(cmd) = body.take_command(&last) {
+                world.command(id, cmd);
+                last_command.insert(id.clone(), Instant::now());
+            }
+        }
+        for (id, (_, body)) in &self.rail {
+            let last = world.rail_command(id).expect("a body per carriage");
+            if let Some(cmd) = body.take_command(&last) {
+                world.command_rail(id, cmd);
+                last_command.insert(id.clone(), Instant::now());
+            }
+        }
+    }
 }
 
 /// Hand every queued command to `apply`, which returns the unit it commanded; a command

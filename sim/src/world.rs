@@ -288,6 +288,11 @@ impl World {
         unit.map(|c| c.cmd = cmd).is_some()
     }
 
+    /// The set-points monorail unit `id` is following.
+    pub fn rail_command(&self, id: &UnitId) -> Option<RailCommand> {
+        Some(self.carriages.iter().find(|c| &c.id == id)?.cmd)
+    }
+
     /// A ground unit's specification and the set-points it is following.
     pub fn ground_unit(&self, id: &UnitId) -> Option<(GroundSpec, UnitCommand)> {
         let b = self.bodies.iter().find(|b| &b.id == id)?;

@@ -19,6 +19,7 @@ use firefleet_model::UnitId;
 
 use firefleet_model::UnitKind;
 use firefleet_ros2::graph::{Domain, Namespace};
+use firefleet_ros2::node::Session;
 
 use super::{PlatformKind, RoleArgs, positive_f64};
 use firefleet::net::{join, shutdown_signal};
@@ -114,6 +115,11 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
         firefleet::net::watch(next, &scenario);
     };
     let shutdown = shutdown_signal(a.role.zenoh.die_with_parent);
+    let ros = match a.platform {
+        PlatformKind::Sim => None,
+        PlatformKind::Ros2 => Some(a.ros.robot(&a.unit).await?),
+    };
+    let unit = &a.unit;
     let bus = match spec.kind {
         UnitKind::Ground => {
             let body = scenario
@@ -125,55 +131,21 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
             };
             let ctl =
                 GroundController::with_tree(a.unit.clone(), body, shared, &doc, 1.0 / a.tick_hz)?;
-            match a.platform {
-                PlatformKind::Sim => {
-                    let unit = &a.unit;
-                    drive(
-                        bus,
-                        ctl,
-                        async |bus: &Bus| Ok(SimPlatform::ground(bus, unit).await?),
-                        &opts,
-                        moves,
-                        on_moved,
-                        shutdown,
-                    )
-                    .await?
+            match &ros {
+                None => {
+                    let sim = async |bus: &Bus| Ok(SimPlatform::ground(bus, unit).await?);
+                    drive(bus, ctl, sim, &opts, moves, on_moved, shutdown).await?
                 }
-                PlatformKind::Ros2 => {
-                    let (domain, namespace) = a.ros.place(&a.unit)?;
-                    let own = match &a.ros.ros_router {
-                        Some(router) => Some(
-                            firefleet_ros2::node::robot_session(router)
-                                .await
-                                .with_context(|| format!("--ros-router {router}"))?,
-                        ),
-                        None => None,
-                    };
-                    tracing::info!(%namespace, %domain, "driving a ROS 2 robot");
-                    let unit = &a.unit;
+                Some(r) => {
                     let robot = async |bus: &Bus| {
-                        let session = own.as_ref().unwrap_or(bus.zenoh_session());
-                        Ok(
-                            Ros2Platform::ground(session, domain, namespace.clone(), unit, body)
-                                .await?,
-                        )
+                        let (session, domain, ns) = r.at(bus);
+                        Ok(Ros2Platform::ground(session, domain, ns, unit, body).await?)
                     };
-                    let bus = drive(bus, ctl, robot, &opts, moves, on_moved, shutdown).await?;
-                    if let Some(s) = own {
-                        s.close().await.ok();
-                    }
-                    bus
+                    drive(bus, ctl, robot, &opts, moves, on_moved, shutdown).await?
                 }
             }
         }
         UnitKind::Monorail => {
-            if a.platform == PlatformKind::Ros2 {
-                anyhow::bail!(
-                    "--platform ros2: unit {} is a monorail unit; only ground units run on ROS 2 \
-                     so far (the monorail's mapping is in deploy/ros2.md, not built)",
-                    a.unit
-                );
-            }
             let carriage = scenario
                 .monorail_spec(&a.unit)
                 .context("the unit's monorail profile")?;
@@ -183,30 +155,73 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
             };
             let ctl = MonorailController::with_tree(a.unit.clone(), carriage, shared, &doc)?
                 .context("the unit's rail is not in the scenario")?;
-            let unit = &a.unit;
-            drive(
-                bus,
-                ctl,
-                async |bus: &Bus| Ok(SimPlatform::monorail(bus, unit).await?),
-                &opts,
-                moves,
-                on_moved,
-                shutdown,
-            )
-            .await?
+            match &ros {
+                None => {
+                    let sim = async |bus: &Bus| Ok(SimPlatform::monorail(bus, unit).await?);
+                    drive(bus, ctl, sim, &opts, moves, on_moved, shutdown).await?
+                }
+                Some(r) => {
+                    let robot = async |bus: &Bus| {
+                        let (session, domain, ns) = r.at(bus);
+                        Ok(Ros2Platform::monorail(session, domain, ns, unit, carriage).await?)
+                    };
+                    drive(bus, ctl, robot, &opts, moves, on_moved, shutdown).await?
+                }
+            }
         }
     };
+    if let Some(r) = ros {
+        r.close().await;
+    }
     bus.close().await;
     Ok(ExitCode::SUCCESS)
 }
 
+/// Where the agent finds its ROS 2 robot.
+struct RobotPlace {
+    domain: Domain,
+    namespace: Namespace,
+    /// A session of the robot's own, when its rmw_zenoh router was named; otherwise the
+    /// robot's topics are reached on the fleet's session.
+    own: Option<Session>,
+}
+
+impl RobotPlace {
+    /// The session to reach the robot on while the agent is on `bus`, its domain and
+    /// namespace.
+    fn at<'a>(&'a self, bus: &'a Bus) -> (&'a Session, Domain, Namespace) {
+        let session = self.own.as_ref().unwrap_or(bus.zenoh_session());
+        (session, self.domain, self.namespace.clone())
+    }
+
+    async fn close(self) {
+        if let Some(s) = self.own {
+            s.close().await.ok();
+        }
+    }
+}
+
 impl RosArgs {
-    fn place(&self, unit: &UnitId) -> anyhow::Result<(Domain, Namespace)> {
+    /// Where unit `unit`'s robot is, by these arguments.
+    async fn robot(&self, unit: &UnitId) -> anyhow::Result<RobotPlace> {
         let domain = Domain::new(self.ros_domain).context("--ros-domain")?;
         let namespace = match &self.ros_namespace {
             Some(ns) => Namespace::new(ns).context("--ros-namespace")?,
             None => Namespace::of_unit(unit),
         };
-        Ok((domain, namespace))
+        let own = match &self.ros_router {
+            Some(router) => Some(
+                firefleet_ros2::node::robot_session(router)
+                    .await
+                    .with_context(|| format!("--ros-router {router}"))?,
+            ),
+            None => None,
+        };
+        tracing::info!(%namespace, %domain, "driving a ROS 2 robot");
+        Ok(RobotPlace {
+            domain,
+            namespace,
+            own,
+        })
     }
 }

@@ -65,7 +65,8 @@ pub struct RoleArgs {
 pub enum PlatformKind {
     /// The simulator's unit, over the site's `sim/` keys.
     Sim,
-    /// A ROS 2 robot over rmw_zenoh (ground units): `firefleet sim --ros2`, or a real one.
+    /// A ROS 2 robot over rmw_zenoh, a ground unit or a carriage: `firefleet sim --ros2`,
+    /// or a real one.
     Ros2,
 }
 

@@ -36,7 +36,7 @@ pub struct SimArgs {
     /// With --wait-for-fleet, wait for a coordinator too.
     #[arg(long)]
     wait_for_coordinator: bool,
-    /// Serve every ground unit as a ROS 2 robot over rmw_zenoh's conventions (topics in
+    /// Serve every unit, ground robot or carriage, as a ROS 2 robot over rmw_zenoh's conventions (topics in
     /// the unit's namespace, `ugv-1` -> `/ugv_1`) instead of the site's `sim/` keys: its
     /// agent runs with `--platform ros2`.
     #[arg(long)]

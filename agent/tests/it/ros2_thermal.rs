@@ -3,8 +3,7 @@
 //! keys: the agent's side of the link assembles the frames and its detector places the
 //! flame where it is.
 
-use std::io::Write;
-use std::process::{Command, Stdio};
+use std::path::Path;
 use std::time::Duration;
 
 use firefleet_agent::ground::perception;
@@ -13,7 +12,7 @@ use firefleet_bus::{Connect, Mode, free_loopback_port};
 use firefleet_model::UnitId;
 use firefleet_model::geometry::Point2;
 use firefleet_model::profile::GROUND;
-use firefleet_model::testing::python_package;
+use firefleet_model::testing::{python_package, python_reply, unhex};
 use firefleet_ros2::graph::{Attachment, Domain, Namespace, Topic, gid_of};
 use firefleet_ros2::ground::Robot;
 use firefleet_ros2::node::Node;
@@ -52,33 +51,8 @@ fn robot_messages() -> Option<Vec<Vec<Value>>> {
         },
     });
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/ros2/thermal_robot.py");
-    let mut child = Command::new("python3")
-        .arg(script)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(request.to_string().as_bytes())
-        .unwrap();
-    let out = child.wait_with_output().unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    Some(serde_json::from_slice(&out.stdout).unwrap())
-}
-
-fn unhex(s: &str) -> Vec<u8> {
-    (0..s.len())
-        .step_by(2)
-        .map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap())
-        .collect()
+    let reply = python_reply(Path::new(script), request.to_string().as_bytes());
+    Some(serde_json::from_slice(&reply).unwrap())
 }
 
 /// The `pkg/msg/Type` name as our definitions spell it (`'static` for [`Topic`]).

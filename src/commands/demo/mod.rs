@@ -26,7 +26,6 @@ use firefleet_bus::pki;
 use firefleet_bus::render::{Layout, render_site};
 use firefleet_bus::{Bus, Connect, Mode, free_loopback_port};
 use firefleet_coordinator::goals::Goals;
-use firefleet_model::UnitKind;
 use firefleet_model::builtin;
 use firefleet_model::scenario::Scenario;
 use firefleet_model::{CommanderId, ZoneId};
@@ -109,9 +108,9 @@ pub struct DemoArgs {
     /// console, or steer the units still patrolling).
     #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = non_negative_f64, allow_negative_numbers = true)]
     linger: f64,
-    /// The bodies the ground agents drive: the simulator's units over the site's `sim/`
-    /// keys, or ROS 2 robots (the simulator serving each on rmw_zenoh topics in its unit's
-    /// namespace, each agent on `--platform ros2`). Not with --secure: the site's access
+    /// The bodies the agents drive: the simulator's units over the site's `sim/` keys, or
+    /// ROS 2 robots, ground units and carriages alike (the simulator serving each on
+    /// rmw_zenoh topics in its unit's namespace, each agent on `--platform ros2`). Not with --secure: the site's access
     /// rules cover the fleet's keys; a robot's ROS 2 topics stay on the robot's own router.
     #[arg(long, value_enum, default_value_t = PlatformKind::Sim, conflicts_with = "secure")]
     platform: PlatformKind,

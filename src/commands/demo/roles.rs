@@ -64,7 +64,7 @@ pub(super) fn roles(
     }
     for (k, u) in scenario.units.iter().enumerate() {
         let mut agent = RoleCommand::new("agent").args(["--unit", u.id.as_str()]);
-        if a.platform == PlatformKind::Ros2 && u.kind == UnitKind::Ground {
+        if a.platform == PlatformKind::Ros2 {
             agent = agent.args(["--platform", "ros2"]);
         }
         if let Some(base) = a.groot2 {
