@@ -10,7 +10,8 @@
 
 use firefleet_bt::{Status, Tree};
 use firefleet_protocol::msg::{
-    BarredSpace, FlameReport, TASK_SEQ_LEAD_S, TaskKind, UnitState, task_seq_ceiling,
+    BarredSpace, FlameDetection, FlameReport, TASK_SEQ_LEAD_S, TaskKind, UnitState,
+    task_seq_ceiling,
 };
 
 use crate::mission::{Responder, review};
@@ -32,6 +33,11 @@ pub trait Services: Responder {
     fn report(&mut self) -> Option<FlameReport>;
     /// The barred space in the mission changed: the services enforce the new one.
     fn barred_changed(&mut self);
+    /// The flames the unit's own detector found in the frame just sensed, in its sensor's
+    /// pixels; `None` when the frame gave it nothing to look at (no thermal image).
+    fn found(&self) -> Option<&[FlameDetection]> {
+        None
+    }
 }
 
 /// The control loop of one unit.
@@ -166,6 +172,11 @@ impl<U: Services> Controller<U> {
     }
 
     /// The unit's services, for inspection.
+    /// What the unit's own detector found in the frame just sensed ([`Services::found`]).
+    pub fn found(&self) -> Option<&[FlameDetection]> {
+        self.unit.found()
+    }
+
     pub fn unit(&self) -> &U {
         &self.unit
     }

@@ -321,6 +321,9 @@ where
                 let cmd = ctl.step(&s);
                 platform.actuate(cmd).await?;
                 let t = U::time(&s);
+                if let Some(found) = ctl.found() {
+                    platform.found(t, found)?;
+                }
                 halt = Some(U::halt(&s));
                 taps.step(ctl.tree(), &transitions.borrow()[tapped..], t);
                 tapped = transitions.borrow().len();

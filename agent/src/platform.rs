@@ -17,7 +17,9 @@ use firefleet_bus::{Bus, BusError, Inbox};
 use firefleet_model::UnitId;
 use firefleet_model::spec::{GroundSpec, MonorailSpec};
 use firefleet_protocol::keys::Key;
-use firefleet_protocol::msg::{Message, RailCommand, RailSensors, UnitCommand, UnitSensors};
+use firefleet_protocol::msg::{
+    FlameDetection, Message, RailCommand, RailSensors, SensorFrame, UnitCommand, UnitSensors,
+};
 use firefleet_ros2::graph::{Domain, Namespace};
 use firefleet_ros2::node::{Node, NodeError};
 use firefleet_ros2::{ground, monorail};
@@ -44,6 +46,12 @@ pub trait Platform {
         &mut self,
         cmd: Self::Command,
     ) -> impl Future<Output = Result<(), PlatformError>> + Send;
+    /// Tell the robot's other tools what the agent's own detector found in the frame of
+    /// time `t` (`firefleet_agent::controller::Services::found`); a body with no one to
+    /// tell ignores it.
+    fn found(&mut self, _t: f64, _found: &[FlameDetection]) -> Result<(), PlatformError> {
+        Ok(())
+    }
 }
 
 /// A simulated body, reached over the bus: a ground vehicle
@@ -81,14 +89,18 @@ impl SimPlatform<RailSensors, RailCommand> {
     }
 }
 
-impl<S: Message, C: Message> Platform for SimPlatform<S, C> {
+impl<S: Message + SensorFrame, C: Message> Platform for SimPlatform<S, C> {
     type Sensors = S;
     type Command = C;
 
     async fn sense(&mut self) -> Option<S> {
         let (_, mut frame) = self.sensors.recv().await?;
-        // Frames queue up if the agent falls behind; act on the newest.
-        while let Some((_, newer)) = self.sensors.try_recv() {
+        // Frames queue up if the agent falls behind; act on the newest, but never pass
+        // over a frame that must be seen (the ones after it wait for the next call).
+        while frame.may_pass_over() {
+            let Some((_, newer)) = self.sensors.try_recv() else {
+                break;
+            };
             frame = newer;
         }
         Some(frame)
@@ -122,17 +134,19 @@ async fn agent_node(
 }
 
 impl Ros2Platform<ground::Robot> {
-    /// The ground robot in `namespace` on `domain`, reached through `session`.
+    /// The ground robot in `namespace` on `domain`, reached through `session`, its
+    /// flames taken from `flames`.
     pub async fn ground(
         session: &zenoh::Session,
         domain: Domain,
         namespace: Namespace,
         unit: &UnitId,
         spec: GroundSpec,
+        flames: ground::FlameSource,
     ) -> Result<Self, NodeError> {
         let node = agent_node(session, domain, namespace).await?;
         Ok(Self {
-            robot: ground::Robot::new(&node, unit.clone(), spec).await?,
+            robot: ground::Robot::new(&node, unit.clone(), spec, flames).await?,
             _node: node,
         })
     }
@@ -165,6 +179,10 @@ impl Platform for Ros2Platform<ground::Robot> {
 
     async fn actuate(&mut self, cmd: UnitCommand) -> Result<(), PlatformError> {
         Ok(self.robot.actuate(&cmd)?)
+    }
+
+    fn found(&mut self, t: f64, found: &[FlameDetection]) -> Result<(), PlatformError> {
+        Ok(self.robot.publish_found(t, found)?)
     }
 }
 

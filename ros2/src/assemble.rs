@@ -12,13 +12,14 @@
 
 use firefleet_model::UnitId;
 use firefleet_model::validate::Validate;
+use firefleet_protocol::msg::SensorFrame;
 use tokio::sync::mpsc;
 
 /// What turns a robot's parts, in arrival order, into frames.
 pub(crate) trait Assemble {
     /// One sample of any of the robot's topics.
     type Part;
-    type Frame: Validate;
+    type Frame: Validate + SensorFrame;
     /// The unit the robot is, for the log.
     fn unit(&self) -> &UnitId;
     /// Take `part`; a frame once the clocking part completes one.
@@ -56,26 +57,113 @@ impl<P: Send + 'static> Feed<P> {
 
 impl<P> Parts<P> {
     /// The next valid frame `a` makes; frames that queued up while the agent was busy are
-    /// passed over for the newest, and an invalid one is logged and dropped. `None` once
-    /// no subscription can feed the queue any more.
+    /// passed over for the newest valid one where [`SensorFrame::may_pass_over`] allows
+    /// (a frame that must be seen is returned, the parts after it left queued), and an
+    /// invalid one is logged and dropped. `None` once no subscription can feed the queue
+    /// any more.
     pub(crate) async fn next_frame<A: Assemble<Part = P>>(
         &mut self,
         a: &mut A,
     ) -> Option<A::Frame> {
         loop {
             let first = self.rx.recv().await?;
-            let mut frame = a.take(first);
-            while let Ok(part) = self.rx.try_recv() {
-                if let Some(newer) = a.take(part) {
+            let mut frame = a.take(first).filter(|f| valid(a, f));
+            while frame.as_ref().is_none_or(SensorFrame::may_pass_over) {
+                let Ok(part) = self.rx.try_recv() else { break };
+                if let Some(newer) = a.take(part).filter(|f| valid(a, f)) {
                     frame = Some(newer);
                 }
             }
-            if let Some(f) = frame {
-                match f.validate() {
-                    Ok(()) => return Some(f),
-                    Err(e) => tracing::warn!(unit = %a.unit(), "dropped a ROS 2 sensor frame: {e}"),
-                }
+            if frame.is_some() {
+                return frame;
             }
         }
+    }
+}
+
+/// Whether `frame` validates; why not is logged.
+fn valid<A: Assemble>(a: &A, frame: &A::Frame) -> bool {
+    frame
+        .validate()
+        .map_err(|e| tracing::warn!(unit = %a.unit(), "dropped a ROS 2 sensor frame: {e}"))
+        .is_ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firefleet_model::validate::Invalid;
+
+    /// A frame a clock tick makes; `keep` frames must be seen, `bad` ones do not validate.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    struct Frame {
+        t: u32,
+        keep: bool,
+        bad: bool,
+    }
+
+    impl Validate for Frame {
+        fn validate(&self) -> Result<(), Invalid> {
+            if self.bad {
+                Err(Invalid::new("t", "bad"))
+            } else {
+                Ok(())
+            }
+        }
+    }
+
+    impl SensorFrame for Frame {
+        fn may_pass_over(&self) -> bool {
+            !self.keep
+        }
+    }
+
+    /// Parts are frames whole: every part is a clock tick.
+    struct Ticks(UnitId);
+
+    impl Assemble for Ticks {
+        type Part = Frame;
+        type Frame = Frame;
+        fn unit(&self) -> &UnitId {
+            &self.0
+        }
+        fn take(&mut self, part: Frame) -> Option<Frame> {
+            Some(part)
+        }
+    }
+
+    fn frame(t: u32) -> Frame {
+        Frame {
+            t,
+            keep: false,
+            bad: false,
+        }
+    }
+
+    #[tokio::test]
+    async fn the_newest_frame_is_taken_but_none_that_must_be_seen_is_passed_over() {
+        let (feed, mut parts) = parts();
+        let push = feed.to(|f: Frame| f);
+        let mut ticks = Ticks(UnitId::new("ugv-1").unwrap());
+        for f in [
+            frame(1),
+            Frame {
+                keep: true,
+                ..frame(2)
+            },
+            frame(3),
+            frame(4),
+            Frame {
+                bad: true,
+                ..frame(5)
+            },
+        ] {
+            push(f);
+        }
+        let mut next = async || parts.next_frame(&mut ticks).await.map(|f| f.t);
+        assert_eq!(next().await, Some(2), "1 passed over, 2 kept");
+        drop((feed, push));
+        assert_eq!(next().await, Some(4), "3 passed over; 5 is invalid: 4 stands");
+        assert_eq!(next().await, None, "the queue has ended");
     }
 }

@@ -15,6 +15,7 @@
 //! | `cannon_controller/commands` | std_msgs/Float64MultiArray | agent -> robot | `[pan, tilt]` rad, a ros2_control forward command controller |
 //! | `steering/command` | std_msgs/Float64 | agent -> robot | steering angle to turn the wheels to at a standstill, rad |
 //! | `cannon/valve` | std_msgs/Bool | agent -> robot | open the monitor's valve |
+//! | `firefleet_agent/flame_detections` | vision_msgs/Detection3DArray | agent -> robot | the flames the agent found in the thermal frames, in the thermal core's optical frame, class `fire` |
 //!
 //! Choices, and why:
 //! - `cmd_vel` is `TwistStamped`: ros2_control's drive controllers take it from Jazzy on,
@@ -61,6 +62,10 @@ pub const CMD_VEL: &str = "cmd_vel";
 pub const CANNON: &str = "cannon_controller/commands";
 pub const VALVE: &str = "cannon/valve";
 pub const STEERING: &str = "steering/command";
+/// Where the agent publishes the flames its own detector found in the thermal frames, for
+/// the robot's other tools: its node's private topic (`~/flame_detections`), so that it
+/// never reads back its own findings as the robot's.
+pub const FOUND: &str = "firefleet_agent/flame_detections";
 
 pub const STEERING_JOINT: &str = "steering_joint";
 pub const PAN_JOINT: &str = "cannon_pan_joint";
@@ -339,11 +344,35 @@ enum Incoming {
     ThermalInfo(Box<CameraInfo>),
 }
 
+/// Which of a robot's flame streams the agent takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FlameSource {
+    /// The robot's own detector's (`flame_detections`) only.
+    Detections,
+    /// The thermal core's frames only: the agent finds the flames itself.
+    Thermal,
+    /// Whatever the robot sends: detections, thermal frames or both.
+    #[default]
+    Both,
+}
+
+impl FlameSource {
+    fn detections(self) -> bool {
+        self != Self::Thermal
+    }
+    fn thermal(self) -> bool {
+        self != Self::Detections
+    }
+}
+
 /// The agent's side: a robot's topics assembled into sensor frames, set-points sent out.
 pub struct Robot {
     parts: Parts<Incoming>,
     heard: Heard,
     last_t: f64,
+    /// Where the agent's own findings go, when it takes thermal frames.
+    found: Option<Publisher<Detection3DArray>>,
+    ns: String,
     cmd_vel: Publisher<TwistStamped>,
     steering_cmd: Publisher<Float64>,
     cannon_cmd: Publisher<Float64MultiArray>,
@@ -372,12 +401,16 @@ struct Heard {
 }
 
 impl Robot {
-    pub async fn new(node: &Node, unit: UnitId, spec: GroundSpec) -> Result<Self, NodeError> {
+    /// The robot on `node`'s namespace, its flames taken from `flames`.
+    pub async fn new(
+        node: &Node,
+        unit: UnitId,
+        spec: GroundSpec,
+        flames: FlameSource,
+    ) -> Result<Self, NodeError> {
         let (feed, parts) = assemble::parts();
-        let subscriptions = vec![
+        let mut subscriptions = vec![
             node.subscribe(JOINT_STATES, feed.to(Incoming::Joints))
-                .await?,
-            node.subscribe(DETECTIONS, feed.to(Incoming::Detections))
                 .await?,
             node.subscribe(TANK, feed.to(|m: Float64| Incoming::Tank(m.data)))
                 .await?,
@@ -385,19 +418,36 @@ impl Robot {
                 .await?,
             node.subscribe(BUMPER, feed.to(|m: Bool| Incoming::Bumper(m.data)))
                 .await?,
-            node.subscribe(THERMAL_IMAGE, feed.to(Incoming::Thermal))
+        ];
+        if flames.detections() {
+            subscriptions.push(
+                node.subscribe(DETECTIONS, feed.to(Incoming::Detections))
+                    .await?,
+            );
+        }
+        let mut found = None;
+        if flames.thermal() {
+            subscriptions.extend([
+                node.subscribe(THERMAL_IMAGE, feed.to(Incoming::Thermal))
+                    .await?,
+                node.subscribe(THERMAL_DEPTH, feed.to(Incoming::ThermalDepth))
+                    .await?,
+                node.subscribe(
+                    THERMAL_INFO,
+                    feed.to(|m| Incoming::ThermalInfo(Box::new(m))),
+                )
                 .await?,
-            node.subscribe(THERMAL_DEPTH, feed.to(Incoming::ThermalDepth))
-                .await?,
-            node.subscribe(
-                THERMAL_INFO,
-                feed.to(|m| Incoming::ThermalInfo(Box::new(m))),
-            )
-            .await?,
+            ]);
+            found = Some(node.publisher(FOUND).await?);
+        }
+        // Last: a frame is taken when odometry arrives.
+        subscriptions.push(
             node.subscribe(ODOM, feed.to(|m| Incoming::Odom(Box::new(m))))
                 .await?,
-        ];
+        );
         Ok(Self {
+            found,
+            ns: node.namespace().to_string(),
             parts,
             heard: Heard {
                 unit,
@@ -429,6 +479,28 @@ impl Robot {
         let frame = self.parts.next_frame(&mut self.heard).await?;
         self.last_t = frame.t;
         Some(frame)
+    }
+
+    /// Publish the flames the agent found in the thermal frame of time `t` (in the
+    /// thermal core's pixels, placed by depth) on [`FOUND`], for the robot's other tools;
+    /// nothing when the agent takes no thermal frames or the profile has no thermal core.
+    pub fn publish_found(&self, t: f64, found: &[FlameDetection]) -> Result<(), NodeError> {
+        let (Some(publisher), Some(optics)) = (&self.found, &self.heard.spec.thermal_camera) else {
+            return Ok(());
+        };
+        let optical = frame(&self.ns, "thermal_optical_frame");
+        let header = Header::new(t, optical.clone());
+        publisher.put(&Detection3DArray {
+            detections: found
+                .iter()
+                .filter_map(|d| detection_to_ros(d, optics, &optical))
+                .map(|mut d| {
+                    d.header = header.clone();
+                    d
+                })
+                .collect(),
+            header,
+        })
     }
 
     /// Send set-points, stamped with the newest frame's time.

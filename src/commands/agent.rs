@@ -19,6 +19,7 @@ use firefleet_model::UnitId;
 
 use firefleet_model::UnitKind;
 use firefleet_ros2::graph::{Domain, Namespace};
+use firefleet_ros2::ground::FlameSource;
 use firefleet_ros2::node::Session;
 
 use super::{PlatformKind, RoleArgs, positive_f64};
@@ -70,6 +71,30 @@ struct RosArgs {
     /// tcp/127.0.0.1:7447; by default the robot's topics are reached on the fleet's session.
     #[arg(long, value_name = "ENDPOINT")]
     ros_router: Option<String>,
+    /// With --platform ros2, a ground robot: which of its flame streams the agent takes
+    /// (its own detector's `flame_detections`, its thermal core's frames, in which the
+    /// agent finds flames itself and publishes them on `firefleet_agent/flame_detections`,
+    /// or both).
+    #[arg(long, value_enum, default_value_t = Flames::Both)]
+    flames: Flames,
+}
+
+/// `--flames`: [`FlameSource`] on the command line.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+enum Flames {
+    Detections,
+    Thermal,
+    Both,
+}
+
+impl From<Flames> for FlameSource {
+    fn from(f: Flames) -> Self {
+        match f {
+            Flames::Detections => FlameSource::Detections,
+            Flames::Thermal => FlameSource::Thermal,
+            Flames::Both => FlameSource::Both,
+        }
+    }
 }
 
 pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
@@ -139,7 +164,8 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
                 Some(r) => {
                     let robot = async |bus: &Bus| {
                         let (session, domain, ns) = r.at(bus);
-                        Ok(Ros2Platform::ground(session, domain, ns, unit, body).await?)
+                        let flames = r.flames;
+                        Ok(Ros2Platform::ground(session, domain, ns, unit, body, flames).await?)
                     };
                     drive(bus, ctl, robot, &opts, moves, on_moved, shutdown).await?
                 }
@@ -179,6 +205,7 @@ pub async fn run(a: AgentArgs) -> anyhow::Result<ExitCode> {
 
 /// Where the agent finds its ROS 2 robot.
 struct RobotPlace {
+    flames: FlameSource,
     domain: Domain,
     namespace: Namespace,
     /// A session of the robot's own, when its rmw_zenoh router was named; otherwise the
@@ -219,6 +246,7 @@ impl RosArgs {
         };
         tracing::info!(%namespace, %domain, "driving a ROS 2 robot");
         Ok(RobotPlace {
+            flames: self.flames.into(),
             domain,
             namespace,
             own,

@@ -31,8 +31,8 @@ use firefleet_model::scenario::{Scenario, Tunnel};
 use firefleet_model::spec::GroundSpec;
 use firefleet_model::{Chainage, UnitId};
 use firefleet_protocol::msg::{
-    Approach, CLEAR_OF_BARRED_M, FlameReport, INSIDE_PORTAL_M, TaskKind, UnitCommand, UnitMode,
-    UnitSensors, UnitState, nearest_allowed,
+    Approach, CLEAR_OF_BARRED_M, FlameDetection, FlameReport, INSIDE_PORTAL_M, TaskKind,
+    UnitCommand, UnitMode, UnitSensors, UnitState, nearest_allowed,
 };
 
 use crate::controller::Services;
@@ -164,6 +164,8 @@ pub struct Unit {
     pub(crate) tracker: FlameTracker,
     /// Finds flames in the thermal core's frames, on a unit whose sensors send them.
     thermal: ThermalDetector,
+    /// What it found in the newest frame, if that frame had a thermal image.
+    found: Option<Vec<FlameDetection>>,
     /// The latest sensor frame.
     pub(crate) frame: UnitSensors,
     nav: Option<Navigation>,
@@ -220,6 +222,7 @@ impl Unit {
             hybrid_grid,
             tracker: FlameTracker::default(),
             thermal: ThermalDetector::default(),
+            found: None,
             frame,
             nav: None,
             cruising_to: None,
@@ -649,11 +652,12 @@ impl Services for Unit {
 
     /// Take in a new sensor frame, finding flames in its thermal image if it has one.
     fn sense(&mut self, frame: &UnitSensors) {
-        let thermal = match (&frame.thermal, &self.spec.thermal_camera) {
-            (Some(image), Some(optics)) => self.thermal.detect(image, optics),
-            _ => Vec::new(),
+        self.found = match (&frame.thermal, &self.spec.thermal_camera) {
+            (Some(image), Some(optics)) => Some(self.thermal.detect(image, optics)),
+            _ => None,
         };
-        self.tracker.update(&self.spec, frame, &thermal);
+        let thermal = self.found.as_deref().unwrap_or_default();
+        self.tracker.update(&self.spec, frame, thermal);
         if frame.collided
             && let Some(n) = &mut self.nav
         {
@@ -767,6 +771,10 @@ impl Services for Unit {
             task_seq: self.mission.task.map(|(seq, _)| seq),
             epoch: self.mission.task.map(|_| self.mission.epoch),
         }
+    }
+
+    fn found(&self) -> Option<&[FlameDetection]> {
+        self.found.as_deref()
     }
 
     /// Flames seen since the last report, if any.

@@ -4,6 +4,7 @@
 //! flame where it is.
 
 use std::path::Path;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use firefleet_agent::ground::perception;
@@ -13,8 +14,10 @@ use firefleet_model::UnitId;
 use firefleet_model::geometry::Point2;
 use firefleet_model::profile::GROUND;
 use firefleet_model::testing::{python_package, python_reply, unhex};
+use firefleet_ros2::cdr;
 use firefleet_ros2::graph::{Attachment, Domain, Namespace, Topic, gid_of};
-use firefleet_ros2::ground::Robot;
+use firefleet_ros2::ground::{FOUND, FlameSource, Robot};
+use firefleet_ros2::msg::Detection3DArray;
 use firefleet_ros2::node::Node;
 use serde_json::{Value, json};
 use zenoh::Wait;
@@ -95,9 +98,22 @@ async fn a_thermal_only_robot_on_ros_2_gets_its_flame_placed_within_half_a_metre
     let node = Node::new(&agent_side, domain, ns.clone(), "firefleet_agent")
         .await
         .unwrap();
-    let mut robot = Robot::new(&node, unit, *GROUND).await.unwrap();
+    let mut robot = Robot::new(&node, unit, *GROUND, FlameSource::Thermal)
+        .await
+        .unwrap();
     tokio::time::sleep(Duration::from_millis(300)).await;
 
+    let published: Arc<Mutex<Vec<Detection3DArray>>> = Arc::default();
+    let into = published.clone();
+    let _tools = robot_side
+        .declare_subscriber(format!("0/ugv_1/{FOUND}/**"))
+        .callback(move |s| {
+            into.lock()
+                .unwrap()
+                .push(cdr::decode(&s.payload().to_bytes()).unwrap())
+        })
+        .await
+        .unwrap();
     let optics = GROUND.thermal_camera.unwrap();
     let mut detector = ThermalDetector::default();
     let gid = gid_of("the robot script");
@@ -128,13 +144,14 @@ async fn a_thermal_only_robot_on_ros_2_gets_its_flame_placed_within_half_a_metre
         let Some(image) = &got.thermal else { continue };
         frames_with_images += 1;
         let eye = optics.looking_from(&got.pose, got.cannon.pan);
+        let found = detector.detect(image, &optics);
         placed.extend(
-            detector
-                .detect(image, &optics)
+            found
                 .iter()
                 .filter_map(|d| perception::locate(d, &optics, &eye))
                 .map(|l| l.estimate.mean),
         );
+        robot.publish_found(got.t, &found).unwrap();
     }
     assert_eq!(
         frames_with_images, FRAMES,
@@ -150,4 +167,35 @@ async fn a_thermal_only_robot_on_ros_2_gets_its_flame_placed_within_half_a_metre
             "placed at {p:?}, the flame is at {flame:?}"
         );
     }
+
+    // What the agent found went back to the robot, a Detection3DArray a frame, in the
+    // thermal core's optical frame (x right, z ahead): the flame's axis 0.5 m left and
+    // 6 m ahead.
+    let arrays = wait_for(|| (published.lock().unwrap().len() >= FRAMES).then_some(())).await;
+    assert!(arrays.is_some(), "an array a frame");
+    let published = published.lock().unwrap();
+    let last = published.last().unwrap();
+    assert_eq!(last.header.frame_id, "ugv_1/thermal_optical_frame");
+    let [d] = &last.detections[..] else {
+        panic!("one flame: {last:?}")
+    };
+    let c = d.bbox.center.position;
+    assert_eq!(d.results[0].hypothesis.class_id, "fire");
+    assert!(
+        (c.x + LEFT_M).abs() < 0.3 && (c.z - RANGE_M).abs() < 0.3,
+        "published at x {:.2} z {:.2}",
+        c.x,
+        c.z
+    );
+}
+
+/// Wait up to 5 s for `ready`.
+async fn wait_for(mut ready: impl FnMut() -> Option<()>) -> Option<()> {
+    for _ in 0..250 {
+        if ready().is_some() {
+            return Some(());
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    None
 }

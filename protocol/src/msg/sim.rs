@@ -184,6 +184,32 @@ pub struct CannonState {
     pub flow_l_s: f64,
 }
 
+/// A robot's sensor frame, as an agent that fell behind its body treats it: frames queue
+/// up, and the agent acts on the newest, passing over the ones in between unless a frame
+/// carries what the agent cannot do without.
+pub trait SensorFrame {
+    /// Whether an agent that has a newer frame may pass this one over.
+    fn may_pass_over(&self) -> bool;
+}
+
+impl SensorFrame for UnitSensors {
+    /// Not when it carries a thermal image: the core delivers fewer frames than the body
+    /// (8.7 Hz against 20), and the flame detector tells a flame from hot metal by its
+    /// flicker over consecutive images, so a skipped image is one the detector lacks (an
+    /// agent running behind at time scale 8 once passed over most of them, and took
+    /// minutes to see a fire). Box detections come with every frame: the newest suffice.
+    fn may_pass_over(&self) -> bool {
+        self.thermal.is_none()
+    }
+}
+
+impl SensorFrame for RailSensors {
+    /// Always: every frame carries the carriage's whole state.
+    fn may_pass_over(&self) -> bool {
+        true
+    }
+}
+
 /// `ff/<site>/sim/unit/<id>/sensors`: what a unit's hardware drivers would publish.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct UnitSensors {
