@@ -163,7 +163,11 @@ mod tests {
         let mut next = async || parts.next_frame(&mut ticks).await.map(|f| f.t);
         assert_eq!(next().await, Some(2), "1 passed over, 2 kept");
         drop((feed, push));
-        assert_eq!(next().await, Some(4), "3 passed over; 5 is invalid: 4 stands");
+        assert_eq!(
+            next().await,
+            Some(4),
+            "3 passed over; 5 is invalid: 4 stands"
+        );
         assert_eq!(next().await, None, "the queue has ended");
     }
 }
