@@ -223,15 +223,15 @@ impl BoxView {
         let (c, s) = (self.cos, self.sin);
         let dir = [c * r.d[0] + s * r.d[1], -s * r.d[0] + c * r.d[1], r.d[2]];
         let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
-        for k in 0..3 {
-            if dir[k].abs() < 1e-12 {
+        for (k, dk) in dir.into_iter().enumerate() {
+            if dk.abs() < 1e-12 {
                 if self.eye[k] < self.lo[k] || self.eye[k] > self.hi[k] {
                     return None;
                 }
             } else {
                 let (ta, tb) = (
-                    (self.lo[k] - self.eye[k]) / dir[k],
-                    (self.hi[k] - self.eye[k]) / dir[k],
+                    (self.lo[k] - self.eye[k]) / dk,
+                    (self.hi[k] - self.eye[k]) / dk,
                 );
                 t0 = t0.max(ta.min(tb));
                 t1 = t1.min(ta.max(tb));
