@@ -8,7 +8,12 @@
 //! wait; [`Parts::next_frame`] drains it every frame, so it holds one frame's parts at most
 //! while the agent keeps up.
 //!
+//! The other way, a body keeps the newest set-point of each command topic in one
+//! [`Latest`], which its subscriptions write and its control loop takes from.
+//!
 //! Not here: which topics a robot has ([`crate::ground`], [`crate::monorail`]).
+
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use firefleet_model::UnitId;
 use firefleet_model::validate::Validate;
@@ -78,6 +83,29 @@ impl<P> Parts<P> {
                 return frame;
             }
         }
+    }
+}
+
+/// The newest of what a body's command subscriptions heard, shared with its loop.
+pub(crate) struct Latest<R>(Arc<Mutex<R>>);
+
+impl<R: Default + Send + 'static> Latest<R> {
+    pub(crate) fn new() -> Self {
+        Self(Arc::default())
+    }
+
+    /// A subscription callback that writes the message it takes into the record.
+    pub(crate) fn to<M>(
+        &self,
+        write: impl Fn(&mut R, M) + Send + Sync + 'static,
+    ) -> impl Fn(M) + Send + Sync + 'static {
+        let shared = self.0.clone();
+        move |m| write(&mut shared.lock().expect("not poisoned"), m)
+    }
+
+    /// The record, for the loop to take from.
+    pub(crate) fn lock(&self) -> MutexGuard<'_, R> {
+        self.0.lock().expect("not poisoned")
     }
 }
 

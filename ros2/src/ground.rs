@@ -37,8 +37,6 @@
 //!
 //! Not here: the agent's `Platform` (`firefleet_agent::platform`, which builds on this crate) or the simulator's loop.
 
-use std::sync::{Arc, Mutex};
-
 use firefleet_model::UnitId;
 use firefleet_model::geometry::Pose2;
 use firefleet_model::spec::{CameraSpec, GroundSpec};
@@ -47,7 +45,7 @@ use firefleet_protocol::msg::{
     CannonState, DEPTH_WINDOW, FlameDetection, ObjectClass, ThermalImage, UnitCommand, UnitSensors,
 };
 
-use crate::assemble::{self, Assemble, Parts};
+use crate::assemble::{self, Assemble, Latest, Parts};
 use crate::msg::*;
 use crate::node::{Node, NodeError, Publisher, Subscription};
 use crate::thermal::{self, THERMAL_DEPTH, THERMAL_IMAGE, THERMAL_INFO};
@@ -176,7 +174,7 @@ pub struct Body {
     thermal: Publisher<Image>,
     thermal_depth: Publisher<Image>,
     thermal_info: Publisher<CameraInfo>,
-    commands: Arc<Mutex<Received>>,
+    commands: Latest<Received>,
     _subscriptions: [Subscription; 4],
 }
 
@@ -192,33 +190,33 @@ struct Received {
 
 impl Body {
     pub async fn new(node: &Node, unit: UnitId, spec: GroundSpec) -> Result<Self, NodeError> {
-        let commands = Arc::new(Mutex::new(Received::default()));
-        let (c1, c2, c3, c4) = (
-            commands.clone(),
-            commands.clone(),
-            commands.clone(),
-            commands.clone(),
-        );
+        let commands = Latest::new();
         let subscriptions = [
-            node.subscribe(CMD_VEL, move |m: TwistStamped| {
-                c1.lock().expect("not poisoned").drive = Some(m.twist);
-            })
+            node.subscribe(
+                CMD_VEL,
+                commands.to(|r: &mut Received, m: TwistStamped| r.drive = Some(m.twist)),
+            )
             .await?,
-            node.subscribe(CANNON, move |m: Float64MultiArray| {
-                if let [pan, tilt] = m.data[..] {
-                    c2.lock().expect("not poisoned").cannon = Some([pan, tilt]);
-                } else {
-                    tracing::warn!(len = m.data.len(), "{CANNON}: expected [pan, tilt]");
-                }
-            })
+            node.subscribe(
+                CANNON,
+                commands.to(|r: &mut Received, m: Float64MultiArray| {
+                    if let [pan, tilt] = m.data[..] {
+                        r.cannon = Some([pan, tilt]);
+                    } else {
+                        tracing::warn!(len = m.data.len(), "{CANNON}: expected [pan, tilt]");
+                    }
+                }),
+            )
             .await?,
-            node.subscribe(VALVE, move |m: Bool| {
-                c3.lock().expect("not poisoned").valve = Some(m.data);
-            })
+            node.subscribe(
+                VALVE,
+                commands.to(|r: &mut Received, m: Bool| r.valve = Some(m.data)),
+            )
             .await?,
-            node.subscribe(STEERING, move |m: Float64| {
-                c4.lock().expect("not poisoned").standstill_steer = Some(m.data);
-            })
+            node.subscribe(
+                STEERING,
+                commands.to(|r: &mut Received, m: Float64| r.standstill_steer = Some(m.data)),
+            )
             .await?,
         ];
         Ok(Self {
@@ -305,7 +303,7 @@ impl Body {
 
     /// The set-points to apply, if any arrived since the last call, on top of `last`.
     pub fn take_command(&self, last: &UnitCommand) -> Option<UnitCommand> {
-        let mut r = self.commands.lock().expect("not poisoned");
+        let mut r = self.commands.lock();
         if r.drive.is_none() && r.cannon.is_none() && r.valve.is_none() {
             return None;
         }

@@ -36,14 +36,12 @@
 //!
 //! Not here: the agent's `Platform` (`firefleet_agent::platform`) or the simulator's loop.
 
-use std::sync::{Arc, Mutex};
-
 use firefleet_model::spec::MonorailSpec;
 use firefleet_model::validate::Validate;
 use firefleet_model::{Point2, UnitId};
 use firefleet_protocol::msg::{HotSpot, RailCommand, RailJoints, RailSensors};
 
-use crate::assemble::{self, Assemble, Parts};
+use crate::assemble::{self, Assemble, Latest, Parts};
 use crate::ground::{FIRE_CLASS, frame};
 use crate::msg::*;
 use crate::node::{Node, NodeError, Publisher, Subscription};
@@ -187,7 +185,7 @@ pub struct Body {
     hot_spots: Publisher<Detection3DArray>,
     /// The previous frame's time and joints, for the joints' velocities.
     last: Option<(f64, RailJoints)>,
-    commands: Arc<Mutex<Received>>,
+    commands: Latest<Received>,
     _subscriptions: [Subscription; 3],
 }
 
@@ -201,20 +199,22 @@ struct Received {
 
 impl Body {
     pub async fn new(node: &Node, unit: UnitId) -> Result<Self, NodeError> {
-        let commands = Arc::new(Mutex::new(Received::default()));
-        let (c1, c2, c3) = (commands.clone(), commands.clone(), commands.clone());
+        let commands = Latest::new();
         let subscriptions = [
-            node.subscribe(TRAJECTORY, move |m: JointTrajectory| {
-                c1.lock().expect("not poisoned").trajectory = Some(m);
-            })
+            node.subscribe(
+                TRAJECTORY,
+                commands.to(|r: &mut Received, m: JointTrajectory| r.trajectory = Some(m)),
+            )
             .await?,
-            node.subscribe(NOZZLE_COMMAND, move |m: Float64| {
-                c2.lock().expect("not poisoned").v0 = Some(m.data);
-            })
+            node.subscribe(
+                NOZZLE_COMMAND,
+                commands.to(|r: &mut Received, m: Float64| r.v0 = Some(m.data)),
+            )
             .await?,
-            node.subscribe(VALVE, move |m: Bool| {
-                c3.lock().expect("not poisoned").valve = Some(m.data);
-            })
+            node.subscribe(
+                VALVE,
+                commands.to(|r: &mut Received, m: Bool| r.valve = Some(m.data)),
+            )
             .await?,
         ];
         Ok(Self {
@@ -285,7 +285,7 @@ impl Body {
 
     /// The set-points to apply, if any arrived since the last call, on top of `last`.
     pub fn take_command(&self, last: &RailCommand) -> Option<RailCommand> {
-        let mut r = self.commands.lock().expect("not poisoned");
+        let mut r = self.commands.lock();
         if r.trajectory.is_none() && r.v0.is_none() && r.valve.is_none() {
             return None;
         }

@@ -11,8 +11,8 @@ use std::path::Path;
 use criterion::{Criterion, criterion_group, criterion_main};
 use firefleet_model::UnitKind;
 use firefleet_model::profile::GROUND;
-use firefleet_model::scenario::Scenario;
 use firefleet_model::scenario::Tunnel;
+use firefleet_model::scenario::{Obstacle, Scenario};
 use firefleet_model::{Point2, Pose2};
 use firefleet_sim::thermal::{Flame, HotBox, Scene, ThermalCore, render};
 use rand::SeedableRng;
@@ -45,17 +45,21 @@ fn frame(
     });
 }
 
-fn thermal(c: &mut Criterion) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/scenarios/long-road.toml");
-    let site = Scenario::load(&path).expect("the shipped long-road scenario");
-    let boxes: Vec<HotBox> = site
-        .obstacles
+/// Every vehicle a box 40 K above ambient (warmed by the fires).
+fn warm(obstacles: &[Obstacle]) -> Vec<HotBox> {
+    obstacles
         .iter()
         .map(|o| HotBox {
             shape: o.clone(),
             surface_k: AMBIENT_K + 40.0,
         })
-        .collect();
+        .collect()
+}
+
+fn thermal(c: &mut Criterion) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/scenarios/long-road.toml");
+    let site = Scenario::load(&path).expect("the shipped long-road scenario");
+    let boxes = warm(&site.obstacles);
     let flames: Vec<Flame> = site
         .fires
         .iter()
@@ -77,14 +81,7 @@ fn thermal(c: &mut Criterion) {
         .name("bench")
         .car("car", 80.0, -2.5)
         .build();
-    let boxes: Vec<HotBox> = short
-        .obstacles
-        .iter()
-        .map(|o| HotBox {
-            shape: o.clone(),
-            surface_k: AMBIENT_K + 40.0,
-        })
-        .collect();
+    let boxes = warm(&short.obstacles);
     let flame = [Flame {
         base: Point2::new(60.0, 1.0),
         radius_m: 0.6,
