@@ -10,6 +10,7 @@
 //! Not here: the session itself ([`crate::Bus`]) or the certificates ([`crate::pki`]).
 
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 use crate::access::Role;
 use crate::bus::BusError;
@@ -267,9 +268,45 @@ pub fn one_stream(endpoint: &str) -> String {
 }
 
 /// A port on 127.0.0.1 that nothing uses right now over TCP or UDP, for a loopback
-/// fleet's router on `tcp/` or `quic/` (the OS hands out a free one; another process could
-/// take it before we bind it, which on a test machine does not happen in practice).
+/// fleet's router on `tcp/` or `quic/`.
+///
+/// Taken below the kernel's ephemeral range (`net.ipv4.ip_local_port_range`), never from
+/// it: a port the OS hands out as free can be given again, before our router binds it, as
+/// the source port of any outgoing connection (CI once lost a QUIC router to "address
+/// already in use" that way, with a dozen fleets connecting around it). Below the range,
+/// only an explicit bind can take it. Each process starts at its own place (from its pid)
+/// and never offers a port twice, so parallel tests and test processes do not collide.
 pub fn free_loopback_port() -> std::io::Result<u16> {
+    static OFFERED: AtomicU32 = AtomicU32::new(0);
+    const LOWEST: u32 = 10_000;
+    let span = ephemeral_start().saturating_sub(LOWEST);
+    if span < 1_000 {
+        // No room below the range on this machine: take what the OS offers.
+        return os_free_port();
+    }
+    let start = std::process::id().wrapping_mul(7_919) % span;
+    for _ in 0..512 {
+        let k = OFFERED.fetch_add(1, Ordering::Relaxed);
+        let port = u16::try_from(LOWEST + (start + k) % span).expect("below the ephemeral range");
+        let tcp = std::net::TcpListener::bind(("127.0.0.1", port));
+        if tcp.is_ok() && std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
+            return Ok(port);
+        }
+    }
+    os_free_port()
+}
+
+/// The first port of the kernel's ephemeral range (Linux's default where it cannot be
+/// read).
+fn ephemeral_start() -> u32 {
+    std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
+        .ok()
+        .and_then(|r| r.split_whitespace().next()?.parse().ok())
+        .unwrap_or(32_768)
+}
+
+/// A port the OS says is free for TCP, checked free for UDP too.
+fn os_free_port() -> std::io::Result<u16> {
     for _ in 0..64 {
         let tcp = std::net::TcpListener::bind("127.0.0.1:0")?;
         let port = tcp.local_addr()?.port();
@@ -287,6 +324,21 @@ fn json_string(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn free_ports_are_below_the_ephemeral_range_and_never_offered_twice() {
+        let ports: Vec<u16> = (0..50).map(|_| free_loopback_port().unwrap()).collect();
+        let mut unique = ports.clone();
+        unique.sort_unstable();
+        unique.dedup();
+        assert_eq!(unique.len(), ports.len(), "{ports:?}");
+        if ephemeral_start() > 11_000 {
+            assert!(
+                ports.iter().all(|p| u32::from(*p) < ephemeral_start()),
+                "{ports:?}"
+            );
+        }
+    }
 
     #[test]
     fn quic_endpoints_get_one_stream() {
