@@ -32,7 +32,9 @@
 //! - Hot spots are placed by the carriage's thermal camera on the road (the ROBOGAT
 //!   paper's camera gives the distance to the fire; the carriage knows where it is on its
 //!   rail), so they are in the site frame, `z` 0 and a round one-sigma error `sigma` whose
-//!   square is the covariance's x and y.
+//!   square is the covariance's x and y. A covariance of zeros (ROS's "unknown") is read
+//!   as the profile's camera error at the edge of its range, so a carriage that gives no
+//!   error still has its hot spots used, with the least weight they could deserve.
 //!
 //! Not here: the agent's `Platform` (`firefleet_agent::platform`) or the simulator's loop.
 
@@ -154,19 +156,34 @@ pub fn hot_spot_to_ros(h: &HotSpot, header: &Header) -> Detection3D {
     }
 }
 
+/// Largest and smallest one-sigma error a hot spot may carry, m (the frame's validation
+/// refuses others): a variance a carriage rounds to zero still means some error, and one of
+/// kilometres means none worth the name.
+const SIGMA_RANGE_M: (f64, f64) = (1e-3, 100.0);
+
 /// A hot spot back from a detection: a fire's position and the larger of its x and y
-/// errors. `None` for anything but a fire; a hot spot that does not validate is dropped
-/// with the frame's validation.
-pub fn hot_spot_from_ros(d: &Detection3D) -> Option<HotSpot> {
+/// errors, clamped to [`SIGMA_RANGE_M`]. `unknown_sigma_m` where the covariance says
+/// nothing (all zeros is ROS's "unknown"). `None` for anything but a fire, or a position
+/// that is not a number.
+pub fn hot_spot_from_ros(d: &Detection3D, unknown_sigma_m: f64) -> Option<HotSpot> {
     let r = d
         .results
         .iter()
         .find(|r| r.hypothesis.class_id == FIRE_CLASS)?;
     let p = r.pose.pose.position;
+    if !(p.x.is_finite() && p.y.is_finite()) {
+        return None;
+    }
     let c = &r.pose.covariance;
+    let var = c.variance(0).max(c.variance(1));
+    let sigma_m = if var.is_finite() && var > 0.0 {
+        var.sqrt().clamp(SIGMA_RANGE_M.0, SIGMA_RANGE_M.1)
+    } else {
+        unknown_sigma_m
+    };
     Some(HotSpot {
         position: Point2::new(p.x, p.y),
-        sigma_m: c.variance(0).max(c.variance(1)).sqrt(),
+        sigma_m,
     })
 }
 
@@ -350,6 +367,9 @@ struct Heard {
     fire_detected: bool,
     heat: f64,
     hot_spots: Vec<HotSpot>,
+    /// A hot spot's error where the carriage gives none: the profile's camera at the
+    /// edge of its range.
+    unknown_sigma_m: f64,
 }
 
 impl Robot {
@@ -390,6 +410,8 @@ impl Robot {
                 fire_detected: false,
                 heat: 0.0,
                 hot_spots: Vec::new(),
+                unknown_sigma_m: spec.hot_spot_sigma_a_m
+                    + spec.hot_spot_sigma_b * spec.detector_range_m,
             },
             spec,
             last: None,
@@ -447,9 +469,19 @@ impl Assemble for Heard {
             Incoming::Fire(f) => self.fire_detected = f,
             Incoming::Temperature(c) => self.temperature_c = Some(c),
             Incoming::Heat(q) => self.heat = q,
-            Incoming::HotSpots(a) => self
-                .hot_spots
-                .extend(a.detections.iter().filter_map(hot_spot_from_ros)),
+            Incoming::HotSpots(a) => {
+                let unknown = self.unknown_sigma_m;
+                let before = self.hot_spots.len();
+                self.hot_spots.extend(
+                    a.detections
+                        .iter()
+                        .filter_map(|d| hot_spot_from_ros(d, unknown)),
+                );
+                let dropped = a.detections.len() - (self.hot_spots.len() - before);
+                if dropped > 0 {
+                    tracing::debug!(unit = %self.unit, dropped, "{HOT_SPOTS}: detections that are no fire, or nowhere");
+                }
+            }
             Incoming::Joints(j) => {
                 let (Some(d), Some(theta1), Some(theta2)) = (
                     j.position_of(CARRIAGE_JOINT),
@@ -563,11 +595,21 @@ mod tests {
             sigma_m: 0.4,
         };
         let d = hot_spot_to_ros(&h, &Header::new(3.0, "map"));
-        let back = hot_spot_from_ros(&d).unwrap();
+        let back = hot_spot_from_ros(&d, 9.0).unwrap();
         assert_eq!(back.position, h.position);
         assert!((back.sigma_m - h.sigma_m).abs() < 1e-12);
-        let mut person = d;
+        let mut person = d.clone();
         person.results[0].hypothesis.class_id = "person".into();
-        assert!(hot_spot_from_ros(&person).is_none(), "only fires");
+        assert!(hot_spot_from_ros(&person, 9.0).is_none(), "only fires");
+        let mut unknown = d.clone();
+        unknown.results[0].pose.covariance = Covariance::default();
+        assert_eq!(
+            hot_spot_from_ros(&unknown, 9.0).unwrap().sigma_m,
+            9.0,
+            "all zeros: unknown"
+        );
+        let mut nowhere = d;
+        nowhere.results[0].pose.pose.position.x = f64::NAN;
+        assert!(hot_spot_from_ros(&nowhere, 9.0).is_none());
     }
 }
