@@ -4,17 +4,23 @@
 //! `long_road` looks down the 3 km `long-road` site (its curved tunnel, every parked
 //! vehicle a box, its four fires as flames) from its first ground unit's start; `short`
 //! down a straight 300 m tunnel with one flame and one car, the lab's scene size.
+//!
+//! `sim_second` is a simulated second of the whole `long-road` world as the simulator's
+//! loop runs it (20 steps, every unit's sensor frame after each), with boxes drawn from the
+//! truth and with thermal pixels: the price of `--perception pixels`.
 
 use std::hint::black_box;
 use std::path::Path;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use firefleet_model::UnitKind;
 use firefleet_model::profile::GROUND;
 use firefleet_model::scenario::Tunnel;
 use firefleet_model::scenario::{Obstacle, Scenario};
 use firefleet_model::{Point2, Pose2};
+use firefleet_model::{UnitId, UnitKind};
+use firefleet_sim::World;
 use firefleet_sim::thermal::{Flame, HotBox, Scene, ThermalCore, render};
+use firefleet_sim::world::Perception;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -28,7 +34,7 @@ fn frame(
     flames: &[Flame],
     eye: Pose2,
 ) {
-    let ceiling = |_: Point2| AMBIENT_K + 60.0;
+    let ceiling = |_: f64, _: Point2| AMBIENT_K + 60.0;
     let scene = Scene {
         tunnel,
         boxes,
@@ -96,6 +102,25 @@ fn thermal(c: &mut Criterion) {
         &flame,
         Pose2::new(50.0, 0.0, 0.0),
     );
+
+    for (name, perception) in [("boxes", Perception::Boxes), ("pixels", Perception::Pixels)] {
+        let mut world = World::new(&site, 1);
+        world.set_perception(perception);
+        let units: Vec<UnitId> = world.unit_ids().cloned().collect();
+        let mut g = c.benchmark_group("sim_second");
+        g.sample_size(10);
+        g.bench_function(format!("long_road/{name}"), |b| {
+            b.iter(|| {
+                for _ in 0..20 {
+                    world.step(0.05);
+                    for id in &units {
+                        black_box(world.sensors(id));
+                    }
+                }
+            })
+        });
+        g.finish();
+    }
 }
 
 criterion_group!(benches, thermal);

@@ -166,8 +166,11 @@ pub struct Scene<'a> {
     pub outside_k: f64,
     /// Visible-light extinction of the smoke around the camera, 1/m.
     pub smoke_per_m: f64,
-    /// Temperature of the hot gas under the ceiling at a point, K.
-    pub ceiling_k: &'a dyn Fn(Point2) -> f64,
+    /// Temperature of the hot gas under the ceiling at chainage `s` (m) over point `p`, K.
+    /// The renderer reckons a hit's chainage along the tunnel's tangent at the camera (as
+    /// it does to find the portals), which on a curve drifts from the centreline's by a
+    /// fraction of the sagitta; the gas model varies over metres, not that.
+    pub ceiling_k: &'a dyn Fn(f64, Point2) -> f64,
 }
 
 /// A ray from the camera: origin and direction in the site frame (direction scaled so that
@@ -293,7 +296,7 @@ impl<'s> View<'s> {
         }
         let p = r.at(t);
         let mut surface = if p[2] >= tunnel.height_m * (1.0 - HOT_LAYER_SHARE) {
-            (scene.ceiling_k)(Point2::new(p[0], p[1]))
+            (scene.ceiling_k)(s_hit, Point2::new(p[0], p[1]))
         } else {
             scene.ambient_k
         };
@@ -454,7 +457,7 @@ mod tests {
             ambient_k: AMBIENT,
             outside_k: 310.0,
             smoke_per_m: smoke,
-            ceiling_k: &|_| AMBIENT + 40.0,
+            ceiling_k: &|_, _| AMBIENT + 40.0,
         };
         let core =
             ThermalCore::lepton_class(GROUND.thermal_camera.expect("luf60 has a thermal core"));

@@ -404,10 +404,33 @@ impl World {
     /// Gas temperature rise under the ceiling over `p` from every burning fire, degrees C
     /// ([`physics::ceiling_rise_c`]), `height_m` above the road.
     pub fn ceiling_rise_c(&self, p: Point2, height_m: f64) -> f64 {
+        self.ceiling_rise_at(height_m)(self.tunnel.chainage(p).m(), p)
+    }
+
+    /// [`World::ceiling_rise_c`] over point `p` at chainage `s` (m), with every burning
+    /// fire's chainage worked out once: a thermal frame asks it for thousands of pixels,
+    /// and a chainage costs a walk of the tunnel's centreline (two walks a fire a pixel
+    /// were most of a frame on the 3 km `long-road`).
+    pub(crate) fn ceiling_rise_at(&self, height_m: f64) -> impl Fn(f64, Point2) -> f64 + use<> {
         let u = self.air_m_s();
-        self.burning_from(p)
-            .map(|(q, along, r)| physics::ceiling_rise_c(q, along, r, height_m, u))
-            .sum()
+        let sign = u.signum();
+        let fires: Vec<(f64, f64, Point2)> = self
+            .fires
+            .iter()
+            .filter(|f| f.state == TruthFireState::Burning)
+            .map(|f| {
+                let at = f.spec.position();
+                (f.hrr_kw, self.tunnel.chainage(at).m(), at)
+            })
+            .collect();
+        move |s, p| {
+            fires
+                .iter()
+                .map(|&(q, s_fire, at)| {
+                    physics::ceiling_rise_c(q, (s - s_fire) * sign, at.dist(p), height_m, u)
+                })
+                .sum()
+        }
     }
 
     /// Each burning fire as seen from `p`: its heat release, how far `p` lies downstream of

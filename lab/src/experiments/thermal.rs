@@ -242,7 +242,7 @@ fn clip(s: &Setup, seed: u64, pixels: &mut Tally, boxes: &mut Tally) {
         ambient_k: AMBIENT_K,
         outside_k: s.outside_k,
         smoke_per_m: s.smoke_per_m,
-        ceiling_k: &|_| ceiling,
+        ceiling_k: &|_, _| ceiling,
     };
     for k in 0..FRAMES {
         let t = k as f64 * 0.1;

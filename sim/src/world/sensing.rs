@@ -130,7 +130,8 @@ impl World {
             })
             .collect();
         let height = self.tunnel.height_m;
-        let ceiling = |p: Point2| ambient_k + self.ceiling_rise_c(p, height);
+        let rise = self.ceiling_rise_at(height);
+        let ceiling = |s: f64, p: Point2| ambient_k + rise(s, p);
         let scene = Scene {
             tunnel: &self.tunnel,
             boxes: &boxes,
