@@ -183,17 +183,53 @@ pub const STILL_AIR_M_S: f64 = 0.1;
 /// the profile). The maximum itself is the plume's (Alpert's `r / H <= 0.18` value, within
 /// 4 % of Li and Ingason's 17.5 Q^2/3 / H^5/3 for strong ventilation).
 pub fn ceiling_rise_c(q_kw: f64, along_m: f64, r_m: f64, h_m: f64, air_m_s: f64) -> f64 {
-    let still = ceiling_jet_rise_c(q_kw, r_m, h_m);
-    if air_m_s.abs() < STILL_AIR_M_S {
-        return still;
+    CeilingJet::new(q_kw, h_m, air_m_s).rise_c(along_m, r_m)
+}
+
+/// [`ceiling_rise_c`] of one fire, with what does not depend on the point worked out
+/// once: a thermal frame asks it for every ceiling pixel, and the fractional powers and
+/// the back-layering length were a third of a frame.
+#[derive(Debug, Clone, Copy)]
+pub struct CeilingJet {
+    h_m: f64,
+    still_air: bool,
+    /// Alpert's plume value, the maximum (`r / H <= 0.18`), degrees C.
+    plume_c: f64,
+    /// `5.38 Q^(2/3) / H`: beyond the plume the rise is this over `r^(2/3)`.
+    jet_c_m23: f64,
+    backlayering_m: f64,
+}
+
+impl CeilingJet {
+    pub fn new(q_kw: f64, h_m: f64, air_m_s: f64) -> Self {
+        let q23 = q_kw.max(0.0).powf(2.0 / 3.0);
+        let h = h_m.max(0.5);
+        Self {
+            h_m,
+            still_air: air_m_s.abs() < STILL_AIR_M_S,
+            plume_c: ceiling_jet_rise_c(q_kw, 0.0, h_m),
+            jet_c_m23: 5.38 * q23 / h,
+            backlayering_m: backlayering_length_m(q_kw, h_m, air_m_s),
+        }
     }
-    if along_m >= 0.0 {
-        let x = along_m / h_m.max(0.5);
-        let decay = 0.57 * (-0.0166 * x).exp() + 0.43 * (-0.155 * x).exp();
-        (ceiling_jet_rise_c(q_kw, 0.0, h_m) * decay).max(still)
-    } else {
-        let lb = backlayering_length_m(q_kw, h_m, air_m_s);
-        still * (1.0 + along_m / lb).max(0.0)
+
+    /// The rise `along_m` downstream of the fire and `r_m` from it, degrees C.
+    pub fn rise_c(&self, along_m: f64, r_m: f64) -> f64 {
+        let still = if r_m / self.h_m.max(0.5) <= 0.18 {
+            self.plume_c
+        } else {
+            self.jet_c_m23 / (r_m * r_m).cbrt()
+        };
+        if self.still_air {
+            return still;
+        }
+        if along_m >= 0.0 {
+            let x = along_m / self.h_m.max(0.5);
+            let decay = 0.57 * (-0.0166 * x).exp() + 0.43 * (-0.155 * x).exp();
+            (self.plume_c * decay).max(still)
+        } else {
+            still * (1.0 + along_m / self.backlayering_m).max(0.0)
+        }
     }
 }
 
@@ -233,6 +269,34 @@ pub const VEHICLE_PEAK_MAX_KW: f64 = 30000.0;
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    proptest! {
+        /// The jet worked out once a fire gives what the correlations written out give.
+        #[test]
+        fn a_ceiling_jet_is_the_correlations(
+            q in 0.0f64..100_000.0,
+            along in -500.0f64..500.0,
+            r in 0.0f64..500.0,
+            h in 0.3f64..12.0,
+            u in -4.0f64..4.0,
+        ) {
+            let still = ceiling_jet_rise_c(q, r, h);
+            let written_out = if u.abs() < STILL_AIR_M_S {
+                still
+            } else if along >= 0.0 {
+                let x = along / h.max(0.5);
+                let decay = 0.57 * (-0.0166 * x).exp() + 0.43 * (-0.155 * x).exp();
+                (ceiling_jet_rise_c(q, 0.0, h) * decay).max(still)
+            } else {
+                still * (1.0 + along / backlayering_length_m(q, h, u)).max(0.0)
+            };
+            let jet = CeilingJet::new(q, h, u).rise_c(along, r);
+            prop_assert!(
+                (jet - written_out).abs() <= 1e-9 * written_out.abs().max(1.0),
+                "{jet} against {written_out}"
+            );
+        }
+    }
 
     #[test]
     fn growth_classes_reach_1055_kw_at_their_nominal_times() {

@@ -408,27 +408,25 @@ impl World {
     }
 
     /// [`World::ceiling_rise_c`] over point `p` at chainage `s` (m), with every burning
-    /// fire's chainage worked out once: a thermal frame asks it for thousands of pixels,
-    /// and a chainage costs a walk of the tunnel's centreline (two walks a fire a pixel
-    /// were most of a frame on the 3 km `long-road`).
+    /// fire's chainage and jet ([`physics::CeilingJet`]) worked out once: a thermal frame
+    /// asks it for thousands of pixels.
     pub(crate) fn ceiling_rise_at(&self, height_m: f64) -> impl Fn(f64, Point2) -> f64 + use<> {
         let u = self.air_m_s();
         let sign = u.signum();
-        let fires: Vec<(f64, f64, Point2)> = self
+        let fires: Vec<(physics::CeilingJet, f64, Point2)> = self
             .fires
             .iter()
             .filter(|f| f.state == TruthFireState::Burning)
             .map(|f| {
                 let at = f.spec.position();
-                (f.hrr_kw, self.tunnel.chainage(at).m(), at)
+                let jet = physics::CeilingJet::new(f.hrr_kw, height_m, u);
+                (jet, self.tunnel.chainage(at).m(), at)
             })
             .collect();
         move |s, p| {
             fires
                 .iter()
-                .map(|&(q, s_fire, at)| {
-                    physics::ceiling_rise_c(q, (s - s_fire) * sign, at.dist(p), height_m, u)
-                })
+                .map(|(jet, s_fire, at)| jet.rise_c((s - s_fire) * sign, at.dist(p)))
                 .sum()
         }
     }
@@ -489,10 +487,9 @@ impl World {
             return;
         };
         if dts.due(self.t) {
-            let h = self.tunnel.height_m;
+            let rise = self.ceiling_rise_at(self.tunnel.height_m);
             dts.measure(self.t, |s| {
-                physics::AMBIENT_C
-                    + self.ceiling_rise_c(self.tunnel.point_at(Chainage::new(s), 0.0), h)
+                physics::AMBIENT_C + rise(s, self.tunnel.point_at(Chainage::new(s), 0.0))
             });
         }
         self.dts = Some(dts);
