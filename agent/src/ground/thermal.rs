@@ -355,7 +355,7 @@ mod tests {
             ambient_k: AMBIENT,
             outside_k: 310.0,
             smoke_per_m: smoke,
-            ceiling_k: &|_| AMBIENT + 60.0,
+            ceiling_k: &|_, _| AMBIENT + 60.0,
         };
         (0..n)
             .map(|k| {
