@@ -171,12 +171,12 @@ impl<U: Services> Controller<U> {
         self.unit.report()
     }
 
-    /// The unit's services, for inspection.
     /// What the unit's own detector found in the frame just sensed ([`Services::found`]).
     pub fn found(&self) -> Option<&[FlameDetection]> {
         self.unit.found()
     }
 
+    /// The unit's services, for inspection.
     pub fn unit(&self) -> &U {
         &self.unit
     }
