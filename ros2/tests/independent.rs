@@ -104,6 +104,12 @@ fn thermal_flame() -> FlameDetection {
 /// A sample as the wire carried it: key, payload, attachment.
 type Sample = (String, Vec<u8>, Option<Vec<u8>>);
 
+/// The topic a key carries: `<domain>/<topic>/<type>/<hash>` as rmw_zenoh spells it.
+fn topic_of(key: &str) -> String {
+    let parts: Vec<&str> = key.split('/').collect();
+    parts[1..parts.len() - 2].join("/")
+}
+
 /// `pkg::msg::dds_::Type_` back to `pkg/msg/Type`.
 fn ros_type(dds: &str) -> String {
     dds.trim_end_matches('_')
@@ -196,11 +202,23 @@ impl Wire {
     /// rosbags, and the robot's graph entities counted: a publisher on every topic, a
     /// subscription on all but `unread` of them.
     async fn check(&self, topics: &[&str], unread: usize) {
-        tokio::time::sleep(Duration::from_millis(300)).await;
-        let seen = self.seen.lock().unwrap().clone();
+        // The last samples sent may still be on their way to the recorder.
+        let topics_seen = |seen: &[Sample]| {
+            let on: std::collections::BTreeSet<String> =
+                seen.iter().map(|(key, ..)| topic_of(key)).collect();
+            on.into_iter().collect::<Vec<_>>()
+        };
+        let seen = soon(|| {
+            let seen = self.seen.lock().unwrap().clone();
+            (topics_seen(&seen) == topics).then_some(seen)
+        })
+        .await
+        .unwrap_or_else(|| {
+            let on = topics_seen(&self.seen.lock().unwrap());
+            panic!("samples on {topics:?}, not {on:?}")
+        });
         let mut hashes = BTreeMap::new();
         let mut messages = Vec::new();
-        let mut on = Vec::new();
         for (key, bytes, attachment) in &seen {
             let parts: Vec<&str> = key.split('/').collect();
             let [.., dds, hash] = parts[..] else {
@@ -214,13 +232,9 @@ impl Wire {
                 a.sequence >= 1 && a.timestamp_ns > 1_600_000_000_000_000_000,
                 "{a:?}"
             );
-            on.push(parts[1..parts.len() - 2].join("/"));
             hashes.insert(ty.clone(), hash.to_owned());
             messages.push(json!({"type": ty, "cdr": hex(bytes), "value": value_of(&ty, bytes)}));
         }
-        on.sort();
-        on.dedup();
-        assert_eq!(on, topics);
         // The type std_msgs/String too: its hash is the one rmw_zenoh's design document shows.
         hashes.insert(
             "std_msgs/msg/String".into(),
@@ -274,15 +288,34 @@ fn rosbags_agree(hashes: &BTreeMap<String, String>, messages: &[Value]) {
     );
 }
 
-/// Wait up to a second for `take` to give something.
-async fn within_a_second<T>(mut take: impl FnMut() -> Option<T>) -> Option<T> {
-    for _ in 0..50 {
-        tokio::time::sleep(Duration::from_millis(20)).await;
+/// Wait up to 5 s for `take` to give something, trying every 20 ms.
+async fn soon<T>(mut take: impl FnMut() -> Option<T>) -> Option<T> {
+    for _ in 0..250 {
         if let Some(t) = take() {
             return Some(t);
         }
+        tokio::time::sleep(Duration::from_millis(20)).await;
     }
     None
+}
+
+/// `send` every 50 ms, as a robot publishes at its rate, until `heard` completes (up to
+/// 5 s): a sample put before the other session's subscription reached this one is lost,
+/// not queued, so a sender of one sample could wait forever.
+async fn sending_until<T>(mut send: impl FnMut(), heard: impl Future<Output = T>) -> Option<T> {
+    let mut heard = std::pin::pin!(heard);
+    let mut tick = tokio::time::interval(Duration::from_millis(50));
+    let until = async {
+        loop {
+            tokio::select! {
+                t = &mut heard => return t,
+                _ = tick.tick() => send(),
+            }
+        }
+    };
+    tokio::time::timeout(Duration::from_secs(5), until)
+        .await
+        .ok()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -294,12 +327,10 @@ async fn a_ground_robots_wire_is_ros_2_by_an_independent_reader() {
     let mut robot = Robot::new(&agent_node, unit.clone(), *GROUND, FlameSource::Both)
         .await
         .unwrap();
-    tokio::time::sleep(Duration::from_millis(500)).await;
 
     // Both ends of the fleet's ROS 2 link, through real sessions.
     let sent = sensors(&unit);
-    body.publish(&sent).unwrap();
-    let got = tokio::time::timeout(Duration::from_secs(5), robot.sense())
+    let got = sending_until(|| body.publish(&sent).unwrap(), robot.sense())
         .await
         .expect("a frame within 5 s")
         .unwrap();
@@ -327,12 +358,22 @@ async fn a_ground_robots_wire_is_ros_2_by_an_independent_reader() {
         tilt: 0.125,
         valve_open: true,
     };
-    robot.actuate(&cmd).unwrap();
-    let applied =
-        within_a_second(|| body.take_command(&UnitCommand::halt(&CannonState::default())))
-            .await
-            .expect("set-points reach the body");
-    assert!((applied.steer - cmd.steer).abs() < 1e-12 && applied.speed == cmd.speed);
+    // The command topics arrive one by one: wait until all have.
+    let mut applied = UnitCommand::halt(&CannonState::default());
+    let arrived = |a: &UnitCommand| {
+        (a.steer - cmd.steer).abs() < 1e-12
+            && a.speed == cmd.speed
+            && (a.pan, a.tilt, a.valve_open) == (cmd.pan, cmd.tilt, cmd.valve_open)
+    };
+    soon(|| {
+        robot.actuate(&cmd).unwrap();
+        if let Some(c) = body.take_command(&applied) {
+            applied = c;
+        }
+        arrived(&applied).then_some(())
+    })
+    .await
+    .unwrap_or_else(|| panic!("set-points reach the body: {applied:?}"));
     // What the agent's detector found in the thermal frame, for the robot's other tools.
     robot.publish_found(sent.t, &[thermal_flame()]).unwrap();
 
@@ -367,7 +408,6 @@ async fn a_carriages_wire_is_ros_2_by_an_independent_reader() {
     let mut robot = monorail::Robot::new(&agent_node, unit.clone(), *MONORAIL)
         .await
         .unwrap();
-    tokio::time::sleep(Duration::from_millis(500)).await;
 
     let sent = RailSensors {
         unit: unit.clone(),
@@ -390,8 +430,7 @@ async fn a_carriages_wire_is_ros_2_by_an_independent_reader() {
             sigma_m: 0.375,
         }],
     };
-    body.publish(&sent).unwrap();
-    let got = tokio::time::timeout(Duration::from_secs(5), robot.sense())
+    let got = sending_until(|| body.publish(&sent).unwrap(), robot.sense())
         .await
         .expect("a frame within 5 s")
         .unwrap();
@@ -406,22 +445,21 @@ async fn a_carriages_wire_is_ros_2_by_an_independent_reader() {
         },
         valve_open: true,
     };
-    robot.actuate(&cmd).unwrap();
     let before = RailCommand {
         joints: sent.joints,
         valve_open: false,
     };
-    // The three command topics arrive one by one; wait for the last, the valve.
+    // The three command topics arrive one by one: wait until all have.
     let mut applied = before;
-    within_a_second(|| {
+    soon(|| {
+        robot.actuate(&cmd).unwrap();
         if let Some(c) = body.take_command(&applied) {
             applied = c;
         }
-        applied.valve_open.then_some(())
+        (applied == cmd).then_some(())
     })
     .await
-    .expect("set-points reach the body");
-    assert_eq!(applied, cmd);
+    .unwrap_or_else(|| panic!("set-points reach the body: {applied:?}"));
 
     wire.check(
         &[

@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use firefleet_agent::ground::perception;
 use firefleet_agent::ground::thermal::ThermalDetector;
-use firefleet_bus::{Connect, Mode, free_loopback_port};
+use firefleet_bus::{Connect, Mode, free_loopback_port, listened};
 use firefleet_model::UnitId;
 use firefleet_model::geometry::Point2;
 use firefleet_model::profile::GROUND;
@@ -101,12 +101,26 @@ async fn a_thermal_only_robot_on_ros_2_gets_its_flame_placed_within_half_a_metre
     let mut robot = Robot::new(&node, unit, *GROUND, FlameSource::Thermal)
         .await
         .unwrap();
-    tokio::time::sleep(Duration::from_millis(300)).await;
+    let topic_of = |m: &Value| {
+        Topic::new(
+            &ns,
+            m["topic"].as_str().unwrap(),
+            known_type(m["type"].as_str().unwrap()),
+        )
+        .unwrap()
+    };
+    // The robot sends each frame once: not before the agent takes every topic it sends on.
+    for m in &frames[0] {
+        let key = topic_of(m).key(domain);
+        let taken = listened(&robot_side, &key, Duration::from_secs(10)).await;
+        assert!(taken.unwrap(), "the agent takes {key}");
+    }
 
     let published: Arc<Mutex<Vec<Detection3DArray>>> = Arc::default();
     let into = published.clone();
+    let found_key = format!("0/ugv_1/{FOUND}/**");
     let _tools = robot_side
-        .declare_subscriber(format!("0/ugv_1/{FOUND}/**"))
+        .declare_subscriber(&found_key)
         .callback(move |s| {
             into.lock()
                 .unwrap()
@@ -114,6 +128,8 @@ async fn a_thermal_only_robot_on_ros_2_gets_its_flame_placed_within_half_a_metre
         })
         .await
         .unwrap();
+    let heard = listened(&agent_side, &found_key, Duration::from_secs(10)).await;
+    assert!(heard.unwrap(), "the robot's tools take {found_key}");
     let optics = GROUND.thermal_camera.unwrap();
     let mut detector = ThermalDetector::default();
     let gid = gid_of("the robot script");
@@ -121,14 +137,8 @@ async fn a_thermal_only_robot_on_ros_2_gets_its_flame_placed_within_half_a_metre
     let (mut frames_with_images, mut placed) = (0, Vec::new());
     for (k, frame) in frames.iter().enumerate() {
         for (seq, m) in frame.iter().enumerate() {
-            let topic = Topic::new(
-                &ns,
-                m["topic"].as_str().unwrap(),
-                known_type(m["type"].as_str().unwrap()),
-            )
-            .unwrap();
             robot_side
-                .put(topic.key(domain), unhex(m["cdr"].as_str().unwrap()))
+                .put(topic_of(m).key(domain), unhex(m["cdr"].as_str().unwrap()))
                 .attachment(
                     Attachment::now((k * 10 + seq + 1) as i64, gid)
                         .encode()
