@@ -387,6 +387,10 @@ struct Heard {
     water_l: Option<f64>,
     heat: f64,
     bumped: bool,
+    /// The newest array since the last frame. An array is the detector's whole finding in
+    /// one image, so a newer one replaces an older (a robot whose detector runs faster
+    /// than its odometry would otherwise count one flame once an image); a bump, an event,
+    /// is kept until a frame takes it.
     detections: Vec<FlameDetection>,
     /// A thermal image and a depth image waiting for their partner, the newest camera
     /// info, and the frame they made.
@@ -447,21 +451,7 @@ impl Robot {
             found,
             ns: node.namespace().to_string(),
             parts,
-            heard: Heard {
-                unit,
-                spec,
-                steer: None,
-                cannon: None,
-                water_l: None,
-                heat: 0.0,
-                bumped: false,
-                detections: Vec::new(),
-                thermal_image: None,
-                thermal_depth: None,
-                thermal_info: None,
-                thermal: None,
-                valve: false,
-            },
+            heard: Heard::new(unit, spec),
             last_t: 0.0,
             cmd_vel: node.publisher(CMD_VEL).await?,
             steering_cmd: node.publisher(STEERING).await?,
@@ -538,6 +528,25 @@ impl Robot {
 }
 
 impl Heard {
+    /// Nothing heard yet.
+    fn new(unit: UnitId, spec: GroundSpec) -> Self {
+        Self {
+            unit,
+            spec,
+            steer: None,
+            cannon: None,
+            water_l: None,
+            heat: 0.0,
+            bumped: false,
+            detections: Vec::new(),
+            thermal_image: None,
+            thermal_depth: None,
+            thermal_info: None,
+            thermal: None,
+            valve: false,
+        }
+    }
+
     /// A thermal frame from the waiting image and depth, once both have the same stamp;
     /// one the profile cannot take is refused with the reason.
     fn pair_thermal(&mut self) {
@@ -577,11 +586,13 @@ impl Assemble for Heard {
                     self.cannon = Some((p, t));
                 }
             }
-            Incoming::Detections(a) => self.detections.extend(
-                a.detections
+            Incoming::Detections(a) => {
+                self.detections = a
+                    .detections
                     .iter()
-                    .filter_map(|d| detection_from_ros(d, &self.spec.camera)),
-            ),
+                    .filter_map(|d| detection_from_ros(d, &self.spec.camera))
+                    .collect();
+            }
             Incoming::Thermal(i) => {
                 self.thermal_image = Some(i);
                 self.pair_thermal();
@@ -665,6 +676,59 @@ mod tests {
         let mut behind = ros;
         behind.bbox.center.position.z = -3.0;
         assert!(detection_from_ros(&behind, &cam).is_none());
+    }
+
+    #[test]
+    fn a_frame_takes_the_newest_detection_array_and_every_bump_since_the_last() {
+        let cam = GROUND.camera;
+        let flame_at = |x: f64| {
+            let c = cam.body_to_camera([x, 0.0, 1.0]);
+            let [u, v] = cam.project(c).unwrap();
+            let d = FlameDetection {
+                class: ObjectClass::Fire,
+                confidence: 0.8,
+                bbox: [u - 20.0, v - 30.0, u + 20.0, v + 30.0],
+                depth: [c[2] as f32; DEPTH_WINDOW * DEPTH_WINDOW],
+            };
+            detection_to_ros(&d, &cam, "ugv_1/camera_optical_frame").unwrap()
+        };
+        let mut heard = Heard::new(UnitId::new("ugv-1").unwrap(), *GROUND);
+        let joints = JointState {
+            name: [STEERING_JOINT, PAN_JOINT, TILT_JOINT]
+                .map(String::from)
+                .into(),
+            position: vec![0.0; 3],
+            ..JointState::default()
+        };
+        let before_odom = [
+            Incoming::Joints(joints),
+            Incoming::Tank(900.0),
+            Incoming::Bumper(true),
+            Incoming::Detections(Detection3DArray {
+                detections: vec![flame_at(8.0), flame_at(12.0)],
+                ..Detection3DArray::default()
+            }),
+            Incoming::Bumper(false),
+            Incoming::Detections(Detection3DArray {
+                detections: vec![flame_at(7.5)],
+                ..Detection3DArray::default()
+            }),
+        ];
+        for part in before_odom {
+            assert!(heard.take(part).is_none(), "no frame before odometry");
+        }
+        let frame = heard.take(Incoming::Odom(Box::default())).unwrap();
+        let [d] = &frame.detections[..] else {
+            panic!("the newest array alone: {:?}", frame.detections)
+        };
+        let ahead = cam.body_to_camera([7.5, 0.0, 1.0])[2];
+        assert!((d.depth_m().unwrap() - ahead).abs() < 1e-5);
+        assert!(frame.collided, "the bump between frames is kept");
+        let next = heard.take(Incoming::Odom(Box::default())).unwrap();
+        assert!(
+            next.detections.is_empty() && !next.collided,
+            "each taken once"
+        );
     }
 
     #[test]
