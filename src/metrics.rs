@@ -5,7 +5,8 @@
 //! - `/readyz`: 200 while it is linked to the site (a router or a peer; a router, once it
 //!   listens) and nothing holds it back, else 503 with the reason: a unit whose router is
 //!   gone is alive, not ready; so is one the coordinator does not know ([`Metrics::hold_back`]).
-//! - `/metrics`: Prometheus text: `firefleet_links` (routers and peers linked),
+//! - `/metrics`: Prometheus text: `firefleet_links` by `with` (the routers, peers and, on a
+//!   router, clients linked),
 //!   `firefleet_messages_sent` and `_received` (valid messages), `firefleet_messages_rejected`
 //!   by reason (the bus's refusal classes), `firefleet_ready`, and the role's own figures
 //!   (the coordinator's report-to-task latency histogram, fires, tasks, lease misses:
@@ -152,12 +153,18 @@ async fn readyz(State(s): State<Arc<Served>>) -> impl IntoResponse {
 async fn metrics(State(s): State<Arc<Served>>) -> impl IntoResponse {
     let mut registry = Registry::with_prefix("firefleet");
     let bus = s.bus();
-    let info = bus.zenoh_session().info();
-    let links = Gauge::<i64>::default();
-    links.set((info.routers_zid().await.count() + info.peers_zid().await.count()) as i64);
+    let linked = bus.linked().await;
+    let links = Family::<Vec<(&'static str, &'static str)>, Gauge>::default();
+    for (with, n) in [
+        ("router", linked.routers),
+        ("peer", linked.peers),
+        ("client", linked.clients),
+    ] {
+        links.get_or_create(&vec![("with", with)]).set(n as i64);
+    }
     registry.register(
         "links",
-        "Routers and peers this process is linked to",
+        "Zenoh sessions this process holds, by the far end (a router counts its clients)",
         links,
     );
     let ready = Gauge::<i64>::default();

@@ -25,7 +25,9 @@
 //! - the simulator speaks only `sim/` keys, and only on a simulated site;
 //! - the SCADA bridge (`firefleet scada`) puts only the tunnel's readings (`infra/`), and
 //!   hears the simulator's clock on a simulated site; the coordinator, the commanders and
-//!   the console hear them.
+//!   the console hear them;
+//! - every identity with a part on the site may ask the routers' `router/hello`, which
+//!   tells it the rules admit it (`firefleet doctor`).
 //!
 //! The rules stop an identity from touching another's keys; what an identity may send on
 //! its own keys is the application's to check (task fencing, validation, the coordinator's
@@ -406,6 +408,15 @@ pub fn grants(
             }
         }
         Identity::Sim | Identity::Router(_) => {}
+    }
+    // Whether the router admits it at all, for an identity with a part on this site: one
+    // its rules leave nothing (revoked, or issued after the router's rules were rendered)
+    // gets no answer, and the doctor says so on the identity's own host.
+    if !g.is_empty() {
+        g.push(Grant {
+            op: Op::Query,
+            key_expr: keys.expr(&Topic::RouterHello),
+        });
     }
     Ok(g)
 }

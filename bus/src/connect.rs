@@ -136,6 +136,21 @@ impl Connect {
                     .map_err(|e| BusError::Config(format!("TLS {field}: {e}")))?;
             }
         }
+        if config.get_json("mode").is_ok_and(|m| m.contains("router")) {
+            // A router reads its own links from its admin space (`Bus::linked`: Zenoh's
+            // session info names its routers and peers, not its clients). Read-only; on a
+            // secure site the access rules (default deny, site keys only) keep everyone
+            // else out of it, and a loopback demo's router shows it to its own machine.
+            for (field, value) in [
+                ("adminspace/enabled", "true"),
+                ("adminspace/permissions/read", "true"),
+                ("adminspace/permissions/write", "false"),
+            ] {
+                config
+                    .insert_json5(field, value)
+                    .map_err(|e| BusError::Config(format!("{field}: {e}")))?;
+            }
+        }
         let connect: Vec<String> = self.connect.iter().map(|e| one_stream(e)).collect();
         let listen: Vec<String> = self.listen.iter().map(|e| one_stream(e)).collect();
         if !connect.is_empty() {

@@ -370,6 +370,43 @@ impl Bus {
         info.routers_zid().await.next().is_some() || info.peers_zid().await.next().is_some()
     }
 
+    /// The Zenoh sessions this process holds with others, by what is at the far end. A
+    /// router reads them from its own admin space, which [`crate::Connect`] turns on for
+    /// routers (every client, peer and router linked to it); any other process knows only
+    /// its routers and peers, which is all it links to.
+    pub async fn linked(&self) -> Linked {
+        let session = self.zenoh();
+        let mut linked = Linked::default();
+        let own = format!("@/{}/router", session.zid());
+        // The admin space is the runtime's, not a queryable of this session: asked as
+        // any key is (only this process's admin space has its id).
+        let reply = match session.get(own).timeout(Duration::from_secs(1)).await {
+            Ok(replies) => replies.recv_async().await.ok(),
+            Err(_) => None,
+        };
+        if let Some(reply) = reply {
+            let sessions = reply.result().ok().and_then(|s| {
+                let v: serde_json::Value = serde_json::from_slice(&s.payload().to_bytes()).ok()?;
+                v["sessions"].as_array().cloned()
+            });
+            if let Some(sessions) = sessions {
+                for far in sessions {
+                    match far["whatami"].as_str() {
+                        Some("router") => linked.routers += 1,
+                        Some("peer") => linked.peers += 1,
+                        Some("client") => linked.clients += 1,
+                        _ => {}
+                    }
+                }
+                return linked;
+            }
+        }
+        let info = session.info();
+        linked.routers = info.routers_zid().await.count();
+        linked.peers = info.peers_zid().await.count();
+        linked
+    }
+
     /// Whether the session is linked through the router whose Zenoh id is `zid` (hex, as
     /// [`crate::render::router_zid`] gives a site router's).
     pub async fn linked_to(&self, zid: &str) -> bool {
@@ -389,6 +426,14 @@ impl Bus {
             }
         }
     }
+}
+
+/// The sessions a process holds with others ([`Bus::linked`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Linked {
+    pub routers: usize,
+    pub peers: usize,
+    pub clients: usize,
 }
 
 /// Keys declared to Zenoh ([`Bus::declare_keys`]); dropped, Zenoh forgets them.

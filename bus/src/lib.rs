@@ -41,7 +41,8 @@
 //! a unit may send on its own keys; [`pki`] makes the site's role-bound certificates and
 //! checks an identity's files before a link is tried; [`render`] writes the configurations
 //! that carry them, the rules and the bounds; [`probe`] opens a link's handshake on its own
-//! to see which certificate a router presents (`firefleet doctor`).
+//! to see which certificate a router presents and [`hello`] asks whether the routers'
+//! rules admit this identity at all (`firefleet doctor`).
 //!
 //! Not here: the messages and keys themselves (`firefleet-protocol`), or what any role does
 //! with them (the role crates). Besides `firefleet-ros2`, this is the only crate that
@@ -52,6 +53,7 @@ mod bus;
 mod connect;
 mod exchange;
 pub mod goal;
+pub mod hello;
 pub mod limits;
 mod listened;
 pub mod pki;
@@ -62,5 +64,7 @@ pub mod seal;
 
 pub use bus::{Bus, BusError, Inbox, RejectCounts, Traffic};
 pub use connect::{Connect, Links, Mode, free_loopback_port, mtls_link, one_stream};
-pub use exchange::{Answers, Ask, DeclaredKeys, Question, Questions, Raw, RawInbox, Token, Tokens};
+pub use exchange::{
+    Answers, Ask, DeclaredKeys, Linked, Question, Questions, Raw, RawInbox, Token, Tokens,
+};
 pub use listened::listened;

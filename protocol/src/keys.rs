@@ -25,6 +25,8 @@
 //! ff/<site>/trust/suspend/<target>/<by>  commander or coordinator -> coordinator:
 //!                                 Suspension (JSON, sealed): `by` asks that identity
 //!                                 `target` be suspended (both identity names, `:` as `-`)
+//! ff/<site>/router/hello          queryable: each router answers with its name whoever
+//!                                 its rules admit (`firefleet doctor`)
 //! ff/<site>/infra/dts/<zone>      scada -> all       DtsZone (postcard), one DTS zone
 //! ff/<site>/infra/vent            scada -> all       Vent (postcard), the ventilation
 //! ff/<site>/infra/link            scada -> all       ScadaLink (postcard), the bridge's
@@ -92,6 +94,8 @@ pub enum Topic {
     /// `trust/suspend/<target>/<by>`: identity `by` asks that identity `target` be
     /// suspended (each an identity's name with `:` made `-`: `commander-rossi`, `console`).
     Suspend(String, String),
+    /// Answered by every router to whoever its rules admit: its name.
+    RouterHello,
     InfraDts(u16),
     InfraVent,
     InfraLink,
@@ -122,6 +126,7 @@ impl fmt::Display for Topic {
             Topic::CoordBarred => f.write_str("coord/barred"),
             Topic::CoordGoals => f.write_str("coord/goals"),
             Topic::Suspend(target, by) => write!(f, "trust/suspend/{target}/{by}"),
+            Topic::RouterHello => f.write_str("router/hello"),
             Topic::InfraDts(z) => write!(f, "infra/dts/{z}"),
             Topic::InfraVent => f.write_str("infra/vent"),
             Topic::InfraLink => f.write_str("infra/link"),
@@ -154,6 +159,7 @@ impl Topic {
         "coord/log",
         "coord/barred",
         "coord/goals",
+        "router/hello",
         "infra/dts/<zone>",
         "infra/vent",
         "infra/link",
@@ -184,6 +190,7 @@ impl Topic {
             Topic::CoordBarred => "coord/barred",
             Topic::CoordGoals => "coord/goals",
             Topic::Suspend(..) => "trust/suspend/<target>/<by>",
+            Topic::RouterHello => "router/hello",
             Topic::InfraDts(_) => "infra/dts/<zone>",
             Topic::InfraVent => "infra/vent",
             Topic::InfraLink => "infra/link",
@@ -451,6 +458,7 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
                 .filter(|z: &u16| usize::from(*z) < firefleet_model::infra::MAX_DTS_ZONES)
                 .ok_or_else(|| err(format!("'{z}' is no DTS zone number")))?,
         ),
+        ["router", "hello"] => Topic::RouterHello,
         ["infra", "vent"] => Topic::InfraVent,
         ["infra", "link"] => Topic::InfraLink,
         ["sim", "clock"] => Topic::SimClock,
@@ -509,6 +517,7 @@ mod tests {
             Topic::CoordBarred,
             Topic::CoordGoals,
             Topic::Suspend("commander-bianchi".into(), "coordinator".into()),
+            Topic::RouterHello,
             Topic::InfraDts(17),
             Topic::InfraVent,
             Topic::InfraLink,

@@ -173,7 +173,12 @@ pub async fn router(a: RouterArgs) -> anyhow::Result<ExitCode> {
     let bus = Bus::open(&connect, scenario.site.clone())
         .await
         .context("starting the router")?;
-    tracing::info!(site = %scenario.site, "router up");
+    let name =
+        firefleet_bus::render::router_name(&scenario, &bus.zenoh_session().zid().to_string());
+    firefleet_bus::hello::answer(&bus, name.clone())
+        .await
+        .context("answering router/hello")?;
+    tracing::info!(site = %scenario.site, router = name, "router up");
     a.role.metrics.serve(&bus, true, None).await?;
     firefleet::net::ready();
     shutdown_signal(a.role.zenoh.die_with_parent).await;

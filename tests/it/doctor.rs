@@ -2,13 +2,14 @@
 //! guide says has no problem and learns the site's protocol version; each misconfiguration
 //! an operator met (wrong platform, unreadable key, another role's certificate, an expired
 //! one, a router dialled by a name its certificate does not list, a coordinator without the
-//! simulator's clock) is named on one line with its fix, and the doctor exits 1.
+//! simulator's clock) is named on one line with its fix, and the doctor exits 1; on a
+//! revoked robot's host it says the name is revoked.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::support::{BIN, Fleet, patient, text};
+use crate::support::{BIN, Fleet, http_get, patient, text};
 use firefleet_bus::access::Identity;
 use firefleet_bus::pki::{self, Terms};
 use firefleet_model::UnitId;
@@ -119,8 +120,9 @@ fn the_doctor_names_each_misconfiguration_on_one_line_with_its_fix() {
             .spawn()
             .unwrap()
     };
+    let metrics = format!("127.0.0.1:{}", firefleet_bus::free_loopback_port().unwrap());
     let _fleet = Fleet(vec![
-        spawn(&["router"], "router.json5"),
+        spawn(&["router", "--metrics", &metrics], "router.json5"),
         spawn(&["coordinator"], "coordinator.json5"),
     ]);
     let ugv1 = s.good.join("unit-ugv-1.json5");
@@ -139,7 +141,8 @@ fn the_doctor_names_each_misconfiguration_on_one_line_with_its_fix() {
             assert!(out.status.success(), "{said}");
             assert!(said.contains("no problem found"), "{said}");
             assert!(
-                said.contains("answers as router, certified for 'localhost'"),
+                said.contains("answers as router, certified for 'localhost'")
+                    && said.contains("its rules admit unit:ugv-1 (router 'router' answered)"),
                 "{said}"
             );
             break;
@@ -150,6 +153,39 @@ fn the_doctor_names_each_misconfiguration_on_one_line_with_its_fix() {
         );
         std::thread::sleep(Duration::from_millis(300));
     }
+
+    // The router counts its links by what is at the far end, its clients too (the
+    // coordinator): Zenoh's session info would show it none.
+    let (code, text_of_metrics) = http_get(&metrics, "/metrics");
+    assert_eq!(code, 200, "{text_of_metrics}");
+    let clients = text_of_metrics
+        .lines()
+        .find_map(|l| l.strip_prefix("firefleet_links{with=\"client\"} "))
+        .and_then(|v| v.parse::<f64>().ok());
+    assert!(clients >= Some(1.0), "{text_of_metrics}");
+    // That admin space is the router's own: a site identity asking it gets nothing.
+    let asked = tokio::runtime::Runtime::new().unwrap().block_on(async {
+        let connect = firefleet_bus::Connect {
+            config_file: Some(ugv1.clone()),
+            ..firefleet_bus::Connect::default()
+        };
+        let bus =
+            firefleet_bus::Bus::open(&connect, firefleet_model::SiteId::new("tunnel-a").unwrap())
+                .await
+                .unwrap();
+        let router = firefleet_bus::render::router_zid(bus.keys().site(), &Identity::ROUTER);
+        let answers = bus
+            .ask(
+                &format!("@/{router}/**"),
+                firefleet_bus::Ask::within(Duration::from_secs(1)),
+            )
+            .await
+            .unwrap();
+        let n = answers.all().await.len();
+        bus.close().await;
+        n
+    });
+    assert_eq!(asked, 0, "ugv-1 read the router's admin space");
 
     // The agent on the simulator's platform on a real site.
     one_problem(
@@ -247,6 +283,85 @@ fn the_doctor_names_each_misconfiguration_on_one_line_with_its_fix() {
         ),
         "clock: the coordinator keeps the system clock",
     );
+}
+
+/// A robot's name revoked: while the router runs the rules from before, the doctor on the
+/// robot's host finds it admitted (which is how a router left on old rules shows); once
+/// the router runs the rules rendered after, the doctor says the name is revoked.
+#[test]
+fn the_doctor_on_a_revoked_robots_host_says_it_is_revoked() {
+    let s = site();
+    let router = |rules: &Path| {
+        Fleet(vec![
+            Command::new(BIN)
+                .args(["router", "--scenario"])
+                .arg(&s.real)
+                .arg("--zenoh-config")
+                .arg(rules.join("router.json5"))
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .unwrap(),
+        ])
+    };
+    let ugv2 = s.good.join("unit-ugv-2.json5");
+    let args = ["--identity", "unit:ugv-2", "--platform", "ros2"];
+    // The doctor's findings once the router is up (its knock answered).
+    let once_up = || {
+        let deadline = Instant::now() + patient(Duration::from_secs(30));
+        loop {
+            let out = doctor(&s.real, &ugv2, &args);
+            if text(&out).contains("answers as router") {
+                return out;
+            }
+            assert!(Instant::now() < deadline, "the router never answered");
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    };
+
+    let old_rules = router(&s.good);
+    let said = text(&once_up());
+    assert!(said.contains("its rules admit unit:ugv-2"), "{said}");
+    assert!(!said.contains("PROBLEM"), "{said}");
+
+    // Revoked at the PKI and the rules rendered again; the robot's host keeps its files.
+    let kept = s._dir.path().join("ugv-2-host");
+    copy_dir(&s.pki.join("unit-ugv-2"), &kept);
+    crate::support::firefleet_ok(&[
+        "pki",
+        "revoke",
+        "--pki",
+        s.pki.to_str().unwrap(),
+        "unit:ugv-2",
+    ]);
+    let revoked = s._dir.path().join("revoked");
+    crate::support::firefleet_ok(&[
+        "deploy",
+        "render",
+        "--scenario",
+        s.real.to_str().unwrap(),
+        "--pki",
+        s.pki.to_str().unwrap(),
+        "--out",
+        revoked.to_str().unwrap(),
+        "--listen",
+        &format!("quic/127.0.0.1:{}", s.port),
+        "--connect",
+        &format!("quic/localhost:{}", s.port),
+    ]);
+    assert!(!revoked.join("unit-ugv-2.json5").exists());
+    copy_dir(&kept, &s.pki.join("unit-ugv-2"));
+    drop(old_rules);
+    let _new_rules = router(&revoked);
+    one_problem(&once_up(), "the site has revoked this name");
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        std::fs::copy(entry.path(), to.join(entry.file_name())).unwrap();
+    }
 }
 
 fn nix_user_exists(name: &str) -> bool {

@@ -11,8 +11,8 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use crate::support::{
-    BIN, Fleet, assert_says, cli, first_answer, free_endpoint, outcome, patient, router, router_at,
-    spawn_role, spawn_watched, status_of, text, until_in_recording, until_line,
+    BIN, Fleet, assert_says, cli, first_answer, free_endpoint, http_get, outcome, patient, router,
+    router_at, spawn_role, spawn_watched, status_of, text, until_in_recording, until_line,
 };
 use firefleet_bus::{Ask, Bus, Inbox, free_loopback_port};
 use firefleet_model::{FireId, Point2, Pose2, UnitId, ZoneId};
@@ -1366,28 +1366,6 @@ async fn the_coordinator_token_is_gone_only_when_every_holder_is() {
     }
 }
 
-/// `GET path` from `addr` over plain HTTP/1.1: the status code and the body.
-fn http_get(addr: &str, path: &str) -> (u16, String) {
-    use std::io::{Read, Write};
-    let Ok(mut s) = std::net::TcpStream::connect(addr) else {
-        return (0, String::new());
-    };
-    write!(
-        s,
-        "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
-    )
-    .unwrap();
-    let mut reply = String::new();
-    s.read_to_string(&mut reply).unwrap();
-    let code = reply
-        .split_whitespace()
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .unwrap_or(0);
-    let body = reply.split_once("\r\n\r\n").map_or("", |(_, b)| b);
-    (code, body.to_owned())
-}
-
 /// A robot added to the site while the coordinator still runs on the old site file: its
 /// agent is linked but not ready, its /readyz saying the coordinator's reason, until the
 /// coordinator is restarted with the new site file and tasks it; then ready.
@@ -1502,7 +1480,8 @@ async fn roles_serve_health_readiness_and_metrics() {
             .find_map(|l| l.strip_prefix(series)?.strip_prefix(' ')?.parse().ok())
             .unwrap_or_else(|| panic!("no {series} in\n{text}"))
     };
-    assert!(value("firefleet_links") >= 1.0);
+    assert_eq!(value("firefleet_links{with=\"router\"}"), 1.0);
+    assert_eq!(value("firefleet_links{with=\"client\"}"), 0.0);
     assert_eq!(value("firefleet_ready"), 1.0);
     assert!(value("firefleet_messages_sent_total") > 10.0);
     assert!(value("firefleet_messages_received_total") > 10.0);

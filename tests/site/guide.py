@@ -418,6 +418,16 @@ def main():
             if not unheard():
                 fail("ugv-3 was heard again after its revocation reached both routers")
         log("REVOCATION: ugv-3 heard through neither router; ugv-1 and ugv-2 still are")
+        # The doctor on ugv-3's host, with the files its agent still runs on, says so of
+        # each router.
+        out = subprocess.run(
+            ["ip", "netns", "exec", ns("ugv-3"), "firefleet", "doctor", "--identity", "unit:ugv-3",
+             "--scenario", "/etc/firefleet/site.toml", "--zenoh-config", "/etc/firefleet/unit-ugv-3.json5"],
+            capture_output=True, text=True)
+        said = [l for l in out.stdout.splitlines() if "the site has revoked this name" in l]
+        if out.returncode != 1 or len(said) != 2:
+            fail(f"the doctor on ugv-3's host did not say both routers see it revoked:\n{out.stdout}{out.stderr}")
+        log("REVOCATION: the doctor on ugv-3's host says so of both routers")
         # The whole incident as recorded, in one file per recorder start: no unit counted
         # lost at any time, and the keep-out taken back after the power cut.
         recordings = sorted(glob.glob("/var/lib/firefleet-recorder/incident-*"))

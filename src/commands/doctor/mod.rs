@@ -9,8 +9,10 @@
 //! identity's certificate (role and name, dates, the site's CA, the key its own and
 //! readable by whoever reads it), the platform and clock for the site, the routers'
 //! endpoints (listed in the site file's `[[routers]]`, resolved, answering, presenting a
-//! router certificate for the name dialled: [`firefleet_bus::probe`]) and, once linked,
-//! the protocol version the site's coordinator speaks. A problem whose cause is one
+//! router certificate for the name dialled: [`firefleet_bus::probe`]), whether each
+//! router's rules admit the identity at all (a revoked name links and is given nothing:
+//! [`firefleet_bus::hello`]) and, once admitted, the protocol version the site's
+//! coordinator speaks. A problem whose cause is one
 //! already said (a knock with a key found wrong) is a note, not a second problem. Exit 0
 //! when nothing is wrong, 1 otherwise.
 //!
@@ -40,7 +42,7 @@ mod permissions;
 mod site;
 
 use identity::identity;
-use network::{protocol, routers};
+use network::{Reached, admission, protocol, routers};
 use permissions::{files_readable, key_reader};
 use site::site_role;
 
@@ -124,13 +126,23 @@ pub async fn run(a: DoctorArgs) -> anyhow::Result<ExitCode> {
         }
     };
     let identity_ok = identity(&mut f, &a, &links);
-    let reachable = if a.offline {
+    if a.offline {
         f.note("offline: routers not resolved or knocked at, site not joined");
-        false
-    } else {
-        routers(&mut f, &links, &scenario, identity_ok, within).await && identity_ok
-    };
-    if reachable {
+        return Ok(outcome(&f));
+    }
+    let reached = routers(&mut f, &links, &scenario, identity_ok, within).await;
+    // An identity found wrong above is not asked after: its refusals are said once.
+    let admitted = identity_ok
+        && match reached {
+            Reached::Plain => true,
+            // Nothing dialled; or a router, which its upstream router's rules grant
+            // everything (and whose configuration would listen where the router runs).
+            Reached::Linked(_) if links.connect.is_empty() || links.router => true,
+            Reached::Linked(linked) => {
+                !linked.is_empty() && admission(&mut f, &a, &scenario, &linked, within).await
+            }
+        };
+    if admitted {
         protocol(&mut f, &a, &scenario, within).await;
     }
     Ok(outcome(&f))

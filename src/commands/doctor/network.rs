@@ -1,10 +1,19 @@
 //! The doctor's look at the network: the routers' endpoints (resolved, answering, with a
-//! router certificate for the name dialled) and the protocol the site's coordinator speaks.
+//! router certificate for the name dialled), whether each router's rules admit the
+//! identity, and the protocol the site's coordinator speaks.
 
 use super::*;
 
+/// The routers a role dials, as the doctor found them.
+pub(super) enum Reached {
+    /// A plain (loopback) configuration: nothing to knock at.
+    Plain,
+    /// These endpoints linked with the role's identity (none: no router was reached).
+    Linked(Vec<String>),
+}
+
 /// Every router endpoint the role dials: resolved, answering, presenting a router's
-/// certificate of the site valid for the name dialled. Whether one was reached. With an
+/// certificate of the site valid for the name dialled; those that linked. With an
 /// identity already found wrong (`identity_ok` false) the router's refusal of the link is
 /// its consequence, not a problem of its own.
 pub(super) async fn routers(
@@ -13,11 +22,11 @@ pub(super) async fn routers(
     scenario: &Scenario,
     identity_ok: bool,
     within: Duration,
-) -> bool {
+) -> Reached {
     let Some(files) = &links.tls else {
-        return true;
+        return Reached::Plain;
     };
-    let mut reached = links.connect.is_empty();
+    let mut linked = Vec::new();
     for endpoint in &links.connect {
         let shown = endpoint.split(['#', '?']).next().unwrap_or(endpoint);
         let listed = probe::quic_host_port(endpoint)
@@ -97,7 +106,7 @@ pub(super) async fn routers(
                         "point the configuration at the site's router",
                     ),
                     (Ok(c), Ok(())) => {
-                        reached = true;
+                        linked.push(endpoint.clone());
                         f.ok(format_args!(
                             "router {shown}: {} answers as {}, certified for '{host}'",
                             answered.addr, c.identity
@@ -107,7 +116,59 @@ pub(super) async fn routers(
             }
         }
     }
-    reached
+    Reached::Linked(linked)
+}
+
+/// Whether each router in `linked` admits the identity: it answers the identity's hello
+/// ([`firefleet_bus::hello`]). A router that links the identity and does not answer gives
+/// it nothing: the one sign, on the identity's own host, that the site revoked its name
+/// (or that the router runs rules rendered before the name was issued). Whether every
+/// router admits it.
+pub(super) async fn admission(
+    f: &mut Findings,
+    a: &DoctorArgs,
+    scenario: &Scenario,
+    linked: &[String],
+    within: Duration,
+) -> bool {
+    let mut admitted = true;
+    for endpoint in linked {
+        let shown = endpoint.split(['#', '?']).next().unwrap_or(endpoint);
+        let mut only = a.zenoh.connect(Some(Expect::Identity(a.identity.clone())));
+        only.connect = vec![endpoint.clone()];
+        let answer = match Bus::open(&only, scenario.site.clone()).await {
+            Ok(bus) => {
+                let answer = firefleet_bus::hello::admitted_by(&bus, within).await;
+                bus.close().await;
+                answer
+            }
+            Err(e) => Err(e),
+        };
+        match answer {
+            Ok(Some(name)) => f.ok(format_args!(
+                "router {shown}: its rules admit {} (router '{name}' answered)",
+                a.identity
+            )),
+            Ok(None) => {
+                admitted = false;
+                f.problem(
+                    format_args!(
+                        "router {shown}: links {} but its rules give it nothing: the site has revoked this name (or the router runs rules rendered before it was issued)",
+                        a.identity
+                    ),
+                    "if the name was revoked (firefleet pki list on the PKI's host says so), this host stays off the site until it has an identity of a new site CA; if not, render the rules again (firefleet deploy render) and restart this router",
+                )
+            }
+            Err(e) => {
+                admitted = false;
+                f.problem(
+                    format_args!("router {shown}: joining the site through it: {e}"),
+                    "see the lines above; if none says why, run with RUST_LOG=zenoh=debug",
+                )
+            }
+        }
+    }
+    admitted
 }
 
 /// The protocol version the site's coordinator speaks, from a postcard message the role
