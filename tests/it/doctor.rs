@@ -47,25 +47,9 @@ fn site() -> Site {
         "router.tunnel.local",
     ]);
     let port = firefleet_bus::free_loopback_port().unwrap();
-    let render = |out: &Path, host: &str| {
-        run(&[
-            "deploy",
-            "render",
-            "--scenario",
-            real_s,
-            "--pki",
-            pki_s,
-            "--out",
-            out.to_str().unwrap(),
-            "--listen",
-            &format!("quic/127.0.0.1:{port}"),
-            "--connect",
-            &format!("quic/{host}:{port}"),
-        ])
-    };
     let (good, misdialled) = (dir.path().join("good"), dir.path().join("misdialled"));
-    render(&good, "localhost");
-    render(&misdialled, "127.0.0.1");
+    render(&real, &pki, port, &good, "localhost");
+    render(&real, &pki, port, &misdialled, "127.0.0.1");
     // Open to every user as far as the files' own modes allow, as /etc/firefleet is to
     // the services' group: the checks below for the service's user look at those modes.
     use std::os::unix::fs::PermissionsExt as _;
@@ -80,6 +64,25 @@ fn site() -> Site {
         misdialled,
         port,
     }
+}
+
+/// The site's configurations rendered into `out`, the router listening on `port` on
+/// loopback and dialled as `host`.
+fn render(real: &Path, pki: &Path, port: u16, out: &Path, host: &str) {
+    crate::support::firefleet_ok(&[
+        "deploy",
+        "render",
+        "--scenario",
+        real.to_str().unwrap(),
+        "--pki",
+        pki.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--listen",
+        &format!("quic/127.0.0.1:{port}"),
+        "--connect",
+        &format!("quic/{host}:{port}"),
+    ]);
 }
 
 fn doctor(scenario: &Path, config: &Path, args: &[&str]) -> Output {
@@ -335,20 +338,7 @@ fn the_doctor_on_a_revoked_robots_host_says_it_is_revoked() {
         "unit:ugv-2",
     ]);
     let revoked = s._dir.path().join("revoked");
-    crate::support::firefleet_ok(&[
-        "deploy",
-        "render",
-        "--scenario",
-        s.real.to_str().unwrap(),
-        "--pki",
-        s.pki.to_str().unwrap(),
-        "--out",
-        revoked.to_str().unwrap(),
-        "--listen",
-        &format!("quic/127.0.0.1:{}", s.port),
-        "--connect",
-        &format!("quic/localhost:{}", s.port),
-    ]);
+    render(&s.real, &s.pki, s.port, &revoked, "localhost");
     assert!(!revoked.join("unit-ugv-2.json5").exists());
     copy_dir(&kept, &s.pki.join("unit-ugv-2"));
     drop(old_rules);
