@@ -55,6 +55,46 @@ pub fn decode<M: for<'de> Deserialize<'de>>(bytes: &[u8]) -> Result<M, CdrError>
     }
 }
 
+/// A `sequence<uint8>` field (an image's `data`) as one run of bytes: CDR writes it as a
+/// 4-aligned length and the bytes either way, but serde's element-by-element path costs a
+/// call a byte (a thermal frame's 115 kB took an agent most of its time in debug builds,
+/// where our crates' copies of the codec's generic code are not optimised). JSON keeps the
+/// numbers.
+pub mod octets {
+    use std::fmt;
+
+    use serde::de::{self, Deserializer, Visitor};
+    use serde::{Deserialize, Serializer};
+
+    pub fn serialize<S: Serializer>(bytes: &[u8], s: S) -> Result<S::Ok, S::Error> {
+        if s.is_human_readable() {
+            s.collect_seq(bytes)
+        } else {
+            s.serialize_bytes(bytes)
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<u8>, D::Error> {
+        if d.is_human_readable() {
+            return Vec::<u8>::deserialize(d);
+        }
+        struct Octets;
+        impl<'de> Visitor<'de> for Octets {
+            type Value = Vec<u8>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a sequence of octets")
+            }
+            fn visit_bytes<E: de::Error>(self, bytes: &[u8]) -> Result<Vec<u8>, E> {
+                Ok(bytes.to_vec())
+            }
+            fn visit_byte_buf<E: de::Error>(self, bytes: Vec<u8>) -> Result<Vec<u8>, E> {
+                Ok(bytes)
+            }
+        }
+        d.deserialize_byte_buf(Octets)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -331,6 +331,7 @@ pub struct Image {
     pub is_bigendian: u8,
     /// Bytes a row.
     pub step: u32,
+    #[serde(with = "crate::cdr::octets")]
     pub data: Vec<u8>,
 }
 ros_message!(Image, "sensor_msgs/msg/Image");

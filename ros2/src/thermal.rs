@@ -23,7 +23,7 @@
 
 use firefleet_model::spec::CameraSpec;
 use firefleet_model::validate::Validate;
-use firefleet_protocol::msg::ThermalImage;
+use firefleet_protocol::msg::{ThermalImage, pixels};
 
 use crate::msg::{CameraInfo, Header, Image};
 
@@ -172,17 +172,12 @@ pub fn from_ros(
     let mut centikelvin = Vec::with_capacity(w * h);
     let mut depth_m = Vec::with_capacity(w * h);
     for v in 0..h {
-        let row = &t[v * ts..v * ts + 2 * w];
-        centikelvin.extend(
-            row.chunks_exact(2)
-                .map(|b| u16::from_le_bytes([b[0], b[1]])),
-        );
-        let row = &d[v * ds..v * ds + 4 * w];
-        // No value is 0 here; ROS depth images also say it with NaN.
-        depth_m.extend(row.chunks_exact(4).map(|b| {
-            let z = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-            if z.is_finite() { z } else { 0.0 }
-        }));
+        centikelvin.extend(pixels::from_le_bytes::<u16>(&t[v * ts..v * ts + 2 * w]));
+        depth_m.extend(pixels::from_le_bytes::<f32>(&d[v * ds..v * ds + 4 * w]));
+    }
+    // No value is 0 here; ROS depth images also say it with NaN.
+    for z in depth_m.iter_mut().filter(|z| !z.is_finite()) {
+        *z = 0.0;
     }
     let image = ThermalImage {
         width: thermal.width as u16,
@@ -213,11 +208,7 @@ pub fn to_ros(
         encoding: "mono16".into(),
         is_bigendian: 0,
         step: 2 * w,
-        data: img
-            .centikelvin
-            .iter()
-            .flat_map(|c| c.to_le_bytes())
-            .collect(),
+        data: pixels::to_le_bytes(&img.centikelvin).into_owned(),
     };
     let depth = Image {
         header: header.clone(),
@@ -226,7 +217,7 @@ pub fn to_ros(
         encoding: "32FC1".into(),
         is_bigendian: 0,
         step: 4 * w,
-        data: img.depth_m.iter().flat_map(|z| z.to_le_bytes()).collect(),
+        data: pixels::to_le_bytes(&img.depth_m).into_owned(),
     };
     let (fx, fy, cx, cy) = (optics.fx, optics.fy, optics.cx, optics.cy);
     let info = CameraInfo {

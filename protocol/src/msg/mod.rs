@@ -77,6 +77,7 @@ mod bt;
 mod commander;
 mod fleet;
 mod infra;
+pub mod pixels;
 mod seal;
 mod sim;
 

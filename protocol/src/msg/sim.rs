@@ -105,14 +105,19 @@ pub const MAX_THERMAL_SIDE: u16 = 640;
 ///
 /// Temperatures are in centikelvin, the TLinear output of common radiometric cores: a
 /// pixel reads 0.01 K a count, so the scale ends at 655.35 K and hotter scenes (a flame's
-/// core) saturate at `u16::MAX`, as the camera's high-gain mode does.
+/// core) saturate at `u16::MAX`, as the camera's high-gain mode does. Postcard carries
+/// each buffer as one little-endian byte string (`pixels`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct ThermalImage {
     pub width: u16,
     pub height: u16,
     /// Row by row from the top left, centikelvin.
+    #[serde(with = "super::pixels")]
+    #[schemars(with = "Vec<u16>")]
     pub centikelvin: Vec<u16>,
     /// Depth along the optical axis, m, row by row; 0 where there is no value.
+    #[serde(with = "super::pixels")]
+    #[schemars(with = "Vec<f32>")]
     pub depth_m: Vec<f32>,
 }
 
