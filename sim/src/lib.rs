@@ -8,7 +8,7 @@
 //! monorail carriages with their fire monitors ([`carriage`]), fire detector, ceiling-jet
 //! temperature and thermal camera. With [`world::Perception::Pixels`], ground units with a
 //! thermal core get its radiometric frames ([`thermal`]) and find flames in them
-//! themselves.
+//! themselves: what a simulator process does unless told otherwise.
 //! [`physics`] holds every physical constant with its source or stated assumption.
 //!
 //! [`node`] puts the world on the bus exactly as real hardware drivers would be: each unit

@@ -74,7 +74,7 @@ impl Default for SimOptions {
             scada: None,
             cut_scada_at: None,
             state: None,
-            perception: Perception::default(),
+            perception: Perception::Pixels,
         }
     }
 }

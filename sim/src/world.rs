@@ -175,11 +175,16 @@ pub struct World {
 }
 
 /// What a ground unit's flame detection is made of.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+///
+/// A simulator process ([`crate::SimOptions`], `firefleet sim`) renders pixels unless
+/// told otherwise: the agents then run the detector a thermal-only robot runs. A
+/// [`World`] made in process starts with boxes, the stand-in the papers' experiments and
+/// their reproductions in the lab were run with (their figures depend on its random
+/// draws); [`World::set_perception`] changes it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Perception {
     /// Boxes drawn from the ground truth ([`camera::detect`]), the RGB-D detector's
     /// stand-in the papers' experiments were run with.
-    #[default]
     Boxes,
     /// Thermal images ([`crate::thermal`]) for units with a thermal core, which find flames
     /// in them themselves; boxes for units without one.
@@ -253,7 +258,7 @@ impl World {
                 .scada
                 .clone()
                 .map(|m| Dts::new(m, scenario.tunnel.length_m)),
-            perception: Perception::default(),
+            perception: Perception::Boxes,
             thermal_due,
         };
         // Fires that ignited before the start are already at their t-squared size, and the

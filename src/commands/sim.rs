@@ -58,10 +58,11 @@ pub struct SimArgs {
     /// firefleet-sim`) to start a new rehearsal.
     #[arg(long, value_name = "DIR")]
     state_dir: Option<std::path::PathBuf>,
-    /// What ground units find flames in: boxes drawn from the truth (the papers' detector's
-    /// stand-in), or frames of the thermal core their profile names, in which each agent
-    /// finds flames itself (with --ros2, on the robots' `thermal/` topics).
-    #[arg(long, value_enum, default_value_t = Sensing::Boxes)]
+    /// What ground units find flames in: frames of the thermal core their profile names,
+    /// in which each agent finds flames itself (with --ros2, on the robots' `thermal/`
+    /// topics), or boxes drawn from the truth (the papers' detector's stand-in, cheaper to
+    /// simulate).
+    #[arg(long, value_enum, default_value_t = Sensing::Pixels)]
     perception: Sensing,
 }
 

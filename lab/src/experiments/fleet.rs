@@ -67,7 +67,9 @@ pub struct FleetArgs {
     #[arg(long, value_name = "DIR", requires = "generated")]
     sites: Option<PathBuf>,
     /// What ground units find flames in: boxes drawn from the truth (the papers'
-    /// detector's stand-in) or their thermal cores' pixels.
+    /// detector's stand-in, and this experiment's default: the comparisons and the papers'
+    /// reproductions were measured with it) or their thermal cores' pixels (the
+    /// simulator's default, `firefleet sim`).
     #[arg(long, value_enum, default_value_t = Sensing::Boxes)]
     perception: Sensing,
 }

@@ -114,9 +114,9 @@ pub struct DemoArgs {
     /// rules cover the fleet's keys; a robot's ROS 2 topics stay on the robot's own router.
     #[arg(long, value_enum, default_value_t = PlatformKind::Sim, conflicts_with = "secure")]
     platform: PlatformKind,
-    /// What ground units find flames in (the simulator's `--perception`): boxes drawn from
-    /// the truth, or their thermal cores' frames.
-    #[arg(long, value_enum, default_value_t = Sensing::Boxes)]
+    /// What ground units find flames in (the simulator's `--perception`): their thermal
+    /// cores' frames, or boxes drawn from the truth.
+    #[arg(long, value_enum, default_value_t = Sensing::Pixels)]
     perception: Sensing,
     /// Run the tunnel's SCADA too: the simulator serves its DTS zones and ventilation over
     /// Modbus TCP on a free loopback port, and `firefleet scada` bridges them to the bus

@@ -44,8 +44,8 @@ pub(super) fn roles(
     if a.platform == PlatformKind::Ros2 {
         sim = sim.arg("--ros2");
     }
-    if a.perception == Sensing::Pixels {
-        sim = sim.args(["--perception", "pixels"]);
+    if a.perception == Sensing::Boxes {
+        sim = sim.args(["--perception", "boxes"]);
     }
     if let Some(m) = &modbus {
         sim = sim.args(["--scada", m]);
