@@ -385,6 +385,17 @@ impl Incident {
                         },
                     );
                 }
+                // It holds where it is: a way out given before another goal closed it
+                // (an evacuate's destination now barred too) is taken back, not re-sent.
+                let bound_into_barred = match self.units[&u].task.as_ref().map(|t| t.kind) {
+                    Some(TaskKind::Cruise { goal } | TaskKind::Search { goal }) => {
+                        self.goal_at(goal).is_some_and(|g| g.bars_entry())
+                    }
+                    _ => false,
+                };
+                if bound_into_barred {
+                    out.push(self.standby(&u, t));
+                }
                 trapped.insert(u, held);
                 continue;
             };

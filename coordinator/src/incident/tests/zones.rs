@@ -315,6 +315,27 @@ fn a_unit_no_goal_leaves_a_way_out_is_trapped_said_once_and_freed_when_cleared()
     assert!(i.trapped().is_empty());
 }
 
+/// A keep-out that closes the way out an evacuate just gave (the CI attack's stolen
+/// incident commander set one on each zone 0.1 s apart): the trapped unit holds where it
+/// is, and its task into the newly barred zone is taken back rather than re-sent.
+#[test]
+fn a_way_out_closed_by_the_next_goal_is_taken_back() {
+    let mut i = incident();
+    let end = TUNNEL.end().m();
+    i.goals = Goals::new(&[zone("w", 0.0, 100.0), zone("e", 100.0, end)], &[]);
+    i.state_at(state("b", 55.0, None), 0.5).unwrap();
+    let (_, out) = submit(&mut i, goal("k1", "w", GoalKind::KeepOut, 0, None), 1.0);
+    let [TaskKind::Cruise { goal: way_out }] = kinds_for(&out, "b")[..] else {
+        panic!("b is sent out of w: {out:?}")
+    };
+    assert!(TUNNEL.chainage(way_out).m() > 100.0, "into e: {way_out:?}");
+    let (_, out) = submit(&mut i, goal("k2", "e", GoalKind::KeepOut, 0, None), 1.1);
+    assert_eq!(kinds_for(&out, "b"), [TaskKind::Standby], "{out:?}");
+    assert!(i.trapped().iter().any(|x| x.unit.as_str() == "b"));
+    // Said once: the next enforcement leaves the standing order be.
+    assert!(kinds_for(&i.tick(1.5), "b").is_empty());
+}
+
 #[test]
 fn a_clear_says_who_cleared_and_one_that_lifts_nothing_says_whose_goal_holds() {
     let mut i = zoned();
