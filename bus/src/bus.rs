@@ -205,6 +205,8 @@ pub struct Bus {
     publishers: Arc<Mutex<HashMap<String, Publisher<'static>>>>,
     /// With a TLS identity: its key to seal with and its CA to check seals.
     seals: Option<Arc<Seals>>,
+    /// The session routes (Zenoh's router mode): it has an admin space of its own.
+    routes: bool,
 }
 
 impl Bus {
@@ -214,6 +216,7 @@ impl Bus {
             Some(files) => Some(Arc::new(Seals::load(&files)?)),
             None => None,
         };
+        let routes = crate::connect::routes(&config);
         let session = zenoh::open(config).await.map_err(BusError::from_zenoh)?;
         Ok(Self {
             session,
@@ -222,6 +225,7 @@ impl Bus {
             traffic: Arc::default(),
             publishers: Arc::default(),
             seals,
+            routes,
         })
     }
 
@@ -300,6 +304,11 @@ impl Bus {
     pub fn keys(&self) -> &Keys {
         &self.keys
     }
+    /// Whether the session routes (Zenoh's router mode).
+    pub(crate) fn routes(&self) -> bool {
+        self.routes
+    }
+
     /// The session, for this crate's own edges ([`crate::exchange`]).
     pub(crate) fn zenoh(&self) -> &Session {
         &self.session

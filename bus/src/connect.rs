@@ -75,7 +75,7 @@ impl Connect {
                 .unwrap_or_default()
         };
         Ok(Links {
-            router: config.get_json("mode").is_ok_and(|m| m.contains("router")),
+            router: routes(&config),
             tls: tls_files(&config),
             connect: endpoints("connect/endpoints"),
             listen: endpoints("listen/endpoints"),
@@ -136,7 +136,7 @@ impl Connect {
                     .map_err(|e| BusError::Config(format!("TLS {field}: {e}")))?;
             }
         }
-        if config.get_json("mode").is_ok_and(|m| m.contains("router")) {
+        if routes(&config) {
             // A router reads its own links from its admin space (`Bus::linked`: Zenoh's
             // session info names its routers and peers, not its clients). Read-only; on a
             // secure site the access rules (default deny, site keys only) keep everyone
@@ -180,7 +180,7 @@ impl Connect {
     /// `config` will present (the listening certificate for a router, else the
     /// connecting one).
     fn check_identity(&self, config: &zenoh::Config) -> Result<(), BusError> {
-        let router = config.get_json("mode").is_ok_and(|m| m.contains("router"));
+        let router = routes(config);
         let Some(files) = tls_files(config) else {
             return if quic_endpoints(config) {
                 Err(BusError::Config(
@@ -223,7 +223,7 @@ pub(crate) fn tls_files(config: &zenoh::Config) -> Option<pki::TlsFiles> {
             .and_then(|s| serde_json::from_str::<Option<String>>(&s).ok().flatten())
             .map(PathBuf::from)
     };
-    let router = config.get_json("mode").is_ok_and(|m| m.contains("router"));
+    let router = routes(config);
     let (cert, key) = if router {
         ("listen_certificate", "listen_private_key")
     } else {
@@ -260,6 +260,11 @@ pub fn mtls_link(dir: &std::path::Path) -> serde_json::Value {
         "verify_name_on_connect": true,
         "close_link_on_expiration": true,
     })
+}
+
+/// Whether `config` makes a router.
+pub(crate) fn routes(config: &zenoh::Config) -> bool {
+    config.get_json("mode").is_ok_and(|m| m.contains("router"))
 }
 
 /// `endpoint` as our QUIC links use it: one stream for every priority

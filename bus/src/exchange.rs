@@ -379,10 +379,15 @@ impl Bus {
         let mut linked = Linked::default();
         let own = format!("@/{}/router", session.zid());
         // The admin space is the runtime's, not a queryable of this session: asked as
-        // any key is (only this process's admin space has its id).
-        let reply = match session.get(own).timeout(Duration::from_secs(1)).await {
-            Ok(replies) => replies.recv_async().await.ok(),
-            Err(_) => None,
+        // any key is (only this process's admin space has its id). A process that does
+        // not route has none, and its question would only go out to its router.
+        let reply = if self.routes() {
+            match session.get(own).timeout(Duration::from_secs(1)).await {
+                Ok(replies) => replies.recv_async().await.ok(),
+                Err(_) => None,
+            }
+        } else {
+            None
         };
         if let Some(reply) = reply {
             let sessions = reply.result().ok().and_then(|s| {
