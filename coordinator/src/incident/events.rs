@@ -707,6 +707,7 @@ impl Incident {
         out.extend(self.back_up(&searching, t));
         out.extend(self.stage(&searching, t));
         out.extend(self.patrol_rails(t));
+        out.extend(self.recall_from_barred(t));
         out
     }
 }

@@ -146,7 +146,11 @@ impl Incident {
             let goal = self.tunnel.point_at(x, lane);
             searching.insert(c.unit.clone());
             let current = self.units[&c.unit].task.as_ref().map(|t| t.kind);
-            if matches!(current, Some(TaskKind::Search { goal: now }) if now.dist(goal) < self.policy.search_goal_slack_m)
+            // The slack keeps a goal, never one a goal has barred since: a keep-out's
+            // edge can fall within it of the new goal (a search to a zone's boundary).
+            if matches!(current, Some(TaskKind::Search { goal: now })
+                if now.dist(goal) < self.policy.search_goal_slack_m
+                    && self.goal_at(now).is_none_or(|g| !g.bars_entry()))
             {
                 continue;
             }

@@ -421,6 +421,38 @@ impl Incident {
     }
 }
 
+impl Incident {
+    /// The last word before a solve's tasks go out: no unit keeps a task whose
+    /// destination the goals in force bar to it, read as units and the incident's checker
+    /// read it ([`BarredSpace::entry_at`], a zone's edges inside it). Every planner keeps
+    /// out of barred space on its own, so a task caught here is a bug in one of them:
+    /// counted as an inconsistency, and the unit stands by rather than be sent in (a
+    /// task is re-sent every second; a standing order into barred space would be sent
+    /// until the bug's planner moved it).
+    pub(super) fn recall_from_barred(&mut self, t: f64) -> Vec<Output> {
+        let barred = self.goals.barred_space(t);
+        let caught: Vec<(UnitId, TaskKind, String)> = self
+            .units
+            .iter()
+            .filter(|(_, v)| v.alive)
+            .filter_map(|(u, v)| {
+                let kind = v.task.as_ref()?.kind;
+                let to = self.tunnel.chainage(kind.destination()?);
+                let span = barred.entry_at(v.mobility.kind(), to)?;
+                Some((u.clone(), kind, span.goal.clone()))
+            })
+            .collect();
+        caught
+            .into_iter()
+            .map(|(u, kind, goal)| {
+                self.inconsistencies += 1;
+                tracing::error!(unit = %u, task = %kind, goal, "a task into barred space was caught before it went out; the unit stands by");
+                self.standby(&u, t)
+            })
+            .collect()
+    }
+}
+
 /// Unit `u` trapped by goal `g`.
 fn trapped_by(u: &UnitId, g: &Active) -> Trapped {
     Trapped {

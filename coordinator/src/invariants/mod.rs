@@ -42,8 +42,8 @@ use firefleet_model::profile::{GROUND, MONORAIL, Profile};
 use firefleet_model::scenario::{Scenario, Tunnel};
 use firefleet_model::{Chainage, CommanderId, FireId, Point2, UnitId, ZoneId};
 use firefleet_protocol::msg::{
-    GoalAck, INSIDE_PORTAL_M, SimTruth, Task, TaskKind, TaskPhase, TruthFireState, UnitState,
-    ZoneGoal, nearest_allowed,
+    GoalAck, INSIDE_PORTAL_M, SimTruth, Task, TaskPhase, TruthFireState, UnitState, ZoneGoal,
+    nearest_allowed,
 };
 
 use crate::goals::{Active, Goals};
@@ -624,10 +624,8 @@ impl Invariants {
                 after,
             });
         }
-        let to = match task.kind {
-            TaskKind::Cruise { goal } | TaskKind::Search { goal } => goal,
-            TaskKind::Extinguish { target, .. } => target,
-            TaskKind::Standby => return,
+        let Some(to) = task.kind.destination() else {
+            return;
         };
         let kind = self
             .units

@@ -1,5 +1,5 @@
 use super::*;
-use firefleet_protocol::msg::{GoalKind, TaskProgress};
+use firefleet_protocol::msg::{GoalKind, TaskKind, TaskProgress};
 use firefleet_protocol::testing::ground_state;
 
 use firefleet_model::{FireId, scenario::Zone};

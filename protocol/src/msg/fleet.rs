@@ -316,6 +316,19 @@ impl fmt::Display for TaskKind {
     }
 }
 
+impl TaskKind {
+    /// Where the task sends the unit: its goal, or the fire it attacks; `None` for
+    /// standby. The one reading of a task that barred space is checked against, by the
+    /// coordinator before it sends and by the recorded incident's checker after.
+    pub fn destination(&self) -> Option<Point2> {
+        match *self {
+            TaskKind::Standby => None,
+            TaskKind::Cruise { goal } | TaskKind::Search { goal } => Some(goal),
+            TaskKind::Extinguish { target, .. } => Some(target),
+        }
+    }
+}
+
 impl Task {
     /// Where the task stands in a unit's order of tasks: epoch first, then number.
     pub fn order(&self) -> (u64, u64) {

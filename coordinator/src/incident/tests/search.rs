@@ -235,3 +235,40 @@ fn past_a_fire_left_burning_free_units_search_on() {
     );
     assert!(all_tasks(&i.tick(2.0)).is_empty(), "the order stands");
 }
+
+/// A keep-out on the zone a search ends at the edge of (CI's stolen incident commander
+/// barred zone west while a unit searched to its boundary, 150.0, from the east): the
+/// search goal moves out, though the new one lies within the slack that keeps a goal.
+#[test]
+fn a_search_goal_a_keep_out_bars_is_never_kept() {
+    let mut i = unsearched();
+    i.goals = Goals::new(&[zone("w", 0.0, 100.0), zone("e", 100.0, 200.0)], &[]);
+    i.on_alive(&u("a"), true, 0.0).unwrap();
+    i.on_alive(&u("b"), true, 0.0).unwrap();
+    i.state_at(echoing(&i, facing("a", 5.0, 0.0)), 0.0).unwrap();
+    i.state_at(echoing(&i, facing("b", 195.0, std::f64::consts::PI)), 0.0)
+        .unwrap();
+    assert_eq!(
+        searching_to(&i, "b").map(|g| g.x),
+        Some(100.0),
+        "the boundary"
+    );
+    submit(&mut i, goal("k", "w", GoalKind::KeepOut, 0, None), 1.0);
+    let barred = i.barred_space(1.0);
+    for n in ["a", "b"] {
+        let task = i.units[&u(n)].task.as_ref().map(|t| t.kind);
+        let to = task.and_then(|k| k.destination());
+        assert!(
+            to.is_none_or(|p| barred
+                .entry_at(UnitKind::Ground, TUNNEL.chainage(p))
+                .is_none()),
+            "{n}: {task:?}"
+        );
+    }
+    assert!(all_tasks(&i.tick(1.5)).is_empty(), "the new orders stand");
+    assert_eq!(
+        i.inconsistencies(),
+        0,
+        "the search moved it, not the last word"
+    );
+}

@@ -336,6 +336,25 @@ fn a_way_out_closed_by_the_next_goal_is_taken_back() {
     assert!(kinds_for(&i.tick(1.5), "b").is_empty());
 }
 
+/// The last word before a solve's tasks go out: a task into barred space that a planner
+/// left standing (put there by hand here, as a bug would) is taken back and counted.
+#[test]
+fn a_task_left_standing_into_barred_space_is_taken_back_and_counted() {
+    let mut i = zoned();
+    submit(&mut i, goal("k", "z1", GoalKind::KeepOut, 0, None), 0.5);
+    let inside = TUNNEL.point_at(Chainage::new(75.0), 0.0);
+    let kind = TaskKind::Cruise { goal: inside };
+    let task = match i.give(&u("b"), kind, 1.0) {
+        Output::Task(task) => task,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(task.kind, kind);
+    let out = i.recall_from_barred(1.0);
+    assert_eq!(kinds_for(&out, "b"), [TaskKind::Standby], "{out:?}");
+    assert_eq!(i.inconsistencies(), 1);
+    assert!(i.recall_from_barred(1.5).is_empty(), "taken back once");
+}
+
 #[test]
 fn a_clear_says_who_cleared_and_one_that_lifts_nothing_says_whose_goal_holds() {
     let mut i = zoned();
