@@ -39,6 +39,7 @@ fn frame(
         tunnel,
         boxes,
         flames,
+        beds: &[],
         ambient_k: AMBIENT_K,
         outside_k: AMBIENT_K + 15.0,
         smoke_per_m: 0.05,

@@ -33,13 +33,37 @@ pub fn radiant_flux_kw_m2(q_kw: f64, r_m: f64) -> f64 {
 /// a waste-paper basket; below it, no visible flame is left for a detector.
 pub const Q_OUT_KW: f64 = 20.0;
 
-/// A knocked-down fire (flames gone, heat release under [`Q_OUT_KW`]) is out only after its
-/// fuel bed has taken this much more water per square metre of burning area; left without
-/// water for [`REIGNITE_AFTER_S`] before that, it flares up again. Assumption: hot fuel beds
-/// re-ignite within seconds to tens of seconds, and cooling them takes a few litres per
-/// square metre (minutes of a sprinkler's 2 to 5 mm/min design density).
+/// A knocked-down fire (flames gone, heat release under [`Q_OUT_KW`]) is out once its fuel
+/// bed has taken this much more water per square metre of burning area. Left without water
+/// for [`REIGNITE_AFTER_S`] before that, it flares up again if its surface
+/// ([`bed_surface_k`]) is still above [`IGNITION_K`], and is out if not (it cools on in the
+/// air, below where it can re-ignite). Assumption: hot fuel beds re-ignite within seconds
+/// to tens of seconds, and cooling them takes a few litres per square metre (minutes of a
+/// sprinkler's 2 to 5 mm/min design density).
 pub const COOLING_WATER_L_PER_M2: f64 = 5.0;
 pub const REIGNITE_AFTER_S: f64 = 10.0;
+
+/// Surface temperature of a fuel bed as its flames are knocked down, K: glowing char
+/// (smouldering surfaces run 500-700 C, Drysdale, *An Introduction to Fire Dynamics*,
+/// ch. 8; 600 C taken).
+pub const EMBER_K: f64 = 873.15;
+/// Surface temperature of a fuel bed once cooled, K: water's boiling point, which a wetted
+/// surface does not rise above while water stands on it.
+pub const QUENCHED_K: f64 = 373.15;
+
+/// A knocked-down fuel bed left dry re-ignites only above this surface temperature, K.
+/// Assumption: the surface temperatures at which wood and char ignite under a pilot are
+/// 250-350 C in the fire-science literature; 300 C taken.
+pub const IGNITION_K: f64 = 573.15;
+
+/// Surface temperature of a knocked-down fuel bed that still needs `share` (0 to 1) of its
+/// cooling water ([`COOLING_WATER_L_PER_M2`]), K. Assumption: linear in the water taken,
+/// each litre's heat of vaporisation taking the same heat from the bed, from [`EMBER_K`]
+/// to [`QUENCHED_K`]. What a thermal camera sees of a bed left hot, and whether it
+/// re-ignites ([`IGNITION_K`]).
+pub fn bed_surface_k(share: f64) -> f64 {
+    QUENCHED_K + (EMBER_K - QUENCHED_K) * share.clamp(0.0, 1.0)
+}
 
 /// A flame is visible to a detector above this heat release rate, kW.
 pub const Q_VISIBLE_KW: f64 = Q_OUT_KW;

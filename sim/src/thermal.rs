@@ -23,6 +23,11 @@
 //!   [`crate::physics`]); below it, surfaces are at ambient.
 //! - **Vehicles** are boxes at the surface temperature the scene gives them: ambient for a
 //!   parked car, a few hundred kelvin for a body heated by a nearby fire or an exhaust.
+//! - **A knocked-down fire's fuel bed** is a disk of the fire's radius on the road at the
+//!   surface temperature the scene gives it (the world's [`crate::physics::bed_surface_k`]):
+//!   glowing char when the flames go, falling to water's boiling point as it is cooled. It
+//!   does not flicker. The water on it is taken at the bed's temperature (a film on a hot
+//!   surface), so no spray dims it.
 //! - **Smoke**: soot absorbs about as `1 / lambda` (small particles, Rayleigh limit), so its
 //!   extinction at 10 um is [`IR_PER_VISIBLE`] of the visible one the world gives; the smoke
 //!   on a path is taken at ambient temperature. The depth camera works in the near infrared
@@ -156,11 +161,20 @@ pub struct HotBox {
     pub surface_k: f64,
 }
 
+/// A hot disk on the road: a knocked-down fire's fuel bed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HotBed {
+    pub centre: Point2,
+    pub radius_m: f64,
+    pub surface_k: f64,
+}
+
 /// What the camera looks at.
 pub struct Scene<'a> {
     pub tunnel: &'a Tunnel,
     pub boxes: &'a [HotBox],
     pub flames: &'a [Flame],
+    pub beds: &'a [HotBed],
     pub ambient_k: f64,
     /// Daylight beyond the portals (sunlit ground and sky), K.
     pub outside_k: f64,
@@ -295,11 +309,22 @@ impl<'s> View<'s> {
             return (t, scene.outside_k, false);
         }
         let p = r.at(t);
+        let at = Point2::new(p[0], p[1]);
+        let on_road = p[2].abs() < 1e-6;
         let mut surface = if p[2] >= tunnel.height_m * (1.0 - HOT_LAYER_SHARE) {
-            (scene.ceiling_k)(s_hit, Point2::new(p[0], p[1]))
+            (scene.ceiling_k)(s_hit, at)
         } else {
             scene.ambient_k
         };
+        if on_road {
+            for b in scene
+                .beds
+                .iter()
+                .filter(|b| b.centre.dist(at) <= b.radius_m)
+            {
+                surface = surface.max(b.surface_k);
+            }
+        }
         for b in &self.boxes {
             if let Some(tb) = b.entry(r).filter(|tb| *tb < t) {
                 t = tb;
@@ -449,11 +474,22 @@ mod tests {
     }
 
     fn shot(flames: &[Flame], boxes: &[HotBox], smoke: f64, seed: u64) -> ThermalImage {
+        shot_with_beds(flames, boxes, &[], smoke, seed)
+    }
+
+    fn shot_with_beds(
+        flames: &[Flame],
+        boxes: &[HotBox],
+        beds: &[HotBed],
+        smoke: f64,
+        seed: u64,
+    ) -> ThermalImage {
         let tunnel = road();
         let scene = Scene {
             tunnel: &tunnel,
             boxes,
             flames,
+            beds,
             ambient_k: AMBIENT,
             outside_k: 310.0,
             smoke_per_m: smoke,
@@ -586,5 +622,30 @@ mod tests {
             hot_area(&wet) < hot_area(&dry),
             "the spray cools the flame's thin edges"
         );
+    }
+
+    #[test]
+    fn a_knocked_down_fires_bed_reads_its_surface_temperature_on_the_road_only() {
+        let bed = HotBed {
+            centre: Point2::new(58.0, 0.0),
+            radius_m: 1.0,
+            // Under the core's 655 K ceiling.
+            surface_k: 600.0,
+        };
+        let img = shot_with_beds(&[], &[], &[bed], 0.01, 5);
+        let (u, v) = pixel([58.0, 0.0, 0.0]);
+        assert!(
+            (img.kelvin(u, v) - 600.0).abs() < 2.0,
+            "{}",
+            img.kelvin(u, v)
+        );
+        for p in [[58.0, 2.0, 0.0], [56.0, 0.0, 0.0], [60.0, 0.0, 0.5]] {
+            let (u, v) = pixel(p);
+            assert!(
+                (img.kelvin(u, v) - AMBIENT).abs() < 2.0,
+                "{p:?}: {}",
+                img.kelvin(u, v)
+            );
+        }
     }
 }

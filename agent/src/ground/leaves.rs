@@ -56,6 +56,24 @@ const TILT: Port<f64> = Port::input("tilt", "elevation, rad");
 const SCAN_AMPLITUDE: Port<f64> =
     Port::input("amplitude_rad", "sweep either side of straight ahead").with_default("1.5");
 
+const COOLING: Port<i64> = Port::input(
+    "msec",
+    "keep spraying this long after the flame is gone and after the fuel bed last read hot",
+)
+.with_default("3000");
+const COOLING_LIMIT: Port<i64> = Port::input(
+    "limit_msec",
+    "stop cooling after this long, whatever the bed reads",
+)
+.with_default("60000");
+const BED_COOL_BELOW: Port<f64> = Port::input(
+    "below_k",
+    "the fuel bed is cool once the road around the fire reads under this, K",
+)
+// 200 C: 100 K under the surface temperature at which wood and char re-ignite under a
+// pilot (about 300 C), for a bed seen at a slant, through the water standing on it.
+.with_default("473.15");
+
 /// Opens the valve once the cannon is on its set-point (Running while it slews).
 struct StartWaterCannon;
 
@@ -108,6 +126,45 @@ impl StatefulAction<Unit> for ScanForFire {
     fn on_halted(&mut self, _: &mut Io<'_>, u: &mut Unit) {
         u.scan = None;
     }
+}
+
+/// The cooling pass after a knock-down: keeps the jet on the fire's fuel bed until `msec`
+/// have passed with the bed not read hot (under `below_k` in the thermal camera's
+/// frames), then Success; Success after `limit_msec` whatever it reads (a tank is
+/// finite, and a bed that stays hot that long is the coordinator's to send help to). A
+/// unit with no thermal camera reads nothing: a fixed pass of `msec`, the BT paper's.
+struct CoolBed {
+    since: f64,
+    cool_since: f64,
+}
+
+impl StatefulAction<Unit> for CoolBed {
+    fn on_start(&mut self, io: &mut Io<'_>, u: &mut Unit) -> Status {
+        self.since = u.now();
+        self.cool_since = u.now();
+        self.on_running(io, u)
+    }
+    fn on_running(&mut self, io: &mut Io<'_>, u: &mut Unit) -> Status {
+        let (Ok(fire), Ok(msec), Ok(limit), Ok(below)) = (
+            io.get(&FIRE),
+            io.get(&COOLING),
+            io.get(&COOLING_LIMIT),
+            io.get(&BED_COOL_BELOW),
+        ) else {
+            return Status::Failure;
+        };
+        let now = u.now();
+        if u.bed_k(p(fire)).is_some_and(|k| k >= below) {
+            self.cool_since = now;
+        }
+        let ms = |s: f64| (s * 1000.0) as i64;
+        if ms(now - self.cool_since) >= msec || ms(now - self.since) >= limit {
+            Status::Success
+        } else {
+            Status::Running
+        }
+    }
+    fn on_halted(&mut self, _: &mut Io<'_>, _: &mut Unit) {}
 }
 
 /// Every leaf the ground unit's trees may use.
@@ -292,6 +349,19 @@ pub fn registry() -> Registry<Unit> {
         "StartWaterCannon",
         vec![],
         Leaf::stateful(|| StartWaterCannon),
+    );
+    r.register(
+        "CoolBed",
+        vec![
+            FIRE.spec(),
+            COOLING.spec(),
+            COOLING_LIMIT.spec(),
+            BED_COOL_BELOW.spec(),
+        ],
+        Leaf::stateful(|| CoolBed {
+            since: 0.0,
+            cool_since: 0.0,
+        }),
     );
     r.register(
         "StopWaterCannon",

@@ -29,9 +29,14 @@
 //! box is the core's, and every cell of the depth window holds the detector's range to
 //! the flame's axis.
 //!
+//! Beside the detector, [`road_hottest_k`] reads a patch of road: a knocked-down fire's
+//! fuel bed, which a unit keeps cooling while it glows.
+//!
 //! Not here: the images themselves (the robot's drivers, or the simulator's renderer),
 //! tracking flames in the site frame ([`crate::ground::tracker`]).
 
+use firefleet_model::Point2;
+use firefleet_model::geometry::Pose2;
 use firefleet_model::spec::CameraSpec;
 use firefleet_model::validate::Validate;
 use firefleet_protocol::msg::{DEPTH_WINDOW, FlameDetection, ObjectClass, ThermalImage};
@@ -217,6 +222,50 @@ impl ThermalDetector {
     }
 }
 
+/// The hottest the road reads within `radius_m` of `at`, K: over the pixels of `img` whose
+/// rays meet the road there, seen from `eye` (the camera's pose,
+/// [`CameraSpec::looking_from`]) through `optics`. `None` if no pixel's ray does (the
+/// patch is out of view or beyond the camera's range), or if the image is malformed or
+/// not the size `optics` says. What a unit reads a knocked-down fire's fuel bed by: its
+/// glow does not flicker, so it is no flame to [`ThermalDetector`], but a bed left hot
+/// re-ignites.
+pub fn road_hottest_k(
+    img: &ThermalImage,
+    optics: &CameraSpec,
+    eye: &Pose2,
+    at: Point2,
+    radius_m: f64,
+) -> Option<f64> {
+    let sized =
+        f64::from(img.width) == optics.width_px && f64::from(img.height) == optics.height_px;
+    if !sized || img.validate().is_err() {
+        return None;
+    }
+    let (w, h) = (usize::from(img.width), usize::from(img.height));
+    let mut hottest: Option<f64> = None;
+    for v in 0..h {
+        // The optical axis is level: a row below the principal point meets the road at the
+        // depth where the ray's drop is the camera's height.
+        let drop_per_m = (v as f64 + 0.5 - optics.cy) / optics.fy;
+        if drop_per_m <= 0.0 {
+            continue;
+        }
+        let z = optics.mount_height_m / drop_per_m;
+        if z > optics.range_m {
+            continue;
+        }
+        for u in 0..w {
+            let [forward, left, _] =
+                optics.camera_to_body(optics.back_project(u as f64 + 0.5, v as f64 + 0.5, z));
+            if eye.to_site(Point2::new(forward, left)).dist(at) <= radius_m {
+                let k = img.kelvin(u, v);
+                hottest = Some(hottest.map_or(k, |m| m.max(k)));
+            }
+        }
+    }
+    hottest
+}
+
 fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
     (a[0] - b[0]).hypot(a[1] - b[1])
 }
@@ -330,11 +379,9 @@ fn detection(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firefleet_model::Point2;
-    use firefleet_model::geometry::Pose2;
     use firefleet_model::profile::GROUND;
     use firefleet_model::scenario::{Obstacle, Tunnel};
-    use firefleet_sim::thermal::{Flame, HotBox, Scene, ThermalCore, render};
+    use firefleet_sim::thermal::{Flame, HotBed, HotBox, Scene, ThermalCore, render};
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
@@ -342,8 +389,13 @@ mod tests {
 
     const AMBIENT: f64 = 293.15;
 
-    /// Frames at 10 Hz of a camera at (100, 0) looking down +x at `flames` and `boxes`.
-    fn frames(flames: &[Flame], boxes: &[HotBox], smoke: f64, n: usize) -> Vec<ThermalImage> {
+    /// Frames at 10 Hz of a camera at (100, 0) looking down +x at `flames`, `boxes` and
+    /// `beds`.
+    fn frames(
+        (flames, boxes, beds): (&[Flame], &[HotBox], &[HotBed]),
+        smoke: f64,
+        n: usize,
+    ) -> Vec<ThermalImage> {
         let tunnel = Tunnel::straight(300.0, 10.0, 6.0, 2);
         let core =
             ThermalCore::lepton_class(GROUND.thermal_camera.expect("luf60 has a thermal core"));
@@ -352,6 +404,7 @@ mod tests {
             tunnel: &tunnel,
             boxes,
             flames,
+            beds,
             ambient_k: AMBIENT,
             outside_k: 310.0,
             smoke_per_m: smoke,
@@ -400,7 +453,7 @@ mod tests {
 
     #[test]
     fn a_flame_at_6_m_is_found_within_half_a_metre_after_a_few_frames() {
-        let out = run(&frames(&[flame_at(106.0, 0.5)], &[], 0.01, 12));
+        let out = run(&frames((&[flame_at(106.0, 0.5)], &[], &[]), 0.01, 12));
         assert!(
             out[..3].iter().all(Vec::is_empty),
             "not before it persisted"
@@ -447,17 +500,45 @@ mod tests {
             },
             surface_k: 650.0,
         };
-        let out = run(&frames(&[], &[engine], 0.01, 12));
+        let out = run(&frames((&[], &[engine], &[]), 0.01, 12));
         assert!(out.iter().all(Vec::is_empty), "{out:?}");
     }
 
     #[test]
     fn in_smoke_that_blinds_depth_the_flame_is_placed_from_where_it_meets_the_road() {
-        let out = run(&frames(&[flame_at(110.0, -1.0)], &[], 0.8, 12));
+        let out = run(&frames((&[flame_at(110.0, -1.0)], &[], &[]), 0.8, 12));
         let found: Vec<Point2> = out.iter().flatten().map(place).collect();
         assert!(found.len() >= 4, "{found:?}");
         for p in found {
             assert!(p.dist(Point2::new(110.0, -1.0)) < 1.0, "{p:?}");
         }
+    }
+
+    /// A knocked-down fire's glowing bed: no flame, but the road under it reads hot, only
+    /// there, and only through the pose the frame was taken from.
+    #[test]
+    fn a_hot_bed_is_no_flame_and_the_road_reads_its_temperature_where_it_lies() {
+        let bed = HotBed {
+            centre: Point2::new(106.0, 0.5),
+            radius_m: 1.0,
+            surface_k: 600.0,
+        };
+        let images = frames((&[], &[], &[bed]), 0.01, 12);
+        let out = run(&images);
+        assert!(out.iter().all(Vec::is_empty), "{out:?}");
+        let optics = GROUND.thermal_camera.expect("luf60 has a thermal core");
+        let eye = Pose2::new(100.0, 0.0, 0.0);
+        let read = |at: Point2| road_hottest_k(&images[11], &optics, &eye, at, 0.5);
+        let k = read(bed.centre).expect("in view");
+        assert!((k - 600.0).abs() < 2.0, "{k}");
+        let k = read(Point2::new(109.0, 0.5)).expect("in view");
+        assert!((k - AMBIENT).abs() < 2.0, "beyond it: {k}");
+        assert_eq!(read(Point2::new(90.0, 0.0)), None, "behind the camera");
+        let turned = Pose2::new(100.0, 0.0, 0.3);
+        assert_eq!(
+            road_hottest_k(&images[11], &optics, &turned, bed.centre, 0.5).map(|k| k > 500.0),
+            Some(false),
+            "read from the wrong pose, the patch is elsewhere in the image"
+        );
     }
 }

@@ -32,14 +32,14 @@ use firefleet_model::spec::GroundSpec;
 use firefleet_model::{Chainage, UnitId};
 use firefleet_protocol::msg::{
     Approach, CLEAR_OF_BARRED_M, FlameDetection, FlameReport, INSIDE_PORTAL_M, TaskKind,
-    UnitCommand, UnitMode, UnitSensors, UnitState, nearest_allowed,
+    ThermalImage, UnitCommand, UnitMode, UnitSensors, UnitState, nearest_allowed,
 };
 
 use crate::controller::Services;
 use crate::mission::{Mission, Responder};
 
 use crate::ground::aim;
-use crate::ground::thermal::ThermalDetector;
+use crate::ground::thermal::{self, ThermalDetector};
 use crate::ground::tracker::FlameTracker;
 use firefleet_model::heat::HeatSource;
 use firefleet_nav::hybrid_astar::{Footprint, HybridAStar, Params};
@@ -66,6 +66,11 @@ const RUN_IN_M: [f64; 3] = [2.5, 1.5, 0.75];
 const VISIBILITY_LAMBDA_M: f64 = 5.0;
 /// How long after the last detection a flame still counts as seen, s.
 const RECENTLY_SEEN_S: f64 = 2.0;
+/// How far around a fire's estimated position the road is read for its fuel bed, m: the
+/// estimate's error at firing range, about half a metre, and a metre of the bed.
+const BED_LOOK_M: f64 = 1.5;
+/// A thermal frame older than this says nothing of a bed, s (the core sends 8.7 a second).
+const BED_FRAME_FRESH_S: f64 = 1.0;
 /// Period of the sweep across a flame's base while spraying, s. With the sweep's half-width
 /// at half the flame's radius, the pan rate stays far under the slew rate.
 const SWEEP_PERIOD_S: f64 = 2.0;
@@ -166,6 +171,9 @@ pub struct Unit {
     thermal: ThermalDetector,
     /// What it found in the newest frame, if that frame had a thermal image.
     found: Option<Vec<FlameDetection>>,
+    /// The newest thermal image, the pose it was taken from and when: what a fuel bed is
+    /// read in ([`Unit::bed_k`]).
+    thermal_view: Option<(ThermalImage, Pose2, f64)>,
     /// The latest sensor frame.
     pub(crate) frame: UnitSensors,
     nav: Option<Navigation>,
@@ -223,6 +231,7 @@ impl Unit {
             tracker: FlameTracker::default(),
             thermal: ThermalDetector::default(),
             found: None,
+            thermal_view: None,
             frame,
             nav: None,
             cruising_to: None,
@@ -594,6 +603,19 @@ impl Unit {
         Some((pan, shot.elevation))
     }
 
+    /// The hottest the road reads around `fire` in the newest thermal frame, K: the fuel
+    /// bed a knocked-down fire leaves ([`thermal::road_hottest_k`]). `None` on a unit with
+    /// no thermal camera, with no frame in the last [`BED_FRAME_FRESH_S`], or with the bed
+    /// out of view.
+    pub fn bed_k(&self, fire: Point2) -> Option<f64> {
+        let optics = self.spec.thermal_camera.as_ref()?;
+        let (image, eye, t) = self.thermal_view.as_ref()?;
+        if self.now() - t > BED_FRAME_FRESH_S {
+            return None;
+        }
+        thermal::road_hottest_k(image, optics, eye, fire, BED_LOOK_M)
+    }
+
     /// The cannon is at its set-point.
     pub fn on_target(&self) -> bool {
         self.aim.is_some_and(|(p, t)| {
@@ -664,8 +686,13 @@ impl Services for Unit {
             n.recover = Some(Recovery::after(n.recover, frame.t));
         }
         self.frame = frame.clone();
-        // The image is the detector's; the frame is kept for its readings.
-        self.frame.thermal = None;
+        // The image is the detector's and the bed reading's; the frame is kept for its
+        // readings.
+        if let (Some(image), Some(optics)) = (self.frame.thermal.take(), &self.spec.thermal_camera)
+        {
+            let eye = optics.looking_from(&frame.pose, frame.cannon.pan);
+            self.thermal_view = Some((image, eye, frame.t));
+        }
         self.keep_out();
     }
 

@@ -239,6 +239,7 @@ fn clip(s: &Setup, seed: u64, pixels: &mut Tally, boxes: &mut Tally) {
         tunnel: &s.tunnel,
         boxes: &s.boxes,
         flames: &flames,
+        beds: &[],
         ambient_k: AMBIENT_K,
         outside_k: s.outside_k,
         smoke_per_m: s.smoke_per_m,

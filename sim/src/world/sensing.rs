@@ -7,7 +7,7 @@
 
 use super::*;
 use crate::thermal::{
-    self, BODY_LOSS_KW_M2_K, BURNING_BODY_K, DAYLIGHT_RISE_K, Flame, HotBox, Scene,
+    self, BODY_LOSS_KW_M2_K, BURNING_BODY_K, DAYLIGHT_RISE_K, Flame, HotBed, HotBox, Scene,
     THERMAL_PERIOD_S, ThermalCore,
 };
 use firefleet_model::spec::CameraSpec;
@@ -103,7 +103,8 @@ impl World {
     }
 
     /// A thermal core's frame from `eye` through smoke `smoke_per_m`: burning fires as
-    /// flames (sprayed while water lands on them), vehicles warmed by the flux the fires
+    /// flames (sprayed while water lands on them), knocked-down ones as their hot fuel
+    /// beds, vehicles warmed by the flux the fires
     /// send them at their middle (up to [`BURNING_BODY_K`], where one burns), the ceiling
     /// gas as the world computes it.
     fn thermal_frame(&mut self, optics: CameraSpec, eye: &Pose2, smoke_per_m: f64) -> ThermalImage {
@@ -117,6 +118,17 @@ impl World {
                 radius_m: f.spec.radius_m,
                 height_m: f.flame_height(),
                 sprayed: f.wetted,
+            })
+            .collect();
+        let beds: Vec<HotBed> = self
+            .fires
+            .iter()
+            .filter_map(|f| {
+                Some(HotBed {
+                    centre: f.spec.position(),
+                    radius_m: f.spec.radius_m,
+                    surface_k: f.bed_k()?,
+                })
             })
             .collect();
         let boxes: Vec<HotBox> = self
@@ -136,6 +148,7 @@ impl World {
             tunnel: &self.tunnel,
             boxes: &boxes,
             flames: &flames,
+            beds: &beds,
             ambient_k,
             outside_k: ambient_k + DAYLIGHT_RISE_K,
             smoke_per_m,
