@@ -16,11 +16,13 @@
 // strip above the map is the whole tunnel, with the view marked on it.
 //
 // The timeline keeps a snapshot of the map every second of site time; dragging it shows
-// the incident as it was, decisions after that time dimmed.
+// the incident as it was, decisions after that time dimmed. What happened before the page
+// was opened comes from the console's own timeline (`/api/history`, kept on its host).
 
 const STALE_MS = 2000;
 const SVG = "http://www.w3.org/2000/svg";
 const LABEL_FONT_PX = 12;
+// As many as the console keeps (`history::MAX_SNAPSHOTS`).
 const MAX_SNAPSHOTS = 3600;
 const $ = (id) => document.getElementById(id);
 
@@ -32,7 +34,7 @@ const state = {
 
 // What the browser test and the latency measurement read: update latency from the
 // console hearing a unit's state to this page having drawn it, and the labels' boxes.
-window.ffStats = { latency_ms: [], deltas: 0, incidents: 0, labels_hidden: 0 };
+window.ffStats = { latency_ms: [], deltas: 0, incidents: 0, labels_hidden: 0, historyLoaded: 0 };
 window.ffState = state;
 
 const el = (tag, attrs = {}, parent = null) => {
@@ -831,6 +833,21 @@ const timeline = {
     r.min = this.snaps[0].t; r.max = state.t;
     if (this.scrub == null) r.value = state.t;
   },
+  // The console's own timeline from before this page was opened (or reloaded): its
+  // snapshots older than the page's first are put in front of them.
+  async load() {
+    let r;
+    try { r = await fetch("/api/history", { credentials: "same-origin" }); } catch { return; }
+    if (!r.ok) return;
+    const first = this.snaps.length ? this.snaps[0].t : Infinity;
+    const older = (await r.json()).filter((s) => s.t < first).map(fromHistory);
+    if (!older.length) return;
+    this.snaps = older.concat(this.snaps);
+    const range = $("timeline");
+    range.min = this.snaps[0].t;
+    if (this.scrub == null) range.value = state.t;
+    window.ffStats.historyLoaded = older.length;
+  },
   at() { return this.scrub; },
   shown() {
     if (this.scrub == null) return null;
@@ -845,6 +862,16 @@ const timeline = {
     drawHeader(); drawDecisions(); scheduleRender();
   },
 };
+
+// A snapshot of the console's timeline (`/api/history`) as the page draws one.
+function fromHistory(s) {
+  return {
+    t: s.t,
+    units: s.units.map((u) => ({ id: u.id, kind: u.kind, x: u.x, y: u.y, yaw: u.yaw, status: u.lost ? "lost" : "fresh",
+      lost: u.lost, autonomous: u.autonomous, fault: u.fault, task: u.task || null })),
+    fires: s.fires.map((f) => ({ id: f.id, state: f.state, position: f.position, hrr_kw: f.hrr_kw ?? null, assigned: f.assigned })),
+  };
+}
 
 function shownLive() {
   const scrub = timeline.scrub;
@@ -881,6 +908,7 @@ function applyIncident(inc) {
   for (const u of state.units.values()) unitRow(u, now);
   fireRows(); drawGoals(); drawHeat(); drawAlerts(); drawDecisions(); drawHeader(); drawInfra();
   timeline.record();
+  timeline.load();
   fitIncident();
   window.ffStats.incidents++;
 }

@@ -96,8 +96,7 @@ fn main() {
                 secure: false,
                 open_reads: false,
             },
-            firefleet_console::audit::Audit::in_memory(),
-            firefleet_console::alarm_file::AlarmFile::in_memory(),
+            firefleet_console::http::Records::in_memory(),
         );
         let tcp = tokio::net::TcpListener::bind("127.0.0.1:0")
             .await

@@ -1,22 +1,19 @@
 //! The console's audit log: who issued, cleared and acknowledged what, and when, for the
-//! after-action report. One JSON line per entry, appended to a file in the console's
-//! state directory and synced before the commander is answered, read back whole at
-//! start: a restart, or a commander opening the page late, loses none of it. Served as
+//! after-action report. One JSON line per entry ([`LineLog`]), appended to a file in the
+//! console's state directory and synced before the commander is answered, read back whole
+//! at start: a restart, or a commander opening the page late, loses none of it. Served as
 //! JSON and as CSV (`/api/audit`, `/api/audit.csv`).
 //!
-//! Why a log of lines and not the state file the roles keep: it only grows, each entry is
-//! a few hundred bytes, and a crash can at worst cut the last line short (read back, a
-//! torn last line is skipped and said).
-//!
-//! Not here: the incident's own history (the recordings keep every message).
+//! Not here: the incident's own history (the recordings keep every message; the
+//! console's timeline is [`crate::history`]).
 
 use std::collections::VecDeque;
-use std::fs::{File, OpenOptions};
-use std::io::{BufRead, BufReader, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Mutex;
 
 use serde::{Deserialize, Serialize};
+
+use crate::line_log::{LineLog, LogError};
 
 /// The file in the state directory.
 pub const FILE: &str = "audit.jsonl";
@@ -47,18 +44,10 @@ pub struct Entry {
     pub outcome: String,
 }
 
-/// Why the audit log cannot be kept.
-#[derive(Debug, thiserror::Error)]
-#[error("the audit log {path}: {source}")]
-pub struct AuditError {
-    path: PathBuf,
-    source: std::io::Error,
-}
-
 /// The audit log.
 #[derive(Debug)]
 pub struct Audit {
-    file: Option<(PathBuf, Mutex<File>)>,
+    file: Option<LineLog>,
     entries: Mutex<VecDeque<Entry>>,
 }
 
@@ -72,47 +61,16 @@ impl Audit {
     }
 
     /// The log in directory `dir` (made if missing), with what it already holds.
-    pub fn open(dir: &Path) -> Result<Self, AuditError> {
-        let path = dir.join(FILE);
-        let err = |source| AuditError {
-            path: path.clone(),
-            source,
-        };
-        std::fs::create_dir_all(dir).map_err(err)?;
+    pub fn open(dir: &Path) -> Result<Self, LogError> {
         let mut entries = VecDeque::new();
-        if let Ok(f) = File::open(&path) {
-            for (n, line) in BufReader::new(f).lines().enumerate() {
-                let line = line.map_err(err)?;
-                match serde_json::from_str::<Entry>(&line) {
-                    Ok(e) => {
-                        if entries.len() == KEPT {
-                            entries.pop_front();
-                        }
-                        entries.push_back(e);
-                    }
-                    Err(e) => tracing::warn!(
-                        "{}: line {} skipped ({e}): cut short by a crash?",
-                        path.display(),
-                        n + 1
-                    ),
-                }
+        let file = LineLog::open(dir, FILE, |e: Entry| {
+            if entries.len() == KEPT {
+                entries.pop_front();
             }
-        }
-        let mut file = OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(&path)
-            .map_err(err)?;
-        // A line a crash cut short is ended, so the next entry starts a line of its own.
-        let torn = std::fs::read(&path)
-            .map_err(err)?
-            .last()
-            .is_some_and(|b| *b != b'\n');
-        if torn {
-            file.write_all(b"\n").map_err(err)?;
-        }
+            entries.push_back(e);
+        })?;
         Ok(Self {
-            file: Some((path, Mutex::new(file))),
+            file: Some(file),
             entries: Mutex::new(entries),
         })
     }
@@ -120,15 +78,8 @@ impl Audit {
     /// Keep `entry`: on disk (synced) first, then to serve. A write that fails is logged,
     /// not fatal: the commander's action stands, only its record is missing.
     pub fn note(&self, entry: Entry) {
-        if let Some((path, file)) = &self.file {
-            let mut line = serde_json::to_vec(&entry).expect("an entry serializes");
-            line.push(b'\n');
-            let mut f = file
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
-            if let Err(e) = f.write_all(&line).and_then(|()| f.sync_data()) {
-                tracing::error!("{}: an audit entry not kept: {e}", path.display());
-            }
+        if let Some(file) = &self.file {
+            file.append(&entry, true);
         }
         let mut entries = self
             .entries
@@ -187,6 +138,8 @@ fn csv_field(f: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::fs::OpenOptions;
+    use std::io::Write;
 
     fn entry(what: &str) -> Entry {
         Entry {

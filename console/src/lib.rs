@@ -34,8 +34,10 @@
 pub mod alarm_file;
 pub mod audit;
 pub mod auth;
+pub mod history;
 pub mod http;
 pub mod infra;
+pub mod line_log;
 pub mod node;
 pub mod picture;
 pub mod site;

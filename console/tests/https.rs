@@ -70,8 +70,7 @@ async fn a_login_over_https_sets_a_secure_cookie_and_plain_http_gets_nothing() {
             secure: true,
             open_reads: false,
         },
-        firefleet_console::audit::Audit::in_memory(),
-        firefleet_console::alarm_file::AlarmFile::in_memory(),
+        firefleet_console::http::Records::in_memory(),
     );
     let config = server_config(&dir.path().join("cert.pem"), &dir.path().join("key.pem")).unwrap();
     let tcp = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();

@@ -21,7 +21,8 @@ use firefleet_bus::pki::Expect;
 use firefleet_console::alarm_file::AlarmFile;
 use firefleet_console::audit::Audit;
 use firefleet_console::auth::{Role, Sessions, Users};
-use firefleet_console::http::{Console, Peer, Serving, TICK};
+use firefleet_console::history::History;
+use firefleet_console::http::{Console, Peer, Records, Serving, TICK};
 use firefleet_console::node;
 use firefleet_console::picture::Picture;
 use firefleet_console::site::SiteMap;
@@ -143,12 +144,17 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
     )
     .await?;
     a.role.metrics.serve(&bus, false, None).await?;
-    let (audit, (alarms, kept)) = match &a.state_dir {
-        Some(dir) => (
-            Audit::open(dir).context("--state-dir")?,
-            AlarmFile::open(dir).context("--state-dir")?,
-        ),
-        None => (Audit::in_memory(), (AlarmFile::in_memory(), Vec::new())),
+    let (records, kept) = match &a.state_dir {
+        Some(dir) => {
+            let (alarms, kept) = AlarmFile::open(dir).context("--state-dir")?;
+            let records = Records {
+                audit: Audit::open(dir).context("--state-dir")?,
+                alarms,
+                history: History::open(dir).context("--state-dir")?,
+            };
+            (records, kept)
+        }
+        None => (Records::in_memory(), Vec::new()),
     };
     let mut picture = Picture::new(SiteMap::new(&scenario));
     picture.restore_alerts(kept);
@@ -160,8 +166,7 @@ async fn serve(a: ServeArgs) -> anyhow::Result<ExitCode> {
             secure: tls.is_some(),
             open_reads,
         },
-        audit,
-        alarms,
+        records,
     );
     let bus = Arc::new(bus);
     let feed = {

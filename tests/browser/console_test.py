@@ -452,6 +452,24 @@ def plain_site(args, tmp, users, driver):
         wait_for("back to live", lambda: "(timeline" not in driver.find_element(By.ID, "clock").text)
         print(f"timeline: scrubbed to the start of {t_live:.0f} s and back")
 
+        # A page opened late (here, reloaded: its own snapshots gone) scrubs back to the
+        # start from the console's timeline.
+        driver.refresh()
+        wait_for("the reloaded page live", lambda: driver.find_element(By.ID, "link").text == "live")
+        loaded = wait_for("the console's timeline loaded",
+                          lambda: js("return window.ffStats.historyLoaded"), timeout=10)
+        t_open = float(js("return window.ffState.t"))
+        t_min = float(js("return Number(document.getElementById('timeline').min)"))
+        assert t_open >= 60, f"reloaded only {t_open:.0f} s into the incident"
+        assert t_min <= 2.0, f"the reloaded page's timeline starts at {t_min:.1f} s"
+        js("const r = document.getElementById('timeline'); r.value = r.min; r.dispatchEvent(new Event('input'))")
+        wait_for("the reloaded page shows the start",
+                 lambda: "(timeline" in driver.find_element(By.ID, "clock").text)
+        wait_for("units drawn at the start", lambda: js("return document.querySelectorAll('#units g.unit').length") > 0)
+        driver.find_element(By.ID, "timeline-live").click()
+        print(f"reloaded {t_open:.0f} s in: the timeline reaches back to t = {t_min:.1f} s "
+              f"({loaded} snapshots from the console)")
+
         # A pinch with two fingers zooms in.
         span0 = driver.find_element(By.ID, "view-span").text
         js("""

@@ -63,6 +63,7 @@ use tokio::sync::{broadcast, mpsc, oneshot};
 use crate::alarm_file::AlarmFile;
 use crate::audit::{Action, Audit, Entry as AuditEntry};
 use crate::auth::{CheckRefused, Checker, Role, Sessions, Users};
+use crate::history::{History, Snapshot};
 use crate::picture::{Event, Picture};
 use crate::throttle::Throttle;
 
@@ -131,6 +132,31 @@ pub struct Console {
     audit: Audit,
     /// The alarms as they stand, for a restart.
     alarms: AlarmFile,
+    /// The timeline, for a late page and a restart.
+    history: Mutex<History>,
+}
+
+/// What a console keeps of the incident beside its picture, in its state directory or
+/// only in memory.
+#[derive(Debug)]
+pub struct Records {
+    /// Who did what through it.
+    pub audit: Audit,
+    /// The alarms as they stand.
+    pub alarms: AlarmFile,
+    /// The timeline.
+    pub history: History,
+}
+
+impl Records {
+    /// Records a restart loses (a console with no state directory).
+    pub fn in_memory() -> Self {
+        Self {
+            audit: Audit::in_memory(),
+            alarms: AlarmFile::in_memory(),
+            history: History::in_memory(),
+        }
+    }
 }
 
 /// How a console is served.
@@ -150,16 +176,20 @@ pub fn now_ms() -> u64 {
 }
 
 impl Console {
-    /// A console over `picture`, keeping what commanders do in `audit` and its alarms in
-    /// `alarms`; the receiver gets the goals commanders issue.
+    /// A console over `picture`, keeping what commanders do, its alarms and the timeline
+    /// in `records`; the receiver gets the goals commanders issue.
     pub fn new(
         picture: Picture,
         users: Users,
         sessions: Sessions,
         serving: Serving,
-        audit: Audit,
-        alarms: AlarmFile,
+        records: Records,
     ) -> (Arc<Self>, mpsc::Receiver<GoalRequest>) {
+        let Records {
+            audit,
+            alarms,
+            history,
+        } = records;
         let (goals, requests) = mpsc::channel(16);
         let (deltas, _) = broadcast::channel(BACKLOG);
         let console = Arc::new(Self {
@@ -174,6 +204,7 @@ impl Console {
             streams: Mutex::new(HashMap::new()),
             audit,
             alarms,
+            history: Mutex::new(history),
         });
         (console, requests)
     }
@@ -195,6 +226,10 @@ impl Console {
         self.picture.lock().expect("picture lock")
     }
 
+    fn history(&self) -> std::sync::MutexGuard<'_, History> {
+        self.history.lock().expect("history lock")
+    }
+
     /// The units of the site this console shows.
     pub fn units(&self) -> Vec<firefleet_model::UnitId> {
         let picture = self.picture();
@@ -211,18 +246,28 @@ impl Console {
         self.picture().observe(now_ms(), event);
     }
 
-    /// Send pages what changed since the last tick; the binary calls it every [`TICK`].
+    /// Send pages what changed since the last tick, and keep a snapshot for the timeline
+    /// when one is due; the binary calls it every [`TICK`].
     pub fn tick(&self) {
         let now = now_ms();
-        let (delta, alarms) = {
+        let (delta, alarms, snap) = {
             let mut picture = self.picture();
             let delta = picture.delta(now);
             let changed = delta.as_ref().is_some_and(|d| !d.alerts.is_empty());
             let due = self.alarms.due(changed, now);
-            (delta, due.then(|| picture.alerts()))
+            let snap = self
+                .history()
+                .due(picture.t())
+                .then(|| Snapshot::of(&picture.incident()))
+                // Nothing heard yet: nothing to draw.
+                .filter(|s| !s.units.is_empty() || !s.fires.is_empty());
+            (delta, due.then(|| picture.alerts()), snap)
         };
         if let Some(alarms) = alarms {
             self.alarms.keep(&alarms, now);
+        }
+        if let Some(snap) = snap {
+            self.history().record(snap);
         }
         if let Some(delta) = delta
             && self.deltas.receiver_count() > 0
@@ -257,6 +302,7 @@ impl Console {
             .route("/api/goals/{zone}", delete(clear_goals))
             .route("/api/alerts/{id}/ack", post(ack_alert))
             .route("/api/audit", get(audit))
+            .route("/api/history", get(history))
             .layer(axum::middleware::from_fn_with_state(self.clone(), guard))
             .with_state(self)
     }
@@ -814,6 +860,18 @@ async fn audit(
             .into_response();
     }
     Json(c.audit.entries()).into_response()
+}
+
+/// The timeline's snapshots, oldest first ([`History::served`]).
+async fn history(State(c): State<Arc<Console>>, headers: HeaderMap) -> Response {
+    if !c.may_read(&headers) {
+        return login_to_read();
+    }
+    let body = {
+        let history = c.history();
+        serde_json::to_string(&history.served()).expect("snapshots serialise")
+    };
+    ([(header::CONTENT_TYPE, "application/json")], body).into_response()
 }
 
 #[cfg(test)]

@@ -37,8 +37,7 @@ fn fixture_serving(serving: Serving) -> Fixture {
         users,
         Sessions::new(Duration::from_secs(3600)),
         serving,
-        crate::audit::Audit::in_memory(),
-        crate::alarm_file::AlarmFile::in_memory(),
+        crate::http::Records::in_memory(),
     );
     Fixture {
         console,
@@ -392,4 +391,35 @@ async fn an_alert_is_acknowledged_by_the_login() {
     )
     .await;
     assert_eq!(status, StatusCode::NOT_FOUND);
+}
+
+/// A page opened late (or reloaded) is sent the timeline from the start: a snapshot a
+/// second of site time, each with where the units were.
+#[tokio::test]
+async fn a_late_page_gets_the_timeline_from_the_start() {
+    let f = fixture();
+    for k in 0..30 {
+        let t = f64::from(k) * 0.5;
+        let mut s = firefleet_protocol::testing::ground_state("ugv-1", 10.0 + t, -2.5);
+        s.t = t;
+        f.console.observe(Event::Message(
+            firefleet_protocol::payload::Payload::UnitState(s),
+        ));
+        f.console.tick();
+    }
+    let (status, _, _) = call(&f.console, "GET", "/api/history", None, None).await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED);
+    let cookie = log_in(&f.console).await;
+    let (status, _, snaps) = call(&f.console, "GET", "/api/history", Some(&cookie), None).await;
+    assert_eq!(status, StatusCode::OK);
+    let ts: Vec<f64> = snaps
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["t"].as_f64().unwrap())
+        .collect();
+    assert_eq!(ts, (0..15).map(f64::from).collect::<Vec<_>>());
+    assert_eq!(snaps[0]["units"][0]["id"], "ugv-1");
+    assert_eq!(snaps[0]["units"][0]["x"], 10.0);
+    assert_eq!(snaps[14]["units"][0]["x"], 24.0);
 }
