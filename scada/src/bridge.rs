@@ -25,9 +25,12 @@ pub enum Failure {
         server: std::net::SocketAddr,
         after: std::time::Duration,
     },
-    /// The connection could not be made, or was lost.
-    #[error("{0}")]
-    Disconnected(String),
+    /// The connection to `server` could not be made, or was lost.
+    #[error("{}", cut.said_of(*server))]
+    Disconnected {
+        server: std::net::SocketAddr,
+        cut: Cut,
+    },
     /// The server answered with a Modbus exception.
     #[error("Modbus exception {0}")]
     Exception(String),
@@ -39,7 +42,64 @@ pub enum Failure {
 impl Failure {
     /// Whether the connection is no use after this failure (the next poll reconnects).
     pub fn drops_connection(&self) -> bool {
-        matches!(self, Failure::Timeout { .. } | Failure::Disconnected(_))
+        matches!(self, Failure::Timeout { .. } | Failure::Disconnected { .. })
+    }
+}
+
+/// Why a connection to the SCADA's Modbus server could not be made or was lost, in the
+/// terms an operator acts on (the console shows it as the alarm's text): the socket's own
+/// words ("Operation now in progress (os error 115)") name no cause and no fix.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Cut {
+    /// Something answers at the address, nothing listens on the port.
+    Refused,
+    /// Nothing answers at the address: the network between is cut or filtered.
+    Unreachable,
+    /// A connection that was up was closed or reset by the other end.
+    Dropped,
+    /// Anything else, in the system's words.
+    Other(String),
+}
+
+impl Cut {
+    /// The cause of the socket error `e`.
+    pub fn of(e: &std::io::Error) -> Self {
+        use std::io::ErrorKind as K;
+        // Linux's EINPROGRESS: a non-blocking connect that never completed, what a
+        // connection to an address nothing answers at ends in. (Stable Rust's ErrorKind
+        // has no name for it yet, and the product runs on Linux.)
+        const EINPROGRESS: i32 = 115;
+        if e.raw_os_error() == Some(EINPROGRESS) {
+            return Cut::Unreachable;
+        }
+        match e.kind() {
+            K::ConnectionRefused => Cut::Refused,
+            K::NetworkUnreachable
+            | K::HostUnreachable
+            | K::NetworkDown
+            | K::TimedOut
+            | K::AddrNotAvailable => Cut::Unreachable,
+            K::ConnectionReset
+            | K::ConnectionAborted
+            | K::BrokenPipe
+            | K::UnexpectedEof
+            | K::NotConnected => Cut::Dropped,
+            _ => Cut::Other(e.to_string()),
+        }
+    }
+
+    /// What an operator reads of this cut of the link to `server`.
+    pub fn said_of(&self, server: std::net::SocketAddr) -> String {
+        match self {
+            Cut::Refused => format!(
+                "the SCADA's Modbus server at {server} refuses the connection: is it running, and on that port?"
+            ),
+            Cut::Unreachable => format!(
+                "no way through to the SCADA's Modbus server at {server}: check the network between (cable, switch, firewall)"
+            ),
+            Cut::Dropped => format!("the SCADA's Modbus server at {server} dropped the connection"),
+            Cut::Other(why) => format!("the link to the SCADA's Modbus server at {server}: {why}"),
+        }
     }
 }
 
@@ -155,7 +215,7 @@ impl Bridge {
         for f in &failures {
             match f {
                 Failure::Timeout { .. } => self.link.timeouts += 1,
-                Failure::Disconnected(_) => self.link.disconnects += 1,
+                Failure::Disconnected { .. } => self.link.disconnects += 1,
                 Failure::Exception(_) => self.link.exceptions += 1,
                 Failure::OutOfRange(_) => self.link.out_of_range += 1,
             }
@@ -286,7 +346,13 @@ mod tests {
                 .all(|z| !z.stale && z.t == 2.0 && (z.reading.max_c - 40.0).abs() < 0.2)
         );
         // The link is cut: everything is sent again as it was read, stale, with its time.
-        b.poll(3.0, Err(Failure::Disconnected("refused".into())));
+        b.poll(
+            3.0,
+            Err(Failure::Disconnected {
+                server: "10.0.0.5:502".parse().unwrap(),
+                cut: Cut::Refused,
+            }),
+        );
         assert!(b.zones().all(|z| z.stale && z.t == 2.0));
         assert!(b.vent().is_some_and(|v| v.stale && v.t == 2.0));
         assert_eq!(
@@ -335,5 +401,31 @@ mod tests {
             map.vent_block(fans),
             u32::from(vent_at)..u32::from(vent_at) + u32::from(vent_n)
         );
+    }
+
+    /// The socket's words name no cause; the operator's do, with where to look.
+    #[test]
+    fn a_cut_link_is_said_as_an_operator_acts_on_it() {
+        use std::io::{Error, ErrorKind};
+        let server = "10.0.0.5:502".parse().unwrap();
+        let said = |e: Error| {
+            Failure::Disconnected {
+                server,
+                cut: Cut::of(&e),
+            }
+            .to_string()
+        };
+        assert_eq!(
+            said(Error::from(ErrorKind::ConnectionRefused)),
+            "the SCADA's Modbus server at 10.0.0.5:502 refuses the connection: is it running, and on that port?"
+        );
+        // What a connect to an address nothing answers at gave on the site.
+        let in_progress = Error::from_raw_os_error(115);
+        assert!(
+            said(in_progress)
+                .starts_with("no way through to the SCADA's Modbus server at 10.0.0.5:502"),
+        );
+        assert!(said(Error::from(ErrorKind::ConnectionReset)).ends_with("dropped the connection"));
+        assert!(said(Error::other("odd")).ends_with("10.0.0.5:502: odd"));
     }
 }

@@ -9,13 +9,15 @@
 //! timeout, publishing.
 //!
 //! ```
-//! use firefleet_scada::bridge::{Bridge, Failure};
+//! use firefleet_scada::bridge::{Bridge, Cut, Failure};
 //!
 //! let site = firefleet_model::builtin::resolve("ventilated").unwrap();
 //! let mut bridge = Bridge::new(&site, site.scada.clone().unwrap());
-//! let cut = Failure::Disconnected("connection refused".into());
+//! let server = "10.0.0.5:502".parse().unwrap();
+//! let cut = Failure::Disconnected { server, cut: Cut::Refused };
 //! assert!(bridge.poll(1.0, Err(cut))[0].drops_connection());
 //! assert!(!bridge.link().up);
+//! assert!(bridge.link().problem.contains("refuses the connection: is it running"));
 //! assert_eq!(bridge.zones().count(), 0, "a zone never read is never published");
 //! ```
 //!

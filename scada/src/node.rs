@@ -19,7 +19,7 @@ use firefleet_model::scenario::Scenario;
 use tokio_modbus::Slave;
 use tokio_modbus::client::{Context as Modbus, Reader};
 
-use crate::bridge::{Bridge, Failure, Registers};
+use crate::bridge::{Bridge, Cut, Failure, Registers};
 
 /// How the bridge runs.
 #[derive(Debug, Clone)]
@@ -113,7 +113,10 @@ impl Link {
                 )
                 .await
                 .map_err(|_| Failure::Timeout { server, after })?
-                .map_err(|e| Failure::Disconnected(format!("{server}: {e}")))?;
+                .map_err(|e| Failure::Disconnected {
+                    server,
+                    cut: Cut::of(&e),
+                })?;
                 tracing::info!(addr = %self.addr, "SCADA link up");
                 self.modbus.insert(ctx)
             }
@@ -139,6 +142,12 @@ async fn read(
     tokio::time::timeout(after, modbus.read_input_registers(at, n))
         .await
         .map_err(|_| Failure::Timeout { server, after })?
-        .map_err(|e| Failure::Disconnected(e.to_string()))?
+        .map_err(|e| Failure::Disconnected {
+            server,
+            cut: match e {
+                tokio_modbus::Error::Transport(io) => Cut::of(&io),
+                tokio_modbus::Error::Protocol(p) => Cut::Other(p.to_string()),
+            },
+        })?
         .map_err(|e| Failure::Exception(format!("{e:?}")))
 }

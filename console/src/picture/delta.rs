@@ -43,7 +43,7 @@ impl Picture {
                         problem: v.problem.clone(),
                     },
                     format!(
-                        "link to the tunnel's SCADA lost ({}): its DTS and ventilation readings are stale",
+                        "the tunnel's DTS and ventilation are no longer read (their last readings stand, stale): {}",
                         v.problem
                     ),
                 );

@@ -556,6 +556,17 @@ fn a_silent_scada_bridge_raises_one_alert_and_the_layer_goes_stale() {
     assert!(layer.zones[0].stale && layer.zones[0].max_c == 80.0);
     assert_eq!(gone.alerts.len(), 1);
     assert!(matches!(gone.alerts[0].kind, AlertKind::ScadaLost { .. }));
+    assert_eq!(
+        gone.alerts[0].priority, 2,
+        "the DTS finds what no camera has seen"
+    );
+    assert!(
+        gone.alerts[0]
+            .text
+            .starts_with("the tunnel's DTS and ventilation are no longer read"),
+        "{}",
+        gone.alerts[0].text
+    );
     assert!(
         p.delta(3000 + crate::infra::SILENT_MS)
             .is_none_or(|d| d.alerts.is_empty() && d.infra.is_none()),

@@ -133,11 +133,14 @@ impl AlertKind {
             | AlertKind::Impostor { .. }
             | AlertKind::TwoCoordinators { .. }
             | AlertKind::Usurped { .. } => 1,
+            // The DTS finds the fires no unit's camera has seen yet: without it, a fire
+            // far from every unit is found only when one drives past.
             AlertKind::UnitLost { .. }
             | AlertKind::FireReignited { .. }
             | AlertKind::StandbyGone { .. }
-            | AlertKind::Suspended { .. } => 2,
-            AlertKind::GoalRejected { .. } | AlertKind::ScadaLost { .. } => 3,
+            | AlertKind::Suspended { .. }
+            | AlertKind::ScadaLost { .. } => 2,
+            AlertKind::GoalRejected { .. } => 3,
         }
     }
 
