@@ -209,7 +209,7 @@ function setupPanZoom() {
 function drawSite() {
   const s = state.site;
   $("scenario").textContent = `${s.scenario} (site ${s.site}, ${fmt(s.length_m, 0)} m)`;
-  for (const id of ["heat", "zones", "walls", "rails", "obstacles", "fires", "units", "tasks", "labels"]) $(id).replaceChildren();
+  for (const id of ["heat", "zones", "air", "walls", "rails", "obstacles", "fires", "units", "tasks", "labels"]) $(id).replaceChildren();
   unitEls.clear(); fireEls.clear(); taskEls.clear();
   const pts = (list) => list.map((p) => `${p[0]},${p[1]}`).join(" ");
   for (const z of s.zones) {
@@ -779,14 +779,102 @@ function drawInfra() {
     }
     $("dts-scale").textContent = `0 to ${fmt(top, 0)} °C, chainage 0 to ${fmt(end, 0)} m`;
   }
-  const alarms = zs.filter((z) => z.alarm);
-  $("dts-alarms").replaceChildren(...(alarms.length ? alarms.map((z) => html("li", { textContent: `zone ${z.zone}: ${fmt(z.start_m, 0)}-${fmt(z.end_m, 0)} m, ${fmt(z.max_c, 1)} °C${z.stale ? " (stale)" : ""}` })) : [html("li", { textContent: "none" })]));
-  const w = v.vent, portals = state.site ? state.site.portals : ["start", "end"];
+  // Zones in alarm side by side are one stretch: a fire heats a run of 10 m zones.
+  const ranges = [];
+  for (const z of zs.filter((z) => z.alarm).sort((a, b) => a.start_m - b.start_m)) {
+    const last = ranges[ranges.length - 1];
+    if (last && z.start_m <= last.end_m + 0.01) {
+      last.end_m = z.end_m; last.to = z.zone; last.max_c = Math.max(last.max_c, z.max_c); last.stale ||= z.stale;
+    } else ranges.push({ from: z.zone, to: z.zone, start_m: z.start_m, end_m: z.end_m, max_c: z.max_c, stale: z.stale });
+  }
+  $("dts-alarms").replaceChildren(...(ranges.length ? ranges.map((r) => html("li", {
+    textContent: `${r.from === r.to ? `zone ${r.from}` : `zones ${r.from}-${r.to}`}: ${fmt(r.start_m, 0)}-${fmt(r.end_m, 0)} m, up to ${fmt(r.max_c, 1)} °C${r.stale ? " (stale)" : ""}`,
+  })) : [html("li", { textContent: "none" })]));
+  drawAir();
+  const w = v.vent;
   if (!w) { $("vent").textContent = "-"; return; }
   const fans = {};
   for (const f of w.fans) fans[f] = (fans[f] || 0) + 1;
-  const air = Math.abs(w.air_m_s) < 0.05 ? "air still" : `air flows towards ${w.air_m_s > 0 ? portals[1] : portals[0]} at ${fmt(Math.abs(w.air_m_s), 1)} m/s`;
-  $("vent").textContent = `${air}; fans: ${Object.entries(fans).map(([k, n]) => `${n} ${k}`).join(", ") || "none"}${w.stale ? ` (stale, read t = ${fmt(w.t, 1)} s)` : ""}`;
+  $("vent").textContent = `${airWords(w)}; fans: ${Object.entries(fans).map(([k, n]) => `${n} ${k}`).join(", ") || "none"}${w.stale ? ` (stale, read t = ${fmt(w.t, 1)} s)` : ""}`;
+}
+
+// Air slower than this is still, m/s.
+const STILL_AIR_M_S = 0.05;
+function airWords(w) {
+  const portals = state.site ? state.site.portals : ["start", "end"];
+  if (Math.abs(w.air_m_s) < STILL_AIR_M_S) return "air still";
+  return `air flows towards ${w.air_m_s > 0 ? portals[1] : portals[0]} at ${fmt(Math.abs(w.air_m_s), 1)} m/s`;
+}
+
+// ---- the tunnel's air on the map: the DTS as a heat strip, the airflow, the fans, and
+// the smoke side of every fire that burns (downstream of it, to the portal the air leaves
+// by: in a longitudinally ventilated bore that is where its smoke goes) --------------------
+
+// The site's station nearest chainage `m`, and the point `d` metres left of the
+// centreline there.
+function stationAt(m) {
+  const s = state.site, n = s.stations_m.length - 1;
+  return Math.max(0, Math.min(n, Math.round(m / s.length_m * n)));
+}
+function offsetAt(i, d) {
+  const s = state.site, c = s.centre[i], l = s.left_wall[i], half = s.width_m / 2;
+  return [c[0] + (l[0] - c[0]) * d / half, c[1] + (l[1] - c[1]) * d / half];
+}
+// The floor between chainages `a` and `b`, from `d0` to `d1` metres left of the centreline.
+function floorBand(a, b, d0, d1) {
+  const last = state.site.stations_m.length - 1;
+  const i0 = Math.min(stationAt(Math.min(a, b)), last - 1), i1 = Math.max(stationAt(Math.max(a, b)), i0 + 1);
+  const pts = [];
+  for (let i = i0; i <= i1; i++) pts.push(offsetAt(i, d0));
+  for (let i = i1; i >= i0; i--) pts.push(offsetAt(i, d1));
+  return pts.map((p) => `${p[0]},${p[1]}`).join(" ");
+}
+// The DTS strip's colour: yellow at DTS_COOL_C, red from DTS_HOT_C up, more opaque hotter;
+// a zone at the tunnel's own temperature all but clear, so that heat stands out.
+const DTS_COOL_C = 40, DTS_HOT_C = 300;
+function dtsColour(c) {
+  const f = Math.max(0, Math.min(1, (c - DTS_COOL_C) / (DTS_HOT_C - DTS_COOL_C)));
+  const alpha = c < DTS_COOL_C ? 0.08 : 0.3 + 0.55 * f;
+  return `hsla(${Math.round(60 - 60 * f)}, 100%, 50%, ${alpha.toFixed(2)})`;
+}
+
+function drawAir() {
+  const g = $("air"), s = state.site, v = state.infra;
+  g.replaceChildren();
+  $("air-legend").hidden = !v;
+  if (!s || !v) return;
+  const q = s.width_m / 8;
+  for (const z of v.zones) {
+    const p = el("polygon", { class: "dts-strip" + (z.alarm ? " alarm" : "") + (z.stale ? " stale" : ""), points: floorBand(z.start_m, z.end_m, q, -q), "data-zone": z.zone }, g);
+    if (!z.stale) p.style.fill = dtsColour(z.max_c);
+    p.appendChild(title(`DTS zone ${z.zone}, ${fmt(z.start_m, 0)}-${fmt(z.end_m, 0)} m: ${fmt(z.max_c, 1)} °C${z.alarm ? ", ALARM" : ""}${z.stale ? `, stale (read t = ${fmt(z.t, 1)} s)` : ""}`));
+  }
+  const w = v.vent;
+  $("air-legend-text").textContent = w ? airWords(w) + (w.stale ? " (stale)" : "") : "not read";
+  if (!w) return;
+  const dir = Math.sign(w.air_m_s), moving = Math.abs(w.air_m_s) >= STILL_AIR_M_S;
+  const stale = w.stale ? " stale" : "";
+  if (moving) {
+    for (const f of state.fires.values()) {
+      if (f.state === "out" || f.state === "lost") continue;
+      const at = chainageOf(f.position.x, f.position.y), to = dir > 0 ? s.length_m : 0;
+      el("polygon", { class: "smoke" + stale, points: floorBand(at, to, s.width_m / 2, -s.width_m / 2), "data-fire": f.id }, g)
+        .appendChild(title(`${f.id}'s smoke side: ${fmt(Math.min(at, to), 0)}-${fmt(Math.max(at, to), 0)} m, downstream in the air`));
+    }
+    // A chevron every stretch along the centreline, pointing where the air goes.
+    const every = Math.max(20, s.length_m / 40), h = s.width_m / 6;
+    for (let m = every / 2; m < s.length_m; m += every) {
+      const [tip, back] = [stationAt(m + dir * 1.5), stationAt(m - dir * 1.5)];
+      const pts = [offsetAt(back, h), offsetAt(tip, 0), offsetAt(back, -h)];
+      el("polyline", { class: "air-arrow" + stale, points: pts.map((p) => `${p[0]},${p[1]}`).join(" ") }, g);
+    }
+  }
+  s.fans.forEach((f, k) => {
+    const running = w.fans[k] || "off";
+    const fan = el("g", { class: `fan ${running}${stale}`, "data-fan": f.name }, g);
+    el("polygon", { points: floorBand(f.chainage_m - 1, f.chainage_m + 1, 2 * q, -2 * q) }, fan);
+    fan.appendChild(title(`jet fan ${f.name} at ${fmt(f.chainage_m, 0)} m: ${running}${w.stale ? " (stale)" : ""}`));
+  });
 }
 
 // Site time as people read it: a simulated site's clock counts seconds from the start
@@ -938,7 +1026,7 @@ function applyDelta(d) {
   if (d.fires || d.fires_gone) {
     for (const f of d.fires || []) state.fires.set(f.id, f);
     for (const id of d.fires_gone || []) state.fires.delete(id);
-    fireRows();
+    fireRows(); drawAir();
   }
   if (d.goals) { state.goals = d.goals; drawGoals(); }
   if (d.alerts) { for (const a of d.alerts) state.alerts.set(a.id, a); drawAlerts(); }

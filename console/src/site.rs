@@ -44,6 +44,17 @@ pub struct SiteMap {
     pub units: Vec<UnitSlot>,
     /// The portals' names, at chainage 0 and at the end.
     pub portals: [String; 2],
+    /// The jet fans under the ceiling, in the order the SCADA reads their states.
+    pub fans: Vec<FanMap>,
+}
+
+/// A jet fan on the map.
+#[derive(Debug, Clone, Serialize)]
+pub struct FanMap {
+    pub name: String,
+    pub chainage_m: f64,
+    /// On the centreline at its chainage.
+    pub at: Xy,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -148,6 +159,16 @@ impl SiteMap {
                 .collect(),
             rails,
             portals: scenario.portal_names(),
+            fans: scenario
+                .ventilation
+                .iter()
+                .flat_map(|v| &v.fans)
+                .map(|f| FanMap {
+                    name: f.name.clone(),
+                    chainage_m: f.chainage_m,
+                    at: at(f.chainage_m.clamp(0.0, length), 0.0),
+                })
+                .collect(),
             units: scenario
                 .units
                 .iter()

@@ -59,7 +59,8 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select, WebDriverWait
 
 SCENARIO = "pileup"
-SECURE_SCENARIO = "rail-tunnel"
+# Ventilated, with its SCADA: the secure page also draws the tunnel's air.
+SECURE_SCENARIO = "ventilated"
 # Site time the demo restarts its coordinator at: early, while fires are being found.
 RESTART_AT = 20
 PASSWORD = "correct horse battery"
@@ -551,7 +552,7 @@ def secure_site(args, tmp, users, driver):
     base = f"https://127.0.0.1:{port}"
     out = os.path.join(tmp, "secure.log")
     demo = subprocess.Popen(
-        [args.firefleet, "demo", "--secure", "--scenario", SECURE_SCENARIO, "--time-scale", "4",
+        [args.firefleet, "demo", "--secure", "--scenario", SECURE_SCENARIO, "--scada", "--time-scale", "4",
          "--linger", "120", "--console", f"127.0.0.1:{port}", "--console-users", users],
         stdout=open(out, "w"), stderr=subprocess.STDOUT)
     try:
@@ -581,6 +582,20 @@ def secure_site(args, tmp, users, driver):
                  timeout=30)
         assert not [a for a in page_state(js)["alerts"] if a["kind"] in ("unit-lost", "coordinator-lost")]
         print("secure site: the page shows every unit alive and the coordinator in charge")
+        # The tunnel's air on the map: the DTS as a strip of every zone, the air's way in
+        # chevrons, every jet fan, and the burning fire's smoke side downstream of it.
+        count = lambda sel: js(f"return document.querySelectorAll('{sel}').length")
+        fans = len(inc["site"]["fans"])
+        wait_for("the DTS strip, the airflow and the fans drawn",
+                 lambda: count("#air polygon.dts-strip") > 0 and count("#air .air-arrow") > 0
+                 and count("#air g.fan.forward") == fans > 0, timeout=30)
+        wait_for("the burning fire's smoke side drawn", lambda: count("#air polygon.smoke") > 0, timeout=60)
+        legend = driver.find_element(By.ID, "air-legend-text").text
+        assert legend.startswith("air flows towards"), legend
+        print(f"secure site: the air on the map: {count('#air polygon.dts-strip')} DTS zones, "
+              f"{count('#air .air-arrow')} chevrons, {fans} fans running, the smoke side shaded ({legend})")
+        if args.screenshots:
+            driver.save_screenshot(os.path.join(args.screenshots, "console-air-1920x1080.png"))
         # A goal from the page: the console seals it for its commander, and the coordinator,
         # which takes no unsealed goal on a secure site, accepts it; the clear is sealed too.
         zone = js("return document.querySelector('polygon.zone[data-zone]').dataset.zone")
