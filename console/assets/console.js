@@ -557,14 +557,18 @@ function unitRow(u, now) {
     for (let i = 0; i < 8; i++) tr.appendChild(html("td"));
     tr.addEventListener("click", () => selectUnit(u.id));
     unitRows.set(u.id, tr);
-    const rows = [...unitRows.keys()].sort((a, b) => a.localeCompare(b, undefined, { numeric: true }));
-    $("units-body").replaceChildren(...rows.map((k) => unitRows.get(k)));
+    $("units-body").appendChild(tr);
+    unitTable.due = true;
   }
   const s = u.state, status = unitStatus(u, now), td = tr.children;
   tr.className = status + (state.selectedUnit === u.id ? " selected" : ""); tr.dataset.status = status;
   td[0].textContent = u.id;
   td[1].textContent = doing(s);
   td[2].textContent = ordered(u.ordered);
+  // What a column sorts by where its text does not: the number behind it.
+  td[3].dataset.sort = u.tank_pct ?? ""; td[4].dataset.sort = u.time_left_s ?? "";
+  td[5].dataset.sort = s ? s.health : ""; td[6].dataset.sort = u.eta_s ?? "";
+  td[7].dataset.sort = status === "lost" ? -1 : u.heard_ms ?? "";
   td[3].textContent = u.tank_pct != null ? `${fmt(u.tank_pct, 0)} %` : s ? (s.kind === "monorail" ? "main" : `${fmt(s.water_l, 0)} L`) : "-";
   td[3].className = u.tank_pct != null && u.tank_pct < 15 ? "low" : u.tank_pct != null && u.tank_pct < 35 ? "mid" : "";
   td[4].textContent = u.time_left_s != null ? dur(u.time_left_s) : "-";
@@ -574,6 +578,45 @@ function unitRow(u, now) {
   td[6].textContent = u.eta_s != null ? dur(u.eta_s) : "-";
   td[7].textContent = status === "lost" ? "LOST" : (u.heard_ms == null ? "never" : `${fmt((now - (u.heard_ms - state.clockSkew)) / 1000, 1)} s ago`);
   if (state.selectedUnit === u.id) unitDetail();
+}
+
+// The unit table: sorted by the column whose header was clicked (again: reversed; by
+// unit at first), and filtered by the search box. Sorted at most twice a second, not at
+// every update: a thousand units update hundreds of times a second.
+const unitTable = { col: 0, desc: false, filter: "", due: false };
+function sortKey(td) {
+  const v = td.dataset.sort ?? td.textContent;
+  return v === "" || v === "-" ? null : v;
+}
+function compareCells(a, b) {
+  if (a == null || b == null) return (a == null) - (b == null); // blanks last
+  const [x, y] = [Number(a), Number(b)];
+  if (!Number.isNaN(x) && !Number.isNaN(y)) return x - y;
+  return String(a).localeCompare(String(b), undefined, { numeric: true });
+}
+function sortUnits() {
+  unitTable.due = false;
+  const col = unitTable.col, sign = unitTable.desc ? -1 : 1, f = unitTable.filter.trim().toLowerCase();
+  const rows = [...unitRows.values()];
+  rows.sort((a, b) => {
+    const [x, y] = [sortKey(a.children[col]), sortKey(b.children[col])];
+    return (x == null || y == null ? compareCells(x, y) : sign * compareCells(x, y))
+      || a.dataset.unit.localeCompare(b.dataset.unit, undefined, { numeric: true });
+  });
+  for (const tr of rows) tr.hidden = f !== "" && !tr.textContent.toLowerCase().includes(f);
+  $("units-body").replaceChildren(...rows);
+  $("unit-count").textContent = f ? `${rows.filter((r) => !r.hidden).length} of ${rows.length}` : `${rows.length}`;
+  document.querySelectorAll("#units-table th").forEach((th, i) => {
+    th.dataset.sorted = i === col ? (unitTable.desc ? "down" : "up") : "";
+  });
+}
+function setupUnitTable() {
+  document.querySelectorAll("#units-table th").forEach((th, i) => th.addEventListener("click", () => {
+    unitTable.desc = unitTable.col === i ? !unitTable.desc : false;
+    unitTable.col = i;
+    sortUnits();
+  }));
+  $("unit-search").addEventListener("input", (ev) => { unitTable.filter = ev.target.value; sortUnits(); });
 }
 
 function selectUnit(id) {
@@ -994,6 +1037,7 @@ function applyIncident(inc) {
   unitRows.clear(); $("units-body").replaceChildren();
   const now = Date.now();
   for (const u of state.units.values()) unitRow(u, now);
+  sortUnits();
   fireRows(); drawGoals(); drawHeat(); drawAlerts(); drawDecisions(); drawHeader(); drawInfra();
   timeline.record();
   timeline.load();
@@ -1080,10 +1124,11 @@ function link(up, loginNeeded) {
   l.className = "badge " + (up ? "ok" : "bad");
 }
 
-// Ages every unit on this page's clock.
+// Ages every unit on this page's clock, and sorts the table again.
 setInterval(() => {
   const now = Date.now();
   for (const u of state.units.values()) unitRow(u, now);
+  if (unitTable.due || unitTable.col !== 0 || unitTable.filter) sortUnits();
   scheduleRender();
 }, 500);
 
@@ -1182,5 +1227,6 @@ function setupCommands() {
 
 setupPanZoom();
 setupTimeline();
+setupUnitTable();
 setupCommands();
 command("GET", "/api/me").then((r) => { loggedIn(r.ok ? r.body.name : null, r.ok ? r.body.role : null); connect(); });

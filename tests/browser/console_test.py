@@ -14,7 +14,8 @@ Drives the page in headless Chromium through chromedriver (Selenium), at 1920x10
   they sound (Web Audio) until muted on the page's button; cleared, every such alarm
   returns to normal within 2 s, the banner empties and the page falls silent;
   both goals cleared: no unit idle 5 s later; no two labels overlap at either size; the
-  tablet's panes one tab away; the timeline scrubbed back and forth; a pinch zooms; the
+  tablet's panes one tab away; a phone's page scrolls to every unit, whose table is
+  searched and sorted; the timeline scrubbed back and forth; a pinch zooms; the
   router killed: "SITE LOST" within 3 s and no unit taken for lost; the console stopped:
   the page says "NO LINK to the console" within 3 s (it beats every second);
 - a secure rail-tunnel (`demo --secure`, HTTPS signed by the site's web CA, checked with
@@ -501,6 +502,41 @@ def plain_site(args, tmp, users, driver):
         if args.screenshots:
             driver.save_screenshot(os.path.join(args.screenshots, "console-1024x768.png"))
         driver.find_element(By.CSS_SELECTOR, "#tabs button[data-tab='alerts-pane']").click()
+
+        # A phone: the page scrolls, the map first and then every pane (alerts first),
+        # nothing wider than the screen; every unit's row is reached by scrolling; the
+        # unit table is searched and sorted.
+        driver.set_window_size(390, 844)
+        time.sleep(2)
+        inner = js("return window.innerHeight")
+        assert js("return document.documentElement.scrollHeight") > inner, "the phone's page does not scroll"
+        wide = js("return document.documentElement.scrollWidth - window.innerWidth")
+        assert wide <= 1, f"the phone's page is {wide} px wider than the screen"
+        top = lambda id_: js(f"return document.getElementById('{id_}').getBoundingClientRect().top + window.scrollY")
+        assert top("map") < top("alerts-pane") < top("units-pane"), "map, then alerts, then units"
+        for u in units:
+            js(f"document.querySelector(\"#units-body tr[data-unit='{u}']\").scrollIntoView()")
+            box = js(f"const b = document.querySelector(\"#units-body tr[data-unit='{u}']\").getBoundingClientRect(); "
+                     "return [b.top, b.bottom, b.left, b.height]")
+            # (Sub-pixel: scrolled to the top, a row may start a sixtieth of a pixel above.)
+            assert box[3] > 0 and box[0] >= -1 and box[1] <= inner + 1 and box[2] >= 0, f"{u}'s row out of view: {box}"
+        if args.screenshots:
+            driver.save_screenshot(os.path.join(args.screenshots, "console-390x844.png"))
+        search = driver.find_element(By.ID, "unit-search")
+        search.send_keys(units[-1])
+        shown = lambda: js("return [...document.querySelectorAll('#units-body tr')].filter(r => !r.hidden).map(r => r.dataset.unit)")
+        wait_for(f"only {units[-1]} found", lambda: shown() == [units[-1]], timeout=3)
+        search.clear()
+        js("document.getElementById('unit-search').dispatchEvent(new Event('input'))")
+        header = driver.find_element(By.CSS_SELECTOR, "#units-table th")
+        header.click()  # sorted by unit already: now the other way
+        last = sorted(units, key=lambda u: [int(p) if p.isdigit() else p for p in re.split(r"(\d+)", u)])[-1]
+        wait_for("the table sorted by unit, down", lambda: shown()[0] == last and len(shown()) == len(units), timeout=3)
+        header.click()
+        print(f"390x844: the page scrolls, map then alerts then units, every unit's row in reach; "
+              f"found {units[-1]} by search, the sort by unit reversed by a click")
+        driver.set_window_size(1920, 1080)
+        js("window.scrollTo(0, 0)")
 
         time.sleep(3)
         lat = sorted(js("return window.ffStats.latency_ms"))
