@@ -666,12 +666,17 @@ function fireRows() {
 
 // An alarm's state (ISA-18.2): active or returned to normal, acknowledged or not; closed
 // once both returned and acknowledged. Active unacknowledged ones come first.
+// ISA-18.2's states, with shelved beside them: a shelved alarm is off the banner and
+// silent, whatever its cause does, until its time is up (the console brings it back).
 function alarmState(a) {
+  if (a.shelved) return "shelved";
   if (a.active) return a.acked_by == null ? "active-unacked" : "active-acked";
   return a.acked_by == null ? "returned-unacked" : "closed";
 }
-const ALARM_ORDER = { "active-unacked": 0, "returned-unacked": 1, "active-acked": 2, "closed": 3 };
+const ALARM_ORDER = { "active-unacked": 0, "returned-unacked": 1, "active-acked": 2, "shelved": 3, "closed": 4 };
 const ALARM_WORDS = { "active-unacked": "ACTIVE", "active-acked": "active, acknowledged", "returned-unacked": "returned to normal, acknowledge to close", "closed": "closed" };
+// Times on the shelf a commander picks from, minutes (the console takes up to a shift).
+const SHELVE_MINUTES = [5, 15, 60, 240, 480];
 
 function drawAlerts() {
   const alerts = [...state.alerts.values()].sort((a, b) =>
@@ -686,19 +691,64 @@ function drawAlerts() {
     const times = a.count > 1 ? ` (x${a.count}, last ${when(a.last_t, 0)})` : "";
     const back = a.returned_t != null && !a.active ? `; back to normal at ${when(a.returned_t, 0)}` : "";
     const who = a.acked_by ? `; acknowledged by ${a.acked_by}` : "";
-    li.append(` ${when(a.t, 0)} ${a.text}${times} [${ALARM_WORDS[st]}${back}${who}] `);
-    if (a.acked_by == null) {
+    const words = a.shelved
+      ? `SHELVED by ${a.shelved.by} until ${new Date(a.shelved.until_ms).toLocaleTimeString([], { hour12: false })}: ${a.shelved.reason}; ${a.active ? "active" : "returned to normal"}`
+      : ALARM_WORDS[st];
+    li.append(` ${when(a.t, 0)} ${a.text}${times} [${words}${back}${who}] `);
+    if (a.acked_by == null && !a.shelved) {
       const b = html("button", { textContent: "Acknowledge", disabled: !state.steers }, li);
       b.onclick = () => acknowledge([a.id]);
+    }
+    if (a.shelved) {
+      const b = html("button", { textContent: "Unshelve", disabled: !state.steers, className: "unshelve" }, li);
+      b.onclick = () => command("POST", `/api/alerts/${a.id}/unshelve`).then((r) => { if (!r.ok) $("ack").textContent = r.body.error; });
+    } else if (st !== "closed") {
+      const b = html("button", { textContent: "Shelve...", disabled: !state.steers, className: "shelve" }, li);
+      b.onclick = () => { shelving.focused = true; shelveForm(li, a.id); };
+      if (shelving.id === a.id) shelveForm(li, a.id);
     }
     return li;
   }));
   if (!alerts.length) $("alerts").replaceChildren(html("li", { textContent: "none" }));
+  const typing = $("alerts").querySelector(".shelve-form input");
+  if (typing && shelving.focused) refocus(typing);
   $("alerts-open").textContent = unacked.length ? `(${unacked.length})` : "";
   $("ack-all").disabled = !state.steers || !unacked.length;
   $("ack-all").textContent = unacked.length > 1 ? `Acknowledge all ${unacked.length}` : "Acknowledge all";
   banner();
   annunciate();
+}
+
+// The form a "Shelve..." opens under its alarm: why, and for how long. The list is drawn
+// again at every change of any alarm, so what the commander has typed is kept here and
+// the form drawn again with it.
+const shelving = { id: null, reason: "", minutes: SHELVE_MINUTES[1], focused: false };
+function shelveForm(li, id) {
+  if (li.querySelector("form")) return;
+  shelving.id = id;
+  const f = html("form", { className: "shelve-form" }, li);
+  const reason = html("input", { type: "text", placeholder: "why (required)", maxLength: 200, required: true, name: "reason", value: shelving.reason }, f);
+  reason.oninput = () => { shelving.reason = reason.value; };
+  reason.onfocus = () => { shelving.focused = true; };
+  reason.onblur = () => { shelving.focused = false; };
+  const minutes = html("select", { name: "minutes" }, f);
+  for (const m of SHELVE_MINUTES) minutes.appendChild(new Option(m < 60 ? `${m} min` : `${m / 60} h`, m));
+  minutes.value = shelving.minutes;
+  minutes.onchange = () => { shelving.minutes = Number(minutes.value); };
+  html("button", { type: "submit", textContent: "Shelve" }, f);
+  const cancel = html("button", { type: "button", textContent: "Cancel" }, f);
+  cancel.onclick = () => { shelving.id = null; shelving.reason = ""; f.remove(); };
+  f.onsubmit = async (ev) => {
+    ev.preventDefault();
+    const r = await command("POST", `/api/alerts/${id}/shelve`, { reason: reason.value, minutes: Number(minutes.value) });
+    if (!r.ok) { $("ack").textContent = r.body.error; return; }
+    shelving.id = null; shelving.reason = ""; shelving.focused = false;
+  };
+  if (li.isConnected && shelving.focused) refocus(reason);
+}
+function refocus(input) {
+  input.focus();
+  input.setSelectionRange(input.value.length, input.value.length);
 }
 
 async function acknowledge(ids) {

@@ -27,6 +27,8 @@ pub enum Action {
     Goal,
     Clear,
     Acknowledge,
+    Shelve,
+    Unshelve,
 }
 
 /// One thing a commander did through this console.

@@ -423,6 +423,23 @@ def plain_site(args, tmp, users, driver):
         driver.find_element(By.ID, "mute").click()
         wait_for("the page sounding again", lambda: js("return window.ffAudio.playing"), timeout=2)
         print("P1 alarms: the page sounds (audio context running), muted and unmuted by its button")
+        # One shelved from the page, for a reason: off the banner's count and marked so,
+        # then taken back.
+        first = trapped[0]["id"]
+        row = lambda: driver.find_element(By.CSS_SELECTOR, f"#alerts li[data-alert='{first}']")
+        def more():
+            m = re.search(r"\(and (\d+) more alerts\)", driver.find_element(By.ID, "banner").text)
+            return int(m.group(1)) if m else 0
+        before = more()
+        row().find_element(By.CSS_SELECTOR, "button.shelve").click()
+        row().find_element(By.CSS_SELECTOR, ".shelve-form input").send_keys("known: the evacuate is being redrawn")
+        row().find_element(By.CSS_SELECTOR, ".shelve-form button[type='submit']").click()
+        wait_for("the alarm shelved", lambda: row().get_attribute("data-state") == "shelved", timeout=3)
+        assert "SHELVED by rossi" in row().text, row().text
+        wait_for("one alarm fewer in the banner", lambda: more() == before - 1, timeout=3)
+        row().find_element(By.CSS_SELECTOR, "button.unshelve").click()
+        wait_for("the alarm back from the shelf", lambda: row().get_attribute("data-state") == "active-unacked", timeout=3)
+        print("a trapped alarm shelved from the page for a reason, off the banner, and taken back")
         # Both cleared: every unit goes back to work, and every alarm whose cause ended
         # returns to normal by itself within 2 s (ISA-18.2), leaving the banner.
         clear(driver, js, other)

@@ -222,6 +222,29 @@ impl Console {
         });
     }
 
+    /// Change alert `id` (a path's text) by `change`, which says whether it did; the
+    /// alarms are kept before the commander is answered (an acknowledged or shelved alarm
+    /// must not sound again after a restart). The alert's number and text, or the answer
+    /// that there is no such alert to change.
+    fn change_alert(
+        &self,
+        id: &str,
+        change: impl FnOnce(&mut Picture, u64) -> bool,
+    ) -> Result<(u64, String), Response> {
+        let none = || error(StatusCode::NOT_FOUND, format!("no such alert: '{id}'"));
+        let n = id.parse::<u64>().map_err(|_| none())?;
+        let (text, alarms) = {
+            let mut picture = self.picture();
+            let text = picture.alert_text(n).ok_or_else(none)?;
+            if !change(&mut picture, n) {
+                return Err(none());
+            }
+            (text, picture.alerts())
+        };
+        self.alarms.keep(&alarms, now_ms());
+        Ok((n, text))
+    }
+
     fn picture(&self) -> std::sync::MutexGuard<'_, Picture> {
         self.picture.lock().expect("picture lock")
     }
@@ -250,8 +273,9 @@ impl Console {
     /// when one is due; the binary calls it every [`TICK`].
     pub fn tick(&self) {
         let now = now_ms();
-        let (delta, alarms, snap) = {
+        let (delta, alarms, snap, unshelved) = {
             let mut picture = self.picture();
+            let unshelved = picture.unshelve_due(now);
             let delta = picture.delta(now);
             let changed = delta.as_ref().is_some_and(|d| !d.alerts.is_empty());
             let due = self.alarms.due(changed, now);
@@ -261,10 +285,26 @@ impl Console {
                 .then(|| Snapshot::of(&picture.incident()))
                 // Nothing heard yet: nothing to draw.
                 .filter(|s| !s.units.is_empty() || !s.fires.is_empty());
-            (delta, due.then(|| picture.alerts()), snap)
+            let alarms = (due || !unshelved.is_empty()).then(|| picture.alerts());
+            (delta, alarms, snap, unshelved)
         };
         if let Some(alarms) = alarms {
             self.alarms.keep(&alarms, now);
+        }
+        for a in unshelved {
+            let by = a
+                .shelved
+                .as_ref()
+                .and_then(|s| CommanderId::new(&s.by).ok());
+            if let Some(by) = by {
+                let what = format!("alarm {}: {}", a.id, a.text);
+                self.audited(
+                    &by,
+                    Action::Unshelve,
+                    what,
+                    "back: its time on the shelf is up".into(),
+                );
+            }
         }
         if let Some(snap) = snap {
             self.history().record(snap);
@@ -301,6 +341,8 @@ impl Console {
             .route("/api/goals/preview", post(preview_goal))
             .route("/api/goals/{zone}", delete(clear_goals))
             .route("/api/alerts/{id}/ack", post(ack_alert))
+            .route("/api/alerts/{id}/shelve", post(shelve_alert))
+            .route("/api/alerts/{id}/unshelve", post(unshelve_alert))
             .route("/api/audit", get(audit))
             .route("/api/history", get(history))
             .layer(axum::middleware::from_fn_with_state(self.clone(), guard))
@@ -810,21 +852,8 @@ async fn ack_alert(
     let Some(who) = c.commander(&headers) else {
         return unauthorized();
     };
-    let Ok(id) = id.parse::<u64>() else {
-        return error(StatusCode::NOT_FOUND, format!("no alert '{id}'"));
-    };
-    let acked = {
-        let mut picture = c.picture();
-        picture
-            .alert_text(id)
-            .filter(|_| picture.acknowledge(id, who.as_str()))
-            .map(|text| (text, picture.alerts()))
-    };
-    match acked {
-        Some((text, alarms)) => {
-            // Kept before the answer: an acknowledged alarm must not sound again after a
-            // restart.
-            c.alarms.keep(&alarms, now_ms());
+    match c.change_alert(&id, |p, id| p.acknowledge(id, who.as_str())) {
+        Ok((id, text)) => {
             c.audited(
                 &who,
                 Action::Acknowledge,
@@ -833,7 +862,89 @@ async fn ack_alert(
             );
             Json(json!({ "id": id, "acked_by": who })).into_response()
         }
-        None => error(StatusCode::NOT_FOUND, format!("no alert {id}")),
+        Err(no) => no,
+    }
+}
+
+/// The longest an alarm may be shelved, minutes: a shift. An alarm that must be quiet for
+/// longer is a fault to repair or a setting to change, not a shelf's (EEMUA 191).
+pub const MAX_SHELVE_MIN: f64 = 480.0;
+/// The longest reason, characters.
+pub const MAX_SHELVE_REASON: usize = 200;
+
+/// What a commander sends to shelve an alarm.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ShelveForm {
+    reason: String,
+    minutes: f64,
+}
+
+/// A commander shelves an alarm: off the banner and silent, for a reason, for a time.
+async fn shelve_alert(
+    State(c): State<Arc<Console>>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+    form: Result<Json<ShelveForm>, JsonRejection>,
+) -> Response {
+    let Some(who) = c.commander(&headers) else {
+        return unauthorized();
+    };
+    let Json(form) = match form {
+        Ok(f) => f,
+        Err(e) => return bad_json(e),
+    };
+    let reason = form.reason.trim();
+    if reason.is_empty() || reason.chars().count() > MAX_SHELVE_REASON {
+        return error(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            format!("reason: say why, in 1 to {MAX_SHELVE_REASON} characters"),
+        );
+    }
+    if !(form.minutes > 0.0 && form.minutes <= MAX_SHELVE_MIN) {
+        return error(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            format!(
+                "minutes: {} is not a time on the shelf (more than 0, at most {MAX_SHELVE_MIN}: a shift)",
+                form.minutes
+            ),
+        );
+    }
+    let until_ms = now_ms() + (form.minutes * 60_000.0) as u64;
+    match c.change_alert(&id, |p, id| p.shelve(id, who.as_str(), reason, until_ms)) {
+        Ok((id, text)) => {
+            c.audited(
+                &who,
+                Action::Shelve,
+                format!("alarm {id}: {text}"),
+                format!("shelved for {} min: {reason}", form.minutes),
+            );
+            Json(json!({ "id": id, "shelved_by": who, "until_ms": until_ms })).into_response()
+        }
+        Err(no) => no,
+    }
+}
+
+/// A commander takes an alarm back from the shelf before its time is up.
+async fn unshelve_alert(
+    State(c): State<Arc<Console>>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+) -> Response {
+    let Some(who) = c.commander(&headers) else {
+        return unauthorized();
+    };
+    match c.change_alert(&id, |p, id| p.unshelve(id)) {
+        Ok((id, text)) => {
+            c.audited(
+                &who,
+                Action::Unshelve,
+                format!("alarm {id}: {text}"),
+                "taken back from the shelf".into(),
+            );
+            Json(json!({ "id": id })).into_response()
+        }
+        Err(no) => no,
     }
 }
 

@@ -423,3 +423,109 @@ async fn a_late_page_gets_the_timeline_from_the_start() {
     assert_eq!(snaps[0]["units"][0]["x"], 10.0);
     assert_eq!(snaps[14]["units"][0]["x"], 24.0);
 }
+
+/// A commander shelves an alarm for a reason and a time (a viewer may not; a reason and a
+/// time on the shelf within a shift are required); it comes back by a commander's word or
+/// by itself when its time is up, every step in the audit log.
+#[tokio::test]
+async fn an_alarm_is_shelved_for_a_reason_and_a_time_and_comes_back() {
+    let f = fixture();
+    f.console
+        .observe(Event::Message(firefleet_protocol::payload::Payload::Ack(
+            GoalAck {
+                id: "g".into(),
+                zone: firefleet_model::ZoneId::new("deep").unwrap(),
+                issued_by: None,
+                accepted: false,
+                reason: "conflicts".into(),
+            },
+        )));
+    let cookie = log_in(&f.console).await;
+    let viewer = log_in_as(&f.console, "ferri", "battery staple").await;
+    let (_, _, incident) = call(&f.console, "GET", "/api/incident", Some(&cookie), None).await;
+    let id = incident["alerts"][0]["id"].as_u64().unwrap();
+    let uri = format!("/api/alerts/{id}/shelve");
+    let shelve = |reason: &str, minutes: f64| json!({"reason": reason, "minutes": minutes});
+    let (status, _, _) = call(
+        &f.console,
+        "POST",
+        &uri,
+        Some(&viewer),
+        Some(shelve("x", 5.0)),
+    )
+    .await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED, "a viewer");
+    for (bad, minutes) in [("  ", 5.0), ("known fault", 0.0), ("known fault", 481.0)] {
+        let (status, _, body) = call(
+            &f.console,
+            "POST",
+            &uri,
+            Some(&cookie),
+            Some(shelve(bad, minutes)),
+        )
+        .await;
+        assert_eq!(
+            status,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "{bad:?} {minutes}: {body}"
+        );
+    }
+    let (status, _, body) = call(
+        &f.console,
+        "POST",
+        &uri,
+        Some(&cookie),
+        Some(shelve("the zone's goal is being redrawn", 15.0)),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK, "{body}");
+    let (_, _, incident) = call(&f.console, "GET", "/api/incident", Some(&cookie), None).await;
+    let shelved = &incident["alerts"][0]["shelved"];
+    assert_eq!(shelved["by"], "rossi");
+    assert_eq!(shelved["reason"], "the zone's goal is being redrawn");
+    let unshelve = format!("/api/alerts/{id}/unshelve");
+    let (status, _, _) = call(&f.console, "POST", &unshelve, Some(&cookie), None).await;
+    assert_eq!(status, StatusCode::OK);
+    let (status, _, _) = call(&f.console, "POST", &unshelve, Some(&cookie), None).await;
+    assert_eq!(status, StatusCode::NOT_FOUND, "not shelved any more");
+    // Shelved for 60 ms: the console's tick brings it back once the time is up.
+    call(
+        &f.console,
+        "POST",
+        &uri,
+        Some(&cookie),
+        Some(shelve("a moment", 0.001)),
+    )
+    .await;
+    let deadline = std::time::Instant::now() + Duration::from_secs(5);
+    loop {
+        f.console.tick();
+        let (_, _, incident) = call(&f.console, "GET", "/api/incident", Some(&cookie), None).await;
+        if incident["alerts"][0]["shelved"].is_null() {
+            break;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "never back from the shelf"
+        );
+        tokio::task::yield_now().await;
+    }
+    let (_, _, audit) = call(&f.console, "GET", "/api/audit", Some(&cookie), None).await;
+    let actions: Vec<&str> = audit
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["action"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        actions,
+        ["shelve", "unshelve", "shelve", "unshelve"],
+        "{audit}"
+    );
+    assert!(
+        audit[3]["outcome"]
+            .as_str()
+            .unwrap()
+            .contains("time on the shelf is up")
+    );
+}

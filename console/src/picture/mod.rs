@@ -48,7 +48,9 @@ use crate::site::SiteMap;
 mod delta;
 mod view;
 
-pub use view::{Alert, AlertKind, DecisionLine, Delta, Heat, Incident, UnitMove, UnitView};
+pub use view::{
+    Alert, AlertKind, DecisionLine, Delta, Heat, Incident, Shelved, UnitMove, UnitView,
+};
 use view::{Doing, Sent, shown};
 
 /// Decisions kept for the timeline (the recording keeps them all).
@@ -691,6 +693,7 @@ impl Picture {
                 active: !event,
                 returned_t: event.then_some(t),
                 acked_by: None,
+                shelved: None,
             },
         );
         self.changes.alerts.insert(id);
@@ -752,6 +755,50 @@ impl Picture {
             }
             None => false,
         }
+    }
+
+    /// A commander shelves alert `id` until `until_ms` (wall time) for `reason`; false if
+    /// there is no such alert. Shelved again, the newer word stands.
+    pub fn shelve(&mut self, id: u64, by: &str, reason: &str, until_ms: u64) -> bool {
+        let Some(a) = self.alerts.get_mut(&id) else {
+            return false;
+        };
+        a.shelved = Some(Shelved {
+            by: by.to_owned(),
+            reason: reason.to_owned(),
+            until_ms,
+        });
+        self.changes.alerts.insert(id);
+        true
+    }
+
+    /// Alert `id` back from the shelf; false if there is no such alert or it is not shelved.
+    pub fn unshelve(&mut self, id: u64) -> bool {
+        match self.alerts.get_mut(&id) {
+            Some(a) if a.shelved.is_some() => {
+                a.shelved = None;
+                self.changes.alerts.insert(id);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Shelved alarms whose time is up by `now_ms` come back, and are returned.
+    pub fn unshelve_due(&mut self, now_ms: u64) -> Vec<Alert> {
+        let due: Vec<u64> = self
+            .alerts
+            .values()
+            .filter(|a| a.shelved.as_ref().is_some_and(|s| s.until_ms <= now_ms))
+            .map(|a| a.id)
+            .collect();
+        due.into_iter()
+            .filter_map(|id| {
+                let back = self.alerts.get(&id).cloned();
+                self.unshelve(id);
+                back
+            })
+            .collect()
     }
 
     /// The whole picture as of delta number [`Incident::seq`]: units, fires, goals, alerts

@@ -203,6 +203,19 @@ pub struct Alert {
     pub returned_t: Option<f64>,
     /// The commander who acknowledged it.
     pub acked_by: Option<String>,
+    /// Shelved: kept off the banner and silent until a time, by a commander's word.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shelved: Option<Shelved>,
+}
+
+/// An alarm a commander shelved (ISA-18.2): kept off the banner and silent, for a reason and
+/// until a time, after which it is back as it stands.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Shelved {
+    pub by: String,
+    pub reason: String,
+    /// Wall time it comes back, ms since the Unix epoch.
+    pub until_ms: u64,
 }
 
 impl Alert {
