@@ -224,25 +224,24 @@ impl Console {
 
     /// Change alert `id` (a path's text) by `change`, which says whether it did; the
     /// alarms are kept before the commander is answered (an acknowledged or shelved alarm
-    /// must not sound again after a restart). The alert's number and text, or the answer
-    /// that there is no such alert to change.
+    /// must not sound again after a restart). The alert's number and text; `None` if there
+    /// is no such alert to change ([`no_alert`]).
     fn change_alert(
         &self,
         id: &str,
         change: impl FnOnce(&mut Picture, u64) -> bool,
-    ) -> Result<(u64, String), Response> {
-        let none = || error(StatusCode::NOT_FOUND, format!("no such alert: '{id}'"));
-        let n = id.parse::<u64>().map_err(|_| none())?;
+    ) -> Option<(u64, String)> {
+        let n = id.parse::<u64>().ok()?;
         let (text, alarms) = {
             let mut picture = self.picture();
-            let text = picture.alert_text(n).ok_or_else(none)?;
+            let text = picture.alert_text(n)?;
             if !change(&mut picture, n) {
-                return Err(none());
+                return None;
             }
             (text, picture.alerts())
         };
         self.alarms.keep(&alarms, now_ms());
-        Ok((n, text))
+        Some((n, text))
     }
 
     fn picture(&self) -> std::sync::MutexGuard<'_, Picture> {
@@ -853,7 +852,7 @@ async fn ack_alert(
         return unauthorized();
     };
     match c.change_alert(&id, |p, id| p.acknowledge(id, who.as_str())) {
-        Ok((id, text)) => {
+        Some((id, text)) => {
             c.audited(
                 &who,
                 Action::Acknowledge,
@@ -862,8 +861,13 @@ async fn ack_alert(
             );
             Json(json!({ "id": id, "acked_by": who })).into_response()
         }
-        Err(no) => no,
+        None => no_alert(&id),
     }
+}
+
+/// The answer for a path's alert `id` there is nothing to do to.
+fn no_alert(id: &str) -> Response {
+    error(StatusCode::NOT_FOUND, format!("no such alert: '{id}'"))
 }
 
 /// The longest an alarm may be shelved, minutes: a shift. An alarm that must be quiet for
@@ -912,7 +916,7 @@ async fn shelve_alert(
     }
     let until_ms = now_ms() + (form.minutes * 60_000.0) as u64;
     match c.change_alert(&id, |p, id| p.shelve(id, who.as_str(), reason, until_ms)) {
-        Ok((id, text)) => {
+        Some((id, text)) => {
             c.audited(
                 &who,
                 Action::Shelve,
@@ -921,7 +925,7 @@ async fn shelve_alert(
             );
             Json(json!({ "id": id, "shelved_by": who, "until_ms": until_ms })).into_response()
         }
-        Err(no) => no,
+        None => no_alert(&id),
     }
 }
 
@@ -935,7 +939,7 @@ async fn unshelve_alert(
         return unauthorized();
     };
     match c.change_alert(&id, |p, id| p.unshelve(id)) {
-        Ok((id, text)) => {
+        Some((id, text)) => {
             c.audited(
                 &who,
                 Action::Unshelve,
@@ -944,7 +948,7 @@ async fn unshelve_alert(
             );
             Json(json!({ "id": id })).into_response()
         }
-        Err(no) => no,
+        None => no_alert(&id),
     }
 }
 
