@@ -45,7 +45,8 @@ pub struct Snapshot {
     pub fires: Vec<FireAt>,
 }
 
-/// A unit in a snapshot: what the map draws of it.
+/// A unit in a snapshot: what the map draws of it, and what the after-action report
+/// sums.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct UnitAt {
     pub id: UnitId,
@@ -56,6 +57,12 @@ pub struct UnitAt {
     pub lost: bool,
     pub autonomous: bool,
     pub fault: bool,
+    /// Water on board, L (to 1 L); the after-action report's water used.
+    #[serde(default)]
+    pub water_l: f64,
+    /// Radiant heat flux it feels, kW/m^2 (to 0.1); the report's heat dose.
+    #[serde(default)]
+    pub heat_kw_m2: f64,
     /// The fire it drives to or sprays, and where it believes that fire is.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub task: Option<TaskAt>,
@@ -107,6 +114,8 @@ impl Snapshot {
                     lost: u.lost,
                     autonomous: s.autonomous,
                     fault: s.mode == firefleet_protocol::msg::UnitMode::Fault,
+                    water_l: round(s.water_l, 1.0),
+                    heat_kw_m2: round(s.heat_flux_kw_m2, 10.0),
                     task,
                 })
             })
@@ -244,6 +253,8 @@ mod tests {
                     lost: false,
                     autonomous: false,
                     fault: false,
+                    water_l: 1000.0 - t,
+                    heat_kw_m2: 1.0,
                     task: None,
                 })
                 .collect(),

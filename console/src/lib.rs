@@ -40,6 +40,7 @@ pub mod infra;
 pub mod line_log;
 pub mod node;
 pub mod picture;
+pub mod report;
 pub mod site;
 pub mod throttle;
 pub mod tls;

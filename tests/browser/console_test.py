@@ -36,6 +36,7 @@ Needs: chromium and chromium-driver (Debian), selenium (PyPI).
 """
 
 import argparse
+import base64
 import json
 import os
 import re
@@ -488,6 +489,27 @@ def plain_site(args, tmp, users, driver):
         driver.find_element(By.ID, "timeline-live").click()
         print(f"reloaded {t_open:.0f} s in: the timeline reaches back to t = {t_min:.1f} s "
               f"({loaded} snapshots from the console)")
+
+        # The after-action report, printed to PDF by Chromium: every section, the fires
+        # put out with their times, a map of each moment.
+        driver.get(base + "/report")
+        sections = js("return [...document.querySelectorAll('section[id]')].map(s => s.id)")
+        assert sections == ["incident", "fires", "units", "maps", "alarms", "audit", "decisions"], sections
+        rows = js("return [...document.querySelectorAll('#fires tbody tr')].map(r => [...r.children].map(c => c.textContent))")
+        assert rows and any(r[4] != "-" for r in rows), f"no fire out in the report: {rows}"
+        maps = js("return document.querySelectorAll('#maps svg').length")
+        assert maps >= 2, f"{maps} maps"
+        audited = js("return document.querySelectorAll('#audit tbody tr').length")
+        assert audited >= 4, f"{audited} commanders' actions in the report"
+        pdf = base64.b64decode(driver.print_page())
+        assert pdf.startswith(b"%PDF") and len(pdf) > 20_000, f"{len(pdf)} bytes"
+        if args.screenshots:
+            with open(os.path.join(args.screenshots, "after-action-report.pdf"), "wb") as f:
+                f.write(pdf)
+        print(f"after-action report: {len(rows)} fires, {maps} maps, {audited} actions; "
+              f"printed by Chromium to a {len(pdf) // 1024} kB PDF")
+        driver.get(base + "/")
+        wait_for("the page live again", lambda: driver.find_element(By.ID, "link").text == "live")
 
         # A pinch with two fingers zooms in.
         span0 = driver.find_element(By.ID, "view-span").text

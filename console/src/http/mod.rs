@@ -331,6 +331,11 @@ impl Console {
                 "/console.css",
                 get(|| async { asset("text/css; charset=utf-8", STYLE) }),
             )
+            .route(
+                "/report.css",
+                get(|| async { asset("text/css; charset=utf-8", REPORT_STYLE) }),
+            )
+            .route("/report", get(report))
             .route("/api/incident", get(incident))
             .route("/api/stream", get(stream))
             .route("/api/login", post(login))
@@ -479,6 +484,7 @@ impl<S: Send + Sync> FromRequestParts<S> for Client {
 
 const PAGE: &str = include_str!("../../assets/index.html");
 const SCRIPT: &str = include_str!("../../assets/console.js");
+const REPORT_STYLE: &str = include_str!("../../assets/report.css");
 const STYLE: &str = include_str!("../../assets/console.css");
 
 fn asset(content_type: &'static str, body: &'static str) -> Response {
@@ -975,6 +981,32 @@ async fn audit(
             .into_response();
     }
     Json(c.audit.entries()).into_response()
+}
+
+/// The after-action report ([`crate::report`]), printed now.
+async fn report(State(c): State<Arc<Console>>, headers: HeaderMap) -> Response {
+    if !c.may_read(&headers) {
+        return login_to_read();
+    }
+    let (site, alerts, decisions) = {
+        let picture = c.picture();
+        let incident = picture.incident();
+        (incident.site, incident.alerts, incident.decisions)
+    };
+    let audit = c.audit.entries();
+    let printed = crate::report::utc(now_ms());
+    let page = {
+        let history = c.history();
+        crate::report::render(&crate::report::Records {
+            site: &site,
+            snaps: &history.served(),
+            alerts: &alerts,
+            audit: &audit,
+            decisions: &decisions,
+            printed: &printed,
+        })
+    };
+    ([(header::CONTENT_TYPE, "text/html; charset=utf-8")], page).into_response()
 }
 
 /// The timeline's snapshots, oldest first ([`History::served`]).
