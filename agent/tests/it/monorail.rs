@@ -249,3 +249,30 @@ fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
         Some(RefusalReason::DestinationBarred)
     );
 }
+
+/// A wide fire's knocked-down bed (a lorry's load, 7 m across) glows in the carriage's
+/// thermal camera as a hot spot, so the carriage's cooling pass lasts until it is cool: out,
+/// and never flared up. With beds left out of the camera's hot spots, the carriage's fixed
+/// 8 s pass left this bed hot, and the fire was still not out at 240 s.
+#[test]
+fn a_wide_fires_bed_is_cooled_until_the_camera_sees_it_cool() {
+    let mut s = scenario(45.0, 1.5, 200.0);
+    Arc::make_mut(&mut s).fires[0].radius_m = 3.5;
+    let mut world = World::new(&s, 1);
+    let mut ctl = controller(&s);
+    let mut rekindled = 0;
+    while world.time() < 240.0 && !world.truth().all_out() {
+        let before = world.truth().fires[0].state;
+        step(&mut ctl, &mut world);
+        let now = world.truth().fires[0].state;
+        if before == TruthFireState::Smouldering && now == TruthFireState::Burning {
+            rekindled += 1;
+        }
+    }
+    assert!(
+        world.truth().all_out(),
+        "still {:?}",
+        world.truth().fires[0].state
+    );
+    assert_eq!(rekindled, 0);
+}

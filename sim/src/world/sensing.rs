@@ -13,6 +13,11 @@ use crate::thermal::{
 use firefleet_model::spec::CameraSpec;
 use firefleet_protocol::msg::ThermalImage;
 
+/// A carriage's thermal camera reports a hot spot on the road this hot or hotter, K: 200 C,
+/// where a knocked-down bed is still worth cooling (it re-ignites above
+/// [`physics::IGNITION_K`]; the margin is for a bed seen at a slant through water).
+pub const HOT_SPOT_K: f64 = 473.15;
+
 impl World {
     /// The flames a camera could see now, one per visible fire, in scenario order.
     fn visible_flames(&self) -> impl Iterator<Item = (usize, FlameTarget)> + '_ {
@@ -164,8 +169,8 @@ impl World {
     /// What monorail unit `id`'s sensors read now; `None` for an unknown unit.
     ///
     /// The fire detector and the thermal camera see burning fires within range whose flame
-    /// the carriage has a line of sight to; the camera places each with a Gaussian error
-    /// growing with range. The temperature is the ceiling gas's ([`World::ceiling_rise_c`]).
+    /// the carriage has a line of sight to, and the camera knocked-down beds still at
+    /// [`HOT_SPOT_K`] or more; it places each with a Gaussian error growing with range. The temperature is the ceiling gas's ([`World::ceiling_rise_c`]).
     pub fn rail_sensors(&mut self, id: &UnitId) -> Option<RailSensors> {
         let c = self.carriages.iter().find(|c| &c.id == id)?;
         let m = c.pivot();
@@ -174,24 +179,31 @@ impl World {
         let mut hot_spots = Vec::new();
         let temperature_c = physics::AMBIENT_C
             + self.ceiling_rise_c(firefleet_model::Point2::new(m[0], m[1]), m[2]);
-        for f in self
-            .fires
-            .iter()
-            .filter(|f| f.state == TruthFireState::Burning)
-        {
+        for f in &self.fires {
+            // The flame detector sees flames; the thermal camera sees them and a knocked-
+            // down fire's bed while it glows above HOT_SPOT_K, which the carriage then
+            // keeps cooling as a ground unit with a thermal core does.
+            let flame = f.state == TruthFireState::Burning && f.hrr_kw >= physics::Q_VISIBLE_KW;
+            let glowing = f.bed_k().is_some_and(|k| k >= HOT_SPOT_K);
+            if !flame && !glowing {
+                continue;
+            }
             let r = f
                 .spec
                 .position()
                 .dist(firefleet_model::Point2::new(m[0], m[1]));
-            let centre = f.flame_centre();
+            let centre = if flame {
+                f.flame_centre()
+            } else {
+                [f.spec.x_m, f.spec.y_m, 0.0]
+            };
             let range = (r * r + (m[2] - centre[2]).powi(2)).sqrt();
-            if f.hrr_kw < physics::Q_VISIBLE_KW
-                || range > spec.detector_range_m
+            if range > spec.detector_range_m
                 || camera::line_blocked(&self.tunnel, &self.obstacles, m, centre)
             {
                 continue;
             }
-            fire_detected = true;
+            fire_detected |= flame;
             let sigma = spec.hot_spot_sigma_a_m + spec.hot_spot_sigma_b * range;
             let noise = Normal::new(0.0, sigma).expect("sigma is positive");
             hot_spots.push(HotSpot {
