@@ -903,23 +903,13 @@ function airWords(w) {
 // the smoke side of every fire that burns (downstream of it, to the portal the air leaves
 // by: in a longitudinally ventilated bore that is where its smoke goes) --------------------
 
-// The site's station nearest chainage `m`, and the point `d` metres left of the
-// centreline there.
-function stationAt(m) {
-  const s = state.site, n = s.stations_m.length - 1;
-  return Math.max(0, Math.min(n, Math.round(m / s.length_m * n)));
-}
-function offsetAt(i, d) {
-  const s = state.site, c = s.centre[i], l = s.left_wall[i], half = s.width_m / 2;
-  return [c[0] + (l[0] - c[0]) * d / half, c[1] + (l[1] - c[1]) * d / half];
-}
 // The floor between chainages `a` and `b`, from `d0` to `d1` metres left of the centreline.
 function floorBand(a, b, d0, d1) {
   const last = state.site.stations_m.length - 1;
-  const i0 = Math.min(stationAt(Math.min(a, b)), last - 1), i1 = Math.max(stationAt(Math.max(a, b)), i0 + 1);
+  const i0 = Math.min(stationIndex(Math.min(a, b)), last - 1), i1 = Math.max(stationIndex(Math.max(a, b)), i0 + 1);
   const pts = [];
-  for (let i = i0; i <= i1; i++) pts.push(offsetAt(i, d0));
-  for (let i = i1; i >= i0; i--) pts.push(offsetAt(i, d1));
+  for (let i = i0; i <= i1; i++) pts.push(offset(i, d0));
+  for (let i = i1; i >= i0; i--) pts.push(offset(i, d1));
   return pts.map((p) => `${p[0]},${p[1]}`).join(" ");
 }
 // The DTS strip's colour: yellow at DTS_COOL_C, red from DTS_HOT_C up, more opaque hotter;
@@ -957,8 +947,8 @@ function drawAir() {
     // A chevron every stretch along the centreline, pointing where the air goes.
     const every = Math.max(20, s.length_m / 40), h = s.width_m / 6;
     for (let m = every / 2; m < s.length_m; m += every) {
-      const [tip, back] = [stationAt(m + dir * 1.5), stationAt(m - dir * 1.5)];
-      const pts = [offsetAt(back, h), offsetAt(tip, 0), offsetAt(back, -h)];
+      const [tip, back] = [stationIndex(m + dir * 1.5), stationIndex(m - dir * 1.5)];
+      const pts = [offset(back, h), offset(tip, 0), offset(back, -h)];
       el("polyline", { class: "air-arrow" + stale, points: pts.map((p) => `${p[0]},${p[1]}`).join(" ") }, g);
     }
   }
