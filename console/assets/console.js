@@ -368,6 +368,44 @@ function shownItems(now) {
   return { units, fires };
 }
 
+// Hundreds of units along kilometres: where CLUSTER_MIN or more markers would share a
+// CLUSTER_PX stretch of the screen, they are drawn as one count instead, coloured by the
+// worst of them (lost, then stale) and named in its tooltip; a click looks at that stretch
+// closely enough to tell them apart. Their labels and task lines go with them. Returns the
+// units still drawn one by one.
+const CLUSTER_PX = 40, CLUSTER_MIN = 3;
+function cluster(units) {
+  const layer = $("clusters");
+  layer.replaceChildren();
+  // Runs along the screen's x: a unit joins the run whose first unit is under CLUSTER_PX
+  // to its left (a fixed grid would split a pile at its lines).
+  const runs = [];
+  for (const u of [...units].sort((a, b) => sx(a.x) - sx(b.x))) {
+    const run = runs[runs.length - 1];
+    if (run && sx(u.x) - sx(run[0].x) < CLUSTER_PX) run.push(u); else runs.push([u]);
+  }
+  const hidden = new Set();
+  for (const us of runs) {
+    if (us.length < CLUSTER_MIN) continue;
+    for (const u of us) hidden.add(u.id);
+    const worst = ["lost", "stale"].find((st) => us.some((u) => u.status === st)) || "fresh";
+    const cx = us.reduce((a, u) => a + sx(u.x), 0) / us.length, cy = us.reduce((a, u) => a + sy(u.y), 0) / us.length;
+    const g = el("g", { class: `cluster ${worst}`, "data-count": us.length }, layer);
+    el("circle", { cx, cy, r: 13 }, g);
+    el("text", { x: cx, y: cy + 4, "text-anchor": "middle" }, g).textContent = us.length;
+    const ids = us.map((u) => u.id);
+    g.appendChild(title(`${us.length} units: ${ids.slice(0, 30).join(", ")}${ids.length > 30 ? ", ..." : ""}; click to look closer`));
+    g.addEventListener("click", () => {
+      const xs = us.map((u) => u.x), ys = us.map((u) => u.y), half = state.site.width_m / 2;
+      view.follow = false;
+      look(Math.min(...xs) - 10, Math.max(...xs) + 10, Math.min(...ys) - half, Math.max(...ys) + half);
+    });
+  }
+  for (const [id, g] of unitEls) g.setAttribute("visibility", hidden.has(id) ? "hidden" : "visible");
+  for (const [id, l] of taskEls) l.setAttribute("visibility", hidden.has(id) ? "hidden" : "visible");
+  return units.filter((u) => !hidden.has(u.id));
+}
+
 let renderQueued = false;
 function scheduleRender() {
   if (renderQueued) return;
@@ -424,7 +462,7 @@ function render() {
   }
   for (const [id, g] of unitEls) if (!seenU.has(id)) { g.remove(); unitEls.delete(id); }
   for (const [id, l] of taskEls) if (!seenU.has(id)) { l.remove(); taskEls.delete(id); }
-  placeLabels(units, fires, drawScale());
+  placeLabels(cluster(units), fires, drawScale());
   drawOverviewItems(units, fires);
   const span = `${fmt(Math.max(0, chainageOf(wx(0), view.cy)), 0)} to ${fmt(chainageOf(wx(view.w), view.cy), 0)} m`;
   const stretch = view.ky / view.k;

@@ -57,6 +57,7 @@ import websocket
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select, WebDriverWait
 
@@ -426,20 +427,24 @@ def plain_site(args, tmp, users, driver):
         print("P1 alarms: the page sounds (audio context running), muted and unmuted by its button")
         # One shelved from the page, for a reason: off the banner's count and marked so,
         # then taken back.
+        # (The list is drawn again at every alarm's change: each step finds its element and
+        # acts on it in one call into the page, never holding one across calls.)
         first = trapped[0]["id"]
-        row = lambda: driver.find_element(By.CSS_SELECTOR, f"#alerts li[data-alert='{first}']")
+        row = f"document.querySelector(\"#alerts li[data-alert='{first}']\")"
         def more():
             m = re.search(r"\(and (\d+) more alerts\)", driver.find_element(By.ID, "banner").text)
             return int(m.group(1)) if m else 0
         before = more()
-        row().find_element(By.CSS_SELECTOR, "button.shelve").click()
-        row().find_element(By.CSS_SELECTOR, ".shelve-form input").send_keys("known: the evacuate is being redrawn")
-        row().find_element(By.CSS_SELECTOR, ".shelve-form button[type='submit']").click()
-        wait_for("the alarm shelved", lambda: row().get_attribute("data-state") == "shelved", timeout=3)
-        assert "SHELVED by rossi" in row().text, row().text
+        js(f"{row}.querySelector('button.shelve').click()")
+        js(f"const i = {row}.querySelector('.shelve-form input'); i.value = 'known: the evacuate is being redrawn'; "
+           "i.dispatchEvent(new Event('input'))")
+        js(f"{row}.querySelector('.shelve-form button[type=submit]').click()")
+        wait_for("the alarm shelved", lambda: js(f"return {row}.dataset.state") == "shelved", timeout=3)
+        said = js(f"return {row}.textContent")
+        assert "SHELVED by rossi" in said, said
         wait_for("one alarm fewer in the banner", lambda: more() == before - 1, timeout=3)
-        row().find_element(By.CSS_SELECTOR, "button.unshelve").click()
-        wait_for("the alarm back from the shelf", lambda: row().get_attribute("data-state") == "active-unacked", timeout=3)
+        js(f"{row}.querySelector('button.unshelve').click()")
+        wait_for("the alarm back from the shelf", lambda: js(f"return {row}.dataset.state") == "active-unacked", timeout=3)
         print("a trapped alarm shelved from the page for a reason, off the banner, and taken back")
         # Both cleared: every unit goes back to work, and every alarm whose cause ended
         # returns to normal by itself within 2 s (ISA-18.2), leaving the banner.
@@ -576,6 +581,30 @@ def plain_site(args, tmp, users, driver):
               f"found {units[-1]} by search, the sort by unit reversed by a click")
         driver.set_window_size(1920, 1080)
         js("window.scrollTo(0, 0)")
+
+        # Zoomed out until the tunnel is a few pixels long, the units are drawn as counts
+        # (a long tunnel's hundreds of units); a click on one looks closer, and they are
+        # drawn one by one again.
+        time.sleep(1)
+        counted = lambda: js("return [...document.querySelectorAll('#clusters g.cluster')].reduce((a, g) => a + Number(g.dataset.count), 0)")
+        for _ in range(40):
+            js("const m = document.getElementById('map'), b = m.getBoundingClientRect(); "
+               "m.dispatchEvent(new WheelEvent('wheel', {deltaY: 100, clientX: b.left + b.width / 2, clientY: b.top + b.height / 2, bubbles: true, cancelable: true}))")
+            if counted() == len(units):
+                break
+        wait_for("every unit in a count", lambda: counted() == len(units), timeout=3)
+        assert js("return [...document.querySelectorAll('#units g.unit')].every(g => g.getAttribute('visibility') === 'hidden')")
+        # (Counts are drawn again at every frame: the click goes where the count is, by the
+        # pointer, as a commander's would, not to an element held across calls.)
+        dx, dy = js("const c = document.querySelector('#clusters g.cluster circle').getBoundingClientRect(), "
+                    "m = document.getElementById('map').getBoundingClientRect(); "
+                    "return [c.left + c.width / 2 - m.left - m.width / 2, c.top + c.height / 2 - m.top - m.height / 2]")
+        ActionChains(driver).move_to_element_with_offset(driver.find_element(By.ID, "map"), int(dx), int(dy)).click().perform()
+        wait_for("the units drawn one by one after the click",
+                 lambda: counted() < len(units) and js("return [...document.querySelectorAll('#units g.unit')]"
+                                                        ".some(g => g.getAttribute('visibility') === 'visible')"), timeout=3)
+        driver.find_element(By.ID, "fit-incident").click()
+        print(f"zoomed out: the {len(units)} units drawn as one count; a click on it looks closer")
 
         time.sleep(3)
         lat = sorted(js("return window.ffStats.latency_ms"))
