@@ -27,7 +27,7 @@ const MAX_SNAPSHOTS = 3600;
 const $ = (id) => document.getElementById(id);
 
 const state = {
-  seq: -1, t: 0, site: null, coordinator: null, link: null, me: null, steers: false,
+  seq: -1, t: 0, site: null, coordinator: null, standbys: null, link: null, me: null, steers: false,
   selectedZone: null, selectedUnit: null, units: new Map(), fires: new Map(), goals: [],
   decisions: new Map(), alerts: new Map(), heat: null, infra: null, clockSkew: 0,
 };
@@ -1012,6 +1012,10 @@ function drawHeader() {
   const c = $("coordinator");
   c.textContent = state.coordinator === true ? "coordinator in charge" : state.coordinator === false ? "NO COORDINATOR" : "coordinator ?";
   c.className = "badge " + (state.coordinator === true ? "ok" : state.coordinator === false ? "bad" : "");
+  // A site without a standby is shown so plainly, not as a fault: the alarm says when one went.
+  const s = $("standbys");
+  s.textContent = state.standbys == null ? "standby ?" : state.standbys === 0 ? "no standby" : `${state.standbys} standby`;
+  s.className = "badge " + (state.standbys > 0 ? "ok" : "");
   const l = $("site-link");
   l.textContent = state.link === true ? "site linked" : state.link === false ? "SITE LOST" : "site ?";
   l.className = "badge " + (state.link === true ? "ok" : state.link === false ? "bad" : "");
@@ -1102,7 +1106,7 @@ function setupTimeline() {
 // ---- applying the stream -------------------------------------------------------------
 
 function applyIncident(inc) {
-  state.seq = inc.seq; state.t = inc.t; state.coordinator = inc.coordinator; state.link = inc.link;
+  state.seq = inc.seq; state.t = inc.t; state.coordinator = inc.coordinator; state.standbys = inc.standbys; state.link = inc.link;
   if (!state.site || state.site.stations_m.length !== inc.site.stations_m.length || state.site.scenario !== inc.site.scenario) {
     state.site = inc.site; drawSite();
   }
@@ -1127,6 +1131,7 @@ function applyDelta(d) {
   if (d.seq <= state.seq) return;
   state.seq = d.seq; state.t = d.t;
   if (d.coordinator != null) state.coordinator = d.coordinator;
+  if (d.standbys != null) state.standbys = d.standbys;
   if (d.link != null) { state.link = d.link; banner(); }
   const now = Date.now();
   const heard = [];

@@ -18,9 +18,11 @@ Drives the page in headless Chromium through chromedriver (Selenium), at 1920x10
   searched and sorted; the timeline scrubbed back and forth; a pinch zooms; the
   router killed: "SITE LOST" within 3 s and no unit taken for lost; the console stopped:
   the page says "NO LINK to the console" within 3 s (it beats every second);
-- a secure rail-tunnel (`demo --secure`, HTTPS signed by the site's web CA, checked with
-  it): every unit alive and the coordinator in charge on the page; a goal from the page,
-  sealed by the console, accepted, and its sealed clear taken.
+- a secure ventilated tunnel (`demo --secure --standby`, HTTPS signed by the site's web CA,
+  checked with it): every unit alive and the coordinator in charge on the page; the air on
+  the map; a goal from the page, sealed by the console, accepted, and its sealed clear
+  taken; the coordinator in office killed: the page says its standby took office, and
+  that none is left, within 2 s.
 
 Screenshots of each size go to --screenshots DIR. Prints the page's update latency (the
 console hearing a unit's state -> the page having drawn it).
@@ -661,8 +663,8 @@ def secure_site(args, tmp, users, driver):
     base = f"https://127.0.0.1:{port}"
     out = os.path.join(tmp, "secure.log")
     demo = subprocess.Popen(
-        [args.firefleet, "demo", "--secure", "--scenario", SECURE_SCENARIO, "--scada", "--time-scale", "4",
-         "--linger", "120", "--console", f"127.0.0.1:{port}", "--console-users", users],
+        [args.firefleet, "demo", "--secure", "--scenario", SECURE_SCENARIO, "--scada", "--standby",
+         "--time-scale", "4", "--linger", "120", "--console", f"127.0.0.1:{port}", "--console-users", users],
         stdout=open(out, "w"), stderr=subprocess.STDOUT)
     try:
         def ca():
@@ -716,6 +718,29 @@ def secure_site(args, tmp, users, driver):
         print(f"secure site: a monitor goal on {zone} from the page, sealed by the console, accepted and cleared")
         if args.screenshots:
             driver.save_screenshot(os.path.join(args.screenshots, "console-secure-1920x1080.png"))
+
+        # The coordinator in office killed: its standby takes office at once, and the page
+        # says so (who, when, and that no spare is left) within 2 s of the kill, so within
+        # 2 s of the takeover, which follows it.
+        wait_for("the standby shown standing by",
+                 lambda: driver.find_element(By.ID, "standbys").text == "1 standby", timeout=30)
+        in_office = [pid for pid, cmd in children_of(demo.pid).items()
+                     if cmd.split()[1:2] == ["coordinator"] and "--standby" not in cmd.split()]
+        assert len(in_office) == 1, children_of(demo.pid)
+        os.kill(in_office[0], signal.SIGKILL)
+        t0 = time.monotonic()
+        took = wait_for("the standby's taking office on the page",
+                        lambda: [a for a in page_state(js)["alerts"]
+                                 if a["kind"] == "standby-gone" and "took office" in a["text"]],
+                        timeout=10, every=0.05)
+        said = time.monotonic() - t0
+        assert said <= 2.0, f"the takeover was said {said:.2f} s after the kill: {took}"
+        assert "no standby is left" in took[0]["text"], took
+        wait_for("the page showing no standby left and the coordinator in charge",
+                 lambda: driver.find_element(By.ID, "standbys").text == "no standby"
+                 and page_state(js)["coordinator"] == "coordinator in charge", timeout=5)
+        print(f"secure site: coordinator killed; the page said the standby took office {said:.2f} s later: "
+              f"{took[0]['text']!r}")
     finally:
         demo.terminate()
         try:

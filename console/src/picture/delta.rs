@@ -108,6 +108,7 @@ impl Picture {
             seq: self.seq,
             t: self.t,
             coordinator: c.coordinator.then_some(self.coordinator).flatten(),
+            standbys: c.coordinator.then_some(self.standbys.len()),
             link: c.link.then_some(self.link).flatten(),
             units,
             moves,

@@ -163,6 +163,9 @@ pub struct Picture {
     /// without a break (ms).
     newest_term: Option<u64>,
     coordinator_since: Option<u64>,
+    /// The newest term and when its first task was heard (ms), to tell a standby that took
+    /// office from one that stopped.
+    term_began: Option<(u64, u64)>,
     decisions: VecDeque<DecisionLine>,
     next_line: u64,
     alerts: BTreeMap<u64, Alert>,
@@ -208,6 +211,7 @@ impl Picture {
             terms: BTreeMap::new(),
             newest_term: None,
             coordinator_since: None,
+            term_began: None,
             suspended: BTreeSet::new(),
             decisions: VecDeque::new(),
             next_line: 1,
@@ -321,7 +325,9 @@ impl Picture {
                     );
                 } else if self.standbys.remove(&rank) && self.link != Some(false) {
                     self.vanished.insert(Watched::Standby(rank), now_ms);
+                    self.took_office(now_ms);
                 }
+                self.changes.coordinator = true;
             }
         }
     }
@@ -358,6 +364,10 @@ impl Picture {
         let newer = self.newest_term.is_some_and(|n| epoch > n);
         if self.newest_term.is_none_or(|n| epoch > n) {
             self.newest_term = Some(epoch);
+        }
+        if newer {
+            self.term_began = Some((epoch, now_ms));
+            self.took_office(now_ms);
         }
         if newer
             && self
@@ -539,23 +549,58 @@ impl Picture {
                     };
                     self.raise(AlertKind::CoordinatorLost, text.into());
                 }
-                Watched::Standby(rank) => {
-                    let left = self.standbys.len();
-                    let text = match left {
-                        0 => format!(
-                            "standby coordinator rank {rank} is gone (it took office, or it \
-                             stopped): no standby is left, so if the coordinator in office \
-                             fails no one assigns fires"
-                        ),
-                        n => format!(
-                            "standby coordinator rank {rank} is gone (it took office, or it \
-                             stopped): {n} standby left"
-                        ),
-                    };
-                    self.raise(AlertKind::StandbyGone { rank, left }, text);
-                }
+                Watched::Standby(rank) => self.standby_gone(
+                    rank,
+                    format!("standby coordinator rank {rank} is gone (it stopped, or its link)"),
+                ),
             }
         }
+    }
+
+    /// A standby's token vanished and a new term of command began, each within
+    /// [`LOST_CONFIRM_MS`] of the other (in either order): that standby took office. Said
+    /// at once, not after the grace that tells a stopped standby from one whose router
+    /// died: a term begins only when a coordinator takes office, and a standby that took
+    /// over sends its first tasks a fraction of a second after it (then every second), so
+    /// the pair names who and when. Tokens alone could not: a router's death takes the
+    /// coordinator's and a standby's tokens away together, and brings them back in any
+    /// order. The lowest rank, if several went: it takes office first.
+    fn took_office(&mut self, now_ms: u64) {
+        let Some((epoch, _)) = self
+            .term_began
+            .filter(|(_, at)| now_ms < at.saturating_add(LOST_CONFIRM_MS))
+        else {
+            return;
+        };
+        let Some(rank) = self.vanished.iter().find_map(|(w, &at)| match w {
+            Watched::Standby(rank) if now_ms < at.saturating_add(LOST_CONFIRM_MS) => Some(*rank),
+            _ => None,
+        }) else {
+            return;
+        };
+        self.vanished.remove(&Watched::Standby(rank));
+        let t = self.t;
+        self.standby_gone(
+            rank,
+            format!(
+                "standby coordinator rank {rank} took office at t={t:.1} s in term {epoch}: \
+                 the coordinator in office before it is gone"
+            ),
+        );
+    }
+
+    /// Standby `rank` is no longer standing by (`what`: how it went): the alarm says how
+    /// many are left, and what none left means.
+    fn standby_gone(&mut self, rank: u32, what: String) {
+        let left = self.standbys.len();
+        let text = match left {
+            0 => format!(
+                "{what}; no standby is left, so if the coordinator in office fails no one \
+                 assigns fires"
+            ),
+            n => format!("{what}; {n} standby left"),
+        };
+        self.raise(AlertKind::StandbyGone { rank, left }, text);
     }
 
     fn fire(&mut self, now_ms: u64, f: FireTrack) {
@@ -811,6 +856,7 @@ impl Picture {
             t: self.t,
             site: self.site.clone(),
             coordinator: self.coordinator,
+            standbys: self.standbys.len(),
             link: self.link,
             units: self.units.values().cloned().collect(),
             fires: self.fires.values().cloned().collect(),

@@ -312,6 +312,78 @@ fn a_standby_gone_is_an_alarm_until_one_follows_again_and_says_how_many_are_left
 }
 
 #[test]
+fn a_standby_taking_office_is_said_at_once_with_who_and_when_and_a_router_failover_is_not() {
+    use firefleet_protocol::msg::{Task, TaskKind};
+    let task = |epoch| {
+        Event::Message(Payload::Task(Task {
+            unit: unit("ugv-1"),
+            epoch,
+            seq: 1,
+            t: 15.0,
+            kind: TaskKind::Standby,
+        }))
+    };
+    let took = |p: &mut Picture, now| {
+        p.delta(now)
+            .map(|d| d.alerts)
+            .unwrap_or_default()
+            .into_iter()
+            .find(|a| a.active && matches!(a.kind, AlertKind::StandbyGone { rank: 0, .. }))
+    };
+    let started = || {
+        let mut p = picture();
+        p.observe(0, Event::Link(true));
+        p.observe(0, Event::CoordinatorAlive(true));
+        p.observe(0, Event::StandbyAlive(0, true));
+        p.observe(0, Event::StandbyAlive(1, true));
+        p.observe(100, task(10));
+        // The site's clock, from what the coordinator publishes.
+        p.observe(
+            100,
+            Event::Message(Payload::Fire(track(1, 15.0, 100.0, FireState::Confirmed))),
+        );
+        assert!(took(&mut p, 100).is_none());
+        p
+    };
+    // The coordinator killed: rank 0 drops its standby token, takes the coordinator's and
+    // tasks in a new term a fraction of a second later. Said then, not after the grace.
+    let mut p = started();
+    p.observe(1000, Event::CoordinatorAlive(false));
+    p.observe(1001, Event::StandbyAlive(0, false));
+    p.observe(1002, Event::CoordinatorAlive(true));
+    assert!(
+        took(&mut p, 1002).is_none(),
+        "no term yet: it may be a failover"
+    );
+    p.observe(1150, task(20));
+    let a = took(&mut p, 1150).expect("said when the new term's first task is heard");
+    assert!(
+        a.text.contains("rank 0 took office at t=15.0 s in term 20")
+            && a.text.ends_with("1 standby left"),
+        "{}",
+        a.text
+    );
+    assert_eq!(a.priority, 2);
+    // The other order: the term heard before the token's going.
+    let mut p = started();
+    p.observe(1000, Event::CoordinatorAlive(false));
+    p.observe(1001, Event::CoordinatorAlive(true));
+    p.observe(1100, task(20));
+    p.observe(1200, Event::StandbyAlive(0, false));
+    assert!(took(&mut p, 1200).is_some_and(|a| a.text.contains("took office")));
+    // A router's death: both tokens go and come back in any order, the term stays; no
+    // alarm then or after the grace.
+    let mut p = started();
+    p.observe(1000, Event::CoordinatorAlive(false));
+    p.observe(1000, Event::StandbyAlive(0, false));
+    p.observe(1500, Event::CoordinatorAlive(true));
+    p.observe(1600, task(10));
+    p.observe(1900, Event::StandbyAlive(0, true));
+    assert!(took(&mut p, 1900 + LOST_CONFIRM_MS).is_none());
+    assert_eq!(p.incident().standbys, 2);
+}
+
+#[test]
 fn a_vanished_token_is_a_lost_unit_and_an_alert_until_acknowledged() {
     let mut p = picture();
     let u = unit("ugv-9");

@@ -87,8 +87,9 @@ pub enum AlertKind {
         issued_by: Option<String>,
     },
     CoordinatorLost,
-    /// A standby coordinator's token is gone: it took office, or it stopped. Either way
-    /// the site has one spare fewer.
+    /// A standby coordinator's token is gone: it took office (said at once, with the
+    /// term), or it stopped (said after the token's grace). Either way the site has one
+    /// spare fewer.
     StandbyGone {
         rank: u32,
         /// Standbys still following.
@@ -240,6 +241,8 @@ pub struct Incident {
     pub t: f64,
     pub site: Arc<SiteMap>,
     pub coordinator: Option<bool>,
+    /// The standby coordinators standing by (their tokens present).
+    pub standbys: usize,
     /// The console's link to the site; none until known.
     pub link: Option<bool>,
     pub units: Vec<UnitView>,
@@ -263,6 +266,9 @@ pub struct Delta {
     pub t: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub coordinator: Option<bool>,
+    /// Sent with every change of the coordinator's or a standby's token.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub standbys: Option<usize>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub link: Option<bool>,
     #[serde(skip_serializing_if = "Vec::is_empty")]

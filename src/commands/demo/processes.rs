@@ -81,9 +81,19 @@ impl Processes {
         Ok(true)
     }
 
-    /// The label of a process that has exited, if one has.
+    /// The label of a process that has exited, if one has. The coordinator in charge
+    /// exiting while its standby runs is a failover, not the demo's end (as on a site, where
+    /// an operator may kill it to see the standby take office): said, and no longer
+    /// watched; the standby, then in charge, is.
     pub(super) fn exited(&mut self) -> Option<String> {
-        exited(&mut self.running)
+        let role = exited(&mut self.running)?;
+        let standing_by = self.running.iter().any(|(l, _)| l == STANDBY);
+        if role != COORDINATOR || !standing_by {
+            return Some(role);
+        }
+        self.running.retain(|(l, _)| l != COORDINATOR);
+        println!("the coordinator in charge exited; the standby takes over");
+        None
     }
 
     /// Stop every process; what ran, for the summary.
