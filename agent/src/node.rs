@@ -316,6 +316,32 @@ where
     let mut moved = None;
     loop {
         tokio::select! {
+            // Biased, the barred space first: the coordinator tells it before the tasks
+            // that depend on it (a goal cleared, then a unit sent where it barred), and a
+            // task taken before a barred space already here would be refused for a goal
+            // the coordinator had lifted (an unbiased select picks either when both wait).
+            biased;
+            Some((_, b)) = barred.recv() => {
+                if let Err(e) = ctl.on_barred(b) {
+                    bus.rejects().refuse_invalid(&barred_from, &e);
+                }
+            }
+            task = tasks.recv() => {
+                let Some((_, task)) = task else { break };
+                if &task.unit == unit {
+                    if let Err(e) = ctl.on_task(task.epoch, task.seq, task.kind) {
+                        bus.rejects().refuse_invalid(&tasks_from, &e);
+                    } else if !taken {
+                        taken = true;
+                        if opts.standing.refused().is_some() {
+                            tracing::info!(%unit, "the coordinator takes this unit now");
+                            opts.standing.set(None);
+                        }
+                    }
+                } else {
+                    bus.rejects().refuse_invalid(&tasks_from, &format_args!("a task addressed to {}", task.unit));
+                }
+            }
             frame = platform.sense() => {
                 let Some(s) = frame else { break };
                 let cmd = ctl.step(&s);
@@ -349,27 +375,6 @@ where
                     if let Some(r) = ctl.report() {
                         bus.put(&report_key, &r).await?;
                     }
-                }
-            }
-            task = tasks.recv() => {
-                let Some((_, task)) = task else { break };
-                if &task.unit == unit {
-                    if let Err(e) = ctl.on_task(task.epoch, task.seq, task.kind) {
-                        bus.rejects().refuse_invalid(&tasks_from, &e);
-                    } else if !taken {
-                        taken = true;
-                        if opts.standing.refused().is_some() {
-                            tracing::info!(%unit, "the coordinator takes this unit now");
-                            opts.standing.set(None);
-                        }
-                    }
-                } else {
-                    bus.rejects().refuse_invalid(&tasks_from, &format_args!("a task addressed to {}", task.unit));
-                }
-            }
-            Some((_, b)) = barred.recv() => {
-                if let Err(e) = ctl.on_barred(b) {
-                    bus.rejects().refuse_invalid(&barred_from, &e);
                 }
             }
             answer = barred_answers.recv_or_refusal(), if asking => match answer {
