@@ -131,8 +131,10 @@ impl StatefulAction<Unit> for ScanForFire {
 /// The cooling pass after a knock-down: keeps the jet on the fire's fuel bed until `msec`
 /// have passed with the bed not read hot (under `below_k` in the thermal camera's
 /// frames), then Success; Success after `limit_msec` whatever it reads (a tank is
-/// finite, and a bed that stays hot that long is the coordinator's to send help to). A
-/// unit with no thermal camera reads nothing: a fixed pass of `msec`, the BT paper's.
+/// finite, and a bed that stays hot that long is the coordinator's to send help to), and
+/// at once when the tank is empty (nothing left to spray; the unit's state says so, and
+/// the coordinator relieves it). A unit with no thermal camera reads nothing: a fixed pass
+/// of `msec`, the BT paper's.
 struct CoolBed {
     since: f64,
     cool_since: f64,
@@ -158,7 +160,7 @@ impl StatefulAction<Unit> for CoolBed {
             self.cool_since = now;
         }
         let ms = |s: f64| (s * 1000.0) as i64;
-        if ms(now - self.cool_since) >= msec || ms(now - self.since) >= limit {
+        if ms(now - self.cool_since) >= msec || ms(now - self.since) >= limit || u.tank_empty() {
             Status::Success
         } else {
             Status::Running

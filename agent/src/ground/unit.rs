@@ -254,6 +254,11 @@ impl Unit {
         self.frame.t
     }
 
+    /// Whether the unit has no water left (as its platform last said).
+    pub fn tank_empty(&self) -> bool {
+        self.frame.water_l <= 0.0
+    }
+
     /// Set the sweep across the flame at `target`: half its estimated radius either side of
     /// the aim point, so that the jet's own spread covers the rest of the base.
     pub fn sweep_over(&mut self, target: Point2) {

@@ -153,6 +153,69 @@ fn a_wide_fires_bed_is_cooled_until_it_reads_cool_and_never_flares_up() {
     assert_eq!(r.rekindled, 0);
 }
 
+/// The same wide fire with a tank that runs dry on the hot bed: the cooling pass ends
+/// as the tank empties, not at its minute's limit with nothing left to spray (500 L: the
+/// knock-down takes some 480 L, the pass with a full tank some 45 L more).
+#[test]
+fn a_cooling_pass_ends_when_the_tank_runs_dry() {
+    use firefleet_model::profile::{GROUND, Profile};
+    let small = firefleet_model::spec::GroundSpec {
+        tank_l: 500.0,
+        ..*GROUND
+    };
+    let scenario = Arc::new(
+        Scenario::straight(120.0)
+            .name("closed-loop-small-tank")
+            .with_profile("small-tank", Profile::Ground(small))
+            .fire("fire", 60.0, -2.0, 5000.0)
+            .ground("u1", 5.0, -2.5)
+            .profile("small-tank")
+            .build(),
+    );
+    let mut scenario = scenario;
+    Arc::make_mut(&mut scenario).fires[0].radius_m = 2.5;
+    let mut world = World::new(&scenario, 11);
+    world.set_perception(Perception::Pixels);
+    let id = UnitId::new("u1").unwrap();
+    let mut ctl = GroundController::new(id.clone(), small, scenario.clone());
+    let cool_bed = (0..ctl.tree().len() as u32)
+        .find(|&n| ctl.tree().type_name(n) == "CoolBed")
+        .expect("the ground tree has a cooling pass");
+    let running =
+        |ctl: &GroundController| ctl.tree().status(cool_bed) == firefleet_bt::Status::Running;
+    let mut dry_while_cooling = None;
+    while world.time() < scenario.time_limit_s {
+        world.step_unit(&id, 0.05, |s| ctl.step(s)).unwrap();
+        let dry = world.truth().units[0].water_used_l >= small.tank_l - 1e-9;
+        if dry && dry_while_cooling.is_none() {
+            // The tank's size puts its last litre on the knocked-down bed.
+            assert!(
+                running(&ctl),
+                "the tank ran dry at {:.1} s outside the cooling pass (fire {:?}): size it again",
+                world.time(),
+                world.truth().fires[0].state
+            );
+            dry_while_cooling = Some(world.time());
+            continue;
+        }
+        if let Some(at) = dry_while_cooling {
+            if !running(&ctl) {
+                let took = world.time() - at;
+                assert!(took <= 0.2, "the pass ran {took:.2} s on an empty tank");
+                return;
+            }
+            assert!(
+                world.time() - at < 5.0,
+                "the pass still runs 5 s after the tank ran dry"
+            );
+        }
+    }
+    panic!(
+        "the tank never ran dry: {} L used",
+        world.truth().units[0].water_used_l
+    );
+}
+
 #[test]
 fn with_a_task_the_unit_reports_the_fire_extinguished() {
     let r = run(Some(Point2::new(60.3, -1.8)));
