@@ -11,6 +11,8 @@
 //! - lies from the same thief at a unit's pace: three fake fires held in place, three fake
 //!   fires moved every 12 s, "extinguished" on every fire ugv-2 is sent to, and reports of
 //!   the site's real fires replayed 30 s late;
+//! - fakes seen from where ugv-2 really is, 64 within 20 m of it in each report, 94 reports
+//!   a second (the thief follows the unit through its simulated sensors);
 //! - a stolen sector commander's certificate (`rossi`) putting keep-out at priority 255
 //!   on every zone and 70 goals more, and the incident commander (`chief`) clearing them
 //!   as soon as the stranded-fire alert shows in the status (its delay is printed).
@@ -73,6 +75,10 @@ pub enum Attack {
     FakeFires,
     /// Three fake fires reported at confidence 0.95, moved every 12 s.
     MovingFakes,
+    /// Fake flame reports seen from where ugv-2 really is (its simulated sensors tell the
+    /// thief), 64 observations each within 20 m of it, 94 a second: they pass the
+    /// observer and range checks, and move with the unit.
+    AroundFakes,
     /// "Extinguished" on every fire ugv-2 is sent to, three times a task.
     FalseOut,
     /// Reports of the site's real fires as ugv-2 saw them 30 s before, replayed.
@@ -330,6 +336,7 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
                 .map(|f| Point2::new(f.x_m, f.y_m))
                 .collect(),
             time_scale: a.time_scale,
+            tunnel: scenario.tunnel.clone(),
         };
         tokio::spawn(flood_as_unit(
             thief,

@@ -7,26 +7,35 @@
 use super::*;
 
 /// What a lying unit needs to know: who it speaks for, where the site's real fires are
-/// (a thief knows the site), and how fast site time runs.
+/// and its tunnel (a thief knows the site), and how fast site time runs.
 pub(super) struct Lie {
     pub(super) unit: UnitId,
     pub(super) fires: Vec<Point2>,
     pub(super) time_scale: f64,
+    pub(super) tunnel: firefleet_model::tunnel::Tunnel,
 }
 
-/// The site's time as the thief hears it: ugv-2's own simulated sensors carry it.
+/// The site's time, and where ugv-2 is, as the thief hears them: ugv-2's own simulated
+/// sensors carry both.
 #[derive(Clone, Default)]
-struct SiteClock(Arc<AtomicU64>);
+struct SiteClock(Arc<std::sync::Mutex<(f64, Option<Pose2>)>>);
 
 impl SiteClock {
     fn now(&self) -> f64 {
-        f64::from_bits(self.0.load(Ordering::Relaxed))
+        self.0.lock().expect("never poisoned").0
     }
 
-    fn set(&self, t: f64) {
-        self.0.store(t.to_bits(), Ordering::Relaxed);
+    fn unit_at(&self) -> Option<Pose2> {
+        self.0.lock().expect("never poisoned").1
+    }
+
+    fn set(&self, t: f64, pose: Pose2) {
+        *self.0.lock().expect("never poisoned") = (t, Some(pose));
     }
 }
+
+/// How far from the unit the fakes around it lie, m: well inside a camera's 30 m.
+const AROUND_M: f64 = 20.0;
 
 /// Fake fires: three, `seed`ed, none within 15 m of a real one.
 fn fakes(rng: &mut ChaCha8Rng, real: &[Point2]) -> Vec<Point2> {
@@ -79,7 +88,7 @@ pub(super) async fn flood_as_unit(
         let clock = clock.clone();
         tokio::spawn(async move {
             while let Some((_, s)) = sensors.recv().await {
-                clock.set(s.t);
+                clock.set(s.t, s.pose);
             }
         });
     }
@@ -125,6 +134,28 @@ pub(super) async fn flood_as_unit(
                 (
                     keys.unit_report(&unit).as_str().to_owned(),
                     codec::encode(&report(&unit, state.t, &at)),
+                )
+            }
+            Attack::AroundFakes => {
+                tokio::time::sleep(Duration::from_micros(1_000_000 / 94)).await;
+                let Some(pose) = clock.unit_at() else {
+                    continue;
+                };
+                let at: Vec<Point2> = (0..MAX_LIST)
+                    .map(|_| {
+                        let (r, a) = (
+                            AROUND_M * rng.random::<f64>().sqrt(),
+                            rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
+                        );
+                        Point2::new(pose.x + r * a.cos(), pose.y + r * a.sin())
+                    })
+                    .filter(|&p| lie.tunnel.contains(p, 0.5))
+                    .collect();
+                let mut r = report(&unit, now, &at);
+                r.observer = pose;
+                (
+                    keys.unit_report(&unit).as_str().to_owned(),
+                    codec::encode(&r),
                 )
             }
             Attack::BigBt => (keys.unit_bt(&unit).as_str().to_owned(), big.clone()),
