@@ -151,8 +151,8 @@ pub struct Fire {
     credited: BTreeSet<UnitId>,
     /// How long each other unit has had it in clear view while one unit alone claimed it.
     looks: BTreeMap<UnitId, f64>,
-    /// Its lone claim was contradicted (counted once).
-    contradicted: bool,
+    /// The unit whose lone claim of it was contradicted (counted once).
+    contradicted: Option<UnitId>,
     /// When a DTS alarm last placed it here.
     dts: Option<f64>,
 }
@@ -180,7 +180,7 @@ impl Fire {
             out_at: None,
             credited: BTreeSet::new(),
             looks: BTreeMap::new(),
-            contradicted: false,
+            contradicted: None,
             dts: None,
         }
     }
@@ -215,6 +215,28 @@ impl Fire {
             (Some((u, s)), None) if s.live(t) || self.state != FireState::Tentative => Some(u),
             _ => None,
         }
+    }
+
+    /// The one unit on whose word alone it was confirmed (no other unit, no DTS), if so
+    /// and that claim was not already found out (counted then).
+    fn confirmed_alone(&self) -> Option<&UnitId> {
+        let mut it = self.per_unit.keys();
+        match (it.next(), it.next()) {
+            (Some(u), None)
+                if rank(self.state) >= rank(FireState::Confirmed)
+                    && self.dts.is_none()
+                    && self.credited.is_empty()
+                    && self.contradicted.is_none() =>
+            {
+                Some(u)
+            }
+            _ => None,
+        }
+    }
+
+    /// Whether `unit` alone claims it (no other unit, no DTS).
+    fn claimed_alone_by(&self, unit: &UnitId) -> bool {
+        self.dts.is_none() && self.per_unit.len() == 1 && self.per_unit.contains_key(unit)
     }
 
     fn refuse(&mut self) {
@@ -269,7 +291,7 @@ impl Fire {
     /// The units that see it burning at `t`: a sighting within [`STILL_SEEN_S`], by a unit
     /// whose word counts. A lone claim an eyewitness contradicted sees nothing.
     pub fn seen_now_by(&self, t: f64) -> Vec<UnitId> {
-        if self.contradicted {
+        if self.contradicted.is_some() {
             return Vec::new();
         }
         self.per_unit
@@ -332,7 +354,8 @@ pub struct Fusion {
     aliases: BTreeMap<FireId, FireId>,
     witnesses: Witnesses,
     /// Per unit, the new tracks it may still start alone and when that was counted: a
-    /// bucket of [`LONE_STARTS_BURST`] refilled one per [`LONE_START_EVERY_S`].
+    /// bucket of [`LONE_STARTS_BURST`] refilled one per [`LONE_START_EVERY_S`], both
+    /// shrinking with each of its lone claims nothing bore out ([`witness::lone_starts`]).
     starts: BTreeMap<UnitId, (f64, f64)>,
 }
 
@@ -410,6 +433,12 @@ impl Fusion {
                     let removed = self.fires.remove(drop);
                     let keep = if drop < keep { keep - 1 } else { keep };
                     let kept = &mut self.fires[keep];
+                    if let Some(u) = removed
+                        .confirmed_alone()
+                        .filter(|u| kept.claimed_alone_by(u))
+                    {
+                        self.witnesses.lone_unborne(u);
+                    }
                     for (u, e) in &removed.per_unit {
                         kept.per_unit.entry(u.clone()).or_insert(*e);
                     }
@@ -539,6 +568,11 @@ impl Fusion {
                 && !kept
                 && t - f.last_seen > LOSE_AFTER_S
             {
+                // Confirmed on one unit's word and never seen by another: nothing bore
+                // it out (a tentative one is the unit's tracker's passing false alarm).
+                if let Some(u) = f.confirmed_alone() {
+                    self.witnesses.lone_unborne(u);
+                }
                 f.state = FireState::Lost;
                 lost.push(f.id);
             }

@@ -30,11 +30,13 @@ impl Fusion {
                 .filter(|f| f.dts.is_none())
                 .filter(|f| f.per_unit.len() == 1 && f.per_unit.contains_key(unit))
                 .count();
-            let (tokens, at) = self
-                .starts
-                .entry(unit.clone())
-                .or_insert((LONE_STARTS_BURST, t));
-            *tokens = (*tokens + (t - *at).max(0.0) / LONE_START_EVERY_S).min(LONE_STARTS_BURST);
+            let (burst, every_s) = witness::lone_starts(
+                self.witnesses.record(unit).unborne(),
+                LONE_STARTS_BURST,
+                LONE_START_EVERY_S,
+            );
+            let (tokens, at) = self.starts.entry(unit.clone()).or_insert((burst, t));
+            *tokens = (*tokens + (t - *at).max(0.0) / every_s).min(burst);
             *at = t;
             if lone >= MAX_LONE_TRACKS || *tokens < 1.0 {
                 return Fused::Refused;
@@ -85,8 +87,12 @@ impl Fusion {
         let credible = fire.sources();
         let room = room || credible >= 2;
         match fire.state {
+            // Not on the word of the unit whose lone claim of it was found out: its flames
+            // there are the ones nobody else could see.
             FireState::Out
-                if sighting.credible() && fire.out_at.is_some_and(|o| t - o > REIGNITE_AFTER_S) =>
+                if sighting.credible()
+                    && fire.contradicted.as_ref() != Some(unit)
+                    && fire.out_at.is_some_and(|o| t - o > REIGNITE_AFTER_S) =>
             {
                 fire.state = FireState::Confirmed;
                 fire.out_at = None;
@@ -165,7 +171,7 @@ impl Fusion {
         let mut found = Vec::new();
         for f in &mut self.fires {
             // In view first: it rules out all but a few tracks, without allocating.
-            if f.contradicted
+            if f.contradicted.is_some()
                 || matches!(f.state, FireState::Lost | FireState::Out)
                 || !in_view(f.position())
             {
@@ -181,7 +187,7 @@ impl Fusion {
             };
             *looked += dt;
             if *looked >= CONTRADICT_AFTER_S {
-                f.contradicted = true;
+                f.contradicted = Some(witness.clone());
                 found.push(Contradiction {
                     fire: f.id,
                     doubted_now: self.witnesses.contradict(&witness),
@@ -199,11 +205,11 @@ impl Fusion {
     pub fn found_nothing(&mut self, id: FireId, unit: &UnitId, t: f64) -> Option<Contradiction> {
         let id = self.resolve(id);
         let f = self.fires.iter_mut().find(|f| f.id == id)?;
-        if f.contradicted || f.per_unit.contains_key(unit) {
+        if f.contradicted.is_some() || f.per_unit.contains_key(unit) {
             return None;
         }
         let witness = f.lone_claim(t)?.clone();
-        f.contradicted = true;
+        f.contradicted = Some(witness.clone());
         Some(Contradiction {
             fire: f.id,
             doubted_now: self.witnesses.contradict(&witness),
@@ -216,7 +222,7 @@ impl Fusion {
     pub fn demote_doubted(&mut self) -> Vec<FireId> {
         let mut demoted = Vec::new();
         for f in &mut self.fires {
-            if f.contradicted
+            if f.contradicted.is_some()
                 && matches!(
                     f.state,
                     FireState::Confirmed

@@ -337,3 +337,71 @@ fn one_unit_alone_holds_and_starts_a_bounded_number_of_tracks() {
         Fused::Updated(_)
     ));
 }
+
+#[test]
+fn each_lone_fire_nothing_bore_out_slows_the_units_next_lone_start() {
+    // A liar's fakes, each confirmed at once on its word: one lost unseen, one merged into
+    // another of its own, one contradicted (another unit looked).
+    let mut f = Fusion::default();
+    let fake = |x: f64| obs(x, 1.0, 0.3, 0.95);
+    let confirmed = |f: &mut Fusion, x: f64, t: f64| {
+        let got = f.observe(&u("liar"), &fake(x), t);
+        assert!(matches!(got, Fused::Confirmed(_)), "{got:?}");
+    };
+    confirmed(&mut f, 100.0, 0.0);
+    assert_eq!(f.expire(61.0, |_| false).len(), 1);
+    confirmed(&mut f, 150.0, 61.0);
+    confirmed(&mut f, 153.0, 61.0);
+    f.get_mut(FireId(3)).unwrap().estimate.mean = Point2::new(150.2, 1.0);
+    assert_eq!(f.merge_duplicates().len(), 1);
+    confirmed(&mut f, 50.0, 61.0);
+    assert_eq!(f.look(&u("b"), |p| p.x < 60.0, 10.0, 62.0).len(), 1);
+    let record = f.witnesses().record(&u("liar"));
+    assert_eq!(
+        (record.contradicted, record.lone_unborne),
+        (1, 2),
+        "{record:?}"
+    );
+    // Three unborne: one start every 40 s, where it had one every 5 s.
+    let (_, every_s) = witness::lone_starts(3, LONE_STARTS_BURST, LONE_START_EVERY_S);
+    assert_eq!(every_s, 8.0 * LONE_START_EVERY_S);
+    let new_at = |f: &mut Fusion, t: f64| {
+        !matches!(
+            f.observe(&u("liar"), &fake(200.0 + t), t),
+            Fused::Refused
+        )
+    };
+    let t0 = 62.0 + every_s;
+    assert!(new_at(&mut f, t0));
+    assert!(!new_at(&mut f, t0 + every_s / 2.0), "half its wait");
+    assert!(new_at(&mut f, t0 + every_s));
+    // An honest unit is not slowed by the liar's record.
+    assert!(matches!(
+        f.observe(&u("b"), &obs(280.0, 1.0, 0.3, 0.95), t0),
+        Fused::Confirmed(_)
+    ));
+}
+
+#[test]
+fn a_fire_whose_lone_claim_was_found_out_does_not_reignite_on_its_claimants_word() {
+    let mut f = Fusion::default();
+    let Fused::Confirmed(id) = f.observe(&u("liar"), &obs(50.0, 1.0, 0.3, 0.95), 0.0) else {
+        panic!()
+    };
+    assert_eq!(
+        f.found_nothing(id, &u("b"), 5.0).map(|c| c.witness),
+        Some(u("liar"))
+    );
+    let fire = f.get_mut(id).unwrap();
+    fire.state = FireState::Out;
+    fire.out_at = Some(5.0);
+    assert_eq!(
+        f.observe(&u("liar"), &obs(50.0, 1.0, 0.3, 0.95), 20.0),
+        Fused::Updated(id)
+    );
+    assert_eq!(
+        f.observe(&u("c"), &obs(50.0, 1.0, 0.3, 0.95), 21.0),
+        Fused::Reignited(id),
+        "another unit's flames there are news"
+    );
+}

@@ -58,6 +58,11 @@ pub struct Record {
     pub corroborated: u32,
     /// Fires only it reported that another unit had in clear view and never saw.
     pub contradicted: u32,
+    /// Fires confirmed on its word alone that nothing bore out without a contradiction:
+    /// lost with nobody else ever seeing them, or found to be another of its own lone
+    /// fires (merged into it: a unit whose one flame starts a track, confirmed, a few
+    /// metres from the track it already holds is seeing double, or making fires up).
+    pub lone_unborne: u32,
 }
 
 impl Record {
@@ -71,6 +76,29 @@ impl Record {
     pub fn doubted(&self) -> bool {
         self.weight() < DOUBT_BELOW
     }
+
+    /// Its lone claims nothing bore out: contradicted, lost with nobody else seeing them,
+    /// or merged into another of its own. Unlike the weight, corroboration buys none of these back: a liar repeating
+    /// the real fires the others see earns credit for its word, not for new fires of its
+    /// own ([`lone_starts`]).
+    pub fn unborne(&self) -> u32 {
+        self.contradicted.saturating_add(self.lone_unborne)
+    }
+}
+
+/// The new tracks a unit with `unborne` lone claims nothing bore out may start on its word
+/// alone: a burst of `burst` less one for each, at least one, refilled one per `every_s`
+/// doubled for each (up to 2^6 times: a unit reporting real fires after its detector's
+/// bad spell is slowed, not silenced). An honest unit's first lone claim behind a parked
+/// car halves its rate; a liar whose fakes are found out one after another (or left to be
+/// lost) gets one new fire in minutes, where a fixed rate gave it one every `every_s`
+/// for the whole incident.
+pub fn lone_starts(unborne: u32, burst: f64, every_s: f64) -> (f64, f64) {
+    let halvings = unborne.min(6);
+    (
+        (burst - f64::from(unborne)).max(1.0),
+        every_s * f64::from(1u32 << halvings),
+    )
 }
 
 /// Every unit's record.
@@ -97,6 +125,13 @@ impl Witnesses {
         r.corroborated = r.corroborated.saturating_add(1);
     }
 
+    /// Count a fire confirmed on `unit`'s word alone that nothing bore out
+    /// ([`Record::lone_unborne`]).
+    pub(super) fn lone_unborne(&mut self, unit: &UnitId) {
+        let r = self.records.entry(unit.clone()).or_default();
+        r.lone_unborne = r.lone_unborne.saturating_add(1);
+    }
+
     /// Count a contradiction against `unit`; whether that made it doubted.
     pub(super) fn contradict(&mut self, unit: &UnitId) -> bool {
         let r = self.records.entry(unit.clone()).or_default();
@@ -115,6 +150,7 @@ mod tests {
         let r = |corroborated, contradicted| Record {
             corroborated,
             contradicted,
+            lone_unborne: 0,
         };
         assert_eq!(r(0, 0).weight(), 1.0);
         assert_eq!(r(5, 0).weight(), 1.0);
@@ -124,6 +160,24 @@ mod tests {
         assert!(r(1, 2).doubted());
         assert!(!r(4, 2).doubted(), "corroboration buys credit back");
         assert!(r(4, 3).doubted());
+    }
+
+    #[test]
+    fn each_lone_claim_nothing_bore_out_shrinks_the_burst_and_doubles_the_wait() {
+        assert_eq!(lone_starts(0, 4.0, 5.0), (4.0, 5.0));
+        assert_eq!(lone_starts(1, 4.0, 5.0), (3.0, 10.0));
+        assert_eq!(lone_starts(5, 4.0, 5.0), (1.0, 160.0));
+        assert_eq!(
+            lone_starts(40, 4.0, 5.0),
+            (1.0, 320.0),
+            "slowed, never silenced"
+        );
+        let r = Record {
+            corroborated: 9,
+            contradicted: 1,
+            lone_unborne: 2,
+        };
+        assert_eq!(r.unborne(), 3, "credit does not buy unborne claims back");
     }
 
     #[test]
