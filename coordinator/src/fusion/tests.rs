@@ -366,10 +366,7 @@ fn each_lone_fire_nothing_bore_out_slows_the_units_next_lone_start() {
     let (_, every_s) = witness::lone_starts(3, LONE_STARTS_BURST, LONE_START_EVERY_S);
     assert_eq!(every_s, 8.0 * LONE_START_EVERY_S);
     let new_at = |f: &mut Fusion, t: f64| {
-        !matches!(
-            f.observe(&u("liar"), &fake(200.0 + t), t),
-            Fused::Refused
-        )
+        !matches!(f.observe(&u("liar"), &fake(200.0 + t), t), Fused::Refused)
     };
     let t0 = 62.0 + every_s;
     assert!(new_at(&mut f, t0));

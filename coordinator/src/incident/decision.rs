@@ -194,7 +194,8 @@ pub enum Decision {
         fire: FireId,
         at: Point2,
     },
-    /// `by` had the fire `witness` alone claims in clear view and never saw it.
+    /// `by` had the fire `witness` alone claims in clear view and never saw it (or, `by`
+    /// being `witness`, reported it out without having sprayed).
     Contradicted {
         fire: FireId,
         witness: UnitId,
@@ -469,6 +470,11 @@ impl fmt::Display for Decision {
             Decision::Confirmed { fire, at } => {
                 write!(f, "fire {fire} confirmed at ({:.1}, {:.1})", at.x, at.y)
             }
+            Decision::Contradicted { fire, witness, by } if witness == by => write!(
+                f,
+                "fire {fire}: only {witness} claims it, and sent there it reports it out without \
+                 having sprayed: its own sprayer found nothing"
+            ),
             Decision::Contradicted { fire, witness, by } => write!(
                 f,
                 "fire {fire}: {by} had it in clear view for {CONTRADICT_AFTER_S:.0} s and never \

@@ -695,3 +695,41 @@ fn a_coordinator_after_another_numbers_its_fires_where_that_one_could_not_have()
     // On a real site's Unix clock the ids wrap around u32 rather than overflow.
     assert!(fire_id_floor(1.8e9) < u32::MAX);
 }
+
+/// a alone claims a fire and is sent to it; it reports it out. Having sprayed, its word
+/// stands; with its tank untouched, its own sprayer found nothing where its key reported
+/// flames (a stolen key's fakes around the real unit): contradicted at once, by itself.
+#[test]
+fn a_lone_claimant_that_reports_its_fire_out_without_spraying_contradicts_itself() {
+    for sprayed in [true, false] {
+        let mut i = incident();
+        i.state_at(state("a", 80.0, None), 0.5).unwrap();
+        i.state_at(state("b", 10.0, None), 0.5).unwrap();
+        let out = i.report_at(&report("a", 100.0), 1.0).unwrap();
+        let task = tasks(&out)[0].clone();
+        assert_eq!(task.unit.as_str(), "a", "the claimant is nearest");
+        let TaskKind::Extinguish { fire, target, .. } = task.kind else {
+            unreachable!()
+        };
+        let done = TaskProgress {
+            seq: task.seq,
+            fire,
+            phase: TaskPhase::Extinguished,
+            target,
+        };
+        let mut st = echoing(&i, state("a", 92.0, Some(done)));
+        if sprayed {
+            st.water_l -= 40.0;
+        }
+        i.state_at(st, 20.0).unwrap();
+        let against_itself = decided(
+            &i,
+            |d| matches!(d, Decision::Contradicted { witness, by, .. } if witness == "a" && by == "a"),
+        );
+        assert_eq!(against_itself, !sprayed, "sprayed: {sprayed}");
+        assert_eq!(
+            i.fusion.witnesses().record(&u("a")).contradicted,
+            u32::from(!sprayed)
+        );
+    }
+}
