@@ -551,7 +551,10 @@ impl Picture {
                 }
                 Watched::Standby(rank) => self.standby_gone(
                     rank,
-                    format!("standby coordinator rank {rank} is gone (it stopped, or its link)"),
+                    format!(
+                        "standby coordinator rank {rank} is gone (it stopped, or its link to \
+                         the site is down)"
+                    ),
                 ),
             }
         }

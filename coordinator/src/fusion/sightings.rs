@@ -27,8 +27,7 @@ impl Fusion {
                 .fires
                 .iter()
                 .filter(|f| matches!(f.state, FireState::Tentative | FireState::Confirmed))
-                .filter(|f| f.dts.is_none())
-                .filter(|f| f.per_unit.len() == 1 && f.per_unit.contains_key(unit))
+                .filter(|f| f.claimed_alone_by(unit))
                 .count();
             let (burst, every_s) = witness::lone_starts(
                 self.witnesses.record(unit).unborne(),

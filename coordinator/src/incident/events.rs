@@ -21,8 +21,9 @@ pub const RECALL_AHEAD_S: f64 = 5.0;
 /// How far a report's observer may stand from where the unit's state puts it, m: the
 /// drift between two estimates of the unit's pose.
 pub const OBSERVER_SLACK_M: f64 = 10.0;
-/// Water a unit must have used on a fire for its "out" to be one it sprayed for, L: a
-/// second of the smallest cannon's flow, well above a tank gauge's noise.
+/// Water a unit must have used on a fire for its "out" to be one it sprayed for, L: half a
+/// second of the shipped ground profiles' smaller cannon (10 L/s), well above a tank
+/// gauge's noise.
 const SPRAYED_L: f64 = 5.0;
 
 impl Incident {
