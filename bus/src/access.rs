@@ -330,8 +330,10 @@ pub fn grants(
             grant(Op::Put, keys.coord_goals().as_str());
             grant(Op::Put, keys.every_zone_ack().as_str());
             grant(Op::Token, &keys.expr(&Topic::CoordAlive));
-            // A standby says it is standing by (operators see who could take over).
+            // A standby says it is standing by (operators see who could take over), and
+            // what it follows.
             grant(Op::Token, &keys.every_standby_alive());
+            grant(Op::Put, keys.every_standby_health().as_str());
             grant(Op::Subscribe, keys.every_unit_state().as_str());
             grant(Op::Subscribe, keys.every_unit_report().as_str());
             grant(Op::Subscribe, keys.every_zone_goal().as_str());
@@ -382,6 +384,7 @@ pub fn grants(
             grant(Op::Subscribe, keys.coord_log().as_str());
             grant(Op::Subscribe, keys.coord_goals().as_str());
             grant(Op::Subscribe, keys.coord_barred().as_str());
+            grant(Op::Subscribe, keys.every_standby_health().as_str());
             grant(Op::Subscribe, &keys.every_infra());
             grant(Op::Query, &keys.every_coord());
             grant(Op::Watch, &keys.every_alive());
@@ -680,6 +683,7 @@ mod tests {
             (Op::Put, Topic::CoordLog),
             (Op::Put, Topic::CoordBarred),
             (Op::Put, Topic::CoordGoals),
+            (Op::Put, Topic::CoordStandbyHealth(0)),
             (Op::Put, Topic::SimClock),
             (Op::Put, Topic::SimTruth),
             (Op::Put, Topic::SimSensors(u("ugv-1"))),

@@ -49,6 +49,7 @@ pub async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> Result<(), BusError> 
         keys.every_zone_ack().as_str().to_owned(),
         keys.expr(&Topic::CoordGoals),
         keys.expr(&Topic::CoordLog),
+        keys.every_standby_health().as_str().to_owned(),
         keys.expr(&Topic::SimClock),
         keys.every_infra(),
     ];

@@ -4,6 +4,9 @@
 //! Following means keeping what a starting coordinator would otherwise recall from a
 //! recorder: the latest track of every fire and the newest goals in force, both of which
 //! the coordinator in charge publishes (tracks on change and every second, goals likewise).
+//! Each second it says what it follows ([`StandbyHealth`]: the time of the newest goals it
+//! heard, its tracks), so that a console can tell a standby that follows from one that
+//! only holds its token.
 //! Taking over is [`crate::node::run`] with those as what it resumes from, so a takeover
 //! needs no recorder and forgets no fire and no keep-out; the site clock and the units'
 //! task numbers come first, as at any start, so no task number goes back. The goals it
@@ -39,7 +42,7 @@ use firefleet_bus::{Bus, BusError};
 use firefleet_model::FireId;
 use firefleet_model::scenario::Scenario;
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{FireTrack, GoalsInForce};
+use firefleet_protocol::msg::{FireTrack, GoalsInForce, StandbyHealth};
 use tokio::time::Instant;
 
 use crate::node::{CoordinatorOptions, Ended, run};
@@ -51,6 +54,10 @@ pub const RANK_STEP: Duration = Duration::from_millis(500);
 /// How long a standby that starts listens for a coordinator in charge before it counts
 /// none: liveliness history arrives within milliseconds on a site's network.
 const START_GRACE: Duration = Duration::from_secs(1);
+
+/// How often a standby says what it follows ([`StandbyHealth`]): as often as the
+/// coordinator in office re-sends the goals in force it follows.
+pub const HEALTH_PERIOD: Duration = Duration::from_secs(1);
 
 /// How often a standby cut off from the site looks whether it is linked again.
 const RELINK_POLL: Duration = Duration::from_millis(200);
@@ -100,6 +107,8 @@ async fn follow(
     let mut tracks: BTreeMap<FireId, FireTrack> = BTreeMap::new();
     let mut newest: Option<GoalsInForce> = None;
     let mut in_charge = false;
+    let health_key = keys.coord_standby_health(rank);
+    let mut health = tokio::time::interval(HEALTH_PERIOD);
     // When the standby may take over if nobody is in charge by then.
     let mut due = Instant::now() + START_GRACE + RANK_STEP * rank;
     // Whether the standby found itself cut off from the site at the last due time.
@@ -121,6 +130,17 @@ async fn follow(
                     crate::node::keep(opts.journal.as_ref(), &g);
                 }
                 newest = GoalsInForce::newer(Some(g), newest);
+            }
+            _ = health.tick() => {
+                let said = StandbyHealth {
+                    rank,
+                    goals_t: newest.as_ref().map(|g| g.t),
+                    tracks: u32::try_from(tracks.len()).unwrap_or(u32::MAX),
+                };
+                // A lost word is the console's to notice: never the standby's end.
+                if let Err(e) = bus.put(&health_key, &said).await {
+                    tracing::warn!(rank, "could not say what this standby follows: {e}");
+                }
             }
             Some((_, alive)) = coordinator.recv() => {
                 in_charge = alive;

@@ -57,8 +57,8 @@ use std::marker::PhantomData;
 
 use crate::msg::{
     BarredSpace, BtTransitions, Decision, DtsZone, FireTrack, FlameReport, GoalAck, GoalsInForce,
-    Message, RailCommand, RailSensors, ScadaLink, SimClock, SimTruth, Suspension, Task,
-    UnitCommand, UnitSensors, UnitState, Vent, ZoneGoal,
+    Message, RailCommand, RailSensors, ScadaLink, SimClock, SimTruth, StandbyHealth, Suspension,
+    Task, UnitCommand, UnitSensors, UnitState, Vent, ZoneGoal,
 };
 use firefleet_model::ids::{CommanderId, FireId, SiteId, UnitId, ZoneId};
 
@@ -85,6 +85,8 @@ pub enum Topic {
     CoordAlive,
     /// A standby coordinator's liveliness, by its rank: who could take over.
     CoordStandbyAlive(u32),
+    /// What a standby coordinator of that rank follows, each second.
+    CoordStandbyHealth(u32),
     CoordStatus,
     /// What a goal would do, asked before it is issued.
     CoordPreview,
@@ -120,6 +122,7 @@ impl fmt::Display for Topic {
             Topic::ZoneAck(z) => write!(f, "zone/{z}/ack"),
             Topic::CoordAlive => f.write_str("coord/alive"),
             Topic::CoordStandbyAlive(rank) => write!(f, "coord/standby/{rank}/alive"),
+            Topic::CoordStandbyHealth(rank) => write!(f, "coord/standby/{rank}/health"),
             Topic::CoordStatus => f.write_str("coord/status"),
             Topic::CoordPreview => f.write_str("coord/preview"),
             Topic::CoordLog => f.write_str("coord/log"),
@@ -155,6 +158,7 @@ impl Topic {
         "zone/<zone>/ack",
         "coord/alive",
         "coord/standby/<rank>/alive",
+        "coord/standby/<rank>/health",
         "coord/status",
         "coord/log",
         "coord/barred",
@@ -184,6 +188,7 @@ impl Topic {
             Topic::ZoneAck(_) => "zone/<zone>/ack",
             Topic::CoordAlive => "coord/alive",
             Topic::CoordStandbyAlive(_) => "coord/standby/<rank>/alive",
+            Topic::CoordStandbyHealth(_) => "coord/standby/<rank>/health",
             Topic::CoordStatus => "coord/status",
             Topic::CoordPreview => "coord/preview",
             Topic::CoordLog => "coord/log",
@@ -347,6 +352,7 @@ typed_keys! {
         coord_log() -> Decision = Topic::CoordLog;
         coord_barred() -> BarredSpace = Topic::CoordBarred;
         coord_goals() -> GoalsInForce = Topic::CoordGoals;
+        coord_standby_health(rank: u32) -> StandbyHealth = Topic::CoordStandbyHealth(rank);
         suspend(target: &str, by: &str) -> Suspension = Topic::Suspend(target.to_owned(), by.to_owned());
         infra_dts(zone: u16) -> DtsZone = Topic::InfraDts(zone);
         infra_vent() -> Vent = Topic::InfraVent;
@@ -371,6 +377,8 @@ typed_keys! {
         every_zone_goal -> ZoneGoal = "zone/*/goal/*";
         /// The coordinator's answers for every zone.
         every_zone_ack -> GoalAck = "zone/*/ack";
+        /// What every standby coordinator follows.
+        every_standby_health -> StandbyHealth = "coord/standby/*/health";
         /// Every ask to suspend an identity.
         every_suspend -> Suspension = "trust/suspend/*/*";
         /// Every DTS zone.
@@ -443,6 +451,10 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
             rank.parse()
                 .map_err(|_| err(format!("'{rank}' is no standby's rank")))?,
         ),
+        ["coord", "standby", rank, "health"] => Topic::CoordStandbyHealth(
+            rank.parse()
+                .map_err(|_| err(format!("'{rank}' is no standby's rank")))?,
+        ),
         ["coord", "status"] => Topic::CoordStatus,
         ["coord", "preview"] => Topic::CoordPreview,
         ["coord", "log"] => Topic::CoordLog,
@@ -511,6 +523,7 @@ mod tests {
             Topic::ZoneAck(z),
             Topic::CoordAlive,
             Topic::CoordStandbyAlive(2),
+            Topic::CoordStandbyHealth(2),
             Topic::CoordStatus,
             Topic::CoordPreview,
             Topic::CoordLog,

@@ -12,8 +12,8 @@ use crate::codec::{self, CodecError};
 use crate::keys::Topic;
 use crate::msg::{
     BarredSpace, BtTransitions, Decision, DtsZone, FireTrack, FlameReport, GoalAck, GoalsInForce,
-    Message, RailCommand, RailSensors, ScadaLink, SimClock, SimTruth, Suspension, Task,
-    UnitCommand, UnitSensors, UnitState, Vent, ZoneGoal,
+    Message, RailCommand, RailSensors, ScadaLink, SimClock, SimTruth, StandbyHealth, Suspension,
+    Task, UnitCommand, UnitSensors, UnitState, Vent, ZoneGoal,
 };
 use firefleet_model::{CommanderId, ZoneId};
 use serde::{Deserialize, Serialize};
@@ -90,6 +90,7 @@ payloads! {
     Decision(Decision) = Topic::CoordLog,
     Barred(BarredSpace) = Topic::CoordBarred,
     Goals(GoalsInForce) = Topic::CoordGoals,
+    StandbyHealth(StandbyHealth) = Topic::CoordStandbyHealth(_),
     Suspension(Suspension) = Topic::Suspend(..),
     Dts(DtsZone) = Topic::InfraDts(_),
     Vent(Vent) = Topic::InfraVent,

@@ -203,3 +203,108 @@ async fn a_console_restarted_alone_keeps_its_acknowledgements_and_audit() {
     drop(fleet);
     bus.close().await;
 }
+
+/// A standby that holds its token but does not follow (issue #47: standby unhealthy): the
+/// test's own session stands by as rank 3 beside a real coordinator and console, and says
+/// it follows goals it never heard. The console alarms it within its 3 s of silence plus
+/// a second, and returns it to normal once it says the goals the coordinator sends.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_standby_that_does_not_follow_the_coordinator_is_alarmed_until_it_does() {
+    use firefleet_protocol::keys::Topic;
+    use firefleet_protocol::msg::StandbyHealth;
+    let (bus, endpoint) = router("tunnel-a").await;
+    let dir = tempfile::tempdir().unwrap();
+    let users = dir.path().join("users.toml");
+    let mut add = std::process::Command::new(BIN)
+        .args(["console", "add-user", "--users"])
+        .arg(&users)
+        .arg("rossi")
+        .stdin(Stdio::piped())
+        .spawn()
+        .unwrap();
+    add.stdin
+        .take()
+        .unwrap()
+        .write_all(b"correct horse\n")
+        .unwrap();
+    assert!(add.wait().unwrap().success());
+    let addr = format!("127.0.0.1:{}", firefleet_bus::free_loopback_port().unwrap());
+    let fleet = Fleet(vec![
+        spawn_role(
+            SCENARIO,
+            &endpoint,
+            &[
+                "console",
+                "--http",
+                &addr,
+                "--users",
+                users.to_str().unwrap(),
+            ],
+        ),
+        spawn_role(SCENARIO, &endpoint, &["coordinator"]),
+    ]);
+    let cookie = login(&addr);
+    let keys = bus.keys().clone();
+    let goals = bus.subscribe(&keys.coord_goals()).await.unwrap();
+    let _standing_by = bus.token(&Topic::CoordStandbyAlive(3)).await.unwrap();
+    let alarm = |inc: &serde_json::Value| {
+        inc["alerts"].as_array().and_then(|a| {
+            a.iter()
+                .find(|a| {
+                    a["kind"] == "standby-not-following" && a["active"] == true && a["rank"] == 3
+                })
+                .cloned()
+        })
+    };
+    // It says, every half second, that it follows the goals of t = 0 s.
+    let until = Instant::now() + patient(Duration::from_secs(30));
+    let stale = StandbyHealth {
+        rank: 3,
+        goals_t: Some(0.0),
+        tracks: 0,
+    };
+    let raised = loop {
+        bus.put(&keys.coord_standby_health(3), &stale)
+            .await
+            .unwrap();
+        let inc = json(&http(&addr, "GET", "/api/incident", Some(&cookie), None).2);
+        if let Some(a) = alarm(&inc) {
+            break a;
+        }
+        assert!(Instant::now() < until, "never alarmed: {}", inc["alerts"]);
+        tokio::time::sleep(Duration::from_millis(500)).await;
+    };
+    assert!(
+        raised["text"]
+            .as_str()
+            .is_some_and(|t| t.contains("follows the goals in force of t=0.0 s")),
+        "{raised}"
+    );
+    assert_eq!(raised["priority"], 2, "{raised}");
+    // Now it follows: it says the newest goals it heard.
+    let mut newest = None;
+    loop {
+        while let Some((_, g)) = goals.try_recv() {
+            newest = Some(g.t);
+        }
+        let following = StandbyHealth {
+            goals_t: newest,
+            ..stale.clone()
+        };
+        bus.put(&keys.coord_standby_health(3), &following)
+            .await
+            .unwrap();
+        let inc = json(&http(&addr, "GET", "/api/incident", Some(&cookie), None).2);
+        if alarm(&inc).is_none() {
+            break;
+        }
+        assert!(
+            Instant::now() < until,
+            "never back to normal: {}",
+            inc["alerts"]
+        );
+        tokio::time::sleep(Duration::from_millis(500)).await;
+    }
+    drop(fleet);
+    bus.close().await;
+}

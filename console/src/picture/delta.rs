@@ -21,6 +21,7 @@ impl Picture {
         }
         self.drop_orphans();
         self.confirm_lost(now_ms);
+        self.judge_standbys(now_ms);
         self.forget_terms(now_ms);
         // The layer at most every HEAT_PERIOD_MS, and only when it changed: the bridge
         // re-sends every zone every second, and a silent one goes stale without a word.

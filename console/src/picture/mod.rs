@@ -46,6 +46,7 @@ use crate::infra::{Infra, InfraView};
 use crate::site::SiteMap;
 
 mod delta;
+mod standby;
 mod view;
 
 pub use view::{
@@ -155,6 +156,11 @@ pub struct Picture {
     vanished: BTreeMap<Watched, u64>,
     /// The standby coordinators whose tokens are present, by rank.
     standbys: BTreeSet<u32>,
+    /// What each standby says it follows ([`standby`]), and those judged not following.
+    following: BTreeMap<u32, standby::Following>,
+    not_following: BTreeSet<u32>,
+    /// The coordinator's goals in force lately heard: when (ms), and their site time.
+    goals_heard_at: VecDeque<(u64, f64)>,
     /// The identities suspended, as the goals in force last said.
     suspended: BTreeSet<String>,
     /// The terms (epochs) whose tasks were heard lately: when first and last, ms.
@@ -208,6 +214,9 @@ impl Picture {
             trapped: BTreeSet::new(),
             vanished: BTreeMap::new(),
             standbys: BTreeSet::new(),
+            following: BTreeMap::new(),
+            not_following: BTreeSet::new(),
+            goals_heard_at: VecDeque::new(),
             terms: BTreeMap::new(),
             newest_term: None,
             coordinator_since: None,
@@ -244,7 +253,11 @@ impl Picture {
                 self.ordered(task);
             }
             Event::Message(Payload::Fire(f)) => self.fire(now_ms, f),
-            Event::Message(Payload::Goals(g)) => self.goals(g),
+            Event::Message(Payload::Goals(g)) => {
+                self.goals_heard(now_ms, g.t);
+                self.goals(g);
+            }
+            Event::Message(Payload::StandbyHealth(h)) => self.standby_said(now_ms, h),
             Event::Message(Payload::Decision(d)) => self.decision(d),
             Event::Message(Payload::Ack(a)) => {
                 if !a.accepted {
@@ -319,11 +332,13 @@ impl Picture {
             Event::StandbyAlive(rank, alive) => {
                 if alive {
                     self.standbys.insert(rank);
+                    self.standby_appeared(rank, now_ms);
                     self.vanished.remove(&Watched::Standby(rank));
                     self.settle(
                         |k| matches!(k, AlertKind::StandbyGone { rank: r, .. } if *r == rank),
                     );
                 } else if self.standbys.remove(&rank) && self.link != Some(false) {
+                    self.standby_vanished(rank);
                     self.vanished.insert(Watched::Standby(rank), now_ms);
                     self.took_office(now_ms);
                 }

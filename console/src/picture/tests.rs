@@ -775,3 +775,74 @@ fn a_new_term_while_the_coordinator_never_left_is_usurped_and_a_takeover_is_not(
     q.observe(10_100, task(10));
     assert!(!usurped(&q));
 }
+
+/// A standby that holds its token but stops hearing the coordinator (its goals fall
+/// behind) or stops saying what it follows is an alarm until it follows again; one that
+/// follows never is, at any time scale.
+#[test]
+fn a_standby_that_holds_its_token_but_does_not_follow_is_an_alarm_until_it_follows_again() {
+    use firefleet_protocol::msg::StandbyHealth;
+    let not_following = |p: &Picture| {
+        p.incident()
+            .alerts
+            .into_iter()
+            .filter(|a| a.active && a.kind == AlertKind::StandbyNotFollowing { rank: 1 })
+            .map(|a| a.text)
+            .collect::<Vec<_>>()
+    };
+    let mut p = picture();
+    p.observe(0, Event::Link(true));
+    p.observe(0, Event::CoordinatorAlive(true));
+    p.observe(0, Event::StandbyAlive(1, true));
+    // Goals every wall second, eight site seconds apart (x8); the standby hears each at
+    // once and says so a second later. It follows.
+    let goals = |t: f64| {
+        Event::Message(Payload::Goals(GoalsInForce {
+            t,
+            ..Default::default()
+        }))
+    };
+    let said = |goals_t: Option<f64>| {
+        Event::Message(Payload::StandbyHealth(StandbyHealth {
+            rank: 1,
+            goals_t,
+            tracks: 0,
+        }))
+    };
+    for s in 0..10u64 {
+        p.observe(s * 1000, goals(8.0 * s as f64));
+        p.observe(s * 1000 + 900, said(Some(8.0 * s as f64)));
+        p.delta(s * 1000 + 950);
+    }
+    assert!(not_following(&p).is_empty());
+    // Cut off from the coordinator: it goes on saying the goals of t = 72 s.
+    for s in 10..14u64 {
+        p.observe(s * 1000, goals(8.0 * s as f64));
+        p.observe(s * 1000 + 900, said(Some(72.0)));
+        p.delta(s * 1000 + 950);
+    }
+    let text = not_following(&p);
+    assert!(
+        matches!(&text[..], [t] if t.contains("follows the goals in force of t=72.0 s")),
+        "{text:?}"
+    );
+    assert_eq!(
+        p.incident()
+            .alerts
+            .iter()
+            .filter(|a| a.kind == AlertKind::StandbyNotFollowing { rank: 1 })
+            .count(),
+        1,
+        "raised once while it lasts"
+    );
+    // Following again: back to normal.
+    p.observe(14_000, goals(112.0));
+    p.observe(14_900, said(Some(112.0)));
+    p.delta(14_950);
+    assert!(not_following(&p).is_empty());
+    // Silent (hung): an alarm after 3 s; its token gone: the silence is moot.
+    p.delta(18_000);
+    assert!(not_following(&p)[0].contains("has said nothing"));
+    p.observe(18_100, Event::StandbyAlive(1, false));
+    assert!(not_following(&p).is_empty());
+}

@@ -95,6 +95,11 @@ pub enum AlertKind {
         /// Standbys still following.
         left: usize,
     },
+    /// A standby coordinator holds its token but does not follow the incident
+    /// ([`super::standby`]): it would take office knowing neither the goals nor the fires.
+    StandbyNotFollowing {
+        rank: u32,
+    },
     /// The link to the tunnel's SCADA (its DTS and ventilation) is down.
     ScadaLost {
         problem: String,
@@ -139,6 +144,7 @@ impl AlertKind {
             AlertKind::UnitLost { .. }
             | AlertKind::FireReignited { .. }
             | AlertKind::StandbyGone { .. }
+            | AlertKind::StandbyNotFollowing { .. }
             | AlertKind::Suspended { .. }
             | AlertKind::ScadaLost { .. } => 2,
             AlertKind::GoalRejected { .. } => 3,

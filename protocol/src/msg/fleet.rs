@@ -435,6 +435,27 @@ pub fn latest_per_fire(tracks: impl IntoIterator<Item = FireTrack>) -> Vec<FireT
     latest.into_values().collect()
 }
 
+/// What a standby coordinator follows, each second while it stands by: the site time of
+/// the newest goals in force it heard from the coordinator in office (none yet) and how
+/// many fire tracks it keeps. A standby that stops following (cut off from the coordinator,
+/// hung) would take office knowing neither; the console compares this with what the
+/// coordinator publishes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct StandbyHealth {
+    pub rank: u32,
+    pub goals_t: Option<f64>,
+    pub tracks: u32,
+}
+
+impl Validate for StandbyHealth {
+    fn validate(&self) -> Result<(), Invalid> {
+        if let Some(t) = self.goals_t {
+            finite("goals_t", t)?;
+        }
+        Ok(())
+    }
+}
+
 /// One logged decision of the coordinator, with its reason in the text.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct Decision {

@@ -65,7 +65,7 @@ macro_rules! messages {
     };
 }
 messages! {
-    Postcard: Decision, BarredSpace, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions, DtsZone, Vent, ScadaLink;
+    Postcard: Decision, StandbyHealth, BarredSpace, UnitState, FlameReport, Task, FireTrack, SimClock, UnitSensors, UnitCommand, RailSensors, RailCommand, SimTruth, BtTransitions, DtsZone, Vent, ScadaLink;
     Json: ZoneGoal, GoalAck, GoalsInForce, GoalPreview, Suspension, IncidentStatus;
 }
 
