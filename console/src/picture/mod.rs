@@ -5,7 +5,8 @@
 //! What a commander must not miss becomes an [`Alert`], an alarm with the lifecycle of
 //! ISA-18.2: a unit whose token vanished (lost), a fire that burns again after it was out,
 //! a goal the coordinator rejected, a fire stranded or a unit trapped by a goal, the
-//! coordinator gone, a standby gone (it took office, or stopped), the SCADA link cut. It
+//! coordinator gone, a standby gone (it took office, or stopped) or not following
+//! (`standby.rs`), the SCADA link cut. It
 //! returns to normal by itself when its cause ends (the token back, the fire out, the goal
 //! lifted, the link up) and closes once it is also acknowledged; one cause is one alarm,
 //! counted when raised again. A unit's freshness is
