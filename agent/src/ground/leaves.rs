@@ -42,9 +42,6 @@ const MOVED: Port<f64> = Port::input(
 )
 .with_default("1.5");
 const FIRE: Port<At> = Port::input("fire", "the fire");
-/// How near the fire's estimate the unit's own camera must place a flame for the cannon
-/// to aim at it (and open), m: a flame's base and the estimate's error at firing range.
-const FLAME_AT_AIM_M: f64 = 3.0;
 const FIRING_POSITION: Port<At> = Port::output("target", "the firing position");
 const DRIVE_TO: Port<At> = Port::input("goal", "where to drive");
 const PAN_TO_FIRE: Port<f64> = Port::output("pan", "cannon pan to the fire, rad");
@@ -85,10 +82,7 @@ impl StatefulAction<Unit> for StartWaterCannon {
         self.on_running(io, u)
     }
     fn on_running(&mut self, _: &mut Io<'_>, u: &mut Unit) -> Status {
-        // Only on a flame the unit's own camera sees where it aims: a fire it was sent to
-        // and finds nothing at (one somebody else put out, or a stolen key's fake) costs no
-        // water, and its "out" then says it found nothing.
-        if u.aim.is_none() || !u.aimed_at_flame {
+        if u.aim.is_none() {
             return Status::Failure;
         }
         if u.on_target() {
@@ -140,7 +134,7 @@ impl StatefulAction<Unit> for ScanForFire {
 /// finite, and a bed that stays hot that long is the coordinator's to send help to), and
 /// at once when the tank is empty (nothing left to spray; the unit's state says so, and
 /// the coordinator relieves it). A unit with no thermal camera reads nothing: a fixed pass
-/// of `msec`, the BT paper's. None at all if the cannon never opened.
+/// of `msec`, the BT paper's.
 struct CoolBed {
     since: f64,
     cool_since: f64,
@@ -161,10 +155,6 @@ impl StatefulAction<Unit> for CoolBed {
         ) else {
             return Status::Failure;
         };
-        // No jet, no pass: the cannon never opened (no flame was seen there).
-        if !u.valve {
-            return Status::Success;
-        }
         let now = u.now();
         if u.bed_k(p(fire)).is_some_and(|k| k >= below) {
             self.cool_since = now;
@@ -306,9 +296,7 @@ pub fn registry() -> Registry<Unit> {
                     return Status::Failure;
                 };
                 // Re-aim at the flame as the camera sees it now.
-                let seen = u.flame_near(p(f), FLAME_AT_AIM_M);
-                let target = seen.unwrap_or(p(f));
-                u.aimed_at_flame = seen.is_some();
+                let target = u.flame_near(p(f), 3.0).unwrap_or(p(f));
                 u.sweep_over(target);
                 match u.aim_at(target) {
                     Some((pan, tilt)) => ok(
@@ -384,7 +372,6 @@ pub fn registry() -> Registry<Unit> {
             |_: &mut Io<'_>, u: &mut Unit| {
                 u.valve = false;
                 u.aim = None;
-                u.aimed_at_flame = false;
                 Status::Success
             }
         }),

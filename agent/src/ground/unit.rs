@@ -186,9 +186,6 @@ pub struct Unit {
     pub(crate) scan: Option<f64>,
     /// Half-angle of the sweep across the flame base while spraying, rad.
     pub(crate) sweep_rad: f64,
-    /// The last aim (`ComputeRelativePosition`) was at a flame the unit's own camera sees,
-    /// not only at where it was told the fire is: the cannon opens only then.
-    pub(crate) aimed_at_flame: bool,
     pub(crate) valve: bool,
     pub(crate) mission: Mission,
     /// Goal of the latest cruise, kept after arrival.
@@ -244,7 +241,6 @@ impl Unit {
             aim: None,
             scan: None,
             sweep_rad: 0.0,
-            aimed_at_flame: false,
             valve: false,
             mission: Mission::default(),
             last_report_t: f64::NEG_INFINITY,
@@ -673,7 +669,6 @@ impl Responder for Unit {
     fn stand_down(&mut self) {
         self.valve = false;
         self.aim = None;
-        self.aimed_at_flame = false;
         self.stop_navigation(NavPurpose::Fire);
     }
 }
