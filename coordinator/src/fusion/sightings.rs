@@ -216,30 +216,6 @@ impl Fusion {
         })
     }
 
-    /// `unit`, the one unit claiming fire `id`, was sent to it and reports it out without
-    /// having sprayed: its own body found nothing where its key reported flames (a
-    /// detector gone wrong, or somebody else on its key). That contradicts its claim at
-    /// once, as another unit's finding nothing would ([`Fusion::found_nothing`]). Returns
-    /// the contradiction, if this was one.
-    pub fn undone_by_claimant(
-        &mut self,
-        id: FireId,
-        unit: &UnitId,
-        t: f64,
-    ) -> Option<Contradiction> {
-        let id = self.resolve(id);
-        let f = self.fires.iter_mut().find(|f| f.id == id)?;
-        if f.contradicted.is_some() || f.lone_claim(t) != Some(unit) {
-            return None;
-        }
-        f.contradicted = Some(unit.clone());
-        Some(Contradiction {
-            fire: f.id,
-            doubted_now: self.witnesses.contradict(unit),
-            witness: unit.clone(),
-        })
-    }
-
     /// Send back to tentative every contradicted track that only doubted units claim and
     /// somebody was sent to (or put out); returns their ids.
     pub fn demote_doubted(&mut self) -> Vec<FireId> {

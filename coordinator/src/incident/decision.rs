@@ -194,8 +194,7 @@ pub enum Decision {
         fire: FireId,
         at: Point2,
     },
-    /// `by` had the fire `witness` alone claims in clear view and never saw it (or, `by`
-    /// being `witness`, reported it out without having sprayed).
+    /// `by` had the fire `witness` alone claims in clear view and never saw it.
     Contradicted {
         fire: FireId,
         witness: UnitId,
@@ -470,11 +469,6 @@ impl fmt::Display for Decision {
             Decision::Confirmed { fire, at } => {
                 write!(f, "fire {fire} confirmed at ({:.1}, {:.1})", at.x, at.y)
             }
-            Decision::Contradicted { fire, witness, by } if witness == by => write!(
-                f,
-                "fire {fire}: only {witness} claims it, and sent there it reports it out without \
-                 having sprayed: its own sprayer found nothing"
-            ),
             Decision::Contradicted { fire, witness, by } => write!(
                 f,
                 "fire {fire}: {by} had it in clear view for {CONTRADICT_AFTER_S:.0} s and never \

@@ -21,10 +21,6 @@ pub const RECALL_AHEAD_S: f64 = 5.0;
 /// How far a report's observer may stand from where the unit's state puts it, m: the
 /// drift between two estimates of the unit's pose.
 pub const OBSERVER_SLACK_M: f64 = 10.0;
-/// Water a unit must have used on a fire for its "out" to be one it sprayed for, L: half a
-/// second of the shipped ground profiles' smaller cannon (10 L/s), well above a tank
-/// gauge's noise.
-const SPRAYED_L: f64 = 5.0;
 
 impl Incident {
     /// A unit's liveliness token appeared or vanished.
@@ -315,15 +311,6 @@ impl Incident {
     fn on_out_claim(&mut self, unit: &UnitId, fire: FireId, t: f64, out: &mut Vec<Output>) {
         // Sent to a fire one other unit alone claims, it saw nothing there.
         if let Some(c) = self.fusion.found_nothing(fire, unit, t) {
-            out.extend(self.contradicted(vec![c], unit, t));
-        }
-        // Sent to a fire it alone claims, it sprayed nothing: its body found no flame where
-        // its key reported one.
-        let dry = self.units.get(unit).is_some_and(|v| {
-            matches!((v.tank_at_attack, &v.state), (Some((f, before)), Some(s))
-                if self.fusion.resolve(f) == fire && s.water_l >= before - SPRAYED_L)
-        });
-        if dry && let Some(c) = self.fusion.undone_by_claimant(fire, unit, t) {
             out.extend(self.contradicted(vec![c], unit, t));
         }
         let against = self.still_burning_for(fire, unit, t);

@@ -160,9 +160,6 @@ struct UnitView {
     /// The newest state and report taken from the unit: older ones are replays.
     newest_state: freshness::Newest,
     newest_report: freshness::Newest,
-    /// The fire of its attack task and what its tank held when it was given that fire
-    /// (a ground unit's), to tell an "out" it sprayed for from one it found nothing for.
-    tank_at_attack: Option<(FireId, f64)>,
 }
 
 impl UnitView {
@@ -180,7 +177,6 @@ impl UnitView {
             tasked: false,
             newest_state: freshness::Newest::default(),
             newest_report: freshness::Newest::default(),
-            tank_at_attack: None,
         }
     }
 
@@ -458,16 +454,6 @@ impl Incident {
             v.unechoed.get_or_insert((task.order(), t));
             v.task = Some(task.clone());
             v.tasked = true;
-            v.tank_at_attack = match (kind, v.tank_at_attack, &v.state, &v.mobility) {
-                // The same fire again (retargeted, merged): water since its first giving.
-                (TaskKind::Extinguish { fire, .. }, Some((f, l)), _, _) if f == fire => {
-                    Some((f, l))
-                }
-                (TaskKind::Extinguish { fire, .. }, _, Some(s), Mobility::Ground(_)) => {
-                    Some((fire, s.water_l))
-                }
-                _ => None,
-            };
         }
         Output::Task(task)
     }
