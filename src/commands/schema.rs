@@ -76,7 +76,7 @@ mod tests {
     #[test]
     fn every_message_has_a_schema_and_a_track_fits_its_own() {
         let all = schemas();
-        assert_eq!(all.len(), 22);
+        assert_eq!(all.len(), 23);
         for m in &all {
             let v = serde_json::to_value(&m.schema).unwrap();
             assert!(v["$schema"].is_string(), "{}: {v}", m.name);
