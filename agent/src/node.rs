@@ -320,6 +320,8 @@ where
             // that depend on it (a goal cleared, then a unit sent where it barred), and a
             // task taken before a barred space already here would be refused for a goal
             // the coordinator had lifted (an unbiased select picks either when both wait).
+            // The platform's frames last: on a loaded host they may always be waiting, and
+            // must not starve the rare messages (a coordinator's coming, a shutdown).
             biased;
             Some((_, b)) = barred.recv() => {
                 if let Err(e) = ctl.on_barred(b) {
@@ -340,41 +342,6 @@ where
                     }
                 } else {
                     bus.rejects().refuse_invalid(&tasks_from, &format_args!("a task addressed to {}", task.unit));
-                }
-            }
-            frame = platform.sense() => {
-                let Some(s) = frame else { break };
-                let cmd = ctl.step(&s);
-                platform.actuate(cmd).await?;
-                let t = U::time(&s);
-                if let Some(found) = ctl.found() {
-                    platform.found(t, found)?;
-                }
-                halt = Some(U::halt(&s));
-                taps.step(ctl.tree(), &transitions.borrow()[tapped..], t);
-                tapped = transitions.borrow().len();
-                // The tree's transitions go out in batches, at most every BT_BATCH_S, so a
-                // unit stays far inside the router's rate bound on its `bt` key
-                // (`firefleet_bus::limits`) however fast its platform's frames come.
-                if t >= next_bt && !transitions.borrow().is_empty() {
-                    next_bt = t + BT_BATCH_S;
-                    bus.put(&bt_key, &batch()).await?;
-                    tapped = 0;
-                    taps.flush();
-                }
-                if opts.print_tree && t >= next_print {
-                    next_print = t + 1.0;
-                    #[allow(clippy::print_stderr, reason = "--print-tree asks for the tree on stderr")]
-                    {
-                        eprintln!("{unit} t={t:.1}\n{}", ctl.tree().render());
-                    }
-                }
-                if t >= next_report {
-                    next_report = t + opts.report_period_s;
-                    bus.put(&state_key, &ctl.state()).await?;
-                    if let Some(r) = ctl.report() {
-                        bus.put(&report_key, &r).await?;
-                    }
                 }
             }
             answer = barred_answers.recv_or_refusal(), if asking => match answer {
@@ -427,6 +394,41 @@ where
             next = &mut move_to => {
                 moved = Some(next);
                 break;
+            }
+            frame = platform.sense() => {
+                let Some(s) = frame else { break };
+                let cmd = ctl.step(&s);
+                platform.actuate(cmd).await?;
+                let t = U::time(&s);
+                if let Some(found) = ctl.found() {
+                    platform.found(t, found)?;
+                }
+                halt = Some(U::halt(&s));
+                taps.step(ctl.tree(), &transitions.borrow()[tapped..], t);
+                tapped = transitions.borrow().len();
+                // The tree's transitions go out in batches, at most every BT_BATCH_S, so a
+                // unit stays far inside the router's rate bound on its `bt` key
+                // (`firefleet_bus::limits`) however fast its platform's frames come.
+                if t >= next_bt && !transitions.borrow().is_empty() {
+                    next_bt = t + BT_BATCH_S;
+                    bus.put(&bt_key, &batch()).await?;
+                    tapped = 0;
+                    taps.flush();
+                }
+                if opts.print_tree && t >= next_print {
+                    next_print = t + 1.0;
+                    #[allow(clippy::print_stderr, reason = "--print-tree asks for the tree on stderr")]
+                    {
+                        eprintln!("{unit} t={t:.1}\n{}", ctl.tree().render());
+                    }
+                }
+                if t >= next_report {
+                    next_report = t + opts.report_period_s;
+                    bus.put(&state_key, &ctl.state()).await?;
+                    if let Some(r) = ctl.report() {
+                        bus.put(&report_key, &r).await?;
+                    }
+                }
             }
         }
     }

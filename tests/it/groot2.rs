@@ -23,11 +23,11 @@ async fn a_demo_units_tree_is_watched_in_groot2_and_recorded_for_replay() {
             "demo",
             "--scenario",
             "vehicle-collision",
-            // At x2 the units are at work for some 20 s of wall time: at x4 a busy
-            // machine's slow answers missed the whole of it once (CI, under a second
-            // build beside it).
+            // At x1 the units are at work for some 40 s of wall time: at x4, and once at
+            // x2, a busy machine's slow answers (each look may take seconds under CI's
+            // load) missed the whole of it.
             "--time-scale",
-            "2",
+            "1",
         ])
         .args(["--groot2", &port.to_string(), "--btlog-dir"])
         .arg(dir.path())
@@ -36,10 +36,11 @@ async fn a_demo_units_tree_is_watched_in_groot2_and_recorded_for_replay() {
         .spawn()
         .unwrap();
     let units = ["ugv-1", "ugv-2"];
-    let deadline = Instant::now() + patient(Duration::from_secs(60));
+    // Looked at until one is seen at work, or the demo is over (all out at some 55 s).
+    let deadline = Instant::now() + patient(Duration::from_secs(90));
     let mut working = None;
     for k in (0..units.len()).cycle() {
-        if Instant::now() > deadline || working.is_some() {
+        if Instant::now() > deadline || working.is_some() || demo.try_wait().unwrap().is_some() {
             break;
         }
         tokio::time::sleep(Duration::from_millis(150)).await;
