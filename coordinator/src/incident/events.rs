@@ -310,7 +310,9 @@ impl Incident {
     /// not the units still at work).
     fn on_out_claim(&mut self, unit: &UnitId, fire: FireId, t: f64, out: &mut Vec<Output>) {
         // Sent to a fire one other unit alone claims, it saw nothing there.
-        if let Some(c) = self.fusion.found_nothing(fire, unit, t) {
+        if self.could_have_looked(unit, fire, t)
+            && let Some(c) = self.fusion.found_nothing(fire, unit, t)
+        {
             out.extend(self.contradicted(vec![c], unit, t));
         }
         let against = self.still_burning_for(fire, unit, t);
@@ -367,6 +369,24 @@ impl Incident {
         for u in free {
             out.push(self.standby(&u, t));
         }
+    }
+
+    /// Whether `unit` can have looked at `fire` by `t`: from where its state put it when it
+    /// was given the fire, at its top speed, it can have come within its sensors' range. An
+    /// "out" sooner is no look and says nothing against the fire's claimant: a stolen key's
+    /// forged "out" came a tenth of a second after the task, and counted against the honest
+    /// unit that reported the fire made its sightings count for nothing, so that every
+    /// forged "out" after it was taken and every sighting reignited the fire (assignment
+    /// thrash, 12 attacker changes in 60 s on one fire in CI).
+    fn could_have_looked(&self, unit: &UnitId, fire: FireId, t: f64) -> bool {
+        let (Some(v), Some(f)) = (self.units.get(unit), self.fusion.get(fire)) else {
+            return false;
+        };
+        let Some((_, given, from)) = v.sent_to.filter(|s| self.fusion.resolve(s.0) == fire) else {
+            return true;
+        };
+        let far = (from.dist(f.position()) - v.mobility.sensor_range_m()).max(0.0);
+        t - given >= far / v.mobility.top_speed_m_s()
     }
 
     /// The unit took task `seq` of term `epoch`: above the one this coordinator gave it in

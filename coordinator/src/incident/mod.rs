@@ -160,6 +160,9 @@ struct UnitView {
     /// The newest state and report taken from the unit: older ones are replays.
     newest_state: freshness::Newest,
     newest_report: freshness::Newest,
+    /// The fire of its attack task, when it was first given that fire and where its state
+    /// then put it: how soon it can have looked there ([`Incident::could_have_looked`]).
+    sent_to: Option<(FireId, f64, firefleet_model::Point2)>,
 }
 
 impl UnitView {
@@ -177,6 +180,7 @@ impl UnitView {
             tasked: false,
             newest_state: freshness::Newest::default(),
             newest_report: freshness::Newest::default(),
+            sent_to: None,
         }
     }
 
@@ -454,6 +458,13 @@ impl Incident {
             v.unechoed.get_or_insert((task.order(), t));
             v.task = Some(task.clone());
             v.tasked = true;
+            v.sent_to = match (kind, v.sent_to, &v.state) {
+                (TaskKind::Extinguish { fire, .. }, Some(sent), _) if sent.0 == fire => Some(sent),
+                (TaskKind::Extinguish { fire, .. }, _, Some(s)) => {
+                    Some((fire, t, s.pose.position()))
+                }
+                _ => None,
+            };
         }
         Output::Task(task)
     }

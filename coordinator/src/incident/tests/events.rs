@@ -695,3 +695,41 @@ fn a_coordinator_after_another_numbers_its_fires_where_that_one_could_not_have()
     // On a real site's Unix clock the ids wrap around u32 rather than overflow.
     assert!(fire_id_floor(1.8e9) < u32::MAX);
 }
+
+/// b, far from the fire a alone claims, is sent there and says it is out a tenth of a
+/// second later (a stolen key's forged "out"): no look, so nothing against a. Said once it
+/// can have come within its camera's range, it is a look that found nothing.
+#[test]
+fn an_out_sooner_than_the_unit_can_have_looked_says_nothing_against_the_claimant() {
+    for (after, counted) in [(0.1, false), (120.0, true)] {
+        let mut i = incident();
+        // a saw the flame from 40 m; b stands 35 m from it, beyond its camera's 30 m.
+        i.state_at(state("a", 60.0, None), 0.5).unwrap();
+        i.state_at(state("b", 135.0, None), 0.5).unwrap();
+        let claim = FlameReport {
+            observer: Pose2::new(60.0, -2.0, 0.0),
+            ..report("a", 100.0)
+        };
+        let out = i.report_at(&claim, 1.0).unwrap();
+        // b is the one sent: a, its claimant, is not sent to verify itself here.
+        let Some(task) = all_tasks(&out)
+            .into_iter()
+            .find(|k| k.unit.as_str() == "b" && matches!(k.kind, TaskKind::Extinguish { .. }))
+            .cloned()
+        else {
+            panic!("b was not sent: {out:?}")
+        };
+        let TaskKind::Extinguish { fire, target, .. } = task.kind else {
+            unreachable!()
+        };
+        let done = TaskProgress {
+            seq: task.seq,
+            fire,
+            phase: TaskPhase::Extinguished,
+            target,
+        };
+        i.state_at(echoing(&i, state("b", 135.0, Some(done))), 1.0 + after)
+            .unwrap();
+        assert_eq!(contradictions(&i) == 1, counted, "out after {after} s");
+    }
+}
