@@ -30,14 +30,23 @@ pub(super) struct Following {
     goals_t: Option<f64>,
 }
 
-impl Picture {
-    /// Standby `rank`'s token appeared at `now_ms` (its silence is counted from then).
-    pub(super) fn standby_appeared(&mut self, rank: u32, now_ms: u64) {
-        self.following.entry(rank).or_insert(Following {
+impl Following {
+    /// A standby first heard of at `now_ms`, that has said nothing yet.
+    fn since(now_ms: u64) -> Self {
+        Self {
             since_ms: now_ms,
             said_ms: None,
             goals_t: None,
-        });
+        }
+    }
+}
+
+impl Picture {
+    /// Standby `rank`'s token appeared at `now_ms` (its silence is counted from then).
+    pub(super) fn standby_appeared(&mut self, rank: u32, now_ms: u64) {
+        self.following
+            .entry(rank)
+            .or_insert(Following::since(now_ms));
     }
 
     /// Standby `rank`'s token vanished: whether it followed is moot (its going is an
@@ -51,11 +60,10 @@ impl Picture {
 
     /// What a standby says it follows, heard at `now_ms`.
     pub(super) fn standby_said(&mut self, now_ms: u64, h: StandbyHealth) {
-        let f = self.following.entry(h.rank).or_insert(Following {
-            since_ms: now_ms,
-            said_ms: None,
-            goals_t: None,
-        });
+        let f = self
+            .following
+            .entry(h.rank)
+            .or_insert(Following::since(now_ms));
         f.said_ms = Some(now_ms);
         f.goals_t = h.goals_t;
     }
