@@ -12,6 +12,15 @@
 //! The units sway about their posts (2 m either way) and do not act: this measures the
 //! coordinator, not the fleet, and a console that must tell pages of every move.
 //!
+//! `--rounds` repeats it: once every fire of a round has its task, each unit sent to one
+//! says it is out, the coordinator is asked until it holds every fire out, and the next
+//! round's fires start 10 m along from the last's. A p99 wants samples: one round of 200
+//! fires makes the p99 its second largest one, ten make it the twentieth of 2000.
+//! Each fire is seen by the two units nearest it (the second report follows the timed one
+//! at once), as a fire in a fleet's midst is: a fire one unit alone claims would be
+//! contradicted by every neighbour that looks at it ten seconds and reports nothing
+//! (`fusion::witness`), and those loads are the attack harness's, not this one's.
+//!
 //! `--secure` runs the same load a second time over QUIC with mutual TLS, the coordinator's
 //! router (holding the router's certificate) enforcing the site's access rules and rate and
 //! size bounds (`firefleet_bus::access`, every unit's own rules; the load
@@ -27,7 +36,7 @@ use std::collections::BTreeMap;
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -40,7 +49,9 @@ use firefleet_model::builtin;
 use firefleet_model::scenario::Scenario;
 use firefleet_model::{Point2, Pose2, SiteId, UnitId};
 use firefleet_protocol::keys::{Keys, Topic};
-use firefleet_protocol::msg::{FlameObservation, FlameReport, Task, TaskKind, UnitMode, UnitState};
+use firefleet_protocol::msg::{
+    FireState, FlameObservation, FlameReport, Task, TaskKind, TaskPhase, TaskProgress, UnitState,
+};
 use serde::Serialize;
 
 use firefleet::args::write_json;
@@ -52,6 +63,9 @@ pub struct ScaleArgs {
     units: usize,
     #[arg(long, default_value_t = 200)]
     fires: usize,
+    /// Times the fires are reported, put out, and reported again 10 m along.
+    #[arg(long, default_value_t = 10)]
+    rounds: usize,
     /// Time between two fires' reports, ms.
     #[arg(long, default_value_t = 50)]
     report_interval_ms: u64,
@@ -72,6 +86,8 @@ struct Figures {
     link: &'static str,
     units: usize,
     fires: usize,
+    /// Reports sent: fires times the rounds run.
+    reports: usize,
     state_msgs_per_s: f64,
     tasks_received: usize,
     report_to_task_p50_ms: f64,
@@ -92,12 +108,22 @@ const UNIT_SPACING_M: f64 = 10.0;
 const SWAY_M: f64 = 2.0;
 const SWAY_RAD_S: f64 = 0.5;
 const FIRE_SPACING_M: f64 = 50.0;
+/// Rounds whose fires stand apart before one stands where an earlier one did: a round's
+/// fires start 10 m (a unit's post) along from the last's, and the fifth is back at the first's
+/// places, long after those went out.
+const OFFSETS: usize = 5;
 const WARM_UP: Duration = Duration::from_secs(3);
 /// How long to wait for the last answers after the last report.
 const DRAIN: Duration = Duration::from_secs(3);
+/// How long after a round's last report its units say the fires are out: a claim while
+/// another unit's report is fresher than this would be disputed
+/// (`firefleet_coordinator::fusion::STILL_SEEN_S`, 1 s).
+const OUT_AFTER: Duration = Duration::from_millis(1500);
+/// How long the coordinator may take to hold a round's fires out.
+const OUT_WITHIN: Duration = Duration::from_secs(10);
 
 fn site_file(units: usize, fires: usize) -> String {
-    let length = (units as f64 * UNIT_SPACING_M).max(fires as f64 * FIRE_SPACING_M) + 100.0;
+    let length = (units as f64 * UNIT_SPACING_M).max(fire_at(OFFSETS - 1, fires).x) + 100.0;
     let mut toml = format!(
         "name = \"scale\"\nsite = \"scale\"\ntime_limit_s = 3600\n[tunnel]\nlength_m = {length}\nwidth_m = 10.0\nheight_m = 6.3\nlanes = 2\n"
     );
@@ -110,8 +136,23 @@ fn site_file(units: usize, fires: usize) -> String {
     toml
 }
 
-fn fire_at(i: usize) -> Point2 {
-    Point2::new(55.0 + i as f64 * FIRE_SPACING_M, 1.0)
+/// Fire `k` of round `round`: 1 m along from a unit's post, so that two units are the nearest,
+/// one clearly first (1 m and 9 m, each swaying 2 m).
+fn fire_at(round: usize, k: usize) -> Point2 {
+    Point2::new(
+        51.0 + k as f64 * FIRE_SPACING_M + (round % OFFSETS) as f64 * UNIT_SPACING_M,
+        1.0,
+    )
+}
+
+/// Which of round `round`'s fires a task for `target` is for, if any.
+fn fire_of(round: usize, target: Point2, fires: usize) -> Option<usize> {
+    let k = ((target.x - fire_at(round, 0).x) / FIRE_SPACING_M).round();
+    // A late task for a fire of the round before stands 10 m off every fire of this one.
+    (k >= 0.0
+        && (k as usize) < fires
+        && (target.x - fire_at(round, k as usize).x).abs() < UNIT_SPACING_M / 2.0)
+        .then_some(k as usize)
 }
 
 /// User plus system CPU time of process `pid` so far, s (Linux `/proc`).
@@ -231,6 +272,7 @@ impl Link {
 pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(a.units >= 1 && a.units <= 20_000, "--units: 1 to 20000");
     anyhow::ensure!(a.fires >= 1 && a.fires <= a.units, "--fires: 1 to --units");
+    anyhow::ensure!(a.rounds >= 1 && a.rounds <= 1000, "--rounds: 1 to 1000");
     let dir = tempfile::tempdir()?;
     let site = dir.path().join("scale.toml");
     std::fs::File::create(&site)?.write_all(site_file(a.units, a.fires).as_bytes())?;
@@ -250,12 +292,13 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
     write_json(a.json.as_deref(), &figures)?;
     let short: Vec<String> = figures
         .iter()
-        .filter(|f| f.tasks_received < a.fires)
+        .filter(|f| f.tasks_received < a.rounds * a.fires)
         .map(|f| {
             format!(
-                "{}: {} fires got no task",
+                "{}: {} of {} reports of a new fire got no task",
                 f.link,
-                a.fires - f.tasks_received
+                a.rounds * a.fires - f.tasks_received,
+                a.rounds * a.fires
             )
         })
         .collect();
@@ -326,11 +369,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
     for id in &ids {
         tokens.push(fleet.token(&Topic::UnitAlive(id.clone())).await?);
     }
-    // Each unit's state echoes the number and epoch of the latest task it took, as a real
-    // unit's does: the coordinator counts a unit whose states stop echoing its task as
-    // deaf. One coordinator, so one epoch.
-    let echoed: Arc<Vec<AtomicU64>> = Arc::new((0..a.units).map(|_| AtomicU64::new(0)).collect());
-    let echoed_epoch = Arc::new(AtomicU64::new(0));
+    let load = Arc::new(Load::new(a.units, a.rounds * a.fires));
     let index: Arc<BTreeMap<UnitId, usize>> = Arc::new(
         ids.iter()
             .cloned()
@@ -341,30 +380,25 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
     // Every unit drives to and fro about its post (2 m either way, up to 1 m/s), so that
     // each state says something new, as a working fleet's do: a console that sends only
     // what changed is measured at its worst.
-    let state = |i: usize, id: &UnitId, t: f64, task: Option<(u64, u64)>| UnitState {
-        unit: id.clone(),
-        kind: UnitKind::Ground,
-        t,
-        pose: Pose2::new(
+    let pose = |i: usize, t: f64| {
+        Pose2::new(
             50.0 + i as f64 * UNIT_SPACING_M + SWAY_M * (SWAY_RAD_S * t + i as f64).sin(),
             -1.75,
             0.0,
-        ),
+        )
+    };
+    let state = move |i: usize, id: &UnitId, t: f64, load: &Load| UnitState {
+        t,
         speed: SWAY_M * SWAY_RAD_S * (SWAY_RAD_S * t + i as f64).cos(),
-        mode: UnitMode::Idle,
-        water_l: 1500.0,
-        health: 1.0,
-        heat_flux_kw_m2: 0.0,
-        task: None,
-        autonomous: false,
-        refused: None,
-        task_seq: task.map(|(_, seq)| seq),
-        epoch: task.map(|(epoch, _)| epoch),
+        task: *load.says[i].lock().expect("not poisoned"),
+        task_seq: load.took(i).map(|(_, seq)| seq),
+        epoch: load.took(i).map(|(epoch, _)| epoch),
+        ..UnitState::idle(id.clone(), UnitKind::Ground, pose(i, t), 1500.0)
     };
 
     println!(
-        "scale: {} units at 10 Hz, {} fires, coordinator pid {pid} on {endpoint} ({})",
-        a.units, a.fires, link.name
+        "scale: {} units at 10 Hz, {} fires x {} rounds, coordinator pid {pid} on {endpoint} ({})",
+        a.units, a.fires, a.rounds, link.name
     );
     let start = Instant::now();
     let epoch = std::time::SystemTime::now()
@@ -378,8 +412,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
     // per key on its first put).
     let state_keys: Vec<_> = ids.iter().map(|id| keys.unit_state(id)).collect();
     let publisher = {
-        let (ids, published) = (ids.clone(), published.clone());
-        let (echoed, echoed_epoch) = (echoed.clone(), echoed_epoch.clone());
+        let (ids, published, load) = (ids.clone(), published.clone(), load.clone());
         let (n, fleet) = (a.units, fleet.clone());
         tokio::spawn(async move {
             let mut ticker = tokio::time::interval(Duration::from_millis(100));
@@ -387,10 +420,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
                 ticker.tick().await;
                 let t = now();
                 for (i, (id, key)) in ids.iter().zip(&state_keys).enumerate() {
-                    let seq = echoed[i].load(Ordering::Relaxed);
-                    let epoch = echoed_epoch.load(Ordering::Relaxed);
-                    let st = state(i, id, t, (seq > 0).then_some((epoch, seq)));
-                    if fleet.put(key, &st).await.is_err() {
+                    if fleet.put(key, &state(i, id, t, &load)).await.is_err() {
                         return;
                     }
                 }
@@ -398,22 +428,13 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
             }
         })
     };
-    let arrivals: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(vec![None; a.fires]));
     let receiver = {
-        let arrivals = arrivals.clone();
+        let load = load.clone();
         let fires = a.fires;
         tokio::spawn(async move {
             while let Some((_, task)) = tasks.recv().await {
                 if let Some(&i) = index.get(&task.unit) {
-                    echoed_epoch.fetch_max(task.epoch, Ordering::Relaxed);
-                    echoed[i].fetch_max(task.seq, Ordering::Relaxed);
-                }
-                if let TaskKind::Extinguish { target, .. } = task.kind {
-                    let k = ((target.x - 55.0) / FIRE_SPACING_M).round();
-                    if k >= 0.0 && (k as usize) < fires {
-                        arrivals.lock().expect("not poisoned")[k as usize]
-                            .get_or_insert_with(Instant::now);
-                    }
+                    load.take(i, &task, fires);
                 }
             }
         })
@@ -422,48 +443,84 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
     let cpu0 = cpu_time_s(pid)?;
     let console0 = console.as_ref().map(Console::sample).transpose()?;
     let (t0, s0) = (Instant::now(), published.load(Ordering::Relaxed));
-    let mut sent = Vec::with_capacity(a.fires);
-    // The unit nearest fire `k` reports it.
-    let reporter_id =
-        |k: usize| (((fire_at(k).x - 50.0) / UNIT_SPACING_M).round() as usize).min(a.units - 1);
-    let mut ticker = tokio::time::interval(Duration::from_millis(a.report_interval_ms));
-    for k in 0..a.fires {
-        ticker.tick().await;
-        if let Some(status) = coordinator.try_wait()? {
-            anyhow::bail!("the coordinator exited early: {status}");
-        }
-        let at = fire_at(k);
-        let by = reporter_id(k);
-        let report = FlameReport {
-            unit: ids[by].clone(),
-            t: now(),
-            observer: state(by, &ids[by], 0.0, None).pose,
-            observations: vec![FlameObservation {
-                position: at,
-                cov: [0.25, 0.0, 0.25],
-                confidence: 0.9,
-                hrr_kw: None,
-            }],
+    let mut sent = Vec::with_capacity(a.rounds * a.fires);
+    // The unit nearest a fire reports it first, the next nearest (the post after, or before
+    // at the tunnel's end) at once after it.
+    let nearest = |at: Point2| {
+        let first = (((at.x - 50.0) / UNIT_SPACING_M).round() as usize).min(a.units - 1);
+        let second = if first + 1 < a.units {
+            first + 1
+        } else {
+            first.saturating_sub(1)
         };
-        sent.push(Instant::now());
-        reporter
-            .put(&keys.unit_report(&ids[reporter_id(k)]), &report)
-            .await?;
-    }
-    // Wait for the last answers, up to DRAIN.
-    let deadline = Instant::now() + DRAIN;
-    while Instant::now() < deadline
-        && arrivals
-            .lock()
-            .expect("not poisoned")
-            .iter()
-            .any(Option::is_none)
-    {
-        tokio::time::sleep(Duration::from_millis(20)).await;
+        (first, second)
+    };
+    let report = |by: usize, at: Point2| {
+        (
+            keys.unit_report(&ids[by]),
+            FlameReport {
+                unit: ids[by].clone(),
+                t: now(),
+                observer: pose(by, 0.0),
+                observations: vec![FlameObservation {
+                    position: at,
+                    cov: [0.25, 0.0, 0.25],
+                    confidence: 0.9,
+                    hrr_kw: None,
+                }],
+            },
+        )
+    };
+    for round in 0..a.rounds {
+        load.begin(round, a.fires);
+        // A ticker of its own: one kept across the wait for the last round's fires to go
+        // out would send this round's first reports in a burst to catch up.
+        let mut ticker = tokio::time::interval(Duration::from_millis(a.report_interval_ms));
+        for k in 0..a.fires {
+            ticker.tick().await;
+            if let Some(status) = coordinator.try_wait()? {
+                anyhow::bail!("the coordinator exited early: {status}");
+            }
+            let at = fire_at(round, k);
+            let (first, second) = nearest(at);
+            let (key, timed) = report(first, at);
+            sent.push(Instant::now());
+            reporter.put(&key, &timed).await?;
+            if second != first {
+                let (key, seen) = report(second, at);
+                reporter.put(&key, &seen).await?;
+            }
+        }
+        let last_report = Instant::now();
+        // Wait for the last answers, up to DRAIN.
+        let deadline = last_report + DRAIN;
+        while Instant::now() < deadline && load.unanswered(round, a.fires) > 0 {
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        let unanswered = load.unanswered(round, a.fires);
+        if unanswered > 0 || round + 1 == a.rounds {
+            if unanswered > 0 {
+                eprintln!("round {round}: {unanswered} fires got no task; no more rounds");
+            }
+            break;
+        }
+        tokio::time::sleep(OUT_AFTER.saturating_sub(last_report.elapsed())).await;
+        // Every unit sent to one of this round's fires reports the flame it sprays, if it
+        // was not one of the two that saw it, then says it is out.
+        for (i, progress) in load.tasked() {
+            let (first, second) = nearest(progress.target);
+            if i != first && i != second {
+                let (key, seen) = report(i, progress.target);
+                reporter.put(&key, &seen).await?;
+            }
+            load.says_out(i, progress);
+        }
+        held_out(&fleet, round).await?;
     }
     publisher.abort();
     receiver.abort();
-    let latency_ms: Vec<Option<f64>> = arrivals
+    let latency_ms: Vec<Option<f64>> = load
+        .arrivals
         .lock()
         .expect("not poisoned")
         .iter()
@@ -493,6 +550,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         link: link.name,
         units: a.units,
         fires: a.fires,
+        reports: sent.len(),
         state_msgs_per_s: (states - s0) as f64 / wall,
         tasks_received: lat.len(),
         report_to_task_p50_ms: percentile(&lat, 50.0),
@@ -605,8 +663,8 @@ fn print_table(figures: &[Figures]) {
         "",
     );
     row(
-        "fires answered with a task",
-        &|f| format!("{}/{}", f.tasks_received, f.fires),
+        "reports answered with a task",
+        &|f| format!("{}/{}", f.tasks_received, f.reports),
         "",
     );
     row(
@@ -643,4 +701,122 @@ fn print_table(figures: &[Figures]) {
         );
     }
     row("measured over, s", &|f| format!("{:.1}", f.wall_s), "");
+}
+
+/// What the load's units hold and say, shared by the task that publishes their states and
+/// the one that takes in their tasks.
+struct Load {
+    /// Each unit's latest task's number, and the newest epoch: echoed in its states, as a
+    /// real unit's are (the coordinator counts a unit whose states stop echoing its task
+    /// as deaf). One coordinator, so one epoch.
+    seq: Vec<AtomicU64>,
+    epoch: AtomicU64,
+    /// What each unit's state says of its task: the fire it put out, once it has.
+    says: Vec<Mutex<Option<TaskProgress>>>,
+    round: AtomicUsize,
+    /// When each report's task came, round after round.
+    arrivals: Mutex<Vec<Option<Instant>>>,
+    /// This round's fires: the unit last sent to each, and what it will say of it.
+    tasked: Mutex<Vec<Option<(usize, TaskProgress)>>>,
+}
+
+impl Load {
+    fn new(units: usize, reports: usize) -> Self {
+        Self {
+            seq: (0..units).map(|_| AtomicU64::new(0)).collect(),
+            epoch: AtomicU64::new(0),
+            says: (0..units).map(|_| Mutex::new(None)).collect(),
+            round: AtomicUsize::new(0),
+            arrivals: Mutex::new(vec![None; reports]),
+            tasked: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// Unit `i`'s latest task, (epoch, number).
+    fn took(&self, i: usize) -> Option<(u64, u64)> {
+        let seq = self.seq[i].load(Ordering::Relaxed);
+        (seq > 0).then(|| (self.epoch.load(Ordering::Relaxed), seq))
+    }
+
+    fn begin(&self, round: usize, fires: usize) {
+        self.round.store(round, Ordering::Relaxed);
+        *self.tasked.lock().expect("not poisoned") = vec![None; fires];
+    }
+
+    /// Unit `i` is given `task`.
+    fn take(&self, i: usize, task: &Task, fires: usize) {
+        self.epoch.fetch_max(task.epoch, Ordering::Relaxed);
+        if self.seq[i].fetch_max(task.seq, Ordering::Relaxed) < task.seq {
+            // What it said of its last task no longer stands.
+            *self.says[i].lock().expect("not poisoned") = None;
+        }
+        let TaskKind::Extinguish { fire, target, .. } = task.kind else {
+            return;
+        };
+        let round = self.round.load(Ordering::Relaxed);
+        let Some(k) = fire_of(round, target, fires) else {
+            return;
+        };
+        self.arrivals.lock().expect("not poisoned")[round * fires + k]
+            .get_or_insert_with(Instant::now);
+        self.tasked.lock().expect("not poisoned")[k] = Some((
+            i,
+            TaskProgress {
+                seq: task.seq,
+                fire,
+                phase: TaskPhase::Extinguished,
+                target,
+            },
+        ));
+    }
+
+    /// This round's fires that have no task yet.
+    fn unanswered(&self, round: usize, fires: usize) -> usize {
+        self.arrivals.lock().expect("not poisoned")[round * fires..(round + 1) * fires]
+            .iter()
+            .filter(|a| a.is_none())
+            .count()
+    }
+
+    /// The units sent to this round's fires, with what each will say of its fire.
+    fn tasked(&self) -> Vec<(usize, TaskProgress)> {
+        self.tasked
+            .lock()
+            .expect("not poisoned")
+            .iter()
+            .flatten()
+            .copied()
+            .collect()
+    }
+
+    /// Unit `i` says from now on that its fire is out.
+    fn says_out(&self, i: usize, out: TaskProgress) {
+        *self.says[i].lock().expect("not poisoned") = Some(out);
+    }
+}
+
+/// Wait until the coordinator holds every fire out (round `round`'s units said so), asking
+/// its status; within [`OUT_WITHIN`].
+async fn held_out(bus: &Bus, round: usize) -> anyhow::Result<()> {
+    let asked = Instant::now();
+    loop {
+        let (status, _) = firefleet::net::query_status(bus).await?;
+        let burning: Vec<String> = status
+            .fires
+            .iter()
+            .filter(|f| !matches!(f.state, FireState::Out | FireState::Lost))
+            .map(|f| format!("{} ({})", f.id, f.state))
+            .collect();
+        if burning.is_empty() {
+            return Ok(());
+        }
+        anyhow::ensure!(
+            asked.elapsed() < OUT_WITHIN,
+            "round {round}: {} fires not out {:.0} s after their units said so: {}",
+            burning.len(),
+            OUT_WITHIN.as_secs_f64(),
+            burning.join(", ")
+        );
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
 }
