@@ -305,6 +305,12 @@ impl Fire {
         self.per_unit.keys()
     }
 
+    /// Whether `unit`'s sighting of it began at `t`: a new witness (or one seeing it again
+    /// after a gap), not a unit that goes on watching it.
+    pub fn began_seeing(&self, unit: &UnitId, t: f64) -> bool {
+        self.per_unit.get(unit).is_some_and(|s| s.since == t)
+    }
+
     pub fn to_track(&self, t: f64, assigned: Vec<UnitId>) -> FireTrack {
         FireTrack {
             id: self.id,

@@ -613,11 +613,24 @@ impl Incident {
         v.newest_report.admit(r.t, t)?;
         v.last_heard = t;
         let mut out = Vec::new();
+        // Whether the work to assign changed: a fire confirmed, found again or located, or
+        // a new witness of one (a second unit's word brings a backup). A unit that goes on
+        // watching its fire (most reports: several a second) or a track still tentative
+        // leaves the rest to the tick's solve within 0.2 s: a solve costs milliseconds at
+        // a thousand units, and the report of a new fire would wait behind every other's.
+        let mut new_work = false;
         for o in &r.observations {
             match self.fusion.observe(&r.unit, o, t) {
-                Fused::New(_) | Fused::Updated(_) => {}
+                Fused::New(_) => {}
+                Fused::Updated(id) => {
+                    new_work |= self
+                        .fusion
+                        .get(id)
+                        .is_some_and(|f| f.began_seeing(&r.unit, t));
+                }
                 Fused::Refused => self.lone_refused += 1,
                 Fused::Confirmed(id) => {
+                    new_work = true;
                     self.log(
                         t,
                         Decision::Confirmed {
@@ -628,13 +641,18 @@ impl Incident {
                     out.push(Output::Fire(self.track(id, t)));
                 }
                 Fused::Reignited(id) => {
+                    new_work = true;
                     self.log(t, Decision::Reignited { fire: id });
                     out.push(Output::Fire(self.track(id, t)));
                 }
-                Fused::Located(id) => out.extend(self.retarget(id, t)),
+                Fused::Located(id) => {
+                    new_work = true;
+                    out.extend(self.retarget(id, t));
+                }
             }
         }
         for m in self.fusion.merge_duplicates() {
+            new_work = true;
             self.log(
                 t,
                 Decision::Merged {
@@ -647,7 +665,9 @@ impl Incident {
             out.push(Output::Fire(gone));
             out.push(Output::Fire(self.track(m.kept, t)));
         }
-        out.extend(self.solve_within(Scope::NewFires, t));
+        if new_work {
+            out.extend(self.solve_within(Scope::NewFires, t));
+        }
         Ok(out)
     }
 
@@ -693,11 +713,15 @@ impl Incident {
                 },
             );
         }
-        out.extend(self.enforce(t));
+        let trapped = self.trapped.clone();
+        let held = self.hold_to_goals(t);
+        let goals_moved_units = !held.is_empty() || self.trapped != trapped;
+        out.extend(held);
         out.extend(self.dts_alarms(t));
         // Units move and look between events: searches end, searchers change, and a unit
         // on its way may now have a nearer relief.
-        let scope = if t - self.solved_all_at >= self.policy.solve_all_every_s {
+        let scope = if goals_moved_units || t - self.solved_all_at >= self.policy.solve_all_every_s
+        {
             Scope::All
         } else {
             Scope::NewFires
