@@ -286,6 +286,8 @@ where
     reask.reset();
     let state_key = keys.unit_state(unit);
     let report_key = keys.unit_report(unit);
+    // Its first report is of a fire: the router learns the key now, not then.
+    bus.declare(&report_key).await?;
     let bt_key = keys.unit_bt(unit);
     let mut next_report = f64::NEG_INFINITY;
     let mut next_bt = f64::NEG_INFINITY;

@@ -123,6 +123,12 @@ pub async fn run(
         &*clock,
     )
     .await?;
+    // Each unit's task key declared once in office (not before: a standby taking office
+    // tasks at once), so that the first task a unit gets after a report is not the one
+    // that teaches the router its key.
+    for unit in &scenario.units {
+        bus.declare(&keys.unit_task(&unit.id)).await?;
+    }
 
     let mut tick = tokio::time::interval(Duration::from_millis(200));
     let mut republish_tick = tokio::time::interval(Republish::PERIOD);

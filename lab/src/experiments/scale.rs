@@ -93,6 +93,10 @@ struct Figures {
     report_to_task_p50_ms: f64,
     report_to_task_p99_ms: f64,
     report_to_task_max_ms: f64,
+    /// The coordinator's own part of the p99 (from taking a report off the bus to handing
+    /// its task to Zenoh), as its `/metrics` histogram bounds it: the upper edge of the
+    /// bucket holding the 99th percentile.
+    inside_p99_at_most_ms: f64,
     coordinator_cpu_share: f64,
     /// The console process's CPU share, with a console attached.
     console_cpu_share: Option<f64>,
@@ -314,8 +318,10 @@ pub async fn run(a: ScaleArgs) -> anyhow::Result<ExitCode> {
 async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::Result<Figures> {
     let (endpoint, client) = (&link.endpoint, &link.client);
     let launched = Instant::now();
+    let metrics = format!("127.0.0.1:{}", free_loopback_port()?);
     let mut coordinator = child("coordinator", site)?
         .args(&link.coordinator)
+        .args(["--metrics", &metrics])
         .spawn()
         .context("starting the coordinator")?;
     let pid = coordinator.id().context("the coordinator's pid")?;
@@ -368,6 +374,8 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
     let mut tokens = Vec::with_capacity(ids.len());
     for id in &ids {
         tokens.push(fleet.token(&Topic::UnitAlive(id.clone())).await?);
+        // As each unit declares its report key when it starts (`firefleet_agent::node`).
+        reporter.declare(&keys.unit_report(id)).await?;
     }
     let load = Arc::new(Load::new(a.units, a.rounds * a.fires));
     let index: Arc<BTreeMap<UnitId, usize>> = Arc::new(
@@ -441,6 +449,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
     };
     tokio::time::sleep(WARM_UP).await;
     let cpu0 = cpu_time_s(pid)?;
+    let inside0 = inside(&metrics).await?;
     let console0 = console.as_ref().map(Console::sample).transpose()?;
     let (t0, s0) = (Instant::now(), published.load(Ordering::Relaxed));
     let mut sent = Vec::with_capacity(a.rounds * a.fires);
@@ -529,6 +538,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         .collect();
     let states = published.load(Ordering::Relaxed);
     let cpu = cpu_time_s(pid)? - cpu0;
+    let inside = inside(&metrics).await?;
     let wall = t0.elapsed().as_secs_f64();
     let console_figures = match (&console, console0) {
         (Some(c), Some((cpu0, bytes0))) => {
@@ -556,6 +566,7 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         report_to_task_p50_ms: percentile(&lat, 50.0),
         report_to_task_p99_ms: percentile(&lat, 99.0),
         report_to_task_max_ms: lat.last().copied().unwrap_or(f64::NAN),
+        inside_p99_at_most_ms: inside.since(&inside0).at_most(99.0) * 1e3,
         coordinator_cpu_share: cpu / wall,
         console_cpu_share: console_figures.map(|(cpu, _)| cpu),
         page_bytes_per_s: console_figures.map(|(_, bytes)| bytes),
@@ -569,6 +580,70 @@ fn child(role: &str, site: &std::path::Path) -> anyhow::Result<tokio::process::C
         .scenario(site)
         .die_with_parent()
         .child("warn,zenoh=error")
+}
+
+/// The coordinator's report-to-task histogram: each bucket's upper edge, s, and the
+/// reports at or under it.
+struct Histogram(Vec<(f64, u64)>);
+
+impl Histogram {
+    /// What was counted after `before`.
+    fn since(&self, before: &Histogram) -> Histogram {
+        Histogram(
+            self.0
+                .iter()
+                .zip(&before.0)
+                .map(|(&(le, n), &(_, n0))| (le, n.saturating_sub(n0)))
+                .collect(),
+        )
+    }
+
+    /// The upper edge of the bucket holding percentile `p`, s (infinite past the last).
+    fn at_most(&self, p: f64) -> f64 {
+        let total = self.0.last().map_or(0, |&(_, n)| n);
+        self.0
+            .iter()
+            .find(|&&(_, n)| n as f64 >= p / 100.0 * total as f64)
+            .map_or(f64::NAN, |&(le, _)| le)
+    }
+}
+
+/// The report-to-task histogram from the coordinator's `/metrics` on `addr`.
+async fn inside(addr: &str) -> anyhow::Result<Histogram> {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let mut stream = tokio::net::TcpStream::connect(addr)
+        .await
+        .with_context(|| format!("the coordinator's metrics on {addr}"))?;
+    stream
+        .write_all(
+            format!("GET /metrics HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n")
+                .as_bytes(),
+        )
+        .await?;
+    let mut text = String::new();
+    stream.read_to_string(&mut text).await?;
+    const BUCKET: &str = "firefleet_coordinator_report_to_task_seconds_bucket{le=\"";
+    let buckets = text
+        .lines()
+        .filter_map(|l| l.strip_prefix(BUCKET))
+        .map(|l| {
+            let (le, n) = l.split_once("\"} ").context("a bucket's line")?;
+            Ok((
+                if le == "+Inf" {
+                    f64::INFINITY
+                } else {
+                    le.parse()?
+                },
+                n.trim().parse()?,
+            ))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()
+        .with_context(|| format!("the coordinator's metrics on {addr}"))?;
+    anyhow::ensure!(
+        !buckets.is_empty(),
+        "no report-to-task histogram on {addr}/metrics"
+    );
+    Ok(Histogram(buckets))
 }
 
 /// A connection to `addr` once `who`, launched at `launched`, listens there (within 20 s).
@@ -680,6 +755,11 @@ fn print_table(figures: &[Figures]) {
     row(
         "report -> task max, ms",
         &|f| format!("{:.2}", f.report_to_task_max_ms),
+        "",
+    );
+    row(
+        "  of it in the coordinator, ms, <=",
+        &|f| format!("{:.2}", f.inside_p99_at_most_ms),
         "",
     );
     row(
