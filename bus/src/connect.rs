@@ -297,23 +297,47 @@ pub fn one_stream(endpoint: &str) -> String {
 /// only an explicit bind can take it. Each process starts at its own place (from its pid)
 /// and never offers a port twice, so parallel tests and test processes do not collide.
 pub fn free_loopback_port() -> std::io::Result<u16> {
+    free_loopback_ports(1)
+}
+
+/// The first of `n` consecutive ports on 127.0.0.1 that nothing uses right now, as
+/// [`free_loopback_port`] finds one: for a demo that serves Groot2 on one port a unit from
+/// a base port. The `n` are offered together, so the next call in this process starts past
+/// them (the port after a lone one was the next test's, which once took a unit's Groot2
+/// port in CI).
+pub fn free_loopback_ports(n: u16) -> std::io::Result<u16> {
     static OFFERED: AtomicU32 = AtomicU32::new(0);
     const LOWEST: u32 = 10_000;
+    let n = u32::from(n.max(1));
     let span = ephemeral_start().saturating_sub(LOWEST);
     if span < 1_000 {
         // No room below the range on this machine: take what the OS offers.
-        return os_free_port();
+        return os_free_ports(n);
     }
     let start = std::process::id().wrapping_mul(7_919) % span;
+    let free = |port: u32| {
+        let port = u16::try_from(port).expect("below the ephemeral range");
+        std::net::TcpListener::bind(("127.0.0.1", port)).is_ok()
+            && std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok()
+    };
     for _ in 0..512 {
-        let k = OFFERED.fetch_add(1, Ordering::Relaxed);
-        let port = u16::try_from(LOWEST + (start + k) % span).expect("below the ephemeral range");
-        let tcp = std::net::TcpListener::bind(("127.0.0.1", port));
-        if tcp.is_ok() && std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
-            return Ok(port);
+        let first = (start + OFFERED.fetch_add(n, Ordering::Relaxed)) % span;
+        if first + n <= span && (0..n).all(|i| free(LOWEST + first + i)) {
+            return Ok(u16::try_from(LOWEST + first).expect("below the ephemeral range"));
         }
     }
-    os_free_port()
+    os_free_ports(n)
+}
+
+/// [`os_free_port`] for one port; more than one in a row the OS does not offer.
+fn os_free_ports(n: u32) -> std::io::Result<u16> {
+    if n == 1 {
+        os_free_port()
+    } else {
+        Err(std::io::Error::other(format!(
+            "no {n} consecutive free ports on 127.0.0.1 below the ephemeral range"
+        )))
+    }
 }
 
 /// The first port of the kernel's ephemeral range (Linux's default where it cannot be

@@ -63,7 +63,9 @@ pub mod render;
 pub mod seal;
 
 pub use bus::{Bus, BusError, Inbox, RejectCounts, Traffic};
-pub use connect::{Connect, Links, Mode, free_loopback_port, mtls_link, one_stream};
+pub use connect::{
+    Connect, Links, Mode, free_loopback_port, free_loopback_ports, mtls_link, one_stream,
+};
 pub use exchange::{
     Answers, Ask, DeclaredKeys, Linked, Question, Questions, Raw, RawInbox, Token, Tokens,
 };

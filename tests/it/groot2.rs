@@ -10,14 +10,16 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use firefleet_agent::groot2::Client;
-use firefleet_bus::free_loopback_port;
+use firefleet_bus::free_loopback_ports;
 
 use crate::support::{BIN, patient};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_demo_units_tree_is_watched_in_groot2_and_recorded_for_replay() {
     let dir = tempfile::tempdir().unwrap();
-    let port = free_loopback_port().unwrap();
+    let units = ["ugv-1", "ugv-2"];
+    // Each unit serves Groot2 on its own port from this one.
+    let port = free_loopback_ports(units.len() as u16).unwrap();
     let mut demo = Command::new(BIN)
         .args([
             "demo",
@@ -35,7 +37,6 @@ async fn a_demo_units_tree_is_watched_in_groot2_and_recorded_for_replay() {
         .stdout(Stdio::null())
         .spawn()
         .unwrap();
-    let units = ["ugv-1", "ugv-2"];
     // Looked at until one is seen at work, or the demo is over (all out at some 55 s).
     let deadline = Instant::now() + patient(Duration::from_secs(90));
     let mut working = None;
