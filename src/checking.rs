@@ -72,8 +72,10 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
                 t = s.t;
                 Some(Event::State(s))
             }
-            (Topic::UnitTask(owner), Ok(Payload::Task(task))) => {
-                if &task.unit != owner {
+            // Likewise the coordinator: only the one of that rank puts on its key, and its
+            // tasks are of its own terms.
+            (Topic::UnitTask(owner, rank), Ok(Payload::Task(task))) => {
+                if &task.unit != owner || task.rank() != *rank {
                     forged += 1;
                     continue;
                 }

@@ -68,10 +68,10 @@ pub enum TaskRefused {
         "task {seq} is numbered ahead of the site clock (t = {t:.1} s takes at most {ceiling}): refused"
     )]
     Ahead { seq: u64, t: f64, ceiling: u64 },
-    /// From a coordinator term older than one the unit has taken a task from: a deposed
-    /// coordinator's.
+    /// From a term of the coordinator in office older than one the unit has taken a task
+    /// from since it took office: that coordinator before a restart.
     #[error(
-        "task {seq} of epoch {epoch} comes from a deposed coordinator (the unit obeys epoch {obeyed}): refused"
+        "task {seq} of epoch {epoch} is of an older term than the unit obeys (epoch {obeyed}): refused"
     )]
     Fenced { seq: u64, epoch: u64, obeyed: u64 },
 }
@@ -157,9 +157,10 @@ impl<U: Services> Controller<U> {
         Ok(())
     }
 
-    /// The coordinator appeared or disappeared.
-    pub fn set_coordinator_present(&mut self, present: bool) {
-        self.unit.mission().coordinator_present = present;
+    /// Another coordinator holds office (`present`), or none does
+    /// ([`firefleet_protocol::office`]).
+    pub fn office_changed(&mut self, present: bool) {
+        self.unit.mission().office_changed(present);
     }
 
     pub fn state(&self) -> UnitState {

@@ -39,9 +39,13 @@ pub struct Mission {
     pub leaving: bool,
     /// The coordinator's latest task.
     pub task: Option<(u64, TaskKind)>,
-    /// The epoch of the newest coordinator term a task came from: tasks of older terms
-    /// are a deposed coordinator's, and refused.
+    /// The epoch of the newest coordinator term a task came from since the coordinator in
+    /// office took it: tasks of older terms are refused.
     pub epoch: u64,
+    /// The coordinator in office changed since the last task: its next task is taken
+    /// whatever its epoch (the routers vouch for who sent it; see
+    /// [`firefleet_protocol::office`]).
+    new_office: bool,
     /// The attack under way: coordinator task (seq, fire, where the fire is), or `None`
     /// when acting alone.
     pub job: Option<Option<(u64, FireId, Point2)>>,
@@ -50,20 +54,31 @@ pub struct Mission {
 }
 
 impl Mission {
-    /// A task arrived. Older or repeated tasks are ignored, and so is every task of a
-    /// term older than the newest heard (`Err` with that epoch): a deposed coordinator
-    /// commands nobody who has heard from its successor.
+    /// A task arrived from the coordinator in office. Older or repeated tasks are
+    /// ignored, and so is every task of a term older than the newest heard from it (`Err`
+    /// with that epoch): that coordinator before a restart. The first task after the
+    /// office changed hands is taken whatever its term: a split site that heals hands
+    /// office back to a coordinator of an older term.
     pub fn on_task(&mut self, epoch: u64, seq: u64, kind: TaskKind) -> Result<(), u64> {
-        if epoch < self.epoch {
-            return Err(self.epoch);
+        if !self.new_office {
+            if epoch < self.epoch {
+                return Err(self.epoch);
+            }
+            if epoch == self.epoch && self.task.is_some_and(|(s, _)| s >= seq) {
+                return Ok(());
+            }
         }
-        if epoch == self.epoch && self.task.is_some_and(|(s, _)| s >= seq) {
-            return Ok(());
-        }
+        self.new_office = false;
         self.epoch = epoch;
         self.task = Some((seq, kind));
         self.refused = None;
         Ok(())
+    }
+
+    /// Another coordinator holds office now (`present`), or none does.
+    pub fn office_changed(&mut self, present: bool) {
+        self.coordinator_present = present;
+        self.new_office = true;
     }
 
     /// A barred space arrived; true if it replaced the one kept (an older one, by site
@@ -398,6 +413,24 @@ mod tests {
         m.on_task(0, 1, extinguish(1)).unwrap();
         m.job = Some(m.assigned_fire());
         m
+    }
+
+    #[test]
+    fn an_older_term_is_refused_until_the_office_changes_hands() {
+        let mut m = Mission::default();
+        m.on_task(33, 40, extinguish(1)).unwrap();
+        assert_eq!(m.on_task(17, 90, TaskKind::Standby), Err(33));
+        m.on_task(33, 39, TaskKind::Standby).unwrap();
+        assert_eq!(
+            m.task.map(|(s, _)| s),
+            Some(40),
+            "an older task of the term is ignored"
+        );
+        // A split site healed: the coordinator of an older term holds office again.
+        m.office_changed(true);
+        m.on_task(17, 90, TaskKind::Standby).unwrap();
+        assert_eq!((m.epoch, m.task.map(|(s, _)| s)), (17, Some(90)));
+        assert_eq!(m.on_task(16, 95, TaskKind::Standby), Err(17));
     }
 
     #[test]

@@ -31,6 +31,7 @@ use firefleet_bus::{Answers, Ask, Bus, BusError};
 use firefleet_model::UnitId;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{BarredSpace, BtTransition, BtTransitions, NodeStatus};
+use firefleet_protocol::office::Leases;
 
 use crate::btlog::BtLog;
 use crate::controller::{Controller, Services};
@@ -268,8 +269,11 @@ where
         })
         .collect();
 
-    let coord = bus.watch_tokens(&keys.expr(&Topic::CoordAlive)).await?;
-    let tasks = bus.subscribe(&keys.unit_task(unit)).await?;
+    // The coordinators' leases: the unit obeys the one in office only
+    // (`firefleet_protocol::office`), whatever a task announces.
+    let coord = bus.watch_tokens(&keys.every_coord_alive()).await?;
+    let mut leases = Leases::default();
+    let tasks = bus.subscribe(&keys.unit_tasks(unit)).await?;
     let barred = bus.subscribe(&keys.coord_barred()).await?;
     // Asked, not awaited: the answers come in with everything else.
     // Every answer (the coordinator's, each recorder's): the newest is kept.
@@ -292,7 +296,7 @@ where
     let mut next_report = f64::NEG_INFINITY;
     let mut next_bt = f64::NEG_INFINITY;
     // What a refusal is logged under: the key, and which unit refused it.
-    let tasks_from = keys.unit_task(unit).as_str().to_owned();
+    let tasks_from = keys.unit_tasks(unit).as_str().to_owned();
     let barred_from = format!("{} (at {unit})", keys.coord_barred().as_str());
     let mut next_print = f64::NEG_INFINITY;
     // How many of `transitions` the taps have seen (a batch drains them).
@@ -331,8 +335,14 @@ where
                 }
             }
             task = tasks.recv() => {
-                let Some((_, task)) = task else { break };
-                if &task.unit == unit {
+                let Some((topic, task)) = task else { break };
+                let Topic::UnitTask(_, from) = topic else { continue };
+                if !leases.obeys(from) {
+                    bus.rejects().refuse_invalid(&tasks_from, &format_args!(
+                        "a task from the coordinator of rank {from}, which does not hold office ({})",
+                        leases.holder().map_or_else(|| "nobody does".to_owned(), |h| format!("rank {h} does")),
+                    ));
+                } else if &task.unit == unit {
                     if let Err(e) = ctl.on_task(task.epoch, task.seq, task.kind) {
                         bus.rejects().refuse_invalid(&tasks_from, &e);
                     } else if !taken {
@@ -378,12 +388,23 @@ where
                 }
             }
             change = coord.recv() => {
-                let Some((_, present)) = change else { break };
-                tracing::info!(%unit, present, "coordinator presence changed");
-                ctl.set_coordinator_present(present);
-                // A coordinator that appears (one that was not there at the first asking,
-                // or one restarted with a new site file) is asked whether it takes the unit.
-                if present {
+                let Some((topic, alive)) = change else { break };
+                let Topic::CoordAlive(rank) = topic else { continue };
+                let before = leases.holder();
+                leases.set(rank, alive);
+                let holder = leases.holder();
+                if holder == before {
+                    if alive && holder != Some(rank) {
+                        tracing::warn!(%unit, rank, "a coordinator claims office while another holds it: its tasks are refused");
+                    }
+                    continue;
+                }
+                tracing::info!(%unit, ?holder, "the coordinator in office changed");
+                ctl.office_changed(holder.is_some());
+                // A coordinator that takes office (one that was not there at the first
+                // asking, or one restarted with a new site file) is asked whether it takes
+                // the unit.
+                if holder.is_some() {
                     taken = false;
                     if asking {
                         ask_again = true;

@@ -44,8 +44,7 @@ pub const OVERLAP: Duration = Duration::from_secs(1);
 /// started may not be linked to its neighbour yet; moving to it then would let the unit's
 /// token lapse when the old session closes).
 async fn reaches_coordinator(bus: &Bus) -> bool {
-    let key = bus.keys().expr(&Topic::CoordAlive);
-    bus.tokens_alive(&key)
+    bus.tokens_alive(&bus.keys().every_coord_alive())
         .await
         .is_ok_and(|alive| !alive.is_empty())
 }

@@ -1,7 +1,7 @@
 //! Who may do what on a site's bus: the access rules, derived from the key table.
 //!
 //! Each process of a site holds one identity, the common name of its certificate
-//! (`firefleet pki`): `unit:<id>`, `coordinator`, `recorder`, `sim`, `commander:<name>`,
+//! (`firefleet pki`): `unit:<id>`, `coordinator` and `coordinator:<rank>`, `recorder`, `sim`, `commander:<name>`,
 //! `console` for the commanders' web console, and `router` for the site's router. [`grants`] lists what an identity may do, as
 //! [`Grant`]s of an [`Op`] on a key expression built by [`Keys`], so no key is written
 //! twice; [`zenoh_acl`] turns the grants of every identity into the `access_control`
@@ -43,11 +43,20 @@ use firefleet_model::scenario::Scenario;
 use firefleet_model::{ids::CommanderId, ids::IdError, ids::RouterId, ids::UnitId};
 use firefleet_protocol::keys::{Keys, Topic};
 
+/// How many coordinator identities a site's PKI issues: the one that starts in office and
+/// its standby (`deploy/README.md`). A site with more standbys issues their certificates
+/// with `firefleet pki issue --role coordinator --name <rank>`.
+pub const COORDINATORS: u32 = 2;
+
 /// One identity of a site: a certificate's common name.
 #[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Identity {
     Unit(UnitId),
-    Coordinator,
+    /// A coordinator of the site, by its rank (`--rank`): `coordinator` for rank 0, the
+    /// one that starts in office, `coordinator:<rank>` for its standbys. Each has its own
+    /// key, so the routers vouch for which one sent a task, and a stolen one can be cut
+    /// off without the others.
+    Coordinator(u32),
     Recorder,
     Sim,
     Commander(CommanderId),
@@ -94,10 +103,13 @@ impl Identity {
     /// The site's first router.
     pub const ROUTER: Identity = Identity::Router(None);
 
+    /// The coordinator that starts in office (rank 0).
+    pub const COORDINATOR: Identity = Identity::Coordinator(0);
+
     pub fn role(&self) -> Role {
         match self {
             Identity::Unit(_) => Role::Unit,
-            Identity::Coordinator => Role::Coordinator,
+            Identity::Coordinator(_) => Role::Coordinator,
             Identity::Recorder => Role::Recorder,
             Identity::Sim => Role::Sim,
             Identity::Commander(_) => Role::Commander,
@@ -115,8 +127,8 @@ impl Identity {
             .iter()
             .map(|u| Identity::Unit(u.id.clone()))
             .collect();
+        all.extend((0..COORDINATORS).map(Identity::Coordinator));
         all.extend([
-            Identity::Coordinator,
             Identity::Recorder,
             Identity::Sim,
             Identity::Console,
@@ -149,7 +161,8 @@ impl fmt::Display for Identity {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Identity::Unit(u) => write!(f, "unit:{u}"),
-            Identity::Coordinator => f.write_str("coordinator"),
+            Identity::Coordinator(0) => f.write_str("coordinator"),
+            Identity::Coordinator(rank) => write!(f, "coordinator:{rank}"),
             Identity::Recorder => f.write_str("recorder"),
             Identity::Sim => f.write_str("sim"),
             Identity::Commander(c) => write!(f, "commander:{c}"),
@@ -164,7 +177,7 @@ impl fmt::Display for Identity {
 /// A common name that is no identity of ours.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error(
-    "'{name}' is not an identity (unit:<id>, coordinator, recorder, sim, commander:<name>, console, scada, router, router:<name>): {reason}"
+    "'{name}' is not an identity (unit:<id>, coordinator, coordinator:<rank>, recorder, sim, commander:<name>, console, scada, router, router:<name>): {reason}"
 )]
 pub struct IdentityError {
     pub name: String,
@@ -183,9 +196,20 @@ impl FromStr for Identity {
             Some(("unit", u)) => Ok(Identity::Unit(UnitId::new(u).map_err(named)?)),
             Some(("commander", c)) => Ok(Identity::Commander(CommanderId::new(c).map_err(named)?)),
             Some(("router", r)) => Ok(Identity::Router(Some(RouterId::new(r).map_err(named)?))),
+            Some(("coordinator", r)) => r
+                .parse::<u32>()
+                .ok()
+                .filter(|r| (1..firefleet_protocol::msg::EPOCH_RANKS).contains(&u64::from(*r)))
+                .map(Identity::Coordinator)
+                .ok_or_else(|| {
+                    err(format!(
+                        "a standby coordinator's rank is 1 to {}",
+                        firefleet_protocol::msg::EPOCH_RANKS - 1
+                    ))
+                }),
             Some(_) => Err(err("unknown kind".into())),
             None => match s {
-                "coordinator" => Ok(Identity::Coordinator),
+                "coordinator" => Ok(Identity::COORDINATOR),
                 "recorder" => Ok(Identity::Recorder),
                 "sim" => Ok(Identity::Sim),
                 "console" => Ok(Identity::Console),
@@ -305,10 +329,10 @@ pub fn grants(
             grant(Op::Put, keys.unit_report(u).as_str());
             grant(Op::Put, keys.unit_bt(u).as_str());
             grant(Op::Token, &keys.expr(&Topic::UnitAlive(u.clone())));
-            grant(Op::Subscribe, keys.unit_task(u).as_str());
+            grant(Op::Subscribe, keys.unit_tasks(u).as_str());
             grant(Op::Subscribe, keys.coord_barred().as_str());
             grant(Op::Query, keys.coord_barred().as_str());
-            grant(Op::Watch, &keys.expr(&Topic::CoordAlive));
+            grant(Op::Watch, &keys.every_coord_alive());
             if simulated {
                 match spec.kind {
                     UnitKind::Ground => {
@@ -322,18 +346,20 @@ pub fn grants(
                 }
             }
         }
-        Identity::Coordinator => {
-            grant(Op::Put, keys.every_unit_task().as_str());
+        Identity::Coordinator(rank) => {
+            // Its own tasks and lease only: the key a unit hears a task on names the
+            // coordinator the routers let send it.
+            grant(Op::Put, keys.every_unit_task_of(*rank).as_str());
             grant(Op::Put, keys.every_fire().as_str());
             grant(Op::Put, keys.coord_log().as_str());
             grant(Op::Put, keys.coord_barred().as_str());
             grant(Op::Put, keys.coord_goals().as_str());
             grant(Op::Put, keys.every_zone_ack().as_str());
-            grant(Op::Token, &keys.expr(&Topic::CoordAlive));
+            grant(Op::Token, &keys.expr(&Topic::CoordAlive(*rank)));
             // A standby says it is standing by (operators see who could take over), and
             // what it follows.
-            grant(Op::Token, &keys.every_standby_alive());
-            grant(Op::Put, keys.every_standby_health().as_str());
+            grant(Op::Token, &keys.expr(&Topic::CoordStandbyAlive(*rank)));
+            grant(Op::Put, keys.coord_standby_health(*rank).as_str());
             grant(Op::Subscribe, keys.every_unit_state().as_str());
             grant(Op::Subscribe, keys.every_unit_report().as_str());
             grant(Op::Subscribe, keys.every_zone_goal().as_str());
@@ -344,12 +370,13 @@ pub fn grants(
             grant(Op::Query, keys.every_fire().as_str());
             grant(Op::Query, keys.coord_goals().as_str());
             grant(Op::Answer, &keys.every_coord());
-            // Another coordinator's tasks: one of a newer epoch deposes this one.
+            // Every coordinator's tasks: a rival's are alarmed, and its own that it never
+            // sent betray a stolen key.
             grant(Op::Subscribe, keys.every_unit_task().as_str());
-            // A standby follows the coordinator in charge (the same identity).
+            // A standby follows the coordinator in office.
             grant(Op::Subscribe, keys.every_fire().as_str());
             grant(Op::Subscribe, keys.coord_goals().as_str());
-            grant(Op::Watch, &keys.expr(&Topic::CoordAlive));
+            grant(Op::Watch, &keys.every_coord_alive());
             grant(Op::Subscribe, &keys.every_infra());
             if simulated {
                 grant(Op::Subscribe, keys.sim_clock().as_str());
@@ -558,6 +585,51 @@ mod tests {
     }
 
     #[test]
+    fn a_coordinator_commands_and_holds_office_only_under_its_own_rank() {
+        let s = site();
+        let k = |tail: &str| format!("ff/{}/{tail}", s.site);
+        let first = of(&s, "coordinator");
+        let standby = of(&s, "coordinator:1");
+        for (who, mine, theirs) in [(&first, "0", "1"), (&standby, "1", "0")] {
+            assert!(allows(who, Op::Put, &k(&format!("unit/ugv-1/task/{mine}"))));
+            assert!(allows(
+                who,
+                Op::Token,
+                &k(&format!("coord/office/{mine}/alive"))
+            ));
+            assert!(!allows(
+                who,
+                Op::Put,
+                &k(&format!("unit/ugv-1/task/{theirs}"))
+            ));
+            assert!(!allows(
+                who,
+                Op::Token,
+                &k(&format!("coord/office/{theirs}/alive"))
+            ));
+            assert!(!allows(
+                who,
+                Op::Token,
+                &k(&format!("coord/standby/{theirs}/alive"))
+            ));
+            // Every coordinator hears every task and every lease: rivals are alarmed.
+            assert!(allows(
+                who,
+                Op::Subscribe,
+                &k(&format!("unit/ugv-1/task/{theirs}"))
+            ));
+            assert!(allows(
+                who,
+                Op::Watch,
+                &k(&format!("coord/office/{theirs}/alive"))
+            ));
+        }
+        for bad in ["coordinator:0", "coordinator:16", "coordinator:a"] {
+            assert!(bad.parse::<Identity>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
     fn a_unit_touches_only_its_own_keys() {
         let s = site();
         let ugv2 = of(&s, "unit:ugv-2");
@@ -566,27 +638,29 @@ mod tests {
             (Op::Put, "unit/ugv-2/state"),
             (Op::Put, "unit/ugv-2/report"),
             (Op::Token, "unit/ugv-2/alive"),
-            (Op::Subscribe, "unit/ugv-2/task"),
+            (Op::Subscribe, "unit/ugv-2/task/0"),
+            (Op::Subscribe, "unit/ugv-2/task/1"),
             (Op::Subscribe, "coord/barred"),
             (Op::Query, "coord/barred"),
-            (Op::Watch, "coord/alive"),
+            (Op::Watch, "coord/office/0/alive"),
+            (Op::Watch, "coord/office/1/alive"),
             (Op::Put, "sim/unit/ugv-2/cmd"),
         ] {
             assert!(allows(&ugv2, op, &k(key)), "{op:?} {key}");
         }
         for (op, key) in [
             (Op::Put, "unit/ugv-1/state"),
-            (Op::Put, "unit/ugv-1/task"),
-            (Op::Put, "unit/ugv-2/task"),
+            (Op::Put, "unit/ugv-1/task/0"),
+            (Op::Put, "unit/ugv-2/task/0"),
             (Op::Put, "fire/f1"),
             (Op::Put, "zone/deep/goal/ugv-2"),
             (Op::Delete, "zone/deep/goal/rossi"),
             (Op::Put, "coord/barred"),
             (Op::Put, "sim/unit/ugv-1/cmd"),
             (Op::Put, "sim/rail/rail-1/cmd"),
-            (Op::Token, "coord/alive"),
+            (Op::Token, "coord/office/0/alive"),
             (Op::Token, "unit/ugv-1/alive"),
-            (Op::Subscribe, "unit/ugv-1/task"),
+            (Op::Subscribe, "unit/ugv-1/task/0"),
             (Op::Answer, "fire/f1"),
             (Op::Answer, "coord/barred"),
             (Op::Answer, "coord/status"),
@@ -604,7 +678,7 @@ mod tests {
         assert!(allows(&rossi, Op::Delete, &k("zone/deep/goal/rossi")));
         assert!(!allows(&rossi, Op::Put, &k("zone/deep/goal/bianchi")));
         assert!(!allows(&rossi, Op::Delete, &k("zone/deep/goal/bianchi")));
-        assert!(!allows(&rossi, Op::Put, &k("unit/ugv-1/task")));
+        assert!(!allows(&rossi, Op::Put, &k("unit/ugv-1/task/0")));
         assert!(allows(&rossi, Op::Query, &k("coord/status")));
         assert!(allows(&rossi, Op::Subscribe, &k("zone/deep/ack")));
     }
@@ -630,13 +704,13 @@ mod tests {
             assert!(allows(&console, op, &k(key)), "{op:?} {key}");
         }
         for (op, key) in [
-            (Op::Put, "unit/ugv-1/task"),
+            (Op::Put, "unit/ugv-1/task/0"),
             (Op::Put, "coord/barred"),
             (Op::Put, "coord/goals"),
             (Op::Put, "zone/deep/ack"),
             (Op::Put, "fire/f1"),
             (Op::Put, "sim/unit/ugv-1/cmd"),
-            (Op::Token, "coord/alive"),
+            (Op::Token, "coord/office/0/alive"),
             (Op::Subscribe, "sim/unit/ugv-1/sensors"),
         ] {
             assert!(!allows(&console, op, &k(key)), "{op:?} {key}");
@@ -670,7 +744,8 @@ mod tests {
             (Op::Put, Topic::UnitState(u("ugv-1"))),
             (Op::Token, Topic::UnitAlive(u("ugv-1"))),
             (Op::Put, Topic::UnitReport(u("ugv-1"))),
-            (Op::Put, Topic::UnitTask(u("ugv-1"))),
+            (Op::Put, Topic::UnitTask(u("ugv-1"), 0)),
+            (Op::Put, Topic::UnitTask(u("ugv-1"), 1)),
             (Op::Put, Topic::UnitBt(u("ugv-1"))),
             (Op::Put, Topic::Fire(firefleet_model::FireId(3))),
             (
@@ -678,12 +753,14 @@ mod tests {
                 Topic::ZoneGoal(zone.clone(), CommanderId::new("rossi").unwrap()),
             ),
             (Op::Put, Topic::ZoneAck(zone)),
-            (Op::Token, Topic::CoordAlive),
+            (Op::Token, Topic::CoordAlive(0)),
+            (Op::Token, Topic::CoordAlive(1)),
+            (Op::Token, Topic::CoordStandbyAlive(1)),
             (Op::Answer, Topic::CoordStatus),
             (Op::Put, Topic::CoordLog),
             (Op::Put, Topic::CoordBarred),
             (Op::Put, Topic::CoordGoals),
-            (Op::Put, Topic::CoordStandbyHealth(0)),
+            (Op::Put, Topic::CoordStandbyHealth(1)),
             (Op::Put, Topic::SimClock),
             (Op::Put, Topic::SimTruth),
             (Op::Put, Topic::SimSensors(u("ugv-1"))),
@@ -703,10 +780,21 @@ mod tests {
                 .filter(|(_, g)| allows(g, write, &key))
                 .map(|(w, _)| w)
                 .collect();
-            // Recorders answer the coordinator's queries on its behalf (coord/*); the
-            // console speaks for the commanders who log in to it.
+            // Recorders answer the coordinators' queries on their behalf (coord/*) and
+            // both coordinators answer them (a standby its status); the console speaks for
+            // the commanders who log in to it; both coordinators keep the incident's own
+            // record (tracks, log, barred space, goals, answers).
             let expected = match (write, &topic) {
-                (Op::Answer, _) | (Op::Put, Topic::ZoneGoal(..)) => 2,
+                (Op::Answer, _) => 3,
+                (Op::Put, Topic::ZoneGoal(..)) => 2,
+                (
+                    Op::Put,
+                    Topic::Fire(_)
+                    | Topic::CoordLog
+                    | Topic::CoordBarred
+                    | Topic::CoordGoals
+                    | Topic::ZoneAck(_),
+                ) => 2,
                 _ => 1,
             };
             assert_eq!(writers.len(), expected, "{key}: written by {writers:?}");

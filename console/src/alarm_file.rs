@@ -121,7 +121,7 @@ mod tests {
         let ugv = UnitId::new("ugv-1").unwrap();
         let mut before = picture();
         before.observe(0, Event::Link(true));
-        before.observe(0, Event::CoordinatorAlive(true));
+        before.observe(0, Event::CoordinatorAlive(0, true));
         before.observe(0, Event::UnitAlive(ugv.clone(), true));
         before.observe(0, Event::UnitAlive(ugv.clone(), false));
         before.delta(LOST_CONFIRM_MS).unwrap();

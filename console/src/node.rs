@@ -7,6 +7,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
+use firefleet_bus::access::COORDINATORS;
 use firefleet_bus::goal::{self, ACK_TIMEOUT};
 use firefleet_bus::{Ask, Bus, BusError, Raw};
 use firefleet_protocol::keys::Topic;
@@ -35,10 +36,8 @@ pub async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> Result<(), BusError> 
         .units()
         .iter()
         .flat_map(|u| {
-            [
-                keys.unit_state(u).as_str().to_owned(),
-                keys.unit_task(u).as_str().to_owned(),
-            ]
+            std::iter::once(keys.unit_state(u).as_str().to_owned())
+                .chain((0..COORDINATORS).map(|rank| keys.unit_task(u, rank).as_str().to_owned()))
         })
         .collect();
     let _declared = bus.declare_keys(&unit_keys).await?;
@@ -90,8 +89,8 @@ pub async fn feed(bus: Arc<Bus>, console: Arc<Console>) -> Result<(), BusError> 
                     Topic::CoordStandbyAlive(rank) => {
                         console.observe(Event::StandbyAlive(rank, alive));
                     }
-                    Topic::CoordAlive => {
-                        console.observe(Event::CoordinatorAlive(alive));
+                    Topic::CoordAlive(rank) => {
+                        console.observe(Event::CoordinatorAlive(rank, alive));
                         if alive {
                             tokio::spawn(fill_in(bus.clone(), console.clone()));
                         }

@@ -35,8 +35,9 @@ use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
     DtsZone, FireState, FireTrack, FlameReport, GoalAck, GoalsInForce, IncidentStatus, MAX_GOAL_ID,
-    SimClock, Stranded, Task, Trapped, UnitState, Vent, ZoneGoal, latest_per_fire,
+    SimClock, Stranded, Trapped, UnitState, Vent, ZoneGoal, latest_per_fire,
 };
+use firefleet_protocol::office::Leases;
 
 use crate::assign::Strategy;
 use crate::incident::freshness;
@@ -84,13 +85,18 @@ pub enum NodeError {
 pub enum Ended {
     /// The shutdown future completed.
     Shutdown,
-    /// A coordinator of the newer epoch `by` commands: this one stepped down (see
-    /// [`crate::standby`] for what it does next).
-    Deposed { by: u64 },
+    /// The coordinator of rank `holder` holds office ([`firefleet_protocol::office`]):
+    /// this one stepped down (see [`crate::standby`] for what it does next).
+    SteppedDown { holder: u32 },
 }
 
-/// Run the coordinator until `shutdown` completes or a coordinator of a newer epoch
-/// commands.
+/// How often a claim on office by someone else (a rival's lease or tasks, tasks on this
+/// coordinator's own key) is logged while it goes on: each task of it would flood the log.
+const CLAIM_LOG_EVERY: Duration = Duration::from_secs(5);
+
+/// Run the coordinator until `shutdown` completes or a lower rank's lease holds office.
+/// Its own lease is declared first: call it only when no other coordinator holds office
+/// ([`crate::standby::serve`] does).
 pub async fn run(
     bus: &Bus,
     scenario: &Scenario,
@@ -106,14 +112,17 @@ pub async fn run(
     };
     let mut incident = Incident::from_scenario(scenario, opts.lease_s, opts.strategy)?;
 
-    let _token = bus.token(&Topic::CoordAlive).await?;
+    let _lease = bus.token(&Topic::CoordAlive(opts.rank)).await?;
+    let mut leases = Leases::default();
+    leases.set(opts.rank, true);
+    let mut claims = Claims::default();
     let mut inputs = Inputs::subscribe(bus, scenario).await?;
     let mut told = Told {
         journal: opts.journal.clone(),
         ..Told::default()
     };
 
-    let epoch = take_office(
+    take_office(
         bus,
         &mut incident,
         opts,
@@ -127,7 +136,7 @@ pub async fn run(
     // tasks at once), so that the first task a unit gets after a report is not the one
     // that teaches the router its key.
     for unit in &scenario.units {
-        bus.declare(&keys.unit_task(&unit.id)).await?;
+        bus.declare(&keys.unit_task(&unit.id, opts.rank)).await?;
     }
 
     let mut tick = tokio::time::interval(Duration::from_millis(200));
@@ -150,16 +159,32 @@ pub async fn run(
         let outputs: Result<Vec<Output>, (String, Invalid)> = tokio::select! {
             biased;
             _ = &mut shutdown => break,
-            Some(sample) = inputs.rivals.recv() => match codec::decode::<Task>(&sample.bytes) {
-                Ok(task) if incident.deposed_by(&task, clock.now()) => {
-                    for d in incident.take_decisions() {
-                        bus.put(&keys.coord_log(), &d.to_msg()).await?;
+            Some((topic, alive)) = inputs.leases.recv() => {
+                if let Topic::CoordAlive(rank) = topic {
+                    leases.set(rank, alive);
+                    if let Some(holder) = leases.holder().filter(|h| *h != opts.rank) {
+                        incident.stand_down(opts.rank, holder, clock.now());
+                        for d in incident.take_decisions() {
+                            bus.put(&keys.coord_log(), &d.to_msg()).await?;
+                        }
+                        tracing::warn!(rank = opts.rank, holder, "a lower rank holds office: stepping down");
+                        return Ok(Ended::SteppedDown { holder });
                     }
-                    tracing::warn!(epoch, by = task.epoch, "deposed: stepping down");
-                    return Ok(Ended::Deposed { by: task.epoch });
+                    if alive && rank != opts.rank {
+                        claims.heard(&mut incident, opts.rank, rank, clock.now());
+                    }
                 }
-                Ok(_) => Ok(Vec::new()),
-                Err(e) => Err((sample.key.clone(), Invalid::new("task", format!("another coordinator's task: {e}")))),
+                Ok(Vec::new())
+            }
+            // Tasks put by others (this process's own are not heard): a rival's, or on
+            // this coordinator's own key, which only a thief of its key can put.
+            Some(sample) = inputs.rivals.recv() => match sample.topic() {
+                Some(Topic::UnitTask(_, rank)) => {
+                    stats.claimed_tasks.inc();
+                    claims.heard(&mut incident, opts.rank, rank, clock.now());
+                    Ok(Vec::new())
+                }
+                _ => Err((sample.key.clone(), Invalid::new("key", "not a task key"))),
             },
             Some((_, c)) = inputs.clock_msgs.recv() => { sim_time.set(c.t); Ok(Vec::new()) }
             Some((topic, z)) = inputs.dts.recv() => if topic == Topic::InfraDts(z.zone) {
@@ -240,7 +265,6 @@ fn on_token(
 
 /// Take office, at the site time `clock` keeps: the site clock awaited first, then the
 /// numbers of the tasks the `units` hold, then what the previous coordinator published.
-/// The epoch this coordinator commands in.
 async fn take_office(
     bus: &Bus,
     incident: &mut Incident,
@@ -249,7 +273,7 @@ async fn take_office(
     inputs: (&Inbox<SimClock>, &Inbox<UnitState>),
     sim_time: &ExternalClock,
     clock: &dyn Clock,
-) -> Result<u64, BusError> {
+) -> Result<(), BusError> {
     // Before the first decision, the site clock: a coordinator restarted mid-incident that
     // decided at t = 0 would number its tasks below those the units hold (and they would
     // ignore them) and date every decision wrong. A running simulator sends it ten times
@@ -275,8 +299,7 @@ async fn take_office(
     );
     // Before anything else is said: the goals and the tracks the previous coordinator
     // published, as a recorder kept them (none at a first start, or when nothing records).
-    take_back(bus, incident, opts, clocked.then_some(clock), sim_time).await?;
-    Ok(epoch)
+    take_back(bus, incident, opts, clocked.then_some(clock), sim_time).await
 }
 
 /// After each event at site time `t`: the incident's decisions logged, barred space told
@@ -320,6 +343,7 @@ async fn settle(
 /// What the coordinator hears, subscribed to before it says anything.
 struct Inputs {
     alive: Tokens,
+    leases: Tokens,
     states: Inbox<UnitState>,
     reports: Inbox<FlameReport>,
     rivals: RawInbox,
@@ -342,7 +366,8 @@ impl Inputs {
             )
             .await?;
         let reports = bus.subscribe(&bus.keys().every_unit_report()).await?;
-        // Other coordinators' tasks: one of a newer epoch deposes this coordinator.
+        let leases = bus.watch_tokens(&bus.keys().every_coord_alive()).await?;
+        // Tasks this process did not put: a rival coordinator's, or a thief's.
         let rivals = bus
             .subscribe_raw(&[bus.keys().every_unit_task().as_str()], true)
             .await?;
@@ -373,6 +398,7 @@ impl Inputs {
             .await?;
         Ok(Self {
             alive,
+            leases,
             states,
             reports,
             rivals,
@@ -687,6 +713,40 @@ fn other_versions(status: &mut IncidentStatus, bus: &Bus) {
     }
 }
 
+/// Claims on office heard while in office, logged at most every [`CLAIM_LOG_EVERY`] each.
+#[derive(Default)]
+struct Claims {
+    logged: std::collections::HashMap<u32, std::time::Instant>,
+}
+
+impl Claims {
+    /// The coordinator of `rank` claimed office (its lease or its tasks) while this one,
+    /// of `own`, holds it, heard at site time `t`.
+    fn heard(&mut self, incident: &mut Incident, own: u32, rank: u32, t: f64) {
+        let now = std::time::Instant::now();
+        if self
+            .logged
+            .get(&rank)
+            .is_some_and(|at| now.duration_since(*at) < CLAIM_LOG_EVERY)
+        {
+            return;
+        }
+        self.logged.insert(rank, now);
+        if rank == own {
+            tracing::error!(
+                rank,
+                "tasks on this coordinator's key that it never sent: its key is stolen"
+            );
+        } else {
+            tracing::warn!(
+                rank,
+                "another coordinator claims office: units refuse its tasks"
+            );
+        }
+        incident.claimed(rank, rank == own, t);
+    }
+}
+
 /// Sets the in-office gauge to 0 however the loop ends (shut down, deposed, an error).
 struct OutOfOffice(prometheus_client::metrics::gauge::Gauge);
 
@@ -895,7 +955,7 @@ async fn publish(bus: &Bus, outputs: Vec<Output>) -> Result<(), BusError> {
     let keys = bus.keys();
     for o in outputs {
         match o {
-            Output::Task(t) => bus.put(&keys.unit_task(&t.unit), &t).await?,
+            Output::Task(t) => bus.put(&keys.unit_task(&t.unit, t.rank()), &t).await?,
             Output::Fire(f) => bus.put(&keys.fire(f.id), &f).await?,
         }
     }

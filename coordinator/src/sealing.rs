@@ -120,7 +120,8 @@ fn suspension_holds(check: &SealCheck, proof: &Sealed, by: &str) -> Result<(), S
     let signer = check
         .check_sealed(proof)
         .map_err(|e| format!("seal refused: {e}"))?;
-    if signer.dir_name() != by || !matches!(signer, Identity::Commander(_) | Identity::Coordinator)
+    if signer.dir_name() != by
+        || !matches!(signer, Identity::Commander(_) | Identity::Coordinator(_))
     {
         return Err(format!(
             "sealed by {signer}: an ask to suspend is sealed by the commander (or the coordinator) it names, not '{by}'"

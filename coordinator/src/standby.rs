@@ -43,6 +43,7 @@ use firefleet_model::FireId;
 use firefleet_model::scenario::Scenario;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{FireTrack, GoalsInForce, StandbyHealth};
+use firefleet_protocol::office::Leases;
 use tokio::time::Instant;
 
 use crate::node::{CoordinatorOptions, Ended, run};
@@ -63,7 +64,9 @@ pub const HEALTH_PERIOD: Duration = Duration::from_secs(1);
 const RELINK_POLL: Duration = Duration::from_millis(200);
 
 /// Serve as one of the site's coordinators until `shutdown`: coordinate (as [`run`] does),
-/// first as a standby ([`follow`]) if `standby`; deposed, stand by again.
+/// first as a standby ([`follow`]) if `standby` or if another coordinator holds office
+/// already (a coordinator restarted while its standby serves); stepped down, stand by
+/// again.
 pub async fn serve(
     bus: &Bus,
     scenario: &Scenario,
@@ -73,7 +76,7 @@ pub async fn serve(
 ) -> Result<(), crate::node::NodeError> {
     tokio::pin!(shutdown);
     let mut resumed = opts.clone();
-    let mut standing_by = standby;
+    let mut standing_by = standby || office_held(bus).await?;
     loop {
         if standing_by {
             let Some(followed) = follow(bus, opts, shutdown.as_mut()).await? else {
@@ -83,9 +86,22 @@ pub async fn serve(
         }
         match run(bus, scenario, &resumed, shutdown.as_mut()).await? {
             Ended::Shutdown => return Ok(()),
-            Ended::Deposed { .. } => standing_by = true,
+            Ended::SteppedDown { .. } => standing_by = true,
         }
     }
+}
+
+/// Whether a coordinator's lease is alive on the site now: office is held, and a
+/// coordinator starting claims it only once it lapses.
+async fn office_held(bus: &Bus) -> Result<bool, BusError> {
+    let held = !bus
+        .tokens_alive(&bus.keys().every_coord_alive())
+        .await?
+        .is_empty();
+    if held {
+        tracing::info!("a coordinator holds office: standing by until its lease lapses");
+    }
+    Ok(held)
 }
 
 /// Follow the incident as the standby of `opts.rank` until the coordinator in charge is
@@ -100,7 +116,8 @@ async fn follow(
     let keys = bus.keys().clone();
     let fires = bus.subscribe(&keys.every_fire()).await?;
     let goals = bus.subscribe(&keys.coord_goals()).await?;
-    let coordinator = bus.watch_tokens(&keys.expr(&Topic::CoordAlive)).await?;
+    let coordinators = bus.watch_tokens(&keys.every_coord_alive()).await?;
+    let mut leases = Leases::default();
     // Held while standing by: `firefleet status` and the console show who could take over,
     // and that nobody could once it is gone.
     let _standing_by = bus.token(&Topic::CoordStandbyAlive(rank)).await?;
@@ -142,8 +159,11 @@ async fn follow(
                     tracing::warn!(rank, "could not say what this standby follows: {e}");
                 }
             }
-            Some((_, alive)) = coordinator.recv() => {
-                in_charge = alive;
+            Some((topic, alive)) = coordinators.recv() => {
+                if let Topic::CoordAlive(r) = topic {
+                    leases.set(r, alive);
+                }
+                in_charge = leases.holder().is_some();
                 if !in_charge {
                     tracing::warn!(rank, "the coordinator in charge is gone");
                     due = Instant::now() + RANK_STEP * rank;

@@ -25,6 +25,8 @@ pub struct Stats {
     pub tasks: Gauge,
     pub lease_misses: Counter,
     pub in_office: Gauge,
+    /// Tasks heard that this coordinator did not send (a rival's, or a thief's on its key).
+    pub claimed_tasks: Counter,
 }
 
 impl Default for Stats {
@@ -38,6 +40,7 @@ impl Default for Stats {
             tasks: Gauge::default(),
             lease_misses: Counter::default(),
             in_office: Gauge::default(),
+            claimed_tasks: Counter::default(),
         }
     }
 }
@@ -63,6 +66,11 @@ impl Stats {
             "in_office",
             "1 while this coordinator is in charge",
             self.in_office.clone(),
+        );
+        r.register(
+            "claimed_tasks",
+            "Tasks heard that this coordinator did not send while in office: a rival's, or on its own key a thief's",
+            self.claimed_tasks.clone(),
         );
     }
 }

@@ -23,8 +23,15 @@ pub fn commander_name(c: &CommanderId) -> String {
     Identity::Commander(c.clone()).dir_name()
 }
 
-/// The name the coordinator's own key asks under.
+/// The name the coordinator's own key asks under (the one that starts in office; a
+/// standby's asks under its own, `coordinator-<rank>`).
 pub const OPERATOR: &str = "coordinator";
+
+/// Whether `name` is a coordinator's identity name: the operator at a coordinator's host
+/// asks under it.
+fn coordinator(name: &str) -> bool {
+    name == OPERATOR || name.strip_prefix("coordinator-").is_some()
+}
 
 /// Identities one asker may ask to suspend: a stolen commander key flooding asks for made-up
 /// names must not fill the table, or crowd out the asks that matter.
@@ -70,10 +77,12 @@ impl Suspensions {
         Ok(!was && self.suspended(target))
     }
 
-    /// Whether identity `name` is suspended.
+    /// Whether identity `name` is suspended: two commanders asked, or an operator at a
+    /// coordinator's host, save that no coordinator suspends another (a stolen
+    /// coordinator key would otherwise depose the real one in office).
     pub fn suspended(&self, name: &str) -> bool {
         self.asks.get(name).is_some_and(|by| {
-            by.contains_key(OPERATOR)
+            (!coordinator(name) && by.keys().any(|b| coordinator(b)))
                 || by.keys().filter(|b| b.starts_with("commander-")).count() >= 2
         })
     }
@@ -166,5 +175,17 @@ mod tests {
         );
         assert_eq!(ask(&mut s, "unit-x", "commander-rossi"), Ok(false));
         assert!(!s.suspended("unit-x"));
+    }
+
+    #[test]
+    fn no_coordinator_suspends_another_and_two_commanders_suspend_any() {
+        let mut s = Suspensions::default();
+        let ask = |s: &mut Suspensions, t: &str, by: &str| s.ask(t, by, proof(t, by));
+        assert_eq!(ask(&mut s, "coordinator", "coordinator-1"), Ok(false));
+        assert_eq!(ask(&mut s, "coordinator-1", OPERATOR), Ok(false));
+        assert!(s.names().is_empty());
+        assert_eq!(ask(&mut s, "unit-ugv-2", "coordinator-1"), Ok(true));
+        assert_eq!(ask(&mut s, "coordinator", "commander-rossi"), Ok(false));
+        assert_eq!(ask(&mut s, "coordinator", "commander-bianchi"), Ok(true));
     }
 }

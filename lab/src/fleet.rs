@@ -75,10 +75,10 @@ impl Unit {
         }
     }
 
-    fn set_coordinator_present(&mut self, present: bool) {
+    fn office_changed(&mut self, present: bool) {
         match self {
-            Self::Ground(c) => c.set_coordinator_present(present),
-            Self::Rail(c) => c.set_coordinator_present(present),
+            Self::Ground(c) => c.office_changed(present),
+            Self::Rail(c) => c.office_changed(present),
         }
     }
 
@@ -185,7 +185,7 @@ impl SimFleet {
                     anyhow::ensure!(refused.is_empty(), "fires refused: {refused:?}");
                 }
                 for (id, ctl) in &mut units {
-                    ctl.set_coordinator_present(true);
+                    ctl.office_changed(true);
                     inc.on_alive(id, true, 0.0).map_err(anyhow::Error::msg)?;
                 }
                 Some(inc)

@@ -10,7 +10,7 @@ use firefleet_model::validate::Invalid;
 
 /// Version of the postcard wire format. Bump on any incompatible change to a postcard
 /// message.
-pub const PROTOCOL_VERSION: u8 = 5;
+pub const PROTOCOL_VERSION: u8 = 6;
 
 /// Why bytes could not become a valid message.
 #[derive(Debug, thiserror::Error)]

@@ -4,14 +4,16 @@
 //! ff/<site>/unit/<id>/state       unit -> all        UnitState (postcard)
 //! ff/<site>/unit/<id>/alive       liveliness token of a unit
 //! ff/<site>/unit/<id>/report      unit -> coord      FlameReport (postcard)
-//! ff/<site>/unit/<id>/task        coord -> unit      Task (postcard)
+//! ff/<site>/unit/<id>/task/<rank> coord -> unit      Task (postcard) from the coordinator of that
+//!                                 rank (its identity, so the routers vouch for who sent it)
 //! ff/<site>/unit/<id>/bt          unit -> recorders  BtTransitions (postcard)
 //! ff/<site>/fire/<fire_id>        coord -> all       FireTrack (postcard); recorders answer
 //!                                 queries on fire/* with the latest of each
 //! ff/<site>/zone/<zone>/goal/<by> commander -> coord ZoneGoal (JSON), issued by commander
 //!                                 <by>; a delete clears <by>'s goals on the zone
 //! ff/<site>/zone/<zone>/ack       coord -> commander GoalAck (JSON)
-//! ff/<site>/coord/alive           liveliness token of the coordinator
+//! ff/<site>/coord/office/<rank>/alive  liveliness token of the coordinator of that
+//!                                 rank in office: its lease
 //! ff/<site>/coord/standby/<rank>/alive  liveliness token of a standby coordinator
 //! ff/<site>/coord/status          queryable, JSON snapshot of the incident
 //! ff/<site>/coord/preview         queryable: a ZoneGoal (JSON) asked with `?by=<commander>`,
@@ -64,7 +66,7 @@ use firefleet_model::ids::{CommanderId, FireId, SiteId, UnitId, ZoneId};
 
 const ROOT: &str = "ff";
 
-/// How long a vanished liveliness token (`unit/<id>/alive`, `coord/alive`) may stay away
+/// How long a vanished liveliness token (`unit/<id>/alive`, `coord/office/<rank>/alive`) may stay away
 /// before its process counts as gone, ms: a unit whose router died declares it again on its
 /// next router (failing over takes under 2 s, `tests/it/routers.rs`), while the site's other
 /// routers forget it as soon as the dead router's link lapses. The coordinator and the
@@ -77,12 +79,14 @@ pub enum Topic {
     UnitState(UnitId),
     UnitAlive(UnitId),
     UnitReport(UnitId),
-    UnitTask(UnitId),
+    /// A unit's task from the coordinator of that rank.
+    UnitTask(UnitId, u32),
     UnitBt(UnitId),
     Fire(FireId),
     ZoneGoal(ZoneId, CommanderId),
     ZoneAck(ZoneId),
-    CoordAlive,
+    /// The lease of the coordinator of that rank in office: its liveliness token.
+    CoordAlive(u32),
     /// A standby coordinator's liveliness, by its rank: who could take over.
     CoordStandbyAlive(u32),
     /// What a standby coordinator of that rank follows, each second.
@@ -115,12 +119,12 @@ impl fmt::Display for Topic {
             Topic::UnitState(u) => write!(f, "unit/{u}/state"),
             Topic::UnitAlive(u) => write!(f, "unit/{u}/alive"),
             Topic::UnitReport(u) => write!(f, "unit/{u}/report"),
-            Topic::UnitTask(u) => write!(f, "unit/{u}/task"),
+            Topic::UnitTask(u, rank) => write!(f, "unit/{u}/task/{rank}"),
             Topic::UnitBt(u) => write!(f, "unit/{u}/bt"),
             Topic::Fire(id) => write!(f, "fire/{id}"),
             Topic::ZoneGoal(z, by) => write!(f, "zone/{z}/goal/{by}"),
             Topic::ZoneAck(z) => write!(f, "zone/{z}/ack"),
-            Topic::CoordAlive => f.write_str("coord/alive"),
+            Topic::CoordAlive(rank) => write!(f, "coord/office/{rank}/alive"),
             Topic::CoordStandbyAlive(rank) => write!(f, "coord/standby/{rank}/alive"),
             Topic::CoordStandbyHealth(rank) => write!(f, "coord/standby/{rank}/health"),
             Topic::CoordStatus => f.write_str("coord/status"),
@@ -151,12 +155,12 @@ impl Topic {
         "unit/<id>/state",
         "unit/<id>/alive",
         "unit/<id>/report",
-        "unit/<id>/task",
+        "unit/<id>/task/<rank>",
         "unit/<id>/bt",
         "fire/<fire_id>",
         "zone/<zone>/goal/<commander>",
         "zone/<zone>/ack",
-        "coord/alive",
+        "coord/office/<rank>/alive",
         "coord/standby/<rank>/alive",
         "coord/standby/<rank>/health",
         "coord/status",
@@ -181,12 +185,12 @@ impl Topic {
             Topic::UnitState(_) => "unit/<id>/state",
             Topic::UnitAlive(_) => "unit/<id>/alive",
             Topic::UnitReport(_) => "unit/<id>/report",
-            Topic::UnitTask(_) => "unit/<id>/task",
+            Topic::UnitTask(..) => "unit/<id>/task/<rank>",
             Topic::UnitBt(_) => "unit/<id>/bt",
             Topic::Fire(_) => "fire/<fire_id>",
             Topic::ZoneGoal(..) => "zone/<zone>/goal/<commander>",
             Topic::ZoneAck(_) => "zone/<zone>/ack",
-            Topic::CoordAlive => "coord/alive",
+            Topic::CoordAlive(_) => "coord/office/<rank>/alive",
             Topic::CoordStandbyAlive(_) => "coord/standby/<rank>/alive",
             Topic::CoordStandbyHealth(_) => "coord/standby/<rank>/health",
             Topic::CoordStatus => "coord/status",
@@ -281,6 +285,23 @@ impl Keys {
         format!("{ROOT}/{}/{topic}", self.site)
     }
 
+    /// Unit `u`'s tasks, from every coordinator: a unit hears them all and obeys the one
+    /// in office.
+    pub fn unit_tasks(&self, u: &UnitId) -> Pattern<Task> {
+        Pattern::new(format!("{ROOT}/{}/unit/{u}/task/*", self.site))
+    }
+
+    /// Every unit's tasks from the coordinator of `rank`: what its identity may put.
+    pub fn every_unit_task_of(&self, rank: u32) -> Pattern<Task> {
+        Pattern::new(format!("{ROOT}/{}/unit/*/task/{rank}", self.site))
+    }
+
+    /// The leases of every coordinator in office, as liveliness tokens: one while the
+    /// site is well, two while someone claims office it does not hold.
+    pub fn every_coord_alive(&self) -> String {
+        format!("{ROOT}/{}/coord/office/*/alive", self.site)
+    }
+
     fn key<M: Message>(&self, topic: Topic) -> Key<M> {
         Key {
             expr: self.expr(&topic),
@@ -344,7 +365,7 @@ typed_keys! {
     keys {
         unit_state(u: &UnitId) -> UnitState = Topic::UnitState(u.clone());
         unit_report(u: &UnitId) -> FlameReport = Topic::UnitReport(u.clone());
-        unit_task(u: &UnitId) -> Task = Topic::UnitTask(u.clone());
+        unit_task(u: &UnitId, rank: u32) -> Task = Topic::UnitTask(u.clone(), rank);
         unit_bt(u: &UnitId) -> BtTransitions = Topic::UnitBt(u.clone());
         fire(id: FireId) -> FireTrack = Topic::Fire(id);
         zone_goal(z: &ZoneId, by: &CommanderId) -> ZoneGoal = Topic::ZoneGoal(z.clone(), by.clone());
@@ -369,8 +390,8 @@ typed_keys! {
         every_unit_state -> UnitState = "unit/*/state";
         /// Every unit's flame reports.
         every_unit_report -> FlameReport = "unit/*/report";
-        /// Every unit's task.
-        every_unit_task -> Task = "unit/*/task";
+        /// Every unit's tasks, from every coordinator.
+        every_unit_task -> Task = "unit/*/task/*";
         /// Every fire track.
         every_fire -> FireTrack = "fire/*";
         /// Commanders' goals for every zone.
@@ -431,11 +452,17 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
     let site = SiteId::new(parts[1]).map_err(|e| err(e.to_string()))?;
     let unit = |s: &str| UnitId::new(s).map_err(|e| err(e.to_string()));
     let zone = |s: &str| ZoneId::new(s).map_err(|e| err(e.to_string()));
+    let rank = |s: &str| {
+        s.parse::<u32>()
+            .ok()
+            .filter(|r| u64::from(*r) < crate::msg::EPOCH_RANKS)
+            .ok_or_else(|| err(format!("'{s}' is no coordinator's rank")))
+    };
     let topic = match &parts[2..] {
         ["unit", u, "state"] => Topic::UnitState(unit(u)?),
         ["unit", u, "alive"] => Topic::UnitAlive(unit(u)?),
         ["unit", u, "report"] => Topic::UnitReport(unit(u)?),
-        ["unit", u, "task"] => Topic::UnitTask(unit(u)?),
+        ["unit", u, "task", r] => Topic::UnitTask(unit(u)?, rank(r)?),
         ["unit", u, "bt"] => Topic::UnitBt(unit(u)?),
         ["fire", id] => Topic::Fire(
             id.parse()
@@ -446,15 +473,9 @@ pub fn parse(key: &str) -> Result<(SiteId, Topic), KeyError> {
             CommanderId::new(*by).map_err(|e| err(e.to_string()))?,
         ),
         ["zone", z, "ack"] => Topic::ZoneAck(zone(z)?),
-        ["coord", "alive"] => Topic::CoordAlive,
-        ["coord", "standby", rank, "alive"] => Topic::CoordStandbyAlive(
-            rank.parse()
-                .map_err(|_| err(format!("'{rank}' is no standby's rank")))?,
-        ),
-        ["coord", "standby", rank, "health"] => Topic::CoordStandbyHealth(
-            rank.parse()
-                .map_err(|_| err(format!("'{rank}' is no standby's rank")))?,
-        ),
+        ["coord", "office", r, "alive"] => Topic::CoordAlive(rank(r)?),
+        ["coord", "standby", r, "alive"] => Topic::CoordStandbyAlive(rank(r)?),
+        ["coord", "standby", r, "health"] => Topic::CoordStandbyHealth(rank(r)?),
         ["coord", "status"] => Topic::CoordStatus,
         ["coord", "preview"] => Topic::CoordPreview,
         ["coord", "log"] => Topic::CoordLog,
@@ -516,12 +537,12 @@ mod tests {
             Topic::UnitState(u("a")),
             Topic::UnitAlive(u("a")),
             Topic::UnitReport(u("a")),
-            Topic::UnitTask(u("a")),
+            Topic::UnitTask(u("a"), 1),
             Topic::UnitBt(u("a")),
             Topic::Fire(FireId(4)),
             Topic::ZoneGoal(z.clone(), CommanderId::new("rossi").unwrap()),
             Topic::ZoneAck(z),
-            Topic::CoordAlive,
+            Topic::CoordAlive(0),
             Topic::CoordStandbyAlive(2),
             Topic::CoordStandbyHealth(2),
             Topic::CoordStatus,
@@ -563,7 +584,7 @@ mod tests {
         let z = ZoneId::new("z").unwrap();
         let pairs = [
             (
-                keys.unit_task(&u("a")).as_str().to_owned(),
+                keys.unit_task(&u("a"), 3).as_str().to_owned(),
                 keys.every_unit_task().as_str().to_owned(),
             ),
             (
@@ -588,9 +609,11 @@ mod tests {
             ),
         ];
         for (key, pattern) in pairs {
-            let (head, tail) = pattern.split_once('*').unwrap();
+            let chunks: Vec<&str> = key.split('/').collect();
+            let wild: Vec<&str> = pattern.split('/').collect();
             assert!(
-                key.starts_with(head) && key.ends_with(tail),
+                chunks.len() == wild.len()
+                    && chunks.iter().zip(&wild).all(|(c, w)| *w == "*" || c == w),
                 "{key} ~ {pattern}"
             );
             assert!(parse(&key).is_ok(), "{key}");

@@ -27,6 +27,7 @@
 pub mod codec;
 pub mod keys;
 pub mod msg;
+pub mod office;
 pub mod payload;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;

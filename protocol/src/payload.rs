@@ -82,7 +82,7 @@ macro_rules! payloads {
 payloads! {
     UnitState(UnitState) = Topic::UnitState(_),
     FlameReport(FlameReport) = Topic::UnitReport(_),
-    Task(Task) = Topic::UnitTask(_),
+    Task(Task) = Topic::UnitTask(..),
     Bt(BtTransitions) = Topic::UnitBt(_),
     Fire(FireTrack) = Topic::Fire(_),
     Goal(ZoneGoal) = Topic::ZoneGoal(..),
@@ -166,7 +166,7 @@ mod tests {
             "a clock is no state"
         );
         assert!(matches!(
-            Payload::from_wire(&Topic::CoordAlive, &wire),
+            Payload::from_wire(&Topic::CoordAlive(0), &wire),
             Err(PayloadError::NoMessage(_))
         ));
     }

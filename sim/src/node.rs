@@ -426,8 +426,8 @@ async fn wait_for_fleet(bus: &Bus, scenario: &Scenario, coordinator: bool, limit
             .filter(|u| !alive.contains(&Topic::UnitAlive(u.id.clone())))
             .map(|u| u.id.to_string())
             .chain(
-                (coordinator && !alive.contains(&Topic::CoordAlive))
-                    .then(|| "coordinator".to_owned()),
+                (coordinator && !alive.iter().any(|t| matches!(t, Topic::CoordAlive(_))))
+                    .then(|| "a coordinator in office".to_owned()),
             )
             .collect();
         if missing.is_empty() {

@@ -66,7 +66,7 @@ pub async fn run(a: CoordinatorArgs) -> anyhow::Result<ExitCode> {
     let bus = join(
         &a.role.zenoh,
         &scenario,
-        Expect::Identity(Identity::Coordinator),
+        Expect::Identity(Identity::Coordinator(a.rank)),
     )
     .await?;
     let stats = firefleet_coordinator::stats::Stats::default();

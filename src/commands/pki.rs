@@ -59,7 +59,8 @@ pub struct IssueArgs {
     /// commander, unit, coordinator, recorder, sim, console or router.
     #[arg(long)]
     role: Role,
-    /// The commander's or the unit's name; a further router's name (none: the first).
+    /// The commander's or the unit's name; a further router's name (none: the first); a
+    /// standby coordinator's rank (none: the one that starts in office, rank 0).
     #[arg(long)]
     name: Option<String>,
     /// A router's host name or address (repeatable; default localhost and 127.0.0.1).
@@ -204,7 +205,8 @@ fn identity(role: Role, name: Option<&str>) -> anyhow::Result<Identity> {
         Role::Unit => named("unit"),
         Role::Router if name.is_some() => named("router"),
         Role::Router => Ok(Identity::ROUTER),
-        Role::Coordinator => Ok(Identity::Coordinator),
+        Role::Coordinator if name.is_some() => named("coordinator"),
+        Role::Coordinator => Ok(Identity::COORDINATOR),
         Role::Recorder => Ok(Identity::Recorder),
         Role::Sim => Ok(Identity::Sim),
         Role::Console => Ok(Identity::Console),

@@ -13,9 +13,11 @@ use std::time::Duration;
 
 use clap::Args;
 use firefleet_bus::Bus;
+use firefleet_bus::access::Identity;
 use firefleet_protocol::codec::PROTOCOL_VERSION;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{IncidentStatus, ScadaLink};
+use firefleet_protocol::office::Leases;
 
 use super::{ScenarioArg, positive_f64};
 use firefleet::net::{ZenohArgs, open, query_status};
@@ -130,14 +132,20 @@ fn humantime_now() -> String {
     )
 }
 
-/// Whether a coordinator is in office and which standbys could take over, from their
-/// liveliness tokens: a site whose standby is gone has no spare, and says so.
+/// Who holds office (and who else claims it) and which standbys could take over, from
+/// their liveliness tokens: a site whose standby is gone has no spare, and says so.
 async fn print_office(bus: &Bus) {
     let keys = bus.keys();
-    let in_office = bus
-        .tokens_alive(&keys.expr(&Topic::CoordAlive))
+    let mut leases = Leases::default();
+    for t in bus
+        .tokens_alive(&keys.every_coord_alive())
         .await
-        .is_ok_and(|t| !t.is_empty());
+        .unwrap_or_default()
+    {
+        if let Topic::CoordAlive(rank) = t {
+            leases.set(rank, true);
+        }
+    }
     let mut standbys: Vec<u32> = bus
         .tokens_alive(&keys.every_standby_alive())
         .await
@@ -160,14 +168,20 @@ async fn print_office(bus: &Bus) {
                 .join(", ")
         ),
     };
-    println!(
-        "office: {}; {standing_by}",
-        if in_office {
-            "a coordinator in office"
-        } else {
-            "NO COORDINATOR IN OFFICE"
-        }
+    let holder = leases.holder().map_or_else(
+        || "NO COORDINATOR IN OFFICE".to_owned(),
+        |h| format!("{} in office", Identity::Coordinator(h)),
     );
+    let rivals: Vec<String> = leases
+        .rivals()
+        .map(|r| {
+            format!(
+                "; RIVAL: {} claims office too (units refuse its tasks)",
+                Identity::Coordinator(r)
+            )
+        })
+        .collect();
+    println!("office: {holder}{}; {standing_by}", rivals.concat());
 }
 
 fn print_status(s: &IncidentStatus) {

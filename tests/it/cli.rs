@@ -194,7 +194,7 @@ fn deploy_render_writes_the_documented_rules_and_a_site_router_refuses_plain_lin
     assert_says(
         &out,
         0,
-        "1 router configuration(s), 8 client configurations",
+        "1 router configuration(s), 9 client configurations",
     );
     let table = std::fs::read_to_string(dir.path().join("cfg/ACCESS.md")).unwrap();
     let readme = std::fs::read_to_string("deploy/README.md").unwrap();

@@ -196,6 +196,7 @@ fn fleet_messages() {
     let decision = Decision {
         t: 12.0,
         text: "assign ugv-1 to fire f3: cost 4.2 s".into(),
+        impostor: None,
     };
     let seeds = vec![
         encode(&state()),

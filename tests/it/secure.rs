@@ -18,7 +18,7 @@ use firefleet_model::{FireId, Point2, Pose2, UnitId};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    BarredSpace, FireState, FireTrack, SimTruth, Task, TaskKind, UnitState,
+    BarredSpace, FireState, FireTrack, SimTruth, Task, TaskKind, UnitState, epoch_after,
 };
 
 /// `firefleet status` on `endpoint`, as the identity in `tls` (none: no certificate).
@@ -512,7 +512,7 @@ async fn a_stolen_unit_certificate_cannot_stop_a_secure_fleet() {
     // coordinator's token and another unit's, before either exists.
     let _coord_token = session
         .liveliness()
-        .declare_token(keys.expr(&Topic::CoordAlive))
+        .declare_token(keys.expr(&Topic::CoordAlive(0)))
         .await
         .unwrap();
     let _unit_token = session
@@ -572,7 +572,7 @@ async fn a_stolen_unit_certificate_cannot_stop_a_secure_fleet() {
         kind: TaskKind::Standby,
     };
     thief
-        .put(&keys.unit_task(&ugv1), &forged_task)
+        .put(&keys.unit_task(&ugv1, 0), &forged_task)
         .await
         .unwrap();
     let evil = r#"{"id": "evil", "zone": "core", "goal": "monitor", "priority": 255}"#;
@@ -1032,12 +1032,14 @@ async fn a_stolen_commander_key_is_suspended_in_band_and_stays_so_across_a_resta
     }
 }
 
-/// Issue #52, item 3, for the coordinator's key: a thief holding it tasks a unit in a
-/// newer term. The coordinator in office never left, so every console raises "usurped"
-/// within 2 s (the real coordinator, deposed by the epoch, steps down: office by lease is
-/// not built yet, so this is detection only).
+/// Issue #52, items 2 and 3, for the coordinators' keys. A thief holding the standby's key
+/// (`coordinator:1`) claims office and tasks a unit in a newer term: the unit refuses (the
+/// lowest rank holds office), the coordinator in office stays in office, and the console
+/// raises "rival coordinator" within 2 s. Then a thief holding the key of the coordinator
+/// in office tasks on its key: the coordinator hears tasks it never sent, and the console
+/// raises "someone else holds the key of coordinator" within 2 s.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_stolen_coordinator_key_taking_command_is_alarmed_on_the_console() {
+async fn stolen_coordinator_keys_command_nobody_or_are_alarmed_on_the_console() {
     let site = SecureSite::new("vehicle-collision");
     let addr = format!("127.0.0.1:{}", firefleet_bus::free_loopback_port().unwrap());
     let mut fleet = Fleet(vec![
@@ -1057,34 +1059,71 @@ async fn a_stolen_coordinator_key_taking_command_is_alarmed_on_the_console() {
             "--wait-for-coordinator",
         ],
     ));
-    let thief = site.open("coordinator").await;
+    let rival = site.open("coordinator-1").await;
+    let keys = rival.keys().clone();
     let ugv1 = UnitId::new("ugv-1").unwrap();
-    let tasks = thief
-        .subscribe(&thief.keys().unit_task(&ugv1))
-        .await
-        .unwrap();
-    // The coordinator in office a while (its token present past a takeover's quiet).
+    let tasks = rival.subscribe(&keys.unit_tasks(&ugv1)).await.unwrap();
+    let states = rival.subscribe(&keys.unit_state(&ugv1)).await.unwrap();
     let (_, real) = tokio::time::timeout(patient(Duration::from_secs(90)), tasks.recv())
         .await
         .expect("the coordinator never tasked ugv-1")
         .unwrap();
-    tokio::time::sleep(Duration::from_millis(
-        firefleet_console::picture::TAKEOVER_QUIET_MS + 500,
-    ))
-    .await;
+    console_linked(&addr).await;
+
+    // The standby's stolen key: a lease of rank 1 and a task of a newer term of its rank.
+    let _claim = rival.token(&Topic::CoordAlive(1)).await.unwrap();
     let forged = Task {
-        epoch: real.epoch + 1,
-        seq: real.seq + 1,
+        epoch: epoch_after(real.seq + 100, 1),
+        seq: epoch_after(real.seq + 100, 1),
         kind: TaskKind::Standby,
-        ..real
+        ..real.clone()
     };
+    rival.put(&keys.unit_task(&ugv1, 1), &forged).await.unwrap();
+    let (alarm, took) = console_alarm(&addr, "rival-coordinator").await;
+    assert_eq!(alarm["priority"], 1, "{alarm}");
+    assert!(
+        alarm["text"]
+            .as_str()
+            .unwrap()
+            .starts_with("coordinator:1 claims office while coordinator holds it"),
+        "{alarm}"
+    );
+    println!("rival coordinator alarm on the console {took:.2} s after the claim");
+    // The unit keeps obeying the coordinator in office, which keeps tasking it.
+    let until = Instant::now() + Duration::from_secs(3);
+    let mut heard_real = false;
+    while Instant::now() < until {
+        tokio::select! {
+            Some((_, st)) = states.recv() => assert_ne!(st.epoch, Some(forged.epoch), "ugv-1 obeyed the rival"),
+            Some((topic, t)) = tasks.recv() => heard_real |= topic == Topic::UnitTask(ugv1.clone(), 0) && t.epoch == real.epoch,
+            _ = tokio::time::sleep(Duration::from_millis(100)) => {}
+        }
+    }
+    assert!(
+        heard_real,
+        "the coordinator in office stopped tasking ugv-1"
+    );
+    rival.close().await;
+
+    // The key of the coordinator in office: tasks on its own key that it never sent.
+    let thief = site.open("coordinator").await;
+    let mut stolen = real.clone();
+    stolen.seq = real.seq + 1;
+    stolen.kind = TaskKind::Standby;
     thief
-        .put(&thief.keys().unit_task(&ugv1), &forged)
+        .put(&thief.keys().unit_task(&ugv1, 0), &stolen)
         .await
         .unwrap();
-    let (alarm, took) = console_alarm(&addr, "usurped").await;
+    let (alarm, took) = console_alarm(&addr, "impostor").await;
     assert_eq!(alarm["priority"], 1, "{alarm}");
-    println!("usurped alarm on the console {took:.2} s after the forged task");
+    assert!(
+        alarm["text"]
+            .as_str()
+            .unwrap()
+            .starts_with("someone else holds the key of coordinator:"),
+        "{alarm}"
+    );
+    println!("impostor alarm on the console {took:.2} s after the stolen coordinator key's task");
     thief.close().await;
 }
 

@@ -58,7 +58,7 @@ fn run_in(
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), *GROUND, scenario.clone());
     if let Some(target) = coordinator_task {
-        ctl.set_coordinator_present(true);
+        ctl.office_changed(true);
         ctl.on_task(
             0,
             1,
@@ -251,7 +251,7 @@ fn a_cruise_task_stages_the_unit_and_a_new_goal_moves_it() {
     let mut world = World::new(&scenario, 3);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), *GROUND, scenario);
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     let drive = |ctl: &mut GroundController, world: &mut World, seconds: f64| {
         let end = world.time() + seconds;
         while world.time() < end {
@@ -303,7 +303,7 @@ fn a_unit_sent_back_the_way_it_came_turns_round_and_touches_nothing() {
     let mut world = World::new(&scenario, 7);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), *GROUND, scenario.clone());
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     let goal = Point2::new(10.0, -2.5);
     ctl.on_task(0, 1, TaskKind::Cruise { goal }).unwrap();
     let mut furthest = 50.0_f64;
@@ -330,7 +330,7 @@ fn a_staged_unit_assigned_the_fire_puts_it_out() {
     let mut world = World::new(&scenario, 5);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), *GROUND, scenario.clone());
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     ctl.on_task(
         0,
         1,
@@ -403,7 +403,7 @@ fn facing_away_in_a_narrow_bore_the_unit_turns_round_by_backing() {
     let mut world = World::new(&scenario, 3);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), *GROUND, scenario.clone());
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     let flame = scenario.fires[0].position();
     ctl.on_task(
         0,
@@ -442,7 +442,7 @@ fn a_task_numbered_ahead_of_the_clock_is_refused_and_the_coordinator_still_heard
     let mut world = World::new(&scenario, 11);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), *GROUND, scenario);
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     for _ in 0..20 {
         world.step_unit(&id, 0.05, |s| ctl.step(s)).unwrap();
     }

@@ -47,7 +47,7 @@ fn drive(ctl: &mut GroundController, world: &mut World, id: &UnitId, seconds: f6
 fn a_unit_inside_a_new_keep_out_leaves_by_the_shortest_way_and_stays_out() {
     let s = Scenario::straight(200.0).ground("u1", 20.0, -2.5).build();
     let (mut ctl, mut world, id) = ground(s);
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     // Patrolling east, it is well inside 50-150 m after 40 s.
     drive(&mut ctl, &mut world, &id, 40.0);
     let x0 = ctl.state().pose.x;
@@ -82,7 +82,7 @@ fn a_unit_inside_a_new_keep_out_leaves_by_the_shortest_way_and_stays_out() {
 fn a_task_that_needs_barred_space_is_refused_with_the_reason() {
     let s = Scenario::straight(200.0).ground("u1", 20.0, -2.5).build();
     let (mut ctl, mut world, id) = ground(s);
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     drive(&mut ctl, &mut world, &id, 0.1);
     ctl.on_barred(barred(0.0, 50.0, 150.0, false)).unwrap();
     ctl.on_task(
@@ -190,7 +190,7 @@ fn a_barred_space_dated_ahead_of_the_clock_is_refused_and_one_heard_before_the_f
 fn a_unit_whose_cruise_a_keep_out_interrupted_cruises_on_once_it_is_lifted() {
     let s = Scenario::straight(200.0).ground("u1", 20.0, -2.5).build();
     let (mut ctl, mut world, id) = ground(s);
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     drive(&mut ctl, &mut world, &id, 0.1);
     let goal = Point2::new(180.0, -2.5);
     ctl.on_task(0, 1, TaskKind::Search { goal }).unwrap();

@@ -72,7 +72,7 @@ fn alone_it_finds_and_puts_out_a_fire_under_its_rail() {
 }
 
 fn assign(ctl: &mut MonorailController, at: Point2) {
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     ctl.on_task(
         0,
         1,
@@ -125,7 +125,7 @@ fn sent_searching_it_runs_along_the_rail_reports_what_it_passes_and_stops_for_a_
     let s = scenario(160.0, -2.0, 200.0);
     let mut world = World::new(&s, 1);
     let mut ctl = controller(&s);
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     ctl.on_task(
         0,
         1,
@@ -213,7 +213,7 @@ fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
     // refuses the fire inside.
     let mut world = World::new(&scenario, 5);
     let mut ctl = controller(&scenario);
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     ride(&mut ctl, &mut world, 1.0);
     ctl.on_barred(keep_out(world.time(), false)).unwrap();
     ctl.on_task(0, 1, attack).unwrap();
@@ -230,7 +230,7 @@ fn a_carriage_keeps_out_of_barred_space_unless_rail_units_are_let_through() {
     // attack there: the goal lets carriages pass, not spray where firefighters go in.
     let mut world = World::new(&scenario, 5);
     let mut ctl = controller(&scenario);
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     ctl.on_barred(keep_out(0.0, true)).unwrap();
     ctl.on_task(
         0,

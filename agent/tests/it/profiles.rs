@@ -33,7 +33,7 @@ fn furthest(profile: &str) -> (f64, u32) {
     let spec = scenario.ground_spec(&id).unwrap();
     let mut world = World::new(&scenario, 5);
     let mut ctl = GroundController::new(id.clone(), spec, scenario.clone());
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     let target = scenario.fires[0].position();
     // Refused or accepted, the unit is the one to judge whether it can get there.
     let _ = ctl.on_task(

@@ -24,7 +24,7 @@ pub fn cruising_unit() -> GroundController {
     let mut world = World::new(&scenario, 1);
     let id = UnitId::new("u1").unwrap();
     let mut ctl = GroundController::new(id.clone(), *GROUND, scenario);
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     for _ in 0..100 {
         world.step_unit(&id, 0.05, |s| ctl.step(s)).unwrap();
     }

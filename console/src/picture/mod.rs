@@ -33,6 +33,7 @@
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 
+use firefleet_bus::access::Identity;
 use firefleet_model::fire::same_fire;
 use firefleet_model::heat::{HeatSource, radiant_flux_kw_m2};
 use firefleet_model::{FireId, Point2, UnitId};
@@ -41,6 +42,7 @@ use firefleet_protocol::msg::{
     Decision, FireState, FireTrack, GoalAck, GoalInForce, GoalsInForce, IncidentStatus, Task,
     UnitState,
 };
+use firefleet_protocol::office::Leases;
 use firefleet_protocol::payload::Payload;
 
 use crate::infra::{Infra, InfraView};
@@ -97,8 +99,8 @@ pub enum Event {
     Message(Payload),
     /// A unit's liveliness token appeared (true) or vanished.
     UnitAlive(UnitId, bool),
-    /// The coordinator's token appeared or vanished.
-    CoordinatorAlive(bool),
+    /// The lease (token) of the coordinator of this rank appeared or vanished.
+    CoordinatorAlive(u32, bool),
     /// A message on `key` sealed with this process's own identity's key that it never
     /// sent ([`firefleet_bus::seal::Seals::impostor`]).
     Impostor { identity: String, key: String },
@@ -155,6 +157,8 @@ pub struct Picture {
     /// Tokens that vanished, and when, not yet taken for lost ([`LOST_CONFIRM_MS`]); the
     /// coordinator's under no unit's id.
     vanished: BTreeMap<Watched, u64>,
+    /// The coordinators' leases: who holds office, and who else claims it.
+    leases: Leases,
     /// The standby coordinators whose tokens are present, by rank.
     standbys: BTreeSet<u32>,
     /// What each standby says it follows ([`standby`]), and those judged not following.
@@ -214,6 +218,7 @@ impl Picture {
             stranded: BTreeSet::new(),
             trapped: BTreeSet::new(),
             vanished: BTreeMap::new(),
+            leases: Leases::default(),
             standbys: BTreeSet::new(),
             following: BTreeMap::new(),
             not_following: BTreeSet::new(),
@@ -301,7 +306,13 @@ impl Picture {
                 }
             }
             Event::Status(status) => self.fill_in(now_ms, *status),
-            Event::CoordinatorAlive(alive) => {
+            Event::CoordinatorAlive(rank, alive) => {
+                self.leases.set(rank, alive);
+                self.rivals();
+                let alive = self.leases.holder().is_some();
+                if self.coordinator == Some(alive) {
+                    return;
+                }
                 // Every token vanishes with the console's own link: that is no news of the
                 // coordinator, so it is confirmed first.
                 if alive {
@@ -345,6 +356,29 @@ impl Picture {
                 }
                 self.changes.coordinator = true;
             }
+        }
+    }
+
+    /// Each lease alive beside the holder's raises its alarm; each that lapsed or took
+    /// office returns to normal.
+    fn rivals(&mut self) {
+        let rivals: Vec<u32> = self.leases.rivals().collect();
+        let holder = self.leases.holder();
+        self.settle(
+            |k| matches!(k, AlertKind::RivalCoordinator { rank } if !rivals.contains(rank)),
+        );
+        for rank in rivals {
+            let who = Identity::Coordinator(rank).to_string();
+            let holds = holder.map(|h| Identity::Coordinator(h).to_string());
+            self.raise(
+                AlertKind::RivalCoordinator { rank },
+                format!(
+                    "{who} claims office while {} holds it: units refuse its tasks. Two \
+                     standbys taking over at once or a split site healing end within a \
+                     second; if it lasts, someone else holds the key of {who}: suspend it",
+                    holds.as_deref().unwrap_or("another")
+                ),
+            );
         }
     }
 
@@ -411,8 +445,9 @@ impl Picture {
             let epochs: Vec<u64> = self.terms.keys().copied().collect();
             let text = format!(
                 "two coordinators command units at once (terms {}): one cut off and back, a \
-                 split site, or someone else holds the coordinator's key. Units obey the newer \
-                 term; if no coordinator of yours took office then, the key is stolen",
+                 split site, or someone else holds a coordinator's key. Units obey only the \
+                 coordinator in office (the lowest rank whose lease lives); if no coordinator \
+                 of yours took office then, a key is stolen",
                 epochs
                     .iter()
                     .map(u64::to_string)
@@ -446,6 +481,18 @@ impl Picture {
 
     fn decision(&mut self, d: Decision) {
         self.advance(d.t);
+        if let Some(identity) = &d.impostor {
+            self.raise(
+                AlertKind::Impostor {
+                    identity: identity.clone(),
+                },
+                format!(
+                    "someone else holds the key of {identity}: the coordinator heard tasks on \
+                     its key that it never sent. Two commanders suspend it (firefleet suspend \
+                     --identity {identity}), then take it off the site (firefleet pki revoke {identity})"
+                ),
+            );
+        }
         // A repeat of a line still kept is counted on it, not listed again.
         if let Some(line) = self.decisions.iter_mut().find(|l| l.text == d.text) {
             line.count += 1;

@@ -67,6 +67,7 @@ fn a_repeated_decision_is_one_line_with_a_count_and_pages_get_lines_by_id() {
         Event::Message(Payload::Decision(Decision {
             t,
             text: text.into(),
+            impostor: None,
         }))
     };
     p.observe(0, d(1.0, "ugv-1 cannot obey goal 'v1'"));
@@ -161,11 +162,11 @@ fn losing_the_site_is_not_losing_the_units() {
     let u = unit("ugv-1");
     p.observe(0, Event::Link(true));
     p.observe(0, Event::UnitAlive(u.clone(), true));
-    p.observe(0, Event::CoordinatorAlive(true));
+    p.observe(0, Event::CoordinatorAlive(0, true));
     p.delta(0);
     // The tokens vanish a moment before the link is known to be down.
     p.observe(10, Event::UnitAlive(u.clone(), false));
-    p.observe(10, Event::CoordinatorAlive(false));
+    p.observe(10, Event::CoordinatorAlive(0, false));
     p.observe(500, Event::Link(false));
     let d = p.delta(10 + LOST_CONFIRM_MS).unwrap();
     assert_eq!(d.link, Some(false));
@@ -181,6 +182,7 @@ fn a_console_started_mid_incident_fills_in_from_the_coordinator_s_status() {
         Event::Message(Payload::Decision(Decision {
             t: 50.0,
             text: "heard live".into(),
+            impostor: None,
         })),
     );
     let status = IncidentStatus {
@@ -191,10 +193,12 @@ fn a_console_started_mid_incident_fills_in_from_the_coordinator_s_status() {
             Decision {
                 t: 30.0,
                 text: "assign ugv-1 to f3".into(),
+                impostor: None,
             },
             Decision {
                 t: 20.0,
                 text: "fire f3 confirmed".into(),
+                impostor: None,
             },
         ],
         goals: Vec::new(),
@@ -267,7 +271,7 @@ fn a_trapped_unit_raises_one_alert_while_it_lasts() {
 fn a_standby_gone_is_an_alarm_until_one_follows_again_and_says_how_many_are_left() {
     let mut p = picture();
     p.observe(0, Event::Link(true));
-    p.observe(0, Event::CoordinatorAlive(true));
+    p.observe(0, Event::CoordinatorAlive(0, true));
     p.observe(0, Event::StandbyAlive(1, true));
     p.observe(0, Event::StandbyAlive(2, true));
     p.observe(0, Event::StandbyAlive(1, false));
@@ -287,7 +291,7 @@ fn a_standby_gone_is_an_alarm_until_one_follows_again_and_says_how_many_are_left
         d.alerts
     );
     // The coordinator gone with no standby: the alarm does not promise one.
-    p.observe(2 * LOST_CONFIRM_MS, Event::CoordinatorAlive(false));
+    p.observe(2 * LOST_CONFIRM_MS, Event::CoordinatorAlive(0, false));
     let d = p.delta(3 * LOST_CONFIRM_MS).unwrap();
     let lost = d
         .alerts
@@ -297,7 +301,7 @@ fn a_standby_gone_is_an_alarm_until_one_follows_again_and_says_how_many_are_left
     assert!(lost.text.contains("no standby follows"), "{}", lost.text);
     // A standby back, the coordinator back: both return to normal.
     p.observe(3 * LOST_CONFIRM_MS, Event::StandbyAlive(1, true));
-    p.observe(3 * LOST_CONFIRM_MS, Event::CoordinatorAlive(true));
+    p.observe(3 * LOST_CONFIRM_MS, Event::CoordinatorAlive(0, true));
     let open: Vec<_> = p
         .incident()
         .alerts
@@ -333,7 +337,7 @@ fn a_standby_taking_office_is_said_at_once_with_who_and_when_and_a_router_failov
     let started = || {
         let mut p = picture();
         p.observe(0, Event::Link(true));
-        p.observe(0, Event::CoordinatorAlive(true));
+        p.observe(0, Event::CoordinatorAlive(0, true));
         p.observe(0, Event::StandbyAlive(0, true));
         p.observe(0, Event::StandbyAlive(1, true));
         p.observe(100, task(10));
@@ -348,9 +352,9 @@ fn a_standby_taking_office_is_said_at_once_with_who_and_when_and_a_router_failov
     // The coordinator killed: rank 0 drops its standby token, takes the coordinator's and
     // tasks in a new term a fraction of a second later. Said then, not after the grace.
     let mut p = started();
-    p.observe(1000, Event::CoordinatorAlive(false));
+    p.observe(1000, Event::CoordinatorAlive(0, false));
     p.observe(1001, Event::StandbyAlive(0, false));
-    p.observe(1002, Event::CoordinatorAlive(true));
+    p.observe(1002, Event::CoordinatorAlive(0, true));
     assert!(
         took(&mut p, 1002).is_none(),
         "no term yet: it may be a failover"
@@ -366,17 +370,17 @@ fn a_standby_taking_office_is_said_at_once_with_who_and_when_and_a_router_failov
     assert_eq!(a.priority, 2);
     // The other order: the term heard before the token's going.
     let mut p = started();
-    p.observe(1000, Event::CoordinatorAlive(false));
-    p.observe(1001, Event::CoordinatorAlive(true));
+    p.observe(1000, Event::CoordinatorAlive(0, false));
+    p.observe(1001, Event::CoordinatorAlive(0, true));
     p.observe(1100, task(20));
     p.observe(1200, Event::StandbyAlive(0, false));
     assert!(took(&mut p, 1200).is_some_and(|a| a.text.contains("took office")));
     // A router's death: both tokens go and come back in any order, the term stays; no
     // alarm then or after the grace.
     let mut p = started();
-    p.observe(1000, Event::CoordinatorAlive(false));
+    p.observe(1000, Event::CoordinatorAlive(0, false));
     p.observe(1000, Event::StandbyAlive(0, false));
-    p.observe(1500, Event::CoordinatorAlive(true));
+    p.observe(1500, Event::CoordinatorAlive(0, true));
     p.observe(1600, task(10));
     p.observe(1900, Event::StandbyAlive(0, true));
     assert!(took(&mut p, 1900 + LOST_CONFIRM_MS).is_none());
@@ -463,8 +467,8 @@ fn a_rejected_goal_and_a_lost_coordinator_are_alerts() {
     };
     p.observe(0, Event::Message(Payload::Ack(ack(true))));
     p.observe(0, Event::Message(Payload::Ack(ack(false))));
-    p.observe(0, Event::CoordinatorAlive(true));
-    p.observe(0, Event::CoordinatorAlive(false));
+    p.observe(0, Event::CoordinatorAlive(0, true));
+    p.observe(0, Event::CoordinatorAlive(0, false));
     let mut d = p.delta(0).unwrap();
     d.alerts.extend(p.delta(LOST_CONFIRM_MS).unwrap().alerts);
     assert_eq!(d.acks.len(), 2);
@@ -668,6 +672,59 @@ fn an_impostor_is_a_p1_alarm_that_nothing_but_a_commander_ends() {
 }
 
 #[test]
+fn a_rival_lease_is_a_p1_alarm_while_it_lasts_and_the_holder_is_the_lowest_rank() {
+    let mut p = picture();
+    p.observe(0, Event::CoordinatorAlive(0, true));
+    p.observe(10, Event::CoordinatorAlive(1, true));
+    let rival = |p: &Picture| {
+        p.incident()
+            .alerts
+            .into_iter()
+            .find(|a| a.kind == AlertKind::RivalCoordinator { rank: 1 })
+    };
+    let a = rival(&p).expect("a rival's lease alarms");
+    assert!(a.active && a.priority == 1, "{a:?}");
+    assert!(
+        a.text
+            .starts_with("coordinator:1 claims office while coordinator holds it"),
+        "{}",
+        a.text
+    );
+    // The holder's lease lapses: the rank 1 coordinator holds office now, no rival is
+    // left, and no coordinator is lost.
+    p.observe(20, Event::CoordinatorAlive(0, false));
+    assert!(!rival(&p).unwrap().active, "returned to normal");
+    assert!(
+        p.incident()
+            .alerts
+            .iter()
+            .all(|a| a.kind != AlertKind::CoordinatorLost),
+        "office changed hands: nobody is lost"
+    );
+}
+
+#[test]
+fn tasks_on_the_coordinator_s_own_key_it_never_sent_are_an_impostor_alarm() {
+    let mut p = picture();
+    p.observe(
+        0,
+        Event::Message(Payload::Decision(Decision {
+            t: 3.0,
+            text: "someone else holds the key of coordinator:1: ...".into(),
+            impostor: Some("coordinator:1".into()),
+        })),
+    );
+    let a = &p.incident().alerts[0];
+    assert_eq!(
+        a.kind,
+        AlertKind::Impostor {
+            identity: "coordinator:1".into()
+        }
+    );
+    assert!(a.active && a.priority == 1, "{a:?}");
+}
+
+#[test]
 fn tasks_of_two_terms_at_once_are_two_coordinators_until_one_alone_is_heard() {
     use firefleet_protocol::msg::{Task, TaskKind};
     let mut p = picture();
@@ -758,11 +815,11 @@ fn a_new_term_while_the_coordinator_never_left_is_usurped_and_a_takeover_is_not(
     };
     let mut p = picture();
     p.observe(0, Event::Link(true));
-    p.observe(0, Event::CoordinatorAlive(true));
+    p.observe(0, Event::CoordinatorAlive(0, true));
     p.observe(100, task(10));
     // The coordinator dies; a standby takes office after the lease, token first.
-    p.observe(1000, Event::CoordinatorAlive(false));
-    p.observe(4000, Event::CoordinatorAlive(true));
+    p.observe(1000, Event::CoordinatorAlive(0, false));
+    p.observe(4000, Event::CoordinatorAlive(0, true));
     p.observe(4100, task(20));
     assert!(!usurped(&p), "a takeover is no usurpation");
     // A term newer still, while that one's token never left: taken.
@@ -770,7 +827,7 @@ fn a_new_term_while_the_coordinator_never_left_is_usurped_and_a_takeover_is_not(
     assert!(usurped(&p));
     // An older term heard again is no new one.
     let mut q = picture();
-    q.observe(0, Event::CoordinatorAlive(true));
+    q.observe(0, Event::CoordinatorAlive(0, true));
     q.observe(10_000, task(20));
     q.observe(10_100, task(10));
     assert!(!usurped(&q));
@@ -792,7 +849,7 @@ fn a_standby_that_holds_its_token_but_does_not_follow_is_an_alarm_until_it_follo
     };
     let mut p = picture();
     p.observe(0, Event::Link(true));
-    p.observe(0, Event::CoordinatorAlive(true));
+    p.observe(0, Event::CoordinatorAlive(0, true));
     p.observe(0, Event::StandbyAlive(1, true));
     // Goals every wall second, eight site seconds apart (x8); the standby hears each at
     // once and says so a second later. It follows.

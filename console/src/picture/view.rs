@@ -110,6 +110,13 @@ pub enum AlertKind {
     TwoCoordinators {
         epochs: Vec<u64>,
     },
+    /// A coordinator's lease is alive beside the one in office
+    /// ([`firefleet_protocol::office`]): units refuse its tasks. Two standbys that claimed
+    /// at once, a split site healing (it stands down within a second), or someone holding
+    /// that coordinator's key. Returns to normal when its lease lapses.
+    RivalCoordinator {
+        rank: u32,
+    },
     /// An identity suspended in band (two commanders, or the operator at the
     /// coordinator's host, asked): the coordinator takes nothing of it.
     Suspended {
@@ -138,6 +145,7 @@ impl AlertKind {
             | AlertKind::UnitTrapped { .. }
             | AlertKind::Impostor { .. }
             | AlertKind::TwoCoordinators { .. }
+            | AlertKind::RivalCoordinator { .. }
             | AlertKind::Usurped { .. } => 1,
             // The DTS finds the fires no unit's camera has seen yet: without it, a fire
             // far from every unit is found only when one drives past.

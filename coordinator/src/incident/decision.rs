@@ -6,6 +6,7 @@
 
 use std::fmt;
 
+use firefleet_bus::access::Identity;
 use firefleet_model::scenario::Rank;
 use firefleet_model::{Chainage, CommanderId, FireId, Point2, UnitId, ZoneId};
 use firefleet_protocol::msg::{self, Approach, FireTrack, GoalKind, ZoneGoal};
@@ -117,10 +118,21 @@ pub enum Decision {
         epoch: u64,
         rank: u32,
     },
-    /// A coordinator of epoch `by` commands: this one, of `epoch`, steps down.
-    Deposed {
-        epoch: u64,
-        by: u64,
+    /// The coordinator of rank `holder` holds office ([`firefleet_protocol::office`]: the
+    /// lowest rank whose lease is alive): this one, of `rank`, stands down.
+    SteppedDown {
+        rank: u32,
+        holder: u32,
+    },
+    /// The coordinator of `rank` claims office (its lease, or its tasks) while this one
+    /// holds it: units refuse its tasks.
+    Rival {
+        rank: u32,
+    },
+    /// Tasks on this coordinator's own key (`rank`) that it never sent: someone else holds
+    /// its key.
+    Impostor {
+        rank: u32,
     },
     /// The unit took task `foreign`, which this coordinator never gave (its own for the
     /// unit was `ours`): the unit's task is given again above it.
@@ -389,9 +401,21 @@ impl fmt::Display for Decision {
                 f,
                 "took office in epoch {epoch} (rank {rank}): tasks of every earlier epoch are refused by the units that take one of this"
             ),
-            Decision::Deposed { epoch, by } => write!(
+            Decision::SteppedDown { rank, holder } => write!(
                 f,
-                "deposed: a coordinator of epoch {by} commands, and this one (epoch {epoch}) steps down"
+                "stepped down: {} holds office (the lowest rank whose lease is alive), so {} stands by",
+                Identity::Coordinator(*holder),
+                Identity::Coordinator(*rank)
+            ),
+            Decision::Rival { rank } => write!(
+                f,
+                "{} claims office while this coordinator holds it: units refuse its tasks; if it lasts, someone else holds its key",
+                Identity::Coordinator(*rank)
+            ),
+            Decision::Impostor { rank } => write!(
+                f,
+                "someone else holds the key of {}: tasks were sent on its key that it never sent",
+                Identity::Coordinator(*rank)
             ),
             Decision::Superseded {
                 unit,
@@ -649,6 +673,10 @@ impl Logged {
         msg::Decision {
             t: self.t,
             text: self.decision.to_string(),
+            impostor: match self.decision {
+                Decision::Impostor { rank } => Some(Identity::Coordinator(rank).to_string()),
+                _ => None,
+            },
         }
     }
 }

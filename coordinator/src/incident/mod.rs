@@ -52,7 +52,7 @@ use std::collections::{BTreeMap, VecDeque};
 
 use firefleet_model::profile::Profile;
 use firefleet_model::scenario::{Scenario, Tunnel, UnitSpec};
-use firefleet_model::validate::{Invalid, Validate};
+use firefleet_model::validate::Invalid;
 use firefleet_model::{FireId, UnitId};
 use firefleet_protocol::msg::{
     Approach, FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitState, UnitStatus,
@@ -408,25 +408,22 @@ impl Incident {
         self.epoch
     }
 
-    /// Whether `task`, heard on the bus from another coordinator, shows that this one has
-    /// been deposed (and if so the decision is logged): it is valid, not numbered ahead of
-    /// the clock, and of a newer term. Only coordinators may publish tasks (the site's
-    /// access rules), so one task is evidence enough; on a site without them a forged one
-    /// deposes this coordinator, and a standby takes office above it, as the units it
-    /// tasked report its epoch.
-    pub fn deposed_by(&mut self, task: &Task, t: f64) -> bool {
-        let deposed =
-            task.epoch > self.epoch && task.seq <= task_seq_ceiling(t) && task.validate().is_ok();
-        if deposed {
-            self.log(
-                t,
-                Decision::Deposed {
-                    epoch: self.epoch,
-                    by: task.epoch,
-                },
-            );
-        }
-        deposed
+    /// The coordinator of rank `holder` holds office ([`firefleet_protocol::office`]):
+    /// this one, of `rank`, stands down at `t`.
+    pub fn stand_down(&mut self, rank: u32, holder: u32, t: f64) {
+        self.log(t, Decision::SteppedDown { rank, holder });
+    }
+
+    /// At `t`, the coordinator of `rank` claimed office while this one held it (its lease
+    /// appeared, or its tasks were heard), or, if `rank` is this one's own, someone sent
+    /// tasks on this one's key.
+    pub fn claimed(&mut self, rank: u32, own: bool, t: f64) {
+        let d = if own {
+            Decision::Impostor { rank }
+        } else {
+            Decision::Rival { rank }
+        };
+        self.log(t, d);
     }
 
     /// Decisions made since the last call, for the bus (and so the recording).

@@ -349,7 +349,7 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
     } else {
         // The stolen key, and the honest commander who answers it.
         let (stolen, honest, answer) = if attack == Attack::Chief {
-            let operator = join(&as_who(&Identity::Coordinator), &scenario.site).await?;
+            let operator = join(&as_who(&Identity::COORDINATOR), &scenario.site).await?;
             let answer = Answer::Suspend {
                 operator,
                 after: SUSPEND_AFTER_S,

@@ -171,7 +171,7 @@ fn trial(s: &Scenario, seed: u64, lambda_m: Option<f64>) -> anyhow::Result<Trial
     if let Some(l) = lambda_m {
         ctl.set_visibility_weight(l);
     }
-    ctl.set_coordinator_present(true);
+    ctl.office_changed(true);
     ctl.on_task(
         0,
         1,

@@ -334,6 +334,13 @@ impl Task {
     pub fn order(&self) -> (u64, u64) {
         (self.epoch, self.seq)
     }
+
+    /// The rank of the coordinator whose term the task is of ([`epoch_after`]): the key it
+    /// goes on, `unit/<id>/task/<rank>`.
+    pub fn rank(&self) -> u32 {
+        // Below EPOCH_RANKS (16), so it fits.
+        (self.epoch % EPOCH_RANKS) as u32
+    }
 }
 
 impl Validate for Task {
@@ -461,16 +468,24 @@ impl Validate for StandbyHealth {
 pub struct Decision {
     pub t: f64,
     pub text: String,
+    /// The identity whose key someone else holds, when this decision is that finding (the
+    /// coordinator heard tasks on its own key that it never sent): consoles raise their
+    /// alarm from it, not from the text.
+    #[serde(default)]
+    pub impostor: Option<String>,
 }
 
 impl Validate for Decision {
     fn validate(&self) -> Result<(), Invalid> {
         finite("t", self.t)?;
         if self.text.len() > 1024 {
-            Err(Invalid::new("text", "longer than 1024 bytes"))
-        } else {
-            Ok(())
+            return Err(Invalid::new("text", "longer than 1024 bytes"));
         }
+        if let Some(who) = &self.impostor {
+            crate::keys::identity_name(&who.replace(':', "-"))
+                .map_err(|e| Invalid::new("impostor", e))?;
+        }
+        Ok(())
     }
 }
 

@@ -31,9 +31,7 @@ impl Processes {
             .map(|(who, role)| {
                 let label = match &who {
                     Identity::Unit(u) => format!("agent:{u}"),
-                    Identity::Coordinator if role.to_args().iter().any(|a| a == "--standby") => {
-                        STANDBY.into()
-                    }
+                    Identity::Coordinator(rank) if *rank > 0 => STANDBY.into(),
                     other => other.to_string(),
                 };
                 let role = role.scenario(scenario).die_with_parent();

@@ -55,9 +55,10 @@ pub(super) fn roles(
     }
     roles.push((Identity::Sim, sim));
     let coordinator = RoleCommand::new("coordinator").arg("--sim-clock");
-    roles.push((Identity::Coordinator, coordinator.clone()));
+    roles.push((Identity::COORDINATOR, coordinator.clone()));
     if a.standby {
-        roles.push((Identity::Coordinator, coordinator.arg("--standby")));
+        let standby = coordinator.args(["--standby", "--rank", "1"]);
+        roles.push((Identity::Coordinator(1), standby));
     }
     if let Some(dir) = &a.btlog_dir {
         std::fs::create_dir_all(dir).with_context(|| format!("--btlog-dir {}", dir.display()))?;

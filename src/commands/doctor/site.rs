@@ -31,7 +31,7 @@ pub(super) fn site_role(f: &mut Findings, a: &DoctorArgs, scenario: &Scenario) {
                 )),
             }
         }
-        Identity::Coordinator => match crate::commands::sim_clock(scenario, a.sim_clock) {
+        Identity::Coordinator(_) => match crate::commands::sim_clock(scenario, a.sim_clock) {
             Err(why) => f.problem(
                 format_args!("clock: {why}"),
                 "start the coordinator without --sim-clock",

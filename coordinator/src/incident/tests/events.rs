@@ -478,7 +478,7 @@ fn a_unit_whose_fires_others_have_seen_survives_one_flame_nobody_else_sees() {
 }
 
 #[test]
-fn a_coordinator_of_a_newer_epoch_deposes_this_one_and_no_unit_is_fought_over() {
+fn a_unit_that_took_a_newer_term_s_task_is_not_fought_over() {
     let mut i = incident();
     let epoch = i.take_office(0, 1.0);
     let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
@@ -496,25 +496,36 @@ fn a_coordinator_of_a_newer_epoch_deposes_this_one_and_no_unit_is_fought_over() 
         "{out:?}"
     );
     assert!(!decided(&i, |d| matches!(d, Decision::Superseded { .. })));
-    // That coordinator's task, heard on the bus, deposes this one; a task of this epoch or
-    // an older one, one numbered ahead of the clock and a malformed one do not.
-    let task = |epoch, seq| Task {
-        unit: ours.unit.clone(),
-        epoch,
-        seq,
-        t: 2.0,
-        kind: TaskKind::Standby,
-    };
-    assert!(!i.deposed_by(&task(epoch, epoch + 5), 2.0));
-    assert!(!i.deposed_by(&task(0, 5), 2.0));
-    assert!(!i.deposed_by(&task(u64::MAX, u64::MAX), 2.0));
-    assert!(!i.deposed_by(&task(newer + 1, newer), 2.0));
-    assert!(!decided(&i, |d| matches!(d, Decision::Deposed { .. })));
-    assert!(i.deposed_by(&task(newer, newer), 2.0));
-    assert!(decided(&i, |d| matches!(
-        d,
-        Decision::Deposed { epoch: e, by } if *e == epoch && *by == newer
-    )));
+}
+
+#[test]
+fn a_claim_on_office_is_logged_and_one_on_its_own_key_names_the_stolen_identity() {
+    let mut i = incident();
+    i.take_office(0, 1.0);
+    i.claimed(1, false, 2.0);
+    i.claimed(0, true, 3.0);
+    i.stand_down(1, 0, 4.0);
+    let logged: Vec<_> = i.take_decisions().iter().map(|d| d.to_msg()).collect();
+    let rival = logged
+        .iter()
+        .find(|d| d.text.contains("claims office"))
+        .unwrap();
+    assert!(
+        rival.text.starts_with("coordinator:1 claims office"),
+        "{}",
+        rival.text
+    );
+    assert_eq!(rival.impostor, None);
+    let stolen = logged
+        .iter()
+        .find(|d| d.text.starts_with("someone else"))
+        .unwrap();
+    assert_eq!(stolen.impostor.as_deref(), Some("coordinator"));
+    assert!(
+        logged
+            .iter()
+            .any(|d| d.text.starts_with("stepped down: coordinator holds office"))
+    );
 }
 
 #[test]

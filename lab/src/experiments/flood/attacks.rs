@@ -92,7 +92,7 @@ pub(super) async fn flood_as_unit(
             }
         });
     }
-    let tasks = thief.subscribe(&keys.unit_task(&unit)).await.ok();
+    let tasks = thief.subscribe(&keys.unit_tasks(&unit)).await.ok();
     // A unit's pace: a report every 0.25 s of site time.
     let pace = Duration::from_secs_f64(0.25 / lie.time_scale);
     let mut state = UnitState::idle(

@@ -159,9 +159,9 @@ struct Row {
     /// The coordinators' epochs the recorded tasks carry, in order of first use.
     epochs: Vec<u64>,
     /// Coordinators that stepped down, as they logged it.
-    deposed: usize,
-    /// From the fault's end until the deposed coordinator stepped down, s (a coordinator
-    /// cut off only).
+    stepped_down: usize,
+    /// From the fault's end until the standby that took office stepped down for the
+    /// coordinator back in office (the lowest rank), s (a coordinator cut off only).
     stepped_down_s: Option<f64>,
     /// Fires the checker found owed a unit (a lost unit's, the old term's at a takeover),
     /// and how many had one sent in time (the rest needed none by then).
@@ -181,10 +181,10 @@ impl Row {
 /// The epochs the tasks of `recording` carry, in order of first use, and how many
 /// coordinators logged that they stepped down.
 fn terms(recording: &Recording) -> (Vec<u64>, usize) {
-    let (mut epochs, mut deposed) = (Vec::new(), 0);
+    let (mut epochs, mut stepped_down) = (Vec::new(), 0);
     for m in recording.messages().filter_map(Result::ok) {
         match keys::parse(&m.channel.topic) {
-            Ok((_, Topic::UnitTask(_))) => {
+            Ok((_, Topic::UnitTask(..))) => {
                 if let Ok(task) = serde_json::from_slice::<Task>(&m.data)
                     && !epochs.contains(&task.epoch)
                 {
@@ -193,14 +193,14 @@ fn terms(recording: &Recording) -> (Vec<u64>, usize) {
             }
             Ok((_, Topic::CoordLog))
                 if serde_json::from_slice::<Decision>(&m.data)
-                    .is_ok_and(|d| d.text.starts_with("deposed")) =>
+                    .is_ok_and(|d| d.text.starts_with("stepped down")) =>
             {
-                deposed += 1;
+                stepped_down += 1;
             }
             _ => {}
         }
     }
-    (epochs, deposed)
+    (epochs, stepped_down)
 }
 
 pub async fn run(a: NemesisArgs) -> anyhow::Result<ExitCode> {
@@ -241,7 +241,7 @@ pub async fn run(a: NemesisArgs) -> anyhow::Result<ExitCode> {
             .await
             .with_context(|| format!("the {} run", fault_name(fault)))?;
         println!(
-            "{:<22} {:<12} recovered {:>7}  all out {:<5} epochs {} deposed {}  relieved {}/{}  {}",
+            "{:<22} {:<12} recovered {:>7}  all out {:<5} epochs {} stepped down {}  relieved {}/{}  {}",
             fault_name(fault),
             row.target,
             row.recovered_s
@@ -249,9 +249,9 @@ pub async fn run(a: NemesisArgs) -> anyhow::Result<ExitCode> {
             row.all_out,
             row.epochs.len(),
             row.stepped_down_s
-                .map_or(row.deposed.to_string(), |s| format!(
+                .map_or(row.stepped_down.to_string(), |s| format!(
                     "{} ({s:.1} s after)",
-                    row.deposed
+                    row.stepped_down
                 )),
             row.sent,
             row.owed,
@@ -514,12 +514,13 @@ async fn one_run(
     let units: Vec<UnitId> = scenario.units.iter().map(|u| u.id.clone()).collect();
     let recovered_s = recovered(&bus, &units, ended).await;
     // Split brain healed: the coordinator cut off (its lease lapsed, a standby took office)
-    // reconnects still in charge of its term, and must step down once it hears the newer.
+    // reconnects with its lease, and the standby, of the higher rank, must step down
+    // (`firefleet_protocol::office`).
     let stepped_down_s = match fault {
         Fault::PartitionCoordinator => tokio::time::timeout(Duration::from_secs(60), async {
             loop {
                 match log.recv().await {
-                    Some((_, d)) if d.text.starts_with("deposed") => {
+                    Some((_, d)) if d.text.starts_with("stepped down") => {
                         return Some(ended.elapsed().as_secs_f64());
                     }
                     Some(_) => {}
@@ -556,10 +557,10 @@ async fn one_run(
     let all_out = outcome.as_ref().is_some_and(SimTruth::all_out);
     let loaded = Recording::load(recording)?;
     let checked = check(&loaded, scenario, LEASE_S)?;
-    let (epochs, deposed) = terms(&loaded);
+    let (epochs, stepped_down) = terms(&loaded);
     Ok(Row {
         epochs,
-        deposed,
+        stepped_down,
         stepped_down_s,
         fault,
         target,
