@@ -20,11 +20,11 @@
 //! assert_eq!((topic, tick.t), (Topic::SimClock, 1.5));
 //!
 //! // A liveliness token says a process is there for as long as it holds it.
-//! let coordinators = bus.watch_tokens(&keys.expr(&Topic::CoordAlive)).await?;
-//! let alive = bus.token(&Topic::CoordAlive).await?;
-//! assert_eq!(coordinators.recv().await, Some((Topic::CoordAlive, true)));
+//! let coordinators = bus.watch_tokens(&keys.every_coord_alive()).await?;
+//! let alive = bus.token(&Topic::CoordAlive(0)).await?;
+//! assert_eq!(coordinators.recv().await, Some((Topic::CoordAlive(0), true)));
 //! drop(alive);
-//! assert_eq!(coordinators.recv().await, Some((Topic::CoordAlive, false)));
+//! assert_eq!(coordinators.recv().await, Some((Topic::CoordAlive(0), false)));
 //! bus.close().await;
 //! # Ok(())
 //! # }

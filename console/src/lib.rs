@@ -17,7 +17,7 @@
 //!
 //! let site = builtin::resolve("vehicle-collision").unwrap();
 //! let mut picture = Picture::new(SiteMap::new(&site));
-//! picture.observe(0, Event::CoordinatorAlive(true));
+//! picture.observe(0, Event::CoordinatorAlive(0, true));
 //! picture.observe(0, Event::UnitAlive(UnitId::new("ugv-1").unwrap(), true));
 //! let incident = picture.incident();
 //! assert_eq!(incident.coordinator, Some(true));

@@ -160,7 +160,12 @@ pub async fn run(
             biased;
             _ = &mut shutdown => break,
             Some((topic, alive)) = inputs.leases.recv() => {
-                if let Topic::CoordAlive(rank) = topic {
+                // Its own lease is this process's while it runs: what its subscriber hears
+                // of it (undeclared and declared again as its session reconnects, a twin
+                // a thief declares) says nothing of whether it holds office.
+                if let Topic::CoordAlive(rank) = topic
+                    && rank != opts.rank
+                {
                     leases.set(rank, alive);
                     if let Some(holder) = leases.holder().filter(|h| *h != opts.rank) {
                         incident.stand_down(opts.rank, holder, clock.now());
