@@ -27,11 +27,12 @@ use std::rc::Rc;
 use std::time::Duration;
 
 use firefleet_bt::{Status, Transition, Tree};
+use firefleet_bus::office::Office;
+use firefleet_bus::seal::wall_ms;
 use firefleet_bus::{Answers, Ask, Bus, BusError};
 use firefleet_model::UnitId;
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{BarredSpace, BtTransition, BtTransitions, NodeStatus};
-use firefleet_protocol::office::Leases;
+use firefleet_protocol::msg::{BarredSpace, BtTransition, BtTransitions, GoalsInForce, NodeStatus};
 
 use crate::btlog::BtLog;
 use crate::controller::{Controller, Services};
@@ -269,10 +270,35 @@ where
         })
         .collect();
 
-    // The coordinators' leases: the unit obeys the one in office only
-    // (`firefleet_protocol::office`), whatever a task announces.
+    // The coordinators' leases and, on a secure site, the coordinators suspended: the
+    // unit obeys the one in office only (`firefleet_protocol::office`), whatever a task
+    // announces. The asks to suspend are checked here, live and as the goals in force
+    // keep them (asked at start, for a unit that starts after them).
     let coord = bus.watch_tokens(&keys.every_coord_alive()).await?;
-    let mut leases = Leases::default();
+    let mut office = Office::default();
+    // The coordinator in office as the unit last acted on it.
+    let mut in_office = None;
+    let check = bus.seals().map(|s| &s.check);
+    let mut suspends = match check {
+        Some(_) => Some(
+            bus.subscribe_raw(&[keys.every_suspend().as_str()], false)
+                .await?,
+        ),
+        None => None,
+    };
+    let mut kept = match check {
+        Some(_) => Some(
+            bus.ask(
+                keys.coord_goals().as_str(),
+                Ask {
+                    every_answer: true,
+                    ..Ask::within(BARRED_QUERY_TIMEOUT)
+                },
+            )
+            .await?,
+        ),
+        None => None,
+    };
     let tasks = bus.subscribe(&keys.unit_tasks(unit)).await?;
     let barred = bus.subscribe(&keys.coord_barred()).await?;
     // Asked, not awaited: the answers come in with everything else.
@@ -321,6 +347,22 @@ where
     let mut halt = None;
     let mut moved = None;
     loop {
+        // The office changed hands (a lease, a suspension): the unit takes the new
+        // holder's next task whatever its term, and asks it whether it takes the unit (one
+        // that was not there at the first asking, or one restarted with a new site file).
+        if office.holder() != in_office {
+            in_office = office.holder();
+            tracing::info!(%unit, holder = ?in_office, "the coordinator in office changed");
+            ctl.office_changed(in_office.is_some());
+            if in_office.is_some() {
+                taken = false;
+                if asking {
+                    ask_again = true;
+                } else if let Some(a) = ask_once_more(bus, &question, ask).await {
+                    (barred_answers, asking) = (a, true);
+                }
+            }
+        }
         tokio::select! {
             // Biased, the barred space first: the coordinator tells it before the tasks
             // that depend on it (a goal cleared, then a unit sent where it barred), and a
@@ -337,10 +379,11 @@ where
             task = tasks.recv() => {
                 let Some((topic, task)) = task else { break };
                 let Topic::UnitTask(_, from) = topic else { continue };
-                if !leases.obeys(from) {
+                if !office.obeys(from) {
                     bus.rejects().refuse_invalid(&tasks_from, &format_args!(
-                        "a task from the coordinator of rank {from}, which does not hold office ({})",
-                        leases.holder().map_or_else(|| "nobody does".to_owned(), |h| format!("rank {h} does")),
+                        "a task from the coordinator of rank {from}, which does not hold office ({}{})",
+                        office.holder().map_or_else(|| "nobody does".to_owned(), |h| format!("rank {h} does")),
+                        if office.suspended(from) { "; it is suspended" } else { "" },
                     ));
                 } else if &task.unit == unit {
                     if let Err(e) = ctl.on_task(task.epoch, task.seq, task.kind) {
@@ -389,30 +432,28 @@ where
             }
             change = coord.recv() => {
                 let Some((topic, alive)) = change else { break };
-                let Topic::CoordAlive(rank) = topic else { continue };
-                let before = leases.holder();
-                leases.set(rank, alive);
-                let holder = leases.holder();
-                if holder == before {
-                    if alive && holder != Some(rank) {
-                        tracing::warn!(%unit, rank, "a coordinator claims office while another holds it: its tasks are refused");
-                    }
-                    continue;
-                }
-                tracing::info!(%unit, ?holder, "the coordinator in office changed");
-                ctl.office_changed(holder.is_some());
-                // A coordinator that takes office (one that was not there at the first
-                // asking, or one restarted with a new site file) is asked whether it takes
-                // the unit.
-                if holder.is_some() {
-                    taken = false;
-                    if asking {
-                        ask_again = true;
-                    } else if let Some(a) = ask_once_more(bus, &question, ask).await {
-                        (barred_answers, asking) = (a, true);
-                    }
+                let before = office.token(&topic, alive);
+                if let Topic::CoordAlive(rank) = topic
+                    && alive
+                    && office.holder() == before
+                    && before != Some(rank)
+                {
+                    tracing::warn!(%unit, rank, "a coordinator claims office while another holds it: its tasks are refused");
                 }
             }
+            Some(sample) = async { match &mut suspends { Some(s) => s.recv().await, None => std::future::pending().await } } => {
+                if let Err(why) = office.ask(check, &sample, wall_ms()) {
+                    bus.rejects().refuse_invalid(&sample.key, &format_args!("an ask to suspend: {why}"));
+                }
+            }
+            answer = async { match &kept { Some(k) => k.recv().await, None => std::future::pending().await } } => match answer {
+                Some(raw) => {
+                    if let (Some(g), Some(check)) = (bus.decode::<GoalsInForce>(&raw, "goals in force answer"), check) {
+                        office.kept(check, &g.suspensions);
+                    }
+                }
+                None => kept = None,
+            },
             _ = &mut shutdown => break,
             next = &mut move_to => {
                 moved = Some(next);

@@ -9,10 +9,13 @@
 //!
 //! Least privilege, by identity:
 //! - a unit puts only its own state, reports and behaviour-tree log, declares only its own
-//!   token, hears only its own tasks and what is barred, and (simulated sites) drives only
-//!   its own simulated body;
-//! - the coordinator puts tasks, fire tracks, its log, the barred space, the goals in
-//!   force and goal answers; it hears states, reports, goals and (simulated) the site clock;
+//!   token, hears only its own tasks, what is barred, the coordinators' leases and the asks
+//!   to suspend (it judges who holds office itself), and (simulated sites) drives only its
+//!   own simulated body;
+//! - a coordinator puts tasks on its own rank's keys only and declares only its own rank's
+//!   lease, and puts fire tracks, its log, the barred space, the goals in force and goal
+//!   answers; it hears states, reports, goals, every task and lease (rivals and thieves of
+//!   its key are alarmed) and (simulated) the site clock;
 //! - a recorder hears everything and answers the coordinator's and the fire tracks'
 //!   queries on the coordinator's behalf;
 //! - a commander puts and deletes only goals under its own name (so a goal's issuer is the
@@ -333,6 +336,10 @@ pub fn grants(
             grant(Op::Subscribe, keys.coord_barred().as_str());
             grant(Op::Query, keys.coord_barred().as_str());
             grant(Op::Watch, &keys.every_coord_alive());
+            // Who holds office is the unit's own judgement: the asks to suspend a
+            // coordinator, heard live and kept with the goals in force, seals checked.
+            grant(Op::Subscribe, keys.every_suspend().as_str());
+            grant(Op::Query, keys.coord_goals().as_str());
             if simulated {
                 match spec.kind {
                     UnitKind::Ground => {

@@ -56,11 +56,13 @@ pub mod goal;
 pub mod hello;
 pub mod limits;
 mod listened;
+pub mod office;
 pub mod pki;
 pub mod probe;
 pub mod refusals;
 pub mod render;
 pub mod seal;
+pub mod suspension;
 
 pub use bus::{Bus, BusError, Inbox, RejectCounts, Traffic};
 pub use connect::{

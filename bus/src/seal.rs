@@ -17,6 +17,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Mutex;
+use std::time::Duration;
 
 use firefleet_model::validate::Invalid;
 use firefleet_protocol::msg::{Seal, Sealed, base64_of, sealed_bytes};
@@ -149,6 +150,37 @@ impl Seals {
             .check(key, payload, seal)
             .is_ok_and(|signer| signer == self.sealer.identity && !self.sealer.made(seal))
     }
+}
+
+/// This host's clock, milliseconds since the Unix epoch: what live seals are dated by and
+/// judged fresh against.
+pub fn wall_ms() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX))
+}
+
+/// How far a live seal's time may be from this host's clock: hosts of a site keep NTP
+/// time within a fraction of a second; half a minute leaves room for a commander's laptop
+/// that drifted, and is far shorter than any goal's life.
+pub const FRESH: Duration = Duration::from_secs(30);
+
+/// Whether a live seal's time is within [`FRESH`] of this host's clock.
+pub fn fresh(proof: &Sealed, now_ms: u64) -> Result<(), String> {
+    let apart = proof.seal.at_ms.abs_diff(now_ms);
+    if apart > FRESH.as_millis() as u64 {
+        return Err(format!(
+            "sealed {:.0} s {} this host's clock, more than {} s: a replay, or a clock to set right",
+            apart as f64 / 1000.0,
+            if proof.seal.at_ms < now_ms {
+                "behind"
+            } else {
+                "ahead of"
+            },
+            FRESH.as_secs()
+        ));
+    }
+    Ok(())
 }
 
 /// A certificate the CA vouched for: who, and the public key to check with.

@@ -50,7 +50,6 @@ pub mod roads;
 pub(crate) mod sealing;
 pub mod standby;
 pub mod stats;
-pub mod suspensions;
 
 pub use incident::Incident;
 pub use node::{CoordinatorOptions, run};

@@ -26,6 +26,8 @@ use std::future::Future;
 use std::sync::Arc;
 use std::time::Duration;
 
+use firefleet_bus::seal::wall_ms;
+use firefleet_bus::suspension;
 use firefleet_bus::{Ask, Bus, BusError, Inbox, Question, Questions, Raw, RawInbox, Tokens};
 use firefleet_model::clock::{Clock, ExternalClock, SystemClock};
 use firefleet_model::scenario::Scenario;
@@ -88,6 +90,9 @@ pub enum Ended {
     /// The coordinator of rank `holder` holds office ([`firefleet_protocol::office`]):
     /// this one stepped down (see [`crate::standby`] for what it does next).
     SteppedDown { holder: u32 },
+    /// This coordinator's identity is suspended: it holds no office, and stands by
+    /// without ever taking it while the suspension lasts (a thief holds its key).
+    Suspended,
 }
 
 /// How often a claim on office by someone else (a rival's lease or tasks, tasks on this
@@ -116,6 +121,9 @@ pub async fn run(
     let mut leases = Leases::default();
     leases.set(opts.rank, true);
     let mut claims = Claims::default();
+    // Whether the leases or the suspensions changed since this coordinator last looked
+    // whether it still holds office.
+    let mut recheck = true;
     let mut inputs = Inputs::subscribe(bus, scenario).await?;
     let mut told = Told {
         journal: opts.journal.clone(),
@@ -149,6 +157,17 @@ pub async fn run(
     stats.in_office.set(1);
     let _out_of_office = OutOfOffice(stats.in_office.clone());
     loop {
+        if std::mem::take(&mut recheck) {
+            for rank in incident.suspended_coordinators() {
+                leases.suspend(rank);
+            }
+            if let Some(ended) = leaving(&mut incident, &leases, opts.rank, clock.now()) {
+                for d in incident.take_decisions() {
+                    bus.put(&keys.coord_log(), &d.to_msg()).await?;
+                }
+                return Ok(ended);
+            }
+        }
         let mut report_taken = None;
         // Biased, in order of urgency: a flame report or a lost unit is acted on before
         // the next of the ten thousand states a second a large fleet sends (fairness
@@ -167,15 +186,8 @@ pub async fn run(
                     && rank != opts.rank
                 {
                     leases.set(rank, alive);
-                    if let Some(holder) = leases.holder().filter(|h| *h != opts.rank) {
-                        incident.stand_down(opts.rank, holder, clock.now());
-                        for d in incident.take_decisions() {
-                            bus.put(&keys.coord_log(), &d.to_msg()).await?;
-                        }
-                        tracing::warn!(rank = opts.rank, holder, "a lower rank holds office: stepping down");
-                        return Ok(Ended::SteppedDown { holder });
-                    }
-                    if alive && rank != opts.rank {
+                    recheck = true;
+                    if alive && leases.rivals().any(|r| r == rank) {
                         claims.heard(&mut incident, opts.rank, rank, clock.now());
                     }
                 }
@@ -213,7 +225,10 @@ pub async fn run(
                 }.map_err(|e| (topic.to_string(), e))
             }
             Some(sample) = inputs.goals.recv() => take_goal(bus, &mut incident, &sample, clock.now()).await?,
-            Some(sample) = inputs.suspends.recv() => Ok(take_suspension(bus, &mut incident, &sample, clock.now())),
+            Some(sample) = inputs.suspends.recv() => {
+                recheck = true;
+                Ok(take_suspension(bus, &mut incident, &sample, clock.now()))
+            }
             Some(query) = inputs.coord_q.recv() => {
                 answer(bus, &incident, query, clock.now()).await;
                 Ok(Vec::new())
@@ -524,7 +539,7 @@ async fn take_goal(
 /// sealed, lapse). Refused ones are counted and logged.
 fn take_suspension(bus: &Bus, incident: &mut Incident, sample: &Raw, t: f64) -> Vec<Output> {
     let check = bus.seals().map(|s| &s.check);
-    let (target, by, proof) = match sealing::heard_suspension(check, sample, wall_ms()) {
+    let (target, by, proof) = match suspension::heard(check, sample, wall_ms()) {
         Ok(ask) => ask,
         Err(why) => {
             bus.rejects().refuse_seal(&sample.key, &why);
@@ -714,6 +729,26 @@ fn other_versions(status: &mut IncidentStatus, bus: &Bus) {
         };
         if let Some(s) = status.units.iter_mut().find(|s| s.unit == unit) {
             s.protocol = Some(version);
+        }
+    }
+}
+
+/// How this coordinator, of `rank`, leaves office at `t` as `leases` stand, if it does: its
+/// identity suspended, or a lower rank's lease alive (logged on the incident).
+fn leaving(incident: &mut Incident, leases: &Leases, rank: u32, t: f64) -> Option<Ended> {
+    match leases.holder() {
+        Some(holder) if holder == rank => None,
+        Some(holder) => {
+            incident.stand_down(rank, holder, t);
+            tracing::warn!(rank, holder, "a lower rank holds office: stepping down");
+            Some(Ended::SteppedDown { holder })
+        }
+        None => {
+            tracing::error!(
+                rank,
+                "this coordinator's identity is suspended: leaving office"
+            );
+            Some(Ended::Suspended)
         }
     }
 }
@@ -926,13 +961,6 @@ fn preview(
     let goal = codec::decode::<ZoneGoal>(&query.payload())
         .map_err(|e| format!("the goal to preview: {e}"))?;
     Ok(incident.preview(&goal.zone.clone(), &by, goal, t))
-}
-
-/// This host's clock, milliseconds since the Unix epoch: what live seals are dated by.
-fn wall_ms() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX))
 }
 
 /// The answer to a goal refused before it was read (it does not decode, or its seal does

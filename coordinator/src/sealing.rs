@@ -1,15 +1,16 @@
-//! Which seals the coordinator takes on commanders' goals and clears, and on asks to
-//! suspend an identity ([`crate::suspensions`]), heard live or taken back after a restart.
+//! Which seals the coordinator takes on commanders' goals and clears, heard live or taken
+//! back after a restart, with the asks to suspend kept beside them
+//! ([`firefleet_bus::suspension`]).
 //!
 //! On a secure site (the coordinator's bus has a TLS identity, so it knows the site CA)
 //! every goal and every clear must carry a seal that holds, by an identity that may speak
 //! for the commander whose key it came on: that commander, or the console, which seals
 //! for the commanders it logs in (a stolen console key can therefore speak for anyone:
 //! the threat model puts the control room's keys among those detected and cut off, not
-//! those that cannot lie). A seal heard live must be fresh (within [`FRESH`] of this
-//! host's clock), so a goal recorded and put again later is refused; an old seal that is
-//! still fresh is refused by the goals' own replay rule (sealed before a clear or before
-//! the version in force, `goals`).
+//! those that cannot lie). A seal heard live must be fresh (within
+//! [`firefleet_bus::seal::FRESH`] of this host's clock), so a goal recorded and put again
+//! later is refused; an old seal that is still fresh is refused by the goals' own replay
+//! rule (sealed before a clear or before the version in force, `goals`).
 //!
 //! Everything taken back (this host's journal, a standby's memory, a recorder's answer)
 //! is checked again, goal by goal and clear by clear: a set may be old or incomplete, but
@@ -18,22 +19,14 @@
 //!
 //! Not here: the signatures (`firefleet_bus::seal`) or the goals' rules (`goals`).
 
-use std::time::Duration;
-
 use firefleet_bus::Raw;
 use firefleet_bus::access::Identity;
-use firefleet_bus::seal::SealCheck;
+use firefleet_bus::seal::{SealCheck, fresh};
+use firefleet_bus::suspension;
 use firefleet_model::CommanderId;
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::{self, Keys, Topic};
-use firefleet_protocol::msg::{
-    Cleared, GoalInForce, GoalsInForce, Seal, Sealed, Suspension, ZoneGoal,
-};
-
-/// How far a live seal's time may be from this host's clock: hosts of a site keep NTP
-/// time within a fraction of a second; half a minute leaves room for a commander's laptop
-/// that drifted, and is far shorter than any goal's life.
-pub const FRESH: Duration = Duration::from_secs(30);
+use firefleet_protocol::msg::{Cleared, GoalInForce, GoalsInForce, Seal, Sealed, ZoneGoal};
 
 /// Whether `signer` may seal a goal or a clear on commander `by`'s key.
 pub fn may_seal_for(signer: &Identity, by: &CommanderId) -> bool {
@@ -82,72 +75,6 @@ pub fn heard(
     Ok(Some(proof))
 }
 
-/// An ask to suspend heard live (`sample` on `trust/suspend/<target>/<by>`) at `now_ms`:
-/// the target, the asker and the proof to keep, or why it is refused. Only a secure site
-/// suspends: the ask must be sealed by the identity it names as `by`, a commander or the
-/// coordinator (its host's operator), and fresh.
-pub fn heard_suspension(
-    check: Option<&SealCheck>,
-    sample: &Raw,
-    now_ms: u64,
-) -> Result<(String, String, Sealed), String> {
-    let check = check.ok_or("a site without a PKI suspends nobody: there is no seal to trust")?;
-    let Some(Topic::Suspend(target, by)) = sample.topic() else {
-        return Err("not an ask to suspend".into());
-    };
-    if sample.deleted {
-        return Err("a suspension is not lifted in band: revoke, and issue anew".into());
-    }
-    let attachment = sample
-        .attachment
-        .as_ref()
-        .ok_or("unsealed: an ask to suspend carries its asker's seal")?;
-    let seal = Seal::from_attachment(attachment).map_err(|e| format!("unsealed: {e}"))?;
-    codec::decode::<Suspension>(&sample.bytes).map_err(|e| format!("malformed: {e}"))?;
-    let proof = Sealed {
-        key: sample.key.clone(),
-        payload: Some(String::from_utf8_lossy(&sample.bytes).into_owned()),
-        seal,
-    };
-    suspension_holds(check, &proof, &by)?;
-    fresh(&proof, now_ms)?;
-    Ok((target, by, proof))
-}
-
-/// Whether `proof`, an ask to suspend by `by`, was sealed by `by`, a commander or the
-/// coordinator.
-fn suspension_holds(check: &SealCheck, proof: &Sealed, by: &str) -> Result<(), String> {
-    let signer = check
-        .check_sealed(proof)
-        .map_err(|e| format!("seal refused: {e}"))?;
-    if signer.dir_name() != by
-        || !matches!(signer, Identity::Commander(_) | Identity::Coordinator(_))
-    {
-        return Err(format!(
-            "sealed by {signer}: an ask to suspend is sealed by the commander (or the coordinator) it names, not '{by}'"
-        ));
-    }
-    Ok(())
-}
-
-/// Whether a live seal's time is within [`FRESH`] of this host's clock.
-fn fresh(proof: &Sealed, now_ms: u64) -> Result<(), String> {
-    let apart = proof.seal.at_ms.abs_diff(now_ms);
-    if apart > FRESH.as_millis() as u64 {
-        return Err(format!(
-            "sealed {:.0} s {} this host's clock, more than {} s: a replay, or a clock to set right",
-            apart as f64 / 1000.0,
-            if proof.seal.at_ms < now_ms {
-                "behind"
-            } else {
-                "ahead of"
-            },
-            FRESH.as_secs()
-        ));
-    }
-    Ok(())
-}
-
 /// Who sealed `proof`, if its seal holds (none on an open site).
 pub fn signer(check: Option<&SealCheck>, proof: &Sealed) -> Option<Identity> {
     check?.check_sealed(proof).ok()
@@ -192,7 +119,7 @@ pub fn recalled(
         });
     kept.suspensions.retain(|p| {
         let held = match keys::parse(&p.key) {
-            Ok((_, Topic::Suspend(_, by))) => suspension_holds(check, p, &by),
+            Ok((_, Topic::Suspend(_, by))) => suspension::holds(check, p, &by),
             _ => Err("not an ask to suspend".into()),
         };
         match held {

@@ -13,39 +13,44 @@
 //! follows it also keeps on its host ([`crate::journal`]), as the coordinator in charge
 //! does, so a standby restarted together with everyone else takes them back.
 //!
-//! Who takes over: each standby has a rank, given by the operator (0, 1, 2, ... on the
-//! site's coordinator machines). When the coordinator's liveliness token vanishes (or none
-//! is there when a standby starts), the standby of rank k waits `k x` [`RANK_STEP`] and
-//! takes over if no coordinator's token has appeared meanwhile: rank 0 takes over at once,
-//! and the next waits long enough to see it.
+//! Who takes over: each coordinator has a rank, which is its identity (`coordinator` is
+//! rank 0, `coordinator:<rank>` the others'; [`firefleet_bus::access::Identity`]). Office
+//! is a lease ([`firefleet_protocol::office`]): the coordinator in office holds its
+//! liveliness token, and when none is alive (or only suspended ones are) the standby of
+//! rank k waits `k x` [`RANK_STEP`] and takes over if nobody took office meanwhile: rank 0
+//! first, and the next waits long enough to see it. A coordinator that starts while a
+//! lease is alive stands by too, so a restarted coordinator never takes office from the
+//! standby that took over.
 //!
-//! Fencing: every coordinator takes office in an epoch above every task number and epoch
-//! it heard ([`crate::Incident::take_office`]), tasks carry it, and units refuse tasks of
-//! an epoch older than one they took a task of. A coordinator that hears a task of a newer
-//! epoch steps down ([`crate::node::Ended::Deposed`]) and stands by again, whether or not it
-//! started as a standby.
+//! Nothing a message announces deposes anyone. A coordinator in office stands down only
+//! when a lower rank's lease is alive (two leases: a split site healing, or two standbys
+//! that claimed at once) or when its own identity is suspended (a thief holds its key);
+//! suspended, it stands by and never takes office again while the suspension lasts. Units
+//! obey the holder alone, whatever the epochs; epochs only order one holder's tasks, and
+//! a unit takes the first task after the office changed hands whatever its term.
 //!
-//! Split brain: a partition that leaves a coordinator on each side (the one in charge on
+//! Split brain: a partition that leaves a coordinator on each side (the one in office on
 //! one, a standby that took over on the other) leaves each side commanded by its own: on a
 //! fire ground a side with units and no coordinator would only wait, so availability wins
-//! over a single commander. When the partition heals the newest epoch commands: the units
-//! of the old side refuse the old coordinator's tasks from the first they take of the new
-//! one, and the old coordinator steps down at the first task of the new epoch it hears.
-//! Tracks the deposed coordinator made during the partition are not merged into the
-//! winner's (fire ids are each coordinator's own): its units' flame reports rebuild them.
+//! over a single commander. When the partition heals the lowest rank holds office: the
+//! other steps down at once, and its units take the holder's next task. Tracks the other
+//! made during the partition are not merged into the holder's (fire ids are each
+//! coordinator's own): its units' flame reports rebuild them.
 
 use std::collections::BTreeMap;
 use std::future::Future;
 use std::time::Duration;
 
+use firefleet_bus::office::Office;
+use firefleet_bus::seal::wall_ms;
 use firefleet_bus::{Bus, BusError};
 use firefleet_model::FireId;
 use firefleet_model::scenario::Scenario;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{FireTrack, GoalsInForce, StandbyHealth};
-use firefleet_protocol::office::Leases;
 use tokio::time::Instant;
 
+use crate::journal::GoalJournal;
 use crate::node::{CoordinatorOptions, Ended, run};
 
 /// How much longer each rank waits than the one before it to take over: far longer than a
@@ -77,9 +82,12 @@ pub async fn serve(
     tokio::pin!(shutdown);
     let mut resumed = opts.clone();
     let mut standing_by = standby || office_held(bus).await?;
+    // Found suspended in office: this process never takes office again (a restart learns
+    // it again from the asks kept with the goals in force).
+    let mut suspended = false;
     loop {
         if standing_by {
-            let Some(followed) = follow(bus, opts, shutdown.as_mut()).await? else {
+            let Some(followed) = follow(bus, opts, suspended, shutdown.as_mut()).await? else {
                 return Ok(());
             };
             resumed = followed;
@@ -87,6 +95,7 @@ pub async fn serve(
         match run(bus, scenario, &resumed, shutdown.as_mut()).await? {
             Ended::Shutdown => return Ok(()),
             Ended::SteppedDown { .. } => standing_by = true,
+            Ended::Suspended => (standing_by, suspended) = (true, true),
         }
     }
 }
@@ -106,10 +115,11 @@ async fn office_held(bus: &Bus) -> Result<bool, BusError> {
 
 /// Follow the incident as the standby of `opts.rank` until the coordinator in charge is
 /// gone; then the options to take over with (resuming from what was followed), or `None`
-/// if `shutdown` came first.
+/// if `shutdown` came first. A standby `suspended` already follows until `shutdown`.
 async fn follow(
     bus: &Bus,
     opts: &CoordinatorOptions,
+    suspended: bool,
     shutdown: impl Future<Output = ()>,
 ) -> Result<Option<CoordinatorOptions>, BusError> {
     let rank = opts.rank;
@@ -117,7 +127,20 @@ async fn follow(
     let fires = bus.subscribe(&keys.every_fire()).await?;
     let goals = bus.subscribe(&keys.coord_goals()).await?;
     let coordinators = bus.watch_tokens(&keys.every_coord_alive()).await?;
-    let mut leases = Leases::default();
+    // Who holds office: the leases, and the coordinators suspended by asks this standby
+    // checked itself, live or kept (its host's journal, the goals in force it follows). A
+    // thief holding the key of the coordinator in office keeps its lease alive: only its
+    // suspension hands the office on.
+    let mut office = Office::default();
+    let check = bus.seals().map(|s| &s.check);
+    let mut suspends = bus
+        .subscribe_raw(&[keys.every_suspend().as_str()], false)
+        .await?;
+    if let (Some(check), Some(Ok(Some(kept)))) =
+        (check, opts.journal.as_ref().map(GoalJournal::load))
+    {
+        office.kept(check, &kept.suspensions);
+    }
     // Held while standing by: `firefleet status` and the console show who could take over,
     // and that nobody could once it is gone.
     let _standing_by = bus.token(&Topic::CoordStandbyAlive(rank)).await?;
@@ -133,6 +156,13 @@ async fn follow(
     tracing::info!(rank, "standing by");
     tokio::pin!(shutdown);
     loop {
+        if office.holder().is_some() != in_charge {
+            in_charge = !in_charge;
+            if !in_charge {
+                tracing::warn!(rank, "the coordinator in charge is gone");
+                due = Instant::now() + RANK_STEP * rank;
+            }
+        }
         tokio::select! {
             _ = &mut shutdown => return Ok(None),
             Some((_, track)) = fires.recv() => {
@@ -145,6 +175,9 @@ async fn follow(
                 // standby restarted with everyone else takes them back.
                 if newest.as_ref().is_none_or(|n| g.t >= n.t && n.goals != g.goals) {
                     crate::node::keep(opts.journal.as_ref(), &g);
+                }
+                if let Some(check) = check {
+                    office.kept(check, &g.suspensions);
                 }
                 newest = GoalsInForce::newer(Some(g), newest);
             }
@@ -160,16 +193,15 @@ async fn follow(
                 }
             }
             Some((topic, alive)) = coordinators.recv() => {
-                if let Topic::CoordAlive(r) = topic {
-                    leases.set(r, alive);
-                }
-                in_charge = leases.holder().is_some();
-                if !in_charge {
-                    tracing::warn!(rank, "the coordinator in charge is gone");
-                    due = Instant::now() + RANK_STEP * rank;
+                office.token(&topic, alive);
+            }
+            Some(sample) = suspends.recv() => {
+                if let Err(why) = office.ask(check, &sample, wall_ms()) {
+                    bus.rejects().refuse_invalid(&sample.key, &format_args!("an ask to suspend: {why}"));
                 }
             }
-            _ = tokio::time::sleep_until(due), if !in_charge => {
+            // A suspended identity never takes office: a thief holds its key.
+            _ = tokio::time::sleep_until(due), if !in_charge && !suspended && !office.suspended(rank) => {
                 // A token lost with this standby's own link (its router restarted, its
                 // cable cut) says nothing of the coordinator: take over only while linked
                 // to the site, and once linked again only after a starting standby's

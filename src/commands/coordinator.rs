@@ -47,9 +47,10 @@ pub struct CoordinatorArgs {
     /// each a different --rank: rank k waits k x 0.5 s before it takes over.
     #[arg(long)]
     standby: bool,
-    /// This coordinator's rank, 0 to 15, different for every coordinator of the site:
-    /// standbys take over in its order (0 first), and it is the remainder of the epochs
-    /// the coordinator takes office in, so two never share one.
+    /// This coordinator's rank, 0 to 15, different for every coordinator of the site: its
+    /// identity on a secure site (rank 0 `coordinator`, the others `coordinator:<rank>`),
+    /// the keys it tasks on, the order standbys take over in (0 first), and which of two
+    /// coordinators in office holds it (the lower rank).
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..EPOCH_RANKS as i64))]
     rank: u32,
     /// Keep the goals in force in this directory (created if missing), written as they

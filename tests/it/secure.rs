@@ -397,14 +397,19 @@ struct SecureSite {
 
 impl SecureSite {
     fn new(scenario: &'static str) -> Self {
+        Self::with_commanders(scenario, &["rossi"])
+    }
+
+    /// The site with these commanders' certificates.
+    fn with_commanders(scenario: &'static str, commanders: &[&str]) -> Self {
         let dir = tempfile::tempdir().unwrap();
         let path = |p: &str| dir.path().join(p).to_str().unwrap().to_owned();
         let cfg = path("cfg");
-        let pki = pki_init(dir.path(), scenario);
+        let pki = crate::support::pki_init_for(dir.path(), scenario, commanders);
         let pki = pki.to_str().unwrap();
         let port = firefleet_bus::free_loopback_port().unwrap();
         let endpoint = format!("quic/127.0.0.1:{port}");
-        let out = crate::support::firefleet(&[
+        let mut args = vec![
             "deploy",
             "render",
             "--scenario",
@@ -413,14 +418,16 @@ impl SecureSite {
             pki,
             "--out",
             &cfg,
-            "--commander",
-            "rossi",
             "--simulated",
             "--listen",
             &endpoint,
             "--connect",
             &endpoint,
-        ]);
+        ];
+        for c in commanders {
+            args.extend(["--commander", c]);
+        }
+        let out = crate::support::firefleet(&args);
         assert!(out.status.success(), "{}", text(&out));
         let router = Command::new(BIN)
             .args(["router", "--scenario", scenario, "--zenoh-config"])
@@ -1032,18 +1039,24 @@ async fn a_stolen_commander_key_is_suspended_in_band_and_stays_so_across_a_resta
     }
 }
 
-/// Issue #52, items 2 and 3, for the coordinators' keys. A thief holding the standby's key
+/// Issue #52, items 2 to 4, for the coordinators' keys. A thief holding the standby's key
 /// (`coordinator:1`) claims office and tasks a unit in a newer term: the unit refuses (the
 /// lowest rank holds office), the coordinator in office stays in office, and the console
 /// raises "rival coordinator" within 2 s. Then a thief holding the key of the coordinator
 /// in office tasks on its key: the coordinator hears tasks it never sent, and the console
-/// raises "someone else holds the key of coordinator" within 2 s.
+/// raises "someone else holds the key of coordinator" within 2 s. Two commanders suspend
+/// that identity: the standby takes office, the unit obeys it, and the thief's next task
+/// is refused.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn stolen_coordinator_keys_command_nobody_or_are_alarmed_on_the_console() {
-    let site = SecureSite::new("vehicle-collision");
+async fn stolen_coordinator_keys_command_nobody_or_are_alarmed_and_suspended() {
+    let site = SecureSite::with_commanders("vehicle-collision", &["rossi", "bianchi"]);
     let addr = format!("127.0.0.1:{}", firefleet_bus::free_loopback_port().unwrap());
     let mut fleet = Fleet(vec![
         site.spawn("coordinator", &["coordinator", "--sim-clock"]),
+        site.spawn(
+            "coordinator-1",
+            &["coordinator", "--sim-clock", "--standby", "--rank", "1"],
+        ),
         site.spawn("console", &["console", "--http", &addr]),
         site.spawn("unit-ugv-1", &["agent", "--unit", "ugv-1"]),
         site.spawn("unit-ugv-2", &["agent", "--unit", "ugv-2"]),
@@ -1060,10 +1073,12 @@ async fn stolen_coordinator_keys_command_nobody_or_are_alarmed_on_the_console() 
         ],
     ));
     let rival = site.open("coordinator-1").await;
+    // What ugv-1 is told and does, heard all along as a recorder hears it.
+    let watcher = site.open("recorder").await;
     let keys = rival.keys().clone();
     let ugv1 = UnitId::new("ugv-1").unwrap();
-    let tasks = rival.subscribe(&keys.unit_tasks(&ugv1)).await.unwrap();
-    let states = rival.subscribe(&keys.unit_state(&ugv1)).await.unwrap();
+    let tasks = watcher.subscribe(&keys.unit_tasks(&ugv1)).await.unwrap();
+    let states = watcher.subscribe(&keys.unit_state(&ugv1)).await.unwrap();
     let (_, real) = tokio::time::timeout(patient(Duration::from_secs(90)), tasks.recv())
         .await
         .expect("the coordinator never tasked ugv-1")
@@ -1124,7 +1139,52 @@ async fn stolen_coordinator_keys_command_nobody_or_are_alarmed_on_the_console() 
         "{alarm}"
     );
     println!("impostor alarm on the console {took:.2} s after the stolen coordinator key's task");
-    thief.close().await;
+    // Two commanders suspend the stolen identity: the standby takes office, and ugv-1
+    // obeys it.
+    let suspend = |who: &str| {
+        Command::new(BIN)
+            .args(["suspend", "--scenario", site.scenario, "--zenoh-config"])
+            .arg(site.config(who))
+            .args(["--identity", "coordinator", "--reason", "key stolen"])
+            .output()
+            .unwrap()
+    };
+    assert_says(&suspend("commander-rossi"), 0, "a second commander's ask");
+    let asked = Instant::now();
+    assert_says(&suspend("commander-bianchi"), 0, "coordinator is suspended");
+    let took_office = tokio::time::timeout(patient(Duration::from_secs(20)), async {
+        loop {
+            let (_, st) = states.recv().await.unwrap();
+            if st.epoch.is_some_and(|e| e % 16 == 1) {
+                return asked.elapsed().as_secs_f64();
+            }
+        }
+    })
+    .await
+    .expect("ugv-1 never obeyed the standby");
+    println!("ugv-1 obeyed the standby {took_office:.2} s after the second ask");
+    // The thief's task on the suspended key, numbered above everything: refused.
+    let mut last = stolen.clone();
+    last.epoch = epoch_after(real.seq + 1000, 0);
+    last.seq = last.epoch;
+    thief
+        .put(&thief.keys().unit_task(&ugv1, 0), &last)
+        .await
+        .unwrap();
+    let until = Instant::now() + Duration::from_secs(3);
+    while Instant::now() < until {
+        if let Ok(Some((_, st))) =
+            tokio::time::timeout(Duration::from_millis(200), states.recv()).await
+        {
+            assert!(
+                st.epoch.is_none_or(|e| e % 16 == 1),
+                "ugv-1 obeyed the suspended key: {st:?}"
+            );
+        }
+    }
+    for b in [thief, watcher] {
+        b.close().await;
+    }
 }
 
 /// Wait until the console at `addr` has its link to the site.

@@ -286,17 +286,28 @@ pub async fn until_site_time(bus: &Bus, t: f64, within: Duration) {
 
 /// `firefleet pki init` for `scenario` into `dir/pki`, with commander rossi; the PKI.
 pub fn pki_init(dir: &std::path::Path, scenario: &str) -> std::path::PathBuf {
+    pki_init_for(dir, scenario, &["rossi"])
+}
+
+/// [`pki_init`] with these commanders.
+pub fn pki_init_for(
+    dir: &std::path::Path,
+    scenario: &str,
+    commanders: &[&str],
+) -> std::path::PathBuf {
     let pki = dir.join("pki");
-    let out = firefleet(&[
+    let mut args = vec![
         "pki",
         "init",
         "--scenario",
         scenario,
         "--out",
         pki.to_str().unwrap(),
-        "--commander",
-        "rossi",
-    ]);
+    ];
+    for c in commanders {
+        args.extend(["--commander", c]);
+    }
+    let out = firefleet(&args);
     assert!(out.status.success(), "{}", text(&out));
     pki
 }

@@ -34,6 +34,7 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 
 use firefleet_bus::access::Identity;
+use firefleet_bus::suspension::coordinator_rank;
 use firefleet_model::fire::same_fire;
 use firefleet_model::heat::{HeatSource, radiant_flux_kw_m2};
 use firefleet_model::{FireId, Point2, UnitId};
@@ -753,16 +754,24 @@ impl Picture {
             })
             .collect();
         for who in suspended.difference(&self.suspended.clone()) {
+            let what = match coordinator_rank(who) {
+                Some(rank) => {
+                    self.leases.suspend(rank);
+                    "it holds no office, and units refuse its tasks"
+                }
+                None => "the coordinator takes nothing of it",
+            };
             self.raise(
                 AlertKind::Suspended {
                     identity: who.clone(),
                 },
                 format!(
-                    "{who} is suspended: the coordinator takes nothing of it (revoke it for \
-                     good: firefleet pki revoke, and restart the routers)"
+                    "{who} is suspended: {what} (revoke it for good: firefleet pki revoke, \
+                     and restart the routers)"
                 ),
             );
         }
+        self.rivals();
         self.settle(
             |k| matches!(k, AlertKind::Suspended { identity } if !suspended.contains(identity)),
         );

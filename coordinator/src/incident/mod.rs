@@ -64,7 +64,7 @@ use crate::coverage::Coverage;
 use crate::fusion::Fusion;
 use crate::goals::Goals;
 use crate::roads::RoadMaps;
-use crate::suspensions::Suspensions;
+use firefleet_bus::suspension::Suspensions;
 
 mod decision;
 mod dispatch;
@@ -252,7 +252,7 @@ pub struct Incident {
     /// Flame observations refused for starting a track past a unit's
     /// [`crate::fusion::MAX_LONE_TRACKS`].
     lone_refused: u64,
-    /// Identities suspended in band ([`crate::suspensions`]).
+    /// Identities suspended in band ([`firefleet_bus::suspension`]).
     suspensions: Suspensions,
     /// Units a goal holds in a zone with nowhere to go, as of the last enforcement: the
     /// decision is logged once when a unit becomes trapped, not at every enforcement.

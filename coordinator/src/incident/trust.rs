@@ -3,7 +3,7 @@
 //! are refused (so it is lost at its lease, and its fires go to others), a suspended SCADA
 //! bridge's readings are refused.
 //!
-//! Not here: who may ask and what makes a suspension ([`crate::suspensions`]), or the
+//! Not here: who may ask and what makes a suspension ([`firefleet_bus::suspension`]), or the
 //! seals (the node checks them; a console's suspension lapses the goals it sealed, which
 //! only the node can tell).
 
@@ -12,7 +12,7 @@ use firefleet_protocol::msg::Sealed;
 
 use super::{Decision, Incident, Output};
 use crate::goals::Active;
-use crate::suspensions::commander_name;
+use firefleet_bus::suspension::commander_name;
 
 impl Incident {
     /// `by`'s sealed ask, `proof`, that identity `target` be suspended, taken at `t`.
@@ -82,6 +82,11 @@ impl Incident {
     /// Whether identity `name` (`commander-rossi`, `unit-ugv-1`, `console`) is suspended.
     pub fn is_suspended(&self, name: &str) -> bool {
         self.suspensions.suspended(name)
+    }
+
+    /// The ranks of the coordinators suspended: they hold no office.
+    pub fn suspended_coordinators(&self) -> Vec<u32> {
+        self.suspensions.coordinators()
     }
 
     /// Refuse what identity `name` says while it is suspended.

@@ -16,7 +16,7 @@ use crate::assign::Mobility;
 use crate::goals::{Active, Goals};
 
 use super::{Decision, Incident, Output};
-use crate::suspensions::commander_name;
+use firefleet_bus::suspension::commander_name;
 
 impl Incident {
     /// A commander's goal arrived on zone `key_zone`'s key: the acknowledgement, and the

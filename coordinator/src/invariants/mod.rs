@@ -48,7 +48,7 @@ use firefleet_protocol::msg::{
 
 use crate::goals::{Active, Goals};
 use crate::incident::LEASE_S;
-use crate::suspensions::commander_name;
+use firefleet_bus::suspension::commander_name;
 
 pub mod churn;
 mod continuity;
@@ -87,7 +87,7 @@ pub enum Event {
     /// The coordinator's answer to a goal, sent the moment it took (or refused) it.
     Ack(GoalAck),
     /// Identity `0` (`commander-rossi`) is suspended: its goals lapsed
-    /// ([`crate::suspensions`]).
+    /// ([`firefleet_bus::suspension`]).
     Suspended(String),
     /// Each unit's blocked steps so far, by the simulator's ground truth.
     Blocked(Vec<(UnitId, u32)>),

@@ -1,22 +1,36 @@
-//! Identities suspended in band: who asked that each be, and whether enough did.
+//! Identities suspended in band: who asked that each be, whether enough did, and whether
+//! an ask's seal holds.
 //!
-//! A stolen key of a commander, the console, a unit or the SCADA bridge is cut off for
-//! good by `firefleet pki revoke` and the routers' restart; this is the cut in seconds,
-//! while that is done. An identity is suspended when two distinct commanders ask (each
-//! sealed with its own key), or when the coordinator's own key asks (the operator at the
-//! coordinator's host, for a site with one commander): one stolen commander key cannot
-//! suspend anyone alone. A suspension is never lifted in band: what a stolen key did is
-//! cleaned up by revocation and a new certificate under another name, and a restart keeps
-//! the suspension (the asks travel with the goals in force and are checked again).
+//! A stolen key of a commander, the console, a unit, the SCADA bridge or a coordinator is
+//! cut off for good by `firefleet pki revoke` and the routers' restart; this is the cut in
+//! seconds, while that is done. An identity is suspended when two distinct commanders ask
+//! (each sealed with its own key), or when a coordinator's own key asks (the operator at a
+//! coordinator's host, for a site with one commander), save that no coordinator suspends
+//! another: one stolen commander key cannot suspend anyone alone, and one stolen
+//! coordinator key cannot depose the coordinator in office. A suspension is never lifted in
+//! band: what a stolen key did is cleaned up by revocation and a new certificate under
+//! another name, and a restart keeps the suspension (the asks travel with the goals in
+//! force and are checked again).
 //!
-//! Pure: the node checks the seals; here is what follows from who asked.
+//! Every party that acts on a suspension applies this one rule to the asks it checked
+//! itself: the coordinator (a suspended identity's goals lapse and its messages are
+//! refused), a standby and every unit (a suspended coordinator holds no office,
+//! `firefleet_protocol::office`).
+//!
+//! Not here: what each party refuses of a suspended identity, or the seals themselves
+//! ([`crate::seal`]).
 
 use std::collections::BTreeMap;
 
-use firefleet_bus::access::Identity;
+use firefleet_protocol::codec;
+
 use firefleet_model::CommanderId;
 use firefleet_protocol::keys::{self, Topic};
-use firefleet_protocol::msg::Sealed;
+use firefleet_protocol::msg::{Seal, Sealed, Suspension};
+
+use crate::Raw;
+use crate::access::Identity;
+use crate::seal::{SealCheck, fresh};
 
 /// Commander `c`'s identity name, as suspensions name it (`commander-rossi`).
 pub fn commander_name(c: &CommanderId) -> String {
@@ -26,6 +40,15 @@ pub fn commander_name(c: &CommanderId) -> String {
 /// The name the coordinator's own key asks under (the one that starts in office; a
 /// standby's asks under its own, `coordinator-<rank>`).
 pub const OPERATOR: &str = "coordinator";
+
+/// The rank of the coordinator whose identity name (`coordinator`, `coordinator-1`) is
+/// `name`; `None` for any other identity.
+pub fn coordinator_rank(name: &str) -> Option<u32> {
+    match name.replacen('-', ":", 1).parse() {
+        Ok(Identity::Coordinator(rank)) => Some(rank),
+        _ => None,
+    }
+}
 
 /// Whether `name` is a coordinator's identity name: the operator at a coordinator's host
 /// asks under it.
@@ -113,6 +136,29 @@ impl Suspensions {
             .collect()
     }
 
+    /// The ranks of the coordinators suspended: they hold no office.
+    pub fn coordinators(&self) -> Vec<u32> {
+        self.names()
+            .iter()
+            .filter_map(|n| coordinator_rank(n))
+            .collect()
+    }
+
+    /// Take the asks among `proofs` (kept with goals in force someone else published) whose
+    /// seals hold; the identities they suspend now.
+    pub fn take_sealed(&mut self, check: &SealCheck, proofs: &[Sealed]) -> Vec<String> {
+        let mut now = Vec::new();
+        for p in proofs {
+            let Ok((_, Topic::Suspend(target, by))) = keys::parse(&p.key) else {
+                continue;
+            };
+            if holds(check, p, &by).is_ok() && self.ask(&target, &by, p.clone()) == Ok(true) {
+                now.push(target);
+            }
+        }
+        now
+    }
+
     /// Take back asks kept with the goals in force (each already checked); the identities
     /// they suspend.
     pub fn restore(&mut self, kept: &[Sealed]) -> Vec<String> {
@@ -125,6 +171,54 @@ impl Suspensions {
         }
         self.names()
     }
+}
+
+/// An ask to suspend heard live (`sample` on `trust/suspend/<target>/<by>`) at `now_ms`:
+/// the target, the asker and the proof to keep, or why it is refused. Only a secure site
+/// suspends: the ask must be sealed by the identity it names as `by`, a commander or the
+/// coordinator (its host's operator), and fresh.
+pub fn heard(
+    check: Option<&SealCheck>,
+    sample: &Raw,
+    now_ms: u64,
+) -> Result<(String, String, Sealed), String> {
+    let check = check.ok_or("a site without a PKI suspends nobody: there is no seal to trust")?;
+    let Some(Topic::Suspend(target, by)) = sample.topic() else {
+        return Err("not an ask to suspend".into());
+    };
+    if sample.deleted {
+        return Err("a suspension is not lifted in band: revoke, and issue anew".into());
+    }
+    let attachment = sample
+        .attachment
+        .as_ref()
+        .ok_or("unsealed: an ask to suspend carries its asker's seal")?;
+    let seal = Seal::from_attachment(attachment).map_err(|e| format!("unsealed: {e}"))?;
+    codec::decode::<Suspension>(&sample.bytes).map_err(|e| format!("malformed: {e}"))?;
+    let proof = Sealed {
+        key: sample.key.clone(),
+        payload: Some(String::from_utf8_lossy(&sample.bytes).into_owned()),
+        seal,
+    };
+    holds(check, &proof, &by)?;
+    fresh(&proof, now_ms)?;
+    Ok((target, by, proof))
+}
+
+/// Whether `proof`, an ask to suspend by `by`, was sealed by `by`, a commander or the
+/// coordinator.
+pub fn holds(check: &SealCheck, proof: &Sealed, by: &str) -> Result<(), String> {
+    let signer = check
+        .check_sealed(proof)
+        .map_err(|e| format!("seal refused: {e}"))?;
+    if signer.dir_name() != by
+        || !matches!(signer, Identity::Commander(_) | Identity::Coordinator(_))
+    {
+        return Err(format!(
+            "sealed by {signer}: an ask to suspend is sealed by the commander (or the coordinator) it names, not '{by}'"
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
