@@ -5,12 +5,14 @@
 //! records (`firefleet_recorder::parts`, `firefleet_protocol::payload`); this feeds one to
 //! the other.
 
+use firefleet_bus::suspension::coordinator_rank;
 use firefleet_coordinator::invariants::churn::ChurnTally;
 use firefleet_coordinator::invariants::pinned::BlockedTally;
 use firefleet_coordinator::invariants::{Event, Invariants, Tally, Violation};
 use firefleet_model::scenario::Scenario;
 use firefleet_protocol::keys::{self, Topic};
-use firefleet_protocol::payload::{GoalClear, Payload};
+use firefleet_protocol::office::Leases;
+use firefleet_protocol::payload::{GoalClear, Liveliness, Payload};
 use firefleet_recorder::parts::Recording;
 
 /// What the checker found in a recording.
@@ -18,9 +20,13 @@ pub struct Checked {
     pub violations: Vec<Violation>,
     /// How many of its messages are of the site.
     pub messages: usize,
-    /// States and tasks naming a unit other than the one their key belongs to: set aside,
-    /// not judged as that unit's.
+    /// States and tasks naming a unit other than the one their key belongs to (or tasks
+    /// of another coordinator's term than their key's): set aside, not judged as that
+    /// unit's.
     pub forged: usize,
+    /// Tasks from a coordinator that did not hold office (a rival, a suspended key): every
+    /// unit refused them, so they are not judged.
+    pub refused: usize,
     pub continuity: Tally,
     /// How often fires' attackers changed.
     pub churn: ChurnTally,
@@ -32,7 +38,13 @@ pub struct Checked {
 /// silent for `lease_s` lost.
 pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow::Result<Checked> {
     let mut inv = Invariants::with_lease(scenario, lease_s);
-    let (mut t, mut messages, mut forged) = (0.0, 0usize, 0usize);
+    let (mut t, mut messages, mut forged, mut refused) = (0.0, 0usize, 0usize, 0usize);
+    // Who held office, from the recorded leases and suspensions: a task from anyone else
+    // was refused by every unit, and is not judged (a recording with no lease recorded,
+    // say one made before leases were recorded, judges every task).
+    let mut office = Leases::default();
+    let mut leases_recorded = false;
+    let liveliness = format!("{}/liveliness", scenario.site);
     for m in recording.messages() {
         let m = match m {
             Ok(m) => m,
@@ -42,6 +54,15 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
                 continue;
             }
         };
+        if m.channel.topic == liveliness {
+            if let Ok(l) = serde_json::from_slice::<Liveliness>(&m.data)
+                && let Ok((_, Topic::CoordAlive(rank))) = keys::parse(&l.key)
+            {
+                office.set(rank, l.alive);
+                leases_recorded = true;
+            }
+            continue;
+        }
         let Ok((site, topic)) = keys::parse(&m.channel.topic) else {
             continue;
         };
@@ -79,6 +100,10 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
                     forged += 1;
                     continue;
                 }
+                if leases_recorded && !office.obeys(*rank) {
+                    refused += 1;
+                    continue;
+                }
                 t = task.t;
                 Some(Event::Task(task))
             }
@@ -93,6 +118,9 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
             (Topic::CoordGoals, Ok(Payload::Goals(g))) => {
                 for ask in &g.suspensions {
                     if let Ok((_, Topic::Suspend(target, _))) = keys::parse(&ask.key) {
+                        if let Some(rank) = coordinator_rank(&target) {
+                            office.suspend(rank);
+                        }
                         inv.observe(t, Event::Suspended(target));
                     }
                 }
@@ -113,6 +141,7 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
         violations: inv.violations().to_vec(),
         messages,
         forged,
+        refused,
         continuity: inv.continuity(),
         churn: inv.churn(),
         blocked: inv.blocked(),
@@ -253,5 +282,63 @@ mod tests {
                     .collect::<Vec<_>>()
             );
         }
+    }
+
+    #[test]
+    fn a_task_from_a_coordinator_not_in_office_is_not_judged() {
+        use firefleet_protocol::msg::{Task, TaskKind};
+        let scenario = builtin::resolve("vehicle-collision").unwrap();
+        let lease = |rank: u32, alive: bool| {
+            (
+                "tunnel-a/liveliness".to_owned(),
+                Liveliness::NAME,
+                serde_json::to_vec(&Liveliness {
+                    key: format!("ff/tunnel-a/coord/office/{rank}/alive"),
+                    alive,
+                })
+                .unwrap(),
+            )
+        };
+        // Into the core, where a keep-out holds: a violation if a unit was told it.
+        let into_core = |rank: u32| {
+            let epoch = firefleet_protocol::msg::epoch_after(1000, rank);
+            let task = Task {
+                unit: UnitId::new("ugv-1").unwrap(),
+                epoch,
+                seq: epoch,
+                t: 1.0,
+                kind: TaskKind::Cruise {
+                    goal: firefleet_model::Point2::new(100.0, -2.5),
+                },
+            };
+            (
+                format!("ff/tunnel-a/unit/ugv-1/task/{rank}"),
+                "firefleet.Task",
+                serde_json::to_vec(&task).unwrap(),
+            )
+        };
+        let judge = |records: Vec<(String, &'static str, Vec<u8>)>| {
+            check(&recording(&records), &scenario, 5.0).unwrap()
+        };
+        // Rank 0 in office: rank 1's task was refused by every unit.
+        let c = judge(vec![
+            lease(0, true),
+            lease(1, true),
+            keep_out_core(),
+            into_core(1),
+        ]);
+        assert!(c.violations.is_empty(), "{:?}", c.violations);
+        assert_eq!(c.refused, 1);
+        // The holder's own task is judged.
+        let c = judge(vec![lease(0, true), keep_out_core(), into_core(0)]);
+        assert_eq!(c.violations.len(), 1, "{:?}", c.violations);
+        // A task on rank 1's key in another rank's term: forged.
+        let (key, schema, bytes) = into_core(0);
+        let c = judge(vec![
+            lease(1, true),
+            keep_out_core(),
+            (key.replace("task/0", "task/1"), schema, bytes),
+        ]);
+        assert_eq!((c.forged, c.violations.len()), (1, 0));
     }
 }

@@ -198,7 +198,11 @@ pub async fn run(
             Some(sample) = inputs.rivals.recv() => match sample.topic() {
                 Some(Topic::UnitTask(_, rank)) => {
                     stats.claimed_tasks.inc();
-                    claims.heard(&mut incident, opts.rank, rank, clock.now());
+                    // A suspended identity's tasks are refused by every unit, and the
+                    // consoles say so already: counted, not logged again.
+                    if !leases.is_suspended(rank) {
+                        claims.heard(&mut incident, opts.rank, rank, clock.now());
+                    }
                     Ok(Vec::new())
                 }
                 _ => Err((sample.key.clone(), Invalid::new("key", "not a task key"))),

@@ -46,6 +46,11 @@ impl Leases {
         self.suspended.insert(rank);
     }
 
+    /// Whether the identity of `rank` is suspended.
+    pub fn is_suspended(&self, rank: u32) -> bool {
+        self.suspended.contains(&rank)
+    }
+
     /// The rank of the coordinator in office: the lowest whose lease is alive and whose
     /// identity is not suspended.
     pub fn holder(&self) -> Option<u32> {

@@ -114,5 +114,11 @@ fn check_one(file: &Path, scenario: &Scenario, lease_s: f64) -> anyhow::Result<b
             checked.forged
         );
     }
+    if checked.refused > 0 {
+        println!(
+            "{} tasks from a coordinator not in office (a rival or a suspended key): refused by the units, not judged",
+            checked.refused
+        );
+    }
     Ok(checked.violations.is_empty())
 }

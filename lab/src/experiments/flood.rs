@@ -15,7 +15,11 @@
 //!   a second (the thief follows the unit through its simulated sensors);
 //! - a stolen sector commander's certificate (`rossi`) putting keep-out at priority 255
 //!   on every zone and 70 goals more, and the incident commander (`chief`) clearing them
-//!   as soon as the stranded-fire alert shows in the status (its delay is printed).
+//!   as soon as the stranded-fire alert shows in the status (its delay is printed);
+//! - a stolen coordinator certificate, the standby's or the one in office's, telling every
+//!   unit to stand by, and both commanders suspending it 5 s after the alarm.
+//!
+//! The demo runs a standby coordinator (rank 1) in every run, as a site does.
 //!
 //! Optionally HTTPS clients hammer the console. A commander's session asks for the status
 //! every 100 ms. Measured: whether every process lived and every fire went out and when,
@@ -55,7 +59,7 @@ use firefleet::args::{time_scale, write_json};
 use firefleet::children::RoleCommand;
 
 mod attacks;
-use attacks::{Answer, Lie, bar_every_zone, flood_as_unit};
+use attacks::{Answer, Lie, bar_every_zone, command_as_coordinator, flood_as_unit};
 
 /// What the thief sends on ugv-2's keys.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -93,12 +97,43 @@ pub enum Attack {
     /// the bus outranks it, so the sector commander and the operator at the coordinator's
     /// host suspend it 5 s of site time after the alert.
     Chief,
+    /// The standby coordinator's stolen key (`coordinator:1`) claims office (its lease)
+    /// and tells every unit to stand by, numbered above what each holds, four times a
+    /// second; both commanders suspend it 5 s of site time after the alarm.
+    StandbyKey,
+    /// The stolen key of the coordinator in office (`coordinator`) tells every unit to stand
+    /// by, in its own term numbered above what each holds, four times a second: the units
+    /// take it (it is the holder's key) until both commanders suspend the identity 5 s of
+    /// site time after the alarm, and the standby takes office.
+    CoordinatorKey,
 }
 
 impl Attack {
-    /// Whether the thief holds a unit's certificate (else a commander's).
+    /// Whether the thief holds a unit's certificate (else a commander's or a
+    /// coordinator's).
     fn by_unit(self) -> bool {
-        !matches!(self, Attack::Commander | Attack::Chief)
+        !matches!(
+            self,
+            Attack::Commander | Attack::Chief | Attack::StandbyKey | Attack::CoordinatorKey
+        )
+    }
+
+    /// The rank of the coordinator whose key the thief holds, if it holds one.
+    fn coordinator_rank(self) -> Option<u32> {
+        match self {
+            Attack::StandbyKey => Some(1),
+            Attack::CoordinatorKey => Some(0),
+            _ => None,
+        }
+    }
+
+    /// Whether the honest side answers by suspending the stolen identity (so its time to
+    /// the alarm and the people's seconds are allowed on top of the unattacked run).
+    fn suspended(self) -> bool {
+        matches!(
+            self,
+            Attack::Chief | Attack::StandbyKey | Attack::CoordinatorKey
+        )
     }
 }
 
@@ -148,7 +183,8 @@ struct Figures {
     /// Site time when the last fire went out, s (none if not every fire did).
     all_out_s: Option<f64>,
     /// From the stolen commander's keep-outs being accepted to the stranded-fire alert in
-    /// the status, site s.
+    /// the status, or from a stolen coordinator key's first claim to the coordinator's
+    /// finding in its log (what consoles raise their alarm from), site s.
     alert_delay_s: Option<f64>,
     wall_s: f64,
     sent: u64,
@@ -196,7 +232,7 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
         for f in &all {
             // A suspension is a person's answer: the time to the alert and the seconds
             // people take to act are allowed on top.
-            let answer_s = if f.attack == Attack::Chief {
+            let answer_s = if f.attack.suspended() {
                 f.alert_delay_s.unwrap_or(0.0) + SUSPEND_AFTER_S
             } else {
                 0.0
@@ -281,8 +317,10 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
     let console = (a.https_clients > 0)
         .then(|| firefleet_bus::free_loopback_port().map(|p| format!("127.0.0.1:{p}")))
         .transpose()?;
+    // A site runs a standby coordinator: it is what takes office from a suspended one.
     let mut role = RoleCommand::new("demo")
         .arg("--secure")
+        .arg("--standby")
         .args(["--seed".into(), a.seed.to_string()])
         .args(["--time-scale".into(), a.time_scale.to_string()])
         .arg("--pki")
@@ -326,7 +364,22 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
     };
     let probe = join(&as_who(&Identity::Commander(commander)), &scenario.site).await?;
     let alert_delay = Arc::new(std::sync::Mutex::new(None));
-    let flood = if attack.by_unit() {
+    let flood = if let Some(rank) = attack.coordinator_rank() {
+        let thief = join(&as_who(&Identity::Coordinator(rank)), &scenario.site).await?;
+        let mut honest = Vec::new();
+        for c in [&chief, &sector] {
+            honest.push(join(&as_who(&Identity::Commander(c.clone())), &scenario.site).await?);
+        }
+        let units = scenario.units.iter().map(|u| u.id.clone()).collect();
+        tokio::spawn(command_as_coordinator(
+            (thief, rank),
+            units,
+            honest,
+            SUSPEND_AFTER_S,
+            (stop.clone(), sent.clone()),
+            alert_delay.clone(),
+        ))
+    } else if attack.by_unit() {
         let thief = join(&as_who(&Identity::Unit(ugv2.clone())), &scenario.site).await?;
         let lie = Lie {
             unit: ugv2,
@@ -466,7 +519,17 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
     );
     if let Some(d) = f.alert_delay_s {
         println!(
-            "  stranded-fire alert in the status {d:.1} site s after the keep-outs were accepted"
+            "  {} {d:.1} site s after {}",
+            if attack.coordinator_rank().is_some() {
+                "the coordinator's finding (the consoles' alarm) in its log"
+            } else {
+                "stranded-fire alert in the status"
+            },
+            if attack.coordinator_rank().is_some() {
+                "the stolen key's first claim"
+            } else {
+                "the keep-outs were accepted"
+            }
         );
     }
     println!(

@@ -1,6 +1,7 @@
 //! The attackers: what a thief does with a stolen unit certificate (fake fires, moved
-//! fakes, false "out", replays, a flood) and with a sector commander's (a keep-out on every
-//! zone), each as a task beside the site, numbering its lies by the site's clock.
+//! fakes, false "out", replays, a flood), with a commander's (a keep-out on every zone) and
+//! with a coordinator's (every unit stood by), each as a task beside the site, numbering
+//! its lies by the site's clock.
 //!
 //! Not here: the site under attack and what is measured of it (the parent module).
 
@@ -108,7 +109,11 @@ pub(super) async fn flood_as_unit(
     while !stop.load(Ordering::Relaxed) {
         let now = clock.now();
         let (key, bytes) = match attack {
-            Attack::None | Attack::Commander | Attack::Chief => {
+            Attack::None
+            | Attack::Commander
+            | Attack::Chief
+            | Attack::StandbyKey
+            | Attack::CoordinatorKey => {
                 tokio::time::sleep(Duration::from_millis(100)).await;
                 continue;
             }
@@ -370,5 +375,109 @@ pub(super) async fn bar_every_zone(
     chief_bus.close().await;
     if let Answer::Suspend { operator, .. } = answer {
         operator.close().await;
+    }
+}
+
+/// How often a stolen coordinator key tells every unit to stand by: faster than the
+/// coordinator in office gives each its task again (every second).
+const COMMAND_EVERY: Duration = Duration::from_millis(250);
+
+/// A stolen coordinator key's attack, `rank`'s: once the coordinator in office has tasked
+/// a unit, a claim on office (the lease of `rank`) and every unit of `units` told to stand
+/// by, numbered above the newest task each was given (in the term of the coordinator in
+/// office when the key is its own, so that units take it in order), every
+/// [`COMMAND_EVERY`]. The honest side, two commanders (`honest`), hears the coordinator's
+/// finding in its log (a rival's claim, or tasks on its own key it never sent), and
+/// `after` site seconds later both ask that the identity be suspended. The delay from the
+/// first claim to the finding (site s) goes to `alert_delay`.
+pub(super) async fn command_as_coordinator(
+    (thief, rank): (Bus, u32),
+    units: Vec<UnitId>,
+    honest: Vec<Bus>,
+    after: f64,
+    (stop, sent): (Arc<AtomicBool>, Arc<AtomicU64>),
+    alert_delay: Arc<std::sync::Mutex<Option<f64>>>,
+) {
+    let keys = thief.keys().clone();
+    let (Ok(tasks), Ok(clock), Some(log)) = (
+        thief.subscribe(&keys.every_unit_task()).await,
+        thief.subscribe(&keys.sim_clock()).await,
+        match honest.first() {
+            Some(b) => b.subscribe(&keys.coord_log()).await.ok(),
+            None => None,
+        },
+    ) else {
+        return;
+    };
+    // The newest task each unit was given, by anyone, and the site time.
+    let mut newest: std::collections::BTreeMap<UnitId, firefleet_protocol::msg::Task> =
+        Default::default();
+    let mut t = 0.0;
+    let mut claim = None;
+    let (mut struck_at, mut found_at, mut suspended) = (None, None, false);
+    let mut tick = tokio::time::interval(COMMAND_EVERY);
+    while !stop.load(Ordering::Relaxed) {
+        tokio::select! {
+            Some((_, task)) = tasks.recv() => {
+                if newest.get(&task.unit).is_none_or(|n| n.order() < task.order()) {
+                    newest.insert(task.unit.clone(), task);
+                }
+            }
+            Some((_, c)) = clock.recv() => t = c.t,
+            Some((_, d)) = log.recv() => {
+                let finding = d.impostor.is_some()
+                    || d.text.starts_with(&format!("{} claims office", Identity::Coordinator(rank)));
+                if finding && struck_at.is_some() && found_at.is_none() {
+                    found_at = Some(d.t);
+                    *alert_delay.lock().expect("not poisoned") =
+                        struck_at.map(|s: f64| d.t - s);
+                }
+            }
+            _ = tick.tick() => {
+                if newest.is_empty() {
+                    continue;
+                }
+                if claim.is_none() {
+                    claim = thief.token(&Topic::CoordAlive(rank)).await.ok();
+                    struck_at = Some(t);
+                }
+                let term = newest.values().map(|n| n.epoch).max().unwrap_or(0);
+                let epoch = if term % firefleet_protocol::msg::EPOCH_RANKS == u64::from(rank) {
+                    term
+                } else {
+                    firefleet_protocol::msg::epoch_after(term, rank)
+                };
+                for unit in &units {
+                    let above = newest.get(unit).map_or(epoch, |n| n.seq.max(epoch)) + 100;
+                    let task = firefleet_protocol::msg::Task {
+                        unit: unit.clone(),
+                        epoch,
+                        seq: above.min(firefleet_protocol::msg::task_seq_ceiling(t)),
+                        t,
+                        kind: firefleet_protocol::msg::TaskKind::Standby,
+                    };
+                    if thief.put(&keys.unit_task(unit, rank), &task).await.is_ok() {
+                        sent.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+                if let Some(found) = found_at
+                    && !suspended
+                    && t >= found + after
+                {
+                    let why = "its key is stolen: it tells every unit to stand by";
+                    let target = Identity::Coordinator(rank);
+                    let mut asked = 0;
+                    for b in &honest {
+                        asked += usize::from(goal::suspend(b, &target, why).await.is_ok());
+                    }
+                    suspended = asked == honest.len();
+                }
+            }
+        }
+    }
+    drop(claim);
+    thief.close().await;
+    for b in honest {
+        b.close().await;
     }
 }
