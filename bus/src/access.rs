@@ -384,6 +384,8 @@ pub fn grants(
             grant(Op::Subscribe, keys.every_fire().as_str());
             grant(Op::Subscribe, keys.coord_goals().as_str());
             grant(Op::Watch, &keys.every_coord_alive());
+            // The other standbys: the lowest standing by takes office first.
+            grant(Op::Watch, &keys.every_standby_alive());
             grant(Op::Subscribe, &keys.every_infra());
             if simulated {
                 grant(Op::Subscribe, keys.sim_clock().as_str());

@@ -79,6 +79,11 @@ impl Office {
         before
     }
 
+    /// The sealed asks of every identity suspended, to take back with the goals in force.
+    pub fn asks(&self) -> Vec<Sealed> {
+        self.suspensions.proofs()
+    }
+
     fn apply(&mut self) {
         for rank in self.suspensions.coordinators() {
             self.leases.suspend(rank);

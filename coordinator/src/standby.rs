@@ -16,9 +16,9 @@
 //! Who takes over: each coordinator has a rank, which is its identity (`coordinator` is
 //! rank 0, `coordinator:<rank>` the others'; [`firefleet_bus::access::Identity`]). Office
 //! is a lease ([`firefleet_protocol::office`]): the coordinator in office holds its
-//! liveliness token, and when none is alive (or only suspended ones are) the standby of
-//! rank k waits `k x` [`RANK_STEP`] and takes over if nobody took office meanwhile: rank 0
-//! first, and the next waits long enough to see it. A coordinator that starts while a
+//! liveliness token, and when none is alive (or only suspended ones are) each standby
+//! waits a [`RANK_STEP`] for every lower rank standing by, and takes over if nobody took
+//! office meanwhile: the lowest standing by at once, and the next long enough to see it. A coordinator that starts while a
 //! lease is alive stands by too, so a restarted coordinator never takes office from the
 //! standby that took over.
 //!
@@ -127,6 +127,9 @@ async fn follow(
     let fires = bus.subscribe(&keys.every_fire()).await?;
     let goals = bus.subscribe(&keys.coord_goals()).await?;
     let coordinators = bus.watch_tokens(&keys.every_coord_alive()).await?;
+    // The other standbys, by rank: a lower one takes office first.
+    let standbys = bus.watch_tokens(&keys.every_standby_alive()).await?;
+    let mut standing_by = std::collections::BTreeSet::new();
     // Who holds office: the leases, and the coordinators suspended by asks this standby
     // checked itself, live or kept (its host's journal, the goals in force it follows). A
     // thief holding the key of the coordinator in office keeps its lease alive: only its
@@ -160,7 +163,10 @@ async fn follow(
             in_charge = !in_charge;
             if !in_charge {
                 tracing::warn!(rank, "the coordinator in charge is gone");
-                due = Instant::now() + RANK_STEP * rank;
+                // One step for each lower rank standing by, which goes first: the first
+                // standby of the site takes office at once.
+                let before = standing_by.iter().filter(|r| **r < rank).count();
+                due = Instant::now() + RANK_STEP * u32::try_from(before).unwrap_or(u32::MAX);
             }
         }
         tokio::select! {
@@ -195,6 +201,17 @@ async fn follow(
             Some((topic, alive)) = coordinators.recv() => {
                 office.token(&topic, alive);
             }
+            Some((topic, alive)) = standbys.recv() => {
+                if let Topic::CoordStandbyAlive(r) = topic
+                    && r != rank
+                {
+                    if alive {
+                        standing_by.insert(r);
+                    } else {
+                        standing_by.remove(&r);
+                    }
+                }
+            }
             Some(sample) = suspends.recv() => {
                 if let Err(why) = office.ask(check, &sample, wall_ms()) {
                     bus.rejects().refuse_invalid(&sample.key, &format_args!("an ask to suspend: {why}"));
@@ -222,9 +239,22 @@ async fn follow(
         goals = newest.as_ref().map_or(0, |g| g.goals.len()),
         "taking over"
     );
+    // The asks this standby checked itself go with what it takes back: the coordinator it
+    // replaces may have been suspended a moment before it could publish that, and the new
+    // one must not take a thief's lease for the office's.
+    let mut goals = GoalsInForce::newer(newest, opts.resume_goals.clone());
+    let asks = office.asks();
+    if !asks.is_empty() {
+        let kept = &mut goals.get_or_insert_with(GoalsInForce::default).suspensions;
+        for ask in asks {
+            if !kept.contains(&ask) {
+                kept.push(ask);
+            }
+        }
+    }
     Ok(Some(CoordinatorOptions {
         resume: tracks.into_values().chain(opts.resume.clone()).collect(),
-        resume_goals: GoalsInForce::newer(newest, opts.resume_goals.clone()),
+        resume_goals: goals,
         ..opts.clone()
     }))
 }

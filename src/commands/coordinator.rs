@@ -44,7 +44,7 @@ pub struct CoordinatorArgs {
     resume: Option<PathBuf>,
     /// Stand by: follow the incident (fire tracks, goals in force) while another
     /// coordinator is in charge, and take over when it is gone. With several standbys, give
-    /// each a different --rank: rank k waits k x 0.5 s before it takes over.
+    /// each a different --rank: a standby waits 0.5 s for each lower rank standing by.
     #[arg(long)]
     standby: bool,
     /// This coordinator's rank, 0 to 15, different for every coordinator of the site: its

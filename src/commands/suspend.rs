@@ -1,9 +1,10 @@
 //! `firefleet suspend`: ask, as this host's identity, that a site identity be suspended in
-//! band (issue #52): two commanders asking, or the operator at the coordinator's host with
-//! the coordinator's own files, suspend it within a second; `firefleet status` then lists
-//! it. Revocation (`firefleet pki revoke`) is the lasting cut.
+//! band (issue #52): two commanders asking, or the operator at a coordinator's host with
+//! its own files (not for a coordinator identity), suspend it within a second;
+//! `firefleet status` then lists it. Revocation (`firefleet pki revoke`) is the lasting cut.
 //!
-//! Not here: what a suspension does (`firefleet_coordinator::suspensions`).
+//! Not here: who may suspend whom (`firefleet_bus::suspension`) or what a suspension does
+//! (the coordinator's incident, `firefleet_bus::office`).
 
 use std::process::ExitCode;
 use std::time::Duration;
@@ -25,7 +26,8 @@ pub struct SuspendArgs {
     scenario: ScenarioArg,
     #[command(flatten)]
     zenoh: ZenohArgs,
-    /// The identity to suspend: commander:NAME, console, unit:ID or scada.
+    /// The identity to suspend: commander:NAME, console, unit:ID, scada, coordinator or
+    /// coordinator:RANK (a coordinator only by two commanders).
     #[arg(long, value_name = "IDENTITY")]
     identity: Identity,
     /// Why, for the record (at most 256 characters).

@@ -1163,7 +1163,9 @@ async fn stolen_coordinator_keys_command_nobody_or_are_alarmed_and_suspended() {
     .await
     .expect("ugv-1 never obeyed the standby");
     println!("ugv-1 obeyed the standby {took_office:.2} s after the second ask");
-    // The thief's task on the suspended key, numbered above everything: refused.
+    // The thief's lease and task on the suspended key, numbered above everything: the
+    // standby stays in office, and the task is refused.
+    let _claim = thief.token(&Topic::CoordAlive(0)).await.unwrap();
     let mut last = stolen.clone();
     last.epoch = epoch_after(real.seq + 1000, 0);
     last.seq = last.epoch;
