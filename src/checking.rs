@@ -44,6 +44,8 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
     // say one made before leases were recorded, judges every task).
     let mut office = Leases::default();
     let mut leases_recorded = false;
+    // The identities already found suspended (the goals in force say so every second).
+    let mut suspended = std::collections::BTreeSet::new();
     let liveliness = format!("{}/liveliness", scenario.site);
     for m in recording.messages() {
         let m = match m {
@@ -117,11 +119,20 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
             // lapsed there, as the coordinator says.
             (Topic::CoordGoals, Ok(Payload::Goals(g))) => {
                 for ask in &g.suspensions {
-                    if let Ok((_, Topic::Suspend(target, _))) = keys::parse(&ask.key) {
+                    if let Ok((_, Topic::Suspend(target, _))) = keys::parse(&ask.key)
+                        && suspended.insert(target.clone())
+                    {
                         if let Some(rank) = coordinator_rank(&target) {
                             office.suspend(rank);
                         }
-                        inv.observe(t, Event::Suspended(target));
+                        let in_force = g.goals.iter().map(|k| k.goal.id.clone()).collect();
+                        inv.observe(
+                            t,
+                            Event::Suspended {
+                                name: target,
+                                in_force,
+                            },
+                        );
                     }
                 }
                 None

@@ -48,6 +48,7 @@ use firefleet_protocol::msg::{
 
 use crate::goals::{Active, Goals};
 use crate::incident::LEASE_S;
+use firefleet_bus::access::Identity;
 use firefleet_bus::suspension::commander_name;
 
 pub mod churn;
@@ -86,9 +87,14 @@ pub enum Event {
     Burning(Vec<Point2>),
     /// The coordinator's answer to a goal, sent the moment it took (or refused) it.
     Ack(GoalAck),
-    /// Identity `0` (`commander-rossi`) is suspended: its goals lapsed
-    /// ([`firefleet_bus::suspension`]).
-    Suspended(String),
+    /// Identity `name` (`commander-rossi`, `console`) is suspended, as the goals in force
+    /// first said, whose ids were then `in_force`: its goals lapsed, and so, if it is the
+    /// console, did every goal it sealed for a commander, the goals the coordinator no
+    /// longer held then ([`firefleet_bus::suspension`]).
+    Suspended {
+        name: String,
+        in_force: Vec<String>,
+    },
     /// Each unit's blocked steps so far, by the simulator's ground truth.
     Blocked(Vec<(UnitId, u32)>),
 }
@@ -389,11 +395,14 @@ impl Invariants {
                     self.raise(Violation::Pinned { unit, t, blocked });
                 }
             }
-            Event::Suspended(name) => {
-                for g in self
-                    .goals
-                    .lapse(|a| a.goal.issued_by.as_ref().map(commander_name) == Some(name.clone()))
-                {
+            Event::Suspended { name, in_force } => {
+                // The console seals goals in commanders' names: which were its own, only
+                // the coordinator's record of the goals it still holds tells.
+                let seals_for_others = name == Identity::Console.dir_name();
+                for g in self.goals.lapse(|a| {
+                    a.goal.issued_by.as_ref().map(commander_name) == Some(name.clone())
+                        || (seals_for_others && !in_force.contains(&a.goal.id))
+                }) {
                     self.forget(&g.id);
                 }
             }

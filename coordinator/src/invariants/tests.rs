@@ -188,17 +188,54 @@ fn a_task_is_judged_by_the_goals_its_coordinator_had_acknowledged() {
 fn a_suspended_commander_s_goals_bar_nothing_after_the_suspension() {
     let v = check(vec![
         (1.0, goal(GoalKind::KeepOut)),
-        (2.0, Event::Suspended("commander-ic".into())),
+        (
+            2.0,
+            Event::Suspended {
+                name: "commander-ic".into(),
+                in_force: Vec::new(),
+            },
+        ),
         (3.0, cruise(7, 150.0)),
         // A goal heard after it bars again (the coordinator's refusal of it is in the
         // acknowledgements, where a recording holds them), and another identity's
         // suspension changes nothing.
         (4.0, goal(GoalKind::KeepOut)),
-        (5.0, Event::Suspended("console".into())),
+        (
+            5.0,
+            Event::Suspended {
+                name: "unit-ugv-9".into(),
+                in_force: Vec::new(),
+            },
+        ),
         (6.0, cruise(8, 150.0)),
     ]);
     assert!(
         matches!(&v[..], [Violation::SentIntoBarred { seq: 8, .. }]),
+        "{v:?}"
+    );
+}
+
+#[test]
+fn a_suspended_console_s_goals_bar_nothing_and_the_goals_still_in_force_still_bar() {
+    let console = |in_force: &[&str]| Event::Suspended {
+        name: "console".into(),
+        in_force: in_force.iter().map(|s| (*s).to_owned()).collect(),
+    };
+    // Goal "g", issued in ic's name: the console sealed it, the coordinator dropped it.
+    let v = check(vec![
+        (1.0, goal(GoalKind::KeepOut)),
+        (2.0, console(&[])),
+        (3.0, cruise(7, 150.0)),
+    ]);
+    assert!(v.is_empty(), "{v:?}");
+    // ic sealed it itself: still in force, still barring.
+    let v = check(vec![
+        (1.0, goal(GoalKind::KeepOut)),
+        (2.0, console(&["g"])),
+        (3.0, cruise(7, 150.0)),
+    ]);
+    assert!(
+        matches!(&v[..], [Violation::SentIntoBarred { seq: 7, .. }]),
         "{v:?}"
     );
 }

@@ -97,6 +97,11 @@ pub enum Attack {
     /// the bus outranks it, so the sector commander and the operator at the coordinator's
     /// host suspend it 5 s of site time after the alert.
     Chief,
+    /// The console's stolen key puts the incident commander's keep-out on every zone, and
+    /// 70 goals more, sealed as the console seals for the commanders it logs in: the
+    /// console hears its own key used elsewhere (its impostor alarm), and both commanders
+    /// suspend it 5 s of site time after the stranded-fire alert. The demo runs a console.
+    ConsoleKey,
     /// The standby coordinator's stolen key (`coordinator:1`) claims office (its lease)
     /// and tells every unit to stand by, numbered above what each holds, four times a
     /// second; both commanders suspend it 5 s of site time after the alarm.
@@ -114,7 +119,11 @@ impl Attack {
     fn by_unit(self) -> bool {
         !matches!(
             self,
-            Attack::Commander | Attack::Chief | Attack::StandbyKey | Attack::CoordinatorKey
+            Attack::Commander
+                | Attack::Chief
+                | Attack::ConsoleKey
+                | Attack::StandbyKey
+                | Attack::CoordinatorKey
         )
     }
 
@@ -132,7 +141,7 @@ impl Attack {
     fn suspended(self) -> bool {
         matches!(
             self,
-            Attack::Chief | Attack::StandbyKey | Attack::CoordinatorKey
+            Attack::Chief | Attack::ConsoleKey | Attack::StandbyKey | Attack::CoordinatorKey
         )
     }
 }
@@ -314,7 +323,7 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
         dir.join("summary.json"),
         dir.join("stderr.log"),
     );
-    let console = (a.https_clients > 0)
+    let console = (a.https_clients > 0 || attack == Attack::ConsoleKey)
         .then(|| firefleet_bus::free_loopback_port().map(|p| format!("127.0.0.1:{p}")))
         .transpose()?;
     // A site runs a standby coordinator: it is what takes office from a suspended one.
@@ -400,22 +409,37 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
             sent.clone(),
         ))
     } else {
-        // The stolen key, and the honest commander who answers it.
-        let (stolen, honest, answer) = if attack == Attack::Chief {
-            let operator = join(&as_who(&Identity::COORDINATOR), &scenario.site).await?;
-            let answer = Answer::Suspend {
-                operator,
-                after: SUSPEND_AFTER_S,
-            };
-            (chief, sector, answer)
-        } else {
-            (sector, chief, Answer::Clear)
+        // The stolen key, whose name its goals are issued in, and the honest commander who
+        // answers it.
+        let (thief_id, stolen, honest, answer) = match attack {
+            Attack::Chief => {
+                let operator = join(&as_who(&Identity::COORDINATOR), &scenario.site).await?;
+                let answer = Answer::Suspend {
+                    operator,
+                    target: Identity::Commander(chief.clone()),
+                    after: SUSPEND_AFTER_S,
+                };
+                (Identity::Commander(chief.clone()), chief, sector, answer)
+            }
+            Attack::ConsoleKey => {
+                // The real incident commander is the second to ask.
+                let operator =
+                    join(&as_who(&Identity::Commander(chief.clone())), &scenario.site).await?;
+                let answer = Answer::Suspend {
+                    operator,
+                    target: Identity::Console,
+                    after: SUSPEND_AFTER_S,
+                };
+                (Identity::Console, chief, sector, answer)
+            }
+            _ => (
+                Identity::Commander(sector.clone()),
+                sector,
+                chief,
+                Answer::Clear,
+            ),
         };
-        let thief = join(
-            &as_who(&Identity::Commander(stolen.clone())),
-            &scenario.site,
-        )
-        .await?;
+        let thief = join(&as_who(&thief_id), &scenario.site).await?;
         let honest = (
             join(
                 &as_who(&Identity::Commander(honest.clone())),

@@ -112,6 +112,7 @@ pub(super) async fn flood_as_unit(
             Attack::None
             | Attack::Commander
             | Attack::Chief
+            | Attack::ConsoleKey
             | Attack::StandbyKey
             | Attack::CoordinatorKey => {
                 tokio::time::sleep(Duration::from_millis(100)).await;
@@ -261,14 +262,20 @@ pub(super) enum Answer {
     /// The incident commander clears every zone the thief (a sector commander) holds
     /// goals on: a higher rank's clear lifts them.
     Clear,
-    /// Nobody outranks the thief (the incident commander's key): `after` site seconds past
-    /// the alert, the other commander and the operator at the coordinator's host (`operator`,
-    /// with its key) suspend it, and its goals lapse.
-    Suspend { operator: Bus, after: f64 },
+    /// Nobody outranks the thief (the incident commander's key, or the console's speaking
+    /// in its name): `after` site seconds past the alert, the honest commander and a second
+    /// asker (`operator`: the operator at the coordinator's host with its key, or the real
+    /// incident commander) suspend `target`, and its goals lapse.
+    Suspend {
+        operator: Bus,
+        target: Identity,
+        after: f64,
+    },
 }
 
-/// A stolen commander key's attack: keep-out at priority 255 on every zone as soon as a
-/// fire is confirmed, then 70 goals more; the honest commander (`chief_bus`, `chief`),
+/// A stolen commander key's attack (or the console's, speaking in commander `sector`'s
+/// name): keep-out at priority 255 on every zone as soon as a fire is confirmed, then 70
+/// goals more; the honest commander (`chief_bus`, `chief`),
 /// asking the status every 100 ms, answers as `answer` says once it names a stranded
 /// fire. The alert's delay (site s) goes to `alert_delay`.
 pub(super) async fn bar_every_zone(
@@ -346,12 +353,16 @@ pub(super) async fn bar_every_zone(
                 .expect("not poisoned")
                 .get_or_insert_with(|| accepted_at.map_or(f64::NAN, |at| s.t - at));
             let alerted = *alerted_at.get_or_insert(s.t);
-            if let Answer::Suspend { operator, after } = &answer {
+            if let Answer::Suspend {
+                operator,
+                target,
+                after,
+            } = &answer
+            {
                 if !suspended && s.t >= alerted + after {
-                    let thief_id = Identity::Commander(sector.clone());
                     let why = "its key is stolen: keep-outs on every zone";
-                    suspended = goal::suspend(&chief_bus, &thief_id, why).await.is_ok()
-                        && goal::suspend(operator, &thief_id, why).await.is_ok();
+                    suspended = goal::suspend(&chief_bus, target, why).await.is_ok()
+                        && goal::suspend(operator, target, why).await.is_ok();
                 }
                 tokio::time::sleep(Duration::from_millis(100)).await;
                 continue;
