@@ -466,6 +466,16 @@ impl SecureSite {
             .unwrap()
     }
 
+    /// `firefleet suspend` as identity `who`, asking that `target` be suspended.
+    fn suspend(&self, who: &str, target: &str) -> std::process::Output {
+        Command::new(BIN)
+            .args(["suspend", "--scenario", self.scenario, "--zenoh-config"])
+            .arg(self.config(who))
+            .args(["--identity", target, "--reason", "key stolen"])
+            .output()
+            .unwrap()
+    }
+
     /// A session in this test as identity `who`, once the router takes it.
     async fn open(&self, who: &str) -> Bus {
         let connect = firefleet_bus::Connect {
@@ -980,14 +990,7 @@ async fn a_stolen_commander_key_is_suspended_in_band_and_stays_so_across_a_resta
         0,
         "accepted",
     );
-    let suspend = |who: &str| {
-        Command::new(BIN)
-            .args(["suspend", "--scenario", site.scenario, "--zenoh-config"])
-            .arg(site.config(who))
-            .args(["--identity", "commander:rossi", "--reason", "key stolen"])
-            .output()
-            .unwrap()
-    };
+    let suspend = |who: &str| site.suspend(who, "commander:rossi");
     // One commander alone (rossi itself, who noticed) suspends nobody.
     assert_says(&suspend("commander-rossi"), 0, "a second commander's ask");
     let watcher = site.open("recorder").await;
@@ -1141,14 +1144,7 @@ async fn stolen_coordinator_keys_command_nobody_or_are_alarmed_and_suspended() {
     println!("impostor alarm on the console {took:.2} s after the stolen coordinator key's task");
     // Two commanders suspend the stolen identity: the standby takes office, and ugv-1
     // obeys it.
-    let suspend = |who: &str| {
-        Command::new(BIN)
-            .args(["suspend", "--scenario", site.scenario, "--zenoh-config"])
-            .arg(site.config(who))
-            .args(["--identity", "coordinator", "--reason", "key stolen"])
-            .output()
-            .unwrap()
-    };
+    let suspend = |who: &str| site.suspend(who, "coordinator");
     assert_says(&suspend("commander-rossi"), 0, "a second commander's ask");
     let asked = Instant::now();
     assert_says(&suspend("commander-bianchi"), 0, "coordinator is suspended");

@@ -392,9 +392,10 @@ impl Incident {
     /// The unit took task `seq` of term `epoch`: above the one this coordinator gave it in
     /// its own term, it is a task this coordinator never gave (forged), and the unit gets
     /// its task again, numbered above, so that it hears this coordinator again. A task of
-    /// a newer term is a newer coordinator's (or forged beside it): the unit refuses this
-    /// one's now, and this one steps down when it hears that coordinator
-    /// ([`Incident::deposed_by`]).
+    /// another term is another coordinator's, given while it held office: the unit takes
+    /// this one's next task once this one holds office in its eyes (the first after the
+    /// office changed hands is taken whatever its term), and this one sends every task
+    /// again each second.
     fn supersede_forged(
         &mut self,
         unit: &UnitId,

@@ -17,8 +17,10 @@
 //! - **attack where barred**: a unit spraying a fire in a zone whose goal forbids attack
 //!   (monitor, keep-out, evacuate), later than [`REACTION_S`] after the goal.
 //!
-//! - **epoch went back**: a unit's state reports a task of an older epoch than an earlier
-//!   state did: it obeyed a deposed coordinator (fencing failed).
+//! - **epoch went back**: a unit's state reports a task of an older epoch of one
+//!   coordinator (rank) than an earlier state did: it obeyed that coordinator's earlier
+//!   term (fencing failed). Going back to another rank's older term is the office
+//!   changing hands (`firefleet_protocol::office`), not a violation.
 //! - **two commanders in one epoch**: a task to a unit numbered below one already given
 //!   to it in the same epoch. One coordinator's numbers to a unit only grow (it re-sends
 //!   the latest), so two coordinators shared the epoch.
@@ -157,7 +159,8 @@ pub enum Violation {
         zone: ZoneId,
         goal: String,
     },
-    /// `unit` reported a task of epoch `to` after one of the newer epoch `from`.
+    /// `unit` reported a task of epoch `to` after one of the newer epoch `from` of the same
+    /// coordinator.
     EpochWentBack {
         unit: UnitId,
         t: f64,
@@ -240,7 +243,7 @@ impl std::fmt::Display for Violation {
             ),
             Violation::EpochWentBack { unit, t, from, to } => write!(
                 f,
-                "t={t:.1} s: {unit} took a task of epoch {to} after one of epoch {from}: it obeyed a deposed coordinator"
+                "t={t:.1} s: {unit} took a task of epoch {to} after one of epoch {from} of the same coordinator: it obeyed that coordinator's earlier term"
             ),
             Violation::TwoCommanders {
                 unit,
@@ -301,8 +304,8 @@ pub struct Invariants {
     deadlines: BTreeMap<(UnitId, String), f64>,
     /// The open inside-barred violation of each (unit, goal id), to extend while it lasts.
     open: BTreeMap<(UnitId, String), usize>,
-    /// The newest epoch each unit's states reported.
-    epochs: BTreeMap<UnitId, u64>,
+    /// The newest epoch each unit's states reported, by the rank of its coordinator.
+    epochs: BTreeMap<(UnitId, u64), u64>,
     /// The highest task number given to each unit in each epoch.
     issued: BTreeMap<(UnitId, u64), u64>,
     continuity: Continuity,
@@ -528,7 +531,8 @@ impl Invariants {
     fn check_state(&mut self, st: UnitState, t: f64) {
         let unit = st.unit.clone();
         if let Some(epoch) = st.epoch {
-            let newest = self.epochs.entry(unit.clone()).or_insert(epoch);
+            let rank = epoch % firefleet_protocol::msg::EPOCH_RANKS;
+            let newest = self.epochs.entry((unit.clone(), rank)).or_insert(epoch);
             let from = *newest;
             *newest = from.max(epoch);
             // Once per epoch gone back to: states come ten times a second.
