@@ -1,10 +1,10 @@
 //! Who may do what on a site's bus: the access rules, derived from the key table.
 //!
 //! Each process of a site holds one identity, the common name of its certificate
-//! (`firefleet pki`): `unit:<id>`, `coordinator` and `coordinator:<rank>`, `recorder`, `sim`, `commander:<name>`,
-//! `console` for the commanders' web console, and `router` for the site's router. [`grants`] lists what an identity may do, as
-//! [`Grant`]s of an [`Op`] on a key expression built by [`Keys`], so no key is written
-//! twice; [`zenoh_acl`] turns the grants of every identity into the `access_control`
+//! (`firefleet pki`): `unit:<id>`, `coordinator` and `coordinator:<rank>`, `recorder`,
+//! `sim`, `commander:<name>`, `console` for the commanders' web console, and `router` for
+//! the site's router. [`grants`] lists what an identity may do, as [`Grant`]s of an [`Op`]
+//! on a key expression built by [`Keys`], so no key is written twice; [`zenoh_acl`] turns the grants of every identity into the `access_control`
 //! section of the router's Zenoh configuration, default deny, one subject per common name.
 //!
 //! Least privilege, by identity:

@@ -738,23 +738,21 @@ fn other_versions(status: &mut IncidentStatus, bus: &Bus) {
 }
 
 /// How this coordinator, of `rank`, leaves office at `t` as `leases` stand, if it does: its
-/// identity suspended, or a lower rank's lease alive (logged on the incident).
+/// identity suspended (whoever else holds a lease), or a lower rank's lease alive (logged
+/// on the incident).
 fn leaving(incident: &mut Incident, leases: &Leases, rank: u32, t: f64) -> Option<Ended> {
-    match leases.holder() {
-        Some(holder) if holder == rank => None,
-        Some(holder) => {
-            incident.stand_down(rank, holder, t);
-            tracing::warn!(rank, holder, "a lower rank holds office: stepping down");
-            Some(Ended::SteppedDown { holder })
-        }
-        None => {
-            tracing::error!(
-                rank,
-                "this coordinator's identity is suspended: leaving office"
-            );
-            Some(Ended::Suspended)
-        }
+    if leases.is_suspended(rank) {
+        tracing::error!(
+            rank,
+            "this coordinator's identity is suspended: leaving office"
+        );
+        return Some(Ended::Suspended);
     }
+    // Its own lease is alive in `leases`, so someone holds office.
+    let holder = leases.holder().filter(|h| *h != rank)?;
+    incident.stand_down(rank, holder, t);
+    tracing::warn!(rank, holder, "a lower rank holds office: stepping down");
+    Some(Ended::SteppedDown { holder })
 }
 
 /// Claims on office heard while in office, logged at most every [`CLAIM_LOG_EVERY`] each.

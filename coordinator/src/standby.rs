@@ -18,9 +18,9 @@
 //! is a lease ([`firefleet_protocol::office`]): the coordinator in office holds its
 //! liveliness token, and when none is alive (or only suspended ones are) each standby
 //! waits a [`RANK_STEP`] for every lower rank standing by, and takes over if nobody took
-//! office meanwhile: the lowest standing by at once, and the next long enough to see it. A coordinator that starts while a
-//! lease is alive stands by too, so a restarted coordinator never takes office from the
-//! standby that took over.
+//! office meanwhile: the lowest standing by at once, and the next long enough to see it.
+//! A coordinator that starts while a lease is alive stands by too, so a restarted
+//! coordinator never takes office from the standby that took over.
 //!
 //! Nothing a message announces deposes anyone. A coordinator in office stands down only
 //! when a lower rank's lease is alive (two leases: a split site healing, or two standbys
