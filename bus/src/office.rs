@@ -40,7 +40,7 @@ impl Office {
 
     /// Whether the coordinator of `rank` is suspended.
     pub fn suspended(&self, rank: u32) -> bool {
-        self.suspensions.coordinators().contains(&rank)
+        self.leases.is_suspended(rank)
     }
 
     /// A token heard: a coordinator's lease appeared or lapsed (any other topic is not a

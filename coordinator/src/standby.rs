@@ -182,7 +182,11 @@ async fn follow(
                 if newest.as_ref().is_none_or(|n| g.t >= n.t && n.goals != g.goals) {
                     crate::node::keep(opts.journal.as_ref(), &g);
                 }
-                if let Some(check) = check {
+                // The asks' seals are checked when the set changes, not at every
+                // second's re-send.
+                if let Some(check) = check
+                    && newest.as_ref().is_none_or(|n| n.suspensions != g.suspensions)
+                {
                     office.kept(check, &g.suspensions);
                 }
                 newest = GoalsInForce::newer(Some(g), newest);
