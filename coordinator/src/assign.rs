@@ -26,9 +26,10 @@ use std::sync::Arc;
 
 use firefleet_model::UnitKind;
 use firefleet_model::dock::Reach;
+use firefleet_model::geometry::wrap_angle;
 use firefleet_model::scenario::{Rail, Tunnel};
 use firefleet_model::spec::GroundSpec;
-use firefleet_model::{Chainage, FireId, Point2, UnitId};
+use firefleet_model::{Chainage, FireId, Point2, Pose2, UnitId};
 use firefleet_protocol::msg::Approach;
 
 /// How the coordinator pairs units with fires.
@@ -65,9 +66,15 @@ pub struct GroundBody {
     pub width_m: f64,
     /// Its cannon's flow, L/s: what it adds to an attack.
     pub cannon_flow_l_s: f64,
-    /// How far and how wide its camera sees: what a search by it covers.
+    /// How far and how wide its cameras see (the widest of them): what a search by it
+    /// covers, and where the flames it reports can be.
     pub camera_range_m: f64,
     pub camera_hfov_rad: f64,
+    /// How far its cameras may look off the body's heading, rad: the cannon's pan limit if
+    /// they ride on the cannon, else none.
+    pub camera_look_rad: f64,
+    /// How fast its heading can turn, rad/s: top speed on its tightest turn.
+    pub turn_rate_rad_s: f64,
 }
 
 impl GroundBody {
@@ -78,8 +85,32 @@ impl GroundBody {
             width_m: spec.width_m,
             cannon_flow_l_s: spec.cannon_flow_l_s,
             camera_range_m: spec.camera.range_m,
-            camera_hfov_rad: spec.camera.hfov_rad(),
+            camera_hfov_rad: spec
+                .thermal_camera
+                .iter()
+                .map(|c| c.hfov_rad())
+                .fold(spec.camera.hfov_rad(), f64::max),
+            camera_look_rad: if spec.camera.pans_with_cannon {
+                spec.cannon_pan_limit_rad
+            } else {
+                0.0
+            },
+            turn_rate_rad_s: spec.max_speed_m_s / spec.min_turn_radius_m(),
         }
+    }
+
+    /// Whether a camera of this body looking from `eye` (its position and heading) can
+    /// have a flame at `p` in its field: within half the field of view plus `slack_rad` of
+    /// the heading, or within `slack_m` of that wedge (near the camera a flame's estimated
+    /// position spreads over more bearing than far off).
+    pub fn in_view(&self, eye: Pose2, p: Point2, slack_rad: f64, slack_m: f64) -> bool {
+        let at = eye.position();
+        let d = at.dist(p);
+        if d <= slack_m {
+            return true;
+        }
+        let off = wrap_angle(at.bearing_to(p) - eye.yaw).abs();
+        off <= self.camera_hfov_rad / 2.0 + slack_rad + (slack_m / d).asin()
     }
 }
 

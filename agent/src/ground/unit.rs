@@ -816,7 +816,10 @@ impl Services for Unit {
         (!observations.is_empty()).then(|| FlameReport {
             unit: self.id.clone(),
             t: self.frame.t,
-            observer: self.frame.pose,
+            observer: self
+                .spec
+                .camera
+                .looking_from(&self.frame.pose, self.frame.cannon.pan),
             observations,
         })
     }

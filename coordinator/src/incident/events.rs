@@ -11,9 +11,12 @@ use firefleet_protocol::msg::{
     UnitState,
 };
 
+use firefleet_model::geometry::wrap_angle;
+
+use crate::assign::{GroundBody, Mobility};
 use crate::fusion::{Contradiction, Fused};
 
-use super::{Decision, Incident, Loss, Output, Scope};
+use super::{Decision, Incident, Loss, Output, Policy, Scope};
 
 /// How far ahead of the site clock a recalled track may be dated, s: clock skew between the
 /// hosts of the coordinator that published it and of this one.
@@ -568,7 +571,8 @@ impl Incident {
     /// Besides its shape and freshness, a report must be seen from where the unit's own
     /// latest state puts it (within [`OBSERVER_SLACK_M`] plus what it can have driven
     /// since), of flames within its sensors' range of there (plus
-    /// [`super::Policy::report_reach_slack_m`]). A stolen certificate can speak on the
+    /// [`super::Policy::report_reach_slack_m`]) and, for a ground unit, within its
+    /// camera's view ([`in_camera_view`]). A stolen certificate can speak on the
     /// unit's key, but it is not the unit:
     /// the rules let it hear the unit's tasks, not its states, and on a real site nothing
     /// else tells it where the unit is; a report from anywhere else is refused. (On a
@@ -579,6 +583,7 @@ impl Incident {
             self.tunnel
                 .check_inside(&format!("observations[{i}].position"), o.position)?;
         }
+        let policy = self.policy;
         let v = self.view(&r.unit, "unit")?;
         let observer = r.observer.position();
         let Some(st) = &v.state else {
@@ -600,7 +605,7 @@ impl Incident {
                 ),
             ));
         }
-        let reach = v.mobility.sensor_range_m() + self.policy.report_reach_slack_m;
+        let reach = v.mobility.sensor_range_m() + policy.report_reach_slack_m;
         for (i, o) in r.observations.iter().enumerate() {
             let d = o.position.dist(observer);
             if d > reach {
@@ -609,6 +614,9 @@ impl Incident {
                     format!("{d:.0} m from the observer, beyond the unit's sensors ({reach:.0} m)"),
                 ));
             }
+        }
+        if let Mobility::Ground(g) = &v.mobility {
+            in_camera_view(&policy, g, r, st)?;
         }
         let v = self.view(&r.unit, "unit")?;
         v.newest_report.admit(r.t, t)?;
@@ -755,4 +763,51 @@ impl Incident {
         out.extend(self.recall_from_barred(t));
         out
     }
+}
+
+/// Whether a ground unit's report keeps to its camera: the heading it looks from is
+/// one its camera can have (the body's heading in its latest state, turned as far as it
+/// can turn since, plus the camera's pan), and every flame lies in that camera's field
+/// of view ([`Policy::report_cone_slack_rad`]). A carriage's detector sees all
+/// round.
+fn in_camera_view(
+    p: &Policy,
+    g: &GroundBody,
+    r: &FlameReport,
+    st: &UnitState,
+) -> Result<(), Invalid> {
+    let look = g.camera_look_rad + g.turn_rate_rad_s * (r.t - st.t).abs() + p.report_cone_slack_rad;
+    let off = wrap_angle(r.observer.yaw - st.pose.yaw).abs();
+    if look < std::f64::consts::PI && off > look {
+        return Err(Invalid::new(
+            "observer.yaw",
+            format!(
+                "{:.0} deg off the heading of the unit's state of t = {:.1} s; its camera looks at most {:.0} deg off",
+                off.to_degrees(),
+                st.t,
+                look.to_degrees()
+            ),
+        ));
+    }
+    for (i, o) in r.observations.iter().enumerate() {
+        if !g.in_view(
+            r.observer,
+            o.position,
+            p.report_cone_slack_rad,
+            p.report_cone_slack_m,
+        ) {
+            let at = r.observer.position();
+            return Err(Invalid::new(
+                format!("observations[{i}].position"),
+                format!(
+                    "{:.0} deg off the heading the camera looks from, outside its field of view ({:.0} deg either side)",
+                    wrap_angle(at.bearing_to(o.position) - r.observer.yaw)
+                        .abs()
+                        .to_degrees(),
+                    g.camera_hfov_rad.to_degrees() / 2.0
+                ),
+            ));
+        }
+    }
+    Ok(())
 }

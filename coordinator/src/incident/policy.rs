@@ -67,6 +67,19 @@ pub struct Policy {
     /// is not the unit's to report, m: the spread of a flame's estimated position. (What a
     /// stolen certificate's report can claim: within sight of where the unit is.)
     pub report_reach_slack_m: f64,
+    /// A ground unit's report looks from its camera's heading ([`FlameReport::observer`]),
+    /// and its flames lie in that camera's field of view widened by this, rad: between two
+    /// reports (0.25 s) a camera panning at 30 deg/s on a body turning at 47 deg/s (the
+    /// shipped profile's top speed on its tightest turn) turns 19 deg, and a report holds
+    /// what the tracker saw in that time.
+    ///
+    /// [`FlameReport::observer`]: firefleet_protocol::msg::FlameReport::observer
+    pub report_cone_slack_rad: f64,
+    /// ... and by this much to either side, m: a flame's estimated position across the
+    /// camera's line of sight (its box's jitter and the tracker's smoothing), which near
+    /// the camera is a wide bearing. (What a stolen certificate's report can claim: flames
+    /// in one camera's view, not all round the unit.)
+    pub report_cone_slack_m: f64,
     /// A free ground unit this many tunnel heights or fewer downwind of a burning fire
     /// stands in its hot gas and withdraws to that distance; further down the smoke has
     /// cooled. Downstream of a fire in a ventilated tunnel the ceiling gas's temperature
@@ -82,6 +95,8 @@ impl Policy {
     /// The policy the coordinator runs with.
     pub const DEFAULT: Policy = Policy {
         report_reach_slack_m: 10.0,
+        report_cone_slack_rad: 0.35,
+        report_cone_slack_m: 3.0,
         stage_offset_m: 25.0,
         units_per_fire: 2,
         reserves_per_fire: 3,

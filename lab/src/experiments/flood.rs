@@ -11,8 +11,9 @@
 //! - lies from the same thief at a unit's pace: three fake fires held in place, three fake
 //!   fires moved every 12 s, "extinguished" on every fire ugv-2 is sent to, and reports of
 //!   the site's real fires replayed 30 s late;
-//! - fakes seen from where ugv-2 really is, 64 within 20 m of it in each report, 94 reports
-//!   a second (the thief follows the unit through its simulated sensors);
+//! - fakes seen from where ugv-2 really is, 64 within 20 m of it in its camera's view in
+//!   each report, 94 reports a second (the thief follows the unit and its camera through
+//!   its simulated sensors);
 //! - a stolen sector commander's certificate (`rossi`) putting keep-out at priority 255
 //!   on every zone and 70 goals more, and the incident commander (`chief`) clearing them
 //!   as soon as the stranded-fire alert shows in the status (its delay is printed);
@@ -79,9 +80,10 @@ pub enum Attack {
     FakeFires,
     /// Three fake fires reported at confidence 0.95, moved every 12 s.
     MovingFakes,
-    /// Fake flame reports seen from where ugv-2 really is (its simulated sensors tell the
-    /// thief), 64 observations each within 20 m of it, 94 a second: they pass the
-    /// observer and range checks, and move with the unit.
+    /// Fake flame reports seen from where ugv-2 really is and the way its camera looks (its
+    /// simulated sensors tell the thief), 64 observations each within 20 m of it in that
+    /// camera's field of view, 94 a second: they pass the observer, range and camera-cone
+    /// checks, and move with the unit.
     AroundFakes,
     /// "Extinguished" on every fire ugv-2 is sent to, three times a task.
     FalseOut,
@@ -390,6 +392,10 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
         ))
     } else if attack.by_unit() {
         let thief = join(&as_who(&Identity::Unit(ugv2.clone())), &scenario.site).await?;
+        let camera = scenario
+            .ground_spec(&ugv2)
+            .context("ugv-2 is not a ground unit")?
+            .camera;
         let lie = Lie {
             unit: ugv2,
             fires: scenario
@@ -399,6 +405,7 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
                 .collect(),
             time_scale: a.time_scale,
             tunnel: scenario.tunnel.clone(),
+            camera,
         };
         tokio::spawn(flood_as_unit(
             thief,

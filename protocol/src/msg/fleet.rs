@@ -174,6 +174,9 @@ impl Validate for FlameObservation {
 pub struct FlameReport {
     pub unit: UnitId,
     pub t: f64,
+    /// Where the unit saw the flames from: its position, and the heading its camera looks
+    /// along (the body's, turned by the cannon's pan if the camera rides on the cannon; a
+    /// carriage's detector sees all round, and its heading says nothing).
     pub observer: Pose2,
     pub observations: Vec<FlameObservation>,
 }

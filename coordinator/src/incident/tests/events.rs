@@ -684,6 +684,55 @@ fn a_report_seen_from_where_the_unit_is_not_is_refused() {
 }
 
 #[test]
+fn a_ground_units_report_keeps_to_its_cameras_view() {
+    let mut i = incident();
+    // a stands at 10 m heading down the tunnel (its state). Its camera looking back up the
+    // tunnel has no flame at 40 m in view: 64 fakes all round a unit were 64 flames in range.
+    let back = FlameReport {
+        t: 1.0,
+        observer: Pose2::new(14.0, -2.0, std::f64::consts::PI),
+        ..report("a", 40.0)
+    };
+    let e = i.on_report(&back, 1.0).unwrap_err();
+    assert_eq!(e.field, "observations[0].position", "{e}");
+    assert!(e.reason.contains("outside its field of view"), "{e}");
+    assert!(i.fire_tracks(1.0).is_empty());
+    // Its camera rides on the cannon, which pans 170 deg either side: looking up the tunnel
+    // from the same place, it has the flame in view; or a flame beside it, 2 m off, at
+    // any bearing (the estimate's spread near the camera).
+    let ahead = FlameReport {
+        observer: Pose2::new(14.0, -2.0, 0.0),
+        ..back.clone()
+    };
+    assert!(i.on_report(&ahead, 1.0).is_ok());
+    let beside = FlameReport {
+        t: 1.25,
+        observations: vec![FlameObservation {
+            position: Point2::new(14.0, 0.0),
+            ..back.observations[0]
+        }],
+        ..back.clone()
+    };
+    assert!(i.on_report(&beside, 1.25).is_ok());
+    // A camera fixed to the body looks where the body heads: b's cannot look back a second
+    // after its state said it headed down the tunnel.
+    if let Some(v) = i.units.get_mut(&u("b")) {
+        v.mobility = Mobility::Ground(GroundBody {
+            camera_look_rad: 0.0,
+            ..GroundBody::of(&GROUND)
+        });
+    }
+    let turned = FlameReport {
+        unit: u("b"),
+        t: 1.0,
+        observer: Pose2::new(40.0, -2.0, std::f64::consts::PI),
+        ..report("b", 20.0)
+    };
+    let e = i.on_report(&turned, 1.0).unwrap_err();
+    assert_eq!(e.field, "observer.yaw", "{e}");
+}
+
+#[test]
 fn a_coordinator_after_another_numbers_its_fires_where_that_one_could_not_have() {
     // The first coordinator of a site numbers from 1.
     let mut first = incident();

@@ -21,7 +21,7 @@ mod zones;
 const TUNNEL: Tunnel = Tunnel::straight(200.0, 10.0, 6.0, 2);
 
 /// Events dated as the units would date them: at the site time they arrive, and reports
-/// seen from where their unit is, of flames at any distance (these tests place fires for
+/// seen from where their unit is, of flames at any distance and bearing (these tests place fires for
 /// the decisions they test; freshness and a report's placement have tests of their own).
 trait Dated {
     fn state_at(&mut self, st: UnitState, t: f64) -> Result<Vec<Output>, Invalid>;
@@ -40,8 +40,9 @@ impl Dated for Incident {
             .get(&r.unit)
             .and_then(|v| v.state.as_ref())
             .map_or(r.observer, |s| s.pose);
-        let slack = self.policy.report_reach_slack_m;
+        let policy = self.policy;
         self.policy.report_reach_slack_m = f64::INFINITY;
+        self.policy.report_cone_slack_m = f64::INFINITY;
         let out = self.on_report(
             &FlameReport {
                 t,
@@ -50,7 +51,7 @@ impl Dated for Incident {
             },
             t,
         );
-        self.policy.report_reach_slack_m = slack;
+        self.policy = policy;
         out
     }
 }

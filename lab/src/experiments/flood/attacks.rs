@@ -14,10 +14,12 @@ pub(super) struct Lie {
     pub(super) fires: Vec<Point2>,
     pub(super) time_scale: f64,
     pub(super) tunnel: firefleet_model::tunnel::Tunnel,
+    /// The unit's camera: where it looks from, and how wide.
+    pub(super) camera: firefleet_model::spec::CameraSpec,
 }
 
-/// The site's time, and where ugv-2 is, as the thief hears them: ugv-2's own simulated
-/// sensors carry both.
+/// The site's time, and where ugv-2 is and its camera looks, as the thief hears them:
+/// ugv-2's own simulated sensors carry both.
 #[derive(Clone, Default)]
 struct SiteClock(Arc<std::sync::Mutex<(f64, Option<Pose2>)>>);
 
@@ -26,12 +28,12 @@ impl SiteClock {
         self.0.lock().expect("never poisoned").0
     }
 
-    fn unit_at(&self) -> Option<Pose2> {
+    fn eye(&self) -> Option<Pose2> {
         self.0.lock().expect("never poisoned").1
     }
 
-    fn set(&self, t: f64, pose: Pose2) {
-        *self.0.lock().expect("never poisoned") = (t, Some(pose));
+    fn set(&self, t: f64, eye: Pose2) {
+        *self.0.lock().expect("never poisoned") = (t, Some(eye));
     }
 }
 
@@ -86,10 +88,10 @@ pub(super) async fn flood_as_unit(
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let clock = SiteClock::default();
     if let Ok(sensors) = thief.subscribe(&keys.sim_sensors(&unit)).await {
-        let clock = clock.clone();
+        let (clock, camera) = (clock.clone(), lie.camera);
         tokio::spawn(async move {
             while let Some((_, s)) = sensors.recv().await {
-                clock.set(s.t, s.pose);
+                clock.set(s.t, camera.looking_from(&s.pose, s.cannon.pan));
             }
         });
     }
@@ -144,14 +146,15 @@ pub(super) async fn flood_as_unit(
             }
             Attack::AroundFakes => {
                 tokio::time::sleep(Duration::from_micros(1_000_000 / 94)).await;
-                let Some(pose) = clock.unit_at() else {
+                let Some(pose) = clock.eye() else {
                     continue;
                 };
+                let half = lie.camera.hfov_rad() / 2.0;
                 let at: Vec<Point2> = (0..MAX_LIST)
                     .map(|_| {
                         let (r, a) = (
                             AROUND_M * rng.random::<f64>().sqrt(),
-                            rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
+                            pose.yaw + rng.random_range(-half..half),
                         );
                         Point2::new(pose.x + r * a.cos(), pose.y + r * a.sin())
                     })
