@@ -342,6 +342,26 @@ impl Bus {
         Ok(())
     }
 
+    /// Publish `m` on `key` with this process's seal in the attachment on a secure site
+    /// (as [`Bus::put`] on an open one): for a message that others pass on and whose
+    /// reader must be able to tell who put it, as recorders answer a coordinator's recall
+    /// with the fire tracks the one before it published.
+    pub async fn put_sealed_by_me<M: Message>(&self, key: &Key<M>, m: &M) -> Result<(), BusError> {
+        let bytes = codec::encode(m);
+        let seal = self
+            .seals()
+            .map(|s| s.sealer.seal(key.as_str(), Some(&bytes)).to_attachment());
+        let mut publishers = self.publishers.lock().expect("not poisoned");
+        let put = self.publisher(&mut publishers, key.as_str())?.put(bytes);
+        match seal {
+            Some(a) => put.attachment(a).wait(),
+            None => put.wait(),
+        }
+        .map_err(BusError::from_zenoh)?;
+        self.traffic.sent.fetch_add(1, Ordering::Relaxed);
+        Ok(())
+    }
+
     /// Declare the publisher of `key` now rather than at its first put: for a key whose
     /// first message is one somebody waits for (a unit's first flame report, the first
     /// task to a unit). Declaring is not free: a router matches the new key against every

@@ -212,6 +212,18 @@ impl Question {
             .await
             .map_err(BusError::from)
     }
+
+    /// Answer with a message as it was heard: its key, its bytes and its attachment (the
+    /// seal of whoever put it, which the asker checks: a recorder passes on the
+    /// coordinator's seal of a fire track).
+    pub async fn answer_as_heard(&self, heard: &Raw) -> Result<(), BusError> {
+        let reply = self.0.reply(heard.key.clone(), heard.bytes.clone());
+        match &heard.attachment {
+            Some(a) => reply.attachment(a.clone()).await,
+            None => reply.await,
+        }
+        .map_err(BusError::from)
+    }
 }
 
 impl Bus {

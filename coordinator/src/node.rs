@@ -931,8 +931,9 @@ async fn recall_goals(bus: &Bus) -> Result<Vec<GoalsInForce>, BusError> {
 const RECALL_TIMEOUT: Duration = Duration::from_secs(2);
 
 /// The latest track of every fire that anyone on `fire/*` answers with (recorders do):
-/// with several answers for one fire, the newest wins. Answers that do not decode are
-/// counted and logged, never taken.
+/// with several answers for one fire, the newest wins. Answers that do not decode, or on
+/// a secure site carry no coordinator's seal ([`sealing::recalled_track`]), are counted
+/// and logged, never taken.
 async fn recall_fires(bus: &Bus) -> Result<Vec<FireTrack>, BusError> {
     let answers = bus
         .ask(
@@ -940,10 +941,19 @@ async fn recall_fires(bus: &Bus) -> Result<Vec<FireTrack>, BusError> {
             Ask::within(RECALL_TIMEOUT),
         )
         .await?;
+    let check = bus.seals().map(|s| &s.check);
     let tracks: Vec<FireTrack> = answers
         .all()
         .await
         .iter()
+        .filter(|a| match sealing::recalled_track(check, a) {
+            Ok(()) => true,
+            Err(why) => {
+                bus.rejects().count_seal();
+                tracing::warn!(key = a.key, "recalled fire track refused: {why}");
+                false
+            }
+        })
         .filter_map(|a| bus.decode::<FireTrack>(a, "recalled fire track"))
         .collect();
     Ok(latest_per_fire(tracks))
@@ -991,7 +1001,8 @@ async fn publish(bus: &Bus, outputs: Vec<Output>) -> Result<(), BusError> {
     for o in outputs {
         match o {
             Output::Task(t) => bus.put(&keys.unit_task(&t.unit, t.rank()), &t).await?,
-            Output::Fire(f) => bus.put(&keys.fire(f.id), &f).await?,
+            // Sealed: recorders answer the next coordinator's recall with it.
+            Output::Fire(f) => bus.put_sealed_by_me(&keys.fire(f.id), &f).await?,
         }
     }
     Ok(())

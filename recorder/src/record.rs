@@ -10,7 +10,7 @@
 //! ([`crate::live`]), with or without a file.
 //!
 //! The recorder also keeps the latest track of every fire and answers queries on
-//! `fire/*` with them: that is how a restarted coordinator recalls the fires the previous
+//! `fire/*` with them, each with the coordinator's seal it came with: that is how a restarted coordinator recalls the fires the previous
 //! one tracked (the recording is the incident's memory, on the bus as well as on disk).
 //! It answers queries on `coord/barred` and `coord/goals` with the newest barred space and
 //! goals in force the same way, so that a unit restarted while the coordinator is gone
@@ -32,7 +32,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{SystemTime, UNIX_EPOCH};
 
-use firefleet_bus::{Bus, BusError};
+use firefleet_bus::{Bus, BusError, Raw};
 use firefleet_model::FireId;
 use firefleet_model::scenario::Scenario;
 use firefleet_protocol::codec::PROTOCOL_VERSION;
@@ -445,8 +445,9 @@ pub async fn record(
         // The coordinator's state that outlives it: `coord/*` queries are answered with the
         // newest of `coord/barred` and `coord/goals` seen (by their site time).
         let coord_q = bus.serve(&keys.every_coord()).await?;
-        // The latest track of every fire, as received: (its time, its key, its bytes).
-        let mut fires: BTreeMap<FireId, (f64, String, Vec<u8>)> = BTreeMap::new();
+        // The latest track of every fire, as received (its time, and the message with the
+        // coordinator's seal, which a recall checks).
+        let mut fires: BTreeMap<FireId, (f64, Raw)> = BTreeMap::new();
         // Newest by key: (its time, its bytes).
         let mut newest: BTreeMap<String, (f64, Vec<u8>)> = BTreeMap::new();
         let liveliness_topic = format!("{}/liveliness", keys.site());
@@ -492,8 +493,8 @@ pub async fn record(
                     sink.write(&liveliness_topic, Liveliness::NAME, || schemars::schema_for!(Liveliness), &json, now_ns())?;
                 }
                 Some(query) = recall.recv() => {
-                    for (_, key, bytes) in fires.values() {
-                        if let Err(e) = query.answer(key, bytes.clone()).await {
+                    for (_, heard) in fires.values() {
+                        if let Err(e) = query.answer_as_heard(heard).await {
                             tracing::warn!("fire track reply failed: {e}");
                         }
                     }
@@ -559,8 +560,8 @@ pub async fn record(
                         {
                             newest.insert(key.to_owned(), (at, bytes.to_vec()));
                         }
-                        Payload::Fire(track) if fires.get(&track.id).is_none_or(|(old, _, _)| *old <= track.t) => {
-                            fires.insert(track.id, (track.t, key.to_owned(), bytes.to_vec()));
+                        Payload::Fire(track) if fires.get(&track.id).is_none_or(|(old, _)| *old <= track.t) => {
+                            fires.insert(track.id, (track.t, s.clone()));
                         }
                         _ => {}
                     }

@@ -765,8 +765,8 @@ fn forged_state(unit: &UnitId) -> UnitState {
 /// Issue #52's first finding, and its "done when": a stolen recorder key answers a
 /// restarted coordinator's recall with goals nobody sealed, a goal changed under its
 /// issuer's seal, and a goal its issuer had cleared (sealed, so it is a perfect replay),
-/// in a set dated now that leaves out a goal still in force. The coordinator takes back
-/// only the goal in force.
+/// in a set dated now that leaves out a goal still in force, and fire tracks the
+/// coordinator never sealed. The coordinator takes back only the goal in force.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_stolen_recorder_key_cannot_forge_replay_or_lift_goals_at_recall() {
     use firefleet_protocol::msg::{GoalInForce, GoalKind, GoalsInForce};
@@ -876,9 +876,41 @@ async fn a_stolen_recorder_key_cannot_forge_replay_or_lift_goals_at_recall() {
         .declare_queryable(keys.coord_goals().as_str())
         .await
         .unwrap();
+    // And a fire that never was, with the recorder's own seal, and another with none: the
+    // coordinator seals the tracks it puts, and a recall takes only those.
+    let fires = thief.serve(keys.every_fire().as_str()).await.unwrap();
+    let bytes = codec::encode(&forged_fire());
+    let sealed = firefleet_bus::Raw {
+        key: keys_fire99(),
+        deleted: false,
+        attachment: Some(
+            thief
+                .seals()
+                .unwrap()
+                .sealer
+                .seal(&keys_fire99(), Some(&bytes))
+                .to_attachment(),
+        ),
+        bytes,
+    };
+    let unsealed = firefleet_bus::Raw {
+        key: keys_fire99().replace("f99", "f98"),
+        attachment: None,
+        ..sealed.clone()
+    };
     let answering = tokio::spawn(async move {
-        while let Ok(q) = answers.recv_async().await {
-            let _ = q.reply(q.key_expr().clone(), codec::encode(&forged)).await;
+        loop {
+            tokio::select! {
+                Ok(q) = answers.recv_async() => {
+                    let _ = q.reply(q.key_expr().clone(), codec::encode(&forged)).await;
+                }
+                Some(q) = fires.recv() => {
+                    for forged in [&sealed, &unsealed] {
+                        let _ = q.answer_as_heard(forged).await;
+                    }
+                }
+                else => break,
+            }
         }
     });
     fleet.0.push(coordinator());
@@ -892,9 +924,11 @@ async fn a_stolen_recorder_key_cannot_forge_replay_or_lift_goals_at_recall() {
         .collect();
     assert_eq!(ids, ["rossi-core-monitor"], "{status}");
     assert_eq!(status["goals"][0]["goal"], "monitor", "{status}");
-    // The changed and the unsealed goal refused for their seals, the replay by its clear.
+    assert_eq!(status["fires"], serde_json::json!([]), "{status}");
+    // The changed and the unsealed goal refused for their seals, the replay by its clear,
+    // and both fire tracks for theirs.
     assert!(
-        status["rejected"]["seal"].as_u64() >= Some(2),
+        status["rejected"]["seal"].as_u64() >= Some(4),
         "{}",
         status["rejected"]
     );

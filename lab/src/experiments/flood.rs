@@ -18,7 +18,9 @@
 //!   on every zone and 70 goals more, and the incident commander (`chief`) clearing them
 //!   as soon as the stranded-fire alert shows in the status (its delay is printed);
 //! - a stolen coordinator certificate, the standby's or the one in office's, telling every
-//!   unit to stand by, and both commanders suspending it 5 s after the alarm.
+//!   unit to stand by, and both commanders suspending it 5 s after the alarm;
+//! - a stolen recorder certificate answering the standby's recall when the coordinator in
+//!   office is killed (every fire out, fires that never were, keep-outs nobody sealed).
 //!
 //! The demo runs a standby coordinator (rank 1) in every run, as a site does.
 //!
@@ -45,12 +47,12 @@ use firefleet_bus::access::Identity;
 use firefleet_bus::pki::{self, Terms};
 use firefleet_bus::{Ask, Bus, Connect, Mode, goal};
 use firefleet_model::scenario::{CommanderSpec, Rank};
-use firefleet_model::{CommanderId, Point2, Pose2, UnitId, UnitKind, ZoneId, builtin};
+use firefleet_model::{CommanderId, FireId, Point2, Pose2, UnitId, UnitKind, ZoneId, builtin};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    FireState, FlameObservation, FlameReport, GoalKind, IncidentStatus, MAX_LIST, TaskPhase,
-    TaskProgress, UnitState, ZoneGoal,
+    FireState, FireTrack, FlameObservation, FlameReport, GoalInForce, GoalKind, GoalsInForce,
+    IncidentStatus, MAX_LIST, TaskPhase, TaskProgress, UnitState, ZoneGoal,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -60,7 +62,9 @@ use firefleet::args::{time_scale, write_json};
 use firefleet::children::RoleCommand;
 
 mod attacks;
-use attacks::{Answer, Lie, bar_every_zone, command_as_coordinator, flood_as_unit};
+use attacks::{
+    Answer, Lie, Recall, answer_as_recorder, bar_every_zone, command_as_coordinator, flood_as_unit,
+};
 
 /// What the thief sends on ugv-2's keys.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -113,6 +117,11 @@ pub enum Attack {
     /// take it (it is the holder's key) until both commanders suspend the identity 5 s of
     /// site time after the alarm, and the standby takes office.
     CoordinatorKey,
+    /// The recorder's stolen key answers every recall: each fire the coordinator published,
+    /// called out as of the site clock; three fires that never were, "seen by" an honest
+    /// unit; the incident commander's keep-out on every zone, unsealed. Needs
+    /// `--kill-coordinator-at`: the standby that takes office asks.
+    RecorderKey,
 }
 
 impl Attack {
@@ -126,6 +135,7 @@ impl Attack {
                 | Attack::ConsoleKey
                 | Attack::StandbyKey
                 | Attack::CoordinatorKey
+                | Attack::RecorderKey
         )
     }
 
@@ -177,6 +187,11 @@ pub struct FloodArgs {
     /// unattacked run's all-out time (needs `none` among the attacks).
     #[arg(long, value_name = "X")]
     max_slowdown: Option<f64>,
+    /// Kill the coordinator in office at this site time in every run, the unattacked one
+    /// too: the standby takes office and recalls what recorders answer (what
+    /// `recorder-key` lies to, which needs it).
+    #[arg(long, value_name = "SECONDS")]
+    kill_coordinator_at: Option<f64>,
 }
 
 /// One run's figures.
@@ -211,6 +226,10 @@ struct Figures {
 }
 
 pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
+    anyhow::ensure!(
+        a.kill_coordinator_at.is_some() || !a.attack.contains(&Attack::RecorderKey),
+        "--attack recorder-key lies to a recall: it needs --kill-coordinator-at, for the standby to recall"
+    );
     let mut all = Vec::new();
     for &attack in &a.attack {
         all.push(run_one(&a, attack).await?);
@@ -344,6 +363,9 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
     if let Some(c) = &console {
         role = role.args(["--console", c]);
     }
+    if let Some(at) = a.kill_coordinator_at {
+        role = role.args(["--kill-coordinator-at".into(), at.to_string()]);
+    }
     // Its output is read line by line (the router's endpoint, the outcome): not a quiet
     // child as `RoleCommand::child` makes.
     let mut demo = std::process::Command::new(firefleet::children::firefleet_binary()?);
@@ -390,6 +412,20 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
             (stop.clone(), sent.clone()),
             alert_delay.clone(),
         ))
+    } else if attack == Attack::RecorderKey {
+        let thief = join(&as_who(&Identity::Recorder), &scenario.site).await?;
+        let lie = Recall {
+            chief: chief.clone(),
+            zones: scenario.zones.iter().map(|z| z.id.clone()).collect(),
+            witness: UnitId::new("ugv-1")?,
+            fires: scenario
+                .fires
+                .iter()
+                .map(|f| Point2::new(f.x_m, f.y_m))
+                .collect(),
+            seed: a.seed,
+        };
+        tokio::spawn(answer_as_recorder(thief, lie, stop.clone(), sent.clone()))
     } else if attack.by_unit() {
         let thief = join(&as_who(&Identity::Unit(ugv2.clone())), &scenario.site).await?;
         let camera = scenario

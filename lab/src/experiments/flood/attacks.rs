@@ -1,7 +1,7 @@
 //! The attackers: what a thief does with a stolen unit certificate (fake fires, moved
-//! fakes, false "out", replays, a flood), with a commander's (a keep-out on every zone) and
-//! with a coordinator's (every unit stood by), each as a task beside the site, numbering
-//! its lies by the site's clock.
+//! fakes, false "out", replays, a flood), with a commander's (a keep-out on every zone),
+//! with a coordinator's (every unit stood by) and with a recorder's (lies at a recall),
+//! each as a task beside the site, numbering its lies by the site's clock.
 //!
 //! Not here: the site under attack and what is measured of it (the parent module).
 
@@ -116,7 +116,8 @@ pub(super) async fn flood_as_unit(
             | Attack::Chief
             | Attack::ConsoleKey
             | Attack::StandbyKey
-            | Attack::CoordinatorKey => {
+            | Attack::CoordinatorKey
+            | Attack::RecorderKey => {
                 tokio::time::sleep(Duration::from_millis(100)).await;
                 continue;
             }
@@ -494,4 +495,107 @@ pub(super) async fn command_as_coordinator(
     for b in honest {
         b.close().await;
     }
+}
+
+/// What a stolen recorder key lies about at a recall: the site's zones and its incident
+/// commander (whose keep-outs it forges), an honest unit to name as the witness of fires
+/// that never were, the real fires (the fakes keep clear of them), and the seed.
+pub(super) struct Recall {
+    pub(super) chief: CommanderId,
+    pub(super) zones: Vec<ZoneId>,
+    pub(super) witness: UnitId,
+    pub(super) fires: Vec<Point2>,
+    pub(super) seed: u64,
+}
+
+/// Answer every recall as a stolen recorder key can (the rules let it answer on `fire/*`
+/// and `coord/*`, and put nothing): every fire the coordinator published, called out as
+/// of the site clock (the newest track wins a recall); three fires that never were, seen
+/// by `lie.witness` (the tracks sealed with the recorder's key); the incident commander's keep-out on every zone, unsealed (the
+/// recorder holds no commander's key), dated now. Counts the answers in `sent`.
+pub(super) async fn answer_as_recorder(
+    thief: Bus,
+    lie: Recall,
+    stop: Arc<AtomicBool>,
+    sent: Arc<AtomicU64>,
+) {
+    let keys = thief.keys().clone();
+    let (Ok(tracks), Ok(clock), Ok(fire_asks), Ok(goal_asks)) = (
+        thief.subscribe(&keys.every_fire()).await,
+        thief.subscribe(&keys.sim_clock()).await,
+        thief.serve(keys.every_fire().as_str()).await,
+        thief.serve(keys.coord_goals().as_str()).await,
+    ) else {
+        return;
+    };
+    let fakes = fakes(&mut ChaCha8Rng::seed_from_u64(lie.seed), &lie.fires);
+    let mut heard: std::collections::BTreeMap<FireId, FireTrack> = Default::default();
+    let mut t = 0.0;
+    let mut tick = tokio::time::interval(Duration::from_millis(100));
+    while !stop.load(Ordering::Relaxed) {
+        let mut answered = 0;
+        tokio::select! {
+            Some((_, f)) = tracks.recv() => {
+                heard.insert(f.id, f);
+            }
+            Some((_, c)) = clock.recv() => t = c.t,
+            Some(q) = fire_asks.recv() => {
+                let next = heard.keys().map(|f| f.0).max().unwrap_or(0) + 1;
+                let out = heard.values().map(|f| FireTrack {
+                    t,
+                    state: FireState::Out,
+                    assigned: Vec::new(),
+                    ..f.clone()
+                });
+                let made_up = (next..).zip(&fakes).map(|(id, &position)| FireTrack {
+                    id: FireId(id),
+                    t,
+                    position,
+                    cov: [0.3, 0.0, 0.3],
+                    confidence: 1.0,
+                    state: FireState::Confirmed,
+                    assigned: Vec::new(),
+                    seen_by: vec![lie.witness.clone()],
+                    hrr_kw: Some(5000.0),
+                });
+                for track in out.chain(made_up) {
+                    // Sealed with the key it holds, the recorder's.
+                    let (key, bytes) = (keys.fire(track.id).as_str().to_owned(), codec::encode(&track));
+                    let attachment = thief
+                        .seals()
+                        .map(|s| s.sealer.seal(&key, Some(&bytes)).to_attachment());
+                    let forged = firefleet_bus::Raw { key, deleted: false, bytes, attachment };
+                    if q.answer_as_heard(&forged).await.is_ok() {
+                        answered += 1;
+                    }
+                }
+            }
+            Some(q) = goal_asks.recv() => {
+                let goals = lie
+                    .zones
+                    .iter()
+                    .map(|zone| GoalInForce {
+                        goal: ZoneGoal {
+                            priority: 255,
+                            ..ZoneGoal::new(zone.clone(), GoalKind::KeepOut, lie.chief.clone())
+                        },
+                        since: t,
+                        until: None,
+                        proof: None,
+                    })
+                    .collect();
+                let set = GoalsInForce {
+                    t,
+                    goals,
+                    ..GoalsInForce::default()
+                };
+                if q.answer(keys.coord_goals().as_str(), codec::encode(&set)).await.is_ok() {
+                    answered += 1;
+                }
+            }
+            _ = tick.tick() => {}
+        }
+        sent.fetch_add(answered, Ordering::Relaxed);
+    }
+    thief.close().await;
 }
