@@ -184,6 +184,12 @@ pub enum Decision {
         fire: FireId,
         by: UnitId,
     },
+    /// A fire the DTS alone placed that `looks` units were sent to and never saw: no more
+    /// are sent until one sees it ([`super::Policy::dts_unseen_looks`]).
+    AlarmUnverified {
+        fire: FireId,
+        looks: u32,
+    },
     /// A fire reported out whose DTS zone heats up again: it burns.
     ReheatedZone {
         fire: FireId,
@@ -463,6 +469,11 @@ impl fmt::Display for Decision {
                 } else {
                     "see or spray"
                 }
+            ),
+            Decision::AlarmUnverified { fire, looks } => write!(
+                f,
+                "fire {fire}: the DTS alone placed it, and {looks} units sent there never saw \
+                 it: no more are sent until one sees it (the alarm stays open)"
             ),
             Decision::OutUnseen { fire, by } => write!(
                 f,

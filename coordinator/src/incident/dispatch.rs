@@ -44,7 +44,7 @@ impl Incident {
             .fusion
             .fires()
             .iter()
-            .filter(|f| open(f.state))
+            .filter(|f| open(f.state) && !self.unverified_alarm(f))
             .filter_map(|f| self.need(f, t))
             .collect();
         // The first attackers on their way to those fires, before the solve.

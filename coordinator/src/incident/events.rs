@@ -344,7 +344,7 @@ impl Incident {
             let alone = self.assigned_to(fire).iter().all(|u| u == unit);
             out.push(self.standby(unit, t));
             if unseen {
-                self.looked_in_vain(fire, unit);
+                self.looked_in_vain(fire, unit, t);
             }
             if unseen && alone {
                 // Nobody is on it now: it is anyone's to take again.

@@ -31,7 +31,7 @@ use firefleet_protocol::msg::{Approach, DtsZone, Vent};
 
 use super::freshness::Newest;
 use super::{Decision, Incident, Output, Scope};
-use crate::fusion::Fused;
+use crate::fusion::{Fire, Fused};
 
 /// Air slower than this is still for choosing a side, m/s: below it a fire's plume rises
 /// and spreads both ways under the ceiling (back-layering reaches ten tunnel heights at
@@ -190,14 +190,28 @@ impl Incident {
     /// unit after unit to the same blind spot: the heat-aware planner and the cannon's
     /// reach are built for a unit close to a fire.
     pub(super) fn attack_side(&self, fire: FireId, t: f64) -> Approach {
-        self.unseen_from
+        self.unseen
             .get(&self.fusion.resolve(fire))
-            .map_or_else(|| self.approach(t), |&looked| looked.opposite())
+            .map_or_else(|| self.approach(t), |&(looked, _)| looked.opposite())
+    }
+
+    /// Whether `fire` is one the DTS alone placed that [`Policy::dts_unseen_looks`] units
+    /// looked for and never saw: it draws no more units until one sees it.
+    ///
+    /// [`Policy::dts_unseen_looks`]: super::Policy::dts_unseen_looks
+    pub(super) fn unverified_alarm(&self, fire: &Fire) -> bool {
+        fire.dts_only()
+            && self
+                .unseen
+                .get(&fire.id)
+                .is_some_and(|&(_, looks)| looks >= self.policy.dts_unseen_looks)
     }
 
     /// `unit`, sent to `fire` by the DTS, looked and did not find it: the next unit goes
-    /// round to the other side ([`Incident::attack_side`]).
-    pub(super) fn looked_in_vain(&mut self, fire: FireId, unit: &UnitId) {
+    /// round to the other side ([`Incident::attack_side`]), and after
+    /// [`super::Policy::dts_unseen_looks`] such looks none goes
+    /// ([`Incident::unverified_alarm`]).
+    pub(super) fn looked_in_vain(&mut self, fire: FireId, unit: &UnitId, t: f64) {
         let fire = self.fusion.resolve(fire);
         let (Some(at), Some(f)) = (
             self.units
@@ -212,7 +226,11 @@ impl Incident {
         } else {
             Approach::End
         };
-        self.unseen_from.insert(fire, side);
+        let looks = self.unseen.get(&fire).map_or(0, |&(_, n)| n) + 1;
+        self.unseen.insert(fire, (side, looks));
+        if looks == self.policy.dts_unseen_looks {
+            self.log(t, Decision::AlarmUnverified { fire, looks });
+        }
     }
 
     /// New DTS readings: their alarm peaks to fusion, a fire track for each new one, and

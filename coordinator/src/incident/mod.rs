@@ -261,9 +261,10 @@ pub struct Incident {
     infra: infra::Infra,
     /// The portals' names, at chainage 0 and at the end, for the decisions' words.
     portals: [String; 2],
-    /// Fires a unit sent by the DTS looked for and did not find, and the side it looked
-    /// from: the next unit looks from the other ([`Incident::attack_side`]).
-    unseen_from: BTreeMap<FireId, Approach>,
+    /// Fires the DTS alone placed that units sent there looked for and did not find: the
+    /// side the last looked from (the next looks from the other: [`Incident::attack_side`])
+    /// and how many looked ([`Policy::dts_unseen_looks`]).
+    unseen: BTreeMap<FireId, (Approach, u32)>,
 }
 
 impl Incident {
@@ -294,7 +295,7 @@ impl Incident {
             roads: RoadMaps::default(),
             coverage: Coverage::new(tunnel.length_m),
             trapped: BTreeMap::new(),
-            unseen_from: BTreeMap::new(),
+            unseen: BTreeMap::new(),
             solved_all_at: f64::NEG_INFINITY,
             inconsistencies: 0,
             lone_refused: 0,

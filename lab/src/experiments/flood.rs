@@ -20,7 +20,9 @@
 //! - a stolen coordinator certificate, the standby's or the one in office's, telling every
 //!   unit to stand by, and both commanders suspending it 5 s after the alarm;
 //! - a stolen recorder certificate answering the standby's recall when the coordinator in
-//!   office is killed (every fire out, fires that never were, keep-outs nobody sealed).
+//!   office is killed (every fire out, fires that never were, keep-outs nobody sealed);
+//! - a stolen SCADA bridge certificate raising the DTS alarm where no fire burns and
+//!   calling the burning zones normal.
 //!
 //! The demo runs a standby coordinator (rank 1) in every run, as a site does.
 //!
@@ -63,7 +65,8 @@ use firefleet::children::RoleCommand;
 
 mod attacks;
 use attacks::{
-    Answer, Lie, Recall, answer_as_recorder, bar_every_zone, command_as_coordinator, flood_as_unit,
+    Answer, Lie, Readings, Recall, answer_as_recorder, bar_every_zone, command_as_coordinator,
+    flood_as_unit, report_as_scada,
 };
 
 /// What the thief sends on ugv-2's keys.
@@ -122,6 +125,10 @@ pub enum Attack {
     /// unit; the incident commander's keep-out on every zone, unsealed. Needs
     /// `--kill-coordinator-at`: the standby that takes office asks.
     RecorderKey,
+    /// The SCADA bridge's stolen key: a fire alarm in every DTS zone no fire burns in, and
+    /// "all normal" in every zone one does, at the bridge's pace, dated by the site clock.
+    /// Needs `--scada`.
+    ScadaKey,
 }
 
 impl Attack {
@@ -136,6 +143,7 @@ impl Attack {
                 | Attack::StandbyKey
                 | Attack::CoordinatorKey
                 | Attack::RecorderKey
+                | Attack::ScadaKey
         )
     }
 
@@ -192,6 +200,10 @@ pub struct FloodArgs {
     /// `recorder-key` lies to, which needs it).
     #[arg(long, value_name = "SECONDS")]
     kill_coordinator_at: Option<f64>,
+    /// Run the tunnel's SCADA in every run (`demo --scada`: the DTS and the ventilation
+    /// over Modbus, bridged to the bus), which `scada-key` lies in the name of.
+    #[arg(long)]
+    scada: bool,
 }
 
 /// One run's figures.
@@ -229,6 +241,10 @@ pub async fn run(a: FloodArgs) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(
         a.kill_coordinator_at.is_some() || !a.attack.contains(&Attack::RecorderKey),
         "--attack recorder-key lies to a recall: it needs --kill-coordinator-at, for the standby to recall"
+    );
+    anyhow::ensure!(
+        a.scada || !a.attack.contains(&Attack::ScadaKey),
+        "--attack scada-key lies in the SCADA bridge's name: it needs --scada"
     );
     let mut all = Vec::new();
     for &attack in &a.attack {
@@ -363,6 +379,9 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
     if let Some(c) = &console {
         role = role.args(["--console", c]);
     }
+    if a.scada {
+        role = role.arg("--scada");
+    }
     if let Some(at) = a.kill_coordinator_at {
         role = role.args(["--kill-coordinator-at".into(), at.to_string()]);
     }
@@ -426,6 +445,25 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
             seed: a.seed,
         };
         tokio::spawn(answer_as_recorder(thief, lie, stop.clone(), sent.clone()))
+    } else if attack == Attack::ScadaKey {
+        let thief = join(&as_who(&Identity::Scada), &scenario.site).await?;
+        let clock = join(&as_who(&Identity::Commander(chief.clone())), &scenario.site).await?;
+        let lie = Readings {
+            map: scenario.scada.clone().context("the site maps no SCADA")?,
+            length_m: scenario.tunnel.length_m,
+            fires: scenario
+                .fires
+                .iter()
+                .map(|f| scenario.tunnel.chainage(Point2::new(f.x_m, f.y_m)).m())
+                .collect(),
+        };
+        tokio::spawn(report_as_scada(
+            (thief, clock),
+            lie,
+            a.time_scale,
+            stop.clone(),
+            sent.clone(),
+        ))
     } else if attack.by_unit() {
         let thief = join(&as_who(&Identity::Unit(ugv2.clone())), &scenario.site).await?;
         let camera = scenario

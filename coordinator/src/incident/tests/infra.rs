@@ -326,14 +326,38 @@ fn after_a_unit_looked_in_vain_from_upwind_the_next_looks_from_downwind() {
         said.contains("from the east, downwind (looked for from upwind in vain)"),
         "{said}"
     );
-    // Nothing from the east either: back to the west.
-    let east = again[0].0.clone();
+}
+
+#[test]
+fn a_dts_fire_two_units_looked_for_in_vain_draws_no_more_until_one_sees_it() {
+    let mut inc = site();
+    let (fire, west, seq) = sent_by_the_dts(&mut inc);
+    let out = claims_out(&mut inc, &west, fire, seq, 3.0);
+    let mut out = [out, inc.tick(3.5)].concat();
+    let (east, ..) = extinguish_tasks(&out)[0].clone();
+    // Nothing from the other side either (or a stolen bridge key raised the alarm where
+    // nothing burns): the alarm stays open, and no third unit is sent.
     let seq = inc.units[&east].task.as_ref().unwrap().seq;
-    let mut out = claims_out(&mut inc, &east, fire, seq, 5.0);
+    out = claims_out(&mut inc, &east, fire, seq, 5.0);
     out.extend(inc.tick(5.5));
-    let third = extinguish_tasks(&out);
-    assert_eq!(third.len(), 1, "{out:?}");
-    assert_eq!(third[0].2, Approach::Start, "{third:?}");
+    assert!(extinguish_tasks(&out).is_empty(), "{out:?}");
+    assert!(inc.fusion.get(fire).unwrap().active());
+    assert!(inc.decisions().any(|d| matches!(
+        d.decision,
+        Decision::AlarmUnverified { fire: f, looks: 2 } if f == fire
+    )));
+    // A unit that sees the flame there: it is a fire again, and one of the units that have
+    // not looked in vain goes.
+    for (id, x) in [("west-2", 5.0), ("east-2", 295.0)] {
+        inc.state_at(ground_state(id, x, 2.5), 5.8).unwrap();
+    }
+    let out = inc.report_at(&sees_the_flame(&inc, &west), 6.0).unwrap();
+    let out = [out, inc.tick(6.5)].concat();
+    let sent = extinguish_tasks(&out);
+    assert!(
+        sent.iter().any(|(u, ..)| u.as_str().ends_with("-2")),
+        "{out:?}"
+    );
 }
 
 #[test]

@@ -1,6 +1,7 @@
 //! The attackers: what a thief does with a stolen unit certificate (fake fires, moved
 //! fakes, false "out", replays, a flood), with a commander's (a keep-out on every zone),
-//! with a coordinator's (every unit stood by) and with a recorder's (lies at a recall),
+//! with a coordinator's (every unit stood by), with a recorder's (lies at a recall) and
+//! with the SCADA bridge's (alarms where no fire burns),
 //! each as a task beside the site, numbering its lies by the site's clock.
 //!
 //! Not here: the site under attack and what is measured of it (the parent module).
@@ -117,7 +118,8 @@ pub(super) async fn flood_as_unit(
             | Attack::ConsoleKey
             | Attack::StandbyKey
             | Attack::CoordinatorKey
-            | Attack::RecorderKey => {
+            | Attack::RecorderKey
+            | Attack::ScadaKey => {
                 tokio::time::sleep(Duration::from_millis(100)).await;
                 continue;
             }
@@ -598,4 +600,72 @@ pub(super) async fn answer_as_recorder(
         sent.fetch_add(answered, Ordering::Relaxed);
     }
     thief.close().await;
+}
+
+/// What a stolen SCADA bridge key lies about: the site's DTS map, the tunnel's length and
+/// the chainages of its real fires (a thief knows the site).
+pub(super) struct Readings {
+    pub(super) map: firefleet_model::infra::ScadaMap,
+    pub(super) length_m: f64,
+    pub(super) fires: Vec<f64>,
+}
+
+/// Put what a stolen SCADA key can (the rules let it put DTS zones, the ventilation and the
+/// link, and hear nothing): at the bridge's pace, a fire alarm in every zone no fire burns
+/// in (180 C, rising 30 K/min: maximum and rate of rise), and "all normal" in every zone
+/// one does, each dated by the site `clock` (a site's hosts share it; the harness tells
+/// the thief). Counts the readings in `sent`.
+pub(super) async fn report_as_scada(
+    (thief, clock): (Bus, Bus),
+    lie: Readings,
+    time_scale: f64,
+    stop: Arc<AtomicBool>,
+    sent: Arc<AtomicU64>,
+) {
+    use firefleet_model::infra::{DtsAlarm, DtsReading};
+    use firefleet_protocol::msg::DtsZone;
+    let keys = thief.keys().clone();
+    let Ok(states) = clock.subscribe(&keys.every_unit_state()).await else {
+        return;
+    };
+    let mut t = 0.0_f64;
+    let mut tick =
+        tokio::time::interval(Duration::from_secs_f64(lie.map.dts.period_s / time_scale));
+    while !stop.load(Ordering::Relaxed) {
+        tokio::select! {
+            Some((_, s)) = states.recv() => t = t.max(s.t),
+            _ = tick.tick() => {
+                if t <= 0.0 {
+                    continue;
+                }
+                for k in 0..lie.map.zone_count(lie.length_m) {
+                    let (start_m, end_m) = lie.map.zone_span(k, lie.length_m);
+                    let burning = lie.fires.iter().any(|&s| (start_m..end_m).contains(&s));
+                    let alarm = !burning;
+                    let zone = DtsZone {
+                        zone: u16::try_from(k).unwrap_or(u16::MAX),
+                        start_m,
+                        end_m,
+                        t,
+                        reading: DtsReading {
+                            max_c: if alarm { 180.0 } else { 20.0 },
+                            rise_c_min: if alarm { 30.0 } else { 0.0 },
+                            alarm: DtsAlarm {
+                                max: alarm,
+                                rise: alarm,
+                                differential: false,
+                            },
+                            fault: false,
+                        },
+                        stale: false,
+                    };
+                    if thief.put(&keys.infra_dts(zone.zone), &zone).await.is_ok() {
+                        sent.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+            }
+        }
+    }
+    thief.close().await;
+    clock.close().await;
 }
