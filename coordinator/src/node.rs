@@ -26,6 +26,7 @@ use std::future::Future;
 use std::sync::Arc;
 use std::time::Duration;
 
+use firefleet_bus::access::Identity;
 use firefleet_bus::seal::wall_ms;
 use firefleet_bus::suspension;
 use firefleet_bus::{Ask, Bus, BusError, Inbox, Question, Questions, Raw, RawInbox, Tokens};
@@ -643,8 +644,9 @@ async fn take_back(
         }
         publish(bus, out).await?;
     }
+    // After the goals: the suspensions they carry are in force.
     let recalled = latest_per_fire(
-        recall_fires(bus)
+        recall_fires(bus, |who| incident.is_suspended(&who.dir_name()))
             .await?
             .into_iter()
             .chain(opts.resume.clone()),
@@ -932,9 +934,12 @@ const RECALL_TIMEOUT: Duration = Duration::from_secs(2);
 
 /// The latest track of every fire that anyone on `fire/*` answers with (recorders do):
 /// with several answers for one fire, the newest wins. Answers that do not decode, or on
-/// a secure site carry no coordinator's seal ([`sealing::recalled_track`]), are counted
-/// and logged, never taken.
-async fn recall_fires(bus: &Bus) -> Result<Vec<FireTrack>, BusError> {
+/// a secure site carry no seal of a coordinator not `suspended`
+/// ([`sealing::recalled_track`]), are counted and logged, never taken.
+async fn recall_fires(
+    bus: &Bus,
+    suspended: impl Fn(&Identity) -> bool,
+) -> Result<Vec<FireTrack>, BusError> {
     let answers = bus
         .ask(
             bus.keys().every_fire().as_str(),
@@ -946,7 +951,7 @@ async fn recall_fires(bus: &Bus) -> Result<Vec<FireTrack>, BusError> {
         .all()
         .await
         .iter()
-        .filter(|a| match sealing::recalled_track(check, a) {
+        .filter(|a| match sealing::recalled_track(check, a, &suspended) {
             Ok(()) => true,
             Err(why) => {
                 bus.rejects().count_seal();

@@ -100,8 +100,14 @@ fn holds(check: &SealCheck, proof: &Sealed, by: &CommanderId) -> Result<Identity
 /// by nobody, is refused: a stolen one once made a restarted coordinator call every fire
 /// out and send the units to fires that never were (`firefleet-lab flood --attack
 /// recorder-key`). A track a coordinator did seal may be an old one held back; the newest
-/// of every answer and of a standby's memory wins. Nothing is checked on an open site.
-pub fn recalled_track(check: Option<&SealCheck>, answer: &Raw) -> Result<(), String> {
+/// of every answer and of a standby's memory wins. One sealed by a coordinator whose
+/// identity is `suspended` (its key stolen) is refused too. Nothing is checked on an open
+/// site.
+pub fn recalled_track(
+    check: Option<&SealCheck>,
+    answer: &Raw,
+    suspended: impl Fn(&Identity) -> bool,
+) -> Result<(), String> {
     let Some(check) = check else {
         return Ok(());
     };
@@ -111,6 +117,9 @@ pub fn recalled_track(check: Option<&SealCheck>, answer: &Raw) -> Result<(), Str
         .ok_or("unsealed: on this site the coordinator seals every fire track it puts")?;
     let seal = Seal::from_attachment(attachment).map_err(|e| format!("unsealed: {e}"))?;
     match check.check(&answer.key, Some(&answer.bytes), &seal) {
+        Ok(signer @ Identity::Coordinator(_)) if suspended(&signer) => {
+            Err(format!("sealed by {signer}, which is suspended"))
+        }
         Ok(Identity::Coordinator(_)) => Ok(()),
         Ok(signer) => Err(format!("sealed by {signer}, not by a coordinator")),
         Err(e) => Err(format!("seal refused: {e}")),

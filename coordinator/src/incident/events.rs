@@ -4,14 +4,13 @@
 //!
 //! Not here: what the solve decides (dispatch, search, staging, zones).
 
+use firefleet_model::geometry::wrap_angle;
 use firefleet_model::validate::{Invalid, Validate};
 use firefleet_model::{FireId, UnitId};
 use firefleet_protocol::msg::{
     FireState, FireTrack, FlameReport, Refusal, TaskKind, TaskPhase, TaskProgress, UnitMode,
     UnitState,
 };
-
-use firefleet_model::geometry::wrap_angle;
 
 use crate::assign::{GroundBody, Mobility};
 use crate::fusion::{Contradiction, Fused};

@@ -209,3 +209,47 @@ fn a_union_of_the_sets_lifts_nothing_a_set_leaves_out() {
     assert_eq!(kept.goals, vec![newer]);
     assert_eq!(merged(Vec::new()), None);
 }
+
+#[test]
+fn a_recalled_fire_track_is_taken_only_under_a_coordinator_s_seal_not_suspended() {
+    let s = site();
+    let check = check(&s.pki);
+    let key = s.keys.fire(firefleet_model::FireId(3)).as_str().to_owned();
+    let bytes = br#"{"id":3}"#.to_vec();
+    let answer = |by: Option<&str>, bytes: &[u8]| Raw {
+        key: key.clone(),
+        deleted: false,
+        bytes: bytes.to_vec(),
+        attachment: by.map(|who| sealer(&s.pki, who).seal(&key, Some(bytes)).to_attachment()),
+    };
+    let nobody = |_: &Identity| false;
+    // Either coordinator's seal: taken; on an open site, anything.
+    for who in ["coordinator", "coordinator-1"] {
+        assert_eq!(
+            recalled_track(Some(&check), &answer(Some(who), &bytes), nobody),
+            Ok(())
+        );
+    }
+    assert_eq!(recalled_track(None, &answer(None, &bytes), nobody), Ok(()));
+    // The recorder's own seal, none, or a track changed under a coordinator's seal: not.
+    let e = recalled_track(Some(&check), &answer(Some("recorder"), &bytes), nobody).unwrap_err();
+    assert!(
+        e.contains("sealed by recorder, not by a coordinator"),
+        "{e}"
+    );
+    let e = recalled_track(Some(&check), &answer(None, &bytes), nobody).unwrap_err();
+    assert!(e.starts_with("unsealed"), "{e}");
+    let mut changed = answer(Some("coordinator"), &bytes);
+    changed.bytes = br#"{"id":4}"#.to_vec();
+    let e = recalled_track(Some(&check), &changed, nobody).unwrap_err();
+    assert!(e.starts_with("seal refused"), "{e}");
+    // A coordinator whose key was stolen and suspended: not either.
+    let suspended = |who: &Identity| who.dir_name() == "coordinator";
+    let e = recalled_track(
+        Some(&check),
+        &answer(Some("coordinator"), &bytes),
+        suspended,
+    )
+    .unwrap_err();
+    assert!(e.contains("suspended"), "{e}");
+}
