@@ -10,8 +10,9 @@
 //! ([`crate::live`]), with or without a file.
 //!
 //! The recorder also keeps the latest track of every fire and answers queries on
-//! `fire/*` with them, each with the coordinator's seal it came with: that is how a restarted coordinator recalls the fires the previous
-//! one tracked (the recording is the incident's memory, on the bus as well as on disk).
+//! `fire/*` with them, each with the coordinator's seal it came with: that is how a
+//! restarted coordinator recalls the fires the previous one tracked (the recording is the
+//! incident's memory, on the bus as well as on disk).
 //! It answers queries on `coord/barred` and `coord/goals` with the newest barred space and
 //! goals in force the same way, so that a unit restarted while the coordinator is gone
 //! still learns what commanders barred, and a restarted coordinator takes their goals back.

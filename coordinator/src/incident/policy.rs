@@ -30,12 +30,12 @@ pub struct Policy {
     pub retry_after_s: f64,
     /// A fire the DTS alone placed that this many units were sent to and never saw (each
     /// reported it out without a flame: [`super::Decision::OutUnseen`]) draws no more
-    /// units until one sees it; it stays open, its alarm for the commanders. Two: the second
-    /// looks from the other side of the vehicle that may hide the flame
-    /// ([`super::Incident::attack_side`]), and each sprays its blind pass. The DTS's word is
-    /// one bridge's, and a stolen bridge key raises the alarm anywhere, at will (`firefleet-lab
-    /// flood --attack scada-key`): without a bound every fake zone drew a unit again and
-    /// again.
+    /// units until one sees it; it stays open, its alarm for the commanders. Two: the
+    /// second looks from the other side of the vehicle that may hide the flame
+    /// ([`super::Incident::attack_side`]), and each sprays its blind pass. The DTS's word
+    /// is one bridge's, and a stolen bridge key raises the alarm anywhere, at will
+    /// (`firefleet-lab flood --attack scada-key`): without a bound every fake zone drew a
+    /// unit again and again.
     pub dts_unseen_looks: u32,
     /// A task adopted after a restart binds to a track this close to the unit's target, m.
     pub adopt_radius_m: f64,

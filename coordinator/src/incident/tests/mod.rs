@@ -21,8 +21,9 @@ mod zones;
 const TUNNEL: Tunnel = Tunnel::straight(200.0, 10.0, 6.0, 2);
 
 /// Events dated as the units would date them: at the site time they arrive, and reports
-/// seen from where their unit is, of flames at any distance and bearing (these tests place fires for
-/// the decisions they test; freshness and a report's placement have tests of their own).
+/// seen from where their unit is, of flames at any distance and bearing (these tests place
+/// fires for the decisions they test; freshness and a report's placement have tests of
+/// their own).
 trait Dated {
     fn state_at(&mut self, st: UnitState, t: f64) -> Result<Vec<Output>, Invalid>;
     fn report_at(&mut self, r: &FlameReport, t: f64) -> Result<Vec<Output>, Invalid>;

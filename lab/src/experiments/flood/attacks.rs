@@ -513,8 +513,9 @@ pub(super) struct Recall {
 /// Answer every recall as a stolen recorder key can (the rules let it answer on `fire/*`
 /// and `coord/*`, and put nothing): every fire the coordinator published, called out as
 /// of the site clock (the newest track wins a recall); three fires that never were, seen
-/// by `lie.witness` (the tracks sealed with the recorder's key); the incident commander's keep-out on every zone, unsealed (the
-/// recorder holds no commander's key), dated now. Counts the answers in `sent`.
+/// by `lie.witness` (the tracks sealed with the recorder's key); the incident commander's
+/// keep-out on every zone, unsealed (the recorder holds no commander's key), dated now.
+/// Counts the answers in `sent`.
 pub(super) async fn answer_as_recorder(
     thief: Bus,
     lie: Recall,
