@@ -330,16 +330,7 @@ impl Bus {
 
     /// Publish `m` on `key`.
     pub async fn put<M: Message>(&self, key: &Key<M>, m: &M) -> Result<(), BusError> {
-        let bytes = codec::encode(m);
-        // Zenoh's blocking calls, so that the map is not locked across an await: a put
-        // with the default congestion control (drop) never waits.
-        let mut publishers = self.publishers.lock().expect("not poisoned");
-        self.publisher(&mut publishers, key.as_str())?
-            .put(bytes)
-            .wait()
-            .map_err(BusError::from_zenoh)?;
-        self.traffic.sent.fetch_add(1, Ordering::Relaxed);
-        Ok(())
+        self.publish(key.as_str(), codec::encode(m), None)
     }
 
     /// Publish `m` on `key` with this process's seal in the attachment on a secure site
@@ -351,13 +342,24 @@ impl Bus {
         let seal = self
             .seals()
             .map(|s| s.sealer.seal(key.as_str(), Some(&bytes)).to_attachment());
+        self.publish(key.as_str(), bytes, seal)
+    }
+
+    /// Put `bytes` (and an `attachment`) on `key` through its declared publisher, counted.
+    /// Zenoh's blocking calls, so that the map is not locked across an await: a put with
+    /// the default congestion control (drop) never waits.
+    fn publish(
+        &self,
+        key: &str,
+        bytes: Vec<u8>,
+        attachment: Option<Vec<u8>>,
+    ) -> Result<(), BusError> {
         let mut publishers = self.publishers.lock().expect("not poisoned");
-        let put = self.publisher(&mut publishers, key.as_str())?.put(bytes);
-        match seal {
-            Some(a) => put.attachment(a).wait(),
-            None => put.wait(),
-        }
-        .map_err(BusError::from_zenoh)?;
+        self.publisher(&mut publishers, key)?
+            .put(bytes)
+            .attachment(attachment)
+            .wait()
+            .map_err(BusError::from_zenoh)?;
         self.traffic.sent.fetch_add(1, Ordering::Relaxed);
         Ok(())
     }
