@@ -241,7 +241,9 @@ impl DtsAlarm {
 pub struct DtsReading {
     /// Highest temperature along the zone, degrees C.
     pub max_c: f64,
-    /// Rate of rise of that maximum, K/min.
+    /// Rate of rise of that maximum since the detector's previous measurement (one
+    /// sweep, [`DtsMap::period_s`], before), K/min. The coordinator holds readings to it:
+    /// two that one detector cannot give in a row are two voices on the bridge's key.
     pub rise_c_min: f64,
     pub alarm: DtsAlarm,
     /// The detector flags the zone (a broken fibre, a failed channel): its values mean

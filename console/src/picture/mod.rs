@@ -488,9 +488,9 @@ impl Picture {
                     identity: identity.clone(),
                 },
                 format!(
-                    "someone else holds the key of {identity}: the coordinator heard tasks on \
-                     its key that it never sent. Two commanders suspend it (firefleet suspend \
-                     --identity {identity}), then take it off the site (firefleet pki revoke {identity})"
+                    "{}. Two commanders suspend it (firefleet suspend --identity {identity}), \
+                     then take it off the site (firefleet pki revoke {identity})",
+                    d.text
                 ),
             );
         }

@@ -190,6 +190,20 @@ pub enum Decision {
         fire: FireId,
         looks: u32,
     },
+    /// Two readings of DTS zone `zone` on the bridge's key, `dt_s` apart, that one
+    /// detector cannot give (the second moved from `before_c` to `after_c` at a rise of
+    /// `rise_c_min`): someone else holds the bridge's key, and its word is doubted
+    /// ([`super::infra::DTS_DOUBT_S`]).
+    ScadaContradicted {
+        zone: u16,
+        before_c: f64,
+        after_c: f64,
+        dt_s: f64,
+        rise_c_min: f64,
+    },
+    /// The bridge's readings agreed with each other for [`super::infra::DTS_DOUBT_S`]:
+    /// its word is believed again.
+    ScadaBelieved,
     /// A fire reported out whose DTS zone heats up again: it burns.
     ReheatedZone {
         fire: FireId,
@@ -480,6 +494,28 @@ impl fmt::Display for Decision {
                 "{by} reports fire {fire} out, but no unit has seen it burn (the DTS placed \
                  it): it stays open, only {by} is freed"
             ),
+            Decision::ScadaContradicted {
+                zone,
+                before_c,
+                after_c,
+                dt_s,
+                rise_c_min,
+            } => write!(
+                f,
+                "someone else holds the key of {}: DTS zone {zone} read {before_c:.1} C, then \
+                 {after_c:.1} C {dt_s:.1} s later at a rise of {rise_c_min:+.1} K/min, which \
+                 no one detector gives; nothing on its key (DTS, ventilation) is believed \
+                 until its readings agree for {:.0} s",
+                Identity::Scada,
+                super::infra::DTS_DOUBT_S
+            ),
+            Decision::ScadaBelieved => write!(
+                f,
+                "the readings on {}'s key agreed for {:.0} s: its DTS and ventilation are \
+                 believed again",
+                Identity::Scada,
+                super::infra::DTS_DOUBT_S
+            ),
             Decision::ReheatedZone {
                 fire,
                 from_m,
@@ -686,6 +722,7 @@ impl Logged {
             text: self.decision.to_string(),
             impostor: match self.decision {
                 Decision::Impostor { rank } => Some(Identity::Coordinator(rank).to_string()),
+                Decision::ScadaContradicted { .. } => Some(Identity::Scada.to_string()),
                 _ => None,
             },
         }

@@ -722,14 +722,14 @@ impl Incident {
             );
         }
         let trapped = self.trapped.clone();
-        let held = self.hold_to_goals(t);
-        let goals_moved_units = !held.is_empty() || self.trapped != trapped;
+        let mut held = self.hold_to_goals(t);
+        held.extend(self.scada_doubt(t));
+        let units_moved = !held.is_empty() || self.trapped != trapped;
         out.extend(held);
         out.extend(self.dts_alarms(t));
         // Units move and look between events: searches end, searchers change, and a unit
         // on its way may now have a nearer relief.
-        let scope = if goals_moved_units || t - self.solved_all_at >= self.policy.solve_all_every_s
-        {
+        let scope = if units_moved || t - self.solved_all_at >= self.policy.solve_all_every_s {
             Scope::All
         } else {
             Scope::NewFires

@@ -20,11 +20,22 @@
 //! Both feeds are one bridge's word (`firefleet scada`): every reading is checked against
 //! the site's map and for freshness, and a stale one is dropped, never extrapolated.
 //!
+//! **Two voices on the bridge's key.** The router lets whoever holds the bridge's key put
+//! readings, and a thief's are as well formed as the bridge's. But the bridge keeps
+//! reading the real detector while the thief speaks, and the two cannot agree: each
+//! zone's readings, interleaved, jump where one detector's cannot ([`one_detector`]).
+//! The first such contradiction is an impostor alarm, and for [`DTS_DOUBT_S`] after the
+//! last one nothing the bridge's key says is believed: no DTS fire draws a unit, no
+//! zone counts as watched (so units search with their cameras), and the ventilation
+//! chooses no side. A fire only the thief placed sends nobody; a fire it hid is found as
+//! on a site without a DTS. A thief alone on the key, the bridge silenced, makes no
+//! contradiction: [`super::Policy::dts_unseen_looks`] bounds what its alarms cost.
+//!
 //! Not here: the bus, or Modbus ([`firefleet_model::infra`] is the map).
 
 use std::collections::BTreeMap;
 
-use firefleet_model::infra::ScadaMap;
+use firefleet_model::infra::{DtsMap, ScadaMap};
 use firefleet_model::validate::{Invalid, Validate};
 use firefleet_model::{FireId, Gaussian2, UnitId};
 use firefleet_protocol::msg::{Approach, DtsZone, Vent};
@@ -41,6 +52,22 @@ pub const MOVING_AIR_M_S: f64 = 0.5;
 /// A ventilation reading older than this is no longer believed, s.
 pub const VENT_FRESH_S: f64 = 30.0;
 
+/// A DTS's accuracy, C: what two readings of one zone may part by besides what their
+/// registers round off (vendors quote +-1 C over a few kilometres of fibre, +-2 C over
+/// ten).
+pub const DTS_ACCURACY_C: f64 = 2.0;
+
+/// How many of the map's periods (`period_s`) one sweep of the detector may take: a
+/// site's file that says 10 s of a detector that sweeps in 20 s must not make its honest
+/// readings contradict each other ([`one_detector`]).
+pub const DTS_SWEEP_SLACK: f64 = 3.0;
+
+/// How long nothing the bridge's key says is believed after its readings last
+/// contradicted each other, s: a thief lying at the bridge's pace renews it every
+/// reading, and a site whose thief stopped has its DTS back a minute later, with no
+/// one's help.
+pub const DTS_DOUBT_S: f64 = 60.0;
+
 /// What the incident knows of the site's DTS and ventilation.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Infra {
@@ -53,6 +80,17 @@ pub(super) struct Infra {
     changed: bool,
     vent: Option<Vent>,
     vent_time: Newest,
+    doubt: Doubt,
+}
+
+/// Whether the bridge's word is doubted: two voices were heard on its key.
+#[derive(Debug, Clone, Default)]
+struct Doubt {
+    /// Until when nothing of the bridge's is believed: the last contradiction and
+    /// [`DTS_DOUBT_S`]. Cleared by the tick that finds it past.
+    until: Option<f64>,
+    /// The contradiction that began a doubt, for the tick to act on.
+    began: Option<Decision>,
 }
 
 impl Infra {
@@ -92,6 +130,38 @@ impl Infra {
             })
             .collect()
     }
+}
+
+/// How `after` contradicts `before` as one detector's readings of a zone, if it does.
+///
+/// Two readings at most half the map's period apart hold at most one new measurement
+/// between them, and a measurement's rate of rise is its change since the one before
+/// ([`firefleet_model::infra::DtsReading::rise_c_min`]): so the maximum moved by between
+/// nothing (the same measurement read again) and the rise over one sweep (up to
+/// [`DTS_SWEEP_SLACK`] periods), give or take [`DTS_ACCURACY_C`] on each reading and what
+/// the registers round off. Two voices on one key break this at every switch from one to
+/// the other: a zone read at 20 C, rising 0 K/min, cannot read 180 C a second later, and
+/// one read at 180 C cannot read 20 C at a rise of 0 a second after that. Readings
+/// further apart, stale or faulted ones say nothing of each other.
+fn one_detector(before: &DtsZone, after: &DtsZone, dts: &DtsMap) -> Option<Decision> {
+    let dt = (after.t - before.t).abs();
+    if dt > dts.period_s / 2.0 || [before, after].iter().any(|z| z.stale || z.reading.fault) {
+        return None;
+    }
+    let rise = after.reading.rise_c_min;
+    let sweep = rise * DTS_SWEEP_SLACK * dts.period_s / 60.0;
+    let slack = 2.0 * DTS_ACCURACY_C
+        + dts.temperature_scale_c
+        + dts.rise_scale_c_min * DTS_SWEEP_SLACK * dts.period_s / 60.0;
+    let moved = after.reading.max_c - before.reading.max_c;
+    let possible = (sweep.min(0.0) - slack)..=(sweep.max(0.0) + slack);
+    (!possible.contains(&moved)).then_some(Decision::ScadaContradicted {
+        zone: after.zone,
+        before_c: before.reading.max_c,
+        after_c: after.reading.max_c,
+        dt_s: dt,
+        rise_c_min: rise,
+    })
 }
 
 /// Take a reading dated `sent` at site time `now` as the bridge's newest: within the
@@ -139,11 +209,15 @@ impl Incident {
             t,
         )?;
         let known = self.infra.zones.get(&z.zone);
+        let contradiction = known.and_then(|old| one_detector(old, z, &map.dts));
         self.infra.changed |= known.is_none_or(|old| old != z);
         self.infra.zones.insert(z.zone, *z);
+        if let Some(c) = contradiction {
+            self.doubt_scada(c, t);
+        }
         // A zone the detector reads is a stretch watched: no unit need search it for a
         // fire (a fire that heats no ceiling is not one a camera misses for long).
-        if !z.stale && !z.reading.fault {
+        if !z.stale && !z.reading.fault && !self.scada_doubted() {
             self.coverage.look(
                 firefleet_model::Chainage::new(z.start_m),
                 firefleet_model::Chainage::new(z.end_m),
@@ -168,7 +242,7 @@ impl Incident {
         self.infra
             .vent
             .as_ref()
-            .filter(|v| !v.stale && t - v.t <= VENT_FRESH_S)
+            .filter(|v| !v.stale && t - v.t <= VENT_FRESH_S && !self.scada_doubted())
             .map(|v| v.reading.air_m_s)
             .filter(|a| a.abs() >= MOVING_AIR_M_S)
     }
@@ -195,16 +269,63 @@ impl Incident {
             .map_or_else(|| self.approach(t), |&(looked, _)| looked.opposite())
     }
 
-    /// Whether `fire` is one the DTS alone placed that [`Policy::dts_unseen_looks`] units
-    /// looked for and never saw: it draws no more units until one sees it.
+    /// Whether `fire` is one the DTS alone placed that draws no unit until one sees it:
+    /// [`Policy::dts_unseen_looks`] units looked for it and never saw it, or the bridge's
+    /// word is doubted ([`Incident::scada_doubted`]).
     ///
     /// [`Policy::dts_unseen_looks`]: super::Policy::dts_unseen_looks
     pub(super) fn unverified_alarm(&self, fire: &Fire) -> bool {
         fire.dts_only()
-            && self
-                .unseen
-                .get(&fire.id)
-                .is_some_and(|&(_, looks)| looks >= self.policy.dts_unseen_looks)
+            && (self.scada_doubted()
+                || self
+                    .unseen
+                    .get(&fire.id)
+                    .is_some_and(|&(_, looks)| looks >= self.policy.dts_unseen_looks))
+    }
+
+    /// Whether nothing the bridge's key says is believed: its readings contradicted each
+    /// other within [`DTS_DOUBT_S`], or its identity is suspended.
+    pub(super) fn scada_doubted(&self) -> bool {
+        self.infra.doubt.until.is_some() || self.is_suspended("scada")
+    }
+
+    /// Two readings of one zone contradicted each other at `t` (`c` says how): the
+    /// bridge's word is doubted for [`DTS_DOUBT_S`] more.
+    fn doubt_scada(&mut self, c: Decision, t: f64) {
+        let doubt = &mut self.infra.doubt;
+        if doubt.until.is_none() {
+            doubt.began.get_or_insert(c);
+        }
+        doubt.until = Some(t + DTS_DOUBT_S);
+    }
+
+    /// The tick's part in the doubt of the bridge's word: when one begins, it is said (an
+    /// impostor alarm) and the units sent to fires the DTS alone placed are freed for the
+    /// solve; when one ends, the DTS's alarms are looked at again.
+    pub(super) fn scada_doubt(&mut self, t: f64) -> Vec<Output> {
+        let mut out = Vec::new();
+        if let Some(c) = self.infra.doubt.began.take() {
+            self.log(t, c);
+            let placed: Vec<FireId> = self
+                .fusion
+                .fires()
+                .iter()
+                .filter(|f| f.active() && f.dts_only())
+                .map(|f| f.id)
+                .collect();
+            for fire in placed {
+                for u in self.assigned_to(fire) {
+                    out.push(self.standby(&u, t));
+                }
+                out.extend(self.release(fire, t));
+            }
+        }
+        if self.infra.doubt.until.is_some_and(|u| u <= t) {
+            self.infra.doubt.until = None;
+            self.infra.changed = true;
+            self.log(t, Decision::ScadaBelieved);
+        }
+        out
     }
 
     /// `unit`, sent to `fire` by the DTS, looked and did not find it: the next unit goes
@@ -236,7 +357,7 @@ impl Incident {
     /// New DTS readings: their alarm peaks to fusion, a fire track for each new one, and
     /// the units sent.
     pub(super) fn dts_alarms(&mut self, t: f64) -> Vec<Output> {
-        if !std::mem::take(&mut self.infra.changed) {
+        if self.scada_doubted() || !std::mem::take(&mut self.infra.changed) {
             return Vec::new();
         }
         let mut out = Vec::new();

@@ -461,8 +461,8 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
             (thief, clock),
             lie,
             a.time_scale,
-            stop.clone(),
-            sent.clone(),
+            (stop.clone(), sent.clone()),
+            alert_delay.clone(),
         ))
     } else if attack.by_unit() {
         let thief = join(&as_who(&Identity::Unit(ugv2.clone())), &scenario.site).await?;
@@ -623,19 +623,23 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
         f.wall_s
     );
     if let Some(d) = f.alert_delay_s {
-        println!(
-            "  {} {d:.1} site s after {}",
-            if attack.coordinator_rank().is_some() {
-                "the coordinator's finding (the consoles' alarm) in its log"
-            } else {
-                "stranded-fire alert in the status"
-            },
-            if attack.coordinator_rank().is_some() {
-                "the stolen key's first claim"
-            } else {
-                "the keep-outs were accepted"
-            }
-        );
+        let (alert, after) = if attack.coordinator_rank().is_some() {
+            (
+                "the coordinator's finding (the consoles' alarm) in its log",
+                "the stolen key's first claim",
+            )
+        } else if attack == Attack::ScadaKey {
+            (
+                "the coordinator's finding (the consoles' alarm) in its log",
+                "the stolen key's first reading",
+            )
+        } else {
+            (
+                "stranded-fire alert in the status",
+                "the keep-outs were accepted",
+            )
+        };
+        println!("  {alert} {d:.1} site s after {after}");
     }
     println!(
         "  thief sent {} ({:.0}/s); status probe every 100 ms: p50 {:.1} ms, p99 {:.1} ms, max {:.1} ms, {} of {} unanswered",

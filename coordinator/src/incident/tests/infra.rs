@@ -1,6 +1,7 @@
 //! DTS alarms as fire reports, and the ventilation's side to attack from.
 
 use super::*;
+use crate::incident::infra::DTS_DOUBT_S;
 use firefleet_model::infra::{DtsAlarm, DtsReading, FanState, VentReading};
 use firefleet_protocol::msg::{Approach, DtsZone, Vent};
 
@@ -190,9 +191,9 @@ fn a_stale_or_old_reading_raises_nothing_and_a_zone_off_the_map_is_refused() {
 }
 
 #[test]
-fn forward_dated_all_normal_readings_do_not_shut_out_the_bridge_s_alarm() {
-    // A stolen SCADA key sends "all normal" dated 4.5 s ahead, again and again; the real
-    // bridge's alarm, dated by the clock, still gets through.
+fn forward_dated_all_normal_readings_do_not_shut_out_the_bridge_and_betray_the_thief() {
+    // A stolen SCADA key sends "all normal" dated 4.5 s ahead, again and again; every
+    // real reading, dated by the clock, is still taken (`measure` unwraps).
     let mut inc = site();
     for k in 0..5 {
         let t = 10.0 + f64::from(k);
@@ -201,13 +202,134 @@ fn forward_dated_all_normal_readings_do_not_shut_out_the_bridge_s_alarm() {
         }
         measure(&mut inc, t, &[(15, 300.0)]);
     }
-    // Every real reading was taken (`measure` unwraps), and the alarm's fire is tracked.
-    let out = inc.tick(14.0);
+    // And zone 15 read 20 C and 300 C at a rise of 0 within seconds: two voices.
+    inc.tick(14.0);
     assert!(
-        out.iter().any(|o| matches!(o, Output::Fire(f)
-            if f.state == FireState::Confirmed && (f.position.x - 155.0).abs() < 1e-9)),
-        "the real alarm was shut out: {out:?}"
+        inc.decisions()
+            .any(|d| matches!(d.decision, Decision::ScadaContradicted { zone: 15, .. })),
+        "{:?}",
+        inc.decisions().collect::<Vec<_>>()
     );
+}
+
+/// A thief on the bridge's key: a fire alarm in zone 20 (180 C, rising 30 K/min) and
+/// "all normal" everywhere else, dated `t`.
+fn thief(inc: &mut Incident, t: f64) {
+    for z in readings(t, &[(20, 180.0)], 30.0) {
+        inc.on_dts(&z, t).unwrap();
+    }
+}
+
+#[test]
+fn two_voices_on_the_bridge_s_key_are_an_impostor_and_nothing_on_it_is_believed_until_they_stop() {
+    let mut inc = site();
+    // The thief first, alone: its alarm sends a unit.
+    thief(&mut inc, 1.0);
+    let sent = extinguish_tasks(&inc.tick(1.0));
+    assert_eq!(sent.len(), 1, "{sent:?}");
+    let unit = sent[0].0.clone();
+    // The bridge, reading the real detector a second later: zone 20 at 20 C, not rising.
+    // No one detector gives both: the unit is called back, and an impostor alarm goes out.
+    measure(&mut inc, 2.0, &[]);
+    let out = inc.tick(2.0);
+    assert!(extinguish_tasks(&out).is_empty(), "{out:?}");
+    assert!(
+        out.iter().any(|o| matches!(o, Output::Task(k)
+            if k.unit == unit && k.kind == TaskKind::Standby)),
+        "{out:?}"
+    );
+    let found = inc
+        .decisions()
+        .find(|d| matches!(d.decision, Decision::ScadaContradicted { zone: 20, .. }))
+        .expect("two voices found")
+        .to_msg();
+    assert_eq!(found.impostor.as_deref(), Some("scada"), "{}", found.text);
+    // While both speak, nothing on the key is believed: neither a real alarm (zone 15)
+    // nor the ventilation.
+    let mut out = Vec::new();
+    for k in 3..8 {
+        let t = f64::from(k);
+        thief(&mut inc, t);
+        measure(&mut inc, t + 0.5, &[(15, 300.0)]);
+        air(&mut inc, t + 0.5, 2.0);
+        out.extend(inc.tick(t + 0.5));
+    }
+    assert!(extinguish_tasks(&out).is_empty(), "{out:?}");
+    assert_eq!(inc.approach(7.5), Approach::Either);
+    // The thief stops. A minute after its last lie the bridge is believed again, and the
+    // real alarm sends a unit, from upwind.
+    for k in 8..70 {
+        let t = f64::from(k);
+        for (id, x) in [
+            ("west-1", 5.0),
+            ("west-2", 5.0),
+            ("east-1", 295.0),
+            ("east-2", 295.0),
+        ] {
+            inc.state_at(ground_state(id, x, -2.5), t).unwrap();
+        }
+        measure(&mut inc, t, &[(15, 300.0)]);
+        air(&mut inc, t, 2.0);
+        out.extend(inc.tick(t));
+    }
+    assert!(
+        inc.decisions()
+            .any(|d| d.decision == Decision::ScadaBelieved && d.t >= 7.0 + DTS_DOUBT_S)
+    );
+    let sent = extinguish_tasks(&out);
+    assert!(
+        sent.iter()
+            .any(|(_, p, from)| (p.x - 155.0).abs() < 1e-9 && *from == Approach::Start),
+        "{sent:?}"
+    );
+}
+
+proptest::proptest! {
+    /// However a real detector's zone heats and cools (each sweep 10 s, the rise since the
+    /// last), and however often the bridge polls it, through the registers' rounding, its
+    /// readings never contradict each other.
+    #[test]
+    fn an_honest_detector_never_contradicts_itself(
+        start in 15.0..600.0f64,
+        steps in proptest::collection::vec(-300.0..300.0f64, 1..25),
+        poll_s in 0.3..12.0f64,
+        phase in 0.0..1.0f64,
+    ) {
+        let mut inc = site();
+        let map: firefleet_model::infra::ScadaMap =
+            toml::from_str("[dts]\nzone_length_m = 10.0\n").unwrap();
+        let period = map.dts.period_s;
+        // Each sweep's maximum, within what the registers' rate of rise holds.
+        let sweeps: Vec<f64> = std::iter::once(start)
+            .chain(steps.iter().scan(start, |c, d| {
+                *c = (*c + d).clamp(15.0, 1100.0);
+                Some(*c)
+            }))
+            .collect();
+        let end = period * sweeps.len() as f64;
+        let mut t = phase * poll_s;
+        while t < end {
+            // The newest sweep by `t`, and its rise since the one before.
+            let k = ((t / period).floor() as usize).min(sweeps.len() - 1);
+            let rise = if k == 0 { 0.0 } else { (sweeps[k] - sweeps[k - 1]) / period * 60.0 };
+            let exact = DtsReading {
+                max_c: sweeps[k],
+                rise_c_min: rise,
+                alarm: map.alarm(sweeps[k], rise, 20.0),
+                fault: false,
+            };
+            let reading = map.decode_zone(0, &map.encode_dts(&[exact])).unwrap();
+            let z = DtsZone { zone: 0, start_m: 0.0, end_m: 10.0, t, reading, stale: false };
+            inc.on_dts(&z, t).unwrap();
+            inc.tick(t);
+            t += poll_s;
+        }
+        let contradicted: Vec<_> = inc
+            .decisions()
+            .filter(|d| matches!(d.decision, Decision::ScadaContradicted { .. }))
+            .collect();
+        proptest::prop_assert!(contradicted.is_empty(), "{contradicted:?}");
+    }
 }
 
 #[test]

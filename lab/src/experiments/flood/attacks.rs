@@ -615,30 +615,44 @@ pub(super) struct Readings {
 /// link, and hear nothing): at the bridge's pace, a fire alarm in every zone no fire burns
 /// in (180 C, rising 30 K/min: maximum and rate of rise), and "all normal" in every zone
 /// one does, each dated by the site `clock` (a site's hosts share it; the harness tells
-/// the thief). Counts the readings in `sent`.
+/// the thief). Counts the readings in `sent`, and puts in `alert_delay` the site seconds
+/// from the first lie to the coordinator's finding that someone else holds the key.
 pub(super) async fn report_as_scada(
     (thief, clock): (Bus, Bus),
     lie: Readings,
     time_scale: f64,
-    stop: Arc<AtomicBool>,
-    sent: Arc<AtomicU64>,
+    (stop, sent): (Arc<AtomicBool>, Arc<AtomicU64>),
+    alert_delay: Arc<std::sync::Mutex<Option<f64>>>,
 ) {
     use firefleet_model::infra::{DtsAlarm, DtsReading};
     use firefleet_protocol::msg::DtsZone;
     let keys = thief.keys().clone();
-    let Ok(states) = clock.subscribe(&keys.every_unit_state()).await else {
+    let (Ok(states), Ok(log)) = (
+        clock.subscribe(&keys.every_unit_state()).await,
+        clock.subscribe(&keys.coord_log()).await,
+    ) else {
         return;
     };
     let mut t = 0.0_f64;
+    let mut struck_at = None;
     let mut tick =
         tokio::time::interval(Duration::from_secs_f64(lie.map.dts.period_s / time_scale));
     while !stop.load(Ordering::Relaxed) {
         tokio::select! {
             Some((_, s)) = states.recv() => t = t.max(s.t),
+            Some((_, d)) = log.recv() => {
+                if d.impostor.as_deref() == Some("scada") {
+                    let mut delay = alert_delay.lock().expect("not poisoned");
+                    if delay.is_none() {
+                        *delay = struck_at.map(|s: f64| d.t - s);
+                    }
+                }
+            }
             _ = tick.tick() => {
                 if t <= 0.0 {
                     continue;
                 }
+                struck_at.get_or_insert(t);
                 for k in 0..lie.map.zone_count(lie.length_m) {
                     let (start_m, end_m) = lie.map.zone_span(k, lie.length_m);
                     let burning = lie.fires.iter().any(|&s| (start_m..end_m).contains(&s));
