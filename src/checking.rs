@@ -5,6 +5,7 @@
 //! records (`firefleet_recorder::parts`, `firefleet_protocol::payload`); this feeds one to
 //! the other.
 
+use firefleet_bus::access::Identity;
 use firefleet_bus::suspension::coordinator_rank;
 use firefleet_coordinator::invariants::churn::ChurnTally;
 use firefleet_coordinator::invariants::pinned::BlockedTally;
@@ -27,6 +28,10 @@ pub struct Checked {
     /// Tasks from a coordinator that did not hold office (a rival, a suspended key): every
     /// unit refused them, so they are not judged.
     pub refused: usize,
+    /// Tasks in the term of a coordinator whose own log says someone else held its key,
+    /// numbered below one already given: the thief's fight with the holder
+    /// ([`Invariants::stolen_key_tasks`]).
+    pub stolen_key_tasks: usize,
     pub continuity: Tally,
     /// How often fires' attackers changed.
     pub churn: ChurnTally,
@@ -115,6 +120,14 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
                 Some(Event::burning(&truth))
             }
             (Topic::ZoneAck(_), Ok(Payload::Ack(ack))) => Some(Event::Ack(ack)),
+            // A coordinator that heard tasks on its own key that it never sent says so.
+            (Topic::CoordLog, Ok(Payload::Decision(d))) => d
+                .impostor
+                .and_then(|who| who.parse().ok())
+                .and_then(|who| match who {
+                    Identity::Coordinator(rank) => Some(Event::KeyStolen { rank }),
+                    _ => None,
+                }),
             // The goals in force carry the asks of every identity suspended: its goals
             // lapsed there, as the coordinator says.
             (Topic::CoordGoals, Ok(Payload::Goals(g))) => {
@@ -153,6 +166,7 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
         messages,
         forged,
         refused,
+        stolen_key_tasks: inv.stolen_key_tasks(),
         continuity: inv.continuity(),
         churn: inv.churn(),
         blocked: inv.blocked(),

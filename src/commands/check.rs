@@ -120,5 +120,12 @@ fn check_one(file: &Path, scenario: &Scenario, lease_s: f64) -> anyhow::Result<b
             checked.refused
         );
     }
+    if checked.stolen_key_tasks > 0 {
+        println!(
+            "{} tasks of a coordinator's term numbered below one already given, after (or {:.0} s before) that coordinator found someone else holding its key: the thief's, not judged as two commanders",
+            checked.stolen_key_tasks,
+            firefleet_coordinator::invariants::FINDING_S
+        );
+    }
     Ok(checked.violations.is_empty())
 }

@@ -23,7 +23,11 @@
 //!   changing hands (`firefleet_protocol::office`), not a violation.
 //! - **two commanders in one epoch**: a task to a unit numbered below one already given
 //!   to it in the same epoch. One coordinator's numbers to a unit only grow (it re-sends
-//!   the latest), so two coordinators shared the epoch.
+//!   the latest), so two coordinators shared the epoch. Not counted in the term of a
+//!   coordinator whose own log says someone else holds its key, from [`FINDING_S`] before
+//!   that finding: a thief with the key of the coordinator in office commands in its term
+//!   until it is suspended, and that is the attack, found and alarmed, not a fencing
+//!   failure. Those tasks are counted apart ([`Invariants::stolen_key_tasks`]).
 //! - **fire abandoned**, **fire forgotten across a takeover**: see [`continuity`].
 //! - **assignment churn**: one fire's attackers changed more than
 //!   [`churn::MAX_CHANGES_PER_WINDOW`] times within [`churn::WINDOW_S`]: see [`churn`].
@@ -45,7 +49,7 @@ use firefleet_model::scenario::{Scenario, Tunnel};
 use firefleet_model::{Chainage, CommanderId, FireId, Point2, UnitId, ZoneId};
 use firefleet_protocol::msg::{
     GoalAck, INSIDE_PORTAL_M, SimTruth, Task, TaskPhase, TruthFireState, UnitState, ZoneGoal,
-    nearest_allowed,
+    epoch_rank, nearest_allowed,
 };
 
 use crate::goals::{Active, Goals};
@@ -67,6 +71,10 @@ use pinned::{BlockedTally, Pinned};
 pub const REACTION_S: f64 = 10.0;
 /// The grace's allowance for the way out being longer than the straight line.
 const DETOUR: f64 = 2.0;
+/// How long a stolen key may be used before the coordinator finds it, s: the threat
+/// model's bound on the alarm (issue #52). Two commanders in the term of a coordinator
+/// found to have an impostor, from this long before the finding, are the thief's.
+pub const FINDING_S: f64 = 2.0;
 
 /// One thing that happened, at site time.
 #[derive(Debug, Clone, PartialEq)]
@@ -99,6 +107,11 @@ pub enum Event {
     },
     /// Each unit's blocked steps so far, by the simulator's ground truth.
     Blocked(Vec<(UnitId, u32)>),
+    /// The coordinator of `rank` says someone else holds its key: it heard tasks on its
+    /// key that it never sent.
+    KeyStolen {
+        rank: u32,
+    },
 }
 
 impl Event {
@@ -305,9 +318,14 @@ pub struct Invariants {
     /// The open inside-barred violation of each (unit, goal id), to extend while it lasts.
     open: BTreeMap<(UnitId, String), usize>,
     /// The newest epoch each unit's states reported, by the rank of its coordinator.
-    epochs: BTreeMap<(UnitId, u64), u64>,
+    epochs: BTreeMap<(UnitId, u32), u64>,
     /// The highest task number given to each unit in each epoch.
     issued: BTreeMap<(UnitId, u64), u64>,
+    /// When each coordinator whose key someone else holds first said so, by rank.
+    stolen: BTreeMap<u32, f64>,
+    /// Tasks below one already given in their epoch, in the term of a stolen key
+    /// ([`FINDING_S`]): (unit, epoch, number).
+    stolen_key_tasks: BTreeSet<(UnitId, u64, u64)>,
     continuity: Continuity,
     churn: Churn,
     pinned: Pinned,
@@ -350,6 +368,8 @@ impl Invariants {
             open: BTreeMap::new(),
             epochs: BTreeMap::new(),
             issued: BTreeMap::new(),
+            stolen: BTreeMap::new(),
+            stolen_key_tasks: BTreeSet::new(),
             continuity: Continuity::new(lease_s),
             churn: Churn::default(),
             pinned: Pinned::default(),
@@ -409,6 +429,26 @@ impl Invariants {
                     self.forget(&g.id);
                 }
             }
+            Event::KeyStolen { rank } => {
+                let found = *self.stolen.entry(rank).or_insert(t);
+                let (theirs, ours): (Vec<_>, Vec<_>) = std::mem::take(&mut self.violations)
+                    .into_iter()
+                    .partition(|v| match v {
+                        Violation::TwoCommanders { t, epoch, .. } => {
+                            epoch_rank(*epoch) == rank && *t >= found - FINDING_S
+                        }
+                        _ => false,
+                    });
+                self.violations = ours;
+                for v in theirs {
+                    if let Violation::TwoCommanders {
+                        unit, epoch, seq, ..
+                    } = v
+                    {
+                        self.stolen_key_tasks.insert((unit, epoch, seq));
+                    }
+                }
+            }
             Event::Ack(ack) => {
                 let acked = self.acked.get_or_insert_default();
                 if ack.accepted {
@@ -432,6 +472,13 @@ impl Invariants {
     /// The violations found so far.
     pub fn violations(&self) -> &[Violation] {
         &self.violations
+    }
+
+    /// How many tasks were numbered below one already given in their epoch, in the term
+    /// of a coordinator whose key someone else held ([`FINDING_S`]): the thief's fight
+    /// with the holder, not judged as two commanders.
+    pub fn stolen_key_tasks(&self) -> usize {
+        self.stolen_key_tasks.len()
     }
 
     /// How the fires owed a unit (lost units', takeovers') were settled so far.
@@ -531,8 +578,10 @@ impl Invariants {
     fn check_state(&mut self, st: UnitState, t: f64) {
         let unit = st.unit.clone();
         if let Some(epoch) = st.epoch {
-            let rank = epoch % firefleet_protocol::msg::EPOCH_RANKS;
-            let newest = self.epochs.entry((unit.clone(), rank)).or_insert(epoch);
+            let newest = self
+                .epochs
+                .entry((unit.clone(), epoch_rank(epoch)))
+                .or_insert(epoch);
             let from = *newest;
             *newest = from.max(epoch);
             // Once per epoch gone back to: states come ten times a second.
@@ -622,8 +671,15 @@ impl Invariants {
             .or_insert(task.seq);
         let after = *last;
         *last = after.max(task.seq);
+        let thief_s = self
+            .stolen
+            .get(&task.rank())
+            .is_some_and(|found| t >= found - FINDING_S);
+        if task.seq < after && thief_s {
+            self.stolen_key_tasks
+                .insert((task.unit.clone(), task.epoch, task.seq));
         // Once per task: tasks are re-sent every second.
-        if task.seq < after
+        } else if task.seq < after
             && !self.violations.iter().any(|w| {
                 matches!(w, Violation::TwoCommanders { unit, epoch, seq, .. }
                     if *unit == task.unit && *epoch == task.epoch && *seq == task.seq)

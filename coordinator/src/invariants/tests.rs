@@ -66,6 +66,17 @@ fn cruise(seq: u64, x: f64) -> Event {
 }
 
 /// Feeds `events` (each at its time) and returns the violations.
+/// Coordinator task `seq` of `epoch` to [`u`]: stand by.
+fn standby(epoch: u64, seq: u64) -> Event {
+    Event::Task(Task {
+        unit: u(),
+        epoch,
+        seq,
+        t: 0.0,
+        kind: TaskKind::Standby,
+    })
+}
+
 fn check(events: Vec<(f64, Event)>) -> Vec<Violation> {
     let mut inv = Invariants::new(&site());
     for (t, e) in events {
@@ -284,15 +295,6 @@ fn a_refused_goal_binds_nobody() {
 #[test]
 fn a_unit_going_back_an_epoch_and_two_commanders_in_one_epoch_are_violations() {
     let mut inv = Invariants::new(&site());
-    let task = |epoch, seq| {
-        Event::Task(Task {
-            unit: u(),
-            epoch,
-            seq,
-            t: 0.0,
-            kind: TaskKind::Standby,
-        })
-    };
     let with_epoch = |epoch, t| match state(10.0, t, None) {
         Event::State(st) => Event::State(UnitState {
             epoch: Some(epoch),
@@ -303,9 +305,9 @@ fn a_unit_going_back_an_epoch_and_two_commanders_in_one_epoch_are_violations() {
     };
     // One coordinator re-sending, then a newer one: nothing wrong.
     for (t, e) in [
-        (1.0, task(16, 16)),
-        (2.0, task(16, 16)),
-        (3.0, task(16, 20)),
+        (1.0, standby(16, 16)),
+        (2.0, standby(16, 16)),
+        (3.0, standby(16, 20)),
     ] {
         inv.observe(t, e);
     }
@@ -313,7 +315,7 @@ fn a_unit_going_back_an_epoch_and_two_commanders_in_one_epoch_are_violations() {
     // The same coordinator restarted in a newer term (rank 0 again), and a unit that
     // then took the standby's term and the coordinator's older one back (the office
     // changed hands twice): nothing wrong either.
-    inv.observe(4.0, task(32, 32));
+    inv.observe(4.0, standby(32, 32));
     inv.observe(4.5, with_epoch(32, 4.5));
     inv.observe(4.6, with_epoch(49, 4.6));
     inv.observe(4.7, with_epoch(32, 4.7));
@@ -321,7 +323,7 @@ fn a_unit_going_back_an_epoch_and_two_commanders_in_one_epoch_are_violations() {
     // A second coordinator in epoch 16 (its numbers below the first's), and the unit
     // obeying rank 0's earlier term again: each reported once.
     for t in [5.0, 6.0] {
-        inv.observe(t, task(16, 18));
+        inv.observe(t, standby(16, 18));
         inv.observe(t, with_epoch(16, t));
     }
     assert_eq!(
@@ -342,4 +344,38 @@ fn a_unit_going_back_an_epoch_and_two_commanders_in_one_epoch_are_violations() {
             }
         ]
     );
+}
+
+#[test]
+fn two_commanders_in_the_term_of_a_key_its_coordinator_found_stolen_are_the_thief_s() {
+    // Rank 0's term 16: the thief numbers above the holder, the holder re-sends its own.
+    let fight = |inv: &mut Invariants, from: f64| {
+        inv.observe(from, standby(16, 20));
+        inv.observe(from + 0.5, standby(16, 120));
+        inv.observe(from + 1.0, standby(16, 21));
+        inv.observe(from + 1.5, standby(16, 21));
+    };
+    // Found within the fight (before or after the violation is seen): set aside, and
+    // each task counted once (the fight goes on: the holder's 20 and 21 under the
+    // thief's 120).
+    for found_first in [true, false] {
+        let mut inv = Invariants::new(&site());
+        if found_first {
+            inv.observe(0.5, Event::KeyStolen { rank: 0 });
+        }
+        fight(&mut inv, 1.0);
+        inv.observe(2.5, Event::KeyStolen { rank: 0 });
+        fight(&mut inv, 3.0);
+        assert!(inv.violations().is_empty(), "{:?}", inv.violations());
+        assert_eq!(inv.stolen_key_tasks(), 2);
+    }
+    // Another rank's key found stolen, or this one's found long after: still two
+    // commanders.
+    for (rank, found_at) in [(1, 2.0), (0, 1.0 + 2.0 * FINDING_S + 1.0)] {
+        let mut inv = Invariants::new(&site());
+        fight(&mut inv, 1.0);
+        inv.observe(found_at, Event::KeyStolen { rank });
+        assert_eq!(inv.violations().len(), 1, "{:?}", inv.violations());
+        assert_eq!(inv.stolen_key_tasks(), 0);
+    }
 }

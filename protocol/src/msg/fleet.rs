@@ -287,6 +287,12 @@ pub fn epoch_after(above: u64, rank: u32) -> u64 {
     base.saturating_add(up)
 }
 
+/// The rank of the coordinator that took office in `epoch` ([`epoch_after`]).
+pub fn epoch_rank(epoch: u64) -> u32 {
+    // Below EPOCH_RANKS (16), so it fits.
+    (epoch % EPOCH_RANKS) as u32
+}
+
 /// `ff/<site>/unit/<id>/task`: a unit's current assignment. A unit takes a task only if
 /// it outranks the last one it took: a newer epoch, or the same epoch and a higher
 /// number (`seq` grows with every decision), so it ignores stale and repeated tasks and
@@ -341,8 +347,7 @@ impl Task {
     /// The rank of the coordinator whose term the task is of ([`epoch_after`]): the key it
     /// goes on, `unit/<id>/task/<rank>`.
     pub fn rank(&self) -> u32 {
-        // Below EPOCH_RANKS (16), so it fits.
-        (self.epoch % EPOCH_RANKS) as u32
+        epoch_rank(self.epoch)
     }
 }
 

@@ -459,7 +459,7 @@ pub(super) async fn command_as_coordinator(
                     struck_at = Some(t);
                 }
                 let term = newest.values().map(|n| n.epoch).max().unwrap_or(0);
-                let epoch = if term % firefleet_protocol::msg::EPOCH_RANKS == u64::from(rank) {
+                let epoch = if firefleet_protocol::msg::epoch_rank(term) == rank {
                     term
                 } else {
                     firefleet_protocol::msg::epoch_after(term, rank)
