@@ -27,9 +27,10 @@ use std::rc::Rc;
 use std::time::Duration;
 
 use firefleet_bt::{Status, Transition, Tree};
+use firefleet_bus::access::Identity;
 use firefleet_bus::office::Office;
 use firefleet_bus::seal::wall_ms;
-use firefleet_bus::{Answers, Ask, Bus, BusError};
+use firefleet_bus::{Answers, Ask, Bus, BusError, Raw};
 use firefleet_model::UnitId;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{BarredSpace, BtTransition, BtTransitions, GoalsInForce, NodeStatus};
@@ -141,6 +142,22 @@ fn status(s: Status) -> NodeStatus {
         Status::Failure => NodeStatus::Failure,
         Status::Skipped => NodeStatus::Skipped,
     }
+}
+
+/// The barred space in `raw` (put live, or an answer: the coordinator's or a recorder's),
+/// if a coordinator not suspended sealed it; refused and counted under `from` otherwise.
+/// The routers let only coordinators put it, but a recorder's key answers anything, and a
+/// suspended coordinator's key still puts: a restarted unit told that every zone is barred
+/// would refuse every task (nothing is checked on an open site).
+fn sealed_barred(bus: &Bus, office: &Office, raw: &Raw, from: &str) -> Option<BarredSpace> {
+    let suspended =
+        |who: &Identity| matches!(who, Identity::Coordinator(rank) if office.suspended(*rank));
+    let check = bus.seals().map(|s| &s.check);
+    if let Err(why) = firefleet_bus::seal::by_coordinator(check, raw, suspended) {
+        bus.rejects().refuse_seal(from, &why);
+        return None;
+    }
+    bus.decode(raw, "barred space")
 }
 
 /// Ask whether the coordinator takes the unit once more. A failure is logged, not fatal:
@@ -300,7 +317,9 @@ where
         None => None,
     };
     let tasks = bus.subscribe(&keys.unit_tasks(unit)).await?;
-    let barred = bus.subscribe(&keys.coord_barred()).await?;
+    let mut barred = bus
+        .subscribe_raw(&[keys.coord_barred().as_str()], false)
+        .await?;
     // Asked, not awaited: the answers come in with everything else.
     // Every answer (the coordinator's, each recorder's): the newest is kept.
     let ask = Ask {
@@ -371,8 +390,10 @@ where
             // The platform's frames last: on a loaded host they may always be waiting, and
             // must not starve the rare messages (a coordinator's coming, a shutdown).
             biased;
-            Some((_, b)) = barred.recv() => {
-                if let Err(e) = ctl.on_barred(b) {
+            Some(raw) = barred.recv() => {
+                if let Some(b) = sealed_barred(bus, &office, &raw, &barred_from)
+                    && let Err(e) = ctl.on_barred(b)
+                {
                     bus.rejects().refuse_invalid(&barred_from, &e);
                 }
             }
@@ -401,7 +422,7 @@ where
             }
             answer = barred_answers.recv_or_refusal(), if asking => match answer {
                 Some(Ok(answer)) => {
-                    if let Some(b) = bus.decode::<BarredSpace>(&answer, "barred space answer")
+                    if let Some(b) = sealed_barred(bus, &office, &answer, &barred_from)
                         && let Err(e) = ctl.on_barred(b)
                     {
                         bus.rejects().refuse_invalid(&barred_from, &format_args!("an answer: {e}"));

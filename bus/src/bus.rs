@@ -339,10 +339,14 @@ impl Bus {
     /// with the fire tracks the one before it published.
     pub async fn put_sealed_by_me<M: Message>(&self, key: &Key<M>, m: &M) -> Result<(), BusError> {
         let bytes = codec::encode(m);
-        let seal = self
-            .seals()
-            .map(|s| s.sealer.seal(key.as_str(), Some(&bytes)).to_attachment());
+        let seal = self.seal_of(key.as_str(), &bytes);
         self.publish(key.as_str(), bytes, seal)
+    }
+
+    /// This process's seal of `bytes` on `key`, as an attachment; none on an open site.
+    pub(crate) fn seal_of(&self, key: &str, bytes: &[u8]) -> Option<Vec<u8>> {
+        self.seals()
+            .map(|s| s.sealer.seal(key, Some(bytes)).to_attachment())
     }
 
     /// Put `bytes` (and an `attachment`) on `key` through its declared publisher, counted.

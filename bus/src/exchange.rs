@@ -207,22 +207,45 @@ impl Question {
 
     /// Answer with `bytes` on `key`.
     pub async fn answer(&self, key: &str, bytes: Vec<u8>) -> Result<(), BusError> {
-        self.0
-            .reply(key.to_owned(), bytes)
-            .await
-            .map_err(BusError::from)
+        self.reply(key.to_owned(), bytes, None).await
+    }
+
+    /// Answer with `bytes` on `key`, sealed by `bus`'s identity on a secure site (as
+    /// [`Question::answer`] on an open one): an answer the asker believes only from a
+    /// coordinator ([`crate::seal::by_coordinator`]).
+    pub async fn answer_sealed_by(
+        &self,
+        bus: &crate::Bus,
+        key: &str,
+        bytes: Vec<u8>,
+    ) -> Result<(), BusError> {
+        let seal = bus.seal_of(key, &bytes);
+        self.reply(key.to_owned(), bytes, seal).await
     }
 
     /// Answer with a message as it was heard: its key, its bytes and its attachment (the
     /// seal of whoever put it, which the asker checks: a recorder passes on the
     /// coordinator's seal of a fire track).
     pub async fn answer_as_heard(&self, heard: &Raw) -> Result<(), BusError> {
-        let reply = self.0.reply(heard.key.clone(), heard.bytes.clone());
-        match &heard.attachment {
-            Some(a) => reply.attachment(a.clone()).await,
-            None => reply.await,
-        }
-        .map_err(BusError::from)
+        self.reply(
+            heard.key.clone(),
+            heard.bytes.clone(),
+            heard.attachment.clone(),
+        )
+        .await
+    }
+
+    async fn reply(
+        &self,
+        key: String,
+        bytes: Vec<u8>,
+        attachment: Option<Vec<u8>>,
+    ) -> Result<(), BusError> {
+        self.0
+            .reply(key, bytes)
+            .attachment(attachment)
+            .await
+            .map_err(BusError::from)
     }
 }
 

@@ -293,6 +293,34 @@ impl SealCheck {
     }
 }
 
+/// Whether `heard` (a message, or an answer passing one on) carries the seal of a
+/// coordinator not `suspended`, whoever passes it on: what a coordinator puts for others
+/// to take back (a fire track a recorder keeps for the next coordinator's recall, the
+/// barred space a recorder gives a restarted unit) is believed only so, since a recorder's
+/// key can answer anything. Nothing is checked on an open site (`check` is none).
+pub fn by_coordinator(
+    check: Option<&SealCheck>,
+    heard: &crate::Raw,
+    suspended: impl Fn(&Identity) -> bool,
+) -> Result<(), String> {
+    let Some(check) = check else {
+        return Ok(());
+    };
+    let attachment = heard
+        .attachment
+        .as_ref()
+        .ok_or("unsealed: on this site a coordinator seals what it puts here")?;
+    let seal = Seal::from_attachment(attachment).map_err(|e| format!("unsealed: {e}"))?;
+    match check.check(&heard.key, Some(&heard.bytes), &seal) {
+        Ok(signer @ Identity::Coordinator(_)) if suspended(&signer) => {
+            Err(format!("sealed by {signer}, which is suspended"))
+        }
+        Ok(Identity::Coordinator(_)) => Ok(()),
+        Ok(signer) => Err(format!("sealed by {signer}, not by a coordinator")),
+        Err(e) => Err(format!("seal refused: {e}")),
+    }
+}
+
 /// A process's seals: its own identity to seal with, its CA to check others'.
 #[derive(Debug)]
 pub struct Seals {

@@ -716,7 +716,13 @@ async fn answer(bus: &Bus, incident: &Incident, query: Question, t: f64) {
         }
         _ => return,
     };
-    if let Err(e) = query.answer(&key, body).await {
+    // The barred space is believed only under a coordinator's seal.
+    let answered = if query.topic() == Some(Topic::CoordBarred) {
+        query.answer_sealed_by(bus, &key, body).await
+    } else {
+        query.answer(&key, body).await
+    };
+    if let Err(e) = answered {
         tracing::warn!(key, "reply failed: {e}");
     }
 }
@@ -869,7 +875,9 @@ impl Told {
         let revision = incident.goals_revision();
         if always || self.revision != Some(revision) {
             let keys = bus.keys();
-            bus.put(&keys.coord_barred(), &incident.barred_space(t))
+            // Sealed: a unit takes barred space only under a coordinator's seal, as a
+            // recorder passes it on to a unit that restarts (`firefleet_bus::seal::by_coordinator`).
+            bus.put_sealed_by_me(&keys.coord_barred(), &incident.barred_space(t))
                 .await?;
             let goals = incident.goals_in_force(t);
             if self.revision != Some(revision) {
@@ -935,7 +943,10 @@ const RECALL_TIMEOUT: Duration = Duration::from_secs(2);
 /// The latest track of every fire that anyone on `fire/*` answers with (recorders do):
 /// with several answers for one fire, the newest wins. Answers that do not decode, or on
 /// a secure site carry no seal of a coordinator not `suspended`
-/// ([`sealing::recalled_track`]), are counted and logged, never taken.
+/// ([`firefleet_bus::seal::by_coordinator`]): a stolen recorder key once made a restarted
+/// coordinator call every fire out and send the units to fires that never were
+/// (`firefleet-lab flood --attack recorder-key`). A track a coordinator did seal may be an
+/// old one held back: the newest of every answer and of a standby's memory wins.
 async fn recall_fires(
     bus: &Bus,
     suspended: impl Fn(&Identity) -> bool,
@@ -951,14 +962,16 @@ async fn recall_fires(
         .all()
         .await
         .iter()
-        .filter(|a| match sealing::recalled_track(check, a, &suspended) {
-            Ok(()) => true,
-            Err(why) => {
-                bus.rejects().count_seal();
-                tracing::warn!(key = a.key, "recalled fire track refused: {why}");
-                false
-            }
-        })
+        .filter(
+            |a| match firefleet_bus::seal::by_coordinator(check, a, &suspended) {
+                Ok(()) => true,
+                Err(why) => {
+                    bus.rejects().count_seal();
+                    tracing::warn!(key = a.key, "recalled fire track refused: {why}");
+                    false
+                }
+            },
+        )
         .filter_map(|a| bus.decode::<FireTrack>(a, "recalled fire track"))
         .collect();
     Ok(latest_per_fire(tracks))

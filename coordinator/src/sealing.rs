@@ -1,7 +1,7 @@
 //! Which seals the coordinator takes on commanders' goals and clears, heard live or taken
 //! back after a restart, with the asks to suspend kept beside them
-//! ([`firefleet_bus::suspension`]), and on the fire tracks a recall is answered with
-//! ([`recalled_track`]).
+//! ([`firefleet_bus::suspension`]). The fire tracks a recall is answered with must carry a
+//! coordinator's seal ([`firefleet_bus::seal::by_coordinator`]).
 //!
 //! On a secure site (the coordinator's bus has a TLS identity, so it knows the site CA)
 //! every goal and every clear must carry a seal that holds, by an identity that may speak
@@ -92,38 +92,6 @@ fn holds(check: &SealCheck, proof: &Sealed, by: &CommanderId) -> Result<Identity
         ));
     }
     Ok(signer)
-}
-
-/// Whether a fire track a recall was answered with (`answer`, as heard) carries the seal
-/// of a coordinator, whoever passes it on: a recorder keeps each track with the seal it was
-/// put with. A recorder's key can answer anything, so an answer sealed by anyone else, or
-/// by nobody, is refused: a stolen one once made a restarted coordinator call every fire
-/// out and send the units to fires that never were (`firefleet-lab flood --attack
-/// recorder-key`). A track a coordinator did seal may be an old one held back; the newest
-/// of every answer and of a standby's memory wins. One sealed by a coordinator whose
-/// identity is `suspended` (its key stolen) is refused too. Nothing is checked on an open
-/// site.
-pub fn recalled_track(
-    check: Option<&SealCheck>,
-    answer: &Raw,
-    suspended: impl Fn(&Identity) -> bool,
-) -> Result<(), String> {
-    let Some(check) = check else {
-        return Ok(());
-    };
-    let attachment = answer
-        .attachment
-        .as_ref()
-        .ok_or("unsealed: on this site the coordinator seals every fire track it puts")?;
-    let seal = Seal::from_attachment(attachment).map_err(|e| format!("unsealed: {e}"))?;
-    match check.check(&answer.key, Some(&answer.bytes), &seal) {
-        Ok(signer @ Identity::Coordinator(_)) if suspended(&signer) => {
-            Err(format!("sealed by {signer}, which is suspended"))
-        }
-        Ok(Identity::Coordinator(_)) => Ok(()),
-        Ok(signer) => Err(format!("sealed by {signer}, not by a coordinator")),
-        Err(e) => Err(format!("seal refused: {e}")),
-    }
 }
 
 /// `kept` (goals in force taken back from `from`) with every goal and clear whose seal

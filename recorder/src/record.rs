@@ -449,8 +449,9 @@ pub async fn record(
         // The latest track of every fire, as received (its time, and the message with the
         // coordinator's seal, which a recall checks).
         let mut fires: BTreeMap<FireId, (f64, Raw)> = BTreeMap::new();
-        // Newest by key: (its time, its bytes).
-        let mut newest: BTreeMap<String, (f64, Vec<u8>)> = BTreeMap::new();
+        // Newest by key: its time, and the message as heard (the barred space with the
+        // coordinator's seal, which a unit checks).
+        let mut newest: BTreeMap<String, (f64, Raw)> = BTreeMap::new();
         let liveliness_topic = format!("{}/liveliness", keys.site());
         let mut next_scene = 0.0;
         let mut fleet = Fleet::default();
@@ -502,8 +503,8 @@ pub async fn record(
                 }
                 Some(query) = coord_q.recv() => {
                     let key = query.key().to_owned();
-                    if let Some((_, bytes)) = newest.get(&key)
-                        && let Err(e) = query.answer(&key, bytes.clone()).await
+                    if let Some((_, heard)) = newest.get(&key)
+                        && let Err(e) = query.answer_as_heard(heard).await
                     {
                         tracing::warn!(key, "reply failed: {e}");
                     }
@@ -559,7 +560,7 @@ pub async fn record(
                         Payload::Barred(BarredSpace { t: at, .. }) | Payload::Goals(GoalsInForce { t: at, .. })
                             if newest.get(key).is_none_or(|(old, _)| *old <= at) =>
                         {
-                            newest.insert(key.to_owned(), (at, bytes.to_vec()));
+                            newest.insert(key.to_owned(), (at, s.clone()));
                         }
                         Payload::Fire(track) if fires.get(&track.id).is_none_or(|(old, _)| *old <= track.t) => {
                             fires.insert(track.id, (track.t, s.clone()));

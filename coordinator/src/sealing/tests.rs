@@ -1,7 +1,7 @@
 use std::path::{Path, PathBuf};
 
 use firefleet_bus::pki::{Terms, TlsFiles, make_site};
-use firefleet_bus::seal::{Sealer, Seals};
+use firefleet_bus::seal::{Sealer, Seals, by_coordinator};
 use firefleet_model::scenario::Scenario;
 use firefleet_model::{SiteId, ZoneId};
 use firefleet_protocol::msg::GoalKind;
@@ -211,7 +211,7 @@ fn a_union_of_the_sets_lifts_nothing_a_set_leaves_out() {
 }
 
 #[test]
-fn a_recalled_fire_track_is_taken_only_under_a_coordinator_s_seal_not_suspended() {
+fn a_recalled_fire_track_or_barred_space_is_taken_only_under_a_coordinator_s_seal_not_suspended() {
     let s = site();
     let check = check(&s.pki);
     let key = s.keys.fire(firefleet_model::FireId(3)).as_str().to_owned();
@@ -226,26 +226,44 @@ fn a_recalled_fire_track_is_taken_only_under_a_coordinator_s_seal_not_suspended(
     // Either coordinator's seal: taken; on an open site, anything.
     for who in ["coordinator", "coordinator-1"] {
         assert_eq!(
-            recalled_track(Some(&check), &answer(Some(who), &bytes), nobody),
+            by_coordinator(Some(&check), &answer(Some(who), &bytes), nobody),
             Ok(())
         );
     }
-    assert_eq!(recalled_track(None, &answer(None, &bytes), nobody), Ok(()));
+    assert_eq!(by_coordinator(None, &answer(None, &bytes), nobody), Ok(()));
     // The recorder's own seal, none, or a track changed under a coordinator's seal: not.
-    let e = recalled_track(Some(&check), &answer(Some("recorder"), &bytes), nobody).unwrap_err();
+    let e = by_coordinator(Some(&check), &answer(Some("recorder"), &bytes), nobody).unwrap_err();
     assert!(
         e.contains("sealed by recorder, not by a coordinator"),
         "{e}"
     );
-    let e = recalled_track(Some(&check), &answer(None, &bytes), nobody).unwrap_err();
+    let e = by_coordinator(Some(&check), &answer(None, &bytes), nobody).unwrap_err();
     assert!(e.starts_with("unsealed"), "{e}");
     let mut changed = answer(Some("coordinator"), &bytes);
     changed.bytes = br#"{"id":4}"#.to_vec();
-    let e = recalled_track(Some(&check), &changed, nobody).unwrap_err();
+    let e = by_coordinator(Some(&check), &changed, nobody).unwrap_err();
     assert!(e.starts_with("seal refused"), "{e}");
+    // The barred space a recorder passes on to a restarted unit: the same rule.
+    let barred = s.keys.coord_barred().as_str().to_owned();
+    let spans = br#"{"t":1.0,"spans":[]}"#.to_vec();
+    let told = |by: &str| Raw {
+        key: barred.clone(),
+        deleted: false,
+        bytes: spans.clone(),
+        attachment: Some(
+            sealer(&s.pki, by)
+                .seal(&barred, Some(&spans))
+                .to_attachment(),
+        ),
+    };
+    assert_eq!(
+        by_coordinator(Some(&check), &told("coordinator"), nobody),
+        Ok(())
+    );
+    assert!(by_coordinator(Some(&check), &told("recorder"), nobody).is_err());
     // A coordinator whose key was stolen and suspended: not either.
     let suspended = |who: &Identity| who.dir_name() == "coordinator";
-    let e = recalled_track(
+    let e = by_coordinator(
         Some(&check),
         &answer(Some("coordinator"), &bytes),
         suspended,
