@@ -145,8 +145,12 @@ async fn follow(
         office.kept(check, &kept.suspensions);
     }
     // Held while standing by: `firefleet status` and the console show who could take over,
-    // and that nobody could once it is gone.
-    let _standing_by = bus.token(&Topic::CoordStandbyAlive(rank)).await?;
+    // and that nobody could once it is gone. Dropped once this identity is suspended: it
+    // will never take over, and counting it would tell the operators a standby is there.
+    let mut standing_by_token = match suspended {
+        true => None,
+        false => Some(bus.token(&Topic::CoordStandbyAlive(rank)).await?),
+    };
     let mut tracks: BTreeMap<FireId, FireTrack> = BTreeMap::new();
     let mut newest: Option<GoalsInForce> = None;
     let mut in_charge = false;
@@ -159,6 +163,14 @@ async fn follow(
     tracing::info!(rank, "standing by");
     tokio::pin!(shutdown);
     loop {
+        if office.suspended(rank) && standing_by_token.take().is_some() {
+            tracing::error!(
+                rank,
+                "this coordinator's identity is suspended (someone else holds its key): it will \
+                 never take office and stands by no more; revoke its key, give it a new one, and \
+                 restart it"
+            );
+        }
         if office.holder().is_some() != in_charge {
             in_charge = !in_charge;
             if !in_charge {
@@ -191,7 +203,7 @@ async fn follow(
                 }
                 newest = GoalsInForce::newer(Some(g), newest);
             }
-            _ = health.tick() => {
+            _ = health.tick(), if standing_by_token.is_some() => {
                 let said = StandbyHealth {
                     rank,
                     goals_t: newest.as_ref().map(|g| g.t),
