@@ -7,6 +7,7 @@
 
 use firefleet_bus::access::Identity;
 use firefleet_bus::suspension::coordinator_rank;
+use firefleet_coordinator::incident::freshness::{AHEAD_S, BEHIND_S};
 use firefleet_coordinator::invariants::churn::ChurnTally;
 use firefleet_coordinator::invariants::pinned::BlockedTally;
 use firefleet_coordinator::invariants::{Event, Invariants, Tally, Violation};
@@ -28,6 +29,9 @@ pub struct Checked {
     /// Tasks from a coordinator that did not hold office (a rival, a suspended key): every
     /// unit refused them, so they are not judged.
     pub refused: usize,
+    /// States dated off the site clock by more than the coordinator's window (a thief's,
+    /// a replay): the coordinator refused them, so they are not judged.
+    pub off_clock: usize,
     /// Tasks in the term of a coordinator whose own log says someone else held its key,
     /// numbered below one already given: the thief's fight with the holder
     /// ([`Invariants::stolen_key_tasks`]).
@@ -44,6 +48,11 @@ pub struct Checked {
 pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow::Result<Checked> {
     let mut inv = Invariants::with_lease(scenario, lease_s);
     let (mut t, mut messages, mut forged, mut refused) = (0.0, 0usize, 0usize, 0usize);
+    // The site clock, where the recording has the simulator's: the checker's time then,
+    // which no unit's or coordinator's message moves, and what a state is judged against.
+    // A stolen unit key's states dated 2400 s ahead once had every honest unit "fall
+    // silent" here, though the coordinator had refused them all.
+    let (mut site_clock, mut off_clock) = (None, 0usize);
     // Who held office, from the recorded leases and suspensions: a task from anyone else
     // was refused by every unit, and is not judged (a recording with no lease recorded,
     // say one made before leases were recorded, judges every task).
@@ -87,6 +96,7 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
             }
             (_, Ok(Payload::SimClock(c))) => {
                 t = c.t;
+                site_clock = Some(c.t);
                 None
             }
             // The unit a message belongs to is the one its key names: the router lets only
@@ -97,7 +107,14 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
                     forged += 1;
                     continue;
                 }
-                t = s.t;
+                match site_clock {
+                    Some(now) if s.t > now + AHEAD_S || s.t < now - BEHIND_S => {
+                        off_clock += 1;
+                        continue;
+                    }
+                    Some(_) => {}
+                    None => t = s.t,
+                }
                 Some(Event::State(s))
             }
             // Likewise the coordinator: only the one of that rank puts on its key, and its
@@ -111,11 +128,14 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
                     refused += 1;
                     continue;
                 }
-                t = task.t;
+                if site_clock.is_none() {
+                    t = task.t;
+                }
                 Some(Event::Task(task))
             }
             (_, Ok(Payload::SimTruth(truth))) => {
                 t = truth.t;
+                site_clock = Some(truth.t);
                 inv.observe(t, Event::blocked(&truth));
                 Some(Event::burning(&truth))
             }
@@ -166,6 +186,7 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
         messages,
         forged,
         refused,
+        off_clock,
         stolen_key_tasks: inv.stolen_key_tasks(),
         continuity: inv.continuity(),
         churn: inv.churn(),
@@ -224,6 +245,11 @@ mod tests {
         )
     }
 
+    /// The violations `c` found, as the checker prints them.
+    fn said(c: &Checked) -> Vec<String> {
+        c.violations.iter().map(ToString::to_string).collect()
+    }
+
     fn keep_out_core() -> (String, &'static str, Vec<u8>) {
         let g = ZoneGoal::new(
             ZoneId::new("core").unwrap(),
@@ -261,24 +287,14 @@ mod tests {
                 .iter()
                 .any(|v| v.to_string().contains(ugv1.as_str())),
             "the check still sees the real thing: {:?}",
-            c.violations
-                .iter()
-                .map(ToString::to_string)
-                .collect::<Vec<_>>()
+            said(&c)
         );
         // The same states on ugv-2's key (a thief with ugv-2's certificate naming ugv-1):
         // set aside, no false violation.
         let mut forged = vec![keep_out_core()];
         forged.extend(in_core("ugv-2", 0, 200));
         let c = judge(forged);
-        assert!(
-            c.violations.is_empty(),
-            "{:?}",
-            c.violations
-                .iter()
-                .map(ToString::to_string)
-                .collect::<Vec<_>>()
-        );
+        assert!(c.violations.is_empty(), "{:?}", said(&c));
         assert_eq!(c.forged, 200);
         // The goal cleared at once, the clear kept on the goal's own channel (as recorders
         // before clears had a channel of their own did) or on its own: ugv-1 may be there.
@@ -301,12 +317,38 @@ mod tests {
             assert!(
                 c.violations.is_empty(),
                 "clear under {schema}: {:?}",
-                c.violations
-                    .iter()
-                    .map(ToString::to_string)
-                    .collect::<Vec<_>>()
+                said(&c)
             );
         }
+    }
+
+    #[test]
+    fn a_state_dated_off_the_site_clock_is_set_aside_and_moves_no_clock() {
+        use firefleet_protocol::msg::SimClock;
+        let scenario = builtin::resolve("vehicle-collision").unwrap();
+        let clock = |t: f64| {
+            (
+                "ff/tunnel-a/sim/clock".to_owned(),
+                "firefleet.SimClock",
+                serde_json::to_vec(&SimClock { t, time_scale: 1.0 }).unwrap(),
+            )
+        };
+        // ugv-1 stays clear of the keep-out and says so every second.
+        let mut records = vec![keep_out_core()];
+        for s in 0..30 {
+            records.push(clock(f64::from(s)));
+            records.push(state("ugv-1", "ugv-1", 5.0, f64::from(s)));
+        }
+        // ugv-2's stolen key: in the keep-out, dated 2400 s ahead and 25 s behind. The
+        // coordinator refused both; here they neither count nor move the clock past
+        // ugv-1's lease.
+        records.push(state("ugv-2", "ugv-2", 100.0, 2429.0));
+        records.push(state("ugv-2", "ugv-2", 100.0, 4.0));
+        records.push(clock(30.0));
+        records.push(state("ugv-1", "ugv-1", 5.0, 30.0));
+        let c = check(&recording(&records), &scenario, 5.0).unwrap();
+        assert!(c.violations.is_empty(), "{:?}", said(&c));
+        assert_eq!(c.off_clock, 2);
     }
 
     #[test]

@@ -120,6 +120,14 @@ fn check_one(file: &Path, scenario: &Scenario, lease_s: f64) -> anyhow::Result<b
             checked.refused
         );
     }
+    if checked.off_clock > 0 {
+        println!(
+            "{} states dated off the site clock (more than {:.0} s ahead or {:.0} s behind): refused by the coordinator, not judged",
+            checked.off_clock,
+            firefleet_coordinator::incident::freshness::AHEAD_S,
+            firefleet_coordinator::incident::freshness::BEHIND_S
+        );
+    }
     if checked.stolen_key_tasks > 0 {
         println!(
             "{} tasks of a coordinator's term numbered below one already given, after (or {:.0} s before) that coordinator found someone else holding its key: the thief's, not judged as two commanders",

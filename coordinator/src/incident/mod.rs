@@ -69,7 +69,7 @@ use firefleet_bus::suspension::Suspensions;
 mod decision;
 mod dispatch;
 mod events;
-pub(crate) mod freshness;
+pub mod freshness;
 mod infra;
 mod policy;
 mod search;
