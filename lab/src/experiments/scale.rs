@@ -465,12 +465,17 @@ async fn measure(a: &ScaleArgs, site: &std::path::Path, link: &Link) -> anyhow::
         (first, second)
     };
     let report = |by: usize, at: Point2| {
+        // The camera turned to the fire, as the cannon it rides on turns: the coordinator
+        // refuses flames outside the camera's field of view, and a fire behind the unit's
+        // heading (from the fifth round on, the rounds' fires having moved along) would
+        // never be confirmed.
+        let from = pose(by, 0.0).position();
         (
             keys.unit_report(&ids[by]),
             FlameReport {
                 unit: ids[by].clone(),
                 t: now(),
-                observer: pose(by, 0.0),
+                observer: Pose2::new(from.x, from.y, from.bearing_to(at)),
                 observations: vec![FlameObservation {
                     position: at,
                     cov: [0.25, 0.0, 0.25],
