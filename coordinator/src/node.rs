@@ -37,8 +37,8 @@ use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
 use firefleet_protocol::msg::{
-    DtsZone, FireState, FireTrack, FlameReport, GoalAck, GoalsInForce, IncidentStatus, MAX_GOAL_ID,
-    SimClock, Stranded, Trapped, UnitState, Vent, ZoneGoal, latest_per_fire,
+    DtsZone, FireTrack, FlameReport, GoalAck, GoalsInForce, IncidentStatus, MAX_GOAL_ID, SimClock,
+    Stranded, Trapped, UnitState, Vent, ZoneGoal, latest_per_fire,
 };
 use firefleet_protocol::office::Leases;
 
@@ -439,8 +439,8 @@ impl Inputs {
 
 /// One slice of the once-a-second round at site time `t`: the whole picture told (barred
 /// space, counts) at the first of a second, stranded fires otherwise; units past their
-/// lease or their token's grace lost; and this slice's share of every task and track sent
-/// again.
+/// lease or their token's grace lost; and this slice's share of the tasks and tracks sent
+/// again ([`Republish`]).
 async fn republish_slice(
     bus: &Bus,
     incident: &mut Incident,
@@ -453,12 +453,7 @@ async fn republish_slice(
     if republish.advance() {
         told.tell(bus, incident, t, true).await?;
         stats.tasks.set(incident.tasks().count() as i64);
-        let burning = incident
-            .fire_tracks(t)
-            .iter()
-            .filter(|f| f.state != FireState::Out)
-            .count();
-        stats.fires.set(burning as i64);
+        stats.fires.set(incident.not_out() as i64);
     } else {
         told.strands(bus, incident, t).await?;
     }
@@ -468,14 +463,12 @@ async fn republish_slice(
     for unit in grace.lapsed(std::time::Instant::now()) {
         out.extend(incident.on_alive(&unit, false, t).unwrap_or_default());
     }
+    out.extend(republish.share(incident.tasks()).cloned().map(Output::Task));
     out.extend(
-        republish.share(
-            incident
-                .tasks()
-                .cloned()
-                .map(Output::Task)
-                .chain(incident.fire_tracks(t).into_iter().map(Output::Fire)),
-        ),
+        incident
+            .fire_tracks_picked(t, |fire, settled| republish.fire_due(fire, settled))
+            .into_iter()
+            .map(Output::Fire),
     );
     Ok(out)
 }

@@ -13,7 +13,7 @@
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
-use firefleet_model::UnitId;
+use firefleet_model::{FireId, UnitId};
 
 /// How long a unit's vanished liveliness token may stay away before the unit counts as lost
 /// ([`firefleet_protocol::keys::TOKEN_GRACE_MS`], wall-clock time, as failing over takes);
@@ -55,12 +55,16 @@ impl TokenGrace {
     }
 }
 
-/// Every task and track is re-sent once a second, a slice at a time: re-sending a thousand
-/// units' tasks at once would hold up the loop (and a report behind it) for tens of
-/// milliseconds.
+/// Every task and burning fire's track is re-sent once a second, a slice at a time:
+/// re-sending a thousand units' tasks at once would hold up the loop (and a report behind
+/// it) for tens of milliseconds. A settled fire's track (out or lost) is re-sent once every
+/// [`Republish::SETTLED_EVERY`] slices' rounds instead: it changes only by an event, which
+/// sends it at once, and a long incident keeps thousands of them (each re-send is sealed,
+/// a signature each).
 #[derive(Debug, Default)]
 pub struct Republish {
-    slice: usize,
+    /// Slices since the start, modulo [`Self::SLICES`] × [`Self::SETTLED_EVERY`].
+    round: usize,
 }
 
 impl Republish {
@@ -68,22 +72,42 @@ impl Republish {
     pub const SLICES: usize = 10;
     /// Time between two slices.
     pub const PERIOD: Duration = Duration::from_millis(1000 / Self::SLICES as u64);
+    /// Seconds between two re-sends of a settled fire's track: what a lost "out" costs a
+    /// late subscriber at most (a console that starts, a standby), beside a burning fire's
+    /// second.
+    pub const SETTLED_EVERY: usize = 10;
 
     /// The next slice; whether it is the first of a second (when the whole picture is
     /// told: barred space, counts).
     pub fn advance(&mut self) -> bool {
-        self.slice = (self.slice + 1) % Self::SLICES;
-        self.slice == 0
+        self.round = (self.round + 1) % (Self::SLICES * Self::SETTLED_EVERY);
+        self.slice() == 0
+    }
+
+    fn slice(&self) -> usize {
+        self.round % Self::SLICES
     }
 
     /// This slice's share of `items`: every [`Self::SLICES`]th, so over a second each is
     /// sent once.
     pub fn share<T>(&self, items: impl Iterator<Item = T>) -> impl Iterator<Item = T> {
-        let slice = self.slice;
+        let slice = self.slice();
         items
             .enumerate()
             .filter(move |(i, _)| i % Self::SLICES == slice)
             .map(|(_, item)| item)
+    }
+
+    /// Whether `fire`'s track is due in this slice: once a second, or once every
+    /// [`Self::SETTLED_EVERY`] seconds if it is `settled`. By the fire's id, which stays
+    /// put as fires come and go.
+    pub fn fire_due(&self, fire: FireId, settled: bool) -> bool {
+        let n = fire.0 as usize;
+        if settled {
+            n % (Self::SLICES * Self::SETTLED_EVERY) == self.round
+        } else {
+            n % Self::SLICES == self.slice()
+        }
     }
 }
 
@@ -124,5 +148,26 @@ mod tests {
         }
         assert_eq!(whole, 1);
         assert!(sent.iter().all(|&n| n == 1), "{sent:?}");
+    }
+
+    #[test]
+    fn a_burning_fire_is_resent_every_second_and_a_settled_one_every_ten() {
+        let mut r = Republish::default();
+        let fires = 0..37u32;
+        let (mut burning, mut settled) = (vec![0; 37], vec![0; 37]);
+        // Twenty seconds of slices, from any point in the round.
+        r.advance();
+        for _ in 0..20 * Republish::SLICES {
+            r.advance();
+            for f in fires.clone() {
+                burning[f as usize] += usize::from(r.fire_due(FireId(f), false));
+                settled[f as usize] += usize::from(r.fire_due(FireId(f), true));
+            }
+        }
+        assert!(burning.iter().all(|&n| n == 20), "{burning:?}");
+        assert!(
+            settled.iter().all(|&n| n == 20 / Republish::SETTLED_EVERY),
+            "{settled:?}"
+        );
     }
 }

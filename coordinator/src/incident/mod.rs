@@ -48,15 +48,15 @@
 //! Not here: the bus ([`crate::node`]), the cost model and solvers ([`crate::assign`]),
 //! fusion ([`crate::fusion`]); the policy numbers are [`Policy`].
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 
 use firefleet_model::profile::Profile;
 use firefleet_model::scenario::{Scenario, Tunnel, UnitSpec};
 use firefleet_model::validate::Invalid;
 use firefleet_model::{FireId, UnitId};
 use firefleet_protocol::msg::{
-    Approach, FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitState, UnitStatus,
-    epoch_after, task_seq_ceiling, task_seq_floor,
+    Approach, FireState, FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitState,
+    UnitStatus, epoch_after, task_seq_ceiling, task_seq_floor,
 };
 
 use crate::assign::{GroundBody, Mobility, Strategy};
@@ -524,11 +524,43 @@ impl Incident {
 
     /// Every fire track.
     pub fn fire_tracks(&self, t: f64) -> Vec<FireTrack> {
+        self.fire_tracks_picked(t, |_, _| true)
+    }
+
+    /// The tracks of the fires `pick` takes, given each fire's id and whether it is
+    /// settled (out or lost: only an event changes it, and that event sends its track):
+    /// the once-a-second re-send builds only its slice's. Who works each fire comes from
+    /// one pass over the units, not one a fire: with a thousand units and the thousands of
+    /// fires a long incident keeps, that was two million steps a slice, held up reports.
+    pub fn fire_tracks_picked(
+        &self,
+        t: f64,
+        pick: impl Fn(FireId, bool) -> bool,
+    ) -> Vec<FireTrack> {
+        let mut assigned: HashMap<FireId, Vec<UnitId>> = HashMap::new();
+        for (u, v) in &self.units {
+            if let Some(f) = v.working_on().filter(|_| v.alive) {
+                assigned
+                    .entry(self.fusion.resolve(f))
+                    .or_default()
+                    .push(u.clone());
+            }
+        }
         self.fusion
             .fires()
             .iter()
-            .map(|f| f.to_track(t, self.assigned_to(f.id)))
+            .filter(|f| pick(f.id, matches!(f.state, FireState::Out | FireState::Lost)))
+            .map(|f| f.to_track(t, assigned.remove(&f.id).unwrap_or_default()))
             .collect()
+    }
+
+    /// How many tracks are not out: a count, with no track built.
+    pub fn not_out(&self) -> usize {
+        self.fusion
+            .fires()
+            .iter()
+            .filter(|f| f.state != FireState::Out)
+            .count()
     }
 
     pub fn decisions(&self) -> impl Iterator<Item = &Logged> {
