@@ -268,9 +268,12 @@ pub enum Road {
 
 /// Driving distances from anywhere to each fire (the coordinator's road map).
 pub trait Roads {
-    /// The road from `from` to `fire` for a unit `width_m` wide: a wider body has fewer
-    /// roads. Called for every (unit, fire) pair of a solve, so it should be a lookup.
-    fn road(&self, fire: FireId, from: &Place, width_m: f64) -> Road;
+    /// The roads from every unit of `from` (where it stands, how wide it is: a wider body
+    /// has fewer roads; `None` for one that does not drive) to every fire of `fires`: one
+    /// row per fire, a column per unit. Every pair of a solve at once, so that each unit
+    /// is found on the map once and each fire's field once, not once a pair (a thousand
+    /// units and two hundred fires are 200 000 pairs).
+    fn roads(&self, fires: &[FireId], from: &[Option<(Place, f64)>]) -> Vec<Road>;
 }
 
 /// What the site imposes on every pairing.
@@ -404,7 +407,13 @@ impl Hazards {
 /// [`INFEASIBLE`] if it cannot get there without crossing a barred range, or no road leads
 /// there. `hazards_between` is the number of hazards between the unit and the fire,
 /// the fire itself left out.
-fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f64 {
+fn travel(
+    u: &Candidate,
+    n: &Need,
+    site: &Site<'_>,
+    road: Option<Road>,
+    hazards_between: usize,
+) -> f64 {
     let (a, b) = (
         u.at.chainage.min(n.at.chainage),
         u.at.chainage.max(n.at.chainage),
@@ -416,8 +425,8 @@ fn travel(u: &Candidate, n: &Need, site: &Site<'_>, hazards_between: usize) -> f
     if barred.iter().any(|&(s, e)| a < e && b > s) {
         return INFEASIBLE;
     }
-    let road = match (&u.mobility, site.roads) {
-        (Mobility::Ground(g), Some(roads)) => match roads.road(n.fire, &u.at, g.width_m) {
+    let road = match (&u.mobility, road) {
+        (Mobility::Ground(g), Some(road)) => match road {
             Road::Metres(d) => Some(Some(d / g.speed_m_s.max(0.1))),
             Road::Blocked => Some(None),
             Road::Unmapped => None,
@@ -457,8 +466,19 @@ const HAZARD_IS_FIRE_M: f64 = 3.0;
 fn travel_matrix(units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<f64> {
     let hazards = Hazards::new(site);
     let unit_ranks: Vec<Rank> = units.iter().map(|u| hazards.rank(u.at.chainage)).collect();
+    let roads = site.roads.map(|r| {
+        let fires: Vec<FireId> = needs.iter().map(|n| n.fire).collect();
+        let from: Vec<Option<(Place, f64)>> = units
+            .iter()
+            .map(|u| match &u.mobility {
+                Mobility::Ground(g) => Some((u.at, g.width_m)),
+                Mobility::Rail { .. } => None,
+            })
+            .collect();
+        r.roads(&fires, &from)
+    });
     let mut costs = Vec::with_capacity(needs.len() * units.len());
-    for n in needs {
+    for (i, n) in needs.iter().enumerate() {
         let rank = hazards.rank(n.at.chainage);
         // The hazards that are this fire (or lie within its size), by chainage.
         let itself: Vec<Chainage> = site
@@ -467,14 +487,24 @@ fn travel_matrix(units: &[Candidate], needs: &[Need], site: &Site<'_>) -> Vec<f6
             .filter(|h| h.position.dist(n.at.position) <= HAZARD_IS_FIRE_M)
             .map(|h| h.chainage)
             .collect();
-        costs.extend(units.iter().zip(&unit_ranks).map(|(u, &r)| {
-            let (a, b) = (
-                u.at.chainage.min(n.at.chainage),
-                u.at.chainage.max(n.at.chainage),
-            );
-            let own = itself.iter().filter(|&&c| c > a && c < b).count();
-            travel(u, n, site, Hazards::between(r, rank) - own)
-        }));
+        let row = roads
+            .as_ref()
+            .map(|r| &r[i * units.len()..(i + 1) * units.len()]);
+        costs.extend(
+            units
+                .iter()
+                .zip(&unit_ranks)
+                .enumerate()
+                .map(|(j, (u, &r))| {
+                    let (a, b) = (
+                        u.at.chainage.min(n.at.chainage),
+                        u.at.chainage.max(n.at.chainage),
+                    );
+                    let own = itself.iter().filter(|&&c| c > a && c < b).count();
+                    let road = row.map(|row| row[j]);
+                    travel(u, n, site, road, Hazards::between(r, rank) - own)
+                }),
+        );
     }
     costs
 }

@@ -216,12 +216,20 @@ impl RoadMap {
             Some(cell) => (cell, 0.0),
             None => self.snap_with_offset(p)?,
         };
-        let (c, r) = (c.checked_sub(f.col0)?, r.checked_sub(f.row0)?);
-        if c >= f.cols {
+        f.at((c, r)).map(|d| d + off)
+    }
+}
+
+impl Field {
+    /// The distance at grid cell `(c, r)`, m, if it lies in the window and a road leads
+    /// from it.
+    fn at(&self, (c, r): (usize, usize)) -> Option<f64> {
+        let (c, r) = (c.checked_sub(self.col0)?, r.checked_sub(self.row0)?);
+        if c >= self.cols {
             return None;
         }
-        let d = *f.dist.get(r * f.cols + c)?;
-        d.is_finite().then(|| f64::from(d) + off)
+        let d = *self.dist.get(r * self.cols + c)?;
+        d.is_finite().then(|| f64::from(d))
     }
 }
 
@@ -296,45 +304,111 @@ impl RoadMaps {
     }
 }
 
-impl Roads for RoadMaps {
-    fn road(&self, fire: FireId, from: &Place, width_m: f64) -> Road {
-        // The narrowest map at least as wide as the unit; a unit wider than every map
-        // (not one of the site's) gets the widest, the most cautious there is.
-        let map = self
-            .maps
+impl RoadMaps {
+    /// The index of the narrowest map at least as wide as the unit; a unit wider than every
+    /// map (not one of the site's) gets the widest, the most cautious there is.
+    fn map_for(&self, width_m: f64) -> Option<usize> {
+        self.maps
             .iter()
-            .find(|(w, _)| *w >= width_m)
-            .or(self.maps.last());
-        map.map_or(Road::Unmapped, |(_, m)| m.road(fire, from))
+            .position(|(w, _)| *w >= width_m)
+            .or(self.maps.len().checked_sub(1))
     }
+
+    /// The road from `from` to `fire` for a unit `width_m` wide (one pair of
+    /// [`Roads::roads`]).
+    pub fn road(&self, fire: FireId, from: &Place, width_m: f64) -> Road {
+        self.roads(&[fire], &[Some((*from, width_m))])[0]
+    }
+}
+
+impl Roads for RoadMaps {
+    fn roads(&self, fires: &[FireId], from: &[Option<(Place, f64)>]) -> Vec<Road> {
+        let spots: Vec<Option<(usize, Spot)>> = from
+            .iter()
+            .map(|f| {
+                let (place, width_m) = (*f)?;
+                let m = self.map_for(width_m)?;
+                Some((m, self.maps[m].1.locate(&place)))
+            })
+            .collect();
+        let mut roads = Vec::with_capacity(fires.len() * from.len());
+        for fire in fires {
+            let fields: Vec<Option<&Field>> =
+                self.maps.iter().map(|(_, m)| m.fields.get(fire)).collect();
+            roads.extend(spots.iter().map(|spot| match spot {
+                Some((m, spot)) => self.maps[*m].1.road_from(fields[*m], spot),
+                None => Road::Unmapped,
+            }));
+        }
+        roads
+    }
+}
+
+/// Where a unit stands on a map: found once a solve, used for every fire.
+#[derive(Debug, Clone, Copy)]
+enum Spot {
+    /// No free cell within [`SNAP_CELLS`]: no road from here.
+    Nowhere,
+    /// On free `cell` (of connected `component`), `off_m` from where the unit is (0 but
+    /// for one pressed against a vehicle), at `place`.
+    At {
+        cell: (usize, usize),
+        off_m: f64,
+        component: u32,
+        place: Place,
+    },
 }
 
 impl RoadMap {
     /// The road from `from` to `fire` on this map.
     pub fn road(&self, fire: FireId, from: &Place) -> Road {
-        let Some(f) = self.fields.get(&fire) else {
-            return Road::Unmapped;
-        };
-        let w = self.grid.size().0;
+        self.road_from(self.fields.get(&fire), &self.locate(from))
+    }
+
+    /// Where `from` stands on this map.
+    fn locate(&self, from: &Place) -> Spot {
         // A unit stands on a free cell but for one pressed against a vehicle: the ring
-        // search only for those, as this runs for every pair of a solve.
-        let cell = self
+        // search only for those.
+        let cell = match self
             .grid
             .cell(from.position)
             .filter(|&c| !self.grid.blocked(c))
-            .or_else(|| self.snap(from.position));
-        let Some((c, r)) = cell else {
+        {
+            Some(cell) => Some((cell, 0.0)),
+            None => self.snap_with_offset(from.position),
+        };
+        let w = self.grid.size().0;
+        cell.map_or(Spot::Nowhere, |((c, r), off_m)| Spot::At {
+            cell: (c, r),
+            off_m,
+            component: self.component[r * w + c],
+            place: *from,
+        })
+    }
+
+    /// The road from `spot` to the fire whose field is `field` (`None`: not mapped).
+    fn road_from(&self, field: Option<&Field>, spot: &Spot) -> Road {
+        let Some(f) = field else {
+            return Road::Unmapped;
+        };
+        let Spot::At {
+            cell,
+            off_m,
+            component,
+            place,
+        } = *spot
+        else {
             return Road::Blocked;
         };
-        if f.component == WALL || self.component[r * w + c] != f.component {
+        if f.component == WALL || component != f.component {
             return Road::Blocked;
         }
-        let beyond = (from.chainage - f.chainage).abs() - (WINDOW_M - 2.0 * RES_M);
+        let beyond = (place.chainage - f.chainage).abs() - (WINDOW_M - 2.0 * RES_M);
         let d = if beyond <= 0.0 {
-            self.lookup(f, from.position)
+            f.at(cell).map(|d| d + off_m)
         } else {
             // Along the road to the window's edge, then the field from there.
-            let edge = f.edges[usize::from(from.chainage > f.chainage)];
+            let edge = f.edges[usize::from(place.chainage > f.chainage)];
             edge.is_finite().then_some(edge + beyond)
         };
         d.map_or(Road::Blocked, Road::Metres)

@@ -146,7 +146,12 @@ impl Incident {
     /// The cannon flows of the ground units on `fire` (but `except`), L/s: each its own
     /// profile's.
     fn attack_flows(&self, fire: FireId, except: Option<&UnitId>) -> Vec<f64> {
-        self.assigned_to(fire)
+        self.flows(&self.assigned_to(fire), except)
+    }
+
+    /// The cannon flows of the ground units of `units` (but `except`), L/s.
+    fn flows(&self, units: &[UnitId], except: Option<&UnitId>) -> Vec<f64> {
+        units
             .iter()
             .filter(|u| Some(*u) != except)
             .filter_map(|u| self.units.get(u)?.mobility.cannon_flow_l_s())
@@ -201,6 +206,7 @@ impl Incident {
     /// ([`Fire::corroborated`]) that have fewer attackers than `units_per_fire` or than their heat release needs, nearest
     /// first, one more per fire and solve.
     pub(super) fn back_up(&mut self, busy: &BTreeSet<UnitId>, t: f64) -> Vec<Output> {
+        let working = self.assignments();
         let backups: Vec<Need> = self
             .fusion
             .fires()
@@ -212,7 +218,7 @@ impl Incident {
             .filter(|f| {
                 wants_another(
                     f.hrr_kw(),
-                    &self.attack_flows(f.id, None),
+                    &self.flows(working.get(&f.id).map_or(&[], Vec::as_slice), None),
                     self.policy.units_per_fire,
                 )
             })

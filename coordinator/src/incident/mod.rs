@@ -501,6 +501,22 @@ impl Incident {
             .collect()
     }
 
+    /// [`Incident::assigned_to`] of every fire at once, from one pass over the units: for
+    /// what asks it of every fire (with a thousand units and hundreds of fires, asking fire
+    /// by fire is hundreds of thousands of steps on the loop a report waits for).
+    fn assignments(&self) -> HashMap<FireId, Vec<UnitId>> {
+        let mut assigned: HashMap<FireId, Vec<UnitId>> = HashMap::new();
+        for (u, v) in &self.units {
+            if let Some(f) = v.working_on().filter(|_| v.alive) {
+                assigned
+                    .entry(self.fusion.resolve(f))
+                    .or_default()
+                    .push(u.clone());
+            }
+        }
+        assigned
+    }
+
     fn track(&self, fire: FireId, t: f64) -> FireTrack {
         self.fusion
             .get(fire)
@@ -530,22 +546,14 @@ impl Incident {
     /// The tracks of the fires `pick` takes, given each fire's id and whether it is
     /// settled (out or lost: only an event changes it, and that event sends its track):
     /// the once-a-second re-send builds only its slice's. Who works each fire comes from
-    /// one pass over the units, not one a fire: with a thousand units and the thousands of
-    /// fires a long incident keeps, that was two million steps a slice, held up reports.
+    /// [`Incident::assignments`]: asked fire by fire, the thousands of fires a long
+    /// incident keeps and a thousand units were two million steps a slice.
     pub fn fire_tracks_picked(
         &self,
         t: f64,
         pick: impl Fn(FireId, bool) -> bool,
     ) -> Vec<FireTrack> {
-        let mut assigned: HashMap<FireId, Vec<UnitId>> = HashMap::new();
-        for (u, v) in &self.units {
-            if let Some(f) = v.working_on().filter(|_| v.alive) {
-                assigned
-                    .entry(self.fusion.resolve(f))
-                    .or_default()
-                    .push(u.clone());
-            }
-        }
+        let mut assigned = self.assignments();
         self.fusion
             .fires()
             .iter()

@@ -165,7 +165,7 @@ fn a_spraying_backup_stays_on_its_fire_and_the_unit_still_on_its_way_takes_a_new
 /// `luf60` (1.0 m, 10 L/s) in one site.
 mod profiles {
     use super::*;
-    use crate::assign::{Place, Road, Roads};
+    use crate::assign::{Place, Road};
 
     /// A heavy unit at `heavy_x` and a light one at `light_x` on the near lane, both heard
     /// at t = 0, in the tunnel `b` builds, searched; one unit per fire unless its heat
