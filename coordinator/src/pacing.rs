@@ -14,6 +14,7 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use firefleet_model::{FireId, UnitId};
+use firefleet_protocol::keys::{RESEND_MS, SETTLED_RESEND_MS};
 
 /// How long a unit's vanished liveliness token may stay away before the unit counts as lost
 /// ([`firefleet_protocol::keys::TOKEN_GRACE_MS`], wall-clock time, as failing over takes);
@@ -55,12 +56,10 @@ impl TokenGrace {
     }
 }
 
-/// Every task and burning fire's track is re-sent once a second, a slice at a time:
+/// Every task and burning fire's track is re-sent once a second ([`RESEND_MS`]), a slice at a time:
 /// re-sending a thousand units' tasks at once would hold up the loop (and a report behind
 /// it) for tens of milliseconds. A settled fire's track (out or lost) is re-sent once every
-/// [`Republish::SETTLED_EVERY`] slices' rounds instead: it changes only by an event, which
-/// sends it at once, and a long incident keeps thousands of them (each re-send is sealed,
-/// a signature each).
+/// [`SETTLED_RESEND_MS`] instead.
 #[derive(Debug, Default)]
 pub struct Republish {
     /// Slices since the start, modulo [`Self::SLICES`] × [`Self::SETTLED_EVERY`].
@@ -68,14 +67,12 @@ pub struct Republish {
 }
 
 impl Republish {
-    /// Slices a second is cut into.
+    /// Slices a re-send round ([`RESEND_MS`]) is cut into.
     pub const SLICES: usize = 10;
     /// Time between two slices.
-    pub const PERIOD: Duration = Duration::from_millis(1000 / Self::SLICES as u64);
-    /// Seconds between two re-sends of a settled fire's track: what a lost "out" costs a
-    /// late subscriber at most (a console that starts, a standby), beside a burning fire's
-    /// second.
-    pub const SETTLED_EVERY: usize = 10;
+    pub const PERIOD: Duration = Duration::from_millis(RESEND_MS / Self::SLICES as u64);
+    /// Rounds between two re-sends of a settled fire's track.
+    pub const SETTLED_EVERY: usize = (SETTLED_RESEND_MS / RESEND_MS) as usize;
 
     /// The next slice; whether it is the first of a second (when the whole picture is
     /// told: barred space, counts).

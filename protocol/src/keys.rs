@@ -73,6 +73,16 @@ const ROOT: &str = "ff";
 /// console wait this long alike.
 pub const TOKEN_GRACE_MS: u64 = 2000;
 
+/// How often the coordinator in office sends every unit's task and every burning fire's
+/// track again, ms: for messages lost and for those who join late (a console, a
+/// standby, a unit that restarts).
+pub const RESEND_MS: u64 = 1000;
+
+/// How often it sends a settled fire's track (out or lost) again, ms: only an event
+/// changes one, and that event sends it at once; a long incident keeps thousands, each
+/// re-send sealed.
+pub const SETTLED_RESEND_MS: u64 = 10_000;
+
 /// One concrete key, without the `ff/<site>/` prefix.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 pub enum Topic {

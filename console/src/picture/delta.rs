@@ -145,7 +145,14 @@ impl Picture {
         let gone: Vec<FireId> = self
             .fire_heard
             .iter()
-            .filter(|&(_, &at)| at.saturating_add(FIRE_ORPHAN_MS) <= newest)
+            .filter(|&(id, &at)| {
+                let settled = self
+                    .fires
+                    .get(id)
+                    .is_some_and(|f| matches!(f.state, FireState::Out | FireState::Lost));
+                let orphan_ms = FIRE_ORPHAN_MS + if settled { keys::SETTLED_RESEND_MS } else { 0 };
+                at.saturating_add(orphan_ms) <= newest
+            })
             .map(|(&id, _)| id)
             .collect();
         for id in gone {

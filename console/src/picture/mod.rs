@@ -74,7 +74,9 @@ pub const UNIT_PERIOD_MS: u64 = 1000;
 /// and what follows from it ([`UnitMove`]).
 pub const UNIT_WHOLE_PERIOD_MS: u64 = 10_000;
 /// A fire track not republished for this long while the coordinator republishes others
-/// (every second) is no longer one it knows: dropped, ms.
+/// (every second, [`firefleet_protocol::keys::RESEND_MS`]) is no longer one it knows:
+/// dropped, ms. A settled track (out or lost), re-sent only every
+/// [`firefleet_protocol::keys::SETTLED_RESEND_MS`], is given that much longer.
 pub const FIRE_ORPHAN_MS: u64 = 5000;
 /// A vanished token counts as a lost unit (or coordinator) only if it stays away this long
 /// and the console's own link to the site still holds, ms: when the console's router dies,

@@ -157,6 +157,51 @@ fn fires_the_coordinator_no_longer_republishes_are_dropped() {
 }
 
 #[test]
+fn an_out_fire_resent_only_every_ten_seconds_is_kept_until_it_too_is_no_longer_resent() {
+    let mut p = picture();
+    p.observe(
+        0,
+        Event::Message(Payload::Fire(track(1, 0.0, 50.0, FireState::Out))),
+    );
+    let burning = |p: &mut Picture, ms: u64| {
+        p.observe(
+            ms,
+            Event::Message(Payload::Fire(track(
+                2,
+                ms as f64 / 1e3,
+                90.0,
+                FireState::Assigned,
+            ))),
+        );
+    };
+    let settled = keys::SETTLED_RESEND_MS;
+    // Re-sent on time: heard at 0 and at `settled`, with f2 every second meanwhile.
+    for ms in (0..=settled + FIRE_ORPHAN_MS).step_by(1_000) {
+        burning(&mut p, ms);
+        if ms == settled {
+            p.observe(
+                ms,
+                Event::Message(Payload::Fire(track(
+                    1,
+                    ms as f64 / 1e3,
+                    50.0,
+                    FireState::Out,
+                ))),
+            );
+        }
+        let d = p.delta(ms);
+        assert!(d.is_none_or(|d| d.fires_gone.is_empty()), "at {ms} ms");
+    }
+    // Then no longer: gone once its re-send is the orphan margin late.
+    let last = 2 * settled + FIRE_ORPHAN_MS;
+    for ms in (settled + FIRE_ORPHAN_MS + 1_000..=last).step_by(1_000) {
+        burning(&mut p, ms);
+    }
+    let d = p.delta(last).unwrap();
+    assert_eq!(d.fires_gone, [FireId(1)]);
+}
+
+#[test]
 fn losing_the_site_is_not_losing_the_units() {
     let mut p = picture();
     let u = unit("ugv-1");
