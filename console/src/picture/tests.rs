@@ -127,6 +127,14 @@ fn a_unit_s_moves_reach_pages_at_a_bounded_rate_and_what_it_does_at_once() {
     assert_eq!((d.units.len(), d.moves.len()), (1, 0));
 }
 
+/// Fire `id`'s track heard at `ms`, at `x` m, in `state`.
+fn heard(p: &mut Picture, id: u32, ms: u64, x: f64, state: FireState) {
+    p.observe(
+        ms,
+        Event::Message(Payload::Fire(track(id, ms as f64 / 1e3, x, state))),
+    );
+}
+
 #[test]
 fn fires_the_coordinator_no_longer_republishes_are_dropped() {
     let mut p = picture();
@@ -141,15 +149,7 @@ fn fires_the_coordinator_no_longer_republishes_are_dropped() {
     p.delta(0);
     // Only f2 is republished: f1 was merged, or its coordinator replaced.
     for ms in (1_000..=FIRE_ORPHAN_MS).step_by(1_000) {
-        p.observe(
-            ms,
-            Event::Message(Payload::Fire(track(
-                2,
-                ms as f64 / 1e3,
-                90.0,
-                FireState::Assigned,
-            ))),
-        );
+        heard(&mut p, 2, ms, 90.0, FireState::Assigned);
     }
     let d = p.delta(FIRE_ORPHAN_MS).unwrap();
     assert_eq!(d.fires_gone, [FireId(1)]);
@@ -159,35 +159,12 @@ fn fires_the_coordinator_no_longer_republishes_are_dropped() {
 #[test]
 fn an_out_fire_resent_only_every_ten_seconds_is_kept_until_it_too_is_no_longer_resent() {
     let mut p = picture();
-    p.observe(
-        0,
-        Event::Message(Payload::Fire(track(1, 0.0, 50.0, FireState::Out))),
-    );
-    let burning = |p: &mut Picture, ms: u64| {
-        p.observe(
-            ms,
-            Event::Message(Payload::Fire(track(
-                2,
-                ms as f64 / 1e3,
-                90.0,
-                FireState::Assigned,
-            ))),
-        );
-    };
     let settled = keys::SETTLED_RESEND_MS;
     // Re-sent on time: heard at 0 and at `settled`, with f2 every second meanwhile.
     for ms in (0..=settled + FIRE_ORPHAN_MS).step_by(1_000) {
-        burning(&mut p, ms);
-        if ms == settled {
-            p.observe(
-                ms,
-                Event::Message(Payload::Fire(track(
-                    1,
-                    ms as f64 / 1e3,
-                    50.0,
-                    FireState::Out,
-                ))),
-            );
+        heard(&mut p, 2, ms, 90.0, FireState::Assigned);
+        if ms == 0 || ms == settled {
+            heard(&mut p, 1, ms, 50.0, FireState::Out);
         }
         let d = p.delta(ms);
         assert!(d.is_none_or(|d| d.fires_gone.is_empty()), "at {ms} ms");
@@ -195,7 +172,7 @@ fn an_out_fire_resent_only_every_ten_seconds_is_kept_until_it_too_is_no_longer_r
     // Then no longer: gone once its re-send is the orphan margin late.
     let last = 2 * settled + FIRE_ORPHAN_MS;
     for ms in (settled + FIRE_ORPHAN_MS + 1_000..=last).step_by(1_000) {
-        burning(&mut p, ms);
+        heard(&mut p, 2, ms, 90.0, FireState::Assigned);
     }
     let d = p.delta(last).unwrap();
     assert_eq!(d.fires_gone, [FireId(1)]);
