@@ -58,8 +58,10 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
     // say one made before leases were recorded, judges every task).
     let mut office = Leases::default();
     let mut leases_recorded = false;
-    // The identities already found suspended (the goals in force say so every second).
+    // The identities already found suspended (the goals in force say so every second),
+    // and when each was last asked to be.
     let mut suspended = std::collections::BTreeSet::new();
+    let mut asked = std::collections::BTreeMap::new();
     let liveliness = format!("{}/liveliness", scenario.site);
     for m in recording.messages() {
         let m = match m {
@@ -159,15 +161,23 @@ pub fn check(recording: &Recording, scenario: &Scenario, lease_s: f64) -> anyhow
                             office.suspend(rank);
                         }
                         let in_force = g.goals.iter().map(|k| k.goal.id.clone()).collect();
+                        let asked_at = asked.get(&target).copied().unwrap_or(t);
                         inv.observe(
                             t,
                             Event::Suspended {
                                 name: target,
                                 in_force,
+                                asked_at,
                             },
                         );
                     }
                 }
+                None
+            }
+            // An ask to suspend an identity: whether it took is the coordinator's to say
+            // (in the goals in force), when it came is here.
+            (Topic::Suspend(target, _), _) => {
+                asked.insert(target.clone(), t);
                 None
             }
             (Topic::ZoneGoal(zone, by), Ok(Payload::Goal(goal))) => Some(Event::Goal {

@@ -100,10 +100,12 @@ pub enum Event {
     /// Identity `name` (`commander-rossi`, `console`) is suspended, as the goals in force
     /// first said, whose ids were then `in_force`: its goals lapsed, and so, if it is the
     /// console, did every goal it sealed for a commander, the goals the coordinator no
-    /// longer held then ([`firefleet_bus::suspension`]).
+    /// longer held then ([`firefleet_bus::suspension`]). `asked_at`: when the last ask to
+    /// suspend it was heard, at or before now.
     Suspended {
         name: String,
         in_force: Vec<String>,
+        asked_at: f64,
     },
     /// Each unit's blocked steps so far, by the simulator's ground truth.
     Blocked(Vec<(UnitId, u32)>),
@@ -418,16 +420,34 @@ impl Invariants {
                     self.raise(Violation::Pinned { unit, t, blocked });
                 }
             }
-            Event::Suspended { name, in_force } => {
+            Event::Suspended {
+                name,
+                in_force,
+                asked_at,
+            } => {
                 // The console seals goals in commanders' names: which were its own, only
                 // the coordinator's record of the goals it still holds tells.
                 let seals_for_others = name == Identity::Console.dir_name();
-                for g in self.goals.lapse(|a| {
+                let lapsed = self.goals.lapse(|a| {
                     a.goal.issued_by.as_ref().map(commander_name) == Some(name.clone())
                         || (seals_for_others && !in_force.contains(&a.goal.id))
-                }) {
+                });
+                for g in &lapsed {
                     self.forget(&g.id);
                 }
+                // The coordinator let those goals lapse as the ask came, and told it with
+                // the goals in force, which the recording may hold only at their next
+                // once-a-second send (a put on a busy link is dropped, not queued): what
+                // they barred after the ask was no longer barred.
+                let lapsed: BTreeSet<&str> = lapsed.iter().map(|g| g.id.as_str()).collect();
+                self.violations.retain(|v| match v {
+                    Violation::SentIntoBarred { goal, t, .. }
+                    | Violation::AttackWhereBarred { goal, t, .. }
+                    | Violation::InsideBarred { goal, t, .. } => {
+                        !(lapsed.contains(goal.as_str()) && *t >= asked_at)
+                    }
+                    _ => true,
+                });
             }
             Event::KeyStolen { rank } => {
                 let found = *self.stolen.entry(rank).or_insert(t);

@@ -204,6 +204,7 @@ fn a_suspended_commander_s_goals_bar_nothing_after_the_suspension() {
             Event::Suspended {
                 name: "commander-ic".into(),
                 in_force: Vec::new(),
+                asked_at: 2.0,
             },
         ),
         (3.0, cruise(7, 150.0)),
@@ -216,6 +217,7 @@ fn a_suspended_commander_s_goals_bar_nothing_after_the_suspension() {
             Event::Suspended {
                 name: "unit-ugv-9".into(),
                 in_force: Vec::new(),
+                asked_at: 5.0,
             },
         ),
         (6.0, cruise(8, 150.0)),
@@ -227,10 +229,35 @@ fn a_suspended_commander_s_goals_bar_nothing_after_the_suspension() {
 }
 
 #[test]
+fn a_task_sent_after_the_ask_but_before_the_goals_in_force_said_so_is_no_violation() {
+    // The ask came at 2.0; the goals in force that carry it were heard only at 4.0 (the
+    // one sent at once was lost). The task of 3.0 went out once the goal had lapsed; the
+    // one of 1.5, before the ask, still broke it.
+    let v = check(vec![
+        (1.0, goal(GoalKind::KeepOut)),
+        (1.5, cruise(6, 150.0)),
+        (3.0, cruise(7, 150.0)),
+        (
+            4.0,
+            Event::Suspended {
+                name: "commander-ic".into(),
+                in_force: Vec::new(),
+                asked_at: 2.0,
+            },
+        ),
+    ]);
+    assert!(
+        matches!(&v[..], [Violation::SentIntoBarred { seq: 6, .. }]),
+        "{v:?}"
+    );
+}
+
+#[test]
 fn a_suspended_console_s_goals_bar_nothing_and_the_goals_still_in_force_still_bar() {
     let console = |in_force: &[&str]| Event::Suspended {
         name: "console".into(),
         in_force: in_force.iter().map(|s| (*s).to_owned()).collect(),
+        asked_at: 2.0,
     };
     // Goal "g", issued in ic's name: the console sealed it, the coordinator dropped it.
     let v = check(vec![
