@@ -302,9 +302,7 @@ impl RoadMaps {
             m.track(fires);
         }
     }
-}
 
-impl RoadMaps {
     /// The index of the narrowest map at least as wide as the unit; a unit wider than every
     /// map (not one of the site's) gets the widest, the most cautious there is.
     fn map_for(&self, width_m: f64) -> Option<usize> {

@@ -491,12 +491,19 @@ impl Incident {
         self.lone_refused
     }
 
+    /// The fire `v`'s unit works on as the incident knows it now (a merged track's id
+    /// leads to the one it joined), if the unit is alive: the one rule of who works a
+    /// fire, for [`Incident::assigned_to`] and [`Incident::assignments`].
+    fn works_on(&self, v: &UnitView) -> Option<FireId> {
+        v.working_on()
+            .filter(|_| v.alive)
+            .map(|f| self.fusion.resolve(f))
+    }
+
     fn assigned_to(&self, fire: FireId) -> Vec<UnitId> {
         self.units
             .iter()
-            .filter(|(_, v)| {
-                v.alive && v.working_on().map(|f| self.fusion.resolve(f)) == Some(fire)
-            })
+            .filter(|(_, v)| self.works_on(v) == Some(fire))
             .map(|(u, _)| u.clone())
             .collect()
     }
@@ -507,11 +514,8 @@ impl Incident {
     fn assignments(&self) -> HashMap<FireId, Vec<UnitId>> {
         let mut assigned: HashMap<FireId, Vec<UnitId>> = HashMap::new();
         for (u, v) in &self.units {
-            if let Some(f) = v.working_on().filter(|_| v.alive) {
-                assigned
-                    .entry(self.fusion.resolve(f))
-                    .or_default()
-                    .push(u.clone());
+            if let Some(f) = self.works_on(v) {
+                assigned.entry(f).or_default().push(u.clone());
             }
         }
         assigned
