@@ -226,6 +226,42 @@ impl PurePursuit {
         }
     }
 
+    /// Where the vehicle at `p` will be over the next `within_m` of the run it drives: a
+    /// pose every `step_m`, facing as the vehicle will (backwards on a reverse run). For a
+    /// check against what moved since the route was planned: the follower itself trusts
+    /// its path.
+    pub fn ahead(&self, p: Point2, within_m: f64, step_m: f64) -> Vec<Pose2> {
+        let path = self.points();
+        let reverse = self.route.runs[self.run].reverse;
+        let n = path.len();
+        if n < 2 {
+            return Vec::new();
+        }
+        let seg = self.seg.min(n - 2);
+        let mut from = lerp(
+            path[seg],
+            path[seg + 1],
+            closest_t(path[seg], path[seg + 1], p),
+        );
+        let mut poses = Vec::new();
+        // Distance along the path from `from` to the next pose wanted, and how far the
+        // path has been walked.
+        let (mut next, mut walked) = (step_m, 0.0);
+        for &to in &path[seg + 1..] {
+            let d = from.dist(to);
+            let yaw = from.bearing_to(to) + if reverse { std::f64::consts::PI } else { 0.0 };
+            while next <= d && walked + next <= within_m {
+                let at = lerp(from, to, next / d);
+                poses.push(Pose2::new(at.x, at.y, yaw));
+                next += step_m;
+            }
+            walked += d;
+            next -= d;
+            from = to;
+        }
+        poses
+    }
+
     fn points(&self) -> &[Point2] {
         &self.route.runs[self.run].points
     }
@@ -433,6 +469,35 @@ mod tests {
             "a turn at full lock, not a drive away: {}",
             d.max_dev
         );
+    }
+
+    #[test]
+    fn the_poses_ahead_follow_the_run_from_the_vehicles_projection() {
+        let route = Route::forward(vec![
+            Point2::new(0.0, 0.0),
+            Point2::new(2.0, 0.0),
+            Point2::new(2.0, 5.0),
+        ]);
+        let f = PurePursuit::new(route);
+        let ahead = f.ahead(Point2::new(1.0, 0.3), 2.5, 0.5);
+        let at: Vec<(f64, f64)> = ahead.iter().map(|p| (p.x, p.y)).collect();
+        assert_eq!(
+            at,
+            [(1.5, 0.0), (2.0, 0.0), (2.0, 0.5), (2.0, 1.0), (2.0, 1.5)]
+        );
+        assert!(
+            (ahead[4].yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-12,
+            "round the corner"
+        );
+        // Backing, the body faces against the way it goes.
+        let back = PurePursuit::new(Route::from_poses(
+            &[Pose2::new(0.0, 0.0, 0.0), Pose2::new(-3.0, 0.0, 0.0)],
+            &[true, true],
+            1,
+        ));
+        let behind = back.ahead(Point2::new(0.0, 0.0), 1.0, 1.0);
+        assert_eq!(behind.len(), 1);
+        assert!((behind[0].x + 1.0).abs() < 1e-12 && behind[0].yaw.cos() > 0.99);
     }
 
     #[test]

@@ -34,6 +34,9 @@
 //!   flame lands where the robot put it).
 //! - Tank level and heat flux are plain `Float64` in stated units: `sensor_msgs` has no
 //!   water tank or heat-flux message, and `BatteryState` would mean misreading its fields.
+//! - No topic brings the other units a robot's range sensors track: on ROS 2 the agent
+//!   neither yields to nor plans round other units, and the robot's own safety layer
+//!   (Nav2's collision monitor, say) is what stops it short of one.
 //!
 //! Not here: the agent's `Platform` (`firefleet_agent::platform`, which builds on this crate) or the simulator's loop.
 
@@ -633,6 +636,8 @@ impl Assemble for Heard {
                     detections: std::mem::take(&mut self.detections),
                     collided: std::mem::take(&mut self.bumped),
                     thermal: self.thermal.take(),
+                    // No topic carries the robot's tracked bodies yet (see the module doc).
+                    nearby: Vec::new(),
                 });
             }
         }

@@ -74,6 +74,7 @@ fn sensors(unit: &UnitId) -> UnitSensors {
         }],
         collided: true,
         thermal: Some(thermal_frame()),
+        nearby: Vec::new(),
     }
 }
 

@@ -7,7 +7,7 @@
 
 use firefleet_model::UnitId;
 use firefleet_model::UnitKind;
-use firefleet_model::geometry::{Point2, Pose2, wrap_angle};
+use firefleet_model::geometry::{OrientedBox, Point2, Pose2, wrap_angle};
 use firefleet_model::scenario::{FireSpec, Obstacle, Scenario, Tunnel};
 use firefleet_model::spec::GroundSpec;
 use firefleet_protocol::msg::{
@@ -54,11 +54,27 @@ struct Body {
 }
 
 impl Body {
-    fn footprint_clear(&self, pose: &Pose2, tunnel: &Tunnel, obstacles: &[Obstacle]) -> bool {
+    fn footprint_at(&self, pose: Pose2) -> OrientedBox {
+        OrientedBox::new(pose, self.spec.length_m, self.spec.width_m)
+    }
+
+    /// Whether the body at `pose` is clear of the walls, of every vehicle in `obstacles`
+    /// and of every other unit's footprint in `others`.
+    fn footprint_clear(
+        &self,
+        pose: &Pose2,
+        tunnel: &Tunnel,
+        obstacles: &[Obstacle],
+        others: &[OrientedBox],
+    ) -> bool {
         let (hl, hw) = (self.spec.length_m / 2.0, self.spec.width_m / 2.0);
         let corners = [(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)]
             .map(|(x, y)| pose.to_site(Point2::new(x, y)));
         if !corners.iter().all(|c| tunnel.contains(*c, 0.0)) {
+            return false;
+        }
+        let me = self.footprint_at(*pose);
+        if others.iter().any(|o| o.overlaps(&me)) {
             return false;
         }
         // Sample the footprint's edges and centre against every box; boxes are larger than
@@ -74,11 +90,13 @@ impl Body {
                 }));
             }
             !pts.iter().any(|p| o.footprint_contains(*p, 0.0))
-                && !o.corners().iter().any(|c| inside(pose, &self.spec, *c))
+                && !o.corners().iter().any(|c| me.contains(*c))
         })
     }
 
-    fn drive(&mut self, dt: f64, tunnel: &Tunnel, obstacles: &[Obstacle]) {
+    /// Drive one step under the command, refused (a blocked step) where the body would
+    /// touch a wall, a vehicle or another unit.
+    fn drive(&mut self, dt: f64, tunnel: &Tunnel, obstacles: &[Obstacle], others: &[OrientedBox]) {
         let s = &self.spec;
         let target_v = self.cmd.speed.clamp(-s.max_speed_m_s, s.max_speed_m_s);
         let dv = (target_v - self.speed).clamp(-s.max_accel_m_s2 * dt, s.max_accel_m_s2 * dt);
@@ -95,7 +113,7 @@ impl Body {
         );
         self.collided = false;
         if self.speed.abs() > 0.0 {
-            if self.footprint_clear(&next, tunnel, obstacles) {
+            if self.footprint_clear(&next, tunnel, obstacles, others) {
                 self.pose = next;
             } else {
                 self.collided = true;
@@ -136,11 +154,6 @@ fn nearest_on(o: &Obstacle, p: Point2) -> Point2 {
     let (hl, hw) = (o.length_m / 2.0, o.width_m / 2.0);
     o.pose()
         .to_site(Point2::new(b.x.clamp(-hl, hl), b.y.clamp(-hw, hw)))
-}
-
-fn inside(pose: &Pose2, spec: &GroundSpec, p: Point2) -> bool {
-    let b = pose.to_body(p);
-    b.x.abs() <= spec.length_m / 2.0 && b.y.abs() <= spec.width_m / 2.0
 }
 
 /// How close a parked vehicle is to catching fire.
@@ -338,8 +351,15 @@ impl World {
 
     /// Advance the world by `dt` seconds.
     pub fn step(&mut self, dt: f64) {
-        for b in &mut self.bodies {
-            b.drive(dt, &self.tunnel, &self.obstacles);
+        // One body after another, each against the others where they stand now: a body
+        // refused a move stays where it was, so no two ever overlap.
+        for i in 0..self.bodies.len() {
+            let others: Vec<OrientedBox> = (self.bodies.iter().enumerate())
+                .filter(|&(j, _)| j != i)
+                .map(|(_, o)| o.footprint_at(o.pose))
+                .collect();
+            let b = &mut self.bodies[i];
+            b.drive(dt, &self.tunnel, &self.obstacles, &others);
             b.slew_cannon(dt);
         }
         // Where each open cannon's water lands this step.

@@ -147,6 +147,7 @@ mod tests {
             detections: dets,
             collided: false,
             thermal: None,
+            nearby: Vec::new(),
         }
     }
 

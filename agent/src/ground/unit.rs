@@ -21,6 +21,7 @@
 //! tree may act again.
 
 mod keep_out;
+mod yielding;
 
 use std::f64::consts::FRAC_PI_2;
 use std::sync::Arc;
@@ -52,6 +53,8 @@ const STANDOFF_M: [f64; 5] = [5.5, 6.5, 4.5, 8.0, 10.0];
 const AIM_TOLERANCE_RAD: f64 = 0.05;
 /// Grid resolution of the navigation map, m.
 const GRID_RES_M: f64 = 0.25;
+/// Clearance grid A* keeps between the vehicle's circumcircle and walls or vehicles, m.
+const NAV_MARGIN_M: f64 = 0.25;
 /// Clearance Hybrid A* keeps between the footprint and walls or vehicles, m: room for the
 /// path follower's tracking error.
 const HYBRID_MARGIN_M: f64 = 0.3;
@@ -108,6 +111,21 @@ struct Navigation {
     /// Getting clear of what the body touched, then replanning.
     recover: Option<Recovery>,
     failed: bool,
+    yielding: yielding::Yielding,
+}
+
+impl Navigation {
+    fn new(purpose: NavPurpose, goal: Point2, route: Route) -> Self {
+        Self {
+            purpose,
+            goal,
+            follow: PurePursuit::new(route),
+            arrived: false,
+            recover: None,
+            failed: false,
+            yielding: Default::default(),
+        }
+    }
 }
 
 /// A straight move to get clear after the body touched something: back first; if that is
@@ -214,8 +232,9 @@ impl Unit {
             detections: Vec::new(),
             collided: false,
             thermal: None,
+            nearby: Vec::new(),
         };
-        let nav_grid = Grid::from_scenario(&scenario, GRID_RES_M, spec.circumradius_m() + 0.25);
+        let nav_grid = Grid::from_scenario(&scenario, GRID_RES_M, nav_growth_m(&spec));
         let sight_grid = Grid::from_scenario(&scenario, GRID_RES_M, 0.0);
         let hybrid_grid = Grid::from_scenario(&scenario, GRID_RES_M, HYBRID_MARGIN_M);
         Self {
@@ -343,14 +362,7 @@ impl Unit {
         };
         match path {
             Some(p) => {
-                self.nav = Some(Navigation {
-                    purpose,
-                    goal: to,
-                    follow: PurePursuit::new(p),
-                    arrived: false,
-                    recover: None,
-                    failed: false,
-                });
+                self.nav = Some(Navigation::new(purpose, to, p));
                 if purpose == NavPurpose::Cruise {
                     self.cruising_to = Some(goal);
                 }
@@ -433,18 +445,31 @@ impl Unit {
     /// path forwards if no turn is found within the planning budget.
     fn route_along(&self, hybrid_grid: &Grid, path: Vec<Point2>) -> Route {
         let pose = self.pose();
-        let Some((next, turned)) = point_along(&path, TURN_ROUND_M) else {
+        let behind = point_along(&path, TURN_ROUND_M).is_some_and(|(_, turned)| {
+            wrap_angle(pose.position().bearing_to(turned) - pose.yaw).abs() > FRAC_PI_2
+        });
+        if behind {
+            self.manoeuvre_along(hybrid_grid, path, TURN_ROUND_M)
+        } else {
+            Route::forward(path)
+        }
+    }
+
+    /// A grid path from the unit's position as a route that starts with a manoeuvre:
+    /// Hybrid A* on `hybrid_grid` plans the way, backing where it must, to the point `d`
+    /// along the path, facing along it, and the route goes on forwards from there. The
+    /// path forwards if no manoeuvre is found within the planning budget.
+    fn manoeuvre_along(&self, hybrid_grid: &Grid, path: Vec<Point2>, d: f64) -> Route {
+        let Some((next, to)) = point_along(&path, d) else {
             return Route::forward(path);
         };
         let after = path[next];
-        if wrap_angle(pose.position().bearing_to(turned) - pose.yaw).abs() <= FRAC_PI_2
-            || turned.dist(after) < 1e-9
-        {
+        if to.dist(after) < 1e-9 {
             return Route::forward(path);
         }
-        let goal = Pose2::new(turned.x, turned.y, turned.bearing_to(after));
+        let goal = Pose2::new(to.x, to.y, to.bearing_to(after));
         let planner = self.hybrid_planner(hybrid_grid);
-        let Ok(plan) = planner.plan(pose, goal, None) else {
+        let Ok(plan) = planner.plan(self.pose(), goal, None) else {
             return Route::forward(path);
         };
         let mut route = Route::from_poses(&plan.poses, &plan.reverse, 2);
@@ -527,6 +552,7 @@ impl Unit {
             .flat_map(|off| STANDOFF_M.map(|r| (off, r, target.offset(home + off, r))))
             .filter(|&(_, _, spot)| {
                 self.nav_grid.free(spot)
+                    && !self.unit_on(spot)
                     && self.sight_grid.segment_free(spot, target)
                     && self.firing_solution(spot, target).is_ok()
             });
@@ -628,6 +654,12 @@ impl Unit {
                 && (self.frame.cannon.tilt - t).abs() < AIM_TOLERANCE_RAD
         })
     }
+}
+
+/// How far the navigation grid grows what blocks it: the circle round the vehicle and
+/// [`NAV_MARGIN_M`], so that a centre on a free cell leaves the body clear.
+fn nav_growth_m(spec: &GroundSpec) -> f64 {
+    spec.circumradius_m() + NAV_MARGIN_M
 }
 
 /// Where a unit that starts at `start` patrols to on its own: 10 m short of the far end of
@@ -762,8 +794,18 @@ impl Services for Unit {
         let Some(n) = &mut self.nav else { return cmd };
         match n.follow.follow(&pose, speed, steer, &spec) {
             Follow::Drive { speed, steer } => {
-                cmd.speed = speed;
                 cmd.steer = steer;
+                let n = &self.nav.as_ref().expect("navigating").follow;
+                let blocker = (speed != 0.0)
+                    .then(|| self.unit_in_the_way(n, speed))
+                    .flatten()
+                    .map(|b| b.speed.abs() > yielding::STANDING_M_S);
+                if let Some(moving) = blocker {
+                    self.held(moving);
+                } else {
+                    self.unheld();
+                    cmd.speed = speed;
+                }
             }
             Follow::Arrived => n.arrived = true,
         }

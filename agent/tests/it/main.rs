@@ -10,3 +10,4 @@ mod keep_out;
 mod monorail;
 mod profiles;
 mod ros2_thermal;
+mod yielding;

@@ -7,7 +7,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::*;
-use firefleet_model::geometry::{Point2, Pose2};
+use firefleet_model::geometry::{OrientedBox, Point2, Pose2};
 use firefleet_model::ids::UnitId;
 use firefleet_model::validate::{Invalid, Validate, each, finite, in_range, max_len};
 
@@ -215,6 +215,36 @@ impl SensorFrame for RailSensors {
     }
 }
 
+/// A body a unit's range sensor tracks near it: another ground unit, as a lidar's
+/// obstacle tracker reports one (an oriented box with its speed). The unit yields to it
+/// and plans round it; walls and parked vehicles are on the unit's map already.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct NearbyBody {
+    /// The box's centre and heading.
+    pub pose: Pose2,
+    pub length_m: f64,
+    pub width_m: f64,
+    /// Along its heading, m/s; negative when it backs.
+    pub speed: f64,
+}
+
+impl NearbyBody {
+    pub fn footprint(&self) -> OrientedBox {
+        OrientedBox::new(self.pose, self.length_m, self.width_m)
+    }
+}
+
+impl Validate for NearbyBody {
+    fn validate(&self) -> Result<(), Invalid> {
+        self.pose.validate().map_err(|e| e.within("pose"))?;
+        // Sizes a road vehicle can have: a zero or a kilometre box would stop every unit
+        // that believed it, or none.
+        in_range("length_m", self.length_m, 0.1, 30.0)?;
+        in_range("width_m", self.width_m, 0.1, 5.0)?;
+        in_range("speed", self.speed, -50.0, 50.0)
+    }
+}
+
 /// `ff/<site>/sim/unit/<id>/sensors`: what a unit's hardware drivers would publish.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct UnitSensors {
@@ -233,7 +263,15 @@ pub struct UnitSensors {
     /// the sensors do); the unit finds flames in it itself.
     #[serde(default)]
     pub thermal: Option<ThermalImage>,
+    /// Other units the range sensor tracks within [`NEARBY_RANGE_M`].
+    #[serde(default)]
+    pub nearby: Vec<NearbyBody>,
 }
+
+/// How far a unit's range sensor tracks other bodies, m: past the stopping distance at
+/// top speed and the few metres a unit looks ahead for another in its way, with room to
+/// plan round one it meets.
+pub const NEARBY_RANGE_M: f64 = 20.0;
 
 impl Validate for UnitSensors {
     fn validate(&self) -> Result<(), Invalid> {
@@ -247,6 +285,8 @@ impl Validate for UnitSensors {
         finite("cannon.tilt", self.cannon.tilt)?;
         max_len("detections", &self.detections, MAX_LIST)?;
         each("detections", &self.detections)?;
+        max_len("nearby", &self.nearby, MAX_LIST)?;
+        each("nearby", &self.nearby)?;
         match &self.thermal {
             Some(image) => image.validate().map_err(|e| e.within("thermal")),
             None => Ok(()),

@@ -11,7 +11,7 @@ use crate::thermal::{
     THERMAL_PERIOD_S, ThermalCore,
 };
 use firefleet_model::spec::CameraSpec;
-use firefleet_protocol::msg::ThermalImage;
+use firefleet_protocol::msg::{NEARBY_RANGE_M, NearbyBody, ThermalImage};
 
 /// A carriage's thermal camera reports a hot spot on the road this hot or hotter, K: 200 C,
 /// where a knocked-down bed is still worth cooling (it re-ignites above
@@ -104,7 +104,25 @@ impl World {
             detections,
             collided: b.collided,
             thermal,
+            nearby: self.nearby(i),
         })
+    }
+
+    /// The other ground units within [`NEARBY_RANGE_M`] of body `i`, as its range sensor's
+    /// tracker reports them. Exact and unoccluded: the simulator models neither the
+    /// tracker's error (the margins the unit keeps cover a tenth of a metre) nor one unit
+    /// hiding another from the sensor.
+    fn nearby(&self, i: usize) -> Vec<NearbyBody> {
+        let at = self.bodies[i].pose.position();
+        (self.bodies.iter().enumerate())
+            .filter(|&(j, o)| j != i && o.pose.position().dist(at) <= NEARBY_RANGE_M)
+            .map(|(_, o)| NearbyBody {
+                pose: o.pose,
+                length_m: o.spec.length_m,
+                width_m: o.spec.width_m,
+                speed: o.speed,
+            })
+            .collect()
     }
 
     /// A thermal core's frame from `eye` through smoke `smoke_per_m`: burning fires as

@@ -122,6 +122,44 @@ fn driving_into_a_vehicle_stops_the_unit() {
 }
 
 #[test]
+fn units_driving_into_each_other_stop_touching_and_see_each_other_coming() {
+    let site = Scenario::straight(100.0)
+        .name("w")
+        .section(10.0, 6.0)
+        .ground("u1", 30.0, 0.0)
+        .ground("u2", 40.0, 0.0)
+        .ground("u3", 70.0, 0.0)
+        .build();
+    let mut w = World::new(&site, 1);
+    let drive = |speed| UnitCommand {
+        speed,
+        steer: 0.0,
+        pan: 0.0,
+        tilt: 0.0,
+        valve_open: false,
+    };
+    let (u1, u2) = (UnitId::new("u1").unwrap(), UnitId::new("u2").unwrap());
+    let seen = w.sensors(&u1).unwrap().nearby;
+    assert_eq!(seen.len(), 1, "u2 within range, u3 beyond it: {seen:?}");
+    assert_eq!(seen[0].pose.x, 40.0);
+    w.command(&u1, drive(1.5));
+    w.command(&u2, drive(-0.6));
+    for _ in 0..400 {
+        w.step(0.05);
+        let t = w.truth();
+        let gap = t.units[1].pose.x - t.units[0].pose.x;
+        assert!(gap >= GROUND.length_m, "the bodies overlap: {gap} m apart");
+    }
+    let t = w.truth();
+    assert!(t.units[0].collisions > 0 && t.units[1].collisions > 0);
+    assert!(
+        t.units[1].pose.x - t.units[0].pose.x < GROUND.length_m + 0.1,
+        "touching"
+    );
+    assert_eq!(t.units[2].collisions, 0);
+}
+
+#[test]
 fn water_on_the_fire_puts_it_out_and_water_beside_it_does_not() {
     let aim = |w: &mut World, pan: f64| {
         // Unit at x=5 faces +x; the fire is 10 m ahead and 2.5 m left. Low-arc elevation

@@ -4,7 +4,7 @@
 use firefleet_model::Chainage;
 use firefleet_model::UnitKind;
 use firefleet_model::geometry::{Point2, Pose2};
-use firefleet_nav::{self as nav, PurePursuit, Route};
+use firefleet_nav::{self as nav, Route};
 
 use super::*;
 
@@ -96,14 +96,7 @@ impl Unit {
         });
         match path {
             Some((goal, route)) => {
-                self.nav = Some(Navigation {
-                    purpose: NavPurpose::Leave,
-                    goal,
-                    follow: PurePursuit::new(route),
-                    arrived: false,
-                    recover: None,
-                    failed: false,
-                });
+                self.nav = Some(Navigation::new(NavPurpose::Leave, goal, route));
             }
             None => {
                 tracing::warn!(unit = %self.id, "inside barred space and no way out; holding");

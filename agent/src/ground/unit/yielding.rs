@@ -1,0 +1,194 @@
+//! Other units in the way: the unit holds short of one, and if it is still held after a
+//! while, plans round it.
+//!
+//! Every unit follows the same rule, with no word between them: the range sensor's tracked
+//! bodies (`UnitSensors::nearby`) are checked against where the route takes the unit over
+//! its braking distance and [`GAP_AHEAD_M`] more; one it is closing on there holds it. A
+//! unit held by one standing still for its patience plans round the bodies it sees, as
+//! they stand; while what holds it moves, it waits. Two units that meet head on hold each
+//! other; the patience (between [`HOLD_S`] and [`HOLD_SPREAD_S`] more, drawn from the
+//! unit's name and the try) is what breaks the tie: the first to run out goes round, the
+//! other sees it move and waits, then finds its way clear. A unit parked at a fire is
+//! passed the same way. After [`DETOURS`] tries that found no way round, the navigation
+//! fails, and the tree does what it does with any goal out of reach.
+//!
+//! Not here: contact itself (the body's collision recovery, in the parent module) or
+//! walls and parked vehicles (on the unit's map already).
+
+use firefleet_model::geometry::OrientedBox;
+use firefleet_nav::{self as nav, PurePursuit};
+use firefleet_protocol::msg::NearbyBody;
+
+use super::*;
+
+/// Clearance a unit keeps from another unit's footprint, m: the tracker's error and the
+/// path follower's, a tenth of a metre or so each, with room to spare.
+pub(super) const BODY_MARGIN_M: f64 = 0.3;
+/// Room a unit leaves before another in its way, beyond its braking distance, m.
+const GAP_AHEAD_M: f64 = 1.0;
+/// Spacing of the poses along the route checked for another unit, m: well under any
+/// unit's width, so that none slips between two.
+const CHECK_STEP_M: f64 = 0.25;
+/// The least a held unit waits before planning round what holds it, s: long enough for a
+/// unit crossing its way to pass.
+const HOLD_S: f64 = 2.0;
+/// How much longer than [`HOLD_S`] a unit may wait, s: a spread of draws that seldom
+/// fall within the second it takes a unit to start its way round and be seen moving.
+const HOLD_SPREAD_S: f64 = 4.0;
+/// Below this speed a tracked body counts as standing, m/s.
+pub(super) const STANDING_M_S: f64 = 0.05;
+/// Tries at a way round another unit that may find none before the navigation fails.
+const DETOURS: u32 = 3;
+
+/// How a navigation stands with the units in its way.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Yielding {
+    /// Held by another unit since then, s.
+    held_since: Option<f64>,
+    /// Ways round tried so far.
+    detours: u32,
+}
+
+impl Unit {
+    /// Whether another unit is in the way of the next stretch of `follow`'s route, for a
+    /// unit about to drive at `speed`: the footprint at a pose along it, grown by
+    /// [`BODY_MARGIN_M`], touches a body the unit would be closer to there than it is now.
+    /// The stretch is both units' braking distances and [`GAP_AHEAD_M`]: two that meet
+    /// head on both brake, and close by the sum. One the unit moves away from is no
+    /// obstacle: two units side by side part.
+    pub(super) fn unit_in_the_way(&self, follow: &PurePursuit, speed: f64) -> Option<&NearbyBody> {
+        if self.frame.nearby.is_empty() {
+            return None;
+        }
+        let f = &self.frame;
+        let braking = |v: f64| v * v / (2.0 * self.spec.max_accel_m_s2);
+        let mine = braking(speed.abs().max(f.speed.abs())) + GAP_AHEAD_M;
+        // Another unit's braking is taken as this unit's: the tracker gives its speed,
+        // not its limits.
+        let reach = |b: &NearbyBody| mine + braking(b.speed);
+        let here = f.pose.position();
+        let furthest = f.nearby.iter().map(reach).fold(0.0, f64::max);
+        let ahead = follow.ahead(here, furthest, CHECK_STEP_M);
+        f.nearby.iter().find(|b| {
+            let (other, at) = (b.footprint(), b.pose.position());
+            let now = here.dist(at);
+            let within = (reach(b) / CHECK_STEP_M) as usize;
+            ahead.iter().take(within).any(|p| {
+                p.position().dist(at) < now
+                    && OrientedBox::new(*p, self.spec.length_m, self.spec.width_m)
+                        .grown(BODY_MARGIN_M)
+                        .overlaps(&other)
+            })
+        })
+    }
+
+    /// The unit is held by another this step, `moving` or standing: once held by one
+    /// standing for its patience, plan round the bodies it sees. One that moves may be on
+    /// its own way round, or about to clear the way: the wait starts again.
+    pub(super) fn held(&mut self, moving: bool) {
+        let now = self.now();
+        let Some(n) = &mut self.nav else { return };
+        if moving {
+            n.yielding.held_since = Some(now);
+            return;
+        }
+        let since = *n.yielding.held_since.get_or_insert(now);
+        if now - since >= patience(&self.id, n.yielding.detours) {
+            self.detour();
+        }
+    }
+
+    /// The unit's way is clear.
+    pub(super) fn unheld(&mut self) {
+        if let Some(n) = &mut self.nav {
+            n.yielding.held_since = None;
+        }
+    }
+
+    /// Plan round the bodies the unit sees, as they stand, to the goal, or to the nearest
+    /// free point within [`GOAL_SHIFT_M`] of it if one stands on it. The way starts with a
+    /// manoeuvre past the nearest (Hybrid A*, backing where it must): a unit held a
+    /// metre short of another cannot steer round it driving forwards.
+    fn detour(&mut self) {
+        let Some(n) = &self.nav else { return };
+        let (goal, purpose) = (n.goal, n.purpose);
+        let bodies: Vec<OrientedBox> = self.frame.nearby.iter().map(|b| b.footprint()).collect();
+        let (grid, hybrid) = if purpose == NavPurpose::Leave {
+            (&self.open_nav_grid, &self.open_hybrid_grid)
+        } else {
+            (&self.nav_grid, &self.hybrid_grid)
+        };
+        // The grids' own growths: the centre's clearance on the first; on the second the
+        // margin the way is checked with, and room for the follower cutting the planned
+        // arcs (a way planned at the margin itself held the unit again at its first bend).
+        let stamp = |grid: &Grid, by: f64| {
+            grid.with_keepout(|p| bodies.iter().any(|b| b.grown(by).contains(p)))
+        };
+        let grid = stamp(grid, nav_growth_m(&self.spec));
+        let hybrid = stamp(hybrid, 2.0 * BODY_MARGIN_M);
+        let here = self.pose().position();
+        let past = (self.frame.nearby.iter())
+            .map(|b| here.dist(b.pose.position()) + b.length_m + self.spec.length_m)
+            .fold(f64::INFINITY, f64::min)
+            .max(TURN_ROUND_M);
+        let route = grid.nearest_free(goal, GOAL_SHIFT_M).and_then(|to| {
+            let path = nav::plan(&grid, here, to)?;
+            Some((to, self.manoeuvre_along(&hybrid, path, past)))
+        });
+        let Some(n) = &mut self.nav else { return };
+        n.yielding.detours += 1;
+        n.yielding.held_since = None;
+        match route {
+            Some((to, route)) => {
+                tracing::info!(unit = %self.id, goal = ?to, bodies = bodies.len(), "held by another unit; going round");
+                n.goal = to;
+                n.follow = PurePursuit::new(route);
+            }
+            None if n.yielding.detours >= DETOURS => {
+                tracing::warn!(unit = %self.id, goal = ?goal, "held by another unit and no way round; navigation failed");
+                n.failed = true;
+            }
+            None => {
+                tracing::info!(unit = %self.id, "held by another unit and no way round yet; waiting");
+            }
+        }
+    }
+
+    /// Whether a unit the sensor tracks stands on `p`, a point the unit's centre might go
+    /// to, as the navigation grid would have it.
+    pub(super) fn unit_on(&self, p: Point2) -> bool {
+        let by = nav_growth_m(&self.spec);
+        (self.frame.nearby.iter()).any(|b| b.footprint().grown(by).contains(p))
+    }
+}
+
+/// How long a unit waits, held by one standing, before its `attempt`-th way round:
+/// [`HOLD_S`] and up to [`HOLD_SPREAD_S`] more, drawn from the unit's name and the attempt by FNV-1a (stable across builds
+/// and platforms, unlike the standard library's hasher), so that two units that hold each
+/// other do not move at once, nor on every later try.
+fn patience(id: &UnitId, attempt: u32) -> f64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in id.as_str().bytes().chain(attempt.to_le_bytes()) {
+        h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    // The top 53 bits as a fraction in [0, 1).
+    HOLD_S + HOLD_SPREAD_S * (h >> 11) as f64 / (1u64 << 53) as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn patience_differs_between_units_and_between_tries() {
+        let (a, b) = (UnitId::new("ugv-1").unwrap(), UnitId::new("ugv-2").unwrap());
+        let waits = [patience(&a, 0), patience(&a, 1), patience(&b, 0)];
+        assert!(
+            waits
+                .iter()
+                .all(|w| (HOLD_S..HOLD_S + HOLD_SPREAD_S).contains(w))
+        );
+        assert!((waits[0] - waits[1]).abs() > 1e-3 && (waits[0] - waits[2]).abs() > 1e-3);
+        assert_eq!(patience(&a, 0), waits[0], "the same draw every time");
+    }
+}

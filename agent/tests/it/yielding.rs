@@ -1,0 +1,75 @@
+//! Ground units meeting in the simulated world, where bodies touch: two that meet head on
+//! in one lane get past each other, and a unit finds its way past one parked in its lane,
+//! both without touching.
+
+use std::sync::Arc;
+
+use firefleet_agent::ground::GroundController;
+use firefleet_model::UnitId;
+use firefleet_model::profile::GROUND;
+use firefleet_model::scenario::Scenario;
+use firefleet_sim::World;
+
+/// Units on patrol in lockstep with the world until `done` holds of their x (or three
+/// minutes pass); each unit's blocked steps.
+fn patrol(scenario: Scenario, ids: &[&str], done: impl Fn(&[f64]) -> bool) -> (Vec<f64>, Vec<u32>) {
+    let scenario = Arc::new(scenario);
+    let mut world = World::new(&scenario, 5);
+    let ids: Vec<UnitId> = ids.iter().map(|id| UnitId::new(*id).unwrap()).collect();
+    let mut units: Vec<GroundController> = ids
+        .iter()
+        .map(|id| GroundController::new(id.clone(), *GROUND, scenario.clone()))
+        .collect();
+    for u in &mut units {
+        u.office_changed(true);
+    }
+    let xs = |world: &World| {
+        world
+            .truth()
+            .units
+            .iter()
+            .map(|u| u.pose.x)
+            .collect::<Vec<_>>()
+    };
+    while world.time() < 180.0 && !done(&xs(&world)) {
+        for (id, u) in ids.iter().zip(&mut units) {
+            let sensors = world.sensors(id).unwrap();
+            world.command(id, u.step(&sensors));
+        }
+        world.step(0.05);
+    }
+    let truth = world.truth();
+    (
+        xs(&world),
+        truth.units.iter().map(|u| u.collisions).collect(),
+    )
+}
+
+#[test]
+fn two_units_meeting_head_on_in_one_lane_get_past_each_other_untouched() {
+    // Both in the right-hand lane: u1 patrols east from the west portal, u2 west from the
+    // east one, so they meet half way.
+    let s = Scenario::straight(200.0)
+        .ground("u1", 20.0, -2.5)
+        .ground("u2", 180.0, -2.5)
+        .build();
+    let (x, blocked) = patrol(s, &["u1", "u2"], |x| x[0] > 150.0 && x[1] < 50.0);
+    assert!(
+        x[0] > 150.0 && x[1] < 50.0,
+        "still short of each other's start: {x:?}"
+    );
+    assert_eq!(blocked, [0, 0], "the bodies touched");
+}
+
+#[test]
+fn a_unit_goes_round_one_standing_in_its_lane() {
+    // u2 has no controller: it stands where it starts, as a unit that lost its agent does.
+    let s = Scenario::straight(200.0)
+        .ground("u1", 20.0, -2.5)
+        .ground("u2", 80.0, -2.5)
+        .build();
+    let (x, blocked) = patrol(s, &["u1"], |x| x[0] > 120.0);
+    assert!(x[0] > 120.0, "u1 never got past: {x:?}");
+    assert_eq!(blocked, [0, 0], "the bodies touched");
+    assert_eq!(x[1], 80.0, "the standing unit was pushed");
+}
