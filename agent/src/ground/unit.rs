@@ -112,11 +112,15 @@ struct Navigation {
     recover: Option<Recovery>,
     failed: bool,
     yielding: yielding::Yielding,
+    /// The fire a firing position is the goal for, where the route was prepared for one:
+    /// a unit that finds another standing on its spot chooses another.
+    fire: Option<Point2>,
 }
 
 impl Navigation {
     fn new(purpose: NavPurpose, goal: Point2, route: Route) -> Self {
         Self {
+            fire: None,
             purpose,
             goal,
             follow: PurePursuit::new(route),
@@ -149,6 +153,14 @@ impl Recovery {
             speed: under_way.map_or(-RECOVER_SPEED_M_S, |r| -r.speed),
         }
     }
+}
+
+/// A firing position chosen for a fire and the route to it.
+#[derive(Debug)]
+struct Prepared {
+    fire: Point2,
+    spot: Point2,
+    route: Route,
 }
 
 /// The point `d` metres along `path` and the index of the path's next point after it;
@@ -197,7 +209,7 @@ pub struct Unit {
     nav: Option<Navigation>,
     /// A firing route prepared for a goal (from `SetTargetToFire`), used by the next
     /// `StartNavigation` to that goal.
-    prepared: Option<(Point2, Route)>,
+    prepared: Option<Prepared>,
     /// Cannon set-point (pan, tilt) and whether the valve is wanted open.
     pub(crate) aim: Option<(f64, f64)>,
     /// Pan set-point while sweeping the cannon (and its camera) to look for fire.
@@ -350,19 +362,23 @@ impl Unit {
         if self.mission.leaving {
             return false;
         }
-        let prepared = self.prepared.take().filter(|(g, _)| g.dist(goal) < 1e-9);
+        let prepared = self.prepared.take().filter(|p| p.spot.dist(goal) < 1e-9);
         let to = self
             .nav_grid
             .nearest_free(goal, GOAL_SHIFT_M)
             .unwrap_or(goal);
+        let fire = prepared.as_ref().map(|p| p.fire);
         let path = match prepared {
-            Some((_, p)) => Some(p),
+            Some(p) => Some(p.route),
             None => nav::plan(&self.nav_grid, self.pose().position(), to)
                 .map(|p| self.route_along(&self.hybrid_grid, p)),
         };
         match path {
             Some(p) => {
-                self.nav = Some(Navigation::new(purpose, to, p));
+                self.nav = Some(Navigation {
+                    fire,
+                    ..Navigation::new(purpose, to, p)
+                });
                 if purpose == NavPurpose::Cruise {
                     self.cruising_to = Some(goal);
                 }
@@ -395,16 +411,17 @@ impl Unit {
             .is_some_and(|n| n.arrived && n.purpose != NavPurpose::Leave)
     }
 
-    /// A Hybrid A* route from the unit to the cheapest to reach of `spots`, arriving
+    /// A Hybrid A* route over `grid` from the unit to the cheapest to reach of `spots`, arriving
     /// facing `target` and keeping it in view; the spot and the route, or `None` if the
     /// search finds none within budget.
     fn hybrid_route(
         &self,
+        grid: &Grid,
         from: Point2,
         spots: &[Point2],
         target: Point2,
     ) -> Option<(Point2, Route)> {
-        let planner = self.hybrid_planner(&self.hybrid_grid);
+        let planner = self.hybrid_planner(grid);
         let start = Pose2::new(from.x, from.y, self.pose().yaw);
         // Plan to a pose short of each spot and finish on a straight run-in: a follower
         // settles its heading on a straight, while on the end of a curve it lags behind
@@ -511,16 +528,34 @@ impl Unit {
     /// parked vehicle is fought at the vehicle's nearest face.
     pub fn firing_position(&mut self, target: Point2) -> Option<Point2> {
         let target = self.scenario.fightable_at(target);
-        let side = self.mission.approach();
-        if side != Approach::Either
-            && let Some(spot) = self.firing_position_from(target, side)
-        {
-            return Some(spot);
-        }
-        self.firing_position_from(target, Approach::Either)
+        let (spot, route) = self.firing_route(target, &self.nav_grid, &self.hybrid_grid)?;
+        self.prepared = Some(Prepared {
+            fire: target,
+            spot,
+            route,
+        });
+        Some(spot)
     }
 
-    fn firing_position_from(&mut self, target: Point2, side: Approach) -> Option<Point2> {
+    /// A firing position for a fire at `target` and the route to it, planned on the
+    /// navigation grid `nav` and the Hybrid A* grid `hybrid` (the unit's own, or those
+    /// with the other units it sees laid on them): on the side the task names if one
+    /// there can be reached, else on either.
+    fn firing_route(&self, target: Point2, nav: &Grid, hybrid: &Grid) -> Option<(Point2, Route)> {
+        let side = self.mission.approach();
+        (side != Approach::Either)
+            .then(|| self.firing_route_from(target, side, nav, hybrid))
+            .flatten()
+            .or_else(|| self.firing_route_from(target, Approach::Either, nav, hybrid))
+    }
+
+    fn firing_route_from(
+        &self,
+        target: Point2,
+        side: Approach,
+        nav: &Grid,
+        hybrid: &Grid,
+    ) -> Option<(Point2, Route)> {
         let from = self.pose().position();
         let t = &self.scenario.tunnel;
         let axis = t.heading_at(t.chainage(target));
@@ -551,7 +586,7 @@ impl Unit {
         let mut spots = offsets
             .flat_map(|off| STANDOFF_M.map(|r| (off, r, target.offset(home + off, r))))
             .filter(|&(_, _, spot)| {
-                self.nav_grid.free(spot)
+                nav.free(spot)
                     && !self.unit_on(spot)
                     && self.sight_grid.segment_free(spot, target)
                     && self.firing_solution(spot, target).is_ok()
@@ -562,13 +597,12 @@ impl Unit {
         // car parked askew, say), and one search to all of them costs less than one each.
         // Else the grid path, with a lead-in along the line to the fire where there is
         // room.
-        let nav = &self.nav_grid;
         let best: Vec<Point2> = spots
             .clone()
             .take(HYBRID_SPOTS)
             .map(|(_, _, spot)| spot)
             .collect();
-        let (spot, path) = self.hybrid_route(from, &best, target).or_else(|| {
+        self.hybrid_route(hybrid, from, &best, target).or_else(|| {
             spots.find_map(|(off, r, spot)| {
                 let lead_in = target.offset(home + off, r + 2.5);
                 let path = if nav.free(lead_in) && nav.segment_free(lead_in, spot) {
@@ -579,11 +613,9 @@ impl Unit {
                 } else {
                     nav::plan(nav, from, spot)
                 };
-                Some((spot, self.route_along(&self.hybrid_grid, path?)))
+                Some((spot, self.route_along(hybrid, path?)))
             })
-        })?;
-        self.prepared = Some((spot, path));
-        Some(spot)
+        })
     }
 
     /// The shot from a nozzle above `from` onto the road at `target`: the low arc if it is

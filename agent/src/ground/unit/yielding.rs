@@ -106,12 +106,13 @@ impl Unit {
     }
 
     /// Plan round the bodies the unit sees, as they stand, to the goal, or to the nearest
-    /// free point within [`GOAL_SHIFT_M`] of it if one stands on it. The way starts with a
-    /// manoeuvre past the nearest (Hybrid A*, backing where it must): a unit held a
-    /// metre short of another cannot steer round it driving forwards.
+    /// free point within [`GOAL_SHIFT_M`] of it if one stands on it; a firing position
+    /// one stands on is chosen again round its fire. The way starts with a manoeuvre past
+    /// the nearest (Hybrid A*, backing where it must): a unit held a metre short of
+    /// another cannot steer round it driving forwards.
     fn detour(&mut self) {
         let Some(n) = &self.nav else { return };
-        let (goal, purpose) = (n.goal, n.purpose);
+        let (goal, purpose, fire) = (n.goal, n.purpose, n.fire);
         let bodies: Vec<OrientedBox> = self.frame.nearby.iter().map(|b| b.footprint()).collect();
         let (grid, hybrid) = if purpose == NavPurpose::Leave {
             (&self.open_nav_grid, &self.open_hybrid_grid)
@@ -119,22 +120,30 @@ impl Unit {
             (&self.nav_grid, &self.hybrid_grid)
         };
         // The grids' own growths: the centre's clearance on the first; on the second the
-        // margin the way is checked with, and room for the follower cutting the planned
-        // arcs (a way planned at the margin itself held the unit again at its first bend).
+        // margin the way is checked with and half as much again, room for the follower
+        // cutting the planned arcs (a way planned at the margin itself held the unit again
+        // at its first bend; twice the margin found no way through a gap between a truck
+        // and a unit at work that the unit fits through).
         let stamp = |grid: &Grid, by: f64| {
             grid.with_keepout(|p| bodies.iter().any(|b| b.grown(by).contains(p)))
         };
         let grid = stamp(grid, nav_growth_m(&self.spec));
-        let hybrid = stamp(hybrid, 2.0 * BODY_MARGIN_M);
+        let hybrid = stamp(hybrid, 1.5 * BODY_MARGIN_M);
         let here = self.pose().position();
         let past = (self.frame.nearby.iter())
             .map(|b| here.dist(b.pose.position()) + b.length_m + self.spec.length_m)
             .fold(f64::INFINITY, f64::min)
             .max(TURN_ROUND_M);
-        let route = grid.nearest_free(goal, GOAL_SHIFT_M).and_then(|to| {
+        let way_round = |to: Point2| {
             let path = nav::plan(&grid, here, to)?;
             Some((to, self.manoeuvre_along(&hybrid, path, past)))
-        });
+        };
+        // A firing position another unit stands on is given up for another spot round
+        // the same fire (the side the task asks for first, as when the first was chosen).
+        let route = match fire {
+            Some(fire) if self.unit_on(goal) => self.firing_route(fire, &grid, &hybrid),
+            _ => grid.nearest_free(goal, GOAL_SHIFT_M).and_then(way_round),
+        };
         let Some(n) = &mut self.nav else { return };
         n.yielding.detours += 1;
         n.yielding.held_since = None;
