@@ -115,8 +115,33 @@ impl OrientedBox {
     }
 
     pub fn contains(&self, p: Point2) -> bool {
+        self.distance_to(p) == 0.0
+    }
+
+    /// How far `p` is from the box, m; 0 inside it.
+    pub fn distance_to(&self, p: Point2) -> f64 {
         let b = self.pose.to_body(p);
-        b.x.abs() <= self.half_length && b.y.abs() <= self.half_width
+        let dx = (b.x.abs() - self.half_length).max(0.0);
+        let dy = (b.y.abs() - self.half_width).max(0.0);
+        dx.hypot(dy)
+    }
+
+    pub fn corners(&self) -> [Point2; 4] {
+        let (l, w) = (self.half_length, self.half_width);
+        [(l, w), (-l, w), (-l, -w), (l, -w)].map(|(x, y)| self.pose.to_site(Point2::new(x, y)))
+    }
+
+    /// The gap between two boxes, m; 0 where they overlap. Between two convex polygons
+    /// apart the nearest points are a corner of one and a side of the other.
+    pub fn gap_to(&self, o: &OrientedBox) -> f64 {
+        if self.overlaps(o) {
+            return 0.0;
+        }
+        let to_o = self.corners().map(|c| o.distance_to(c));
+        let to_self = o.corners().map(|c| self.distance_to(c));
+        to_o.into_iter()
+            .chain(to_self)
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// Whether the two boxes share any point: by the separating axis theorem, two convex
@@ -254,6 +279,13 @@ mod tests {
             "grown by a margin"
         );
         assert!(car.contains(super::Point2::new(1.9, -0.9)));
+        assert!((car.distance_to(super::Point2::new(5.0, 5.0)) - 3.0f64.hypot(4.0)).abs() < 1e-12);
+        assert!(
+            (car.gap_to(&at(4.5, 0.0, 0.0)) - 0.5).abs() < 1e-12,
+            "end to end"
+        );
+        assert!((car.gap_to(&turned) - (3.2 - 1.0 - 2.0f64.sqrt() * 1.5)).abs() < 1e-9);
+        assert_eq!(car.gap_to(&at(3.9, 0.0, 0.0)), 0.0);
         assert!(!car.contains(super::Point2::new(2.1, 0.0)));
     }
 

@@ -67,13 +67,11 @@ impl Body {
         obstacles: &[Obstacle],
         others: &[OrientedBox],
     ) -> bool {
-        let (hl, hw) = (self.spec.length_m / 2.0, self.spec.width_m / 2.0);
-        let corners = [(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)]
-            .map(|(x, y)| pose.to_site(Point2::new(x, y)));
+        let me = self.footprint_at(*pose);
+        let corners = me.corners();
         if !corners.iter().all(|c| tunnel.contains(*c, 0.0)) {
             return false;
         }
-        let me = self.footprint_at(*pose);
         if others.iter().any(|o| o.overlaps(&me)) {
             return false;
         }

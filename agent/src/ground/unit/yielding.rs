@@ -9,8 +9,9 @@
 //! other; the patience (between [`HOLD_S`] and [`HOLD_SPREAD_S`] more, drawn from the
 //! unit's name and the try) is what breaks the tie: the first to run out goes round, the
 //! other sees it move and waits, then finds its way clear. A unit parked at a fire is
-//! passed the same way. After [`DETOURS`] tries that found no way round, the navigation
-//! fails, and the tree does what it does with any goal out of reach.
+//! passed the same way. A unit that finds no way round waits and tries again after its
+//! patience: the way may clear (a unit at work moves on when its fire is out), and a
+//! navigation failed for good would leave the tree waiting for an arrival.
 //!
 //! Not here: contact itself (the body's collision recovery, in the parent module) or
 //! walls and parked vehicles (on the unit's map already).
@@ -24,6 +25,12 @@ use super::*;
 /// Clearance a unit keeps from another unit's footprint, m: the tracker's error and the
 /// path follower's, a tenth of a metre or so each, with room to spare.
 pub(super) const BODY_MARGIN_M: f64 = 0.3;
+/// What a way round keeps from other units beyond the footprint, as a multiple of
+/// [`BODY_MARGIN_M`]: half as much again, room for the follower cutting the planned arcs
+/// (a way planned at the margin itself held the unit again at its first bend; twice the
+/// margin found no way through a gap between a truck and a unit at work that the unit
+/// fits through).
+const DETOUR_MARGINS: f64 = 1.5;
 /// Room a unit leaves before another in its way, beyond its braking distance, m.
 const GAP_AHEAD_M: f64 = 1.0;
 /// Spacing of the poses along the route checked for another unit, m: well under any
@@ -37,8 +44,6 @@ const HOLD_S: f64 = 2.0;
 const HOLD_SPREAD_S: f64 = 4.0;
 /// Below this speed a tracked body counts as standing, m/s.
 pub(super) const STANDING_M_S: f64 = 0.05;
-/// Tries at a way round another unit that may find none before the navigation fails.
-const DETOURS: u32 = 3;
 
 /// How a navigation stands with the units in its way.
 #[derive(Debug, Clone, Copy, Default)]
@@ -119,16 +124,22 @@ impl Unit {
         } else {
             (&self.nav_grid, &self.hybrid_grid)
         };
-        // The grids' own growths: the centre's clearance on the first; on the second the
-        // margin the way is checked with and half as much again, room for the follower
-        // cutting the planned arcs (a way planned at the margin itself held the unit again
-        // at its first bend; twice the margin found no way through a gap between a truck
-        // and a unit at work that the unit fits through).
-        let stamp = |grid: &Grid, by: f64| {
-            grid.with_keepout(|p| bodies.iter().any(|b| b.grown(by).contains(p)))
+        // Each body grown for the centre on the first grid and for the footprint on the
+        // second, but never over the unit where it stands: two units jammed nose to nose
+        // are closer than any margin, and a way round must start where the unit is.
+        let pose = self.pose();
+        let me = OrientedBox::new(pose, self.spec.length_m, self.spec.width_m);
+        let clear = self.clear_of_units_m();
+        let stamp = |grid: &Grid, by: &dyn Fn(&OrientedBox) -> f64| {
+            let grown: Vec<OrientedBox> = bodies.iter().map(|b| b.grown(by(b).max(0.0))).collect();
+            grid.with_keepout(|p| grown.iter().any(|b| b.contains(p)))
         };
-        let grid = stamp(grid, nav_growth_m(&self.spec));
-        let hybrid = stamp(hybrid, 1.5 * BODY_MARGIN_M);
+        let grid = stamp(grid, &|b| {
+            clear.min(b.distance_to(pose.position()) - GRID_RES_M)
+        });
+        let hybrid = stamp(hybrid, &|b| {
+            (DETOUR_MARGINS * BODY_MARGIN_M).min(b.gap_to(&me) - GRID_RES_M)
+        });
         let here = self.pose().position();
         let past = (self.frame.nearby.iter())
             .map(|b| here.dist(b.pose.position()) + b.length_m + self.spec.length_m)
@@ -153,20 +164,26 @@ impl Unit {
                 n.goal = to;
                 n.follow = PurePursuit::new(route);
             }
-            None if n.yielding.detours >= DETOURS => {
-                tracing::warn!(unit = %self.id, goal = ?goal, "held by another unit and no way round; navigation failed");
-                n.failed = true;
-            }
             None => {
                 tracing::info!(unit = %self.id, "held by another unit and no way round yet; waiting");
             }
         }
     }
 
+    /// How far the unit's centre keeps from another unit's footprint on a way round, m:
+    /// the half-diagonal of its own footprint grown by the detour's margin, so that at
+    /// the end of the way, standing still, it is not held by the unit beside it (with
+    /// the navigation grid's smaller margin a unit reached a goal a few centimetres too
+    /// close to another at work, and was held there, going round and round).
+    fn clear_of_units_m(&self) -> f64 {
+        let m = DETOUR_MARGINS * BODY_MARGIN_M;
+        (self.spec.length_m / 2.0 + m).hypot(self.spec.width_m / 2.0 + m)
+    }
+
     /// Whether a unit the sensor tracks stands on `p`, a point the unit's centre might go
-    /// to, as the navigation grid would have it.
+    /// to: within [`Unit::clear_of_units_m`] of it.
     pub(super) fn unit_on(&self, p: Point2) -> bool {
-        let by = nav_growth_m(&self.spec);
+        let by = self.clear_of_units_m();
         (self.frame.nearby.iter()).any(|b| b.footprint().grown(by).contains(p))
     }
 }
