@@ -58,26 +58,26 @@ impl Body {
         OrientedBox::new(pose, self.spec.length_m, self.spec.width_m)
     }
 
-    /// Whether the body at `pose` is clear of the walls, of every vehicle in `obstacles`
-    /// and of every other unit's footprint in `others`.
-    fn footprint_clear(
+    /// What the body at `pose` would touch: a wall, a vehicle in `obstacles` or another
+    /// unit's footprint in `others`; `None` where it is clear.
+    fn contact<'o>(
         &self,
         pose: &Pose2,
         tunnel: &Tunnel,
-        obstacles: &[Obstacle],
+        obstacles: &'o [Obstacle],
         others: &[OrientedBox],
-    ) -> bool {
+    ) -> Option<Contact<'o>> {
         let me = self.footprint_at(*pose);
         let corners = me.corners();
         if !corners.iter().all(|c| tunnel.contains(*c, 0.0)) {
-            return false;
+            return Some(Contact::Wall);
         }
-        if others.iter().any(|o| o.overlaps(&me)) {
-            return false;
+        if let Some(k) = others.iter().position(|o| o.overlaps(&me)) {
+            return Some(Contact::Unit(k));
         }
         // Sample the footprint's edges and centre against every box; boxes are larger than
         // the 0.5 m sampling pitch, so no overlap slips between samples.
-        obstacles.iter().all(|o| {
+        let touches = |o: &Obstacle| {
             let mut pts = vec![pose.position()];
             for k in 0..4 {
                 let (a, b) = (corners[k], corners[(k + 1) % 4]);
@@ -87,14 +87,22 @@ impl Body {
                     Point2::new(a.x + s * (b.x - a.x), a.y + s * (b.y - a.y))
                 }));
             }
-            !pts.iter().any(|p| o.footprint_contains(*p, 0.0))
-                && !o.corners().iter().any(|c| me.contains(*c))
-        })
+            pts.iter().any(|p| o.footprint_contains(*p, 0.0))
+                || o.corners().iter().any(|c| me.contains(*c))
+        };
+        let o = obstacles.iter().find(|o| touches(o))?;
+        Some(Contact::Vehicle(&o.name))
     }
 
     /// Drive one step under the command, refused (a blocked step) where the body would
-    /// touch a wall, a vehicle or another unit.
-    fn drive(&mut self, dt: f64, tunnel: &Tunnel, obstacles: &[Obstacle], others: &[OrientedBox]) {
+    /// touch a wall, a vehicle or another unit; what it would have touched, if anything.
+    fn drive<'o>(
+        &mut self,
+        dt: f64,
+        tunnel: &Tunnel,
+        obstacles: &'o [Obstacle],
+        others: &[OrientedBox],
+    ) -> Option<Contact<'o>> {
         let s = &self.spec;
         let target_v = self.cmd.speed.clamp(-s.max_speed_m_s, s.max_speed_m_s);
         let dv = (target_v - self.speed).clamp(-s.max_accel_m_s2 * dt, s.max_accel_m_s2 * dt);
@@ -110,15 +118,18 @@ impl Body {
             wrap_angle(yaw),
         );
         self.collided = false;
-        if self.speed.abs() > 0.0 {
-            if self.footprint_clear(&next, tunnel, obstacles, others) {
-                self.pose = next;
-            } else {
-                self.collided = true;
-                self.collisions += 1;
-                self.speed = 0.0;
-            }
+        if self.speed.abs() == 0.0 {
+            return None;
         }
+        let contact = self.contact(&next, tunnel, obstacles, others);
+        if contact.is_some() {
+            self.collided = true;
+            self.collisions += 1;
+            self.speed = 0.0;
+        } else {
+            self.pose = next;
+        }
+        contact
     }
 
     fn slew_cannon(&mut self, dt: f64) {
@@ -144,6 +155,16 @@ impl Body {
             0.0
         };
     }
+}
+
+/// What a body's refused move would have touched.
+#[derive(Clone, Copy)]
+enum Contact<'o> {
+    Wall,
+    /// A parked vehicle, by name.
+    Vehicle(&'o str),
+    /// Another unit, by its place among the footprints the body was checked against.
+    Unit(usize),
 }
 
 /// The point of `o`'s footprint nearest `p`.
@@ -357,8 +378,23 @@ impl World {
                 .map(|(_, o)| o.footprint_at(o.pose))
                 .collect();
             let b = &mut self.bodies[i];
-            b.drive(dt, &self.tunnel, &self.obstacles, &others);
+            let contact = b.drive(dt, &self.tunnel, &self.obstacles, &others);
             b.slew_cannon(dt);
+            if let Some(c) = contact {
+                let (unit, at) = (&self.bodies[i].id, self.bodies[i].pose);
+                let t = self.t;
+                match c {
+                    Contact::Wall => tracing::debug!(%unit, ?at, t, "blocked by a wall"),
+                    Contact::Vehicle(vehicle) => {
+                        tracing::debug!(%unit, ?at, vehicle, t, "blocked by a vehicle");
+                    }
+                    // The footprints skip the body's own place.
+                    Contact::Unit(k) => {
+                        let other = &self.bodies[if k < i { k } else { k + 1 }].id;
+                        tracing::debug!(%unit, ?at, %other, t, "blocked by another unit");
+                    }
+                }
+            }
         }
         // Where each open cannon's water lands this step.
         let mut sprays = Vec::new();

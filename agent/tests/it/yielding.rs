@@ -1,6 +1,6 @@
 //! Ground units meeting in the simulated world, where bodies touch: two that meet head on
-//! in one lane get past each other, and a unit finds its way past one parked in its lane,
-//! both without touching.
+//! in one lane get past each other, so do two that start nose to nose closer than any
+//! margin, and a unit finds its way past one parked in its lane, all without touching.
 
 use std::sync::Arc;
 
@@ -72,4 +72,19 @@ fn a_unit_goes_round_one_standing_in_its_lane() {
     assert!(x[0] > 120.0, "u1 never got past: {x:?}");
     assert_eq!(blocked, [0, 0], "the bodies touched");
     assert_eq!(x[1], 80.0, "the standing unit was pushed");
+}
+
+#[test]
+fn two_units_starting_nose_to_nose_get_past_each_other_untouched() {
+    // 1 m between the bumpers: u1 patrols east, u2, facing it from the tunnel's east half,
+    // west. Neither can steer round the other from there driving forwards.
+    let gap = 1.0;
+    let mut s = Scenario::straight(200.0)
+        .ground("u1", 98.0, -2.5)
+        .ground("u2", 98.0 + GROUND.length_m + gap, -2.5)
+        .build();
+    s.units[1].yaw_rad = std::f64::consts::PI;
+    let (x, blocked) = patrol(s, &["u1", "u2"], |x| x[0] > 130.0 && x[1] < 70.0);
+    assert!(x[0] > 130.0 && x[1] < 70.0, "still short: {x:?}");
+    assert_eq!(blocked, [0, 0], "the bodies touched");
 }

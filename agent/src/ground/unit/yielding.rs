@@ -33,6 +33,9 @@ pub(super) const BODY_MARGIN_M: f64 = 0.3;
 const DETOUR_MARGINS: f64 = 1.5;
 /// Room a unit leaves before another in its way, beyond its braking distance, m.
 const GAP_AHEAD_M: f64 = 1.0;
+/// How far ahead in time another unit is taken to drive on as it drives, s: about the
+/// time to brake from top speed, beyond which its course says little.
+const FORESIGHT_S: f64 = 2.0;
 /// Spacing of the poses along the route checked for another unit, m: well under any
 /// unit's width, so that none slips between two.
 const CHECK_STEP_M: f64 = 0.25;
@@ -57,17 +60,21 @@ pub(super) struct Yielding {
 impl Unit {
     /// Whether another unit is in the way of the next stretch of `follow`'s route, for a
     /// unit about to drive at `speed`: the footprint at a pose along it, grown by
-    /// [`BODY_MARGIN_M`], touches a body the unit would be closer to there than it is now.
-    /// The stretch is both units' braking distances and [`GAP_AHEAD_M`]: two that meet
-    /// head on both brake, and close by the sum. One the unit moves away from is no
-    /// obstacle: two units side by side part.
+    /// [`BODY_MARGIN_M`], touches a body where that body will be when the unit gets there
+    /// (driving on as it drives, for at most [`FORESIGHT_S`]), and the unit would be
+    /// closer to it there than it is now. The stretch is both units' braking distances
+    /// and [`GAP_AHEAD_M`]: two that meet head on both brake, and close by the sum. One
+    /// the unit moves away from is no obstacle: two units side by side part. (Against
+    /// where a body stands now, two units side by side drifting together, a metre apart,
+    /// each took the other for one left behind, and touched.)
     pub(super) fn unit_in_the_way(&self, follow: &PurePursuit, speed: f64) -> Option<&NearbyBody> {
         if self.frame.nearby.is_empty() {
             return None;
         }
         let f = &self.frame;
+        let v = speed.abs().max(f.speed.abs());
         let braking = |v: f64| v * v / (2.0 * self.spec.max_accel_m_s2);
-        let mine = braking(speed.abs().max(f.speed.abs())) + GAP_AHEAD_M;
+        let mine = braking(v) + GAP_AHEAD_M;
         // Another unit's braking is taken as this unit's: the tracker gives its speed,
         // not its limits.
         let reach = |b: &NearbyBody| mine + braking(b.speed);
@@ -75,14 +82,18 @@ impl Unit {
         let furthest = f.nearby.iter().map(reach).fold(0.0, f64::max);
         let ahead = follow.ahead(here, furthest, CHECK_STEP_M);
         f.nearby.iter().find(|b| {
-            let (other, at) = (b.footprint(), b.pose.position());
-            let now = here.dist(at);
             let within = (reach(b) / CHECK_STEP_M) as usize;
-            ahead.iter().take(within).any(|p| {
-                p.position().dist(at) < now
+            (1..).zip(ahead.iter().take(within)).any(|(k, p)| {
+                let t = (f64::from(k) * CHECK_STEP_M / v).min(FORESIGHT_S);
+                let then = b.pose.position().offset(b.pose.yaw, b.speed * t);
+                let other = NearbyBody {
+                    pose: Pose2::new(then.x, then.y, b.pose.yaw),
+                    ..**b
+                };
+                p.position().dist(then) < here.dist(b.pose.position())
                     && OrientedBox::new(*p, self.spec.length_m, self.spec.width_m)
                         .grown(BODY_MARGIN_M)
-                        .overlaps(&other)
+                        .overlaps(&other.footprint())
             })
         })
     }
