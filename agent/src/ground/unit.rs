@@ -411,9 +411,9 @@ impl Unit {
             .is_some_and(|n| n.arrived && n.purpose != NavPurpose::Leave)
     }
 
-    /// A Hybrid A* route over `grid` from the unit to the cheapest to reach of `spots`, arriving
-    /// facing `target` and keeping it in view; the spot and the route, or `None` if the
-    /// search finds none within budget.
+    /// A Hybrid A* route over `grid` from the unit to the cheapest to reach of `spots`,
+    /// arriving facing `target` and keeping it in view; the spot and the route, or `None`
+    /// if the search finds none within budget.
     fn hybrid_route(
         &self,
         grid: &Grid,

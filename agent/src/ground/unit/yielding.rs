@@ -24,7 +24,7 @@ use super::*;
 
 /// Clearance a unit keeps from another unit's footprint, m: the tracker's error and the
 /// path follower's, a tenth of a metre or so each, with room to spare.
-pub(super) const BODY_MARGIN_M: f64 = 0.3;
+const BODY_MARGIN_M: f64 = 0.3;
 /// What a way round keeps from other units beyond the footprint, as a multiple of
 /// [`BODY_MARGIN_M`]: half as much again, room for the follower cutting the planned arcs
 /// (a way planned at the margin itself held the unit again at its first bend; twice the
