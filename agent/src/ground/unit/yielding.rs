@@ -86,14 +86,15 @@ impl Unit {
             (1..).zip(ahead.iter().take(within)).any(|(k, p)| {
                 let t = (f64::from(k) * CHECK_STEP_M / v).min(FORESIGHT_S);
                 let then = b.pose.position().offset(b.pose.yaw, b.speed * t);
-                let other = NearbyBody {
-                    pose: Pose2::new(then.x, then.y, b.pose.yaw),
-                    ..**b
-                };
+                let other = OrientedBox::new(
+                    Pose2::new(then.x, then.y, b.pose.yaw),
+                    b.length_m,
+                    b.width_m,
+                );
                 p.position().dist(then) < here.dist(b.pose.position())
                     && OrientedBox::new(*p, self.spec.length_m, self.spec.width_m)
                         .grown(BODY_MARGIN_M)
-                        .overlaps(&other.footprint())
+                        .overlaps(&other)
             })
         })
     }
@@ -139,19 +140,17 @@ impl Unit {
         // second, but never over the unit where it stands: two units jammed nose to nose
         // are closer than any margin, and a way round must start where the unit is.
         let pose = self.pose();
+        let here = pose.position();
         let me = OrientedBox::new(pose, self.spec.length_m, self.spec.width_m);
         let clear = self.clear_of_units_m();
         let stamp = |grid: &Grid, by: &dyn Fn(&OrientedBox) -> f64| {
             let grown: Vec<OrientedBox> = bodies.iter().map(|b| b.grown(by(b).max(0.0))).collect();
             grid.with_keepout(|p| grown.iter().any(|b| b.contains(p)))
         };
-        let grid = stamp(grid, &|b| {
-            clear.min(b.distance_to(pose.position()) - GRID_RES_M)
-        });
+        let grid = stamp(grid, &|b| clear.min(b.distance_to(here) - GRID_RES_M));
         let hybrid = stamp(hybrid, &|b| {
             (DETOUR_MARGINS * BODY_MARGIN_M).min(b.gap_to(&me) - GRID_RES_M)
         });
-        let here = self.pose().position();
         let past = (self.frame.nearby.iter())
             .map(|b| here.dist(b.pose.position()) + b.length_m + self.spec.length_m)
             .fold(f64::INFINITY, f64::min)
