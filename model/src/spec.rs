@@ -11,7 +11,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::Pose2;
+use crate::geometry::{Point2, Pose2};
 
 /// Ground vehicle or ceiling-rail carriage.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
@@ -146,6 +146,21 @@ impl CameraSpec {
         }
     }
 
+    /// Whether the camera, looking from `look` ([`Self::looking_from`]), faces the site
+    /// point `p`: `p` at the camera's own height lands inside the image's width, in front
+    /// of the lens and within [`Self::range_m`]. Whether the camera is turned to where a
+    /// flame is, not whether it would see one there: smoke, walls and vehicles are the
+    /// world's, and a flame stands higher than the camera or lower as it will.
+    pub fn faces(&self, look: &Pose2, p: Point2) -> bool {
+        let b = look.to_body(p);
+        let c = self.body_to_camera([b.x, b.y, self.mount_height_m]);
+        let depth_ok = c[2].hypot(c[0]) <= self.range_m;
+        depth_ok
+            && self
+                .project(c)
+                .is_some_and(|[u, _]| (0.0..self.width_px).contains(&u))
+    }
+
     /// Depth noise (one sigma) at depth `z`, m.
     pub fn depth_sigma_m(&self, z: f64) -> f64 {
         self.depth_sigma_a_m + self.depth_sigma_b_per_m * z * z
@@ -267,6 +282,27 @@ mod tests {
         }
         let e = "tracked".parse::<UnitKind>().unwrap_err();
         assert_eq!(e, "'tracked' is not a kind of unit (ground, monorail)");
+    }
+
+    #[test]
+    fn a_camera_faces_what_lies_within_its_field_and_range_as_it_pans() {
+        use crate::geometry::{Point2, Pose2};
+        let cam = GROUND.camera;
+        let body = Pose2::new(0.0, 0.0, 0.0);
+        let half = cam.hfov_rad() / 2.0;
+        let at = |bearing: f64, r: f64| Point2::new(r * bearing.cos(), r * bearing.sin());
+        let ahead = cam.looking_from(&body, 0.0);
+        assert!(cam.faces(&ahead, at(0.0, 8.0)));
+        assert!(cam.faces(&ahead, at(half - 0.05, 8.0)));
+        assert!(!cam.faces(&ahead, at(half + 0.05, 8.0)), "beside the field");
+        assert!(!cam.faces(&ahead, at(std::f64::consts::PI, 8.0)), "behind");
+        assert!(
+            !cam.faces(&ahead, at(0.0, cam.range_m + 1.0)),
+            "out of range"
+        );
+        // The cannon panned away: a camera on it looks elsewhere.
+        let panned = cam.looking_from(&body, 2.0 * half);
+        assert_eq!(cam.faces(&panned, at(0.0, 8.0)), !cam.pans_with_cannon);
     }
 
     #[test]

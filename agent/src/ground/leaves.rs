@@ -353,6 +353,18 @@ pub fn registry() -> Registry<Unit> {
         Leaf::stateful(|| StartWaterCannon),
     );
     r.register(
+        "FireInView",
+        vec![FIRE.spec()],
+        // Success once the unit's cameras have faced the fire long enough to have seen a
+        // flame there ([`Unit::has_watched`]): what makes "no flame near it" a knock-down.
+        Leaf::condition(|| {
+            |io: &mut Io<'_>, u: &mut Unit| match io.get(&FIRE) {
+                Ok(f) => ok(u.has_watched(p(f))),
+                Err(_) => Status::Failure,
+            }
+        }),
+    );
+    r.register(
         "CoolBed",
         vec![
             FIRE.spec(),

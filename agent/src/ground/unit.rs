@@ -69,6 +69,13 @@ const RUN_IN_M: [f64; 3] = [2.5, 1.5, 0.75];
 const VISIBILITY_LAMBDA_M: f64 = 5.0;
 /// How long after the last detection a flame still counts as seen, s.
 const RECENTLY_SEEN_S: f64 = 2.0;
+/// The longest gap between two looks at a spot ([`Unit::has_watched`]) that still counts
+/// as watching it throughout, s: the tree asks every control step (20 Hz), and a
+/// thermal core sends a frame every 0.12 s.
+const WATCH_GAP_S: f64 = 0.5;
+/// A spot asked about this close to the one watched is the same spot, m: a fire's
+/// position is refined while it is attacked.
+const WATCH_SAME_SPOT_M: f64 = 1.0;
 /// How far around a fire's estimated position the road is read for its fuel bed, m: the
 /// estimate's error at firing range, about half a metre, and a metre of the bed.
 const BED_LOOK_M: f64 = 1.5;
@@ -225,6 +232,17 @@ pub struct Unit {
     /// Weight of Hybrid A*'s visibility term on the way to a fire, m.
     pub(crate) visibility_lambda_m: f64,
     last_report_t: f64,
+    /// The spot the cameras have faced since when, and when that was last asked
+    /// ([`Unit::has_watched`]).
+    watch: Option<Watch>,
+}
+
+/// A spot the unit's cameras have faced without a break.
+#[derive(Debug, Clone, Copy)]
+struct Watch {
+    spot: Point2,
+    since: f64,
+    asked: f64,
 }
 
 impl Unit {
@@ -275,6 +293,7 @@ impl Unit {
             valve: false,
             mission: Mission::default(),
             last_report_t: f64::NEG_INFINITY,
+            watch: None,
         }
     }
 
@@ -301,6 +320,35 @@ impl Unit {
             .next()
             .unwrap_or(0.0);
         self.sweep_rad = (0.5 * radius / self.pose().position().dist(target).max(1.0)).atan();
+    }
+
+    /// Whether every camera of the unit has faced `spot` ([`CameraSpec::faces`]) in each
+    /// frame it was asked about over the last [`RECENTLY_SEEN_S`]: long enough that a
+    /// flame burning there would be among those seen recently ([`Self::flame_near`]).
+    /// No flame near a fire is a knock-down only while the unit looks at the fire: a
+    /// camera on a cannon still slewing onto it, or swung off it by a control loop
+    /// seconds behind its body (the nemesis's delayed link), sees no flame because it
+    /// looks elsewhere, and a unit that took that for "out" left a burning fire.
+    ///
+    /// [`CameraSpec::faces`]: firefleet_model::spec::CameraSpec::faces
+    pub fn has_watched(&mut self, spot: Point2) -> bool {
+        let now = self.now();
+        let f = &self.frame;
+        let facing = std::iter::once(&self.spec.camera)
+            .chain(self.spec.thermal_camera.as_ref())
+            .all(|cam| cam.faces(&cam.looking_from(&f.pose, f.cannon.pan), spot));
+        self.watch = match self.watch {
+            _ if !facing => None,
+            Some(w) if w.spot.dist(spot) <= WATCH_SAME_SPOT_M && now - w.asked <= WATCH_GAP_S => {
+                Some(Watch { asked: now, ..w })
+            }
+            _ => Some(Watch {
+                spot,
+                since: now,
+                asked: now,
+            }),
+        };
+        self.watch.is_some_and(|w| now - w.since >= RECENTLY_SEEN_S)
     }
 
     /// A confirmed flame seen within `RECENTLY_SEEN_S` and within `within` metres of `of`.

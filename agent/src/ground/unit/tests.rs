@@ -14,3 +14,40 @@ fn a_unit_patrols_to_the_far_end_from_where_it_starts_in_its_lane() {
         "in from the east portal, it patrols west"
     );
 }
+
+#[test]
+fn a_fire_is_watched_once_the_cameras_have_faced_it_throughout_a_flames_memory() {
+    use firefleet_model::profile::GROUND;
+    let scenario = Arc::new(Scenario::straight(100.0).ground("u", 10.0, -2.5).build());
+    let mut u = Unit::new(UnitId::new("u").unwrap(), *GROUND, scenario);
+    // Straight ahead of the unit, 8 m off: in view with the cannon (and its cameras) at
+    // the centre, out of it with the cannon swung a radian aside.
+    let at = u.pose();
+    let fire = Point2::new(at.x + 8.0 * at.yaw.cos(), at.y + 8.0 * at.yaw.sin());
+    let look = |u: &mut Unit, t: f64, pan: f64| {
+        u.frame.t = t;
+        u.frame.cannon.pan = pan;
+        u.has_watched(fire)
+    };
+    let steps = |from: f64, to: f64| {
+        (0..)
+            .map(move |k| from + 0.05 * f64::from(k))
+            .take_while(move |t| *t <= to)
+    };
+    for t in steps(0.0, 1.9) {
+        assert!(!look(&mut u, t, 0.0), "faced for only {t:.2} s");
+    }
+    assert!(look(&mut u, 2.0, 0.0), "faced for 2 s");
+    // Swung off it for a moment: the watch starts again.
+    assert!(!look(&mut u, 2.05, 1.0));
+    for t in steps(2.1, 4.05) {
+        assert!(
+            !look(&mut u, t, 0.0),
+            "faced again for only {:.2} s",
+            t - 2.1
+        );
+    }
+    assert!(look(&mut u, 4.15, 0.0));
+    // Not asked for a second: that second is no watch.
+    assert!(!look(&mut u, 5.2, 0.0));
+}
