@@ -199,16 +199,28 @@ pub fn registry() -> Registry<Unit> {
         vec![],
         Leaf::condition(|| |_: &mut Io<'_>, u: &mut Unit| ok(u.arrived())),
     );
+    // A navigation that failed never arrives: the fire branch asks this beside IsArrival
+    // and plans again, then gives the fire up (ErrorHandling tells the coordinator).
+    // Before, IsArrival was retried for ever and the unit held its fire standing still.
+    r.register(
+        "IsNavigationFailed",
+        vec![],
+        Leaf::condition(
+            || |_: &mut Io<'_>, u: &mut Unit| ok(u.navigation_failed(NavPurpose::Fire)),
+        ),
+    );
     // No cruise under way is a change too: a keep-out that stopped the cruise under the
     // tree (the unit leaving barred space) left the tree waiting for an arrival that
-    // could never come, and the unit idle for good once the keep-out was lifted.
+    // could never come, and the unit idle for good once the keep-out was lifted. So is a
+    // cruise whose navigation failed: the cruise starts again and plans afresh.
     r.register(
         "CruiseGoalUnchanged",
         vec![],
         Leaf::condition(|| {
             |_: &mut Io<'_>, u: &mut Unit| {
-                ok(u.cruising_to()
-                    .is_some_and(|g| g.dist(u.cruise_goal()) < 0.5))
+                ok(!u.navigation_failed(NavPurpose::Cruise)
+                    && u.cruising_to()
+                        .is_some_and(|g| g.dist(u.cruise_goal()) < 0.5))
             }
         }),
     );

@@ -447,6 +447,15 @@ impl Unit {
         self.cruising_to
     }
 
+    /// Whether the navigation for `purpose` under way failed: after getting clear of what
+    /// the body touched, no path to its goal was left. It never arrives, so the tree must
+    /// ask this beside [`Self::arrived`].
+    pub fn navigation_failed(&self, purpose: NavPurpose) -> bool {
+        self.nav
+            .as_ref()
+            .is_some_and(|n| n.purpose == purpose && n.failed)
+    }
+
     pub fn nav_purpose(&self) -> Option<NavPurpose> {
         self.nav.as_ref().map(|n| n.purpose)
     }

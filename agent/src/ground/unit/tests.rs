@@ -51,3 +51,84 @@ fn a_fire_is_watched_once_the_cameras_have_faced_it_throughout_a_flames_memory()
     // Not asked for a second: that second is no watch.
     assert!(!look(&mut u, 5.2, 0.0));
 }
+
+#[test]
+fn a_unit_whose_way_to_its_fire_fails_plans_again_then_gives_the_fire_up() {
+    use crate::ground::GroundController;
+    use firefleet_model::FireId;
+    use firefleet_model::profile::GROUND;
+    use firefleet_protocol::msg::TaskPhase;
+    let scenario = Arc::new(Scenario::straight(100.0).ground("u", 10.0, -2.5).build());
+    let id = UnitId::new("u").unwrap();
+    let mut frame = Unit::new(id.clone(), *GROUND, scenario.clone()).frame;
+    let mut ctl = GroundController::new(id, *GROUND, scenario);
+    ctl.office_changed(true);
+    let mut step = |ctl: &mut GroundController| {
+        frame.t += 0.05;
+        ctl.step(&frame);
+    };
+    step(&mut ctl);
+    let fire = TaskKind::Extinguish {
+        fire: FireId(1),
+        target: Point2::new(60.0, -2.0),
+        from: Approach::Either,
+    };
+    ctl.on_task(1, 1, fire).unwrap();
+    let phase = |ctl: &GroundController| ctl.state().task.map(|t| t.phase);
+    let mut failed = 0;
+    for _ in 0..400 {
+        step(&mut ctl);
+        // Each navigation to the fire fails, as one does when no path is left after the
+        // unit got clear of what it touched.
+        if let Some(n) = ctl
+            .unit_mut()
+            .nav
+            .as_mut()
+            .filter(|n| n.purpose == NavPurpose::Fire && !n.failed)
+        {
+            n.failed = true;
+            failed += 1;
+        }
+        if phase(&ctl) == Some(TaskPhase::Failed) {
+            break;
+        }
+    }
+    assert_eq!(
+        phase(&ctl),
+        Some(TaskPhase::Failed),
+        "the fire never given up"
+    );
+    assert_eq!(failed, 5, "planned again until the tree's retries ran out");
+    assert_eq!(
+        ctl.unit().nav_purpose(),
+        None,
+        "still navigating to the fire"
+    );
+}
+
+#[test]
+fn a_cruise_whose_navigation_failed_starts_again() {
+    use crate::ground::GroundController;
+    use firefleet_model::profile::GROUND;
+    let scenario = Arc::new(Scenario::straight(100.0).ground("u", 10.0, -2.5).build());
+    let id = UnitId::new("u").unwrap();
+    let mut frame = Unit::new(id.clone(), *GROUND, scenario.clone()).frame;
+    let mut ctl = GroundController::new(id, *GROUND, scenario);
+    let mut step = |ctl: &mut GroundController| {
+        frame.t += 0.05;
+        ctl.step(&frame);
+    };
+    fn cruising(ctl: &mut GroundController) -> Option<&mut bool> {
+        ctl.unit_mut()
+            .nav
+            .as_mut()
+            .filter(|n| n.purpose == NavPurpose::Cruise)
+            .map(|n| &mut n.failed)
+    }
+    step(&mut ctl);
+    *cruising(&mut ctl).expect("the unit patrols") = true;
+    for _ in 0..3 {
+        step(&mut ctl);
+    }
+    assert_eq!(cruising(&mut ctl).as_deref(), Some(&false), "no new cruise");
+}
