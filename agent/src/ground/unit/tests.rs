@@ -52,55 +52,73 @@ fn a_fire_is_watched_once_the_cameras_have_faced_it_throughout_a_flames_memory()
     assert!(!look(&mut u, 5.2, 0.0));
 }
 
+/// A ground unit's controller at 10 m in a straight 100 m tunnel that stands still, as
+/// its world: each step feeds it the same frame, 0.05 s on.
+struct Standing {
+    ctl: crate::ground::GroundController,
+    frame: UnitSensors,
+}
+
+impl Standing {
+    fn new() -> Self {
+        use firefleet_model::profile::GROUND;
+        let scenario = Arc::new(Scenario::straight(100.0).ground("u", 10.0, -2.5).build());
+        let id = UnitId::new("u").unwrap();
+        let frame = Unit::new(id.clone(), *GROUND, scenario.clone()).frame;
+        let ctl = crate::ground::GroundController::new(id, *GROUND, scenario);
+        Self { ctl, frame }
+    }
+
+    fn step(&mut self) {
+        self.frame.t += 0.05;
+        self.ctl.step(&self.frame);
+    }
+
+    /// The navigation under way for `purpose`, to break.
+    fn nav(&mut self, purpose: NavPurpose) -> Option<&mut Navigation> {
+        self.ctl
+            .unit_mut()
+            .nav
+            .as_mut()
+            .filter(|n| n.purpose == purpose)
+    }
+}
+
 #[test]
 fn a_unit_whose_way_to_its_fire_fails_plans_again_then_gives_the_fire_up() {
-    use crate::ground::GroundController;
     use firefleet_model::FireId;
-    use firefleet_model::profile::GROUND;
     use firefleet_protocol::msg::TaskPhase;
-    let scenario = Arc::new(Scenario::straight(100.0).ground("u", 10.0, -2.5).build());
-    let id = UnitId::new("u").unwrap();
-    let mut frame = Unit::new(id.clone(), *GROUND, scenario.clone()).frame;
-    let mut ctl = GroundController::new(id, *GROUND, scenario);
-    ctl.office_changed(true);
-    let mut step = |ctl: &mut GroundController| {
-        frame.t += 0.05;
-        ctl.step(&frame);
-    };
-    step(&mut ctl);
+    let mut u = Standing::new();
+    u.ctl.office_changed(true);
+    u.step();
     let fire = TaskKind::Extinguish {
         fire: FireId(1),
         target: Point2::new(60.0, -2.0),
         from: Approach::Either,
     };
-    ctl.on_task(1, 1, fire).unwrap();
-    let phase = |ctl: &GroundController| ctl.state().task.map(|t| t.phase);
+    u.ctl.on_task(1, 1, fire).unwrap();
+    let phase = |u: &Standing| u.ctl.state().task.map(|t| t.phase);
     let mut failed = 0;
     for _ in 0..400 {
-        step(&mut ctl);
+        u.step();
         // Each navigation to the fire fails, as one does when no path is left after the
         // unit got clear of what it touched.
-        if let Some(n) = ctl
-            .unit_mut()
-            .nav
-            .as_mut()
-            .filter(|n| n.purpose == NavPurpose::Fire && !n.failed)
-        {
+        if let Some(n) = u.nav(NavPurpose::Fire).filter(|n| !n.failed) {
             n.failed = true;
             failed += 1;
         }
-        if phase(&ctl) == Some(TaskPhase::Failed) {
+        if phase(&u) == Some(TaskPhase::Failed) {
             break;
         }
     }
     assert_eq!(
-        phase(&ctl),
+        phase(&u),
         Some(TaskPhase::Failed),
         "the fire never given up"
     );
     assert_eq!(failed, 5, "planned again until the tree's retries ran out");
     assert_eq!(
-        ctl.unit().nav_purpose(),
+        u.ctl.unit().nav_purpose(),
         None,
         "still navigating to the fire"
     );
@@ -108,27 +126,14 @@ fn a_unit_whose_way_to_its_fire_fails_plans_again_then_gives_the_fire_up() {
 
 #[test]
 fn a_cruise_whose_navigation_failed_starts_again() {
-    use crate::ground::GroundController;
-    use firefleet_model::profile::GROUND;
-    let scenario = Arc::new(Scenario::straight(100.0).ground("u", 10.0, -2.5).build());
-    let id = UnitId::new("u").unwrap();
-    let mut frame = Unit::new(id.clone(), *GROUND, scenario.clone()).frame;
-    let mut ctl = GroundController::new(id, *GROUND, scenario);
-    let mut step = |ctl: &mut GroundController| {
-        frame.t += 0.05;
-        ctl.step(&frame);
-    };
-    fn cruising(ctl: &mut GroundController) -> Option<&mut bool> {
-        ctl.unit_mut()
-            .nav
-            .as_mut()
-            .filter(|n| n.purpose == NavPurpose::Cruise)
-            .map(|n| &mut n.failed)
-    }
-    step(&mut ctl);
-    *cruising(&mut ctl).expect("the unit patrols") = true;
+    let mut u = Standing::new();
+    u.step();
+    u.nav(NavPurpose::Cruise).expect("the unit patrols").failed = true;
     for _ in 0..3 {
-        step(&mut ctl);
+        u.step();
     }
-    assert_eq!(cruising(&mut ctl).as_deref(), Some(&false), "no new cruise");
+    assert!(
+        u.nav(NavPurpose::Cruise).is_some_and(|n| !n.failed),
+        "no new cruise"
+    );
 }
