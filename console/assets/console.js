@@ -377,12 +377,19 @@ const CLUSTER_PX = 40, CLUSTER_MIN = 3;
 function cluster(units) {
   const layer = $("clusters");
   layer.replaceChildren();
-  // Runs along the screen's x: a unit joins the run whose first unit is under CLUSTER_PX
-  // to its left (a fixed grid would split a pile at its lines).
+  // Runs along the screen's x: a unit joins a run whose first unit is under CLUSTER_PX to
+  // its left and under CLUSTER_PX above or below it (a fixed grid would split a pile at
+  // its lines). Both, not x alone: units abreast in two lanes are apart on the screen once
+  // it looks closely, and a look is as close as the tunnel's width lets it (the x scale
+  // never outgrows the y scale that fits the width), so three at work round one fire in
+  // a pile-up stayed one count after the click that was to tell them apart.
   const runs = [];
   for (const u of [...units].sort((a, b) => sx(a.x) - sx(b.x))) {
-    const run = runs[runs.length - 1];
-    if (run && sx(u.x) - sx(run[0].x) < CLUSTER_PX) run.push(u); else runs.push([u]);
+    let run = null;
+    for (let i = runs.length - 1; i >= 0 && sx(u.x) - sx(runs[i][0].x) < CLUSTER_PX; i--) {
+      if (Math.abs(sy(u.y) - sy(runs[i][0].y)) < CLUSTER_PX) { run = runs[i]; break; }
+    }
+    if (run) run.push(u); else runs.push([u]);
   }
   const hidden = new Set();
   for (const us of runs) {
