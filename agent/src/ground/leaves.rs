@@ -367,7 +367,7 @@ pub fn registry() -> Registry<Unit> {
     r.register(
         "FireInView",
         vec![FIRE.spec()],
-        // Success once the unit's cameras have faced the fire long enough to have seen a
+        // Success while the unit's cameras have faced the fire long enough to have seen a
         // flame there ([`Unit::has_watched`]): what makes "no flame near it" a knock-down.
         Leaf::condition(|| {
             |io: &mut Io<'_>, u: &mut Unit| match io.get(&FIRE) {

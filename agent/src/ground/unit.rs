@@ -23,6 +23,7 @@
 mod keep_out;
 mod yielding;
 
+use std::collections::VecDeque;
 use std::f64::consts::FRAC_PI_2;
 use std::sync::Arc;
 
@@ -69,13 +70,10 @@ const RUN_IN_M: [f64; 3] = [2.5, 1.5, 0.75];
 const VISIBILITY_LAMBDA_M: f64 = 5.0;
 /// How long after the last detection a flame still counts as seen, s.
 const RECENTLY_SEEN_S: f64 = 2.0;
-/// The longest gap between two looks at a spot ([`Unit::has_watched`]) that still counts
-/// as watching it throughout, s: the tree asks every control step (20 Hz), and a
-/// thermal core sends a frame every 0.12 s.
+/// The longest gap between two frames that still counts as the cameras looking
+/// throughout ([`Unit::has_watched`]), s: frames come at 20 Hz, a thermal core's every
+/// 0.12 s.
 const WATCH_GAP_S: f64 = 0.5;
-/// A spot asked about this close to the one watched is the same spot, m: a fire's
-/// position is refined while it is attacked.
-const WATCH_SAME_SPOT_M: f64 = 1.0;
 /// How far around a fire's estimated position the road is read for its fuel bed, m: the
 /// estimate's error at firing range, about half a metre, and a metre of the bed.
 const BED_LOOK_M: f64 = 1.5;
@@ -232,17 +230,17 @@ pub struct Unit {
     /// Weight of Hybrid A*'s visibility term on the way to a fire, m.
     pub(crate) visibility_lambda_m: f64,
     last_report_t: f64,
-    /// The spot the cameras have faced since when, and when that was last asked
-    /// ([`Unit::has_watched`]).
-    watch: Option<Watch>,
+    /// Where the cameras looked in each frame of the last [`RECENTLY_SEEN_S`], oldest
+    /// first, and the newest before that ([`Unit::has_watched`]).
+    looks: VecDeque<Look>,
 }
 
-/// A spot the unit's cameras have faced without a break.
+/// Where the cameras looked from in one frame.
 #[derive(Debug, Clone, Copy)]
-struct Watch {
-    spot: Point2,
-    since: f64,
-    asked: f64,
+struct Look {
+    t: f64,
+    pose: Pose2,
+    pan: f64,
 }
 
 impl Unit {
@@ -293,7 +291,7 @@ impl Unit {
             valve: false,
             mission: Mission::default(),
             last_report_t: f64::NEG_INFINITY,
-            watch: None,
+            looks: VecDeque::with_capacity(64),
         }
     }
 
@@ -322,33 +320,52 @@ impl Unit {
         self.sweep_rad = (0.5 * radius / self.pose().position().dist(target).max(1.0)).atan();
     }
 
-    /// Whether every camera of the unit has faced `spot` ([`CameraSpec::faces`]) in each
-    /// frame it was asked about over the last [`RECENTLY_SEEN_S`]: long enough that a
-    /// flame burning there would be among those seen recently ([`Self::flame_near`]).
-    /// No flame near a fire is a knock-down only while the unit looks at the fire: a
-    /// camera on a cannon still slewing onto it, or swung off it by a control loop
-    /// seconds behind its body (the nemesis's delayed link), sees no flame because it
-    /// looks elsewhere, and a unit that took that for "out" left a burning fire.
+    /// Whether every camera of the unit faced `spot` ([`CameraSpec::faces`]) in every
+    /// frame of the last [`RECENTLY_SEEN_S`], with no gap between frames over
+    /// [`WATCH_GAP_S`]: long enough that a flame burning there would be among those seen
+    /// recently ([`Self::flame_near`]). No flame near a fire is a knock-down only while
+    /// the unit looks at the fire: a camera on a cannon still slewing onto it, or swung
+    /// off it by a control loop seconds behind its body (the nemesis's delayed link),
+    /// sees no flame because it looks elsewhere, and a unit that took that for "out"
+    /// left a burning fire. The frames of the approach count: a unit that drove up facing
+    /// the fire has watched it on arrival.
     ///
     /// [`CameraSpec::faces`]: firefleet_model::spec::CameraSpec::faces
-    pub fn has_watched(&mut self, spot: Point2) -> bool {
-        let now = self.now();
-        let f = &self.frame;
-        let facing = std::iter::once(&self.spec.camera)
-            .chain(self.spec.thermal_camera.as_ref())
-            .all(|cam| cam.faces(&cam.looking_from(&f.pose, f.cannon.pan), spot));
-        self.watch = match self.watch {
-            _ if !facing => None,
-            Some(w) if w.spot.dist(spot) <= WATCH_SAME_SPOT_M && now - w.asked <= WATCH_GAP_S => {
-                Some(Watch { asked: now, ..w })
-            }
-            _ => Some(Watch {
-                spot,
-                since: now,
-                asked: now,
-            }),
+    pub fn has_watched(&self, spot: Point2) -> bool {
+        let since = self.now() - RECENTLY_SEEN_S;
+        let Some(first) = self.looks.front().filter(|l| l.t <= since) else {
+            return false;
         };
-        self.watch.is_some_and(|w| now - w.since >= RECENTLY_SEEN_S)
+        let cameras = || std::iter::once(&self.spec.camera).chain(&self.spec.thermal_camera);
+        let mut before = first.t;
+        self.looks.iter().all(|l| {
+            let unbroken = l.t - before <= WATCH_GAP_S;
+            before = l.t;
+            unbroken && cameras().all(|cam| cam.faces(&cam.looking_from(&l.pose, l.pan), spot))
+        })
+    }
+
+    /// Keep where the cameras look from in the newest frame, and of the older frames those
+    /// [`Self::has_watched`] reads.
+    fn remember_look(&mut self) {
+        let f = &self.frame;
+        if self.looks.back().is_some_and(|l| l.t > f.t) {
+            // The clock went back (a simulator started again): those looks are of
+            // another time.
+            self.looks.clear();
+        }
+        while self
+            .looks
+            .get(1)
+            .is_some_and(|l| l.t <= f.t - RECENTLY_SEEN_S)
+        {
+            self.looks.pop_front();
+        }
+        self.looks.push_back(Look {
+            t: f.t,
+            pose: f.pose,
+            pan: f.cannon.pan,
+        });
     }
 
     /// A confirmed flame seen within `RECENTLY_SEEN_S` and within `within` metres of `of`.
@@ -812,6 +829,7 @@ impl Services for Unit {
             n.recover = Some(Recovery::after(n.recover, frame.t));
         }
         self.frame = frame.clone();
+        self.remember_look();
         // The image is the detector's and the bed reading's; the frame is kept for its
         // readings.
         if let (Some(image), Some(optics)) = (self.frame.thermal.take(), &self.spec.thermal_camera)

@@ -24,32 +24,28 @@ fn a_fire_is_watched_once_the_cameras_have_faced_it_throughout_a_flames_memory()
     // the centre, out of it with the cannon swung a radian aside.
     let at = u.pose();
     let fire = Point2::new(at.x + 8.0 * at.yaw.cos(), at.y + 8.0 * at.yaw.sin());
-    let look = |u: &mut Unit, t: f64, pan: f64| {
+    // A frame at `t` with the cannon at `pan`; whether the fire is watched then.
+    let frame = |u: &mut Unit, t: f64, pan: f64| {
         u.frame.t = t;
         u.frame.cannon.pan = pan;
+        u.remember_look();
         u.has_watched(fire)
     };
-    let steps = |from: f64, to: f64| {
+    let ts = |from: f64, to: f64| {
         (0..)
             .map(move |k| from + 0.05 * f64::from(k))
-            .take_while(move |t| *t <= to)
+            .take_while(move |t| *t < to + 1e-9)
     };
-    for t in steps(0.0, 1.9) {
-        assert!(!look(&mut u, t, 0.0), "faced for only {t:.2} s");
+    for t in ts(0.0, 1.9) {
+        assert!(!frame(&mut u, t, 0.0), "faced for only {t:.2} s");
     }
-    assert!(look(&mut u, 2.0, 0.0), "faced for 2 s");
-    // Swung off it for a moment: the watch starts again.
-    assert!(!look(&mut u, 2.05, 1.0));
-    for t in steps(2.1, 4.05) {
-        assert!(
-            !look(&mut u, t, 0.0),
-            "faced again for only {:.2} s",
-            t - 2.1
-        );
+    assert!(frame(&mut u, 2.1, 0.0), "faced for 2.1 s");
+    assert!(!frame(&mut u, 2.15, 1.0), "swung off");
+    for t in ts(2.2, 4.1) {
+        assert!(!frame(&mut u, t, 0.0), "swung off {:.2} s ago", t - 2.15);
     }
-    assert!(look(&mut u, 4.15, 0.0));
-    // Not asked for a second: that second is no watch.
-    assert!(!look(&mut u, 5.2, 0.0));
+    assert!(frame(&mut u, 4.3, 0.0), "faced again for 2.1 s");
+    assert!(!frame(&mut u, 5.5, 0.0), "no frame for 1.2 s: no watch");
 }
 
 /// A ground unit's controller at 10 m in a straight 100 m tunnel that stands still, as
