@@ -60,7 +60,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use firefleet::args::{time_scale, write_json};
+use firefleet::args::{Sensing, time_scale, write_json};
 use firefleet::children::RoleCommand;
 
 mod attacks;
@@ -204,6 +204,11 @@ pub struct FloodArgs {
     /// over Modbus, bridged to the bus), which `scada-key` lies in the name of.
     #[arg(long)]
     scada: bool,
+    /// What ground units find flames in (`demo --perception`): the attacks are on what
+    /// the coordinator believes, which checks every report alike whatever the unit saw
+    /// its flames in.
+    #[arg(long, value_enum, default_value_t = Sensing::Pixels)]
+    perception: Sensing,
 }
 
 /// One run's figures.
@@ -381,6 +386,9 @@ async fn run_one(a: &FloodArgs, attack: Attack) -> anyhow::Result<Figures> {
     }
     if a.scada {
         role = role.arg("--scada");
+    }
+    if a.perception == Sensing::Boxes {
+        role = role.args(["--perception", "boxes"]);
     }
     if let Some(at) = a.kill_coordinator_at {
         role = role.args(["--kill-coordinator-at".into(), at.to_string()]);
