@@ -10,7 +10,8 @@
 //!
 //! A track is confirmed by a second unit, by confidence, or by one unit that keeps seeing
 //! it: a flame reported steadily for [`CONFIRM_HELD_S`] at a confidence a real flame gives
-//! within the camera's range. Without that last rule a lone unit that stops short of a
+//! within the camera's range, or at any confidence while the fire's heat reaches the unit
+//! ([`Fusion::feel`]). Without that last rule a lone unit that stops short of a
 //! flame for the coordinator to decide (its detector gives about 0.6 at 20 m, in smoke)
 //! waits for a second unit that may never come.
 //!
@@ -53,6 +54,15 @@ pub const CONFIRM_HELD_S: f64 = 2.0;
 /// ... provided its confidence is at least this: what the simulated camera gives a real
 /// flame at 28 m in light smoke, and above the mean of its false alarms (0.45).
 const CONFIRM_HELD_CONFIDENCE: f64 = 0.5;
+/// ... or, at any confidence, provided the unit's radiant heat gauge reads at least this,
+/// kW/m^2: the solar constant, which nothing in a tunnel but a fire and its smoke gives a
+/// robot. Dense smoke dims a camera's flame (the simulated detector's confidence falls as
+/// `exp(-k r)`) where it heats the unit most: on 4-5 km tunnels without a DTS, units
+/// passing 1-8 MW fires downstream saw them at 0.1-0.45 for 10-15 s at 2-18 kW/m^2 and
+/// drove on, and the fires were found 1000 s later or never (the lab's generated family,
+/// gen-51-5 and gen-51-8). Two sources that fail apart, the camera's place and the
+/// gauge's heat, confirm together what neither does alone.
+const CONFIRM_HEATED_KW_M2: f64 = 1.0;
 /// Reports of one unit further apart than this are separate sightings, s (the unit's
 /// tracker drops a flame unseen for 3 s).
 const SIGHTING_GAP_S: f64 = 3.0;
@@ -102,6 +112,8 @@ struct Sighting {
     weight: f64,
     since: f64,
     last: f64,
+    /// The unit felt [`CONFIRM_HEATED_KW_M2`] when it last reported the fire.
+    heated: bool,
 }
 
 impl Sighting {
@@ -112,6 +124,7 @@ impl Sighting {
             weight: 1.0,
             since: t,
             last: t,
+            heated: false,
         }
     }
 
@@ -124,7 +137,7 @@ impl Sighting {
     fn held(&self) -> bool {
         self.credible()
             && self.last - self.since >= CONFIRM_HELD_S
-            && self.confidence >= CONFIRM_HELD_CONFIDENCE
+            && (self.confidence >= CONFIRM_HELD_CONFIDENCE || self.heated)
     }
 
     fn live(&self, t: f64) -> bool {
@@ -363,6 +376,8 @@ pub struct Fusion {
     /// bucket of [`LONE_STARTS_BURST`] refilled one per [`LONE_START_EVERY_S`], both
     /// shrinking with each of its lone claims nothing bore out ([`witness::lone_starts`]).
     starts: BTreeMap<UnitId, (f64, f64)>,
+    /// The units whose latest radiant heat reading was at least [`CONFIRM_HEATED_KW_M2`].
+    heated: BTreeSet<UnitId>,
 }
 
 /// The track of `fires` not lost that `z` falls nearest to within the association gate.
@@ -397,6 +412,16 @@ fn rank(s: FireState) -> u8 {
 impl Fusion {
     pub fn fires(&self) -> &[Fire] {
         &self.fires
+    }
+
+    /// What `unit`'s radiant heat gauge reads now, kW/m^2: its next sightings count as
+    /// heated from this ([`CONFIRM_HEATED_KW_M2`]).
+    pub fn feel(&mut self, unit: &UnitId, heat_flux_kw_m2: f64) {
+        if heat_flux_kw_m2 >= CONFIRM_HEATED_KW_M2 {
+            self.heated.insert(unit.clone());
+        } else {
+            self.heated.remove(unit);
+        }
     }
 
     pub fn witnesses(&self) -> &Witnesses {

@@ -75,6 +75,7 @@ impl Fusion {
             weight,
             since,
             last: t,
+            heated: self.heated.contains(unit),
         };
         fire.per_unit.insert(unit.clone(), sighting);
         fire.looks.remove(unit);

@@ -116,6 +116,34 @@ fn one_unit_that_keeps_seeing_a_flame_confirms_it() {
 }
 
 #[test]
+fn a_dim_flame_held_by_a_unit_its_heat_reaches_is_confirmed_and_only_then() {
+    // Downstream of a fire, smoke dims the flame to 0.2 where its heat reaches the unit.
+    let run = |heat_kw_m2: f64| {
+        let mut f = Fusion::default();
+        f.feel(&u("a"), heat_kw_m2);
+        (0..=12).map(|k| 0.25 * f64::from(k)).find(|&t| {
+            f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.2), t) == Fused::Confirmed(FireId(1))
+        })
+    };
+    assert_eq!(run(2.5), Some(CONFIRM_HELD_S), "held 2 s while heated");
+    assert_eq!(
+        run(0.3),
+        None,
+        "a dim flame where nothing heats the unit stays tentative"
+    );
+
+    // The heat that counts is the unit's latest reading: cooled, it confirms nothing.
+    let mut f = Fusion::default();
+    f.feel(&u("a"), 4.0);
+    f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.2), 0.0);
+    f.feel(&u("a"), 0.2);
+    for k in 1..=12 {
+        f.observe(&u("a"), &obs(50.0, 1.0, 0.3, 0.2), 0.25 * f64::from(k));
+    }
+    assert_eq!(f.fires()[0].state, FireState::Tentative);
+}
+
+#[test]
 fn sightings_with_gaps_do_not_add_up_to_a_held_one() {
     let mut f = Fusion::default();
     for t in [0.0, 1.5, 5.0, 6.5, 10.0, 11.5] {

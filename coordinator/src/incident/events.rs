@@ -617,9 +617,11 @@ impl Incident {
         if let Mobility::Ground(g) = &v.mobility {
             in_camera_view(&policy, g, r, st)?;
         }
+        let heat_flux_kw_m2 = st.heat_flux_kw_m2;
         let v = self.view(&r.unit, "unit")?;
         v.newest_report.admit(r.t, t)?;
         v.last_heard = t;
+        self.fusion.feel(&r.unit, heat_flux_kw_m2);
         let mut out = Vec::new();
         // Whether the work to assign changed: a fire confirmed, found again or located, or
         // a new witness of one (a second unit's word brings a backup). A unit that goes on

@@ -248,3 +248,29 @@ fn a_fire_one_unit_alone_reports_gets_no_backup_until_that_unit_sprays_it() {
     let backups: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
     assert_eq!(backups, ["a"], "{out:?}");
 }
+
+#[test]
+fn a_dim_flame_in_the_smoke_is_sent_a_unit_when_its_heat_reaches_the_reporter() {
+    // a, downstream of the fire, sees its flame at 0.2 through the smoke, four reports a
+    // second for 2 s; only its heat gauge tells the coordinator it is a fire.
+    for (heat_kw_m2, sent) in [(3.0, true), (0.2, false)] {
+        let mut i = incident();
+        let mut r = report("a", 60.0);
+        r.observations[0].confidence = 0.2;
+        let mut out = Vec::new();
+        for k in 0..=8 {
+            let t = 0.25 * f64::from(k);
+            let hot = UnitState {
+                heat_flux_kw_m2: heat_kw_m2,
+                ..state("a", 45.0, None)
+            };
+            i.state_at(hot, t).unwrap();
+            out.extend(i.report_at(&r, t).unwrap());
+        }
+        out.extend(i.tick(2.2));
+        let extinguish = tasks(&out)
+            .iter()
+            .any(|t| matches!(t.kind, TaskKind::Extinguish { .. }));
+        assert_eq!(extinguish, sent, "{heat_kw_m2} kW/m2: {out:?}");
+    }
+}
