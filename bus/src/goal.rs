@@ -3,16 +3,16 @@
 //!
 //! A goal is put on `zone/<zone>/goal/<commander>`; the coordinator answers each one it
 //! hears on `zone/<zone>/ack`. A delete on the goal key clears that commander's goals on
-//! the zone. On a secure site both are sealed with the tool's identity (a commander's
-//! own, or the console's for its logins): the coordinator takes no goal or clear without
-//! a seal it can check.
+//! the zone, which a person's tool then sees gone from the goals in force. On a secure
+//! site both are sealed with the tool's identity (a commander's own, or the console's for
+//! its logins): the coordinator takes no goal or clear without a seal it can check.
 
 use std::time::Duration;
 
 use firefleet_model::{CommanderId, ZoneId};
 use firefleet_protocol::codec;
 use firefleet_protocol::keys::Topic;
-use firefleet_protocol::msg::{GoalAck, GoalPreview, Seal, ZoneGoal};
+use firefleet_protocol::msg::{GoalAck, GoalPreview, GoalsInForce, Seal, ZoneGoal};
 
 use crate::{Ask, Bus, BusError};
 
@@ -127,11 +127,95 @@ impl Put {
     }
 }
 
-/// Clear commander `by`'s goals on `zone`.
-pub async fn clear(bus: &Bus, zone: &ZoneId, by: &CommanderId) -> Result<(), BusError> {
-    let key = bus.keys().zone_goal(zone, by);
-    let seal = bus.seals().map(|s| s.sealer.seal(key.as_str(), None));
-    bus.delete(key.as_str(), seal.as_ref()).await
+/// Clear commander `by`'s goals on `zone` and wait up to `within` until the goals in
+/// force hold none of them, deleting again every second meanwhile. A delete is lost as a
+/// put is (a tool's session that closes the moment it has sent, a link that drops it, a
+/// coordinator taking over), and a person told "cleared" acts on it: under load in CI, a
+/// `firefleet goal clear` said so while the coordinator kept the goal.
+///
+/// The goals in force are asked of everyone who holds them (`coord/goals`: the
+/// coordinator, and recorders for one that is gone); the newest answer counts.
+pub async fn clear(
+    bus: &Bus,
+    zone: &ZoneId,
+    by: &CommanderId,
+    within: Duration,
+) -> Result<(), GoalError> {
+    let now = tokio::time::Instant::now;
+    let held = |g: &GoalsInForce| {
+        g.goals
+            .iter()
+            .any(|g| &g.goal.zone == zone && g.goal.issued_by.as_ref() == Some(by))
+    };
+    let deadline = now() + within;
+    let mut sealed = (now(), Delete::new(bus, zone, by));
+    let mut answered = false;
+    while now() < deadline {
+        if sealed.0.elapsed() > RESEAL {
+            sealed = (now(), Delete::new(bus, zone, by));
+        }
+        sealed.1.send(bus).await?;
+        let resend = (now() + Duration::from_secs(1)).min(deadline);
+        while now() < resend {
+            if let Some(goals) = in_force(bus, resend - now()).await? {
+                if !held(&goals) {
+                    return Ok(());
+                }
+                answered = true;
+            }
+            tokio::time::sleep_until((now() + Duration::from_millis(100)).min(resend)).await;
+        }
+    }
+    Err(if answered {
+        GoalError::Refused(format!(
+            "{by}'s goals on zone {zone} are still in force after {:.0} s (the coordinator's log says why it kept them)",
+            within.as_secs_f64()
+        ))
+    } else {
+        GoalError::NoAnswer(within)
+    })
+}
+
+/// The newest goals in force anyone answers with within `within` (the coordinator, and
+/// recorders for one that is gone).
+async fn in_force(bus: &Bus, within: Duration) -> Result<Option<GoalsInForce>, BusError> {
+    let ask = Ask {
+        every_answer: true,
+        remote_only: true,
+        ..Ask::within(within)
+    };
+    let answers = bus.ask(bus.keys().coord_goals().as_str(), ask).await?;
+    Ok(answers
+        .all()
+        .await
+        .iter()
+        .filter_map(|a| bus.decode::<GoalsInForce>(a, "goals in force"))
+        .max_by(|a, b| a.t.total_cmp(&b.t)))
+}
+
+/// Delete commander `by`'s goals on `zone` once, sealed where the bus can seal, without
+/// waiting to see them gone: for scripted commanders that read the goals in force
+/// themselves.
+pub async fn delete(bus: &Bus, zone: &ZoneId, by: &CommanderId) -> Result<(), BusError> {
+    Delete::new(bus, zone, by).send(bus).await
+}
+
+/// A clear ready to send: the goal key, and its seal.
+struct Delete {
+    key: String,
+    seal: Option<Seal>,
+}
+
+impl Delete {
+    fn new(bus: &Bus, zone: &ZoneId, by: &CommanderId) -> Self {
+        let key = bus.keys().zone_goal(zone, by).as_str().to_owned();
+        let seal = bus.seals().map(|s| s.sealer.seal(&key, None));
+        Self { key, seal }
+    }
+
+    async fn send(&self, bus: &Bus) -> Result<(), BusError> {
+        bus.delete(&self.key, self.seal.as_ref()).await
+    }
 }
 
 /// Why an ask to suspend could not be made.

@@ -178,7 +178,7 @@ pub async fn carry_goals(bus: Arc<Bus>, mut requests: mpsc::Receiver<GoalRequest
                     let _ = reply.send(answer);
                 }
                 GoalRequest::Clear { zone, by, reply } => {
-                    let answer = goal::clear(&bus, &zone, &by)
+                    let answer = goal::clear(&bus, &zone, &by, ACK_TIMEOUT)
                         .await
                         .map_err(|e| format!("clearing {by}'s goals on zone {zone}: {e}"));
                     let _ = reply.send(answer);

@@ -25,7 +25,8 @@ pub enum GoalCommand {
     Set(SetArgs),
     /// List the goals in force.
     List(Common),
-    /// Clear a commander's goals on a zone.
+    /// Clear a commander's goals on a zone, and wait until the coordinator holds none of
+    /// them (deleting again each second, up to 5 s).
     Clear(ClearArgs),
 }
 
@@ -104,7 +105,7 @@ pub async fn run(cmd: GoalCommand) -> anyhow::Result<ExitCode> {
             let scenario = a.common.scenario.load()?;
             let by = issuer(&a.common.zenoh, a.by.name)?;
             let bus = open(&a.common.zenoh, &scenario).await?;
-            goal::clear(&bus, &a.zone, &by)
+            goal::clear(&bus, &a.zone, &by, goal::ACK_TIMEOUT)
                 .await
                 .with_context(|| format!("clearing {by}'s goals on zone {}", a.zone))?;
             println!("cleared {by}'s goals on zone {}", a.zone);

@@ -383,7 +383,7 @@ pub(super) async fn bar_every_zone(
             named.sort();
             named.dedup();
             for zone in named {
-                let _ = goal::clear(&chief_bus, &zone, &chief).await;
+                let _ = goal::delete(&chief_bus, &zone, &chief).await;
             }
         }
         tokio::time::sleep(Duration::from_millis(100)).await;
