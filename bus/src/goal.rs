@@ -157,7 +157,11 @@ pub async fn clear(
         sealed.1.send(bus).await?;
         let resend = (now() + Duration::from_secs(1)).min(deadline);
         while now() < resend {
-            if let Some(goals) = in_force(bus, resend - now()).await? {
+            let newest = in_force(bus, resend - now())
+                .await?
+                .into_iter()
+                .max_by(|a, b| a.t.total_cmp(&b.t));
+            if let Some(goals) = newest {
                 if !held(&goals) {
                     return Ok(());
                 }
@@ -176,9 +180,12 @@ pub async fn clear(
     })
 }
 
-/// The newest goals in force anyone answers with within `within` (the coordinator, and
-/// recorders for one that is gone).
-async fn in_force(bus: &Bus, within: Duration) -> Result<Option<GoalsInForce>, BusError> {
+/// Every answer to `coord/goals` within `within` but this process's own: the
+/// coordinator's, and each recorder's copy for a coordinator that is gone (a recalling
+/// coordinator's own queryable answers only once it runs, and would hold the question open
+/// for the whole time). Answers that do not decode are counted and logged; the asker takes
+/// the newest.
+pub async fn in_force(bus: &Bus, within: Duration) -> Result<Vec<GoalsInForce>, BusError> {
     let ask = Ask {
         every_answer: true,
         remote_only: true,
@@ -190,7 +197,7 @@ async fn in_force(bus: &Bus, within: Duration) -> Result<Option<GoalsInForce>, B
         .await
         .iter()
         .filter_map(|a| bus.decode::<GoalsInForce>(a, "goals in force"))
-        .max_by(|a, b| a.t.total_cmp(&b.t)))
+        .collect())
 }
 
 /// Delete commander `by`'s goals on `zone` once, sealed where the bus can seal, without

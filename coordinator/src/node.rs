@@ -27,6 +27,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use firefleet_bus::access::Identity;
+use firefleet_bus::goal;
 use firefleet_bus::seal::wall_ms;
 use firefleet_bus::suspension;
 use firefleet_bus::{Ask, Bus, BusError, Inbox, Question, Questions, Raw, RawInbox, Tokens};
@@ -601,7 +602,8 @@ async fn take_back(
     ]
     .into_iter()
     .chain(
-        recall_goals(bus)
+        // Every recorder's answer, not one of them: the newest wins below.
+        goal::in_force(bus, RECALL_TIMEOUT)
             .await?
             .into_iter()
             .map(|g| (Some(g), "a recorder's answer")),
@@ -909,25 +911,6 @@ pub(crate) fn keep(journal: Option<&GoalJournal>, goals: &GoalsInForce) {
     {
         tracing::error!("goals in force not kept on this host: {e}");
     }
-}
-
-/// The goals in force everyone on `coord/goals` answers with (recorders do, for a
-/// coordinator that is gone); answers that do not decode are counted and logged.
-async fn recall_goals(bus: &Bus) -> Result<Vec<GoalsInForce>, BusError> {
-    // Not this coordinator's own queryable, which answers only once it runs; every
-    // recorder's answer, not one of them: the newest wins below.
-    let ask = Ask {
-        remote_only: true,
-        every_answer: true,
-        ..Ask::within(RECALL_TIMEOUT)
-    };
-    let answers = bus.ask(bus.keys().coord_goals().as_str(), ask).await?;
-    Ok(answers
-        .all()
-        .await
-        .iter()
-        .filter_map(|a| bus.decode::<GoalsInForce>(a, "recalled goals"))
-        .collect())
 }
 
 /// How long a starting coordinator waits for recorders to answer with fire tracks.
