@@ -833,9 +833,10 @@ async fn clear_goals(
     let Some(answer) = ask(&c, request).await else {
         return shutting_down();
     };
+    // The clear waits until the goals in force hold none of theirs (`goal::clear`).
     let outcome = match &answer {
-        Ok(()) => "sent".to_owned(),
-        Err(why) => format!("not sent: {why}"),
+        Ok(()) => "cleared".to_owned(),
+        Err(why) => format!("not cleared: {why}"),
     };
     c.audited(
         &who,
