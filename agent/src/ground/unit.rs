@@ -906,9 +906,9 @@ impl Services for Unit {
                 let blocker = (speed != 0.0)
                     .then(|| self.unit_in_the_way(n, speed))
                     .flatten()
-                    .map(|b| b.speed.abs() > yielding::STANDING_M_S);
-                if let Some(moving) = blocker {
-                    self.held(moving);
+                    .copied();
+                if let Some(by) = blocker {
+                    self.held(&by);
                 } else {
                     self.unheld();
                     cmd.speed = speed;

@@ -18,7 +18,12 @@ impl Unit {
     /// Whether any part of the vehicle at `p` would be in barred space. Read off the
     /// spans as they are: this runs on every frame, and allocates nothing.
     pub(super) fn in_barred(&self, p: Point2) -> bool {
-        let grow = self.keepout_growth_m();
+        self.within_barred(p, 0.0)
+    }
+
+    /// Whether the vehicle at `p` would be in barred space or within `beyond` m of it.
+    fn within_barred(&self, p: Point2, beyond: f64) -> bool {
+        let grow = self.keepout_growth_m() + beyond;
         let s = self.scenario.tunnel.chainage(p);
         self.mission.barred.as_ref().is_some_and(|b| {
             b.spans.iter().any(|span| {
@@ -55,10 +60,23 @@ impl Unit {
     }
 
     /// Inside barred space: suspend the attack and drive out by the shortest way. Out (or
-    /// the space lifted): the tree may act again.
+    /// the space lifted): the tree may act again. A unit on its way out is out once its
+    /// way ends, [`CLEAR_OF_BARRED_M`] past the edge, or half that far past it: handed
+    /// back to the tree the moment its body cleared the edge, a unit whose task lay
+    /// behind it turned back in, and went to and fro across the edge for good (the
+    /// evacuate demo, holding the unit behind it inside).
     pub(super) fn keep_out(&mut self) {
         let pose = self.pose();
-        if !self.in_barred(pose.position()) {
+        let leaving_now = self
+            .nav
+            .as_ref()
+            .is_some_and(|n| n.purpose == NavPurpose::Leave && !n.arrived && !n.failed);
+        let beyond = if leaving_now {
+            CLEAR_OF_BARRED_M / 2.0
+        } else {
+            0.0
+        };
+        if !self.within_barred(pose.position(), beyond) {
             if self.mission.leaving {
                 self.mission.leaving = false;
                 self.stop_navigation(NavPurpose::Leave);
@@ -66,10 +84,6 @@ impl Unit {
             }
             return;
         }
-        let leaving_now = self
-            .nav
-            .as_ref()
-            .is_some_and(|n| n.purpose == NavPurpose::Leave && !n.arrived && !n.failed);
         if leaving_now || self.now() < self.leave_retry_at {
             return;
         }

@@ -133,3 +133,46 @@ fn a_cruise_whose_navigation_failed_starts_again() {
         "no new cruise"
     );
 }
+
+/// A unit on patrol with another unit in its lane 3 m ahead, which moves as `speed_at`
+/// says (its speed at each time); how many ways round the first has planned after 30 s.
+fn ways_round_past(speed_at: impl Fn(f64) -> f64) -> u32 {
+    use firefleet_model::profile::GROUND;
+    use firefleet_protocol::msg::NearbyBody;
+    let mut u = Standing::new();
+    u.step();
+    assert!(u.nav(NavPurpose::Cruise).is_some(), "the unit patrols");
+    let pose = u.frame.pose;
+    let mut ahead = Pose2::new(pose.x + 3.0, pose.y, pose.yaw);
+    for _ in 0..600 {
+        let speed = speed_at(u.frame.t);
+        ahead = Pose2::new(ahead.x + 0.05 * speed, ahead.y, ahead.yaw);
+        u.frame.nearby = vec![NearbyBody {
+            pose: ahead,
+            length_m: GROUND.length_m,
+            width_m: GROUND.width_m,
+            speed,
+        }];
+        u.step();
+    }
+    u.nav(NavPurpose::Cruise)
+        .expect("still on patrol")
+        .yielding
+        .detours
+}
+
+#[test]
+fn a_unit_ahead_that_moves_without_getting_anywhere_is_gone_round_one_on_its_way_is_followed() {
+    // Back and forth at 0.3 m/s, turning each second: ±0.15 m about one spot, as a unit
+    // caught at a zone's edge between its task and the way out (the evacuate demo).
+    let dithering = ways_round_past(|t| {
+        if (t as u64).is_multiple_of(2) {
+            0.3
+        } else {
+            -0.3
+        }
+    });
+    assert!(dithering >= 1, "held for 30 s by one going nowhere");
+    // On its way at 0.3 m/s, slower than the patrol: the unit waits behind it.
+    assert_eq!(ways_round_past(|_| 0.3), 0, "went round one making its way");
+}

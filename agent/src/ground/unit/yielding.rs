@@ -9,7 +9,10 @@
 //! other; the patience (between [`HOLD_S`] and [`HOLD_SPREAD_S`] more, drawn from the
 //! unit's name and the try) is what breaks the tie: the first to run out goes round, the
 //! other sees it move and waits, then finds its way clear. A unit parked at a fire is
-//! passed the same way. A unit that finds no way round waits and tries again after its
+//! passed the same way. One that moves but gets nowhere (a unit edging back and forth at
+//! a zone's edge, torn between its task and the way out) counts as standing once it has
+//! stayed within [`HEADWAY_M`] of one spot for [`STALL_S`]: waiting on its motion held
+//! the unit behind it for good. A unit that finds no way round waits and tries again after its
 //! patience: the way may clear (a unit at work moves on when its fire is out), and a
 //! navigation failed for good would leave the tree waiting for an arrival.
 //!
@@ -46,15 +49,27 @@ const HOLD_S: f64 = 2.0;
 /// fall within the second it takes a unit to start its way round and be seen moving.
 const HOLD_SPREAD_S: f64 = 4.0;
 /// Below this speed a tracked body counts as standing, m/s.
-pub(super) const STANDING_M_S: f64 = 0.05;
+const STANDING_M_S: f64 = 0.05;
+/// How far a unit in the way must get from where it was for its motion to count as
+/// headway, m: more than the back and forth of one caught at a zone's edge (±0.2-0.5 m,
+/// seen at the evacuate demo), less than what a unit on its way covers in [`HOLD_S`].
+const HEADWAY_M: f64 = 1.0;
+/// How long a unit in the way may move without headway before it counts as standing, s:
+/// twice the longest patience, so that one starting its own way round (backing, turning
+/// in place for a few seconds) is still waited for.
+const STALL_S: f64 = 2.0 * (HOLD_S + HOLD_SPREAD_S);
 
 /// How a navigation stands with the units in its way.
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Yielding {
     /// Held by another unit since then, s.
     held_since: Option<f64>,
+    /// Where the unit in the way was when it last made [`HEADWAY_M`], and when, s. Kept
+    /// while the way is clear: one edging back and forth frees it for a moment at each
+    /// turn.
+    headway: Option<(Point2, f64)>,
     /// Ways round tried so far.
-    detours: u32,
+    pub(super) detours: u32,
 }
 
 impl Unit {
@@ -99,18 +114,26 @@ impl Unit {
         })
     }
 
-    /// The unit is held by another this step, `moving` or standing: once held by one
-    /// standing for its patience, plan round the bodies it sees. One that moves may be on
-    /// its own way round, or about to clear the way: the wait starts again.
-    pub(super) fn held(&mut self, moving: bool) {
+    /// The unit is held by `by` this step: once held by one standing (or moving without
+    /// headway, see [`STALL_S`]) for its patience, plan round the bodies it sees. One that
+    /// makes headway may be on its own way round, or about to clear the way: the wait
+    /// starts again.
+    pub(super) fn held(&mut self, by: &NearbyBody) {
         let now = self.now();
         let Some(n) = &mut self.nav else { return };
-        if moving {
-            n.yielding.held_since = Some(now);
+        let y = &mut n.yielding;
+        let at = by.pose.position();
+        let still_since = match y.headway {
+            Some((from, since)) if from.dist(at) < HEADWAY_M => since,
+            _ => y.headway.insert((at, now)).1,
+        };
+        let stalled = now - still_since >= STALL_S;
+        if by.speed.abs() > STANDING_M_S && !stalled {
+            y.held_since = Some(now);
             return;
         }
-        let since = *n.yielding.held_since.get_or_insert(now);
-        if now - since >= patience(&self.id, n.yielding.detours) {
+        let since = *y.held_since.get_or_insert(now);
+        if now - since >= patience(&self.id, y.detours) {
             self.detour();
         }
     }
