@@ -274,3 +274,49 @@ fn a_dim_flame_in_the_smoke_is_sent_a_unit_when_its_heat_reaches_the_reporter() 
         assert_eq!(extinguish, sent, "{heat_kw_m2} kW/m2: {out:?}");
     }
 }
+
+/// The assignments decided so far, as (unit, fire).
+fn assigned(i: &Incident) -> Vec<(String, FireId)> {
+    i.decisions()
+        .filter_map(|d| match &d.decision {
+            Decision::Assign { unit, fire, .. } => Some((unit.to_string(), *fire)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_fleet_heard_unit_by_unit_is_called_in_full_before_a_fire_is_given_once_to_the_best_placed() {
+    // a, far from the fire, is heard first; the fire is reported; b, nearer, is heard a
+    // second later, as a fleet started together is heard over a second or two.
+    let mut i = unheard();
+    i.set_units_per_fire(1);
+    i.on_alive(&u("a"), true, 0.0).unwrap();
+    i.state_at(state("a", 10.0, None), 0.0).unwrap();
+    let mut out = i.report_at(&report("a", 60.0), 0.5).unwrap();
+    out.extend(i.tick(0.6));
+    assert!(tasks(&out).is_empty(), "decided before b answered: {out:?}");
+    i.on_alive(&u("b"), true, 1.0).unwrap();
+    let out = i.state_at(state("b", 40.0, None), 1.0).unwrap();
+    let sent: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
+    assert_eq!(sent, ["b"], "{out:?}");
+    assert_eq!(
+        assigned(&i),
+        [("b".to_owned(), F1)],
+        "a was sent and released"
+    );
+}
+
+#[test]
+fn a_unit_that_misses_the_roll_call_delays_the_first_decisions_by_the_roll_call_alone() {
+    let mut i = unheard();
+    i.set_units_per_fire(1);
+    i.on_alive(&u("a"), true, 0.0).unwrap();
+    i.state_at(state("a", 10.0, None), 0.0).unwrap();
+    let mut out = i.report_at(&report("a", 60.0), 0.5).unwrap();
+    out.extend(i.tick(ROLL_CALL_S - 0.1));
+    assert!(tasks(&out).is_empty(), "{out:?}");
+    let out = i.tick(ROLL_CALL_S);
+    let sent: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
+    assert_eq!(sent, ["a"], "b never answered: {out:?}");
+}
