@@ -48,7 +48,7 @@ mod site;
 
 use goals::{demo_commander, parse_goal};
 use processes::{COORDINATOR, Processes};
-use report::{Outcome, ProcessInfo, Summary, UnitSummary, print_progress, verdict};
+use report::{Outcome, ProcessInfo, Summary, UnitSummary, WallBudget, print_progress, verdict};
 use roles::roles;
 use site::SecureSite;
 
@@ -223,7 +223,8 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     }
 
     let started = Instant::now();
-    let wall_limit = Duration::from_secs_f64(scenario.time_limit_s / a.time_scale + 90.0);
+    let budget = WallBudget::new(scenario.time_limit_s, a.time_scale);
+    let mut site_clock_moved = started;
     let mut last_truth: Option<SimTruth> = None;
     let mut modes: BTreeMap<String, String> = BTreeMap::new();
     let mut next_print = 0.0;
@@ -247,6 +248,9 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
                 println!("goal '{}' on zone {}: {verdict}{}", ack.id, ack.zone, ack.reason);
             }
             Some((_, truth)) = truths.recv() => {
+                if truth.t > site_t {
+                    site_clock_moved = Instant::now();
+                }
                 site_t = truth.t;
                 // The simulator starts once the coordinator is up: time to issue the goals.
                 if kill_at.take_if(|at| truth.t >= *at).is_some() && processes.kill(COORDINATOR).await? {
@@ -271,8 +275,8 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
                 if let Some(o) = done { break o; }
             }
             _ = watchdog.tick() => {
-                if started.elapsed() > wall_limit {
-                    break Outcome::WallTimeout;
+                if let Some(why) = budget.spent(started.elapsed(), site_clock_moved.elapsed(), site_t) {
+                    break Outcome::WallTimeout(why);
                 }
                 if let Some(role) = processes.exited() {
                     break Outcome::ChildDied(role);
@@ -314,7 +318,7 @@ pub async fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         fires: Vec::new(),
         units: Vec::new(),
     });
-    let (success, outcome_text) = verdict(&outcome, &truth, &mut in_force, &scenario, wall);
+    let (success, outcome_text) = verdict(&outcome, &truth, &mut in_force, &scenario);
     println!("{outcome_text} (wall {wall:.1} s)");
     for u in &truth.units {
         println!(
