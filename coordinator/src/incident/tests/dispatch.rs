@@ -285,15 +285,21 @@ fn assigned(i: &Incident) -> Vec<(String, FireId)> {
         .collect()
 }
 
-#[test]
-fn a_fleet_heard_unit_by_unit_is_called_in_full_before_a_fire_is_given_once_to_the_best_placed() {
-    // a, far from the fire, is heard first; the fire is reported; b, nearer, is heard a
-    // second later, as a fleet started together is heard over a second or two.
+/// Of units a (at 10 m) and b, only a heard, at 0; a fire at 60 m reported at 0.5 s.
+fn a_heard_and_a_fire_reported() -> (Incident, Vec<Output>) {
     let mut i = unheard();
     i.set_units_per_fire(1);
     i.on_alive(&u("a"), true, 0.0).unwrap();
     i.state_at(state("a", 10.0, None), 0.0).unwrap();
-    let mut out = i.report_at(&report("a", 60.0), 0.5).unwrap();
+    let out = i.report_at(&report("a", 60.0), 0.5).unwrap();
+    (i, out)
+}
+
+#[test]
+fn a_fleet_heard_unit_by_unit_is_called_in_full_before_a_fire_is_given_once_to_the_best_placed() {
+    // b, nearer the fire, is heard a second after a and the report, as a fleet started
+    // together is heard over a second or two.
+    let (mut i, mut out) = a_heard_and_a_fire_reported();
     out.extend(i.tick(0.6));
     assert!(tasks(&out).is_empty(), "decided before b answered: {out:?}");
     i.on_alive(&u("b"), true, 1.0).unwrap();
@@ -309,11 +315,7 @@ fn a_fleet_heard_unit_by_unit_is_called_in_full_before_a_fire_is_given_once_to_t
 
 #[test]
 fn a_unit_that_misses_the_roll_call_delays_the_first_decisions_by_the_roll_call_alone() {
-    let mut i = unheard();
-    i.set_units_per_fire(1);
-    i.on_alive(&u("a"), true, 0.0).unwrap();
-    i.state_at(state("a", 10.0, None), 0.0).unwrap();
-    let mut out = i.report_at(&report("a", 60.0), 0.5).unwrap();
+    let (mut i, mut out) = a_heard_and_a_fire_reported();
     out.extend(i.tick(ROLL_CALL_S - 0.1));
     assert!(tasks(&out).is_empty(), "{out:?}");
     let out = i.tick(ROLL_CALL_S);
