@@ -12,9 +12,9 @@
 //! passed the same way. One that moves but gets nowhere (a unit edging back and forth at
 //! a zone's edge, torn between its task and the way out) counts as standing once it has
 //! stayed within [`HEADWAY_M`] of one spot for [`STALL_S`]: waiting on its motion held
-//! the unit behind it for good. A unit that finds no way round waits and tries again after its
-//! patience: the way may clear (a unit at work moves on when its fire is out), and a
-//! navigation failed for good would leave the tree waiting for an arrival.
+//! the unit behind it for good. A unit that finds no way round waits and tries again
+//! after its patience: the way may clear (a unit at work moves on when its fire is out),
+//! and a navigation failed for good would leave the tree waiting for an arrival.
 //!
 //! Not here: contact itself (the body's collision recovery, in the parent module) or
 //! walls and parked vehicles (on the unit's map already).
