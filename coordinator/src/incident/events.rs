@@ -15,7 +15,7 @@ use firefleet_protocol::msg::{
 use crate::assign::{GroundBody, Mobility};
 use crate::fusion::{Contradiction, Fused};
 
-use super::{Decision, Incident, Loss, Output, Policy, ROLL_CALL_S, RollCall, Scope};
+use super::{Decision, Incident, Loss, Output, Policy, ROLL_CALL_S, Scope};
 
 /// How far ahead of the site clock a recalled track may be dated, s: clock skew between the
 /// hosts of the coordinator that published it and of this one.
@@ -134,11 +134,7 @@ impl Incident {
         self.coverage.look(from, to, t);
         let clear = self.clear_view(&mobility, st.pose);
         let deaf_after_s = self.policy.deaf_after_s;
-        self.roll_call = match self.roll_call {
-            _ if st.task_seq.is_some() || st.task.is_some() => RollCall::Skipped,
-            RollCall::NotStarted => RollCall::Since(t),
-            r => r,
-        };
+        self.first_heard.get_or_insert(t);
         let v = self.view(&unit, "unit")?;
         v.last_heard = t;
         // Where the task the unit holds stands (epoch, number); a state of a robot that
@@ -775,13 +771,10 @@ impl Incident {
     }
 
     /// Whether the roll call is over: every unit of the site file heard, or
-    /// [`ROLL_CALL_S`] since the first was, or none called.
+    /// [`ROLL_CALL_S`] since the first was.
     fn roll_called(&self, t: f64) -> bool {
-        match self.roll_call {
-            RollCall::Skipped => true,
-            RollCall::Since(at) if t - at >= ROLL_CALL_S => true,
-            _ => self.units.values().all(|v| v.state.is_some()),
-        }
+        self.first_heard.is_some_and(|at| t - at >= ROLL_CALL_S)
+            || self.units.values().all(|v| v.state.is_some())
     }
 }
 

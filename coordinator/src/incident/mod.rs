@@ -213,21 +213,8 @@ pub const LEASE_S: f64 = 5.0;
 /// build on two cores); deciding as each came chained a fire through four attackers in
 /// two seconds, each unit heard better placed than the last, which is churn the checker
 /// counts and units that set off for nothing. A unit that does not answer the roll call
-/// delays the first decisions by this much, no more; a coordinator that comes to an
-/// incident in progress (a unit heard holding a task) calls no roll: a takeover owes the
-/// fires a unit within a second ([`crate::invariants::TAKEOVER_S`]).
+/// delays the first decisions by this much, no more.
 pub const ROLL_CALL_S: f64 = 3.0;
-
-/// Where the roll call before the first decisions stands ([`ROLL_CALL_S`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum RollCall {
-    /// Nobody heard yet.
-    NotStarted,
-    /// The first unit was heard then, s.
-    Since(f64),
-    /// An incident in progress: no roll call.
-    Skipped,
-}
 
 /// Fire ids a successor coordinator leaves room for, per second of site time.
 pub const FIRE_IDS_PER_S: f64 = 10.0;
@@ -269,7 +256,8 @@ pub struct Incident {
     coverage: Coverage,
     /// When the whole assignment was last solved.
     solved_all_at: f64,
-    roll_call: RollCall,
+    /// When the first unit was heard: the roll call ([`ROLL_CALL_S`]) runs from then.
+    first_heard: Option<f64>,
     /// Changes skipped for want of a unit's view ([`Incident::view_mut`]).
     inconsistencies: u64,
     /// Flame observations refused for starting a track past a unit's
@@ -320,7 +308,7 @@ impl Incident {
             trapped: BTreeMap::new(),
             unseen: BTreeMap::new(),
             solved_all_at: f64::NEG_INFINITY,
-            roll_call: RollCall::NotStarted,
+            first_heard: None,
             inconsistencies: 0,
             lone_refused: 0,
             suspensions: Suspensions::default(),

@@ -322,24 +322,3 @@ fn a_unit_that_misses_the_roll_call_delays_the_first_decisions_by_the_roll_call_
     let sent: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
     assert_eq!(sent, ["a"], "b never answered: {out:?}");
 }
-
-#[test]
-fn a_coordinator_that_comes_to_an_incident_in_progress_calls_no_roll() {
-    // a sprays a fire of the coordinator before this one; b is free; c, unheard, may be
-    // lost. A new fire is owed a unit now, not after a roll call.
-    let mut i = unheard_of(&["a", "b", "c"]);
-    i.set_units_per_fire(1);
-    let held = TaskProgress {
-        seq: 70_000,
-        fire: FireId(3),
-        phase: TaskPhase::Spraying,
-        target: Point2::new(60.0, 1.0),
-    };
-    for (n, x, task) in [("a", 50.0, Some(held)), ("b", 100.0, None)] {
-        i.on_alive(&u(n), true, 0.0).unwrap();
-        i.state_at(state(n, x, task), 0.0).unwrap();
-    }
-    let out = i.report_at(&report("b", 150.0), 0.5).unwrap();
-    let sent: Vec<&str> = tasks(&out).iter().map(|t| t.unit.as_str()).collect();
-    assert_eq!(sent, ["b"], "the new fire waits for c: {out:?}");
-}

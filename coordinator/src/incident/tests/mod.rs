@@ -165,15 +165,10 @@ fn incident() -> Incident {
 /// Ground units a and b, neither heard from yet, in a tunnel searched at t = 0 (these
 /// tests are about fires; searching has tests of its own).
 fn unheard() -> Incident {
-    unheard_of(&["a", "b"])
-}
-
-/// [`unheard`] with ground units `names`.
-fn unheard_of(names: &[&str]) -> Incident {
     let ground = Mobility::Ground(GroundBody::of(&GROUND));
     let mut i = Incident::new(
         TUNNEL,
-        names.iter().map(|n| (u(n), ground.clone())),
+        [(u("a"), ground.clone()), (u("b"), ground)],
         5.0,
         Strategy::Optimal,
     );
