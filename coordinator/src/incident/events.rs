@@ -15,7 +15,7 @@ use firefleet_protocol::msg::{
 use crate::assign::{GroundBody, Mobility};
 use crate::fusion::{Contradiction, Fused};
 
-use super::{Decision, Incident, Loss, Output, Policy, ROLL_CALL_S, Scope};
+use super::{Decision, Incident, Loss, Output, Policy, Scope};
 
 /// How far ahead of the site clock a recalled track may be dated, s: clock skew between the
 /// hosts of the coordinator that published it and of this one.
@@ -134,7 +134,6 @@ impl Incident {
         self.coverage.look(from, to, t);
         let clear = self.clear_view(&mobility, st.pose);
         let deaf_after_s = self.policy.deaf_after_s;
-        self.first_heard.get_or_insert(t);
         let v = self.view(&unit, "unit")?;
         v.last_heard = t;
         // Where the task the unit holds stands (epoch, number); a state of a robot that
@@ -751,12 +750,8 @@ impl Incident {
         self.solve_within(Scope::All, t)
     }
 
-    /// [`Incident::solve`], assigning within `scope`; nothing before the roll call is
-    /// over.
+    /// [`Incident::solve`], assigning within `scope`.
     pub(super) fn solve_within(&mut self, scope: Scope, t: f64) -> Vec<Output> {
-        if !self.roll_called(t) {
-            return Vec::new();
-        }
         if scope == Scope::All {
             self.solved_all_at = t;
         }
@@ -768,13 +763,6 @@ impl Incident {
         out.extend(self.patrol_rails(t));
         out.extend(self.recall_from_barred(t));
         out
-    }
-
-    /// Whether the roll call is over: every unit of the site file heard, or
-    /// [`ROLL_CALL_S`] since the first was.
-    fn roll_called(&self, t: f64) -> bool {
-        self.first_heard.is_some_and(|at| t - at >= ROLL_CALL_S)
-            || self.units.values().all(|v| v.state.is_some())
     }
 }
 

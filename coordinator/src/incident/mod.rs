@@ -207,15 +207,6 @@ impl UnitView {
 /// in a row, and a fire waits no longer than that for its relief.
 pub const LEASE_S: f64 = 5.0;
 
-/// How long after the first unit is heard the coordinator waits for the rest of the site
-/// file's units before it decides anything, s of site time. A fleet started together is
-/// heard over a second or two (0.7-2.4 s for the 4 km rail tunnel's eight units, debug
-/// build on two cores); deciding as each came chained a fire through four attackers in
-/// two seconds, each unit heard better placed than the last, which is churn the checker
-/// counts and units that set off for nothing. A unit that does not answer the roll call
-/// delays the first decisions by this much, no more.
-pub const ROLL_CALL_S: f64 = 3.0;
-
 /// Fire ids a successor coordinator leaves room for, per second of site time.
 pub const FIRE_IDS_PER_S: f64 = 10.0;
 
@@ -256,8 +247,6 @@ pub struct Incident {
     coverage: Coverage,
     /// When the whole assignment was last solved.
     solved_all_at: f64,
-    /// When the first unit was heard: the roll call ([`ROLL_CALL_S`]) runs from then.
-    first_heard: Option<f64>,
     /// Changes skipped for want of a unit's view ([`Incident::view_mut`]).
     inconsistencies: u64,
     /// Flame observations refused for starting a track past a unit's
@@ -308,7 +297,6 @@ impl Incident {
             trapped: BTreeMap::new(),
             unseen: BTreeMap::new(),
             solved_all_at: f64::NEG_INFINITY,
-            first_heard: None,
             inconsistencies: 0,
             lone_refused: 0,
             suspensions: Suspensions::default(),
