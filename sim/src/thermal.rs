@@ -196,6 +196,24 @@ struct Ray {
 }
 
 impl Ray {
+    /// The ray of pixel (`u`, `v`) of camera `cam` at `origin`, its heading's sine and
+    /// cosine `heading`.
+    fn through(
+        cam: &CameraSpec,
+        origin: [f64; 3],
+        heading: (f64, f64),
+        u: usize,
+        v: usize,
+    ) -> Self {
+        let c = cam.back_project(u as f64 + 0.5, v as f64 + 0.5, 1.0);
+        let [forward, left, up] = [c[2], -c[0], -c[1]];
+        let (sin, cos) = heading;
+        Ray {
+            o: origin,
+            d: [cos * forward - sin * left, sin * forward + cos * left, up],
+        }
+    }
+
     fn at(&self, t: f64) -> [f64; 3] {
         std::array::from_fn(|k| self.o[k] + t * self.d[k])
     }
@@ -261,18 +279,77 @@ impl BoxView {
     }
 }
 
+/// The horizontal wedge every ray of a frame lies in: ahead of the camera and between the
+/// directions of its image's two side edges (a pinhole core: a ray's `left / forward` is
+/// set by its pixel's column alone, and its `forward` is its parameter, never negative).
+/// A convex shape wholly outside the wedge meets no ray of the frame, so the frame's
+/// per-ray work leaves it out, and the image is the same: on a 3 km tunnel most vehicles
+/// and fires are behind a camera or beside its view.
+struct Wedge {
+    eye: Point2,
+    /// The camera's heading, as cosine and sine.
+    cos: f64,
+    sin: f64,
+    /// The least and the most `left / forward` of the frame's rays.
+    left_per_forward: (f64, f64),
+}
+
+impl Wedge {
+    fn new(cam: &CameraSpec, eye: Point2, yaw: f64) -> Self {
+        // A ray's left over forward is -(u - cx) / fx at column u; the outermost rays go
+        // through the centres of the first and last columns.
+        let left = |u: f64| -(u - cam.cx) / cam.fx;
+        let (sin, cos) = yaw.sin_cos();
+        Self {
+            eye,
+            cos,
+            sin,
+            left_per_forward: (left(cam.width_px - 0.5), left(0.5)),
+        }
+    }
+
+    /// Whether the convex hull of `corners` may meet a ray of the frame: not when every
+    /// corner is behind the camera, or every one beyond the same side edge.
+    fn admits(&self, corners: &[Point2]) -> bool {
+        let (lo, hi) = self.left_per_forward;
+        let fl = corners.iter().map(|p| {
+            let (dx, dy) = (p.x - self.eye.x, p.y - self.eye.y);
+            (
+                self.cos * dx + self.sin * dy,
+                -self.sin * dx + self.cos * dy,
+            )
+        });
+        // Clear of each boundary by a nanometre: the rays' directions are rounded too.
+        const CLEAR_M: f64 = 1e-9;
+        let outside = |side: &dyn Fn((f64, f64)) -> bool| fl.clone().all(side);
+        !(outside(&|(f, _)| f < -CLEAR_M)
+            || outside(&|(f, l)| l > hi * f + CLEAR_M)
+            || outside(&|(f, l)| l < lo * f - CLEAR_M))
+    }
+
+    /// [`Wedge::admits`] for a disk or an upright cylinder of `radius` about `centre`, by
+    /// the square that holds it.
+    fn admits_round(&self, centre: Point2, radius: f64) -> bool {
+        self.admits(
+            &[(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
+                .map(|(x, y)| Point2::new(centre.x + x * radius, centre.y + y * radius)),
+        )
+    }
+}
+
 /// What every ray of a frame shares: where the camera is in the tunnel, the tunnel's
-/// heading there, and the boxes as seen from it.
+/// heading there, and the boxes and fuel beds in its view, the boxes as seen from it.
 struct View<'s> {
     scene: &'s Scene<'s>,
     here: Station,
     cos: f64,
     sin: f64,
     boxes: Vec<BoxView>,
+    beds: Vec<&'s HotBed>,
 }
 
 impl<'s> View<'s> {
-    fn new(scene: &'s Scene<'s>, eye: [f64; 3]) -> Self {
+    fn new(scene: &'s Scene<'s>, eye: [f64; 3], wedge: &Wedge) -> Self {
         let here = scene.tunnel.station(Point2::new(eye[0], eye[1]));
         let (sin, cos) = scene.tunnel.heading_at(here.s).sin_cos();
         Self {
@@ -280,7 +357,13 @@ impl<'s> View<'s> {
             here,
             cos,
             sin,
-            boxes: scene.boxes.iter().map(|b| BoxView::new(b, eye)).collect(),
+            boxes: (scene.boxes.iter())
+                .filter(|b| wedge.admits(&b.shape.corners()))
+                .map(|b| BoxView::new(b, eye))
+                .collect(),
+            beds: (scene.beds.iter())
+                .filter(|b| wedge.admits_round(b.centre, b.radius_m))
+                .collect(),
         }
     }
 
@@ -317,11 +400,7 @@ impl<'s> View<'s> {
             scene.ambient_k
         };
         if on_road {
-            for b in scene
-                .beds
-                .iter()
-                .filter(|b| b.centre.dist(at) <= b.radius_m)
-            {
+            for b in (self.beds.iter()).filter(|b| b.centre.dist(at) <= b.radius_m) {
                 surface = surface.max(b.surface_k);
             }
         }
@@ -391,7 +470,7 @@ pub fn render(
     let cam = &core.optics;
     let (w, h) = (cam.width_px as usize, cam.height_px as usize);
     let centre = eye.to_site(Point2::new(cam.mount_forward_m, 0.0));
-    let (cy, sy) = (eye.yaw.cos(), eye.yaw.sin());
+    let heading = (eye.yaw.sin(), eye.yaw.cos());
     let ir_per_m = scene.smoke_per_m * IR_PER_VISIBLE;
     // One random tongue per flame per frame.
     let heights: Vec<f64> = scene
@@ -411,21 +490,22 @@ pub fn render(
     // The flames a pixel's ray crosses: (entry, exit, flame, its height this frame).
     let mut crossed: Vec<(f64, f64, &Flame, f64)> = Vec::with_capacity(scene.flames.len());
     let origin = [centre.x, centre.y, cam.mount_height_m];
-    let view = View::new(scene, origin);
+    let wedge = Wedge::new(cam, centre, eye.yaw);
+    let view = View::new(scene, origin, &wedge);
+    // The flames in view, with their heights this frame (every flame's tongue was drawn
+    // above, in view or not, so that the generator's sequence does not depend on it).
+    let in_view: Vec<(&Flame, f64)> = (scene.flames.iter().zip(heights))
+        .filter(|(f, _)| wedge.admits_round(f.base, f.radius_m))
+        .collect();
     for v in 0..h {
         for u in 0..w {
-            let c = cam.back_project(u as f64 + 0.5, v as f64 + 0.5, 1.0);
-            let [forward, left, up] = [c[2], -c[0], -c[1]];
-            let ray = Ray {
-                o: origin,
-                d: [cy * forward - sy * left, sy * forward + cy * left, up],
-            };
+            let ray = Ray::through(cam, origin, heading, u, v);
             let (t_hit, surface_k, ranged) = view.first_surface(&ray);
             let mut kelvin = surface_k;
             let mut depth = ranged.then_some(t_hit);
             // Flames in front of the surface, the farthest first, each over what is behind.
             crossed.clear();
-            crossed.extend(scene.flames.iter().zip(&heights).filter_map(|(f, &fh)| {
+            crossed.extend(in_view.iter().filter_map(|&(f, fh)| {
                 let (t0, t1) = through_flame(f, fh, &ray)?;
                 (t0 < t_hit).then_some((t0, t1.min(t_hit), f, fh))
             }));
@@ -513,6 +593,81 @@ mod tests {
             height_m: 2.0,
             sprayed: false,
         }
+    }
+
+    #[test]
+    fn what_a_frame_leaves_out_of_view_no_ray_of_it_meets() {
+        // Cars and flames on a 2 m grid round a camera looking 0.4 rad off the axis.
+        let core =
+            ThermalCore::lepton_class(GROUND.thermal_camera.expect("luf60 has a thermal core"));
+        let cam = &core.optics;
+        let eye = Pose2::new(50.0, 0.0, 0.4);
+        let centre = eye.to_site(Point2::new(cam.mount_forward_m, 0.0));
+        let origin = [centre.x, centre.y, cam.mount_height_m];
+        let wedge = Wedge::new(cam, centre, eye.yaw);
+        let spots: Vec<Point2> = (0..21)
+            .flat_map(|i| (0..9).map(move |j| (f64::from(i), f64::from(j))))
+            .map(|(i, j)| Point2::new(30.0 + 2.0 * i, -8.0 + 2.0 * j))
+            .filter(|p| p.dist(centre) > 2.0)
+            .collect();
+        let cars: Vec<Obstacle> = (spots.iter())
+            .map(|p| Obstacle {
+                name: "car".into(),
+                x_m: p.x,
+                y_m: p.y,
+                length_m: 1.2,
+                width_m: 0.8,
+                height_m: 1.4,
+                yaw_rad: 0.3,
+            })
+            .collect();
+        let boxes: Vec<BoxView> = (cars.iter())
+            .map(|c| {
+                let hot = HotBox {
+                    shape: c.clone(),
+                    surface_k: 400.0,
+                };
+                BoxView::new(&hot, origin)
+            })
+            .collect();
+        let flames: Vec<Flame> = (spots.iter())
+            .map(|&base| Flame {
+                base,
+                radius_m: 0.5,
+                height_m: 2.0,
+                sprayed: false,
+            })
+            .collect();
+        let (mut met_car, mut met_flame) = (vec![false; cars.len()], vec![false; flames.len()]);
+        for v in 0..cam.height_px as usize {
+            for u in 0..cam.width_px as usize {
+                let ray = Ray::through(cam, origin, eye.yaw.sin_cos(), u, v);
+                for (met, b) in met_car.iter_mut().zip(&boxes) {
+                    *met |= b.entry(&ray).is_some();
+                }
+                for (met, f) in met_flame.iter_mut().zip(&flames) {
+                    *met |= through_flame(f, f.height_m, &ray).is_some();
+                }
+            }
+        }
+        for (car, met) in cars.iter().zip(&met_car) {
+            let (x, y) = (car.x_m, car.y_m);
+            assert!(
+                !met || wedge.admits(&car.corners()),
+                "a ray meets the car at ({x}, {y}), left out"
+            );
+        }
+        for (f, met) in flames.iter().zip(&met_flame) {
+            let at = f.base;
+            assert!(
+                !met || wedge.admits_round(at, f.radius_m),
+                "a ray meets the flame at {at:?}, left out"
+            );
+        }
+        let kept = cars.iter().filter(|c| wedge.admits(&c.corners())).count();
+        let met = met_car.iter().filter(|m| **m).count();
+        assert!(kept < cars.len() / 2, "{kept} of {} cars kept", cars.len());
+        assert!(met > 10 && kept >= met, "{met} met, {kept} kept");
     }
 
     /// Pixels above 500 K.
