@@ -295,11 +295,12 @@ struct Wedge {
 }
 
 impl Wedge {
-    fn new(cam: &CameraSpec, eye: Point2, yaw: f64) -> Self {
+    /// The wedge of camera `cam` at `eye`, its heading's sine and cosine `heading`.
+    fn new(cam: &CameraSpec, eye: Point2, heading: (f64, f64)) -> Self {
         // A ray's left over forward is -(u - cx) / fx at column u; the outermost rays go
         // through the centres of the first and last columns.
         let left = |u: f64| -(u - cam.cx) / cam.fx;
-        let (sin, cos) = yaw.sin_cos();
+        let (sin, cos) = heading;
         Self {
             eye,
             cos,
@@ -490,7 +491,7 @@ pub fn render(
     // The flames a pixel's ray crosses: (entry, exit, flame, its height this frame).
     let mut crossed: Vec<(f64, f64, &Flame, f64)> = Vec::with_capacity(scene.flames.len());
     let origin = [centre.x, centre.y, cam.mount_height_m];
-    let wedge = Wedge::new(cam, centre, eye.yaw);
+    let wedge = Wedge::new(cam, centre, heading);
     let view = View::new(scene, origin, &wedge);
     // The flames in view, with their heights this frame (every flame's tongue was drawn
     // above, in view or not, so that the generator's sequence does not depend on it).
@@ -604,7 +605,8 @@ mod tests {
         let eye = Pose2::new(50.0, 0.0, 0.4);
         let centre = eye.to_site(Point2::new(cam.mount_forward_m, 0.0));
         let origin = [centre.x, centre.y, cam.mount_height_m];
-        let wedge = Wedge::new(cam, centre, eye.yaw);
+        let heading = eye.yaw.sin_cos();
+        let wedge = Wedge::new(cam, centre, heading);
         let spots: Vec<Point2> = (0..21)
             .flat_map(|i| (0..9).map(move |j| (f64::from(i), f64::from(j))))
             .map(|(i, j)| Point2::new(30.0 + 2.0 * i, -8.0 + 2.0 * j))
@@ -641,7 +643,7 @@ mod tests {
         let (mut met_car, mut met_flame) = (vec![false; cars.len()], vec![false; flames.len()]);
         for v in 0..cam.height_px as usize {
             for u in 0..cam.width_px as usize {
-                let ray = Ray::through(cam, origin, eye.yaw.sin_cos(), u, v);
+                let ray = Ray::through(cam, origin, heading, u, v);
                 for (met, b) in met_car.iter_mut().zip(&boxes) {
                     *met |= b.entry(&ray).is_some();
                 }
