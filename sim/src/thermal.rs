@@ -95,6 +95,10 @@ pub const BURNING_BODY_K: f64 = 900.0;
 pub const BODY_LOSS_KW_M2_K: f64 = 0.04;
 /// Daylight beyond a portal over the tunnel's air, K (sunlit ground, sky near the horizon).
 pub const DAYLIGHT_RISE_K: f64 = 10.0;
+/// How much farther than the distance that stopped a ray a box or a flame must lie before
+/// the ray leaves it untested, m: far above the rounding of either test, far below a
+/// pixel's footprint.
+const NEAR_MARGIN_M: f64 = 1e-6;
 
 /// A radiometric core and where it sits.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -138,6 +142,12 @@ impl Flame {
         let f = 1.5 / (2.0 * self.radius_m).max(0.1).sqrt();
         let phase = (self.base.x * 12.9898 + self.base.y * 78.233).sin() * 43758.5453;
         self.height_m * (1.0 + FLICKER_AMPLITUDE * (std::f64::consts::TAU * f * t + phase).sin())
+    }
+
+    /// The distance from a camera at `eye` to the flame's column, m: no ray from it enters
+    /// the flame sooner.
+    fn near_m(&self, eye: Point2) -> f64 {
+        (self.base.dist(eye) - self.radius_m).max(0.0)
     }
 
     /// Gas temperature at height `z` of a flame `h` high, K.
@@ -235,6 +245,9 @@ struct BoxView {
     lo: [f64; 3],
     hi: [f64; 3],
     surface_k: f64,
+    /// The distance from the camera to the box's nearest point, m: no ray meets the box
+    /// sooner, so a ray already stopped nearer need not test it.
+    near_m: f64,
 }
 
 impl BoxView {
@@ -242,13 +255,18 @@ impl BoxView {
         let o = &b.shape;
         let (sin, cos) = o.yaw_rad.sin_cos();
         let (dx, dy) = (eye[0] - o.x_m, eye[1] - o.y_m);
+        let eye = [cos * dx + sin * dy, -sin * dx + cos * dy, eye[2]];
+        let lo = [-o.length_m / 2.0, -o.width_m / 2.0, 0.0];
+        let hi = [o.length_m / 2.0, o.width_m / 2.0, o.height_m];
+        let gap = |k: usize| (lo[k] - eye[k]).max(eye[k] - hi[k]).max(0.0);
         Self {
-            eye: [cos * dx + sin * dy, -sin * dx + cos * dy, eye[2]],
+            eye,
             cos,
             sin,
-            lo: [-o.length_m / 2.0, -o.width_m / 2.0, 0.0],
-            hi: [o.length_m / 2.0, o.width_m / 2.0, o.height_m],
+            lo,
+            hi,
             surface_k: b.surface_k,
+            near_m: (0..3).map(|k| gap(k).powi(2)).sum::<f64>().sqrt(),
         }
     }
 
@@ -339,7 +357,13 @@ impl Wedge {
 }
 
 /// What every ray of a frame shares: where the camera is in the tunnel, the tunnel's
-/// heading there, and the boxes and fuel beds in its view, the boxes as seen from it.
+/// heading there, and the boxes and fuel beds in its view, the boxes as seen from it,
+/// nearest first.
+///
+/// Most rays stop on the road, a wall or the ceiling within metres, and a 3 km tunnel's
+/// queue of vehicles lies tens to hundreds of metres ahead: a ray tests the boxes only
+/// until the next is farther than what already stopped it ([`BoxView::near_m`]). The
+/// first box a ray meets is the same as when every box was tested, so is the image.
 struct View<'s> {
     scene: &'s Scene<'s>,
     here: Station,
@@ -358,10 +382,14 @@ impl<'s> View<'s> {
             here,
             cos,
             sin,
-            boxes: (scene.boxes.iter())
-                .filter(|b| wedge.admits(&b.shape.corners()))
-                .map(|b| BoxView::new(b, eye))
-                .collect(),
+            boxes: {
+                let mut boxes: Vec<BoxView> = (scene.boxes.iter())
+                    .filter(|b| wedge.admits(&b.shape.corners()))
+                    .map(|b| BoxView::new(b, eye))
+                    .collect();
+                boxes.sort_by(|a, b| a.near_m.total_cmp(&b.near_m));
+                boxes
+            },
             beds: (scene.beds.iter())
                 .filter(|b| wedge.admits_round(b.centre, b.radius_m))
                 .collect(),
@@ -405,7 +433,13 @@ impl<'s> View<'s> {
                 surface = surface.max(b.surface_k);
             }
         }
+        let metres_per_t = r.metres_per_t();
         for b in &self.boxes {
+            // A box entered at exactly the distance that stopped the ray would not be
+            // taken either; the margin leaves the slab test to decide within rounding.
+            if b.near_m > t * metres_per_t + NEAR_MARGIN_M {
+                break;
+            }
             if let Some(tb) = b.entry(r).filter(|tb| *tb < t) {
                 t = tb;
                 surface = b.surface_k;
@@ -495,9 +529,13 @@ pub fn render(
     let view = View::new(scene, origin, &wedge);
     // The flames in view, with their heights this frame (every flame's tongue was drawn
     // above, in view or not, so that the generator's sequence does not depend on it).
-    let in_view: Vec<(&Flame, f64)> = (scene.flames.iter().zip(heights))
+    // Nearest first, by the distance to the flame's column, so that a ray tests flames
+    // only as far as the surface that stops it (as [`View`] does boxes).
+    let mut in_view: Vec<(f64, &Flame, f64)> = (scene.flames.iter().zip(heights))
         .filter(|(f, _)| wedge.admits_round(f.base, f.radius_m))
+        .map(|(f, fh)| (f.near_m(centre), f, fh))
         .collect();
+    in_view.sort_by(|a, b| a.0.total_cmp(&b.0));
     for v in 0..h {
         for u in 0..w {
             let ray = Ray::through(cam, origin, heading, u, v);
@@ -505,11 +543,16 @@ pub fn render(
             let mut kelvin = surface_k;
             let mut depth = ranged.then_some(t_hit);
             // Flames in front of the surface, the farthest first, each over what is behind.
+            let reach_m = t_hit * ray.metres_per_t() + NEAR_MARGIN_M;
             crossed.clear();
-            crossed.extend(in_view.iter().filter_map(|&(f, fh)| {
-                let (t0, t1) = through_flame(f, fh, &ray)?;
-                (t0 < t_hit).then_some((t0, t1.min(t_hit), f, fh))
-            }));
+            crossed.extend(
+                (in_view.iter())
+                    .take_while(|(near_m, ..)| *near_m <= reach_m)
+                    .filter_map(|&(_, f, fh)| {
+                        let (t0, t1) = through_flame(f, fh, &ray)?;
+                        (t0 < t_hit).then_some((t0, t1.min(t_hit), f, fh))
+                    }),
+            );
             crossed.sort_by(|a, b| b.0.total_cmp(&a.0));
             for &(t0, t1, f, fh) in &crossed {
                 let mid = ray.at((t0 + t1) / 2.0)[2];
@@ -597,7 +640,7 @@ mod tests {
     }
 
     #[test]
-    fn what_a_frame_leaves_out_of_view_no_ray_of_it_meets() {
+    fn what_a_frame_leaves_out_of_view_no_ray_of_it_meets_nor_anything_nearer_than_its_near_m() {
         // Cars and flames on a 2 m grid round a camera looking 0.4 rad off the axis.
         let core =
             ThermalCore::lepton_class(GROUND.thermal_camera.expect("luf60 has a thermal core"));
@@ -644,11 +687,23 @@ mod tests {
         for v in 0..cam.height_px as usize {
             for u in 0..cam.width_px as usize {
                 let ray = Ray::through(cam, origin, heading, u, v);
+                // Nothing is met nearer than its `near_m`, which the nearest-first early
+                // outs rely on.
+                let metres_per_t = ray.metres_per_t();
                 for (met, b) in met_car.iter_mut().zip(&boxes) {
-                    *met |= b.entry(&ray).is_some();
+                    let entry = b.entry(&ray);
+                    *met |= entry.is_some();
+                    if let Some(tb) = entry {
+                        assert!(tb * metres_per_t >= b.near_m - 1e-9, "a car met sooner");
+                    }
                 }
                 for (met, f) in met_flame.iter_mut().zip(&flames) {
-                    *met |= through_flame(f, f.height_m, &ray).is_some();
+                    let entry = through_flame(f, f.height_m, &ray);
+                    *met |= entry.is_some();
+                    if let Some((t0, _)) = entry {
+                        let near = f.near_m(centre);
+                        assert!(t0 * metres_per_t >= near - 1e-9, "a flame met sooner");
+                    }
                 }
             }
         }
