@@ -308,7 +308,7 @@ pub fn registry() -> Registry<Unit> {
                     return Status::Failure;
                 };
                 // Re-aim at the flame as the camera sees it now.
-                let target = u.flame_near(p(f), 3.0).unwrap_or(p(f));
+                let target = u.aim_point(p(f));
                 u.sweep_over(target);
                 match u.aim_at(target) {
                     Some((pan, tilt)) => ok(

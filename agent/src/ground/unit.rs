@@ -70,6 +70,9 @@ const RUN_IN_M: [f64; 3] = [2.5, 1.5, 0.75];
 const VISIBILITY_LAMBDA_M: f64 = 5.0;
 /// How long after the last detection a flame still counts as seen, s.
 const RECENTLY_SEEN_S: f64 = 2.0;
+/// How far from the fire's spot a flame the unit sees is taken for the fire when it aims,
+/// m: the fire's estimate, made from afar, is this good once the unit is in range.
+const AIM_SEEN_WITHIN_M: f64 = 3.0;
 /// The longest gap between two frames that still counts as the cameras looking
 /// throughout ([`Unit::has_watched`]), s: frames come at 20 Hz, a thermal core's every
 /// 0.12 s.
@@ -366,6 +369,19 @@ impl Unit {
             pose: f.pose,
             pan: f.cannon.pan,
         });
+    }
+
+    /// Where the cannon aims for the fire at `fire`: the flame the unit sees within
+    /// [`AIM_SEEN_WITHIN_M`] of it, else the fire's own spot, either moved off a parked
+    /// vehicle's body as the firing position's target is ([`Scenario::fightable_at`]).
+    ///
+    /// The firing position was chosen for a shot at that point. Aimed at a spot inside the
+    /// vehicle instead (a DTS zone's chainage on the axis, where a locomotive stands), no
+    /// jet clears the body, and the unit stood at its firing position for the minute the
+    /// tree allows an attack, then gave the fire up (long-rail, 1 demo in about 10).
+    pub fn aim_point(&self, fire: Point2) -> Point2 {
+        let seen = self.flame_near(fire, AIM_SEEN_WITHIN_M).unwrap_or(fire);
+        self.scenario.fightable_at(seen)
     }
 
     /// A confirmed flame seen within `RECENTLY_SEEN_S` and within `within` metres of `of`.

@@ -176,3 +176,38 @@ fn a_unit_ahead_that_moves_without_getting_anywhere_is_gone_round_one_on_its_way
     // On its way at 0.3 m/s, slower than the patrol: the unit waits behind it.
     assert_eq!(ways_round_past(|_| 0.3), 0, "went round one making its way");
 }
+
+#[test]
+fn a_fire_placed_inside_a_locomotive_is_aimed_at_where_its_firing_position_was_chosen_for() {
+    use firefleet_model::profile::GROUND;
+    // The long rail tunnel's locomotive, 20 x 2.9 x 4 m on the track, and a unit coming
+    // from the east along the free side; the fire where a DTS zone puts it, on the axis,
+    // inside the body.
+    let scenario = Arc::new(
+        Scenario::straight(200.0)
+            .section(9.0, 6.5)
+            .obstacle("loco", (100.0, -1.3), [20.0, 2.9, 4.0])
+            .ground("u", 130.0, 2.0)
+            .build(),
+    );
+    let mut u = Unit::new(UnitId::new("u").unwrap(), *GROUND, scenario.clone());
+    let fire = Point2::new(108.5, 0.0);
+    let spot = u
+        .firing_position(fire)
+        .expect("a firing position beside the body");
+    let aim = scenario.fightable_at(fire);
+    u.frame.pose = Pose2::new(spot.x, spot.y, spot.bearing_to(aim));
+    assert_eq!(
+        u.aim_point(fire),
+        aim,
+        "no flame seen: the fire's spot, off the body"
+    );
+    assert!(
+        u.aim_at(fire).is_none(),
+        "a jet into the body from {spot:?} would clear it: the test shows nothing"
+    );
+    assert!(
+        u.aim_at(u.aim_point(fire)).is_some(),
+        "no shot from the firing position at {aim:?}"
+    );
+}
