@@ -14,10 +14,7 @@
 //! stayed within [`HEADWAY_M`] of one spot for [`STALL_S`]: waiting on its motion held
 //! the unit behind it for good. A unit that finds no way round waits and tries again
 //! after its patience: the way may clear (a unit at work moves on when its fire is out),
-//! and a navigation failed for good would leave the tree waiting for an arrival. A way
-//! round is planned past the bodies as they stand, by less than the holding margin where
-//! the unit is already closer than that to one; a body still standing where the way was
-//! planned past it does not hold the unit on it ([`Yielding::planned_round`]).
+//! and a navigation failed for good would leave the tree waiting for an arrival.
 //!
 //! Not here: contact itself (the body's collision recovery, in the parent module) or
 //! walls and parked vehicles (on the unit's map already).
@@ -53,10 +50,6 @@ const HOLD_S: f64 = 2.0;
 const HOLD_SPREAD_S: f64 = 4.0;
 /// Below this speed a tracked body counts as standing, m/s.
 const STANDING_M_S: f64 = 0.05;
-/// How far a standing body may seem to lie from where a way round was planned past it
-/// and still be the body planned round, m: the range sensor's tracking error, a tenth of
-/// a metre or so, twice over.
-const STILL_WHERE_PLANNED_M: f64 = 0.2;
 /// How far a unit in the way must get from where it was for its motion to count as
 /// headway, m: more than the back and forth of one caught at a zone's edge (±0.2-0.5 m,
 /// seen at the evacuate demo), less than what a unit on its way covers in [`HOLD_S`].
@@ -67,7 +60,7 @@ const HEADWAY_M: f64 = 1.0;
 const STALL_S: f64 = 2.0 * (HOLD_S + HOLD_SPREAD_S);
 
 /// How a navigation stands with the units in its way.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Yielding {
     /// Held by another unit since then, s.
     held_since: Option<f64>,
@@ -77,13 +70,6 @@ pub(super) struct Yielding {
     headway: Option<(Point2, f64)>,
     /// Ways round tried so far.
     pub(super) detours: u32,
-    /// Where the bodies stood that the way round under way was planned past. Jammed
-    /// against another unit (a staged one idle in the way, an attacker behind it, both
-    /// at the pile-up's fires), the way keeps less than [`BODY_MARGIN_M`] from it at its
-    /// start, and the check that holds a unit found that one in the way again on every
-    /// step: the attacker planned round, was held, and planned round, for 37 s, until
-    /// another unit put its fire out.
-    planned_round: Vec<Point2>,
 }
 
 impl Unit {
@@ -96,21 +82,10 @@ impl Unit {
     /// the unit moves away from is no obstacle: two units side by side part. (Against
     /// where a body stands now, two units side by side drifting together, a metre apart,
     /// each took the other for one left behind, and touched.)
-    ///
-    /// A body still standing where the way round under way was planned past it is not
-    /// in the way ([`Yielding::planned_round`]): the way was planned for it as it stands.
     pub(super) fn unit_in_the_way(&self, follow: &PurePursuit, speed: f64) -> Option<&NearbyBody> {
         if self.frame.nearby.is_empty() {
             return None;
         }
-        let planned_round = self
-            .nav
-            .as_ref()
-            .map_or(&[][..], |n| &n.yielding.planned_round);
-        let planned_for = |b: &NearbyBody| {
-            b.speed.abs() <= STANDING_M_S
-                && (planned_round.iter()).any(|p| p.dist(b.pose.position()) < STILL_WHERE_PLANNED_M)
-        };
         let f = &self.frame;
         let v = speed.abs().max(f.speed.abs());
         let braking = |v: f64| v * v / (2.0 * self.spec.max_accel_m_s2);
@@ -121,7 +96,7 @@ impl Unit {
         let here = f.pose.position();
         let furthest = f.nearby.iter().map(reach).fold(0.0, f64::max);
         let ahead = follow.ahead(here, furthest, CHECK_STEP_M);
-        f.nearby.iter().filter(|b| !planned_for(b)).find(|b| {
+        f.nearby.iter().find(|b| {
             let within = (reach(b) / CHECK_STEP_M) as usize;
             (1..).zip(ahead.iter().take(within)).any(|(k, p)| {
                 let t = (f64::from(k) * CHECK_STEP_M / v).min(FORESIGHT_S);
@@ -213,9 +188,6 @@ impl Unit {
             Some(fire) if self.unit_on(goal) => self.firing_route(fire, &grid, &hybrid),
             _ => grid.nearest_free(goal, GOAL_SHIFT_M).and_then(way_round),
         };
-        let standing: Vec<Point2> = (self.frame.nearby.iter())
-            .map(|b| b.pose.position())
-            .collect();
         let Some(n) = &mut self.nav else { return };
         n.yielding.detours += 1;
         n.yielding.held_since = None;
@@ -224,7 +196,6 @@ impl Unit {
                 tracing::info!(unit = %self.id, goal = ?to, bodies = bodies.len(), "held by another unit; going round");
                 n.goal = to;
                 n.follow = PurePursuit::new(route);
-                n.yielding.planned_round = standing;
             }
             None => {
                 tracing::info!(unit = %self.id, "held by another unit and no way round yet; waiting");
