@@ -378,7 +378,8 @@ impl Unit {
     /// The firing position was chosen for a shot at that point. Aimed at a spot inside the
     /// vehicle instead (a DTS zone's chainage on the axis, where a locomotive stands), no
     /// jet clears the body, and the unit stood at its firing position for the minute the
-    /// tree allows an attack, then gave the fire up (long-rail, 1 demo in about 10).
+    /// tree allows an attack, then gave the fire up (long-rail: one demo of about ten here,
+    /// and one CI run).
     pub fn aim_point(&self, fire: Point2) -> Point2 {
         let seen = self.flame_near(fire, AIM_SEEN_WITHIN_M).unwrap_or(fire);
         self.scenario.fightable_at(seen)
