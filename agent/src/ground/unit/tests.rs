@@ -57,10 +57,24 @@ struct Standing {
 
 impl Standing {
     fn new() -> Self {
+        Self::in_tunnel(100.0, Pose2::new(10.0, -2.5, 0.0))
+    }
+
+    /// In a straight 300 m tunnel, at `pose`.
+    fn new_at(pose: Pose2) -> Self {
+        Self::in_tunnel(300.0, pose)
+    }
+
+    fn in_tunnel(length_m: f64, pose: Pose2) -> Self {
         use firefleet_model::profile::GROUND;
-        let scenario = Arc::new(Scenario::straight(100.0).ground("u", 10.0, -2.5).build());
+        let scenario = Arc::new(
+            Scenario::straight(length_m)
+                .ground("u", pose.x, pose.y)
+                .build(),
+        );
         let id = UnitId::new("u").unwrap();
-        let frame = Unit::new(id.clone(), *GROUND, scenario.clone()).frame;
+        let mut frame = Unit::new(id.clone(), *GROUND, scenario.clone()).frame;
+        frame.pose = pose;
         let ctl = crate::ground::GroundController::new(id, *GROUND, scenario);
         Self { ctl, frame }
     }
@@ -175,6 +189,63 @@ fn a_unit_ahead_that_moves_without_getting_anywhere_is_gone_round_one_on_its_way
     assert!(dithering >= 1, "held for 30 s by one going nowhere");
     // On its way at 0.3 m/s, slower than the patrol: the unit waits behind it.
     assert_eq!(ways_round_past(|_| 0.3), 0, "went round one making its way");
+}
+
+/// A unit sent to a fire 20 m on, jammed behind and beside another that stands idle in
+/// its way, driven by its own commands (a kinematic bicycle, the wheels where they are
+/// told); where it is after `seconds`, and the least gap it left between the two bodies.
+/// The pile-up flood's ugv-3 and ugv-4: 1.6 m apart along the road and 1 m across, ugv-3
+/// facing past ugv-4's flank.
+fn jammed_behind_one_standing(seconds: f64) -> (Pose2, f64) {
+    use firefleet_model::FireId;
+    use firefleet_model::geometry::OrientedBox;
+    use firefleet_model::profile::GROUND;
+    use firefleet_protocol::msg::NearbyBody;
+    let mut u = Standing::new_at(Pose2::new(180.1, 0.0, 2.73));
+    u.ctl.office_changed(true);
+    let fire = TaskKind::Extinguish {
+        fire: FireId(1),
+        target: Point2::new(160.0, -2.0),
+        from: Approach::Either,
+    };
+    u.ctl.on_task(1, 1, fire).unwrap();
+    let idle = NearbyBody {
+        pose: Pose2::new(178.5, -1.0, 3.13),
+        length_m: GROUND.length_m,
+        width_m: GROUND.width_m,
+        speed: 0.0,
+    };
+    let dt = 0.05;
+    let mut least_gap = f64::INFINITY;
+    while u.frame.t < seconds {
+        u.frame.nearby = vec![idle];
+        u.frame.t += dt;
+        let cmd = u.ctl.step(&u.frame);
+        let p = &mut u.frame.pose;
+        let yaw = p.yaw + cmd.speed / GROUND.wheelbase_m * cmd.steer.tan() * dt;
+        *p = Pose2::new(
+            p.x + cmd.speed * p.yaw.cos() * dt,
+            p.y + cmd.speed * p.yaw.sin() * dt,
+            yaw,
+        );
+        (u.frame.speed, u.frame.steer) = (cmd.speed, cmd.steer);
+        let me = OrientedBox::new(*p, GROUND.length_m, GROUND.width_m);
+        least_gap = least_gap.min(me.gap_to(&idle.footprint()));
+    }
+    (u.frame.pose, least_gap)
+}
+
+#[test]
+fn a_unit_jammed_behind_one_standing_in_its_way_goes_round_it_and_on() {
+    let (at, least_gap) = jammed_behind_one_standing(30.0);
+    assert!(
+        at.x < 174.0,
+        "still behind the unit standing at 178.5 m after 30 s: {at:?}"
+    );
+    assert!(
+        least_gap > 0.05,
+        "touched it on the way round: gap {least_gap:.2} m"
+    );
 }
 
 #[test]
