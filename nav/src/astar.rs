@@ -50,10 +50,10 @@ pub fn plan(grid: &Grid, start: Point2, goal: Point2) -> Option<Vec<Point2>> {
     cost.set(idx(s), 0.0);
     // Keys are costs scaled to integers: exact ordering without a float wrapper. Among
     // entries of equal estimate the one farthest from the start comes first: in open road
-    // every cell between the start's row and the goal's has the same estimate (any order
-    // of the straight and diagonal steps is as short), and taken by cell index the search
-    // filled that whole band, a kilometre of tunnel's width. Each entry keeps the cost it
-    // was pushed with, also to skip it once the cell is reached cheaper.
+    // every cell between the start's row and the goal's may lie on a shortest way (any
+    // order of the straight and diagonal steps is as short), and the deepest leads on
+    // where any other would widen the search. Each entry keeps the cost it was pushed
+    // with, also to skip it once the cell is reached cheaper.
     let key = |f: f64| Reverse((f * 1024.0) as u64);
     let pushed = |g: f64| (g * 1024.0) as u64;
     open.push((key(estimate(s)), pushed(0.0), idx(s)));
