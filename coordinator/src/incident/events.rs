@@ -23,6 +23,16 @@ pub const RECALL_AHEAD_S: f64 = 5.0;
 /// How far a report's observer may stand from where the unit's state puts it, m: the
 /// drift between two estimates of the unit's pose.
 pub const OBSERVER_SLACK_M: f64 = 10.0;
+/// How far a fire's estimate may move from the spot its attackers were sent to before
+/// they are sent again, m: well over the estimate's jitter between reports (its standard
+/// deviation is half a metre), under the 3 m within which a ground unit takes a flame it
+/// sees for its fire's (`Unit::aim_point`). A track that moved further (two tracks of
+/// one fire merged, a first estimate pulled by later reports) left its attackers going
+/// to where it was: in the pile-up's around-fakes flood a track begun 12 m from the
+/// burning van took the van's reports in and ended on the van; its nearest
+/// attacker drove to the old spot, saw no flame there, reported it out, and the van
+/// burnt 20 s longer (1.28x).
+pub const TARGET_MOVED_M: f64 = 2.0;
 
 impl Incident {
     /// A unit's liveliness token appeared or vanished.
@@ -637,6 +647,7 @@ impl Incident {
                         .fusion
                         .get(id)
                         .is_some_and(|f| f.began_seeing(&r.unit, t));
+                    out.extend(self.aim_again(id, TARGET_MOVED_M, t));
                 }
                 Fused::Refused => self.lone_refused += 1,
                 Fused::Confirmed(id) => {
@@ -674,6 +685,7 @@ impl Incident {
             gone.state = FireState::Lost;
             out.push(Output::Fire(gone));
             out.push(Output::Fire(self.track(m.kept, t)));
+            out.extend(self.aim_again(m.kept, TARGET_MOVED_M, t));
         }
         if new_work {
             out.extend(self.solve_within(Scope::NewFires, t));

@@ -420,23 +420,39 @@ impl Incident {
         let Some(at) = self.fusion.get(fire).map(|f| f.position()) else {
             return Vec::new();
         };
-        let units: Vec<_> = self.assigned_to(fire);
         let mut out = vec![Output::Fire(self.track(fire, t))];
         self.log(t, Decision::Located { fire, at });
-        for u in units {
-            let Some(kind) = self
+        out.extend(self.aim_again(fire, 0.0, t));
+        out
+    }
+
+    /// Units attacking `fire` whose task names a spot farther than `beyond_m` from where
+    /// the fire is now are given it again, at its spot now (and by its name now: a unit
+    /// sent to a track since merged into this one is given this one).
+    pub(super) fn aim_again(
+        &mut self,
+        fire: firefleet_model::FireId,
+        beyond_m: f64,
+        t: f64,
+    ) -> Vec<Output> {
+        use firefleet_protocol::msg::TaskKind;
+        let Some(at) = self.fusion.get(fire).map(|f| f.position()) else {
+            return Vec::new();
+        };
+        let mut out = Vec::new();
+        for u in self.assigned_to(fire) {
+            let kind = self
                 .units
                 .get(&u)
                 .and_then(|v| v.task.as_ref())
-                .map(|t| t.kind)
-            else {
-                continue;
-            };
-            if let firefleet_protocol::msg::TaskKind::Extinguish { fire: f, from, .. } = kind {
+                .map(|t| t.kind);
+            if let Some(TaskKind::Extinguish { target, from, .. }) = kind
+                && target.dist(at) > beyond_m
+            {
                 out.push(self.give(
                     &u,
-                    firefleet_protocol::msg::TaskKind::Extinguish {
-                        fire: f,
+                    TaskKind::Extinguish {
+                        fire,
                         target: at,
                         from,
                     },

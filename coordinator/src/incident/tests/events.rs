@@ -1,6 +1,7 @@
 //! Liveness, fires going out, bad input, and a restarted coordinator.
 
 use super::*;
+use crate::incident::events::TARGET_MOVED_M;
 use firefleet_protocol::msg::{Approach, EPOCH_RANKS, Task, epoch_after};
 
 #[test]
@@ -792,4 +793,53 @@ fn an_out_sooner_than_the_unit_can_have_looked_says_nothing_against_the_claimant
             .unwrap();
         assert_eq!(contradictions(&i) == 1, counted, "out after {after} s");
     }
+}
+
+#[test]
+fn a_fire_whose_estimate_moves_is_given_again_to_its_attacker_at_its_spot_now() {
+    let mut i = incident();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
+    let first = tasks(&out)[0].clone();
+    let TaskKind::Extinguish { fire, target, .. } = first.kind else {
+        panic!("not a fire task: {first:?}")
+    };
+    let attacker = first.unit.as_str().to_owned();
+    // Reports a metre further on each time pull the estimate along.
+    let mut again = Vec::new();
+    for (k, x) in [61.0, 62.0, 63.0, 64.0, 65.0, 66.0].into_iter().enumerate() {
+        let out = i.report_at(&report("a", x), 2.0 + k as f64 * 0.2).unwrap();
+        let at = i.fusion.get(fire).unwrap().position();
+        let sent: Vec<_> = tasks(&out)
+            .into_iter()
+            .filter(|t| t.unit.as_str() == attacker)
+            .collect();
+        let last_target = again.last().copied().unwrap_or(target);
+        if at.dist(last_target) > TARGET_MOVED_M {
+            assert_eq!(
+                sent.len(),
+                1,
+                "estimate at {at:?}, task still at {last_target:?}: {out:?}"
+            );
+            let TaskKind::Extinguish {
+                fire: f,
+                target: to,
+                ..
+            } = sent[0].kind
+            else {
+                panic!("not a fire task: {:?}", sent[0])
+            };
+            assert_eq!(f, fire);
+            assert!(to.dist(at) < 1e-9, "sent to {to:?}, the fire at {at:?}");
+            again.push(to);
+        } else {
+            assert!(
+                sent.is_empty(),
+                "sent again for a move within {TARGET_MOVED_M} m: {sent:?}"
+            );
+        }
+    }
+    assert!(
+        !again.is_empty(),
+        "the estimate never moved {TARGET_MOVED_M} m"
+    );
 }
