@@ -335,7 +335,7 @@ pub(crate) mod tests {
     }
 
     /// Grids of scattered blocked cells, off the origin, with open space to stride in.
-    pub(crate) fn grid() -> impl Strategy<Value = Grid> {
+    fn grid() -> impl Strategy<Value = Grid> {
         (5usize..60, 5usize..40).prop_flat_map(|(w, h)| {
             proptest::collection::vec(prop::bool::weighted(0.03), w * h).prop_map(move |occ| {
                 let (res, origin) = (0.25, Point2::new(-3.0, 1.5));
@@ -349,7 +349,7 @@ pub(crate) mod tests {
     }
 
     /// A point on or a little beyond the grid, from fractions of its extent.
-    pub(crate) fn point(g: &Grid, (fx, fy): (f64, f64)) -> Point2 {
+    fn point(g: &Grid, (fx, fy): (f64, f64)) -> Point2 {
         Point2::new(
             g.x0 + fx * g.w as f64 * g.res,
             g.y0 + fy * g.h as f64 * g.res,
