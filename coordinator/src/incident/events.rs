@@ -30,8 +30,8 @@ pub const OBSERVER_SLACK_M: f64 = 10.0;
 /// one fire merged, a first estimate pulled by later reports) left its attackers going
 /// to where it was: in the pile-up's around-fakes flood a track begun 12 m from the
 /// burning van took the van's reports in and ended on the van; its nearest
-/// attacker drove to the old spot, saw no flame there, reported it out, and the van
-/// burnt 20 s longer (1.28x).
+/// attacker drove to the old spot, saw no flame there and reported it out, and the last
+/// fire was out 28 s later than in the unattacked run (1.28x).
 pub const TARGET_MOVED_M: f64 = 2.0;
 
 impl Incident {
