@@ -435,22 +435,47 @@ impl Incident {
         beyond_m: f64,
         t: f64,
     ) -> Vec<Output> {
+        let attackers = self.assigned_to(fire);
+        self.aim_at(fire, &attackers, beyond_m, t)
+    }
+
+    /// [`Incident::aim_again`] for every fire, from one pass over the units; fire by fire
+    /// in order, so that the tasks' numbers do not depend on a hash.
+    pub(super) fn aim_all_again(&mut self, beyond_m: f64, t: f64) -> Vec<Output> {
+        let mut assigned: Vec<_> = self.assignments().into_iter().collect();
+        assigned.sort_unstable_by_key(|(fire, _)| *fire);
+        let mut out = Vec::new();
+        for (fire, attackers) in assigned {
+            out.extend(self.aim_at(fire, &attackers, beyond_m, t));
+        }
+        out
+    }
+
+    /// Those of `attackers` of `fire` whose task's spot is farther than `beyond_m` from
+    /// the fire's estimate are given the fire again, at the estimate.
+    fn aim_at(
+        &mut self,
+        fire: firefleet_model::FireId,
+        attackers: &[firefleet_model::UnitId],
+        beyond_m: f64,
+        t: f64,
+    ) -> Vec<Output> {
         use firefleet_protocol::msg::TaskKind;
         let Some(at) = self.fusion.get(fire).map(|f| f.position()) else {
             return Vec::new();
         };
         let mut out = Vec::new();
-        for u in self.assigned_to(fire) {
+        for u in attackers {
             let kind = self
                 .units
-                .get(&u)
+                .get(u)
                 .and_then(|v| v.task.as_ref())
                 .map(|t| t.kind);
             if let Some(TaskKind::Extinguish { target, from, .. }) = kind
                 && target.dist(at) > beyond_m
             {
                 out.push(self.give(
-                    &u,
+                    u,
                     TaskKind::Extinguish {
                         fire,
                         target: at,
