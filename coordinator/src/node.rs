@@ -458,8 +458,8 @@ async fn republish_slice(
     } else {
         told.strands(bus, incident, t).await?;
     }
-    // A unit silent past its lease is lost within a tenth of a second, not at the next
-    // tick: its fire waits for a new unit meanwhile.
+    // A unit silent past its lease is lost within a slice (`Republish::PERIOD`), not at
+    // the next tick: its fire waits for a new unit meanwhile.
     let mut out = incident.lapse(t);
     for unit in grace.lapsed(std::time::Instant::now()) {
         out.extend(incident.on_alive(&unit, false, t).unwrap_or_default());
@@ -888,7 +888,8 @@ impl Told {
 
     /// Publish the goals in force again if the fires they strand or the units they trap
     /// changed since last told: fires and units move without the goals changing. Checked
-    /// ten times a second, so a console raises the alert well within two seconds.
+    /// every slice (`Republish::PERIOD`), so a console raises the alert well within two
+    /// seconds.
     async fn strands(&mut self, bus: &Bus, incident: &Incident, t: f64) -> Result<(), BusError> {
         // The goals themselves are copied only when there is something to tell.
         if incident.stranded() != self.stranded || incident.trapped() != self.trapped {

@@ -60,6 +60,13 @@ impl TokenGrace {
 /// re-sending a thousand units' tasks at once would hold up the loop (and a report behind
 /// it) for tens of milliseconds. A settled fire's track (out or lost) is re-sent once every
 /// [`SETTLED_RESEND_MS`] instead.
+///
+/// Thin slices, fifty a second: a slice's puts hold up the loop, and the links and the
+/// receivers behind them, in one burst. In `firefleet-lab scale` at 1000 units (a hundred
+/// tasks and forty tracks a slice at ten a second) a slice took 1.2 ms to publish on
+/// average, 3.9 ms at most, and in a round whose reports came on the slices' beat (one
+/// every 50 ms against one slice every 100 ms) every other report's task came 7-9 ms
+/// later than the median: that one round set the run's report-to-task p99.
 #[derive(Debug, Default)]
 pub struct Republish {
     /// Slices since the start, modulo [`Self::SLICES`] × [`Self::SETTLED_EVERY`].
@@ -68,7 +75,7 @@ pub struct Republish {
 
 impl Republish {
     /// Slices a re-send round ([`RESEND_MS`]) is cut into.
-    pub const SLICES: usize = 10;
+    pub const SLICES: usize = 50;
     /// Time between two slices.
     pub const PERIOD: Duration = Duration::from_millis(RESEND_MS / Self::SLICES as u64);
     /// Rounds between two re-sends of a settled fire's track.
