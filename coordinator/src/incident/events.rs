@@ -23,13 +23,13 @@ pub const RECALL_AHEAD_S: f64 = 5.0;
 /// How far a report's observer may stand from where the unit's state puts it, m: the
 /// drift between two estimates of the unit's pose.
 pub const OBSERVER_SLACK_M: f64 = 10.0;
-/// How far a fire's estimate may move from the spot its attackers were sent to before
-/// they are sent again (on the next [`Incident::tick`]), m: well over the estimate's jitter between reports (its standard
-/// deviation is half a metre), under the 3 m within which a ground unit takes a flame it
-/// sees for its fire's (`Unit::aim_point`). A track that moved further (two tracks of
-/// one fire merged, a first estimate pulled by later reports) left its attackers going
-/// to where it was: in the pile-up's around-fakes flood a track begun 12 m from the
-/// burning van took the van's reports in and ended on the van; its nearest
+/// How far a fire's estimate may move from the spot its attackers were sent to before they
+/// are sent again (on the next [`Incident::tick`]), m: well over the estimate's jitter
+/// between reports (its standard deviation is half a metre), under the 3 m within which a
+/// ground unit takes a flame it sees for its fire's (`Unit::aim_point`). A track that moved
+/// further (two tracks of one fire merged, a first estimate pulled by later reports) left
+/// its attackers going to where it was: in the pile-up's around-fakes flood a track begun
+/// 12 m from the burning van took the van's reports in and ended on the van; its nearest
 /// attacker drove to the old spot, saw no flame there and reported it out, and the last
 /// fire was out 28 s later than in the unattacked run (1.28x).
 pub const TARGET_MOVED_M: f64 = 2.0;
