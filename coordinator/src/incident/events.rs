@@ -23,13 +23,13 @@ pub const RECALL_AHEAD_S: f64 = 5.0;
 /// How far a report's observer may stand from where the unit's state puts it, m: the
 /// drift between two estimates of the unit's pose.
 pub const OBSERVER_SLACK_M: f64 = 10.0;
-/// How far a fire's estimate may move from the spot its attackers were sent to before they
-/// are sent again (on the next [`Incident::tick`]), m: well over the estimate's jitter
-/// between reports (its standard deviation is half a metre), under the 3 m within which a
-/// ground unit takes a flame it sees for its fire's (`Unit::aim_point`). A track that moved
-/// further (two tracks of one fire merged, a first estimate pulled by later reports) left
-/// its attackers going to where it was: in the pile-up's around-fakes flood a track begun
-/// 12 m from the burning van took the van's reports in and ended on the van; its nearest
+/// How far a fire's estimate may move from the spot its attackers were sent to before
+/// they are sent again, m: well over the estimate's jitter between reports (its standard
+/// deviation is half a metre), under the 3 m within which a ground unit takes a flame it
+/// sees for its fire's (`Unit::aim_point`). A track that moved further (two tracks of
+/// one fire merged, a first estimate pulled by later reports) left its attackers going
+/// to where it was: in the pile-up's around-fakes flood a track begun 12 m from the
+/// burning van took the van's reports in and ended on the van; its nearest
 /// attacker drove to the old spot, saw no flame there and reported it out, and the last
 /// fire was out 28 s later than in the unattacked run (1.28x).
 pub const TARGET_MOVED_M: f64 = 2.0;
@@ -647,6 +647,9 @@ impl Incident {
                         .fusion
                         .get(id)
                         .is_some_and(|f| f.began_seeing(&r.unit, t));
+                    if self.may_need_aim(id, TARGET_MOVED_M) {
+                        out.extend(self.aim_again(id, TARGET_MOVED_M, t));
+                    }
                 }
                 Fused::Refused => self.lone_refused += 1,
                 Fused::Confirmed(id) => {
@@ -684,6 +687,8 @@ impl Incident {
             gone.state = FireState::Lost;
             out.push(Output::Fire(gone));
             out.push(Output::Fire(self.track(m.kept, t)));
+            self.aims.remove(&m.removed.id);
+            out.extend(self.aim_again(m.kept, TARGET_MOVED_M, t));
         }
         if new_work {
             out.extend(self.solve_within(Scope::NewFires, t));
@@ -719,10 +724,6 @@ impl Incident {
             self.log(t, Decision::FireLost { fire: id });
             out.push(Output::Fire(self.track(id, t)));
         }
-        // Estimates moved by the reports and merges since the last tick: on the tick, not
-        // on each report, as asking who works a fire is a pass over every unit, and a
-        // thousand units' reports would each wait for one (a millisecond at the p99).
-        out.extend(self.aim_all_again(TARGET_MOVED_M, t));
         self.failed.retain(|_, until| *until > t);
         if self.goals.revision() != self.failed_under {
             self.failed.clear();

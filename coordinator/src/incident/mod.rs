@@ -53,7 +53,7 @@ use std::collections::{BTreeMap, HashMap, VecDeque};
 use firefleet_model::profile::Profile;
 use firefleet_model::scenario::{Scenario, Tunnel, UnitSpec};
 use firefleet_model::validate::Invalid;
-use firefleet_model::{FireId, UnitId};
+use firefleet_model::{FireId, Point2, UnitId};
 use firefleet_protocol::msg::{
     Approach, FireState, FireTrack, IncidentStatus, Task, TaskKind, TaskPhase, UnitState,
     UnitStatus, epoch_after, task_seq_ceiling, task_seq_floor,
@@ -265,6 +265,19 @@ pub struct Incident {
     /// side the last looked from (the next looks from the other: [`Incident::attack_side`])
     /// and how many looked ([`Policy::dts_unseen_looks`]).
     unseen: BTreeMap<FireId, (Approach, u32)>,
+    /// Per fire, a bound on the spots its attackers were sent to ([`Aim`]): what lets a
+    /// report that moves the fire's estimate skip asking who attacks it.
+    aims: BTreeMap<FireId, Aim>,
+}
+
+/// Every unit sent to a fire (by its id) was sent to a spot within `within_m` of `at`:
+/// widened by each task given for the fire, made exact by each
+/// [`Incident::aim_again`]. By the triangle inequality, no attacker's spot is farther
+/// than `within_m` plus the estimate's distance from `at` from the estimate.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Aim {
+    at: Point2,
+    within_m: f64,
 }
 
 impl Incident {
@@ -296,6 +309,7 @@ impl Incident {
             coverage: Coverage::new(tunnel.length_m),
             trapped: BTreeMap::new(),
             unseen: BTreeMap::new(),
+            aims: BTreeMap::new(),
             solved_all_at: f64::NEG_INFINITY,
             inconsistencies: 0,
             lone_refused: 0,
@@ -452,6 +466,15 @@ impl Incident {
             t,
             kind,
         };
+        if let TaskKind::Extinguish { fire, target, .. } = kind {
+            self.aims
+                .entry(fire)
+                .and_modify(|a| a.within_m = a.within_m.max(a.at.dist(target)))
+                .or_insert(Aim {
+                    at: target,
+                    within_m: 0.0,
+                });
+        }
         if let Some(v) = self.view_mut(unit) {
             v.unechoed.get_or_insert((task.order(), t));
             v.task = Some(task.clone());
