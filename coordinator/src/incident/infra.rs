@@ -477,7 +477,7 @@ impl Incident {
     }
 
     /// Whether some attacker of `fire` may have been sent to a spot farther than
-    /// `beyond_m` from its estimate now, by the bound [`Aim`] keeps: when not,
+    /// `beyond_m` from its estimate now, by the bound [`Aim`](super::Aim) keeps: when not,
     /// [`Incident::aim_again`] would send nobody, and its pass over every unit is
     /// skipped (a report that moves a track is most reports: at a thousand units that
     /// pass on each cost the report-to-task p99 a millisecond).
