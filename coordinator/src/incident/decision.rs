@@ -293,6 +293,20 @@ pub enum Decision {
         unit: UnitId,
         fire: FireId,
     },
+    /// `fire`'s attackers changed `changes` times within the churn window: they are held,
+    /// no unit joining or leaving it by choice until fewer have
+    /// ([`crate::invariants::churn::HOLD_AT`]).
+    Held {
+        fire: FireId,
+        changes: usize,
+    },
+    /// `unit`'s fire `from` merged into `kept`, which has attackers of its own that it
+    /// holds or that suffice: `unit` is released rather than added to them.
+    MergedAway {
+        unit: UnitId,
+        from: FireId,
+        kept: FireId,
+    },
     /// A unit on its way to `from` goes to `to` instead (`was_backup`: it was a spare hand
     /// there).
     Leaves {
@@ -611,6 +625,17 @@ impl fmt::Display for Decision {
             Decision::BackupTakesOver { unit, fire } => {
                 write!(f, "backup {unit} takes fire {fire} over")
             }
+            Decision::Held { fire, changes } => write!(
+                f,
+                "fire {fire}'s attackers held: they changed {changes} times within {:.0} s; \
+                 no unit joins or leaves it by choice until fewer have",
+                crate::invariants::churn::WINDOW_S
+            ),
+            Decision::MergedAway { unit, from, kept } => write!(
+                f,
+                "release {unit} from fire {from}: it is fire {kept}, which has attackers of \
+                 its own"
+            ),
             Decision::Leaves {
                 unit,
                 from,

@@ -3,17 +3,26 @@
 //!
 //! The cost model and the solvers are [`crate::assign`]'s; this module feeds them the
 //! incident's picture and acts on what they pick.
+//!
+//! A fire whose attackers changed [`HOLD_AT`](crate::invariants::churn::HOLD_AT) times
+//! within the churn window is held: while it is, a solve leaves its attackers out of the
+//! candidates and the fire out of the needs (unless no unit able to work attacks it),
+//! and no backup joins it. So no swap, relief or backup of the coordinator's choosing
+//! changes it; what must still happen does (a unit lost or broken down replaced, the
+//! fire out, a goal that withdraws units). The price: a unit that would do more
+//! elsewhere stays for up to [`crate::invariants::churn::WINDOW_S`], and a fire nobody
+//! attacks can wait that long for a unit of a held fire.
 
 use std::collections::BTreeSet;
 
 use firefleet_model::UnitKind;
 use firefleet_model::{FireId, Point2, UnitId};
-use firefleet_protocol::msg::{FireState, TaskKind, TaskPhase, UnitMode};
+use firefleet_protocol::msg::{FireState, TaskKind, TaskPhase};
 
 use crate::assign::{Candidate, Mobility, Need, Pick, Place, Roads, Site, wants_another};
 use crate::fusion::Fire;
 
-use super::{AttackSide, Decision, Incident, Output, Scope};
+use super::{AttackSide, Decision, Incident, Output, Scope, able};
 
 impl Incident {
     /// Fire `f` as a need for a unit, with its zone's priority; `None` if a goal bars
@@ -40,11 +49,20 @@ impl Incident {
             Scope::All => matches!(s, FireState::Confirmed | FireState::Assigned),
             Scope::NewFires => s == FireState::Confirmed,
         };
+        let mut candidates = self.candidates();
+        let kept = self.kept(&candidates, t);
+        candidates.retain(|c| {
+            self.units
+                .get(&c.unit)
+                .and_then(|v| self.works_on(v))
+                .is_none_or(|f| !kept.contains(&f))
+        });
         let needs: Vec<Need> = self
             .fusion
             .fires()
             .iter()
             .filter(|f| open(f.state) && !self.unverified_alarm(f))
+            .filter(|f| !kept.contains(&f.id))
             .filter_map(|f| self.need(f, t))
             .collect();
         // The first attackers on their way to those fires, before the solve.
@@ -55,7 +73,6 @@ impl Incident {
             .filter_map(|(u, v)| Some((u.clone(), self.fusion.resolve(v.working_on()?))))
             .filter(|(_, f)| needs.iter().any(|n| n.fire == *f))
             .collect();
-        let mut candidates = self.candidates();
         if scope == Scope::NewFires {
             // A unit on its way to a fire nobody sprays yet stays out: its fire is not in
             // this solve, so nothing would hold the unit to it.
@@ -80,20 +97,7 @@ impl Incident {
             if taker.unit == unit || v.working_on().map(|f| self.fusion.resolve(f)) != Some(fire) {
                 continue;
             }
-            let from = v.state.as_ref().map(|s| s.pose.position());
-            let to = self.fusion.get(fire).map(|f| f.position());
-            let away = from
-                .zip(to)
-                .and_then(|(a, b)| v.mobility.travel_s(a, b))
-                .unwrap_or(f64::INFINITY);
-            // Kept as a backup if the fire, without this unit, would want one more.
-            let as_backup = away <= self.policy.help_within_s
-                && self.fusion.get(fire).is_some_and(Fire::corroborated)
-                && wants_another(
-                    self.fusion.get(fire).and_then(|f| f.hrr_kw()),
-                    &self.attack_flows(fire, Some(&unit)),
-                    self.policy.units_per_fire,
-                );
+            let (away, as_backup) = self.as_backup(&unit, fire);
             self.log(
                 t,
                 Decision::Relieved {
@@ -124,6 +128,29 @@ impl Incident {
             }
         }
         out
+    }
+
+    /// `unit`'s travel time to `fire`, and whether it stays on as its backup if another
+    /// takes it: within [`super::Policy::help_within_s`] of a corroborated fire that,
+    /// without this unit, would want one more cannon.
+    fn as_backup(&self, unit: &UnitId, fire: FireId) -> (f64, bool) {
+        let Some(v) = self.units.get(unit) else {
+            return (f64::INFINITY, false);
+        };
+        let from = v.state.as_ref().map(|s| s.pose.position());
+        let to = self.fusion.get(fire).map(|f| f.position());
+        let away = from
+            .zip(to)
+            .and_then(|(a, b)| v.mobility.travel_s(a, b))
+            .unwrap_or(f64::INFINITY);
+        let stays = away <= self.policy.help_within_s
+            && self.fusion.get(fire).is_some_and(Fire::corroborated)
+            && wants_another(
+                self.fusion.get(fire).and_then(|f| f.hrr_kw()),
+                &self.attack_flows(fire, Some(unit)),
+                self.policy.units_per_fire,
+            );
+        (away, stays)
     }
 
     /// Whether a provisional fire's one reporter is spraying it alone: it drove there and
@@ -180,7 +207,7 @@ impl Incident {
             .filter(|(_, v)| v.alive && v.available())
             .filter_map(|(u, v)| {
                 let st = v.state.as_ref()?;
-                (st.mode != UnitMode::Fault && st.water_l > 0.0).then(|| Candidate {
+                able(st).then(|| Candidate {
                     unit: u.clone(),
                     at: Place::in_tunnel(&self.tunnel, st.pose.position()),
                     mobility: v.mobility.clone(),
@@ -207,11 +234,13 @@ impl Incident {
     /// first, one more per fire and solve.
     pub(super) fn back_up(&mut self, busy: &BTreeSet<UnitId>, t: f64) -> Vec<Output> {
         let working = self.assignments();
+        let held = self.held(t);
         let backups: Vec<Need> = self
             .fusion
             .fires()
             .iter()
             .filter(|f| matches!(f.state, FireState::Assigned | FireState::Suppressing))
+            .filter(|f| !held.contains(&f.id))
             // A provisional fire has its one unit until another source sees it, or one
             // backup once that unit sprays it: the backup is then its verifier.
             .filter(|f| f.corroborated() || self.sprayed_by_its_lone_reporter(f))
@@ -232,6 +261,86 @@ impl Incident {
             }
         }
         out
+    }
+
+    /// Of the fires held at `t`, those a unit among `candidates` (able to work) attacks:
+    /// they keep their attackers and take no other. A held fire whose attackers all
+    /// broke down or ran dry is not kept: its need for one is not a choice.
+    fn kept(&mut self, candidates: &[Candidate], t: f64) -> BTreeSet<FireId> {
+        let held = self.held(t);
+        if held.is_empty() {
+            return held;
+        }
+        candidates
+            .iter()
+            .filter_map(|c| self.works_on(self.units.get(&c.unit)?))
+            .filter(|f| held.contains(f))
+            .collect()
+    }
+
+    /// At a merge into `kept`, if an attacker of `kept`'s own (its task names `kept`)
+    /// can work: each unit whose task still names a track merged into it (and that is
+    /// not spraying) is released at once, unless it would stay on as a backup
+    /// ([`Incident::as_backup`]) and `kept` is not held. The incumbent keeps the fire; a
+    /// released unit that gets there much sooner takes it over at the next solve, by the
+    /// usual hysteresis. Renamed onto `kept` and released there a second later, as
+    /// before, each such unit was two changes to `kept`'s attackers; released now, it
+    /// leaves only the track it was sent to. Against a fake track that follows its liar
+    /// and swallows every track it meets, that was most of a minute's churn, and a hold
+    /// that kept the swallowed tracks' units on the fake kept them from searching.
+    pub(super) fn release_merged(&mut self, kept: FireId, t: f64) -> Vec<Output> {
+        let named = |v: &super::UnitView| v.working_on().filter(|_| v.alive);
+        if !self
+            .units
+            .values()
+            .any(|v| v.state.as_ref().is_some_and(able) && named(v) == Some(kept))
+        {
+            return Vec::new();
+        }
+        let held = self.held(t).contains(&kept);
+        let merged: Vec<(UnitId, FireId)> = self
+            .units
+            .iter()
+            .filter(|(_, v)| v.available())
+            .filter_map(|(u, v)| Some((u.clone(), named(v)?)))
+            .filter(|&(_, f)| f != kept && self.fusion.resolve(f) == kept)
+            .collect();
+        let mut out = Vec::new();
+        for (unit, from) in merged {
+            if !held && self.as_backup(&unit, kept).1 {
+                continue;
+            }
+            self.log(
+                t,
+                Decision::MergedAway {
+                    unit: unit.clone(),
+                    from,
+                    kept,
+                },
+            );
+            out.push(self.standby(&unit, t));
+        }
+        out
+    }
+
+    /// The fires held at `t` (the module's doc); a fire newly held is logged.
+    fn held(&mut self, t: f64) -> BTreeSet<FireId> {
+        let now: Vec<(FireId, usize)> = self
+            .churn
+            .held(t)
+            .filter(|&(fire, _)| {
+                self.fusion
+                    .get(fire)
+                    .is_some_and(|f| f.id == fire && f.active())
+            })
+            .collect();
+        for &(fire, changes) in &now {
+            if !self.held.contains(&fire) {
+                self.log(t, Decision::Held { fire, changes });
+            }
+        }
+        self.held = now.into_iter().map(|(fire, _)| fire).collect();
+        self.held.clone()
     }
 
     /// `needs` paired with `candidates` by the strategy, on this site.

@@ -8,14 +8,13 @@ use firefleet_model::geometry::wrap_angle;
 use firefleet_model::validate::{Invalid, Validate};
 use firefleet_model::{FireId, UnitId};
 use firefleet_protocol::msg::{
-    FireState, FireTrack, FlameReport, Refusal, TaskKind, TaskPhase, TaskProgress, UnitMode,
-    UnitState,
+    FireState, FireTrack, FlameReport, Refusal, TaskKind, TaskPhase, TaskProgress, UnitState,
 };
 
 use crate::assign::{GroundBody, Mobility};
 use crate::fusion::{Contradiction, Fused};
 
-use super::{Decision, Incident, Loss, Output, Policy, Scope};
+use super::{Decision, Incident, Loss, Output, Policy, Scope, able};
 
 /// How far ahead of the site clock a recalled track may be dated, s: clock skew between the
 /// hosts of the coordinator that published it and of this one.
@@ -193,7 +192,6 @@ impl Incident {
         // A state changes the decisions only when it brings a unit into play or takes one
         // out; a moving unit's position is picked up by the periodic re-solve. Re-solving
         // on every state would cost a solve per message: 10 000 a second for 1000 units.
-        let able = |s: &UnitState| s.mode != UnitMode::Fault && s.water_l > 0.0;
         let mut relevant =
             back.is_some() || v.state.as_ref().is_none_or(|old| able(old) != able(&st));
         v.state = Some(st);
@@ -688,6 +686,7 @@ impl Incident {
             out.push(Output::Fire(gone));
             out.push(Output::Fire(self.track(m.kept, t)));
             self.aims.remove(&m.removed.id);
+            out.extend(self.release_merged(m.kept, t));
             out.extend(self.aim_again(m.kept, TARGET_MOVED_M, t));
         }
         if new_work {

@@ -48,7 +48,7 @@
 //! Not here: the bus ([`crate::node`]), the cost model and solvers ([`crate::assign`]),
 //! fusion ([`crate::fusion`]); the policy numbers are [`Policy`].
 
-use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 
 use firefleet_model::profile::Profile;
 use firefleet_model::scenario::{Scenario, Tunnel, UnitSpec};
@@ -63,6 +63,7 @@ use crate::assign::{GroundBody, Mobility, Strategy};
 use crate::coverage::Coverage;
 use crate::fusion::Fusion;
 use crate::goals::Goals;
+use crate::invariants::churn::Churn;
 use crate::roads::RoadMaps;
 use firefleet_bus::suspension::Suspensions;
 
@@ -202,6 +203,11 @@ impl UnitView {
     }
 }
 
+/// Whether a unit in state `st` can work a fire: not faulted, and with water.
+fn able(st: &UnitState) -> bool {
+    st.mode != firefleet_protocol::msg::UnitMode::Fault && st.water_l > 0.0
+}
+
 /// How long a unit may stay silent before it counts as lost, s of site time, unless the
 /// operator says otherwise: states come ten times a second, so five seconds is fifty lost
 /// in a row, and a fire waits no longer than that for its relief.
@@ -268,6 +274,12 @@ pub struct Incident {
     /// Per fire, a bound on the spots its attackers were sent to ([`Aim`]): what lets a
     /// report that moves the fire's estimate skip asking who attacks it.
     aims: BTreeMap<FireId, Aim>,
+    /// How often each fire's attackers changed, counted from the tasks given as the
+    /// checker counts them from the tasks sent; and the fires held for it as of the last
+    /// dispatch ([`crate::invariants::churn::HOLD_AT`]), so a hold is logged once. Not
+    /// journaled: a coordinator that restarts (or takes office) counts from then.
+    churn: Churn,
+    held: BTreeSet<FireId>,
 }
 
 /// Every unit sent to a fire (by its id) was sent to a spot within `within_m` of `at`:
@@ -310,6 +322,8 @@ impl Incident {
             trapped: BTreeMap::new(),
             unseen: BTreeMap::new(),
             aims: BTreeMap::new(),
+            churn: Churn::default(),
+            held: BTreeSet::new(),
             solved_all_at: f64::NEG_INFINITY,
             inconsistencies: 0,
             lone_refused: 0,
@@ -466,6 +480,7 @@ impl Incident {
             t,
             kind,
         };
+        self.churn.task(&task, t);
         if let TaskKind::Extinguish { fire, target, .. } = kind {
             self.aims
                 .entry(fire)

@@ -16,6 +16,12 @@
 //! which one fire's attackers change more than [`MAX_CHANGES_PER_WINDOW`] times within
 //! any [`WINDOW_S`].
 //!
+//! The coordinator keeps the same count of the tasks it gives, and holds a fire's
+//! attackers once they changed [`HOLD_AT`] times within the window: no unit joins or
+//! leaves that fire by the coordinator's choice until the window has let the oldest
+//! changes go (`crate::incident`'s dispatch). One count, so that what the coordinator
+//! bounds is what the checker measures.
+//!
 //! Not here: why the coordinator changed its mind (its decision log says), or whether the
 //! change was right.
 
@@ -24,15 +30,28 @@ use std::collections::{BTreeMap, VecDeque};
 use firefleet_model::{FireId, UnitId};
 use firefleet_protocol::msg::{Task, TaskKind};
 
+use crate::assign::MAX_ATTACKERS;
+
 /// The window churn is counted over, s of site time.
 pub const WINDOW_S: f64 = 60.0;
 /// Most changes to one fire's attackers within any [`WINDOW_S`] before it counts as
 /// thrash: the busy minute's six and a margin of two.
 pub const MAX_CHANGES_PER_WINDOW: usize = 8;
+/// Changes within [`WINDOW_S`] after which the coordinator holds a fire's attackers:
+/// the busy minute's first attacker, a backup and one handover. What a held fire still
+/// sees in that minute is forced, and fits under [`MAX_CHANGES_PER_WINDOW`]: its
+/// attackers stood down when it is out (up to [`MAX_ATTACKERS`]) and one unit more (the
+/// first attacker of a fire that reignited, or the replacement of one lost or broken
+/// down). A track that merges into a held fire has its units released, not added
+/// (`Incident::release_merged`). Against a fake track that follows its liar,
+/// merges with every track it meets and draws each one's unit into a rename and a
+/// release, the hold is what keeps the count down: fire f1 of one CI run of the
+/// around-fakes flood changed ten times within a minute without it.
+pub const HOLD_AT: usize = MAX_CHANGES_PER_WINDOW - MAX_ATTACKERS - 1;
 
 /// Each fire's changes so far.
 #[derive(Debug, Default)]
-pub(super) struct Churn {
+pub(crate) struct Churn {
     /// The fire each unit's latest task sends it to, if any.
     on: BTreeMap<UnitId, FireId>,
     /// Per fire, the times of its changes within the last window.
@@ -56,7 +75,7 @@ pub struct ChurnTally {
 impl Churn {
     /// `task` was sent at `t`; the fire and its count within the window when this change
     /// took it past [`MAX_CHANGES_PER_WINDOW`] (or further past it).
-    pub(super) fn task(&mut self, task: &Task, t: f64) -> Vec<(FireId, usize)> {
+    pub(crate) fn task(&mut self, task: &Task, t: f64) -> Vec<(FireId, usize)> {
         let now = match task.kind {
             TaskKind::Extinguish { fire, .. } => Some(fire),
             _ => None,
@@ -118,6 +137,19 @@ impl Churn {
 
     pub(super) fn tally(&self) -> ChurnTally {
         self.tally.clone()
+    }
+
+    /// The fires whose attackers changed at least [`HOLD_AT`] times within the
+    /// [`WINDOW_S`] up to `t`, with how many times.
+    pub(crate) fn held(&self, t: f64) -> impl Iterator<Item = (FireId, usize)> + '_ {
+        self.recent
+            .iter()
+            .filter(|(_, times)| times.len() >= HOLD_AT)
+            .map(move |(fire, times)| {
+                let n = times.iter().filter(|&&s| t - s <= WINDOW_S).count();
+                (*fire, n)
+            })
+            .filter(|&(_, n)| n >= HOLD_AT)
     }
 }
 

@@ -274,3 +274,135 @@ fn a_dim_flame_in_the_smoke_is_sent_a_unit_when_its_heat_reaches_the_reporter() 
         assert_eq!(extinguish, sent, "{heat_kw_m2} kW/m2: {out:?}");
     }
 }
+
+/// Fire F1 held at t = 3 with a on it: two handovers, each to the unit that came free
+/// much nearer (a, then b, then a again), are five changes to its attackers.
+fn held_with_a() -> Incident {
+    let mut i = incident();
+    i.state_at(broken(140.0), 0.5).unwrap();
+    i.report_at(&report("a", 150.0), 1.0).unwrap();
+    i.state_at(state("b", 140.0, None), 2.0).unwrap();
+    let (a, b) = (near(&i, "a", 148.0), near(&i, "b", 100.0));
+    i.state_at(b, 3.0).unwrap();
+    i.state_at(a, 3.0).unwrap();
+    let out = i.tick(3.0);
+    assert_eq!(tasks(&out)[0].unit.as_str(), "a", "{out:?}");
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Held {
+            fire: F1,
+            changes: 5
+        }
+    )));
+    i
+}
+
+/// `unit` at `x`, on its way with nothing to report, hearing its tasks.
+fn near(i: &Incident, unit: &str, x: f64) -> UnitState {
+    echoing(i, state(unit, x, None))
+}
+
+#[test]
+fn a_fire_whose_attackers_keep_changing_is_held_until_the_window_lets_them_go() {
+    let mut i = held_with_a();
+    // b comes free next to the fire and a drives away: no handover while held.
+    let mut t = 4.0;
+    while t < 62.0 {
+        let (a, b) = (near(&i, "a", 100.0), near(&i, "b", 149.0));
+        let mut out = i.state_at(a, t).unwrap();
+        out.extend(i.state_at(b, t).unwrap());
+        out.extend(i.report_at(&report("b", 150.0), t).unwrap());
+        out.extend(i.tick(t));
+        assert!(tasks(&out).is_empty(), "t = {t}: {out:?}");
+        assert!(kinds_for(&out, "a").is_empty(), "t = {t}: {out:?}");
+        assert_eq!(i.assigned_to(F1), [u("a")]);
+        t += 1.0;
+    }
+    // A minute after the changes began, they are out of the window: b takes over.
+    let mut handed = false;
+    while t < 70.0 && !handed {
+        let (a, b) = (near(&i, "a", 100.0), near(&i, "b", 149.0));
+        i.state_at(a, t).unwrap();
+        i.state_at(b, t).unwrap();
+        i.tick(t);
+        handed = i.assigned_to(F1) == [u("b")];
+        t += 1.0;
+    }
+    assert!(handed, "{:?}", i.decisions().last());
+    assert!(i.decisions().any(|d| d.t >= 62.0
+        && matches!(
+            &d.decision,
+            Decision::Relieved { unit, fire: F1, by, .. } if unit == "a" && by == "b"
+        )));
+}
+
+#[test]
+fn a_held_fire_whose_attacker_breaks_down_is_still_given_another() {
+    let mut i = held_with_a();
+    i.state_at(near(&i, "b", 120.0), 4.0).unwrap();
+    let a = UnitState {
+        mode: UnitMode::Fault,
+        ..near(&i, "a", 148.0)
+    };
+    let mut out = i.state_at(a, 5.0).unwrap();
+    out.extend(i.tick(5.0));
+    assert_eq!(kinds_for(&out, "b").len(), 1, "{out:?}");
+    assert_eq!(tasks(&out)[0].unit.as_str(), "b", "{out:?}");
+    assert_eq!(i.assigned_to(F1), [u("b")]);
+}
+
+/// b reports a flame 6 m past fire F1 (a attacks it, from 148 m), is sent to it, and its
+/// estimate converges on F1's: the two tracks merge. The time after.
+fn b_sent_to_a_duplicate_of_f1(i: &mut Incident, t: f64) -> f64 {
+    let mut t = t;
+    for x in [156.0, 155.0, 154.0, 153.0, 152.0] {
+        i.state_at(near(i, "a", 148.0), t).unwrap();
+        i.state_at(near(i, "b", 140.0), t).unwrap();
+        let out = i.report_at(&report("b", x), t).unwrap();
+        if x == 156.0 {
+            assert!(matches!(
+                kinds_for(&out, "b")[..],
+                [TaskKind::Extinguish { fire, .. }] if fire != F1
+            ));
+        }
+        t += 0.5;
+    }
+    assert!(decided(i, |d| matches!(
+        d,
+        Decision::Merged { kept: F1, .. }
+    )));
+    t
+}
+
+#[test]
+fn a_track_merged_into_a_fire_with_an_attacker_has_its_unit_released_not_added() {
+    let mut i = incident();
+    i.state_at(broken(20.0), 0.5).unwrap();
+    i.report_at(&report("a", 150.0), 1.0).unwrap();
+    i.state_at(near(&i, "a", 148.0), 2.0).unwrap();
+    i.state_at(near(&i, "b", 20.0), 2.0).unwrap();
+    assert_eq!(i.assigned_to(F1), [u("a")]);
+    b_sent_to_a_duplicate_of_f1(&mut i, 4.0);
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::MergedAway { unit, kept: F1, .. } if unit == "b"
+    )));
+    assert_eq!(i.assigned_to(F1), [u("a")]);
+    assert_eq!(i.units[&u("b")].working_on(), None);
+}
+
+#[test]
+fn a_track_merged_into_a_held_fire_has_its_unit_released_not_added() {
+    let mut i = held_with_a();
+    let t = b_sent_to_a_duplicate_of_f1(&mut i, 4.0);
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::MergedAway { unit, kept: F1, .. } if unit == "b"
+    )));
+    assert_eq!(i.assigned_to(F1), [u("a")]);
+    assert_eq!(
+        i.churn.held(t).collect::<Vec<_>>(),
+        [(F1, 5)],
+        "b left only its own track"
+    );
+}
