@@ -280,23 +280,33 @@ impl Incident {
 
     /// At a merge into `kept`, if an attacker of `kept`'s own (its task names `kept`)
     /// can work: each unit whose task still names a track merged into it (and that is
-    /// not spraying) is released at once, unless it would stay on as a backup
-    /// ([`Incident::as_backup`]) and `kept` is not held. The incumbent keeps the fire; a
-    /// released unit that gets there much sooner takes it over at the next solve, by the
-    /// usual hysteresis. Renamed onto `kept` and released there a second later, as
-    /// before, each such unit was two changes to `kept`'s attackers; released now, it
-    /// leaves only the track it was sent to. Against a fake track that follows its liar
-    /// and swallows every track it meets, that was most of a minute's churn, and a hold
-    /// that kept the swallowed tracks' units on the fake kept them from searching.
+    /// not spraying) is released at once, unless it gets there sooner than every one of
+    /// those attackers, or it would stay on as a backup ([`Incident::as_backup`]) and
+    /// `kept` is not held. A unit kept on is renamed onto `kept` by its next task, one
+    /// change to `kept` even when held: a held fire that released its nearest unit
+    /// waited for the others (in one around-fakes flood the van waited 38 s for its
+    /// attacker while the unit 2 s from it was sent to search; in another the unit
+    /// spraying the van, drawn to a second track of it, was stood down when the two
+    /// merged, and the van flared up again). Renamed onto `kept` and released there a
+    /// second later, as before, each other unit was two changes to `kept`'s attackers;
+    /// released now, it leaves only the track it was sent to. Against a fake track that follows its
+    /// liar and swallows every track it meets, that was most of a minute's churn, and a
+    /// hold that kept the swallowed tracks' units on the fake kept them from searching.
     pub(super) fn release_merged(&mut self, kept: FireId, t: f64) -> Vec<Output> {
         let named = |v: &super::UnitView| v.working_on().filter(|_| v.alive);
-        if !self
+        let own: Vec<UnitId> = self
             .units
-            .values()
-            .any(|v| v.state.as_ref().is_some_and(able) && named(v) == Some(kept))
-        {
+            .iter()
+            .filter(|(_, v)| v.state.as_ref().is_some_and(able) && named(v) == Some(kept))
+            .map(|(u, _)| u.clone())
+            .collect();
+        if own.is_empty() {
             return Vec::new();
         }
+        let first_s = own
+            .iter()
+            .map(|u| self.as_backup(u, kept).0)
+            .fold(f64::INFINITY, f64::min);
         let held = self.held(t).contains(&kept);
         let merged: Vec<(UnitId, FireId)> = self
             .units
@@ -307,7 +317,8 @@ impl Incident {
             .collect();
         let mut out = Vec::new();
         for (unit, from) in merged {
-            if !held && self.as_backup(&unit, kept).1 {
+            let (away, backup) = self.as_backup(&unit, kept);
+            if away < first_s || (backup && !held) {
                 continue;
             }
             self.log(

@@ -351,12 +351,12 @@ fn a_held_fire_whose_attacker_breaks_down_is_still_given_another() {
     assert_eq!(i.assigned_to(F1), [u("b")]);
 }
 
-/// b reports a flame 6 m past fire F1 (a attacks it, from 148 m), is sent to it, and its
+/// b reports a flame 6 m past fire F1 (a attacks it, from `a_x`), is sent to it, and its
 /// estimate converges on F1's: the two tracks merge. The time after.
-fn b_sent_to_a_duplicate_of_f1(i: &mut Incident, t: f64) -> f64 {
+fn b_sent_to_a_duplicate_of_f1(i: &mut Incident, t: f64, a_x: f64) -> f64 {
     let mut t = t;
     for x in [156.0, 155.0, 154.0, 153.0, 152.0] {
-        i.state_at(near(i, "a", 148.0), t).unwrap();
+        i.state_at(near(i, "a", a_x), t).unwrap();
         i.state_at(near(i, "b", 140.0), t).unwrap();
         let out = i.report_at(&report("b", x), t).unwrap();
         if x == 156.0 {
@@ -382,7 +382,7 @@ fn a_track_merged_into_a_fire_with_an_attacker_has_its_unit_released_not_added()
     i.state_at(near(&i, "a", 148.0), 2.0).unwrap();
     i.state_at(near(&i, "b", 20.0), 2.0).unwrap();
     assert_eq!(i.assigned_to(F1), [u("a")]);
-    b_sent_to_a_duplicate_of_f1(&mut i, 4.0);
+    b_sent_to_a_duplicate_of_f1(&mut i, 4.0, 148.0);
     assert!(decided(&i, |d| matches!(
         d,
         Decision::MergedAway { unit, kept: F1, .. } if unit == "b"
@@ -394,7 +394,7 @@ fn a_track_merged_into_a_fire_with_an_attacker_has_its_unit_released_not_added()
 #[test]
 fn a_track_merged_into_a_held_fire_has_its_unit_released_not_added() {
     let mut i = held_with_a();
-    let t = b_sent_to_a_duplicate_of_f1(&mut i, 4.0);
+    let t = b_sent_to_a_duplicate_of_f1(&mut i, 4.0, 148.0);
     assert!(decided(&i, |d| matches!(
         d,
         Decision::MergedAway { unit, kept: F1, .. } if unit == "b"
@@ -405,4 +405,16 @@ fn a_track_merged_into_a_held_fire_has_its_unit_released_not_added() {
         [(F1, 5)],
         "b left only its own track"
     );
+}
+
+#[test]
+fn a_track_merged_into_a_held_fire_keeps_its_unit_when_the_incumbent_is_far() {
+    let mut i = held_with_a();
+    // a, held to F1, has driven off to 60 m; b is 10 m from it when the tracks merge.
+    let t = b_sent_to_a_duplicate_of_f1(&mut i, 4.0, 60.0);
+    assert!(!decided(&i, |d| matches!(d, Decision::MergedAway { .. })));
+    let b = i.units[&u("b")].working_on().map(|f| i.fusion.resolve(f));
+    assert_eq!(b, Some(F1), "b stays on the fire it is 10 m from");
+    // Its task still names the track it was sent to, 2 m from F1's spot: no change yet.
+    assert_eq!(i.churn.held(t).collect::<Vec<_>>(), [(F1, 5)]);
 }
