@@ -289,9 +289,10 @@ impl Incident {
     /// spraying the van, drawn to a second track of it, was stood down when the two
     /// merged, and the van flared up again). Renamed onto `kept` and released there a
     /// second later, as before, each other unit was two changes to `kept`'s attackers;
-    /// released now, it leaves only the track it was sent to. Against a fake track that follows its
-    /// liar and swallows every track it meets, that was most of a minute's churn, and a
-    /// hold that kept the swallowed tracks' units on the fake kept them from searching.
+    /// released now, it leaves only the track it was sent to. Against a fake track that
+    /// follows its liar and swallows every track it meets, that was most of a minute's
+    /// churn, and a hold that kept the swallowed tracks' units on the fake kept them from
+    /// searching.
     pub(super) fn release_merged(&mut self, kept: FireId, t: f64) -> Vec<Output> {
         let named = |v: &super::UnitView| v.working_on().filter(|_| v.alive);
         let own: Vec<UnitId> = self
