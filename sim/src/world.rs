@@ -94,8 +94,9 @@ impl Body {
         Some(Contact::Vehicle(&o.name))
     }
 
-    /// Drive one step under the command, refused (a blocked step) where the body would
-    /// touch a wall, a vehicle or another unit; what it would have touched, if anything.
+    /// Drive one step under the command, refused (a blocked step, and the body stopped
+    /// until the next command) where the body would touch a wall, a vehicle or another
+    /// unit; what it would have touched, if anything.
     fn drive<'o>(
         &mut self,
         dt: f64,
@@ -126,6 +127,11 @@ impl Body {
             self.collided = true;
             self.collisions += 1;
             self.speed = 0.0;
+            // The drive's bumper stop: the body stands until its controller sends a new
+            // set-point, rather than pushing on under the last one. Otherwise a controller
+            // whose commands stall (a lossy link retransmitting, for up to the watchdog's
+            // 500 ms: 40 steps at x4) is charged a blocked step for every step of the stall.
+            self.cmd.speed = 0.0;
         } else {
             self.pose = next;
         }

@@ -95,6 +95,10 @@ const GOAL_SHIFT_M: f64 = 4.0;
 const RECOVER_S: f64 = 1.5;
 /// Speed of a recovery move, m/s.
 const RECOVER_SPEED_M_S: f64 = 0.4;
+/// How long a recovery move may go without a frame showing the body moving its way before
+/// a contact counts as its refusal, s: longer than the time a command takes to reach the
+/// body under load (see [`Recovery`]), short beside [`RECOVER_S`].
+const RECOVER_PATIENCE_S: f64 = 1.0;
 /// How often a unit inside barred space that found no way out tries again, s.
 const LEAVE_RETRY_S: f64 = 1.0;
 /// How far along a grid path that sets off behind it a unit turns round to, m: beyond the
@@ -140,26 +144,61 @@ impl Navigation {
     }
 }
 
-/// A straight move to get clear after the body touched something: back first; if that is
-/// blocked too, ahead, and so on, each move for [`RECOVER_S`]. A unit whose rear corner is
-/// against a wall cannot back off, and turning away swings the overhang behind its rear
-/// axle into the wall; only straight ahead frees it (units on a 3 km tunnel were pinned so
-/// for twenty seconds at a time, a blocked step every step).
+/// A straight move to get clear after the body touched something: the other way from the
+/// move that was refused (back, after running into something ahead); if that is refused
+/// too, the other way again, and so on, each move for [`RECOVER_S`]. A unit whose rear
+/// corner is against a wall cannot back off, and turning away swings the overhang behind
+/// its rear axle into the wall; only straight ahead frees it (units on a 3 km tunnel were
+/// pinned so for twenty seconds at a time, a blocked step every step).
+///
+/// A contact reported after a move began is not always that move's: the commands sent
+/// before it may still be on their way to the body, and each of them is refused in turn.
+/// Taken as the new move's refusal, each one turned the unit round again, towards the car
+/// it had hit, so that with two steps between a frame and the body's answer (100 ms: a
+/// loaded machine, or a lossy link's retransmissions) a unit pushed against a car for
+/// minutes, a blocked step nearly every step. So a move counts as refused only once a
+/// frame has shown the body moving its way, or after [`RECOVER_PATIENCE_S`] in which it
+/// never did (refused from a standstill, as against that wall).
 #[derive(Debug, Clone, Copy)]
 struct Recovery {
+    /// When the move was chosen, s of site time.
+    since: f64,
     until: f64,
     /// Signed speed: negative backs.
     speed: f64,
+    /// Whether a frame since `since` showed the body moving this way.
+    under_way: bool,
 }
 
 impl Recovery {
-    /// The move after touching something at `t`: the other way from the move under way,
-    /// backing first.
-    fn after(under_way: Option<Recovery>, t: f64) -> Self {
+    /// The move `speed` m/s (signed), chosen at `t`.
+    fn toward(speed: f64, t: f64) -> Self {
         Self {
+            since: t,
             until: t + RECOVER_S,
-            speed: under_way.map_or(-RECOVER_SPEED_M_S, |r| -r.speed),
+            speed,
+            under_way: false,
         }
+    }
+
+    /// The move after a contact reported at `t`, with `current` the move under way, if
+    /// any, and `moved` the sign of the body's speed when it last moved (0 if it never
+    /// did): the other way from the move that was refused, backing if it is not known.
+    fn after(current: Option<Recovery>, t: f64, moved: f64) -> Self {
+        match current {
+            Some(r) if r.under_way || t - r.since >= RECOVER_PATIENCE_S => {
+                Self::toward(-r.speed, t)
+            }
+            // A move from before this one was refused: this one has not been tried yet.
+            Some(r) => r,
+            None if moved < 0.0 => Self::toward(RECOVER_SPEED_M_S, t),
+            None => Self::toward(-RECOVER_SPEED_M_S, t),
+        }
+    }
+
+    /// Take in a frame's `speed` of the body.
+    fn saw(&mut self, speed: f64) {
+        self.under_way |= speed * self.speed > 0.0;
     }
 }
 
@@ -214,6 +253,9 @@ pub struct Unit {
     thermal_view: Option<(ThermalImage, Pose2, f64)>,
     /// The latest sensor frame.
     pub(crate) frame: UnitSensors,
+    /// The sign of the body's speed in the last frame it moved in (0 before it has): the
+    /// way it went when it touched something, for [`Recovery`].
+    moved: f64,
     nav: Option<Navigation>,
     /// A firing route prepared for a goal (from `SetTargetToFire`), used by the next
     /// `StartNavigation` to that goal.
@@ -283,6 +325,7 @@ impl Unit {
             found: None,
             thermal_view: None,
             frame,
+            moved: 0.0,
             nav: None,
             cruising_to: None,
             patrol_goal,
@@ -840,10 +883,16 @@ impl Services for Unit {
         };
         let thermal = self.found.as_deref().unwrap_or_default();
         self.tracker.update(&self.spec, frame, thermal);
+        if let Some(r) = self.nav.as_mut().and_then(|n| n.recover.as_mut()) {
+            r.saw(frame.speed);
+        }
         if frame.collided
             && let Some(n) = &mut self.nav
         {
-            n.recover = Some(Recovery::after(n.recover, frame.t));
+            n.recover = Some(Recovery::after(n.recover, frame.t, self.moved));
+        }
+        if frame.speed != 0.0 {
+            self.moved = frame.speed.signum();
         }
         self.frame = frame.clone();
         self.remember_look();

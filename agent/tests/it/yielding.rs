@@ -1,6 +1,7 @@
 //! Ground units meeting in the simulated world, where bodies touch: two that meet head on
 //! in one lane get past each other, so do two that start nose to nose closer than any
-//! margin, and a unit finds its way past one parked in its lane, all without touching.
+//! margin, and a unit finds its way past one parked in its lane, all without touching; a
+//! unit that touched a car gets clear of it though its commands reach its body late.
 
 use std::sync::Arc;
 
@@ -87,4 +88,61 @@ fn two_units_starting_nose_to_nose_get_past_each_other_untouched() {
     let (x, blocked) = patrol(s, &["u1", "u2"], |x| x[0] > 130.0 && x[1] < 70.0);
     assert!(x[0] > 130.0 && x[1] < 70.0, "still short: {x:?}");
     assert_eq!(blocked, [0, 0], "the bodies touched");
+}
+
+/// u1 on patrol east with a car in its lane 6 m ahead, driven straight at the car until
+/// it touches it, and from then on by its controller, each command reaching the body
+/// `lag` steps after the frame it answers (a loaded machine, or a lossy link's
+/// retransmissions); its x once past the car (or after 90 s) and its blocked steps after
+/// the first.
+fn bump_then_drive_late(lag: usize) -> (f64, u32) {
+    use firefleet_protocol::msg::UnitCommand;
+    let scenario = Arc::new(
+        Scenario::straight(200.0)
+            .ground("u1", 20.0, -2.5)
+            .car("car", 28.0, -2.5)
+            .build(),
+    );
+    let mut world = World::new(&scenario, 5);
+    let id = UnitId::new("u1").unwrap();
+    let mut unit = GroundController::new(id.clone(), *GROUND, scenario.clone());
+    unit.office_changed(true);
+    let ram = UnitCommand {
+        speed: 1.0,
+        ..UnitCommand::halt(&Default::default())
+    };
+    let blocked = |world: &World| world.truth().units[0].collisions;
+    let mut in_flight = std::collections::VecDeque::new();
+    while world.time() < 90.0 && world.truth().units[0].pose.x < 40.0 {
+        let cmd = unit.step(&world.sensors(&id).unwrap());
+        if blocked(&world) == 0 {
+            world.command(&id, ram);
+        } else {
+            in_flight.push_back(cmd);
+            if in_flight.len() > lag {
+                world.command(&id, in_flight.pop_front().unwrap());
+            }
+        }
+        world.step(0.05);
+    }
+    assert!(blocked(&world) > 0, "never touched the car");
+    (world.truth().units[0].pose.x, blocked(&world) - 1)
+}
+
+#[test]
+fn a_unit_that_bumped_a_car_gets_clear_though_its_commands_reach_the_body_late() {
+    // Each contact costs about `lag` blocked steps, the commands already on their way.
+    // Taking those for refusals of the move that gets clear, a unit with 4 steps of lag
+    // pushed against the car for 90 s (439 blocked steps).
+    for lag in [1, 2, 4, 6, 10] {
+        let (x, blocked) = bump_then_drive_late(lag);
+        assert!(
+            x >= 40.0,
+            "lag {lag}: still behind the car after 90 s, at x {x:.1}"
+        );
+        assert!(
+            blocked <= 2 * lag as u32 + 5,
+            "lag {lag}: {blocked} blocked steps after the bump"
+        );
+    }
 }

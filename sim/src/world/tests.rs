@@ -97,27 +97,37 @@ fn a_knocked_down_fire_reignites_unless_it_is_cooled() {
 }
 
 #[test]
-fn driving_into_a_vehicle_stops_the_unit() {
+fn driving_into_a_vehicle_stops_the_unit_until_it_is_told_to_drive_again() {
     let mut w = world();
-    w.command(
-        &u1(),
-        UnitCommand {
-            speed: 1.5,
-            steer: 0.0,
-            pan: 0.0,
-            tilt: 0.0,
-            valve_open: false,
-        },
-    );
+    let ahead = UnitCommand {
+        speed: 1.5,
+        steer: 0.0,
+        pan: 0.0,
+        tilt: 0.0,
+        valve_open: false,
+    };
+    w.command(&u1(), ahead);
     for _ in 0..400 {
         w.step(0.05);
     }
     let t = w.truth();
-    assert!(t.units[0].collisions > 0);
+    assert_eq!(
+        t.units[0].collisions, 1,
+        "the bumper stop holds the body: one refused step, not one a step"
+    );
     assert!(
         t.units[0].pose.x < 20.0 - 2.0 - 0.8 + 0.1,
         "stopped before the car: {}",
         t.units[0].pose.x
+    );
+    w.command(&u1(), ahead);
+    for _ in 0..10 {
+        w.step(0.05);
+    }
+    assert_eq!(
+        w.truth().units[0].collisions,
+        2,
+        "a new set-point drives again"
     );
 }
 
