@@ -209,7 +209,19 @@ pub async fn run(
                 }
                 _ => Err((sample.key.clone(), Invalid::new("key", "not a task key"))),
             },
-            Some((_, c)) = inputs.clock_msgs.recv() => { sim_time.set(c.t); Ok(Vec::new()) }
+            Some((_, c)) = inputs.clock_msgs.recv() => {
+                let before = sim_time.now();
+                sim_time.set(c.t);
+                if opts.sim_clock && c.t - before > CLOCK_JUMP_S {
+                    tracing::warn!(
+                        from = %format_args!("{before:.1}"),
+                        to = %format_args!("{:.1}", c.t),
+                        "the site clock jumped: the time between was not watched, and counts against no unit's lease"
+                    );
+                    incident.clock_jumped(before, c.t);
+                }
+                Ok(Vec::new())
+            }
             Some((topic, z)) = inputs.dts.recv() => if topic == Topic::InfraDts(z.zone) {
                 incident.on_dts(&z, clock.now()).map(|()| Vec::new())
             } else {
@@ -803,6 +815,11 @@ impl Drop for OutOfOffice {
 
 /// How long a starting coordinator waits for the simulator's clock.
 const CLOCK_WAIT: Duration = Duration::from_secs(3);
+
+/// A step of the site clock longer than this, s, is time the coordinator did not watch
+/// ([`Incident::clock_jumped`]): the clock comes with every step of the simulator (0.05 s),
+/// so twenty of them went unheard, or the coordinator ran before the clock reached it.
+const CLOCK_JUMP_S: f64 = 1.0;
 
 /// How long a starting coordinator listens to the units' states for the numbers of their
 /// tasks, at most: units send several a second.

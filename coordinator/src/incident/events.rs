@@ -713,6 +713,33 @@ impl Incident {
         out
     }
 
+    /// The site clock went from `from` to `to` with none of the time between watched: the
+    /// coordinator took office before the site clock reached it (it waits 3 s, then starts
+    /// at 0) or was cut off from it. What it heard before was dated by its own clock, so
+    /// every unit's last word and every task it awaits an echo of move on by the jump:
+    /// silence counts only the time the coordinator watched. Otherwise the first lapse after
+    /// the jump counts every unit lost at once, as a deploy guide's coordinator restarted by
+    /// a power cut once did (ugv-1, ugv-2 and ugv-3 lost at 14.1 s, heard again a moment
+    /// later). A unit that really fell silent meanwhile is lost one lease after `to`.
+    ///
+    /// Not moved: fires' sightings and goals' ends, which came dated in site time.
+    pub fn clock_jumped(&mut self, from: f64, to: f64) {
+        let jump = to - from;
+        if !jump.is_finite() || jump <= 0.0 {
+            return;
+        }
+        for v in self.units.values_mut() {
+            if v.last_heard <= from {
+                v.last_heard += jump;
+            }
+            if let Some((_, since)) = &mut v.unechoed
+                && *since <= from
+            {
+                *since += jump;
+            }
+        }
+    }
+
     /// Time passed: expire silent units and unseen fires, enforce goals, re-solve.
     pub fn tick(&mut self, t: f64) -> Vec<Output> {
         let mut out = self.lapse(t);

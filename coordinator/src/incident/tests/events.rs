@@ -341,6 +341,41 @@ fn a_unit_whose_states_stop_echoing_its_task_is_lost_as_deaf_and_its_fire_reassi
 }
 
 #[test]
+fn units_heard_before_the_site_clock_jumped_are_not_lost_for_the_time_nobody_watched() {
+    // A coordinator that took office before the site clock reached it heard a's and b's
+    // tokens at its own t = 0; then the clock arrives, at 14 s of site time.
+    let lost = |i: &Incident| {
+        i.decisions()
+            .filter(|d| matches!(d.decision, Decision::Lost { .. }))
+            .count()
+    };
+    let heard = || {
+        let mut i = unheard();
+        for n in ["a", "b"] {
+            i.on_alive(&u(n), true, 0.0).unwrap();
+        }
+        i
+    };
+    let mut without = heard();
+    without.lapse(14.1);
+    assert_eq!(lost(&without), 2, "both lost at once by the unwatched jump");
+    let mut i = heard();
+    i.clock_jumped(0.0, 14.0);
+    i.lapse(14.1);
+    assert_eq!(lost(&i), 0, "nobody is lost for the time nobody watched");
+    // a speaks after the jump, b never does: b is lost one lease after it, a is not.
+    i.state_at(state("a", 10.0, None), 14.5).unwrap();
+    i.lapse(14.0 + 5.0 - 0.1);
+    assert_eq!(lost(&i), 0);
+    i.lapse(14.0 + 5.0 + 0.1);
+    assert!(decided(&i, |d| matches!(
+        d,
+        Decision::Lost { unit, why: Loss::Silent, .. } if unit == "b"
+    )));
+    assert_eq!(lost(&i), 1, "only b");
+}
+
+#[test]
 fn a_unit_echoing_an_older_task_while_new_ones_keep_coming_is_not_deaf() {
     // Re-tasked every 2 s, each echoed 1 s late: always one behind, never deaf.
     let mut i = incident();
