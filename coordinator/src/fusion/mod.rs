@@ -304,14 +304,19 @@ impl Fire {
     /// The units that see it burning at `t`: a sighting within [`STILL_SEEN_S`], by a unit
     /// whose word counts. A lone claim an eyewitness contradicted sees nothing.
     pub fn seen_now_by(&self, t: f64) -> Vec<UnitId> {
-        if self.contradicted.is_some() {
-            return Vec::new();
-        }
         self.per_unit
-            .iter()
-            .filter(|(_, s)| s.credible() && t - s.last <= STILL_SEEN_S)
-            .map(|(u, _)| u.clone())
+            .keys()
+            .filter(|u| self.seen_now_at(u, t).is_some())
+            .cloned()
             .collect()
+    }
+
+    /// Where `unit` sees it at `t`, if it is one of [`Fire::seen_now_by`]: its own latest
+    /// estimate, not the fused one.
+    pub fn seen_now_at(&self, unit: &UnitId, t: f64) -> Option<Point2> {
+        let s = self.per_unit.get(unit)?;
+        (self.contradicted.is_none() && s.credible() && t - s.last <= STILL_SEEN_S)
+            .then_some(s.estimate.mean)
     }
 
     pub fn seen_by(&self) -> impl Iterator<Item = &UnitId> {

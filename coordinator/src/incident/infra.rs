@@ -37,7 +37,7 @@ use std::collections::BTreeMap;
 
 use firefleet_model::infra::{DtsMap, ScadaMap};
 use firefleet_model::validate::{Invalid, Validate};
-use firefleet_model::{FireId, Gaussian2, UnitId};
+use firefleet_model::{FireId, Gaussian2, Point2, UnitId};
 use firefleet_protocol::msg::{Approach, DtsZone, Vent};
 
 use super::freshness::Newest;
@@ -429,6 +429,16 @@ impl Incident {
     /// Units attacking `fire` whose task names a spot farther than `beyond_m` from where
     /// the fire is now are given it again, at its spot now (and by its name now: a unit
     /// sent to a track since merged into this one is given this one).
+    ///
+    /// Not an attacker that sees the fire now within `TARGET_MOVED_M` of the spot it was
+    /// sent to ([`Fire::seen_now_at`]): its own camera places the flame it drives to or
+    /// sprays, well inside the 3 m within which a unit takes a flame it sees for its
+    /// task's (and moves its firing position to it), better than an estimate others'
+    /// reports pull; while a task given again is a new task, which ends the attack under
+    /// way and starts it over. In the pile-up's around-fakes flood each of the thief's
+    /// reports moved the fire its unit sprayed by 2-4 m: that unit was given the fire again
+    /// about 400 times in 20 s and stood still, holding up the unit behind it. An attacker
+    /// that sees the fire elsewhere (sent to a DTS zone's middle, say) is sent again.
     pub(super) fn aim_again(
         &mut self,
         fire: firefleet_model::FireId,
@@ -446,8 +456,15 @@ impl Incident {
                 .get(&u)
                 .and_then(|v| v.task.as_ref())
                 .map(|t| t.kind);
+            let sees_it_there = |target: Point2| {
+                self.fusion
+                    .get(fire)
+                    .and_then(|f| f.seen_now_at(&u, t))
+                    .is_some_and(|seen| seen.dist(target) <= super::events::TARGET_MOVED_M)
+            };
             if let Some(TaskKind::Extinguish { target, from, .. }) = kind
                 && target.dist(at) > beyond_m
+                && !sees_it_there(target)
             {
                 out.push(self.give(
                     &u,
@@ -461,7 +478,7 @@ impl Incident {
             }
         }
         // The bound made exact, over every unit whose task names this fire (a lost one's
-        // too: it may come back to it).
+        // too: it may come back to it; one that sees it: it may lose sight of it).
         let within_m = self
             .units
             .values()

@@ -878,3 +878,50 @@ fn a_fire_whose_estimate_moves_is_given_again_to_its_attacker_at_its_spot_now() 
         "the estimate never moved {TARGET_MOVED_M} m"
     );
 }
+
+#[test]
+fn an_attacker_that_sees_its_fire_where_it_was_sent_is_not_sent_again_when_others_pull_the_estimate()
+ {
+    let mut i = incident();
+    let out = i.report_at(&report("a", 60.0), 1.0).unwrap();
+    let first = tasks(&out)[0].clone();
+    let TaskKind::Extinguish { fire, target, .. } = first.kind else {
+        panic!("not a fire task: {first:?}")
+    };
+    assert_eq!(first.unit.as_str(), "b", "the nearest attacks");
+    // b sees the flame where it was sent, from afar (a loose estimate); a's tight reports,
+    // a metre further on each time, pull the fused estimate along.
+    let b_sees = |x: f64| {
+        let mut r = report("b", x);
+        r.observations[0].cov = [2.0, 0.0, 2.0];
+        r
+    };
+    let sent_to_b = |out: &[Output]| kinds_for(out, "b");
+    let mut t = 2.0;
+    for x in [61.0, 62.0, 63.0, 64.0, 65.0] {
+        let mut out = i.report_at(&b_sees(target.x), t).unwrap();
+        out.extend(i.report_at(&report("a", x), t + 0.1).unwrap());
+        assert_eq!(sent_to_b(&out), [], "b sees its fire at its spot");
+        t += 0.2;
+    }
+    let at = i.fusion.get(fire).unwrap().position();
+    assert!(
+        at.dist(target) > TARGET_MOVED_M,
+        "the estimate moved only to {at:?}"
+    );
+    // b looks away: the next pull sends it to the fire as the others see it.
+    let out = i.report_at(&report("a", 65.5), t + 1.5).unwrap();
+    let again = sent_to_b(&out);
+    let [
+        TaskKind::Extinguish {
+            fire: f,
+            target: to,
+            ..
+        },
+    ] = again[..]
+    else {
+        panic!("b not sent again once it no longer sees the fire: {out:?}")
+    };
+    assert_eq!(f, fire);
+    assert!(to.dist(target) > TARGET_MOVED_M, "sent to {to:?}");
+}
